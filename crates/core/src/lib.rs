@@ -1,0 +1,63 @@
+//! # wiical-core
+//!
+//! `no_std`, allocation-free, `f32` calibration mathematics for low-cost inertial sensors
+//! (the Wii Remote's ADXL330, the Nunchuk's LIS3L02AL, and any 3-axis accelerometer,
+//! gyroscope or magnetometer).
+//!
+//! Everything here runs unchanged on a Cortex-M0+/M33 and on a desktop: fixed-size data
+//! on the stack, `nalgebra` without its default features, `heapless` where a bounded
+//! buffer is needed, and no floating-point type wider than `f32`.
+//!
+//! ## Conventions
+//! * Raw measurements `m` are in sensor units (ADC counts, or whatever the sensor gives).
+//! * The measurement model is `m = D·a + b + v` with `D = g·L·T` (scale `L`,
+//!   non-orthogonality `T`), bias `b` and white noise `v` (see [`model`]).
+//! * Calibrated acceleration is in units of the reference magnitude (1 g for an
+//!   accelerometer: a level, still sensor reads `[0, 0, 1]` when `+z` points up, i.e. the
+//!   sensor measures the specific force, the reaction to gravity).
+//! * Matrices in public data types are row-major `[[f32; 3]; 3]` so that they read the way
+//!   they are printed in the seed documents and in JSON.
+//!
+//! ## Modules
+//! | module | what |
+//! |---|---|
+//! | [`model`] | calibration type, correction `a = D⁻¹(m − b)` plus optional effect terms |
+//! | [`six_position`] | the six-position test with the constant right pseudo-inverse |
+//! | [`stats`] | Welford mean/variance and the Kalman observer for a constant (scalar, 3-vector) |
+//! | [`offset`] | offset-only accelerometer and gyro calibration |
+//! | [`multipos`] | multi-position fit in arbitrary orientations (Levenberg–Marquardt) |
+//! | [`magfit`] | magnetometer sphere / axis-aligned / rotated-ellipsoid fits from streaming sums |
+//! | [`kalman`] | the 3-state `[position, velocity, bias]` Kalman filter |
+//! | [`static_detect`] | static-interval detection on a stream |
+//! | [`linalg`] | small helpers (Cholesky solves of normal equations) |
+#![no_std]
+#![deny(unsafe_code)]
+#![warn(missing_docs)]
+
+pub mod error;
+pub mod kalman;
+pub mod linalg;
+pub mod magfit;
+pub mod model;
+pub mod multipos;
+pub mod offset;
+pub mod six_position;
+pub mod static_detect;
+pub mod stats;
+
+pub use error::Error;
+pub use model::{Calibration, Conditions, Effects};
+
+/// Column 3-vector of `f32`.
+pub type Vec3 = nalgebra::Vector3<f32>;
+/// 3×3 matrix of `f32`.
+pub type Mat3 = nalgebra::Matrix3<f32>;
+
+/// Standard gravity in m/s², used only where a result is reported in SI units.
+pub const STANDARD_GRAVITY: f32 = 9.806_65;
+
+/// True when every component is finite (not NaN, not ±inf).
+#[inline]
+pub fn all_finite(v: &[f32]) -> bool {
+    v.iter().all(|x| x.is_finite())
+}

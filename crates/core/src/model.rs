@@ -1,0 +1,295 @@
+//! The measurement model and its inversion (correction).
+//!
+//! A 3-axis sensor reading `m` (raw units) of a true vector `a` (units of the reference
+//! magnitude, e.g. g) is modelled as
+//!
+//! ```text
+//! m = D·a + b + v,      D = g·L·T
+//! ```
+//!
+//! with `L` diagonal scale factors, `T` the non-orthogonality (cross-axis coupling) matrix,
+//! `b` the bias and `v` white noise (seed: *Calibrazione del Wiimote*, eq. 1). A
+//! [`Calibration`] stores the inverse map: `K = D⁻¹` and `b`, so that correcting a sample is
+//! one subtraction and one 3×3 product, `a = K·(m − b)`.
+//!
+//! Real sensors also have effects the linear model lacks. [`Effects`] carries optional extra
+//! terms (time drift and temperature dependence of the bias, temperature dependence of the
+//! scale, per-axis even and odd nonlinearity). They are all zero by default, in which case
+//! the correction is exactly the linear one. Their correction-side definition is:
+//!
+//! ```text
+//! b_eff = b + drift·t + bias_temp·(θ − θ₀)             (raw units)
+//! u     = K·(m − b_eff)                                 (reference units)
+//! u_i  ← u_i · (1 + scale_temp_i·(θ − θ₀))
+//! a_i   = u_i + k2_i·u_i² + k3_i·u_i³
+//! ```
+//!
+//! where `t` is the time since the start of the recording (s) and `θ` the sensor temperature
+//! (°C) given in [`Conditions`].
+
+use crate::{Error, Mat3, Vec3};
+
+/// Operating conditions of a sample, needed only by the time- and temperature-dependent
+/// effect terms.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Conditions {
+    /// Time since the start of the recording / power-up, in seconds.
+    pub time_s: f32,
+    /// Sensor temperature in °C, if known. `None` disables temperature terms.
+    pub temperature_c: Option<f32>,
+}
+
+/// Optional effect terms beyond the linear model. All zero means "linear model only".
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(default))]
+pub struct Effects {
+    /// Per-axis even-order nonlinearity `k2` (1/reference unit): `a = u + k2·u²`.
+    pub quadratic: [f32; 3],
+    /// Per-axis odd-order nonlinearity `k3` (1/reference unit²): `a = u + k3·u³`.
+    pub cubic: [f32; 3],
+    /// Bias drift with time, raw units per second.
+    pub bias_drift: [f32; 3],
+    /// Reference temperature `θ₀` for the temperature terms, °C.
+    pub temp_ref_c: f32,
+    /// Bias temperature coefficient, raw units per °C.
+    pub bias_temp: [f32; 3],
+    /// Relative scale temperature coefficient, 1/°C.
+    pub scale_temp: [f32; 3],
+}
+
+impl Effects {
+    /// True when every term is zero (the correction is purely linear).
+    pub fn is_none(&self) -> bool {
+        let z = |v: &[f32; 3]| v.iter().all(|x| *x == 0.0);
+        z(&self.quadratic)
+            && z(&self.cubic)
+            && z(&self.bias_drift)
+            && z(&self.bias_temp)
+            && z(&self.scale_temp)
+    }
+
+    fn all_finite(&self) -> bool {
+        [
+            self.quadratic,
+            self.cubic,
+            self.bias_drift,
+            self.bias_temp,
+            self.scale_temp,
+        ]
+        .iter()
+        .all(|v| crate::all_finite(v))
+            && self.temp_ref_c.is_finite()
+    }
+}
+
+/// A sensor calibration: the inverse of the measurement model.
+///
+/// `matrix` is `K = D⁻¹` (row-major), mapping de-biased raw units to reference units;
+/// `bias` is `b` in raw units. The seed's worked example prints `K` under the name "D".
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+pub struct Calibration {
+    /// Bias `b`, raw units.
+    pub bias: [f32; 3],
+    /// Correction matrix `K = D⁻¹`, row-major, reference units per raw unit.
+    pub matrix: [[f32; 3]; 3],
+    /// Extra effect terms; zero for the linear model.
+    #[cfg_attr(feature = "serde", serde(default))]
+    pub effects: Effects,
+}
+
+impl Default for Calibration {
+    fn default() -> Self {
+        Self::identity()
+    }
+}
+
+impl Calibration {
+    /// The pass-through calibration: zero bias, identity matrix, no effects.
+    pub const fn identity() -> Self {
+        Self {
+            bias: [0.0; 3],
+            matrix: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+            effects: Effects {
+                quadratic: [0.0; 3],
+                cubic: [0.0; 3],
+                bias_drift: [0.0; 3],
+                temp_ref_c: 0.0,
+                bias_temp: [0.0; 3],
+                scale_temp: [0.0; 3],
+            },
+        }
+    }
+
+    /// Build a calibration from the forward model `m = D·a + b` by inverting `D`.
+    pub fn from_forward(d: &Mat3, b: &Vec3) -> Result<Self, Error> {
+        if !crate::all_finite(d.as_slice()) || !crate::all_finite(b.as_slice()) {
+            return Err(Error::NonFinite);
+        }
+        let k = invert3(d)?;
+        Ok(Self::from_inverse(&k, b))
+    }
+
+    /// Build a calibration directly from `K = D⁻¹` and `b`.
+    pub fn from_inverse(k: &Mat3, b: &Vec3) -> Self {
+        Self {
+            bias: [b.x, b.y, b.z],
+            matrix: mat3_to_rows(k),
+            effects: Effects::default(),
+        }
+    }
+
+    /// `K = D⁻¹` as an nalgebra matrix.
+    pub fn k(&self) -> Mat3 {
+        rows_to_mat3(&self.matrix)
+    }
+
+    /// `b` as an nalgebra vector.
+    pub fn b(&self) -> Vec3 {
+        Vec3::new(self.bias[0], self.bias[1], self.bias[2])
+    }
+
+    /// The forward matrix `D = K⁻¹`.
+    pub fn forward_matrix(&self) -> Result<Mat3, Error> {
+        invert3(&self.k())
+    }
+
+    /// Checks that every parameter is finite and `K` is invertible, so that a calibration read
+    /// from untrusted storage can be used safely.
+    pub fn validate(&self) -> Result<(), Error> {
+        let flat_ok = crate::all_finite(&self.bias)
+            && self.matrix.iter().all(|r| crate::all_finite(r))
+            && self.effects.all_finite();
+        if !flat_ok {
+            return Err(Error::NonFinite);
+        }
+        invert3(&self.k()).map(|_| ())
+    }
+
+    /// Linear correction `a = K·(m − b)`, ignoring effect terms. This is the hot path
+    /// (a handful of FPU instructions): written out by hand so it compiles to straight-line
+    /// multiply–adds on a Cortex-M.
+    #[inline]
+    pub fn correct_linear(&self, m: [f32; 3]) -> [f32; 3] {
+        let d = [
+            m[0] - self.bias[0],
+            m[1] - self.bias[1],
+            m[2] - self.bias[2],
+        ];
+        let k = &self.matrix;
+        [
+            k[0][0] * d[0] + k[0][1] * d[1] + k[0][2] * d[2],
+            k[1][0] * d[0] + k[1][1] * d[1] + k[1][2] * d[2],
+            k[2][0] * d[0] + k[2][1] * d[1] + k[2][2] * d[2],
+        ]
+    }
+
+    /// Full correction including the effect terms (see the module docs for their definition).
+    pub fn correct(&self, m: [f32; 3], cond: &Conditions) -> [f32; 3] {
+        let e = &self.effects;
+        let dtheta = cond.temperature_c.map(|t| t - e.temp_ref_c);
+        let mut b = self.bias;
+        for i in 0..3 {
+            b[i] += e.bias_drift[i] * cond.time_s;
+            if let Some(dt) = dtheta {
+                b[i] += e.bias_temp[i] * dt;
+            }
+        }
+        let shifted = Self { bias: b, ..*self };
+        let mut u = shifted.correct_linear(m);
+        for i in 0..3 {
+            if let Some(dt) = dtheta {
+                u[i] *= 1.0 + e.scale_temp[i] * dt;
+            }
+            let x = u[i];
+            u[i] = x + e.quadratic[i] * x * x + e.cubic[i] * x * x * x;
+        }
+        u
+    }
+}
+
+/// Row-major array to nalgebra matrix.
+pub fn rows_to_mat3(r: &[[f32; 3]; 3]) -> Mat3 {
+    Mat3::new(
+        r[0][0], r[0][1], r[0][2], r[1][0], r[1][1], r[1][2], r[2][0], r[2][1], r[2][2],
+    )
+}
+
+/// nalgebra matrix to row-major array.
+pub fn mat3_to_rows(m: &Mat3) -> [[f32; 3]; 3] {
+    [
+        [m[(0, 0)], m[(0, 1)], m[(0, 2)]],
+        [m[(1, 0)], m[(1, 1)], m[(1, 2)]],
+        [m[(2, 0)], m[(2, 1)], m[(2, 2)]],
+    ]
+}
+
+/// Inverse of a 3×3 matrix, refusing matrices whose condition makes the inverse meaningless
+/// in `f32` (determinant tiny relative to the product of row norms).
+pub fn invert3(m: &Mat3) -> Result<Mat3, Error> {
+    if !crate::all_finite(m.as_slice()) {
+        return Err(Error::NonFinite);
+    }
+    let det = m.determinant();
+    let scale = m.row(0).norm() * m.row(1).norm() * m.row(2).norm();
+    if !det.is_finite() || scale == 0.0 || libm::fabsf(det) <= 1e-6 * scale {
+        return Err(Error::Singular);
+    }
+    m.try_inverse().ok_or(Error::Singular)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn forward_then_correct_recovers_truth() {
+        let d = Mat3::new(25.0, 0.04, 0.0, -0.4, 26.0, 0.4, 0.0, 0.3, 24.6);
+        let b = Vec3::new(128.0, 127.5, 129.6);
+        let cal = Calibration::from_forward(&d, &b).unwrap();
+        let a = Vec3::new(0.3, -0.5, 0.8);
+        let m = d * a + b;
+        let got = cal.correct_linear([m.x, m.y, m.z]);
+        for i in 0..3 {
+            assert!((got[i] - a[i]).abs() < 1e-5, "{got:?} vs {a:?}");
+        }
+        // With no effects the full correction equals the linear one.
+        let cond = Conditions {
+            time_s: 100.0,
+            temperature_c: Some(40.0),
+        };
+        assert_eq!(cal.correct([m.x, m.y, m.z], &cond), got);
+    }
+
+    #[test]
+    fn singular_and_nan_are_refused() {
+        let d = Mat3::new(1.0, 2.0, 3.0, 2.0, 4.0, 6.0, 0.0, 0.0, 1.0);
+        assert_eq!(
+            Calibration::from_forward(&d, &Vec3::zeros()),
+            Err(Error::Singular)
+        );
+        let mut cal = Calibration::identity();
+        cal.bias[1] = f32::NAN;
+        assert_eq!(cal.validate(), Err(Error::NonFinite));
+    }
+
+    #[test]
+    fn effects_follow_their_definition() {
+        let mut cal = Calibration::identity();
+        cal.effects.bias_drift = [1.0, 0.0, 0.0];
+        cal.effects.quadratic = [0.0, 0.1, 0.0];
+        cal.effects.cubic = [0.0, 0.0, 0.01];
+        cal.effects.temp_ref_c = 25.0;
+        cal.effects.bias_temp = [0.0, 0.0, 2.0];
+        let cond = Conditions {
+            time_s: 2.0,
+            temperature_c: Some(26.0),
+        };
+        let a = cal.correct([5.0, 2.0, 4.0], &cond);
+        // x: 5 - 1*2 = 3; y: 2 + 0.1*4 = 2.4; z: (4 - 2) = 2 -> 2 + 0.01*8 = 2.08
+        assert!((a[0] - 3.0).abs() < 1e-6);
+        assert!((a[1] - 2.4).abs() < 1e-6);
+        assert!((a[2] - 2.08).abs() < 1e-6);
+    }
+}
