@@ -1,1 +1,268 @@
-fn main() {}
+//! `wiical`: accelerometer / gyro / magnetometer calibration from the command line.
+//!
+//! Every subcommand prints a readable table, or with `--json` a JSON object whose keys are a
+//! stable contract (see README.md). Errors are printed as one readable chain, exit status 1.
+
+use anyhow::{anyhow, Context, Result};
+use clap::{Parser, Subcommand};
+use std::fmt::Write as _;
+use std::io::Write as _;
+use std::path::{Path, PathBuf};
+use wiical::fit_cmd::{self, FitOptions};
+use wiical::input::{self, LoadOptions};
+use wiical::six_position_cmd::{self, PoseEstimator};
+use wiical_core::multipos::MultiPosModel;
+use wiical_core::Calibration;
+
+#[derive(Parser)]
+#[command(name = "wiical", version, about = "Accelerometer / gyro / magnetometer calibration for the Wii Remote, Nunchuk and friends", long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    cmd: Cmd,
+}
+
+#[derive(Subcommand)]
+enum Cmd {
+    /// Six-position test (seed: T̂ = M·Â⁺) from a CSV with a `pose` column (x+ x- y+ y- z+ z-).
+    SixPosition {
+        /// CSV file: pose,x,y,z (one row per pose, or blocks of raw samples per pose).
+        file: PathBuf,
+        /// Print JSON.
+        #[arg(long)]
+        json: bool,
+        /// How a block of samples becomes a pose mean: mean | kalman.
+        #[arg(long, default_value = "mean", value_parser = parse_estimator)]
+        estimator: PoseEstimator,
+        /// Write the calibration (JSON) here.
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
+    /// Static-interval detection + multi-position fit (bias + scale + non-orthogonality).
+    Fit {
+        /// Recording: CSV with header (t,x,y,z[,temp]) or whitespace `t x y z` text.
+        file: PathBuf,
+        /// Print JSON.
+        #[arg(long)]
+        json: bool,
+        /// Write the calibration (JSON) here.
+        #[arg(long)]
+        out: Option<PathBuf>,
+        #[command(flatten)]
+        detect: DetectArgs,
+        /// Model: full (9 parameters) | diagonal (6: bias and per-axis scale).
+        #[arg(long, default_value = "full", value_parser = parse_model)]
+        model: MultiPosModel,
+    },
+}
+
+#[derive(clap::Args, Clone)]
+struct DetectArgs {
+    /// Header names of the x,y,z columns to use (e.g. gx,gy,gz).
+    #[arg(long, value_delimiter = ',', num_args = 3)]
+    columns: Option<Vec<String>>,
+    /// Variance window, seconds.
+    #[arg(long, default_value_t = 1.0)]
+    window_s: f64,
+    /// Initial rest period (noise reference), seconds.
+    #[arg(long, default_value_t = 2.0)]
+    init_s: f64,
+    /// Shortest static interval, seconds.
+    #[arg(long, default_value_t = 2.0)]
+    min_static_s: f64,
+    /// Static when window variance ≤ THRESHOLD × rest-period variance.
+    #[arg(long, default_value_t = 6.0)]
+    threshold: f64,
+    /// Sample rate when the file has no time column or Fs metadata, Hz.
+    #[arg(long, default_value_t = 100.0)]
+    rate_hz: f64,
+    /// ADC limits LO:HI; static samples at a limit are refused as saturated (default: inferred
+    /// from integer data: 8-bit, 10-bit or 16-bit).
+    #[arg(long, value_parser = parse_range)]
+    adc_range: Option<(f64, f64)>,
+}
+
+impl DetectArgs {
+    fn load_options(&self) -> LoadOptions {
+        LoadOptions {
+            columns: self
+                .columns
+                .as_ref()
+                .map(|c| [c[0].clone(), c[1].clone(), c[2].clone()]),
+        }
+    }
+
+    fn fit_options(&self, model: MultiPosModel) -> FitOptions {
+        FitOptions {
+            window_s: self.window_s,
+            init_s: self.init_s,
+            min_static_s: self.min_static_s,
+            threshold_factor: self.threshold,
+            default_rate_hz: self.rate_hz,
+            model,
+            adc_range: self.adc_range,
+        }
+    }
+}
+
+fn parse_estimator(s: &str) -> Result<PoseEstimator, String> {
+    match s {
+        "mean" => Ok(PoseEstimator::Mean),
+        "kalman" => Ok(PoseEstimator::Kalman),
+        _ => Err(format!("'{s}': expected mean or kalman")),
+    }
+}
+
+fn parse_model(s: &str) -> Result<MultiPosModel, String> {
+    match s {
+        "full" => Ok(MultiPosModel::Full),
+        "diagonal" => Ok(MultiPosModel::Diagonal),
+        _ => Err(format!("'{s}': expected full or diagonal")),
+    }
+}
+
+fn parse_range(s: &str) -> Result<(f64, f64), String> {
+    let (a, b) = s
+        .split_once(':')
+        .ok_or_else(|| format!("'{s}': expected LO:HI"))?;
+    let lo: f64 = a
+        .trim()
+        .parse()
+        .map_err(|_| format!("'{a}' is not a number"))?;
+    let hi: f64 = b
+        .trim()
+        .parse()
+        .map_err(|_| format!("'{b}' is not a number"))?;
+    if !(lo.is_finite() && hi.is_finite() && lo < hi) {
+        return Err(format!("'{s}': need finite LO < HI"));
+    }
+    Ok((lo, hi))
+}
+
+fn to_json<T: serde::Serialize>(v: &T) -> Result<String> {
+    Ok(serde_json::to_string_pretty(v)? + "\n")
+}
+
+fn write_calibration(path: &Path, cal: &Calibration) -> Result<()> {
+    cal.validate()
+        .map_err(|e| anyhow!("refusing to write an invalid calibration: {e}"))?;
+    let text = serde_json::to_string_pretty(cal)?;
+    std::fs::write(path, text + "\n").with_context(|| format!("cannot write {}", path.display()))
+}
+
+fn fmt_row(v: &[f32]) -> String {
+    v.iter()
+        .map(|x| format!("{x:>13.6}"))
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+fn run(cli: Cli) -> Result<String> {
+    let mut o = String::new();
+    match cli.cmd {
+        Cmd::SixPosition {
+            file,
+            json,
+            estimator,
+            out,
+        } => {
+            let rec = input::load(&file, &LoadOptions::default())?;
+            let rep = six_position_cmd::run(&rec, estimator)?;
+            if let Some(path) = &out {
+                let cal = Calibration {
+                    bias: rep.bias,
+                    matrix: rep.d_inv,
+                    effects: Default::default(),
+                };
+                write_calibration(path, &cal)?;
+            }
+            if json {
+                return to_json(&rep);
+            }
+            writeln!(o, "Six-position test (T̂ = M·Â⁺), {}", file.display())?;
+            writeln!(o, "\nT̂ = [D | b]:")?;
+            for r in &rep.t_hat {
+                writeln!(o, "  {}", fmt_row(r))?;
+            }
+            writeln!(o, "\nD⁻¹ (correction a = D⁻¹(m − b)):")?;
+            for r in &rep.d_inv {
+                writeln!(o, "  {}", fmt_row(r))?;
+            }
+            writeln!(o, "\nb: {}", fmt_row(&rep.bias))?;
+            writeln!(o, "\nResidual M − T̂Â (columns x+ x- y+ y- z+ z-):")?;
+            for r in &rep.residual {
+                writeln!(o, "  {}", fmt_row(r))?;
+            }
+            Ok(o)
+        }
+        Cmd::Fit {
+            file,
+            json,
+            out,
+            detect,
+            model,
+        } => {
+            let rec = input::load(&file, &detect.load_options())?;
+            let rep = fit_cmd::run(&rec, &detect.fit_options(model))?;
+            if let Some(path) = &out {
+                write_calibration(path, &rep.calibration)?;
+            }
+            if json {
+                return to_json(&rep);
+            }
+            writeln!(
+                o,
+                "Multi-position fit of {} ({} samples): {} static windows",
+                file.display(),
+                rec.len(),
+                rep.static_windows
+            )?;
+            writeln!(o, "\n  #   t_start    t_end  samples   residual (mg)")?;
+            for (i, w) in rep.windows.iter().enumerate() {
+                writeln!(
+                    o,
+                    "{:>3} {:>9.2} {:>8.2} {:>8} {:>13.4}",
+                    i + 1,
+                    w.t_start,
+                    w.t_end,
+                    w.samples,
+                    w.residual_mg
+                )?;
+            }
+            writeln!(o, "\nbias b (raw): {}", fmt_row(&rep.bias))?;
+            writeln!(o, "K = D⁻¹ (g per raw unit):")?;
+            for r in &rep.matrix {
+                writeln!(o, "  {}", fmt_row(&r.map(|x| x * 1e3)))?;
+            }
+            writeln!(o, "  (×1e-3)")?;
+            writeln!(
+                o,
+                "\nRMS ‖a‖ − 1 g: {:.4} mg   max: {:.4} mg   iterations: {}",
+                rep.rms_mg, rep.max_abs_mg, rep.iterations
+            )?;
+            Ok(o)
+        }
+    }
+}
+
+fn main() {
+    let cli = Cli::parse();
+    match run(cli) {
+        Ok(text) => {
+            // A closed pipe (`wiical … | head`) is not an error worth a panic.
+            let mut stdout = std::io::stdout().lock();
+            if let Err(e) = stdout
+                .write_all(text.as_bytes())
+                .and_then(|_| stdout.flush())
+            {
+                if e.kind() != std::io::ErrorKind::BrokenPipe {
+                    eprintln!("error: cannot write output: {e}");
+                    std::process::exit(1);
+                }
+            }
+        }
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            std::process::exit(1);
+        }
+    }
+}

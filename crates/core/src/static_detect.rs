@@ -1,1 +1,366 @@
-//! (in progress)
+//! Static-interval detection on a stream of 3-axis samples.
+//!
+//! The method of IMU-TK (Tedaldi et al., ICRA 2014): a recording starts with the sensor at
+//! rest for `init_samples` samples; the per-axis variance of that period is the sensor's noise
+//! reference. Afterwards each sample is classified by the variance of a window centred on it:
+//! static when the sum of the per-axis window variances is at most `threshold_factor` times the
+//! sum of the reference variances. Runs of static samples at least `min_static_samples` long are
+//! reported as [`StaticInterval`]s with their mean and variance.
+//!
+//! The initial rest period is itself a static pose and is reported like the others.
+//!
+//! Streaming and memory: the detector keeps a ring of the last `N` samples (`N` = window
+//! length, a const generic, odd) and decides sample `k − (N−1)/2` when sample `k` arrives, so
+//! results lag by half a window. The window variance is recomputed from the ring (two-pass,
+//! shifted by the window's first sample): `O(N)` per sample, but exact in `f32` even on raw counts
+//! in the tens of thousands, where running sums of squares would cancel catastrophically.
+
+use crate::stats::Welford3;
+use crate::Error;
+use heapless::HistoryBuf;
+
+/// Detector settings.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StaticDetectorConfig {
+    /// Length of the centred variance window in samples: odd, ≥ 3, at most the detector's
+    /// capacity `N`.
+    pub window: u16,
+    /// Length of the initial rest period used as the noise reference, in samples.
+    pub init_samples: u32,
+    /// A sample is static when its window variance ≤ this × the reference variance.
+    pub threshold_factor: f32,
+    /// Shortest static run to report, in samples.
+    pub min_static_samples: u32,
+    /// Floor on the per-axis reference variance (raw units²), so that a quantised sensor
+    /// whose rest readings do not change (variance 0) still gets a usable threshold.
+    /// A uniform quantiser of step 1 has variance 1/12.
+    pub min_variance: f32,
+}
+
+impl StaticDetectorConfig {
+    /// Settings for a sample rate: a window of `window_s` seconds (rounded to an odd count),
+    /// an init period of `init_s` seconds, a minimum static run of `min_static_s` seconds,
+    /// threshold factor 6 and the quantisation floor of a unit step.
+    pub fn for_rate(rate_hz: f32, window_s: f32, init_s: f32, min_static_s: f32) -> Self {
+        let w = (rate_hz * window_s) as u32;
+        Self {
+            window: (w | 1).clamp(3, u16::MAX as u32 - 1) as u16,
+            init_samples: (rate_hz * init_s) as u32,
+            threshold_factor: 6.0,
+            min_static_samples: (rate_hz * min_static_s) as u32,
+            min_variance: 1.0 / 12.0,
+        }
+    }
+}
+
+/// One detected static interval (a pose).
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct StaticInterval {
+    /// Index of the first static sample.
+    pub start: u32,
+    /// Index one past the last static sample.
+    pub end: u32,
+    /// Mean of the samples in the interval.
+    pub mean: [f32; 3],
+    /// Per-axis unbiased variance of the samples in the interval.
+    pub variance: [f32; 3],
+}
+
+impl StaticInterval {
+    /// Number of samples.
+    pub fn len(&self) -> u32 {
+        self.end - self.start
+    }
+
+    /// True for an empty interval (never reported by the detector).
+    pub fn is_empty(&self) -> bool {
+        self.end == self.start
+    }
+}
+
+/// Streaming static-interval detector; `N` is the capacity of its sample ring, the upper bound
+/// of the window length.
+#[derive(Debug, Clone)]
+pub struct StaticDetector<const N: usize> {
+    cfg: StaticDetectorConfig,
+    ring: HistoryBuf<[f32; 3], N>,
+    /// Number of samples pushed.
+    count: u32,
+    init: Welford3,
+    /// Sum of per-axis reference variances × threshold factor (set after the init period).
+    threshold: Option<f32>,
+    /// The static run being accumulated: start index and statistics.
+    run: Option<(u32, Welford3)>,
+}
+
+impl<const N: usize> StaticDetector<N> {
+    /// Creates a detector. The window must be odd, ≥ 3 and ≤ `N`; `init_samples` ≥ window;
+    /// factors positive.
+    pub fn new(cfg: StaticDetectorConfig) -> Result<Self, Error> {
+        let w = cfg.window as usize;
+        let valid = w >= 3
+            && w % 2 == 1
+            && w <= N
+            && cfg.init_samples as usize >= w
+            && cfg.threshold_factor.is_finite()
+            && cfg.threshold_factor > 0.0
+            && cfg.min_variance.is_finite()
+            && cfg.min_variance >= 0.0
+            && cfg.min_static_samples >= 1;
+        if !valid {
+            return Err(Error::InvalidParameter);
+        }
+        Ok(Self {
+            cfg,
+            ring: HistoryBuf::new(),
+            count: 0,
+            init: Welford3::new(),
+            threshold: None,
+            run: None,
+        })
+    }
+
+    /// Half the window: how many samples the decisions lag behind the input.
+    pub fn half(&self) -> usize {
+        (self.cfg.window as usize - 1) / 2
+    }
+
+    /// The latest `window` samples, oldest first.
+    fn window_samples(&self) -> impl Iterator<Item = &[f32; 3]> + '_ {
+        let skip = self.ring.len().saturating_sub(self.cfg.window as usize);
+        self.ring.oldest_ordered().skip(skip)
+    }
+
+    /// The noise reference (per-axis variance of the init period, floored), once known.
+    pub fn reference_variance(&self) -> Option<[f32; 3]> {
+        self.threshold?;
+        let v = self
+            .init
+            .variance()
+            .unwrap_or_else(|_| crate::Vec3::zeros());
+        Some([v.x, v.y, v.z].map(|x| x.max(self.cfg.min_variance)))
+    }
+
+    /// Number of samples pushed so far.
+    pub fn samples_seen(&self) -> u32 {
+        self.count
+    }
+
+    /// Feeds one sample. Returns a static interval when one has just ended.
+    /// Non-finite samples are refused (`Error::NonFinite`) and leave the state unchanged.
+    pub fn push(&mut self, m: [f32; 3]) -> Result<Option<StaticInterval>, Error> {
+        if !crate::all_finite(&m) {
+            return Err(Error::NonFinite);
+        }
+        if self.count == u32::MAX {
+            return Err(Error::CapacityExceeded);
+        }
+        self.ring.write(m);
+        self.count += 1;
+        if self.threshold.is_none() {
+            self.init.push(m)?;
+            if self.count >= self.cfg.init_samples {
+                let v = self
+                    .init
+                    .variance()
+                    .unwrap_or_else(|_| crate::Vec3::zeros());
+                let reference: f32 = v.iter().map(|x| x.max(self.cfg.min_variance)).sum();
+                self.threshold = Some(reference * self.cfg.threshold_factor);
+            }
+        }
+        let half = self.half();
+        if (self.count as usize) < self.cfg.window as usize {
+            return Ok(None);
+        }
+        // Decide the centre sample of the full window. Before the threshold is known, the
+        // init period is static by definition.
+        let centre_index = self.count - 1 - half as u32;
+        let centre = self.window_samples().nth(half).copied().unwrap_or(m);
+        let is_static = match self.threshold {
+            None => true,
+            Some(th) => self.window_variance_sum() <= th,
+        };
+        let mut ended = None;
+        if is_static {
+            if self.run.is_none() {
+                // The first HALF samples of the recording are only ever seen as window edges;
+                // the init period covers them, so start the run at 0 if that is where we are.
+                let start = if centre_index as usize == half {
+                    0
+                } else {
+                    centre_index
+                };
+                let mut w = Welford3::new();
+                if start == 0 {
+                    for s in self.window_samples().take(half) {
+                        w.push(*s)?;
+                    }
+                }
+                self.run = Some((start, w));
+            }
+            if let Some((_, w)) = self.run.as_mut() {
+                w.push(centre)?;
+            }
+        } else {
+            ended = self.close_run(centre_index);
+        }
+        Ok(ended)
+    }
+
+    /// Ends the stream: returns the static interval still open, if long enough. The last
+    /// `half()` samples (never at a window centre) are not included.
+    pub fn finish(&mut self) -> Option<StaticInterval> {
+        let end = self.count.saturating_sub(self.half() as u32);
+        self.close_run(end)
+    }
+
+    fn close_run(&mut self, end: u32) -> Option<StaticInterval> {
+        let (start, w) = self.run.take()?;
+        if w.count() < self.cfg.min_static_samples {
+            return None;
+        }
+        let mean = w.mean().ok()?;
+        let var = w.variance().unwrap_or_else(|_| crate::Vec3::zeros());
+        Some(StaticInterval {
+            start,
+            end,
+            mean: [mean.x, mean.y, mean.z],
+            variance: [var.x, var.y, var.z],
+        })
+    }
+
+    /// Sum over axes of the (population) variance of the samples in the ring, two-pass,
+    /// shifted by the oldest sample so that large raw offsets do not cost precision.
+    fn window_variance_sum(&self) -> f32 {
+        let shift = match self.window_samples().next() {
+            Some(s) => *s,
+            None => return 0.0,
+        };
+        let n = self.window_samples().count() as f32;
+        let mut mean = [0.0f32; 3];
+        for s in self.window_samples() {
+            for a in 0..3 {
+                mean[a] += s[a] - shift[a];
+            }
+        }
+        for m in mean.iter_mut() {
+            *m /= n;
+        }
+        let mut var = 0.0f32;
+        for s in self.window_samples() {
+            for a in 0..3 {
+                let d = s[a] - shift[a] - mean[a];
+                var += d * d;
+            }
+        }
+        var / n
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn cfg() -> StaticDetectorConfig {
+        StaticDetectorConfig {
+            window: 51,
+            init_samples: 200,
+            threshold_factor: 6.0,
+            min_static_samples: 50,
+            min_variance: 1.0 / 12.0,
+        }
+    }
+
+    /// Deterministic pseudo-noise (xorshift), ±amp, so the test needs no RNG crate.
+    struct Noise(u32);
+    impl Noise {
+        fn next(&mut self, amp: f32) -> f32 {
+            self.0 ^= self.0 << 13;
+            self.0 ^= self.0 >> 17;
+            self.0 ^= self.0 << 5;
+            (self.0 as f32 / u32::MAX as f32 - 0.5) * 2.0 * amp
+        }
+    }
+
+    #[test]
+    fn finds_poses_separated_by_motion() {
+        let mut det: StaticDetector<51> = StaticDetector::new(cfg()).unwrap();
+        let mut noise = Noise(12345);
+        let poses = [
+            [33000.0, 33300.0, 36400.0],
+            [29000.0, 33200.0, 32300.0],
+            [33100.0, 29200.0, 32300.0],
+        ];
+        let mut found = heapless::Vec::<StaticInterval, 8>::new();
+        let mut idx = 0u32;
+        for (p, pose) in poses.iter().enumerate() {
+            let len = if p == 0 { 400 } else { 300 };
+            for _ in 0..len {
+                let s = [
+                    pose[0] + noise.next(3.0),
+                    pose[1] + noise.next(3.0),
+                    pose[2] + noise.next(3.0),
+                ];
+                if let Some(iv) = det.push(s).unwrap() {
+                    found.push(iv).unwrap();
+                }
+                idx += 1;
+            }
+            // Motion between poses: a large swing over 100 samples.
+            for k in 0..100 {
+                let ph = k as f32 * 0.2;
+                let s = [
+                    pose[0] + 3000.0 * libm::sinf(ph),
+                    pose[1] + 2000.0 * libm::cosf(ph),
+                    pose[2],
+                ];
+                if let Some(iv) = det.push(s).unwrap() {
+                    found.push(iv).unwrap();
+                }
+                idx += 1;
+            }
+        }
+        assert_eq!(det.samples_seen(), idx);
+        if let Some(iv) = det.finish() {
+            found.push(iv).unwrap();
+        }
+        assert_eq!(found.len(), 3, "{found:?}");
+        assert_eq!(found[0].start, 0);
+        for (iv, pose) in found.iter().zip(poses.iter()) {
+            for a in 0..3 {
+                assert!((iv.mean[a] - pose[a]).abs() < 1.0, "{iv:?}");
+            }
+            assert!(iv.len() >= 200);
+        }
+    }
+
+    #[test]
+    fn rejects_bad_config_and_nan() {
+        assert!(StaticDetector::<49>::new(cfg()).is_err());
+        let mut even = cfg();
+        even.window = 50;
+        assert!(StaticDetector::<64>::new(even).is_err());
+        let mut c = cfg();
+        c.threshold_factor = f32::NAN;
+        assert!(StaticDetector::<51>::new(c).is_err());
+        let mut d: StaticDetector<51> = StaticDetector::new(cfg()).unwrap();
+        assert_eq!(d.push([f32::NAN, 0.0, 0.0]), Err(Error::NonFinite));
+        assert_eq!(d.samples_seen(), 0);
+    }
+
+    #[test]
+    fn constant_quantised_signal_is_static() {
+        // A 10-bit sensor at rest may read the same count every time: variance 0. The
+        // min_variance floor keeps the threshold positive, so this is one static interval.
+        let mut c = cfg();
+        c.window = 21;
+        let mut d: StaticDetector<64> = StaticDetector::new(c).unwrap();
+        for _ in 0..1000 {
+            assert_eq!(d.push([512.0, 500.0, 620.0]).unwrap(), None);
+        }
+        let iv = d.finish().unwrap();
+        assert_eq!((iv.start, iv.end), (0, 990));
+        assert_eq!(iv.mean, [512.0, 500.0, 620.0]);
+    }
+}
