@@ -1,0 +1,199 @@
+//! The CLI contract: JSON keys and values of each command, and readable errors on bad input.
+
+use serde_json::Value;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn data_dir() -> PathBuf {
+    let dir = std::env::var_os("WIICAL_DATA")
+        .map(Into::into)
+        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data"));
+    assert!(
+        dir.is_dir(),
+        "shared data not found at {} (set WIICAL_DATA)",
+        dir.display()
+    );
+    dir
+}
+
+fn wiical(args: &[&str]) -> (bool, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_wiical"))
+        .args(args)
+        .output()
+        .expect("run wiical");
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+fn json(args: &[&str]) -> Value {
+    let (ok, out, err) = wiical(args);
+    assert!(ok, "wiical {args:?} failed: {err}");
+    serde_json::from_str(&out).unwrap_or_else(|e| panic!("bad JSON ({e}): {out}"))
+}
+
+fn temp_file(name: &str, contents: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("wiical-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let p = dir.join(name);
+    std::fs::write(&p, contents).unwrap();
+    p
+}
+
+fn f(v: &Value) -> f64 {
+    v.as_f64().unwrap()
+}
+
+#[test]
+fn six_position_reproduces_the_seed() {
+    let file = data_dir().join("seed_six_position/wiimote_M.csv");
+    let v = json(&["six-position", file.to_str().unwrap(), "--json"]);
+    let t = &v["t_hat"];
+    // Seed: T̂ row 1 = 25.175, 0.041, 0, 128.058 (3 decimals; see the core's unit tests for
+    // why 0.001 is the tolerance the printed inputs allow).
+    let want = [
+        [25.175, 0.041, 0.0, 128.058],
+        [-0.403, 26.023, 0.402, 127.465],
+        [0.0, 0.297, 24.583, 129.625],
+    ];
+    for r in 0..3 {
+        for c in 0..4 {
+            assert!((f(&t[r][c]) - want[r][c]).abs() <= 0.00102, "T̂[{r}][{c}]");
+        }
+    }
+    assert!((f(&v["d_inv"][0][0]) - 0.039719).abs() < 1.5e-6);
+    assert!((f(&v["d_inv"][2][2]) - 0.040684).abs() < 1.5e-6);
+    assert_eq!(v["residual"].as_array().unwrap().len(), 3);
+    assert_eq!(v["residual"][0].as_array().unwrap().len(), 6);
+    assert_eq!(v["bias"].as_array().unwrap().len(), 3);
+}
+
+#[test]
+fn fit_on_imu_tk_xsens() {
+    let file = data_dir().join("imu_tk_xsens/xsens_acc.mat");
+    let out = std::env::temp_dir().join(format!("wiical-xsens-{}.json", std::process::id()));
+    let v = json(&[
+        "fit",
+        file.to_str().unwrap(),
+        "--json",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let n = v["static_windows"].as_u64().unwrap();
+    let rms = f(&v["rms_mg"]);
+    assert!(n >= 35, "static windows {n}");
+    assert!(rms < 0.5, "rms {rms} mg");
+    assert_eq!(v["matrix"].as_array().unwrap().len(), 3);
+    // The written calibration loads back and matches the printed one.
+    let cal: wiical_core::Calibration =
+        serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+    assert!(cal.validate().is_ok());
+    assert_eq!(cal.bias[0], f(&v["bias"][0]) as f32);
+    // The human-readable table works too.
+    let (ok, text, _) = wiical(&["fit", file.to_str().unwrap()]);
+    assert!(ok && text.contains("static windows") && text.contains("RMS"));
+}
+
+/// A Wiimote-like 10-bit recording: rest, then poses with motion between them.
+fn synthetic_recording(directions: &[[f64; 3]], saturate: bool) -> String {
+    let mut s = String::from("t,x,y,z\n");
+    let mut i = 0usize;
+    let mut noise = 0x1234_5678u32;
+    let mut rnd = || {
+        noise ^= noise << 13;
+        noise ^= noise >> 17;
+        noise ^= noise << 5;
+        noise as f64 / u32::MAX as f64 - 0.5
+    };
+    for (k, d) in directions.iter().enumerate() {
+        let len = if k == 0 { 400 } else { 300 };
+        for _ in 0..len {
+            let mut v = [0.0; 3];
+            for a in 0..3 {
+                v[a] = (512.0 + 105.0 * d[a] + 1.5 * rnd()).round();
+                if saturate && k == 3 && a == 0 {
+                    v[a] = 1023.0;
+                }
+            }
+            s += &format!("{:.2},{},{},{}\n", i as f64 * 0.01, v[0], v[1], v[2]);
+            i += 1;
+        }
+        for m in 0..80 {
+            let ph = m as f64 * 0.25;
+            s += &format!(
+                "{:.2},{},{},{}\n",
+                i as f64 * 0.01,
+                (512.0 + 300.0 * ph.sin()).round(),
+                (512.0 + 250.0 * ph.cos()).round(),
+                512
+            );
+            i += 1;
+        }
+    }
+    s
+}
+
+#[test]
+fn bad_inputs_give_readable_errors() {
+    let check = |args: &[&str], needle: &str| {
+        let (ok, _, err) = wiical(args);
+        assert!(!ok, "{args:?} should fail");
+        assert!(
+            err.contains(needle) && err.starts_with("error:") && !err.contains("panicked"),
+            "{args:?}: stderr was {err:?}, expected it to mention {needle:?}"
+        );
+    };
+    let empty = temp_file("empty.csv", "");
+    check(&["fit", empty.to_str().unwrap()], "empty");
+    let nan = temp_file("nan.csv", "t,x,y,z\n0,1,NaN,3\n");
+    check(&["fit", nan.to_str().unwrap()], "not finite");
+    let cols = temp_file("cols.csv", "time,a,b,c\n0,1,2,3\n");
+    check(&["fit", cols.to_str().unwrap()], "no x/y/z columns");
+    let short = temp_file("short.csv", "t,x,y,z\n0,1,2,3\n0.01,1,2,3\n");
+    check(&["fit", short.to_str().unwrap()], "too short");
+    check(&["fit", "/nonexistent/file.csv"], "cannot read");
+
+    let dup = temp_file(
+        "dup.csv",
+        "pose,x,y,z\nx+,153,127,130\nx-,103,128,130\ny+,128,153,130\nx+,153,127,130\ny-,128,101,129\nz+,128,128,154\nz-,128,127,105\n",
+    );
+    check(&["six-position", dup.to_str().unwrap()], "more than once");
+    let missing = temp_file(
+        "missing.csv",
+        "pose,x,y,z\nx+,153,127,130\nx-,103,128,130\ny+,128,153,130\ny-,128,101,129\nz+,128,128,154\n",
+    );
+    check(&["six-position", missing.to_str().unwrap()], "'z-'");
+    let label = temp_file("label.csv", "pose,x,y,z\nup,1,2,3\n");
+    check(
+        &["six-position", label.to_str().unwrap()],
+        "unknown pose label",
+    );
+
+    // Coplanar poses: every gravity direction in the x–y plane.
+    let planar: Vec<[f64; 3]> = (0..12)
+        .map(|k| {
+            let th = k as f64 * 0.5;
+            [th.cos(), th.sin(), 0.0]
+        })
+        .collect();
+    let p = temp_file("planar.csv", &synthetic_recording(&planar, false));
+    check(&["fit", p.to_str().unwrap()], "one plane");
+
+    // Well spread poses fit; the same with one pose at the ADC rail is refused.
+    let spread: Vec<[f64; 3]> = (0..14)
+        .map(|k| {
+            let z = -1.0 + 2.0 * (k as f64 + 0.5) / 14.0;
+            let r = (1.0 - z * z).sqrt();
+            let th = k as f64 * 2.399_963;
+            [r * th.cos(), r * th.sin(), z]
+        })
+        .collect();
+    let good = temp_file("good.csv", &synthetic_recording(&spread, false));
+    let v = json(&["fit", good.to_str().unwrap(), "--json"]);
+    assert_eq!(v["static_windows"].as_u64().unwrap(), 14);
+    assert!(f(&v["rms_mg"]) < 5.0, "{v}");
+    let sat = temp_file("sat.csv", &synthetic_recording(&spread, true));
+    check(&["fit", sat.to_str().unwrap()], "saturated");
+}
