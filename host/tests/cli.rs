@@ -197,3 +197,37 @@ fn bad_inputs_give_readable_errors() {
     let sat = temp_file("sat.csv", &synthetic_recording(&spread, true));
     check(&["fit", sat.to_str().unwrap()], "saturated");
 }
+
+#[test]
+fn magfit_contract_and_model_ranking() {
+    let file = data_dir().join("qmc5883l_mag_tomisuarez/noisy_raw_data.csv");
+    let fit = |model: &str| json(&["magfit", file.to_str().unwrap(), "--model", model, "--json"]);
+    let (s, a, e) = (fit("sphere"), fit("axis"), fit("ellipsoid"));
+    for v in [&s, &a, &e] {
+        assert_eq!(v["center"].as_array().unwrap().len(), 3);
+        assert_eq!(v["matrix"].as_array().unwrap().len(), 3);
+        assert!(f(&v["radius"]) > 0.0);
+    }
+    // This data set is strongly anisotropic (SOURCE.md): each richer model fits better.
+    assert!(f(&e["fit_error_pct"]) < f(&a["fit_error_pct"]));
+    assert!(f(&a["fit_error_pct"]) < 0.5 * f(&s["fit_error_pct"]));
+    let small = data_dir().join("mag_ellipsoid_fit_python/mag_out.txt");
+    let v = json(&["magfit", small.to_str().unwrap(), "--model", "sphere", "--json"]);
+    assert!((f(&v["radius"]) - 173.0).abs() < 5.0, "{v}");
+    let (ok, _, err) = wiical(&["magfit", small.to_str().unwrap(), "--model", "cube"]);
+    assert!(!ok && err.contains("cube"));
+}
+
+#[test]
+fn kalman_demo_contract_and_acceptance() {
+    let v = json(&["kalman-demo", "--runs", "400", "--seed", "3", "--json"]);
+    assert_eq!(f(&v["true_bias"]), 0.25);
+    assert_eq!(v["runs"].as_u64().unwrap(), 400);
+    assert!(f(&v["median_abs_bias_error_1s"]) < 0.01, "{v}");
+    assert!(f(&v["p95_abs_bias_error_1s"]) > f(&v["median_abs_bias_error_1s"]));
+    let nees = f(&v["nees_mean"]);
+    assert!((2.5..3.5).contains(&nees), "NEES {nees}");
+    // Same seed, same numbers.
+    let again = json(&["kalman-demo", "--runs", "400", "--seed", "3", "--json"]);
+    assert_eq!(v, again);
+}

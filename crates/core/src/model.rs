@@ -190,20 +190,20 @@ impl Calibration {
         let e = &self.effects;
         let dtheta = cond.temperature_c.map(|t| t - e.temp_ref_c);
         let mut b = self.bias;
-        for i in 0..3 {
-            b[i] += e.bias_drift[i] * cond.time_s;
+        for ((bi, drift), temp) in b.iter_mut().zip(e.bias_drift).zip(e.bias_temp) {
+            *bi += drift * cond.time_s;
             if let Some(dt) = dtheta {
-                b[i] += e.bias_temp[i] * dt;
+                *bi += temp * dt;
             }
         }
         let shifted = Self { bias: b, ..*self };
         let mut u = shifted.correct_linear(m);
-        for i in 0..3 {
+        for (i, ui) in u.iter_mut().enumerate() {
             if let Some(dt) = dtheta {
-                u[i] *= 1.0 + e.scale_temp[i] * dt;
+                *ui *= 1.0 + e.scale_temp[i] * dt;
             }
-            let x = u[i];
-            u[i] = x + e.quadratic[i] * x * x + e.cubic[i] * x * x * x;
+            let x = *ui;
+            *ui = x + e.quadratic[i] * x * x + e.cubic[i] * x * x * x;
         }
         u
     }

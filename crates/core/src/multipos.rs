@@ -160,7 +160,8 @@ fn sphere_init<I: Iterator<Item = ([f32; 3], f32)>>(pts: I) -> Result<([f32; 3],
     let chol = nalgebra::Cholesky::new(ata).ok_or(Error::DegenerateGeometry)?;
     let l = chol.l();
     for i in 0..4 {
-        if !(l[(i, i)] * l[(i, i)] > 1e-4 * diag_max) {
+        let pivot = l[(i, i)] * l[(i, i)];
+        if pivot.is_nan() || pivot <= 1e-4 * diag_max {
             return Err(Error::DegenerateGeometry);
         }
     }
@@ -359,17 +360,16 @@ pub fn fit_weighted(
         for &b in &free {
             let da = libm::sqrtf(jtj[(a, a)]);
             let db = libm::sqrtf(jtj[(b, b)]);
+            // A parameter with no sensitivity at all keeps a zero row: eigenvalue 0 below.
             scaled[(a, b)] = if da > 0.0 && db > 0.0 {
                 jtj[(a, b)] / (da * db)
-            } else if a == b {
-                0.0
             } else {
                 0.0
             };
         }
     }
     let identifiability = nalgebra::SymmetricEigen::new(scaled).eigenvalues.min();
-    if !(identifiability >= MIN_IDENTIFIABILITY) {
+    if identifiability.is_nan() || identifiability < MIN_IDENTIFIABILITY {
         return Err(Error::DegenerateGeometry);
     }
 

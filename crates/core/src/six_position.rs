@@ -178,6 +178,7 @@ pub fn solve_labelled(poses: &[(Pose, [f32; 3])]) -> Result<SixPositionFit, Erro
 }
 
 #[cfg(test)]
+#[allow(clippy::needless_range_loop)] // index loops mirror the matrix notation
 mod tests {
     use super::*;
 

@@ -259,6 +259,7 @@ impl<const N: usize> StaticDetector<N> {
 }
 
 #[cfg(test)]
+#[allow(clippy::needless_range_loop)] // index loops mirror the matrix notation
 mod tests {
     use super::*;
 

@@ -1,0 +1,88 @@
+//! Criterion benchmarks of the core's hot paths (host CPU). On-target instruction counts come
+//! from the QEMU benchmark (`cargo xtask qemu-bench`); see BENCHMARKS.md.
+
+use criterion::{criterion_group, criterion_main, Criterion};
+use std::hint::black_box;
+use wiical_core::multipos::{self, MultiPosConfig};
+use wiical_core::six_position;
+use wiical_core::static_detect::{StaticDetector, StaticDetectorConfig};
+use wiical_core::{Calibration, Conditions, Mat3, Vec3};
+
+/// Deterministic spread of unit vectors (golden-angle spiral).
+fn directions(n: usize) -> Vec<[f32; 3]> {
+    (0..n)
+        .map(|k| {
+            let z = -1.0 + 2.0 * (k as f32 + 0.5) / n as f32;
+            let r = (1.0 - z * z).sqrt();
+            let th = k as f32 * 2.399_963;
+            [r * th.cos(), r * th.sin(), z]
+        })
+        .collect()
+}
+
+fn wiimote_cal() -> (Mat3, Vec3, Calibration) {
+    let d = Mat3::new(106.0, -0.8, 1.1, 0.4, 104.5, -0.6, -0.3, 0.5, 110.2);
+    let b = Vec3::new(521.3, 519.8, 524.6);
+    (d, b, Calibration::from_forward(&d, &b).unwrap())
+}
+
+fn poses(n: usize) -> Vec<[f32; 3]> {
+    let (d, b, _) = wiimote_cal();
+    directions(n)
+        .into_iter()
+        .enumerate()
+        .map(|(i, a)| {
+            let m = d * Vec3::new(a[0], a[1], a[2]) + b;
+            // A little deterministic "noise" so the fit has a non-zero residual.
+            let e = ((i * 7919) % 13) as f32 * 0.01 - 0.06;
+            [m.x + e, m.y - e, m.z + 0.5 * e]
+        })
+        .collect()
+}
+
+fn bench(c: &mut Criterion) {
+    let (_, _, cal) = wiimote_cal();
+    c.bench_function("correct_linear (per sample)", |bn| {
+        bn.iter(|| cal.correct_linear(black_box([600.0, 480.0, 530.0])))
+    });
+    let cond = Conditions {
+        time_s: 12.0,
+        temperature_c: Some(31.0),
+    };
+    c.bench_function("correct with effects (per sample)", |bn| {
+        bn.iter(|| cal.correct(black_box([600.0, 480.0, 530.0]), black_box(&cond)))
+    });
+
+    let seed_m: [[f32; 3]; 6] = [
+        [153.329, 127.181, 129.991],
+        [102.978, 127.989, 129.991],
+        [128.072, 153.248, 129.586],
+        [127.989, 101.200, 128.992],
+        [127.989, 127.989, 154.179],
+        [127.989, 127.183, 105.012],
+    ];
+    c.bench_function("six_position::solve", |bn| {
+        bn.iter(|| six_position::solve(black_box(&seed_m)).unwrap())
+    });
+
+    let p30 = poses(30);
+    c.bench_function("multipos::fit (30 poses)", |bn| {
+        bn.iter(|| multipos::fit(black_box(&p30), &MultiPosConfig::default()).unwrap())
+    });
+
+    let cfg = StaticDetectorConfig::for_rate(100.0, 1.0, 2.0, 2.0);
+    let stream: Vec<[f32; 3]> = (0..1000)
+        .map(|i| [33000.0 + (i % 7) as f32, 33300.0 - (i % 5) as f32, 36400.0])
+        .collect();
+    c.bench_function("static_detect::push (1000 samples, 101-sample window)", |bn| {
+        bn.iter(|| {
+            let mut det: StaticDetector<101> = StaticDetector::new(cfg).unwrap();
+            for s in &stream {
+                black_box(det.push(*s).unwrap());
+            }
+        })
+    });
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);
