@@ -3,6 +3,8 @@
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use std::hint::black_box;
+use wiical_core::kalman::{PvbConfig, PvbFilter};
+use wiical_core::magfit::{EllipsoidFit, SphereFit};
 use wiical_core::multipos::{self, MultiPosConfig};
 use wiical_core::six_position;
 use wiical_core::static_detect::{StaticDetector, StaticDetectorConfig};
@@ -74,15 +76,68 @@ fn bench(c: &mut Criterion) {
     let stream: Vec<[f32; 3]> = (0..1000)
         .map(|i| [33000.0 + (i % 7) as f32, 33300.0 - (i % 5) as f32, 36400.0])
         .collect();
-    c.bench_function("static_detect::push (1000 samples, 101-sample window)", |bn| {
+    c.bench_function(
+        "static_detect::push (1000 samples, 101-sample window)",
+        |bn| {
+            bn.iter(|| {
+                let mut det: StaticDetector<101> = StaticDetector::new(cfg).unwrap();
+                for s in &stream {
+                    black_box(det.push(*s).unwrap());
+                }
+            })
+        },
+    );
+}
+
+fn bench_mag_kalman(c: &mut Criterion) {
+    // 1000 points on a rotated, offset ellipsoid in raw counts (QMC5883L-like magnitudes).
+    let pts: Vec<[f32; 3]> = directions(1000)
+        .into_iter()
+        .map(|u| {
+            [
+                6150.0 + 750.0 * u[0] + 30.0 * u[1],
+                250.0 + 1030.0 * u[1] - 20.0 * u[2],
+                3440.0 + 1620.0 * u[2] + 10.0 * u[0],
+            ]
+        })
+        .collect();
+    c.bench_function("magfit::EllipsoidFit::push (per sample)", |bn| {
+        let mut f = EllipsoidFit::new();
+        let mut i = 0usize;
         bn.iter(|| {
-            let mut det: StaticDetector<101> = StaticDetector::new(cfg).unwrap();
-            for s in &stream {
-                black_box(det.push(*s).unwrap());
-            }
+            i = (i + 1) % pts.len();
+            f.push(black_box(pts[i])).unwrap()
+        })
+    });
+    let mut ell = EllipsoidFit::new();
+    let mut sph = SphereFit::new();
+    for p in &pts {
+        ell.push(*p).unwrap();
+        sph.push(*p).unwrap();
+    }
+    c.bench_function("magfit::EllipsoidFit::solve", |bn| {
+        bn.iter(|| black_box(&ell).solve().unwrap())
+    });
+    c.bench_function("magfit::SphereFit::solve", |bn| {
+        bn.iter(|| black_box(&sph).solve().unwrap())
+    });
+
+    let cfg = PvbConfig {
+        dt: 0.01,
+        accel_noise: 0.05,
+        bias_walk: 0.0,
+        pos_noise: 0.005,
+        initial_state: [0.0; 3],
+        initial_std: [0.005, 0.02, 0.5],
+    };
+    c.bench_function("kalman::PvbFilter predict + update (one step)", |bn| {
+        let mut f = PvbFilter::new(&cfg).unwrap();
+        bn.iter(|| {
+            f.predict(black_box(0.25)).unwrap();
+            f.update(black_box(0.001)).unwrap()
         })
     });
 }
 
-criterion_group!(benches, bench);
+criterion_group!(benches, bench, bench_mag_kalman);
 criterion_main!(benches);

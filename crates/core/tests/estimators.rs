@@ -4,11 +4,13 @@
 // Loops over the three axes index several parallel arrays; ranges read best here.
 #![allow(clippy::needless_range_loop)]
 
+mod common;
+use common::data_dir;
+
 use proptest::prelude::*;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
-use std::path::PathBuf;
 use wiical_core::offset::{
     accel_offset, gyro_offset, AccelOffsetConfig, GyroOffsetConfig, OffsetAccumulator, RawRange,
 };
@@ -586,18 +588,6 @@ fn gyro_offset_is_the_mean_at_rest() {
 }
 
 // ---------------------------------------------------------------- offset, real data
-
-fn data_dir() -> PathBuf {
-    let dir = std::env::var_os("WIICAL_DATA")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data"));
-    assert!(
-        dir.is_dir(),
-        "data directory {} is missing: set WIICAL_DATA to the shared/data folder",
-        dir.display()
-    );
-    dir
-}
 
 /// Rows `t x y z` of an IMU-TK ASCII file with `t < t_max` seconds.
 fn read_imu_tk(name: &str, t_max: f64) -> Vec<[f32; 3]> {

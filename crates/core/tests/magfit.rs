@@ -8,10 +8,12 @@
 //! relative errors normalised by the field radius `R` (see [`RelDiff`]).
 //!
 //! Run with `--nocapture` to see the measured numbers.
+
 // Parallel 3-vectors (ours, reference, expected) read more clearly with an index.
 #![allow(clippy::needless_range_loop)]
 
-use std::path::PathBuf;
+mod common;
+use common::data_dir;
 
 use nalgebra::{DMatrix, DVector, Matrix3, Rotation3, SymmetricEigen, Vector3};
 use proptest::prelude::*;
@@ -24,18 +26,6 @@ use wiical_core::magfit::{
 use wiical_core::Error;
 
 // ---------------------------------------------------------------- data
-
-fn data_dir() -> PathBuf {
-    let dir = std::env::var_os("WIICAL_DATA")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data"));
-    assert!(
-        dir.is_dir(),
-        "data directory {} is missing: set WIICAL_DATA to the shared/data folder",
-        dir.display()
-    );
-    dir
-}
 
 fn read_text(rel: &str) -> String {
     let path = data_dir().join(rel);

@@ -1,6 +1,9 @@
 //! Multi-position fit and static detection against an independent f64 reference, on simulated
 //! data with known truth and on the real IMU-TK Xsens recording.
 
+mod common;
+use common::data_dir;
+
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 use proptest::prelude::*;
 use rand::{Rng, SeedableRng};
@@ -9,20 +12,6 @@ use rand_distr::{Distribution, Normal};
 use wiical_core::multipos::{fit, fit_weighted, MultiPosConfig, MultiPosModel};
 use wiical_core::static_detect::{StaticDetector, StaticDetectorConfig};
 use wiical_core::Error;
-
-fn data_dir() -> std::path::PathBuf {
-    let dir = std::env::var_os("WIICAL_DATA")
-        .map(Into::into)
-        .unwrap_or_else(|| {
-            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data")
-        });
-    assert!(
-        dir.is_dir(),
-        "shared data not found at {} (set WIICAL_DATA)",
-        dir.display()
-    );
-    dir
-}
 
 /// f64 reference: Levenberg–Marquardt with central-difference Jacobian, written independently
 /// of the core (raw units, no normalisation, Marquardt diagonal scaling).
