@@ -72,6 +72,19 @@ enum Cmd {
         #[arg(long)]
         out: Option<PathBuf>,
     },
+    /// Decode a factory accelerometer calibration block (hex bytes) of a Wii Remote (10 bytes
+    /// at EEPROM 0x16, or both copies) or a Nunchuk (16 bytes at 0x20, or 0x20–0x3F).
+    DecodeCal {
+        /// wiimote | nunchuk.
+        #[arg(long)]
+        device: String,
+        /// The bytes, e.g. "82 82 82 15 9C 9C 9E 38 40 3E" (spaces, commas, 0x prefixes allowed).
+        #[arg(num_args = 1.., required = true)]
+        hex: Vec<String>,
+        /// Print JSON.
+        #[arg(long)]
+        json: bool,
+    },
     /// The Wiimote article's Kalman filter ([position, velocity, bias]) as a Monte Carlo:
     /// a still accelerometer with a 0.25 m/s² bias, positions every 0.01 s with 0.5 cm noise.
     KalmanDemo {
@@ -321,6 +334,22 @@ fn run(cli: Cli) -> Result<String> {
                 o,
                 "  fit error: {:.3} % of field strength   RMS radius error: {:.3}",
                 rep.fit_error_pct, rep.rms_radius_error
+            )?;
+            Ok(o)
+        }
+        Cmd::DecodeCal { device, hex, json } => {
+            let rep = wiical::decode_cal::decode_cal(&device, &hex.join(" "))?;
+            if json {
+                return to_json(&rep);
+            }
+            writeln!(o, "{} calibration block", rep.device)?;
+            writeln!(o, "  zero-g (10-bit):  {:?}", rep.zero)?;
+            writeln!(o, "  one-g  (10-bit):  {:?}", rep.one_g)?;
+            writeln!(o, "  counts per g:     {:?}", rep.counts_per_g)?;
+            writeln!(
+                o,
+                "  checksum:         {}",
+                if rep.checksum_ok { "ok" } else { "BAD" }
             )?;
             Ok(o)
         }

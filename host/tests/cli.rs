@@ -231,3 +231,28 @@ fn kalman_demo_contract_and_acceptance() {
     let again = json(&["kalman-demo", "--runs", "400", "--seed", "3", "--json"]);
     assert_eq!(v, again);
 }
+
+#[test]
+fn decode_cal_contract() {
+    let v = json(&[
+        "decode-cal",
+        "--device",
+        "wiimote",
+        "82 82 82 15 9C 9C 9E 38 40 3E",
+        "--json",
+    ]);
+    assert_eq!(v["zero"], serde_json::json!([521, 521, 521]));
+    assert_eq!(v["one_g"], serde_json::json!([627, 626, 632]));
+    assert_eq!(v["checksum_ok"], Value::Bool(true));
+    // A corrupted checksum byte is reported, not hidden.
+    let v = json(&[
+        "decode-cal",
+        "--device",
+        "wiimote",
+        "82 82 82 15 9C 9C 9E 38 40 3F",
+        "--json",
+    ]);
+    assert_eq!(v["checksum_ok"], Value::Bool(false));
+    let (ok, _, err) = wiical(&["decode-cal", "--device", "wiimote", "82 ZZ"]);
+    assert!(!ok && err.starts_with("error:"), "{err}");
+}

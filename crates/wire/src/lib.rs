@@ -1,1 +1,66 @@
+//! # wiical-wire
+//!
+//! `no_std`, allocation-free wire protocol between the `wiical` host and the adapter
+//! firmware over USB serial: [`Request`]s from the host, [`Response`]s (including streamed
+//! [`Sample`]s) from the adapter, each serialized with postcard inside a CRC-protected
+//! COBS frame ([`encode_frame`], [`FrameDecoder`]).
+//!
+//! ```
+//! use wiical_wire::{encode_frame, DefaultFrameDecoder, Request, Response, MAX_FRAME_LEN};
+//!
+//! // Host side: frame a request.
+//! let mut buf = [0u8; MAX_FRAME_LEN];
+//! let frame = encode_frame(&Request::StartStream { rate_divider: 2 }, &mut buf).unwrap();
+//! assert_eq!(frame.last(), Some(&0x00));
+//!
+//! // Adapter side: feed bytes as they arrive, in any chunks.
+//! let mut rx = DefaultFrameDecoder::new();
+//! let (a, b) = frame.split_at(3);
+//! assert_eq!(rx.feed::<Request>(a).count(), 0);
+//! let got: Vec<_> = rx.feed::<Request>(b).collect();
+//! assert_eq!(got, vec![Ok(Request::StartStream { rate_divider: 2 })]);
+//! # let _ = Response::Ack;
+//! ```
+//!
+//! ## Session
+//! 1. The host sends `Request::Hello(Hello::CURRENT)`.
+//! 2. The adapter always answers `Response::Hello(HelloResponse { .. })` with its own
+//!    version, schema key, firmware version and device ID.
+//! 3. Each side compares the other's [`SCHEMA_KEY`] ([`Hello::check`],
+//!    [`HelloResponse::check`]). On mismatch the host stops with a message naming both
+//!    versions; the adapter answers every request other than Hello with
+//!    `Response::Error(ErrorCode::SchemaMismatch)`.
+//! 4. Then any request; one response each; `Sample`s arrive between responses while
+//!    streaming.
+//!
+//! ## Versioning rules
+//! * [`SCHEMA`] describes every message; [`SCHEMA_KEY`] is its FNV-1a hash computed in a
+//!   `const fn`. **Any change to a message type must update [`SCHEMA`]** (which changes the
+//!   key) and bump [`PROTOCOL_VERSION`]. The `golden_encodings` test pins the bytes of each
+//!   message so a forgotten update fails the tests.
+//! * Frozen forever, so that mismatched builds can still tell each other so: variant 0 of
+//!   [`Request`] and [`Hello`]'s layout; variants 0 and 1 of [`Response`],
+//!   [`HelloResponse`]'s layout, and the numeric values of [`ErrorCode`] (serialized as
+//!   `u8`, never reused).
+//! * New enum variants are added at the end only (postcard encodes variants by index).
+//!
+//! ## Calibration on the wire
+//! [`WireCalibration`] mirrors [`wiical_core::Calibration`] with `From` conversions both
+//! ways. A separate type was chosen over serializing the core type so that the core can
+//! evolve without silently changing the wire format.
 #![no_std]
+#![deny(unsafe_code)]
+#![warn(missing_docs)]
+
+pub mod frame;
+pub mod messages;
+pub mod schema;
+
+pub use frame::{
+    encode_frame, DefaultFrameDecoder, FrameDecoder, FrameError, Frames, MAX_FRAME_LEN,
+};
+pub use messages::{
+    check_schema_key, CalibrationState, ErrorCode, Hello, HelloResponse, Request, Response, Sample,
+    WireCalibration, WireEffects, FIRMWARE_VERSION_CAP,
+};
+pub use schema::{fnv1a_32, PROTOCOL_VERSION, SCHEMA, SCHEMA_KEY};

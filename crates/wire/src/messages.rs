@@ -1,0 +1,328 @@
+//! The messages exchanged by host and adapter.
+//!
+//! The host sends [`Request`]s; the adapter sends [`Response`]s, one per request, plus
+//! unsolicited [`Response::Sample`]s while a stream is running.
+
+use serde::{Deserialize, Serialize};
+use wiical_core::{Calibration, Effects};
+
+use crate::schema::{PROTOCOL_VERSION, SCHEMA_KEY};
+
+/// Capacity of [`HelloResponse::firmware_version`], in bytes of UTF-8.
+pub const FIRMWARE_VERSION_CAP: usize = 32;
+
+/// Host → adapter.
+///
+/// Variant 0 (`Hello`) and the layout of [`Hello`] are frozen forever so that any two
+/// versions can at least agree that they disagree. New variants go at the end only.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub enum Request {
+    /// Open a session: the host's version and schema key. The adapter always answers with
+    /// [`Response::Hello`]; if the keys differ it then refuses every other request with
+    /// [`ErrorCode::SchemaMismatch`] until a Hello with a matching key arrives.
+    Hello(Hello),
+    /// Ask for the live (and staged, if any) calibration: answered by
+    /// [`Response::Calibration`].
+    GetCalibration,
+    /// Stage a calibration (validated, not yet used nor stored): answered by
+    /// [`Response::Ack`] or [`ErrorCode::InvalidCalibration`].
+    PutCalibration(WireCalibration),
+    /// Make the staged calibration live and store it persistently: [`Response::Ack`], or
+    /// [`ErrorCode::NothingStaged`] / [`ErrorCode::StorageFailure`].
+    CommitCalibration,
+    /// Start streaming [`Response::Sample`]s at the adapter's base rate divided by
+    /// `rate_divider` (≥ 1; 0 gives [`ErrorCode::InvalidParameter`]). Answered by
+    /// [`Response::StreamStarted`].
+    StartStream {
+        /// Base-rate divider, ≥ 1.
+        rate_divider: u16,
+    },
+    /// Stop streaming: [`Response::Ack`] (also when no stream was running).
+    StopStream,
+}
+
+/// The host's half of the handshake.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Hello {
+    /// Sender's [`PROTOCOL_VERSION`].
+    pub protocol_version: u16,
+    /// Sender's [`SCHEMA_KEY`].
+    pub schema_key: u32,
+}
+
+impl Hello {
+    /// The Hello of this build.
+    pub const CURRENT: Hello = Hello {
+        protocol_version: PROTOCOL_VERSION,
+        schema_key: SCHEMA_KEY,
+    };
+
+    /// Compare the peer's key with this build's: `Err(SchemaMismatch)` if they differ.
+    pub fn check(&self) -> Result<(), ErrorCode> {
+        check_schema_key(self.schema_key)
+    }
+}
+
+/// `Ok` when `peer_key` equals this build's [`SCHEMA_KEY`], else
+/// [`ErrorCode::SchemaMismatch`].
+pub fn check_schema_key(peer_key: u32) -> Result<(), ErrorCode> {
+    if peer_key == SCHEMA_KEY {
+        Ok(())
+    } else {
+        Err(ErrorCode::SchemaMismatch)
+    }
+}
+
+/// Adapter → host.
+///
+/// Variants 0 (`Hello`) and 1 (`Error`), the layout of [`HelloResponse`] and the numeric
+/// values of [`ErrorCode`] are frozen forever. New variants go at the end only.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub enum Response {
+    /// Answer to [`Request::Hello`], whatever the host's key.
+    Hello(HelloResponse),
+    /// A request was refused or failed.
+    Error(ErrorCode),
+    /// A request without a payload answer succeeded.
+    Ack,
+    /// Answer to [`Request::GetCalibration`].
+    Calibration(CalibrationState),
+    /// Answer to [`Request::StartStream`].
+    StreamStarted {
+        /// Resulting sample rate in millihertz (integer, so that e.g. 33.333 Hz is exact
+        /// enough: 33333).
+        sample_rate_mhz: u32,
+    },
+    /// One streamed sample.
+    Sample(Sample),
+}
+
+/// The adapter's half of the handshake.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct HelloResponse {
+    /// Adapter's [`PROTOCOL_VERSION`].
+    pub protocol_version: u16,
+    /// Adapter's [`SCHEMA_KEY`].
+    pub schema_key: u32,
+    /// Firmware version string (e.g. `"0.1.0+g1234abc"`), at most
+    /// [`FIRMWARE_VERSION_CAP`] bytes.
+    pub firmware_version: heapless::String<FIRMWARE_VERSION_CAP>,
+    /// Unique device ID (e.g. the MCU's 64-bit unique ID or flash ID).
+    pub device_id: [u8; 8],
+}
+
+impl HelloResponse {
+    /// Compare the adapter's key with this build's: `Err(SchemaMismatch)` if they differ.
+    pub fn check(&self) -> Result<(), ErrorCode> {
+        check_schema_key(self.schema_key)
+    }
+}
+
+/// Why the adapter refused or failed a request. Serialized as its `u8` value, which never
+/// changes and is never reused; new codes get new numbers.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(into = "u8", try_from = "u8")]
+#[repr(u8)]
+pub enum ErrorCode {
+    /// The peer's schema key differs from ours: the two builds cannot talk.
+    SchemaMismatch = 1,
+    /// A frame arrived corrupt (COBS, CRC or decoding failure, or oversize).
+    BadFrame = 2,
+    /// The request is valid but not supported by this adapter.
+    UnsupportedRequest = 3,
+    /// The calibration is not usable (non-finite values or a singular matrix).
+    InvalidCalibration = 4,
+    /// Commit without a staged calibration.
+    NothingStaged = 5,
+    /// Writing persistent storage failed; the live calibration is unchanged.
+    StorageFailure = 6,
+    /// The adapter cannot do this now (e.g. a commit is in progress).
+    Busy = 7,
+    /// A request parameter is out of range (e.g. `rate_divider == 0`).
+    InvalidParameter = 8,
+    /// No sensor is connected / it did not answer.
+    NoSensor = 9,
+    /// An internal error in the adapter.
+    Internal = 10,
+}
+
+impl ErrorCode {
+    /// Every code, for tests and tables.
+    pub const ALL: [ErrorCode; 10] = [
+        ErrorCode::SchemaMismatch,
+        ErrorCode::BadFrame,
+        ErrorCode::UnsupportedRequest,
+        ErrorCode::InvalidCalibration,
+        ErrorCode::NothingStaged,
+        ErrorCode::StorageFailure,
+        ErrorCode::Busy,
+        ErrorCode::InvalidParameter,
+        ErrorCode::NoSensor,
+        ErrorCode::Internal,
+    ];
+
+    /// Short English description, for the host's messages.
+    pub const fn description(self) -> &'static str {
+        match self {
+            ErrorCode::SchemaMismatch => {
+                "protocol schema mismatch: host and firmware were built from different wire formats"
+            }
+            ErrorCode::BadFrame => "corrupt frame",
+            ErrorCode::UnsupportedRequest => "request not supported by this firmware",
+            ErrorCode::InvalidCalibration => "calibration rejected (non-finite or singular)",
+            ErrorCode::NothingStaged => "no staged calibration to commit",
+            ErrorCode::StorageFailure => "writing persistent storage failed",
+            ErrorCode::Busy => "device busy",
+            ErrorCode::InvalidParameter => "parameter out of range",
+            ErrorCode::NoSensor => "no sensor connected",
+            ErrorCode::Internal => "internal firmware error",
+        }
+    }
+}
+
+impl From<ErrorCode> for u8 {
+    fn from(c: ErrorCode) -> u8 {
+        c as u8
+    }
+}
+
+/// A `u8` that is not a known [`ErrorCode`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct UnknownErrorCode(pub u8);
+
+impl core::fmt::Display for UnknownErrorCode {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        write!(f, "unknown error code {}", self.0)
+    }
+}
+
+impl TryFrom<u8> for ErrorCode {
+    type Error = UnknownErrorCode;
+    fn try_from(v: u8) -> Result<Self, UnknownErrorCode> {
+        ErrorCode::ALL
+            .into_iter()
+            .find(|c| *c as u8 == v)
+            .ok_or(UnknownErrorCode(v))
+    }
+}
+
+impl core::fmt::Display for ErrorCode {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(self.description())
+    }
+}
+
+/// The calibration state reported by [`Request::GetCalibration`].
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct CalibrationState {
+    /// The calibration applied to streamed samples now.
+    pub live: WireCalibration,
+    /// The staged calibration awaiting commit, if any.
+    pub staged: Option<WireCalibration>,
+    /// True when `live` was loaded from / committed to persistent storage; false when it is
+    /// the firmware's built-in default.
+    pub stored: bool,
+}
+
+/// Wire mirror of [`wiical_core::Calibration`].
+///
+/// A separate type (rather than serializing the core type directly) so that refactoring
+/// the core cannot silently change the wire format: only this file and [`crate::SCHEMA`]
+/// define it. Same meaning as the core: `a = K·(m − b)`, `matrix` = `K` row-major
+/// (reference units, g, per raw count), `bias` = `b` in raw counts.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct WireCalibration {
+    /// Bias `b`, raw units.
+    pub bias: [f32; 3],
+    /// `K = D⁻¹`, row-major.
+    pub matrix: [[f32; 3]; 3],
+    /// Extra effect terms (zero = linear model).
+    pub effects: WireEffects,
+}
+
+/// Wire mirror of [`wiical_core::Effects`]; see there for units.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct WireEffects {
+    /// Per-axis quadratic nonlinearity (1/reference unit).
+    pub quadratic: [f32; 3],
+    /// Per-axis cubic nonlinearity (1/reference unit²).
+    pub cubic: [f32; 3],
+    /// Bias drift, raw units per second.
+    pub bias_drift: [f32; 3],
+    /// Reference temperature, °C.
+    pub temp_ref_c: f32,
+    /// Bias temperature coefficient, raw units per °C.
+    pub bias_temp: [f32; 3],
+    /// Relative scale temperature coefficient, 1/°C.
+    pub scale_temp: [f32; 3],
+}
+
+impl From<Effects> for WireEffects {
+    fn from(e: Effects) -> Self {
+        Self {
+            quadratic: e.quadratic,
+            cubic: e.cubic,
+            bias_drift: e.bias_drift,
+            temp_ref_c: e.temp_ref_c,
+            bias_temp: e.bias_temp,
+            scale_temp: e.scale_temp,
+        }
+    }
+}
+
+impl From<WireEffects> for Effects {
+    fn from(e: WireEffects) -> Self {
+        Self {
+            quadratic: e.quadratic,
+            cubic: e.cubic,
+            bias_drift: e.bias_drift,
+            temp_ref_c: e.temp_ref_c,
+            bias_temp: e.bias_temp,
+            scale_temp: e.scale_temp,
+        }
+    }
+}
+
+impl From<Calibration> for WireCalibration {
+    fn from(c: Calibration) -> Self {
+        Self {
+            bias: c.bias,
+            matrix: c.matrix,
+            effects: c.effects.into(),
+        }
+    }
+}
+
+impl From<WireCalibration> for Calibration {
+    /// Plain field copy. A calibration from the wire is untrusted: call
+    /// [`Calibration::validate`] before using it.
+    fn from(c: WireCalibration) -> Self {
+        Self {
+            bias: c.bias,
+            matrix: c.matrix,
+            effects: c.effects.into(),
+        }
+    }
+}
+
+/// One streamed sample.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Sample {
+    /// Sequence number, +1 per sample sent (wrapping); gaps mean lost samples.
+    pub seq: u32,
+    /// Raw accelerometer `[x, y, z]`, 10-bit counts as the sensor reports them.
+    pub raw: [u16; 3],
+    /// `raw` corrected with the live calibration, in g.
+    pub corrected: [f32; 3],
+    /// Buttons, set bit = pressed: [`Sample::BUTTON_Z`], [`Sample::BUTTON_C`].
+    pub buttons: u16,
+    /// Joystick `[x, y]`, raw 8-bit.
+    pub stick: [u8; 2],
+}
+
+impl Sample {
+    /// Nunchuk Z button bit in [`Sample::buttons`].
+    pub const BUTTON_Z: u16 = 1 << 0;
+    /// Nunchuk C button bit in [`Sample::buttons`].
+    pub const BUTTON_C: u16 = 1 << 1;
+}
