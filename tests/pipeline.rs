@@ -34,7 +34,10 @@ fn factory_calibration_corrects_like_the_factory_formula() {
     let ours = cal.correct_linear(raw);
     let factory = block.accel_to_g(report.accel).unwrap();
     for a in 0..3 {
-        assert!((ours[a] - factory[a]).abs() < 1e-5, "{ours:?} vs {factory:?}");
+        assert!(
+            (ours[a] - factory[a]).abs() < 1e-5,
+            "{ours:?} vs {factory:?}"
+        );
     }
     // The device lay with +X up (SOURCE.md): about 1 g on x, ≈ 0 on y and z.
     let norm = (ours[0] * ours[0] + ours[1] * ours[1] + ours[2] * ours[2]).sqrt();

@@ -212,7 +212,13 @@ fn magfit_contract_and_model_ranking() {
     assert!(f(&e["fit_error_pct"]) < f(&a["fit_error_pct"]));
     assert!(f(&a["fit_error_pct"]) < 0.5 * f(&s["fit_error_pct"]));
     let small = data_dir().join("mag_ellipsoid_fit_python/mag_out.txt");
-    let v = json(&["magfit", small.to_str().unwrap(), "--model", "sphere", "--json"]);
+    let v = json(&[
+        "magfit",
+        small.to_str().unwrap(),
+        "--model",
+        "sphere",
+        "--json",
+    ]);
     assert!((f(&v["radius"]) - 173.0).abs() < 5.0, "{v}");
     let (ok, _, err) = wiical(&["magfit", small.to_str().unwrap(), "--model", "cube"]);
     assert!(!ok && err.contains("cube"));
