@@ -58,11 +58,8 @@ fn calibration_survives_the_wire_bit_identical() {
     let mut dec = DefaultFrameDecoder::new();
     let mut got = Vec::new();
     for chunk in stream.chunks(3) {
-        for msg in dec.feed::<Request>(chunk) {
-            if let Ok(m) = msg {
-                got.push(m);
-            }
-        }
+        // Errors here are the line noise being rejected; keep the decoded messages.
+        got.extend(dec.feed::<Request>(chunk).flatten());
     }
     assert_eq!(got.len(), 1);
     let Request::PutCalibration(w) = &got[0] else {
