@@ -8,9 +8,12 @@ use clap::{Parser, Subcommand};
 use std::fmt::Write as _;
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
+use wiical::analyze::{self, AnalyzeOptions};
+use wiical::analyze_plot;
 use wiical::fit_cmd::{self, FitOptions};
 use wiical::input::{self, LoadOptions};
 use wiical::magfit_cmd::{self, MagModel};
+use wiical::simulate::{self, Device, SimConfig, SimEffect};
 use wiical::six_position_cmd::{self, PoseEstimator};
 use wiical_core::multipos::MultiPosModel;
 use wiical_core::Calibration;
@@ -53,6 +56,59 @@ enum Cmd {
         /// Model: full (9 parameters) | diagonal (6: bias and per-axis scale).
         #[arg(long, default_value = "full", value_parser = parse_model)]
         model: MultiPosModel,
+    },
+    /// Residual analysis: find what the linear model leaves unexplained, trace it to a missing
+    /// effect (quadratic, cubic, bias-drift, temperature, temperature-scale, outliers), add it
+    /// and report the error before and after (in-sample and leave-one-window-out CV).
+    Analyze {
+        /// Recording (as for `fit`: raw counts or g, optional `t` and `temp` columns), or a
+        /// six-position CSV with a `pose` column.
+        file: PathBuf,
+        /// Print JSON.
+        #[arg(long)]
+        json: bool,
+        /// Draw the residuals before/after against the relevant regressor (SVG).
+        #[arg(long)]
+        plot: Option<PathBuf>,
+        /// Write the final calibration, effect terms included, here (JSON).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        #[command(flatten)]
+        detect: DetectArgs,
+        /// Family-wise significance level per step (Bonferroni over the candidates).
+        #[arg(long, default_value_t = 1e-3)]
+        alpha: f64,
+        /// A candidate must divide the cross-validated RMS by at least this factor.
+        #[arg(long, default_value_t = 1.1)]
+        cv_factor: f64,
+        /// Only try these candidates (comma-separated names).
+        #[arg(long, value_delimiter = ',')]
+        candidates: Option<Vec<String>>,
+    },
+    /// Simulate a Wiimote/Nunchuk multi-position recording with known truth and, optionally,
+    /// one effect the linear model lacks (truth written to FILE.truth.json).
+    Simulate {
+        /// Output CSV (t,x,y,z,temp).
+        #[arg(long)]
+        out: PathBuf,
+        /// none | quadratic | cubic | bias-drift | temperature | outliers.
+        #[arg(long, default_value = "none", value_parser = parse_effect)]
+        effect: SimEffect,
+        /// Size of the effect in milli-g (meaning per effect: see `wiical::simulate`).
+        #[arg(long)]
+        magnitude: Option<f64>,
+        /// Random seed.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// wiimote (~105 counts/g) | nunchuk (~200 counts/g).
+        #[arg(long, default_value = "wiimote", value_parser = parse_device)]
+        device: Device,
+        /// Number of poses after the initial rest.
+        #[arg(long, default_value_t = 30)]
+        poses: usize,
+        /// Leave out the temperature column.
+        #[arg(long)]
+        no_temp: bool,
     },
     /// Magnetometer hard/soft-iron fit: sphere (4 parameters), axis-aligned ellipsoid (6) or
     /// rotated ellipsoid (9), from streaming normal equations solved by Cholesky.
@@ -153,6 +209,16 @@ impl DetectArgs {
             adc_range: self.adc_range,
         }
     }
+}
+
+fn parse_effect(s: &str) -> Result<SimEffect, String> {
+    SimEffect::parse(s).ok_or_else(|| {
+        format!("'{s}': expected none, quadratic, cubic, bias-drift, temperature or outliers")
+    })
+}
+
+fn parse_device(s: &str) -> Result<Device, String> {
+    Device::parse(s).ok_or_else(|| format!("'{s}': expected wiimote or nunchuk"))
 }
 
 fn parse_estimator(s: &str) -> Result<PoseEstimator, String> {
@@ -289,6 +355,74 @@ fn run(cli: Cli) -> Result<String> {
                 o,
                 "\nRMS ‖a‖ − 1 g: {:.4} mg   max: {:.4} mg   iterations: {}",
                 rep.rms_mg, rep.max_abs_mg, rep.iterations
+            )?;
+            Ok(o)
+        }
+        Cmd::Analyze {
+            file,
+            json,
+            plot,
+            out,
+            detect,
+            alpha,
+            cv_factor,
+            candidates,
+        } => {
+            let rec = input::load(&file, &detect.load_options())?;
+            let opts = AnalyzeOptions {
+                fit: detect.fit_options(MultiPosModel::Full),
+                alpha,
+                cv_factor,
+                candidates,
+                ..Default::default()
+            };
+            let rep = analyze::analyze(&rec, &opts)?;
+            if let Some(path) = &out {
+                write_calibration(path, &rep.calibration)?;
+            }
+            if let Some(path) = &plot {
+                analyze_plot::write_plot(&rep, path)?;
+            }
+            if json {
+                return to_json(&rep);
+            }
+            Ok(analyze::render_text(&rep, &file.display().to_string()))
+        }
+        Cmd::Simulate {
+            out,
+            effect,
+            magnitude,
+            seed,
+            device,
+            poses,
+            no_temp,
+        } => {
+            let cfg = SimConfig {
+                effect,
+                magnitude_mg: magnitude,
+                seed,
+                device,
+                poses,
+                temp_column: !no_temp,
+                ..Default::default()
+            };
+            let sim = simulate::simulate(&cfg)?;
+            let truth = simulate::write(&sim, &out)?;
+            writeln!(
+                o,
+                "wrote {} ({} samples, {} poses, {} {}, effect {} at {} mg) and the truth {}",
+                out.display(),
+                sim.recording.len(),
+                sim.truth.poses.len() - 1,
+                sim.truth.device,
+                if sim.recording.temp.is_some() {
+                    "with temp"
+                } else {
+                    "without temp"
+                },
+                sim.truth.effect,
+                sim.truth.magnitude_mg,
+                truth.display()
             )?;
             Ok(o)
         }

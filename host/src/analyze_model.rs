@@ -1,0 +1,652 @@
+//! The `f64` joint model behind `wiical analyze`: the core's 9-parameter multi-position model
+//! plus optional effect terms, fitted together by Levenberg–Marquardt over static-window means.
+//!
+//! Per window `i` with mean `m` (raw units), centre time `t` and mean temperature `θ`, in the
+//! normalised frame `y = (m − c)/s` (the same centring and scaling the core uses, so that raw
+//! counts in the tens of thousands lose no precision):
+//!
+//! ```text
+//! e   = y − b − d·τ − d₂·τ² − β·ϑ       τ = (t − t̄)/T,  ϑ = (θ − θ̄)/Θ   (dimensionless)
+//! v   = K·e                             K upper triangular (normalised units → g)
+//! u_j = v_j·(1 + σ_j·ϑ)
+//! a_j = u_j + q_j·u_j² + c_j·u_j³
+//! r   = ‖a‖ − 1                          (g)
+//! ```
+//!
+//! This is exactly the correction-side definition of [`wiical_core::Effects`] (bias drift `d`,
+//! bias temperature coefficient `β`, scale temperature coefficient `σ`, quadratic `q`, cubic
+//! `c`) in normalised units (the curvature `d₂` of the drift is a diagnostic the core cannot
+//! store); [`Normalisation::to_calibration`] maps the parameters back to raw
+//! units, seconds and °C. Only the three non-orthogonality entries above the diagonal of `K`
+//! are free, so the sensor frame is fixed by the same convention as the core's fit (x kept,
+//! y in the x–y plane): per-axis effect terms refer to the axes of that frame.
+//!
+//! All 24 parameters always exist; a mask says which are free. The Jacobian is analytic
+//! (derivatives written out below), so a leave-one-window-out cross-validation over 40 windows
+//! with a dozen candidate models costs milliseconds.
+
+#![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x > 0.0)` is deliberately true for NaN.
+use wiical_core::{Calibration, Effects};
+
+/// Total number of parameters (9 base + 6 effect blocks of 3).
+pub const NP: usize = 27;
+/// A full parameter vector.
+pub type Params = [f64; NP];
+
+/// Index of the first parameter of each block.
+pub const BIAS: usize = 0;
+/// `K` entries k00 k01 k02 k11 k12 k22.
+pub const KMAT: usize = 3;
+/// Bias drift `d`.
+pub const DRIFT: usize = 9;
+/// Bias temperature coefficient `β`.
+pub const BTEMP: usize = 12;
+/// Scale temperature coefficient `σ`.
+pub const STEMP: usize = 15;
+/// Quadratic `q`.
+pub const QUAD: usize = 18;
+/// Cubic `c`.
+pub const CUBIC: usize = 21;
+/// Curvature of the bias drift in time `d₂` (diagnostic only: `Effects` has no such term).
+pub const DRIFT2: usize = 24;
+
+/// A parametric effect block (3 parameters, one per axis).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Term {
+    /// Bias linear in the window time.
+    Drift,
+    /// Bias linear in the window temperature.
+    BiasTemp,
+    /// Scale linear in the window temperature.
+    ScaleTemp,
+    /// Per-axis even nonlinearity.
+    Quadratic,
+    /// Per-axis odd nonlinearity.
+    Cubic,
+    /// Bias quadratic in the window time (curved drift, e.g. a warm-up). Diagnostic only: the
+    /// core's `Effects` cannot store it, so it is never added to the calibration.
+    Drift2,
+}
+
+impl Term {
+    /// All terms.
+    pub const ALL: [Term; 5] = [
+        Term::Quadratic,
+        Term::Cubic,
+        Term::Drift,
+        Term::BiasTemp,
+        Term::ScaleTemp,
+    ];
+
+    /// First parameter index of the block.
+    pub fn offset(self) -> usize {
+        match self {
+            Term::Drift => DRIFT,
+            Term::BiasTemp => BTEMP,
+            Term::ScaleTemp => STEMP,
+            Term::Quadratic => QUAD,
+            Term::Cubic => CUBIC,
+            Term::Drift2 => DRIFT2,
+        }
+    }
+
+    /// Name used in reports (the `effects[].name` of the JSON contract).
+    pub fn name(self) -> &'static str {
+        match self {
+            Term::Drift => "bias-drift",
+            Term::BiasTemp => "temperature",
+            Term::ScaleTemp => "temperature-scale",
+            Term::Quadratic => "quadratic",
+            Term::Cubic => "cubic",
+            Term::Drift2 => "bias-drift-curved",
+        }
+    }
+
+    /// True for terms needing a temperature column.
+    pub fn needs_temperature(self) -> bool {
+        matches!(self, Term::BiasTemp | Term::ScaleTemp)
+    }
+}
+
+/// A static window reduced to what the model needs (normalised units).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Win {
+    /// Normalised mean `y = (m − c)/s`.
+    pub y: [f64; 3],
+    /// Normalised time `τ = (t − t̄)/T`.
+    pub tau: f64,
+    /// Normalised temperature `ϑ = (θ − θ̄)/Θ` (0 without a temperature column).
+    pub theta: f64,
+}
+
+/// Which parameters are free.
+pub type Mask = [bool; NP];
+
+/// Mask of the 9 base parameters plus the given terms.
+pub fn mask_of(terms: &[Term]) -> Mask {
+    let mut m = [false; NP];
+    for x in m.iter_mut().take(9) {
+        *x = true;
+    }
+    for t in terms {
+        for x in m.iter_mut().skip(t.offset()).take(3) {
+            *x = true;
+        }
+    }
+    m
+}
+
+/// Residual `r = ‖a‖ − 1` (g) of one window and its gradient with respect to all parameters.
+#[inline]
+pub fn residual_and_grad(p: &Params, w: &Win) -> (f64, Params) {
+    let (tau, th) = (w.tau, w.theta);
+    let tau2 = tau * tau;
+    let e = [
+        w.y[0] - p[BIAS] - p[DRIFT] * tau - p[DRIFT2] * tau2 - p[BTEMP] * th,
+        w.y[1] - p[BIAS + 1] - p[DRIFT + 1] * tau - p[DRIFT2 + 1] * tau2 - p[BTEMP + 1] * th,
+        w.y[2] - p[BIAS + 2] - p[DRIFT + 2] * tau - p[DRIFT2 + 2] * tau2 - p[BTEMP + 2] * th,
+    ];
+    let k = &p[KMAT..KMAT + 6];
+    let v = [
+        k[0] * e[0] + k[1] * e[1] + k[2] * e[2],
+        k[3] * e[1] + k[4] * e[2],
+        k[5] * e[2],
+    ];
+    let mut u = [0.0; 3];
+    let mut a = [0.0; 3];
+    let mut h = [0.0; 3];
+    for j in 0..3 {
+        let sf = 1.0 + p[STEMP + j] * th;
+        let uj = v[j] * sf;
+        let (q, c) = (p[QUAD + j], p[CUBIC + j]);
+        u[j] = uj;
+        a[j] = uj + q * uj * uj + c * uj * uj * uj;
+        h[j] = 1.0 + 2.0 * q * uj + 3.0 * c * uj * uj;
+    }
+    let n = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
+    let inv = if n > 0.0 { 1.0 / n } else { 0.0 };
+    let g = [a[0] * inv, a[1] * inv, a[2] * inv];
+    let mut grad = [0.0; NP];
+    // ∂r/∂v_j = g_j·h_j·(1 + σ_j ϑ) =: z_j.
+    let mut z = [0.0; 3];
+    for j in 0..3 {
+        let w_j = g[j] * h[j];
+        z[j] = w_j * (1.0 + p[STEMP + j] * th);
+        grad[STEMP + j] = w_j * v[j] * th;
+        grad[QUAD + j] = g[j] * u[j] * u[j];
+        grad[CUBIC + j] = g[j] * u[j] * u[j] * u[j];
+    }
+    // ∂r/∂K_jk = z_j e_k (upper triangle).
+    grad[KMAT] = z[0] * e[0];
+    grad[KMAT + 1] = z[0] * e[1];
+    grad[KMAT + 2] = z[0] * e[2];
+    grad[KMAT + 3] = z[1] * e[1];
+    grad[KMAT + 4] = z[1] * e[2];
+    grad[KMAT + 5] = z[2] * e[2];
+    // ∂r/∂e = Kᵀz; e depends on b, d, β with coefficients −1, −τ, −ϑ.
+    let kt = [
+        k[0] * z[0],
+        k[1] * z[0] + k[3] * z[1],
+        k[2] * z[0] + k[4] * z[1] + k[5] * z[2],
+    ];
+    for j in 0..3 {
+        grad[BIAS + j] = -kt[j];
+        grad[DRIFT + j] = -kt[j] * tau;
+        grad[DRIFT2 + j] = -kt[j] * tau2;
+        grad[BTEMP + j] = -kt[j] * th;
+    }
+    (n - 1.0, grad)
+}
+
+/// Residual only.
+pub fn residual(p: &Params, w: &Win) -> f64 {
+    residual_and_grad(p, w).0
+}
+
+/// Result of a least-squares fit.
+#[derive(Debug, Clone)]
+pub struct Fit {
+    /// Parameters at the minimum.
+    pub p: Params,
+    /// Residual sum of squares over the windows used, g².
+    pub rss: f64,
+    /// Number of windows used.
+    pub n: usize,
+    /// Number of free parameters.
+    pub k: usize,
+    /// Iterations.
+    pub iterations: u32,
+}
+
+impl Fit {
+    /// In-sample RMS, g.
+    pub fn rms(&self) -> f64 {
+        (self.rss / self.n.max(1) as f64).sqrt()
+    }
+}
+
+/// Cholesky factorisation of a symmetric positive definite `n×n` matrix (row-major), in
+/// place (lower triangle). `None` when a pivot is not positive relative to the diagonal.
+fn cholesky(a: &mut [f64], n: usize) -> Option<()> {
+    for j in 0..n {
+        let mut d = a[j * n + j];
+        for k in 0..j {
+            d -= a[j * n + k] * a[j * n + k];
+        }
+        if !(d > 1e-13 * a[j * n + j].abs().max(1e-300)) {
+            return None;
+        }
+        let d = d.sqrt();
+        a[j * n + j] = d;
+        for i in j + 1..n {
+            let mut s = a[i * n + j];
+            for k in 0..j {
+                s -= a[i * n + k] * a[j * n + k];
+            }
+            a[i * n + j] = s / d;
+        }
+    }
+    Some(())
+}
+
+fn cholesky_solve(l: &[f64], n: usize, b: &mut [f64]) {
+    for i in 0..n {
+        let mut s = b[i];
+        for k in 0..i {
+            s -= l[i * n + k] * b[k];
+        }
+        b[i] = s / l[i * n + i];
+    }
+    for i in (0..n).rev() {
+        let mut s = b[i];
+        for k in i + 1..n {
+            s -= l[k * n + i] * b[k];
+        }
+        b[i] = s / l[i * n + i];
+    }
+}
+
+fn cost(p: &Params, wins: &[Win], weights: &[f64]) -> f64 {
+    wins.iter()
+        .zip(weights)
+        .filter(|(_, u)| **u > 0.0)
+        .map(|(w, u)| u * residual(p, w).powi(2))
+        .sum()
+}
+
+/// Normal equations `JᵀWJ`, `JᵀWr` over the free parameters `idx`.
+fn normal(p: &Params, wins: &[Win], weights: &[f64], idx: &[usize]) -> (Vec<f64>, Vec<f64>) {
+    let n = idx.len();
+    let mut jtj = vec![0.0; n * n];
+    let mut jtr = vec![0.0; n];
+    for (w, &u) in wins.iter().zip(weights).filter(|(_, u)| **u > 0.0) {
+        let (r, g) = residual_and_grad(p, w);
+        for (a, &ia) in idx.iter().enumerate() {
+            let ga = u * g[ia];
+            jtr[a] += ga * r;
+            for (b, &ib) in idx.iter().enumerate().skip(a) {
+                jtj[a * n + b] += ga * g[ib];
+            }
+        }
+    }
+    for a in 0..n {
+        for b in 0..a {
+            jtj[a * n + b] = jtj[b * n + a];
+        }
+    }
+    (jtj, jtr)
+}
+
+/// Levenberg–Marquardt from `p0` over the windows with `used[i]`, freeing the parameters in
+/// `mask`. `None` when the problem is singular (too few windows, collinear regressors) or the
+/// solver does not converge.
+pub fn fit(p0: &Params, mask: &Mask, wins: &[Win], used: &[bool]) -> Option<Fit> {
+    let w: Vec<f64> = used.iter().map(|u| if *u { 1.0 } else { 0.0 }).collect();
+    fit_weighted(p0, mask, wins, &w)
+}
+
+/// [`fit`] with non-negative per-window weights (0 excludes a window); `rss` is then the
+/// weighted sum and `n` the number of windows with positive weight.
+pub fn fit_weighted(p0: &Params, mask: &Mask, wins: &[Win], used: &[f64]) -> Option<Fit> {
+    let idx: Vec<usize> = (0..NP).filter(|i| mask[*i]).collect();
+    let k = idx.len();
+    let n = used.iter().filter(|u| **u > 0.0).count();
+    if n < k || wins.len() != used.len() || !used.iter().all(|u| u.is_finite() && *u >= 0.0) {
+        return None;
+    }
+    let mut p = *p0;
+    let mut c = cost(&p, wins, used);
+    if !c.is_finite() {
+        return None;
+    }
+    let mut lambda = 1e-4;
+    let mut iterations = 0;
+    let mut converged = false;
+    while iterations < 200 {
+        iterations += 1;
+        let (jtj, jtr) = normal(&p, wins, used, &idx);
+        let mut accepted = false;
+        for _ in 0..40 {
+            let mut a = jtj.clone();
+            for i in 0..k {
+                a[i * k + i] += lambda * jtj[i * k + i].max(1e-300);
+            }
+            if cholesky(&mut a, k).is_none() {
+                lambda *= 10.0;
+                continue;
+            }
+            let mut step: Vec<f64> = jtr.iter().map(|x| -x).collect();
+            cholesky_solve(&a, k, &mut step);
+            let mut cand = p;
+            for (s, &i) in step.iter().zip(&idx) {
+                cand[i] += s;
+            }
+            let nc = cost(&cand, wins, used);
+            if nc.is_finite() && nc <= c {
+                let gain = c - nc;
+                let small_step = step
+                    .iter()
+                    .zip(&idx)
+                    .all(|(s, &i)| s.abs() <= 1e-12 * (1.0 + p[i].abs()));
+                p = cand;
+                c = nc;
+                lambda = (lambda * 0.2).max(1e-12);
+                accepted = true;
+                if small_step || gain <= 1e-15 * c + 1e-300 {
+                    converged = true;
+                }
+                break;
+            }
+            lambda *= 4.0;
+        }
+        if !accepted {
+            // No step lowers the cost: at the minimum to within f64 resolution, provided the
+            // damped system was solvable at all.
+            converged = lambda < 1e20;
+        }
+        if converged {
+            break;
+        }
+    }
+    if !converged {
+        return None;
+    }
+    // A singular normal matrix at the minimum means some free combination is undetermined.
+    let (mut jtj, _) = normal(&p, wins, used, &idx);
+    cholesky(&mut jtj, k)?;
+    Some(Fit {
+        p,
+        rss: c,
+        n,
+        k,
+        iterations,
+    })
+}
+
+/// Standard errors of the free parameters (`σ̂²·(JᵀJ)⁻¹`, σ̂² = RSS/(n − k)), in the order of
+/// the full parameter vector (0 for fixed parameters).
+pub fn standard_errors(f: &Fit, mask: &Mask, wins: &[Win], used: &[bool]) -> Params {
+    let idx: Vec<usize> = (0..NP).filter(|i| mask[*i]).collect();
+    let k = idx.len();
+    let mut out = [0.0; NP];
+    let dof = f.n.saturating_sub(k);
+    if dof == 0 {
+        return out;
+    }
+    let s2 = f.rss / dof as f64;
+    let w: Vec<f64> = used.iter().map(|u| if *u { 1.0 } else { 0.0 }).collect();
+    let (mut jtj, _) = normal(&f.p, wins, &w, &idx);
+    if cholesky(&mut jtj, k).is_none() {
+        return out;
+    }
+    for (a, &ia) in idx.iter().enumerate() {
+        let mut e = vec![0.0; k];
+        e[a] = 1.0;
+        cholesky_solve(&jtj, k, &mut e);
+        out[ia] = (s2 * e[a]).max(0.0).sqrt();
+    }
+    out
+}
+
+/// Leverage of window `i` with respect to the windows `used` at parameters `p`:
+/// `h = gᵢᵀ(JᵀJ)⁻¹gᵢ`, so that the prediction error of a window outside the fit has variance
+/// `σ²·(1 + h)`. `None` when the normal matrix is singular.
+pub fn leverage(p: &Params, mask: &Mask, wins: &[Win], used: &[bool], i: usize) -> Option<f64> {
+    let idx: Vec<usize> = (0..NP).filter(|j| mask[*j]).collect();
+    let k = idx.len();
+    let w: Vec<f64> = used.iter().map(|u| if *u { 1.0 } else { 0.0 }).collect();
+    let (mut jtj, _) = normal(p, wins, &w, &idx);
+    cholesky(&mut jtj, k)?;
+    let (_, g) = residual_and_grad(p, wins.get(i)?);
+    let gi: Vec<f64> = idx.iter().map(|&j| g[j]).collect();
+    let mut x = gi.clone();
+    cholesky_solve(&jtj, k, &mut x);
+    Some(gi.iter().zip(&x).map(|(a, b)| a * b).sum())
+}
+
+/// Leave-one-window-out cross-validation: for each used window, refit without it (warm start
+/// from the full fit) and return its held-out residual (g), in window order (`None` for unused
+/// windows). `None` overall when any refit fails.
+pub fn loo(full: &Fit, mask: &Mask, wins: &[Win], used: &[bool]) -> Option<Vec<Option<f64>>> {
+    let mut out = vec![None; wins.len()];
+    let mut u = used.to_vec();
+    for i in 0..wins.len() {
+        if !used[i] {
+            continue;
+        }
+        u[i] = false;
+        let f = fit(&full.p, mask, wins, &u)?;
+        u[i] = true;
+        out[i] = Some(residual(&f.p, &wins[i]));
+    }
+    Some(out)
+}
+
+/// Centring and scaling of the raw window data, and the map back to a [`Calibration`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Normalisation {
+    /// Centre of the window means, raw units.
+    pub centre: [f64; 3],
+    /// RMS spread of the window means about the centre, raw units.
+    pub scale: f64,
+    /// Mean window time `t̄`, s since the first sample.
+    pub t_mean: f64,
+    /// Time scale `T`, s.
+    pub t_scale: f64,
+    /// Mean window temperature `θ̄`, °C (the calibration's `temp_ref_c`).
+    pub temp_mean: f64,
+    /// Temperature scale `Θ`, °C.
+    pub temp_scale: f64,
+}
+
+impl Normalisation {
+    /// From raw window means, times (s since the first sample) and temperatures.
+    pub fn of(means: &[[f64; 3]], times: &[f64], temps: Option<&[f64]>) -> Self {
+        let n = means.len().max(1) as f64;
+        let mut c = [0.0; 3];
+        for m in means {
+            for a in 0..3 {
+                c[a] += m[a] / n;
+            }
+        }
+        let ss: f64 = means
+            .iter()
+            .map(|m| (0..3).map(|a| (m[a] - c[a]).powi(2)).sum::<f64>())
+            .sum();
+        let scale = (ss / n).sqrt();
+        let spread = |v: &[f64]| {
+            let m = v.iter().sum::<f64>() / v.len().max(1) as f64;
+            let s = (v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / v.len().max(1) as f64).sqrt();
+            (m, if s > 0.0 { s } else { 1.0 })
+        };
+        let (t_mean, t_scale) = spread(times);
+        let (temp_mean, temp_scale) = temps.map_or((0.0, 1.0), spread);
+        Self {
+            centre: c,
+            scale: if scale > 0.0 { scale } else { 1.0 },
+            t_mean,
+            t_scale,
+            temp_mean,
+            temp_scale,
+        }
+    }
+
+    /// The model's view of one window.
+    pub fn window(&self, mean: &[f64; 3], time: f64, temp: Option<f64>) -> Win {
+        Win {
+            y: [
+                (mean[0] - self.centre[0]) / self.scale,
+                (mean[1] - self.centre[1]) / self.scale,
+                (mean[2] - self.centre[2]) / self.scale,
+            ],
+            tau: (time - self.t_mean) / self.t_scale,
+            theta: temp.map_or(0.0, |t| (t - self.temp_mean) / self.temp_scale),
+        }
+    }
+
+    /// Initial parameters from a raw-unit calibration (effects zero).
+    pub fn params_from(&self, cal: &Calibration) -> Params {
+        let mut p = [0.0; NP];
+        for a in 0..3 {
+            p[BIAS + a] = (cal.bias[a] as f64 - self.centre[a]) / self.scale;
+        }
+        let k = cal.matrix;
+        let s = self.scale;
+        p[KMAT] = k[0][0] as f64 * s;
+        p[KMAT + 1] = k[0][1] as f64 * s;
+        p[KMAT + 2] = k[0][2] as f64 * s;
+        p[KMAT + 3] = k[1][1] as f64 * s;
+        p[KMAT + 4] = k[1][2] as f64 * s;
+        p[KMAT + 5] = k[2][2] as f64 * s;
+        p
+    }
+
+    /// The parameters as raw-unit effect values (f64): bias at t = 0 (raw), K (g/raw),
+    /// drift (raw/s), bias_temp (raw/°C), scale_temp (1/°C), quadratic, cubic.
+    pub fn raw(&self, p: &Params) -> RawParams {
+        let s = self.scale;
+        let mut r = RawParams::default();
+        for a in 0..3 {
+            let d = p[DRIFT + a];
+            // b_eff(t) = c + s·(b + d·(t − t̄)/T + …): at t = 0 the bias is c + s·(b − d·t̄/T).
+            r.bias[a] = self.centre[a] + s * (p[BIAS + a] - d * self.t_mean / self.t_scale);
+            r.drift[a] = s * d / self.t_scale;
+            r.bias_temp[a] = s * p[BTEMP + a] / self.temp_scale;
+            r.scale_temp[a] = p[STEMP + a] / self.temp_scale;
+            r.quadratic[a] = p[QUAD + a];
+            r.cubic[a] = p[CUBIC + a];
+        }
+        let k = &p[KMAT..KMAT + 6];
+        r.matrix = [
+            [k[0] / s, k[1] / s, k[2] / s],
+            [0.0, k[3] / s, k[4] / s],
+            [0.0, 0.0, k[5] / s],
+        ];
+        r.temp_ref_c = self.temp_mean;
+        r
+    }
+
+    /// The core's `f32` calibration reproducing the model (the diagnostic `d₂` must be zero): `Calibration::correct(m, cond)` with
+    /// `cond.time_s` = seconds since the first sample and `cond.temperature_c` the temperature.
+    pub fn to_calibration(self, p: &Params) -> Calibration {
+        let r = self.raw(p);
+        let f = |v: [f64; 3]| v.map(|x| x as f32);
+        Calibration {
+            bias: f(r.bias),
+            matrix: r.matrix.map(f),
+            effects: Effects {
+                quadratic: f(r.quadratic),
+                cubic: f(r.cubic),
+                bias_drift: f(r.drift),
+                temp_ref_c: r.temp_ref_c as f32,
+                bias_temp: f(r.bias_temp),
+                scale_temp: f(r.scale_temp),
+            },
+        }
+    }
+}
+
+/// Model parameters in raw units (see [`Normalisation::raw`]).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct RawParams {
+    /// Bias at t = 0, raw units.
+    pub bias: [f64; 3],
+    /// K = D⁻¹ (upper triangular), g per raw unit.
+    pub matrix: [[f64; 3]; 3],
+    /// Bias drift, raw units per second.
+    pub drift: [f64; 3],
+    /// Bias temperature coefficient, raw units per °C.
+    pub bias_temp: [f64; 3],
+    /// Relative scale temperature coefficient, 1/°C.
+    pub scale_temp: [f64; 3],
+    /// Quadratic k2, 1/g.
+    pub quadratic: [f64; 3],
+    /// Cubic k3, 1/g².
+    pub cubic: [f64; 3],
+    /// Reference temperature, °C.
+    pub temp_ref_c: f64,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sample_params() -> Params {
+        let mut p = [0.0; NP];
+        p[..9].copy_from_slice(&[0.01, -0.02, 0.03, 0.98, 0.01, -0.02, 1.01, 0.015, 0.99]);
+        for (i, x) in p.iter_mut().enumerate().skip(9) {
+            *x = 0.01 * ((i * 7 % 5) as f64 - 2.0);
+        }
+        p
+    }
+
+    /// The analytic gradient against central differences.
+    #[test]
+    fn gradient_matches_finite_differences() {
+        let p = sample_params();
+        let w = Win {
+            y: [0.3, -0.7, 0.6],
+            tau: 0.8,
+            theta: -1.2,
+        };
+        let (_, g) = residual_and_grad(&p, &w);
+        for i in 0..NP {
+            let h = 1e-6;
+            let (mut a, mut b) = (p, p);
+            a[i] += h;
+            b[i] -= h;
+            let num = (residual(&a, &w) - residual(&b, &w)) / (2.0 * h);
+            assert!((num - g[i]).abs() < 1e-7, "param {i}: {num} vs {}", g[i]);
+        }
+    }
+
+    /// The f32 calibration reproduces the f64 model through `Calibration::correct`.
+    #[test]
+    fn calibration_reproduces_model() {
+        let means = [
+            [520.0, 500.0, 610.0],
+            [410.0, 505.0, 515.0],
+            [515.0, 400.0, 505.0],
+        ];
+        let times = [10.0, 50.0, 90.0];
+        let temps = [25.0, 28.0, 30.0];
+        let nrm = Normalisation::of(&means, &times, Some(&temps));
+        let mut p = sample_params();
+        p[..9].copy_from_slice(&[0.0, 0.0, 0.0, 0.9, 0.01, 0.0, 0.95, -0.01, 0.97]);
+        p[DRIFT2..DRIFT2 + 3].copy_from_slice(&[0.0; 3]);
+        let cal = nrm.to_calibration(&p);
+        for i in 0..3 {
+            let w = nrm.window(&means[i], times[i], Some(temps[i]));
+            let want = residual(&p, &w);
+            let a = cal.correct(
+                means[i].map(|x| x as f32),
+                &wiical_core::Conditions {
+                    time_s: times[i] as f32,
+                    temperature_c: Some(temps[i] as f32),
+                },
+            );
+            let got = (a.iter().map(|x| (*x as f64).powi(2)).sum::<f64>()).sqrt() - 1.0;
+            assert!((got - want).abs() < 2e-5, "{got} vs {want}");
+        }
+    }
+}
