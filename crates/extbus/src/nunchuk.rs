@@ -15,7 +15,7 @@
 //! | `0xFA`–`0xFF` | identification [`ID`] = `00 00 A4 20 00 00` |
 
 use crate::error::{pick_copy, Checked, FromCopies};
-use crate::packing::{exact, pack_xxyyzz, unpack_xxyyzz, MAX_10BIT};
+use crate::packing::{self, exact, pack_xxyyzz, unpack_xxyyzz, MAX_10BIT};
 use crate::Error;
 
 /// 7-bit I²C address of every Wii extension controller.
@@ -356,19 +356,13 @@ impl CalibrationBlock {
 
     /// Sensitivity `one_g − zero` per axis, 10-bit counts per g.
     pub fn counts_per_g(&self) -> [i32; 3] {
-        core::array::from_fn(|i| i32::from(self.one_g[i]) - i32::from(self.zero[i]))
+        packing::counts_per_g(self.zero, self.one_g)
     }
 
     /// Convert a raw 10-bit accelerometer reading to g with this factory calibration,
     /// `(raw − zero) / (one_g − zero)` per axis. `None` if an axis has `one_g == zero`.
     pub fn accel_to_g(&self, raw: [u16; 3]) -> Option<[f32; 3]> {
-        let span = self.counts_per_g();
-        if span.contains(&0) {
-            return None;
-        }
-        Some(core::array::from_fn(|i| {
-            (f32::from(raw[i]) - f32::from(self.zero[i])) / span[i] as f32
-        }))
+        packing::accel_to_g(self.zero, self.one_g, raw)
     }
 }
 

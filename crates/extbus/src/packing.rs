@@ -38,3 +38,22 @@ pub(crate) fn exact<const N: usize>(bytes: &[u8]) -> Result<[u8; N], Error> {
         got: bytes.len(),
     })
 }
+
+/// Factory sensitivity `one_g − zero` per axis (10-bit counts per g), shared by the Wii Remote
+/// EEPROM block and the Nunchuk calibration block, which store the same two points.
+#[inline]
+pub(crate) fn counts_per_g(zero: [u16; 3], one_g: [u16; 3]) -> [i32; 3] {
+    core::array::from_fn(|i| i32::from(one_g[i]) - i32::from(zero[i]))
+}
+
+/// `(raw − zero) / (one_g − zero)` per axis; `None` if an axis has `one_g == zero`.
+#[inline]
+pub(crate) fn accel_to_g(zero: [u16; 3], one_g: [u16; 3], raw: [u16; 3]) -> Option<[f32; 3]> {
+    let span = counts_per_g(zero, one_g);
+    if span.contains(&0) {
+        return None;
+    }
+    Some(core::array::from_fn(|i| {
+        (f32::from(raw[i]) - f32::from(zero[i])) / span[i] as f32
+    }))
+}
