@@ -1,24 +1,15 @@
 //! `analyze` run blind on simulated recordings with known truth (one undeclared effect or
 //! none), on the real Xsens recording and on the seed's six-position example.
 
+mod common;
+use common::data_dir;
+
 use wiical::{analyze, analyze_plot, fit_cmd, input, simulate, six_position_cmd};
 
 use analyze::{analyze as run_analyze, AnalyzeOptions, AnalyzeReport};
 use simulate::{Device, SimConfig, SimEffect, SimOutput};
-use std::path::{Path, PathBuf};
-use wiical_core::Conditions;
 
-fn data_dir() -> PathBuf {
-    let dir = std::env::var_os("WIICAL_DATA")
-        .map(Into::into)
-        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data"));
-    assert!(
-        dir.is_dir(),
-        "shared data not found at {} (set WIICAL_DATA)",
-        dir.display()
-    );
-    dir
-}
+use wiical_core::Conditions;
 
 fn sim(effect: SimEffect, mag: f64, seed: u64, device: Device) -> SimOutput {
     simulate::simulate(&SimConfig {

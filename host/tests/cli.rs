@@ -1,20 +1,11 @@
 //! The CLI contract: JSON keys and values of each command, and readable errors on bad input.
 
-use serde_json::Value;
-use std::path::{Path, PathBuf};
-use std::process::Command;
+mod common;
+use common::data_dir;
 
-fn data_dir() -> PathBuf {
-    let dir = std::env::var_os("WIICAL_DATA")
-        .map(Into::into)
-        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data"));
-    assert!(
-        dir.is_dir(),
-        "shared data not found at {} (set WIICAL_DATA)",
-        dir.display()
-    );
-    dir
-}
+use serde_json::Value;
+use std::path::PathBuf;
+use std::process::Command;
 
 fn wiical(args: &[&str]) -> (bool, String, String) {
     let out = Command::new(env!("CARGO_BIN_EXE_wiical"))
