@@ -5,7 +5,11 @@ pub mod analyze_model;
 pub mod analyze_plot;
 pub mod analyze_six;
 pub mod analyze_stats;
+pub mod capture;
 pub mod decode_cal;
+pub mod device;
+#[cfg(unix)]
+pub mod device_sim;
 pub mod fit_cmd;
 pub mod input;
 pub mod kalman_demo;

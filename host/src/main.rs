@@ -110,6 +110,17 @@ enum Cmd {
         #[arg(long)]
         no_temp: bool,
     },
+    /// Record a Wii Remote's (and Nunchuk's) accelerometer over Bluetooth HID to CSV.
+    ///
+    /// Columns t,x,y,z (+ ext_x,ext_y,ext_z with a Nunchuk), raw counts; the factory
+    /// calibrations go to OUT.cal.json. `--guided N` walks through N still poses for `fit`.
+    Capture(wiical::capture::CaptureArgs),
+    /// Talk to a wiical adapter over its serial port: info, get, put CAL.json, commit, stream.
+    Device(wiical::device::DeviceArgs),
+    /// Run the adapter's logic with a simulated Nunchuk and flash, serving the wire protocol
+    /// on a pseudo-terminal (prints its path).
+    #[cfg(unix)]
+    DeviceSim(wiical::device_sim::SimArgs),
     /// Magnetometer hard/soft-iron fit: sphere (4 parameters), axis-aligned ellipsoid (6) or
     /// rotated ellipsoid (9), from streaming normal equations solved by Cholesky.
     Magfit {
@@ -426,6 +437,10 @@ fn run(cli: Cli) -> Result<String> {
             )?;
             Ok(o)
         }
+        Cmd::Capture(args) => wiical::capture::run(&args),
+        Cmd::Device(args) => wiical::device::run(&args, &mut std::io::stdout().lock()),
+        #[cfg(unix)]
+        Cmd::DeviceSim(args) => wiical::device_sim::run(&args),
         Cmd::Magfit {
             file,
             model,

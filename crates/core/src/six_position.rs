@@ -80,7 +80,11 @@ impl Pose {
 
     /// The true specific-force direction in sensor axes for this pose (column of `A`).
     pub fn direction(self) -> [f32; 3] {
-        let s = if (self as usize) % 2 == 0 { 1.0 } else { -1.0 };
+        let s = if (self as usize).is_multiple_of(2) {
+            1.0
+        } else {
+            -1.0
+        };
         let mut v = [0.0; 3];
         v[self as usize / 2] = s;
         v

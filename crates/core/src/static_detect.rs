@@ -11,9 +11,14 @@
 //!
 //! Streaming and memory: the detector keeps a ring of the last `N` samples (`N` = window
 //! length, a const generic, odd) and decides sample `k − (N−1)/2` when sample `k` arrives, so
-//! results lag by half a window. The window variance is recomputed from the ring (two-pass,
-//! shifted by the window's first sample): `O(N)` per sample, but exact in `f32` even on raw counts
-//! in the tens of thousands, where running sums of squares would cancel catastrophically.
+//! results lag by half a window. The window variance comes from running sums of deviations from
+//! a shift (O(1) per sample). Plain running sums of squares would cancel catastrophically in
+//! `f32` on raw counts in the tens of thousands, so the sums are taken about the window mean of
+//! the last exact two-pass recomputation, and that recomputation is redone once per window
+//! length, whenever the sum of squares has fallen a thousandfold since it (motion has just
+//! left the window: the rounding error left behind by large values would otherwise dominate the
+//! small static variance), and whenever the window mean has moved so far from the shift that
+//! `s2 − s1²/n` would cancel a thousandfold. Amortised cost: O(1) per sample.
 
 use crate::stats::Welford3;
 use crate::Error;
@@ -92,6 +97,35 @@ pub struct StaticDetector<const N: usize> {
     threshold: Option<f32>,
     /// The static run being accumulated: start index and statistics.
     run: Option<(u32, Welford3)>,
+    /// Running sums over the current window.
+    sums: WindowSums,
+}
+
+/// Running sums of `x − shift` and `(x − shift)²` over the window (see the module docs).
+#[derive(Debug, Clone, Copy, Default)]
+struct WindowSums {
+    shift: [f32; 3],
+    s1: [f32; 3],
+    s2: [f32; 3],
+    /// Largest total `s2` since the last exact recomputation.
+    peak: f32,
+    /// Samples added since the last exact recomputation.
+    since: u32,
+}
+
+impl WindowSums {
+    fn add(&mut self, x: &[f32; 3], sign: f32) {
+        for (((xa, shift), s1), s2) in x.iter().zip(self.shift).zip(&mut self.s1).zip(&mut self.s2)
+        {
+            let d = xa - shift;
+            *s1 += sign * d;
+            *s2 += sign * d * d;
+        }
+    }
+
+    fn total_s2(&self) -> f32 {
+        self.s2[0] + self.s2[1] + self.s2[2]
+    }
 }
 
 impl<const N: usize> StaticDetector<N> {
@@ -118,6 +152,7 @@ impl<const N: usize> StaticDetector<N> {
             init: Welford3::new(),
             threshold: None,
             run: None,
+            sums: WindowSums::default(),
         })
     }
 
@@ -156,8 +191,31 @@ impl<const N: usize> StaticDetector<N> {
         if self.count == u32::MAX {
             return Err(Error::CapacityExceeded);
         }
+        let window = self.cfg.window as usize;
+        let outgoing = if self.ring.len() >= window {
+            self.window_samples().next().copied()
+        } else {
+            None
+        };
         self.ring.write(m);
         self.count += 1;
+        if let Some(o) = outgoing {
+            self.sums.add(&o, -1.0);
+        }
+        self.sums.add(&m, 1.0);
+        self.sums.since += 1;
+        let total = self.sums.total_s2();
+        self.sums.peak = self.sums.peak.max(total);
+        // Recompute when the sums are stale (once per window), when large values have left the
+        // window (rounding they left behind), or when the shift is far from the window mean
+        // (variance = s2 − s1²/n would cancel).
+        let spread = self.window_variance_sum() * self.window_len() as f32;
+        if self.sums.since as usize >= window
+            || total < 1e-3 * self.sums.peak
+            || spread < 1e-3 * total
+        {
+            self.recompute_sums();
+        }
         if self.threshold.is_none() {
             self.init.push(m)?;
             if self.count >= self.cfg.init_samples {
@@ -230,31 +288,56 @@ impl<const N: usize> StaticDetector<N> {
         })
     }
 
-    /// Sum over axes of the (population) variance of the samples in the ring, two-pass,
-    /// shifted by the oldest sample so that large raw offsets do not cost precision.
-    fn window_variance_sum(&self) -> f32 {
-        let shift = match self.window_samples().next() {
-            Some(s) => *s,
-            None => return 0.0,
+    /// Number of samples currently in the window.
+    fn window_len(&self) -> usize {
+        self.ring.len().min(self.cfg.window as usize)
+    }
+
+    /// Exact two-pass recomputation of the window sums about the window mean.
+    fn recompute_sums(&mut self) {
+        let n = self.window_len();
+        let Some(first) = self.window_samples().next().copied() else {
+            return;
         };
-        let n = self.window_samples().count() as f32;
         let mut mean = [0.0f32; 3];
         for s in self.window_samples() {
             for a in 0..3 {
-                mean[a] += s[a] - shift[a];
+                mean[a] += s[a] - first[a];
             }
         }
-        for m in mean.iter_mut() {
-            *m /= n;
+        let mut sums = WindowSums {
+            shift: [0.0; 3],
+            ..Default::default()
+        };
+        for a in 0..3 {
+            sums.shift[a] = first[a] + mean[a] / n as f32;
+        }
+        for s in self.window_samples() {
+            sums.add(s, 1.0);
+        }
+        sums.peak = sums.total_s2();
+        self.sums = sums;
+    }
+
+    /// Sum over axes of the (population) variance of the samples in the window.
+    fn window_variance_sum(&self) -> f32 {
+        let n = self.window_len() as f32;
+        if n == 0.0 {
+            return 0.0;
         }
         let mut var = 0.0f32;
-        for s in self.window_samples() {
-            for a in 0..3 {
-                let d = s[a] - shift[a] - mean[a];
-                var += d * d;
-            }
+        for a in 0..3 {
+            var += (self.sums.s2[a] - self.sums.s1[a] * self.sums.s1[a] / n).max(0.0);
         }
         var / n
+    }
+
+    /// The window variance recomputed exactly (two-pass), for tests of the running sums.
+    #[cfg(test)]
+    fn exact_window_variance_sum(&self) -> f32 {
+        let mut copy = self.clone();
+        copy.recompute_sums();
+        copy.window_variance_sum()
     }
 }
 
@@ -348,6 +431,41 @@ mod tests {
         let mut d: StaticDetector<51> = StaticDetector::new(cfg()).unwrap();
         assert_eq!(d.push([f32::NAN, 0.0, 0.0]), Err(Error::NonFinite));
         assert_eq!(d.samples_seen(), 0);
+    }
+
+    /// The running sums agree with an exact recomputation at every sample, through rest,
+    /// large motion and back to rest, on raw counts in the tens of thousands.
+    #[test]
+    fn running_window_variance_matches_exact() {
+        let mut d: StaticDetector<51> = StaticDetector::new(cfg()).unwrap();
+        let mut noise = Noise(99);
+        for k in 0..3000u32 {
+            let phase = (k / 250) % 2;
+            let s = if phase == 0 {
+                [
+                    33000.0 + noise.next(3.0),
+                    29000.0 + noise.next(3.0),
+                    36000.0,
+                ]
+            } else {
+                let t = k as f32 * 0.05;
+                [
+                    33000.0 + 4000.0 * libm::sinf(t),
+                    29000.0 + 3000.0 * libm::cosf(t),
+                    36000.0,
+                ]
+            };
+            d.push(s).unwrap();
+            if k >= 50 {
+                let run = d.window_variance_sum();
+                let exact = d.exact_window_variance_sum();
+
+                assert!(
+                    (run - exact).abs() <= 1e-3 * exact + 0.05,
+                    "sample {k}: running {run} vs exact {exact}"
+                );
+            }
+        }
     }
 
     #[test]

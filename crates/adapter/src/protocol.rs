@@ -1,0 +1,356 @@
+//! The adapter's side of the wire protocol, and the glue between the poller, the corrector,
+//! the emulated register map and the calibration store.
+//!
+//! Data flow per Nunchuk report (call [`Protocol::on_poll`] with every poll result):
+//!
+//! ```text
+//! NunchukPoller ──report──▶ Corrector ──counts──▶ EmulatedNunchuk ◀── Wii Remote (I²C target)
+//!                               └──────g──────▶ Sample (when streaming) ──▶ host (serial)
+//! ```
+//!
+//! Requests ([`Protocol::handle`]): `Hello` opens the session only when the schema keys
+//! match (every other request is refused with `SchemaMismatch` until then); `PutCalibration`
+//! stages a validated calibration; `CommitCalibration` stores it (power-loss safe), reads it
+//! back, and only then makes it live; `StartStream`/`StopStream` control the sample stream
+//! (rate = poll rate / divider, `seq` restarting at 0 and +1 per sample sent).
+
+use embedded_storage_async::nor_flash::NorFlash;
+use wiical_core::Calibration;
+use wiical_extbus::NunchukReport;
+use wiical_wire::{
+    CalibrationState, ErrorCode, FrameError, HelloResponse, Request, Response, Sample,
+    FIRMWARE_VERSION_CAP, PROTOCOL_VERSION, SCHEMA_KEY,
+};
+
+use crate::corrector::{CorrectionMode, Corrector, IdealScale};
+use crate::emulated::EmulatedNunchuk;
+use crate::poller::{NunchukInfo, PollEvent};
+use crate::store::{CalibrationStore, Loaded};
+use crate::{Error, RecordError};
+
+/// Identity and timing of the adapter, reported in the Hello exchange.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct DeviceInfo {
+    /// Firmware version string (truncated to [`FIRMWARE_VERSION_CAP`] bytes on the wire).
+    pub firmware_version: heapless::String<FIRMWARE_VERSION_CAP>,
+    /// Unique device ID (MCU or flash unique ID).
+    pub device_id: [u8; 8],
+    /// Report poll rate in millihertz: the sample rate with divider 1.
+    pub base_rate_mhz: u32,
+}
+
+impl DeviceInfo {
+    /// Info with `version` truncated to fit (at a character boundary).
+    pub fn new(version: &str, device_id: [u8; 8], base_rate_mhz: u32) -> Self {
+        let mut firmware_version = heapless::String::new();
+        for ch in version.chars() {
+            if firmware_version.push(ch).is_err() {
+                break;
+            }
+        }
+        Self {
+            firmware_version,
+            device_id,
+            base_rate_mhz,
+        }
+    }
+}
+
+/// What happened to the stored calibration at boot.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum BootLoad {
+    /// Nothing stored: pass-through.
+    Empty,
+    /// A valid stored calibration is live.
+    Loaded,
+    /// A record was found but refused (damaged, unknown version, invalid): pass-through.
+    Rejected(RecordError),
+    /// The flash could not be read: pass-through.
+    StorageError,
+}
+
+/// A snapshot of the adapter's state, for a status LED or log.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Status {
+    /// A Nunchuk is connected and answering.
+    pub connected: bool,
+    /// Calibrated or pass-through (uncalibrated, or the stored record was unusable).
+    pub mode: CorrectionMode,
+    /// Outcome of loading the stored calibration at boot.
+    pub boot: BootLoad,
+    /// A host session is open (good Hello received).
+    pub session_open: bool,
+    /// Samples are being streamed.
+    pub streaming: bool,
+    /// A calibration is staged, awaiting commit.
+    pub staged: bool,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct Stream {
+    divider: u16,
+    phase: u16,
+}
+
+/// The protocol handler and glue; see the module docs.
+pub struct Protocol<F: NorFlash> {
+    info: DeviceInfo,
+    schema_key: u32,
+    session_open: bool,
+    staged: Option<Calibration>,
+    stream: Option<Stream>,
+    seq: u32,
+    connected: bool,
+    store: CalibrationStore<F>,
+    corrector: Corrector,
+    emulated: EmulatedNunchuk,
+    boot: BootLoad,
+    block_generation: u32,
+}
+
+impl<F: NorFlash> Protocol<F> {
+    /// Start the adapter: load the stored calibration (a missing, damaged or unreadable one
+    /// means pass-through) and prepare the emulated register map.
+    pub async fn boot(mut store: CalibrationStore<F>, info: DeviceInfo, scale: IdealScale) -> Self {
+        let mut corrector = Corrector::new(scale);
+        let boot = match store.load().await {
+            Ok(Loaded::Empty) => BootLoad::Empty,
+            Ok(Loaded::Calibration(cal)) => match corrector.set_user_calibration(Some(cal)) {
+                Ok(()) => BootLoad::Loaded,
+                Err(e) => BootLoad::Rejected(RecordError::Invalid(e)),
+            },
+            Ok(Loaded::Rejected(e)) => BootLoad::Rejected(e),
+            Err(_) => BootLoad::StorageError,
+        };
+        let emulated = EmulatedNunchuk::new(&corrector.calibration_block_bytes());
+        Self {
+            info,
+            schema_key: SCHEMA_KEY,
+            session_open: false,
+            staged: None,
+            stream: None,
+            seq: 0,
+            connected: false,
+            store,
+            corrector,
+            emulated,
+            boot,
+            block_generation: 0,
+        }
+    }
+
+    /// Present a different schema key in Hello (simulators and tests of the mismatch path
+    /// only; a real firmware always uses [`SCHEMA_KEY`]).
+    pub fn with_schema_key(mut self, key: u32) -> Self {
+        self.schema_key = key;
+        self
+    }
+
+    /// Answer one request.
+    pub async fn handle(&mut self, req: Request) -> Response {
+        match req {
+            Request::Hello(h) => {
+                self.stream = None;
+                self.session_open = h.schema_key == self.schema_key;
+                Response::Hello(HelloResponse {
+                    protocol_version: PROTOCOL_VERSION,
+                    schema_key: self.schema_key,
+                    firmware_version: self.info.firmware_version.clone(),
+                    device_id: self.info.device_id,
+                })
+            }
+            _ if !self.session_open => Response::Error(ErrorCode::SchemaMismatch),
+            Request::GetCalibration => Response::Calibration(CalibrationState {
+                live: self.corrector.live_calibration().into(),
+                staged: self.staged.map(Into::into),
+                stored: self.corrector.mode() == CorrectionMode::Calibrated,
+            }),
+            Request::PutCalibration(w) => {
+                let cal = Calibration::from(w);
+                match cal.validate() {
+                    Ok(()) => {
+                        self.staged = Some(cal);
+                        Response::Ack
+                    }
+                    Err(_) => Response::Error(ErrorCode::InvalidCalibration),
+                }
+            }
+            Request::CommitCalibration => self.commit().await,
+            Request::StartStream { rate_divider: 0 } => {
+                Response::Error(ErrorCode::InvalidParameter)
+            }
+            Request::StartStream { rate_divider } => {
+                self.stream = Some(Stream {
+                    divider: rate_divider,
+                    phase: 0,
+                });
+                self.seq = 0;
+                Response::StreamStarted {
+                    sample_rate_mhz: self.info.base_rate_mhz / u32::from(rate_divider),
+                }
+            }
+            Request::StopStream => {
+                self.stream = None;
+                Response::Ack
+            }
+        }
+    }
+
+    async fn commit(&mut self) -> Response {
+        let Some(cal) = self.staged else {
+            return Response::Error(ErrorCode::NothingStaged);
+        };
+        if self.store.save(&cal).await.is_err() {
+            return Response::Error(ErrorCode::StorageFailure);
+        }
+        // Read back: only a calibration that the next boot will load goes live.
+        match self.store.load().await {
+            Ok(Loaded::Calibration(back)) if bits_equal(&back, &cal) => {}
+            _ => return Response::Error(ErrorCode::StorageFailure),
+        }
+        if self.corrector.set_user_calibration(Some(cal)).is_err() {
+            return Response::Error(ErrorCode::Internal);
+        }
+        self.staged = None;
+        self.refresh_block();
+        Response::Ack
+    }
+
+    /// The answer to a frame that could not be decoded.
+    pub fn bad_frame(&mut self, _e: FrameError) -> Response {
+        Response::Error(ErrorCode::BadFrame)
+    }
+
+    /// The host went away (port closed, USB suspended): close the session and stop the
+    /// stream. Staged data is kept.
+    pub fn reset_session(&mut self) {
+        self.session_open = false;
+        self.stream = None;
+    }
+
+    /// Feed one poll result. `still_connected` is
+    /// [`crate::NunchukPoller::is_connected`] after the poll. Returns the sample to send
+    /// when streaming.
+    pub fn on_poll<E>(
+        &mut self,
+        result: &Result<PollEvent, Error<E>>,
+        still_connected: bool,
+    ) -> Option<Sample> {
+        match result {
+            Ok(PollEvent::Connected(info)) => {
+                self.on_connected(info);
+                None
+            }
+            Ok(PollEvent::Report(r)) => self.on_report(r),
+            Ok(PollEvent::Idle) | Err(_) => {
+                if !still_connected && self.connected {
+                    self.on_disconnected();
+                }
+                None
+            }
+        }
+    }
+
+    /// A Nunchuk was (re)initialised: take its factory block.
+    pub fn on_connected(&mut self, info: &NunchukInfo) {
+        self.connected = true;
+        self.corrector.set_factory(info);
+        self.refresh_block();
+    }
+
+    /// The Nunchuk is gone. The emulated map keeps its last report (the firmware may also
+    /// release the extension-detect line).
+    pub fn on_disconnected(&mut self) {
+        self.connected = false;
+    }
+
+    /// Correct a report, update the emulated register map, and return the sample to send
+    /// if streaming (every `rate_divider`-th report).
+    pub fn on_report(&mut self, report: &NunchukReport) -> Option<Sample> {
+        let c = self.corrector.correct(report.accel);
+        self.emulated.set_report(&NunchukReport {
+            accel: c.counts,
+            ..*report
+        });
+        let stream = self.stream.as_mut()?;
+        let send = stream.phase == 0;
+        stream.phase = (stream.phase + 1) % stream.divider.max(1);
+        if !send {
+            return None;
+        }
+        let seq = self.seq;
+        self.seq = self.seq.wrapping_add(1);
+        let mut buttons = 0;
+        if report.z {
+            buttons |= Sample::BUTTON_Z;
+        }
+        if report.c {
+            buttons |= Sample::BUTTON_C;
+        }
+        Some(Sample {
+            seq,
+            raw: report.accel,
+            corrected: c.g,
+            buttons,
+            stick: report.stick,
+        })
+    }
+
+    fn refresh_block(&mut self) {
+        let bytes = self.corrector.calibration_block_bytes();
+        let current: [u8; 16] = core::array::from_fn(|i| {
+            self.emulated
+                .registers()
+                .register(wiical_extbus::nunchuk::CALIBRATION_REGISTER + i as u8)
+        });
+        if current != bytes {
+            self.emulated.set_calibration_bytes(&bytes);
+            self.block_generation = self.block_generation.wrapping_add(1);
+        }
+    }
+
+    /// Incremented whenever the emulated calibration block changes (commit, Nunchuk with a
+    /// different block plugged in). The Wii Remote reads the block only when an extension
+    /// is inserted, so on a change the firmware should pulse the extension-detect line to
+    /// make it re-read; until then it converts the new counts with the old block.
+    pub fn block_generation(&self) -> u32 {
+        self.block_generation
+    }
+
+    /// The emulated register map, for the I²C-target side.
+    pub fn emulated(&mut self) -> &mut EmulatedNunchuk {
+        &mut self.emulated
+    }
+
+    /// The corrector (live calibration, mode).
+    pub fn corrector(&self) -> &Corrector {
+        &self.corrector
+    }
+
+    /// The staged calibration, if any.
+    pub fn staged(&self) -> Option<&Calibration> {
+        self.staged.as_ref()
+    }
+
+    /// State snapshot.
+    pub fn status(&self) -> Status {
+        Status {
+            connected: self.connected,
+            mode: self.corrector.mode(),
+            boot: self.boot,
+            session_open: self.session_open,
+            streaming: self.stream.is_some(),
+            staged: self.staged.is_some(),
+        }
+    }
+
+    /// Give the store (and through it the flash) back.
+    pub fn into_store(self) -> CalibrationStore<F> {
+        self.store
+    }
+}
+
+/// Bitwise equality of every parameter (so that `-0.0 ≠ 0.0` and NaN payloads count).
+pub fn bits_equal(a: &Calibration, b: &Calibration) -> bool {
+    crate::store::encode_record(a) == crate::store::encode_record(b)
+}

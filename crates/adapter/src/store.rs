@@ -1,0 +1,240 @@
+//! Persistent storage of the committed calibration.
+//!
+//! Two layers of protection, so that the adapter boots with the old or the new calibration
+//! after a power loss at any instant, never a damaged one:
+//! * [`sequential_storage`]'s map writes a new item after the old one and only then lets it
+//!   supersede the old one; each item carries a CRC, pages are erased only after their live
+//!   items were copied, and interrupted writes/erases are detected and repaired at the next
+//!   access.
+//! * The value itself is a versioned record with its own CRC-32 ([`encode_record`]), checked
+//!   again after reading together with [`Calibration::validate`], so that even a bug or an
+//!   undetected flash error yields "no calibration" (pass-through), not a corrupt one.
+//!
+//! ## Record layout (version 1, little-endian, [`RECORD_LEN`] bytes)
+//! | offset | content |
+//! |---|---|
+//! | 0 | magic `"WCAL"` |
+//! | 4 | version `u16` = [`RECORD_VERSION`] |
+//! | 6 | payload length `u16` = 112 |
+//! | 8 | 28 × `f32`: bias\[3\], matrix row-major\[9\], quadratic\[3\], cubic\[3\], bias_drift\[3\], temp_ref_c, bias_temp\[3\], scale_temp\[3\] |
+//! | 120 | CRC-32/ISO-HDLC of bytes 0..120 |
+
+use core::ops::Range;
+
+use crc::{Crc, CRC_32_ISO_HDLC};
+use embedded_storage_async::nor_flash::NorFlash;
+use sequential_storage::cache::{Cache, Uncached};
+use sequential_storage::map::{MapConfig, MapStorage};
+use wiical_core::{Calibration, Effects};
+
+use crate::{RecordError, StoreError};
+
+/// Map key of the calibration record.
+pub const RECORD_KEY: u8 = 0x01;
+/// Version written by this firmware.
+pub const RECORD_VERSION: u16 = 1;
+/// Magic bytes at the start of a record.
+pub const RECORD_MAGIC: [u8; 4] = *b"WCAL";
+/// Number of `f32` in a version-1 payload.
+const PAYLOAD_FLOATS: usize = 28;
+/// Length of a version-1 record, bytes.
+pub const RECORD_LEN: usize = 8 + 4 * PAYLOAD_FLOATS + 4;
+
+static CRC32: Crc<u32> = Crc::<u32>::new(&CRC_32_ISO_HDLC);
+
+/// Size of the work buffer handed to `sequential-storage`: key + record, rounded up to the
+/// largest flash word it supports (32 bytes).
+const WORK_BUFFER_LEN: usize = (1 + RECORD_LEN).div_ceil(32) * 32;
+
+/// Work buffer aligned for flash drivers that DMA from RAM.
+#[repr(C, align(32))]
+struct WorkBuffer([u8; WORK_BUFFER_LEN]);
+
+fn floats(cal: &Calibration) -> [f32; PAYLOAD_FLOATS] {
+    let e = &cal.effects;
+    let m = &cal.matrix;
+    [
+        cal.bias[0],
+        cal.bias[1],
+        cal.bias[2],
+        m[0][0],
+        m[0][1],
+        m[0][2],
+        m[1][0],
+        m[1][1],
+        m[1][2],
+        m[2][0],
+        m[2][1],
+        m[2][2],
+        e.quadratic[0],
+        e.quadratic[1],
+        e.quadratic[2],
+        e.cubic[0],
+        e.cubic[1],
+        e.cubic[2],
+        e.bias_drift[0],
+        e.bias_drift[1],
+        e.bias_drift[2],
+        e.temp_ref_c,
+        e.bias_temp[0],
+        e.bias_temp[1],
+        e.bias_temp[2],
+        e.scale_temp[0],
+        e.scale_temp[1],
+        e.scale_temp[2],
+    ]
+}
+
+fn from_floats(f: &[f32; PAYLOAD_FLOATS]) -> Calibration {
+    let v3 = |i: usize| [f[i], f[i + 1], f[i + 2]];
+    Calibration {
+        bias: v3(0),
+        matrix: [v3(3), v3(6), v3(9)],
+        effects: Effects {
+            quadratic: v3(12),
+            cubic: v3(15),
+            bias_drift: v3(18),
+            temp_ref_c: f[21],
+            bias_temp: v3(22),
+            scale_temp: v3(25),
+        },
+    }
+}
+
+/// Serialize a calibration as a version-1 record (see the module docs). Bit-exact: every
+/// `f32` is stored as its IEEE bits.
+pub fn encode_record(cal: &Calibration) -> [u8; RECORD_LEN] {
+    let mut out = [0u8; RECORD_LEN];
+    let (head, rest) = out.split_at_mut(8);
+    head[..4].copy_from_slice(&RECORD_MAGIC);
+    head[4..6].copy_from_slice(&RECORD_VERSION.to_le_bytes());
+    head[6..8].copy_from_slice(&((4 * PAYLOAD_FLOATS) as u16).to_le_bytes());
+    for (chunk, x) in rest.chunks_exact_mut(4).zip(floats(cal)) {
+        chunk.copy_from_slice(&x.to_le_bytes());
+    }
+    let crc = CRC32.checksum(&out[..RECORD_LEN - 4]);
+    out[RECORD_LEN - 4..].copy_from_slice(&crc.to_le_bytes());
+    out
+}
+
+/// Parse and check a record: length, magic, version, CRC, then
+/// [`Calibration::validate`]. Any failure is an error: the caller must then run without a
+/// calibration.
+pub fn decode_record(bytes: &[u8]) -> Result<Calibration, RecordError> {
+    if bytes.len() < 8 {
+        return Err(RecordError::WrongLength(bytes.len()));
+    }
+    if bytes[..4] != RECORD_MAGIC {
+        return Err(RecordError::BadMagic);
+    }
+    let version = u16::from_le_bytes([bytes[4], bytes[5]]);
+    if version != RECORD_VERSION {
+        return Err(RecordError::UnsupportedVersion(version));
+    }
+    let payload_len = usize::from(u16::from_le_bytes([bytes[6], bytes[7]]));
+    if bytes.len() != RECORD_LEN || payload_len != 4 * PAYLOAD_FLOATS {
+        return Err(RecordError::WrongLength(bytes.len()));
+    }
+    let (body, crc) = bytes.split_at(RECORD_LEN - 4);
+    if CRC32.checksum(body).to_le_bytes() != [crc[0], crc[1], crc[2], crc[3]] {
+        return Err(RecordError::BadCrc);
+    }
+    let mut f = [0f32; PAYLOAD_FLOATS];
+    for (x, chunk) in f.iter_mut().zip(body[8..].chunks_exact(4)) {
+        *x = f32::from_le_bytes([chunk[0], chunk[1], chunk[2], chunk[3]]);
+    }
+    let cal = from_floats(&f);
+    cal.validate().map_err(RecordError::Invalid)?;
+    Ok(cal)
+}
+
+/// What [`CalibrationStore::load`] found.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Loaded {
+    /// Nothing stored yet (or the storage was erased).
+    Empty,
+    /// A valid calibration.
+    Calibration(Calibration),
+    /// A record was found but refused; run uncalibrated.
+    Rejected(RecordError),
+}
+
+type MapCache = Cache<Uncached, Uncached, Uncached, u8>;
+
+/// The committed calibration in flash; see the module docs.
+pub struct CalibrationStore<F: NorFlash> {
+    map: MapStorage<u8, F, MapCache>,
+    buf: WorkBuffer,
+}
+
+impl<F: NorFlash> CalibrationStore<F> {
+    /// Use `range` of `flash` for the calibration: page aligned, and either ≥ 3 erase pages
+    /// each holding a record (≥ 256-byte pages), or 2 pages each holding two records
+    /// (≥ 512-byte pages). A 4 KiB-sector QSPI flash needs 2 sectors.
+    pub fn new(flash: F, range: Range<u32>) -> Result<Self, StoreError<F::Error>> {
+        let pages = (range.end.saturating_sub(range.start)) / (F::ERASE_SIZE.max(1) as u32);
+        let config = MapConfig::<F>::try_new(range).map_err(StoreError::Config)?;
+        // Room in a page: everything but the two page-state words.
+        let usable = (F::ERASE_SIZE as u32).saturating_sub(2 * F::WRITE_SIZE as u32);
+        let item = MapStorage::<u8, F, MapCache>::item_overhead_size()
+            + (1 + RECORD_LEN as u32).next_multiple_of(F::WRITE_SIZE.max(1) as u32);
+        let per_page = usable / item.max(1);
+        // The map keeps one page erased for migration, so with only two pages each must
+        // hold two records, or a second commit would find the storage full.
+        if per_page == 0 || (pages < 3 && per_page < 2) {
+            return Err(StoreError::Config(
+                sequential_storage::map::MapConfigError::PagesTooSmall,
+            ));
+        }
+        Ok(Self {
+            map: MapStorage::new(flash, config, MapCache::new_uncached()),
+            buf: WorkBuffer([0; WORK_BUFFER_LEN]),
+        })
+    }
+
+    /// Read the committed calibration. A damaged or unknown record gives
+    /// [`Loaded::Rejected`], never a calibration; `Err` only when the flash cannot be read
+    /// or the storage is beyond repair.
+    pub async fn load(&mut self) -> Result<Loaded, StoreError<F::Error>> {
+        let item: Option<&[u8]> = self
+            .map
+            .fetch_item(&mut self.buf.0, &RECORD_KEY)
+            .await
+            .map_err(StoreError::Flash)?;
+        Ok(match item {
+            None => Loaded::Empty,
+            Some(bytes) => match decode_record(bytes) {
+                Ok(cal) => Loaded::Calibration(cal),
+                Err(e) => Loaded::Rejected(e),
+            },
+        })
+    }
+
+    /// Store `cal`, power-loss safe: after this returns, or after an interruption at any
+    /// point, `load` gives either the previous calibration or `cal`. The caller validates
+    /// `cal` first (as [`crate::Protocol`] does); an invalid one would be stored but then
+    /// rejected by `load`.
+    pub async fn save(&mut self, cal: &Calibration) -> Result<(), StoreError<F::Error>> {
+        let record = encode_record(cal);
+        self.map
+            .store_item(&mut self.buf.0, &RECORD_KEY, &&record[..])
+            .await
+            .map_err(StoreError::Flash)
+    }
+
+    /// Erase the whole range (recovery when [`Self::load`] keeps failing with a flash error
+    /// the map cannot repair): afterwards `load` gives [`Loaded::Empty`].
+    pub async fn erase_all(&mut self) -> Result<(), StoreError<F::Error>> {
+        self.map.erase_all().await.map_err(StoreError::Flash)
+    }
+
+    /// Access the flash (e.g. to share it with other users between calls).
+    pub fn flash(&mut self) -> &mut F {
+        self.map.flash()
+    }
+
+    /// Give the flash back.
+    pub fn into_flash(self) -> F {
+        self.map.destroy().0
+    }
+}

@@ -1,0 +1,770 @@
+//! The whole adapter on the desktop: simulated Nunchuk → poller → protocol/corrector →
+//! emulated register map read by a simulated Wii Remote, with the host's requests, power
+//! cuts during commits, and arbitrary requests / bytes.
+
+mod common;
+
+use common::{block_on, CutFlash, MockBus, NoDelay, Plug};
+use nalgebra::{Matrix3, Vector3};
+use proptest::prelude::*;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use wiical_adapter::corrector::nominal_calibration;
+use wiical_adapter::protocol::bits_equal;
+use wiical_adapter::{
+    BootLoad, CalibrationStore, CorrectionMode, DeviceInfo, IdealScale, NunchukPoller, Protocol,
+};
+use wiical_core::Calibration;
+use wiical_extbus::nunchuk::StickAxisCalibration;
+use wiical_extbus::{CalibrationBlock, Encryption, NunchukRegisters, NunchukReport};
+use wiical_wire::{
+    encode_frame, CalibrationState, DefaultFrameDecoder, ErrorCode, Hello, Request, Response,
+    Sample, WireCalibration, MAX_FRAME_LEN, PROTOCOL_VERSION, SCHEMA_KEY,
+};
+
+type Flash = CutFlash<4, 512, 4>;
+
+const BASE_MHZ: u32 = 200_000;
+
+fn info() -> DeviceInfo {
+    DeviceInfo::new("test-0.1.0", [1, 2, 3, 4, 5, 6, 7, 8], BASE_MHZ)
+}
+
+fn factory_block() -> CalibrationBlock {
+    CalibrationBlock {
+        zero: [496, 502, 493],
+        one_g: [701, 696, 695],
+        stick_x: StickAxisCalibration {
+            max: 0xE3,
+            min: 0x1C,
+            centre: 0x7E,
+        },
+        stick_y: StickAxisCalibration {
+            max: 0xE0,
+            min: 0x1E,
+            centre: 0x82,
+        },
+    }
+}
+
+/// The simulated sensor's true forward model `m = D·a + b` (counts), with cross-axis terms.
+fn truth() -> (Matrix3<f64>, Vector3<f64>) {
+    (
+        Matrix3::new(203.0, 2.5, -1.0, -3.0, 196.0, 1.5, 0.8, -2.2, 207.0),
+        Vector3::new(505.3, 497.8, 518.6),
+    )
+}
+
+/// The calibration that inverts the truth exactly (as a perfect fit would give).
+fn true_calibration() -> Calibration {
+    let (d, b) = truth();
+    let k = d.try_inverse().unwrap();
+    Calibration {
+        bias: [b.x as f32, b.y as f32, b.z as f32],
+        matrix: [
+            [k[(0, 0)] as f32, k[(0, 1)] as f32, k[(0, 2)] as f32],
+            [k[(1, 0)] as f32, k[(1, 1)] as f32, k[(1, 2)] as f32],
+            [k[(2, 0)] as f32, k[(2, 1)] as f32, k[(2, 2)] as f32],
+        ],
+        effects: Default::default(),
+    }
+}
+
+fn raw_for(a: Vector3<f64>) -> [u16; 3] {
+    let (d, b) = truth();
+    let m = d * a + b;
+    [m.x, m.y, m.z].map(|v| v.round().clamp(0.0, 1023.0) as u16)
+}
+
+struct Rig<'f> {
+    bus: MockBus,
+    poller: NunchukPoller,
+    proto: Protocol<&'f mut Flash>,
+    t: u64,
+}
+
+impl<'f> Rig<'f> {
+    fn boot(flash: &'f mut Flash) -> Self {
+        let store = CalibrationStore::new(flash, 0..Flash::SIZE).unwrap();
+        let proto = block_on(Protocol::boot(store, info(), IdealScale::default()));
+        let mut n = NunchukRegisters::new();
+        n.set_calibration(&factory_block()).unwrap();
+        n.set_report(&report([512, 512, 712]));
+        Self {
+            bus: MockBus::new(n),
+            poller: NunchukPoller::default(),
+            proto,
+            t: 0,
+        }
+    }
+
+    fn step(&mut self) -> Option<Sample> {
+        self.t += 5;
+        let r = block_on(
+            self.poller
+                .poll(&mut self.bus, &mut NoDelay::default(), self.t),
+        );
+        self.proto.on_poll(&r, self.poller.is_connected())
+    }
+
+    /// Poll until connected and one report went through.
+    fn settle(&mut self) {
+        for _ in 0..200 {
+            self.step();
+            if self.proto.status().connected && self.poller.is_connected() {
+                self.step();
+                return;
+            }
+        }
+        panic!("never connected");
+    }
+
+    fn req(&mut self, r: Request) -> Response {
+        block_on(self.proto.handle(r))
+    }
+
+    fn hello(&mut self) {
+        let Response::Hello(h) = self.req(Request::Hello(Hello::CURRENT)) else {
+            panic!("no hello")
+        };
+        assert_eq!(h.schema_key, SCHEMA_KEY);
+    }
+
+    fn get(&mut self) -> CalibrationState {
+        match self.req(Request::GetCalibration) {
+            Response::Calibration(s) => s,
+            other => panic!("expected calibration, got {other:?}"),
+        }
+    }
+
+    fn commit(&mut self, cal: &Calibration) {
+        assert_eq!(
+            self.req(Request::PutCalibration((*cal).into())),
+            Response::Ack
+        );
+        assert_eq!(self.req(Request::CommitCalibration), Response::Ack);
+    }
+}
+
+fn report(accel: [u16; 3]) -> NunchukReport {
+    NunchukReport {
+        stick: [0x81, 0x7F],
+        accel,
+        c: true,
+        z: false,
+    }
+}
+
+/// What a Wii Remote reads from the emulated Nunchuk after its init (plain or legacy):
+/// the calibration block (both copies, with fallback) and the current report.
+fn wiimote_reads(
+    proto: &mut Protocol<&mut Flash>,
+    enc: Encryption,
+) -> (CalibrationBlock, NunchukReport) {
+    let em = proto.emulated();
+    for w in enc.init_sequence() {
+        em.on_write(&w.to_bytes());
+    }
+    em.on_write(&[0xFA]);
+    let mut id = [0u8; 6];
+    em.on_read(&mut id);
+    enc.decode_in_place(&mut id);
+    assert_eq!(id, wiical_extbus::nunchuk::ID);
+    em.on_write(&[0x20]);
+    let mut block = [0u8; 32];
+    em.on_read(&mut block);
+    enc.decode_in_place(&mut block);
+    let cal = CalibrationBlock::from_registers(&block).expect("emulated block checksum");
+    em.on_write(&[0x00]);
+    let mut rep = [0u8; 6];
+    em.on_read(&mut rep);
+    (cal.value, NunchukReport::decode_with(&rep, enc).unwrap())
+}
+
+#[test]
+fn hello_gates_every_other_request() {
+    let mut flash = Flash::new(1);
+    let mut rig = Rig::boot(&mut flash);
+    let gated = [
+        Request::GetCalibration,
+        Request::PutCalibration(true_calibration().into()),
+        Request::CommitCalibration,
+        Request::StartStream { rate_divider: 1 },
+        Request::StopStream,
+    ];
+    for r in &gated {
+        assert_eq!(
+            rig.req(r.clone()),
+            Response::Error(ErrorCode::SchemaMismatch)
+        );
+    }
+    // A Hello with another key is answered (so the host can say why) but opens nothing.
+    let other = Hello {
+        protocol_version: 99,
+        schema_key: SCHEMA_KEY ^ 1,
+    };
+    let Response::Hello(h) = rig.req(Request::Hello(other)) else {
+        panic!()
+    };
+    assert_eq!(h.protocol_version, PROTOCOL_VERSION);
+    assert_eq!(h.schema_key, SCHEMA_KEY);
+    assert_eq!(h.firmware_version.as_str(), "test-0.1.0");
+    assert_eq!(h.device_id, [1, 2, 3, 4, 5, 6, 7, 8]);
+    for r in &gated {
+        assert_eq!(
+            rig.req(r.clone()),
+            Response::Error(ErrorCode::SchemaMismatch)
+        );
+    }
+    rig.hello();
+    assert!(matches!(
+        rig.req(Request::GetCalibration),
+        Response::Calibration(_)
+    ));
+    // A later bad Hello closes the session again; reset_session too.
+    rig.req(Request::Hello(other));
+    assert_eq!(
+        rig.req(Request::GetCalibration),
+        Response::Error(ErrorCode::SchemaMismatch)
+    );
+    rig.hello();
+    rig.proto.reset_session();
+    assert_eq!(
+        rig.req(Request::GetCalibration),
+        Response::Error(ErrorCode::SchemaMismatch)
+    );
+}
+
+#[test]
+fn a_simulator_key_override_is_what_hello_compares() {
+    let mut flash = Flash::new(1);
+    let store = CalibrationStore::new(&mut flash, 0..Flash::SIZE).unwrap();
+    let mut p = block_on(Protocol::boot(store, info(), IdealScale::default())).with_schema_key(7);
+    let Response::Hello(h) = block_on(p.handle(Request::Hello(Hello::CURRENT))) else {
+        panic!()
+    };
+    assert_eq!(h.schema_key, 7);
+    assert_eq!(h.check(), Err(ErrorCode::SchemaMismatch));
+    assert_eq!(
+        block_on(p.handle(Request::GetCalibration)),
+        Response::Error(ErrorCode::SchemaMismatch)
+    );
+}
+
+#[test]
+fn put_stages_commit_makes_live_and_persistent() {
+    let mut flash = Flash::new(2);
+    let mut rig = Rig::boot(&mut flash);
+    rig.settle();
+    rig.hello();
+    assert_eq!(rig.proto.status().boot, BootLoad::Empty);
+
+    // Uncalibrated: the live calibration is the Nunchuk's factory block.
+    let s = rig.get();
+    assert!(!s.stored);
+    assert_eq!(s.staged, None);
+    let f = factory_block();
+    let live = Calibration::from(s.live);
+    for i in 0..3 {
+        assert_eq!(live.bias[i], f32::from(f.zero[i]));
+        assert_eq!(live.matrix[i][i], 1.0 / (f.one_g[i] - f.zero[i]) as f32);
+    }
+
+    let cal = true_calibration();
+    assert_eq!(rig.req(Request::PutCalibration(cal.into())), Response::Ack);
+    let s = rig.get();
+    assert_eq!(s.staged, Some(WireCalibration::from(cal)));
+    assert!(!s.stored, "staged is not live");
+    assert_eq!(rig.proto.corrector().mode(), CorrectionMode::PassThrough);
+
+    // Invalid calibrations are refused and leave the staged one alone.
+    let mut singular = cal;
+    singular.matrix[1] = singular.matrix[0];
+    let mut nan = cal;
+    nan.bias[2] = f32::NAN;
+    for bad in [singular, nan] {
+        assert_eq!(
+            rig.req(Request::PutCalibration(bad.into())),
+            Response::Error(ErrorCode::InvalidCalibration)
+        );
+    }
+    assert_eq!(rig.get().staged, Some(WireCalibration::from(cal)));
+
+    assert_eq!(rig.req(Request::CommitCalibration), Response::Ack);
+    let s = rig.get();
+    assert!(s.stored);
+    assert_eq!(s.staged, None);
+    assert!(bits_equal(&Calibration::from(s.live), &cal));
+    assert_eq!(rig.proto.corrector().mode(), CorrectionMode::Calibrated);
+    assert_eq!(
+        rig.req(Request::CommitCalibration),
+        Response::Error(ErrorCode::NothingStaged)
+    );
+
+    // Reboot: the committed calibration is back.
+    let mut rig = Rig::boot(&mut flash);
+    assert_eq!(rig.proto.status().boot, BootLoad::Loaded);
+    rig.hello();
+    assert!(bits_equal(&Calibration::from(rig.get().live), &cal));
+}
+
+#[test]
+fn stream_divider_seq_and_corrected_values() {
+    let mut flash = Flash::new(3);
+    let mut rig = Rig::boot(&mut flash);
+    rig.settle();
+    rig.hello();
+    let cal = true_calibration();
+    rig.commit(&cal);
+    assert!(rig.step().is_none(), "no stream yet");
+    assert_eq!(
+        rig.req(Request::StartStream { rate_divider: 0 }),
+        Response::Error(ErrorCode::InvalidParameter)
+    );
+    assert_eq!(
+        rig.req(Request::StartStream { rate_divider: 3 }),
+        Response::StreamStarted {
+            sample_rate_mhz: BASE_MHZ / 3
+        }
+    );
+    let mut rng = ChaCha8Rng::seed_from_u64(5);
+    let mut samples = Vec::new();
+    for i in 0..30 {
+        let r = NunchukReport {
+            stick: [rng.random(), rng.random()],
+            accel: [
+                rng.random_range(1..1023),
+                rng.random_range(1..1023),
+                rng.random_range(1..1023),
+            ],
+            c: rng.random(),
+            z: rng.random(),
+        };
+        rig.bus.nunchuk.set_report(&r);
+        if let Some(s) = rig.step() {
+            samples.push((i, r, s));
+        }
+    }
+    assert_eq!(samples.len(), 10);
+    for (n, (i, r, s)) in samples.iter().enumerate() {
+        assert_eq!(*i % 3, 0, "every third report");
+        assert_eq!(s.seq, n as u32);
+        assert_eq!(s.raw, r.accel);
+        assert_eq!(s.corrected, cal.correct_linear(r.accel.map(f32::from)));
+        assert_eq!(s.stick, r.stick);
+        assert_eq!(s.buttons & Sample::BUTTON_C != 0, r.c);
+        assert_eq!(s.buttons & Sample::BUTTON_Z != 0, r.z);
+    }
+    // Restart: seq from 0 again; Stop ends it; a Hello ends it too.
+    rig.req(Request::StartStream { rate_divider: 1 });
+    assert_eq!(rig.step().map(|s| s.seq), Some(0));
+    assert_eq!(rig.step().map(|s| s.seq), Some(1));
+    assert_eq!(rig.req(Request::StopStream), Response::Ack);
+    assert!(rig.step().is_none());
+    rig.req(Request::StartStream { rate_divider: 1 });
+    rig.hello();
+    assert!(rig.step().is_none());
+    // No samples while the Nunchuk is unplugged; they resume after the replug.
+    rig.req(Request::StartStream { rate_divider: 1 });
+    rig.bus.plug = Plug::Unplugged;
+    for _ in 0..50 {
+        assert!(rig.step().is_none());
+    }
+    assert!(!rig.proto.status().connected);
+    rig.bus.replug();
+    let mut resumed = None;
+    for _ in 0..100 {
+        if let Some(s) = rig.step() {
+            resumed = Some(s);
+            break;
+        }
+    }
+    assert!(rig.proto.status().connected);
+    assert_eq!(resumed.map(|s| s.seq), Some(0));
+}
+
+#[test]
+fn wiimote_sees_corrected_acceleration_on_the_ideal_scale() {
+    let mut flash = Flash::new(4);
+    let mut rig = Rig::boot(&mut flash);
+    rig.settle();
+    rig.hello();
+    let cal = true_calibration();
+    let gen_before = rig.proto.block_generation();
+    rig.commit(&cal);
+    assert!(
+        rig.proto.block_generation() != gen_before,
+        "block change not signalled"
+    );
+
+    let (d, b) = truth();
+    let k = d.try_inverse().unwrap();
+    let mut rng = ChaCha8Rng::seed_from_u64(9);
+    for trial in 0..200 {
+        // Random direction, magnitude 0.2–2 g (dynamic motion, not only gravity).
+        let v = Vector3::new(
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-1.0..1.0f64),
+        );
+        if v.norm() < 1e-3 {
+            continue;
+        }
+        let a = v.normalize() * rng.random_range(0.2..2.0);
+        let raw = raw_for(a);
+        rig.bus.nunchuk.set_report(&report(raw));
+        rig.step();
+        for enc in [Encryption::None, Encryption::Legacy] {
+            let (block, rep) = wiimote_reads(&mut rig.proto, enc);
+            assert_eq!(block.zero, [512; 3]);
+            assert_eq!(block.one_g, [712; 3]);
+            assert_eq!(
+                block.stick_x,
+                factory_block().stick_x,
+                "stick calibration kept"
+            );
+            assert_eq!(
+                (rep.stick, rep.c, rep.z),
+                ((report(raw)).stick, true, false)
+            );
+            let seen = block.accel_to_g(rep.accel).unwrap();
+            // f64 reference of the correction of the raw counts the adapter got.
+            let m = Vector3::new(raw[0] as f64, raw[1] as f64, raw[2] as f64);
+            let reference = k * (m - b);
+            for i in 0..3 {
+                let expect = reference[i].clamp(-512.0 / 200.0, 511.0 / 200.0);
+                assert!(
+                    (seen[i] as f64 - expect).abs() <= 0.5 / 200.0 + 1e-4,
+                    "trial {trial} axis {i}: Wiimote sees {} g, reference {expect} g",
+                    seen[i]
+                );
+                // And against the truth, within raw + re-encoding quantisation.
+                if a[i].abs() < 2.4 {
+                    assert!(
+                        (seen[i] as f64 - a[i]).abs() < 0.006,
+                        "trial {trial} axis {i}"
+                    );
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn pass_through_presents_raw_counts_and_the_factory_block() {
+    let mut flash = Flash::new(5);
+    let mut rig = Rig::boot(&mut flash);
+    rig.settle();
+    assert_eq!(rig.proto.corrector().mode(), CorrectionMode::PassThrough);
+    for raw in [[0u16, 1023, 512], [496, 502, 493], [701, 7, 1000]] {
+        rig.bus.nunchuk.set_report(&report(raw));
+        rig.step();
+        let (block, rep) = wiimote_reads(&mut rig.proto, Encryption::None);
+        assert_eq!(block, factory_block());
+        assert_eq!(rep.accel, raw);
+    }
+}
+
+#[test]
+fn unusable_factory_block_falls_back_to_nominal() {
+    let mut flash = Flash::new(6);
+    let mut rig = Rig::boot(&mut flash);
+    let mut bad = factory_block().encode().unwrap();
+    bad[14] ^= 0xFF;
+    rig.bus.nunchuk.set_calibration_bytes(&bad);
+    rig.settle();
+    rig.hello();
+    let live = Calibration::from(rig.get().live);
+    assert!(bits_equal(&live, &nominal_calibration()));
+    // The Nunchuk's own (bad) bytes are still what the Wii Remote gets, as it would without
+    // the adapter.
+    let em = rig.proto.emulated();
+    assert_eq!(em.registers().register(0x2E), bad[14]);
+}
+
+#[test]
+fn power_cut_during_commit_keeps_old_or_new_never_corrupt() {
+    let old = true_calibration();
+    let mut new = old;
+    new.bias = [490.0, 530.5, 501.25];
+    new.matrix[0][1] = 3e-4;
+    // Measure how many flash operations a commit of `new` takes after `old`.
+    let mut flash = Flash::new(7);
+    {
+        let mut rig = Rig::boot(&mut flash);
+        rig.hello();
+        rig.commit(&old);
+    }
+    let base = flash.ops;
+    {
+        let mut rig = Rig::boot(&mut flash);
+        rig.hello();
+        rig.commit(&new);
+    }
+    let per_commit = flash.ops - base;
+    assert!(per_commit > 30);
+
+    for cut in 0..per_commit + 2 {
+        let mut flash = Flash::new(100 + cut);
+        {
+            let mut rig = Rig::boot(&mut flash);
+            rig.hello();
+            rig.commit(&old);
+        }
+        flash.cut_after = Some(cut);
+        let committed = {
+            let mut rig = Rig::boot(&mut flash);
+            rig.hello();
+            assert_eq!(rig.req(Request::PutCalibration(new.into())), Response::Ack);
+            let resp = rig.req(Request::CommitCalibration);
+            let live = Calibration::from(rig.get().live);
+            match resp {
+                Response::Ack => {
+                    assert!(bits_equal(&live, &new));
+                    true
+                }
+                Response::Error(ErrorCode::StorageFailure) => {
+                    // The live calibration did not change.
+                    assert!(bits_equal(&live, &old), "cut {cut}");
+                    false
+                }
+                other => panic!("cut {cut}: {other:?}"),
+            }
+        };
+        flash.reboot();
+        let mut rig = Rig::boot(&mut flash);
+        rig.hello();
+        let live = Calibration::from(rig.get().live);
+        assert_eq!(rig.proto.status().boot, BootLoad::Loaded, "cut {cut}");
+        if committed {
+            assert!(bits_equal(&live, &new), "cut {cut}: acked commit lost");
+        } else {
+            assert!(
+                bits_equal(&live, &old) || bits_equal(&live, &new),
+                "cut {cut}: neither old nor new"
+            );
+        }
+    }
+}
+
+#[test]
+fn damaged_storage_boots_in_pass_through() {
+    let mut flash = Flash::new(8);
+    {
+        let mut rig = Rig::boot(&mut flash);
+        rig.hello();
+        rig.commit(&true_calibration());
+    }
+    // Smash the record's payload (behind sequential-storage's back).
+    let pos = flash.data.windows(4).position(|w| w == b"WCAL").unwrap();
+    flash.data[pos + 20] ^= 0x40;
+    let mut rig = Rig::boot(&mut flash);
+    assert_ne!(rig.proto.status().boot, BootLoad::Loaded);
+    assert_eq!(rig.proto.corrector().mode(), CorrectionMode::PassThrough);
+    rig.settle();
+    rig.hello();
+    assert!(!rig.get().stored);
+}
+
+fn arb_f32() -> impl Strategy<Value = f32> {
+    prop_oneof![
+        4 => -2.0f32..2.0,
+        2 => 400.0f32..600.0,
+        1 => any::<f32>(),
+        1 => Just(f32::NAN),
+        1 => Just(0.0f32),
+    ]
+}
+
+fn arb_cal() -> impl Strategy<Value = WireCalibration> {
+    (
+        proptest::array::uniform3(arb_f32()),
+        proptest::array::uniform3(proptest::array::uniform3(arb_f32())),
+        proptest::array::uniform3(arb_f32()),
+    )
+        .prop_map(|(bias, matrix, quad)| {
+            let mut c = Calibration {
+                bias,
+                matrix,
+                effects: Default::default(),
+            };
+            c.effects.quadratic = quad;
+            c.into()
+        })
+}
+
+fn arb_request() -> impl Strategy<Value = Request> {
+    prop_oneof![
+        2 => Just(Request::Hello(Hello::CURRENT)),
+        1 => (any::<u16>(), any::<u32>()).prop_map(|(v, k)| Request::Hello(Hello {
+            protocol_version: v,
+            schema_key: k
+        })),
+        2 => Just(Request::GetCalibration),
+        3 => arb_cal().prop_map(Request::PutCalibration),
+        2 => Just(Request::CommitCalibration),
+        2 => any::<u16>().prop_map(|d| Request::StartStream { rate_divider: d % 5 }),
+        1 => Just(Request::StopStream),
+    ]
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(96))]
+
+    /// Any request sequence, interleaved with reports: no panic, each answer is one the
+    /// request allows, the live calibration always validates, samples count up by one and
+    /// carry exactly the linear correction of their raw counts.
+    #[test]
+    fn arbitrary_requests_keep_the_invariants(
+        reqs in proptest::collection::vec((arb_request(), 0usize..4), 1..40),
+        accel in proptest::collection::vec(proptest::array::uniform3(0u16..1024), 1..20),
+    ) {
+        let mut flash = Flash::new(11);
+        let mut rig = Rig::boot(&mut flash);
+        rig.settle();
+        let mut last_seq: Option<u32> = None;
+        let mut open = false;
+        let mut ai = 0;
+        for (req, polls) in reqs {
+            let is_hello = matches!(req, Request::Hello(_));
+            let good_hello = matches!(req, Request::Hello(h) if h.schema_key == SCHEMA_KEY);
+            let is_start = matches!(req, Request::StartStream { rate_divider: 1.. });
+            let resp = rig.req(req.clone());
+            match (&req, &resp) {
+                (Request::Hello(_), Response::Hello(_)) => open = good_hello,
+                (_, Response::Error(ErrorCode::SchemaMismatch)) => prop_assert!(!open),
+                (Request::GetCalibration, Response::Calibration(s)) => {
+                    prop_assert!(Calibration::from(s.live).validate().is_ok());
+                }
+                (Request::PutCalibration(w), Response::Ack) => {
+                    prop_assert!(Calibration::from(*w).validate().is_ok());
+                }
+                (Request::PutCalibration(_), Response::Error(ErrorCode::InvalidCalibration)) => {}
+                (Request::CommitCalibration, Response::Ack)
+                | (Request::CommitCalibration, Response::Error(ErrorCode::NothingStaged)) => {}
+                (Request::StartStream { rate_divider: 0 }, Response::Error(ErrorCode::InvalidParameter)) => {}
+                (Request::StartStream { rate_divider }, Response::StreamStarted { sample_rate_mhz }) => {
+                    prop_assert_eq!(*sample_rate_mhz, BASE_MHZ / u32::from(*rate_divider));
+                }
+                (Request::StopStream, Response::Ack) => {}
+                _ => prop_assert!(false, "{:?} answered with {:?}", req, resp),
+            }
+            if is_hello || is_start || matches!(req, Request::StopStream) {
+                last_seq = None;
+            }
+            prop_assert!(rig.proto.corrector().live_calibration().validate().is_ok());
+            for _ in 0..polls {
+                rig.bus.nunchuk.set_report(&report(accel[ai % accel.len()]));
+                ai += 1;
+                if let Some(s) = rig.step() {
+                    if let Some(prev) = last_seq {
+                        prop_assert_eq!(s.seq, prev.wrapping_add(1));
+                    }
+                    last_seq = Some(s.seq);
+                    let live = rig.proto.corrector().live_calibration();
+                    if live.effects.is_none() {
+                        let want = live.correct_linear(s.raw.map(f32::from));
+                        prop_assert_eq!(s.corrected.map(f32::to_bits), want.map(f32::to_bits));
+                    }
+                }
+            }
+        }
+    }
+
+    /// Arbitrary bytes from the serial line: every complete frame gets one answer, corrupt
+    /// frames a BadFrame error, and nothing panics.
+    #[test]
+    fn arbitrary_serial_bytes_never_panic(bytes in proptest::collection::vec(any::<u8>(), 0..600)) {
+        let mut flash = Flash::new(12);
+        let store = CalibrationStore::new(&mut flash, 0..Flash::SIZE).unwrap();
+        let mut p = block_on(Protocol::boot(store, info(), IdealScale::default()));
+        let mut rx = DefaultFrameDecoder::new();
+        let mut out = [0u8; MAX_FRAME_LEN];
+        for item in rx.feed::<Request>(&bytes) {
+            let resp = match item {
+                Ok(req) => block_on(p.handle(req)),
+                Err(e) => {
+                    let r = p.bad_frame(e);
+                    prop_assert_eq!(&r, &Response::Error(ErrorCode::BadFrame));
+                    r
+                }
+            };
+            prop_assert!(encode_frame(&resp, &mut out).is_ok());
+        }
+    }
+}
+
+#[test]
+fn corrector_encoding_saturates_and_is_nan_safe() {
+    let s = IdealScale::default();
+    assert_eq!(s.encode(0.0), 512);
+    assert_eq!(s.encode(1.0), 712);
+    assert_eq!(s.encode(-1.0), 312);
+    assert_eq!(s.encode(0.0024), 512); // 0.48 count rounds down
+    assert_eq!(s.encode(0.0026), 513);
+    assert_eq!(s.encode(2.555), 1023);
+    assert_eq!(s.encode(50.0), 1023);
+    assert_eq!(s.encode(-50.0), 0);
+    assert_eq!(s.encode(f32::INFINITY), 1023);
+    assert_eq!(s.encode(f32::NEG_INFINITY), 0);
+    assert_eq!(s.encode(f32::NAN), 512);
+    // The ideal block: checksums valid, zero/one-g as documented, low bits clear.
+    let block = s
+        .block(factory_block().stick_x, factory_block().stick_y)
+        .unwrap();
+    let bytes = block.encode().unwrap();
+    assert!(CalibrationBlock::from_bytes(&bytes).checksum_ok);
+    assert_eq!(
+        &bytes[..8],
+        &[0x80, 0x80, 0x80, 0x00, 0xB2, 0xB2, 0xB2, 0x00]
+    );
+    // A scale that does not fit 10 bits is refused.
+    assert!(IdealScale {
+        zero: 900,
+        counts_per_g: 200
+    }
+    .block(factory_block().stick_x, factory_block().stick_y)
+    .is_none());
+}
+
+proptest! {
+    /// Any calibration that validates and any raw sample: counts are 10-bit and follow the
+    /// encoding of `g`; a calibration that does not validate is refused.
+    #[test]
+    fn corrector_never_panics(cal in arb_cal(), raw in proptest::array::uniform3(any::<u16>())) {
+        let mut c = wiical_adapter::Corrector::default();
+        let cal = Calibration::from(cal);
+        match c.set_user_calibration(Some(cal)) {
+            Ok(()) => {
+                let out = c.correct(raw);
+                for i in 0..3 {
+                    prop_assert!(out.counts[i] <= 1023);
+                    prop_assert_eq!(out.counts[i], c.scale().encode(out.g[i]));
+                }
+            }
+            Err(_) => {
+                prop_assert!(cal.validate().is_err());
+                prop_assert_eq!(c.mode(), CorrectionMode::PassThrough);
+                let out = c.correct(raw);
+                prop_assert_eq!(out.counts, raw.map(|x| x.min(1023)));
+            }
+        }
+    }
+}
+
+#[test]
+fn encoded_state_round_trips_through_frames() {
+    // The responses the adapter produces fit in a frame (the largest is the calibration
+    // state with a staged calibration).
+    let mut flash = Flash::new(13);
+    let mut rig = Rig::boot(&mut flash);
+    rig.settle();
+    rig.hello();
+    rig.req(Request::PutCalibration(true_calibration().into()));
+    let resp = rig.req(Request::GetCalibration);
+    let mut buf = [0u8; MAX_FRAME_LEN];
+    let frame = encode_frame(&resp, &mut buf).unwrap().to_vec();
+    let mut rx = DefaultFrameDecoder::new();
+    let back: Vec<_> = rx.feed::<Response>(&frame).collect();
+    assert_eq!(back, vec![Ok(resp)]);
+}

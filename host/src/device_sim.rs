@@ -1,0 +1,725 @@
+//! `wiical device-sim --pty`: the adapter firmware's logic ([`wiical_adapter`]) running on
+//! the desktop, serving the wire protocol on a pseudo-terminal.
+//!
+//! The same code as the firmware runs here: a [`NunchukPoller`] polls a simulated Nunchuk
+//! (the [`NunchukRegisters`] state machine behind a simulated I²C bus) at 200 Hz, a
+//! [`Protocol`] corrects the reports, fills the emulated register map and answers requests,
+//! and a [`CalibrationStore`] keeps the committed calibration in a simulated NOR flash
+//! (in memory, or mirrored to a file with `--flash` so that it survives a restart).
+//!
+//! The simulated sensor has a known forward model ([`TRUE_D`], [`TRUE_BIAS`]): the gravity
+//! vector turns slowly (periods of 13 s and 20 s) with 0.6-count noise, the stick circles
+//! and the buttons blink. Its factory block is the diagonal, rounded part of that model.
+//!
+//! A host opening the pty is like plugging the USB cable in; closing it (the simulator sees
+//! a hang-up) closes the session and stops the stream, as a real adapter does when the port
+//! is closed.
+//!
+//! For tests, [`spawn`] returns the pty path and a [`SimHandle`] that can unplug the
+//! Nunchuk, inject raw bytes towards the host, and stop the simulator (giving back the flash
+//! so that a new simulator can boot from it).
+
+use std::io::{self, Read, Write};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, AtomicU32, AtomicU64, Ordering};
+use std::sync::mpsc;
+use std::sync::{Arc, Mutex};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+use anyhow::{anyhow, bail, Context, Result};
+use embedded_hal_async::i2c::{ErrorKind, ErrorType, I2c, NoAcknowledgeSource, Operation};
+use embedded_storage_async::nor_flash::{
+    ErrorType as FlashErrorType, NorFlash, NorFlashError, NorFlashErrorKind, ReadNorFlash,
+};
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, Normal};
+use serialport::{SerialPort, TTYPort};
+use wiical_adapter::{
+    CalibrationStore, DeviceInfo, IdealScale, NunchukPoller, PollerConfig, Protocol,
+};
+use wiical_extbus::nunchuk::StickAxisCalibration;
+use wiical_extbus::{CalibrationBlock, NunchukRegisters, NunchukReport};
+use wiical_wire::{encode_frame, DefaultFrameDecoder, Request, Response, MAX_FRAME_LEN};
+
+/// Erase page of the simulated flash, bytes (the 4 KiB sector of a QSPI NOR flash).
+pub const FLASH_PAGE: usize = 4096;
+/// Number of pages given to the calibration store.
+pub const FLASH_PAGES: usize = 2;
+/// Program granularity of the simulated flash, bytes.
+pub const FLASH_WORD: usize = 4;
+/// Size of the simulated flash image, bytes.
+pub const FLASH_SIZE: usize = FLASH_PAGE * FLASH_PAGES;
+
+/// True forward model of the simulated Nunchuk accelerometer, `m = D·a + b`: counts per g
+/// with small cross-axis terms (row = output axis).
+pub const TRUE_D: [[f64; 3]; 3] = [[203.0, 2.5, -1.0], [-3.0, 196.0, 1.5], [0.8, -2.2, 207.0]];
+/// True bias (zero-g counts) of the simulated accelerometer.
+pub const TRUE_BIAS: [f64; 3] = [505.3, 497.8, 518.6];
+
+// ------------------------------------------------------------------------------------------
+// Flash
+
+/// Error of the simulated flash.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SimFlashError {
+    /// Offset or length not aligned to the word / page size.
+    NotAligned,
+    /// Outside the image.
+    OutOfBounds,
+    /// The backing file could not be written.
+    Io,
+}
+
+impl NorFlashError for SimFlashError {
+    fn kind(&self) -> NorFlashErrorKind {
+        match self {
+            SimFlashError::NotAligned => NorFlashErrorKind::NotAligned,
+            SimFlashError::OutOfBounds => NorFlashErrorKind::OutOfBounds,
+            SimFlashError::Io => NorFlashErrorKind::Other,
+        }
+    }
+}
+
+/// A NOR flash image shared between simulator runs (clone it to keep it across a restart),
+/// optionally mirrored to a file after every program / erase.
+#[derive(Debug, Clone)]
+pub struct SimFlash {
+    image: Arc<Mutex<Vec<u8>>>,
+    file: Option<PathBuf>,
+}
+
+impl SimFlash {
+    /// A blank (erased) in-memory flash.
+    pub fn in_memory() -> Self {
+        Self {
+            image: Arc::new(Mutex::new(vec![0xFF; FLASH_SIZE])),
+            file: None,
+        }
+    }
+
+    /// A flash mirrored to `path`: loaded from it if it exists (it must then be a
+    /// [`FLASH_SIZE`]-byte image), created blank otherwise.
+    pub fn file(path: &Path) -> Result<Self> {
+        let image = if path.exists() {
+            let data =
+                std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
+            if data.len() != FLASH_SIZE {
+                bail!(
+                    "{} is not a device-sim flash image ({} bytes, expected {FLASH_SIZE})",
+                    path.display(),
+                    data.len()
+                );
+            }
+            data
+        } else {
+            let data = vec![0xFF; FLASH_SIZE];
+            std::fs::write(path, &data)
+                .with_context(|| format!("cannot create {}", path.display()))?;
+            data
+        };
+        Ok(Self {
+            image: Arc::new(Mutex::new(image)),
+            file: Some(path.to_path_buf()),
+        })
+    }
+
+    /// A copy of the image.
+    pub fn snapshot(&self) -> Vec<u8> {
+        self.lock().clone()
+    }
+
+    fn lock(&self) -> std::sync::MutexGuard<'_, Vec<u8>> {
+        // A panicking holder cannot leave the image half-written in a way the store cannot
+        // cope with (that is the point of the store), so a poisoned lock is still usable.
+        self.image.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    fn persist(&self, image: &[u8]) -> Result<(), SimFlashError> {
+        match &self.file {
+            Some(p) => std::fs::write(p, image).map_err(|_| SimFlashError::Io),
+            None => Ok(()),
+        }
+    }
+
+    fn range(
+        offset: u32,
+        len: usize,
+        align: usize,
+    ) -> Result<std::ops::Range<usize>, SimFlashError> {
+        let start = offset as usize;
+        if !start.is_multiple_of(align) || !len.is_multiple_of(align) {
+            return Err(SimFlashError::NotAligned);
+        }
+        let end = start.checked_add(len).ok_or(SimFlashError::OutOfBounds)?;
+        if end > FLASH_SIZE {
+            return Err(SimFlashError::OutOfBounds);
+        }
+        Ok(start..end)
+    }
+}
+
+impl FlashErrorType for SimFlash {
+    type Error = SimFlashError;
+}
+
+impl ReadNorFlash for SimFlash {
+    const READ_SIZE: usize = 1;
+
+    async fn read(&mut self, offset: u32, bytes: &mut [u8]) -> Result<(), SimFlashError> {
+        let r = Self::range(offset, bytes.len(), 1)?;
+        bytes.copy_from_slice(&self.lock()[r]);
+        Ok(())
+    }
+
+    fn capacity(&self) -> usize {
+        FLASH_SIZE
+    }
+}
+
+impl NorFlash for SimFlash {
+    const WRITE_SIZE: usize = FLASH_WORD;
+    const ERASE_SIZE: usize = FLASH_PAGE;
+
+    async fn erase(&mut self, from: u32, to: u32) -> Result<(), SimFlashError> {
+        let len = to.checked_sub(from).ok_or(SimFlashError::OutOfBounds)? as usize;
+        let r = Self::range(from, len, FLASH_PAGE)?;
+        let mut img = self.lock();
+        img[r].fill(0xFF);
+        self.persist(&img)
+    }
+
+    async fn write(&mut self, offset: u32, bytes: &[u8]) -> Result<(), SimFlashError> {
+        let r = Self::range(offset, bytes.len(), FLASH_WORD)?;
+        let mut img = self.lock();
+        // NOR programming only clears bits.
+        for (b, d) in img[r].iter_mut().zip(bytes) {
+            *b &= d;
+        }
+        self.persist(&img)
+    }
+}
+
+// ------------------------------------------------------------------------------------------
+// Simulated Nunchuk on a simulated bus
+
+/// Bus error of the simulated extension port.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct SimNak;
+
+impl embedded_hal_async::i2c::Error for SimNak {
+    fn kind(&self) -> ErrorKind {
+        ErrorKind::NoAcknowledge(NoAcknowledgeSource::Address)
+    }
+}
+
+/// The simulated Nunchuk's factory calibration block: the diagonal of [`TRUE_D`] and
+/// [`TRUE_BIAS`], rounded (what a factory two-point calibration would store).
+pub fn sim_factory_block() -> CalibrationBlock {
+    let zero = TRUE_BIAS.map(|b| b.round() as u16);
+    let one_g: [u16; 3] = std::array::from_fn(|i| (TRUE_BIAS[i] + TRUE_D[i][i]).round() as u16);
+    CalibrationBlock {
+        zero,
+        one_g,
+        stick_x: StickAxisCalibration {
+            max: 0xE2,
+            min: 0x1D,
+            centre: 0x80,
+        },
+        stick_y: StickAxisCalibration {
+            max: 0xDF,
+            min: 0x1F,
+            centre: 0x7F,
+        },
+    }
+}
+
+fn fresh_nunchuk() -> NunchukRegisters {
+    let mut n = NunchukRegisters::new();
+    // The block is in range by construction; a failure would leave zeros, caught by tests.
+    let _ = n.set_calibration(&sim_factory_block());
+    n
+}
+
+/// The simulated extension port: a Nunchuk when plugged, NAKs otherwise. A replug powers
+/// up a fresh, uninitialised Nunchuk.
+struct SimBus {
+    nunchuk: NunchukRegisters,
+    plugged: Arc<AtomicBool>,
+    was_plugged: bool,
+}
+
+impl ErrorType for SimBus {
+    type Error = SimNak;
+}
+
+impl I2c for SimBus {
+    async fn transaction(
+        &mut self,
+        address: u8,
+        operations: &mut [Operation<'_>],
+    ) -> Result<(), SimNak> {
+        let plugged = self.plugged.load(Ordering::Relaxed);
+        if plugged && !self.was_plugged {
+            let mut fresh = fresh_nunchuk();
+            let mut report = [0u8; 6];
+            for (i, b) in report.iter_mut().enumerate() {
+                *b = self.nunchuk.register(i as u8);
+            }
+            fresh.set_report(&NunchukReport::from_bytes(&report));
+            self.nunchuk = fresh;
+        }
+        self.was_plugged = plugged;
+        if !plugged || address != wiical_extbus::nunchuk::I2C_ADDRESS {
+            return Err(SimNak);
+        }
+        for op in operations {
+            match op {
+                Operation::Write(b) => self.nunchuk.write(b),
+                Operation::Read(b) => self.nunchuk.read(b),
+            }
+        }
+        Ok(())
+    }
+}
+
+struct NoDelay;
+
+impl embedded_hal_async::delay::DelayNs for NoDelay {
+    async fn delay_ns(&mut self, _ns: u32) {}
+}
+
+/// Slow synthetic motion of the simulated Nunchuk.
+struct Motion {
+    rng: ChaCha8Rng,
+    noise: Normal<f64>,
+}
+
+impl Motion {
+    fn new(seed: u64) -> Self {
+        Self {
+            rng: ChaCha8Rng::seed_from_u64(seed),
+            noise: Normal::new(0.0, 0.6).unwrap_or_else(|_| unreachable!()),
+        }
+    }
+
+    /// The report at time `t` (s).
+    fn report(&mut self, t: f64) -> NunchukReport {
+        use std::f64::consts::TAU;
+        let theta = 1.2 * (TAU * t / 20.0).sin();
+        let phi = TAU * t / 13.0;
+        let a = [
+            theta.sin() * phi.cos(),
+            theta.sin() * phi.sin(),
+            theta.cos(),
+        ];
+        let accel: [u16; 3] = std::array::from_fn(|i| {
+            let m = TRUE_BIAS[i]
+                + (0..3).map(|j| TRUE_D[i][j] * a[j]).sum::<f64>()
+                + self.noise.sample(&mut self.rng);
+            m.round().clamp(0.0, 1023.0) as u16
+        });
+        let stick = [
+            (128.0 + 60.0 * (TAU * t / 7.0).cos()).round() as u8,
+            (128.0 + 60.0 * (TAU * t / 7.0).sin()).round() as u8,
+        ];
+        NunchukReport {
+            stick,
+            accel,
+            c: t % 6.0 < 0.5,
+            z: t % 9.0 < 0.5,
+        }
+    }
+}
+
+// ------------------------------------------------------------------------------------------
+// The simulator
+
+/// Simulator settings.
+#[derive(Debug, Clone)]
+pub struct SimOptions {
+    /// The flash (clone a [`SimFlash`] to boot a later simulator from the same one).
+    pub flash: SimFlash,
+    /// Seed of the sensor noise.
+    pub seed: u64,
+    /// Present this schema key instead of the real one (to exercise the mismatch path).
+    pub schema_key: Option<u32>,
+    /// Report poll rate, Hz.
+    pub poll_hz: u32,
+}
+
+impl Default for SimOptions {
+    fn default() -> Self {
+        Self {
+            flash: SimFlash::in_memory(),
+            seed: 1,
+            schema_key: None,
+            poll_hz: wiical_adapter::DEFAULT_POLL_HZ,
+        }
+    }
+}
+
+/// Counters of a running simulator.
+#[derive(Debug, Default)]
+pub struct SimCounters {
+    /// Requests answered.
+    pub requests: AtomicU64,
+    /// Corrupt frames received (answered with `BadFrame`).
+    pub bad_frames: AtomicU64,
+    /// Samples sent.
+    pub samples: AtomicU64,
+    /// Times a host closed the port.
+    pub hangups: AtomicU64,
+}
+
+/// Control of a running simulator; dropping it stops the simulator.
+pub struct SimHandle {
+    path: PathBuf,
+    stop: Arc<AtomicBool>,
+    plugged: Arc<AtomicBool>,
+    inject: mpsc::Sender<Vec<u8>>,
+    corrupt: Arc<AtomicU32>,
+    corrupt_acks: Arc<AtomicU32>,
+    counters: Arc<SimCounters>,
+    thread: Option<JoinHandle<Result<()>>>,
+}
+
+impl SimHandle {
+    /// The pty the host opens.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// Plug or unplug the simulated Nunchuk.
+    pub fn set_nunchuk_plugged(&self, plugged: bool) {
+        self.plugged.store(plugged, Ordering::Relaxed);
+    }
+
+    /// Write raw bytes towards the host, between two frames (line noise, corruption).
+    pub fn inject_to_host(&self, bytes: &[u8]) {
+        let _ = self.inject.send(bytes.to_vec());
+    }
+
+    /// Damage the next `n` answers (not samples) on their way to the host: one byte in the
+    /// middle of the frame is changed, so the host sees a CRC/COBS failure.
+    pub fn corrupt_next_answers(&self, n: u32) {
+        self.corrupt.store(n, Ordering::Relaxed);
+    }
+
+    /// Like [`Self::corrupt_next_answers`] but only for `Ack` answers (e.g. to lose the
+    /// acknowledgement of a commit while the requests around it get through).
+    pub fn corrupt_next_acks(&self, n: u32) {
+        self.corrupt_acks.store(n, Ordering::Relaxed);
+    }
+
+    /// Counters so far.
+    pub fn counters(&self) -> &SimCounters {
+        &self.counters
+    }
+
+    /// Stop the simulator and wait for it. Its flash keeps the committed calibration.
+    pub fn stop(mut self) -> Result<()> {
+        self.shutdown()
+    }
+
+    fn shutdown(&mut self) -> Result<()> {
+        self.stop.store(true, Ordering::Relaxed);
+        match self.thread.take() {
+            Some(t) => t
+                .join()
+                .map_err(|_| anyhow!("device-sim thread panicked"))?,
+            None => Ok(()),
+        }
+    }
+
+    /// True while the simulator thread runs.
+    pub fn is_running(&self) -> bool {
+        self.thread.as_ref().is_some_and(|t| !t.is_finished())
+    }
+}
+
+impl Drop for SimHandle {
+    fn drop(&mut self) {
+        let _ = self.shutdown();
+    }
+}
+
+/// Start a simulator on a new pty; returns the pty path (what `--port` takes) and its
+/// handle.
+pub fn spawn(opts: SimOptions) -> Result<(PathBuf, SimHandle)> {
+    let (master, slave) =
+        TTYPort::pair().map_err(|e| anyhow!("cannot create a pseudo-terminal: {e}"))?;
+    let path = PathBuf::from(
+        slave
+            .name()
+            .ok_or_else(|| anyhow!("the pseudo-terminal has no name"))?,
+    );
+    // The slave is opened by the host; keeping it open here would make us compete for its
+    // input. With no slave open the master reports a hang-up, which is how a closed port
+    // is detected.
+    drop(slave);
+
+    let store = CalibrationStore::new(opts.flash.clone(), 0..FLASH_SIZE as u32)
+        .map_err(|e| anyhow!("{e}"))?;
+    let info = DeviceInfo::new(
+        concat!("device-sim ", env!("CARGO_PKG_VERSION")),
+        *b"wiicalSM",
+        opts.poll_hz.max(1) * 1000,
+    );
+    let mut proto = embassy_futures::block_on(Protocol::boot(store, info, IdealScale::default()));
+    if let Some(k) = opts.schema_key {
+        proto = proto.with_schema_key(k);
+    }
+
+    let stop = Arc::new(AtomicBool::new(false));
+    let plugged = Arc::new(AtomicBool::new(true));
+    let counters = Arc::new(SimCounters::default());
+    let corrupt = Arc::new(AtomicU32::new(0));
+    let corrupt_acks = Arc::new(AtomicU32::new(0));
+    let (tx, rx) = mpsc::channel();
+    let worker = Worker {
+        master,
+        proto,
+        poller: NunchukPoller::new(PollerConfig::default()),
+        bus: SimBus {
+            nunchuk: fresh_nunchuk(),
+            plugged: plugged.clone(),
+            was_plugged: true,
+        },
+        motion: Motion::new(opts.seed),
+        period: Duration::from_secs_f64(1.0 / f64::from(opts.poll_hz.max(1))),
+        stop: stop.clone(),
+        inject: rx,
+        corrupt: corrupt.clone(),
+        corrupt_acks: corrupt_acks.clone(),
+        counters: counters.clone(),
+        attached: false,
+    };
+    let thread = std::thread::Builder::new()
+        .name("device-sim".into())
+        .spawn(move || worker.run())
+        .context("cannot start the simulator thread")?;
+    Ok((
+        path.clone(),
+        SimHandle {
+            path,
+            stop,
+            plugged,
+            inject: tx,
+            corrupt,
+            corrupt_acks,
+            counters,
+            thread: Some(thread),
+        },
+    ))
+}
+
+struct Worker {
+    master: TTYPort,
+    proto: Protocol<SimFlash>,
+    poller: NunchukPoller,
+    bus: SimBus,
+    motion: Motion,
+    period: Duration,
+    stop: Arc<AtomicBool>,
+    inject: mpsc::Receiver<Vec<u8>>,
+    corrupt: Arc<AtomicU32>,
+    corrupt_acks: Arc<AtomicU32>,
+    counters: Arc<SimCounters>,
+    /// A host has the port open (we received from it and saw no hang-up since).
+    attached: bool,
+}
+
+impl Worker {
+    fn run(mut self) -> Result<()> {
+        let start = Instant::now();
+        let mut next_poll = start;
+        let mut rx = DefaultFrameDecoder::new();
+        let mut buf = [0u8; 512];
+        while !self.stop.load(Ordering::Relaxed) {
+            while let Ok(bytes) = self.inject.try_recv() {
+                self.send_bytes(&bytes);
+            }
+            let now = Instant::now();
+            if now >= next_poll {
+                let t = now.duration_since(start);
+                self.bus
+                    .nunchuk
+                    .set_report(&self.motion.report(t.as_secs_f64()));
+                let now_ms = u64::try_from(t.as_millis()).unwrap_or(u64::MAX);
+                let r = embassy_futures::block_on(self.poller.poll(
+                    &mut self.bus,
+                    &mut NoDelay,
+                    now_ms,
+                ));
+                if let Some(sample) = self.proto.on_poll(&r, self.poller.is_connected()) {
+                    if self.send(&Response::Sample(sample)) {
+                        self.counters.samples.fetch_add(1, Ordering::Relaxed);
+                    }
+                }
+                next_poll += self.period;
+                if next_poll + 20 * self.period < now {
+                    // Fell far behind (machine busy): skip instead of bursting.
+                    next_poll = now + self.period;
+                }
+            }
+            let wait = next_poll
+                .saturating_duration_since(Instant::now())
+                .clamp(Duration::from_millis(1), Duration::from_millis(5));
+            let _ = self.master.set_timeout(wait);
+            match self.master.read(&mut buf) {
+                Ok(n) if n > 0 => {
+                    self.attached = true;
+                    let items: Vec<_> = rx.feed::<Request>(&buf[..n]).collect();
+                    for item in items {
+                        let resp = match item {
+                            Ok(req) => {
+                                self.counters.requests.fetch_add(1, Ordering::Relaxed);
+                                embassy_futures::block_on(self.proto.handle(req))
+                            }
+                            Err(e) => {
+                                self.counters.bad_frames.fetch_add(1, Ordering::Relaxed);
+                                self.proto.bad_frame(e)
+                            }
+                        };
+                        self.send(&resp);
+                    }
+                }
+                Ok(_) => {}
+                Err(e) if e.kind() == io::ErrorKind::TimedOut => {}
+                Err(_) => {
+                    // Hang-up: no host has the port open.
+                    if self.attached {
+                        self.attached = false;
+                        self.counters.hangups.fetch_add(1, Ordering::Relaxed);
+                    }
+                    self.proto.reset_session();
+                    rx.reset();
+                    std::thread::sleep(wait);
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn send(&mut self, resp: &Response) -> bool {
+        let mut out = [0u8; MAX_FRAME_LEN];
+        match encode_frame(resp, &mut out) {
+            Ok(frame) => {
+                let mut frame = frame.to_vec();
+                let take = |c: &AtomicU32| {
+                    c.fetch_update(Ordering::Relaxed, Ordering::Relaxed, |n| n.checked_sub(1))
+                        .is_ok()
+                };
+                let damage = match resp {
+                    Response::Sample(_) => false,
+                    Response::Ack => take(&self.corrupt_acks) || take(&self.corrupt),
+                    _ => take(&self.corrupt),
+                };
+                if damage {
+                    let mid = frame.len() / 2;
+                    if let Some(b) = frame.get_mut(mid) {
+                        // Stay non-zero: the frame must not be split, only damaged.
+                        *b = if *b == 0x55 { 0xAA } else { 0x55 };
+                    }
+                }
+                self.send_bytes(&frame)
+            }
+            Err(_) => false,
+        }
+    }
+
+    /// Write to the host; a full buffer (host not reading) or a hang-up drops the bytes,
+    /// like a USB CDC device whose host is not listening.
+    fn send_bytes(&mut self, bytes: &[u8]) -> bool {
+        let _ = self.master.set_timeout(Duration::from_millis(50));
+        self.master
+            .write_all(bytes)
+            .and_then(|_| self.master.flush())
+            .is_ok()
+    }
+}
+
+// ------------------------------------------------------------------------------------------
+// CLI
+
+/// Arguments of `wiical device-sim`.
+#[derive(clap::Args, Debug, Clone)]
+pub struct SimArgs {
+    /// Serve on a new pseudo-terminal and print its path (the only transport so far).
+    #[arg(long)]
+    pub pty: bool,
+    /// Keep the simulated flash in this file (created if missing), so that a committed
+    /// calibration survives a restart of the simulator.
+    #[arg(long)]
+    pub flash: Option<PathBuf>,
+    /// Stop after this many seconds (default: run until interrupted).
+    #[arg(long)]
+    pub seconds: Option<f64>,
+    /// Seed of the simulated sensor noise.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Present this schema key (hex) instead of the real one, to see how hosts refuse it.
+    #[arg(long, hide = true, value_parser = parse_hex_u32)]
+    pub schema_key: Option<u32>,
+}
+
+fn parse_hex_u32(s: &str) -> Result<u32, String> {
+    let d = s.trim_start_matches("0x").trim_start_matches("0X");
+    u32::from_str_radix(d, 16).map_err(|e| format!("'{s}': {e}"))
+}
+
+/// Run `wiical device-sim`: prints the pty path alone on the first line of stdout (so that
+/// scripts can read it), then serves until interrupted or `--seconds` elapse.
+pub fn run(args: &SimArgs) -> Result<String> {
+    if !args.pty {
+        bail!("only --pty is supported: `wiical device-sim --pty`");
+    }
+    let flash = match &args.flash {
+        Some(p) => SimFlash::file(p)?,
+        None => SimFlash::in_memory(),
+    };
+    let (path, handle) = spawn(SimOptions {
+        flash,
+        seed: args.seed,
+        schema_key: args.schema_key,
+        ..Default::default()
+    })?;
+    {
+        let mut out = io::stdout().lock();
+        writeln!(out, "{}", path.display())?;
+        out.flush()?;
+    }
+    eprintln!(
+        "wiical device-sim: simulated adapter on {} (flash: {}); try `wiical device info --port {}`",
+        path.display(),
+        args.flash
+            .as_ref()
+            .map(|p| p.display().to_string())
+            .unwrap_or_else(|| "in memory".into()),
+        path.display()
+    );
+    let started = Instant::now();
+    loop {
+        std::thread::sleep(Duration::from_millis(50));
+        if !handle.is_running() {
+            break;
+        }
+        if let Some(s) = args.seconds {
+            if started.elapsed().as_secs_f64() >= s {
+                break;
+            }
+        }
+    }
+    let c = handle.counters();
+    let summary = format!(
+        "device-sim stopped after {:.1} s: {} requests, {} corrupt frames, {} samples\n",
+        started.elapsed().as_secs_f64(),
+        c.requests.load(Ordering::Relaxed),
+        c.bad_frames.load(Ordering::Relaxed),
+        c.samples.load(Ordering::Relaxed)
+    );
+    handle.stop()?;
+    Ok(summary)
+}
