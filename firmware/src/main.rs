@@ -1,0 +1,102 @@
+//! wiical adapter firmware for the RP2350 (Raspberry Pi Pico 2).
+//!
+//! The adapter sits between a Nunchuk and a Wii Remote: it polls the Nunchuk as I²C
+//! controller, corrects its accelerometer with the stored calibration and presents the
+//! result to the Wii Remote as an emulated Nunchuk (I²C target at `0x52`), while a host
+//! reads, uploads and commits calibrations and streams samples over USB serial
+//! (COBS frames, `wiical-wire`). All decisions are made by the hardware-independent
+//! `wiical-adapter` crate; this firmware only wires embassy's drivers to it.
+//!
+//! Tasks, one concern each (see `firmware/README.md` for the pin map and wiring):
+//!
+//! | task | concern |
+//! |---|---|
+//! | [`nunchuk::nunchuk_task`] | I²C0 controller, 400 kHz: init, poll at 200 Hz, correct, feed the emulated map |
+//! | [`wiimote::wiimote_task`] | I²C1 target `0x52`: the Wii Remote's reads and writes of the emulated map |
+//! | [`wiimote::ext_detect_task`] | the extension-detect line towards the Wii Remote |
+//! | [`serial::usb_task`] | the USB device stack |
+//! | [`serial::serial_task`] | CDC-ACM: request frames in, responses and samples out |
+//! | [`status::led_task`] | status LED pattern |
+//!
+//! Storage is not a task of its own: [`storage::open`] loads the calibration at boot, and a
+//! commit (save, read back, then go live) runs inside the serial request that asks for it,
+//! because `wiical-adapter`'s `Protocol` owns the store and makes that sequence atomic. On
+//! the RP2350 a flash erase/program stalls execute-in-place anyway, so a separate task
+//! would not let anything else run meanwhile.
+#![no_std]
+#![no_main]
+
+mod nunchuk;
+mod serial;
+mod status;
+mod storage;
+mod wiimote;
+
+use defmt::{info, unwrap};
+use embassy_executor::Spawner;
+use embassy_rp::gpio::{Level, Output};
+use embassy_rp::peripherals::{DMA_CH0, I2C0, I2C1, USB};
+use embassy_rp::{bind_interrupts, dma, i2c, i2c_slave, usb};
+use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
+use embassy_sync::mutex::Mutex;
+use static_cell::StaticCell;
+use wiical_adapter::Protocol;
+use {defmt_rtt as _, panic_probe as _};
+
+bind_interrupts!(struct Irqs {
+    I2C0_IRQ => i2c::InterruptHandler<I2C0>;
+    I2C1_IRQ => i2c::InterruptHandler<I2C1>;
+    USBCTRL_IRQ => usb::InterruptHandler<USB>;
+    DMA_IRQ_0 => dma::InterruptHandler<DMA_CH0>;
+});
+
+/// The adapter state shared by the tasks: protocol handler, corrector, emulated register
+/// map and calibration store. Held only for short, non-blocking sections except during a
+/// calibration commit (flash write).
+pub type Adapter = Mutex<CriticalSectionRawMutex, Protocol<storage::StoreFlash>>;
+
+/// Nunchuk poll rate, Hz (the Wii Remote reads extensions at up to 200 Hz).
+pub const POLL_HZ: u32 = wiical_adapter::DEFAULT_POLL_HZ;
+
+#[embassy_executor::main(
+    executor = "embassy_rp::executor::Executor",
+    entry = "cortex_m_rt::entry"
+)]
+async fn main(spawner: Spawner) {
+    let p = embassy_rp::init(Default::default());
+    info!("wiical adapter {} starting", env!("CARGO_PKG_VERSION"));
+
+    // Calibration store and adapter logic (loads the stored calibration, if any).
+    let protocol = storage::open(p.FLASH, p.DMA_CH0, Irqs).await;
+    static ADAPTER: StaticCell<Adapter> = StaticCell::new();
+    let adapter: &'static Adapter = ADAPTER.init(Mutex::new(protocol));
+
+    // Nunchuk side: I²C0 controller on GP4 (SDA) / GP5 (SCL), 400 kHz, external pull-ups.
+    let mut cfg = i2c::Config::default();
+    cfg.frequency = 400_000;
+    cfg.sda_pullup = false;
+    cfg.scl_pullup = false;
+    let nunchuk_bus = i2c::I2c::new_async(p.I2C0, p.PIN_5, p.PIN_4, Irqs, cfg);
+    spawner.spawn(unwrap!(nunchuk::nunchuk_task(nunchuk_bus, adapter)));
+
+    // Wii Remote side: I²C1 target at 0x52 on GP2 (SDA) / GP3 (SCL); the Wii Remote has the
+    // pull-ups. Extension-detect output on GP6.
+    let mut tcfg = i2c_slave::Config::default();
+    tcfg.addr = u16::from(wiical_extbus::nunchuk::I2C_ADDRESS);
+    tcfg.general_call = false;
+    tcfg.sda_pullup = false;
+    tcfg.scl_pullup = false;
+    let wiimote_bus = i2c_slave::I2cSlave::new(p.I2C1, p.PIN_3, p.PIN_2, Irqs, tcfg);
+    spawner.spawn(unwrap!(wiimote::wiimote_task(wiimote_bus, adapter)));
+    let detect = Output::new(p.PIN_6, Level::Low);
+    spawner.spawn(unwrap!(wiimote::ext_detect_task(detect)));
+
+    // Host side: USB CDC-ACM.
+    let (device, class) = serial::build(usb::Driver::new(p.USB, Irqs));
+    spawner.spawn(unwrap!(serial::usb_task(device)));
+    spawner.spawn(unwrap!(serial::serial_task(class, adapter)));
+
+    // Status LED: the Pico 2's on-board LED on GP25.
+    let led = Output::new(p.PIN_25, Level::Low);
+    spawner.spawn(unwrap!(status::led_task(led)));
+}

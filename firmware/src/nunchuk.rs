@@ -1,0 +1,64 @@
+//! The Nunchuk side: I²C0 controller polling at [`crate::POLL_HZ`].
+
+use defmt::{info, warn};
+use embassy_rp::i2c::{Async, I2c};
+use embassy_rp::peripherals::I2C0;
+use embassy_time::{Delay, Duration, Instant, Ticker};
+use wiical_adapter::{CorrectionMode, NunchukPoller, PollEvent};
+
+use crate::{serial, status, Adapter};
+
+/// Polls the Nunchuk (the poller re-initialises it after an unplug, with back-off), feeds
+/// every result to the adapter logic (correction → emulated register map, stream sample)
+/// and publishes the status.
+#[embassy_executor::task]
+pub async fn nunchuk_task(mut bus: I2c<'static, I2C0, Async>, adapter: &'static Adapter) -> ! {
+    let mut poller = NunchukPoller::default();
+    let mut delay = Delay;
+    let mut ticker = Ticker::every(Duration::from_hz(u64::from(crate::POLL_HZ)));
+    let mut was_connected = false;
+    let mut dropped: u32 = 0;
+    loop {
+        ticker.next().await;
+        let result = poller
+            .poll(&mut bus, &mut delay, Instant::now().as_millis())
+            .await;
+        let connected = poller.is_connected();
+        let (sample, st, generation) = {
+            let mut a = adapter.lock().await;
+            let sample = a.on_poll(&result, connected);
+            (sample, a.status(), a.block_generation())
+        };
+        status::publish(&st, generation);
+        if let Some(s) = sample {
+            if serial::SAMPLES.try_send(s).is_err() {
+                dropped = dropped.wrapping_add(1);
+                if dropped.is_power_of_two() {
+                    warn!("host too slow: {} samples dropped", dropped);
+                }
+            }
+        }
+        if let Ok(PollEvent::Connected(info)) = &result {
+            info!(
+                "Nunchuk connected ({}), factory calibration {}",
+                if info.encryption == wiical_extbus::Encryption::None {
+                    "plain"
+                } else {
+                    "legacy encrypted"
+                },
+                if info.calibration.is_some() {
+                    "valid"
+                } else {
+                    "missing"
+                }
+            );
+            if st.mode == CorrectionMode::PassThrough {
+                warn!("uncalibrated: pass-through");
+            }
+        }
+        if was_connected && !connected {
+            warn!("Nunchuk unplugged");
+        }
+        was_connected = connected;
+    }
+}

@@ -1,0 +1,52 @@
+//! The calibration store in the last 16 KiB of the first 2 MiB of flash, and the boot-time
+//! load that decides between calibrated and pass-through operation.
+
+use core::ops::Range;
+
+use defmt::{info, warn};
+use embassy_rp::flash::{Async, Flash};
+use embassy_rp::peripherals::{DMA_CH0, FLASH};
+use embassy_rp::Peri;
+use wiical_adapter::{
+    BootLoad, CalibrationStore, CorrectionMode, DeviceInfo, IdealScale, Protocol,
+};
+
+/// Flash size the driver addresses (a Pico 2 has 4 MiB; the store sits inside the first 2).
+pub const FLASH_SIZE: usize = 2 * 1024 * 1024;
+/// Offsets (from the start of flash) of the store: four 4 KiB erase sectors, excluded from
+/// the program's FLASH region in memory.x.
+pub const STORE_RANGE: Range<u32> = 0x1F_C000..0x20_0000;
+
+/// The flash driver type behind the store (async, DMA reads).
+pub type StoreFlash = Flash<'static, FLASH, Async, FLASH_SIZE>;
+
+/// Opens the store, loads the calibration and builds the adapter logic. Logs what it found:
+/// without a usable stored calibration the adapter passes the Nunchuk through (factory
+/// calibration mapped onto the ideal scale) and says so.
+pub async fn open(
+    flash: Peri<'static, FLASH>,
+    dma: Peri<'static, DMA_CH0>,
+    irqs: crate::Irqs,
+) -> Protocol<StoreFlash> {
+    let flash = StoreFlash::new(flash, dma, irqs);
+    let Ok(store) = CalibrationStore::new(flash, STORE_RANGE) else {
+        defmt::panic!("calibration store: STORE_RANGE does not fit the flash geometry");
+    };
+    // The RP2350's 64-bit chip ID identifies the adapter to the host.
+    let device_id = embassy_rp::otp::get_chipid()
+        .map(u64::to_le_bytes)
+        .unwrap_or([0; 8]);
+    let info = DeviceInfo::new(env!("CARGO_PKG_VERSION"), device_id, crate::POLL_HZ * 1000);
+    let protocol = Protocol::boot(store, info, IdealScale::default()).await;
+    let status = protocol.status();
+    match status.boot {
+        BootLoad::Loaded => info!("stored calibration loaded"),
+        BootLoad::Empty => warn!("no stored calibration"),
+        BootLoad::Rejected(_) => warn!("stored calibration refused (damaged or invalid)"),
+        BootLoad::StorageError => warn!("calibration store unreadable"),
+    }
+    if status.mode == CorrectionMode::PassThrough {
+        warn!("uncalibrated: pass-through (the Nunchuk's own calibration is forwarded)");
+    }
+    protocol
+}

@@ -1,0 +1,448 @@
+//! Deterministic instruction counts and peak stack of the core's on-device operations on
+//! the emulated Cortex-M33 (QEMU `mps2-an505`, run with `-icount shift=0`; see [`rt`] for
+//! how instructions are counted). Prints a table; `cargo xtask qemu-bench` runs it.
+//!
+//! Each operation runs `reps` times in a loop whose inputs go through `black_box` (so the
+//! calibration, filter state etc. are loaded from memory every time, as in the firmware);
+//! the same loop with the operation left out is subtracted, and the difference divided by
+//! `reps`. Peak stack is measured on one call by stack painting.
+#![no_std]
+#![no_main]
+
+use core::fmt::Write as _;
+use core::hint::black_box;
+use cortex_m_rt::{entry, exception};
+use cortex_m_semihosting::hprintln;
+use wiical_adapter::{Corrector, EmulatedNunchuk, IdealScale};
+use wiical_core::kalman::PvbFilter;
+use wiical_core::magfit::{AxisEllipsoidFit, EllipsoidFit, SphereFit};
+use wiical_core::multipos::{self, MultiPosConfig};
+use wiical_core::six_position;
+use wiical_core::static_detect::{StaticDetector, StaticDetectorConfig};
+use wiical_core::{Calibration, Conditions};
+use wiical_qemu_tests::cases::{
+    adapter_report_update, adapter_wiimote_read, factory_info, mag_point, poses30,
+    wiimote_calibration, XorShift, NUNCHUK_CAL, NUNCHUK_RAWS, PVB_CONFIG, SAMPLES, SEED_M,
+};
+use wiical_qemu_tests::rt;
+
+#[exception]
+fn SysTick() {
+    rt::on_systick_wrap();
+}
+
+/// Instructions per tick (measured, see [`rt::instructions_per_tick`]).
+#[derive(Clone, Copy)]
+struct Scale(f64);
+
+impl Scale {
+    fn per_op(self, op_ticks: u64, base_ticks: u64, reps: u32) -> f64 {
+        op_ticks.saturating_sub(base_ticks) as f64 * self.0 / f64::from(reps)
+    }
+}
+
+/// A target from the project brief: `instructions ≤ max_instr`, `stack ≤ max_stack`.
+struct Target {
+    max_instr: Option<f64>,
+    max_stack: Option<usize>,
+}
+
+const NONE: Target = Target {
+    max_instr: None,
+    max_stack: None,
+};
+
+fn row(name: &str, unit: &str, instr: f64, stack: Option<usize>, target: Target) -> bool {
+    let stack_txt = match stack {
+        Some(s) => s,
+        None => usize::MAX,
+    };
+    let mut verdict_ok = true;
+    let mut verdict: heapless::String<96> = heapless::String::new();
+    if let Some(m) = target.max_instr {
+        let ok = instr <= m;
+        verdict_ok &= ok;
+        let _ = write!(
+            verdict,
+            "<= {m} instr: {}",
+            if ok { "met" } else { "MISSED" }
+        );
+    }
+    if let Some(m) = target.max_stack {
+        let ok = stack.is_some_and(|s| s <= m);
+        verdict_ok &= ok;
+        if !verdict.is_empty() {
+            let _ = verdict.write_str("; ");
+        }
+        let _ = write!(
+            verdict,
+            "<= {m} B stack: {}",
+            if ok { "met" } else { "MISSED" }
+        );
+    }
+    let precision = if instr < 1000.0 { 1 } else { 0 };
+    if stack_txt == usize::MAX {
+        hprintln!(
+            "| {:<58} | {:<10} | {:>12.*} | {:>10} | {} |",
+            name,
+            unit,
+            precision,
+            instr,
+            "> 64 KiB",
+            verdict.as_str()
+        );
+    } else {
+        hprintln!(
+            "| {:<58} | {:<10} | {:>12.*} | {:>10} | {} |",
+            name,
+            unit,
+            precision,
+            instr,
+            stack_txt,
+            verdict.as_str()
+        );
+    }
+    verdict_ok
+}
+
+/// Peak stack with SysTick stopped (so no exception frame lands in the measurement).
+fn stack_of<R>(f: impl FnOnce() -> R) -> Option<usize> {
+    rt::systick_enabled(false);
+    let s = rt::peak_stack(f);
+    rt::systick_enabled(true);
+    s
+}
+
+#[entry]
+fn main() -> ! {
+    let Some(p) = cortex_m::Peripherals::take() else {
+        rt::exit(false)
+    };
+    rt::start_systick(p.SYST);
+
+    let (instr, ticks, ratio) = rt::instructions_per_tick();
+    let sc = Scale(ratio);
+    hprintln!(
+        "timer: SysTick on the core clock (QEMU emulates no DWT cycle counter); \
+         {} instructions of a subs/bne loop = {} ticks: {} instructions per tick",
+        instr,
+        ticks,
+        ratio
+    );
+    hprintln!();
+    hprintln!(
+        "| {:<58} | {:<10} | {:>12} | {:>10} | target |",
+        "operation",
+        "per",
+        "instructions",
+        "stack (B)"
+    );
+    hprintln!("|{:-<60}|{:-<12}|{:->14}|{:->12}|---|", "", "", "", "");
+
+    let mut all_ok = true;
+    let Ok(cal) = wiimote_calibration() else {
+        rt::exit(false)
+    };
+
+    // --- correction
+    const R_CORR: u32 = 10_000;
+    let base = rt::time_reps(R_CORR, |i| {
+        let c = black_box(&cal);
+        (c as *const Calibration, SAMPLES[i as usize & 7])
+    });
+    let op = rt::time_reps(R_CORR, |i| {
+        black_box(&cal).correct_linear(SAMPLES[i as usize & 7])
+    });
+    let st = stack_of(|| black_box(&cal).correct_linear(black_box(SAMPLES[0])));
+    all_ok &= row(
+        "Calibration::correct_linear",
+        "sample",
+        sc.per_op(op, base, R_CORR),
+        st,
+        Target {
+            max_instr: Some(60.0),
+            max_stack: None,
+        },
+    );
+    let mut cal_fx = cal;
+    cal_fx.effects.quadratic = [0.01, -0.02, 0.005];
+    cal_fx.effects.cubic = [-0.003, 0.002, 0.001];
+    cal_fx.effects.bias_drift = [0.01, -0.02, 0.0];
+    cal_fx.effects.temp_ref_c = 25.0;
+    cal_fx.effects.bias_temp = [0.1, 0.0, -0.05];
+    cal_fx.effects.scale_temp = [1e-4, -2e-4, 0.0];
+    let cond = Conditions {
+        time_s: 12.0,
+        temperature_c: Some(31.0),
+    };
+    let base = rt::time_reps(R_CORR, |i| {
+        let c = black_box(&cal_fx);
+        let k = black_box(&cond);
+        (
+            c as *const Calibration,
+            k as *const Conditions,
+            SAMPLES[i as usize & 7],
+        )
+    });
+    let op = rt::time_reps(R_CORR, |i| {
+        black_box(&cal_fx).correct(SAMPLES[i as usize & 7], black_box(&cond))
+    });
+    let st = stack_of(|| black_box(&cal_fx).correct(black_box(SAMPLES[0]), black_box(&cond)));
+    all_ok &= row(
+        "Calibration::correct (all effect terms)",
+        "sample",
+        sc.per_op(op, base, R_CORR),
+        st,
+        NONE,
+    );
+
+    // --- six-position solve
+    const R_SIX: u32 = 200;
+    let base = rt::time_reps(R_SIX, |_| black_box(&SEED_M) as *const _);
+    let op = rt::time_reps(R_SIX, |_| six_position::solve(black_box(&SEED_M)));
+    let st = stack_of(|| six_position::solve(black_box(&SEED_M)));
+    all_ok &= row(
+        "six_position::solve (seed M)",
+        "solve",
+        sc.per_op(op, base, R_SIX),
+        st,
+        NONE,
+    );
+
+    // --- multi-position fit, 30 poses
+    let poses = poses30();
+    let cfg = MultiPosConfig::default();
+    const R_MP: u32 = 4;
+    let base = rt::time_reps(R_MP, |_| black_box(&poses) as *const _);
+    let op = rt::time_reps(R_MP, |_| multipos::fit(black_box(&poses), &cfg));
+    let st = stack_of(|| multipos::fit(black_box(&poses), &cfg));
+    let iters = multipos::fit(&poses, &cfg)
+        .map(|f| f.iterations)
+        .unwrap_or(0);
+    all_ok &= row(
+        "multipos::fit, 30 poses (9-param LM)",
+        "fit",
+        sc.per_op(op, base, R_MP),
+        st,
+        Target {
+            max_instr: Some(3_000_000.0),
+            max_stack: Some(8 * 1024),
+        },
+    );
+
+    // --- magnetometer: accumulate per sample, then solve
+    const NPTS: usize = 300;
+    let pts: [[f32; 3]; NPTS] = core::array::from_fn(|k| mag_point(k, NPTS));
+    const R_PUSH: u32 = 3 * NPTS as u32;
+    let mut acc = EllipsoidFit::new();
+    let base = rt::time_reps(R_PUSH, |i| {
+        let a = black_box(&mut acc);
+        (a as *mut EllipsoidFit, pts[i as usize % NPTS])
+    });
+    let mut acc = EllipsoidFit::new();
+    let op = rt::time_reps(R_PUSH, |i| black_box(&mut acc).push(pts[i as usize % NPTS]));
+    let mut acc2 = EllipsoidFit::new();
+    let st = stack_of(|| black_box(&mut acc2).push(black_box(pts[1])));
+    all_ok &= row(
+        "magfit::EllipsoidFit::push (9-param sums)",
+        "sample",
+        sc.per_op(op, base, R_PUSH),
+        st,
+        NONE,
+    );
+    let mut sph = SphereFit::new();
+    let base = rt::time_reps(R_PUSH, |i| {
+        let a = black_box(&mut sph);
+        (a as *mut SphereFit, pts[i as usize % NPTS])
+    });
+    let mut sph = SphereFit::new();
+    let op = rt::time_reps(R_PUSH, |i| black_box(&mut sph).push(pts[i as usize % NPTS]));
+    let mut sph2 = SphereFit::new();
+    let st = stack_of(|| black_box(&mut sph2).push(black_box(pts[1])));
+    all_ok &= row(
+        "magfit::SphereFit::push",
+        "sample",
+        sc.per_op(op, base, R_PUSH),
+        st,
+        NONE,
+    );
+    let mut axis = AxisEllipsoidFit::new();
+    for p in &pts {
+        let _ = axis.push(*p);
+    }
+    const R_SOLVE: u32 = 20;
+    let base = rt::time_reps(R_SOLVE, |_| black_box(&acc) as *const _);
+    let op = rt::time_reps(R_SOLVE, |_| black_box(&acc).solve());
+    let st = stack_of(|| black_box(&acc).solve());
+    all_ok &= row(
+        "magfit::EllipsoidFit::solve (rotated ellipsoid)",
+        "solve",
+        sc.per_op(op, base, R_SOLVE),
+        st,
+        NONE,
+    );
+    let base = rt::time_reps(R_SOLVE, |_| black_box(&axis) as *const _);
+    let op = rt::time_reps(R_SOLVE, |_| black_box(&axis).solve());
+    let st = stack_of(|| black_box(&axis).solve());
+    all_ok &= row(
+        "magfit::AxisEllipsoidFit::solve",
+        "solve",
+        sc.per_op(op, base, R_SOLVE),
+        st,
+        NONE,
+    );
+    let base = rt::time_reps(R_SOLVE, |_| black_box(&sph) as *const _);
+    let op = rt::time_reps(R_SOLVE, |_| black_box(&sph).solve());
+    let st = stack_of(|| black_box(&sph).solve());
+    all_ok &= row(
+        "magfit::SphereFit::solve",
+        "solve",
+        sc.per_op(op, base, R_SOLVE),
+        st,
+        NONE,
+    );
+
+    // --- Kalman [p, v, b] step
+    let mut rng = XorShift::new(2008);
+    let inputs: [(f32, f32); 64] =
+        core::array::from_fn(|_| (0.25 + 0.05 * rng.next_f32(), 0.005 * rng.next_f32()));
+    let Ok(filter0) = PvbFilter::new(&PVB_CONFIG) else {
+        rt::exit(false)
+    };
+    const R_KF: u32 = 2_000;
+    let mut f = filter0;
+    let base = rt::time_reps(R_KF, |i| {
+        let f = black_box(&mut f);
+        (f as *mut PvbFilter, inputs[i as usize & 63])
+    });
+    let mut f = filter0;
+    let op = rt::time_reps(R_KF, |i| {
+        let (a, z) = inputs[i as usize & 63];
+        let f = black_box(&mut f);
+        f.predict(a).and_then(|_| f.update(z))
+    });
+    let mut f2 = filter0;
+    let st = stack_of(|| {
+        let f = black_box(&mut f2);
+        f.predict(black_box(0.25))
+            .and_then(|_| f.update(black_box(0.001)))
+    });
+    all_ok &= row(
+        "kalman::PvbFilter predict + update",
+        "step",
+        sc.per_op(op, base, R_KF),
+        st,
+        NONE,
+    );
+
+    // --- static detection, 101-sample window (as the host benchmark)
+    let dcfg = StaticDetectorConfig::for_rate(100.0, 1.0, 2.0, 2.0);
+    const R_SD: u32 = 1_000;
+    let stream = |i: u32| [33000.0 + (i % 7) as f32, 33300.0 - (i % 5) as f32, 36400.0];
+    if let Ok(mut det) = StaticDetector::<101>::new(dcfg) {
+        let base = rt::time_reps(R_SD, |i| {
+            let d = black_box(&mut det);
+            (d as *mut StaticDetector<101>, stream(i))
+        });
+        let Ok(mut det) = StaticDetector::<101>::new(dcfg) else {
+            rt::exit(false)
+        };
+        let op = rt::time_reps(R_SD, |i| black_box(&mut det).push(stream(i)));
+        let st = stack_of(|| black_box(&mut det).push(black_box(stream(3))));
+        all_ok &= row(
+            "static_detect::StaticDetector<101>::push",
+            "sample",
+            sc.per_op(op, base, R_SD),
+            st,
+            NONE,
+        );
+    }
+
+    // --- the adapter (wiical-adapter): per-report update and the Wii Remote's read
+    let Ok(info) = factory_info() else {
+        rt::exit(false)
+    };
+    let mut corrector = Corrector::new(IdealScale::default());
+    corrector.set_factory(&info);
+    if corrector.set_user_calibration(Some(NUNCHUK_CAL)).is_err() {
+        rt::exit(false)
+    }
+    let mut emu = EmulatedNunchuk::new(&corrector.calibration_block_bytes());
+    emu.on_write(&[0xF0, 0x55]);
+    emu.on_write(&[0xFB, 0x00]);
+    const R_AD: u32 = 2_000;
+    let base = rt::time_reps(R_AD, |i| {
+        let c = black_box(&corrector);
+        let e = black_box(&mut emu);
+        (
+            c as *const Corrector,
+            e as *mut EmulatedNunchuk,
+            NUNCHUK_RAWS[i as usize % 6],
+        )
+    });
+    let op = rt::time_reps(R_AD, |i| {
+        adapter_report_update(
+            black_box(&corrector),
+            black_box(&mut emu),
+            NUNCHUK_RAWS[i as usize % 6],
+            i & 1 == 0,
+        )
+    });
+    let st = stack_of(|| {
+        adapter_report_update(
+            black_box(&corrector),
+            black_box(&mut emu),
+            black_box(NUNCHUK_RAWS[1]),
+            true,
+        )
+    });
+    all_ok &= row(
+        "adapter: report update (Corrector::correct + set_report)",
+        "report",
+        sc.per_op(op, base, R_AD),
+        st,
+        NONE,
+    );
+    for (label, init) in [
+        (
+            "adapter: Wii Remote read path, plain (ptr + 6 B)",
+            &[0xFBu8, 0x00][..],
+        ),
+        (
+            "adapter: Wii Remote read path, encrypted (ptr + 6 B)",
+            &[0x40u8, 0x00][..],
+        ),
+    ] {
+        emu.on_write(init);
+        let mut buf = [0u8; 6];
+        let base = rt::time_reps(R_AD, |_| {
+            let e = black_box(&mut emu);
+            (e as *mut EmulatedNunchuk, black_box(&mut buf) as *mut _)
+        });
+        let op = rt::time_reps(R_AD, |_| {
+            adapter_wiimote_read(black_box(&mut emu), black_box(&mut buf))
+        });
+        let st = stack_of(|| adapter_wiimote_read(black_box(&mut emu), black_box(&mut buf)));
+        all_ok &= row(
+            label,
+            "read",
+            sc.per_op(op, base, R_AD),
+            st,
+            Target {
+                max_instr: Some(5_000.0),
+                max_stack: None,
+            },
+        );
+    }
+
+    hprintln!();
+    hprintln!(
+        "multipos::fit used {} Levenberg-Marquardt iterations on the 30 poses",
+        iters
+    );
+    hprintln!(
+        "targets: {}",
+        if all_ok { "all met" } else { "some MISSED" }
+    );
+    rt::exit(true)
+}

@@ -1,0 +1,710 @@
+//! Test vectors shared by the host and the emulated Cortex-M33.
+//!
+//! Each case runs core code on deterministic inputs (the same inputs as the desktop tests
+//! and benchmarks: the seed's six-position matrix, the benchmark's 30-pose set, …) and
+//! records its results as a flat list of `f32`. `cargo xtask gen-vectors` runs these very
+//! functions on the host and writes the results, bit for bit, to `expected.rs`; the
+//! `qemu-tests` binary runs them on the target and compares. Inputs are built with integer
+//! arithmetic and `libm` only, so that both sides start from identical bits.
+//!
+//! This file is compiled twice: as a module of the `qemu-tests` binaries (thumbv8m) and,
+//! through `#[path]`, as a module of `xtask` (host). It must stay `no_std`-clean.
+
+use wiical_adapter::{Corrector, EmulatedNunchuk, IdealScale, NunchukInfo};
+use wiical_core::kalman::{PvbConfig, PvbFilter};
+use wiical_core::magfit::{AxisEllipsoidFit, EllipsoidFit, MagFit, SphereFit};
+use wiical_core::multipos::{self, MultiPosConfig, MultiPosModel};
+use wiical_core::static_detect::{StaticDetector, StaticDetectorConfig};
+use wiical_core::stats::{ConstantKalman, ConstantKalman3, Welford, Welford3};
+use wiical_core::{six_position, Calibration, Conditions, Error, Mat3, Vec3};
+use wiical_extbus::nunchuk::StickAxisCalibration;
+use wiical_extbus::{
+    CalibrationBlock, CalibrationCopy, Encryption, NunchukRegisters, NunchukReport,
+};
+
+/// Capacity of one case's result list.
+pub const MAX_OUT: usize = 160;
+
+/// A case's results, in the order the case records them.
+pub struct Out {
+    vals: [f32; MAX_OUT],
+    len: usize,
+}
+
+impl Default for Out {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl Out {
+    /// An empty result list.
+    pub const fn new() -> Self {
+        Self {
+            vals: [0.0; MAX_OUT],
+            len: 0,
+        }
+    }
+
+    /// Records one value. Overflowing the capacity is a bug in a case: reported as an error.
+    pub fn push(&mut self, v: f32) -> Result<(), Error> {
+        let slot = self.vals.get_mut(self.len).ok_or(Error::CapacityExceeded)?;
+        *slot = v;
+        self.len += 1;
+        Ok(())
+    }
+
+    /// Records several values.
+    pub fn extend(&mut self, vs: &[f32]) -> Result<(), Error> {
+        vs.iter().try_for_each(|v| self.push(*v))
+    }
+
+    /// The values recorded so far.
+    pub fn as_slice(&self) -> &[f32] {
+        &self.vals[..self.len]
+    }
+}
+
+/// One test vector: a name and the function producing its results.
+pub struct Case {
+    /// Stable name, the key in `expected.rs`.
+    pub name: &'static str,
+    /// Largest accepted distance from the host's value, in units in the last place. 0 where
+    /// host and target execute the same IEEE-754 operations in the same order.
+    pub max_ulps: u32,
+    /// Runs the case.
+    pub run: fn(&mut Out) -> Result<(), Error>,
+}
+
+/// All cases, in the order they run and print.
+pub const CASES: &[Case] = &[
+    Case {
+        name: "six_position_seed",
+        max_ulps: 0,
+        run: six_position_seed,
+    },
+    Case {
+        name: "correct_linear",
+        max_ulps: 0,
+        run: correct_linear,
+    },
+    Case {
+        name: "correct_with_effects",
+        max_ulps: 0,
+        run: correct_with_effects,
+    },
+    Case {
+        name: "multipos_30_poses",
+        max_ulps: 4,
+        run: multipos_30,
+    },
+    Case {
+        name: "multipos_diagonal_12_poses",
+        max_ulps: 4,
+        run: multipos_diagonal_12,
+    },
+    Case {
+        name: "magfit_sphere",
+        max_ulps: 4,
+        run: magfit_sphere,
+    },
+    Case {
+        name: "magfit_axis",
+        max_ulps: 4,
+        run: magfit_axis,
+    },
+    Case {
+        name: "magfit_ellipsoid",
+        max_ulps: 4,
+        run: magfit_ellipsoid,
+    },
+    Case {
+        name: "kalman_pvb_200_steps",
+        max_ulps: 0,
+        run: kalman_pvb,
+    },
+    Case {
+        name: "static_detector",
+        max_ulps: 0,
+        run: static_detector,
+    },
+    Case {
+        name: "welford",
+        max_ulps: 0,
+        run: welford,
+    },
+    Case {
+        name: "constant_kalman",
+        max_ulps: 0,
+        run: constant_kalman,
+    },
+    Case {
+        name: "nunchuk_register_read_path",
+        max_ulps: 0,
+        run: register_read_path,
+    },
+    Case {
+        name: "adapter_corrector_calibrated",
+        max_ulps: 0,
+        run: adapter_corrector_calibrated,
+    },
+    Case {
+        name: "adapter_corrector_pass_through",
+        max_ulps: 0,
+        run: adapter_corrector_pass_through,
+    },
+    Case {
+        name: "adapter_emulated_nunchuk_reads",
+        max_ulps: 0,
+        run: adapter_emulated_reads,
+    },
+];
+
+/// Distance between two `f32` in units in the last place (`u32::MAX` when exactly one is
+/// NaN; NaNs compare equal to NaNs, +0 equals −0).
+pub fn ulp_distance(a: f32, b: f32) -> u32 {
+    if a.is_nan() || b.is_nan() {
+        return if a.is_nan() && b.is_nan() {
+            0
+        } else {
+            u32::MAX
+        };
+    }
+    // Map the sign-magnitude bit patterns onto a monotonic integer line.
+    let key = |x: f32| -> i64 {
+        let bits = x.to_bits();
+        if bits & 0x8000_0000 != 0 {
+            -i64::from(bits & 0x7FFF_FFFF)
+        } else {
+            i64::from(bits)
+        }
+    };
+    let d = (key(a) - key(b)).unsigned_abs();
+    u32::try_from(d).unwrap_or(u32::MAX)
+}
+
+// ---------------------------------------------------------------------------------------
+// Deterministic inputs (integer arithmetic and libm only).
+
+/// Golden-angle spiral of `n` unit vectors, direction `k` (as in `crates/core/benches`).
+pub fn direction(k: usize, n: usize) -> [f32; 3] {
+    let z = -1.0 + 2.0 * (k as f32 + 0.5) / n as f32;
+    let r = libm::sqrtf(1.0 - z * z);
+    let th = k as f32 * 2.399_963;
+    [r * libm::cosf(th), r * libm::sinf(th), z]
+}
+
+/// A Wii-Remote-like forward model `m = D·a + b` (10-bit counts), as in the benchmarks.
+pub fn wiimote_model() -> (Mat3, Vec3) {
+    let d = Mat3::new(106.0, -0.8, 1.1, 0.4, 104.5, -0.6, -0.3, 0.5, 110.2);
+    let b = Vec3::new(521.3, 519.8, 524.6);
+    (d, b)
+}
+
+/// The benchmark's pose `i` of `n`: the model applied to a spiral direction plus a small
+/// deterministic error, so that the fit has a non-zero residual.
+pub fn pose(i: usize, n: usize) -> [f32; 3] {
+    let (d, b) = wiimote_model();
+    let a = direction(i, n);
+    let m = d * Vec3::new(a[0], a[1], a[2]) + b;
+    let e = ((i * 7919) % 13) as f32 * 0.01 - 0.06;
+    [m.x + e, m.y - e, m.z + 0.5 * e]
+}
+
+/// The 30-pose set of the benchmarks and `qemu-bench`.
+pub fn poses30() -> [[f32; 3]; 30] {
+    core::array::from_fn(|i| pose(i, 30))
+}
+
+/// Point `k` of `n` on a rotated, offset ellipsoid in raw counts (QMC5883L-like
+/// magnitudes, as in the benchmarks).
+pub fn mag_point(k: usize, n: usize) -> [f32; 3] {
+    let u = direction(k, n);
+    [
+        6150.0 + 750.0 * u[0] + 30.0 * u[1],
+        250.0 + 1030.0 * u[1] - 20.0 * u[2],
+        3440.0 + 1620.0 * u[2] + 10.0 * u[0],
+    ]
+}
+
+/// A small xorshift32 generator for reproducible "noise" (bits identical everywhere).
+pub struct XorShift(u32);
+
+impl XorShift {
+    /// Seeded generator (seed ≠ 0).
+    pub const fn new(seed: u32) -> Self {
+        Self(if seed == 0 { 0x9E37_79B9 } else { seed })
+    }
+
+    /// Next value uniform in `[-1, 1)`, quantised to 2⁻²³.
+    pub fn next_f32(&mut self) -> f32 {
+        let mut x = self.0;
+        x ^= x << 13;
+        x ^= x >> 17;
+        x ^= x << 5;
+        self.0 = x;
+        ((x >> 8) as f32) * (1.0 / 8_388_608.0) - 1.0
+    }
+}
+
+/// The seed's measurement matrix M (Kalman-filtered pose means, 8-bit counts), by pose
+/// `x+ x− y+ y− z+ z−` (`crates/core/src/six_position.rs`).
+pub const SEED_M: [[f32; 3]; 6] = [
+    [153.329, 127.181, 129.991],
+    [102.978, 127.989, 129.991],
+    [128.072, 153.248, 129.586],
+    [127.989, 101.200, 128.992],
+    [127.989, 127.989, 154.179],
+    [127.989, 127.183, 105.012],
+];
+
+/// A sample calibration (the Wii-Remote-like model inverted).
+pub fn wiimote_calibration() -> Result<Calibration, Error> {
+    let (d, b) = wiimote_model();
+    Calibration::from_forward(&d, &b)
+}
+
+/// Raw samples for the correction cases.
+pub const SAMPLES: [[f32; 3]; 8] = [
+    [600.0, 480.0, 530.0],
+    [521.3, 519.8, 524.6],
+    [627.0, 519.0, 524.0],
+    [415.0, 521.0, 525.0],
+    [521.0, 624.0, 526.0],
+    [522.0, 415.0, 523.0],
+    [520.0, 520.0, 635.0],
+    [1023.0, 0.0, 512.0],
+];
+
+// ---------------------------------------------------------------------------------------
+// Cases.
+
+fn six_position_seed(o: &mut Out) -> Result<(), Error> {
+    let fit = six_position::solve(&SEED_M)?;
+    for row in &fit.t_hat {
+        o.extend(row)?;
+    }
+    for row in &fit.d_inv {
+        o.extend(row)?;
+    }
+    for row in &fit.residual {
+        o.extend(row)?;
+    }
+    Ok(())
+}
+
+fn correct_linear(o: &mut Out) -> Result<(), Error> {
+    let cal = wiimote_calibration()?;
+    for row in &cal.matrix {
+        o.extend(row)?;
+    }
+    for s in SAMPLES {
+        o.extend(&cal.correct_linear(s))?;
+    }
+    Ok(())
+}
+
+fn correct_with_effects(o: &mut Out) -> Result<(), Error> {
+    let mut cal = wiimote_calibration()?;
+    cal.effects.quadratic = [0.01, -0.02, 0.005];
+    cal.effects.cubic = [-0.003, 0.002, 0.001];
+    cal.effects.bias_drift = [0.01, -0.02, 0.0];
+    cal.effects.temp_ref_c = 25.0;
+    cal.effects.bias_temp = [0.1, 0.0, -0.05];
+    cal.effects.scale_temp = [1e-4, -2e-4, 0.0];
+    for (i, s) in SAMPLES.iter().enumerate() {
+        let cond = Conditions {
+            time_s: 3.5 * i as f32,
+            temperature_c: Some(20.0 + 2.0 * i as f32),
+        };
+        o.extend(&cal.correct(*s, &cond))?;
+    }
+    Ok(())
+}
+
+fn push_multipos(o: &mut Out, fit: &multipos::MultiPosFit) -> Result<(), Error> {
+    o.extend(&fit.calibration.bias)?;
+    for row in &fit.calibration.matrix {
+        o.extend(row)?;
+    }
+    o.extend(&[
+        fit.rms,
+        fit.max_abs_residual,
+        fit.iterations as f32,
+        fit.identifiability,
+    ])
+}
+
+fn multipos_30(o: &mut Out) -> Result<(), Error> {
+    let fit = multipos::fit(&poses30(), &MultiPosConfig::default())?;
+    push_multipos(o, &fit)
+}
+
+fn multipos_diagonal_12(o: &mut Out) -> Result<(), Error> {
+    let poses: [[f32; 3]; 12] = core::array::from_fn(|i| pose(i, 12));
+    let cfg = MultiPosConfig {
+        model: MultiPosModel::Diagonal,
+        ..MultiPosConfig::default()
+    };
+    let fit = multipos::fit(&poses, &cfg)?;
+    push_multipos(o, &fit)
+}
+
+const MAG_POINTS: usize = 300;
+
+fn push_mag(o: &mut Out, fit: &MagFit) -> Result<(), Error> {
+    o.extend(&fit.center)?;
+    for row in &fit.matrix {
+        o.extend(row)?;
+    }
+    o.push(fit.radius)?;
+    let q = fit.quality((0..MAG_POINTS).map(|k| mag_point(k, MAG_POINTS)))?;
+    o.extend(&[q.fit_error_pct, q.rms_radius_error])
+}
+
+fn magfit_sphere(o: &mut Out) -> Result<(), Error> {
+    let mut f = SphereFit::new();
+    for k in 0..MAG_POINTS {
+        f.push(mag_point(k, MAG_POINTS))?;
+    }
+    push_mag(o, &f.solve()?)
+}
+
+fn magfit_axis(o: &mut Out) -> Result<(), Error> {
+    let mut f = AxisEllipsoidFit::new();
+    for k in 0..MAG_POINTS {
+        f.push(mag_point(k, MAG_POINTS))?;
+    }
+    push_mag(o, &f.solve()?)
+}
+
+fn magfit_ellipsoid(o: &mut Out) -> Result<(), Error> {
+    let mut f = EllipsoidFit::new();
+    for k in 0..MAG_POINTS {
+        f.push(mag_point(k, MAG_POINTS))?;
+    }
+    let fit = f.solve()?;
+    push_mag(o, &fit)?;
+    o.extend(&fit.semi_axes()?)
+}
+
+/// The Kalman demo's configuration (`host/src/kalman_demo.rs`): 100 Hz, σ_a = 0.05 m/s².
+pub const PVB_CONFIG: PvbConfig = PvbConfig {
+    dt: 0.01,
+    accel_noise: 0.05,
+    bias_walk: 0.0,
+    pos_noise: 0.005,
+    initial_state: [0.0; 3],
+    initial_std: [0.005, 0.02, 0.5],
+};
+
+fn kalman_pvb(o: &mut Out) -> Result<(), Error> {
+    // A body at rest measured by an accelerometer with a 0.25 m/s² bias and noise, and a
+    // noisy position sensor; the filter should find the bias.
+    let mut f = PvbFilter::new(&PVB_CONFIG)?;
+    let mut rng = XorShift::new(2008);
+    for k in 0..200 {
+        f.predict(0.25 + 0.05 * rng.next_f32())?;
+        let inn = f.update(0.005 * rng.next_f32())?;
+        if k % 40 == 0 {
+            o.extend(&[inn.residual, inn.variance])?;
+        }
+    }
+    o.extend(f.state().as_slice())?;
+    o.extend(f.covariance().as_slice())
+}
+
+fn static_detector(o: &mut Out) -> Result<(), Error> {
+    // 100 Hz: 2 s rest, then alternating 1 s motion and 2.5 s rest, raw counts with noise.
+    let cfg = StaticDetectorConfig::for_rate(100.0, 0.21, 2.0, 1.0);
+    let mut det: StaticDetector<21> = StaticDetector::new(cfg)?;
+    let mut rng = XorShift::new(7);
+    let mut intervals = 0u32;
+    let mut record = |o: &mut Out, iv: wiical_core::static_detect::StaticInterval| {
+        intervals += 1;
+        o.extend(&[iv.start as f32, iv.end as f32])?;
+        o.extend(&iv.mean)?;
+        o.extend(&iv.variance)
+    };
+    let levels = [
+        [33000.0, 33300.0, 36400.0],
+        [36300.0, 33250.0, 33100.0],
+        [33050.0, 29900.0, 33200.0],
+    ];
+    let mut idx = 0u32;
+    for (seg, level) in levels.iter().enumerate() {
+        let rest = if seg == 0 { 200 } else { 250 };
+        for _ in 0..rest {
+            let m = [
+                level[0] + 3.0 * rng.next_f32(),
+                level[1] + 3.0 * rng.next_f32(),
+                level[2] + 3.0 * rng.next_f32(),
+            ];
+            if let Some(iv) = det.push(m)? {
+                record(o, iv)?;
+            }
+            idx += 1;
+        }
+        for j in 0..100 {
+            let ph = j as f32 * 0.0628;
+            let m = [
+                level[0] + 2000.0 * libm::sinf(ph),
+                level[1] - 1500.0 * libm::sinf(2.0 * ph),
+                level[2] + 1000.0 * libm::cosf(ph),
+            ];
+            if let Some(iv) = det.push(m)? {
+                record(o, iv)?;
+            }
+            idx += 1;
+        }
+    }
+    if let Some(iv) = det.finish() {
+        record(o, iv)?;
+    }
+    o.extend(&[intervals as f32, idx as f32])
+}
+
+fn welford(o: &mut Out) -> Result<(), Error> {
+    let mut w = Welford::new();
+    let mut w3 = Welford3::new();
+    let mut rng = XorShift::new(99);
+    for k in 0..500 {
+        let x = 33123.0 + 5.0 * rng.next_f32();
+        w.push(x)?;
+        w3.push([x, -x * 0.5 + k as f32 * 0.001, 0.1 * rng.next_f32()])?;
+    }
+    o.extend(&[w.mean()?, w.variance()?, w.std_dev()?])?;
+    o.extend(w3.mean()?.as_slice())?;
+    o.extend(w3.variance()?.as_slice())
+}
+
+fn constant_kalman(o: &mut Out) -> Result<(), Error> {
+    let mut k = ConstantKalman::new(0.0, 1e30, 0.04)?;
+    let mut k3 = ConstantKalman3::new([128.0; 3], [100.0; 3], [0.25, 0.3, 0.2])?;
+    let mut rng = XorShift::new(5);
+    for _ in 0..300 {
+        k.update(153.3 + 0.2 * rng.next_f32())?;
+        k3.update([
+            127.2 + 0.5 * rng.next_f32(),
+            153.2 + 0.5 * rng.next_f32(),
+            105.0 + 0.5 * rng.next_f32(),
+        ])?;
+    }
+    o.extend(&[k.estimate(), k.variance()])?;
+    o.extend(k3.estimate().as_slice())?;
+    o.extend(k3.covariance().as_slice())
+}
+
+/// The adapter's hot path with the extension-bus crate: a raw Nunchuk report is corrected,
+/// re-encoded as calibrated 10-bit counts (zero 512, 200 counts/g), stored in the emulated
+/// register map, and read back the way a Wii Remote does (pointer write `0x00`, 6-byte read).
+pub fn register_read_path(o: &mut Out) -> Result<(), Error> {
+    let cal = Calibration {
+        bias: [510.0, 514.0, 508.0],
+        matrix: [
+            [1.0 / 204.0, 0.0001, 0.0],
+            [-0.0002, 1.0 / 198.0, 0.0],
+            [0.0, 0.0003, 1.0 / 201.0],
+        ],
+        effects: Default::default(),
+    };
+    let mut regs = NunchukRegisters::new();
+    regs.write(&[0xF0, 0x55]);
+    regs.write(&[0xFB, 0x00]);
+    let raws: [[u16; 3]; 4] = [
+        [512, 512, 712],
+        [714, 514, 508],
+        [0, 1023, 512],
+        [300, 700, 900],
+    ];
+    for (i, raw) in raws.iter().enumerate() {
+        let mut buf = [0u8; 6];
+        read_path_step(&cal, &mut regs, *raw, i % 2 == 0, &mut buf);
+        for b in buf {
+            o.push(f32::from(b))?;
+        }
+    }
+    Ok(())
+}
+
+/// One step of [`register_read_path`]: correct `raw`, store, read 6 bytes into `buf`.
+#[inline]
+pub fn read_path_step(
+    cal: &Calibration,
+    regs: &mut NunchukRegisters,
+    raw: [u16; 3],
+    z: bool,
+    buf: &mut [u8; 6],
+) {
+    let a = cal.correct_linear(raw.map(f32::from));
+    let counts = a.map(|g| {
+        let c = libm::roundf(512.0 + 200.0 * g);
+        // Clamp to the 10-bit range; the float-to-int cast saturates and maps NaN to 0.
+        c.clamp(0.0, 1023.0) as u16
+    });
+    let report = NunchukReport {
+        stick: [128, 128],
+        accel: counts,
+        c: false,
+        z,
+    };
+    regs.set_report(&report);
+    regs.write(&[0x00]);
+    regs.read(buf);
+}
+
+// ---------------------------------------------------------------------------------------
+// Adapter logic (wiical-adapter): corrector and the Wii Remote's view of the register map.
+
+/// A Nunchuk-like user calibration (10-bit counts, ≈ 200 counts/g, small cross-axis terms).
+pub const NUNCHUK_CAL: Calibration = Calibration {
+    bias: [510.0, 514.0, 508.0],
+    matrix: [
+        [1.0 / 204.0, 0.0001, 0.0],
+        [-0.0002, 1.0 / 198.0, 0.0],
+        [0.0, 0.0003, 1.0 / 201.0],
+    ],
+    effects: wiical_core::Effects {
+        quadratic: [0.0; 3],
+        cubic: [0.0; 3],
+        bias_drift: [0.0; 3],
+        temp_ref_c: 0.0,
+        bias_temp: [0.0; 3],
+        scale_temp: [0.0; 3],
+    },
+};
+
+/// Raw Nunchuk readings (10-bit counts), including both rails.
+pub const NUNCHUK_RAWS: [[u16; 3]; 6] = [
+    [512, 512, 712],
+    [714, 514, 508],
+    [0, 1023, 512],
+    [300, 700, 900],
+    [1023, 1023, 1023],
+    [496, 502, 693],
+];
+
+/// A factory block as a real Nunchuk stores it (zero ≈ 496–502, one-g ≈ 695–701).
+pub fn factory_info() -> Result<NunchukInfo, Error> {
+    let block = CalibrationBlock {
+        zero: [496, 502, 493],
+        one_g: [701, 696, 695],
+        stick_x: StickAxisCalibration {
+            max: 0xE3,
+            min: 0x1D,
+            centre: 0x7F,
+        },
+        stick_y: StickAxisCalibration {
+            max: 0xDF,
+            min: 0x22,
+            centre: 0x81,
+        },
+    };
+    let bytes = block.encode().map_err(|_| Error::InvalidParameter)?;
+    Ok(NunchukInfo {
+        encryption: Encryption::None,
+        calibration_bytes: bytes,
+        calibration: Some((block, CalibrationCopy::First)),
+    })
+}
+
+fn adapter_corrector_calibrated(o: &mut Out) -> Result<(), Error> {
+    let mut c = Corrector::new(IdealScale::default());
+    c.set_factory(&factory_info()?);
+    c.set_user_calibration(Some(NUNCHUK_CAL))?;
+    for raw in NUNCHUK_RAWS {
+        let r = c.correct(raw);
+        o.extend(&r.g)?;
+        o.extend(&r.counts.map(f32::from))?;
+    }
+    // With nonlinearity terms the corrector takes the full correction path.
+    let mut fx = NUNCHUK_CAL;
+    fx.effects.quadratic = [0.01, -0.02, 0.005];
+    fx.effects.cubic = [-0.003, 0.002, 0.001];
+    c.set_user_calibration(Some(fx))?;
+    for raw in NUNCHUK_RAWS {
+        let r = c.correct(raw);
+        o.extend(&r.g)?;
+        o.extend(&r.counts.map(f32::from))?;
+    }
+    for b in c.calibration_block_bytes() {
+        o.push(f32::from(b))?;
+    }
+    Ok(())
+}
+
+fn adapter_corrector_pass_through(o: &mut Out) -> Result<(), Error> {
+    let mut c = Corrector::new(IdealScale::default());
+    c.set_factory(&factory_info()?);
+    for raw in NUNCHUK_RAWS {
+        let r = c.correct(raw);
+        o.extend(&r.g)?;
+        o.extend(&r.counts.map(f32::from))?;
+    }
+    for b in c.calibration_block_bytes() {
+        o.push(f32::from(b))?;
+    }
+    Ok(())
+}
+
+/// What a Wii Remote reads from the emulated Nunchuk: plain init, ID, calibration block and
+/// reports; then the legacy (encrypted) init and the same reads.
+fn adapter_emulated_reads(o: &mut Out) -> Result<(), Error> {
+    let mut c = Corrector::new(IdealScale::default());
+    c.set_factory(&factory_info()?);
+    c.set_user_calibration(Some(NUNCHUK_CAL))?;
+    let mut e = EmulatedNunchuk::new(&c.calibration_block_bytes());
+    let record = |o: &mut Out, e: &mut EmulatedNunchuk, reg: u8, n: usize| {
+        let mut buf = [0u8; 16];
+        let n = n.min(buf.len());
+        e.on_write(&[reg]);
+        e.on_read(&mut buf[..n]);
+        buf[..n].iter().try_for_each(|b| o.push(f32::from(*b)))
+    };
+    for init in [&[0xF0u8, 0x55][..], &[0xFB, 0x00][..]] {
+        e.on_write(init);
+    }
+    record(o, &mut e, 0xFA, 6)?;
+    record(o, &mut e, 0x20, 16)?;
+    for (i, raw) in NUNCHUK_RAWS.iter().enumerate() {
+        wiimote_read_path(&c, &mut e, *raw, i % 3 == 0, o)?;
+    }
+    e.on_write(&[0x40, 0x00]);
+    record(o, &mut e, 0xFA, 6)?;
+    for (i, raw) in NUNCHUK_RAWS.iter().enumerate() {
+        wiimote_read_path(&c, &mut e, *raw, i % 2 == 0, o)?;
+    }
+    Ok(())
+}
+
+fn wiimote_read_path(
+    c: &Corrector,
+    e: &mut EmulatedNunchuk,
+    raw: [u16; 3],
+    z: bool,
+    o: &mut Out,
+) -> Result<(), Error> {
+    let mut buf = [0u8; 6];
+    adapter_report_update(c, e, raw, z);
+    adapter_wiimote_read(e, &mut buf);
+    buf.iter().try_for_each(|b| o.push(f32::from(*b)))
+}
+
+/// Per Nunchuk report (the poll task): correct and store the report the Wii Remote will read.
+#[inline]
+pub fn adapter_report_update(c: &Corrector, e: &mut EmulatedNunchuk, raw: [u16; 3], z: bool) {
+    let corrected = c.correct(raw);
+    e.set_report(&NunchukReport {
+        stick: [0x80, 0x7F],
+        accel: corrected.counts,
+        c: !z,
+        z,
+    });
+}
+
+/// Per Wii Remote poll (the I²C-target task): pointer write `0x00`, 6-byte read.
+#[inline]
+pub fn adapter_wiimote_read(e: &mut EmulatedNunchuk, buf: &mut [u8; 6]) {
+    e.on_write(&[0x00]);
+    e.on_read(buf);
+}
