@@ -130,7 +130,7 @@ enum Cmd {
         #[arg(long, default_value = "ellipsoid", value_parser = clap::value_parser!(MagModel))]
         model: MagModel,
         /// Header names of the x,y,z columns to use.
-        #[arg(long, value_delimiter = ',', num_args = 3)]
+        #[arg(long, value_delimiter = ',')]
         columns: Option<Vec<String>>,
         /// Print JSON.
         #[arg(long)]
@@ -176,7 +176,7 @@ enum Cmd {
 #[derive(clap::Args, Clone)]
 struct DetectArgs {
     /// Header names of the x,y,z columns to use (e.g. gx,gy,gz).
-    #[arg(long, value_delimiter = ',', num_args = 3)]
+    #[arg(long, value_delimiter = ',')]
     columns: Option<Vec<String>>,
     /// Variance window, seconds.
     #[arg(long, default_value_t = 1.0)]
@@ -200,13 +200,8 @@ struct DetectArgs {
 }
 
 impl DetectArgs {
-    fn load_options(&self) -> LoadOptions {
-        LoadOptions {
-            columns: self
-                .columns
-                .as_ref()
-                .map(|c| [c[0].clone(), c[1].clone(), c[2].clone()]),
-        }
+    fn load_options(&self) -> Result<LoadOptions> {
+        load_options(self.columns.as_deref())
     }
 
     fn fit_options(&self, model: MultiPosModel) -> FitOptions {
@@ -220,6 +215,22 @@ impl DetectArgs {
             adc_range: self.adc_range,
         }
     }
+}
+
+/// `--columns x,y,z`: exactly three header names.
+fn load_options(columns: Option<&[String]>) -> Result<LoadOptions> {
+    let columns = match columns {
+        None => None,
+        Some([x, y, z]) => Some([x.clone(), y.clone(), z.clone()]),
+        Some(other) => {
+            return Err(anyhow!(
+                "--columns needs exactly three names (x,y,z), got {}: {}",
+                other.len(),
+                other.join(",")
+            ))
+        }
+    };
+    Ok(LoadOptions { columns })
 }
 
 fn parse_effect(s: &str) -> Result<SimEffect, String> {
@@ -329,7 +340,7 @@ fn run(cli: Cli) -> Result<String> {
             detect,
             model,
         } => {
-            let rec = input::load(&file, &detect.load_options())?;
+            let rec = input::load(&file, &detect.load_options()?)?;
             let rep = fit_cmd::run(&rec, &detect.fit_options(model))?;
             if let Some(path) = &out {
                 write_calibration(path, &rep.calibration)?;
@@ -379,7 +390,7 @@ fn run(cli: Cli) -> Result<String> {
             cv_factor,
             candidates,
         } => {
-            let rec = input::load(&file, &detect.load_options())?;
+            let rec = input::load(&file, &detect.load_options()?)?;
             let opts = AnalyzeOptions {
                 fit: detect.fit_options(MultiPosModel::Full),
                 alpha,
@@ -448,10 +459,7 @@ fn run(cli: Cli) -> Result<String> {
             json,
             out,
         } => {
-            let opts = LoadOptions {
-                columns: columns.map(|c| [c[0].clone(), c[1].clone(), c[2].clone()]),
-            };
-            let rec = input::load(&file, &opts)?;
+            let rec = input::load(&file, &load_options(columns.as_deref())?)?;
             let rep = magfit_cmd::fit_points(&rec.xyz, model)?;
             if let Some(path) = &out {
                 let k = rep.matrix.map(|r| r.map(|x| (x / rep.radius) as f32));

@@ -253,3 +253,36 @@ fn decode_cal_contract() {
     let (ok, _, err) = wiical(&["decode-cal", "--device", "wiimote", "82 ZZ"]);
     assert!(!ok && err.starts_with("error:"), "{err}");
 }
+
+#[test]
+fn columns_option_selects_a_triplet() {
+    // mag_out.txt rewritten as a CSV with a decoy triplet first: --columns must pick the real one.
+    let text =
+        std::fs::read_to_string(data_dir().join("mag_ellipsoid_fit_python/mag_out.txt")).unwrap();
+    let mut csv = String::from("x,y,z,bx,by,bz\n");
+    for line in text.lines().filter(|l| !l.trim().is_empty()) {
+        let v: Vec<&str> = line.split_whitespace().collect();
+        csv += &format!("0,0,1,{},{},{}\n", v[0], v[1], v[2]);
+    }
+    let file = temp_file("decoy.csv", &csv);
+    let plain = data_dir().join("mag_ellipsoid_fit_python/mag_out.txt");
+    let a = json(&[
+        "magfit",
+        plain.to_str().unwrap(),
+        "--model",
+        "sphere",
+        "--json",
+    ]);
+    let b = json(&[
+        "magfit",
+        file.to_str().unwrap(),
+        "--model",
+        "sphere",
+        "--columns",
+        "bx,by,bz",
+        "--json",
+    ]);
+    assert_eq!(a["center"], b["center"]);
+    let (ok, _, err) = wiical(&["magfit", file.to_str().unwrap(), "--columns", "bx,by"]);
+    assert!(!ok && err.contains("exactly three"), "{err}");
+}

@@ -163,8 +163,19 @@ impl<const N: usize> StaticDetector<N> {
 
     /// The latest `window` samples, oldest first.
     fn window_samples(&self) -> impl Iterator<Item = &[f32; 3]> + '_ {
+        let (a, b) = self.ring.as_slices();
         let skip = self.ring.len().saturating_sub(self.cfg.window as usize);
-        self.ring.oldest_ordered().skip(skip)
+        a.iter().chain(b.iter()).skip(skip)
+    }
+
+    /// The `i`-th sample of the window (0 = oldest), in O(1).
+    fn window_at(&self, i: usize) -> Option<&[f32; 3]> {
+        let (a, b) = self.ring.as_slices();
+        let idx = self.ring.len().saturating_sub(self.cfg.window as usize) + i;
+        match idx.checked_sub(a.len()) {
+            None => a.get(idx),
+            Some(j) => b.get(j),
+        }
     }
 
     /// The noise reference (per-axis variance of the init period, floored), once known.
@@ -193,7 +204,7 @@ impl<const N: usize> StaticDetector<N> {
         }
         let window = self.cfg.window as usize;
         let outgoing = if self.ring.len() >= window {
-            self.window_samples().next().copied()
+            self.window_at(0).copied()
         } else {
             None
         };
@@ -234,7 +245,7 @@ impl<const N: usize> StaticDetector<N> {
         // Decide the centre sample of the full window. Before the threshold is known, the
         // init period is static by definition.
         let centre_index = self.count - 1 - half as u32;
-        let centre = self.window_samples().nth(half).copied().unwrap_or(m);
+        let centre = self.window_at(half).copied().unwrap_or(m);
         let is_static = match self.threshold {
             None => true,
             Some(th) => self.window_variance_sum() <= th,
