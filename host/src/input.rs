@@ -125,13 +125,19 @@ fn parse_whitespace(text: &str) -> Result<Recording> {
         if is_comment_or_blank(line) {
             continue;
         }
-        let fields: Vec<&str> = line.split_whitespace().collect();
-        let n = *ncols.get_or_insert(fields.len());
-        if fields.len() != n {
-            bail!(
-                "line {line_no}: expected {n} columns like the first data line, found {}",
-                fields.len()
-            );
+        // Up to 5 fields without allocating a Vec per line (this loop is most of the time
+        // `fit` spends on a 50k-line file).
+        let mut fields = [""; 6];
+        let mut count = 0usize;
+        for f in line.split_ascii_whitespace() {
+            if let Some(slot) = fields.get_mut(count) {
+                *slot = f;
+            }
+            count += 1;
+        }
+        let n = *ncols.get_or_insert(count);
+        if count != n {
+            bail!("line {line_no}: expected {n} columns like the first data line, found {count}");
         }
         let names: &[&str] = match n {
             3 => &["x", "y", "z"],
@@ -142,7 +148,7 @@ fn parse_whitespace(text: &str) -> Result<Recording> {
             ),
         };
         let mut vals = [0.0f64; 5];
-        for (k, f) in fields.iter().enumerate() {
+        for (k, f) in fields.iter().take(n).enumerate() {
             vals[k] = parse_number(f, line_no, names[k])?;
         }
         let off = if n == 3 { 0 } else { 1 };
