@@ -110,33 +110,51 @@ fn choose<T: Copy>(first: Checked<T>, second: Option<Checked<T>>) -> (Checked<T>
     }
 }
 
+/// Splits `bytes` into one or two stored copies of an `n`-byte block, decodes them and picks
+/// the copy to use ([`choose`]). Returns the decoded copy, which one it is, and its bytes.
+fn decode_copies<T: Copy>(
+    bytes: &[u8],
+    n: usize,
+    decode: impl Fn(&[u8]) -> Result<Checked<T>, wiical_extbus::Error>,
+    length_error: impl Fn(usize, usize) -> String,
+) -> Result<(Checked<T>, CalibrationCopy, &[u8])> {
+    if bytes.len() != n && bytes.len() != 2 * n {
+        bail!("{}", length_error(n, bytes.len()));
+    }
+    let (first_bytes, rest) = bytes.split_at(n);
+    let first = decode(first_bytes).map_err(|e| anyhow!(e))?;
+    let second = if rest.is_empty() {
+        None
+    } else {
+        Some(decode(rest).map_err(|e| anyhow!(e))?)
+    };
+    let (c, copy) = choose(first, second);
+    let used = match copy {
+        CalibrationCopy::First => first_bytes,
+        CalibrationCopy::Second => rest,
+    };
+    Ok((c, copy, used))
+}
+
 /// Decode a calibration block of `device` (`"wiimote"` or `"nunchuk"`) from hex text.
 pub fn decode_cal(device: &str, hex: &str) -> Result<DecodeCalReport> {
     let bytes = parse_hex(hex)?;
     let dev = device.trim().to_ascii_lowercase();
     match dev.as_str() {
         "wiimote" | "wii-remote" | "wiiremote" => {
+            let (c, copy, used) = decode_copies(
+                &bytes,
+                AccelCalibration::LEN,
+                AccelCalibration::decode,
+                |n, got| {
+                    format!(
+                        "a Wii Remote calibration block has {n} bytes (or {} for both EEPROM \
+                         copies 0x16 and 0x20), got {got}",
+                        2 * n
+                    )
+                },
+            )?;
             let n = AccelCalibration::LEN;
-            if bytes.len() != n && bytes.len() != 2 * n {
-                bail!(
-                    "a Wii Remote calibration block has {n} bytes (or {} for both EEPROM copies \
-                     0x16 and 0x20), got {}",
-                    2 * n,
-                    bytes.len()
-                );
-            }
-            let first = AccelCalibration::decode(&bytes[..n]).map_err(|e| anyhow!(e))?;
-            let second = match bytes.get(n..) {
-                Some(rest) if !rest.is_empty() => {
-                    Some(AccelCalibration::decode(rest).map_err(|e| anyhow!(e))?)
-                }
-                _ => None,
-            };
-            let (c, copy) = choose(first, second);
-            let used = match copy {
-                CalibrationCopy::First => &bytes[..n],
-                CalibrationCopy::Second => &bytes[n..],
-            };
             let v = c.value;
             Ok(DecodeCalReport {
                 device: "wiimote".into(),
@@ -155,27 +173,19 @@ pub fn decode_cal(device: &str, hex: &str) -> Result<DecodeCalReport> {
             })
         }
         "nunchuk" | "nunchuck" => {
+            let (c, copy, used) = decode_copies(
+                &bytes,
+                CalibrationBlock::LEN,
+                CalibrationBlock::decode,
+                |n, got| {
+                    format!(
+                        "a Nunchuk calibration block has {n} bytes (registers 0x20-0x2F; or {} \
+                         for 0x20-0x3F, both copies), got {got}",
+                        2 * n
+                    )
+                },
+            )?;
             let n = CalibrationBlock::LEN;
-            if bytes.len() != n && bytes.len() != 2 * n {
-                bail!(
-                    "a Nunchuk calibration block has {n} bytes (registers 0x20-0x2F; or {} for \
-                     0x20-0x3F, both copies), got {}",
-                    2 * n,
-                    bytes.len()
-                );
-            }
-            let first = CalibrationBlock::decode(&bytes[..n]).map_err(|e| anyhow!(e))?;
-            let second = match bytes.get(n..) {
-                Some(rest) if !rest.is_empty() => {
-                    Some(CalibrationBlock::decode(rest).map_err(|e| anyhow!(e))?)
-                }
-                _ => None,
-            };
-            let (c, copy) = choose(first, second);
-            let used = match copy {
-                CalibrationCopy::First => &bytes[..n],
-                CalibrationCopy::Second => &bytes[n..],
-            };
             let v = c.value;
             let stick = |s: wiical_extbus::nunchuk::StickAxisCalibration| StickAxisReport {
                 max: s.max,
