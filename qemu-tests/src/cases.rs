@@ -1,15 +1,20 @@
 //! Test vectors shared by the host and the emulated Cortex-M33.
 //!
 //! Each case runs core code on deterministic inputs (the same inputs as the desktop tests
-//! and benchmarks: the seed's six-position matrix, the benchmark's 30-pose set, …) and
-//! records its results as a flat list of `f32`. `cargo xtask gen-vectors` runs these very
-//! functions on the host and writes the results, bit for bit, to `expected.rs`; the
-//! `qemu-tests` binary runs them on the target and compares. Inputs are built with integer
-//! arithmetic and `libm` only, so that both sides start from identical bits.
+//! and benchmarks: the seed's six-position matrix, the benchmark's 30-pose set, …, and two
+//! real recordings) and records its results as a flat list of `f32`. The build script runs
+//! these very functions on the host and writes the results, bit for bit, to `expected.rs`;
+//! the `qemu-tests` binary runs them on the target and compares. Synthetic inputs are built
+//! with integer arithmetic and `libm` only, so that both sides start from identical bits;
+//! the real recordings reach both sides through `crate::real_data` (the build script reads
+//! them and hands the target the same `f32` bits, see `build.rs`).
 //!
-//! This file is compiled twice: as a module of the `qemu-tests` binaries (thumbv8m) and,
-//! through `#[path]`, as a module of `xtask` (host). It must stay `no_std`-clean.
+//! This file is compiled twice: as a module of the `qemu-tests` library (thumbv8m) and,
+//! through `#[path]`, as a module of the build script (host). Each of the two crates
+//! provides its own `real_data` module with the same functions. It must stay
+//! `no_std`-clean.
 
+use crate::real_data;
 use wiical_adapter::{Corrector, EmulatedNunchuk, IdealScale, NunchukInfo};
 use wiical_core::kalman::{PvbConfig, PvbFilter};
 use wiical_core::magfit::{AxisEllipsoidFit, EllipsoidFit, MagFit, SphereFit};
@@ -23,7 +28,7 @@ use wiical_extbus::{
 };
 
 /// Capacity of one case's result list.
-pub const MAX_OUT: usize = 160;
+pub const MAX_OUT: usize = 320;
 
 /// A case's results, in the order the case records them.
 pub struct Out {
@@ -157,6 +162,21 @@ pub const CASES: &[Case] = &[
         name: "adapter_emulated_nunchuk_reads",
         max_ulps: 0,
         run: adapter_emulated_reads,
+    },
+    Case {
+        name: "xsens_static_detector",
+        max_ulps: 0,
+        run: xsens_static_detector,
+    },
+    Case {
+        name: "xsens_multipos_fit",
+        max_ulps: 4,
+        run: xsens_multipos_fit,
+    },
+    Case {
+        name: "mag_out_ellipsoid_fit",
+        max_ulps: 4,
+        run: mag_out_ellipsoid_fit,
     },
 ];
 
@@ -707,4 +727,87 @@ pub fn adapter_report_update(c: &Corrector, e: &mut EmulatedNunchuk, raw: [u16; 
 pub fn adapter_wiimote_read(e: &mut EmulatedNunchuk, buf: &mut [u8; 6]) {
     e.on_write(&[0x00]);
     e.on_read(buf);
+}
+
+// ---------------------------------------------------------------------------------------
+// Real recordings (`crate::real_data`; see build.rs for how they are read).
+
+/// Capacity of the static detector's window ring in `wiical fit` (`host/src/fit_cmd.rs`,
+/// `MAX_WINDOW`): windows up to 5 s at 100 Hz.
+pub const FIT_MAX_WINDOW: usize = 511;
+
+/// The detector settings of `wiical fit` with its defaults on a 100 Hz recording: window 1 s
+/// (101 samples after rounding to odd), initial rest 2 s, minimum static run 2 s, threshold
+/// factor 6 (`for_rate`'s default, which `fit_cmd` sets again from `--threshold 6`).
+pub fn fit_detector_config() -> StaticDetectorConfig {
+    StaticDetectorConfig::for_rate(100.0, 1.0, 2.0, 2.0)
+}
+
+/// Runs the static detector over the IMU-TK Xsens accelerometer recording (raw 16-bit counts
+/// as `f32`, in file order) exactly as `wiical fit` does (`fit_cmd::detect`: every sample
+/// pushed, then `finish`), calling `found` for each static interval. Returns the detector
+/// (for its reference variance) and the number of samples pushed.
+pub fn xsens_detect(
+    mut found: impl FnMut(wiical_core::static_detect::StaticInterval) -> Result<(), Error>,
+) -> Result<(StaticDetector<FIT_MAX_WINDOW>, u32), Error> {
+    let mut det: StaticDetector<FIT_MAX_WINDOW> = StaticDetector::new(fit_detector_config())?;
+    let mut n = 0u32;
+    // The recording is stored as little-endian f32 triplets (x, y, z); `chunks_exact(4)`
+    // makes the byte indexing below infallible.
+    let mut vals = real_data::xsens_acc_f32le()
+        .chunks_exact(4)
+        .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]));
+    while let (Some(x), Some(y), Some(z)) = (vals.next(), vals.next(), vals.next()) {
+        if let Some(iv) = det.push([x, y, z])? {
+            found(iv)?;
+        }
+        n += 1;
+    }
+    if let Some(iv) = det.finish() {
+        found(iv)?;
+    }
+    Ok((det, n))
+}
+
+/// The whole detection on the device: 51,175 samples in, every interval's bounds, mean and
+/// variance out (the means are what `xsens_multipos_fit` fits, computed there by the host).
+fn xsens_static_detector(o: &mut Out) -> Result<(), Error> {
+    let mut intervals = 0u32;
+    let (det, n) = xsens_detect(|iv| {
+        intervals += 1;
+        o.extend(&[iv.start as f32, iv.end as f32])?;
+        o.extend(&iv.mean)?;
+        o.extend(&iv.variance)
+    })?;
+    o.extend(&det.reference_variance().ok_or(Error::TooFewSamples {
+        needed: fit_detector_config().init_samples,
+        got: n,
+    })?)?;
+    o.extend(&[intervals as f32, n as f32])
+}
+
+/// `wiical fit`'s multi-position fit (full 9-parameter model, default settings) of the 38
+/// static-window means the host's detector found in the Xsens recording.
+fn xsens_multipos_fit(o: &mut Out) -> Result<(), Error> {
+    let fit = multipos::fit(real_data::xsens_poses(), &MultiPosConfig::default())?;
+    push_multipos(o, &fit)
+}
+
+/// `wiical magfit --model ellipsoid` on the 347 raw points of `mag_out.txt`: streaming
+/// accumulation in file order, solve, then the quality pass over the same points.
+fn mag_out_ellipsoid_fit(o: &mut Out) -> Result<(), Error> {
+    let pts = real_data::mag_out_points();
+    let mut f = EllipsoidFit::new();
+    for p in pts {
+        f.push(*p)?;
+    }
+    let fit = f.solve()?;
+    o.extend(&fit.center)?;
+    for row in &fit.matrix {
+        o.extend(row)?;
+    }
+    o.push(fit.radius)?;
+    let q = fit.quality(pts.iter().copied())?;
+    o.extend(&[q.fit_error_pct, q.rms_radius_error])?;
+    o.extend(&fit.semi_axes()?)
 }
