@@ -105,9 +105,10 @@ pub fn parse(text: &str, opts: &LoadOptions) -> Result<Recording> {
     }
 }
 
+/// Parses one field. Callers hand over fields already free of surrounding blanks (split on
+/// ASCII whitespace, or trimmed by the CSV reader).
 fn parse_number(s: &str, line_no: usize, col: &str) -> Result<f64> {
     let v: f64 = s
-        .trim()
         .parse()
         .map_err(|_| anyhow!("line {line_no}: column '{col}': '{s}' is not a number"))?;
     if !v.is_finite() {
