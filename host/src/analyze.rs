@@ -323,6 +323,7 @@ pub fn detect_windows(rec: &Recording, opts: &FitOptions) -> Result<Windows> {
             labels: None,
             sample_rate_hz: rec.sample_rate_hz,
             axis_columns: rec.axis_columns.clone(),
+            skipped_empty_rows: rec.skipped_empty_rows,
         };
         fit_cmd::detect(&scaled, opts)?
     };

@@ -31,6 +31,9 @@ pub struct Recording {
     pub sample_rate_hz: Option<f64>,
     /// Names of the columns used for x, y, z (for messages).
     pub axis_columns: [String; 3],
+    /// Rows skipped because all three selected axis fields were empty (e.g. `wiical capture`
+    /// leaves the Nunchuk columns empty while the Nunchuk is unplugged).
+    pub skipped_empty_rows: usize,
 }
 
 impl Recording {
@@ -248,6 +251,10 @@ fn parse_csv(text: &str, opts: &LoadOptions) -> Result<Recording> {
                 record.len()
             );
         }
+        if idx.1.iter().all(|&i| record[i].is_empty()) {
+            rec.skipped_empty_rows += 1;
+            continue;
+        }
         let get = |i: usize| parse_number(&record[i], line_no, &cols[i]);
         rec.xyz
             .push([get(idx.1[0])?, get(idx.1[1])?, get(idx.1[2])?]);
@@ -364,6 +371,21 @@ mod tests {
         assert_eq!(r.temp.unwrap(), vec![25.0, 25.5]);
         let r = p("pose,x,y,z\nx+,1,2,3\n").unwrap();
         assert_eq!(r.labels.unwrap(), vec!["x+".to_string()]);
+    }
+
+    #[test]
+    fn rows_with_empty_selected_axes_are_skipped() {
+        let text = "t,x,y,z,ext_x,ext_y,ext_z\n0,1,2,3,4,5,6\n0.01,1,2,3,,,\n0.02,1,2,3,7,8,9\n";
+        let opts = LoadOptions {
+            columns: Some(["ext_x".into(), "ext_y".into(), "ext_z".into()]),
+        };
+        let r = parse(text, &opts).unwrap();
+        assert_eq!(r.xyz, vec![[4.0, 5.0, 6.0], [7.0, 8.0, 9.0]]);
+        assert_eq!(r.t.unwrap(), vec![0.0, 0.02]);
+        assert_eq!(r.skipped_empty_rows, 1);
+        // A partly empty row is an error, not a skip.
+        let e = parse("t,x,y,z\n0,1,,3\n", &LoadOptions::default()).unwrap_err();
+        assert!(format!("{e:#}").contains("not a number"));
     }
 
     #[test]

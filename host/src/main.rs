@@ -355,6 +355,14 @@ fn run(cli: Cli) -> Result<String> {
                 rec.len(),
                 rep.static_windows
             )?;
+            if rec.skipped_empty_rows > 0 {
+                writeln!(
+                    o,
+                    "({} rows with empty {} skipped, e.g. while the extension was unplugged)",
+                    rec.skipped_empty_rows,
+                    rec.axis_columns.join(",")
+                )?;
+            }
             writeln!(o, "\n  #   t_start    t_end  samples   residual (mg)")?;
             for (i, w) in rep.windows.iter().enumerate() {
                 writeln!(
