@@ -52,7 +52,7 @@ pub struct SixPositionDetails {
     pub pair_residual_mg: [[f64; 3]; 3],
     /// ‖a‖ − 1 g per pose, milli-g.
     pub norm_residual_mg: [f64; 6],
-    /// Own-pair contrast per axis converted to the quadratic it implies, k2 = −1.5·R[a][a],
+    /// Own-pair contrast per axis converted to the quadratic it implies, k2 = −1.5·`R[a][a]`,
     /// mg/g².
     pub implied_k2_mg: [f64; 3],
     /// Other-pairs contrast per axis row, `R[a][j] − R[a][k]` (j < k the two other pairs), mg.
