@@ -1,4 +1,7 @@
-//! wiical adapter firmware for the RP2350 (Raspberry Pi Pico 2).
+//! wiical adapter firmware for the RP2350 (Raspberry Pi Pico 2, cargo feature `rp2350`, the
+//! default) or the RP2040 (Raspberry Pi Pico, feature `rp2040`, target `thumbv6m-none-eabi`).
+//! Both chips use the same GPIO numbers and the same tasks; only the memory map, boot block
+//! and device ID source differ (see `build.rs` and [`storage`]).
 //!
 //! The adapter sits between a Nunchuk and a Wii Remote: it polls the Nunchuk as I²C
 //! controller, corrects its accelerometer with the stored calibration and presents the
@@ -21,7 +24,7 @@
 //! Storage is not a task of its own: [`storage::open`] loads the calibration at boot, and a
 //! commit (save, read back, then go live) runs inside the serial request that asks for it,
 //! because `wiical-adapter`'s `Protocol` owns the store and makes that sequence atomic. On
-//! the RP2350 a flash erase/program stalls execute-in-place anyway, so a separate task
+//! both chips a flash erase/program stalls execute-in-place anyway, so a separate task
 //! would not let anything else run meanwhile.
 #![no_std]
 #![no_main]
@@ -96,7 +99,8 @@ async fn main(spawner: Spawner) {
     spawner.spawn(unwrap!(serial::usb_task(device)));
     spawner.spawn(unwrap!(serial::serial_task(class, adapter)));
 
-    // Status LED: the Pico 2's on-board LED on GP25.
+    // Status LED: the on-board LED of the Pico 2 and the Pico, both on GP25 (not the Pico W's,
+    // which hangs off the radio chip).
     let led = Output::new(p.PIN_25, Level::Low);
     spawner.spawn(unwrap!(status::led_task(led)));
 }

@@ -11,7 +11,8 @@ use wiical_adapter::{
     BootLoad, CalibrationStore, CorrectionMode, DeviceInfo, IdealScale, Protocol,
 };
 
-/// Flash size the driver addresses (a Pico 2 has 4 MiB; the store sits inside the first 2).
+/// Flash size the driver addresses (a Pico has 2 MiB, a Pico 2 has 4 MiB; the store sits
+/// inside the first 2).
 pub const FLASH_SIZE: usize = 2 * 1024 * 1024;
 /// Offsets (from the start of flash) of the store: four 4 KiB erase sectors, excluded from
 /// the program's FLASH region in memory.x.
@@ -28,14 +29,11 @@ pub async fn open(
     dma: Peri<'static, DMA_CH0>,
     irqs: crate::Irqs,
 ) -> Protocol<StoreFlash> {
-    let flash = StoreFlash::new(flash, dma, irqs);
+    let mut flash = StoreFlash::new(flash, dma, irqs);
+    let device_id = device_id(&mut flash);
     let Ok(store) = CalibrationStore::new(flash, STORE_RANGE) else {
         defmt::panic!("calibration store: STORE_RANGE does not fit the flash geometry");
     };
-    // The RP2350's 64-bit chip ID identifies the adapter to the host.
-    let device_id = embassy_rp::otp::get_chipid()
-        .map(u64::to_le_bytes)
-        .unwrap_or([0; 8]);
     let info = DeviceInfo::new(env!("CARGO_PKG_VERSION"), device_id, crate::POLL_HZ * 1000);
     let protocol = Protocol::boot(store, info, IdealScale::default()).await;
     let status = protocol.status();
@@ -49,4 +47,28 @@ pub async fn open(
         warn!("uncalibrated: pass-through (the Nunchuk's own calibration is forwarded)");
     }
     protocol
+}
+
+/// The 64-bit ID that identifies the adapter to the host (all zeros if it cannot be read).
+///
+/// RP2350: the chip ID in OTP.
+#[cfg(feature = "rp2350")]
+fn device_id(_flash: &mut StoreFlash) -> [u8; 8] {
+    embassy_rp::otp::get_chipid()
+        .map(u64::to_le_bytes)
+        .unwrap_or([0; 8])
+}
+
+/// The 64-bit ID that identifies the adapter to the host (all zeros if it cannot be read).
+///
+/// RP2040: the chip has no ID of its own; like the Pico SDK's `pico_get_unique_board_id`, use
+/// the flash chip's 64-bit unique ID (command 0x4B), read while nothing else runs at boot.
+#[cfg(feature = "rp2040")]
+fn device_id(flash: &mut StoreFlash) -> [u8; 8] {
+    let mut id = [0u8; 8];
+    if flash.blocking_unique_id(&mut id).is_err() {
+        warn!("flash unique ID unreadable");
+        id = [0; 8];
+    }
+    id
 }

@@ -4,9 +4,10 @@
 //! |---|---|
 //! | `cargo xtask qemu` | runs the core's test vectors on an emulated Cortex-M33 (QEMU `mps2-an505`) and compares them with the host's; ends with `N passed, M failed` |
 //! | `cargo xtask qemu-bench` | deterministic instruction counts (`-icount shift=0`) and peak stack of the on-device operations |
-//! | `cargo xtask firmware` | builds the release firmware and prints its flash and static RAM use (fails over 128 KiB / 32 KiB) |
+//! | `cargo xtask firmware [--chip rp2350\|rp2040]` | builds the release firmware for that chip (default RP2350) and prints its flash and static RAM use (fails over 128 KiB / 32 KiB) |
 //!
-//! Each installs what it is missing first: the `thumbv8m.main-none-eabihf` rustup target and,
+//! Each installs what it is missing first: the rustup target (`thumbv8m.main-none-eabihf`, or
+//! `thumbv6m-none-eabi` for the RP2040 firmware) and,
 //! for the QEMU commands, Debian's `qemu-system-arm` (through `apt-get`, with `sudo` when not
 //! root). `qemu-tests/` and `firmware/` are separate cargo workspaces (their own target and
 //! `.cargo/config.toml`); this program builds them with their own configuration.
@@ -23,7 +24,9 @@ use std::time::{Duration, Instant};
 const TARGET: &str = "thumbv8m.main-none-eabihf";
 /// How long one QEMU run may take before it is killed.
 const QEMU_TIMEOUT: Duration = Duration::from_secs(300);
-/// Firmware budgets from the project brief.
+/// The embedded target of the RP2040 (Cortex-M0+), for `firmware --chip rp2040`.
+const TARGET_RP2040: &str = "thumbv6m-none-eabi";
+/// Firmware budgets from the project brief (the same for both chips).
 const FLASH_BUDGET: u64 = 128 * 1024;
 const RAM_BUDGET: u64 = 32 * 1024;
 
@@ -33,7 +36,9 @@ usage: cargo xtask <command>
 commands:
   qemu        run the core's test vectors on QEMU (Cortex-M33, mps2-an505)
   qemu-bench  instruction counts and peak stack on QEMU (-icount shift=0)
-  firmware    build the release firmware, print flash and static RAM use
+  firmware [--chip rp2350|rp2040]
+              build the release firmware for that chip (default rp2350), print its
+              flash and static RAM use
 ";
 
 fn main() -> ExitCode {
@@ -41,7 +46,14 @@ fn main() -> ExitCode {
     let result = match args.first().map(String::as_str) {
         Some("qemu") => qemu_tests(),
         Some("qemu-bench") => qemu_bench(),
-        Some("firmware") => firmware(),
+        Some("firmware") => match parse_chip(&args[1..]) {
+            Ok(chip) => firmware(chip),
+            Err(e) => {
+                eprintln!("xtask: {e}");
+                eprint!("{USAGE}");
+                return ExitCode::from(2);
+            }
+        },
         Some("help" | "-h" | "--help") => {
             print!("{USAGE}");
             Ok(true)
@@ -83,17 +95,17 @@ fn run(cmd: &mut Command) -> Result<()> {
 }
 
 /// Adds the rustup target if it is not installed.
-fn ensure_target() -> Result<()> {
+fn ensure_target(target: &str) -> Result<()> {
     let out = Command::new("rustup")
         .args(["target", "list", "--installed"])
         .output()
         .map_err(|e| format!("cannot run rustup: {e}"))?;
     let installed = String::from_utf8_lossy(&out.stdout);
-    if installed.lines().any(|l| l.trim() == TARGET) {
+    if installed.lines().any(|l| l.trim() == target) {
         return Ok(());
     }
-    eprintln!("xtask: installing the rustup target {TARGET}");
-    run(Command::new("rustup").args(["target", "add", TARGET]))
+    eprintln!("xtask: installing the rustup target {target}");
+    run(Command::new("rustup").args(["target", "add", target]))
 }
 
 fn have(program: &str, arg: &str) -> bool {
@@ -235,7 +247,7 @@ fn parse_summary(line: &str) -> Option<(u32, u32)> {
 }
 
 fn qemu_tests() -> Result<bool> {
-    ensure_target()?;
+    ensure_target(TARGET)?;
     ensure_qemu()?;
     let elf = build_qemu_bin("qemu-tests")?;
     eprintln!(
@@ -268,7 +280,7 @@ fn qemu_tests() -> Result<bool> {
 }
 
 fn qemu_bench() -> Result<bool> {
-    ensure_target()?;
+    ensure_target(TARGET)?;
     ensure_qemu()?;
     let elf = build_qemu_bin("qemu-bench")?;
     eprintln!(
@@ -282,20 +294,70 @@ fn qemu_bench() -> Result<bool> {
     Ok(run.success)
 }
 
-fn firmware() -> Result<bool> {
-    ensure_target()?;
+/// The chip the firmware is built for: a cargo feature of `firmware/` and its target.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Chip {
+    /// Raspberry Pi Pico 2: feature `rp2350` (the firmware's default), [`TARGET`].
+    Rp2350,
+    /// Raspberry Pi Pico: feature `rp2040`, [`TARGET_RP2040`].
+    Rp2040,
+}
+
+impl Chip {
+    fn name(self) -> &'static str {
+        match self {
+            Chip::Rp2350 => "rp2350",
+            Chip::Rp2040 => "rp2040",
+        }
+    }
+
+    fn target(self) -> &'static str {
+        match self {
+            Chip::Rp2350 => TARGET,
+            Chip::Rp2040 => TARGET_RP2040,
+        }
+    }
+}
+
+/// Parses the options of `firmware`: nothing, or `--chip rp2350|rp2040` (also `--chip=…`).
+fn parse_chip(args: &[String]) -> Result<Chip> {
+    let value = match args {
+        [] => return Ok(Chip::Rp2350),
+        [flag, value] if flag == "--chip" => value.as_str(),
+        [flag] if flag.starts_with("--chip=") => &flag["--chip=".len()..],
+        _ => return Err(format!("firmware: unexpected arguments {args:?}")),
+    };
+    match value {
+        "rp2350" => Ok(Chip::Rp2350),
+        "rp2040" => Ok(Chip::Rp2040),
+        other => Err(format!(
+            "firmware: unknown chip `{other}` (expected rp2350 or rp2040)"
+        )),
+    }
+}
+
+fn firmware(chip: Chip) -> Result<bool> {
+    let target = chip.target();
+    ensure_target(target)?;
     let dir = root().join("firmware");
-    run(Command::new(cargo())
-        .current_dir(&dir)
-        .args(["build", "--release"]))?;
+    // The chip feature and the target are given explicitly, so the result does not depend on
+    // `.cargo/config.toml`'s build target. The RP2350 keeps the default features (it is the
+    // default chip), so this build shares its artifacts with a plain `cargo build --release`.
+    let mut build = Command::new(cargo());
+    build.current_dir(&dir).args(["build", "--release"]);
+    if chip != Chip::Rp2350 {
+        build.arg("--no-default-features");
+    }
+    build.args(["--features", chip.name(), "--target", target]);
+    run(&mut build)?;
     let elf = dir
         .join("target")
-        .join(TARGET)
+        .join(target)
         .join("release")
         .join("wiical-firmware");
     let data = std::fs::read(&elf).map_err(|e| format!("cannot read {}: {e}", elf.display()))?;
     let sizes = elfsize::measure(&data)?;
-    println!("{}", elf.display());
+    println!("{} ({})", elf.display(), chip.name());
     println!("{sizes}");
     let flash_ok = sizes.flash() <= FLASH_BUDGET;
     let ram_ok = sizes.ram() <= RAM_BUDGET;
@@ -323,5 +385,24 @@ mod tests {
         assert_eq!(parse_summary("13 passed"), None);
         assert_eq!(parse_summary("x passed, 0 failed"), None);
         assert_eq!(parse_summary("test a ... ok (3 passed, 0 failed)"), None);
+    }
+
+    fn args(a: &[&str]) -> Vec<String> {
+        a.iter().map(|s| s.to_string()).collect()
+    }
+
+    #[test]
+    fn chip_option_is_parsed_exactly() {
+        assert_eq!(parse_chip(&args(&[])), Ok(Chip::Rp2350));
+        assert_eq!(parse_chip(&args(&["--chip", "rp2040"])), Ok(Chip::Rp2040));
+        assert_eq!(parse_chip(&args(&["--chip", "rp2350"])), Ok(Chip::Rp2350));
+        assert_eq!(parse_chip(&args(&["--chip=rp2040"])), Ok(Chip::Rp2040));
+        assert!(parse_chip(&args(&["--chip"])).is_err());
+        assert!(parse_chip(&args(&["--chip", "rp2040x"])).is_err());
+        assert!(parse_chip(&args(&["--chip", "RP2040"])).is_err());
+        assert!(parse_chip(&args(&["rp2040"])).is_err());
+        assert!(parse_chip(&args(&["--chip", "rp2040", "--chip", "rp2350"])).is_err());
+        assert_eq!(Chip::Rp2040.target(), "thumbv6m-none-eabi");
+        assert_eq!(Chip::Rp2350.target(), "thumbv8m.main-none-eabihf");
     }
 }
