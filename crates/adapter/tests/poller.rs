@@ -4,31 +4,11 @@
 
 mod common;
 
-use common::{block_on, BusError, MockBus, NoDelay, Plug};
+use common::{block_on, factory_block, BusError, MockBus, NoDelay, Plug};
 use embedded_hal_async::i2c::{ErrorType, I2c, NoAcknowledgeSource, Operation};
 use proptest::prelude::*;
 use wiical_adapter::{Error, NunchukPoller, PollEvent, PollerConfig};
-use wiical_extbus::nunchuk::StickAxisCalibration;
-use wiical_extbus::{
-    CalibrationBlock, CalibrationCopy, Encryption, NunchukRegisters, NunchukReport,
-};
-
-fn factory_block() -> CalibrationBlock {
-    CalibrationBlock {
-        zero: [496, 502, 493],
-        one_g: [701, 696, 695],
-        stick_x: StickAxisCalibration {
-            max: 0xE3,
-            min: 0x1C,
-            centre: 0x7E,
-        },
-        stick_y: StickAxisCalibration {
-            max: 0xE0,
-            min: 0x1E,
-            centre: 0x82,
-        },
-    }
-}
+use wiical_extbus::{CalibrationCopy, Encryption, NunchukRegisters, NunchukReport};
 
 fn report(accel: [u16; 3]) -> NunchukReport {
     NunchukReport {

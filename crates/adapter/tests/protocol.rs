@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{block_on, CutFlash, MockBus, NoDelay, Plug};
+use common::{block_on, factory_block, CutFlash, MockBus, NoDelay, Plug};
 use nalgebra::{Matrix3, Vector3};
 use proptest::prelude::*;
 use rand::{Rng, SeedableRng};
@@ -15,7 +15,6 @@ use wiical_adapter::{
     BootLoad, CalibrationStore, CorrectionMode, DeviceInfo, IdealScale, NunchukPoller, Protocol,
 };
 use wiical_core::Calibration;
-use wiical_extbus::nunchuk::StickAxisCalibration;
 use wiical_extbus::{CalibrationBlock, Encryption, NunchukRegisters, NunchukReport};
 use wiical_wire::{
     encode_frame, CalibrationState, DefaultFrameDecoder, ErrorCode, Hello, Request, Response,
@@ -28,23 +27,6 @@ const BASE_MHZ: u32 = 200_000;
 
 fn info() -> DeviceInfo {
     DeviceInfo::new("test-0.1.0", [1, 2, 3, 4, 5, 6, 7, 8], BASE_MHZ)
-}
-
-fn factory_block() -> CalibrationBlock {
-    CalibrationBlock {
-        zero: [496, 502, 493],
-        one_g: [701, 696, 695],
-        stick_x: StickAxisCalibration {
-            max: 0xE3,
-            min: 0x1C,
-            centre: 0x7E,
-        },
-        stick_y: StickAxisCalibration {
-            max: 0xE0,
-            min: 0x1E,
-            centre: 0x82,
-        },
-    }
 }
 
 /// The simulated sensor's true forward model `m = D·a + b` (counts), with cross-axis terms.

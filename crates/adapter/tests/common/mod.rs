@@ -13,8 +13,9 @@ use embedded_storage_async::nor_flash::{
 };
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use wiical_extbus::nunchuk::StickAxisCalibration;
 use wiical_extbus::nunchuk::I2C_ADDRESS;
-use wiical_extbus::NunchukRegisters;
+use wiical_extbus::{CalibrationBlock, NunchukRegisters};
 
 /// Run a future whose awaits all complete immediately (mock bus and flash).
 pub fn block_on<F: core::future::Future>(f: F) -> F::Output {
@@ -340,5 +341,23 @@ impl<const WORD: usize, const PAGE: usize, const PAGES: usize> NorFlash
             }
         }
         Ok(())
+    }
+}
+
+/// The factory calibration block the simulated Nunchuk carries in these tests.
+pub fn factory_block() -> CalibrationBlock {
+    CalibrationBlock {
+        zero: [496, 502, 493],
+        one_g: [701, 696, 695],
+        stick_x: StickAxisCalibration {
+            max: 0xE3,
+            min: 0x1C,
+            centre: 0x7E,
+        },
+        stick_y: StickAxisCalibration {
+            max: 0xE0,
+            min: 0x1E,
+            centre: 0x82,
+        },
     }
 }
