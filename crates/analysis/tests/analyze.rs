@@ -4,10 +4,13 @@
 mod common;
 use common::data_dir;
 
-use wiical::{analyze, analyze_plot, fit_cmd, input, simulate, six_position_cmd};
+use wiical_analysis::fit;
+use wiical_analysis::load;
+use wiical_analysis::simulate;
+use wiical_analysis::Recording;
 
-use analyze::{analyze as run_analyze, AnalyzeOptions, AnalyzeReport};
 use simulate::{Device, SimConfig, SimEffect, SimOutput};
+use wiical_analysis::{analyze as run_analyze, AnalyzeOptions, AnalyzeReport, Candidate};
 
 use wiical_core::Conditions;
 
@@ -276,16 +279,16 @@ fn temperature_candidates_need_a_temperature_column() {
         .all(|c| c.name != "temperature" && c.name != "temperature-scale"));
     // Restricting the candidates works and unknown names are refused.
     let only = AnalyzeOptions {
-        candidates: Some(vec!["quadratic".into()]),
+        candidates: Some(vec![Candidate::Quadratic]),
         ..Default::default()
     };
     let r = run_analyze(&s.recording, &only).unwrap();
     assert!(r.effects.is_empty());
-    let bad = AnalyzeOptions {
-        candidates: Some(vec!["gremlins".into()]),
-        ..Default::default()
-    };
-    assert!(format!("{:#}", run_analyze(&s.recording, &bad).unwrap_err()).contains("gremlins"));
+    assert!("gremlins"
+        .parse::<Candidate>()
+        .unwrap_err()
+        .to_string()
+        .contains("gremlins"));
 }
 
 /// The JSON contract keys.
@@ -307,14 +310,6 @@ fn json_contract() {
     assert_eq!(e["params"].as_u64(), Some(3));
     assert!(e["cv_rms_mg"].as_f64().is_some());
     assert!(e["evidence"].as_str().unwrap().contains("4th-order"));
-    // Text report and plot render.
-    let text = analyze::render_text(&r, "sim.csv");
-    assert!(text.contains("cubic") && text.contains("noise floor"));
-    let svg = std::env::temp_dir().join(format!("wiical-analyze-{}.svg", std::process::id()));
-    analyze_plot::write_plot(&r, &svg).unwrap();
-    let body = std::fs::read_to_string(&svg).unwrap();
-    assert!(body.starts_with("<svg") && body.contains("circle"));
-    let _ = std::fs::remove_file(svg);
 }
 
 /// Simulated recordings written to disk load back identically, with the truth beside them.
@@ -326,7 +321,7 @@ fn simulate_writes_recording_and_truth() {
     let path = dir.join("rec.csv");
     let tp = simulate::write(&s, &path).unwrap();
     assert_eq!(tp, dir.join("rec.csv.truth.json"));
-    let rec = input::load(&path, &Default::default()).unwrap();
+    let rec = load::load(&path, &Default::default()).unwrap();
     assert_eq!(rec.xyz, s.recording.xyz);
     let truth: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&tp).unwrap()).unwrap();
@@ -350,7 +345,7 @@ fn simulate_writes_recording_and_truth() {
 #[test]
 fn real_xsens_recording() {
     let file = data_dir().join("imu_tk_xsens/xsens_acc.mat");
-    let rec = input::load(&file, &Default::default()).unwrap();
+    let rec = load::load(&file, &Default::default()).unwrap();
     let r = run_analyze(&rec, &AnalyzeOptions::default()).unwrap();
     assert!(r.static_windows >= 35, "{}", r.static_windows);
     assert!(
@@ -376,7 +371,7 @@ fn real_xsens_recording() {
     assert!(c.p_value.unwrap() > r.steps[0].level, "{:?}", c.p_value);
     assert!(r.diagnostics.is_empty());
     // The f64 base agrees with the core's f32 fit (`wiical fit`) to well below the floor.
-    let fit = fit_cmd::run(&rec, &Default::default()).unwrap();
+    let fit = fit::run(&rec, &Default::default()).unwrap();
     assert_eq!(fit.static_windows, r.static_windows);
     assert!((fit.rms_mg as f64 - r.base.rms_mg).abs() < 0.005);
 }
@@ -385,7 +380,7 @@ fn real_xsens_recording() {
 #[test]
 fn seed_six_position_file() {
     let file = data_dir().join("seed_six_position/wiimote_M.csv");
-    let rec = input::load(&file, &Default::default()).unwrap();
+    let rec = load::load(&file, &Default::default()).unwrap();
     let r = run_analyze(&rec, &AnalyzeOptions::default()).unwrap();
     assert_eq!(r.mode, "six-position");
     assert_eq!(r.static_windows, 6);
@@ -427,7 +422,7 @@ fn seed_six_position_file() {
 fn six_position_blocks_test_the_pair_contrasts() {
     use rand::SeedableRng;
     use rand_distr::{Distribution, StandardNormal};
-    let make = |k2: [f64; 3], tilt_z_in_x: f64, seed: u64| -> input::Recording {
+    let make = |k2: [f64; 3], tilt_z_in_x: f64, seed: u64| -> Recording {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
         let mut text = String::from("pose,x,y,z\n");
         let d = [[105.0, 1.0, -0.5], [0.0, 103.0, 0.8], [0.0, 0.0, 107.0]];
@@ -455,7 +450,7 @@ fn six_position_blocks_test_the_pair_contrasts() {
                 text += &format!("{lab},{},{},{}\n", m[0], m[1], m[2]);
             }
         }
-        input::parse(&text, &Default::default()).unwrap()
+        load::parse(&text, &Default::default()).unwrap()
     };
     let clean = run_analyze(&make([0.0; 3], 0.0, 1), &AnalyzeOptions::default()).unwrap();
     assert!(clean.effects.is_empty(), "{:?}", names(&clean));
@@ -604,14 +599,13 @@ fn big_sweep() {
 #[test]
 fn base_matches_fit_command_on_simulated_data() {
     let s = sim(SimEffect::None, 0.0, 81, Device::Wiimote);
-    let fit = fit_cmd::run(&s.recording, &Default::default()).unwrap();
+    let fit = fit::run(&s.recording, &Default::default()).unwrap();
     let r = run_analyze(&s.recording, &AnalyzeOptions::default()).unwrap();
     assert_eq!(fit.static_windows, r.static_windows);
     assert!((fit.rms_mg as f64 - r.base.rms_mg).abs() < 1e-3);
     for (a, b) in fit.windows.iter().zip(&r.windows) {
         assert!((a.residual_mg as f64 - b.residual_base_mg).abs() < 2e-3);
     }
-    let _ = six_position_cmd::PoseEstimator::Mean;
 }
 
 mod no_panic {
@@ -630,7 +624,7 @@ mod no_panic {
                 .chunks_exact(3)
                 .map(|c| if integer { [c[0].round(), c[1].round(), c[2].round()] } else { [c[0], c[1], c[2]] })
                 .collect();
-            let rec = input::Recording { xyz, ..Default::default() };
+            let rec = Recording { xyz, ..Default::default() };
             let _ = run_analyze(&rec, &AnalyzeOptions::default());
         }
     }

@@ -8,10 +8,10 @@
 //! diagonal before and flat after. Six-position reports plot the pair residuals per axis.
 
 #![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x > 0.0)` is deliberately true for NaN.
-use crate::analyze::AnalyzeReport;
 use anyhow::{anyhow, Result};
 use plotters::prelude::*;
 use std::path::Path;
+use wiical_analysis::AnalyzeReport;
 
 fn range(v: impl Iterator<Item = f64> + Clone) -> (f64, f64) {
     let lo = v.clone().fold(f64::INFINITY, f64::min);
@@ -121,26 +121,28 @@ pub fn write_plot(rep: &AnalyzeReport, path: &Path) -> Result<()> {
     }
     let panels = if rep.effects.is_empty() { 1 } else { 2 };
     let areas = root.split_evenly((1, panels));
-    let kept = |f: fn(&crate::analyze::WindowInfo) -> f64, after: bool| -> (Pts, Pts, Pts) {
-        let mut b = Vec::new();
-        let mut a = Vec::new();
-        let mut r = Vec::new();
-        for w in &rep.windows {
-            let x = f(w);
-            b.push((x, w.residual_base_mg));
-            if after {
-                if w.rejected {
-                    r.push((x, w.residual_final_mg));
-                } else {
-                    a.push((x, w.residual_final_mg));
+    let kept =
+        |f: fn(&wiical_analysis::report::WindowInfo) -> f64, after: bool| -> (Pts, Pts, Pts) {
+            let mut b = Vec::new();
+            let mut a = Vec::new();
+            let mut r = Vec::new();
+            for w in &rep.windows {
+                let x = f(w);
+                b.push((x, w.residual_base_mg));
+                if after {
+                    if w.rejected {
+                        r.push((x, w.residual_final_mg));
+                    } else {
+                        a.push((x, w.residual_final_mg));
+                    }
                 }
             }
-        }
-        (b, a, r)
-    };
+            (b, a, r)
+        };
     // Panel 1: against the effect's own variable (time, temperature, window index).
     let first = rep.effects.first().map(|e| e.name.as_str());
-    let (title, xd, f): (&str, &str, fn(&crate::analyze::WindowInfo) -> f64) = match first {
+    let (title, xd, f): (&str, &str, fn(&wiical_analysis::report::WindowInfo) -> f64) = match first
+    {
         Some("temperature") | Some("temperature-scale") => (
             "residual vs window temperature",
             "window temperature (°C)",

@@ -12,65 +12,9 @@
 //!
 //! Every value must be finite; the first bad line is reported with its number.
 
-use anyhow::{anyhow, bail, Context, Result};
+use crate::error::{Error, Result};
+use crate::recording::Recording;
 use std::path::Path;
-
-/// A loaded 3-axis recording. Values are kept in f64 exactly as read; conversion to the core's
-/// f32 happens at the solver boundary.
-#[derive(Debug, Clone, Default)]
-pub struct Recording {
-    /// Sample times in seconds, if the file has a time column.
-    pub t: Option<Vec<f64>>,
-    /// The three axis values of every sample (raw units).
-    pub xyz: Vec<[f64; 3]>,
-    /// Sensor temperature per sample (°C), if present.
-    pub temp: Option<Vec<f64>>,
-    /// Pose labels (six-position files), if present.
-    pub labels: Option<Vec<String>>,
-    /// Sample rate from metadata (`Fs,…`), if present.
-    pub sample_rate_hz: Option<f64>,
-    /// Names of the columns used for x, y, z (for messages).
-    pub axis_columns: [String; 3],
-    /// Rows skipped because all three selected axis fields were empty (e.g. `wiical capture`
-    /// leaves the Nunchuk columns empty while the Nunchuk is unplugged).
-    pub skipped_empty_rows: usize,
-}
-
-impl Recording {
-    /// Number of samples.
-    pub fn len(&self) -> usize {
-        self.xyz.len()
-    }
-
-    /// True when there are no samples.
-    pub fn is_empty(&self) -> bool {
-        self.xyz.is_empty()
-    }
-
-    /// Sample times: the time column, else `i / Fs`, else `i / default_rate_hz`.
-    pub fn times(&self, default_rate_hz: f64) -> Vec<f64> {
-        if let Some(t) = &self.t {
-            return t.clone();
-        }
-        let fs = self.sample_rate_hz.unwrap_or(default_rate_hz);
-        (0..self.len()).map(|i| i as f64 / fs).collect()
-    }
-
-    /// Estimated sample rate from the time column or metadata.
-    pub fn estimated_rate_hz(&self) -> Option<f64> {
-        if let Some(fs) = self.sample_rate_hz {
-            return Some(fs);
-        }
-        let t = self.t.as_ref()?;
-        if t.len() < 2 {
-            return None;
-        }
-        let mut dts: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
-        dts.sort_by(|a, b| a.total_cmp(b));
-        let med = dts[dts.len() / 2];
-        (med > 0.0).then(|| 1.0 / med)
-    }
-}
 
 /// Options for [`load`].
 #[derive(Debug, Clone, Default)]
@@ -81,10 +25,12 @@ pub struct LoadOptions {
 
 /// Loads a recording from a file; see the module docs for the accepted formats.
 pub fn load(path: &Path, opts: &LoadOptions) -> Result<Recording> {
-    let bytes = std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
-    let text =
-        String::from_utf8(bytes).map_err(|_| anyhow!("{} is not UTF-8 text", path.display()))?;
-    parse(&text, opts).with_context(|| format!("in {}", path.display()))
+    let bytes = std::fs::read(path).map_err(|source| Error::Read {
+        path: path.into(),
+        source,
+    })?;
+    let text = String::from_utf8(bytes).map_err(|_| Error::NotUtf8 { path: path.into() })?;
+    parse(&text, opts).map_err(|e| e.in_file(path))
 }
 
 fn is_comment_or_blank(line: &str) -> bool {
@@ -97,12 +43,12 @@ pub fn parse(text: &str, opts: &LoadOptions) -> Result<Recording> {
     let first = text
         .lines()
         .find(|l| !is_comment_or_blank(l))
-        .ok_or_else(|| anyhow!("file is empty (no data lines)"))?;
+        .ok_or(Error::Empty)?;
     if first.contains(',') || first.contains(';') {
         parse_csv(text, opts)
     } else {
         if opts.columns.is_some() {
-            bail!("--columns needs a CSV file with a header; this file has no header");
+            return Err(Error::ColumnsNeedHeader);
         }
         parse_whitespace(text)
     }
@@ -111,11 +57,17 @@ pub fn parse(text: &str, opts: &LoadOptions) -> Result<Recording> {
 /// Parses one field. Callers hand over fields already free of surrounding blanks (split on
 /// ASCII whitespace, or trimmed by the CSV reader).
 fn parse_number(s: &str, line_no: usize, col: &str) -> Result<f64> {
-    let v: f64 = s
-        .parse()
-        .map_err(|_| anyhow!("line {line_no}: column '{col}': '{s}' is not a number"))?;
+    let v: f64 = s.parse().map_err(|_| Error::NotANumber {
+        line: line_no,
+        column: col.into(),
+        text: s.into(),
+    })?;
     if !v.is_finite() {
-        bail!("line {line_no}: column '{col}': value '{s}' is not finite");
+        return Err(Error::NotFinite {
+            line: line_no,
+            column: col.into(),
+            text: s.into(),
+        });
     }
     Ok(v)
 }
@@ -141,15 +93,22 @@ fn parse_whitespace(text: &str) -> Result<Recording> {
         }
         let n = *ncols.get_or_insert(count);
         if count != n {
-            bail!("line {line_no}: expected {n} columns like the first data line, found {count}");
+            return Err(Error::RaggedLine {
+                line: line_no,
+                expected: n,
+                found: count,
+            });
         }
         let names: &[&str] = match n {
             3 => &["x", "y", "z"],
             4 => &["t", "x", "y", "z"],
             5 => &["t", "x", "y", "z", "temp"],
-            _ => bail!(
-                "line {line_no}: {n} columns without a header; expected 3 (x y z), 4 (t x y z) or 5 (t x y z temp)"
-            ),
+            _ => {
+                return Err(Error::HeaderlessColumns {
+                    line: line_no,
+                    found: n,
+                })
+            }
         };
         let mut vals = [0.0f64; 5];
         for (k, f) in fields.iter().take(n).enumerate() {
@@ -165,7 +124,7 @@ fn parse_whitespace(text: &str) -> Result<Recording> {
         rec.xyz.push([vals[off], vals[off + 1], vals[off + 2]]);
     }
     if rec.xyz.is_empty() {
-        bail!("file has no data rows");
+        return Err(Error::NoDataRows);
     }
     if !t.is_empty() {
         rec.t = Some(t);
@@ -215,7 +174,7 @@ fn parse_csv(text: &str, opts: &LoadOptions) -> Result<Recording> {
     let (mut t, mut temp, mut labels) = (Vec::new(), Vec::new(), Vec::new());
 
     for result in reader.records() {
-        let record = result.context("malformed CSV")?;
+        let record = result.map_err(Error::MalformedCsv)?;
         let line_no = record.position().map(|p| p.line() as usize).unwrap_or(0);
         if record.iter().all(|f| f.is_empty()) {
             continue;
@@ -225,15 +184,16 @@ fn parse_csv(text: &str, opts: &LoadOptions) -> Result<Recording> {
             let fields: Vec<String> = record.iter().map(|f| f.to_ascii_lowercase()).collect();
             let numeric = fields.iter().filter(|f| f.parse::<f64>().is_ok()).count();
             if numeric == fields.len() {
-                bail!(
-                    "line {line_no}: data before any header; a CSV file needs a header naming its columns (e.g. t,x,y,z)"
-                );
+                return Err(Error::DataBeforeHeader { line: line_no });
             }
             if fields.len() == 2 && numeric == 1 && fields[1].parse::<f64>().is_ok() {
                 if fields[0] == "fs" || fields[0] == "sample_rate" || fields[0] == "rate_hz" {
-                    let fs: f64 = fields[1].parse()?;
+                    let fs: f64 = fields[1].parse().unwrap_or(f64::NAN);
                     if !(fs.is_finite() && fs > 0.0) {
-                        bail!("line {line_no}: sample rate must be positive, got {fs}");
+                        return Err(Error::BadSampleRate {
+                            line: line_no,
+                            value: fs,
+                        });
                     }
                     rec.sample_rate_hz = Some(fs);
                 }
@@ -245,11 +205,11 @@ fn parse_csv(text: &str, opts: &LoadOptions) -> Result<Recording> {
             continue;
         };
         if record.len() != cols.len() {
-            bail!(
-                "line {line_no}: expected {} fields like the header, found {}",
-                cols.len(),
-                record.len()
-            );
+            return Err(Error::RaggedRow {
+                line: line_no,
+                expected: cols.len(),
+                found: record.len(),
+            });
         }
         if idx.1.iter().all(|&i| record[i].is_empty()) {
             rec.skipped_empty_rows += 1;
@@ -269,10 +229,10 @@ fn parse_csv(text: &str, opts: &LoadOptions) -> Result<Recording> {
         }
     }
     if header.is_none() {
-        bail!("no header line found");
+        return Err(Error::NoHeader);
     }
     if rec.xyz.is_empty() {
-        bail!("file has a header but no data rows");
+        return Err(Error::HeaderOnly);
     }
     if idx.0 != usize::MAX {
         rec.t = Some(t);
@@ -291,19 +251,20 @@ fn map_header(fields: &[String], opts: &LoadOptions) -> Result<(usize, [usize; 3
     let mut seen = std::collections::HashSet::new();
     for f in fields {
         if !seen.insert(f) {
-            bail!("column '{f}' appears twice in the header");
+            return Err(Error::DuplicateColumn { name: f.clone() });
         }
     }
     let xyz = if let Some(cols) = &opts.columns {
         let mut out = [0usize; 3];
         for (k, c) in cols.iter().enumerate() {
             let c = c.to_ascii_lowercase();
-            out[k] = fields.iter().position(|f| *f == c).ok_or_else(|| {
-                anyhow!(
-                    "column '{c}' not found; the header has: {}",
-                    fields.join(", ")
-                )
-            })?;
+            out[k] = fields
+                .iter()
+                .position(|f| *f == c)
+                .ok_or_else(|| Error::ColumnNotFound {
+                    name: c.clone(),
+                    header: fields.join(", "),
+                })?;
         }
         out
     } else {
@@ -315,11 +276,8 @@ fn map_header(fields: &[String], opts: &LoadOptions) -> Result<(usize, [usize; 3
                 let c = fields.iter().position(|f| f == tri[2])?;
                 Some([a, b, c])
             })
-            .ok_or_else(|| {
-                anyhow!(
-                    "no x/y/z columns recognised in the header ({}); name them x,y,z (or ax,ay,az / mx,my,mz / gx,gy,gz), or choose them with --columns",
-                    fields.join(", ")
-                )
+            .ok_or_else(|| Error::NoAxisColumns {
+                header: fields.join(", "),
             })?
     };
     Ok((
@@ -385,12 +343,12 @@ mod tests {
         assert_eq!(r.skipped_empty_rows, 1);
         // A partly empty row is an error, not a skip.
         let e = parse("t,x,y,z\n0,1,,3\n", &LoadOptions::default()).unwrap_err();
-        assert!(format!("{e:#}").contains("not a number"));
+        assert!(e.full_message().contains("not a number"));
     }
 
     #[test]
     fn bad_inputs_give_readable_errors() {
-        let e = |s: &str| format!("{:#}", p(s).unwrap_err());
+        let e = |s: &str| p(s).unwrap_err().full_message();
         assert!(e("").contains("empty"));
         assert!(e("a,b,c\n1,2,3\n").contains("no x/y/z columns"));
         assert!(e("x,y,z\n1,NaN,3\n").contains("not finite"));

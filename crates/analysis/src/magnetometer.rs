@@ -1,4 +1,4 @@
-//! `wiical magfit`: fit a magnetometer recording with the core's streaming `f32` fits
+//! Magnetometer hard/soft-iron fits: fit a magnetometer recording with the core's streaming `f32` fits
 //! ([`wiical_core::magfit`]) and report the result.
 //!
 //! The points are fed, in file order, to one of the core accumulators (exactly what the
@@ -9,7 +9,7 @@
 use std::fmt;
 use std::str::FromStr;
 
-use anyhow::{anyhow, bail, Result};
+use crate::error::{Error, Result};
 use wiical_core::magfit::{
     AxisEllipsoidFit, EllipsoidFit, MagFit, ResidualAccumulator, SphereFit, StreamingMagFit,
 };
@@ -114,7 +114,7 @@ impl MagFitReport {
 /// is not an ellipsoid.
 pub fn fit_points(points: &[[f64; 3]], model: MagModel) -> Result<MagFitReport> {
     if points.is_empty() {
-        bail!("magfit: no samples to fit");
+        return Err(Error::NoMagSamples);
     }
     let pts32 = to_f32(points)?;
     let fit = match model {
@@ -122,22 +122,25 @@ pub fn fit_points(points: &[[f64; 3]], model: MagModel) -> Result<MagFitReport> 
         MagModel::Axis => run::<AxisEllipsoidFit>(&pts32),
         MagModel::Ellipsoid => run::<EllipsoidFit>(&pts32),
     }
-    .map_err(|e| {
-        anyhow!(e).context(format!(
+    .map_err(|source| Error::MagFit {
+        context: format!(
             "{model} fit of {} samples failed{}",
             points.len(),
-            hint(e)
-        ))
+            hint(source)
+        ),
+        source,
     })?;
     let mut quality = ResidualAccumulator::new(fit);
     for (i, p) in pts32.iter().enumerate() {
-        quality
-            .push(*p)
-            .map_err(|e| anyhow!(e).context(format!("fit quality: sample {}", i + 1)))?;
+        quality.push(*p).map_err(|source| Error::MagFit {
+            context: format!("fit quality: sample {}", i + 1),
+            source,
+        })?;
     }
-    let q = quality
-        .finish()
-        .map_err(|e| anyhow!(e).context("fit quality"))?;
+    let q = quality.finish().map_err(|source| Error::MagFit {
+        context: "fit quality".into(),
+        source,
+    })?;
     Ok(MagFitReport::new(
         model,
         points.len(),
@@ -158,13 +161,12 @@ fn to_f32(points: &[[f64; 3]]) -> Result<Vec<[f32; 3]>> {
             if q.iter().all(|v| v.is_finite()) {
                 Ok(q)
             } else {
-                bail!(
-                    "sample {} ({}, {}, {}) is not a finite f32 value",
-                    i + 1,
-                    p[0],
-                    p[1],
-                    p[2]
-                )
+                Err(Error::MagSampleNotF32 {
+                    index: i + 1,
+                    x: p[0],
+                    y: p[1],
+                    z: p[2],
+                })
             }
         })
         .collect()
@@ -297,7 +299,7 @@ mod tests {
 
     #[test]
     fn errors_are_readable() {
-        let msg = |pts: &[[f64; 3]], m| format!("{:#}", fit_points(pts, m).unwrap_err());
+        let msg = |pts: &[[f64; 3]], m| fit_points(pts, m).unwrap_err().full_message();
         assert!(msg(&[], MagModel::Sphere).contains("no samples"));
 
         let mut pts = ellipsoid_points(50).pts;

@@ -1,4 +1,4 @@
-//! `wiical simulate`: Wiimote- / Nunchuk-like multi-position recordings with known truth and,
+//! The simulator: Wiimote- / Nunchuk-like multi-position recordings with known truth and,
 //! optionally, one effect the linear model lacks, for testing `wiical analyze` blind.
 //!
 //! What a recording looks like:
@@ -32,8 +32,9 @@
 //! The truth is written next to the recording as `FILE.truth.json` ([`Truth`]).
 
 #![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x > 0.0)` is deliberately true for NaN.
-use crate::input::Recording;
-use anyhow::{bail, Context, Result};
+use crate::error::{Error, Result};
+use crate::recording::Recording;
+use crate::write::write_file;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
@@ -357,25 +358,33 @@ fn axis_coefficients(rng: &mut ChaCha8Rng, x: f64) -> [f64; 3] {
 /// Simulates a recording (see the module docs).
 pub fn simulate(cfg: &SimConfig) -> Result<SimOutput> {
     if !(cfg.rate_hz.is_finite() && cfg.rate_hz >= 20.0 && cfg.rate_hz <= 2000.0) {
-        bail!("rate must be between 20 and 2000 Hz");
+        return Err(Error::InvalidSetting("rate must be between 20 and 2000 Hz"));
     }
     if cfg.poses < 9 || cfg.poses > 500 {
-        bail!("poses must be between 9 and 500 (the full model needs at least 9)");
+        return Err(Error::InvalidSetting(
+            "poses must be between 9 and 500 (the full model needs at least 9)",
+        ));
     }
     let magnitude = cfg
         .magnitude_mg
         .unwrap_or_else(|| cfg.effect.default_magnitude_mg());
     if !(magnitude.is_finite() && (0.0..=200.0).contains(&magnitude)) {
-        bail!("magnitude must be between 0 and 200 mg");
+        return Err(Error::InvalidSetting(
+            "magnitude must be between 0 and 200 mg",
+        ));
     }
     if !(cfg.init_s.is_finite() && cfg.init_s >= 3.0) {
-        bail!("the initial rest must be at least 3 s (the detector's noise reference)");
+        return Err(Error::InvalidSetting(
+            "the initial rest must be at least 3 s (the detector's noise reference)",
+        ));
     }
     let noise = cfg
         .noise_counts
         .unwrap_or_else(|| cfg.device.noise_counts());
     if !(noise.is_finite() && (0.0..=20.0).contains(&noise)) {
-        bail!("noise must be between 0 and 20 counts");
+        return Err(Error::InvalidSetting(
+            "noise must be between 0 and 20 counts",
+        ));
     }
     let mut rng = ChaCha8Rng::seed_from_u64(cfg.seed);
     let cpg = cfg.device.counts_per_g();
@@ -523,7 +532,7 @@ pub fn simulate(cfg: &SimConfig) -> Result<SimOutput> {
                 let seg = segs
                     .iter()
                     .find(|s| matches!(s.kind, SegKind::Hold(p) if p == k))
-                    .context("internal: hold segment")?;
+                    .ok_or_else(|| Error::Internal("hold segment".into()))?;
                 let sign = if rng.random::<bool>() { 1.0 } else { -1.0 };
                 outliers.push(TrueOutlier {
                     pose: k,
@@ -611,7 +620,7 @@ pub fn simulate(cfg: &SimConfig) -> Result<SimOutput> {
     }
 
     let k_true = wiical_core::model::invert3(&wiical_core::Mat3::from_fn(|r, c| d[r][c] as f32))
-        .map_err(|e| anyhow::anyhow!("internal: forward matrix not invertible: {e}"))?;
+        .map_err(|e| Error::Internal(format!("forward matrix not invertible: {e}")))?;
     let mut calibration = Calibration::from_inverse(
         &k_true,
         &wiical_core::Vec3::new(bias[0] as f32, bias[1] as f32, bias[2] as f32),
@@ -674,7 +683,9 @@ pub fn simulate(cfg: &SimConfig) -> Result<SimOutput> {
             .map(|j| (a[j] as f64 - p.direction[j]).abs())
             .fold(0.0, f64::max);
         if err > 1e-4 {
-            bail!("internal: truth calibration does not invert the simulation ({err} g)");
+            return Err(Error::Internal(format!(
+                "truth calibration does not invert the simulation ({err} g)"
+            )));
         }
     }
     Ok(SimOutput {
@@ -683,7 +694,7 @@ pub fn simulate(cfg: &SimConfig) -> Result<SimOutput> {
     })
 }
 
-/// The recording as CSV text (`t,x,y,z[,temp]`), readable by `input::load`.
+/// The recording as CSV text (`t,x,y,z[,temp]`), readable by [`crate::load::load`].
 pub fn to_csv(rec: &Recording) -> String {
     let mut s = String::with_capacity(rec.len() * 24 + 32);
     s.push_str(if rec.temp.is_some() {
@@ -712,11 +723,10 @@ pub fn truth_path(path: &Path) -> PathBuf {
 
 /// Writes the recording (CSV) and its truth (JSON, [`truth_path`]); returns the truth's path.
 pub fn write(out: &SimOutput, path: &Path) -> Result<PathBuf> {
-    std::fs::write(path, to_csv(&out.recording))
-        .with_context(|| format!("cannot write {}", path.display()))?;
+    write_file(path, to_csv(&out.recording).as_bytes())?;
     let tp = truth_path(path);
     let json = serde_json::to_string_pretty(&out.truth)? + "\n";
-    std::fs::write(&tp, json).with_context(|| format!("cannot write {}", tp.display()))?;
+    write_file(&tp, json.as_bytes())?;
     Ok(tp)
 }
 
@@ -743,7 +753,7 @@ mod tests {
         let b = simulate(&cfg).unwrap();
         assert_eq!(a.recording.xyz, b.recording.xyz);
         let text = to_csv(&a.recording);
-        let back = crate::input::parse(&text, &Default::default()).unwrap();
+        let back = crate::load::parse(&text, &Default::default()).unwrap();
         assert_eq!(back.xyz, a.recording.xyz);
         assert_eq!(back.temp.as_ref().unwrap().len(), a.recording.len());
         assert!(a.recording.xyz.iter().flatten().all(|v| v.fract() == 0.0));

@@ -1,4 +1,4 @@
-//! `wiical analyze` on a six-position file (a `pose` column with `x+ x- y+ y- z+ z-`).
+//! The residual analysis of a six-position file (a `pose` column with `x+ x- y+ y- z+ z-`).
 //!
 //! Six poses give 18 numbers for the seed's 12 parameters (`D`, 9, and `b`, 3), so the residual
 //! `M − T̂·Â` has 6 degrees of freedom, and its structure is fixed by the method: `T̂ = M·Â⁺`
@@ -31,45 +31,16 @@
 //! worked example) there is no noise estimate and nothing can be tested.
 
 #![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x > 0.0)` is deliberately true for NaN.
-use crate::analyze::{AnalyzeOptions, AnalyzeReport, EffectReport, ModelSummary};
-use crate::analyze_stats as st;
-use crate::input::Recording;
-use crate::six_position_cmd::{self, PoseEstimator};
-use anyhow::{anyhow, Result};
-use serde::Serialize;
+use crate::candidate::Candidate;
+use crate::error::{Error, Result};
+use crate::options::AnalyzeOptions;
+use crate::recording::Recording;
+use crate::report::{AnalyzeReport, EffectReport, ModelSummary, SixPositionDetails};
+use crate::six_position::{pose_means, solve_poses, PoseEstimator};
+use crate::stats as st;
 use std::fmt::Write as _;
-use wiical_core::six_position::{self, Pose};
+use wiical_core::six_position::{Pose, SixPositionFit};
 use wiical_core::{Calibration, Conditions, Effects};
-
-/// Six-position specifics of an [`AnalyzeReport`].
-#[derive(Debug, Clone, Serialize)]
-pub struct SixPositionDetails {
-    /// Samples per pose (x+ x- y+ y- z+ z-).
-    pub samples_per_pose: [u32; 6],
-    /// Residual `K·(M − T̂Â)` in milli-g: rows = axes x, y, z; columns = poses x+ x- y+ y- z+ z-.
-    pub pose_residual_mg: [[f64; 6]; 3],
-    /// The same per ± pair (the + and − entries are equal): rows = axes, columns = pairs x, y, z.
-    pub pair_residual_mg: [[f64; 3]; 3],
-    /// ‖a‖ − 1 g per pose, milli-g.
-    pub norm_residual_mg: [f64; 6],
-    /// Own-pair contrast per axis converted to the quadratic it implies, k2 = −1.5·`R[a][a]`,
-    /// mg/g².
-    pub implied_k2_mg: [f64; 3],
-    /// Other-pairs contrast per axis row, `R[a][j] − R[a][k]` (j < k the two other pairs), mg.
-    pub misalignment_contrast_mg: [f64; 3],
-    /// Noise std of one pose mean per axis (raw), when the file has sample blocks.
-    pub pose_mean_std_raw: Option<[f64; 3]>,
-    /// χ² (3 dof) of the own-pair contrasts against the noise, and its p-value.
-    pub chi2_even: Option<f64>,
-    /// p-value of `chi2_even`.
-    pub p_even: Option<f64>,
-    /// χ² (3 dof) of the other-pairs contrasts, and its p-value.
-    pub chi2_misalignment: Option<f64>,
-    /// p-value of `chi2_misalignment`.
-    pub p_misalignment: Option<f64>,
-    /// What six poses can and cannot identify, with this file's numbers.
-    pub explanation: String,
-}
 
 /// `[D | b]`, 3×4.
 type THat = [[f64; 4]; 3];
@@ -237,56 +208,98 @@ fn fit_with_quadratic(means: &[[f64; 3]; 6]) -> Option<(Mat, [f64; 3], [f64; 3],
     last
 }
 
-/// Runs the six-position analysis.
-pub fn run(rec: &Recording, opts: &AnalyzeOptions) -> Result<AnalyzeReport> {
-    let (means32, counts) = six_position_cmd::pose_means(rec, PoseEstimator::Mean)?;
-    let fit = six_position::solve(&means32).map_err(|e| match e {
-        wiical_core::Error::DegenerateGeometry => anyhow!(
-            "the ± poses do not differ enough to determine the scale (was the sensor turned between poses?)"
-        ),
-        other => anyhow!("six-position solve failed: {other}"),
-    })?;
+/// The residual structure of the six-position solve (see the module docs).
+struct Structure {
+    /// Pose means, f32 as the core solved them.
+    means32: [[f32; 3]; 6],
+    /// The same in f64.
+    means: [[f64; 3]; 6],
+    /// Samples per pose.
+    counts: [u32; 6],
+    /// The core's solve.
+    fit: SixPositionFit,
+    /// `K = D⁻¹`.
+    k: Mat,
+    /// Residual in g, rows = axes, columns = poses.
+    rg: Residual,
+    /// Pair midpoints in g.
+    pr: [[f64; 3]; 3],
+    /// Pair midpoints in raw units.
+    pr_raw: [[f64; 3]; 3],
+    /// ‖a‖ − 1 g per pose, mg.
+    norm_res: [f64; 6],
+    /// Own-pair contrasts as the quadratic they imply, mg/g².
+    implied_k2: [f64; 3],
+    /// Other-pairs contrasts, mg.
+    mis: [f64; 3],
+}
+
+/// The two other pairs of axis row `a`.
+fn others(a: usize) -> (usize, usize) {
+    match a {
+        0 => (1, 2),
+        1 => (0, 2),
+        _ => (0, 1),
+    }
+}
+
+fn structure(rec: &Recording) -> Result<Structure> {
+    let (means32, counts) = pose_means(rec, PoseEstimator::Mean)?;
+    let fit = solve_poses(&means32)?;
     // Recompute in f64 from the f32 means (the solve is linear; f64 keeps the residual exact).
     let means: [[f64; 3]; 6] = means32.map(|m| m.map(|x| x as f64));
     let u0: [[f64; 3]; 6] = std::array::from_fn(|p| Pose::ALL[p].direction().map(|x| x as f64));
-    let (t, res) =
-        solve_targets(&means, &u0).ok_or_else(|| anyhow!("six-position solve is singular"))?;
+    let (t, res) = solve_targets(&means, &u0).ok_or(Error::SixPositionSingular)?;
     let d: [[f64; 3]; 3] = std::array::from_fn(|r| [t[r][0], t[r][1], t[r][2]]);
-    let k = inv3(d).ok_or_else(|| anyhow!("D is singular"))?;
+    let k = inv3(d).ok_or(Error::SingularD)?;
     let rg = residual_g(&k, &res);
     let pr = pairs(&rg);
-    let pr_raw = pairs(&res);
     let bias = [t[0][3], t[1][3], t[2][3]];
     let norm_res: [f64; 6] = std::array::from_fn(|p| {
         let a: [f64; 3] =
             std::array::from_fn(|r| (0..3).map(|c| k[r][c] * (means[p][c] - bias[c])).sum());
         ((a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt() - 1.0) * 1e3
     });
-    let implied_k2: [f64; 3] = std::array::from_fn(|a| -1.5 * pr[a][a] * 1e3);
-    let others = |a: usize| -> (usize, usize) {
-        match a {
-            0 => (1, 2),
-            1 => (0, 2),
-            _ => (0, 1),
-        }
-    };
     let mis: [f64; 3] = std::array::from_fn(|a| {
         let (j, l) = others(a);
         (pr[a][j] - pr[a][l]) * 1e3
     });
+    Ok(Structure {
+        means32,
+        means,
+        counts,
+        fit,
+        k,
+        rg,
+        implied_k2: std::array::from_fn(|a| -1.5 * pr[a][a] * 1e3),
+        pr,
+        pr_raw: pairs(&res),
+        norm_res,
+        mis,
+    })
+}
 
+/// The contrasts tested against the noise of the pose means.
+struct Tests {
+    pose_mean_var: Option<[f64; 3]>,
+    chi_e: Option<f64>,
+    chi_m: Option<f64>,
+    p_e: Option<f64>,
+    p_m: Option<f64>,
+    even_sig: bool,
+    mis_sig: bool,
+    floor_mg: Option<f64>,
+}
+
+fn tests(rec: &Recording, s: &Structure, alpha: f64) -> Tests {
     // Noise of one pose mean (raw), averaged over poses.
     let var = pose_variances(rec);
     // Integer counts: a pose whose samples never change still has the quantisation variance.
-    let quant_floor = if rec.xyz.iter().all(|s| s.iter().all(|v| v.fract() == 0.0)) {
-        1.0 / 12.0
-    } else {
-        0.0
-    };
+    let quant_floor = if rec.is_integer() { 1.0 / 12.0 } else { 0.0 };
     let pose_mean_var: Option<[f64; 3]> = var.map(|v| {
         std::array::from_fn(|a| {
             (0..6)
-                .map(|p| v[p][a].max(quant_floor) / counts[p].max(1) as f64)
+                .map(|p| v[p][a].max(quant_floor) / s.counts[p].max(1) as f64)
                 .sum::<f64>()
                 / 6.0
         })
@@ -295,13 +308,13 @@ pub fn run(rec: &Recording, opts: &AnalyzeOptions) -> Result<AnalyzeReport> {
     if let Some(v) = pose_mean_var {
         let mut ce = 0.0;
         let mut cm = 0.0;
-        for a in 0..3 {
-            if v[a] <= 0.0 {
+        for (a, &va) in v.iter().enumerate() {
+            if va <= 0.0 {
                 continue;
             }
             let (j, l) = others(a);
-            ce += 3.0 * pr_raw[a][a].powi(2) / v[a];
-            cm += (pr_raw[a][j] - pr_raw[a][l]).powi(2) / v[a];
+            ce += 3.0 * s.pr_raw[a][a].powi(2) / va;
+            cm += (s.pr_raw[a][j] - s.pr_raw[a][l]).powi(2) / va;
         }
         chi_e = Some(ce);
         chi_m = Some(cm);
@@ -309,41 +322,43 @@ pub fn run(rec: &Recording, opts: &AnalyzeOptions) -> Result<AnalyzeReport> {
     let p_e = chi_e.map(|c| st::chi2_sf(c, 3.0));
     let p_m = chi_m.map(|c| st::chi2_sf(c, 3.0));
     // Two tests: Bonferroni factor 2.
-    let level = opts.alpha / 2.0;
+    let level = alpha / 2.0;
     let mis_sig = p_m.is_some_and(|p| p < level);
     // A misaligned jig moves the own-pair contrasts too: only attribute them to a quadratic
     // when the other-pairs contrasts are clean.
     let even_sig = p_e.is_some_and(|p| p < level) && !mis_sig;
-
-    let all_res: Vec<f64> = rg.iter().flatten().map(|x| x * 1e3).collect();
-    let base_rms = st::rms(&all_res);
     // Floor of one residual entry: variance v̄·(1 − 2/3) (each pose's diagonal of I − P).
     let floor_mg = pose_mean_var.map(|v| {
         let per: Vec<f64> = (0..3)
-            .map(|a| (v[a] / 3.0).sqrt() * k[a][a].abs() * 1e3)
+            .map(|a| (v[a] / 3.0).sqrt() * s.k[a][a].abs() * 1e3)
             .collect();
         st::rms(&per)
     });
-    let chi_total = match (chi_e, chi_m) {
-        (Some(a), Some(b)) => Some(a + b),
-        _ => None,
-    };
-    let base = ModelSummary {
-        params: 12,
-        rms_mg: base_rms,
-        cv_rms_mg: None,
-        windows_used: 6,
-        chi2: chi_total,
-        chi2_dof: chi_total.map(|_| 6),
-        chi2_p: chi_total.map(|c| st::chi2_sf(c, 6.0)),
-    };
+    Tests {
+        pose_mean_var,
+        chi_e,
+        chi_m,
+        p_e,
+        p_m,
+        even_sig,
+        mis_sig,
+        floor_mg,
+    }
+}
 
+/// The effects the tests support, the calibration that stores them, the final RMS and
+/// parameter count.
+fn six_effects(
+    s: &Structure,
+    t: &Tests,
+    base_rms: f64,
+) -> (Vec<EffectReport>, Calibration, f64, usize) {
     let mut effects = Vec::new();
-    let mut cal = fit.calibration();
+    let mut cal = s.fit.calibration();
     let mut final_rms = base_rms;
     let mut final_params = 12;
-    if even_sig {
-        if let Some((kq, bq, q, rgq)) = fit_with_quadratic(&means) {
+    if t.even_sig {
+        if let Some((kq, bq, q, rgq)) = fit_with_quadratic(&s.means) {
             let rq: Vec<f64> = rgq.iter().flatten().map(|x| x * 1e3).collect();
             final_rms = st::rms(&rq);
             final_params += 3;
@@ -356,19 +371,19 @@ pub fn run(rec: &Recording, opts: &AnalyzeOptions) -> Result<AnalyzeReport> {
                 },
             };
             effects.push(EffectReport {
-                name: "quadratic".into(),
+                name: Candidate::Quadratic.to_string(),
                 params: 3,
                 rms_mg: final_rms,
                 cv_rms_mg: None,
                 cv_rms_before_mg: None,
                 evidence: format!(
                     "each axis's own ± pair sits off the other two pairs, which agree with each other (χ² = {:.1} on 3 dof, p {}): an even nonlinearity, k2 = {} mg/g² (six poses cannot tell it from equal tilts of the other two pairs towards the axis)",
-                    chi_e.unwrap_or(f64::NAN),
-                    p_e.map_or("n/a".into(), |p| format!("{p:.1e}")),
+                    t.chi_e.unwrap_or(f64::NAN),
+                    t.p_e.map_or("n/a".into(), |p| format!("{p:.1e}")),
                     fmt3(&q.map(|x| x * 1e3))
                 ),
-                f_stat: chi_e,
-                p_value: p_e,
+                f_stat: t.chi_e,
+                p_value: t.p_e,
                 values: Some(q.map(|x| x * 1e3)),
                 std_errors: None,
                 unit: Some("mg/g² (k2)".into()),
@@ -376,7 +391,7 @@ pub fn run(rec: &Recording, opts: &AnalyzeOptions) -> Result<AnalyzeReport> {
             });
         }
     }
-    if mis_sig {
+    if t.mis_sig {
         final_params += 3;
         effects.push(EffectReport {
             name: "pose-misalignment".into(),
@@ -386,51 +401,73 @@ pub fn run(rec: &Recording, opts: &AnalyzeOptions) -> Result<AnalyzeReport> {
             cv_rms_before_mg: None,
             evidence: format!(
                 "in the axis rows the two other pairs disagree (χ² = {:.1} on 3 dof, p {}), contrasts {} mg: a ± pair tilted the same way in both of its poses, or a cross-axis even term; a property of the poses that the calibration cannot absorb (re-level the jig); the own-pair contrasts are then not attributed to a quadratic, since the tilt moves them too",
-                chi_m.unwrap_or(f64::NAN),
-                p_m.map_or("n/a".into(), |p| format!("{p:.1e}")),
-                fmt3(&mis)
+                t.chi_m.unwrap_or(f64::NAN),
+                t.p_m.map_or("n/a".into(), |p| format!("{p:.1e}")),
+                fmt3(&s.mis)
             ),
-            f_stat: chi_m,
-            p_value: p_m,
-            values: Some(mis),
+            f_stat: t.chi_m,
+            p_value: t.p_m,
+            values: Some(s.mis),
             std_errors: None,
             unit: Some("mg (other-pairs contrast per axis row)".into()),
             rejected_windows: None,
         });
     }
+    (effects, cal, final_rms, final_params)
+}
+
+/// Runs the six-position analysis.
+pub fn analyze_six(rec: &Recording, opts: &AnalyzeOptions) -> Result<AnalyzeReport> {
+    let s = structure(rec)?;
+    let t = tests(rec, &s, opts.alpha);
+    let all_res: Vec<f64> = s.rg.iter().flatten().map(|x| x * 1e3).collect();
+    let base_rms = st::rms(&all_res);
+    let chi_total = match (t.chi_e, t.chi_m) {
+        (Some(a), Some(b)) => Some(a + b),
+        _ => None,
+    };
+    let base = ModelSummary {
+        params: 12,
+        rms_mg: base_rms,
+        cv_rms_mg: None,
+        windows_used: 6,
+        chi2: chi_total,
+        chi2_dof: chi_total.map(|_| 6),
+        chi2_p: chi_total.map(|c| st::chi2_sf(c, 6.0)),
+    };
+    let (effects, cal, final_rms, final_params) = six_effects(&s, &t, base_rms);
     // Sanity: the stored calibration reproduces the fit on the pose means.
-    for (p, m) in means32.iter().enumerate() {
+    for (p, m) in s.means32.iter().enumerate() {
         let a = cal.correct(*m, &Conditions::default());
         let dir = Pose::ALL[p].direction();
         let err = (0..3).map(|j| (a[j] - dir[j]).abs()).fold(0.0f32, f32::max);
         if !(err < 0.2) {
-            return Err(anyhow!(
-                "internal: six-position calibration does not reproduce the poses"
+            return Err(Error::Internal(
+                "six-position calibration does not reproduce the poses".into(),
             ));
         }
     }
-
-    let counts_total: u32 = counts.iter().sum();
+    let counts_total: u32 = s.counts.iter().sum();
     let explanation = explanation(
-        &pr,
-        &implied_k2,
-        &mis,
-        &k,
-        pose_mean_var.is_some(),
+        &s.pr,
+        &s.implied_k2,
+        &s.mis,
+        &s.k,
+        t.pose_mean_var.is_some(),
         counts_total,
     );
     let details = SixPositionDetails {
-        samples_per_pose: counts,
-        pose_residual_mg: rg.map(|r| r.map(|x| x * 1e3)),
-        pair_residual_mg: pr.map(|r| r.map(|x| x * 1e3)),
-        norm_residual_mg: norm_res,
-        implied_k2_mg: implied_k2,
-        misalignment_contrast_mg: mis,
-        pose_mean_std_raw: pose_mean_var.map(|v| v.map(f64::sqrt)),
-        chi2_even: chi_e,
-        p_even: p_e,
-        chi2_misalignment: chi_m,
-        p_misalignment: p_m,
+        samples_per_pose: s.counts,
+        pose_residual_mg: s.rg.map(|r| r.map(|x| x * 1e3)),
+        pair_residual_mg: s.pr.map(|r| r.map(|x| x * 1e3)),
+        norm_residual_mg: s.norm_res,
+        implied_k2_mg: s.implied_k2,
+        misalignment_contrast_mg: s.mis,
+        pose_mean_std_raw: t.pose_mean_var.map(|v| v.map(f64::sqrt)),
+        chi2_even: t.chi_e,
+        p_even: t.p_e,
+        chi2_misalignment: t.chi_m,
+        p_misalignment: t.p_m,
         explanation: explanation.clone(),
     };
     let final_model = ModelSummary {
@@ -442,31 +479,17 @@ pub fn run(rec: &Recording, opts: &AnalyzeOptions) -> Result<AnalyzeReport> {
         chi2_dof: None,
         chi2_p: None,
     };
-    let verdict = if pose_mean_var.is_none() {
-        format!(
-            "Six-position mode: per-axis residual RMS {base_rms:.2} mg, no noise estimate (one averaged row per pose), so nothing can be tested and no effect is added. {explanation}"
-        )
-    } else if effects.is_empty() {
-        format!(
-            "Six-position mode: per-axis residual RMS {base_rms:.3} mg against a floor of {:.3} mg; neither contrast is significant: nothing six poses can see is missing. Cross-validation is impossible with six poses. {explanation}",
-            floor_mg.unwrap_or(f64::NAN)
-        )
-    } else {
-        format!(
-            "Six-position mode: per-axis residual RMS {base_rms:.3} → {final_rms:.3} mg (floor {:.3} mg). Cross-validation is impossible with six poses. {explanation}",
-            floor_mg.unwrap_or(f64::NAN)
-        )
-    };
+    let verdict = verdict(&t, effects.is_empty(), base_rms, final_rms, &explanation);
     Ok(AnalyzeReport {
         mode: "six-position",
-        units: if rec.xyz.iter().all(|s| s.iter().all(|v| v.fract() == 0.0)) {
+        units: if rec.is_integer() {
             "raw"
         } else {
             "raw (averaged)"
         },
         samples: rec.len(),
         static_windows: 6,
-        noise_floor_mg: floor_mg,
+        noise_floor_mg: t.floor_mg,
         noise_floor_batch_mg: None,
         base,
         effects,
@@ -484,6 +507,30 @@ pub fn run(rec: &Recording, opts: &AnalyzeOptions) -> Result<AnalyzeReport> {
         windows: Vec::new(),
         six_position: Some(details),
     })
+}
+
+fn verdict(
+    t: &Tests,
+    no_effects: bool,
+    base_rms: f64,
+    final_rms: f64,
+    explanation: &str,
+) -> String {
+    if t.pose_mean_var.is_none() {
+        format!(
+            "Six-position mode: per-axis residual RMS {base_rms:.2} mg, no noise estimate (one averaged row per pose), so nothing can be tested and no effect is added. {explanation}"
+        )
+    } else if no_effects {
+        format!(
+            "Six-position mode: per-axis residual RMS {base_rms:.3} mg against a floor of {:.3} mg; neither contrast is significant: nothing six poses can see is missing. Cross-validation is impossible with six poses. {explanation}",
+            t.floor_mg.unwrap_or(f64::NAN)
+        )
+    } else {
+        format!(
+            "Six-position mode: per-axis residual RMS {base_rms:.3} → {final_rms:.3} mg (floor {:.3} mg). Cross-validation is impossible with six poses. {explanation}",
+            t.floor_mg.unwrap_or(f64::NAN)
+        )
+    }
 }
 
 fn fmt3(v: &[f64; 3]) -> String {
@@ -534,47 +581,4 @@ fn explanation(
         );
     }
     s
-}
-
-/// Text block for the human-readable report.
-pub fn render(d: &SixPositionDetails) -> String {
-    let mut o = String::new();
-    let _ = writeln!(
-        o,
-        "\nResidual K·(M − T̂Â), mg (rows x, y, z; columns x+ x- y+ y- z+ z-):"
-    );
-    for r in &d.pose_residual_mg {
-        let _ = writeln!(
-            o,
-            "  {}",
-            r.iter()
-                .map(|x| format!("{x:>9.3}"))
-                .collect::<Vec<_>>()
-                .join(" ")
-        );
-    }
-    let _ = writeln!(
-        o,
-        "‖a‖ − 1 g per pose, mg: {}",
-        d.norm_residual_mg
-            .iter()
-            .map(|x| format!("{x:.3}"))
-            .collect::<Vec<_>>()
-            .join(" ")
-    );
-    let _ = writeln!(
-        o,
-        "implied k2 (own pair) mg/g²: {}   other-pairs contrast mg: {}",
-        fmt3(&d.implied_k2_mg),
-        fmt3(&d.misalignment_contrast_mg)
-    );
-    if let (Some(ce), Some(pe), Some(cm), Some(pm)) =
-        (d.chi2_even, d.p_even, d.chi2_misalignment, d.p_misalignment)
-    {
-        let _ = writeln!(
-            o,
-            "χ² even {ce:.2} (p {pe:.1e}), misalignment {cm:.2} (p {pm:.1e}), 3 dof each"
-        );
-    }
-    o
 }

@@ -2,9 +2,9 @@
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use std::hint::black_box;
-use wiical::analyze::{analyze, AnalyzeOptions};
-use wiical::fit_cmd::{self, FitOptions};
-use wiical::simulate::{simulate, SimConfig, SimEffect};
+use wiical_analysis::fit::{self, FitOptions};
+use wiical_analysis::simulate::{simulate, SimConfig, SimEffect};
+use wiical_analysis::{analyze, AnalyzeOptions};
 
 fn bench(c: &mut Criterion) {
     // A simulated Wiimote recording with a quadratic nonlinearity, ≥ 50,000 samples.
@@ -29,7 +29,7 @@ fn bench(c: &mut Criterion) {
         |b| b.iter(|| analyze(black_box(&rec), &AnalyzeOptions::default()).unwrap()),
     );
     g.bench_function(format!("fit ({} samples)", rec.len()), |b| {
-        b.iter(|| fit_cmd::run(black_box(&rec), &FitOptions::default()).unwrap())
+        b.iter(|| fit::run(black_box(&rec), &FitOptions::default()).unwrap())
     });
     g.finish();
 }
