@@ -355,8 +355,8 @@ fn axis_coefficients(rng: &mut ChaCha8Rng, x: f64) -> [f64; 3] {
     k
 }
 
-/// Simulates a recording (see the module docs).
-pub fn simulate(cfg: &SimConfig) -> Result<SimOutput> {
+/// Checks the settings; returns the effect magnitude (mg) and the noise (counts) in use.
+fn check_config(cfg: &SimConfig) -> Result<(f64, f64)> {
     if !(cfg.rate_hz.is_finite() && cfg.rate_hz >= 20.0 && cfg.rate_hz <= 2000.0) {
         return Err(Error::InvalidSetting("rate must be between 20 and 2000 Hz"));
     }
@@ -386,18 +386,32 @@ pub fn simulate(cfg: &SimConfig) -> Result<SimOutput> {
             "noise must be between 0 and 20 counts",
         ));
     }
-    let mut rng = ChaCha8Rng::seed_from_u64(cfg.seed);
-    let cpg = cfg.device.counts_per_g();
-    let fs = cfg.rate_hz;
+    Ok((magnitude, noise))
+}
 
-    // Sensor: upper-triangular forward matrix, bias near mid-scale.
-    let s: [f64; 3] = std::array::from_fn(|_| cpg * (1.0 + rng.random_range(-0.04..0.04)));
-    let mut off = || cpg * rng.random_range(-0.015..0.015);
-    let d = [[s[0], off(), off()], [0.0, s[1], off()], [0.0, 0.0, s[2]]];
-    let bias: [f64; 3] = std::array::from_fn(|_| 512.0 + rng.random_range(-20.0..20.0));
+/// One stretch of the timeline.
+struct Seg {
+    t0: f64,
+    t1: f64,
+    kind: SegKind,
+}
 
-    // Timeline: rest, then motion + hold for each pose.
-    let mut dirs = vec![tilt(&mut rng, [0.0, 0.0, 1.0], 0.03)];
+enum SegKind {
+    /// Still at pose `k`.
+    Hold(usize),
+    /// Turning from one pose to the next with a hand wobble.
+    Move {
+        from: usize,
+        to: usize,
+        amp: [f64; 3],
+        freq: f64,
+    },
+}
+
+/// The rest direction (near +z) and `poses` directions: the six near-axis ones shuffled,
+/// then uniform.
+fn pose_directions(rng: &mut ChaCha8Rng, poses: usize) -> Vec<[f64; 3]> {
+    let mut dirs = vec![tilt(rng, [0.0, 0.0, 1.0], 0.03)];
     let mut axes: Vec<[f64; 3]> = (0..6)
         .map(|k| {
             let mut v = [0.0; 3];
@@ -410,36 +424,27 @@ pub fn simulate(cfg: &SimConfig) -> Result<SimOutput> {
         let j = rng.random_range(0..=i);
         axes.swap(i, j);
     }
-    for k in 0..cfg.poses {
+    for k in 0..poses {
         let d = match axes.get(k) {
-            Some(a) => tilt(&mut rng, *a, 0.17),
-            None => random_unit(&mut rng),
+            Some(a) => tilt(rng, *a, 0.17),
+            None => random_unit(rng),
         };
         dirs.push(d);
     }
-    struct Seg {
-        t0: f64,
-        t1: f64,
-        kind: SegKind,
-    }
-    enum SegKind {
-        Hold(usize),
-        Move {
-            from: usize,
-            to: usize,
-            amp: [f64; 3],
-            freq: f64,
-        },
-    }
+    dirs
+}
+
+/// Rest, then motion + hold for each pose; returns the segments and the duration, s.
+fn timeline(rng: &mut ChaCha8Rng, init_s: f64, n_dirs: usize) -> (Vec<Seg>, f64) {
     let mut segs = vec![Seg {
         t0: 0.0,
-        t1: cfg.init_s,
+        t1: init_s,
         kind: SegKind::Hold(0),
     }];
-    let mut t = cfg.init_s;
-    for k in 1..dirs.len() {
+    let mut t = init_s;
+    for k in 1..n_dirs {
         let mv = rng.random_range(1.5..3.0);
-        let amp = random_unit(&mut rng).map(|x| x * rng.random_range(0.15..0.4));
+        let amp = random_unit(rng).map(|x| x * rng.random_range(0.15..0.4));
         let freq = rng.random_range(0.8..2.0);
         segs.push(Seg {
             t0: t,
@@ -460,10 +465,11 @@ pub fn simulate(cfg: &SimConfig) -> Result<SimOutput> {
         });
         t += hold;
     }
-    let duration = t;
-    let n = (duration * fs).floor() as usize;
+    (segs, t)
+}
 
-    // Temperature model.
+/// The temperature model and the true temperature of every sample, °C.
+fn temperatures(rng: &mut ChaCha8Rng, segs: &[Seg], n: usize, fs: f64) -> (TempModel, Vec<f64>) {
     let tm = TempModel {
         room_c: rng.random_range(20.0..26.0),
         warmup_c: rng.random_range(3.0..8.0),
@@ -492,44 +498,69 @@ pub fn simulate(cfg: &SimConfig) -> Result<SimOutput> {
             - tm.wobble_c * wobble_phase.sin();
         temps.push(th);
     }
-    let (tmin, tmax) = temps
+    (tm, temps)
+}
+
+/// Everything a sample depends on.
+struct Scene {
+    fs: f64,
+    noise: f64,
+    /// Forward matrix, counts per g.
+    d: [[f64; 3]; 3],
+    /// Bias, counts.
+    bias: [f64; 3],
+    dirs: Vec<[f64; 3]>,
+    segs: Vec<Seg>,
+    tm: TempModel,
+    temps: Vec<f64>,
+    /// Quadratic, cubic, drift (counts/s), bias temperature coefficient (counts/°C).
+    eff64: [[f64; 3]; 4],
+    outliers: Vec<TrueOutlier>,
+}
+
+/// The effect terms (and the outlier poses) for `cfg.effect` of size `magnitude` mg.
+fn effect_terms(
+    rng: &mut ChaCha8Rng,
+    effect: SimEffect,
+    magnitude: f64,
+    s: &[f64; 3],
+    scene: &Scene,
+    duration: f64,
+) -> Result<([[f64; 3]; 4], Vec<TrueOutlier>)> {
+    let (tmin, tmax) = scene
+        .temps
         .iter()
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| {
             (a.min(*x), b.max(*x))
         });
-
-    // The effect.
-    let mut eff = Effects {
-        temp_ref_c: tm.room_c as f32,
-        ..Effects::default()
-    };
-    let mut eff64 = [[0.0f64; 3]; 4]; // quadratic, cubic, drift, bias_temp
+    let mut eff64 = [[0.0f64; 3]; 4];
     let x = magnitude / 1000.0;
     let mut outliers = Vec::new();
-    match cfg.effect {
+    match effect {
         SimEffect::None => {}
-        SimEffect::Quadratic => eff64[0] = axis_coefficients(&mut rng, x),
-        SimEffect::Cubic => eff64[1] = axis_coefficients(&mut rng, x),
+        SimEffect::Quadratic => eff64[0] = axis_coefficients(rng, x),
+        SimEffect::Cubic => eff64[1] = axis_coefficients(rng, x),
         SimEffect::BiasDrift => {
-            let v = random_unit(&mut rng);
+            let v = random_unit(rng);
             eff64[2] = std::array::from_fn(|j| v[j] * x * s[j] / duration);
         }
         SimEffect::Temperature => {
-            let v = random_unit(&mut rng);
+            let v = random_unit(rng);
             eff64[3] = std::array::from_fn(|j| v[j] * x * s[j] / (tmax - tmin).max(0.5));
         }
         SimEffect::Outliers => {
             let count = rng.random_range(2..=3usize);
             let mut chosen: Vec<usize> = Vec::new();
             while chosen.len() < count {
-                let k = rng.random_range(1..dirs.len());
+                let k = rng.random_range(1..scene.dirs.len());
                 if !chosen.contains(&k) {
                     chosen.push(k);
                 }
             }
             chosen.sort_unstable();
             for k in chosen {
-                let seg = segs
+                let seg = scene
+                    .segs
                     .iter()
                     .find(|s| matches!(s.kind, SegKind::Hold(p) if p == k))
                     .ok_or_else(|| Error::Internal("hold segment".into()))?;
@@ -543,31 +574,16 @@ pub fn simulate(cfg: &SimConfig) -> Result<SimOutput> {
             }
         }
     }
-    eff.quadratic = eff64[0].map(|v| v as f32);
-    eff.cubic = eff64[1].map(|v| v as f32);
-    eff.bias_drift = eff64[2].map(|v| v as f32);
-    eff.bias_temp = eff64[3].map(|v| v as f32);
+    Ok((eff64, outliers))
+}
 
-    // Samples.
-    let normal = StandardNormal;
-    let mut rec = Recording {
-        axis_columns: ["x".into(), "y".into(), "z".into()],
-        ..Default::default()
-    };
-    let mut tcol = Vec::with_capacity(n);
-    let mut temp_col = Vec::with_capacity(n);
-    let mut seg_i = 0;
-    for (i, &theta) in temps.iter().enumerate() {
-        let ti = i as f64 / fs;
-        while seg_i + 1 < segs.len() && ti >= segs[seg_i].t1 {
-            seg_i += 1;
-        }
-        let seg = &segs[seg_i];
-        // Specific force in sensor axes, g.
-        let f: [f64; 3] = match seg.kind {
+impl Scene {
+    /// Specific force in sensor axes at time `ti` in segment `seg`, g.
+    fn specific_force(&self, seg: &Seg, ti: f64) -> [f64; 3] {
+        match seg.kind {
             SegKind::Hold(k) => {
-                let mut f = dirs[k];
-                if let Some(o) = outliers.iter().find(|o| o.pose == k) {
+                let mut f = self.dirs[k];
+                if let Some(o) = self.outliers.iter().find(|o| o.pose == k) {
                     // A 2 s half-sine push along gravity in the middle of the hold whose
                     // average over the hold is the outlier's shift.
                     let len = seg.t1 - seg.t0;
@@ -576,7 +592,7 @@ pub fn simulate(cfg: &SimConfig) -> Result<SimOutput> {
                     if ti >= start && ti < start + tb {
                         let amp = o.shift_mg / 1000.0 * std::f64::consts::PI * len / (2.0 * tb);
                         let bump = amp * (std::f64::consts::PI * (ti - start) / tb).sin();
-                        for (fj, dj) in f.iter_mut().zip(dirs[k]) {
+                        for (fj, dj) in f.iter_mut().zip(self.dirs[k]) {
                             *fj += bump * dj;
                         }
                     }
@@ -591,87 +607,119 @@ pub fn simulate(cfg: &SimConfig) -> Result<SimOutput> {
             } => {
                 let tau = (ti - seg.t0) / (seg.t1 - seg.t0);
                 let prof = 0.5 * (1.0 - (std::f64::consts::PI * tau).cos());
-                let g = slerp(dirs[from], dirs[to], prof);
+                let g = slerp(self.dirs[from], self.dirs[to], prof);
                 let env = (std::f64::consts::PI * tau).sin();
                 let w = (std::f64::consts::TAU * freq * (ti - seg.t0)).sin() * env;
                 [g[0] + amp[0] * w, g[1] + amp[1] * w, g[2] + amp[2] * w]
             }
-        };
-        // Invert the correction-side model: a = u + q u² + c u³, u = D⁻¹(m − b_eff).
-        let u: [f64; 3] =
-            std::array::from_fn(|j| invert_nonlinearity(f[j], eff64[0][j], eff64[1][j]));
-        let dth = theta - tm.room_c;
-        let mut m = [0.0; 3];
-        for j in 0..3 {
-            let lin: f64 = (0..3).map(|k| d[j][k] * u[k]).sum();
-            let b_eff = bias[j] + eff64[2][j] * ti + eff64[3][j] * dth;
-            let v: f64 = normal.sample(&mut rng);
-            m[j] = (lin + b_eff + noise * v).round().clamp(0.0, 1023.0);
         }
-        rec.xyz.push(m);
-        tcol.push((ti * 100.0).round() / 100.0);
-        let tn: f64 = normal.sample(&mut rng);
-        let meas = theta + 0.02 * tn;
-        temp_col.push((meas * 100.0).round() / 100.0);
-    }
-    rec.t = Some(tcol);
-    if cfg.temp_column || cfg.effect == SimEffect::Temperature {
-        rec.temp = Some(temp_col);
     }
 
-    let k_true = wiical_core::model::invert3(&wiical_core::Mat3::from_fn(|r, c| d[r][c] as f32))
-        .map_err(|e| Error::Internal(format!("forward matrix not invertible: {e}")))?;
-    let mut calibration = Calibration::from_inverse(
-        &k_true,
-        &wiical_core::Vec3::new(bias[0] as f32, bias[1] as f32, bias[2] as f32),
-    );
-    calibration.effects = eff;
-    let poses = dirs
-        .iter()
-        .enumerate()
-        .map(|(k, dir)| {
-            let seg = segs
-                .iter()
-                .find(|s| matches!(s.kind, SegKind::Hold(p) if p == k))
-                .map_or((0.0, 0.0), |s| (s.t0, s.t1));
-            TruePose {
-                t_start: seg.0,
-                t_end: seg.1,
-                direction: *dir,
-            }
+    /// The noiseless reading (counts) of specific force `f` at time `ti` and temperature
+    /// `theta`: the correction-side model inverted, `a = u + q u² + c u³`, `u = D⁻¹(m − b_eff)`.
+    fn reading(&self, f: &[f64; 3], ti: f64, theta: f64) -> [f64; 3] {
+        let e = &self.eff64;
+        let u: [f64; 3] = std::array::from_fn(|j| invert_nonlinearity(f[j], e[0][j], e[1][j]));
+        let dth = theta - self.tm.room_c;
+        std::array::from_fn(|j| {
+            let lin: f64 = (0..3).map(|k| self.d[j][k] * u[k]).sum();
+            let b_eff = self.bias[j] + e[2][j] * ti + e[3][j] * dth;
+            lin + b_eff
         })
-        .collect();
-    let truth = Truth {
-        device: cfg.device.name(),
-        effect: cfg.effect.name(),
-        magnitude_mg: if cfg.effect == SimEffect::None {
-            0.0
-        } else {
-            magnitude
-        },
-        seed: cfg.seed,
-        rate_hz: fs,
-        samples: n,
-        noise_std_counts: noise,
-        forward_matrix: d,
-        calibration,
-        poses,
-        outliers,
-        temperature_model: tm,
-    };
-    // Self-check: the truth calibration maps a noiseless hold reading back to its direction.
-    if let Some(p) = truth.poses.get(1) {
+    }
+
+    /// The recording: 10-bit counts with noise, times at 0.01 s and the measured temperature.
+    fn record(&self, rng: &mut ChaCha8Rng, temp_column: bool) -> Recording {
+        let normal = StandardNormal;
+        let n = self.temps.len();
+        let mut rec = Recording {
+            axis_columns: ["x".into(), "y".into(), "z".into()],
+            ..Default::default()
+        };
+        let mut tcol = Vec::with_capacity(n);
+        let mut temp_col = Vec::with_capacity(n);
+        let mut seg_i = 0;
+        for (i, &theta) in self.temps.iter().enumerate() {
+            let ti = i as f64 / self.fs;
+            while seg_i + 1 < self.segs.len() && ti >= self.segs[seg_i].t1 {
+                seg_i += 1;
+            }
+            let f = self.specific_force(&self.segs[seg_i], ti);
+            let clean = self.reading(&f, ti, theta);
+            let mut m = [0.0; 3];
+            for j in 0..3 {
+                let v: f64 = normal.sample(rng);
+                m[j] = (clean[j] + self.noise * v).round().clamp(0.0, 1023.0);
+            }
+            rec.xyz.push(m);
+            tcol.push((ti * 100.0).round() / 100.0);
+            let tn: f64 = normal.sample(rng);
+            let meas = theta + 0.02 * tn;
+            temp_col.push((meas * 100.0).round() / 100.0);
+        }
+        rec.t = Some(tcol);
+        if temp_column {
+            rec.temp = Some(temp_col);
+        }
+        rec
+    }
+
+    /// The true calibration: the inverse of the forward model with the effect terms.
+    fn calibration(&self) -> Result<Calibration> {
+        let d = &self.d;
+        let k_true =
+            wiical_core::model::invert3(&wiical_core::Mat3::from_fn(|r, c| d[r][c] as f32))
+                .map_err(|e| Error::Internal(format!("forward matrix not invertible: {e}")))?;
+        let mut calibration = Calibration::from_inverse(
+            &k_true,
+            &wiical_core::Vec3::new(
+                self.bias[0] as f32,
+                self.bias[1] as f32,
+                self.bias[2] as f32,
+            ),
+        );
+        let e = &self.eff64;
+        calibration.effects = Effects {
+            temp_ref_c: self.tm.room_c as f32,
+            quadratic: e[0].map(|v| v as f32),
+            cubic: e[1].map(|v| v as f32),
+            bias_drift: e[2].map(|v| v as f32),
+            bias_temp: e[3].map(|v| v as f32),
+            ..Effects::default()
+        };
+        Ok(calibration)
+    }
+
+    /// The poses with their hold times.
+    fn true_poses(&self) -> Vec<TruePose> {
+        self.dirs
+            .iter()
+            .enumerate()
+            .map(|(k, dir)| {
+                let seg = self
+                    .segs
+                    .iter()
+                    .find(|s| matches!(s.kind, SegKind::Hold(p) if p == k))
+                    .map_or((0.0, 0.0), |s| (s.t0, s.t1));
+                TruePose {
+                    t_start: seg.0,
+                    t_end: seg.1,
+                    direction: *dir,
+                }
+            })
+            .collect()
+    }
+
+    /// Self-check: the truth calibration maps a noiseless hold reading back to its direction.
+    fn check_truth(&self, truth: &Truth) -> Result<()> {
+        let Some(p) = truth.poses.get(1) else {
+            return Ok(());
+        };
+        let n = self.temps.len();
         let tc = 0.5 * (p.t_start + p.t_end);
-        let idx = ((tc * fs) as usize).min(n.saturating_sub(1));
-        let th = temps.get(idx).copied().unwrap_or(tm.room_c);
-        let u: [f64; 3] =
-            std::array::from_fn(|j| invert_nonlinearity(p.direction[j], eff64[0][j], eff64[1][j]));
-        let m: [f32; 3] = std::array::from_fn(|j| {
-            ((0..3).map(|k| d[j][k] * u[k]).sum::<f64>()
-                + bias[j]
-                + eff64[2][j] * tc
-                + eff64[3][j] * (th - tm.room_c)) as f32
-        });
+        let idx = ((tc * self.fs) as usize).min(n.saturating_sub(1));
+        let th = self.temps.get(idx).copied().unwrap_or(self.tm.room_c);
+        let m = self.reading(&p.direction, tc, th).map(|v| v as f32);
         let a = truth.calibration.correct(
             m,
             &Conditions {
@@ -687,7 +735,62 @@ pub fn simulate(cfg: &SimConfig) -> Result<SimOutput> {
                 "truth calibration does not invert the simulation ({err} g)"
             )));
         }
+        Ok(())
     }
+}
+
+/// Simulates a recording (see the module docs).
+pub fn simulate(cfg: &SimConfig) -> Result<SimOutput> {
+    let (magnitude, noise) = check_config(cfg)?;
+    let mut rng = ChaCha8Rng::seed_from_u64(cfg.seed);
+    let cpg = cfg.device.counts_per_g();
+    let fs = cfg.rate_hz;
+    // Sensor: upper-triangular forward matrix, bias near mid-scale.
+    let s: [f64; 3] = std::array::from_fn(|_| cpg * (1.0 + rng.random_range(-0.04..0.04)));
+    let mut off = || cpg * rng.random_range(-0.015..0.015);
+    let d = [[s[0], off(), off()], [0.0, s[1], off()], [0.0, 0.0, s[2]]];
+    let bias: [f64; 3] = std::array::from_fn(|_| 512.0 + rng.random_range(-20.0..20.0));
+    let dirs = pose_directions(&mut rng, cfg.poses);
+    let (segs, duration) = timeline(&mut rng, cfg.init_s, dirs.len());
+    let n = (duration * fs).floor() as usize;
+    let (tm, temps) = temperatures(&mut rng, &segs, n, fs);
+    let mut scene = Scene {
+        fs,
+        noise,
+        d,
+        bias,
+        dirs,
+        segs,
+        tm,
+        temps,
+        eff64: [[0.0; 3]; 4],
+        outliers: Vec::new(),
+    };
+    (scene.eff64, scene.outliers) =
+        effect_terms(&mut rng, cfg.effect, magnitude, &s, &scene, duration)?;
+    let rec = scene.record(
+        &mut rng,
+        cfg.temp_column || cfg.effect == SimEffect::Temperature,
+    );
+    let truth = Truth {
+        device: cfg.device.name(),
+        effect: cfg.effect.name(),
+        magnitude_mg: if cfg.effect == SimEffect::None {
+            0.0
+        } else {
+            magnitude
+        },
+        seed: cfg.seed,
+        rate_hz: fs,
+        samples: n,
+        noise_std_counts: noise,
+        forward_matrix: d,
+        calibration: scene.calibration()?,
+        poses: scene.true_poses(),
+        outliers: scene.outliers.clone(),
+        temperature_model: scene.tm,
+    };
+    scene.check_truth(&truth)?;
     Ok(SimOutput {
         recording: rec,
         truth,
