@@ -203,3 +203,89 @@ fn test_suspects(
         used,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `n` directions spread over the sphere (Fibonacci lattice).
+    fn directions(n: usize) -> Vec<[f64; 3]> {
+        let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
+        (0..n)
+            .map(|i| {
+                let z = 1.0 - 2.0 * (i as f64 + 0.5) / n as f64;
+                let r = (1.0 - z * z).sqrt();
+                let a = golden * i as f64;
+                [r * a.cos(), r * a.sin(), z]
+            })
+            .collect()
+    }
+
+    /// Windows whose norm is 1 g + a deterministic ±0.1 mg scatter, plus `shift` (g) on the
+    /// windows listed; the identity model fitted to them.
+    fn scene(n: usize, shifted: &[(usize, f64)]) -> (Vec<Win>, Fit, Mask) {
+        let wins: Vec<Win> = directions(n)
+            .into_iter()
+            .enumerate()
+            .map(|(i, d)| {
+                let noise = 1e-4 * ((i as f64 * 12.9898).sin() * 43_758.545).fract();
+                let extra = shifted.iter().find(|s| s.0 == i).map_or(0.0, |s| s.1);
+                let k = 1.0 + noise + extra;
+                Win {
+                    y: d.map(|x| x * k),
+                    tau: 0.0,
+                    theta: 0.0,
+                }
+            })
+            .collect();
+        let mut p0 = [0.0; am::NP];
+        for i in [am::KMAT, am::KMAT + 3, am::KMAT + 5] {
+            p0[i] = 1.0;
+        }
+        let mask = am::mask_of(&[]);
+        let fit = am::fit(&p0, &mask, &wins, &vec![true; n]).unwrap();
+        (wins, fit, mask)
+    }
+
+    #[test]
+    fn one_window_far_off_is_rejected_and_only_it() {
+        let (wins, fit, mask) = scene(30, &[(11, 0.01)]);
+        let t = find_outliers(&fit, &[true; 30], &mask, &wins, 1e-3, 6).unwrap();
+        assert_eq!(t.rejected, vec![11]);
+        assert!(!t.used[11] && t.used.iter().filter(|u| **u).count() == 29);
+        assert!(t.p_values[0] < 1e-3);
+        // Without it the rest fits to the scatter (≈ 0.1 mg), far below the 10 mg shift.
+        assert!(t.fit.rms() < 2e-4, "{}", t.fit.rms());
+        assert!(t.loo[11].is_none() && t.loo.iter().flatten().count() == 29);
+    }
+
+    #[test]
+    fn two_outliers_do_not_mask_each_other() {
+        let (wins, fit, mask) = scene(30, &[(4, 0.008), (20, -0.006)]);
+        let t = find_outliers(&fit, &[true; 30], &mask, &wins, 1e-3, 6).unwrap();
+        let mut r = t.rejected.clone();
+        r.sort_unstable();
+        assert_eq!(r, vec![4, 20]);
+    }
+
+    #[test]
+    fn clean_windows_and_too_few_windows_give_nothing() {
+        let (wins, fit, mask) = scene(30, &[]);
+        assert!(find_outliers(&fit, &[true; 30], &mask, &wins, 1e-3, 6).is_none());
+        // A shift at the level of the scatter is not an outlier.
+        let (wins, fit, mask) = scene(30, &[(7, 1e-4)]);
+        assert!(find_outliers(&fit, &[true; 30], &mask, &wins, 1e-3, 6).is_none());
+        // 9 parameters need at least 13 windows before anything is screened.
+        let (wins, fit, mask) = scene(12, &[(3, 0.01)]);
+        assert!(find_outliers(&fit, &[true; 12], &mask, &wins, 1e-3, 6).is_none());
+    }
+
+    #[test]
+    fn at_most_max_reject_windows_are_suspected() {
+        let (wins, fit, mask) = scene(30, &[(9, 0.02), (17, -0.004)]);
+        let t = find_outliers(&fit, &[true; 30], &mask, &wins, 1e-3, 1).unwrap();
+        assert_eq!(t.rejected, vec![9], "only the most extreme one");
+        let t = find_outliers(&fit, &[true; 30], &mask, &wins, 1e-3, 2).unwrap();
+        assert_eq!(t.rejected.len(), 2);
+    }
+}
