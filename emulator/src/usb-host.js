@@ -13,6 +13,11 @@ const ENDPOINT = 5;
 const CDC_DATA_CLASS = 0x0a;
 const SET_CONTROL_LINE_STATE = 0x22;
 const PACKET = 64;
+// DPRAM buffer control (RP2040 datasheet 4.1.2.5): EPx_OUT_BUFFER_CONTROL at 0x84 + 8·x.
+const EP0_OUT_BUFFER_CONTROL = 0x84;
+const BUF_FULL = 1 << 15;
+const BUF_AVAILABLE = 1 << 10;
+const BUF_LEN_MASK = 0x3ff;
 
 /** Bulk IN/OUT endpoint numbers of the CDC data interface in a configuration descriptor. */
 export function cdcEndpoints(desc) {
@@ -111,9 +116,19 @@ export class UsbCdcHost {
       return;
     }
     if (ep === this.endpoints.out) {
+      // Until the host sends, the buffer stays AVAILABLE (the hardware NAKs the host): rp2040js
+      // clears the bit as soon as the firmware arms the buffer, which the firmware would take
+      // for a received packet.
       this.pendingOut = size;
+      this.setOutControl(ep, (c) => c | BUF_AVAILABLE);
       this.flushOut();
     }
+  }
+
+  setOutControl(ep, change) {
+    const view = this.board.rp2040.usbDPRAMView;
+    const offset = EP0_OUT_BUFFER_CONTROL + ep * 8;
+    view.setUint32(offset, change(view.getUint32(offset, true)) >>> 0, true);
   }
 
   statusOut() {
@@ -129,7 +144,12 @@ export class UsbCdcHost {
     const n = Math.min(this.pendingOut, PACKET, this.toDevice.length);
     const chunk = Uint8Array.from(this.toDevice.splice(0, n));
     this.pendingOut = null;
-    this.usb.endpointReadDone(this.endpoints.out, chunk);
+    const ep = this.endpoints.out;
+    // Hand the packet over as the controller does: data into the buffer, then FULL with its
+    // length and AVAILABLE cleared, then the BUFF_STATUS bit.
+    this.board.rp2040.usbDPRAM.set(chunk, this.usb.getEndpointBufferOffset(ep, true));
+    this.setOutControl(ep, (c) => ((c & ~BUF_AVAILABLE & ~BUF_LEN_MASK) | BUF_FULL | chunk.length));
+    this.usb.indicateBufferReady(ep, true);
   }
 
   /** Bytes from the host application (the pseudo-terminal) to the adapter. */
