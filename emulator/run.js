@@ -62,7 +62,7 @@ const IDEAL_BLOCK = calibrationBlock([512, 512, 512], [712, 712, 712], [0xe0, 0x
  */
 function checkReports(rig, fromHandshake, transform, minReports = 40) {
   const reports = rig.remote.reports.filter((r) => r.handshake >= fromHandshake);
-  if (reports.length < minReports) return fail(`only ${reports.length} reports read by the Wii Remote`);
+  if (reports.length < minReports) return `only ${reports.length} reports read by the Wii Remote`;
   const served = rig.nunchuk.served;
   const poses = new Set();
   let bad = 0;
@@ -83,8 +83,8 @@ function checkReports(rig, fromHandshake, transform, minReports = 40) {
       if (!firstBad) firstBad = { got, want: candidates.map((s) => transform(s.raw.accel)) };
     }
   }
-  if (bad) return fail(`${bad}/${reports.length} reports differ, first: got ${JSON.stringify(firstBad.got.accel)} want one of ${JSON.stringify(firstBad.want)}`);
-  if (poses.size < 4) return fail(`the reports cover only ${poses.size} poses`);
+  if (bad) return `${bad}/${reports.length} reports differ, first: got ${JSON.stringify(firstBad.got.accel)} want one of ${JSON.stringify(firstBad.want)}`;
+  if (poses.size < 4) return `the reports cover only ${poses.size} poses`;
   return null;
 }
 
@@ -121,9 +121,9 @@ function newRig(flashImage = null, options = {}) {
 }
 async function putCommit(rig, calPath, extra = []) {
   const put = await rig.wiical(['put', calPath, ...extra]);
-  if (put.code !== 0) return fail(`wiical device put: exit ${put.code}: ${put.stderr.trim()}`);
+  if (put.code !== 0) return `wiical device put: exit ${put.code}: ${put.stderr.trim()}`;
   const commit = await rig.wiical(['commit', ...extra]);
-  if (commit.code !== 0) return fail(`wiical device commit: exit ${commit.code}: ${commit.stderr.trim()}`);
+  if (commit.code !== 0) return `wiical device commit: exit ${commit.code}: ${commit.stderr.trim()}`;
   return null;
 }
 
@@ -204,7 +204,7 @@ const scenarios = [
       await rig.board.run(300);
       rig.board.onFlashStep = (_step, index) => index === k;
       await rig.wiical(['put', calB]);
-      await rig.wiical(['commit', '--timeout-ms', '300', '--retries', '0']);
+      await rig.wiical(['commit', '--timeout-ms', '3000', '--retries', '0']);
       rig.close();
       if (!rig.board.powerCut) return fail(`step ${k}: the commit finished without reaching flash step ${k}`);
       const after = newRig(rig.board.flashImage());

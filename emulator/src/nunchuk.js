@@ -91,7 +91,10 @@ export class Nunchuk {
   connect(address, mode) {
     const ack = this.plugged && address === ADDRESS;
     if (ack && mode === 0) this.firstWrite = true;
-    if (ack && mode === 1 && this.pointer === 0 && this.initialised) {
+    const now = this.board.nanos;
+    const restarted = now - (this.lastReadAddressNs ?? -1e9) < 100e3; // repeated START of the same read
+    if (ack && mode === 1) this.lastReadAddressNs = now;
+    if (ack && mode === 1 && this.pointer === 0 && this.initialised && !restarted) {
       // A report read begins: latch the current motion into registers 0..5.
       const raw = this.motion(this.board.nanos);
       this.regs.set(reportBytes(raw), 0);
