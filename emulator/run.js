@@ -261,6 +261,7 @@ const scenarios = [
     if (!injected) return fail(`stream gave only ${lines} lines (exit ${stream.code}: ${stream.stderr.trim()})`);
     if (!reset) return fail(`stream stopped after the garbage: ${lines} lines (exit ${stream.code}: ${stream.stderr.trim()})`);
     const gapNs = maxGap(rig.remote.reports.map((r) => r.tNs));
+    if (rig.remote.reports.length < 100) return fail(`the Wii Remote read only ${rig.remote.reports.length} reports meanwhile`);
     await rig.board.runUntilTrue(() => rig.usb.configured, 1000);
     const info = await rig.wiical(['info']);
     rig.close();

@@ -72,7 +72,9 @@ pub fn emulate(args: &[String]) -> Result<bool> {
     let root = root();
     let emulator = root.join("emulator");
     if !emulator.join("node_modules").join("rp2040js").exists() {
-        run(Command::new("npm").current_dir(&emulator).args(["ci", "--no-audit", "--no-fund"]))?;
+        run(Command::new("npm")
+            .current_dir(&emulator)
+            .args(["ci", "--no-audit", "--no-fund"]))?;
     }
     if !crate::firmware(Chip::Rp2040)? {
         return Err("the RP2040 firmware is over its budget".into());
