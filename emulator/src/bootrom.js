@@ -22,6 +22,7 @@
 //   ADDS r0,#4   0011 0 000 00000100      = 0x3004
 //   B label      1110 0 iiiiiiiiiii       = 0xE000 | (offset-4)/2 (signed 11 bit)
 //   MOVS r0,#0   0010 0 000 00000000      = 0x2000
+//   NOP          1011 1111 0000 0000      = 0xBF00
 
 /** The codes of the ROM functions (two ASCII characters, little-endian), datasheet 2.8.3. */
 export const ROM_FUNCTIONS = {
@@ -89,26 +90,22 @@ export function buildBootrom(stackTop = 0x20042000) {
   h(0x16, DATA_TABLE);
   h(0x18, LOOKUP + 1);
 
-  // rom_table_lookup(r0 = table, r1 = code) -> r0 = pointer or 0.
+  // rom_table_lookup(r0 = table, r1 = code) -> r0 = pointer or 0. Branch offsets are
+  // (target - (branch address + 4)) / 2.
   const lookup = [
-    0x8802, // 0x40 loop:  LDRH r2, [r0]
-    0x2a00, // 0x42        CMP  r2, #0
-    0xd004, // 0x44        BEQ  notfound (0x50)
-    0x428a, // 0x46        CMP  r2, r1
-    0xd002, // 0x48        BEQ  found (0x50 - 2 = 0x4e + ... see below)
-    0x3004, // 0x4a        ADDS r0, #4
-    0xe7f8, // 0x4c        B    loop (0x40)
-    0x0000, // 0x4e        (placeholder, replaced below)
+    0x8802, // 0x40 loop:     LDRH r2, [r0]
+    0x2a00, // 0x42           CMP  r2, #0
+    0xd000 | ((0x54 - (0x44 + 4)) >> 1), // 0x44 BEQ notfound (0x54)
+    0x428a, // 0x46           CMP  r2, r1
+    0xd000 | ((0x50 - (0x48 + 4)) >> 1), // 0x48 BEQ found (0x50)
+    0x3004, // 0x4a           ADDS r0, #4
+    0xe000 | (((0x40 - (0x4c + 4)) >> 1) & 0x7ff), // 0x4c B loop (0x40)
+    0xbf00, // 0x4e           NOP
+    0x8840, // 0x50 found:    LDRH r0, [r0, #2]
+    0x4770, // 0x52           BX   LR
+    0x2000, // 0x54 notfound: MOVS r0, #0
+    0x4770, // 0x56           BX   LR
   ];
-  // Lay out explicitly to keep the branch offsets honest:
-  //   0x40 LDRH r2,[r0]; 0x42 CMP r2,#0; 0x44 BEQ 0x54; 0x46 CMP r2,r1; 0x48 BEQ 0x50;
-  //   0x4a ADDS r0,#4; 0x4c B 0x40; 0x4e NOP; 0x50 LDRH r0,[r0,#2]; 0x52 BX LR;
-  //   0x54 MOVS r0,#0; 0x56 BX LR
-  lookup[2] = 0xd000 | ((0x54 - (0x44 + 4)) >> 1); // BEQ notfound
-  lookup[4] = 0xd000 | ((0x50 - (0x48 + 4)) >> 1); // BEQ found
-  lookup[6] = 0xe000 | (((0x40 - (0x4c + 4)) >> 1) & 0x7ff); // B loop
-  lookup[7] = 0xbf00; // NOP
-  lookup.push(0x8840, 0x4770, 0x2000, 0x4770);
   lookup.forEach((op, i) => h(LOOKUP + 2 * i, op));
 
   // Function table and trampolines.
