@@ -445,7 +445,8 @@ pub fn factor_normal<T: RealField + Copy, const N: usize>(
     let l = chol.l_dirty();
     for j in 0..N {
         let pivot = l[(j, j)] * l[(j, j)];
-        if !(pivot > rel_pivot * a[(j, j)].abs()) {
+        // Written so that a NaN pivot is refused too.
+        if pivot.partial_cmp(&(rel_pivot * a[(j, j)].abs())) != Some(core::cmp::Ordering::Greater) {
             return None;
         }
     }
