@@ -1,8 +1,12 @@
-//! Small allocation-free linear-algebra helpers on `f32` static matrices.
+//! Small allocation-free linear-algebra helpers on static matrices, generic over the float
+//! type (`f32` on the device, `f64` on the host) where the host's analysis needs them.
 //!
 //! * [`solve_spd`] solves a symmetric positive-definite system `A·x = b` (the normal
 //!   equations `MᵀM·x = Mᵀc` of a least-squares fit) by Cholesky factorisation, refusing
 //!   systems whose pivots show the matrix is singular *for `f32`*.
+//! * [`cholesky_checked`] factors a symmetric positive-definite matrix and refuses pivots
+//!   below a relative threshold (the normal matrix of a fit whose parameters the data do not
+//!   all determine); [`invert3_checked`] inverts a 3×3 matrix with a conditioning test.
 //! * [`sym3_eigen`] and [`sym3_sqrt`] decompose a symmetric 3×3 matrix (used for the
 //!   soft-iron matrix of a magnetometer fit).
 //!
@@ -18,7 +22,7 @@
 //! noise. So [`solve_spd`] equilibrates the matrix first (unit diagonal) and then checks
 //! every pivot `L_jj²` of the factor against a relative threshold; see [`solve_spd_with_tol`].
 
-use nalgebra::{Cholesky, SMatrix, SVector, SymmetricEigen};
+use nalgebra::{Cholesky, Const, Matrix3, RealField, SMatrix, SVector, SymmetricEigen};
 
 use crate::{Error, Mat3, Vec3};
 
@@ -38,11 +42,15 @@ pub const DEFAULT_PIVOT_TOL: f32 = 1e-5;
 /// Only the lower triangle of `a` is read. Errors: [`Error::NonFinite`] if any input is NaN
 /// or infinite (or the solution overflows), [`Error::Singular`] if `A` is not positive
 /// definite or too ill-conditioned for `f32` (see [`solve_spd_with_tol`]).
-pub fn solve_spd<const N: usize>(
-    a: &SMatrix<f32, N, N>,
-    b: &SVector<f32, N>,
-) -> Result<SVector<f32, N>, Error> {
-    solve_spd_with_tol(a, b, DEFAULT_PIVOT_TOL)
+pub fn solve_spd<T: RealField + Copy, const N: usize>(
+    a: &SMatrix<T, N, N>,
+    b: &SVector<T, N>,
+) -> Result<SVector<T, N>, Error> {
+    solve_spd_with_tol(a, b, crate::lm::lit(DEFAULT_PIVOT_TOL as f64))
+}
+
+fn finite<T: RealField + Copy>(v: &[T]) -> bool {
+    v.iter().all(|x| x.is_finite())
 }
 
 /// Solves `A·x = b` for symmetric positive-definite `A`, with a caller-chosen relative pivot
@@ -59,22 +67,22 @@ pub fn solve_spd<const N: usize>(
 /// A non-positive or non-finite diagonal entry of `A` is reported as [`Error::Singular`]
 /// (a regressor that is identically zero on the data); NaN/inf anywhere in the input as
 /// [`Error::NonFinite`].
-pub fn solve_spd_with_tol<const N: usize>(
-    a: &SMatrix<f32, N, N>,
-    b: &SVector<f32, N>,
-    tol: f32,
-) -> Result<SVector<f32, N>, Error> {
-    if !crate::all_finite(a.as_slice()) || !crate::all_finite(b.as_slice()) || !tol.is_finite() {
+pub fn solve_spd_with_tol<T: RealField + Copy, const N: usize>(
+    a: &SMatrix<T, N, N>,
+    b: &SVector<T, N>,
+    tol: T,
+) -> Result<SVector<T, N>, Error> {
+    if !finite(a.as_slice()) || !finite(b.as_slice()) || !tol.is_finite() {
         return Err(Error::NonFinite);
     }
-    let mut s = SVector::<f32, N>::zeros();
+    let mut s = SVector::<T, N>::zeros();
     for j in 0..N {
         let d = a[(j, j)];
-        if d <= 0.0 {
+        if d <= T::zero() {
             return Err(Error::Singular);
         }
-        let sj = 1.0 / libm::sqrtf(d);
-        if !sj.is_finite() || sj == 0.0 {
+        let sj = T::one() / d.sqrt();
+        if !sj.is_finite() || sj == T::zero() {
             return Err(Error::Singular);
         }
         s[j] = sj;
@@ -85,7 +93,7 @@ pub fn solve_spd_with_tol<const N: usize>(
             eq[(i, j)] *= s[i] * s[j];
         }
     }
-    if !crate::all_finite(eq.as_slice()) {
+    if !finite(eq.as_slice()) {
         return Err(Error::Singular);
     }
     let chol = Cholesky::new(eq).ok_or(Error::Singular)?;
@@ -93,17 +101,57 @@ pub fn solve_spd_with_tol<const N: usize>(
     for j in 0..N {
         let p = l[(j, j)];
         let p2 = p * p;
-        if p2.is_nan() || p2 < tol {
+        #[allow(clippy::eq_op)] // `x != x`: NaN test without a float-specific trait.
+        if p2 != p2 || p2 < tol {
             return Err(Error::Singular);
         }
     }
     let mut x = b.component_mul(&s);
     chol.solve_mut(&mut x);
     let x = x.component_mul(&s);
-    if !crate::all_finite(x.as_slice()) {
+    if !finite(x.as_slice()) {
         return Err(Error::NonFinite);
     }
     Ok(x)
+}
+
+/// Cholesky factor of a symmetric positive-definite `a` (lower triangle read), refusing it
+/// (`None`) when a squared pivot `L_jj²` is not above `rel_pivot · |A_jj|` (or is NaN): a
+/// normal matrix `JᵀJ` whose parameters the data do not all determine. Unlike
+/// [`solve_spd_with_tol`] there is no equilibration, so `rel_pivot` is relative to each
+/// diagonal entry; `1e-13` suits `f64` ([`crate::lm::REL_PIVOT_F64`]).
+pub fn cholesky_checked<T: RealField + Copy, const N: usize>(
+    a: &SMatrix<T, N, N>,
+    rel_pivot: T,
+) -> Option<Cholesky<T, Const<N>>> {
+    let chol = Cholesky::new(*a)?;
+    let l = chol.l_dirty();
+    for j in 0..N {
+        let pivot = l[(j, j)] * l[(j, j)];
+        // Written so that a NaN pivot is refused too.
+        if pivot.partial_cmp(&(rel_pivot * a[(j, j)].abs())) != Some(core::cmp::Ordering::Greater) {
+            return None;
+        }
+    }
+    Some(chol)
+}
+
+/// Inverse of a 3×3 matrix in any float type, refusing ([`Error::Singular`]) a matrix whose
+/// determinant is at most `rel_det` times the product of its row norms (for `f32` the core
+/// uses `1e-6`, see [`crate::model::invert3`]); [`Error::NonFinite`] on NaN/inf input.
+pub fn invert3_checked<T: RealField + Copy>(
+    m: &Matrix3<T>,
+    rel_det: T,
+) -> Result<Matrix3<T>, Error> {
+    if !finite(m.as_slice()) {
+        return Err(Error::NonFinite);
+    }
+    let det = m.determinant();
+    let scale = m.row(0).norm() * m.row(1).norm() * m.row(2).norm();
+    if !det.is_finite() || scale == T::zero() || det.abs() <= rel_det * scale {
+        return Err(Error::Singular);
+    }
+    m.try_inverse().ok_or(Error::Singular)
 }
 
 /// Eigen-decomposition of a symmetric 3×3 matrix: `M = V·diag(λ)·Vᵀ`.
@@ -206,7 +254,7 @@ mod tests {
     #[test]
     fn spd_solve_is_scale_invariant() {
         // Wildly different unknown scales (1e-6 .. 1e6) must not trip the pivot test.
-        let base = Matrix4::new(
+        let base = Matrix4::<f32>::new(
             4.0, 1.0, 0.5, 0.2, 1.0, 3.0, 0.3, 0.1, 0.5, 0.3, 2.0, 0.4, 0.2, 0.1, 0.4, 1.0,
         );
         let d = Matrix4::from_diagonal(&Vector4::new(1e-6, 1.0, 1e3, 1e6));
@@ -216,6 +264,30 @@ mod tests {
         for i in 0..4 {
             assert!((got[i] - x[i]).abs() < 1e-4 * x[i].abs(), "{got} vs {x}");
         }
+    }
+
+    #[test]
+    fn f64_helpers_solve_factor_and_invert() {
+        let bm = Matrix4::<f64>::new(
+            1.0, 2.0, 0.5, -1.0, 0.0, 3.0, 1.0, 2.0, 4.0, -1.0, 2.0, 0.0, 1.0, 1.0, 1.0, 5.0,
+        );
+        let a = bm.transpose() * bm + Matrix4::identity();
+        let x = Vector4::new(1.0, -2.0, 0.25, 3.0);
+        let got = solve_spd(&a, &(a * x)).unwrap();
+        assert!((got - x).norm() < 1e-12 * x.norm(), "{got} vs {x}");
+        let chol = cholesky_checked(&a, 1e-13).unwrap();
+        assert!((chol.solve(&(a * x)) - x).norm() < 1e-12 * x.norm());
+        // Rank 3 (last column = sum of the first two): refused.
+        let mut r = bm;
+        for i in 0..4 {
+            r[(i, 3)] = r[(i, 0)] + r[(i, 1)];
+        }
+        assert!(cholesky_checked(&(r.transpose() * r), 1e-13).is_none());
+        let m = nalgebra::Matrix3::<f64>::new(2.0, 0.1, 0.0, 0.0, 3.0, 0.2, 0.0, 0.0, 4.0);
+        let inv = invert3_checked(&m, 1e-12).unwrap();
+        assert!((inv * m - nalgebra::Matrix3::identity()).amax() < 1e-15);
+        let sing = nalgebra::Matrix3::<f64>::new(1.0, 2.0, 3.0, 2.0, 4.0, 6.0, 0.0, 0.0, 1.0);
+        assert_eq!(invert3_checked(&sing, 1e-12), Err(Error::Singular));
     }
 
     #[test]

@@ -35,6 +35,26 @@
 //! [`loo_residuals`] (leave-one-out residuals by refitting without each observation).
 //!
 //! ## Plugging in a model
+//! Implement [`Problem`] for a type holding the observations (borrowed slices; for the
+//! analysis's effect model: the normalised window means, times and temperatures) with
+//! `N` = the number of parameters of the full model (27 for the 9 base parameters plus six
+//! effect blocks of 3); choose the free ones with the mask. What the hand-written `f64` solver
+//! of the analysis did maps as follows:
+//!
+//! | analysis | here |
+//! |---|---|
+//! | `fit_weighted(p0, mask, wins, used)` | [`minimize`] with `Some(weights)` and [`LmSettings::default`], then [`factor_normal`]`(&`[`normal_equations`]`(..).0, mask, REL_PIVOT_F64)` to refuse a singular minimum |
+//! | `fit(p0, mask, wins, used: &[bool])` | the same with weights 1.0 / 0.0 |
+//! | `standard_errors` | [`standard_errors`] |
+//! | `leverage(p, mask, wins, used, i)` | [`leverage`] |
+//! | `loo` | [`loo_residuals`] (the caller provides the output slice) |
+//!
+//! [`LmSettings::default`] is that solver's schedule (its one difference: the cost-gain test
+//! is relative to the cost before the step, not after, which only matters for gains within
+//! `1e-30` of the cost). A 12-parameter example (the multi-position model plus a per-axis
+//! quadratic) checked against an independent solver is in `crates/core/tests/lm_model.rs`;
+//! the smallest possible one follows.
+//!
 //! ```
 //! use nalgebra::SVector;
 //! use wiical_core::lm::{self, LmSettings, Problem};
@@ -441,16 +461,7 @@ pub fn factor_normal<T: RealField + Copy, const N: usize>(
     let mut a = *jtj;
     let mut zero = SVector::<T, N>::zeros();
     pin_fixed(&mut a, &mut zero, mask);
-    let chol = Cholesky::new(a)?;
-    let l = chol.l_dirty();
-    for j in 0..N {
-        let pivot = l[(j, j)] * l[(j, j)];
-        // Written so that a NaN pivot is refused too.
-        if pivot.partial_cmp(&(rel_pivot * a[(j, j)].abs())) != Some(core::cmp::Ordering::Greater) {
-            return None;
-        }
-    }
-    Some(chol)
+    crate::linalg::cholesky_checked(&a, rel_pivot)
 }
 
 /// Default relative pivot threshold of [`factor_normal`] for `f64` work.
