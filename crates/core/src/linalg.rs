@@ -1,5 +1,5 @@
-//! Small allocation-free linear-algebra helpers on static matrices, generic over the float
-//! type (`f32` on the device, `f64` on the host) where the host's analysis needs them.
+//! Small allocation-free linear-algebra helpers on static matrices: `f32` for the device's
+//! fits, generic over the float type (`f32` / `f64`) where the host's analysis needs them.
 //!
 //! * [`solve_spd`] solves a symmetric positive-definite system `A·x = b` (the normal
 //!   equations `MᵀM·x = Mᵀc` of a least-squares fit) by Cholesky factorisation, refusing
@@ -42,15 +42,11 @@ pub const DEFAULT_PIVOT_TOL: f32 = 1e-5;
 /// Only the lower triangle of `a` is read. Errors: [`Error::NonFinite`] if any input is NaN
 /// or infinite (or the solution overflows), [`Error::Singular`] if `A` is not positive
 /// definite or too ill-conditioned for `f32` (see [`solve_spd_with_tol`]).
-pub fn solve_spd<T: RealField + Copy, const N: usize>(
-    a: &SMatrix<T, N, N>,
-    b: &SVector<T, N>,
-) -> Result<SVector<T, N>, Error> {
-    solve_spd_with_tol(a, b, crate::lm::lit(DEFAULT_PIVOT_TOL as f64))
-}
-
-fn finite<T: RealField + Copy>(v: &[T]) -> bool {
-    v.iter().all(|x| x.is_finite())
+pub fn solve_spd<const N: usize>(
+    a: &SMatrix<f32, N, N>,
+    b: &SVector<f32, N>,
+) -> Result<SVector<f32, N>, Error> {
+    solve_spd_with_tol(a, b, DEFAULT_PIVOT_TOL)
 }
 
 /// Solves `A·x = b` for symmetric positive-definite `A`, with a caller-chosen relative pivot
@@ -67,22 +63,22 @@ fn finite<T: RealField + Copy>(v: &[T]) -> bool {
 /// A non-positive or non-finite diagonal entry of `A` is reported as [`Error::Singular`]
 /// (a regressor that is identically zero on the data); NaN/inf anywhere in the input as
 /// [`Error::NonFinite`].
-pub fn solve_spd_with_tol<T: RealField + Copy, const N: usize>(
-    a: &SMatrix<T, N, N>,
-    b: &SVector<T, N>,
-    tol: T,
-) -> Result<SVector<T, N>, Error> {
-    if !finite(a.as_slice()) || !finite(b.as_slice()) || !tol.is_finite() {
+pub fn solve_spd_with_tol<const N: usize>(
+    a: &SMatrix<f32, N, N>,
+    b: &SVector<f32, N>,
+    tol: f32,
+) -> Result<SVector<f32, N>, Error> {
+    if !crate::all_finite(a.as_slice()) || !crate::all_finite(b.as_slice()) || !tol.is_finite() {
         return Err(Error::NonFinite);
     }
-    let mut s = SVector::<T, N>::zeros();
+    let mut s = SVector::<f32, N>::zeros();
     for j in 0..N {
         let d = a[(j, j)];
-        if d <= T::zero() {
+        if d <= 0.0 {
             return Err(Error::Singular);
         }
-        let sj = T::one() / d.sqrt();
-        if !sj.is_finite() || sj == T::zero() {
+        let sj = 1.0 / libm::sqrtf(d);
+        if !sj.is_finite() || sj == 0.0 {
             return Err(Error::Singular);
         }
         s[j] = sj;
@@ -93,7 +89,7 @@ pub fn solve_spd_with_tol<T: RealField + Copy, const N: usize>(
             eq[(i, j)] *= s[i] * s[j];
         }
     }
-    if !finite(eq.as_slice()) {
+    if !crate::all_finite(eq.as_slice()) {
         return Err(Error::Singular);
     }
     let chol = Cholesky::new(eq).ok_or(Error::Singular)?;
@@ -101,18 +97,21 @@ pub fn solve_spd_with_tol<T: RealField + Copy, const N: usize>(
     for j in 0..N {
         let p = l[(j, j)];
         let p2 = p * p;
-        #[allow(clippy::eq_op)] // `x != x`: NaN test without a float-specific trait.
-        if p2 != p2 || p2 < tol {
+        if p2.is_nan() || p2 < tol {
             return Err(Error::Singular);
         }
     }
     let mut x = b.component_mul(&s);
     chol.solve_mut(&mut x);
     let x = x.component_mul(&s);
-    if !finite(x.as_slice()) {
+    if !crate::all_finite(x.as_slice()) {
         return Err(Error::NonFinite);
     }
     Ok(x)
+}
+
+fn finite<T: RealField + Copy>(v: &[T]) -> bool {
+    v.iter().all(|x| x.is_finite())
 }
 
 /// Cholesky factor of a symmetric positive-definite `a` (lower triangle read), refusing it
@@ -254,7 +253,7 @@ mod tests {
     #[test]
     fn spd_solve_is_scale_invariant() {
         // Wildly different unknown scales (1e-6 .. 1e6) must not trip the pivot test.
-        let base = Matrix4::<f32>::new(
+        let base = Matrix4::new(
             4.0, 1.0, 0.5, 0.2, 1.0, 3.0, 0.3, 0.1, 0.5, 0.3, 2.0, 0.4, 0.2, 0.1, 0.4, 1.0,
         );
         let d = Matrix4::from_diagonal(&Vector4::new(1e-6, 1.0, 1e3, 1e6));
@@ -273,8 +272,6 @@ mod tests {
         );
         let a = bm.transpose() * bm + Matrix4::identity();
         let x = Vector4::new(1.0, -2.0, 0.25, 3.0);
-        let got = solve_spd(&a, &(a * x)).unwrap();
-        assert!((got - x).norm() < 1e-12 * x.norm(), "{got} vs {x}");
         let chol = cholesky_checked(&a, 1e-13).unwrap();
         assert!((chol.solve(&(a * x)) - x).norm() < 1e-12 * x.norm());
         // Rank 3 (last column = sum of the first two): refused.

@@ -246,9 +246,10 @@ fn cost_skipping<T: RealField + Copy, const N: usize, P: Problem<T, N>>(
     skip: Option<usize>,
 ) -> T {
     let mut cost = T::zero();
+    let filtered = weights.is_some() || skip.is_some();
     for i in 0..problem.observations() {
         let w = weight_of(weights, skip, i);
-        if w == T::zero() {
+        if filtered && w == T::zero() {
             continue;
         }
         let r = problem.residual(p, i);
@@ -274,9 +275,10 @@ fn normal_skipping<T: RealField + Copy, const N: usize, P: Problem<T, N>>(
 ) -> (SMatrix<T, N, N>, SVector<T, N>) {
     let mut jtj = SMatrix::<T, N, N>::zeros();
     let mut jtr = SVector::<T, N>::zeros();
+    let filtered = weights.is_some() || skip.is_some();
     for i in 0..problem.observations() {
         let w = weight_of(weights, skip, i);
-        if w == T::zero() {
+        if filtered && w == T::zero() {
             continue;
         }
         let (r, j) = problem.residual_and_gradient(p, i);
