@@ -6,7 +6,9 @@
 //!
 //! Everything here runs unchanged on a Cortex-M0+/M33 and on a desktop: fixed-size data
 //! on the stack, `nalgebra` without its default features, `heapless` where a bounded
-//! buffer is needed, and no floating-point type wider than `f32`.
+//! buffer is needed, and no floating-point type wider than `f32` on the device. The
+//! least-squares solver ([`lm`]) and the multi-position fit ([`multipos::fit_generic`]) are
+//! generic over nalgebra's `RealField`, so the host's analysis runs the same code in `f64`.
 //!
 //! ## Conventions
 //! * Raw measurements `m` are in sensor units (ADC counts, or whatever the sensor gives).
@@ -29,6 +31,7 @@
 //! | [`magfit`] | magnetometer sphere / axis-aligned / rotated-ellipsoid fits from streaming sums |
 //! | [`kalman`] | the 3-state `[position, velocity, bias]` Kalman filter |
 //! | [`static_detect`] | static-interval detection on a stream |
+//! | [`lm`] | Levenberg–Marquardt generic over the float type (`f32` device, `f64` analysis), standard errors, leverage, leave-one-out |
 //! | [`linalg`] | small helpers (Cholesky solves of normal equations) |
 #![no_std]
 #![deny(unsafe_code)]
@@ -37,6 +40,7 @@
 pub mod error;
 pub mod kalman;
 pub mod linalg;
+pub mod lm;
 pub mod magfit;
 pub mod model;
 pub mod multipos;
