@@ -1,4 +1,4 @@
-//! The `f64` joint model behind `wiical analyze`: the core's 9-parameter multi-position model
+//! The `f64` effect model of the analysis: the core's 9-parameter multi-position model
 //! plus optional effect terms, fitted together by Levenberg–Marquardt over static-window means.
 //!
 //! Per window `i` with mean `m` (raw units), centre time `t` and mean temperature `θ`, in the
@@ -21,11 +21,14 @@
 //! are free, so the sensor frame is fixed by the same convention as the core's fit (x kept,
 //! y in the x–y plane): per-axis effect terms refer to the axes of that frame.
 //!
-//! All 24 parameters always exist; a mask says which are free. The Jacobian is analytic
-//! (derivatives written out below), so a leave-one-window-out cross-validation over 40 windows
-//! with a dozen candidate models costs milliseconds.
+//! All 27 parameters (9 base + six effect blocks of 3) always exist; a mask says which are
+//! free. The Jacobian is analytic (derivatives written out below). The fit is the core's
+//! Levenberg–Marquardt ([`wiical_core::lm`], the same code as the device's `f32`
+//! multi-position fit, instantiated in `f64`), so there is one solver in the project.
 
 #![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x > 0.0)` is deliberately true for NaN.
+use nalgebra::SVector;
+use wiical_core::lm::{self, LmFit, LmSettings, Problem};
 use wiical_core::{Calibration, Effects};
 
 /// Total number of parameters (9 base + 6 effect blocks of 3).
@@ -225,203 +228,99 @@ impl Fit {
     }
 }
 
-/// Cholesky factorisation of a symmetric positive definite `n×n` matrix (row-major), in
-/// place (lower triangle). `None` when a pivot is not positive relative to the diagonal.
-fn cholesky(a: &mut [f64], n: usize) -> Option<()> {
-    for j in 0..n {
-        let mut d = a[j * n + j];
-        for k in 0..j {
-            d -= a[j * n + k] * a[j * n + k];
-        }
-        if !(d > 1e-13 * a[j * n + j].abs().max(1e-300)) {
-            return None;
-        }
-        let d = d.sqrt();
-        a[j * n + j] = d;
-        for i in j + 1..n {
-            let mut s = a[i * n + j];
-            for k in 0..j {
-                s -= a[i * n + k] * a[j * n + k];
-            }
-            a[i * n + j] = s / d;
-        }
-    }
-    Some(())
-}
+/// The windows as a least-squares problem for the core's generic solver
+/// ([`wiical_core::lm`], instantiated in `f64`): one residual `‖a‖ − 1` per window.
+struct WindowProblem<'a>(&'a [Win]);
 
-fn cholesky_solve(l: &[f64], n: usize, b: &mut [f64]) {
-    for i in 0..n {
-        let mut s = b[i];
-        for k in 0..i {
-            s -= l[i * n + k] * b[k];
-        }
-        b[i] = s / l[i * n + i];
+impl Problem<f64, NP> for WindowProblem<'_> {
+    fn observations(&self) -> usize {
+        self.0.len()
     }
-    for i in (0..n).rev() {
-        let mut s = b[i];
-        for k in i + 1..n {
-            s -= l[k * n + i] * b[k];
-        }
-        b[i] = s / l[i * n + i];
+
+    fn residual_and_gradient(&self, p: &SVector<f64, NP>, i: usize) -> (f64, SVector<f64, NP>) {
+        let (r, g) = residual_and_grad(&(*p).into(), &self.0[i]);
+        (r, SVector::from(g))
+    }
+
+    fn residual(&self, p: &SVector<f64, NP>, i: usize) -> f64 {
+        residual(&(*p).into(), &self.0[i])
     }
 }
 
-fn cost(p: &Params, wins: &[Win], weights: &[f64]) -> f64 {
-    wins.iter()
-        .zip(weights)
-        .filter(|(_, u)| **u > 0.0)
-        .map(|(w, u)| u * residual(p, w).powi(2))
-        .sum()
-}
-
-/// Normal equations `JᵀWJ`, `JᵀWr` over the free parameters `idx`.
-fn normal(p: &Params, wins: &[Win], weights: &[f64], idx: &[usize]) -> (Vec<f64>, Vec<f64>) {
-    let n = idx.len();
-    let mut jtj = vec![0.0; n * n];
-    let mut jtr = vec![0.0; n];
-    for (w, &u) in wins.iter().zip(weights).filter(|(_, u)| **u > 0.0) {
-        let (r, g) = residual_and_grad(p, w);
-        for (a, &ia) in idx.iter().enumerate() {
-            let ga = u * g[ia];
-            jtr[a] += ga * r;
-            for (b, &ib) in idx.iter().enumerate().skip(a) {
-                jtj[a * n + b] += ga * g[ib];
-            }
-        }
-    }
-    for a in 0..n {
-        for b in 0..a {
-            jtj[a * n + b] = jtj[b * n + a];
-        }
-    }
-    (jtj, jtr)
+fn weights_of(used: &[bool]) -> Vec<f64> {
+    used.iter().map(|u| if *u { 1.0 } else { 0.0 }).collect()
 }
 
 /// Levenberg–Marquardt from `p0` over the windows with `used[i]`, freeing the parameters in
 /// `mask`. `None` when the problem is singular (too few windows, collinear regressors) or the
 /// solver does not converge.
 pub fn fit(p0: &Params, mask: &Mask, wins: &[Win], used: &[bool]) -> Option<Fit> {
-    let w: Vec<f64> = used.iter().map(|u| if *u { 1.0 } else { 0.0 }).collect();
-    fit_weighted(p0, mask, wins, &w)
+    fit_weighted(p0, mask, wins, &weights_of(used))
 }
 
 /// [`fit`] with non-negative per-window weights (0 excludes a window); `rss` is then the
-/// weighted sum and `n` the number of windows with positive weight.
+/// weighted sum and `n` the number of windows with positive weight. The core's solver with
+/// its `f64` schedule ([`LmSettings::default`]); a minimum whose normal matrix is singular
+/// (some free combination undetermined) is refused.
 pub fn fit_weighted(p0: &Params, mask: &Mask, wins: &[Win], used: &[f64]) -> Option<Fit> {
-    let idx: Vec<usize> = (0..NP).filter(|i| mask[*i]).collect();
-    let k = idx.len();
-    let n = used.iter().filter(|u| **u > 0.0).count();
-    if n < k || wins.len() != used.len() || !used.iter().all(|u| u.is_finite() && *u >= 0.0) {
+    if wins.len() != used.len() {
         return None;
     }
-    let mut p = *p0;
-    let mut c = cost(&p, wins, used);
-    if !c.is_finite() {
-        return None;
-    }
-    let mut lambda = 1e-4;
-    let mut iterations = 0;
-    let mut converged = false;
-    while iterations < 200 {
-        iterations += 1;
-        let (jtj, jtr) = normal(&p, wins, used, &idx);
-        let mut accepted = false;
-        for _ in 0..40 {
-            let mut a = jtj.clone();
-            for i in 0..k {
-                a[i * k + i] += lambda * jtj[i * k + i].max(1e-300);
-            }
-            if cholesky(&mut a, k).is_none() {
-                lambda *= 10.0;
-                continue;
-            }
-            let mut step: Vec<f64> = jtr.iter().map(|x| -x).collect();
-            cholesky_solve(&a, k, &mut step);
-            let mut cand = p;
-            for (s, &i) in step.iter().zip(&idx) {
-                cand[i] += s;
-            }
-            let nc = cost(&cand, wins, used);
-            if nc.is_finite() && nc <= c {
-                let gain = c - nc;
-                let small_step = step
-                    .iter()
-                    .zip(&idx)
-                    .all(|(s, &i)| s.abs() <= 1e-12 * (1.0 + p[i].abs()));
-                p = cand;
-                c = nc;
-                lambda = (lambda * 0.2).max(1e-12);
-                accepted = true;
-                if small_step || gain <= 1e-15 * c + 1e-300 {
-                    converged = true;
-                }
-                break;
-            }
-            lambda *= 4.0;
-        }
-        if !accepted {
-            // No step lowers the cost: at the minimum to within f64 resolution, provided the
-            // damped system was solvable at all.
-            converged = lambda < 1e20;
-        }
-        if converged {
-            break;
-        }
-    }
-    if !converged {
-        return None;
-    }
-    // A singular normal matrix at the minimum means some free combination is undetermined.
-    let (mut jtj, _) = normal(&p, wins, used, &idx);
-    cholesky(&mut jtj, k)?;
+    let problem = WindowProblem(wins);
+    let f = lm::minimize(
+        &problem,
+        SVector::from(*p0),
+        mask,
+        Some(used),
+        &LmSettings::default(),
+    )
+    .ok()?;
+    let (jtj, _) = lm::normal_equations(&problem, &f.params, Some(used));
+    lm::factor_normal(&jtj, mask, lm::REL_PIVOT_F64)?;
     Some(Fit {
-        p,
-        rss: c,
-        n,
-        k,
-        iterations,
+        p: f.params.into(),
+        rss: f.cost,
+        n: f.used,
+        k: f.free,
+        iterations: f.iterations,
     })
 }
 
 /// Standard errors of the free parameters (`σ̂²·(JᵀJ)⁻¹`, σ̂² = RSS/(n − k)), in the order of
-/// the full parameter vector (0 for fixed parameters).
+/// the full parameter vector (0 for fixed parameters, and all 0 without residual degrees of
+/// freedom or with a singular normal matrix).
 pub fn standard_errors(f: &Fit, mask: &Mask, wins: &[Win], used: &[bool]) -> Params {
-    let idx: Vec<usize> = (0..NP).filter(|i| mask[*i]).collect();
-    let k = idx.len();
-    let mut out = [0.0; NP];
-    let dof = f.n.saturating_sub(k);
-    if dof == 0 {
-        return out;
-    }
-    let s2 = f.rss / dof as f64;
-    let w: Vec<f64> = used.iter().map(|u| if *u { 1.0 } else { 0.0 }).collect();
-    let (mut jtj, _) = normal(&f.p, wins, &w, &idx);
-    if cholesky(&mut jtj, k).is_none() {
-        return out;
-    }
-    for (a, &ia) in idx.iter().enumerate() {
-        let mut e = vec![0.0; k];
-        e[a] = 1.0;
-        cholesky_solve(&jtj, k, &mut e);
-        out[ia] = (s2 * e[a]).max(0.0).sqrt();
-    }
-    out
+    let lm_fit = LmFit {
+        params: SVector::from(f.p),
+        cost: f.rss,
+        iterations: f.iterations,
+        used: f.n,
+        free: mask.iter().filter(|m| **m).count(),
+    };
+    let w = weights_of(used);
+    lm::standard_errors(
+        &WindowProblem(wins),
+        &lm_fit,
+        mask,
+        Some(&w),
+        lm::REL_PIVOT_F64,
+    )
+    .map_or([0.0; NP], Into::into)
 }
 
 /// Leverage of window `i` with respect to the windows `used` at parameters `p`:
 /// `h = gᵢᵀ(JᵀJ)⁻¹gᵢ`, so that the prediction error of a window outside the fit has variance
 /// `σ²·(1 + h)`. `None` when the normal matrix is singular.
 pub fn leverage(p: &Params, mask: &Mask, wins: &[Win], used: &[bool], i: usize) -> Option<f64> {
-    let idx: Vec<usize> = (0..NP).filter(|j| mask[*j]).collect();
-    let k = idx.len();
-    let w: Vec<f64> = used.iter().map(|u| if *u { 1.0 } else { 0.0 }).collect();
-    let (mut jtj, _) = normal(p, wins, &w, &idx);
-    cholesky(&mut jtj, k)?;
-    let (_, g) = residual_and_grad(p, wins.get(i)?);
-    let gi: Vec<f64> = idx.iter().map(|&j| g[j]).collect();
-    let mut x = gi.clone();
-    cholesky_solve(&jtj, k, &mut x);
-    Some(gi.iter().zip(&x).map(|(a, b)| a * b).sum())
+    let w = weights_of(used);
+    lm::leverage(
+        &WindowProblem(wins),
+        &SVector::from(*p),
+        mask,
+        Some(&w),
+        i,
+        lm::REL_PIVOT_F64,
+    )
 }
 
 /// Leave-one-window-out cross-validation: for each used window, refit without it (warm start
