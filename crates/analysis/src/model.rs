@@ -229,22 +229,75 @@ impl Fit {
 }
 
 /// The windows as a least-squares problem for the core's generic solver
-/// ([`wiical_core::lm`], instantiated in `f64`): one residual `‖a‖ − 1` per window.
-struct WindowProblem<'a>(&'a [Win]);
+/// ([`wiical_core::lm`], instantiated in `f64`): one residual `‖a‖ − 1` per window, over the
+/// `K` free parameters only (`idx` says which; the fixed ones keep their value in `base`).
+/// Solving in the free parameters rather than masking all 27 keeps the normal equations
+/// `K×K`: a 12-parameter candidate costs a fifth of the masked 27×27 system, and the
+/// leave-one-window-out cross-validation refits every candidate once per window.
+struct Reduced<'a, const K: usize> {
+    wins: &'a [Win],
+    base: Params,
+    idx: [usize; K],
+}
 
-impl Problem<f64, NP> for WindowProblem<'_> {
+impl<const K: usize> Reduced<'_, K> {
+    fn expand(&self, q: &SVector<f64, K>) -> Params {
+        let mut p = self.base;
+        for (a, &i) in self.idx.iter().enumerate() {
+            p[i] = q[a];
+        }
+        p
+    }
+
+    fn reduce(&self, p: &Params) -> SVector<f64, K> {
+        SVector::from_fn(|a, _| p[self.idx[a]])
+    }
+}
+
+impl<const K: usize> Problem<f64, K> for Reduced<'_, K> {
     fn observations(&self) -> usize {
-        self.0.len()
+        self.wins.len()
     }
 
-    fn residual_and_gradient(&self, p: &SVector<f64, NP>, i: usize) -> (f64, SVector<f64, NP>) {
-        let (r, g) = residual_and_grad(&(*p).into(), &self.0[i]);
-        (r, SVector::from(g))
+    fn residual_and_gradient(&self, q: &SVector<f64, K>, i: usize) -> (f64, SVector<f64, K>) {
+        let (r, g) = residual_and_grad(&self.expand(q), &self.wins[i]);
+        (r, SVector::from_fn(|a, _| g[self.idx[a]]))
     }
 
-    fn residual(&self, p: &SVector<f64, NP>, i: usize) -> f64 {
-        residual(&(*p).into(), &self.0[i])
+    fn residual(&self, q: &SVector<f64, K>, i: usize) -> f64 {
+        residual(&self.expand(q), &self.wins[i])
     }
+}
+
+/// Calls `$f::<K>(args…)` with `K` the number of free parameters (`$k`): base 6 or 9 plus 3
+/// per effect block, so a multiple of 3 from 6 to 27 (`None` otherwise).
+macro_rules! with_free_count {
+    ($k:expr, $f:ident($($arg:expr),*)) => {
+        match $k {
+            6 => $f::<6>($($arg),*),
+            9 => $f::<9>($($arg),*),
+            12 => $f::<12>($($arg),*),
+            15 => $f::<15>($($arg),*),
+            18 => $f::<18>($($arg),*),
+            21 => $f::<21>($($arg),*),
+            24 => $f::<24>($($arg),*),
+            27 => $f::<27>($($arg),*),
+            _ => None,
+        }
+    };
+}
+
+fn reduced<'a, const K: usize>(p: &Params, mask: &Mask, wins: &'a [Win]) -> Reduced<'a, K> {
+    let free: Vec<usize> = (0..NP).filter(|i| mask[*i]).collect();
+    Reduced {
+        wins,
+        base: *p,
+        idx: std::array::from_fn(|a| free[a]),
+    }
+}
+
+fn free_count(mask: &Mask) -> usize {
+    mask.iter().filter(|m| **m).count()
 }
 
 fn weights_of(used: &[bool]) -> Vec<f64> {
@@ -266,19 +319,24 @@ pub fn fit_weighted(p0: &Params, mask: &Mask, wins: &[Win], used: &[f64]) -> Opt
     if wins.len() != used.len() {
         return None;
     }
-    let problem = WindowProblem(wins);
+    with_free_count!(free_count(mask), fit_k(p0, mask, wins, used))
+}
+
+fn fit_k<const K: usize>(p0: &Params, mask: &Mask, wins: &[Win], used: &[f64]) -> Option<Fit> {
+    let problem = reduced::<K>(p0, mask, wins);
+    let all = [true; K];
     let f = lm::minimize(
         &problem,
-        SVector::from(*p0),
-        mask,
+        problem.reduce(p0),
+        &all,
         Some(used),
         &LmSettings::default(),
     )
     .ok()?;
     let (jtj, _) = lm::normal_equations(&problem, &f.params, Some(used));
-    lm::factor_normal(&jtj, mask, lm::REL_PIVOT_F64)?;
+    lm::factor_normal(&jtj, &all, lm::REL_PIVOT_F64)?;
     Some(Fit {
-        p: f.params.into(),
+        p: problem.expand(&f.params),
         rss: f.cost,
         n: f.used,
         k: f.free,
@@ -290,22 +348,30 @@ pub fn fit_weighted(p0: &Params, mask: &Mask, wins: &[Win], used: &[f64]) -> Opt
 /// the full parameter vector (0 for fixed parameters, and all 0 without residual degrees of
 /// freedom or with a singular normal matrix).
 pub fn standard_errors(f: &Fit, mask: &Mask, wins: &[Win], used: &[bool]) -> Params {
+    let w = weights_of(used);
+    with_free_count!(free_count(mask), standard_errors_k(f, mask, wins, &w)).unwrap_or([0.0; NP])
+}
+
+fn standard_errors_k<const K: usize>(
+    f: &Fit,
+    mask: &Mask,
+    wins: &[Win],
+    w: &[f64],
+) -> Option<Params> {
+    let problem = reduced::<K>(&f.p, mask, wins);
     let lm_fit = LmFit {
-        params: SVector::from(f.p),
+        params: problem.reduce(&f.p),
         cost: f.rss,
         iterations: f.iterations,
         used: f.n,
-        free: mask.iter().filter(|m| **m).count(),
+        free: K,
     };
-    let w = weights_of(used);
-    lm::standard_errors(
-        &WindowProblem(wins),
-        &lm_fit,
-        mask,
-        Some(&w),
-        lm::REL_PIVOT_F64,
-    )
-    .map_or([0.0; NP], Into::into)
+    let se = lm::standard_errors(&problem, &lm_fit, &[true; K], Some(w), lm::REL_PIVOT_F64)?;
+    let mut out = [0.0; NP];
+    for (a, &i) in problem.idx.iter().enumerate() {
+        out[i] = se[a];
+    }
+    Some(out)
 }
 
 /// Leverage of window `i` with respect to the windows `used` at parameters `p`:
@@ -313,11 +379,22 @@ pub fn standard_errors(f: &Fit, mask: &Mask, wins: &[Win], used: &[bool]) -> Par
 /// `σ²·(1 + h)`. `None` when the normal matrix is singular.
 pub fn leverage(p: &Params, mask: &Mask, wins: &[Win], used: &[bool], i: usize) -> Option<f64> {
     let w = weights_of(used);
+    with_free_count!(free_count(mask), leverage_k(p, mask, wins, &w, i))
+}
+
+fn leverage_k<const K: usize>(
+    p: &Params,
+    mask: &Mask,
+    wins: &[Win],
+    w: &[f64],
+    i: usize,
+) -> Option<f64> {
+    let problem = reduced::<K>(p, mask, wins);
     lm::leverage(
-        &WindowProblem(wins),
-        &SVector::from(*p),
-        mask,
-        Some(&w),
+        &problem,
+        &problem.reduce(p),
+        &[true; K],
+        Some(w),
         i,
         lm::REL_PIVOT_F64,
     )
