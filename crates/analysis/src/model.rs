@@ -53,6 +53,79 @@ pub const CUBIC: usize = 21;
 /// Curvature of the bias drift in time `d₂` (diagnostic only: `Effects` has no such term).
 pub const DRIFT2: usize = 24;
 
+/// Entries of the flat vector fixed in the diagonal model: the off-diagonal `k01 k02 k12`.
+pub const K_OFF_DIAGONAL: [usize; 3] = [KMAT + 1, KMAT + 2, KMAT + 4];
+
+/// The parameter vector as named blocks (normalised units, see the module docs). The solver
+/// works on the flat [`Params`] ([`Blocks::flat`], offsets [`BIAS`], [`KMAT`], …); everything
+/// else reads and writes blocks.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Blocks {
+    /// Bias `b`.
+    pub bias: [f64; 3],
+    /// Upper triangle of `K`: `k00 k01 k02 k11 k12 k22`.
+    pub k: [f64; 6],
+    /// Bias drift `d`.
+    pub drift: [f64; 3],
+    /// Bias temperature coefficient `β`.
+    pub bias_temp: [f64; 3],
+    /// Scale temperature coefficient `σ`.
+    pub scale_temp: [f64; 3],
+    /// Quadratic `q`.
+    pub quadratic: [f64; 3],
+    /// Cubic `c`.
+    pub cubic: [f64; 3],
+    /// Drift curvature `d₂` (diagnostic only).
+    pub drift2: [f64; 3],
+}
+
+impl Blocks {
+    /// The named view of a flat vector.
+    pub fn of(p: &Params) -> Self {
+        let b3 = |o: usize| [p[o], p[o + 1], p[o + 2]];
+        Blocks {
+            bias: b3(BIAS),
+            k: std::array::from_fn(|i| p[KMAT + i]),
+            drift: b3(DRIFT),
+            bias_temp: b3(BTEMP),
+            scale_temp: b3(STEMP),
+            quadratic: b3(QUAD),
+            cubic: b3(CUBIC),
+            drift2: b3(DRIFT2),
+        }
+    }
+
+    /// The flat vector the solver works on.
+    pub fn flat(&self) -> Params {
+        let mut p = [0.0; NP];
+        p[BIAS..BIAS + 3].copy_from_slice(&self.bias);
+        p[KMAT..KMAT + 6].copy_from_slice(&self.k);
+        for t in [
+            Term::Drift,
+            Term::BiasTemp,
+            Term::ScaleTemp,
+            Term::Quadratic,
+            Term::Cubic,
+            Term::Drift2,
+        ] {
+            p[t.offset()..t.offset() + 3].copy_from_slice(&self.term(t));
+        }
+        p
+    }
+
+    /// The block of an effect term.
+    pub fn term(&self, t: Term) -> [f64; 3] {
+        match t {
+            Term::Drift => self.drift,
+            Term::BiasTemp => self.bias_temp,
+            Term::ScaleTemp => self.scale_temp,
+            Term::Quadratic => self.quadratic,
+            Term::Cubic => self.cubic,
+            Term::Drift2 => self.drift2,
+        }
+    }
+}
+
 /// A parametric effect block (3 parameters, one per axis).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum Term {
@@ -142,14 +215,13 @@ pub fn mask_of(terms: &[Term]) -> Mask {
 /// Residual `r = ‖a‖ − 1` (g) of one window and its gradient with respect to all parameters.
 #[inline]
 pub fn residual_and_grad(p: &Params, w: &Win) -> (f64, Params) {
+    let b = Blocks::of(p);
     let (tau, th) = (w.tau, w.theta);
     let tau2 = tau * tau;
-    let e = [
-        w.y[0] - p[BIAS] - p[DRIFT] * tau - p[DRIFT2] * tau2 - p[BTEMP] * th,
-        w.y[1] - p[BIAS + 1] - p[DRIFT + 1] * tau - p[DRIFT2 + 1] * tau2 - p[BTEMP + 1] * th,
-        w.y[2] - p[BIAS + 2] - p[DRIFT + 2] * tau - p[DRIFT2 + 2] * tau2 - p[BTEMP + 2] * th,
-    ];
-    let k = &p[KMAT..KMAT + 6];
+    let e: [f64; 3] = std::array::from_fn(|j| {
+        w.y[j] - b.bias[j] - b.drift[j] * tau - b.drift2[j] * tau2 - b.bias_temp[j] * th
+    });
+    let k = &b.k;
     let v = [
         k[0] * e[0] + k[1] * e[1] + k[2] * e[2],
         k[3] * e[1] + k[4] * e[2],
@@ -159,9 +231,9 @@ pub fn residual_and_grad(p: &Params, w: &Win) -> (f64, Params) {
     let mut a = [0.0; 3];
     let mut h = [0.0; 3];
     for j in 0..3 {
-        let sf = 1.0 + p[STEMP + j] * th;
+        let sf = 1.0 + b.scale_temp[j] * th;
         let uj = v[j] * sf;
-        let (q, c) = (p[QUAD + j], p[CUBIC + j]);
+        let (q, c) = (b.quadratic[j], b.cubic[j]);
         u[j] = uj;
         a[j] = uj + q * uj * uj + c * uj * uj * uj;
         h[j] = 1.0 + 2.0 * q * uj + 3.0 * c * uj * uj;
@@ -174,7 +246,7 @@ pub fn residual_and_grad(p: &Params, w: &Win) -> (f64, Params) {
     let mut z = [0.0; 3];
     for j in 0..3 {
         let w_j = g[j] * h[j];
-        z[j] = w_j * (1.0 + p[STEMP + j] * th);
+        z[j] = w_j * (1.0 + b.scale_temp[j] * th);
         grad[STEMP + j] = w_j * v[j] * th;
         grad[QUAD + j] = g[j] * u[j] * u[j];
         grad[CUBIC + j] = g[j] * u[j] * u[j] * u[j];
@@ -482,37 +554,33 @@ impl Normalisation {
 
     /// Initial parameters from a raw-unit calibration (effects zero).
     pub fn params_from(&self, cal: &Calibration) -> Params {
-        let mut p = [0.0; NP];
-        for a in 0..3 {
-            p[BIAS + a] = (cal.bias[a] as f64 - self.centre[a]) / self.scale;
-        }
         let k = cal.matrix;
         let s = self.scale;
-        p[KMAT] = k[0][0] as f64 * s;
-        p[KMAT + 1] = k[0][1] as f64 * s;
-        p[KMAT + 2] = k[0][2] as f64 * s;
-        p[KMAT + 3] = k[1][1] as f64 * s;
-        p[KMAT + 4] = k[1][2] as f64 * s;
-        p[KMAT + 5] = k[2][2] as f64 * s;
-        p
+        Blocks {
+            bias: std::array::from_fn(|a| (cal.bias[a] as f64 - self.centre[a]) / self.scale),
+            k: [k[0][0], k[0][1], k[0][2], k[1][1], k[1][2], k[2][2]].map(|x| x as f64 * s),
+            ..Blocks::default()
+        }
+        .flat()
     }
 
     /// The parameters as raw-unit effect values (f64): bias at t = 0 (raw), K (g/raw),
     /// drift (raw/s), bias_temp (raw/°C), scale_temp (1/°C), quadratic, cubic.
     pub fn raw(&self, p: &Params) -> RawParams {
         let s = self.scale;
+        let b = Blocks::of(p);
         let mut r = RawParams::default();
         for a in 0..3 {
-            let d = p[DRIFT + a];
+            let d = b.drift[a];
             // b_eff(t) = c + s·(b + d·(t − t̄)/T + …): at t = 0 the bias is c + s·(b − d·t̄/T).
-            r.bias[a] = self.centre[a] + s * (p[BIAS + a] - d * self.t_mean / self.t_scale);
+            r.bias[a] = self.centre[a] + s * (b.bias[a] - d * self.t_mean / self.t_scale);
             r.drift[a] = s * d / self.t_scale;
-            r.bias_temp[a] = s * p[BTEMP + a] / self.temp_scale;
-            r.scale_temp[a] = p[STEMP + a] / self.temp_scale;
-            r.quadratic[a] = p[QUAD + a];
-            r.cubic[a] = p[CUBIC + a];
+            r.bias_temp[a] = s * b.bias_temp[a] / self.temp_scale;
+            r.scale_temp[a] = b.scale_temp[a] / self.temp_scale;
+            r.quadratic[a] = b.quadratic[a];
+            r.cubic[a] = b.cubic[a];
         }
-        let k = &p[KMAT..KMAT + 6];
+        let k = &b.k;
         r.matrix = [
             [k[0] / s, k[1] / s, k[2] / s],
             [0.0, k[3] / s, k[4] / s],
@@ -574,6 +642,23 @@ mod tests {
             *x = 0.01 * ((i * 7 % 5) as f64 - 2.0);
         }
         p
+    }
+
+    /// The named blocks and the flat vector are two views of the same numbers.
+    #[test]
+    fn blocks_round_trip_and_name_the_offsets() {
+        let p = sample_params();
+        let b = Blocks::of(&p);
+        assert_eq!(b.flat(), p);
+        assert_eq!(b.bias, [p[BIAS], p[BIAS + 1], p[BIAS + 2]]);
+        assert_eq!(b.k[4], p[KMAT + 4]);
+        for t in Term::ALL.into_iter().chain([Term::Drift2]) {
+            assert_eq!(
+                b.term(t),
+                [p[t.offset()], p[t.offset() + 1], p[t.offset() + 2]]
+            );
+        }
+        assert_eq!(K_OFF_DIAGONAL.map(|i| p[i]), [b.k[1], b.k[2], b.k[4]]);
     }
 
     /// The analytic gradient against central differences.
