@@ -25,7 +25,124 @@ use std::io::{self, Read, Write};
 use std::path::Path;
 use std::time::{Duration, Instant};
 
-use anyhow::{anyhow, bail, Context, Result};
+/// What can go wrong talking to an adapter.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum ClientError {
+    /// The port path does not exist.
+    #[error("serial port {path} does not exist (is the adapter plugged in? `wiical device-sim --pty` prints the port of the simulator)")]
+    NoSuchPort {
+        /// The path given.
+        path: String,
+    },
+    /// The port exists but cannot be opened.
+    #[error("cannot open serial port {path}: {cause}")]
+    Open {
+        /// The path given.
+        path: String,
+        /// Why.
+        cause: serialport::Error,
+    },
+    /// Writing to the port failed.
+    #[error("cannot write to {port}")]
+    Write {
+        /// The port.
+        port: String,
+        /// Why.
+        #[source]
+        source: io::Error,
+    },
+    /// A request could not be framed.
+    #[error("cannot encode {request}: {cause}")]
+    Encode {
+        /// The request.
+        request: &'static str,
+        /// Why.
+        cause: FrameError,
+    },
+    /// Reading from the port failed.
+    #[error("lost the connection to the adapter on {port}: {cause}")]
+    ConnectionLost {
+        /// The port.
+        port: String,
+        /// Why.
+        cause: io::Error,
+    },
+    /// No answer after every retry.
+    #[error("the adapter on {port} did not answer {request} ({attempts} attempts, {timeout_ms} ms each): is it a wiical adapter, and is its firmware running?")]
+    NoAnswer {
+        /// The port.
+        port: String,
+        /// The request.
+        request: &'static str,
+        /// Attempts made.
+        attempts: u32,
+        /// Timeout per attempt, ms.
+        timeout_ms: u128,
+    },
+    /// An answer of the wrong kind.
+    #[error("unexpected answer to {request}: {answer}")]
+    Unexpected {
+        /// The request.
+        request: &'static str,
+        /// The answer (debug form).
+        answer: String,
+    },
+    /// Host and adapter speak different wire protocols.
+    #[error("the adapter on {port} (firmware {firmware:?}) speaks wire protocol v{protocol} with schema key 0x{schema:08X}, but this wiical speaks v{} with schema key 0x{:08X}: they cannot understand each other. Update the firmware or wiical so that both are built from the same wire protocol.", PROTOCOL_VERSION, SCHEMA_KEY)]
+    SchemaMismatch {
+        /// The port.
+        port: String,
+        /// The adapter's firmware version.
+        firmware: String,
+        /// Its protocol version.
+        protocol: u16,
+        /// Its schema key.
+        schema: u32,
+    },
+    /// The adapter answered with an error code.
+    #[error("the adapter refused {request}: {code} (error code {})", *code as u8)]
+    Refused {
+        /// The request.
+        request: &'static str,
+        /// The adapter's code.
+        code: ErrorCode,
+    },
+    /// The calibration does not validate locally.
+    #[error("refusing to upload an invalid calibration: {0}")]
+    InvalidCalibration(wiical_core::Error),
+    /// Commit without a staged calibration.
+    #[error("nothing to commit on {port}: upload a calibration with `wiical device put` first")]
+    NothingStaged {
+        /// The port.
+        port: String,
+    },
+    /// The commit's acknowledgement was lost and the state read back does not confirm it.
+    #[error("commit on {port} could not be confirmed")]
+    CommitUnconfirmed {
+        /// The port.
+        port: String,
+    },
+    /// The adapter refused the commit.
+    #[error("the adapter refused the commit: {code} (error code {}); the live calibration is unchanged", *code as u8)]
+    CommitRefused {
+        /// The adapter's code.
+        code: ErrorCode,
+    },
+    /// No streamed sample in time.
+    #[error(
+        "no sample from the adapter on {port} within {timeout_ms} ms: is the Nunchuk plugged in?"
+    )]
+    NoSample {
+        /// The port.
+        port: String,
+        /// The timeout, ms.
+        timeout_ms: u128,
+    },
+}
+
+/// Result of the client.
+pub type Result<T, E = ClientError> = std::result::Result<T, E>;
 use serde::Serialize;
 use serialport::SerialPort;
 use wiical_core::Calibration;
@@ -74,6 +191,13 @@ pub struct Device {
     queue: std::collections::VecDeque<Result<Response, FrameError>>,
 }
 
+fn unexpected(req: &Request, resp: &Response) -> ClientError {
+    ClientError::Unexpected {
+        request: request_name(req),
+        answer: format!("{resp:?}"),
+    }
+}
+
 fn request_name(r: &Request) -> &'static str {
     match r {
         Request::Hello(_) => "Hello",
@@ -106,15 +230,15 @@ impl Device {
     /// Open the serial port (any baud rate works over USB CDC and ptys).
     pub fn open(path: &str, opts: ClientOptions) -> Result<Self> {
         if !Path::new(path).exists() && cfg!(unix) {
-            bail!(
-                "serial port {path} does not exist (is the adapter plugged in? \
-                 `wiical device-sim --pty` prints the port of the simulator)"
-            );
+            return Err(ClientError::NoSuchPort { path: path.into() });
         }
         let port = serialport::new(path, 115_200)
             .timeout(opts.timeout)
             .open()
-            .map_err(|e| anyhow!("cannot open serial port {path}: {e}"))?;
+            .map_err(|cause| ClientError::Open {
+                path: path.into(),
+                cause,
+            })?;
         let d = Self {
             port,
             name: path.to_string(),
@@ -150,13 +274,19 @@ impl Device {
         self.port
             .write_all(bytes)
             .and_then(|_| self.port.flush())
-            .with_context(|| format!("cannot write to {}", self.name))
+            .map_err(|source| ClientError::Write {
+                port: self.name.clone(),
+                source,
+            })
     }
 
     fn send(&mut self, req: &Request) -> Result<()> {
         let mut buf = [0u8; MAX_FRAME_LEN];
         let frame = encode_frame(req, &mut buf)
-            .map_err(|e| anyhow!("cannot encode {}: {e}", request_name(req)))?
+            .map_err(|cause| ClientError::Encode {
+                request: request_name(req),
+                cause,
+            })?
             .to_vec();
         self.write_raw(&frame)
     }
@@ -206,11 +336,11 @@ impl Device {
                 }
                 Err(e) if e.kind() == io::ErrorKind::TimedOut => {}
                 Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
-                Err(e) => {
-                    return Err(anyhow!(
-                        "lost the connection to the adapter on {}: {e}",
-                        self.name
-                    ))
+                Err(cause) => {
+                    return Err(ClientError::ConnectionLost {
+                        port: self.name.clone(),
+                        cause,
+                    })
                 }
             }
         }
@@ -237,14 +367,12 @@ impl Device {
                 self.stats.retries += 1;
             }
         }
-        bail!(
-            "the adapter on {} did not answer {} ({} attempts, {} ms each): \
-             is it a wiical adapter, and is its firmware running?",
-            self.name,
-            request_name(req),
+        Err(ClientError::NoAnswer {
+            port: self.name.clone(),
+            request: request_name(req),
             attempts,
-            self.opts.timeout.as_millis()
-        )
+            timeout_ms: self.opts.timeout.as_millis(),
+        })
     }
 
     /// Hello handshake. Fails with both versions on a schema mismatch.
@@ -253,21 +381,15 @@ impl Device {
         self.write_raw(&[0])?;
         let (resp, _) = self.transact(&Request::Hello(Hello::CURRENT))?;
         let Response::Hello(h) = resp else {
-            bail!("unexpected answer to Hello: {resp:?}");
+            return Err(unexpected(&Request::Hello(Hello::CURRENT), &resp));
         };
         if h.check().is_err() {
-            bail!(
-                "the adapter on {} (firmware {:?}) speaks wire protocol v{} with schema key \
-                 0x{:08X}, but this wiical speaks v{} with schema key 0x{:08X}: they cannot \
-                 understand each other. Update the firmware or wiical so that both are built \
-                 from the same wire protocol.",
-                self.name,
-                h.firmware_version.as_str(),
-                h.protocol_version,
-                h.schema_key,
-                PROTOCOL_VERSION,
-                SCHEMA_KEY
-            );
+            return Err(ClientError::SchemaMismatch {
+                port: self.name.clone(),
+                firmware: h.firmware_version.as_str().into(),
+                protocol: h.protocol_version,
+                schema: h.schema_key,
+            });
         }
         Ok(h)
     }
@@ -275,11 +397,10 @@ impl Device {
     fn expect_ok(&mut self, req: &Request) -> Result<(Response, u32)> {
         let (resp, n) = self.transact(req)?;
         if let Response::Error(code) = resp {
-            bail!(
-                "the adapter refused {}: {code} (error code {})",
-                request_name(req),
-                code as u8
-            );
+            return Err(ClientError::Refused {
+                request: request_name(req),
+                code,
+            });
         }
         Ok((resp, n))
     }
@@ -288,14 +409,13 @@ impl Device {
     pub fn get_calibration(&mut self) -> Result<CalibrationState> {
         match self.expect_ok(&Request::GetCalibration)?.0 {
             Response::Calibration(s) => Ok(s),
-            other => bail!("unexpected answer to GetCalibration: {other:?}"),
+            other => Err(unexpected(&Request::GetCalibration, &other)),
         }
     }
 
     /// Stage a calibration (checked locally first).
     pub fn put_calibration(&mut self, cal: &Calibration) -> Result<()> {
-        cal.validate()
-            .map_err(|e| anyhow!("refusing to upload an invalid calibration: {e}"))?;
+        cal.validate().map_err(ClientError::InvalidCalibration)?;
         self.expect_ok(&Request::PutCalibration((*cal).into()))?;
         Ok(())
     }
@@ -305,10 +425,9 @@ impl Device {
     pub fn commit(&mut self) -> Result<()> {
         let before = self.get_calibration()?;
         let Some(staged) = before.staged else {
-            bail!(
-                "nothing to commit on {}: upload a calibration with `wiical device put` first",
-                self.name
-            );
+            return Err(ClientError::NothingStaged {
+                port: self.name.clone(),
+            });
         };
         let (resp, attempts) = self.transact(&Request::CommitCalibration)?;
         match resp {
@@ -318,15 +437,13 @@ impl Device {
                 if after.stored && after.staged.is_none() && same_bits(&after.live, &staged) {
                     Ok(())
                 } else {
-                    bail!("commit on {} could not be confirmed", self.name)
+                    Err(ClientError::CommitUnconfirmed {
+                        port: self.name.clone(),
+                    })
                 }
             }
-            Response::Error(code) => bail!(
-                "the adapter refused the commit: {code} (error code {}); the live calibration \
-                 is unchanged",
-                code as u8
-            ),
-            other => bail!("unexpected answer to CommitCalibration: {other:?}"),
+            Response::Error(code) => Err(ClientError::CommitRefused { code }),
+            other => Err(unexpected(&Request::CommitCalibration, &other)),
         }
     }
 
@@ -334,7 +451,7 @@ impl Device {
     pub fn start_stream(&mut self, rate_divider: u16) -> Result<u32> {
         match self.expect_ok(&Request::StartStream { rate_divider })?.0 {
             Response::StreamStarted { sample_rate_mhz } => Ok(sample_rate_mhz),
-            other => bail!("unexpected answer to StartStream: {other:?}"),
+            other => Err(unexpected(&Request::StartStream { rate_divider }, &other)),
         }
     }
 
@@ -346,11 +463,12 @@ impl Device {
                 Some(Ok(Response::Sample(s))) => return Ok(s),
                 Some(Ok(_)) => self.stats.discarded += 1,
                 Some(Err(_)) => {}
-                None => bail!(
-                    "no sample from the adapter on {} within {} ms: is the Nunchuk plugged in?",
-                    self.name,
-                    self.opts.timeout.as_millis()
-                ),
+                None => {
+                    return Err(ClientError::NoSample {
+                        port: self.name.clone(),
+                        timeout_ms: self.opts.timeout.as_millis(),
+                    })
+                }
             }
         }
     }

@@ -3,8 +3,10 @@
 //! functions (Lentz continued fractions, Lanczos log-gamma; accurate to ~1e-12 relative, far
 //! beyond what a decision rule at α = 10⁻³ needs).
 //!
-//! Why here and not a crate: the host is allowed a fixed set of dependencies, and these are
-//! forty lines of textbook numerics; the unit tests check them against printed table values.
+//! Why here and not a crate (e.g. `statrs`): these are forty lines of textbook numerics that
+//! the unit tests check against printed table values, and the golden outputs of
+//! `host/tests/golden` depend on their last digits; replacing them is a deliberate change of
+//! those outputs, not part of a restructuring.
 
 #![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x > 0.0)` is deliberately true for NaN.
 /// `ln Γ(x)` for `x > 0` (Lanczos, g = 7, 9 terms).
