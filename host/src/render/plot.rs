@@ -95,9 +95,27 @@ where
     Ok(())
 }
 
-/// Writes the residual plot as SVG.
+/// Writes the residual plot as SVG (drawn in memory, then written like every other output
+/// file, through [`wiical_analysis::write::write_file`]).
 pub fn write_plot(rep: &AnalyzeReport, path: &Path) -> Result<()> {
-    let root = SVGBackend::new(path, (1200, 520)).into_drawing_area();
+    let svg = render_svg(rep)?;
+    wiical_analysis::write::write_file(path, svg.as_bytes())
+        .map_err(|e| anyhow::Error::new(e).context("plot"))
+}
+
+/// The residual plot as SVG text.
+pub fn render_svg(rep: &AnalyzeReport) -> Result<String> {
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (1200, 520)).into_drawing_area();
+        draw(rep, &root)?;
+    }
+    Ok(svg)
+}
+
+type Root<'a> = DrawingArea<SVGBackend<'a>, plotters::coord::Shift>;
+
+fn draw(rep: &AnalyzeReport, root: &Root<'_>) -> Result<()> {
     root.fill(&WHITE).map_err(|e| anyhow!("plot: {e}"))?;
     if let Some(six) = &rep.six_position {
         // Pair residuals per axis: x = pair index (0 x, 1 y, 2 z) offset by axis.
@@ -108,15 +126,14 @@ pub fn write_plot(rep: &AnalyzeReport, path: &Path) -> Result<()> {
             }
         }
         panel(
-            &root,
+            root,
             "six-position pair residuals (per pair x, y, z; axis x, y, z left to right)",
             "± pair",
             &before,
             &Vec::new(),
             &Vec::new(),
         )?;
-        root.present()
-            .map_err(|e| anyhow!("plot: cannot write {}: {e}", path.display()))?;
+        root.present().map_err(|e| anyhow!("plot: {e}"))?;
         return Ok(());
     }
     let panels = if rep.effects.is_empty() { 1 } else { 2 };
@@ -171,7 +188,6 @@ pub fn write_plot(rep: &AnalyzeReport, path: &Path) -> Result<()> {
             &r,
         )?;
     }
-    root.present()
-        .map_err(|e| anyhow!("plot: cannot write {}: {e}", path.display()))?;
+    root.present().map_err(|e| anyhow!("plot: {e}"))?;
     Ok(())
 }
