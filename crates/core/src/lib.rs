@@ -29,6 +29,7 @@
 //! | [`magfit`] | magnetometer sphere / axis-aligned / rotated-ellipsoid fits from streaming sums |
 //! | [`kalman`] | the 3-state `[position, velocity, bias]` Kalman filter |
 //! | [`static_detect`] | static-interval detection on a stream |
+//! | [`quality`] | the one acceptance predicate (plausibility limits) and the pose-coverage rule |
 //! | [`linalg`] | small helpers (Cholesky solves of normal equations) |
 #![no_std]
 #![deny(unsafe_code)]
@@ -41,6 +42,7 @@ pub mod magfit;
 pub mod model;
 pub mod multipos;
 pub mod offset;
+pub mod quality;
 pub mod six_position;
 pub mod static_detect;
 pub mod stats;
