@@ -108,7 +108,7 @@ impl Acceptance {
         }
         for (axis, b) in cal.bias.iter().enumerate() {
             let offset = b - self.nominal_zero;
-            if !(libm::fabsf(offset) <= self.max_offset) {
+            if !at_most(libm::fabsf(offset), self.max_offset) {
                 return Err(Rejection::Offset { axis, offset });
             }
         }
@@ -123,7 +123,7 @@ impl Acceptance {
         for row in 0..3 {
             for col in (0..3).filter(|c| *c != row) {
                 let ratio = libm::fabsf(d[(row, col)]) / libm::sqrtf(d[(row, row)] * d[(col, col)]);
-                if !(ratio <= self.max_cross_axis) {
+                if !at_most(ratio, self.max_cross_axis) {
                     return Err(Rejection::CrossAxis { row, col, ratio });
                 }
             }
@@ -134,12 +134,12 @@ impl Acceptance {
         }
         for axis in 0..3 {
             let max_abs = self.output_extreme(cal, axis);
-            if !(max_abs <= self.output_bound) {
+            if !at_most(max_abs, self.output_bound) {
                 return Err(Rejection::OutputBound { axis, max_abs });
             }
         }
         if let Some(rms) = fit_rms {
-            if !(rms <= self.max_fit_rms) {
+            if !at_most(rms, self.max_fit_rms) {
                 return Err(Rejection::FitRms { rms });
             }
         }
@@ -473,11 +473,19 @@ impl CoverageRule {
                 .eigenvalues
                 .min()
         };
-        if !(spread >= self.min_spread) {
+        if !at_most(self.min_spread, spread) {
             return Err(CoverageGap::Flat { spread });
         }
         Ok(())
     }
+}
+
+/// `x ≤ limit`, false when either is NaN (so NaN never passes a limit).
+fn at_most(x: f32, limit: f32) -> bool {
+    matches!(
+        x.partial_cmp(&limit),
+        Some(core::cmp::Ordering::Less | core::cmp::Ordering::Equal)
+    )
 }
 
 /// `v/‖v‖`, or `None` for a zero or non-finite vector.
