@@ -611,11 +611,11 @@ mod tests {
                             let th = t0 as f64 + (t1 - t0) as f64 * hi as f64 / 20.0;
                             let dth = th - e.temp_ref_c as f64;
                             let mut u = 0.0;
-                            for j in 0..3 {
+                            for (j, mj) in m.iter().enumerate() {
                                 let bj = cal.bias[j] as f64
                                     + e.bias_drift[j] as f64 * t
                                     + e.bias_temp[j] as f64 * dth;
-                                u += cal.matrix[axis][j] as f64 * (m[j] - bj);
+                                u += cal.matrix[axis][j] as f64 * (mj - bj);
                             }
                             u *= 1.0 + e.scale_temp[axis] as f64 * dth;
                             let out = u
@@ -695,8 +695,8 @@ mod tests {
             [-s, 0.0, -s],
             [0.0, 1.0, 0.0],
             [0.0, -1.0, 0.0],
-            [0.5, 0.7071, 0.5],
-            [-0.5, -0.7071, -0.5],
+            [0.5, s, 0.5],
+            [-0.5, -s, -0.5],
         ];
         assert!(matches!(rule.check(&flat), Err(CoverageGap::Flat { .. })));
         let mut bad = axis_poses();
