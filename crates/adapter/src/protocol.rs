@@ -310,7 +310,7 @@ impl<F: NorFlash> Protocol<F> {
             SelfCalResult::Failed(why) => {
                 let mut message = heapless::String::new();
                 // Truncated at the capacity: the message is for people.
-                let _ = write!(TruncatingWriter(&mut message), "{why}");
+                let _ = TruncatingWriter(&mut message).write_str(why.summary());
                 SelfCalOutcome::Failed { message }
             }
         });

@@ -130,6 +130,40 @@ pub enum SelfCalFailure {
     Config,
 }
 
+impl SelfCalFailure {
+    /// A fixed English sentence per reason (no numbers): what the adapter sends to the host.
+    /// Formatting the `f32`s of [`core::fmt::Display`] would cost the firmware ~10 KiB of
+    /// float-printing code.
+    pub const fn summary(&self) -> &'static str {
+        use CoverageGap as G;
+        match self {
+            SelfCalFailure::Cancelled(G::TooFewPoses { .. }) => {
+                "cancelled: fewer poses than the coverage rule needs"
+            }
+            SelfCalFailure::Cancelled(G::MissingDirection { .. }) => {
+                "cancelled: some axis was never pointed up or down"
+            }
+            SelfCalFailure::Cancelled(_) => "cancelled: poses nearly in one plane",
+            SelfCalFailure::Coverage(_) => "too many poses without covering the sphere",
+            SelfCalFailure::Fit(_) => "the fit failed (degenerate poses)",
+            SelfCalFailure::Implausible(Rejection::Offset { .. }) => {
+                "fit refused: offset beyond the limit"
+            }
+            SelfCalFailure::Implausible(Rejection::Sensitivity { .. }) => {
+                "fit refused: sensitivity outside 0.8-1.2 of nominal"
+            }
+            SelfCalFailure::Implausible(Rejection::FitRms { .. }) => {
+                "fit refused: residual too large (moved during poses?)"
+            }
+            SelfCalFailure::Implausible(_) => "fit refused as implausible",
+            SelfCalFailure::Timeout => "session timed out",
+            SelfCalFailure::Unplugged => "Nunchuk unplugged during the session",
+            SelfCalFailure::Storage => "storing the calibration failed",
+            SelfCalFailure::Config => "invalid self-calibration settings",
+        }
+    }
+}
+
 impl core::fmt::Display for SelfCalFailure {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         match self {
