@@ -1,0 +1,356 @@
+//! Fitting the gyroscope calibration to the motions between static windows (the method is
+//! explained in [`crate::gyro`]).
+//!
+//! The cost is `Σ_motions ‖ĝ₁ − g₁‖²`, minimised by Levenberg–Marquardt over the free
+//! parameters of the chosen [`GyroModel`]. Every evaluation integrates every motion again;
+//! nothing but the 12×12 normal equations is kept between motions, so memory does not grow
+//! with the recording (the samples stay wherever the caller keeps them).
+//!
+//! The solver is the one small function [`levenberg_marquardt`], so that it can be swapped
+//! for the crate's generic one without touching the model.
+
+use crate::gyro::{Adjustment, GyroCalibration, MotionIntegrator, NPARAM};
+use crate::Error;
+use nalgebra::{RealField, SMatrix, Vector3};
+
+type M12<T> = SMatrix<T, NPARAM, NPARAM>;
+type V12<T> = SMatrix<T, NPARAM, 1>;
+
+/// One motion between two static windows.
+#[derive(Debug, Clone, Copy)]
+pub struct Motion<'a, T: RealField + Copy> {
+    /// Raw gyro samples, evenly spaced, from the last sample of the window before to the
+    /// first sample of the window after.
+    pub samples: &'a [[T; 3]],
+    /// Gravity direction (any length, not zero) in the window before, sensor frame, from the
+    /// calibrated accelerometer.
+    pub g_start: Vector3<T>,
+    /// Gravity direction in the window after.
+    pub g_end: Vector3<T>,
+}
+
+/// Which gyro parameters are fitted.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum GyroModel {
+    /// Nothing from the motions: the nominal scale with the bias from rest (unless
+    /// [`GyroFitConfig::fit_bias`]).
+    BiasOnly,
+    /// One scale per axis (the diagonal of `P`): 3 parameters.
+    Scale,
+    /// Scale and misalignment (all of `P`): 9 parameters.
+    Full,
+}
+
+impl GyroModel {
+    /// Whether parameter `k` (order of [`crate::gyro::NPARAM`]) is free.
+    fn free(self, k: usize, fit_bias: bool) -> bool {
+        match k {
+            0..=8 => match self {
+                GyroModel::BiasOnly => false,
+                GyroModel::Scale => matches!(k, 0 | 4 | 8),
+                GyroModel::Full => true,
+            },
+            _ => fit_bias,
+        }
+    }
+
+    /// The free-parameter mask.
+    pub fn mask(self, fit_bias: bool) -> [bool; NPARAM] {
+        core::array::from_fn(|k| self.free(k, fit_bias))
+    }
+}
+
+/// Fit settings.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GyroFitConfig<T: RealField + Copy> {
+    /// Which parameters to fit.
+    pub model: GyroModel,
+    /// Also fit a bias correction (3 more parameters) instead of trusting the bias from rest.
+    pub fit_bias: bool,
+    /// Sample period, s.
+    pub dt: T,
+    /// Iteration budget of Levenberg–Marquardt.
+    pub max_iterations: u32,
+}
+
+/// Result of a gyro fit.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GyroFit<T: RealField + Copy> {
+    /// The fitted calibration (raw → rad/s).
+    pub calibration: GyroCalibration<T>,
+    /// The fitted adjustment of the nominal calibration.
+    pub adjustment: Adjustment<T>,
+    /// RMS over the fitted motions of the gravity angle error with the nominal calibration, rad.
+    pub rms_before: T,
+    /// The same with the fitted calibration, rad.
+    pub rms_after: T,
+    /// Motions used.
+    pub motions: u32,
+    /// LM iterations.
+    pub iterations: u32,
+    /// Smallest eigenvalue of the unit-diagonal normal matrix of the free parameters (1 for
+    /// independent parameters, near 0 when the motions barely determine some combination);
+    /// 1 when nothing is fitted.
+    pub identifiability: T,
+}
+
+/// Sum of squared residuals (and the normal equations when `with_jacobian`) of `adj` over all
+/// motions but `exclude`.
+fn accumulate<T: RealField + Copy>(
+    motions: &[Motion<'_, T>],
+    nominal: &GyroCalibration<T>,
+    adj: &Adjustment<T>,
+    dt: T,
+    tracked: [bool; NPARAM],
+    exclude: Option<usize>,
+) -> Result<(T, M12<T>, V12<T>), Error> {
+    let mut cost = T::zero();
+    let mut jtj = M12::zeros();
+    let mut jtr = V12::zeros();
+    for (i, motion) in motions.iter().enumerate() {
+        if Some(i) == exclude {
+            continue;
+        }
+        let mut integ = MotionIntegrator::new(*nominal, *adj, dt, tracked)?;
+        for m in motion.samples {
+            integ.push(m)?;
+        }
+        let out = integ.finish(&motion.g_start, &motion.g_end)?;
+        cost += out.residual.norm_squared();
+        if tracked.iter().any(|t| *t) {
+            jtj += out.jacobian.transpose() * out.jacobian;
+            jtr += out.jacobian.transpose() * out.residual;
+        }
+    }
+    Ok((cost, jtj, jtr))
+}
+
+/// Angle error of one motion under calibration `cal`, rad.
+pub fn motion_angle<T: RealField + Copy>(
+    motion: &Motion<'_, T>,
+    cal: &GyroCalibration<T>,
+    dt: T,
+) -> Result<T, Error> {
+    let mut integ = MotionIntegrator::for_calibration(*cal, dt)?;
+    for m in motion.samples {
+        integ.push(m)?;
+    }
+    Ok(integ.finish(&motion.g_start, &motion.g_end)?.angle)
+}
+
+/// RMS angle error over the motions (all but `exclude`), rad.
+pub fn rms_angle<T: RealField + Copy>(
+    motions: &[Motion<'_, T>],
+    cal: &GyroCalibration<T>,
+    dt: T,
+    exclude: Option<usize>,
+) -> Result<T, Error> {
+    let mut sum = T::zero();
+    let mut n = 0u32;
+    for (i, motion) in motions.iter().enumerate() {
+        if Some(i) != exclude {
+            let a = motion_angle(motion, cal, dt)?;
+            sum += a * a;
+            n += 1;
+        }
+    }
+    if n == 0 {
+        return Err(Error::TooFewPoses { needed: 2, got: 0 });
+    }
+    Ok((sum / nalgebra::convert(f64::from(n))).sqrt())
+}
+
+/// Levenberg–Marquardt with Marquardt's diagonal scaling over the free parameters.
+/// `eval(x, with_jacobian)` returns the cost `Σr²` and, when asked, `JᵀJ` and `Jᵀr`.
+/// Returns the minimiser and the iterations used.
+pub fn levenberg_marquardt<T, F>(
+    x0: V12<T>,
+    free: &[bool; NPARAM],
+    max_iterations: u32,
+    mut eval: F,
+) -> Result<(V12<T>, u32), Error>
+where
+    T: RealField + Copy,
+    F: FnMut(&V12<T>, bool) -> Result<(T, M12<T>, V12<T>), Error>,
+{
+    let eps = T::default_epsilon();
+    let mut x = x0;
+    let mut lambda: T = nalgebra::convert(1e-3);
+    let (mut cost, _, _) = eval(&x, false)?;
+    let mut iterations = 0;
+    while iterations < max_iterations {
+        iterations += 1;
+        let (_, mut jtj, mut jtr) = eval(&x, true)?;
+        for i in 0..NPARAM {
+            if !free[i] {
+                jtj.row_mut(i).fill(T::zero());
+                jtj.column_mut(i).fill(T::zero());
+                jtj[(i, i)] = T::one();
+                jtr[i] = T::zero();
+            }
+        }
+        if jtr.amax() <= eps * eps {
+            return Ok((x, iterations));
+        }
+        let mut accepted = false;
+        for _ in 0..30 {
+            let mut a = jtj;
+            for i in 0..NPARAM {
+                a[(i, i)] += lambda * jtj[(i, i)].max(eps);
+            }
+            let Some(chol) = nalgebra::Cholesky::new(a) else {
+                lambda *= nalgebra::convert(10.0);
+                continue;
+            };
+            let step = chol.solve(&(-jtr));
+            let candidate = x + step;
+            let new_cost = match eval(&candidate, false) {
+                Ok((c, _, _)) if c.is_finite() => c,
+                _ => {
+                    lambda *= nalgebra::convert(4.0);
+                    continue;
+                }
+            };
+            if new_cost <= cost {
+                let tiny = eps * nalgebra::convert(10.0);
+                let small_step = step.amax() <= tiny * (x.amax() + tiny);
+                let small_gain = cost - new_cost <= tiny * cost;
+                x = candidate;
+                cost = new_cost;
+                lambda = (lambda * nalgebra::convert(0.3)).max(nalgebra::convert(1e-9));
+                accepted = true;
+                if small_step || small_gain {
+                    return Ok((x, iterations));
+                }
+                break;
+            }
+            lambda *= nalgebra::convert(4.0);
+        }
+        if !accepted {
+            // No step lowers the cost at this precision: at the minimum.
+            return Ok((x, iterations));
+        }
+    }
+    Err(Error::NotConverged)
+}
+
+/// Smallest eigenvalue of the unit-diagonal normal matrix restricted to the free parameters.
+fn identifiability<T: RealField + Copy>(jtj: &M12<T>, free: &[bool; NPARAM]) -> T {
+    let mut scaled = M12::<T>::identity();
+    for a in (0..NPARAM).filter(|k| free[*k]) {
+        for b in (0..NPARAM).filter(|k| free[*k]) {
+            let d = (jtj[(a, a)] * jtj[(b, b)]).sqrt();
+            scaled[(a, b)] = if d > T::zero() {
+                jtj[(a, b)] / d
+            } else {
+                T::zero()
+            };
+        }
+    }
+    nalgebra::SymmetricEigen::new(scaled).eigenvalues.min()
+}
+
+/// Fits the gyro calibration starting from the nominal one (see [`fit_from`]).
+pub fn fit<T: RealField + Copy>(
+    motions: &[Motion<'_, T>],
+    nominal: &GyroCalibration<T>,
+    cfg: &GyroFitConfig<T>,
+    exclude: Option<usize>,
+) -> Result<GyroFit<T>, Error> {
+    fit_from(motions, nominal, &Adjustment::identity(), cfg, exclude)
+}
+
+/// Fits the free parameters of `cfg.model`, starting from `start` (e.g. the all-motion fit
+/// when holding one motion out), using every motion but `exclude`.
+///
+/// Errors: [`Error::TooFewPoses`] when the motions give fewer independent equations (2 per
+/// motion: the residual is tangent to the unit sphere) than free parameters;
+/// [`Error::NonFinite`] / [`Error::InvalidParameter`] on bad input; [`Error::NotConverged`].
+pub fn fit_from<T: RealField + Copy>(
+    motions: &[Motion<'_, T>],
+    nominal: &GyroCalibration<T>,
+    start: &Adjustment<T>,
+    cfg: &GyroFitConfig<T>,
+    exclude: Option<usize>,
+) -> Result<GyroFit<T>, Error> {
+    nominal.validate()?;
+    let free = cfg.model.mask(cfg.fit_bias);
+    let nfree = free.iter().filter(|f| **f).count() as u32;
+    let used = motions
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| Some(*i) != exclude)
+        .count() as u32;
+    if used == 0 || 2 * used < nfree {
+        return Err(Error::TooFewPoses {
+            needed: nfree.div_ceil(2).max(1),
+            got: used,
+        });
+    }
+    let dt = cfg.dt;
+    let rms_before = rms_angle(motions, nominal, dt, exclude)?;
+    let mut x0 = start.to_params();
+    for k in (0..NPARAM).filter(|k| !free[*k]) {
+        x0[k] = Adjustment::<T>::identity().to_params()[k];
+    }
+    let (x, iterations) = if nfree == 0 {
+        (x0, 0)
+    } else {
+        levenberg_marquardt(x0, &free, cfg.max_iterations, |x, with_j| {
+            let tracked = if with_j { free } else { [false; NPARAM] };
+            accumulate(
+                motions,
+                nominal,
+                &Adjustment::from_params(x),
+                dt,
+                tracked,
+                exclude,
+            )
+        })?
+    };
+    let adjustment = Adjustment::from_params(&x);
+    let identifiability = if nfree == 0 {
+        T::one()
+    } else {
+        let (_, jtj, _) = accumulate(motions, nominal, &adjustment, dt, free, exclude)?;
+        identifiability(&jtj, &free)
+    };
+    let calibration = adjustment.apply(nominal)?;
+    let rms_after = rms_angle(motions, &calibration, dt, exclude)?;
+    Ok(GyroFit {
+        calibration,
+        adjustment,
+        rms_before,
+        rms_after,
+        motions: used,
+        iterations,
+        identifiability,
+    })
+}
+
+/// Leave-one-motion-out: for each motion, fit on the others (starting from `start`) and
+/// measure the angle error on the one held out. Returns the RMS of the held-out angles, rad.
+/// `per_motion(i, angle)` sees each held-out angle.
+pub fn leave_one_out<T: RealField + Copy>(
+    motions: &[Motion<'_, T>],
+    nominal: &GyroCalibration<T>,
+    start: &Adjustment<T>,
+    cfg: &GyroFitConfig<T>,
+    mut per_motion: impl FnMut(usize, T),
+) -> Result<T, Error> {
+    if motions.len() < 2 {
+        return Err(Error::TooFewPoses {
+            needed: 2,
+            got: motions.len() as u32,
+        });
+    }
+    let mut sum = T::zero();
+    for (i, motion) in motions.iter().enumerate() {
+        let held_out = fit_from(motions, nominal, start, cfg, Some(i))?;
+        let a = motion_angle(motion, &held_out.calibration, cfg.dt)?;
+        per_motion(i, a);
+        sum += a * a;
+    }
+    Ok((sum / nalgebra::convert(motions.len() as f64)).sqrt())
+}
