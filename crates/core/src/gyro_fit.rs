@@ -10,7 +10,8 @@
 //! for the crate's generic one without touching the model.
 
 use crate::gyro::{Adjustment, GyroCalibration, MotionIntegrator, NPARAM};
-use crate::Error;
+use crate::static_detect::StaticInterval;
+use crate::{Calibration, Error};
 use nalgebra::{RealField, SMatrix, Vector3};
 
 type M12<T> = SMatrix<T, NPARAM, NPARAM>;
@@ -27,6 +28,43 @@ pub struct Motion<'a, T: RealField + Copy> {
     pub g_start: Vector3<T>,
     /// Gravity direction in the window after.
     pub g_end: Vector3<T>,
+}
+
+/// Where a motion lies in the recording: sample indices `start..end` (the last sample of the
+/// static window before through the first sample of the window after) and the calibrated
+/// gravity directions of the two windows.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MotionSpan {
+    /// First sample index (inclusive).
+    pub start: u32,
+    /// One past the last sample index.
+    pub end: u32,
+    /// Calibrated accelerometer mean of the window before (specific force, reference units).
+    pub g_start: [f32; 3],
+    /// Calibrated accelerometer mean of the window after.
+    pub g_end: [f32; 3],
+}
+
+/// The motions between consecutive static windows (as found by
+/// [`crate::static_detect::StaticDetector`] on the accelerometer), with gravity directions
+/// from the accelerometer calibration `accel`. Windows must be in time order and not overlap
+/// ([`Error::InvalidParameter`] otherwise).
+pub fn motion_spans<'a>(
+    windows: &'a [StaticInterval],
+    accel: &'a Calibration,
+) -> impl Iterator<Item = Result<MotionSpan, Error>> + 'a {
+    windows.windows(2).map(move |pair| {
+        let (a, b) = (&pair[0], &pair[1]);
+        if a.end == 0 || a.end > b.start || a.start >= a.end {
+            return Err(Error::InvalidParameter);
+        }
+        Ok(MotionSpan {
+            start: a.end - 1,
+            end: b.start + 1,
+            g_start: accel.correct_linear(a.mean),
+            g_end: accel.correct_linear(b.mean),
+        })
+    })
 }
 
 /// Which gyro parameters are fitted.

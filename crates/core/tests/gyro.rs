@@ -3,13 +3,20 @@
 //! by the exponential map on sub-steps (a different integrator), central-difference
 //! Jacobians, and simulated recordings with known truth.
 
+mod common;
+use common::data_dir;
+
 use nalgebra::{Matrix3, SMatrix, SVector, UnitQuaternion, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 use wiical_core::gyro::{Adjustment, GyroCalibration, MotionIntegrator, NPARAM};
-use wiical_core::gyro_fit::{fit, leave_one_out, rms_angle, GyroFitConfig, GyroModel, Motion};
+use wiical_core::gyro_fit::{
+    fit, leave_one_out, motion_spans, rms_angle, GyroFitConfig, GyroModel, Motion,
+};
 use wiical_core::gyro_zero::{ZeroRateConfig, ZeroRateTracker};
+use wiical_core::multipos::{self, MultiPosConfig};
+use wiical_core::static_detect::{StaticDetector, StaticDetectorConfig};
 use wiical_core::Error;
 
 const DT: f64 = 0.01;
@@ -603,4 +610,100 @@ fn zero_rate_tracker_follows_simulated_drift() {
         ZeroRateTracker::new(ZeroRateConfig { block: 1, ..cfg }, [0.0f32; 3]).unwrap_err(),
         Error::InvalidParameter
     );
+}
+
+fn read_imu_tk(name: &str) -> Vec<[f64; 3]> {
+    let text = std::fs::read_to_string(data_dir().join("imu_tk_xsens").join(name)).unwrap();
+    text.lines()
+        .filter(|l| !l.trim().is_empty())
+        .map(|l| {
+            let v: Vec<f64> = l.split_whitespace().map(|x| x.parse().unwrap()).collect();
+            [v[1], v[2], v[3]]
+        })
+        .collect()
+}
+
+/// IMU-TK's Xsens recording: static windows from the accelerometer (core detector), gravity
+/// from the core's accelerometer fit, gyro bias from the initial rest and IMU-TK's nominal
+/// scale 1/6258 rad/s per count; the f32 core fit (9 + 3 parameters) against the independent
+/// f64 exponential-map / central-difference fit on the same motions.
+#[test]
+fn imu_tk_xsens_gyro_fit_matches_f64_reference() {
+    let acc = read_imu_tk("xsens_acc.mat");
+    let gyro = read_imu_tk("xsens_gyro.mat");
+    assert_eq!(acc.len(), gyro.len());
+    let mut det: StaticDetector<101> =
+        StaticDetector::new(StaticDetectorConfig::for_rate(100.0, 1.0, 2.0, 2.0)).unwrap();
+    let mut windows = Vec::new();
+    for s in &acc {
+        windows.extend(det.push(s.map(|x| x as f32)).unwrap());
+    }
+    windows.extend(det.finish());
+    let means: Vec<[f32; 3]> = windows.iter().map(|w| w.mean).collect();
+    let accel = multipos::fit(&means, &MultiPosConfig::default())
+        .unwrap()
+        .calibration;
+    let rest = &gyro[windows[0].start as usize..windows[0].end as usize];
+    let bias: [f64; 3] =
+        [0, 1, 2].map(|a| rest.iter().map(|v| v[a]).sum::<f64>() / rest.len() as f64);
+    let nominal = GyroCalibration::nominal(bias, [1.0 / 6258.0; 3]);
+    let spans: Vec<_> = motion_spans(&windows, &accel)
+        .collect::<Result<_, _>>()
+        .unwrap();
+    let recording: Vec<RefMotion> = spans
+        .iter()
+        .map(|s| RefMotion {
+            samples: gyro[s.start as usize..s.end as usize].to_vec(),
+            g0: Vector3::from(s.g_start).cast(),
+            g1: Vector3::from(s.g_end).cast(),
+        })
+        .collect();
+    let rec32 = to_f32(&recording);
+    let motions32: Vec<Motion<'_, f32>> = rec32
+        .iter()
+        .map(|(s, g0, g1)| Motion {
+            samples: s,
+            g_start: *g0,
+            g_end: *g1,
+        })
+        .collect();
+    let nominal32 = GyroCalibration {
+        bias: nominal.bias.cast(),
+        matrix: nominal.matrix.cast(),
+    };
+    let f = fit(&motions32, &nominal32, &cfg(GyroModel::Full, true), None).unwrap();
+    let (k_ref, b_ref) = reference_fit(&recording, &nominal, true);
+    let k32: Matrix3<f64> = f.calibration.matrix.cast();
+    let dk = rel(&k32, &k_ref);
+    // Bias: relative to its size, and in counts (each count is 2e-4 rad/s here).
+    let db_counts = (f.calibration.bias.cast::<f64>() - b_ref).amax();
+    let db = db_counts / b_ref.amax();
+    let rms_ref = rms_angle(
+        &motions_f64(&recording),
+        &GyroCalibration {
+            bias: b_ref,
+            matrix: k_ref,
+        },
+        DT,
+        None,
+    )
+    .unwrap();
+    println!(
+        "xsens gyro: {} windows, {} motions; rms {:.3}° → {:.4}° (f64 ref {:.4}°); K vs ref {dk:.2e}, bias {db:.2e} ({db_counts:.1e} counts)\nK = {}b = {}",
+        windows.len(),
+        spans.len(),
+        f.rms_before.to_degrees(),
+        f.rms_after.to_degrees(),
+        rms_ref.to_degrees(),
+        f.calibration.matrix,
+        f.calibration.bias
+    );
+    assert!(spans.len() >= 35);
+    assert!(dk < 1e-3, "K vs f64 reference: {dk:e}");
+    assert!(
+        db < 1e-3 && db_counts < 0.01,
+        "bias vs f64 reference: {db:e} ({db_counts} counts)"
+    );
+    assert!((f64::from(f.rms_after) - rms_ref).abs() < 0.02 * rms_ref);
+    assert!(f.rms_after < f.rms_before);
 }
