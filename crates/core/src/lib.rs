@@ -6,7 +6,9 @@
 //!
 //! Everything here runs unchanged on a Cortex-M0+/M33 and on a desktop: fixed-size data
 //! on the stack, `nalgebra` without its default features, `heapless` where a bounded
-//! buffer is needed, and no floating-point type wider than `f32`.
+//! buffer is needed, and no floating-point type wider than `f32` on the device. The
+//! least-squares solver ([`lm`]) and the multi-position fit ([`multipos::fit_generic`]) are
+//! generic over nalgebra's `RealField`, so the host's analysis runs the same code in `f64`.
 //!
 //! ## Conventions
 //! * Raw measurements `m` are in sensor units (ADC counts, or whatever the sensor gives).
@@ -32,6 +34,7 @@
 //! | [`gyro_fit`] | multi-position gyro scale / misalignment / bias fit (Tedaldi et al. 2014), leave-one-motion-out |
 //! | [`gyro_zero`] | zero-rate (bias) tracker that re-zeroes whenever the sensor is still |
 //! | [`static_detect`] | static-interval detection on a stream |
+//! | [`lm`] | Levenberg–Marquardt generic over the float type (`f32` device, `f64` analysis), standard errors, leverage, leave-one-out |
 //! | [`linalg`] | small helpers (Cholesky solves of normal equations) |
 #![no_std]
 #![deny(unsafe_code)]
@@ -43,6 +46,7 @@ pub mod gyro_fit;
 pub mod gyro_zero;
 pub mod kalman;
 pub mod linalg;
+pub mod lm;
 pub mod magfit;
 pub mod model;
 pub mod multipos;
