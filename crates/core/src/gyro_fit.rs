@@ -6,16 +6,20 @@
 //! nothing but the 12×12 normal equations is kept between motions, so memory does not grow
 //! with the recording (the samples stay wherever the caller keeps them).
 //!
-//! The solver is the one small function [`levenberg_marquardt`], so that it can be swapped
-//! for the crate's generic one without touching the model.
+//! The solver is the crate's generic [`crate::lm`]: each motion contributes three scalar
+//! observations (the components of `ĝ₁ − g₁`); [`GyroProblem`] integrates a motion once for
+//! its three components (a one-motion cache), and integrates the sensitivities only when the
+//! solver asks for gradients.
 
-use crate::gyro::{Adjustment, GyroCalibration, MotionIntegrator, NPARAM};
+use crate::gyro::{Adjustment, GyroCalibration, MotionIntegrator, MotionResidual, NPARAM};
+use crate::lm::{self, LmSettings, Problem};
 use crate::static_detect::StaticInterval;
 use crate::{Calibration, Error};
-use nalgebra::{RealField, SMatrix, Vector3};
+use core::cell::RefCell;
+use nalgebra::{RealField, SMatrix, SVector, Vector3};
 
 type M12<T> = SMatrix<T, NPARAM, NPARAM>;
-type V12<T> = SMatrix<T, NPARAM, 1>;
+type V12<T> = SVector<T, NPARAM>;
 
 /// One motion between two static windows.
 #[derive(Debug, Clone, Copy)]
@@ -133,35 +137,127 @@ pub struct GyroFit<T: RealField + Copy> {
     pub identifiability: T,
 }
 
-/// Sum of squared residuals (and the normal equations when `with_jacobian`) of `adj` over all
-/// motions but `exclude`.
-fn accumulate<T: RealField + Copy>(
-    motions: &[Motion<'_, T>],
-    nominal: &GyroCalibration<T>,
-    adj: &Adjustment<T>,
+/// The gyro fit as an [`lm::Problem`]: observation `3k + c` is component `c` of the gravity
+/// residual of the `k`-th motion used (all but `exclude`).
+pub struct GyroProblem<'m, 'a, T: RealField + Copy> {
+    motions: &'m [Motion<'a, T>],
+    nominal: GyroCalibration<T>,
     dt: T,
+    /// Parameters whose sensitivities are integrated (the free ones).
     tracked: [bool; NPARAM],
     exclude: Option<usize>,
-) -> Result<(T, M12<T>, V12<T>), Error> {
-    let mut cost = T::zero();
-    let mut jtj = M12::zeros();
-    let mut jtr = V12::zeros();
-    for (i, motion) in motions.iter().enumerate() {
-        if Some(i) == exclude {
-            continue;
+    /// The last motion integrated: its index, the parameters, whether with sensitivities.
+    cache: RefCell<Option<Cached<T>>>,
+}
+
+/// One integrated motion: its index, the parameters, whether with sensitivities, the result.
+type Cached<T> = (usize, V12<T>, bool, MotionResidual<T>);
+
+impl<'m, 'a, T: RealField + Copy> GyroProblem<'m, 'a, T> {
+    /// The problem over `motions` (but `exclude`), sensitivities for the `tracked` parameters.
+    /// Checks the input once, so that evaluations cannot fail on data: every sample finite,
+    /// every gravity direction finite and non-zero, `dt > 0`, `nominal` invertible.
+    pub fn new(
+        motions: &'m [Motion<'a, T>],
+        nominal: GyroCalibration<T>,
+        dt: T,
+        tracked: [bool; NPARAM],
+        exclude: Option<usize>,
+    ) -> Result<Self, Error> {
+        nominal.validate()?;
+        if !(dt.is_finite() && dt > T::zero()) {
+            return Err(Error::InvalidParameter);
         }
-        let mut integ = MotionIntegrator::new(*nominal, *adj, dt, tracked)?;
-        for m in motion.samples {
-            integ.push(m)?;
+        for m in motions {
+            let finite = |v: &Vector3<T>| v.iter().all(|x| x.is_finite());
+            if !m.samples.iter().all(|s| s.iter().all(|x| x.is_finite()))
+                || !finite(&m.g_start)
+                || !finite(&m.g_end)
+            {
+                return Err(Error::NonFinite);
+            }
+            if m.g_start.norm() == T::zero() || m.g_end.norm() == T::zero() {
+                return Err(Error::InvalidParameter);
+            }
         }
-        let out = integ.finish(&motion.g_start, &motion.g_end)?;
-        cost += out.residual.norm_squared();
-        if tracked.iter().any(|t| *t) {
-            jtj += out.jacobian.transpose() * out.jacobian;
-            jtr += out.jacobian.transpose() * out.residual;
+        Ok(Self {
+            motions,
+            nominal,
+            dt,
+            tracked,
+            exclude,
+            cache: RefCell::new(None),
+        })
+    }
+
+    /// Motion index of the `k`-th motion used.
+    fn motion_index(&self, k: usize) -> usize {
+        match self.exclude {
+            Some(e) if k >= e => k + 1,
+            _ => k,
         }
     }
-    Ok((cost, jtj, jtr))
+
+    /// The residual of motion `index` at `p` (from the cache when possible). A failure (only
+    /// possible for non-finite parameters, the input was checked) gives NaN, which the solver
+    /// treats as a rejected step.
+    fn motion(&self, index: usize, p: &V12<T>, with_jacobian: bool) -> MotionResidual<T> {
+        if let Some((i, q, j, out)) = self.cache.borrow().as_ref() {
+            if *i == index && q == p && (*j || !with_jacobian) {
+                return *out;
+            }
+        }
+        let tracked = if with_jacobian {
+            self.tracked
+        } else {
+            [false; NPARAM]
+        };
+        let out = self.integrate(index, p, tracked).unwrap_or_else(|_| {
+            let nan = T::zero() / T::zero();
+            MotionResidual {
+                residual: Vector3::repeat(nan),
+                jacobian: SMatrix::repeat(nan),
+                angle: nan,
+                rotation: nalgebra::Vector4::repeat(nan),
+            }
+        });
+        *self.cache.borrow_mut() = Some((index, *p, with_jacobian, out));
+        out
+    }
+
+    fn integrate(
+        &self,
+        index: usize,
+        p: &V12<T>,
+        tracked: [bool; NPARAM],
+    ) -> Result<MotionResidual<T>, Error> {
+        let m = self.motions.get(index).ok_or(Error::InvalidParameter)?;
+        let adj = Adjustment::from_params(p);
+        let mut integ = MotionIntegrator::new(self.nominal, adj, self.dt, tracked)?;
+        for s in m.samples {
+            integ.push(s)?;
+        }
+        integ.finish(&m.g_start, &m.g_end)
+    }
+}
+
+impl<T: RealField + Copy> Problem<T, NPARAM> for GyroProblem<'_, '_, T> {
+    fn observations(&self) -> usize {
+        let n = self.motions.len();
+        3 * match self.exclude {
+            Some(e) if e < n => n - 1,
+            _ => n,
+        }
+    }
+
+    fn residual_and_gradient(&self, p: &V12<T>, i: usize) -> (T, V12<T>) {
+        let out = self.motion(self.motion_index(i / 3), p, true);
+        (out.residual[i % 3], out.jacobian.row(i % 3).transpose())
+    }
+
+    fn residual(&self, p: &V12<T>, i: usize) -> T {
+        self.motion(self.motion_index(i / 3), p, false).residual[i % 3]
+    }
 }
 
 /// Angle error of one motion under calibration `cal`, rad.
@@ -197,80 +293,6 @@ pub fn rms_angle<T: RealField + Copy>(
         return Err(Error::TooFewPoses { needed: 2, got: 0 });
     }
     Ok((sum / nalgebra::convert(f64::from(n))).sqrt())
-}
-
-/// Levenberg–Marquardt with Marquardt's diagonal scaling over the free parameters.
-/// `eval(x, with_jacobian)` returns the cost `Σr²` and, when asked, `JᵀJ` and `Jᵀr`.
-/// Returns the minimiser and the iterations used.
-pub fn levenberg_marquardt<T, F>(
-    x0: V12<T>,
-    free: &[bool; NPARAM],
-    max_iterations: u32,
-    mut eval: F,
-) -> Result<(V12<T>, u32), Error>
-where
-    T: RealField + Copy,
-    F: FnMut(&V12<T>, bool) -> Result<(T, M12<T>, V12<T>), Error>,
-{
-    let eps = T::default_epsilon();
-    let mut x = x0;
-    let mut lambda: T = nalgebra::convert(1e-3);
-    let (mut cost, _, _) = eval(&x, false)?;
-    let mut iterations = 0;
-    while iterations < max_iterations {
-        iterations += 1;
-        let (_, mut jtj, mut jtr) = eval(&x, true)?;
-        for i in 0..NPARAM {
-            if !free[i] {
-                jtj.row_mut(i).fill(T::zero());
-                jtj.column_mut(i).fill(T::zero());
-                jtj[(i, i)] = T::one();
-                jtr[i] = T::zero();
-            }
-        }
-        if jtr.amax() <= eps * eps {
-            return Ok((x, iterations));
-        }
-        let mut accepted = false;
-        for _ in 0..30 {
-            let mut a = jtj;
-            for i in 0..NPARAM {
-                a[(i, i)] += lambda * jtj[(i, i)].max(eps);
-            }
-            let Some(chol) = nalgebra::Cholesky::new(a) else {
-                lambda *= nalgebra::convert(10.0);
-                continue;
-            };
-            let step = chol.solve(&(-jtr));
-            let candidate = x + step;
-            let new_cost = match eval(&candidate, false) {
-                Ok((c, _, _)) if c.is_finite() => c,
-                _ => {
-                    lambda *= nalgebra::convert(4.0);
-                    continue;
-                }
-            };
-            if new_cost <= cost {
-                let tiny = eps * nalgebra::convert(10.0);
-                let small_step = step.amax() <= tiny * (x.amax() + tiny);
-                let small_gain = cost - new_cost <= tiny * cost;
-                x = candidate;
-                cost = new_cost;
-                lambda = (lambda * nalgebra::convert(0.3)).max(nalgebra::convert(1e-9));
-                accepted = true;
-                if small_step || small_gain {
-                    return Ok((x, iterations));
-                }
-                break;
-            }
-            lambda *= nalgebra::convert(4.0);
-        }
-        if !accepted {
-            // No step lowers the cost at this precision: at the minimum.
-            return Ok((x, iterations));
-        }
-    }
-    Err(Error::NotConverged)
 }
 
 /// Smallest eigenvalue of the unit-diagonal normal matrix restricted to the free parameters.
@@ -332,27 +354,19 @@ pub fn fit_from<T: RealField + Copy>(
     for k in (0..NPARAM).filter(|k| !free[*k]) {
         x0[k] = Adjustment::<T>::identity().to_params()[k];
     }
+    let problem = GyroProblem::new(motions, *nominal, dt, free, exclude)?;
     let (x, iterations) = if nfree == 0 {
         (x0, 0)
     } else {
-        levenberg_marquardt(x0, &free, cfg.max_iterations, |x, with_j| {
-            let tracked = if with_j { free } else { [false; NPARAM] };
-            accumulate(
-                motions,
-                nominal,
-                &Adjustment::from_params(x),
-                dt,
-                tracked,
-                exclude,
-            )
-        })?
+        let settings = LmSettings::multipos(cfg.max_iterations);
+        let f = lm::minimize(&problem, x0, &free, None, &settings)?;
+        (f.params, f.iterations)
     };
     let adjustment = Adjustment::from_params(&x);
     let identifiability = if nfree == 0 {
         T::one()
     } else {
-        let (_, jtj, _) = accumulate(motions, nominal, &adjustment, dt, free, exclude)?;
-        identifiability(&jtj, &free)
+        identifiability(&lm::normal_equations(&problem, &x, None).0, &free)
     };
     let calibration = adjustment.apply(nominal)?;
     let rms_after = rms_angle(motions, &calibration, dt, exclude)?;

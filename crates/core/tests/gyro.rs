@@ -707,3 +707,22 @@ fn imu_tk_xsens_gyro_fit_matches_f64_reference() {
     assert!((f64::from(f.rms_after) - rms_ref).abs() < 0.02 * rms_ref);
     assert!(f.rms_after < f.rms_before);
 }
+
+/// Holding a motion out (`exclude`) is the same fit as removing it from the slice.
+#[test]
+fn excluding_a_motion_equals_removing_it() {
+    let mut rng = ChaCha8Rng::seed_from_u64(21);
+    let truth = random_truth(&mut rng);
+    let recording = simulate(&mut rng, &truth, 12, 1.0, 1e-4);
+    let motions = motions_f64(&recording);
+    let c = cfg(GyroModel::Full, true);
+    for held in [0, 5, 10] {
+        let excluded = fit(&motions, &truth.nominal, &c, Some(held)).unwrap();
+        let mut rest = motions.clone();
+        rest.remove(held);
+        let removed = fit(&rest, &truth.nominal, &c, None).unwrap();
+        assert_eq!(excluded.motions, removed.motions);
+        assert!(rel(&excluded.calibration.matrix, &removed.calibration.matrix) < 1e-12);
+        assert!((excluded.rms_after - removed.rms_after).abs() < 1e-12);
+    }
+}
