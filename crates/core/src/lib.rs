@@ -30,6 +30,9 @@
 //! | [`multipos`] | multi-position fit in arbitrary orientations (Levenberg–Marquardt) |
 //! | [`magfit`] | magnetometer sphere / axis-aligned / rotated-ellipsoid fits from streaming sums |
 //! | [`kalman`] | the 3-state `[position, velocity, bias]` Kalman filter |
+//! | [`gyro`] | gyro model `ω = K(m − b)`, RK4 quaternion integration of a motion with exact parameter sensitivities |
+//! | [`gyro_fit`] | multi-position gyro scale / misalignment / bias fit (Tedaldi et al. 2014), leave-one-motion-out |
+//! | [`gyro_zero`] | zero-rate (bias) tracker that re-zeroes whenever the sensor is still |
 //! | [`static_detect`] | static-interval detection on a stream |
 //! | [`lm`] | Levenberg–Marquardt generic over the float type (`f32` device, `f64` analysis), standard errors, leverage, leave-one-out |
 //! | [`quality`] | the one acceptance predicate (plausibility limits) and the pose-coverage rule |
@@ -39,6 +42,9 @@
 #![warn(missing_docs)]
 
 pub mod error;
+pub mod gyro;
+pub mod gyro_fit;
+pub mod gyro_zero;
 pub mod kalman;
 pub mod linalg;
 pub mod lm;
