@@ -82,6 +82,7 @@ fn request_name(r: &Request) -> &'static str {
         Request::CommitCalibration => "CommitCalibration",
         Request::StartStream { .. } => "StartStream",
         Request::StopStream => "StopStream",
+        Request::GetStatus => "GetStatus",
     }
 }
 
@@ -93,6 +94,7 @@ fn answers(req: &Request, resp: &Response) -> bool {
         (Request::Hello(_), _) => false,
         (_, Response::Error(_)) => true,
         (Request::GetCalibration, Response::Calibration(_)) => true,
+        (Request::GetStatus, Response::Status(_)) => true,
         (Request::StartStream { .. }, Response::StreamStarted { .. }) => true,
         (
             Request::PutCalibration(_) | Request::CommitCalibration | Request::StopStream,
