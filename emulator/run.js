@@ -247,7 +247,7 @@ const scenarios = [
   }],
   ...selfCalScenarios({
     newRig, getState, fail, shared, work, sameBytes, sameCal, checkReports, correctionBatch, prefill,
-    expectedCounts, IDEAL_BLOCK, CAL_A, calA,
+    expectedCounts, IDEAL_BLOCK, CAL_A, calA, measurements,
   }),
   ['power-cut-commit', async () => {
     if (!shared.committedA) return fail('needs commit-live');
@@ -433,6 +433,11 @@ if (measurements.stretchNs?.length) {
 if (measurements.pollPeriodsNs?.length) {
   const s = stats(measurements.pollPeriodsNs.map((ns) => ns / 1000));
   console.log(`measure Nunchuk poll period: mean ${s.mean.toFixed(1)} us, sd ${s.sd.toFixed(2)} us, min ${s.min.toFixed(1)}, max ${s.max.toFixed(1)} us (jitter ${(s.max - s.min).toFixed(1)} us), n=${s.n}`);
+}
+if (measurements.selfCal) {
+  const m = measurements.selfCal;
+  const ms = (ns) => (ns / 1e6).toFixed(1);
+  console.log(`measure self-calibration on the RP2040: longest Nunchuk poll interval while the last pose ends and the 12-pose fit + checks run ${ms(m.pollGapNs)} ms (nominal 5 ms); last pose left -> first flash step of the commit ${ms(m.fitToCommitNs)} ms; Wii Remote's longest wait for a report ${ms(m.remoteGapNs)} ms during the session, ${ms(m.commitGapNs)} ms including the commit and the 100 ms extension-detect drop that makes it re-read the block`);
 }
 if (measurements.bootToFirstReportNs) {
   const ns = measurements.bootToFirstReportNs;

@@ -98,6 +98,7 @@ function maxDiff(a, b) {
 
 export function selfCalScenarios(h) {
   const { newRig, getState, fail, shared, work } = h;
+  h.measurements ??= {};
 
   const selfCalibration = async () => {
     const ctl = new PoseNunchuk({ held: true });
@@ -110,7 +111,9 @@ export function selfCalScenarios(h) {
     const hsAtSession = rig.remote.handshakes.length;
     await rig.board.run(STILL_MS);
     const targets = [...POSES, REST];
+    let lastLeaveNs = 0;
     for (let i = 0; i < targets.length; i++) {
+      lastLeaveNs = rig.board.nanos;
       const expect = i === targets.length - 1 ? 'done' : i === REPEAT ? 'repeat' : 'taken';
       const err = await leavePose(rig, ctl, led, sessionNs, targets[i], expect);
       if (err) return fail(`leaving pose ${i}: ${err}`);
@@ -126,6 +129,11 @@ export function selfCalScenarios(h) {
     const during = rig.remote.reports.filter((r) => r.tNs > sessionNs && r.tNs < commitNs);
     const gap = maxGap(during.map((r) => r.tNs));
     if (during.length < 200 || gap > 20e6) return fail(`during the session the Wii Remote read ${during.length} reports, max gap ${(gap / 1e6).toFixed(1)} ms`);
+    // Cost of the on-device fit: it runs in the Nunchuk task, so it shows as the longest
+    // poll interval between leaving the last pose and the commit's first flash step.
+    const polls = rig.nunchuk.pollTimes.filter((t) => t >= lastLeaveNs && t <= commitNs + 5e6);
+    const around = rig.remote.reports.filter((r) => r.tNs > sessionNs && r.tNs < commitNs + 1e9);
+    h.measurements.selfCal = { pollGapNs: maxGap(polls), remoteGapNs: gap, commitGapNs: maxGap(around.map((r) => r.tNs)), fitToCommitNs: commitNs - lastLeaveNs };
     const passErr = h.checkReports(rig, hsAtSession, (a) => a, 200, (r) => r.tNs > sessionNs && r.tNs < commitNs);
     if (passErr) return fail(`during the session: ${passErr}`);
     await tour(rig, ctl);
