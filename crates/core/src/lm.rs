@@ -151,7 +151,21 @@ pub struct LmSettings<T> {
     /// resolution); `Some(x)` means converged only if `λ < x`, else [`Error::NotConverged`]
     /// (the damped system was never solvable).
     pub stall_limit: Option<T>,
+    /// Stop with [`Error::Diverged`] as soon as an accepted step leaves some free parameter
+    /// with `|p_j| > bound` (a problem whose cost keeps falling towards infinity); `None`: no
+    /// bound.
+    pub param_bound: Option<T>,
 }
+
+/// Parameter bound of the multi-position schedule, in its normalised units: a bias 100 pose
+/// spreads away from the poses' centre (a sphere whose radius is ~100× the poses' spread, i.e.
+/// poses within ~1° of each other as seen from its centre) is a fit running off to
+/// infinity, not a sensor.
+pub const MULTIPOS_PARAM_BOUND: f64 = 1e2;
+
+/// When the iteration budget runs out with a free parameter beyond `param_bound / 10`, the
+/// error is [`Error::Diverged`] rather than [`Error::NotConverged`].
+const RUNAWAY_FRACTION_INV: f64 = 10.0;
 
 impl LmSettings<f32> {
     /// The multi-position fit's schedule (`multipos::fit` since the first release):
@@ -179,6 +193,7 @@ impl<T: RealField + Copy> LmSettings<T> {
             max_iterations,
             max_inner: 30,
             stall_limit: None,
+            param_bound: Some(lit(MULTIPOS_PARAM_BOUND)),
         }
     }
 }
@@ -202,6 +217,7 @@ impl Default for LmSettings<f64> {
             max_iterations: 200,
             max_inner: 40,
             stall_limit: Some(1e20),
+            param_bound: None,
         }
     }
 }
@@ -339,7 +355,9 @@ fn check_inputs<T: RealField + Copy, const N: usize, P: Problem<T, N>>(
 /// Errors: [`Error::InvalidParameter`] (weights of the wrong length, negative or non-finite;
 /// a zero iteration budget), [`Error::TooFewPoses`] (fewer used observations than free
 /// parameters), [`Error::NonFinite`] (the cost at `p0` is not finite),
-/// [`Error::NotConverged`] (iteration budget spent, or `stall_limit` exceeded).
+/// [`Error::NotConverged`] (iteration budget spent, or `stall_limit` exceeded),
+/// [`Error::Diverged`] (a free parameter beyond `param_bound`, or beyond a tenth of it when
+/// the budget runs out).
 pub fn minimize<T: RealField + Copy, const N: usize, P: Problem<T, N>>(
     problem: &P,
     p0: SVector<T, N>,
@@ -411,6 +429,11 @@ fn minimize_skipping<T: RealField + Copy, const N: usize, P: Problem<T, N>>(
                 cost = new_cost;
                 lambda = (lambda * s.damping_down).max(s.min_damping);
                 accepted = true;
+                if let Some(bound) = s.param_bound {
+                    if (0..N).any(|j| mask[j] && p[j].abs() > bound) {
+                        return Err(Error::Diverged);
+                    }
+                }
                 if small_step || small_gain {
                     converged = true;
                 }
@@ -426,7 +449,16 @@ fn minimize_skipping<T: RealField + Copy, const N: usize, P: Problem<T, N>>(
         }
     }
     if !converged {
-        return Err(Error::NotConverged);
+        // Out of budget while far out and still moving: report the run-away, not the budget.
+        let far = s.param_bound.is_some_and(|bound| {
+            let limit = bound / lit(RUNAWAY_FRACTION_INV);
+            (0..N).any(|j| mask[j] && p[j].abs() > limit)
+        });
+        return Err(if far {
+            Error::Diverged
+        } else {
+            Error::NotConverged
+        });
     }
     Ok(LmFit {
         params: p,
