@@ -689,6 +689,35 @@ mod tests {
         assert!((Line(&pts).residual(&fw.params, 2) - loo[2].unwrap()).abs() < 1e-9);
     }
 
+    /// r = exp(−p): the cost falls towards 0 as p → ∞, there is no finite minimum.
+    struct Runaway;
+    impl Problem<f64, 1> for Runaway {
+        fn observations(&self) -> usize {
+            2
+        }
+        fn residual_and_gradient(&self, p: &SVector<f64, 1>, _: usize) -> (f64, SVector<f64, 1>) {
+            let e = (-p[0]).exp();
+            (e, SVector::<f64, 1>::new(-e))
+        }
+    }
+
+    #[test]
+    fn runaway_is_reported_as_diverged() {
+        let p0 = SVector::<f64, 1>::new(0.0);
+        let mut s = LmSettings::multipos(200);
+        s.param_bound = Some(10.0);
+        assert_eq!(
+            minimize(&Runaway, p0, &[true], None, &s),
+            Err(Error::Diverged)
+        );
+        // Without a bound the same problem stops where the gain is no longer resolved
+        // (a "minimum" at p ≈ 15, by the absolute gradient test), which is why the
+        // multi-position schedule has one.
+        s.param_bound = None;
+        let f = minimize(&Runaway, p0, &[true], None, &s).unwrap();
+        assert!(f.params[0] > 10.0, "{}", f.params[0]);
+    }
+
     #[test]
     fn bad_inputs_are_refused() {
         let pts = [(0.0, 1.0), (1.0, 2.0)];
