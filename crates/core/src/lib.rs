@@ -30,7 +30,7 @@
 //! | [`multipos`] | multi-position fit in arbitrary orientations (Levenberg–Marquardt) |
 //! | [`magfit`] | magnetometer sphere / axis-aligned / rotated-ellipsoid fits from streaming sums |
 //! | [`kalman`] | the 3-state `[position, velocity, bias]` Kalman filter |
-//! | [`static_detect`] | static-interval detection on a stream |
+//! | [`static_detect`] | static-interval detection on a stream; [`static_detect::adaptive`]: thresholds from the recording's own noise, no rest period needed |
 //! | [`lm`] | Levenberg–Marquardt generic over the float type (`f32` device, `f64` analysis), standard errors, leverage, leave-one-out |
 //! | [`linalg`] | small helpers (Cholesky solves of normal equations) |
 #![no_std]

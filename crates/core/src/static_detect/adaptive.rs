@@ -23,10 +23,15 @@
 //!    usual threshold factor 6, trying the hold lengths of [`HOLD_SCHEDULE`] from the longest
 //!    (1 s window, 2 s holds: the IMU-TK defaults) down to 0.25 s windows and 0.5 s holds, and
 //!    keeping the first that yields at least the caller's `min_windows` static windows (the
-//!    most windows when none does).
+//!    most windows when none does). [`detect_fitted`] also requires the setting's windows to
+//!    give a multi-position fit, so that windows spanning too few orientations or including
+//!    motion (no finite solution, [`Error::Diverged`]) give way to the next setting — IMU-TK's
+//!    idea of letting the fit choose among detector settings.
 //!
 //! On the device the survey runs on a first recording pass (or on a previous session's data);
-//! on the host [`detect`] runs both passes over a slice (an iterator that can be cloned).
+//! on the host [`detect`] / [`detect_fitted`] run all passes over a slice (an iterator that
+//! can be cloned). Measured on every accelerometer recording in the shared data:
+//! `docs/solver-and-detection.md`.
 
 use super::{StaticDetector, StaticDetectorConfig, StaticInterval};
 use crate::stats::Welford3;
