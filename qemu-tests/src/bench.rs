@@ -20,7 +20,7 @@ use wiical_core::kalman::PvbFilter;
 use wiical_core::magfit::{AxisEllipsoidFit, EllipsoidFit, SphereFit};
 use wiical_core::multipos::{self, MultiPosConfig};
 use wiical_core::six_position;
-use wiical_core::static_detect::{StaticDetector, StaticDetectorConfig};
+use wiical_core::static_detect::{NoiseSurvey, StaticDetector, StaticDetectorConfig};
 use wiical_core::{Calibration, Conditions};
 use wiical_qemu_tests::cases::{
     adapter_report_update, adapter_wiimote_read, factory_info, mag_point, poses30,
@@ -412,6 +412,27 @@ fn main() -> ! {
             "gyro_zero::ZeroRateTracker::push",
             "sample",
             sc.per_op(op, base, R_GYRO),
+            st,
+            NONE,
+        );
+    }
+
+    // --- the adaptive detector's noise survey (pass 1 of static_detect::adaptive), 100 Hz:
+    // 25-sample blocks, so the per-block histogram update is amortised over 25 pushes.
+    if let Ok(mut survey) = NoiseSurvey::for_rate(100.0) {
+        let base = rt::time_reps(R_SD, |i| {
+            let s = black_box(&mut survey);
+            (s as *mut NoiseSurvey, stream(i))
+        });
+        let Ok(mut survey) = NoiseSurvey::for_rate(100.0) else {
+            rt::exit(false)
+        };
+        let op = rt::time_reps(R_SD, |i| black_box(&mut survey).push(stream(i)));
+        let st = stack_of(|| black_box(&mut survey).push(black_box(stream(3))));
+        all_ok &= row(
+            "static_detect::NoiseSurvey::push (adaptive, 25/block)",
+            "sample",
+            sc.per_op(op, base, R_SD),
             st,
             NONE,
         );
