@@ -14,10 +14,10 @@ use core::hint::black_box;
 use cortex_m_rt::{entry, exception};
 use cortex_m_semihosting::hprintln;
 use wiical_adapter::{Corrector, EmulatedNunchuk, IdealScale, SelfCal, SelfCalConfig};
-use wiical_core::quality::{Acceptance, CoverageRule};
 use wiical_core::kalman::PvbFilter;
 use wiical_core::magfit::{AxisEllipsoidFit, EllipsoidFit, SphereFit};
 use wiical_core::multipos::{self, MultiPosConfig};
+use wiical_core::quality::{Acceptance, CoverageRule};
 use wiical_core::six_position;
 use wiical_core::static_detect::{StaticDetector, StaticDetectorConfig};
 use wiical_core::{Calibration, Conditions};
@@ -495,7 +495,11 @@ fn session_report(k: usize, rng: &mut XorShift) -> Option<([u16; 3], bool)> {
             ([d[0] + 0.2 + h, d[1] - h, d[2] + 0.5 * h], false)
         }
     };
-    let dm = [[203.0f32, 2.5, -1.0], [-3.0, 196.0, 1.5], [0.8, -2.2, 207.0]];
+    let dm = [
+        [203.0f32, 2.5, -1.0],
+        [-3.0, 196.0, 1.5],
+        [0.8, -2.2, 207.0],
+    ];
     let b = [505.3f32, 497.8, 518.6];
     let raw = core::array::from_fn(|r| {
         let m = dm[r][0] * up[0] + dm[r][1] * up[1] + dm[r][2] * up[2] + b[r];
