@@ -33,12 +33,28 @@ pub async fn wiimote_task(mut dev: I2cSlave<'static, I2C1>, adapter: &'static Ad
     }
 }
 
+/// Serves one read of the Wii Remote in [`READ_CHUNK`]-byte pieces.
+///
+/// A read that ends inside a piece (the 16-byte calibration block is 6 + 6 + 4 of 6) leaves
+/// bytes in the TX FIFO; the I²C block flushes them when the next read is addressed and
+/// reports it as an abort (`LeftoverBytes`) before anything of the new read was sent. The
+/// piece taken for the new read is then sent again rather than dropped: dropping it would
+/// advance the register pointer by a report the Wii Remote never got and serve it bytes
+/// 6..12 (zeros) as the report (found by the emulator, `cargo xtask emulate`).
 async fn respond(dev: &mut I2cSlave<'static, I2C1>, adapter: &'static Adapter) {
+    let mut chunk = [0u8; READ_CHUNK];
+    adapter.lock().await.emulated().on_read(&mut chunk);
+    let mut sent_any = false;
     loop {
-        let mut chunk = [0u8; READ_CHUNK];
-        adapter.lock().await.emulated().on_read(&mut chunk);
         match dev.respond_to_read(&chunk).await {
-            Ok(ReadStatus::NeedMoreBytes) => continue,
+            Ok(ReadStatus::NeedMoreBytes) => {
+                sent_any = true;
+                adapter.lock().await.emulated().on_read(&mut chunk);
+            }
+            Ok(ReadStatus::LeftoverBytes(_)) if !sent_any => {
+                // Stale bytes of the previous read were flushed; send this piece again.
+                sent_any = true;
+            }
             Ok(ReadStatus::Done | ReadStatus::LeftoverBytes(_)) => break,
             Err(e) => {
                 warn!("Wii Remote read: {}", e);

@@ -14,6 +14,8 @@ use core::hint::black_box;
 use cortex_m_rt::{entry, exception};
 use cortex_m_semihosting::hprintln;
 use wiical_adapter::{Corrector, EmulatedNunchuk, IdealScale, SelfCal, SelfCalConfig};
+use wiical_core::gyro::{Adjustment, GyroCalibration, MotionIntegrator, NPARAM};
+use wiical_core::gyro_zero::{ZeroRateConfig, ZeroRateTracker};
 use wiical_core::kalman::PvbFilter;
 use wiical_core::magfit::{AxisEllipsoidFit, EllipsoidFit, SphereFit};
 use wiical_core::multipos::{self, MultiPosConfig};
@@ -354,6 +356,63 @@ fn main() -> ! {
             "static_detect::StaticDetector<101>::push",
             "sample",
             sc.per_op(op, base, R_SD),
+            st,
+            NONE,
+        );
+    }
+
+    // --- gyro: the per-sample step of a motion's integration (RK4 on the quaternion), alone
+    // (evaluating a calibration) and with the 9 scale/misalignment sensitivities the fit tracks
+    let gcal = GyroCalibration::<f32>::nominal([8192.0, 8190.0, 8195.0], [1.2e-3, -1.2e-3, 1.2e-3]);
+    let gstream = |i: u32| {
+        [
+            8192.0 + (i % 97) as f32,
+            8190.0 - (i % 89) as f32,
+            8195.0 + (i % 53) as f32,
+        ]
+    };
+    const R_GYRO: u32 = 1_000;
+    let with_scale: [bool; NPARAM] = core::array::from_fn(|k| k < 9);
+    for (label, tracked) in [
+        ("gyro::MotionIntegrator::push (RK4 step)", [false; NPARAM]),
+        (
+            "gyro::MotionIntegrator::push (RK4 + 9 sensitivities)",
+            with_scale,
+        ),
+    ] {
+        let Ok(integ0) = MotionIntegrator::new(gcal, Adjustment::identity(), 0.01, tracked) else {
+            rt::exit(false)
+        };
+        let mut integ = integ0.clone();
+        let base = rt::time_reps(R_GYRO, |i| {
+            let g = black_box(&mut integ);
+            (g as *mut MotionIntegrator<f32>, gstream(i))
+        });
+        let mut integ = integ0.clone();
+        let op = rt::time_reps(R_GYRO, |i| black_box(&mut integ).push(&gstream(i)));
+        let mut integ = integ0;
+        let _ = integ.push(&gstream(0));
+        let st = stack_of(|| black_box(&mut integ).push(&black_box(gstream(3))));
+        all_ok &= row(label, "sample", sc.per_op(op, base, R_GYRO), st, NONE);
+    }
+    let zcfg = ZeroRateConfig {
+        block: 50,
+        max_spread: 200.0f32,
+        blend: 0.5,
+    };
+    if let Ok(tracker0) = ZeroRateTracker::new(zcfg, [8192.0, 8190.0, 8195.0]) {
+        let mut tr = tracker0;
+        let base = rt::time_reps(R_GYRO, |i| {
+            let t = black_box(&mut tr);
+            (t as *mut ZeroRateTracker<f32>, gstream(i))
+        });
+        let mut tr = tracker0;
+        let op = rt::time_reps(R_GYRO, |i| black_box(&mut tr).push(gstream(i), true));
+        let st = stack_of(|| black_box(&mut tr).push(black_box(gstream(3)), true));
+        all_ok &= row(
+            "gyro_zero::ZeroRateTracker::push",
+            "sample",
+            sc.per_op(op, base, R_GYRO),
             st,
             NONE,
         );

@@ -5,6 +5,7 @@
 //! | `cargo xtask qemu` | runs the core's test vectors on an emulated Cortex-M33 (QEMU `mps2-an505`) and compares them with the host's; ends with `N passed, M failed` |
 //! | `cargo xtask qemu-bench` | deterministic instruction counts (`-icount shift=0`) and peak stack of the on-device operations |
 //! | `cargo xtask firmware [--chip rp2350\|rp2040]` | builds the release firmware for that chip (default RP2350) and prints its flash and static RAM use (fails over 128 KiB / 32 KiB) |
+//! | `cargo xtask emulate [SCENARIO…]` | runs the RP2040 firmware ELF in rp2040js with a simulated Nunchuk, Wii Remote and USB host (`emulator/`); one line per scenario, then `N passed, M failed` |
 //!
 //! Each installs what it is missing first: the rustup target (`thumbv8m.main-none-eabihf`, or
 //! `thumbv6m-none-eabi` for the RP2040 firmware) and,
@@ -13,6 +14,7 @@
 //! `.cargo/config.toml`); this program builds them with their own configuration.
 
 mod elfsize;
+mod emulate;
 
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
@@ -39,6 +41,9 @@ commands:
   firmware [--chip rp2350|rp2040]
               build the release firmware for that chip (default rp2350), print its
               flash and static RAM use
+  emulate [SCENARIO...]
+              run the RP2040 firmware in rp2040js (emulator/) against a simulated
+              Nunchuk, Wii Remote and the wiical CLI; all scenarios by default
 ";
 
 fn main() -> ExitCode {
@@ -54,6 +59,8 @@ fn main() -> ExitCode {
                 return ExitCode::from(2);
             }
         },
+        Some("emulate") => emulate::emulate(&args[1..]),
+        Some("emulate-correct") => emulate::correct(&args[1..]),
         Some("help" | "-h" | "--help") => {
             print!("{USAGE}");
             Ok(true)
@@ -73,16 +80,16 @@ fn main() -> ExitCode {
     }
 }
 
-type Result<T> = std::result::Result<T, String>;
+pub(crate) type Result<T> = std::result::Result<T, String>;
 
 /// The workspace root (this crate lives in `<root>/xtask`).
-fn root() -> PathBuf {
+pub(crate) fn root() -> PathBuf {
     let manifest = Path::new(env!("CARGO_MANIFEST_DIR"));
     manifest.parent().unwrap_or(manifest).to_path_buf()
 }
 
 /// Runs a command to completion, inheriting stdio; error if it cannot start or fails.
-fn run(cmd: &mut Command) -> Result<()> {
+pub(crate) fn run(cmd: &mut Command) -> Result<()> {
     let shown = format!("{cmd:?}");
     let status = cmd
         .status()
@@ -158,7 +165,7 @@ fn build_qemu_bin(bin: &str) -> Result<PathBuf> {
 }
 
 /// The cargo that runs us (so that the same toolchain builds the embedded crates).
-fn cargo() -> String {
+pub(crate) fn cargo() -> String {
     std::env::var("CARGO").unwrap_or_else(|_| "cargo".into())
 }
 
@@ -296,7 +303,7 @@ fn qemu_bench() -> Result<bool> {
 
 /// The chip the firmware is built for: a cargo feature of `firmware/` and its target.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Chip {
+pub(crate) enum Chip {
     /// Raspberry Pi Pico 2: feature `rp2350` (the firmware's default), [`TARGET`].
     Rp2350,
     /// Raspberry Pi Pico: feature `rp2040`, [`TARGET_RP2040`].
@@ -311,7 +318,7 @@ impl Chip {
         }
     }
 
-    fn target(self) -> &'static str {
+    pub(crate) fn target(self) -> &'static str {
         match self {
             Chip::Rp2350 => TARGET,
             Chip::Rp2040 => TARGET_RP2040,
@@ -336,7 +343,7 @@ fn parse_chip(args: &[String]) -> Result<Chip> {
     }
 }
 
-fn firmware(chip: Chip) -> Result<bool> {
+pub(crate) fn firmware(chip: Chip) -> Result<bool> {
     let target = chip.target();
     ensure_target(target)?;
     let dir = root().join("firmware");

@@ -6,7 +6,9 @@
 //!
 //! Everything here runs unchanged on a Cortex-M0+/M33 and on a desktop: fixed-size data
 //! on the stack, `nalgebra` without its default features, `heapless` where a bounded
-//! buffer is needed, and no floating-point type wider than `f32`.
+//! buffer is needed, and no floating-point type wider than `f32` on the device. The
+//! least-squares solver ([`lm`]) and the multi-position fit ([`multipos::fit_generic`]) are
+//! generic over nalgebra's `RealField`, so the host's analysis runs the same code in `f64`.
 //!
 //! ## Conventions
 //! * Raw measurements `m` are in sensor units (ADC counts, or whatever the sensor gives).
@@ -28,7 +30,11 @@
 //! | [`multipos`] | multi-position fit in arbitrary orientations (Levenberg–Marquardt) |
 //! | [`magfit`] | magnetometer sphere / axis-aligned / rotated-ellipsoid fits from streaming sums |
 //! | [`kalman`] | the 3-state `[position, velocity, bias]` Kalman filter |
+//! | [`gyro`] | gyro model `ω = K(m − b)`, RK4 quaternion integration of a motion with exact parameter sensitivities |
+//! | [`gyro_fit`] | multi-position gyro scale / misalignment / bias fit (Tedaldi et al. 2014), leave-one-motion-out |
+//! | [`gyro_zero`] | zero-rate (bias) tracker that re-zeroes whenever the sensor is still |
 //! | [`static_detect`] | static-interval detection on a stream |
+//! | [`lm`] | Levenberg–Marquardt generic over the float type (`f32` device, `f64` analysis), standard errors, leverage, leave-one-out |
 //! | [`quality`] | the one acceptance predicate (plausibility limits) and the pose-coverage rule |
 //! | [`linalg`] | small helpers (Cholesky solves of normal equations) |
 #![no_std]
@@ -36,8 +42,12 @@
 #![warn(missing_docs)]
 
 pub mod error;
+pub mod gyro;
+pub mod gyro_fit;
+pub mod gyro_zero;
 pub mod kalman;
 pub mod linalg;
+pub mod lm;
 pub mod magfit;
 pub mod model;
 pub mod multipos;

@@ -1,8 +1,12 @@
-//! Small allocation-free linear-algebra helpers on `f32` static matrices.
+//! Small allocation-free linear-algebra helpers on static matrices: `f32` for the device's
+//! fits, generic over the float type (`f32` / `f64`) where the host's analysis needs them.
 //!
 //! * [`solve_spd`] solves a symmetric positive-definite system `A·x = b` (the normal
 //!   equations `MᵀM·x = Mᵀc` of a least-squares fit) by Cholesky factorisation, refusing
 //!   systems whose pivots show the matrix is singular *for `f32`*.
+//! * [`cholesky_checked`] factors a symmetric positive-definite matrix and refuses pivots
+//!   below a relative threshold (the normal matrix of a fit whose parameters the data do not
+//!   all determine); [`invert3_checked`] inverts a 3×3 matrix with a conditioning test.
 //! * [`sym3_eigen`] and [`sym3_sqrt`] decompose a symmetric 3×3 matrix (used for the
 //!   soft-iron matrix of a magnetometer fit).
 //!
@@ -18,7 +22,7 @@
 //! noise. So [`solve_spd`] equilibrates the matrix first (unit diagonal) and then checks
 //! every pivot `L_jj²` of the factor against a relative threshold; see [`solve_spd_with_tol`].
 
-use nalgebra::{Cholesky, SMatrix, SVector, SymmetricEigen};
+use nalgebra::{Cholesky, Const, Matrix3, RealField, SMatrix, SVector, SymmetricEigen};
 
 use crate::{Error, Mat3, Vec3};
 
@@ -104,6 +108,49 @@ pub fn solve_spd_with_tol<const N: usize>(
         return Err(Error::NonFinite);
     }
     Ok(x)
+}
+
+fn finite<T: RealField + Copy>(v: &[T]) -> bool {
+    v.iter().all(|x| x.is_finite())
+}
+
+/// Cholesky factor of a symmetric positive-definite `a` (lower triangle read), refusing it
+/// (`None`) when a squared pivot `L_jj²` is not above `rel_pivot · |A_jj|` (or is NaN): a
+/// normal matrix `JᵀJ` whose parameters the data do not all determine. Unlike
+/// [`solve_spd_with_tol`] there is no equilibration, so `rel_pivot` is relative to each
+/// diagonal entry; `1e-13` suits `f64` ([`crate::lm::REL_PIVOT_F64`]).
+pub fn cholesky_checked<T: RealField + Copy, const N: usize>(
+    a: &SMatrix<T, N, N>,
+    rel_pivot: T,
+) -> Option<Cholesky<T, Const<N>>> {
+    let chol = Cholesky::new(*a)?;
+    let l = chol.l_dirty();
+    for j in 0..N {
+        let pivot = l[(j, j)] * l[(j, j)];
+        // Written so that a NaN pivot is refused too.
+        if pivot.partial_cmp(&(rel_pivot * a[(j, j)].abs())) != Some(core::cmp::Ordering::Greater) {
+            return None;
+        }
+    }
+    Some(chol)
+}
+
+/// Inverse of a 3×3 matrix in any float type, refusing ([`Error::Singular`]) a matrix whose
+/// determinant is at most `rel_det` times the product of its row norms (for `f32` the core
+/// uses `1e-6`, see [`crate::model::invert3`]); [`Error::NonFinite`] on NaN/inf input.
+pub fn invert3_checked<T: RealField + Copy>(
+    m: &Matrix3<T>,
+    rel_det: T,
+) -> Result<Matrix3<T>, Error> {
+    if !finite(m.as_slice()) {
+        return Err(Error::NonFinite);
+    }
+    let det = m.determinant();
+    let scale = m.row(0).norm() * m.row(1).norm() * m.row(2).norm();
+    if !det.is_finite() || scale == T::zero() || det.abs() <= rel_det * scale {
+        return Err(Error::Singular);
+    }
+    m.try_inverse().ok_or(Error::Singular)
 }
 
 /// Eigen-decomposition of a symmetric 3×3 matrix: `M = V·diag(λ)·Vᵀ`.
@@ -216,6 +263,28 @@ mod tests {
         for i in 0..4 {
             assert!((got[i] - x[i]).abs() < 1e-4 * x[i].abs(), "{got} vs {x}");
         }
+    }
+
+    #[test]
+    fn f64_helpers_solve_factor_and_invert() {
+        let bm = Matrix4::<f64>::new(
+            1.0, 2.0, 0.5, -1.0, 0.0, 3.0, 1.0, 2.0, 4.0, -1.0, 2.0, 0.0, 1.0, 1.0, 1.0, 5.0,
+        );
+        let a = bm.transpose() * bm + Matrix4::identity();
+        let x = Vector4::new(1.0, -2.0, 0.25, 3.0);
+        let chol = cholesky_checked(&a, 1e-13).unwrap();
+        assert!((chol.solve(&(a * x)) - x).norm() < 1e-12 * x.norm());
+        // Rank 3 (last column = sum of the first two): refused.
+        let mut r = bm;
+        for i in 0..4 {
+            r[(i, 3)] = r[(i, 0)] + r[(i, 1)];
+        }
+        assert!(cholesky_checked(&(r.transpose() * r), 1e-13).is_none());
+        let m = nalgebra::Matrix3::<f64>::new(2.0, 0.1, 0.0, 0.0, 3.0, 0.2, 0.0, 0.0, 4.0);
+        let inv = invert3_checked(&m, 1e-12).unwrap();
+        assert!((inv * m - nalgebra::Matrix3::identity()).amax() < 1e-15);
+        let sing = nalgebra::Matrix3::<f64>::new(1.0, 2.0, 3.0, 2.0, 4.0, 6.0, 0.0, 0.0, 1.0);
+        assert_eq!(invert3_checked(&sing, 1e-12), Err(Error::Singular));
     }
 
     #[test]

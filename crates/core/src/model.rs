@@ -228,15 +228,7 @@ pub fn mat3_to_rows(m: &Mat3) -> [[f32; 3]; 3] {
 /// Inverse of a 3×3 matrix, refusing matrices whose condition makes the inverse meaningless
 /// in `f32` (determinant tiny relative to the product of row norms).
 pub fn invert3(m: &Mat3) -> Result<Mat3, Error> {
-    if !crate::all_finite(m.as_slice()) {
-        return Err(Error::NonFinite);
-    }
-    let det = m.determinant();
-    let scale = m.row(0).norm() * m.row(1).norm() * m.row(2).norm();
-    if !det.is_finite() || scale == 0.0 || libm::fabsf(det) <= 1e-6 * scale {
-        return Err(Error::Singular);
-    }
-    m.try_inverse().ok_or(Error::Singular)
+    crate::linalg::invert3_checked(m, 1e-6)
 }
 
 #[cfg(test)]

@@ -21,11 +21,9 @@
 //! let alone the full model, and give [`Error::DegenerateGeometry`]. A final check on the
 //! scaled normal matrix catches the subtler cases (too little spread for 9 parameters).
 
+use crate::lm::{self, lit, LmSettings, Problem};
 use crate::{Calibration, Error};
-use nalgebra::{SMatrix, SVector};
-
-type M9 = SMatrix<f32, 9, 9>;
-type V9 = SVector<f32, 9>;
+use nalgebra::{RealField, SMatrix, SVector};
 
 /// Which parameters to fit.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -92,22 +90,56 @@ pub struct MultiPosFit {
 /// Smallest acceptable [`MultiPosFit::identifiability`].
 pub const MIN_IDENTIFIABILITY: f32 = 1e-5;
 
-/// Fits with equal weights; see [`fit_weighted`].
-pub fn fit(poses: &[[f32; 3]], cfg: &MultiPosConfig) -> Result<MultiPosFit, Error> {
-    fit_weighted(poses, None, cfg)
+/// Solver settings in any float type, for [`fit_generic`] (the `f32` [`MultiPosConfig`]
+/// converts into it losslessly).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MultiPosSettings<T> {
+    /// Which parameters to fit.
+    pub model: MultiPosModel,
+    /// Magnitude the corrected vectors should have (1.0: output in g).
+    pub reference_magnitude: T,
+    /// Iteration budget for Levenberg–Marquardt.
+    pub max_iterations: u32,
+}
+
+impl From<&MultiPosConfig> for MultiPosSettings<f32> {
+    fn from(c: &MultiPosConfig) -> Self {
+        Self {
+            model: c.model,
+            reference_magnitude: c.reference_magnitude,
+            max_iterations: c.max_iterations,
+        }
+    }
+}
+
+/// Result of [`fit_generic`]: the fit in the float type it was computed in.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GenericFit<T> {
+    /// Bias `b`, raw units.
+    pub bias: [T; 3],
+    /// Upper-triangular `K` (row-major), reference units per raw unit.
+    pub matrix: [[T; 3]; 3],
+    /// Weighted RMS of `‖K(m_i − b)‖ − g`, reference units.
+    pub rms: T,
+    /// Largest `|‖K(m_i − b)‖ − g|` over poses of positive weight, reference units.
+    pub max_abs_residual: T,
+    /// Levenberg–Marquardt iterations used.
+    pub iterations: u32,
+    /// Smallest eigenvalue of the unit-diagonal normal matrix at the solution.
+    pub identifiability: T,
 }
 
 /// Affine normalisation `y = (m − centre) / scale`.
 #[derive(Clone, Copy)]
-struct Frame {
-    centre: [f32; 3],
-    scale: f32,
+struct Frame<T> {
+    centre: [T; 3],
+    scale: T,
 }
 
-impl Frame {
-    fn of(poses: &[[f32; 3]]) -> Result<Self, Error> {
-        let n = poses.len() as f32;
-        let mut centre = [0.0f32; 3];
+impl<T: RealField + Copy> Frame<T> {
+    fn of(poses: &[[T; 3]]) -> Result<Self, Error> {
+        let n: T = lit(poses.len() as f64);
+        let mut centre = [T::zero(); 3];
         // Two-pass mean, shifted by the first pose for precision.
         let first = poses
             .first()
@@ -120,21 +152,22 @@ impl Frame {
         for a in 0..3 {
             centre[a] += first[a];
         }
-        let mut ss = 0.0f32;
+        let mut ss = T::zero();
         for p in poses {
             for a in 0..3 {
                 let d = p[a] - centre[a];
                 ss += d * d;
             }
         }
-        let scale = libm::sqrtf(ss / n);
-        if !(scale.is_finite() && scale > 0.0) {
+        let scale = (ss / n).sqrt();
+        if !(scale.is_finite() && scale > T::zero()) {
             return Err(Error::DegenerateGeometry);
         }
         Ok(Self { centre, scale })
     }
 
-    fn apply(&self, m: &[f32; 3]) -> [f32; 3] {
+    #[inline]
+    fn apply(&self, m: &[T; 3]) -> [T; 3] {
         [
             (m[0] - self.centre[0]) / self.scale,
             (m[1] - self.centre[1]) / self.scale,
@@ -145,46 +178,59 @@ impl Frame {
 
 /// Algebraic sphere fit `|y|² = 2c·y + e` on normalised points: the initial guess.
 /// Returns (centre, radius).
-fn sphere_init<I: Iterator<Item = ([f32; 3], f32)>>(pts: I) -> Result<([f32; 3], f32), Error> {
-    let mut ata = SMatrix::<f32, 4, 4>::zeros();
-    let mut atb = SVector::<f32, 4>::zeros();
+fn sphere_init<T: RealField + Copy, I: Iterator<Item = ([T; 3], T)>>(
+    pts: I,
+) -> Result<([T; 3], T), Error> {
+    let two: T = lit(2.0);
+    let mut ata = SMatrix::<T, 4, 4>::zeros();
+    let mut atb = SVector::<T, 4>::zeros();
     for (y, w) in pts {
-        let row = SVector::<f32, 4>::new(2.0 * y[0], 2.0 * y[1], 2.0 * y[2], 1.0);
+        let row = SVector::<T, 4>::new(two * y[0], two * y[1], two * y[2], T::one());
         let rhs = y[0] * y[0] + y[1] * y[1] + y[2] * y[2];
         ata += row * row.transpose() * w;
         atb += row * (rhs * w);
     }
     // Coplanar points leave the sphere's centre free along the plane normal: the normal
     // matrix is then singular. Check its conditioning with a relative pivot threshold.
-    let diag_max = (0..4).map(|i| ata[(i, i)]).fold(0.0f32, f32::max);
+    let diag_max = (0..4).map(|i| ata[(i, i)]).fold(T::zero(), T::max);
     let chol = nalgebra::Cholesky::new(ata).ok_or(Error::DegenerateGeometry)?;
     let l = chol.l();
+    let tol: T = lit(1e-4);
     for i in 0..4 {
         let pivot = l[(i, i)] * l[(i, i)];
-        if pivot.is_nan() || pivot <= 1e-4 * diag_max {
+        #[allow(clippy::eq_op)] // `x != x`: NaN test without a float-specific trait.
+        if pivot != pivot || pivot <= tol * diag_max {
             return Err(Error::DegenerateGeometry);
         }
     }
     let x = chol.solve(&atb);
     let c = [x[0], x[1], x[2]];
     let r2 = x[3] + c[0] * c[0] + c[1] * c[1] + c[2] * c[2];
-    if !(r2.is_finite() && r2 > 0.0) {
+    if !(r2.is_finite() && r2 > T::zero()) {
         return Err(Error::DegenerateGeometry);
     }
-    Ok((c, libm::sqrtf(r2)))
+    Ok((c, r2.sqrt()))
 }
 
-/// Residual and gradient of one pose: r = ‖K(y − b)‖ − 1 and ∂r/∂p (normalised units).
+/// Residual and gradient of one normalised pose: r = ‖K(y − b)‖ − 1 and ∂r/∂p, parameters
+/// `b0 b1 b2 k00 k01 k02 k11 k12 k22`.
 #[inline]
-fn residual_and_jacobian(p: &V9, y: &[f32; 3]) -> (f32, V9) {
+pub fn residual_and_gradient<T: RealField + Copy>(
+    p: &SVector<T, 9>,
+    y: &[T; 3],
+) -> (T, SVector<T, 9>) {
     let d = [y[0] - p[0], y[1] - p[1], y[2] - p[2]];
     let u = [
         p[3] * d[0] + p[4] * d[1] + p[5] * d[2],
         p[6] * d[1] + p[7] * d[2],
         p[8] * d[2],
     ];
-    let n = libm::sqrtf(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
-    let inv = if n > 0.0 { 1.0 / n } else { 0.0 };
+    let n = (u[0] * u[0] + u[1] * u[1] + u[2] * u[2]).sqrt();
+    let inv = if n > T::zero() {
+        T::one() / n
+    } else {
+        T::zero()
+    };
     let g = [u[0] * inv, u[1] * inv, u[2] * inv];
     // ∂r/∂b = −Kᵀ g ; ∂r/∂K_jk = g_j d_k.
     let jb = [
@@ -192,7 +238,7 @@ fn residual_and_jacobian(p: &V9, y: &[f32; 3]) -> (f32, V9) {
         -(p[4] * g[0] + p[6] * g[1]),
         -(p[5] * g[0] + p[7] * g[1] + p[8] * g[2]),
     ];
-    let j = V9::from([
+    let j = SVector::<T, 9>::from([
         jb[0],
         jb[1],
         jb[2],
@@ -203,69 +249,101 @@ fn residual_and_jacobian(p: &V9, y: &[f32; 3]) -> (f32, V9) {
         g[1] * d[2],
         g[2] * d[2],
     ]);
-    (n - 1.0, j)
+    (n - T::one(), j)
 }
 
-/// Weighted cost Σ w r² and, optionally, the normal equations.
-fn evaluate(
-    p: &V9,
-    frame: &Frame,
-    poses: &[[f32; 3]],
-    weights: Option<&[f32]>,
-    normal: Option<(&mut M9, &mut V9)>,
-) -> f32 {
-    let mut cost = 0.0f32;
-    let mut acc = normal;
-    for (i, m) in poses.iter().enumerate() {
-        let w = weights.map_or(1.0, |w| w[i]);
-        let y = frame.apply(m);
-        let (r, j) = residual_and_jacobian(p, &y);
-        cost += w * r * r;
-        if let Some((jtj, jtr)) = acc.as_mut() {
-            // Symmetric rank-1 update, upper triangle then mirrored by the caller.
-            for a in 0..9 {
-                let wa = w * j[a];
-                jtr[a] += wa * r;
-                for b in a..9 {
-                    jtj[(a, b)] += wa * j[b];
-                }
-            }
-        }
-    }
-    cost
+/// The 9-parameter multi-position problem on normalised poses, as an [`lm::Problem`].
+struct Poses<'a, T> {
+    frame: Frame<T>,
+    poses: &'a [[T; 3]],
 }
 
-fn mirror(m: &mut M9) {
-    for a in 0..9 {
-        for b in 0..a {
-            m[(a, b)] = m[(b, a)];
-        }
+impl<T: RealField + Copy> Problem<T, 9> for Poses<'_, T> {
+    #[inline]
+    fn observations(&self) -> usize {
+        self.poses.len()
     }
+
+    #[inline]
+    fn residual_and_gradient(&self, p: &SVector<T, 9>, i: usize) -> (T, SVector<T, 9>) {
+        residual_and_gradient(p, &self.frame.apply(&self.poses[i]))
+    }
+
+    /// The residual without the gradient: the same operations as the first half of
+    /// [`residual_and_gradient`], so the value is bit-identical, at a third of the cost.
+    #[inline]
+    fn residual(&self, p: &SVector<T, 9>, i: usize) -> T {
+        let y = self.frame.apply(&self.poses[i]);
+        let d = [y[0] - p[0], y[1] - p[1], y[2] - p[2]];
+        let u = [
+            p[3] * d[0] + p[4] * d[1] + p[5] * d[2],
+            p[6] * d[1] + p[7] * d[2],
+            p[8] * d[2],
+        ];
+        (u[0] * u[0] + u[1] * u[1] + u[2] * u[2]).sqrt() - T::one()
+    }
+}
+
+/// Fits with equal weights; see [`fit_weighted`].
+pub fn fit(poses: &[[f32; 3]], cfg: &MultiPosConfig) -> Result<MultiPosFit, Error> {
+    fit_weighted(poses, None, cfg)
 }
 
 /// Fits bias and upper-triangular `K` to static pose means `poses` (raw units), with optional
 /// non-negative per-pose weights (e.g. 0 to exclude a pose, or robust-loss weights).
+///
+/// This is [`fit_generic`] in `f32`, plus the conversion to a [`Calibration`] (which must be
+/// finite and invertible, else [`Error::Singular`]).
 pub fn fit_weighted(
     poses: &[[f32; 3]],
     weights: Option<&[f32]>,
     cfg: &MultiPosConfig,
 ) -> Result<MultiPosFit, Error> {
-    if !(cfg.reference_magnitude.is_finite() && cfg.reference_magnitude > 0.0)
+    let f = fit_generic::<f32>(poses, weights, &cfg.into())?;
+    let calibration = Calibration {
+        bias: f.bias,
+        matrix: f.matrix,
+        effects: Default::default(),
+    };
+    if !calibration.matrix.iter().all(|r| crate::all_finite(r)) || calibration.validate().is_err() {
+        return Err(Error::Singular);
+    }
+    Ok(MultiPosFit {
+        calibration,
+        rms: f.rms,
+        max_abs_residual: f.max_abs_residual,
+        iterations: f.iterations,
+        identifiability: f.identifiability,
+    })
+}
+
+/// The multi-position fit in any float type: `f32` on the device ([`fit_weighted`] is this
+/// with `T = f32`, bit for bit), `f64` on the host (`fit_generic::<f64>`).
+///
+/// Same model, normalisation, initial guess, Levenberg–Marquardt schedule
+/// ([`LmSettings::multipos`]) and geometry checks as [`fit_weighted`]; the identifiability
+/// threshold is [`MIN_IDENTIFIABILITY`] in both types.
+pub fn fit_generic<T: RealField + Copy>(
+    poses: &[[T; 3]],
+    weights: Option<&[T]>,
+    cfg: &MultiPosSettings<T>,
+) -> Result<GenericFit<T>, Error> {
+    if !(cfg.reference_magnitude.is_finite() && cfg.reference_magnitude > T::zero())
         || cfg.max_iterations == 0
     {
         return Err(Error::InvalidParameter);
     }
-    if !poses.iter().all(|p| crate::all_finite(p)) {
+    if !poses.iter().all(|p| p.iter().all(|x| x.is_finite())) {
         return Err(Error::NonFinite);
     }
     if let Some(w) = weights {
-        if w.len() != poses.len() || !w.iter().all(|x| x.is_finite() && *x >= 0.0) {
+        if w.len() != poses.len() || !w.iter().all(|x| x.is_finite() && *x >= T::zero()) {
             return Err(Error::InvalidParameter);
         }
     }
     let npar = cfg.model.params();
     let effective = match weights {
-        Some(w) => w.iter().filter(|x| **x > 0.0).count(),
+        Some(w) => w.iter().filter(|x| **x > T::zero()).count(),
         None => poses.len(),
     } as u32;
     if effective < npar {
@@ -275,120 +353,86 @@ pub fn fit_weighted(
         });
     }
     let frame = Frame::of(poses)?;
-    let w_of = |i: usize| weights.map_or(1.0, |w| w[i]);
+    let w_of = |i: usize| weights.map_or(T::one(), |w| w[i]);
     let (c, r) = sphere_init(
         poses
             .iter()
             .enumerate()
             .map(|(i, m)| (frame.apply(m), w_of(i))),
     )?;
-    let mut p = V9::from([c[0], c[1], c[2], 1.0 / r, 0.0, 0.0, 1.0 / r, 0.0, 1.0 / r]);
-
-    let mut lambda = 1e-3f32;
-    let mut cost = evaluate(&p, &frame, poses, weights, None);
-    let mut iterations = 0;
-    let mut converged = false;
-    while iterations < cfg.max_iterations {
-        iterations += 1;
-        let mut jtj = M9::zeros();
-        let mut jtr = V9::zeros();
-        evaluate(&p, &frame, poses, weights, Some((&mut jtj, &mut jtr)));
-        mirror(&mut jtj);
-        for i in 0..9 {
-            if !cfg.model.free(i) {
-                for k in 0..9 {
-                    jtj[(i, k)] = 0.0;
-                    jtj[(k, i)] = 0.0;
-                }
-                jtj[(i, i)] = 1.0;
-                jtr[i] = 0.0;
-            }
-        }
-        let grad_max = jtr.amax();
-        if grad_max <= 1e-12 {
-            converged = true;
-            break;
-        }
-        // Inner loop: raise λ until the step lowers the cost.
-        let mut accepted = false;
-        for _ in 0..30 {
-            let mut a = jtj;
-            for i in 0..9 {
-                a[(i, i)] += lambda * jtj[(i, i)].max(1e-12);
-            }
-            let Some(chol) = nalgebra::Cholesky::new(a) else {
-                lambda *= 10.0;
-                continue;
-            };
-            let step = chol.solve(&(-jtr));
-            let candidate = p + step;
-            let new_cost = evaluate(&candidate, &frame, poses, weights, None);
-            if new_cost.is_finite() && new_cost <= cost {
-                let small_step = step.amax() <= 1e-7 * (p.amax() + 1e-7);
-                let small_gain = cost - new_cost <= 1e-9 * cost;
-                p = candidate;
-                cost = new_cost;
-                lambda = (lambda * 0.3).max(1e-9);
-                accepted = true;
-                if small_step || small_gain {
-                    converged = true;
-                }
-                break;
-            }
-            lambda *= 4.0;
-        }
-        if !accepted {
-            // No step lowers the cost within f32 resolution: we are at the minimum.
-            converged = true;
-        }
-        if converged {
-            break;
-        }
-    }
-    if !converged {
-        return Err(Error::NotConverged);
-    }
-
-    // Identifiability: eigenvalues of the unit-diagonal normal matrix at the solution.
-    let mut jtj = M9::zeros();
-    let mut jtr = V9::zeros();
-    evaluate(&p, &frame, poses, weights, Some((&mut jtj, &mut jtr)));
-    mirror(&mut jtj);
-    let mut scaled = M9::identity();
-    let free: heapless::Vec<usize, 9> = (0..9).filter(|i| cfg.model.free(*i)).collect();
-    for &a in &free {
-        for &b in &free {
-            let da = libm::sqrtf(jtj[(a, a)]);
-            let db = libm::sqrtf(jtj[(b, b)]);
-            // A parameter with no sensitivity at all keeps a zero row: eigenvalue 0 below.
-            scaled[(a, b)] = if da > 0.0 && db > 0.0 {
-                jtj[(a, b)] / (da * db)
-            } else {
-                0.0
-            };
-        }
-    }
-    let identifiability = nalgebra::SymmetricEigen::new(scaled).eigenvalues.min();
-    if identifiability.is_nan() || identifiability < MIN_IDENTIFIABILITY {
+    let k0 = T::one() / r;
+    let z = T::zero();
+    let p0 = SVector::<T, 9>::from([c[0], c[1], c[2], k0, z, z, k0, z, k0]);
+    let mask: [bool; 9] = core::array::from_fn(|i| cfg.model.free(i));
+    let problem = Poses { frame, poses };
+    let settings = LmSettings::multipos(cfg.max_iterations);
+    let sol = lm::minimize(&problem, p0, &mask, weights, &settings)?;
+    let p = sol.params;
+    let identifiability = identifiability(&problem, &p, weights, &mask);
+    #[allow(clippy::eq_op)] // `x != x`: NaN test.
+    if identifiability != identifiability || identifiability < lit(MIN_IDENTIFIABILITY as f64) {
         return Err(Error::DegenerateGeometry);
     }
+    Ok(finish(
+        &problem,
+        &p,
+        weights,
+        cfg,
+        sol.iterations,
+        identifiability,
+    ))
+}
 
-    // Residual statistics and the map back to raw units: K = K'/(scale·g), b = c + scale·b'.
-    let mut sum_w = 0.0f32;
-    let mut sum_wr2 = 0.0f32;
-    let mut max_abs = 0.0f32;
-    for (i, m) in poses.iter().enumerate() {
-        let (r, _) = residual_and_jacobian(&p, &frame.apply(m));
-        let w = w_of(i);
-        sum_w += w;
-        sum_wr2 += w * r * r;
-        if w > 0.0 {
-            max_abs = max_abs.max(libm::fabsf(r));
+/// Smallest eigenvalue of the unit-diagonal normal matrix of the free parameters at `p`.
+fn identifiability<T: RealField + Copy>(
+    problem: &Poses<'_, T>,
+    p: &SVector<T, 9>,
+    weights: Option<&[T]>,
+    mask: &[bool; 9],
+) -> T {
+    let (jtj, _) = lm::normal_equations(problem, p, weights);
+    let mut scaled = SMatrix::<T, 9, 9>::identity();
+    for a in (0..9).filter(|i| mask[*i]) {
+        for b in (0..9).filter(|i| mask[*i]) {
+            let da = jtj[(a, a)].sqrt();
+            let db = jtj[(b, b)].sqrt();
+            // A parameter with no sensitivity at all keeps a zero row: eigenvalue 0 below.
+            scaled[(a, b)] = if da > T::zero() && db > T::zero() {
+                jtj[(a, b)] / (da * db)
+            } else {
+                T::zero()
+            };
         }
     }
+    nalgebra::SymmetricEigen::new(scaled).eigenvalues.min()
+}
+
+/// Residual statistics and the map back to raw units: K = K'/(scale·g), b = c + scale·b'.
+fn finish<T: RealField + Copy>(
+    problem: &Poses<'_, T>,
+    p: &SVector<T, 9>,
+    weights: Option<&[T]>,
+    cfg: &MultiPosSettings<T>,
+    iterations: u32,
+    identifiability: T,
+) -> GenericFit<T> {
+    let mut sum_w = T::zero();
+    let mut sum_wr2 = T::zero();
+    let mut max_abs = T::zero();
+    for (i, m) in problem.poses.iter().enumerate() {
+        let (r, _) = residual_and_gradient(p, &problem.frame.apply(m));
+        let w = weights.map_or(T::one(), |w| w[i]);
+        sum_w += w;
+        sum_wr2 += w * r * r;
+        if w > T::zero() {
+            max_abs = max_abs.max(r.abs());
+        }
+    }
+    let frame = &problem.frame;
     let g = cfg.reference_magnitude;
     let ks = g / frame.scale;
-    let calibration = Calibration {
+    let z = T::zero();
+    GenericFit {
         bias: [
             frame.centre[0] + frame.scale * p[0],
             frame.centre[1] + frame.scale * p[1],
@@ -396,21 +440,14 @@ pub fn fit_weighted(
         ],
         matrix: [
             [p[3] * ks, p[4] * ks, p[5] * ks],
-            [0.0, p[6] * ks, p[7] * ks],
-            [0.0, 0.0, p[8] * ks],
+            [z, p[6] * ks, p[7] * ks],
+            [z, z, p[8] * ks],
         ],
-        effects: Default::default(),
-    };
-    if !calibration.matrix.iter().all(|r| crate::all_finite(r)) || calibration.validate().is_err() {
-        return Err(Error::Singular);
-    }
-    Ok(MultiPosFit {
-        calibration,
-        rms: g * libm::sqrtf(sum_wr2 / sum_w),
+        rms: g * (sum_wr2 / sum_w).sqrt(),
         max_abs_residual: g * max_abs,
         iterations,
         identifiability,
-    })
+    }
 }
 
 /// Residual `‖a‖ − g` of a corrected pose mean, in reference units.

@@ -1,0 +1,329 @@
+#!/usr/bin/env node
+// Scenarios for the real RP2040 firmware in rp2040js (see README.md and firmware/README.md).
+// usage: node run.js --elf FIRMWARE.elf --wiical target/debug/wiical --expect XTASK [NAME…]
+// Prints one `ok|FAIL <name>: <detail>` line per scenario, measurements, and a closing
+// `N passed, M failed`; exits non-zero when a scenario failed.
+
+import { readFileSync, writeFileSync, mkdtempSync, rmSync } from 'node:fs';
+import { tmpdir } from 'node:os';
+import { join } from 'node:path';
+import { spawnSync } from 'node:child_process';
+import { Rig } from './src/rig.js';
+import { decodeReport, calibrationBlock } from './src/nunchuk.js';
+
+const args = process.argv.slice(2);
+function option(name) {
+  const i = args.indexOf(name);
+  if (i < 0 || i + 1 >= args.length) throw new Error(`missing ${name}`);
+  const v = args[i + 1];
+  args.splice(i, 2);
+  return v;
+}
+const elfBytes = readFileSync(option('--elf'));
+const wiical = option('--wiical');
+const expectBin = option('--expect');
+const only = args;
+const work = mkdtempSync(join(tmpdir(), 'wiical-emu-'));
+const link = join(work, 'ttyACM0');
+
+/** Two user calibrations (as `wiical fit --out` writes them): bias in counts, K in g/count. */
+const CAL_A = {
+  bias: [509.5, 515.25, 521.0],
+  matrix: [[1 / 203, -0.00006, 0.00002], [0.00003, 1 / 199, 0], [0.00005, 0, 1 / 205]],
+};
+const CAL_B = {
+  bias: [507.0, 517.5, 519.0],
+  matrix: [[1 / 206, 0, 0], [0, 1 / 201, 0.00004], [0, -0.00003, 1 / 202]],
+};
+function writeCal(name, cal) {
+  const path = join(work, `${name}.json`);
+  writeFileSync(path, JSON.stringify(cal));
+  return path;
+}
+const calA = writeCal('a', CAL_A);
+const calB = writeCal('b', CAL_B);
+
+/** Expected Wii Remote counts for raw triples, from the core (xtask emulate-correct). */
+function expectedCounts(calPath, raws) {
+  const input = raws.map((r) => r.join(' ')).join('\n') + '\n';
+  const r = spawnSync(expectBin, ['emulate-correct', calPath], { input, encoding: 'utf8' });
+  if (r.status !== 0) throw new Error(`emulate-correct failed: ${r.stderr}`);
+  return r.stdout.trim().split('\n').map((l) => l.split(' ').map(Number));
+}
+
+const ID = [0x00, 0x00, 0xa4, 0x20, 0x00, 0x00];
+const IDEAL_BLOCK = calibrationBlock([512, 512, 512], [712, 712, 712], [0xe0, 0x20, 0x80], [0xe0, 0x20, 0x80]);
+
+/**
+ * Checks the reports the Wii Remote read after handshake `fromHandshake` against the Nunchuk's
+ * raw reports: each must equal `transform(raw)` (accel), with stick and buttons unchanged, for
+ * one of the last three raw reports the adapter polled before the read. Returns a detail
+ * string on failure, null when all match.
+ */
+function checkReports(rig, fromHandshake, transform, minReports = 40) {
+  const reports = rig.remote.reports.filter((r) => r.handshake >= fromHandshake);
+  if (reports.length < minReports) return `only ${reports.length} reports read by the Wii Remote`;
+  const served = rig.nunchuk.served;
+  const poses = new Set();
+  let bad = 0;
+  let firstBad = null;
+  for (const rep of reports) {
+    const got = decodeReport(rep.bytes);
+    let idx = served.findIndex((s) => s.tNs > rep.tNs) - 1;
+    if (idx < -1) idx = served.length - 1;
+    const candidates = served.slice(Math.max(0, idx - 2), idx + 1);
+    const hit = candidates.find((s) => {
+      const want = transform(s.raw.accel);
+      return want.every((v, i) => v === got.accel[i]) && s.raw.stick[0] === got.stick[0] &&
+        s.raw.stick[1] === got.stick[1] && s.raw.c === got.c && s.raw.z === got.z;
+    });
+    if (hit) poses.add(hit.raw.pose);
+    else {
+      bad += 1;
+      if (!firstBad) firstBad = { got, want: candidates.map((s) => transform(s.raw.accel)) };
+    }
+  }
+  if (bad) return `${bad}/${reports.length} reports differ, first: got ${JSON.stringify(firstBad.got.accel)} want one of ${JSON.stringify(firstBad.want)}`;
+  if (poses.size < 4) return `the reports cover only ${poses.size} poses`;
+  return null;
+}
+
+/** Batch-fills the memo of `correction` for all raws served so far (one helper call). */
+function prefill(fn, calPath, rig) {
+  const raws = [...new Set(rig.nunchuk.served.map((s) => s.raw.accel.join(' ')))].map((k) => k.split(' ').map(Number));
+  const out = expectedCounts(calPath, raws);
+  raws.forEach((r, i) => fn.memoSet?.(r, out[i]));
+}
+function correctionBatch(calPath) {
+  const memo = new Map();
+  const fn = (raw) => {
+    const key = raw.join(' ');
+    if (!memo.has(key)) memo.set(key, expectedCounts(calPath, [raw])[0]);
+    return memo.get(key);
+  };
+  fn.memoSet = (raw, v) => memo.set(raw.join(' '), v);
+  return fn;
+}
+
+const sameBytes = (a, b) => a.length === b.length && a.every((v, i) => v === b[i]);
+const f32eq = (a, b) => Math.fround(a) === Math.fround(b);
+function sameCal(live, cal) {
+  return live && cal.bias.every((v, i) => f32eq(v, live.bias[i])) &&
+    cal.matrix.every((row, i) => row.every((v, j) => f32eq(v, live.matrix[i][j])));
+}
+async function getState(rig) {
+  const r = await rig.wiical(['get', '--json']);
+  if (r.code !== 0) return { error: `wiical device get: exit ${r.code}: ${r.stderr.trim()}` };
+  return JSON.parse(r.stdout);
+}
+function newRig(flashImage = null, options = {}) {
+  return new Rig({ elfBytes, flashImage, wiical, link, ...options });
+}
+async function putCommit(rig, calPath, extra = []) {
+  const put = await rig.wiical(['put', calPath, ...extra]);
+  if (put.code !== 0) return `wiical device put: exit ${put.code}: ${put.stderr.trim()}`;
+  const commit = await rig.wiical(['commit', ...extra]);
+  if (commit.code !== 0) return `wiical device commit: exit ${commit.code}: ${commit.stderr.trim()}`;
+  return null;
+}
+
+/** A scenario's failure (a success is the plain detail string). */
+const fail = (message) => ({ fail: message });
+const measurements = {};
+const shared = {}; // images handed from one scenario to the next
+
+const scenarios = [
+  ['boot-passthrough', async () => {
+    const rig = newRig();
+    await rig.board.runUntilTrue(() => rig.remote.reports.length > 0, 2000);
+    if (rig.board.fault) return fail(`firmware fault: ${rig.board.fault}`);
+    if (rig.nunchuk.inits < 1) return fail('the firmware never initialised the Nunchuk');
+    const hs = rig.remote.handshakes[0];
+    if (!hs) return fail(`no Wii Remote handshake (bus errors: ${JSON.stringify(rig.remote.errors.slice(0, 3))})`);
+    if (!sameBytes(hs.id, ID)) return fail(`identifier ${hs.id} is not a Nunchuk's`);
+    if (!sameBytes(hs.block, rig.nunchuk.block)) return fail(`pass-through block ${hs.block} differs from the Nunchuk's ${rig.nunchuk.block}`);
+    measurements.bootToFirstReportNs = rig.remote.reports[0].tNs;
+    await rig.board.run(600);
+    const err = checkReports(rig, 1, (a) => a);
+    collectTiming(rig);
+    rig.close();
+    return err ? fail(err) : `${rig.remote.reports.length} reports equal the raw Nunchuk reports (pass-through)`;
+  }],
+  ['commit-live', async () => {
+    const rig = newRig();
+    await rig.board.runUntilTrue(() => rig.remote.handshakes.length > 0, 2000);
+    const info = await rig.wiical(['info']);
+    if (info.code !== 0) return fail(`wiical device info: exit ${info.code}: ${info.stderr.trim()}`);
+    const e = await putCommit(rig, calA);
+    if (e) return fail(e);
+    const before = rig.remote.handshakes.length;
+    const ok = await rig.board.runUntilTrue(() => rig.remote.handshakes.length > before, 1000);
+    if (!ok) return fail('the Wii Remote did not re-read the extension after the commit (detect did not toggle)');
+    const hs = rig.remote.handshakes[rig.remote.handshakes.length - 1];
+    if (!sameBytes(hs.block, IDEAL_BLOCK)) return fail(`calibrated block ${hs.block} is not the ideal one ${IDEAL_BLOCK}`);
+    await rig.board.run(600);
+    const fn = correctionBatch(calA);
+    prefill(fn, calA, rig);
+    const err = checkReports(rig, rig.remote.handshakes.length, fn);
+    const state = await getState(rig);
+    if (state.error) return fail(state.error);
+    if (!state.stored || !sameCal(state.live, CAL_A)) return fail('wiical device get does not show the committed calibration as stored and live');
+    shared.committedA = rig.board.flashImage();
+    rig.close();
+    return err ? fail(err) : 'put + commit: detect toggled, block re-read, reports equal the core\'s correction';
+  }],
+  ['power-cycle', async () => {
+    if (!shared.committedA) return fail('needs commit-live');
+    const rig = newRig(shared.committedA);
+    await rig.board.runUntilTrue(() => rig.remote.reports.length > 0, 2000);
+    if (!rig.remote.handshakes.length) return fail('no handshake after the power cycle');
+    if (!sameBytes(rig.remote.handshakes[0].block, IDEAL_BLOCK)) return fail('after the power cycle the block is not the calibrated one');
+    await rig.board.run(500);
+    const fn = correctionBatch(calA);
+    prefill(fn, calA, rig);
+    const err = checkReports(rig, 1, fn);
+    const state = await getState(rig);
+    rig.close();
+    if (state.error) return fail(state.error);
+    if (!state.stored || !sameCal(state.live, CAL_A)) return fail('the committed calibration is not live after the power cycle');
+    return err ? fail(err) : 'new emulator on the same flash: calibration still live, reports corrected';
+  }],
+  ['power-cut-commit', async () => {
+    if (!shared.committedA) return fail('needs commit-live');
+    // Count the flash steps of a complete commit of B over A.
+    const probe = newRig(shared.committedA);
+    await probe.board.run(300);
+    const e = await putCommit(probe, calB);
+    if (e) return fail(`uninterrupted commit: ${e}`);
+    const steps = probe.board.flashSteps.length;
+    probe.close();
+    if (!steps) return fail('the commit wrote nothing to flash');
+    const outcomes = { old: 0, new: 0 };
+    for (let k = 0; k < steps; k++) {
+      const rig = newRig(shared.committedA);
+      await rig.board.run(300);
+      rig.board.onFlashStep = (_step, index) => index === k;
+      await rig.wiical(['put', calB]);
+      await rig.wiical(['commit', '--timeout-ms', '3000', '--retries', '0']);
+      rig.close();
+      if (!rig.board.powerCut) return fail(`step ${k}: the commit finished without reaching flash step ${k}`);
+      const after = newRig(rig.board.flashImage());
+      await after.board.run(300);
+      const state = await getState(after);
+      after.close();
+      if (state.error) return fail(`cut before step ${k}: ${state.error}`);
+      if (after.board.fault) return fail(`cut before step ${k}: firmware fault ${after.board.fault}`);
+      if (state.stored && sameCal(state.live, CAL_A)) outcomes.old += 1;
+      else if (state.stored && sameCal(state.live, CAL_B)) outcomes.new += 1;
+      else return fail(`cut before flash step ${k}: the live calibration is neither the old nor the new one`);
+    }
+    return `${steps} cuts (one before each erase/program step): ${outcomes.old} old, ${outcomes.new} new, 0 corrupt`;
+  }],
+  ['nunchuk-replug', async () => {
+    const rig = newRig();
+    await rig.board.runUntilTrue(() => rig.remote.reports.length > 20, 2000);
+    const inits = rig.nunchuk.inits;
+    rig.nunchuk.setPlugged(false);
+    const dropped = await rig.board.runUntilTrue(() => !rig.remote.detect, 500);
+    if (!dropped) return fail('extension detect stayed high after the Nunchuk was unplugged');
+    await rig.board.run(300);
+    const hs = rig.remote.handshakes.length;
+    rig.nunchuk.setPlugged(true);
+    const back = await rig.board.runUntilTrue(() => rig.remote.handshakes.length > hs, 3000);
+    if (!back) return fail('the Wii Remote did not see the Nunchuk again after the replug');
+    if (rig.nunchuk.inits <= inits) return fail('the firmware did not re-initialise the Nunchuk');
+    await rig.board.run(400);
+    const err = checkReports(rig, hs + 1, (a) => a);
+    rig.close();
+    return err ? fail(err) : 'unplug: detect dropped; replug: re-initialised, handshake, reports pass through again';
+  }],
+  ['usb-garbage-disconnect', async () => {
+    const rig = newRig();
+    await rig.board.runUntilTrue(() => rig.remote.reports.length > 5, 2000);
+    let lines = 0;
+    let injected = false;
+    let reset = false;
+    const stream = await rig.wiical(['stream', '--count', '2000', '--timeout-ms', '500'], {
+      onStdout: (text) => {
+        lines += (text.match(/\n/g) || []).length;
+        if (lines > 40 && !injected) {
+          injected = true;
+          const junk = Array.from({ length: 300 }, (_, i) => (i * 73 + 11) & 0xff);
+          rig.usb.write(junk);
+          rig.linesAtGarbage = lines;
+        }
+        if (lines > rig.linesAtGarbage + 60 && !reset && injected) {
+          reset = true;
+          rig.usb.busReset();
+        }
+      },
+    });
+    if (!injected) return fail(`stream gave only ${lines} lines (exit ${stream.code}: ${stream.stderr.trim()})`);
+    if (!reset) return fail(`stream stopped after the garbage: ${lines} lines (exit ${stream.code}: ${stream.stderr.trim()})`);
+    const gapNs = maxGap(rig.remote.reports.map((r) => r.tNs));
+    if (rig.remote.reports.length < 100) return fail(`the Wii Remote read only ${rig.remote.reports.length} reports meanwhile`);
+    await rig.board.runUntilTrue(() => rig.usb.configured, 1000);
+    const info = await rig.wiical(['info']);
+    rig.close();
+    if (rig.board.fault) return fail(`firmware fault: ${rig.board.fault}`);
+    if (info.code !== 0) return fail(`after the disconnect wiical device info fails: ${info.stderr.trim()}`);
+    if (gapNs > 50e6) return fail(`the Wii Remote went ${(gapNs / 1e6).toFixed(1)} ms without a report`);
+    return `stream survived 300 garbage bytes, then a bus reset; re-enumerated, info works, Wii Remote never starved (max gap ${(gapNs / 1e6).toFixed(1)} ms)`;
+  }],
+];
+
+function maxGap(times) {
+  let gap = 0;
+  for (let i = 1; i < times.length; i++) gap = Math.max(gap, times[i] - times[i - 1]);
+  return gap;
+}
+
+function collectTiming(rig) {
+  measurements.stretchNs = rig.remote.readStretchNs.slice();
+  const t = rig.nunchuk.pollTimes;
+  const d = [];
+  for (let i = 1; i < t.length; i++) d.push(t[i] - t[i - 1]);
+  measurements.pollPeriodsNs = d;
+}
+
+function stats(xs) {
+  const s = xs.slice().sort((a, b) => a - b);
+  const mean = s.reduce((a, b) => a + b, 0) / s.length;
+  const sd = Math.sqrt(s.reduce((a, b) => a + (b - mean) ** 2, 0) / s.length);
+  return { n: s.length, min: s[0], median: s[s.length >> 1], max: s[s.length - 1], mean, sd };
+}
+
+let passed = 0;
+let failed = 0;
+const NS_PER_CYCLE = 8; // 125 MHz
+for (const [name, fn] of scenarios) {
+  if (only.length && !only.includes(name)) continue;
+  const t0 = Date.now();
+  let detail;
+  let ok = false;
+  try {
+    const r = await fn();
+    ok = typeof r === 'string';
+    detail = ok ? r : r.fail;
+  } catch (e) {
+    detail = `exception: ${e.stack || e}`;
+  }
+  if (ok) passed += 1;
+  else failed += 1;
+  console.log(`${ok ? 'ok  ' : 'FAIL'} ${name}: ${detail} (${((Date.now() - t0) / 1000).toFixed(1)} s)`);
+}
+if (measurements.stretchNs?.length) {
+  const s = stats(measurements.stretchNs.map((ns) => ns / NS_PER_CYCLE));
+  console.log(`measure clock stretch, report read address match -> first byte in TX FIFO: median ${s.median.toFixed(0)} cycles (${(s.median * NS_PER_CYCLE / 1000).toFixed(1)} us), min ${s.min.toFixed(0)}, max ${s.max.toFixed(0)}, n=${s.n}`);
+}
+if (measurements.pollPeriodsNs?.length) {
+  const s = stats(measurements.pollPeriodsNs.map((ns) => ns / 1000));
+  console.log(`measure Nunchuk poll period: mean ${s.mean.toFixed(1)} us, sd ${s.sd.toFixed(2)} us, min ${s.min.toFixed(1)}, max ${s.max.toFixed(1)} us (jitter ${(s.max - s.min).toFixed(1)} us), n=${s.n}`);
+}
+if (measurements.bootToFirstReportNs) {
+  const ns = measurements.bootToFirstReportNs;
+  console.log(`measure boot to first report served to the Wii Remote: ${(ns / 1e6).toFixed(2)} ms = ${(ns / NS_PER_CYCLE).toFixed(0)} cycles (includes the Wii Remote's 20 ms detect debounce)`);
+}
+rmSync(work, { recursive: true, force: true });
+console.log(`${passed} passed, ${failed} failed`);
+process.exit(failed ? 1 : 0);

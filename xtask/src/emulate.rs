@@ -1,0 +1,104 @@
+//! `cargo xtask emulate`: runs the real RP2040 firmware binary in rp2040js (`emulator/`, a
+//! Node.js harness) with a simulated Nunchuk, Wii Remote and USB host, and the real `wiical`
+//! CLI on a pseudo-terminal; and `emulate-correct`, the independent expectation the harness
+//! compares the Wii Remote's reports with.
+
+use std::io::{BufRead, Write};
+use std::path::Path;
+use std::process::Command;
+
+use wiical_core::Calibration;
+
+use crate::{cargo, root, run, Chip, Result};
+
+/// Ideal scale the adapter re-encodes corrected samples on (firmware/README.md, crates/adapter
+/// `IdealScale::default`): 0 g = 512 counts, 200 counts per g, saturated to 10 bits.
+const IDEAL_ZERO: f64 = 512.0;
+const IDEAL_COUNTS_PER_G: f64 = 200.0;
+
+/// Reads a calibration (the JSON `wiical fit --out` writes) and, for each stdin line of three
+/// raw counts, prints the counts a Wii Remote must read from a calibrated adapter: the core's
+/// correction `K·(m − b)` (g), re-encoded on the ideal scale in f64 (round half away from zero,
+/// clamp to 0..=1023). Uses the core only, not the adapter crate the firmware runs.
+pub fn correct(args: &[String]) -> Result<bool> {
+    let [path] = args else {
+        return Err("usage: cargo xtask emulate-correct CAL.json < raw-counts".into());
+    };
+    let text = std::fs::read_to_string(path).map_err(|e| format!("cannot read {path}: {e}"))?;
+    let cal: Calibration =
+        serde_json::from_str(&text).map_err(|e| format!("{path}: not a calibration: {e}"))?;
+    cal.validate()
+        .map_err(|e| format!("{path}: invalid calibration: {e:?}"))?;
+    let stdin = std::io::stdin();
+    let mut out = std::io::stdout().lock();
+    for line in stdin.lock().lines() {
+        let line = line.map_err(|e| e.to_string())?;
+        let raw: Vec<f32> = line
+            .split_whitespace()
+            .map(|t| t.parse::<u16>().map(f32::from))
+            .collect::<std::result::Result<_, _>>()
+            .map_err(|e| format!("bad raw counts `{line}`: {e}"))?;
+        let [x, y, z] = raw[..] else {
+            return Err(format!("expected three raw counts, got `{line}`"));
+        };
+        let g = cal.correct_linear([x, y, z]);
+        let counts = g.map(|a| {
+            let c = (IDEAL_ZERO + f64::from(a) * IDEAL_COUNTS_PER_G).round();
+            c.clamp(0.0, 1023.0) as u16
+        });
+        writeln!(out, "{} {} {}", counts[0], counts[1], counts[2]).map_err(|e| e.to_string())?;
+    }
+    Ok(true)
+}
+
+fn have(program: &str, arg: &str) -> bool {
+    Command::new(program)
+        .arg(arg)
+        .output()
+        .is_ok_and(|o| o.status.success())
+}
+
+/// Builds the firmware (RP2040) and the host CLI, installs the harness's npm packages from
+/// the lockfile if missing, and runs the scenarios. The harness prints one line per scenario
+/// and a closing `N passed, M failed`.
+pub fn emulate(args: &[String]) -> Result<bool> {
+    for (program, package) in [("node", "nodejs"), ("npm", "npm"), ("socat", "socat")] {
+        if !have(program, "--version") && !have(program, "-V") {
+            return Err(format!(
+                "{program} is missing: run scripts/setup (apt-get install {package})"
+            ));
+        }
+    }
+    let root = root();
+    let emulator = root.join("emulator");
+    if !emulator.join("node_modules").join("rp2040js").exists() {
+        run(Command::new("npm")
+            .current_dir(&emulator)
+            .args(["ci", "--no-audit", "--no-fund"]))?;
+    }
+    if !crate::firmware(Chip::Rp2040)? {
+        return Err("the RP2040 firmware is over its budget".into());
+    }
+    run(Command::new(cargo())
+        .current_dir(&root)
+        .args(["build", "--locked", "-p", "wiical"]))?;
+    let elf = root
+        .join("firmware/target")
+        .join(Chip::Rp2040.target())
+        .join("release/wiical-firmware");
+    let wiical = root.join("target/debug/wiical");
+    let me = std::env::current_exe().map_err(|e| e.to_string())?;
+    let status = Command::new("node")
+        .current_dir(&emulator)
+        .arg(Path::new("run.js"))
+        .arg("--elf")
+        .arg(&elf)
+        .arg("--wiical")
+        .arg(&wiical)
+        .arg("--expect")
+        .arg(&me)
+        .args(args)
+        .status()
+        .map_err(|e| format!("cannot run node: {e}"))?;
+    Ok(status.success())
+}
