@@ -1,18 +1,14 @@
-//! Library side of the `wiical` CLI: every subcommand's logic lives in a module here so that
-//! tests can call it directly; `main.rs` only parses arguments and prints.
-pub mod analyze;
-pub mod analyze_model;
-pub mod analyze_plot;
-pub mod analyze_six;
-pub mod analyze_stats;
+//! The `wiical` command line, as a library so that tests can call each command directly:
+//! `cmd` (one module per subcommand: arguments → engine → rendering), `render` (tables and
+//! plots), `cli_error` (engine errors told with flag names). The analysis itself is the
+//! `wiical-analysis` crate; the adapter client is [`client`]. `main.rs` only parses and
+//! dispatches.
 pub mod capture;
+pub mod cli_error;
+pub mod client;
+pub mod cmd;
 pub mod decode_cal;
-pub mod device;
 #[cfg(unix)]
 pub mod device_sim;
-pub mod fit_cmd;
-pub mod input;
 pub mod kalman_demo;
-pub mod magfit_cmd;
-pub mod simulate;
-pub mod six_position_cmd;
+pub mod render;

@@ -20,8 +20,8 @@ use wiical::capture::replay::{
     report_0x35, status_report, EndOfScript, ReadRequest, ReplayWiimote,
 };
 use wiical::capture::{capture, CaptureMode, CaptureOptions, CollectUi};
-use wiical::fit_cmd::{self, FitOptions};
-use wiical::input::{self, LoadOptions};
+use wiical_analysis::fit::{self as fit_cmd, FitOptions};
+use wiical_analysis::load::{self as input, LoadOptions};
 use wiical_extbus::NunchukReport;
 
 // ---------------------------------------------------------------------------------------------
@@ -289,8 +289,9 @@ fn replay_session_decodes_the_real_calibrations_and_writes_a_loadable_csv() {
     let t = rec.t.as_ref().unwrap();
     assert!((t[0]).abs() < 1e-9 && (t[200] - 2.0).abs() < 1e-6);
     // Still with +Z up: x ≈ bias, z ≈ bias + sens; Y and Z are even (9 significant bits).
-    let mean =
-        |k: usize, r: &input::Recording| r.xyz.iter().map(|s| s[k]).sum::<f64>() / r.len() as f64;
+    let mean = |k: usize, r: &wiical_analysis::Recording| {
+        r.xyz.iter().map(|s| s[k]).sum::<f64>() / r.len() as f64
+    };
     assert!((mean(0, &rec) - REMOTE.bias[0]).abs() < 0.5);
     assert!((mean(2, &rec) - (REMOTE.bias[2] + REMOTE.sens[2])).abs() < 1.0);
     assert!(rec

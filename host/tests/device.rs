@@ -3,14 +3,16 @@
 //! (`wiical-adapter`) with a simulated Nunchuk and flash. Unix only (pseudo-terminals).
 #![cfg(unix)]
 
-use wiical::{device, device_sim};
+use wiical::cmd::device;
+use wiical::{client, device_sim};
 
 use std::path::PathBuf;
 use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
 use clap::Parser;
-use device::{ClientOptions, Device, DeviceAction, DeviceArgs};
+use client::{ClientOptions, Device};
+use device::{DeviceAction, DeviceArgs};
 use device_sim::{spawn, SimArgs, SimFlash, SimOptions, TRUE_BIAS, TRUE_D};
 use nalgebra::{Matrix3, Vector3};
 use serialport::SerialPort;

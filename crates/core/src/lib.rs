@@ -35,6 +35,7 @@
 //! | [`gyro_zero`] | zero-rate (bias) tracker that re-zeroes whenever the sensor is still |
 //! | [`static_detect`] | static-interval detection on a stream |
 //! | [`lm`] | Levenberg–Marquardt generic over the float type (`f32` device, `f64` analysis), standard errors, leverage, leave-one-out |
+//! | [`quality`] | the one acceptance predicate (plausibility limits) and the pose-coverage rule |
 //! | [`linalg`] | small helpers (Cholesky solves of normal equations) |
 #![no_std]
 #![deny(unsafe_code)]
@@ -51,6 +52,7 @@ pub mod magfit;
 pub mod model;
 pub mod multipos;
 pub mod offset;
+pub mod quality;
 pub mod six_position;
 pub mod static_detect;
 pub mod stats;

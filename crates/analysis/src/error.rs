@@ -1,0 +1,367 @@
+//! The analysis engine's error type.
+//!
+//! Messages describe the data and the settings by meaning ("the shortest static duration"),
+//! never by a command-line flag: a program using this crate has no flags. The `wiical` CLI
+//! matches the variants that concern a setting and names its own flag instead.
+
+use std::path::PathBuf;
+use wiical_core::six_position::Pose;
+
+/// Everything that can go wrong between a file and a report.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum Error {
+    // ---- reading files ----
+    /// The file could not be read.
+    #[error("cannot read {}", path.display())]
+    Read {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        #[source]
+        source: std::io::Error,
+    },
+    /// A file could not be written.
+    #[error("cannot write {}", path.display())]
+    Write {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        #[source]
+        source: std::io::Error,
+    },
+    /// The file is not UTF-8 text.
+    #[error("{} is not UTF-8 text", path.display())]
+    NotUtf8 {
+        /// The file.
+        path: PathBuf,
+    },
+    /// An error inside a file's contents.
+    #[error("in {}", path.display())]
+    InFile {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong in it.
+        #[source]
+        source: Box<Error>,
+    },
+
+    // ---- parsing recordings ----
+    /// No data lines at all.
+    #[error("file is empty (no data lines)")]
+    Empty,
+    /// Explicit axis columns were asked for, but the file has no header to name them.
+    #[error("choosing the axis columns needs a CSV file with a header; this file has no header")]
+    ColumnsNeedHeader,
+    /// A field is not a number.
+    #[error("line {line}: column '{column}': '{text}' is not a number")]
+    NotANumber {
+        /// 1-based line.
+        line: usize,
+        /// Column name.
+        column: String,
+        /// The field.
+        text: String,
+    },
+    /// A field is NaN or infinite.
+    #[error("line {line}: column '{column}': value '{text}' is not finite")]
+    NotFinite {
+        /// 1-based line.
+        line: usize,
+        /// Column name.
+        column: String,
+        /// The field.
+        text: String,
+    },
+    /// A header-less line has a different number of columns from the first one.
+    #[error("line {line}: expected {expected} columns like the first data line, found {found}")]
+    RaggedLine {
+        /// 1-based line.
+        line: usize,
+        /// Columns of the first data line.
+        expected: usize,
+        /// Columns of this one.
+        found: usize,
+    },
+    /// A header-less file with a column count that has no meaning.
+    #[error("line {line}: {found} columns without a header; expected 3 (x y z), 4 (t x y z) or 5 (t x y z temp)")]
+    HeaderlessColumns {
+        /// 1-based line.
+        line: usize,
+        /// Columns found.
+        found: usize,
+    },
+    /// Only comments.
+    #[error("file has no data rows")]
+    NoDataRows,
+    /// The CSV reader failed.
+    #[error("malformed CSV")]
+    MalformedCsv(#[source] csv::Error),
+    /// Numbers before any header in a CSV file.
+    #[error("line {line}: data before any header; a CSV file needs a header naming its columns (e.g. t,x,y,z)")]
+    DataBeforeHeader {
+        /// 1-based line.
+        line: usize,
+    },
+    /// `Fs,0` or negative.
+    #[error("line {line}: sample rate must be positive, got {value}")]
+    BadSampleRate {
+        /// 1-based line.
+        line: usize,
+        /// The rate given.
+        value: f64,
+    },
+    /// A CSV row with a different number of fields from the header.
+    #[error("line {line}: expected {expected} fields like the header, found {found}")]
+    RaggedRow {
+        /// 1-based line.
+        line: usize,
+        /// Header fields.
+        expected: usize,
+        /// Fields of this row.
+        found: usize,
+    },
+    /// Metadata only.
+    #[error("no header line found")]
+    NoHeader,
+    /// A header and nothing else.
+    #[error("file has a header but no data rows")]
+    HeaderOnly,
+    /// The same column name twice.
+    #[error("column '{name}' appears twice in the header")]
+    DuplicateColumn {
+        /// The name.
+        name: String,
+    },
+    /// A requested column is not in the header.
+    #[error("column '{name}' not found; the header has: {header}")]
+    ColumnNotFound {
+        /// The requested name.
+        name: String,
+        /// The header, comma-separated.
+        header: String,
+    },
+    /// No recognisable axis columns.
+    #[error("no x/y/z columns recognised in the header ({header}); name them x,y,z (or ax,ay,az / mx,my,mz / gx,gy,gz), or choose the axis columns explicitly")]
+    NoAxisColumns {
+        /// The header, comma-separated.
+        header: String,
+    },
+
+    // ---- settings ----
+    /// A setting out of its range.
+    #[error("{0}")]
+    InvalidSetting(&'static str),
+    /// Explicit axis columns must be exactly three.
+    #[error("exactly three axis column names are needed (x,y,z), got {}: {}", .0.len(), .0.join(","))]
+    ColumnsNotThree(Vec<String>),
+    /// An unknown candidate effect name.
+    #[error("unknown candidate effect '{name}'; known: {known}")]
+    UnknownCandidate {
+        /// The name given.
+        name: String,
+        /// The known names, comma-separated.
+        known: String,
+    },
+
+    // ---- detection and fitting ----
+    /// Neither a time column, metadata nor a default rate.
+    #[error("cannot determine the sample rate")]
+    NoSampleRate,
+    /// The variance window does not fit the detector's ring.
+    #[error(
+        "window of {samples} samples exceeds the maximum {max}; use a shorter variance window"
+    )]
+    WindowTooLong {
+        /// Window in samples.
+        samples: usize,
+        /// The detector's capacity.
+        max: usize,
+    },
+    /// Shorter than the initial rest period.
+    #[error("recording too short: {samples} samples, the initial rest period alone needs {needed} ({init_s} s at {rate_hz} Hz)")]
+    TooShort {
+        /// Samples in the recording.
+        samples: usize,
+        /// Samples the rest period needs.
+        needed: u32,
+        /// Rest period, s.
+        init_s: f64,
+        /// Sample rate, Hz.
+        rate_hz: f64,
+    },
+    /// The core refused the detector settings.
+    #[error("static detector settings: {0}")]
+    DetectorSettings(wiical_core::Error),
+    /// The detector refused a sample.
+    #[error("sample {index}: {cause}")]
+    Sample {
+        /// 1-based sample.
+        index: usize,
+        /// Why.
+        cause: wiical_core::Error,
+    },
+    /// A static window touches the ADC limits.
+    #[error("{}: static window {window} (samples {start}..{end}) has axis {axis} at the ADC limit ({value}) in sample {sample}: that pose is saturated and cannot be used; re-record it or give the ADC range explicitly", wiical_core::Error::Saturated)]
+    Saturated {
+        /// 1-based window.
+        window: usize,
+        /// First sample index.
+        start: u32,
+        /// One past the last.
+        end: u32,
+        /// `x`, `y` or `z`.
+        axis: &'static str,
+        /// The reading.
+        value: f64,
+        /// 1-based sample.
+        sample: usize,
+    },
+    /// Fewer static windows than the model has parameters.
+    #[error("found {found} static windows but the {model} needs at least {needed}: hold the sensor still in more orientations (or shorten the minimum static duration / raise the detection threshold)")]
+    TooFewWindows {
+        /// Windows found.
+        found: u32,
+        /// Windows needed.
+        needed: u32,
+        /// `9-parameter model`, `6-parameter model` or just `model`.
+        model: &'static str,
+    },
+    /// The poses lie in a plane or a line.
+    #[error("the {poses} static poses do not spread over enough orientations (e.g. all in one plane): turn the sensor so that each axis points up and down")]
+    DegeneratePoses {
+        /// Poses found.
+        poses: usize,
+    },
+    /// The core's multi-position fit failed otherwise.
+    #[error("multi-position fit failed: {0}")]
+    FitFailed(wiical_core::Error),
+    /// The f64 refinement could not be solved.
+    #[error("the f64 refinement of the base fit failed (degenerate poses)")]
+    RefinementFailed,
+    /// The final calibration does not validate.
+    #[error("the final calibration is not valid: {0}")]
+    InvalidCalibration(wiical_core::Error),
+    /// Refusing to write a calibration that does not validate.
+    #[error("refusing to write an invalid calibration: {0}")]
+    RefuseInvalidCalibration(wiical_core::Error),
+
+    // ---- six-position ----
+    /// No `pose` column.
+    #[error("the file needs a 'pose' column with labels x+ x- y+ y- z+ z-")]
+    NoPoseColumn,
+    /// A label that is not a pose.
+    #[error("row {row}: unknown pose label '{label}' (expected x+ x- y+ y- z+ z-)")]
+    UnknownPose {
+        /// 1-based row.
+        row: usize,
+        /// The label.
+        label: String,
+    },
+    /// A pose in two separate blocks.
+    #[error("{}: pose '{}' appears again at row {row} after other poses (first block starts at row {first})", wiical_core::Error::DuplicatePose, pose.label())]
+    DuplicatePose {
+        /// The pose.
+        pose: Pose,
+        /// 1-based row of the second block.
+        row: usize,
+        /// 1-based first row of the first block.
+        first: usize,
+    },
+    /// A pose without rows.
+    #[error("{}: no rows for pose '{}'", wiical_core::Error::MissingPose, .0.label())]
+    MissingPose(Pose),
+    /// The core refused a pose block.
+    #[error("{0}")]
+    PoseBlock(wiical_core::Error),
+    /// The ± poses coincide.
+    #[error("the ± poses do not differ enough to determine the scale (was the sensor turned between poses?)")]
+    PosesNotTurned,
+    /// The core's six-position solve failed otherwise.
+    #[error("six-position solve failed: {0}")]
+    SixPositionFailed(wiical_core::Error),
+    /// The f64 six-position solve is singular.
+    #[error("six-position solve is singular")]
+    SixPositionSingular,
+    /// `D` has no inverse.
+    #[error("D is singular")]
+    SingularD,
+
+    // ---- magnetometer ----
+    /// No points.
+    #[error("magfit: no samples to fit")]
+    NoMagSamples,
+    /// A point that is not a finite f32.
+    #[error("sample {index} ({x}, {y}, {z}) is not a finite f32 value")]
+    MagSampleNotF32 {
+        /// 1-based sample.
+        index: usize,
+        /// x.
+        x: f64,
+        /// y.
+        y: f64,
+        /// z.
+        z: f64,
+    },
+    /// The core's ellipsoid fit failed.
+    #[error("{context}")]
+    MagFit {
+        /// What was being done.
+        context: String,
+        /// The core's error.
+        #[source]
+        source: wiical_core::Error,
+    },
+
+    // ---- calibration files ----
+    /// Not a calibration JSON.
+    #[error("{} is not a calibration JSON", path.display())]
+    NotCalibrationJson {
+        /// The file.
+        path: PathBuf,
+        /// The parser's complaint.
+        #[source]
+        source: serde_json::Error,
+    },
+    /// A calibration file that does not validate.
+    #[error("{}: invalid calibration: {cause}", path.display())]
+    InvalidCalibrationFile {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        cause: wiical_core::Error,
+    },
+
+    // ---- internal consistency ----
+    /// A self-check failed: a bug, not bad input.
+    #[error("internal: {0}")]
+    Internal(String),
+    /// JSON (de)serialisation.
+    #[error(transparent)]
+    Json(#[from] serde_json::Error),
+}
+
+/// Result with the analysis [`enum@Error`].
+pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+impl Error {
+    /// The message with its causes, `outer: inner: …` (as the CLI prints it).
+    pub fn full_message(&self) -> String {
+        let mut s = self.to_string();
+        let mut cur: Option<&(dyn std::error::Error + 'static)> = std::error::Error::source(self);
+        while let Some(e) = cur {
+            s.push_str(": ");
+            s.push_str(&e.to_string());
+            cur = e.source();
+        }
+        s
+    }
+
+    /// Attaches the file the error was found in.
+    pub fn in_file(self, path: impl Into<PathBuf>) -> Self {
+        Error::InFile {
+            path: path.into(),
+            source: Box::new(self),
+        }
+    }
+}

@@ -1,0 +1,145 @@
+//! The base fit: static-interval detection followed by the multi-position fit, all in the
+//! core's `f32` code (the same code the adapter firmware runs).
+
+use crate::error::{Error, Result};
+use crate::recording::Recording;
+use crate::windows::{check_saturation, detect, infer_adc_range, DetectOptions};
+use serde::Serialize;
+use wiical_core::multipos::{self, MultiPosConfig, MultiPosFit, MultiPosModel};
+use wiical_core::Calibration;
+
+/// Settings of the detection + fit pipeline.
+#[derive(Debug, Clone)]
+pub struct FitOptions {
+    /// Static-window detection.
+    pub detect: DetectOptions,
+    /// Model to fit.
+    pub model: MultiPosModel,
+}
+
+impl Default for FitOptions {
+    fn default() -> Self {
+        Self {
+            detect: DetectOptions::default(),
+            model: MultiPosModel::Full,
+        }
+    }
+}
+
+/// One static window as reported.
+#[derive(Debug, Clone, Serialize)]
+pub struct WindowReport {
+    /// Start time, s.
+    pub t_start: f64,
+    /// End time, s.
+    pub t_end: f64,
+    /// Number of samples.
+    pub samples: u32,
+    /// Mean raw reading.
+    pub mean: [f32; 3],
+    /// Per-axis standard deviation of the raw readings.
+    pub std: [f32; 3],
+    /// Residual ‖a‖ − 1 g after calibration, milli-g.
+    pub residual_mg: f32,
+}
+
+/// The `fit` command's result (JSON keys are part of the CLI contract).
+#[derive(Debug, Clone, Serialize)]
+pub struct FitReport {
+    /// Number of static windows used.
+    pub static_windows: usize,
+    /// Bias b, raw units.
+    pub bias: [f32; 3],
+    /// Correction matrix K = D⁻¹ (upper triangular), g per raw unit, row-major.
+    pub matrix: [[f32; 3]; 3],
+    /// RMS of ‖a‖ − 1 g over the static windows, milli-g.
+    pub rms_mg: f32,
+    /// Largest |‖a‖ − 1 g| over the windows, milli-g.
+    pub max_abs_mg: f32,
+    /// Solver iterations.
+    pub iterations: u32,
+    /// Smallest eigenvalue of the scaled normal matrix (near 0: poorly spread poses).
+    pub identifiability: f32,
+    /// Per-axis noise std of the initial rest period, raw units.
+    pub noise_std: [f32; 3],
+    /// The windows.
+    pub windows: Vec<WindowReport>,
+    /// The calibration (what `--out` writes).
+    #[serde(skip)]
+    pub calibration: Calibration,
+}
+
+/// Detects static windows and fits the multi-position model.
+pub fn run(rec: &Recording, opts: &FitOptions) -> Result<FitReport> {
+    let det = detect(rec, &opts.detect)?;
+    let range = opts.detect.adc_range.or_else(|| infer_adc_range(rec));
+    check_saturation(rec, &det.intervals, range)?;
+    let means: Vec<[f32; 3]> = det.intervals.iter().map(|iv| iv.mean).collect();
+    let fit = fit_means(&means, opts.model)?;
+    let cal = fit.calibration;
+    let windows: Vec<WindowReport> = det
+        .intervals
+        .iter()
+        .map(|iv| WindowReport {
+            t_start: det
+                .times
+                .get(iv.start as usize)
+                .copied()
+                .unwrap_or(f64::NAN),
+            t_end: det
+                .times
+                .get((iv.end as usize).saturating_sub(1))
+                .copied()
+                .unwrap_or(f64::NAN),
+            samples: iv.len(),
+            mean: iv.mean,
+            std: iv.variance.map(f32::sqrt),
+            residual_mg: 1000.0 * multipos::norm_residual(&cal, iv.mean, 1.0),
+        })
+        .collect();
+    Ok(FitReport {
+        static_windows: windows.len(),
+        bias: cal.bias,
+        matrix: cal.matrix,
+        rms_mg: 1000.0 * fit.rms,
+        max_abs_mg: 1000.0 * fit.max_abs_residual,
+        iterations: fit.iterations,
+        identifiability: fit.identifiability,
+        noise_std: det.reference_variance.map(f32::sqrt),
+        windows,
+        calibration: cal,
+    })
+}
+
+/// The core's `f32` multi-position fit of window means, its errors told in terms of windows.
+pub fn fit_means(means: &[[f32; 3]], model: MultiPosModel) -> Result<MultiPosFit> {
+    fit_means_named(means, model, model_name(model))
+}
+
+/// [`fit_means`] with the model named `name` in its errors.
+pub(crate) fn fit_means_named(
+    means: &[[f32; 3]],
+    model: MultiPosModel,
+    name: &'static str,
+) -> Result<MultiPosFit> {
+    let cfg = MultiPosConfig {
+        model,
+        ..Default::default()
+    };
+    multipos::fit(means, &cfg).map_err(|e| match e {
+        wiical_core::Error::TooFewPoses { needed, got } => Error::TooFewWindows {
+            found: got,
+            needed,
+            model: name,
+        },
+        wiical_core::Error::DegenerateGeometry => Error::DegeneratePoses { poses: means.len() },
+        other => Error::FitFailed(other),
+    })
+}
+
+fn model_name(m: MultiPosModel) -> &'static str {
+    match m {
+        MultiPosModel::Full => "9-parameter model",
+        MultiPosModel::Diagonal => "6-parameter model",
+    }
+}

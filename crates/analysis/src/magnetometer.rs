@@ -1,0 +1,326 @@
+//! Magnetometer hard/soft-iron fits: fit a magnetometer recording with the core's streaming `f32` fits
+//! ([`wiical_core::magfit`]) and report the result.
+//!
+//! The points are fed, in file order, to one of the core accumulators (exactly what the
+//! firmware does on the device), solved, and then a second pass over the same points
+//! computes the fit quality. Everything the core returns is `f32`; the report widens it to
+//! `f64` only for printing / JSON.
+
+use std::fmt;
+use std::str::FromStr;
+
+use crate::error::{Error, Result};
+use wiical_core::magfit::{
+    AxisEllipsoidFit, EllipsoidFit, MagFit, ResidualAccumulator, SphereFit, StreamingMagFit,
+};
+
+/// Which surface to fit to the raw magnetometer samples.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum MagModel {
+    /// Sphere: hard iron only (`W = I`), 4 parameters.
+    Sphere,
+    /// Axis-aligned ellipsoid: hard iron + per-axis scale (diagonal `W`), 6 parameters.
+    Axis,
+    /// Rotated ellipsoid: hard iron + full soft iron (symmetric `W`), 9 parameters.
+    Ellipsoid,
+}
+
+impl MagModel {
+    /// All models, simplest first.
+    pub const ALL: [MagModel; 3] = [MagModel::Sphere, MagModel::Axis, MagModel::Ellipsoid];
+
+    /// The command-line / JSON name: `"sphere"`, `"axis"` or `"ellipsoid"`.
+    pub fn name(self) -> &'static str {
+        match self {
+            MagModel::Sphere => "sphere",
+            MagModel::Axis => "axis",
+            MagModel::Ellipsoid => "ellipsoid",
+        }
+    }
+
+    /// Number of free parameters, which is also the minimum number of samples.
+    pub fn params(self) -> u32 {
+        match self {
+            MagModel::Sphere => SphereFit::PARAMS,
+            MagModel::Axis => AxisEllipsoidFit::PARAMS,
+            MagModel::Ellipsoid => EllipsoidFit::PARAMS,
+        }
+    }
+}
+
+impl fmt::Display for MagModel {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl FromStr for MagModel {
+    /// A readable message naming the accepted values (usable by clap's `value_parser`).
+    type Err = String;
+
+    /// Parses `sphere`, `axis` or `ellipsoid` (case-insensitive, surrounding blanks ignored).
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        let t = s.trim();
+        MagModel::ALL
+            .into_iter()
+            .find(|m| m.name().eq_ignore_ascii_case(t))
+            .ok_or_else(|| format!("unknown model '{s}' (expected sphere, axis or ellipsoid)"))
+    }
+}
+
+/// Result of [`fit_points`], in raw sensor units (ready for `--json`).
+///
+/// Convention (as in MATLAB `magcal`): `‖matrix·(m − center)‖ ≈ radius` for every sample,
+/// `matrix` symmetric with determinant 1, so `radius` is the field strength in raw units.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct MagFitReport {
+    /// Model name: `sphere`, `axis` or `ellipsoid`.
+    pub model: String,
+    /// Number of points fitted.
+    pub samples: usize,
+    /// Hard-iron offset (ellipsoid centre), raw units.
+    pub center: [f64; 3],
+    /// Soft-iron matrix `W`, row-major, symmetric, `det W = 1`.
+    pub matrix: [[f64; 3]; 3],
+    /// Field strength `R`, raw units (geometric mean of the semi-axes).
+    pub radius: f64,
+    /// MATLAB `magcal` fit error, percent: `100·√(mean((‖W(m−c)‖² − R²)²)) / (2R²)`.
+    pub fit_error_pct: f64,
+    /// RMS of `‖W(m−c)‖ − R`, raw units.
+    pub rms_radius_error: f64,
+}
+
+impl MagFitReport {
+    fn new(model: MagModel, samples: usize, fit: &MagFit, pct: f32, rms: f32) -> Self {
+        let w = fit.matrix.map(|r| r.map(f64::from));
+        Self {
+            model: model.name().to_string(),
+            samples,
+            center: fit.center.map(f64::from),
+            matrix: w,
+            radius: f64::from(fit.radius),
+            fit_error_pct: f64::from(pct),
+            rms_radius_error: f64::from(rms),
+        }
+    }
+}
+
+/// Fits `points` (raw magnetometer samples, any consistent unit) with `model` using the
+/// core's streaming `f32` accumulator, then computes the fit quality over the same points.
+///
+/// Errors (readable messages wrapping [`wiical_core::Error`]): no points, a point that is
+/// not finite or not representable in `f32`, fewer points than the model's parameters,
+/// degenerate coverage (points on a plane, line or single spot), or a fitted surface that
+/// is not an ellipsoid.
+pub fn fit_points(points: &[[f64; 3]], model: MagModel) -> Result<MagFitReport> {
+    if points.is_empty() {
+        return Err(Error::NoMagSamples);
+    }
+    let pts32 = to_f32(points)?;
+    let fit = match model {
+        MagModel::Sphere => run::<SphereFit>(&pts32),
+        MagModel::Axis => run::<AxisEllipsoidFit>(&pts32),
+        MagModel::Ellipsoid => run::<EllipsoidFit>(&pts32),
+    }
+    .map_err(|source| Error::MagFit {
+        context: format!(
+            "{model} fit of {} samples failed{}",
+            points.len(),
+            hint(source)
+        ),
+        source,
+    })?;
+    let mut quality = ResidualAccumulator::new(fit);
+    for (i, p) in pts32.iter().enumerate() {
+        quality.push(*p).map_err(|source| Error::MagFit {
+            context: format!("fit quality: sample {}", i + 1),
+            source,
+        })?;
+    }
+    let q = quality.finish().map_err(|source| Error::MagFit {
+        context: "fit quality".into(),
+        source,
+    })?;
+    Ok(MagFitReport::new(
+        model,
+        points.len(),
+        &fit,
+        q.fit_error_pct,
+        q.rms_radius_error,
+    ))
+}
+
+/// Converts to the core's `f32`, rejecting values that are not finite there (NaN, inf, or
+/// beyond `f32::MAX`), naming the first bad sample (1-based).
+fn to_f32(points: &[[f64; 3]]) -> Result<Vec<[f32; 3]>> {
+    points
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            let q = p.map(|v| v as f32);
+            if q.iter().all(|v| v.is_finite()) {
+                Ok(q)
+            } else {
+                Err(Error::MagSampleNotF32 {
+                    index: i + 1,
+                    x: p[0],
+                    y: p[1],
+                    z: p[2],
+                })
+            }
+        })
+        .collect()
+}
+
+fn run<F: StreamingMagFit + Default>(pts: &[[f32; 3]]) -> Result<MagFit, wiical_core::Error> {
+    let mut f = F::default();
+    for p in pts {
+        f.push(*p)?;
+    }
+    f.solve()
+}
+
+/// What the user can do about a core error.
+fn hint(e: wiical_core::Error) -> &'static str {
+    use wiical_core::Error as E;
+    match e {
+        E::DegenerateGeometry => {
+            " (the samples lie on a plane, a line or one spot: rotate the sensor through all \
+             orientations)"
+        }
+        E::NotAnEllipsoid => {
+            " (the samples do not look like an ellipsoid: check for outliers, a changing \
+             field, or too little rotation; a simpler model may help)"
+        }
+        _ => "",
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Simulated points and the truth they were made from.
+    struct Sim {
+        pts: Vec<[f64; 3]>,
+        c: [f64; 3],
+        w: [[f64; 3]; 3],
+        r: f64,
+    }
+
+    /// Noise-free points on a rotated ellipsoid with a large hard-iron offset, by a
+    /// deterministic spiral (Fibonacci) covering of the sphere: `m = c + W⁻¹·(R·n̂)`.
+    fn ellipsoid_points(n: usize) -> Sim {
+        let c = [6135.0, -249.0, 3443.0];
+        let r = 1100.0;
+        // W = Rz(0.5)·diag(0.7, 1.0, 1/0.7)·Rz(0.5)ᵀ (det 1); its inverse uses 1/diag.
+        let (s, co) = (0.5f64.sin(), 0.5f64.cos());
+        let rot = [[co, -s, 0.0], [s, co, 0.0], [0.0, 0.0, 1.0]];
+        let d = [0.7, 1.0, 1.0 / 0.7];
+        let sym = |diag: [f64; 3]| {
+            let mut m = [[0.0; 3]; 3];
+            for (i, row) in m.iter_mut().enumerate() {
+                for (j, v) in row.iter_mut().enumerate() {
+                    *v = (0..3).map(|k| rot[i][k] * diag[k] * rot[j][k]).sum();
+                }
+            }
+            m
+        };
+        let w = sym(d);
+        let winv = sym(d.map(|x| 1.0 / x));
+        let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
+        let pts = (0..n)
+            .map(|k| {
+                let z = 1.0 - 2.0 * (k as f64 + 0.5) / n as f64;
+                let rho = (1.0 - z * z).sqrt();
+                let t = golden * k as f64;
+                let v = [r * rho * t.cos(), r * rho * t.sin(), r * z];
+                let mut m = c;
+                for (i, mi) in m.iter_mut().enumerate() {
+                    *mi += (0..3).map(|k| winv[i][k] * v[k]).sum::<f64>();
+                }
+                m
+            })
+            .collect();
+        Sim { pts, c, w, r }
+    }
+
+    #[test]
+    fn model_names_parse() {
+        for m in MagModel::ALL {
+            assert_eq!(m.name().parse::<MagModel>(), Ok(m));
+            assert_eq!(m.to_string(), m.name());
+        }
+        assert_eq!(" Ellipsoid ".parse::<MagModel>(), Ok(MagModel::Ellipsoid));
+        let err = "cube".parse::<MagModel>().unwrap_err();
+        assert!(err.contains("cube") && err.contains("ellipsoid"), "{err}");
+    }
+
+    #[test]
+    fn ellipsoid_fit_recovers_simulated_truth() {
+        let Sim { pts, c, w, r } = ellipsoid_points(500);
+        let rep = fit_points(&pts, MagModel::Ellipsoid).unwrap();
+        assert_eq!(rep.model, "ellipsoid");
+        assert_eq!(rep.samples, 500);
+        for (got, want) in rep.center.iter().zip(c) {
+            assert!((got - want).abs() < 1e-4 * r, "{rep:?}");
+        }
+        for (got, want) in rep.matrix.iter().flatten().zip(w.iter().flatten()) {
+            assert!((got - want).abs() < 1e-4, "{rep:?}");
+        }
+        assert!((rep.radius - r).abs() < 1e-4 * r, "{rep:?}");
+        // Noise-free: only f32 rounding remains.
+        assert!(
+            rep.fit_error_pct < 1e-3 && rep.rms_radius_error < 0.05,
+            "{rep:?}"
+        );
+        let json = serde_json::to_value(&rep).unwrap();
+        assert_eq!(json["model"], "ellipsoid");
+        assert_eq!(json["matrix"].as_array().unwrap().len(), 3);
+    }
+
+    #[test]
+    fn simpler_models_fit_worse_on_a_rotated_ellipsoid() {
+        let Sim { pts, r, .. } = ellipsoid_points(500);
+        let reps: Vec<MagFitReport> = MagModel::ALL
+            .iter()
+            .map(|m| fit_points(&pts, *m).unwrap())
+            .collect();
+        // Semi-axes 0.7R..1.43R: a sphere leaves residuals of tens of % of R.
+        assert!(reps[0].fit_error_pct > 10.0, "{:?}", reps[0]);
+        assert!(reps[0].fit_error_pct > reps[1].fit_error_pct);
+        assert!(reps[1].fit_error_pct > 100.0 * reps[2].fit_error_pct);
+        assert_eq!(
+            reps[0].matrix,
+            [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
+        );
+        assert!(reps[2].rms_radius_error < 1e-4 * r);
+    }
+
+    #[test]
+    fn errors_are_readable() {
+        let msg = |pts: &[[f64; 3]], m| fit_points(pts, m).unwrap_err().full_message();
+        assert!(msg(&[], MagModel::Sphere).contains("no samples"));
+
+        let mut pts = ellipsoid_points(50).pts;
+        pts[7][1] = f64::NAN;
+        let e = msg(&pts, MagModel::Ellipsoid);
+        assert!(e.contains("sample 8"), "{e}");
+        pts[7][1] = 1e300; // finite in f64, infinite in f32
+        assert!(msg(&pts, MagModel::Ellipsoid).contains("sample 8"));
+
+        let e = msg(&pts[..5], MagModel::Axis);
+        assert!(e.contains("too few samples") && e.contains("6"), "{e}");
+
+        let planar: Vec<[f64; 3]> = (0..100)
+            .map(|k| {
+                let t = k as f64 * 0.1;
+                [100.0 + 50.0 * t.cos(), 50.0 * t.sin(), 7.0]
+            })
+            .collect();
+        for m in MagModel::ALL {
+            let e = msg(&planar, m);
+            assert!(e.contains("plane") && e.contains(m.name()), "{e}");
+        }
+    }
+}

@@ -1,0 +1,62 @@
+//! The noise floor: what averaging can achieve in each window, propagated through the
+//! calibration to the residual ‖a‖ − 1 g, and the χ² of a model's residuals against it.
+
+#![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x > 0.0)` is deliberately true for NaN.
+use crate::model::{self as am, Params, Win};
+use crate::stats as st;
+use crate::windows::WindowStats;
+
+/// Per-window noise floor of the residual (g): var/n (or, with `batch`, the batch-means
+/// variance of the mean; NaN where a window is too short for it) propagated through ∂r/∂m.
+pub fn floors(
+    p: &Params,
+    wins: &[Win],
+    stats: &[WindowStats],
+    scale: f64,
+    batch: bool,
+) -> Vec<f64> {
+    wins.iter()
+        .zip(stats)
+        .map(|(w, s)| {
+            let (_, g) = am::residual_and_grad(p, w);
+            let v = if batch {
+                match s.batch_var_of_mean {
+                    Some(v) => v,
+                    None => return f64::NAN,
+                }
+            } else {
+                s.var.map(|v| v / s.n() as f64)
+            };
+            // r depends on y = (m − c)/s exactly as on −b: ∂r/∂m = −∂r/∂b / s.
+            (0..3)
+                .map(|a| (g[am::BIAS + a] / scale).powi(2) * v[a])
+                .sum::<f64>()
+                .sqrt()
+        })
+        .collect()
+}
+
+/// χ², its degrees of freedom and its p-value for the windows in use with a positive floor
+/// (`None`s when there are no more such windows than the `k` parameters).
+pub fn chi2_summary(
+    p: &Params,
+    wins: &[Win],
+    used: &[bool],
+    floor: &[f64],
+    k: usize,
+) -> (Option<f64>, Option<usize>, Option<f64>) {
+    let mut chi2 = 0.0;
+    let mut n = 0usize;
+    for ((w, u), f) in wins.iter().zip(used).zip(floor) {
+        if !*u || !(*f > 0.0) {
+            continue;
+        }
+        chi2 += (am::residual(p, w) / f).powi(2);
+        n += 1;
+    }
+    if n <= k {
+        return (None, None, None);
+    }
+    let dof = n - k;
+    (Some(chi2), Some(dof), Some(st::chi2_sf(chi2, dof as f64)))
+}

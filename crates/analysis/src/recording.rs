@@ -1,0 +1,80 @@
+//! A loaded recording and what can be inferred from it alone: the sample rate (from a time
+//! column or metadata) and the input units (raw counts, g or m/s², from the window means).
+
+/// A loaded 3-axis recording. Values are kept in f64 exactly as read; conversion to the core's
+/// f32 happens at the solver boundary.
+#[derive(Debug, Clone, Default)]
+pub struct Recording {
+    /// Sample times in seconds, if the file has a time column.
+    pub t: Option<Vec<f64>>,
+    /// The three axis values of every sample (raw units).
+    pub xyz: Vec<[f64; 3]>,
+    /// Sensor temperature per sample (°C), if present.
+    pub temp: Option<Vec<f64>>,
+    /// Pose labels (six-position files), if present.
+    pub labels: Option<Vec<String>>,
+    /// Sample rate from metadata (`Fs,…`), if present.
+    pub sample_rate_hz: Option<f64>,
+    /// Names of the columns used for x, y, z (for messages).
+    pub axis_columns: [String; 3],
+    /// Rows skipped because all three selected axis fields were empty (e.g. `wiical capture`
+    /// leaves the Nunchuk columns empty while the Nunchuk is unplugged).
+    pub skipped_empty_rows: usize,
+}
+
+impl Recording {
+    /// Number of samples.
+    pub fn len(&self) -> usize {
+        self.xyz.len()
+    }
+
+    /// True when there are no samples.
+    pub fn is_empty(&self) -> bool {
+        self.xyz.is_empty()
+    }
+
+    /// Sample times: the time column, else `i / Fs`, else `i / default_rate_hz`.
+    pub fn times(&self, default_rate_hz: f64) -> Vec<f64> {
+        if let Some(t) = &self.t {
+            return t.clone();
+        }
+        let fs = self.sample_rate_hz.unwrap_or(default_rate_hz);
+        (0..self.len()).map(|i| i as f64 / fs).collect()
+    }
+
+    /// True when every axis value is an integer (raw ADC counts): the quantisation floor of
+    /// 1/12 count² then applies to variances.
+    pub fn is_integer(&self) -> bool {
+        self.xyz.iter().all(|s| s.iter().all(|v| v.fract() == 0.0))
+    }
+
+    /// Estimated sample rate from the time column or metadata.
+    pub fn estimated_rate_hz(&self) -> Option<f64> {
+        if let Some(fs) = self.sample_rate_hz {
+            return Some(fs);
+        }
+        let t = self.t.as_ref()?;
+        if t.len() < 2 {
+            return None;
+        }
+        let mut dts: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
+        dts.sort_by(|a, b| a.total_cmp(b));
+        let med = dts[dts.len() / 2];
+        (med > 0.0).then(|| 1.0 / med)
+    }
+}
+
+/// Input units inferred from the data: integer values are raw counts; otherwise the median
+/// norm of the static-window means says g (≈ 1) or m/s² (≈ 9.81); anything else is taken as
+/// raw (an uncalibrated but already scaled sensor).
+pub fn infer_units(integer: bool, median_window_norm: f64) -> &'static str {
+    if integer {
+        "raw"
+    } else if (0.8..1.25).contains(&median_window_norm) {
+        "g"
+    } else if (7.8..12.3).contains(&median_window_norm) {
+        "m/s^2"
+    } else {
+        "raw"
+    }
+}

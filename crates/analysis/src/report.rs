@@ -1,0 +1,195 @@
+//! The report types: the JSON contract of `wiical analyze` (keys `static_windows`,
+//! `noise_floor_mg`, `base`, `effects`, `final`, …; renaming a field breaks users' scripts).
+
+use serde::Serialize;
+use wiical_core::Calibration;
+
+/// Error summary of a model.
+#[derive(Debug, Clone, Serialize)]
+pub struct ModelSummary {
+    /// Free parameters (base 9, + 3 per effect, + 1 per rejected window).
+    pub params: usize,
+    /// In-sample RMS of ‖a‖ − 1 g over the windows used, milli-g.
+    pub rms_mg: f64,
+    /// Leave-one-window-out RMS of ‖a‖ − 1 g over the windows used, milli-g (`null` when it
+    /// cannot be computed, e.g. six poses).
+    pub cv_rms_mg: Option<f64>,
+    /// Windows used (all but the rejected ones).
+    pub windows_used: usize,
+    /// χ² of the residuals against the per-window noise floor.
+    pub chi2: Option<f64>,
+    /// Its degrees of freedom (windows used − parameters).
+    pub chi2_dof: Option<usize>,
+    /// P(χ² this large | only noise): small means residual above the floor.
+    pub chi2_p: Option<f64>,
+}
+
+/// One accepted effect.
+#[derive(Debug, Clone, Serialize)]
+pub struct EffectReport {
+    /// `quadratic`, `cubic`, `bias-drift`, `temperature`, `temperature-scale`, `outliers`,
+    /// `pose-misalignment` (six-position only).
+    pub name: String,
+    /// Parameters it adds.
+    pub params: usize,
+    /// In-sample RMS after adding it, milli-g.
+    pub rms_mg: f64,
+    /// Cross-validated RMS after adding it, milli-g.
+    pub cv_rms_mg: Option<f64>,
+    /// Cross-validated RMS before adding it (same windows), milli-g.
+    pub cv_rms_before_mg: Option<f64>,
+    /// Which residual pattern pointed to it, and the test results.
+    pub evidence: String,
+    /// F statistic of the in-sample improvement (or the outlier test's).
+    pub f_stat: Option<f64>,
+    /// Its p-value (Bonferroni-corrected over windows for outliers, not over candidates).
+    pub p_value: Option<f64>,
+    /// Fitted per-axis values (units in `unit`), when the effect has them.
+    pub values: Option<[f64; 3]>,
+    /// Their standard errors.
+    pub std_errors: Option<[f64; 3]>,
+    /// Unit of `values`.
+    pub unit: Option<String>,
+    /// Rejected windows (1-based, as in the window table), for `outliers`.
+    pub rejected_windows: Option<Vec<usize>>,
+}
+
+/// One candidate tried at one greedy step.
+#[derive(Debug, Clone, Serialize)]
+pub struct CandidateReport {
+    /// Effect name.
+    pub name: String,
+    /// Parameters it would add.
+    pub params: usize,
+    /// In-sample RMS with it, milli-g.
+    pub rms_mg: Option<f64>,
+    /// Cross-validated RMS with it, milli-g (over the windows it keeps, for outliers).
+    pub cv_rms_mg: Option<f64>,
+    /// Cross-validated RMS of the current model over the same windows, milli-g.
+    pub cv_rms_current_mg: Option<f64>,
+    /// F statistic.
+    pub f_stat: Option<f64>,
+    /// p-value (before the Bonferroni factor over candidates).
+    pub p_value: Option<f64>,
+    /// Passed both rules.
+    pub passed: bool,
+    /// Why not, or what it found.
+    pub note: String,
+}
+
+/// One greedy step.
+#[derive(Debug, Clone, Serialize)]
+pub struct StepReport {
+    /// Candidates tried.
+    pub candidates: Vec<CandidateReport>,
+    /// Significance level each candidate was held to (α / candidates).
+    pub level: f64,
+    /// The one accepted, if any.
+    pub accepted: Option<String>,
+}
+
+/// One static window.
+#[derive(Debug, Clone, Serialize)]
+pub struct WindowInfo {
+    /// 1-based index.
+    pub index: usize,
+    /// Start, s (recording time).
+    pub t_start: f64,
+    /// End, s.
+    pub t_end: f64,
+    /// Mean sample time, s since the first sample.
+    pub t_centre: f64,
+    /// Samples.
+    pub samples: usize,
+    /// Mean temperature, °C.
+    pub temp: Option<f64>,
+    /// Mean reading, raw units.
+    pub mean: [f64; 3],
+    /// Residual ‖a‖ − 1 g under the base model, milli-g.
+    pub residual_base_mg: f64,
+    /// Residual under the final model, milli-g.
+    pub residual_final_mg: f64,
+    /// Held-out residual under the base model, milli-g.
+    pub cv_base_mg: Option<f64>,
+    /// Held-out residual under the final model, milli-g (`null` for rejected windows).
+    pub cv_final_mg: Option<f64>,
+    /// Noise floor of this window's residual (var/n through the calibration), milli-g.
+    pub floor_mg: f64,
+    /// Rejected as an outlier.
+    pub rejected: bool,
+    /// Fitted contribution of the first accepted effect (its residual signature), milli-g.
+    pub signature_mg: Option<f64>,
+}
+
+/// The analysis result (JSON keys `static_windows`, `noise_floor_mg`, `base`, `effects`,
+/// `final` are the CLI contract).
+#[derive(Debug, Clone, Serialize)]
+pub struct AnalyzeReport {
+    /// `multi-position` or `six-position`.
+    pub mode: &'static str,
+    /// Input units as detected: `raw`, `g` or `m/s^2`.
+    pub units: &'static str,
+    /// Samples in the recording.
+    pub samples: usize,
+    /// Static windows (poses) found.
+    pub static_windows: usize,
+    /// Noise floor: RMS over the windows of what averaging can achieve, milli-g (`null` when
+    /// the file gives no sample noise, e.g. one averaged row per pose).
+    pub noise_floor_mg: Option<f64>,
+    /// Batch-means noise floor (sees slow noise too), milli-g.
+    pub noise_floor_batch_mg: Option<f64>,
+    /// The base model.
+    pub base: ModelSummary,
+    /// Accepted effects, in the order added (empty: nothing is missing).
+    pub effects: Vec<EffectReport>,
+    /// The final model.
+    #[serde(rename = "final")]
+    pub final_model: ModelSummary,
+    /// The greedy steps with every candidate tried.
+    pub steps: Vec<StepReport>,
+    /// One-paragraph conclusion.
+    pub verdict: String,
+    /// Time of the first sample, s: `Conditions::time_s` is measured from here.
+    pub time_origin_s: f64,
+    /// Correlation of window time and temperature (when there is a temperature column).
+    pub time_temp_correlation: Option<f64>,
+    /// Findings that pass the rules but cannot be stored in the calibration (e.g. a curved
+    /// bias drift).
+    pub diagnostics: Vec<String>,
+    /// Final calibration (what `--out` writes).
+    pub calibration: Calibration,
+    /// The windows.
+    pub windows: Vec<WindowInfo>,
+    /// Six-position mode only.
+    pub six_position: Option<SixPositionDetails>,
+}
+
+/// Six-position specifics of an [`AnalyzeReport`].
+#[derive(Debug, Clone, Serialize)]
+pub struct SixPositionDetails {
+    /// Samples per pose (x+ x- y+ y- z+ z-).
+    pub samples_per_pose: [u32; 6],
+    /// Residual `K·(M − T̂Â)` in milli-g: rows = axes x, y, z; columns = poses x+ x- y+ y- z+ z-.
+    pub pose_residual_mg: [[f64; 6]; 3],
+    /// The same per ± pair (the + and − entries are equal): rows = axes, columns = pairs x, y, z.
+    pub pair_residual_mg: [[f64; 3]; 3],
+    /// ‖a‖ − 1 g per pose, milli-g.
+    pub norm_residual_mg: [f64; 6],
+    /// Own-pair contrast per axis converted to the quadratic it implies, k2 = −1.5·`R[a][a]`,
+    /// mg/g².
+    pub implied_k2_mg: [f64; 3],
+    /// Other-pairs contrast per axis row, `R[a][j] − R[a][k]` (j < k the two other pairs), mg.
+    pub misalignment_contrast_mg: [f64; 3],
+    /// Noise std of one pose mean per axis (raw), when the file has sample blocks.
+    pub pose_mean_std_raw: Option<[f64; 3]>,
+    /// χ² (3 dof) of the own-pair contrasts against the noise, and its p-value.
+    pub chi2_even: Option<f64>,
+    /// p-value of `chi2_even`.
+    pub p_even: Option<f64>,
+    /// χ² (3 dof) of the other-pairs contrasts, and its p-value.
+    pub chi2_misalignment: Option<f64>,
+    /// p-value of `chi2_misalignment`.
+    pub p_misalignment: Option<f64>,
+    /// What six poses can and cannot identify, with this file's numbers.
+    pub explanation: String,
+}

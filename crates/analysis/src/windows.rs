@@ -1,0 +1,336 @@
+//! Window detection: the core's streaming static detector over a recording (the same `f32`
+//! code the adapter firmware runs), the ADC-saturation check, and the `f64` statistics of each
+//! static window (mean, variance, batch means, centre time, temperature) that the analysis
+//! works from.
+
+#![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x > 0.0)` is deliberately true for NaN.
+use crate::error::{Error, Result};
+use crate::recording::{infer_units, Recording};
+use crate::stats as st;
+use wiical_core::static_detect::{StaticDetector, StaticDetectorConfig, StaticInterval};
+
+/// Settings of the static-window detection.
+#[derive(Debug, Clone)]
+pub struct DetectOptions {
+    /// Variance window, seconds.
+    pub window_s: f64,
+    /// Initial rest period used as the noise reference, seconds.
+    pub init_s: f64,
+    /// Shortest static interval, seconds.
+    pub min_static_s: f64,
+    /// Static when window variance ≤ this × reference variance.
+    pub threshold_factor: f64,
+    /// Sample rate to assume when the file has neither a time column nor metadata.
+    pub default_rate_hz: f64,
+    /// ADC limits (lo, hi): a static interval touching them is refused as saturated.
+    /// `None`: inferred from the data (integer counts in 10-bit or 16-bit ranges).
+    pub adc_range: Option<(f64, f64)>,
+}
+
+impl Default for DetectOptions {
+    fn default() -> Self {
+        Self {
+            window_s: 1.0,
+            init_s: 2.0,
+            min_static_s: 2.0,
+            threshold_factor: 6.0,
+            default_rate_hz: 100.0,
+            adc_range: None,
+        }
+    }
+}
+
+/// Capacity of the detector's window ring (samples). At 100 Hz this allows windows up to 5 s.
+pub const MAX_WINDOW: usize = 511;
+
+/// Detected static intervals plus the noise reference.
+pub struct Detection {
+    /// Intervals in sample indices.
+    pub intervals: Vec<StaticInterval>,
+    /// Per-axis reference variance (raw units²).
+    pub reference_variance: [f32; 3],
+    /// Sample times.
+    pub times: Vec<f64>,
+}
+
+/// Runs the core's streaming static detector over a recording.
+pub fn detect(rec: &Recording, opts: &DetectOptions) -> Result<Detection> {
+    let rate = rec.estimated_rate_hz().unwrap_or(opts.default_rate_hz);
+    if !(rate.is_finite() && rate > 0.0) {
+        return Err(Error::NoSampleRate);
+    }
+    let mut cfg = StaticDetectorConfig::for_rate(
+        rate as f32,
+        opts.window_s as f32,
+        opts.init_s as f32,
+        opts.min_static_s as f32,
+    );
+    cfg.threshold_factor = opts.threshold_factor as f32;
+    if cfg.window as usize > MAX_WINDOW {
+        return Err(Error::WindowTooLong {
+            samples: cfg.window as usize,
+            max: MAX_WINDOW,
+        });
+    }
+    if (rec.len() as u32) < cfg.init_samples.max(cfg.window as u32) {
+        return Err(Error::TooShort {
+            samples: rec.len(),
+            needed: cfg.init_samples,
+            init_s: opts.init_s,
+            rate_hz: rate,
+        });
+    }
+    let mut det: StaticDetector<MAX_WINDOW> =
+        StaticDetector::new(cfg).map_err(Error::DetectorSettings)?;
+    let mut intervals = Vec::new();
+    for (i, s) in rec.xyz.iter().enumerate() {
+        let m = [s[0] as f32, s[1] as f32, s[2] as f32];
+        if let Some(iv) = det.push(m).map_err(|cause| Error::Sample {
+            index: i + 1,
+            cause,
+        })? {
+            intervals.push(iv);
+        }
+    }
+    if let Some(iv) = det.finish() {
+        intervals.push(iv);
+    }
+    let reference_variance = det.reference_variance().unwrap_or([0.0; 3]);
+    Ok(Detection {
+        intervals,
+        reference_variance,
+        times: rec.times(rate),
+    })
+}
+
+/// ADC limits inferred from integer-valued data: 10-bit (0..1023), 8-bit (0..255),
+/// signed 16-bit or unsigned 16-bit. `None` for non-integer (already scaled) data.
+pub fn infer_adc_range(rec: &Recording) -> Option<(f64, f64)> {
+    if !rec.is_integer() {
+        return None;
+    }
+    let lo = rec
+        .xyz
+        .iter()
+        .flatten()
+        .copied()
+        .fold(f64::INFINITY, f64::min);
+    let hi = rec
+        .xyz
+        .iter()
+        .flatten()
+        .copied()
+        .fold(f64::NEG_INFINITY, f64::max);
+    [
+        (0.0, 255.0),
+        (0.0, 1023.0),
+        (-32768.0, 32767.0),
+        (0.0, 65535.0),
+    ]
+    .into_iter()
+    .find(|(a, b)| lo >= *a && hi <= *b)
+}
+
+/// Refuses static intervals with a sample at an ADC limit.
+pub fn check_saturation(
+    rec: &Recording,
+    intervals: &[StaticInterval],
+    range: Option<(f64, f64)>,
+) -> Result<()> {
+    let Some((lo, hi)) = range else {
+        return Ok(());
+    };
+    for (k, iv) in intervals.iter().enumerate() {
+        for i in iv.start as usize..(iv.end as usize).min(rec.len()) {
+            for a in 0..3 {
+                let v = rec.xyz[i][a];
+                if v <= lo || v >= hi {
+                    return Err(Error::Saturated {
+                        window: k + 1,
+                        start: iv.start,
+                        end: iv.end,
+                        axis: ["x", "y", "z"][a],
+                        value: v,
+                        sample: i + 1,
+                    });
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Statistics of one detected window, computed in f64 from the samples.
+#[derive(Debug, Clone)]
+pub struct WindowStats {
+    /// First sample index.
+    pub start: usize,
+    /// One past the last.
+    pub end: usize,
+    /// Mean, raw.
+    pub mean: [f64; 3],
+    /// Per-axis sample variance, raw² (floored at 1/12 for integer data).
+    pub var: [f64; 3],
+    /// Per-axis variance of the mean from 10 batch means, raw² (`None` if too short).
+    pub batch_var_of_mean: Option<[f64; 3]>,
+    /// Mean time, s since the first sample.
+    pub t_centre: f64,
+    /// Mean temperature.
+    pub temp: Option<f64>,
+}
+
+impl WindowStats {
+    /// Samples.
+    pub fn n(&self) -> usize {
+        self.end - self.start
+    }
+}
+
+/// Detected windows and context.
+pub struct Windows {
+    /// The windows.
+    pub stats: Vec<WindowStats>,
+    /// Sample times (recording clock), s.
+    pub times: Vec<f64>,
+    /// Detected units.
+    pub units: &'static str,
+}
+
+/// The recording as the detector should see it. The detector floors variances at the
+/// quantisation variance of integer counts (1/12); non-integer input (already in g or m/s²)
+/// is therefore rescaled, for the detector only, so that the rest period's quietest axis has
+/// unit std and the floor sits well below the noise.
+fn detector_view(rec: &Recording, opts: &DetectOptions) -> Option<Recording> {
+    if rec.is_integer() {
+        return None;
+    }
+    let rate = rec.estimated_rate_hz().unwrap_or(opts.default_rate_hz);
+    let init = ((opts.init_s * rate) as usize).clamp(2, rec.len().max(2));
+    let head = &rec.xyz[..init.min(rec.len())];
+    let mut sd_min = f64::INFINITY;
+    for a in 0..3 {
+        let m = head.iter().map(|s| s[a]).sum::<f64>() / head.len().max(1) as f64;
+        let v =
+            head.iter().map(|s| (s[a] - m).powi(2)).sum::<f64>() / (head.len().max(2) - 1) as f64;
+        sd_min = sd_min.min(v.sqrt());
+    }
+    let mags: Vec<f64> = rec
+        .xyz
+        .iter()
+        .map(|s| (s[0] * s[0] + s[1] * s[1] + s[2] * s[2]).sqrt())
+        .collect();
+    let med = st::median(&mags);
+    let k = if sd_min > 0.0 && sd_min.is_finite() {
+        1.0 / sd_min
+    } else {
+        1e4 / med.max(1e-30)
+    };
+    Some(Recording {
+        xyz: rec.xyz.iter().map(|s| s.map(|v| v * k)).collect(),
+        t: rec.t.clone(),
+        temp: None,
+        labels: None,
+        sample_rate_hz: rec.sample_rate_hz,
+        axis_columns: rec.axis_columns.clone(),
+        skipped_empty_rows: rec.skipped_empty_rows,
+    })
+}
+
+/// Batch means per window: the window split into this many blocks.
+const BATCHES: usize = 10;
+
+/// Per-axis variance of the mean from [`BATCHES`] batch means (sees slow noise that var/n
+/// misses); `None` when the window is shorter than 5 samples per batch.
+fn batch_var_of_mean(xs: &[[f64; 3]]) -> Option<[f64; 3]> {
+    const B: usize = BATCHES;
+    if xs.len() < 5 * B {
+        return None;
+    }
+    let len = xs.len() / B;
+    let mut bm = [[0.0; 3]; B];
+    for (b, m) in bm.iter_mut().enumerate() {
+        for x in &xs[b * len..(b + 1) * len] {
+            for a in 0..3 {
+                m[a] += x[a] / len as f64;
+            }
+        }
+    }
+    let mut out = [0.0; 3];
+    for a in 0..3 {
+        let mu = bm.iter().map(|m| m[a]).sum::<f64>() / B as f64;
+        let v = bm.iter().map(|m| (m[a] - mu).powi(2)).sum::<f64>() / (B - 1) as f64;
+        out[a] = v / B as f64;
+    }
+    Some(out)
+}
+
+/// The f64 statistics of samples `s..e` (at least two). `t0`: time of the first sample.
+fn window_stats(
+    rec: &Recording,
+    (s, e): (usize, usize),
+    times: &[f64],
+    t0: f64,
+    integer: bool,
+) -> WindowStats {
+    let xs = &rec.xyz[s..e];
+    let n = xs.len() as f64;
+    let mut mean = [0.0; 3];
+    for x in xs {
+        for a in 0..3 {
+            mean[a] += x[a];
+        }
+    }
+    mean = mean.map(|v| v / n);
+    let mut var = [0.0; 3];
+    for x in xs {
+        for a in 0..3 {
+            var[a] += (x[a] - mean[a]).powi(2);
+        }
+    }
+    var = var.map(|v| {
+        let v = v / (n - 1.0);
+        if integer {
+            v.max(1.0 / 12.0)
+        } else {
+            v
+        }
+    });
+    WindowStats {
+        start: s,
+        end: e,
+        mean,
+        var,
+        batch_var_of_mean: batch_var_of_mean(xs),
+        t_centre: times[s..e].iter().sum::<f64>() / n - t0,
+        temp: rec.temp.as_ref().map(|tc| tc[s..e].iter().sum::<f64>() / n),
+    }
+}
+
+/// Detects the static windows (the core's detector via [`detect`]), refuses saturated ones,
+/// computes their f64 statistics and infers the input units.
+pub fn detect_windows(rec: &Recording, opts: &DetectOptions) -> Result<Windows> {
+    let integer = rec.is_integer();
+    let det = match detector_view(rec, opts) {
+        None => detect(rec, opts)?,
+        Some(scaled) => detect(&scaled, opts)?,
+    };
+    let range = opts.adc_range.or_else(|| infer_adc_range(rec));
+    check_saturation(rec, &det.intervals, range)?;
+    let t0 = det.times.first().copied().unwrap_or(0.0);
+    let stats: Vec<WindowStats> = det
+        .intervals
+        .iter()
+        .map(|iv| (iv.start as usize, (iv.end as usize).min(rec.len())))
+        .filter(|(s, e)| *e > s + 1)
+        .map(|span| window_stats(rec, span, &det.times, t0, integer))
+        .collect();
+    let norms: Vec<f64> = stats
+        .iter()
+        .map(|w| (w.mean[0].powi(2) + w.mean[1].powi(2) + w.mean[2].powi(2)).sqrt())
+        .collect();
+    Ok(Windows {
+        units: infer_units(integer, st::median(&norms)),
+        stats,
+        times: det.times,
+    })
+}

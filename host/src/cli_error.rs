@@ -1,0 +1,75 @@
+//! Errors of the analysis engine as the command line tells them: where a message concerns a
+//! setting, it names the flag that changes it (the engine's own messages name no flags).
+
+use anyhow::anyhow;
+use wiical_analysis::Error;
+
+/// Converts an engine error into the CLI's error, naming flags where a setting is concerned.
+/// Causes are kept as a chain, printed `outer: inner` by `main`.
+pub fn cli_error(e: Error) -> anyhow::Error {
+    match e {
+        Error::InFile { path, source } => {
+            cli_error(*source).context(format!("in {}", path.display()))
+        }
+        Error::ColumnsNeedHeader => {
+            anyhow!("--columns needs a CSV file with a header; this file has no header")
+        }
+        Error::NoAxisColumns { header } => anyhow!(
+            "no x/y/z columns recognised in the header ({header}); name them x,y,z (or ax,ay,az / mx,my,mz / gx,gy,gz), or choose them with --columns"
+        ),
+        Error::ColumnsNotThree(names) => anyhow!(
+            "--columns needs exactly three names (x,y,z), got {}: {}",
+            names.len(),
+            names.join(",")
+        ),
+        Error::WindowTooLong { samples, max } => anyhow!(
+            "window of {samples} samples exceeds the maximum {max}; use a shorter --window-s"
+        ),
+        Error::Saturated {
+            window,
+            start,
+            end,
+            axis,
+            value,
+            sample,
+        } => anyhow!(
+            "{}: static window {window} (samples {start}..{end}) has axis {axis} at the ADC limit ({value}) in sample {sample}: that pose is saturated and cannot be used; re-record it or pass --adc-range",
+            wiical_core::Error::Saturated
+        ),
+        Error::TooFewWindows {
+            found,
+            needed,
+            model,
+        } => anyhow!(
+            "found {found} static windows but the {model} needs at least {needed}: hold the sensor still in more orientations (or lower --min-static-s / raise --threshold)"
+        ),
+        other => anyhow::Error::new(other),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn flags_are_named_and_the_file_is_kept() {
+        let e = Error::ColumnsNeedHeader.in_file("rec.txt");
+        assert_eq!(
+            format!("{:#}", cli_error(e)),
+            "in rec.txt: --columns needs a CSV file with a header; this file has no header"
+        );
+        let e = Error::TooFewWindows {
+            found: 4,
+            needed: 9,
+            model: "9-parameter model",
+        };
+        assert!(format!("{:#}", cli_error(e)).contains("--min-static-s"));
+        // Others keep the engine's message and its causes.
+        let io = std::io::Error::new(std::io::ErrorKind::NotFound, "gone");
+        let e = Error::Read {
+            path: "x.csv".into(),
+            source: io,
+        };
+        assert_eq!(format!("{:#}", cli_error(e)), "cannot read x.csv: gone");
+    }
+}

@@ -1,0 +1,72 @@
+//! `wiical analyze`: the residual analysis.
+
+use super::{load, to_json, write_calibration, DetectArgs};
+use crate::cli_error::cli_error;
+use crate::render;
+use anyhow::Result;
+use std::path::PathBuf;
+use wiical_analysis::select::check_rule;
+use wiical_analysis::{AnalyzeOptions, Candidate};
+use wiical_core::multipos::MultiPosModel;
+
+/// Arguments of `wiical analyze`.
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// Recording (as for `fit`: raw counts or g, optional `t` and `temp` columns), or a
+    /// six-position CSV with a `pose` column.
+    pub file: PathBuf,
+    /// Print JSON.
+    #[arg(long)]
+    pub json: bool,
+    /// Draw the residuals before/after against the relevant regressor (SVG).
+    #[arg(long)]
+    pub plot: Option<PathBuf>,
+    /// Write the final calibration, effect terms included, here (JSON).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    #[command(flatten)]
+    pub detect: DetectArgs,
+    /// Family-wise significance level per step (Bonferroni over the candidates).
+    #[arg(long, default_value_t = wiical_analysis::select::ALPHA)]
+    pub alpha: f64,
+    /// A candidate must divide the cross-validated RMS by at least this factor.
+    #[arg(long, default_value_t = wiical_analysis::select::CV_FACTOR)]
+    pub cv_factor: f64,
+    /// Only try these candidates (comma-separated names).
+    #[arg(long, value_delimiter = ',')]
+    pub candidates: Option<Vec<String>>,
+}
+
+/// Runs `wiical analyze`; returns what to print.
+pub fn run(a: &Args) -> Result<String> {
+    let rec = load(&a.file, &a.detect.load_options()?)?;
+    // The rule's settings first, then the names, as the engine would.
+    check_rule(a.alpha, a.cv_factor).map_err(cli_error)?;
+    let candidates = a
+        .candidates
+        .as_ref()
+        .map(|names| names.iter().map(|n| n.parse::<Candidate>()).collect())
+        .transpose()
+        .map_err(cli_error)?;
+    let opts = AnalyzeOptions {
+        fit: a.detect.fit_options(MultiPosModel::Full),
+        alpha: a.alpha,
+        cv_factor: a.cv_factor,
+        candidates,
+        ..Default::default()
+    };
+    let rep = wiical_analysis::analyze(&rec, &opts).map_err(cli_error)?;
+    if let Some(path) = &a.out {
+        write_calibration(path, &rep.calibration)?;
+    }
+    if let Some(path) = &a.plot {
+        render::plot::write_plot(&rep, path)?;
+    }
+    if a.json {
+        return to_json(&rep);
+    }
+    Ok(render::analyze::render_text(
+        &rep,
+        &a.file.display().to_string(),
+    ))
+}

@@ -1,0 +1,38 @@
+//! `wiical decode-cal`: a factory calibration block.
+
+use super::to_json;
+use anyhow::Result;
+use std::fmt::Write as _;
+
+/// Arguments of `wiical decode-cal`.
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// wiimote | nunchuk.
+    #[arg(long)]
+    pub device: String,
+    /// The bytes, e.g. "82 82 82 15 9C 9C 9E 38 40 3E" (spaces, commas, 0x prefixes allowed).
+    #[arg(num_args = 1.., required = true)]
+    pub hex: Vec<String>,
+    /// Print JSON.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Runs `wiical decode-cal`; returns what to print.
+pub fn run(a: &Args) -> Result<String> {
+    let rep = crate::decode_cal::decode_cal(&a.device, &a.hex.join(" "))?;
+    if a.json {
+        return to_json(&rep);
+    }
+    let mut o = String::new();
+    writeln!(o, "{} calibration block", rep.device)?;
+    writeln!(o, "  zero-g (10-bit):  {:?}", rep.zero)?;
+    writeln!(o, "  one-g  (10-bit):  {:?}", rep.one_g)?;
+    writeln!(o, "  counts per g:     {:?}", rep.counts_per_g)?;
+    writeln!(
+        o,
+        "  checksum:         {}",
+        if rep.checksum_ok { "ok" } else { "BAD" }
+    )?;
+    Ok(o)
+}

@@ -1,0 +1,50 @@
+//! `wiical fit`: static-interval detection + multi-position fit.
+
+// Field docs are clap help text, shown verbatim: `[,temp]` is not a link.
+#![allow(rustdoc::broken_intra_doc_links)]
+
+use super::{load, to_json, write_calibration, DetectArgs};
+use crate::cli_error::cli_error;
+use crate::render;
+use anyhow::Result;
+use std::path::PathBuf;
+use wiical_core::multipos::MultiPosModel;
+
+/// Arguments of `wiical fit`.
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// Recording: CSV with header (t,x,y,z[,temp]) or whitespace `t x y z` text.
+    pub file: PathBuf,
+    /// Print JSON.
+    #[arg(long)]
+    pub json: bool,
+    /// Write the calibration (JSON) here.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    #[command(flatten)]
+    pub detect: DetectArgs,
+    /// Model: full (9 parameters) | diagonal (6: bias and per-axis scale).
+    #[arg(long, default_value = "full", value_parser = parse_model)]
+    pub model: MultiPosModel,
+}
+
+fn parse_model(s: &str) -> Result<MultiPosModel, String> {
+    match s {
+        "full" => Ok(MultiPosModel::Full),
+        "diagonal" => Ok(MultiPosModel::Diagonal),
+        _ => Err(format!("'{s}': expected full or diagonal")),
+    }
+}
+
+/// Runs `wiical fit`; returns what to print.
+pub fn run(a: &Args) -> Result<String> {
+    let rec = load(&a.file, &a.detect.load_options()?)?;
+    let rep = wiical_analysis::fit::run(&rec, &a.detect.fit_options(a.model)).map_err(cli_error)?;
+    if let Some(path) = &a.out {
+        write_calibration(path, &rep.calibration)?;
+    }
+    if a.json {
+        return to_json(&rep);
+    }
+    Ok(render::fit_text(&rep, &rec, &a.file.display().to_string()))
+}

@@ -1,0 +1,109 @@
+//! One module per subcommand: parse its arguments, call the library, render the result.
+//! Shared here: the detection flags, the small value parsers and JSON output.
+
+pub mod analyze;
+pub mod decode_cal;
+pub mod device;
+pub mod fit;
+pub mod kalman_demo;
+pub mod magfit;
+pub mod simulate;
+pub mod six_position;
+
+use crate::cli_error::cli_error;
+use anyhow::Result;
+use wiical_analysis::{DetectOptions, Error, FitOptions, LoadOptions};
+use wiical_core::multipos::MultiPosModel;
+
+/// Static-window detection flags (`fit`, `analyze`).
+#[derive(clap::Args, Clone, Debug)]
+pub struct DetectArgs {
+    /// Header names of the x,y,z columns to use (e.g. gx,gy,gz).
+    #[arg(long, value_delimiter = ',')]
+    pub columns: Option<Vec<String>>,
+    /// Variance window, seconds.
+    #[arg(long, default_value_t = 1.0)]
+    pub window_s: f64,
+    /// Initial rest period (noise reference), seconds.
+    #[arg(long, default_value_t = 2.0)]
+    pub init_s: f64,
+    /// Shortest static interval, seconds.
+    #[arg(long, default_value_t = 2.0)]
+    pub min_static_s: f64,
+    /// Static when window variance ≤ THRESHOLD × rest-period variance.
+    #[arg(long, default_value_t = 6.0)]
+    pub threshold: f64,
+    /// Sample rate when the file has no time column or Fs metadata, Hz.
+    #[arg(long, default_value_t = 100.0)]
+    pub rate_hz: f64,
+    /// ADC limits LO:HI; static samples at a limit are refused as saturated (default: inferred
+    /// from integer data: 8-bit, 10-bit or 16-bit).
+    #[arg(long, value_parser = parse_range)]
+    pub adc_range: Option<(f64, f64)>,
+}
+
+impl DetectArgs {
+    /// The loader's options (`--columns`).
+    pub fn load_options(&self) -> Result<LoadOptions> {
+        load_options(self.columns.as_deref())
+    }
+
+    /// The base fit's options.
+    pub fn fit_options(&self, model: MultiPosModel) -> FitOptions {
+        FitOptions {
+            detect: DetectOptions {
+                window_s: self.window_s,
+                init_s: self.init_s,
+                min_static_s: self.min_static_s,
+                threshold_factor: self.threshold,
+                default_rate_hz: self.rate_hz,
+                adc_range: self.adc_range,
+            },
+            model,
+        }
+    }
+}
+
+/// `--columns x,y,z`: exactly three header names.
+pub fn load_options(columns: Option<&[String]>) -> Result<LoadOptions> {
+    let columns = match columns {
+        None => None,
+        Some([x, y, z]) => Some([x.clone(), y.clone(), z.clone()]),
+        Some(other) => return Err(cli_error(Error::ColumnsNotThree(other.to_vec()))),
+    };
+    Ok(LoadOptions { columns })
+}
+
+/// `LO:HI` with finite LO < HI.
+pub fn parse_range(s: &str) -> Result<(f64, f64), String> {
+    let (a, b) = s
+        .split_once(':')
+        .ok_or_else(|| format!("'{s}': expected LO:HI"))?;
+    let lo: f64 = a
+        .trim()
+        .parse()
+        .map_err(|_| format!("'{a}' is not a number"))?;
+    let hi: f64 = b
+        .trim()
+        .parse()
+        .map_err(|_| format!("'{b}' is not a number"))?;
+    if !(lo.is_finite() && hi.is_finite() && lo < hi) {
+        return Err(format!("'{s}': need finite LO < HI"));
+    }
+    Ok((lo, hi))
+}
+
+/// Pretty JSON with a final newline (every `--json`).
+pub fn to_json<T: serde::Serialize>(v: &T) -> Result<String> {
+    Ok(serde_json::to_string_pretty(v)? + "\n")
+}
+
+/// Loads a recording, errors told the CLI's way.
+pub fn load(path: &std::path::Path, opts: &LoadOptions) -> Result<wiical_analysis::Recording> {
+    wiical_analysis::load(path, opts).map_err(cli_error)
+}
+
+/// Writes a calibration file (`--out`), errors told the CLI's way.
+pub fn write_calibration(path: &std::path::Path, cal: &wiical_core::Calibration) -> Result<()> {
+    wiical_analysis::calfile::write_calibration(path, cal).map_err(cli_error)
+}

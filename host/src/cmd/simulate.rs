@@ -1,0 +1,76 @@
+//! `wiical simulate`: a recording with known truth.
+
+use crate::cli_error::cli_error;
+use anyhow::Result;
+use std::fmt::Write as _;
+use std::path::PathBuf;
+use wiical_analysis::simulate::{self, Device, SimConfig, SimEffect};
+
+/// Arguments of `wiical simulate`.
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// Output CSV (t,x,y,z,temp).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// none | quadratic | cubic | bias-drift | temperature | outliers.
+    #[arg(long, default_value = "none", value_parser = parse_effect)]
+    pub effect: SimEffect,
+    /// Size of the effect in milli-g (meaning per effect: see `wiical_analysis::simulate`).
+    #[arg(long)]
+    pub magnitude: Option<f64>,
+    /// Random seed.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// wiimote (~105 counts/g) | nunchuk (~200 counts/g).
+    #[arg(long, default_value = "wiimote", value_parser = parse_device)]
+    pub device: Device,
+    /// Number of poses after the initial rest.
+    #[arg(long, default_value_t = 30)]
+    pub poses: usize,
+    /// Leave out the temperature column.
+    #[arg(long)]
+    pub no_temp: bool,
+}
+
+fn parse_effect(s: &str) -> Result<SimEffect, String> {
+    SimEffect::parse(s).ok_or_else(|| {
+        format!("'{s}': expected none, quadratic, cubic, bias-drift, temperature or outliers")
+    })
+}
+
+fn parse_device(s: &str) -> Result<Device, String> {
+    Device::parse(s).ok_or_else(|| format!("'{s}': expected wiimote or nunchuk"))
+}
+
+/// Runs `wiical simulate`; returns what to print.
+pub fn run(a: &Args) -> Result<String> {
+    let cfg = SimConfig {
+        effect: a.effect,
+        magnitude_mg: a.magnitude,
+        seed: a.seed,
+        device: a.device,
+        poses: a.poses,
+        temp_column: !a.no_temp,
+        ..Default::default()
+    };
+    let sim = simulate::simulate(&cfg).map_err(cli_error)?;
+    let truth = simulate::write(&sim, &a.out).map_err(cli_error)?;
+    let mut o = String::new();
+    writeln!(
+        o,
+        "wrote {} ({} samples, {} poses, {} {}, effect {} at {} mg) and the truth {}",
+        a.out.display(),
+        sim.recording.len(),
+        sim.truth.poses.len() - 1,
+        sim.truth.device,
+        if sim.recording.temp.is_some() {
+            "with temp"
+        } else {
+            "without temp"
+        },
+        sim.truth.effect,
+        sim.truth.magnitude_mg,
+        truth.display()
+    )?;
+    Ok(o)
+}

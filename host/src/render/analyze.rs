@@ -1,0 +1,151 @@
+//! The `analyze` report as text: window table, model summaries, candidates per step, effects
+//! and verdict (six-position files: the pose residual tables instead of the window table).
+
+use std::fmt::Write as _;
+use wiical_analysis::evidence::{fmt_p, fmt_vec};
+use wiical_analysis::report::{AnalyzeReport, ModelSummary, SixPositionDetails};
+
+/// Human-readable report.
+pub fn render_text(rep: &AnalyzeReport, file: &str) -> String {
+    let mut o = String::new();
+    let _ = writeln!(
+        o,
+        "Residual analysis of {file} ({} samples, {} mode, units {}): {} static windows",
+        rep.samples, rep.mode, rep.units, rep.static_windows
+    );
+    if let Some(six) = &rep.six_position {
+        o.push_str(&six_text(six));
+    } else {
+        let _ = writeln!(
+            o,
+            "\n  #   t_start    t_end  samples  temp°C   base(mg)  final(mg)  floor(mg)"
+        );
+        for w in &rep.windows {
+            let _ = writeln!(
+                o,
+                "{:>3} {:>9.2} {:>8.2} {:>8} {:>7} {:>10.3} {:>10.3} {:>10.3}{}",
+                w.index,
+                w.t_start,
+                w.t_end,
+                w.samples,
+                w.temp.map_or("-".into(), |t| format!("{t:.2}")),
+                w.residual_base_mg,
+                w.residual_final_mg,
+                w.floor_mg,
+                if w.rejected { "  rejected" } else { "" }
+            );
+        }
+    }
+    let line = |name: &str, m: &ModelSummary| {
+        format!(
+            "{name:<6} params {:>3}  RMS {:>9.4} mg  CV {:>10}  windows {:>3}  χ²/dof {}",
+            m.params,
+            m.rms_mg,
+            m.cv_rms_mg.map_or("n/a".into(), |x| format!("{x:.4} mg")),
+            m.windows_used,
+            match (m.chi2, m.chi2_dof) {
+                (Some(c), Some(d)) => format!(
+                    "{:.2} (p {})",
+                    c / d.max(1) as f64,
+                    fmt_p(m.chi2_p.unwrap_or(f64::NAN))
+                ),
+                _ => "n/a".into(),
+            }
+        )
+    };
+    let _ = writeln!(
+        o,
+        "\nnoise floor {} mg{}",
+        rep.noise_floor_mg
+            .map_or("n/a".into(), |x| format!("{x:.4}")),
+        rep.noise_floor_batch_mg
+            .map_or(String::new(), |x| format!(" (batch means {x:.4} mg)"))
+    );
+    let _ = writeln!(o, "{}", line("base", &rep.base));
+    let _ = writeln!(o, "{}", line("final", &rep.final_model));
+    if !rep.steps.is_empty() {
+        let _ = writeln!(o, "\nCandidates per step (level = α / candidates):");
+        for (k, s) in rep.steps.iter().enumerate() {
+            let _ = writeln!(
+                o,
+                "  step {} (level {:.1e}) → {}",
+                k + 1,
+                s.level,
+                s.accepted.as_deref().unwrap_or("none accepted")
+            );
+            for c in &s.candidates {
+                let _ = writeln!(
+                    o,
+                    "    {:<18} CV {:>10} (current {:>10})  F {:>8}  p {:>9}  {}",
+                    c.name,
+                    c.cv_rms_mg.map_or("-".into(), |x| format!("{x:.4}")),
+                    c.cv_rms_current_mg
+                        .map_or("-".into(), |x| format!("{x:.4}")),
+                    c.f_stat.map_or("-".into(), |x| format!("{x:.2}")),
+                    c.p_value.map_or("-".into(), |x| format!("{x:.1e}")),
+                    c.note
+                );
+            }
+        }
+    }
+    if rep.effects.is_empty() {
+        let _ = writeln!(o, "\nEffects added: none");
+    } else {
+        let _ = writeln!(o, "\nEffects added:");
+        for e in &rep.effects {
+            let _ = writeln!(
+                o,
+                "  {} (+{} params): CV {} mg\n    {}",
+                e.name,
+                e.params,
+                e.cv_rms_mg.map_or("n/a".into(), |x| format!("{x:.4}")),
+                e.evidence
+            );
+        }
+    }
+    let _ = writeln!(o, "\n{}", rep.verdict);
+    o
+}
+
+/// The six-position block of the report.
+pub fn six_text(d: &SixPositionDetails) -> String {
+    let mut o = String::new();
+    let _ = writeln!(
+        o,
+        "\nResidual K·(M − T̂Â), mg (rows x, y, z; columns x+ x- y+ y- z+ z-):"
+    );
+    for r in &d.pose_residual_mg {
+        let _ = writeln!(
+            o,
+            "  {}",
+            r.iter()
+                .map(|x| format!("{x:>9.3}"))
+                .collect::<Vec<_>>()
+                .join(" ")
+        );
+    }
+    let _ = writeln!(
+        o,
+        "‖a‖ − 1 g per pose, mg: {}",
+        d.norm_residual_mg
+            .iter()
+            .map(|x| format!("{x:.3}"))
+            .collect::<Vec<_>>()
+            .join(" ")
+    );
+    let _ = writeln!(
+        o,
+        "implied k2 (own pair) mg/g²: {}   other-pairs contrast mg: {}",
+        fmt_vec(&d.implied_k2_mg, 2),
+        fmt_vec(&d.misalignment_contrast_mg, 2)
+    );
+    if let (Some(ce), Some(pe), Some(cm), Some(pm)) =
+        (d.chi2_even, d.p_even, d.chi2_misalignment, d.p_misalignment)
+    {
+        let _ = writeln!(
+            o,
+            "χ² even {ce:.2} (p {pe:.1e}), misalignment {cm:.2} (p {pm:.1e}), 3 dof each"
+        );
+    }
+    o
+}
