@@ -82,6 +82,7 @@ fn request_name(r: &Request) -> &'static str {
         Request::CommitCalibration => "CommitCalibration",
         Request::StartStream { .. } => "StartStream",
         Request::StopStream => "StopStream",
+        Request::GetStatus => "GetStatus",
     }
 }
 
@@ -94,6 +95,7 @@ fn answers(req: &Request, resp: &Response) -> bool {
         (_, Response::Error(_)) => true,
         (Request::GetCalibration, Response::Calibration(_)) => true,
         (Request::StartStream { .. }, Response::StreamStarted { .. }) => true,
+        (Request::GetStatus, Response::Status(_)) => true,
         (
             Request::PutCalibration(_) | Request::CommitCalibration | Request::StopStream,
             Response::Ack,
