@@ -43,8 +43,9 @@ enum Cmd {
     /// Magnetometer hard/soft-iron fit: sphere (4 parameters), axis-aligned ellipsoid (6) or
     /// rotated ellipsoid (9), from streaming normal equations solved by Cholesky.
     Magfit(cmd::magfit::Args),
-    /// Decode a factory accelerometer calibration block (hex bytes) of a Wii Remote (10 bytes
-    /// at EEPROM 0x16, or both copies) or a Nunchuk (16 bytes at 0x20, or 0x20–0x3F).
+    /// Decode a factory calibration block (hex bytes) of a Wii Remote (10 bytes at EEPROM 0x16,
+    /// or both copies), a Nunchuk (16 bytes at 0x20, or 0x20–0x3F) or a MotionPlus (the 32
+    /// gyro calibration bytes at 0xA60020, CRC-32 checked).
     DecodeCal(cmd::decode_cal::Args),
     /// The Wiimote article's Kalman filter ([position, velocity, bias]) as a Monte Carlo:
     /// a still accelerometer with a 0.25 m/s² bias, positions every 0.01 s with 0.5 cm noise.
