@@ -22,6 +22,11 @@ enum Cmd {
     SixPosition(cmd::six_position::Args),
     /// Static-interval detection + multi-position fit (bias + scale + non-orthogonality).
     Fit(cmd::fit::Args),
+    /// Gyroscope scale, misalignment and bias from the motions between static poses
+    /// (Tedaldi et al. 2014): FILE with x,y,z and gx,gy,gz columns, or an accelerometer file and
+    /// a gyro file (IMU-TK). The model (uncalibrated, bias, scale, full, each ± bias) is chosen
+    /// by leave-one-motion-out error.
+    Gyrofit(cmd::gyrofit::Args),
     /// Residual analysis: find what the linear model leaves unexplained, trace it to a missing
     /// effect (quadratic, cubic, bias-drift, temperature, temperature-scale, outliers), add it
     /// and report the error before and after (in-sample and leave-one-window-out CV).
@@ -57,6 +62,7 @@ fn run(cli: Cli) -> Result<String> {
         Cmd::SixPosition(a) => cmd::six_position::run(&a),
         Cmd::Fit(a) => cmd::fit::run(&a),
         Cmd::Analyze(a) => cmd::analyze::run(&a),
+        Cmd::Gyrofit(a) => cmd::gyrofit::run(&a),
         Cmd::Simulate(a) => cmd::simulate::run(&a),
         Cmd::Capture(a) => wiical::capture::run(&a),
         Cmd::Device(a) => cmd::device::run(&a, &mut std::io::stdout().lock()),
