@@ -127,7 +127,9 @@ function newRig(flashImage = null, options = {}) {
 async function putCommit(rig, calPath, extra = []) {
   const put = await rig.wiical(['put', calPath, ...extra]);
   if (put.code !== 0) return `wiical device put: exit ${put.code}: ${put.stderr.trim()}`;
-  const commit = await rig.wiical(['commit', ...extra]);
+  // A staged upload belongs to its session (wire protocol 2): `commit FILE` uploads again,
+  // verifies and commits within one session.
+  const commit = await rig.wiical(['commit', calPath, ...extra]);
   if (commit.code !== 0) return `wiical device commit: exit ${commit.code}: ${commit.stderr.trim()}`;
   return null;
 }
