@@ -96,7 +96,6 @@ fn answers(req: &Request, resp: &Response) -> bool {
         (Request::GetCalibration, Response::Calibration(_)) => true,
         (Request::GetStatus, Response::Status(_)) => true,
         (Request::StartStream { .. }, Response::StreamStarted { .. }) => true,
-        (Request::GetStatus, Response::Status(_)) => true,
         (
             Request::PutCalibration(_) | Request::CommitCalibration | Request::StopStream,
             Response::Ack,
