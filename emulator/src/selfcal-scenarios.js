@@ -7,7 +7,6 @@ import { writeFileSync } from 'node:fs';
 import { join } from 'node:path';
 import { LedWatcher, LED } from './led.js';
 import { PoseNunchuk, TRUTH } from './pose-nunchuk.js';
-import { RawHost, REQUEST, unitRequestFrame, decodeStatus } from './wire.js';
 
 /** Gravity directions (sensor frame) after the starting pose [0, 0, 1]: six axes (the sixth
  * repeats the start, which the adapter must refuse with "move on"), then six cube diagonals;
@@ -78,15 +77,11 @@ async function tour(rig, ctl) {
   }
 }
 
-/**
- * The adapter's GetStatus answer (wire protocol 2), asked directly: the host CLI has no
- * status command yet. Returns the decoded status or { error }.
- */
+/** `wiical device selfcal-status --json` (the adapter's GetStatus, wire protocol 2). */
 async function status(rig) {
-  const host = new RawHost(rig);
-  if (!(await host.hello())) return { error: 'no Hello answer' };
-  const reply = await host.request(unitRequestFrame(REQUEST.getStatus));
-  return (reply && decodeStatus(reply.body)) ?? { error: `GetStatus answered with tag ${reply?.tag}` };
+  const r = await rig.wiical(['selfcal-status', '--json']);
+  if (r.code !== 0) return { error: `wiical device selfcal-status: exit ${r.code}: ${r.stderr.trim()}` };
+  return JSON.parse(r.stdout);
 }
 
 /** Largest |a − b| over two lists of count triples. */
@@ -161,13 +156,13 @@ export function selfCalScenarios(h) {
     const dev = maxDiff(truthCounts, fitCounts);
     if (dev > 1) return fail(`the fitted correction is ${dev} counts off the truth's`);
     const st = await status(rig);
-    const done = st.result?.done;
-    if (st.error || !done || done.poses !== 12 || !(done.rmsMg < 5)) return fail(`GetStatus: ${JSON.stringify(st)}`);
+    const done = st.last_result;
+    if (st.error || !done?.ok || done.poses !== 12 || !(done.rms_mg < 5)) return fail(`selfcal-status: ${JSON.stringify(st)}`);
     shared.selfCal = { image: rig.board.flashImage(), fitted, fittedPath };
     rig.close();
     const exact = truthCounts.filter((t, i) => t.every((v, j) => v === fitCounts[i][j])).length;
     return `C+Z 3 s, 12 poses + 1 repeat (LED: taken ×11, move on ×1, done), fit vs truth: bias ${biasErr.toFixed(3)} counts, K ${(kErr * 100).toFixed(3)} %; ` +
-      `reports = core correction; vs truth ≤ ${dev} count (${exact}/${raws.length} exact); GetStatus: done, ${done.poses} poses, fit RMS ${done.rmsMg.toFixed(2)} mg`;
+      `reports = core correction; vs truth ≤ ${dev} count (${exact}/${raws.length} exact); selfcal-status: done, ${done.poses} poses, fit RMS ${done.rms_mg.toFixed(2)} mg`;
   };
 
   const selfCalPowerCycle = async () => {
@@ -225,9 +220,9 @@ export function selfCalScenarios(h) {
     rig.close();
     if (state.error) return fail(state.error);
     if (!state.stored || !h.sameCal(state.live, h.CAL_A)) return fail('the old calibration is not live and stored after the failed session');
-    if (st.error || !/cancelled/.test(st.result?.failed ?? '')) return fail(`GetStatus: ${JSON.stringify(st)}`);
+    if (st.error || st.last_result?.ok !== false || !/cancelled/.test(st.last_result.message)) return fail(`selfcal-status: ${JSON.stringify(st)}`);
     if (err) return fail(err);
-    return `4 poses in one plane, then C+Z 3 s: LED failed, flash untouched, calibration A still live, reports corrected with it; GetStatus: "${st.result.failed}"`;
+    return `4 poses in one plane, then C+Z 3 s: LED failed, flash untouched, calibration A still live, reports corrected with it; selfcal-status: "${st.last_result.message}"`;
   };
 
   return [

@@ -186,37 +186,3 @@ export class RawHost {
   }
 }
 
-/** SelfCalPhase names by variant index (crates/wire schema). */
-const PHASES = ['Off', 'Arming', 'WaitingForStillness', 'PoseTaken', 'MoveToNewOrientation', 'Committing', 'Done', 'Failed'];
-
-/**
- * Decodes a Status reply (AdapterStatus): { phase, poses, result, staleMoments, staleRmsMg,
- * recalibrate }, `result` being null, { done: { rmsMg, poses } } or { failed: message }.
- */
-export function decodeStatus(body) {
-  if (body[0] !== RESPONSE.status) return null;
-  const view = new DataView(Uint8Array.from(body).buffer);
-  let i = 1;
-  let phase;
-  [phase, i] = readVarint(body, i);
-  const poses = body[i++];
-  let result = null;
-  if (body[i++] === 1) {
-    let kind;
-    [kind, i] = readVarint(body, i);
-    if (kind === 0) {
-      result = { done: { rmsMg: view.getFloat32(i, true), poses: body[i + 4] } };
-      i += 5;
-    } else {
-      let len;
-      [len, i] = readVarint(body, i);
-      result = { failed: Buffer.from(body.slice(i, i + len)).toString('utf8') };
-      i += len;
-    }
-  }
-  let staleMoments;
-  [staleMoments, i] = readVarint(body, i);
-  const staleRmsMg = view.getFloat32(i, true);
-  const recalibrate = body[i + 4] === 1;
-  return { phase: PHASES[phase] ?? phase, poses, result, staleMoments, staleRmsMg, recalibrate };
-}
