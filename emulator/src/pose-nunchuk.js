@@ -6,9 +6,10 @@
 // Sensor model (counts): raw = bias + K⁻¹·g + noise, with g the gravity reading in g (unit
 // vector at rest), K the correction the core fits (wiical_core::multipos: upper-triangular K,
 // g per count) and noise Gaussian with `noiseCounts` standard deviation, rounded to whole
-// counts and clamped to the 10-bit range. Because the truth's K is upper triangular too, the
-// fit can recover it exactly (an upper-triangular K is unique up to nothing once its
-// diagonal is positive), so "the truth's correction" is a fair expectation.
+// counts and clamped to the 10-bit range. Still poses only see ‖K·(m − b)‖, which fixes K up
+// to a rotation; the upper-triangular K with a positive diagonal is the unique one among
+// them, and the truth's K is of that form, so the fit can recover it and "the truth's
+// correction" is a fair expectation.
 
 /** The simulated Nunchuk's truth: zero-g counts and upper-triangular K (g per count). */
 export const TRUTH = {
