@@ -31,7 +31,7 @@
 //!
 //! ## Stale-calibration monitor
 //! Outside a session the same detector watches the game: every still moment's mean,
-//! corrected with the live calibration, should have ‖a‖ = 1 g. [`StaleMonitor`] keeps an
+//! corrected with the live calibration, should have ‖a‖ = 1 g. [`SelfCal::stale`] keeps an
 //! exponentially weighted RMS of ‖a‖ − 1 g over those moments; past
 //! [`SelfCalConfig::stale_threshold_g`] (after a few moments) it suggests recalibration.
 //!
