@@ -129,6 +129,75 @@ async function putCommit(rig, calPath, extra = []) {
   return null;
 }
 
+/**
+ * A self-calibration session as the user performs it (the Rust test
+ * crates/adapter/tests/self_calibration.rs plays the same script on the desktop): C + Z held
+ * for 3.3 s from plug-in in the first pose, then 12 poses (six half-axes, six cube diagonals)
+ * held still for 1.35 s each with 0.45 s moves (the direction turning plus a 0.3 g hand
+ * acceleration) in between. Sensor truth: m = D·u + b (counts) with D and b below, plus a
+ * deterministic uniform dither of ±0.5 count before rounding.
+ */
+const SELFCAL_D = [[203.0, 2.5, -1.0], [-3.0, 196.0, 1.5], [0.8, -2.2, 207.0]];
+const SELFCAL_B = [505.3, 497.8, 518.6];
+const SELFCAL_HOLD_MS = 3300;
+const SELFCAL_STILL_MS = 1350;
+const SELFCAL_MOVE_MS = 450;
+function selfcalPoses() {
+  const s = 1 / Math.sqrt(3);
+  return [
+    [0, 0, 1], [1, 0, 0], [0, 0, -1], [-1, 0, 0], [0, 1, 0], [0, -1, 0],
+    [s, s, s], [-s, -s, -s], [s, -s, s], [-s, s, -s], [s, s, -s], [-s, -s, s],
+  ];
+}
+function selfcalMotion() {
+  const poses = selfcalPoses();
+  const period = SELFCAL_STILL_MS + SELFCAL_MOVE_MS;
+  return (tNs) => {
+    const ms = tNs / 1e6;
+    let up;
+    let buttons = false;
+    let pose = 0;
+    if (ms < SELFCAL_HOLD_MS) {
+      up = poses[0];
+      buttons = true;
+    } else {
+      const j = ms - SELFCAL_HOLD_MS;
+      pose = Math.min(Math.floor(j / period), poses.length - 1);
+      const t = j - pose * period;
+      const p = poses[pose];
+      // After the last pose: one more move (so that its still moment ends), then still.
+      if (t < SELFCAL_STILL_MS || t >= period) {
+        up = p;
+      } else {
+        const next = poses[pose + 1] ?? p;
+        const f = (t - SELFCAL_STILL_MS) / SELFCAL_MOVE_MS;
+        const h = 0.3 * Math.sin(2 * Math.PI * 2 * t / 1000);
+        up = [0, 1, 2].map((i) => p[i] * (1 - f) + next[i] * f);
+        up = [up[0] + 0.2 + h, up[1] - h, up[2] + 0.5 * h];
+      }
+    }
+    const k = Math.floor(tNs / 5e6);
+    const accel = [0, 1, 2].map((r) => {
+      const dither = (((k * 2654435761 + r * 40503) >>> 0) % 1000) / 1000 - 0.5;
+      const m = SELFCAL_B[r] + SELFCAL_D[r][0] * up[0] + SELFCAL_D[r][1] * up[1] + SELFCAL_D[r][2] * up[2];
+      return Math.max(0, Math.min(1023, Math.round(m + dither)));
+    });
+    return { accel, stick: [0x80, 0x80], c: buttons, z: buttons, pose };
+  };
+}
+
+/** Largest |‖K(D·u)‖ − 1| (g) over the session's pose directions, for a calibration K. */
+function selfcalNormError(live) {
+  let worst = 0;
+  for (const u of selfcalPoses()) {
+    const m = [0, 1, 2].map((r) => SELFCAL_D[r][0] * u[0] + SELFCAL_D[r][1] * u[1] + SELFCAL_D[r][2] * u[2]);
+    const d = [0, 1, 2].map((i) => m[i] + SELFCAL_B[i] - live.bias[i]);
+    const a = live.matrix.map((row) => row[0] * d[0] + row[1] * d[1] + row[2] * d[2]);
+    worst = Math.max(worst, Math.abs(Math.hypot(...a) - 1));
+  }
+  return worst;
+}
+
 /** A scenario's failure (a success is the plain detail string). */
 const fail = (message) => ({ fail: message });
 const measurements = {};
@@ -238,6 +307,37 @@ const scenarios = [
     const err = checkReports(rig, hs + 1, (a) => a);
     rig.close();
     return err ? fail(err) : 'unplug: detect dropped; replug: re-initialised, handshake, reports pass through again';
+  }],
+  ['self-calibration', async () => {
+    const rig = newRig(null, { nunchuk: { motion: selfcalMotion() } });
+    const sessionMs = SELFCAL_HOLD_MS + 12 * (SELFCAL_STILL_MS + SELFCAL_MOVE_MS) + 200;
+    await rig.board.run(sessionMs);
+    if (rig.board.fault) return fail(`firmware fault: ${rig.board.fault}`);
+    const st = await rig.wiical(['selfcal-status', '--json']);
+    if (st.code !== 0) return fail(`wiical device selfcal-status: exit ${st.code}: ${st.stderr.trim()}`);
+    const status = JSON.parse(st.stdout);
+    const state = await getState(rig);
+    const reports = rig.remote.reports.map((r) => r.tNs);
+    const handshakes = rig.remote.handshakes.map((h) => h.tNs);
+    rig.close();
+    if (state.error) return fail(state.error);
+    if (!status.last_result?.ok) return fail(`self-calibration did not succeed: ${st.stdout.trim()}`);
+    if (!state.stored) return fail('the self-calibration is not stored');
+    const biasErr = Math.hypot(...[0, 1, 2].map((i) => state.live.bias[i] - SELFCAL_B[i]));
+    const normErr = selfcalNormError(state.live);
+    if (biasErr > 0.5 || normErr > 0.003) return fail(`calibration off the truth: bias ${biasErr.toFixed(3)} counts, ‖a‖−1 up to ${(normErr * 1e3).toFixed(2)} mg`);
+    // The commit re-presents the extension (detect toggles, the Wii Remote re-reads the
+    // block): that re-handshake is not a stall; the gap before it is what the session cost.
+    const lastHs = handshakes[handshakes.length - 1] ?? Infinity;
+    const before = reports.filter((t) => t < lastHs);
+    const gapNs = maxGap(before);
+    measurements.selfcalGapNs = gapNs;
+    if (gapNs > 50e6) return fail(`the Wii Remote went ${(gapNs / 1e6).toFixed(1)} ms without a report during the session`);
+    if (reports.length < sessionMs / 20) return fail(`the Wii Remote read only ${reports.length} reports during the session`);
+    return `C + Z at plug-in, ${status.last_result.poses} poses, fit RMS ${status.last_result.rms_mg.toFixed(2)} mg, stored; ` +
+      `bias within ${biasErr.toFixed(3)} counts and ‖a‖ within ${(normErr * 1e3).toFixed(2)} mg of the truth; ` +
+      `${reports.length} Wii Remote reports meanwhile, max gap ${(gapNs / 1e6).toFixed(1)} ms until the ` +
+      `commit's re-handshake (${(maxGap(reports) / 1e6).toFixed(0)} ms with it)`;
   }],
   ['usb-garbage-disconnect', async () => {
     const rig = newRig();
