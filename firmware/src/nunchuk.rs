@@ -9,8 +9,10 @@ use wiical_adapter::{CorrectionMode, NunchukPoller, PollEvent};
 use crate::{serial, status, Adapter};
 
 /// Polls the Nunchuk (the poller re-initialises it after an unplug, with back-off), feeds
-/// every result to the adapter logic (correction → emulated register map, stream sample)
-/// and publishes the status.
+/// every result to the adapter logic (correction → emulated register map, stream sample,
+/// self-calibration from the Nunchuk's buttons, stale monitor), lets it commit a finished
+/// self-calibration (`service`: a flash write, during which this task holds the adapter, as a
+/// host commit does), and publishes the status.
 #[embassy_executor::task]
 pub async fn nunchuk_task(mut bus: I2c<'static, I2C0, Async>, adapter: &'static Adapter) -> ! {
     let mut poller = NunchukPoller::default();
@@ -24,12 +26,21 @@ pub async fn nunchuk_task(mut bus: I2c<'static, I2C0, Async>, adapter: &'static 
             .poll(&mut bus, &mut delay, Instant::now().as_millis())
             .await;
         let connected = poller.is_connected();
-        let (sample, st, generation) = {
+        let (sample, st, generation, selfcal, stale) = {
             let mut a = adapter.lock().await;
             let sample = a.on_poll(&result, connected);
-            (sample, a.status(), a.block_generation())
+            a.service().await;
+            let sc = a.selfcal();
+            (
+                sample,
+                a.status(),
+                a.block_generation(),
+                sc.status(),
+                sc.stale(),
+            )
         };
         status::publish(&st, generation);
+        status::publish_selfcal(&selfcal, stale.recalibration_suggested);
         if let Some(s) = sample {
             if serial::SAMPLES.try_send(s).is_err() {
                 dropped = dropped.wrapping_add(1);

@@ -100,6 +100,18 @@ pub enum ClientError {
         /// Its schema key.
         schema: u32,
     },
+    /// The peer speaks a known older or newer protocol version.
+    #[error("the adapter on {port} (firmware {firmware:?}) speaks wire protocol v{protocol}, this wiical v{}: {older}", PROTOCOL_VERSION)]
+    OlderPeer {
+        /// The port.
+        port: String,
+        /// The adapter's firmware version.
+        firmware: String,
+        /// Its protocol version.
+        protocol: u16,
+        /// Which side is older, and what to do.
+        older: &'static str,
+    },
     /// The adapter answered with an error code.
     #[error("the adapter refused {request}: {code} (error code {})", *code as u8)]
     Refused {
@@ -111,8 +123,11 @@ pub enum ClientError {
     /// The calibration does not validate locally.
     #[error("refusing to upload an invalid calibration: {0}")]
     InvalidCalibration(wiical_core::Error),
+    /// The calibration fails the adapter's acceptance predicate (checked locally first).
+    #[error("refusing to upload an implausible calibration: {0} (the adapter applies the same limits, wiical_core::quality::Acceptance::nunchuk)")]
+    Implausible(wiical_core::quality::Rejection),
     /// Commit without a staged calibration.
-    #[error("nothing to commit on {port}: upload a calibration with `wiical device put` first")]
+    #[error("nothing to commit on {port}: the adapter only commits a calibration uploaded in the same session; use `wiical device commit FILE` (or `put FILE --commit`)")]
     NothingStaged {
         /// The port.
         port: String,
@@ -206,6 +221,7 @@ fn request_name(r: &Request) -> &'static str {
         Request::CommitCalibration => "CommitCalibration",
         Request::StartStream { .. } => "StartStream",
         Request::StopStream => "StopStream",
+        Request::GetStatus => "GetStatus",
     }
 }
 
@@ -217,6 +233,7 @@ fn answers(req: &Request, resp: &Response) -> bool {
         (Request::Hello(_), _) => false,
         (_, Response::Error(_)) => true,
         (Request::GetCalibration, Response::Calibration(_)) => true,
+        (Request::GetStatus, Response::Status(_)) => true,
         (Request::StartStream { .. }, Response::StreamStarted { .. }) => true,
         (
             Request::PutCalibration(_) | Request::CommitCalibration | Request::StopStream,
@@ -384,6 +401,20 @@ impl Device {
             return Err(unexpected(&Request::Hello(Hello::CURRENT), &resp));
         };
         if h.check().is_err() {
+            // Say which side is older when the key is a known one.
+            if let Some(v) = wiical_wire::protocol_of_key(h.schema_key) {
+                let older = if v < PROTOCOL_VERSION {
+                    "the adapter's firmware is older: flash the firmware built with this wiical"
+                } else {
+                    "this wiical is older than the firmware: update wiical"
+                };
+                return Err(ClientError::OlderPeer {
+                    port: self.name.clone(),
+                    firmware: h.firmware_version.as_str().into(),
+                    protocol: v,
+                    older,
+                });
+            }
             return Err(ClientError::SchemaMismatch {
                 port: self.name.clone(),
                 firmware: h.firmware_version.as_str().into(),
@@ -413,11 +444,23 @@ impl Device {
         }
     }
 
-    /// Stage a calibration (checked locally first).
+    /// Stage a calibration for this session (checked locally first with the same
+    /// acceptance predicate the adapter applies, so that a refusal names its reason).
     pub fn put_calibration(&mut self, cal: &Calibration) -> Result<()> {
         cal.validate().map_err(ClientError::InvalidCalibration)?;
+        wiical_core::quality::Acceptance::nunchuk()
+            .check(cal, None)
+            .map_err(ClientError::Implausible)?;
         self.expect_ok(&Request::PutCalibration((*cal).into()))?;
         Ok(())
+    }
+
+    /// Self-calibration progress and result, and the stale-calibration estimate.
+    pub fn status(&mut self) -> Result<wiical_wire::AdapterStatus> {
+        match self.expect_ok(&Request::GetStatus)?.0 {
+            Response::Status(s) => Ok(s),
+            other => Err(unexpected(&Request::GetStatus, &other)),
+        }
     }
 
     /// Commit the staged calibration. If the acknowledgement is lost and the retry finds

@@ -16,6 +16,7 @@
 //! | [`corrector`] | [`Corrector`]: live calibration → g → counts on an ideal 10-bit scale; pass-through when uncalibrated |
 //! | [`emulated`] | [`EmulatedNunchuk`]: the register map the Wii Remote reads |
 //! | [`store`] | [`CalibrationStore`]: versioned, CRC-checked record in a power-loss-safe `sequential-storage` map |
+//! | [`selfcal`] | [`SelfCal`]: calibration on the adapter from the Nunchuk's buttons (no PC), and the stale-calibration monitor |
 //! | [`protocol`] | [`Protocol`]: wire requests → responses, stream of samples, and the glue between the above |
 //!
 //! ## Firmware sketch
@@ -39,6 +40,7 @@ pub mod emulated;
 mod error;
 pub mod poller;
 pub mod protocol;
+pub mod selfcal;
 pub mod store;
 
 pub use corrector::{Corrected, CorrectionMode, Corrector, IdealScale};
@@ -46,4 +48,7 @@ pub use emulated::EmulatedNunchuk;
 pub use error::{Error, RecordError, StoreError};
 pub use poller::{NunchukInfo, NunchukPoller, PollEvent, PollerConfig, DEFAULT_POLL_HZ};
 pub use protocol::{BootLoad, DeviceInfo, Protocol, Status};
+pub use selfcal::{
+    SelfCal, SelfCalConfig, SelfCalFailure, SelfCalResult, SelfCalStatus, StaleEstimate,
+};
 pub use store::{CalibrationStore, Loaded};

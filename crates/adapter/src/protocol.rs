@@ -10,21 +10,40 @@
 //!
 //! Requests ([`Protocol::handle`]): `Hello` opens the session only when the schema keys
 //! match (every other request is refused with `SchemaMismatch` until then); `PutCalibration`
-//! stages a validated calibration; `CommitCalibration` stores it (power-loss safe), reads it
-//! back, and only then makes it live; `StartStream`/`StopStream` control the sample stream
-//! (rate = poll rate / divider, `seq` restarting at 0 and +1 per sample sent).
+//! stages a calibration that is usable (`InvalidCalibration` otherwise) and plausible by the
+//! core's acceptance predicate ([`wiical_core::quality::Acceptance`], Nunchuk limits;
+//! `ImplausibleCalibration` otherwise — in both cases the staged and live calibrations are
+//! unchanged); `CommitCalibration` stores it (power-loss safe), reads it back, and only then
+//! makes it live; `StartStream`/`StopStream` control the sample stream (rate = poll rate /
+//! divider, `seq` restarting at 0 and +1 per sample sent); `GetStatus` reports the
+//! self-calibration ([`crate::selfcal`]) and the stale-calibration estimate.
+//!
+//! ## Sessions
+//! A session lasts from a `Hello` to the next `Hello` or to [`Protocol::reset_session`]
+//! (port closed). **A staged calibration belongs to the session that staged it**: a new
+//! `Hello` or the end of the session discards it, so a later client's `CommitCalibration`
+//! can never commit someone else's upload (it gets `NothingStaged`); a host uploads and
+//! commits within one session. **A `Hello` does not stop a running stream**: the stream is
+//! the port's, not the session's (a second client asking for `info` must not cut a
+//! recording short); it stops with `StopStream` or when the port closes. While a
+//! self-calibration session runs on the adapter, `PutCalibration` and `CommitCalibration`
+//! answer `Busy`.
 
+use core::fmt::Write as _;
 use embedded_storage_async::nor_flash::NorFlash;
+
+use wiical_core::quality::{Acceptance, Rejection};
 use wiical_core::Calibration;
 use wiical_extbus::NunchukReport;
 use wiical_wire::{
-    CalibrationState, ErrorCode, FrameError, HelloResponse, Request, Response, Sample,
-    FIRMWARE_VERSION_CAP, PROTOCOL_VERSION, SCHEMA_KEY,
+    AdapterStatus, CalibrationState, ErrorCode, FrameError, HelloResponse, Request, Response,
+    Sample, SelfCalOutcome, SelfCalPhase, FIRMWARE_VERSION_CAP, PROTOCOL_VERSION, SCHEMA_KEY,
 };
 
 use crate::corrector::{CorrectionMode, Corrector, IdealScale};
 use crate::emulated::EmulatedNunchuk;
 use crate::poller::{NunchukInfo, PollEvent};
+use crate::selfcal::{SelfCal, SelfCalConfig, SelfCalResult, SelfCalStatus};
 use crate::store::{CalibrationStore, Loaded};
 use crate::{Error, RecordError};
 
@@ -106,6 +125,8 @@ pub struct Protocol<F: NorFlash> {
     emulated: EmulatedNunchuk,
     boot: BootLoad,
     block_generation: u32,
+    acceptance: Acceptance,
+    selfcal: SelfCal,
 }
 
 impl<F: NorFlash> Protocol<F> {
@@ -123,6 +144,7 @@ impl<F: NorFlash> Protocol<F> {
             Err(_) => BootLoad::StorageError,
         };
         let emulated = EmulatedNunchuk::new(&corrector.calibration_block_bytes());
+        let rate_hz = info.base_rate_mhz / 1000;
         Self {
             info,
             schema_key: SCHEMA_KEY,
@@ -136,7 +158,17 @@ impl<F: NorFlash> Protocol<F> {
             emulated,
             boot,
             block_generation: 0,
+            acceptance: Acceptance::nunchuk(),
+            selfcal: SelfCal::new(SelfCalConfig::nunchuk(rate_hz)),
         }
+    }
+
+    /// Use other self-calibration settings (tests, other sensors). Also sets the
+    /// acceptance limits for uploads to the self-calibration's.
+    pub fn with_selfcal_config(mut self, cfg: SelfCalConfig) -> Self {
+        self.acceptance = cfg.acceptance;
+        self.selfcal = SelfCal::new(cfg);
+        self
     }
 
     /// Present a different schema key in Hello (simulators and tests of the mismatch path
@@ -150,7 +182,9 @@ impl<F: NorFlash> Protocol<F> {
     pub async fn handle(&mut self, req: Request) -> Response {
         match req {
             Request::Hello(h) => {
-                self.stream = None;
+                // A new session: the previous one's staged upload is not ours to commit.
+                // The stream keeps running (see the module docs).
+                self.staged = None;
                 self.session_open = h.schema_key == self.schema_key;
                 Response::Hello(HelloResponse {
                     protocol_version: PROTOCOL_VERSION,
@@ -165,17 +199,22 @@ impl<F: NorFlash> Protocol<F> {
                 staged: self.staged.map(Into::into),
                 stored: self.corrector.mode() == CorrectionMode::Calibrated,
             }),
+            Request::PutCalibration(_) | Request::CommitCalibration if self.selfcal.active() => {
+                Response::Error(ErrorCode::Busy)
+            }
             Request::PutCalibration(w) => {
                 let cal = Calibration::from(w);
-                match cal.validate() {
+                match self.acceptance.check(&cal, None) {
                     Ok(()) => {
                         self.staged = Some(cal);
                         Response::Ack
                     }
-                    Err(_) => Response::Error(ErrorCode::InvalidCalibration),
+                    Err(Rejection::Unusable(_)) => Response::Error(ErrorCode::InvalidCalibration),
+                    Err(_) => Response::Error(ErrorCode::ImplausibleCalibration),
                 }
             }
             Request::CommitCalibration => self.commit().await,
+            Request::GetStatus => Response::Status(self.adapter_status()),
             Request::StartStream { rate_divider: 0 } => {
                 Response::Error(ErrorCode::InvalidParameter)
             }
@@ -200,20 +239,90 @@ impl<F: NorFlash> Protocol<F> {
         let Some(cal) = self.staged else {
             return Response::Error(ErrorCode::NothingStaged);
         };
+        match self.store_and_apply(cal).await {
+            Ok(()) => {
+                self.staged = None;
+                Response::Ack
+            }
+            Err(e) => Response::Error(e),
+        }
+    }
+
+    /// Store `cal` (power-loss safe), read it back, and only then make it live.
+    async fn store_and_apply(&mut self, cal: Calibration) -> Result<(), ErrorCode> {
         if self.store.save(&cal).await.is_err() {
-            return Response::Error(ErrorCode::StorageFailure);
+            return Err(ErrorCode::StorageFailure);
         }
         // Read back: only a calibration that the next boot will load goes live.
         match self.store.load().await {
             Ok(Loaded::Calibration(back)) if bits_equal(&back, &cal) => {}
-            _ => return Response::Error(ErrorCode::StorageFailure),
+            _ => return Err(ErrorCode::StorageFailure),
         }
         if self.corrector.set_user_calibration(Some(cal)).is_err() {
-            return Response::Error(ErrorCode::Internal);
+            return Err(ErrorCode::Internal);
         }
-        self.staged = None;
         self.refresh_block();
-        Response::Ack
+        self.selfcal.calibration_changed();
+        Ok(())
+    }
+
+    /// Finish what the report path cannot do synchronously: commit a self-calibration that
+    /// passed its checks. Call after every [`Protocol::on_poll`] (cheap when idle). A
+    /// storage failure keeps the old calibration and ends the session as failed.
+    pub async fn service(&mut self) {
+        if let Some((cal, rms)) = self.selfcal.take_pending() {
+            let stored = self.store_and_apply(cal).await;
+            self.selfcal.committed(stored.map(|()| rms).map_err(|_| ()));
+        }
+    }
+
+    /// The self-calibration state machine (LED status, last result, stale estimate).
+    pub fn selfcal(&self) -> &SelfCal {
+        &self.selfcal
+    }
+
+    /// The wire form of the self-calibration and stale-monitor state.
+    pub fn adapter_status(&self) -> AdapterStatus {
+        let (phase, poses) = match self.selfcal.status() {
+            SelfCalStatus::Off => (SelfCalPhase::Off, 0),
+            SelfCalStatus::Arming => (SelfCalPhase::Arming, 0),
+            SelfCalStatus::WaitingForStillness { poses } => {
+                (SelfCalPhase::WaitingForStillness, poses)
+            }
+            SelfCalStatus::PoseTaken { poses } => (SelfCalPhase::PoseTaken, poses),
+            SelfCalStatus::MoveToNewOrientation { poses } => {
+                (SelfCalPhase::MoveToNewOrientation, poses)
+            }
+            SelfCalStatus::Committing => (SelfCalPhase::Committing, 0),
+            SelfCalStatus::Done => (SelfCalPhase::Done, 0),
+            SelfCalStatus::Failed(_) => (SelfCalPhase::Failed, 0),
+        };
+        let poses = if poses == 0 {
+            self.selfcal.poses().len() as u8
+        } else {
+            poses
+        };
+        let last_result = self.selfcal.last_result().map(|r| match r {
+            SelfCalResult::Done { rms_g, poses } => SelfCalOutcome::Done {
+                rms_mg: rms_g * 1000.0,
+                poses,
+            },
+            SelfCalResult::Failed(why) => {
+                let mut message = heapless::String::new();
+                // Truncated at the capacity: the message is for people.
+                let _ = TruncatingWriter(&mut message).write_str(why.summary());
+                SelfCalOutcome::Failed { message }
+            }
+        });
+        let stale = self.selfcal.stale();
+        AdapterStatus {
+            phase,
+            poses,
+            last_result,
+            stale_moments: stale.moments,
+            stale_rms_mg: stale.rms_g * 1000.0,
+            recalibration_suggested: stale.recalibration_suggested,
+        }
     }
 
     /// The answer to a frame that could not be decoded.
@@ -221,11 +330,12 @@ impl<F: NorFlash> Protocol<F> {
         Response::Error(ErrorCode::BadFrame)
     }
 
-    /// The host went away (port closed, USB suspended): close the session and stop the
-    /// stream. Staged data is kept.
+    /// The host went away (port closed, USB suspended): close the session, stop the stream
+    /// and discard the staged calibration (it belonged to that session).
     pub fn reset_session(&mut self) {
         self.session_open = false;
         self.stream = None;
+        self.staged = None;
     }
 
     /// Feed one poll result. `still_connected` is
@@ -254,6 +364,7 @@ impl<F: NorFlash> Protocol<F> {
     /// A Nunchuk was (re)initialised: take its factory block.
     pub fn on_connected(&mut self, info: &NunchukInfo) {
         self.connected = true;
+        self.selfcal.on_plug_in();
         self.corrector.set_factory(info);
         self.refresh_block();
     }
@@ -262,11 +373,15 @@ impl<F: NorFlash> Protocol<F> {
     /// release the extension-detect line).
     pub fn on_disconnected(&mut self) {
         self.connected = false;
+        self.selfcal.on_unplug();
     }
 
     /// Correct a report, update the emulated register map, and return the sample to send
     /// if streaming (every `rate_divider`-th report).
     pub fn on_report(&mut self, report: &NunchukReport) -> Option<Sample> {
+        let live = self.corrector.live_calibration();
+        self.selfcal
+            .on_report(report.accel, report.c, report.z, &live);
         let c = self.corrector.correct(report.accel);
         self.emulated.set_report(&NunchukReport {
             accel: c.counts,
@@ -353,4 +468,18 @@ impl<F: NorFlash> Protocol<F> {
 /// Bitwise equality of every parameter (so that `-0.0 ≠ 0.0` and NaN payloads count).
 pub fn bits_equal(a: &Calibration, b: &Calibration) -> bool {
     crate::store::encode_record(a) == crate::store::encode_record(b)
+}
+
+/// `fmt::Write` into a bounded string that drops what does not fit (at a char boundary).
+struct TruncatingWriter<'a, const N: usize>(&'a mut heapless::String<N>);
+
+impl<const N: usize> core::fmt::Write for TruncatingWriter<'_, N> {
+    fn write_str(&mut self, s: &str) -> core::fmt::Result {
+        for ch in s.chars() {
+            if self.0.push(ch).is_err() {
+                break;
+            }
+        }
+        Ok(())
+    }
 }

@@ -14,11 +14,12 @@ use wiical_adapter::protocol::bits_equal;
 use wiical_adapter::{
     BootLoad, CalibrationStore, CorrectionMode, DeviceInfo, IdealScale, NunchukPoller, Protocol,
 };
+use wiical_core::quality::Acceptance;
 use wiical_core::Calibration;
 use wiical_extbus::{CalibrationBlock, Encryption, NunchukRegisters, NunchukReport};
 use wiical_wire::{
     encode_frame, CalibrationState, DefaultFrameDecoder, ErrorCode, Hello, Request, Response,
-    Sample, WireCalibration, MAX_FRAME_LEN, PROTOCOL_VERSION, SCHEMA_KEY,
+    Sample, SelfCalPhase, WireCalibration, MAX_FRAME_LEN, PROTOCOL_VERSION, SCHEMA_KEY,
 };
 
 type Flash = CutFlash<4, 512, 4>;
@@ -337,15 +338,20 @@ fn stream_divider_seq_and_corrected_values() {
         assert_eq!(s.buttons & Sample::BUTTON_C != 0, r.c);
         assert_eq!(s.buttons & Sample::BUTTON_Z != 0, r.z);
     }
-    // Restart: seq from 0 again; Stop ends it; a Hello ends it too.
+    // Restart: seq from 0 again; Stop ends it. A second client's Hello does not (the
+    // stream is the port's, see the protocol docs); closing the port does.
     rig.req(Request::StartStream { rate_divider: 1 });
     assert_eq!(rig.step().map(|s| s.seq), Some(0));
     assert_eq!(rig.step().map(|s| s.seq), Some(1));
     assert_eq!(rig.req(Request::StopStream), Response::Ack);
     assert!(rig.step().is_none());
     rig.req(Request::StartStream { rate_divider: 1 });
+    assert_eq!(rig.step().map(|s| s.seq), Some(0));
     rig.hello();
+    assert_eq!(rig.step().map(|s| s.seq), Some(1));
+    rig.proto.reset_session();
     assert!(rig.step().is_none());
+    rig.hello();
     // No samples while the Nunchuk is unplugged; they resume after the replug.
     rig.req(Request::StartStream { rate_divider: 1 });
     rig.bus.plug = Plug::Unplugged;
@@ -575,6 +581,30 @@ fn arb_cal() -> impl Strategy<Value = WireCalibration> {
         })
 }
 
+/// Calibrations near a real Nunchuk's, most of them plausible, some just beyond a limit.
+fn near_nunchuk_cal() -> impl Strategy<Value = WireCalibration> {
+    (
+        proptest::array::uniform3(380.0f32..640.0),
+        proptest::array::uniform3(150.0f32..250.0),
+        proptest::array::uniform3(-0.001f32..0.001),
+        proptest::array::uniform3(-0.2f32..0.2),
+    )
+        .prop_map(|(bias, counts_per_g, cross, quad)| {
+            let k = counts_per_g.map(|c| 1.0 / c);
+            let mut c = Calibration {
+                bias,
+                matrix: [
+                    [k[0], cross[0], cross[1]],
+                    [0.0, k[1], cross[2]],
+                    [0.0, 0.0, k[2]],
+                ],
+                effects: Default::default(),
+            };
+            c.effects.quadratic = quad;
+            c.into()
+        })
+}
+
 fn arb_request() -> impl Strategy<Value = Request> {
     prop_oneof![
         2 => Just(Request::Hello(Hello::CURRENT)),
@@ -583,8 +613,10 @@ fn arb_request() -> impl Strategy<Value = Request> {
             schema_key: k
         })),
         2 => Just(Request::GetCalibration),
-        3 => arb_cal().prop_map(Request::PutCalibration),
+        2 => arb_cal().prop_map(Request::PutCalibration),
+        2 => near_nunchuk_cal().prop_map(Request::PutCalibration),
         2 => Just(Request::CommitCalibration),
+        1 => Just(Request::GetStatus),
         2 => any::<u16>().prop_map(|d| Request::StartStream { rate_divider: d % 5 }),
         1 => Just(Request::StopStream),
     ]
@@ -619,9 +651,19 @@ proptest! {
                     prop_assert!(Calibration::from(s.live).validate().is_ok());
                 }
                 (Request::PutCalibration(w), Response::Ack) => {
-                    prop_assert!(Calibration::from(*w).validate().is_ok());
+                    prop_assert!(Acceptance::nunchuk().check(&Calibration::from(*w), None).is_ok());
                 }
-                (Request::PutCalibration(_), Response::Error(ErrorCode::InvalidCalibration)) => {}
+                (Request::PutCalibration(w), Response::Error(ErrorCode::InvalidCalibration)) => {
+                    prop_assert!(Calibration::from(*w).validate().is_err());
+                }
+                (Request::PutCalibration(w), Response::Error(ErrorCode::ImplausibleCalibration)) => {
+                    let cal = Calibration::from(*w);
+                    prop_assert!(cal.validate().is_ok());
+                    prop_assert!(Acceptance::nunchuk().check(&cal, None).is_err());
+                }
+                (Request::GetStatus, Response::Status(st)) => {
+                    prop_assert_eq!(st.phase, SelfCalPhase::Off);
+                }
                 (Request::CommitCalibration, Response::Ack)
                 | (Request::CommitCalibration, Response::Error(ErrorCode::NothingStaged)) => {}
                 (Request::StartStream { rate_divider: 0 }, Response::Error(ErrorCode::InvalidParameter)) => {}
@@ -631,8 +673,12 @@ proptest! {
                 (Request::StopStream, Response::Ack) => {}
                 _ => prop_assert!(false, "{:?} answered with {:?}", req, resp),
             }
-            if is_hello || is_start || matches!(req, Request::StopStream) {
+            if is_start || matches!(req, Request::StopStream) {
                 last_seq = None;
+            }
+            if is_hello {
+                // A new session never inherits a staged calibration.
+                prop_assert!(rig.proto.staged().is_none());
             }
             prop_assert!(rig.proto.corrector().live_calibration().validate().is_ok());
             for _ in 0..polls {
@@ -749,4 +795,125 @@ fn encoded_state_round_trips_through_frames() {
     let mut rx = DefaultFrameDecoder::new();
     let back: Vec<_> = rx.feed::<Response>(&frame).collect();
     assert_eq!(back, vec![Ok(resp)]);
+}
+
+/// Issue 11: the absurd uploads that were once "verified bit for bit" are refused with a
+/// typed error; neither the staged nor the live calibration changes.
+#[test]
+fn implausible_uploads_are_refused_and_the_old_calibration_kept() {
+    let mut flash = Flash::new(21);
+    let mut rig = Rig::boot(&mut flash);
+    rig.settle();
+    rig.hello();
+    let good = true_calibration();
+    assert_eq!(Acceptance::nunchuk().check(&good, None), Ok(()));
+    rig.commit(&good);
+    assert_eq!(rig.req(Request::PutCalibration(good.into())), Response::Ack);
+    let mut absurd = Vec::new();
+    for (field, value) in [
+        ("quadratic", 1e30f32),
+        ("cubic", 3e38),
+        ("bias", 1e30),
+        ("temp_ref", 1e38),
+    ] {
+        let mut c = good;
+        match field {
+            "quadratic" => c.effects.quadratic[0] = value,
+            "cubic" => c.effects.cubic[1] = value,
+            "bias" => c.bias[2] = value,
+            _ => c.effects.temp_ref_c = value,
+        }
+        absurd.push(c);
+    }
+    let mut half_scale = good;
+    half_scale.matrix[0][0] *= 2.0;
+    absurd.push(half_scale);
+    for c in absurd {
+        assert!(c.validate().is_ok(), "finite and invertible: {c:?}");
+        assert_eq!(
+            rig.req(Request::PutCalibration(c.into())),
+            Response::Error(ErrorCode::ImplausibleCalibration),
+            "{c:?}"
+        );
+        let state = rig.get();
+        assert_eq!(state.staged, Some(good.into()), "staged copy untouched");
+        assert!(bits_equal(&Calibration::from(state.live), &good));
+    }
+    // Non-finite stays the older, more specific code.
+    let mut nan = good;
+    nan.bias[0] = f32::NAN;
+    assert_eq!(
+        rig.req(Request::PutCalibration(nan.into())),
+        Response::Error(ErrorCode::InvalidCalibration)
+    );
+}
+
+/// Issue 11: a staged calibration belongs to its session; a later client's commit gets
+/// `NothingStaged` instead of committing someone else's upload.
+#[test]
+fn a_staged_calibration_does_not_survive_its_session() {
+    let mut flash = Flash::new(22);
+    let mut rig = Rig::boot(&mut flash);
+    rig.settle();
+    rig.hello();
+    let cal = true_calibration();
+    assert_eq!(rig.req(Request::PutCalibration(cal.into())), Response::Ack);
+    // Another client opens a session (second Hello) and commits.
+    rig.hello();
+    assert_eq!(rig.get().staged, None);
+    assert_eq!(
+        rig.req(Request::CommitCalibration),
+        Response::Error(ErrorCode::NothingStaged)
+    );
+    assert!(!rig.get().stored);
+    // Same after the port closes.
+    assert_eq!(rig.req(Request::PutCalibration(cal.into())), Response::Ack);
+    rig.proto.reset_session();
+    rig.hello();
+    assert_eq!(
+        rig.req(Request::CommitCalibration),
+        Response::Error(ErrorCode::NothingStaged)
+    );
+    // Within one session, upload then commit works.
+    assert_eq!(rig.req(Request::PutCalibration(cal.into())), Response::Ack);
+    assert_eq!(rig.req(Request::CommitCalibration), Response::Ack);
+    assert!(rig.get().stored);
+}
+
+/// An old host (protocol 1) gets the frozen Hello answer, from which it can tell that the
+/// adapter speaks a newer protocol, and every other request is refused with
+/// `SchemaMismatch` rather than misread.
+#[test]
+fn an_old_host_gets_a_clear_schema_mismatch() {
+    let mut flash = Flash::new(23);
+    let mut rig = Rig::boot(&mut flash);
+    rig.settle();
+    let (old_version, old_key) = wiical_wire::PREVIOUS_SCHEMA_KEYS[0];
+    assert_eq!(old_version, 1);
+    let resp = rig.req(Request::Hello(Hello {
+        protocol_version: old_version,
+        schema_key: old_key,
+    }));
+    // The bytes an old host decodes: Response variant 0 and the frozen HelloResponse layout.
+    let mut buf = [0u8; MAX_FRAME_LEN];
+    let bytes = postcard::to_slice(&resp, &mut buf).unwrap();
+    assert_eq!(bytes[0], 0, "Response::Hello is variant 0");
+    assert_eq!(bytes[1], PROTOCOL_VERSION as u8);
+    let Response::Hello(h) = resp else {
+        panic!("{resp:?}")
+    };
+    assert_eq!(h.protocol_version, 2);
+    assert_eq!(h.check(), Ok(()));
+    assert_eq!(
+        wiical_wire::check_schema_key(old_key),
+        Err(ErrorCode::SchemaMismatch)
+    );
+    assert_eq!(wiical_wire::protocol_of_key(old_key), Some(1));
+    for req in [
+        Request::GetCalibration,
+        Request::GetStatus,
+        Request::CommitCalibration,
+    ] {
+        assert_eq!(rig.req(req), Response::Error(ErrorCode::SchemaMismatch));
+    }
 }

@@ -139,5 +139,60 @@ fn bench_mag_kalman(c: &mut Criterion) {
     });
 }
 
-criterion_group!(benches, bench, bench_mag_kalman);
+/// The gyro integration step (per sample, f32 and f64) and the zero-rate tracker. The whole
+/// fit on a real recording is benchmarked end to end by the host (`gyrofit` on Xsens).
+fn bench_gyro(c: &mut Criterion) {
+    use wiical_core::gyro::{Adjustment, GyroCalibration, MotionIntegrator, NPARAM};
+    use wiical_core::gyro_zero::{ZeroRateConfig, ZeroRateTracker};
+    let stream: Vec<[f32; 3]> = (0..1000u32)
+        .map(|i| {
+            [
+                8192.0 + (i % 97) as f32,
+                8190.0 - (i % 89) as f32,
+                8195.0 + (i % 53) as f32,
+            ]
+        })
+        .collect();
+    let cal = GyroCalibration::<f32>::nominal([8192.0, 8190.0, 8195.0], [1.2e-3, -1.2e-3, 1.2e-3]);
+    let scale_mask: [bool; NPARAM] = core::array::from_fn(|k| k < 9);
+    for (label, tracked) in [
+        (
+            "gyro::MotionIntegrator::push, 1000 samples (RK4)",
+            [false; NPARAM],
+        ),
+        (
+            "gyro::MotionIntegrator::push, 1000 samples (RK4 + 9 sensitivities)",
+            scale_mask,
+        ),
+    ] {
+        c.bench_function(label, |bn| {
+            bn.iter(|| {
+                let mut m =
+                    MotionIntegrator::new(cal, Adjustment::identity(), 0.01, tracked).unwrap();
+                for s in &stream {
+                    m.push(black_box(s)).unwrap();
+                }
+                m.finish(&[0.0, 0.0, 1.0].into(), &[0.0, 1.0, 0.0].into())
+                    .unwrap()
+                    .angle
+            })
+        });
+    }
+    let zcfg = ZeroRateConfig {
+        block: 50,
+        max_spread: 200.0f32,
+        blend: 0.5,
+    };
+    c.bench_function("gyro_zero::ZeroRateTracker::push, 1000 samples", |bn| {
+        bn.iter(|| {
+            let mut t = ZeroRateTracker::new(zcfg, [8192.0, 8190.0, 8195.0]).unwrap();
+            for s in &stream {
+                t.push(black_box(*s), true).unwrap();
+            }
+            t.bias()
+        })
+    });
+}
+
+criterion_group!(benches, bench, bench_mag_kalman, bench_gyro);
 criterion_main!(benches);

@@ -30,14 +30,21 @@
 //! | [`multipos`] | multi-position fit in arbitrary orientations (Levenberg–Marquardt) |
 //! | [`magfit`] | magnetometer sphere / axis-aligned / rotated-ellipsoid fits from streaming sums |
 //! | [`kalman`] | the 3-state `[position, velocity, bias]` Kalman filter |
-//! | [`static_detect`] | static-interval detection on a stream |
+//! | [`gyro`] | gyro model `ω = K(m − b)`, RK4 quaternion integration of a motion with exact parameter sensitivities |
+//! | [`gyro_fit`] | multi-position gyro scale / misalignment / bias fit (Tedaldi et al. 2014), leave-one-motion-out |
+//! | [`gyro_zero`] | zero-rate (bias) tracker that re-zeroes whenever the sensor is still |
+//! | [`static_detect`] | static-interval detection on a stream; [`static_detect::adaptive`]: thresholds from the recording's own noise, no rest period needed |
 //! | [`lm`] | Levenberg–Marquardt generic over the float type (`f32` device, `f64` analysis), standard errors, leverage, leave-one-out |
+//! | [`quality`] | the one acceptance predicate (plausibility limits) and the pose-coverage rule |
 //! | [`linalg`] | small helpers (Cholesky solves of normal equations) |
 #![no_std]
 #![deny(unsafe_code)]
 #![warn(missing_docs)]
 
 pub mod error;
+pub mod gyro;
+pub mod gyro_fit;
+pub mod gyro_zero;
 pub mod kalman;
 pub mod linalg;
 pub mod lm;
@@ -45,6 +52,7 @@ pub mod magfit;
 pub mod model;
 pub mod multipos;
 pub mod offset;
+pub mod quality;
 pub mod six_position;
 pub mod static_detect;
 pub mod stats;

@@ -60,7 +60,10 @@ pub use frame::{
     encode_frame, DefaultFrameDecoder, FrameDecoder, FrameError, Frames, MAX_FRAME_LEN,
 };
 pub use messages::{
-    check_schema_key, CalibrationState, ErrorCode, Hello, HelloResponse, Request, Response, Sample,
-    WireCalibration, WireEffects, FIRMWARE_VERSION_CAP,
+    check_schema_key, AdapterStatus, CalibrationState, ErrorCode, Hello, HelloResponse, Request,
+    Response, Sample, SelfCalOutcome, SelfCalPhase, WireCalibration, WireEffects,
+    FIRMWARE_VERSION_CAP, SELFCAL_MESSAGE_CAP,
 };
-pub use schema::{fnv1a_32, PROTOCOL_VERSION, SCHEMA, SCHEMA_KEY};
+pub use schema::{
+    fnv1a_32, protocol_of_key, PREVIOUS_SCHEMA_KEYS, PROTOCOL_VERSION, SCHEMA, SCHEMA_KEY,
+};

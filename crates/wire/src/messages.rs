@@ -39,6 +39,9 @@ pub enum Request {
     },
     /// Stop streaming: [`Response::Ack`] (also when no stream was running).
     StopStream,
+    /// (Protocol 2.) Ask for the self-calibration progress and result and the
+    /// stale-calibration estimate: answered by [`Response::Status`].
+    GetStatus,
 }
 
 /// The host's half of the handshake.
@@ -95,6 +98,8 @@ pub enum Response {
     },
     /// One streamed sample.
     Sample(Sample),
+    /// (Protocol 2.) Answer to [`Request::GetStatus`].
+    Status(AdapterStatus),
 }
 
 /// The adapter's half of the handshake.
@@ -144,11 +149,15 @@ pub enum ErrorCode {
     NoSensor = 9,
     /// An internal error in the adapter.
     Internal = 10,
+    /// (Protocol 2.) The calibration is usable but implausible for the sensor (offsets,
+    /// sensitivity, cross-axis terms or the output over the sensor's input range beyond the
+    /// core's acceptance limits, `wiical_core::quality`); the old calibration is kept.
+    ImplausibleCalibration = 11,
 }
 
 impl ErrorCode {
     /// Every code, for tests and tables.
-    pub const ALL: [ErrorCode; 10] = [
+    pub const ALL: [ErrorCode; 11] = [
         ErrorCode::SchemaMismatch,
         ErrorCode::BadFrame,
         ErrorCode::UnsupportedRequest,
@@ -159,6 +168,7 @@ impl ErrorCode {
         ErrorCode::InvalidParameter,
         ErrorCode::NoSensor,
         ErrorCode::Internal,
+        ErrorCode::ImplausibleCalibration,
     ];
 
     /// Short English description, for the host's messages.
@@ -176,6 +186,9 @@ impl ErrorCode {
             ErrorCode::InvalidParameter => "parameter out of range",
             ErrorCode::NoSensor => "no sensor connected",
             ErrorCode::Internal => "internal firmware error",
+            ErrorCode::ImplausibleCalibration => {
+                "calibration rejected as implausible for the sensor (offsets, scale or output range beyond the limits); the old one is kept"
+            }
         }
     }
 }
@@ -325,4 +338,63 @@ impl Sample {
     pub const BUTTON_Z: u16 = 1 << 0;
     /// Nunchuk C button bit in [`Sample::buttons`].
     pub const BUTTON_C: u16 = 1 << 1;
+}
+
+/// Capacity of [`SelfCalOutcome::Failed::message`], bytes of UTF-8.
+pub const SELFCAL_MESSAGE_CAP: usize = 96;
+
+/// The adapter's self-calibration progress, its last result and the stale-calibration
+/// estimate (protocol 2; see `wiical_adapter::selfcal`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct AdapterStatus {
+    /// What the status LED shows now.
+    pub phase: SelfCalPhase,
+    /// Poses taken in the current (or last) session.
+    pub poses: u8,
+    /// The last finished session, if any since boot.
+    pub last_result: Option<SelfCalOutcome>,
+    /// Still moments seen during play since the calibration last changed.
+    pub stale_moments: u32,
+    /// Running RMS of ‖a‖ − 1 g over those moments, mg.
+    pub stale_rms_mg: f32,
+    /// True when the adapter suggests recalibrating (RMS past its threshold).
+    pub recalibration_suggested: bool,
+}
+
+/// Self-calibration phase (the status LED's pattern).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum SelfCalPhase {
+    /// Not in the mode.
+    Off,
+    /// C + Z held after plug-in; the mode starts when the hold completes.
+    Arming,
+    /// Hold still in a new orientation.
+    WaitingForStillness,
+    /// A pose was just taken.
+    PoseTaken,
+    /// That orientation was taken already: move to a new one.
+    MoveToNewOrientation,
+    /// Fitted and accepted; being stored.
+    Committing,
+    /// The session succeeded.
+    Done,
+    /// The session failed; the old calibration is kept.
+    Failed,
+}
+
+/// Result of a finished self-calibration session.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub enum SelfCalOutcome {
+    /// Stored and live.
+    Done {
+        /// Fit RMS of ‖a‖ − 1 g over the poses, mg.
+        rms_mg: f32,
+        /// Poses used.
+        poses: u8,
+    },
+    /// Failed; the old calibration is unchanged.
+    Failed {
+        /// Why, in English (at most [`SELFCAL_MESSAGE_CAP`] bytes).
+        message: heapless::String<SELFCAL_MESSAGE_CAP>,
+    },
 }

@@ -64,8 +64,47 @@ fn request() -> impl Strategy<Value = Request> {
         Just(Request::CommitCalibration),
         any::<u16>().prop_map(|rate_divider| Request::StartStream { rate_divider }),
         Just(Request::StopStream),
+        Just(Request::GetStatus),
     ]
 }
+
+fn status() -> impl Strategy<Value = AdapterStatus> {
+    let outcome = prop_oneof![
+        (f(), any::<u8>()).prop_map(|(rms_mg, poses)| SelfCalOutcome::Done { rms_mg, poses }),
+        "[ -~]{0,96}".prop_map(|m| SelfCalOutcome::Failed {
+            message: heapless::String::try_from(m.as_str()).unwrap()
+        }),
+    ];
+    (
+        0usize..8,
+        any::<u8>(),
+        proptest::option::of(outcome),
+        any::<u32>(),
+        f(),
+        any::<bool>(),
+    )
+        .prop_map(
+            |(p, poses, last_result, stale_moments, stale_rms_mg, s)| AdapterStatus {
+                phase: PHASES[p],
+                poses,
+                last_result,
+                stale_moments,
+                stale_rms_mg,
+                recalibration_suggested: s,
+            },
+        )
+}
+
+const PHASES: [SelfCalPhase; 8] = [
+    SelfCalPhase::Off,
+    SelfCalPhase::Arming,
+    SelfCalPhase::WaitingForStillness,
+    SelfCalPhase::PoseTaken,
+    SelfCalPhase::MoveToNewOrientation,
+    SelfCalPhase::Committing,
+    SelfCalPhase::Done,
+    SelfCalPhase::Failed,
+];
 
 fn response() -> impl Strategy<Value = Response> {
     prop_oneof![
@@ -93,6 +132,7 @@ fn response() -> impl Strategy<Value = Response> {
             ),
         any::<u32>().prop_map(|sample_rate_mhz| Response::StreamStarted { sample_rate_mhz }),
         sample().prop_map(Response::Sample),
+        status().prop_map(Response::Status),
     ]
 }
 
@@ -284,6 +324,27 @@ fn golden_encodings() {
     assert_eq!(
         hex(&enc(&Response::Sample(s))),
         format!("0501010203{}030405", "00".repeat(12))
+    );
+    // Protocol 2 additions, at the end of each enum.
+    assert_eq!(hex(&enc(&Request::GetStatus)), "06");
+    assert_eq!(
+        hex(&enc(&Response::Error(ErrorCode::ImplausibleCalibration))),
+        "010b"
+    );
+    let st = AdapterStatus {
+        phase: SelfCalPhase::Failed,
+        poses: 5,
+        last_result: Some(SelfCalOutcome::Failed {
+            message: heapless::String::try_from("no").unwrap(),
+        }),
+        stale_moments: 300,
+        stale_rms_mg: 1.0,
+        recalibration_suggested: true,
+    };
+    // 06 Status, 07 Failed, 05 poses, 01 Some, 01 Failed, 02 "no", varint 300, 1.0f32, true.
+    assert_eq!(
+        hex(&enc(&Response::Status(st))),
+        "0607050101026e6fac020000803f01"
     );
 }
 

@@ -11,6 +11,12 @@
 //! 3. if an extension is connected: unencrypted init (`0x55` → `0xA400F0`, `0x00` →
 //!    `0xA400FB`), its ID (6 bytes at `0xA400FA`) and, for a Nunchuk, its calibration
 //!    (32 bytes at `0xA40020`: block and copy),
+//!    A MotionPlus is looked for first (its ID at `0xA600FA`; a refused read means none): if
+//!    present its 32-byte calibration block (`0xA60020`) is read, the extension behind it is set
+//!    up as above, and it is activated (`0x55` → `0xA600F0`, then `0x05` → `0xA600FE` with a
+//!    Nunchuk behind it, else `0x04`). The CSV then has `gx,gy,gz` (pitch, roll, yaw, raw
+//!    14-bit counts) and `gx_slow,gy_slow,gz_slow`; in pass-through mode rows alternate between
+//!    gyro data and the Nunchuk's (whose accelerometer loses bit 0), see docs/gyro.md,
 //! 4. selects continuous reporting in mode `0x35` (`12 04 35`: buttons, accelerometer and 16
 //!    extension bytes, about 100 reports a second).
 //!
@@ -55,6 +61,7 @@ use std::fmt::Write as _;
 use std::io::{BufWriter, IsTerminal};
 use std::path::PathBuf;
 use std::time::Duration;
+use wiical_extbus::motionplus::{Frame, MotionPlusReport, PassthroughMode};
 
 /// How long a capture runs.
 #[derive(Debug, Clone, PartialEq)]
@@ -273,6 +280,14 @@ fn report_setup(setup: &DeviceSetup, cal: &CalFile, ui: &mut dyn CaptureUi) {
             )),
         }
     }
+    if let Some(mp) = &cal.motionplus {
+        ui.message(&format!(
+            "MotionPlus found ({}), activated in mode 0x{:02X}; its calibration block's CRC-32 is {}",
+            protocol::hex(&setup.motionplus.as_ref().map(|m| m.id).unwrap_or_default()),
+            mp.mode.unwrap_or(0),
+            if mp.checksum_ok { "correct" } else { "WRONG (bytes in the side file)" }
+        ));
+    }
     if let Some(ext) = &setup.extension {
         if !is_nunchuk_id(&ext.id) {
             ui.message(&format!(
@@ -292,6 +307,20 @@ struct Recorder<'a, 's, D: WiimoteIo + ?Sized> {
     ext_present: bool,
     /// Latest Nunchuk reading (held for the stillness test while it is unplugged).
     last_ext: [f64; 3],
+}
+
+/// The extension bytes of a report from an active MotionPlus: gyro data, or the pass-through
+/// Nunchuk's accelerometer (bit 0 of each axis lost on the way), or neither (too short, or
+/// extension data the mode does not expect).
+fn split_motionplus_frame(
+    ext: &[u8],
+    mode: PassthroughMode,
+) -> (Option<[u16; 3]>, Option<MotionPlusReport>) {
+    match ext.get(..6).map(|b| Frame::decode(b, mode)) {
+        Some(Ok(Frame::MotionPlus(g))) => (None, Some(g)),
+        Some(Ok(Frame::Nunchuk(n))) => (Some(n.report.accel), None),
+        _ => (None, None),
+    }
 }
 
 /// After this many consecutive undecodable reports the capture gives up.
@@ -362,9 +391,15 @@ impl<D: WiimoteIo + ?Sized> Recorder<'_, '_, D> {
                     continue;
                 }
             };
-            let (accel, nunchuk) = match report {
+            let (accel, nunchuk, gyro) = match report {
                 InputReport::Data(core) => match core.accel {
-                    Some(a) => (a, core.nunchuk().map(|n| n.accel)),
+                    Some(a) => match &self.setup.motionplus {
+                        Some(mp) => {
+                            let (n, g) = split_motionplus_frame(core.ext, mp.mode);
+                            (a, n, g)
+                        }
+                        None => (a, core.nunchuk().map(|n| n.accel), None),
+                    },
                     None => continue,
                 },
                 InputReport::Status(s) => {
@@ -379,7 +414,7 @@ impl<D: WiimoteIo + ?Sized> Recorder<'_, '_, D> {
             last_data = now;
             let t = now - *t_first.get_or_insert(now);
             let ext = if self.ext_present { nunchuk } else { None };
-            csv.row(t, accel, ext)?;
+            csv.row(t, accel, ext, gyro.as_ref())?;
             self.stats.samples += 1;
             self.stats.duration_s = t;
             if now - last_flush > 1.0 {
@@ -457,7 +492,22 @@ impl<D: WiimoteIo + ?Sized> Recorder<'_, '_, D> {
         csv: &mut CsvOut<W>,
         ui: &mut dyn CaptureUi,
     ) -> Result<()> {
-        if !connected && self.ext_present {
+        if self.setup.motionplus.is_some() {
+            // The active MotionPlus is the extension the remote sees; what is plugged into
+            // the MotionPlus shows in its reports, not in status reports. Re-initialising an
+            // extension here would deactivate it (a write to 0xA400F0 does).
+            csv.comment(&format!(
+                "t={t:.6}: status report (extension {})",
+                if connected {
+                    "connected"
+                } else {
+                    "disconnected"
+                }
+            ))?;
+            if !connected {
+                ui.message("the MotionPlus stopped answering: its columns stay empty");
+            }
+        } else if !connected && self.ext_present {
             self.ext_present = false;
             csv.comment(&format!("t={t:.6}: extension unplugged"))?;
             ui.message("Nunchuk unplugged: its columns stay empty until it is plugged back in");
@@ -503,7 +553,7 @@ impl<D: WiimoteIo + ?Sized> Recorder<'_, '_, D> {
 /// Arguments of `wiical capture`.
 #[derive(clap::Args, Debug, Clone)]
 pub struct CaptureArgs {
-    /// Output CSV: t,x,y,z (+ ext_x,ext_y,ext_z with a Nunchuk), raw counts; calibrations in OUT.cal.json.
+    /// Output CSV: t,x,y,z (+ ext_x,ext_y,ext_z with a Nunchuk, + gx,gy,gz and slow flags with a MotionPlus), raw counts; calibrations in OUT.cal.json.
     #[arg(long)]
     pub out: PathBuf,
     /// Plain mode: record this many seconds.

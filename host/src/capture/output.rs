@@ -8,6 +8,7 @@ use anyhow::{Context, Result};
 use serde::Serialize;
 use std::io::Write;
 use std::path::{Path, PathBuf};
+use wiical_extbus::motionplus::{MotionPlusCalibration, MotionPlusReport, RangeCalibration};
 use wiical_extbus::nunchuk::CalibrationBlock;
 use wiical_extbus::wiimote::{EEPROM_CALIBRATION_ADDR, EEPROM_CALIBRATION_BACKUP_ADDR};
 use wiical_extbus::{AccelCalibration, CalibrationCopy};
@@ -143,6 +144,66 @@ pub fn nunchuk_calibration(bytes: &[u8]) -> Result<FactoryCalibration> {
     })
 }
 
+/// One range (fast or slow) of a MotionPlus calibration block.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct GyroRange {
+    /// Zero-rate readings `[yaw, roll, pitch]` as stored (16-bit = 14-bit × 4).
+    pub zero: [u16; 3],
+    /// Readings at the reference rate, as stored.
+    pub scale: [u16; 3],
+    /// The reference rate, °/s (`degrees_div_6 · 6`).
+    pub degrees: u16,
+    /// `(scale − zero)/4/degrees`: 14-bit counts per °/s `[yaw, roll, pitch]`, signed as stored
+    /// (null when the reference rate is 0).
+    pub counts_per_dps: Option<[f32; 3]>,
+}
+
+impl GyroRange {
+    fn of(r: &RangeCalibration) -> Self {
+        Self {
+            zero: r.zero,
+            scale: r.scale,
+            degrees: u16::from(r.degrees_div_6) * 6,
+            counts_per_dps: r.counts_per_dps(),
+        }
+    }
+}
+
+/// The MotionPlus's factory calibration (`wiical decode-cal --device motionplus` prints the
+/// same fields).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct MotionPlusFactory {
+    /// The 32 bytes at `0xA60020`, uppercase hex.
+    pub hex: String,
+    /// Whether the stored CRC-32 matches.
+    pub checksum_ok: bool,
+    /// Fast (±2000 °/s class) range.
+    pub fast: GyroRange,
+    /// Slow (±440 °/s class) range.
+    pub slow: GyroRange,
+    /// The two UID bytes.
+    pub uid: [u8; 2],
+    /// Capture only: the activation mode byte written to `0xA600FE` (`0x04` gyro only,
+    /// `0x05` Nunchuk pass-through).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub mode: Option<u8>,
+}
+
+/// Decodes a MotionPlus calibration block (32 bytes); `mode` is the activation byte of a
+/// capture (none for a block decoded on its own).
+pub fn motionplus_calibration(bytes: &[u8], mode: Option<u8>) -> Result<MotionPlusFactory> {
+    let c = MotionPlusCalibration::decode(bytes)
+        .map_err(|e| anyhow::anyhow!("MotionPlus calibration: {e}"))?;
+    Ok(MotionPlusFactory {
+        hex: hex(bytes),
+        checksum_ok: c.checksum_ok,
+        fast: GyroRange::of(&c.value.fast),
+        slow: GyroRange::of(&c.value.slow),
+        uid: c.value.uid,
+        mode,
+    })
+}
+
 /// Summary of a capture (also in the side file).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct CaptureStats {
@@ -179,6 +240,9 @@ pub struct CalFile {
     pub extension_id: Option<String>,
     /// The Nunchuk's calibration, if a Nunchuk was connected.
     pub nunchuk: Option<FactoryCalibration>,
+    /// The MotionPlus's calibration, if one was found (absent from the JSON otherwise).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub motionplus: Option<MotionPlusFactory>,
     /// What the CSV columns are.
     pub columns: String,
     /// Filled in at the end (null while the capture runs).
@@ -198,13 +262,25 @@ impl CalFile {
             None => None,
         };
         let ext = nunchuk.is_some();
+        let motionplus = match &setup.motionplus {
+            Some(mp) => Some(motionplus_calibration(
+                &mp.calibration,
+                Some(mp.mode as u8),
+            )?),
+            None => None,
+        };
+        let mut columns = columns_doc(ext).to_string();
+        if motionplus.is_some() {
+            columns.push_str(GYRO_COLUMNS_DOC);
+        }
         Ok(Self {
             format: "wiical-capture-calibration/1".into(),
             device: setup.description.clone(),
             wiimote,
             extension_id: setup.extension.as_ref().map(|e| describe_extension(&e.id)),
             nunchuk,
-            columns: columns_doc(ext).into(),
+            motionplus,
+            columns,
             capture: None,
         })
     }
@@ -215,6 +291,9 @@ impl CalFile {
         std::fs::write(path, text).with_context(|| format!("cannot write {}", path.display()))
     }
 }
+
+/// The MotionPlus columns, appended to the column description.
+const GYRO_COLUMNS_DOC: &str = "; gx,gy,gz = MotionPlus pitch, roll, yaw rates (Dolphin's x, y, z), raw 14-bit counts, zero near 8192; gx_slow,gy_slow,gz_slow = 1 in the slow (high-resolution) range, 0 in the fast one, whose counts are about 4.5 times coarser; the gyro columns are empty in rows that carry pass-through Nunchuk data, and the Nunchuk columns in rows that carry gyro data (the MotionPlus alternates them)";
 
 fn columns_doc(ext: bool) -> &'static str {
     if ext {
@@ -263,6 +342,7 @@ fn comment_lines(prefix: &str, c: &FactoryCalibration) -> Vec<String> {
 pub struct CsvOut<W: Write> {
     w: W,
     ext: bool,
+    gyro: bool,
     /// Rows written.
     pub rows: u64,
 }
@@ -283,21 +363,40 @@ impl<W: Write> CsvOut<W> {
         if let Some(n) = &cal.nunchuk {
             lines.extend(comment_lines("nunchuk_cal", n));
         }
-        lines.push(format!("columns: {}", columns_doc(ext)));
+        let gyro = cal.motionplus.is_some();
+        if let Some(mp) = &cal.motionplus {
+            lines.push(format!(
+                "motionplus_cal: {} (CRC-32 {}), mode 0x{:02X}",
+                mp.hex,
+                if mp.checksum_ok { "ok" } else { "BAD" },
+                mp.mode.unwrap_or(0)
+            ));
+        }
+        lines.push(format!("columns: {}", cal.columns));
         lines.push(format!("calibration_file: {cal_file_name}"));
         for l in lines {
             writeln!(w, "# {l}")?;
         }
         writeln!(
             w,
-            "{}",
+            "{}{}",
             if ext {
                 "t,x,y,z,ext_x,ext_y,ext_z"
             } else {
                 "t,x,y,z"
+            },
+            if gyro {
+                ",gx,gy,gz,gx_slow,gy_slow,gz_slow"
+            } else {
+                ""
             }
         )?;
-        Ok(Self { w, ext, rows: 0 })
+        Ok(Self {
+            w,
+            ext,
+            gyro,
+            rows: 0,
+        })
     }
 
     /// Whether the file has Nunchuk columns.
@@ -305,13 +404,36 @@ impl<W: Write> CsvOut<W> {
         self.ext
     }
 
-    /// One row. `ext` is ignored without Nunchuk columns; `None` leaves them empty.
-    pub fn row(&mut self, t: f64, xyz: [u16; 3], ext: Option<[u16; 3]>) -> Result<()> {
+    /// Whether the file has MotionPlus columns.
+    pub fn has_gyro(&self) -> bool {
+        self.gyro
+    }
+
+    /// One row. `ext` is ignored without Nunchuk columns and `gyro` without MotionPlus
+    /// columns; `None` leaves them empty. The MotionPlus's `[yaw, roll, pitch]` go to
+    /// `gz, gy, gx`.
+    pub fn row(
+        &mut self,
+        t: f64,
+        xyz: [u16; 3],
+        ext: Option<[u16; 3]>,
+        gyro: Option<&MotionPlusReport>,
+    ) -> Result<()> {
         write!(self.w, "{t:.6},{},{},{}", xyz[0], xyz[1], xyz[2])?;
         if self.ext {
             match ext {
                 Some(e) => write!(self.w, ",{},{},{}", e[0], e[1], e[2])?,
                 None => write!(self.w, ",,,")?,
+            }
+        }
+        if self.gyro {
+            match gyro {
+                Some(g) => {
+                    let [yaw, roll, pitch] = g.rate;
+                    let [ys, rs, ps] = g.slow.map(u8::from);
+                    write!(self.w, ",{pitch},{roll},{yaw},{ps},{rs},{ys}")?
+                }
+                None => write!(self.w, ",,,,,,")?,
             }
         }
         writeln!(self.w)?;

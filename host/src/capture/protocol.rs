@@ -102,6 +102,17 @@ pub const EXT_ID: u32 = 0xA4_00FA;
 /// Register of the extension's calibration block (16 bytes; the copy follows at `0xA40030`).
 pub const EXT_CALIBRATION: u32 = 0xA4_0020;
 
+/// An inactive MotionPlus's identification bytes (`00 00 A6 20 00 05`; a read fails with
+/// error 7 when there is no MotionPlus or it is already active).
+pub const MP_ID: u32 = 0xA6_00FA;
+/// An inactive MotionPlus's 32-byte calibration block.
+pub const MP_CALIBRATION: u32 = 0xA6_0020;
+/// MotionPlus init register (write `0x55`).
+pub const MP_INIT: u32 = 0xA6_00F0;
+/// MotionPlus mode register: writing `0x04`/`0x05`/`0x07` activates it (alone, Nunchuk or
+/// Classic pass-through).
+pub const MP_MODE: u32 = 0xA6_00FE;
+
 /// Largest address the 24-bit address field can carry.
 pub const MAX_ADDRESS: u32 = 0xFF_FFFF;
 

@@ -103,6 +103,15 @@ impl ReplayWiimote {
         s
     }
 
+    /// Plugs a MotionPlus in (inactive, at `0xA6xxxx`): ID `00 00 A6 20 00 05` at `0xA600FA`
+    /// and its 32-byte calibration block at `0xA60020`. It answers like any register map:
+    /// activation writes are acknowledged (what the remote sends afterwards is up to the
+    /// script, e.g. [`report_0x35_ext`] with MotionPlus frames).
+    pub fn with_motionplus(self, calibration: &[u8; 32]) -> Self {
+        self.with_registers(0xA6_00FA, &wiical_extbus::motionplus::ID_INACTIVE)
+            .with_registers(0xA6_0020, calibration)
+    }
+
     /// Appends a timed input report to the script (times must not decrease; the first
     /// report's time is when the capture's clock starts counting, usually 0).
     pub fn push_report(&mut self, t: f64, report: Vec<u8>) {
@@ -275,6 +284,25 @@ pub fn report_0x35(wiimote: [u16; 3], nunchuk: Option<&NunchukReport>) -> Vec<u8
     } else {
         ext = [0xFF; 16];
     }
+    let report = CoreReport {
+        id: ReportId::ButtonsAccelExt16,
+        buttons: Buttons::empty(),
+        accel: Some(wiimote),
+        ir: &[],
+        ext: &ext,
+    };
+    let mut out = vec![0u8; ReportId::ButtonsAccelExt16.report_len()];
+    // The layout matches by construction; a failure would be a bug in this helper.
+    let n = report.encode(&mut out).unwrap_or(0);
+    out.truncate(n);
+    out
+}
+
+/// A `0x35` data report with the accelerometer `wiimote` and these 6 extension bytes (e.g. a
+/// MotionPlus frame); the other 10 extension bytes are `0x00`.
+pub fn report_0x35_ext(wiimote: [u16; 3], ext6: [u8; 6]) -> Vec<u8> {
+    let mut ext = [0u8; 16];
+    ext[..6].copy_from_slice(&ext6);
     let report = CoreReport {
         id: ReportId::ButtonsAccelExt16,
         buttons: Buttons::empty(),

@@ -4,9 +4,11 @@
 use super::io::WiimoteIo;
 use super::protocol::{
     self, error_meaning, hex, parse_input, AddressSpace, InputReport, ReportError, Status,
-    EXT_CALIBRATION, EXT_ID, EXT_INIT1, EXT_INIT2, MAX_INPUT_LEN, OUT_WRITE_MEMORY,
+    EXT_CALIBRATION, EXT_ID, EXT_INIT1, EXT_INIT2, MAX_INPUT_LEN, MP_CALIBRATION, MP_ID, MP_INIT,
+    MP_MODE, OUT_WRITE_MEMORY,
 };
 use anyhow::{anyhow, bail, Context, Result};
+use wiical_extbus::motionplus::PassthroughMode;
 use wiical_extbus::wiimote::EEPROM_CALIBRATION_ADDR;
 use wiical_extbus::ReportId;
 
@@ -25,6 +27,26 @@ pub struct DeviceSetup {
     pub extension: Option<ExtensionSetup>,
     /// Battery byte of the first status report.
     pub battery: u8,
+    /// The MotionPlus, if one answered at `0xA600FA` (it is active once the setup is done).
+    pub motionplus: Option<MotionPlusSetup>,
+}
+
+/// A MotionPlus found and activated during the start-up sequence.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct MotionPlusSetup {
+    /// Its identification bytes as read while inactive (`?? 00 A6 20 00 05`).
+    pub id: [u8; 6],
+    /// The 32 calibration bytes `0xA60020`–`0xA6003F`.
+    pub calibration: Vec<u8>,
+    /// The mode it was activated in: Nunchuk pass-through when a Nunchuk is plugged into it,
+    /// else gyro only.
+    pub mode: PassthroughMode,
+}
+
+/// Whether 6 ID bytes are an inactive MotionPlus's: `?? 00 A6 20 ?? 05` (WiiBrew; Dolphin
+/// notes the first byte is 1 on a Wii Remote Plus with the MotionPlus built in).
+pub fn is_motionplus_id(id: &[u8]) -> bool {
+    matches!(id, [_, 0x00, 0xA6, 0x20, _, 0x05])
 }
 
 /// A connected extension.
@@ -236,6 +258,32 @@ impl<'a, D: WiimoteIo + ?Sized> Session<'a, D> {
         })
     }
 
+    /// Looks for a MotionPlus: its ID at `0xA600FA` (a refused read means none, or one that is
+    /// already active) and, if found, its 32 calibration bytes at `0xA60020`.
+    pub fn probe_motionplus(&mut self) -> Result<Option<([u8; 6], Vec<u8>)>> {
+        let Ok(id_bytes) = self.read_memory(AddressSpace::Registers, MP_ID, 6) else {
+            return Ok(None);
+        };
+        if !is_motionplus_id(&id_bytes) {
+            return Ok(None);
+        }
+        let mut id = [0u8; 6];
+        id.copy_from_slice(&id_bytes);
+        let calibration = self
+            .read_memory(AddressSpace::Registers, MP_CALIBRATION, 32)
+            .context("reading the MotionPlus calibration")?;
+        Ok(Some((id, calibration)))
+    }
+
+    /// Initialises and activates the MotionPlus: `0x55` → `0xA600F0`, then the mode byte →
+    /// `0xA600FE` (WiiBrew; the extension on its port is reached through it from then on).
+    pub fn activate_motionplus(&mut self, mode: PassthroughMode) -> Result<()> {
+        self.write_memory(AddressSpace::Registers, MP_INIT, &[0x55])
+            .context("MotionPlus init")?;
+        self.write_memory(AddressSpace::Registers, MP_MODE, &[mode as u8])
+            .context("MotionPlus activation")
+    }
+
     /// The start-up sequence: LED 1 on, status (is an extension connected?), EEPROM
     /// calibration (20 bytes at `0x0016`: block and copy), extension init + ID + calibration,
     /// and finally continuous reporting in mode `0x35`. Reporting is switched on last so that
@@ -246,10 +294,30 @@ impl<'a, D: WiimoteIo + ?Sized> Session<'a, D> {
         let eeprom_calibration = self
             .read_memory(AddressSpace::Eeprom, u32::from(EEPROM_CALIBRATION_ADDR), 20)
             .context("reading the accelerometer calibration from the EEPROM")?;
+        // While inactive, a MotionPlus passes 0xA4 traffic through to the extension on its
+        // port, so the extension is set up the usual way first.
+        let probed = self.probe_motionplus()?;
         let extension = if status.extension_connected() {
             Some(self.init_extension()?)
         } else {
             None
+        };
+        let motionplus = match probed {
+            Some((id, calibration)) => {
+                let nunchuk = extension.as_ref().is_some_and(ExtensionSetup::is_nunchuk);
+                let mode = if nunchuk {
+                    PassthroughMode::Nunchuk
+                } else {
+                    PassthroughMode::None
+                };
+                self.activate_motionplus(mode)?;
+                Some(MotionPlusSetup {
+                    id,
+                    calibration,
+                    mode,
+                })
+            }
+            None => None,
         };
         self.start_reporting()?;
         Ok(DeviceSetup {
@@ -257,6 +325,7 @@ impl<'a, D: WiimoteIo + ?Sized> Session<'a, D> {
             eeprom_calibration,
             extension,
             battery: status.battery,
+            motionplus,
         })
     }
 }

@@ -1,0 +1,384 @@
+//! Gyroscope calibration from a multi-position recording: scale, misalignment and bias
+//! (Tedaldi, Pretto, Menegatti, *A robust and easy to implement method for IMU calibration
+//! without external equipments*, ICRA 2014 — the method of IMU-TK).
+//!
+//! ## Idea
+//! The sensor rests in a static pose, is turned by hand, rests in the next pose, and so on.
+//! In every static window the (already calibrated) accelerometer gives the direction of
+//! gravity in the sensor frame. Between two windows the true rotation is unknown, but a
+//! correctly calibrated gyroscope, integrated over the motion, must rotate the first window's
+//! gravity direction onto the second's. The mismatch of the two unit vectors is the residual;
+//! its size is (to first order) the angle error of the integrated rotation.
+//!
+//! ## Model and conventions
+//! * Raw gyro samples `m` (counts); angular rate in rad/s, sensor frame:
+//!   `ω = K·(m − b)` ([`GyroCalibration`]). `K` is a full 3×3 matrix (scale and
+//!   misalignment, 9 parameters): the accelerometer fixes the frame, so unlike the
+//!   accelerometer's `K` no rotation gauge is left over.
+//! * Orientation: unit quaternion `q = (w, x, y, z)` of the *current* sensor frame relative to
+//!   the sensor frame at the start of the motion (`v_start = q ⊗ v_now ⊗ q*`), obeying
+//!   `q̇ = ½ q ⊗ (0, ω)`.
+//! * Integration: classical Runge–Kutta (RK4) between consecutive samples, with `ω` linear
+//!   in time between them (the stage at mid-step uses the mean of the two samples), as
+//!   IMU-TK does. The quaternion is normalised once at the end of the motion.
+//! * Gravity: the two directions `g₀` (window before) and `g₁` (window after) are unit
+//!   vectors in the sensor frame. Predicted `ĝ₁ = q* ⊗ g₀ ⊗ q`; residual `r = ĝ₁ − g₁`
+//!   (3 components, rad to first order); angle `∠(ĝ₁, g₁)` for reporting.
+//!
+//! ## Parameterisation of the fit
+//! The fit starts from a nominal calibration `K₀, b₀` (the sensor's datasheet scale with its
+//! axis signs, bias from the initial rest) and estimates
+//! `ω = P·(K₀(m − b₀) − δ)`: `P` (3×3, dimensionless, starts at the identity) and `δ`
+//! (rad/s, the bias correction expressed in the nominal frame, starts at 0). All parameters
+//! are then of order one whatever the sensor's units, which keeps the `f32` normal equations
+//! well scaled. The result maps back to `K = P·K₀`, `b = b₀ + K₀⁻¹δ`.
+//! Parameter order in vectors and Jacobians: `P` row-major (0–8), then `δ` (9–11).
+//!
+//! ## Exact derivatives
+//! The Jacobian is the derivative of the *discrete* RK4 solution: the forward sensitivities
+//! `S = ∂q/∂p` obey the linear ODE `Ṡ = ½ S ⊗ ω + ½ q ⊗ ∂ω/∂p`, and integrating it with the
+//! same RK4 stages as `q` gives exactly the derivative of the RK4 map (explicit Runge–Kutta
+//! methods commute with differentiation). Tests compare it with central differences.
+//!
+//! ## Memory
+//! [`MotionIntegrator`] takes one sample at a time and keeps only the quaternion and its
+//! sensitivities (4 + 4×12 numbers), so a motion of any length costs constant memory; the
+//! fit in [`crate::gyro_fit`] accumulates the normal equations motion by motion.
+//!
+//! Generic over the float type (`f32` on the adapter, `f64` on a desktop) through
+//! [`nalgebra::RealField`].
+
+use crate::Error;
+use nalgebra::{Matrix3, RealField, SMatrix, Vector3, Vector4};
+
+/// Number of fit parameters: `P` (9, row-major) then `δ` (3).
+pub const NPARAM: usize = 12;
+
+/// `∂q/∂p`: one quaternion column per parameter.
+pub type Sensitivity<T> = SMatrix<T, 4, NPARAM>;
+/// `∂r/∂p` of one motion.
+pub type MotionJacobian<T> = SMatrix<T, 3, NPARAM>;
+
+/// Gyroscope calibration `ω = K·(m − b)`: `m` raw counts, `ω` rad/s in the sensor
+/// (accelerometer) frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GyroCalibration<T: RealField + Copy> {
+    /// `b`, raw counts: the reading at zero rate.
+    pub bias: Vector3<T>,
+    /// `K`, rad/s per count (row-major when printed).
+    pub matrix: Matrix3<T>,
+}
+
+impl<T: RealField + Copy> GyroCalibration<T> {
+    /// Nominal calibration: a per-axis sensitivity `rad_per_count` (signed, so an inverted
+    /// axis has a negative entry) and a bias, usually the mean of the initial rest.
+    pub fn nominal(bias: [T; 3], rad_per_count: [T; 3]) -> Self {
+        Self {
+            bias: Vector3::from(bias),
+            matrix: Matrix3::from_diagonal(&Vector3::from(rad_per_count)),
+        }
+    }
+
+    /// Angular rate in rad/s of a raw sample.
+    #[inline]
+    pub fn rate(&self, m: &[T; 3]) -> Vector3<T> {
+        self.matrix * (Vector3::from(*m) - self.bias)
+    }
+
+    /// Checks that every entry is finite and `K` invertible.
+    pub fn validate(&self) -> Result<(), Error> {
+        if !self
+            .bias
+            .iter()
+            .chain(self.matrix.iter())
+            .all(|x| x.is_finite())
+        {
+            return Err(Error::NonFinite);
+        }
+        let det = self.matrix.determinant();
+        let size = self.matrix.norm();
+        if det.abs() <= size * size * size * nalgebra::convert(1e-9) || !det.is_finite() {
+            return Err(Error::Singular);
+        }
+        Ok(())
+    }
+}
+
+/// The adjustable part of the fit: `ω = P·(u − δ)` with `u = K₀(m − b₀)` (see the
+/// [module docs](self)).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Adjustment<T: RealField + Copy> {
+    /// `P`, dimensionless (identity: no change).
+    pub p: Matrix3<T>,
+    /// `δ`, rad/s in the nominal frame.
+    pub delta: Vector3<T>,
+}
+
+impl<T: RealField + Copy> Adjustment<T> {
+    /// No change from the nominal calibration.
+    pub fn identity() -> Self {
+        Self {
+            p: Matrix3::identity(),
+            delta: Vector3::zeros(),
+        }
+    }
+
+    /// From the parameter vector (order: `P` row-major, then `δ`).
+    pub fn from_params(x: &SMatrix<T, NPARAM, 1>) -> Self {
+        Self {
+            p: Matrix3::new(x[0], x[1], x[2], x[3], x[4], x[5], x[6], x[7], x[8]),
+            delta: Vector3::new(x[9], x[10], x[11]),
+        }
+    }
+
+    /// To the parameter vector (order: `P` row-major, then `δ`).
+    pub fn to_params(&self) -> SMatrix<T, NPARAM, 1> {
+        let p = &self.p;
+        SMatrix::<T, NPARAM, 1>::from_column_slice(&[
+            p[(0, 0)],
+            p[(0, 1)],
+            p[(0, 2)],
+            p[(1, 0)],
+            p[(1, 1)],
+            p[(1, 2)],
+            p[(2, 0)],
+            p[(2, 1)],
+            p[(2, 2)],
+            self.delta.x,
+            self.delta.y,
+            self.delta.z,
+        ])
+    }
+
+    /// The calibration this adjustment makes of `nominal`: `K = P·K₀`, `b = b₀ + K₀⁻¹δ`.
+    pub fn apply(&self, nominal: &GyroCalibration<T>) -> Result<GyroCalibration<T>, Error> {
+        let k0_inv = nominal.matrix.try_inverse().ok_or(Error::Singular)?;
+        let cal = GyroCalibration {
+            bias: nominal.bias + k0_inv * self.delta,
+            matrix: self.p * nominal.matrix,
+        };
+        cal.validate()?;
+        Ok(cal)
+    }
+}
+
+/// Quaternion product `a ⊗ b`, `(w, x, y, z)` order.
+#[inline]
+pub fn qmul<T: RealField + Copy>(a: &Vector4<T>, b: &Vector4<T>) -> Vector4<T> {
+    Vector4::new(
+        a[0] * b[0] - a[1] * b[1] - a[2] * b[2] - a[3] * b[3],
+        a[0] * b[1] + a[1] * b[0] + a[2] * b[3] - a[3] * b[2],
+        a[0] * b[2] - a[1] * b[3] + a[2] * b[0] + a[3] * b[1],
+        a[0] * b[3] + a[1] * b[2] - a[2] * b[1] + a[3] * b[0],
+    )
+}
+
+/// `½ q ⊗ (0, v)`: the quaternion rate for body rate `v`, or its derivative part.
+#[inline]
+fn half_q_pure<T: RealField + Copy>(q: &Vector4<T>, v: &Vector3<T>, half: T) -> Vector4<T> {
+    Vector4::new(
+        -(q[1] * v.x + q[2] * v.y + q[3] * v.z) * half,
+        (q[0] * v.x + q[2] * v.z - q[3] * v.y) * half,
+        (q[0] * v.y - q[1] * v.z + q[3] * v.x) * half,
+        (q[0] * v.z + q[1] * v.y - q[2] * v.x) * half,
+    )
+}
+
+#[inline]
+fn conj<T: RealField + Copy>(q: &Vector4<T>) -> Vector4<T> {
+    Vector4::new(q[0], -q[1], -q[2], -q[3])
+}
+
+#[inline]
+fn pure<T: RealField + Copy>(v: &Vector3<T>) -> Vector4<T> {
+    Vector4::new(T::zero(), v.x, v.y, v.z)
+}
+
+/// What a motion gives: the gravity residual, its Jacobian and the angle.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MotionResidual<T: RealField + Copy> {
+    /// `ĝ₁ − g₁` (unit vectors; rad to first order).
+    pub residual: Vector3<T>,
+    /// `∂r/∂p`; zero columns for parameters whose sensitivity was not tracked.
+    pub jacobian: MotionJacobian<T>,
+    /// Angle between `ĝ₁` and `g₁`, rad.
+    pub angle: T,
+    /// The integrated orientation of the end frame in the start frame (unit quaternion).
+    pub rotation: Vector4<T>,
+}
+
+/// Streaming RK4 integration of one motion, with the sensitivities of the orientation to the
+/// parameters that are marked as tracked.
+///
+/// Push the raw samples of the motion in order (the last sample of the static window before
+/// through the first sample of the window after); then [`MotionIntegrator::finish`].
+#[derive(Debug, Clone)]
+pub struct MotionIntegrator<T: RealField + Copy> {
+    nominal: GyroCalibration<T>,
+    adj: Adjustment<T>,
+    tracked: [bool; NPARAM],
+    dt: T,
+    q: Vector4<T>,
+    sens: Sensitivity<T>,
+    /// Previous sample's nominal rate `u` (already minus `δ`).
+    prev_u: Option<Vector3<T>>,
+    steps: u32,
+}
+
+impl<T: RealField + Copy> MotionIntegrator<T> {
+    /// A new motion at the identity orientation. `dt` is the sample period in seconds;
+    /// `tracked[k]` says whether `∂q/∂p_k` is integrated (all false: orientation only, the
+    /// cheap path for evaluating a calibration).
+    pub fn new(
+        nominal: GyroCalibration<T>,
+        adj: Adjustment<T>,
+        dt: T,
+        tracked: [bool; NPARAM],
+    ) -> Result<Self, Error> {
+        nominal.validate()?;
+        if !(dt.is_finite() && dt > T::zero()) {
+            return Err(Error::InvalidParameter);
+        }
+        if !adj.p.iter().chain(adj.delta.iter()).all(|x| x.is_finite()) {
+            return Err(Error::NonFinite);
+        }
+        Ok(Self {
+            nominal,
+            adj,
+            tracked,
+            dt,
+            q: Vector4::new(T::one(), T::zero(), T::zero(), T::zero()),
+            sens: Sensitivity::zeros(),
+            prev_u: None,
+            steps: 0,
+        })
+    }
+
+    /// For evaluating a final calibration: no adjustment, no sensitivities.
+    pub fn for_calibration(cal: GyroCalibration<T>, dt: T) -> Result<Self, Error> {
+        Self::new(cal, Adjustment::identity(), dt, [false; NPARAM])
+    }
+
+    /// Number of RK4 steps taken (samples pushed minus one).
+    pub fn steps(&self) -> u32 {
+        self.steps
+    }
+
+    /// Adds the next raw sample; from the second one on, advances one RK4 step.
+    pub fn push(&mut self, m: &[T; 3]) -> Result<(), Error> {
+        if !m.iter().all(|x| x.is_finite()) {
+            return Err(Error::NonFinite);
+        }
+        let u = self.nominal.matrix * (Vector3::from(*m) - self.nominal.bias) - self.adj.delta;
+        if let Some(u0) = self.prev_u {
+            self.step(&u0, &u);
+            self.steps = self.steps.saturating_add(1);
+        }
+        self.prev_u = Some(u);
+        Ok(())
+    }
+
+    /// One RK4 step from nominal rate `u0` to `u1` (linear in between), for the orientation
+    /// and every tracked sensitivity column.
+    fn step(&mut self, u0: &Vector3<T>, u1: &Vector3<T>) {
+        let two: T = nalgebra::convert(2.0);
+        let half: T = nalgebra::convert(0.5);
+        let h = self.dt;
+        let h2 = h * half;
+        let h6 = h / nalgebra::convert::<f64, T>(6.0);
+        let um = (u0 + u1) * half;
+        let p = self.adj.p;
+        let (w0, wm, w1) = (p * u0, p * um, p * u1);
+        let q = self.q;
+        let k1 = half_q_pure(&q, &w0, half);
+        let q2 = q + k1 * h2;
+        let k2 = half_q_pure(&q2, &wm, half);
+        let q3 = q + k2 * h2;
+        let k3 = half_q_pure(&q3, &wm, half);
+        let q4 = q + k3 * h;
+        let k4 = half_q_pure(&q4, &w1, half);
+        // Forcing terms ½ q_stage ⊗ ∂ω/∂p_k: every ∂ω/∂p_k is a combination of the unit
+        // vectors, so ½ q_stage ⊗ e_i (i = 0..3) per stage is all that is needed.
+        let stages = [q, q2, q3, q4];
+        let rates = [*u0, um, um, *u1];
+        let units: [Vector3<T>; 3] = [Vector3::x(), Vector3::y(), Vector3::z()];
+        let e: [[Vector4<T>; 3]; 4] = core::array::from_fn(|st| {
+            core::array::from_fn(|i| half_q_pure(&stages[st], &units[i], half))
+        });
+        let forcing = |k: usize, st: usize| -> Vector4<T> {
+            if k < 9 {
+                // P_ij moves ω_i by u_j.
+                e[st][k / 3] * rates[st][k % 3]
+            } else {
+                // δ_j moves ω by −P[:, j].
+                let j = k - 9;
+                -(e[st][0] * p[(0, j)] + e[st][1] * p[(1, j)] + e[st][2] * p[(2, j)])
+            }
+        };
+        for k in 0..NPARAM {
+            if !self.tracked[k] {
+                continue;
+            }
+            let s = self.sens.column(k).into_owned();
+            let l1 = half_q_pure(&s, &w0, half) + forcing(k, 0);
+            let s2 = s + l1 * h2;
+            let l2 = half_q_pure(&s2, &wm, half) + forcing(k, 1);
+            let s3 = s + l2 * h2;
+            let l3 = half_q_pure(&s3, &wm, half) + forcing(k, 2);
+            let s4 = s + l3 * h;
+            let l4 = half_q_pure(&s4, &w1, half) + forcing(k, 3);
+            self.sens
+                .set_column(k, &(s + (l1 + l2 * two + l3 * two + l4) * h6));
+        }
+        self.q = q + (k1 + k2 * two + k3 * two + k4) * h6;
+    }
+
+    /// Ends the motion: gravity residual between `g_start` (window before) and `g_end`
+    /// (window after), both in the sensor frame, any non-zero length.
+    pub fn finish(
+        &self,
+        g_start: &Vector3<T>,
+        g_end: &Vector3<T>,
+    ) -> Result<MotionResidual<T>, Error> {
+        let gs = g_start
+            .try_normalize(T::zero())
+            .ok_or(Error::InvalidParameter)?;
+        let ge = g_end
+            .try_normalize(T::zero())
+            .ok_or(Error::InvalidParameter)?;
+        let qn = self.q.norm();
+        if !(qn.is_finite() && qn > T::zero()) {
+            return Err(Error::NonFinite);
+        }
+        let n = self.q / qn;
+        let (nc, gq) = (conj(&n), pure(&gs));
+        let rotated = qmul(&qmul(&nc, &gq), &n);
+        let predicted = Vector3::new(rotated[1], rotated[2], rotated[3]);
+        let residual = predicted - ge;
+        let mut jacobian = MotionJacobian::zeros();
+        for k in 0..NPARAM {
+            if !self.tracked[k] {
+                continue;
+            }
+            let s = self.sens.column(k).into_owned();
+            // Derivative of the normalisation n = q/|q|, then of n* ⊗ g ⊗ n.
+            let dn = (s - n * n.dot(&s)) / qn;
+            let dv = qmul(&qmul(&conj(&dn), &gq), &n) + qmul(&qmul(&nc, &gq), &dn);
+            jacobian.set_column(k, &Vector3::new(dv[1], dv[2], dv[3]));
+        }
+        let angle = predicted.cross(&ge).norm().atan2(predicted.dot(&ge));
+        if !residual
+            .iter()
+            .chain(jacobian.iter())
+            .all(|x| x.is_finite())
+        {
+            return Err(Error::NonFinite);
+        }
+        Ok(MotionResidual {
+            residual,
+            jacobian,
+            angle,
+            rotation: n,
+        })
+    }
+}

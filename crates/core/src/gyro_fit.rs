@@ -1,0 +1,408 @@
+//! Fitting the gyroscope calibration to the motions between static windows (the method is
+//! explained in [`crate::gyro`]).
+//!
+//! The cost is `Σ_motions ‖ĝ₁ − g₁‖²`, minimised by Levenberg–Marquardt over the free
+//! parameters of the chosen [`GyroModel`]. Every evaluation integrates every motion again;
+//! nothing but the 12×12 normal equations is kept between motions, so memory does not grow
+//! with the recording (the samples stay wherever the caller keeps them).
+//!
+//! The solver is the crate's generic [`crate::lm`]: each motion contributes three scalar
+//! observations (the components of `ĝ₁ − g₁`); [`GyroProblem`] integrates a motion once for
+//! its three components (a one-motion cache), and integrates the sensitivities only when the
+//! solver asks for gradients.
+
+use crate::gyro::{Adjustment, GyroCalibration, MotionIntegrator, MotionResidual, NPARAM};
+use crate::lm::{self, LmSettings, Problem};
+use crate::static_detect::StaticInterval;
+use crate::{Calibration, Error};
+use core::cell::RefCell;
+use nalgebra::{RealField, SMatrix, SVector, Vector3};
+
+type M12<T> = SMatrix<T, NPARAM, NPARAM>;
+type V12<T> = SVector<T, NPARAM>;
+
+/// One motion between two static windows.
+#[derive(Debug, Clone, Copy)]
+pub struct Motion<'a, T: RealField + Copy> {
+    /// Raw gyro samples, evenly spaced, from the last sample of the window before to the
+    /// first sample of the window after.
+    pub samples: &'a [[T; 3]],
+    /// Gravity direction (any length, not zero) in the window before, sensor frame, from the
+    /// calibrated accelerometer.
+    pub g_start: Vector3<T>,
+    /// Gravity direction in the window after.
+    pub g_end: Vector3<T>,
+}
+
+/// Where a motion lies in the recording: sample indices `start..end` (the last sample of the
+/// static window before through the first sample of the window after) and the calibrated
+/// gravity directions of the two windows.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MotionSpan {
+    /// First sample index (inclusive).
+    pub start: u32,
+    /// One past the last sample index.
+    pub end: u32,
+    /// Calibrated accelerometer mean of the window before (specific force, reference units).
+    pub g_start: [f32; 3],
+    /// Calibrated accelerometer mean of the window after.
+    pub g_end: [f32; 3],
+}
+
+/// The motions between consecutive static windows (as found by
+/// [`crate::static_detect::StaticDetector`] on the accelerometer), with gravity directions
+/// from the accelerometer calibration `accel`. Windows must be in time order and not overlap
+/// ([`Error::InvalidParameter`] otherwise).
+pub fn motion_spans<'a>(
+    windows: &'a [StaticInterval],
+    accel: &'a Calibration,
+) -> impl Iterator<Item = Result<MotionSpan, Error>> + 'a {
+    windows.windows(2).map(move |pair| {
+        let (a, b) = (&pair[0], &pair[1]);
+        if a.end == 0 || a.end > b.start || a.start >= a.end {
+            return Err(Error::InvalidParameter);
+        }
+        Ok(MotionSpan {
+            start: a.end - 1,
+            end: b.start + 1,
+            g_start: accel.correct_linear(a.mean),
+            g_end: accel.correct_linear(b.mean),
+        })
+    })
+}
+
+/// Which gyro parameters are fitted.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum GyroModel {
+    /// Nothing from the motions: the nominal scale with the bias from rest (unless
+    /// [`GyroFitConfig::fit_bias`]).
+    BiasOnly,
+    /// One scale per axis (the diagonal of `P`): 3 parameters.
+    Scale,
+    /// Scale and misalignment (all of `P`): 9 parameters.
+    Full,
+}
+
+impl GyroModel {
+    /// Whether parameter `k` (order of [`crate::gyro::NPARAM`]) is free.
+    fn free(self, k: usize, fit_bias: bool) -> bool {
+        match k {
+            0..=8 => match self {
+                GyroModel::BiasOnly => false,
+                GyroModel::Scale => matches!(k, 0 | 4 | 8),
+                GyroModel::Full => true,
+            },
+            _ => fit_bias,
+        }
+    }
+
+    /// The free-parameter mask.
+    pub fn mask(self, fit_bias: bool) -> [bool; NPARAM] {
+        core::array::from_fn(|k| self.free(k, fit_bias))
+    }
+}
+
+/// Fit settings.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GyroFitConfig<T: RealField + Copy> {
+    /// Which parameters to fit.
+    pub model: GyroModel,
+    /// Also fit a bias correction (3 more parameters) instead of trusting the bias from rest.
+    pub fit_bias: bool,
+    /// Sample period, s.
+    pub dt: T,
+    /// Iteration budget of Levenberg–Marquardt.
+    pub max_iterations: u32,
+}
+
+/// Result of a gyro fit.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GyroFit<T: RealField + Copy> {
+    /// The fitted calibration (raw → rad/s).
+    pub calibration: GyroCalibration<T>,
+    /// The fitted adjustment of the nominal calibration.
+    pub adjustment: Adjustment<T>,
+    /// RMS over the fitted motions of the gravity angle error with the nominal calibration, rad.
+    pub rms_before: T,
+    /// The same with the fitted calibration, rad.
+    pub rms_after: T,
+    /// Motions used.
+    pub motions: u32,
+    /// LM iterations.
+    pub iterations: u32,
+    /// Smallest eigenvalue of the unit-diagonal normal matrix of the free parameters (1 for
+    /// independent parameters, near 0 when the motions barely determine some combination);
+    /// 1 when nothing is fitted.
+    pub identifiability: T,
+}
+
+/// The gyro fit as an [`lm::Problem`]: observation `3k + c` is component `c` of the gravity
+/// residual of the `k`-th motion used (all but `exclude`).
+pub struct GyroProblem<'m, 'a, T: RealField + Copy> {
+    motions: &'m [Motion<'a, T>],
+    nominal: GyroCalibration<T>,
+    dt: T,
+    /// Parameters whose sensitivities are integrated (the free ones).
+    tracked: [bool; NPARAM],
+    exclude: Option<usize>,
+    /// The last motion integrated: its index, the parameters, whether with sensitivities.
+    cache: RefCell<Option<Cached<T>>>,
+}
+
+/// One integrated motion: its index, the parameters, whether with sensitivities, the result.
+type Cached<T> = (usize, V12<T>, bool, MotionResidual<T>);
+
+impl<'m, 'a, T: RealField + Copy> GyroProblem<'m, 'a, T> {
+    /// The problem over `motions` (but `exclude`), sensitivities for the `tracked` parameters.
+    /// Checks the input once, so that evaluations cannot fail on data: every sample finite,
+    /// every gravity direction finite and non-zero, `dt > 0`, `nominal` invertible.
+    pub fn new(
+        motions: &'m [Motion<'a, T>],
+        nominal: GyroCalibration<T>,
+        dt: T,
+        tracked: [bool; NPARAM],
+        exclude: Option<usize>,
+    ) -> Result<Self, Error> {
+        nominal.validate()?;
+        if !(dt.is_finite() && dt > T::zero()) {
+            return Err(Error::InvalidParameter);
+        }
+        for m in motions {
+            let finite = |v: &Vector3<T>| v.iter().all(|x| x.is_finite());
+            if !m.samples.iter().all(|s| s.iter().all(|x| x.is_finite()))
+                || !finite(&m.g_start)
+                || !finite(&m.g_end)
+            {
+                return Err(Error::NonFinite);
+            }
+            if m.g_start.norm() == T::zero() || m.g_end.norm() == T::zero() {
+                return Err(Error::InvalidParameter);
+            }
+        }
+        Ok(Self {
+            motions,
+            nominal,
+            dt,
+            tracked,
+            exclude,
+            cache: RefCell::new(None),
+        })
+    }
+
+    /// Motion index of the `k`-th motion used.
+    fn motion_index(&self, k: usize) -> usize {
+        match self.exclude {
+            Some(e) if k >= e => k + 1,
+            _ => k,
+        }
+    }
+
+    /// The residual of motion `index` at `p` (from the cache when possible). A failure (only
+    /// possible for non-finite parameters, the input was checked) gives NaN, which the solver
+    /// treats as a rejected step.
+    fn motion(&self, index: usize, p: &V12<T>, with_jacobian: bool) -> MotionResidual<T> {
+        if let Some((i, q, j, out)) = self.cache.borrow().as_ref() {
+            if *i == index && q == p && (*j || !with_jacobian) {
+                return *out;
+            }
+        }
+        let tracked = if with_jacobian {
+            self.tracked
+        } else {
+            [false; NPARAM]
+        };
+        let out = self.integrate(index, p, tracked).unwrap_or_else(|_| {
+            let nan = T::zero() / T::zero();
+            MotionResidual {
+                residual: Vector3::repeat(nan),
+                jacobian: SMatrix::repeat(nan),
+                angle: nan,
+                rotation: nalgebra::Vector4::repeat(nan),
+            }
+        });
+        *self.cache.borrow_mut() = Some((index, *p, with_jacobian, out));
+        out
+    }
+
+    fn integrate(
+        &self,
+        index: usize,
+        p: &V12<T>,
+        tracked: [bool; NPARAM],
+    ) -> Result<MotionResidual<T>, Error> {
+        let m = self.motions.get(index).ok_or(Error::InvalidParameter)?;
+        let adj = Adjustment::from_params(p);
+        let mut integ = MotionIntegrator::new(self.nominal, adj, self.dt, tracked)?;
+        for s in m.samples {
+            integ.push(s)?;
+        }
+        integ.finish(&m.g_start, &m.g_end)
+    }
+}
+
+impl<T: RealField + Copy> Problem<T, NPARAM> for GyroProblem<'_, '_, T> {
+    fn observations(&self) -> usize {
+        let n = self.motions.len();
+        3 * match self.exclude {
+            Some(e) if e < n => n - 1,
+            _ => n,
+        }
+    }
+
+    fn residual_and_gradient(&self, p: &V12<T>, i: usize) -> (T, V12<T>) {
+        let out = self.motion(self.motion_index(i / 3), p, true);
+        (out.residual[i % 3], out.jacobian.row(i % 3).transpose())
+    }
+
+    fn residual(&self, p: &V12<T>, i: usize) -> T {
+        self.motion(self.motion_index(i / 3), p, false).residual[i % 3]
+    }
+}
+
+/// Angle error of one motion under calibration `cal`, rad.
+pub fn motion_angle<T: RealField + Copy>(
+    motion: &Motion<'_, T>,
+    cal: &GyroCalibration<T>,
+    dt: T,
+) -> Result<T, Error> {
+    let mut integ = MotionIntegrator::for_calibration(*cal, dt)?;
+    for m in motion.samples {
+        integ.push(m)?;
+    }
+    Ok(integ.finish(&motion.g_start, &motion.g_end)?.angle)
+}
+
+/// RMS angle error over the motions (all but `exclude`), rad.
+pub fn rms_angle<T: RealField + Copy>(
+    motions: &[Motion<'_, T>],
+    cal: &GyroCalibration<T>,
+    dt: T,
+    exclude: Option<usize>,
+) -> Result<T, Error> {
+    let mut sum = T::zero();
+    let mut n = 0u32;
+    for (i, motion) in motions.iter().enumerate() {
+        if Some(i) != exclude {
+            let a = motion_angle(motion, cal, dt)?;
+            sum += a * a;
+            n += 1;
+        }
+    }
+    if n == 0 {
+        return Err(Error::TooFewPoses { needed: 2, got: 0 });
+    }
+    Ok((sum / nalgebra::convert(f64::from(n))).sqrt())
+}
+
+/// Smallest eigenvalue of the unit-diagonal normal matrix restricted to the free parameters.
+fn identifiability<T: RealField + Copy>(jtj: &M12<T>, free: &[bool; NPARAM]) -> T {
+    let mut scaled = M12::<T>::identity();
+    for a in (0..NPARAM).filter(|k| free[*k]) {
+        for b in (0..NPARAM).filter(|k| free[*k]) {
+            let d = (jtj[(a, a)] * jtj[(b, b)]).sqrt();
+            scaled[(a, b)] = if d > T::zero() {
+                jtj[(a, b)] / d
+            } else {
+                T::zero()
+            };
+        }
+    }
+    nalgebra::SymmetricEigen::new(scaled).eigenvalues.min()
+}
+
+/// Fits the gyro calibration starting from the nominal one (see [`fit_from`]).
+pub fn fit<T: RealField + Copy>(
+    motions: &[Motion<'_, T>],
+    nominal: &GyroCalibration<T>,
+    cfg: &GyroFitConfig<T>,
+    exclude: Option<usize>,
+) -> Result<GyroFit<T>, Error> {
+    fit_from(motions, nominal, &Adjustment::identity(), cfg, exclude)
+}
+
+/// Fits the free parameters of `cfg.model`, starting from `start` (e.g. the all-motion fit
+/// when holding one motion out), using every motion but `exclude`.
+///
+/// Errors: [`Error::TooFewPoses`] when the motions give fewer independent equations (2 per
+/// motion: the residual is tangent to the unit sphere) than free parameters;
+/// [`Error::NonFinite`] / [`Error::InvalidParameter`] on bad input; [`Error::NotConverged`].
+pub fn fit_from<T: RealField + Copy>(
+    motions: &[Motion<'_, T>],
+    nominal: &GyroCalibration<T>,
+    start: &Adjustment<T>,
+    cfg: &GyroFitConfig<T>,
+    exclude: Option<usize>,
+) -> Result<GyroFit<T>, Error> {
+    nominal.validate()?;
+    let free = cfg.model.mask(cfg.fit_bias);
+    let nfree = free.iter().filter(|f| **f).count() as u32;
+    let used = motions
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| Some(*i) != exclude)
+        .count() as u32;
+    if used == 0 || 2 * used < nfree {
+        return Err(Error::TooFewPoses {
+            needed: nfree.div_ceil(2).max(1),
+            got: used,
+        });
+    }
+    let dt = cfg.dt;
+    let rms_before = rms_angle(motions, nominal, dt, exclude)?;
+    let mut x0 = start.to_params();
+    for k in (0..NPARAM).filter(|k| !free[*k]) {
+        x0[k] = Adjustment::<T>::identity().to_params()[k];
+    }
+    let problem = GyroProblem::new(motions, *nominal, dt, free, exclude)?;
+    let (x, iterations) = if nfree == 0 {
+        (x0, 0)
+    } else {
+        let settings = LmSettings::multipos(cfg.max_iterations);
+        let f = lm::minimize(&problem, x0, &free, None, &settings)?;
+        (f.params, f.iterations)
+    };
+    let adjustment = Adjustment::from_params(&x);
+    let identifiability = if nfree == 0 {
+        T::one()
+    } else {
+        identifiability(&lm::normal_equations(&problem, &x, None).0, &free)
+    };
+    let calibration = adjustment.apply(nominal)?;
+    let rms_after = rms_angle(motions, &calibration, dt, exclude)?;
+    Ok(GyroFit {
+        calibration,
+        adjustment,
+        rms_before,
+        rms_after,
+        motions: used,
+        iterations,
+        identifiability,
+    })
+}
+
+/// Leave-one-motion-out: for each motion, fit on the others (starting from `start`) and
+/// measure the angle error on the one held out. Returns the RMS of the held-out angles, rad.
+/// `per_motion(i, angle)` sees each held-out angle.
+pub fn leave_one_out<T: RealField + Copy>(
+    motions: &[Motion<'_, T>],
+    nominal: &GyroCalibration<T>,
+    start: &Adjustment<T>,
+    cfg: &GyroFitConfig<T>,
+    mut per_motion: impl FnMut(usize, T),
+) -> Result<T, Error> {
+    if motions.len() < 2 {
+        return Err(Error::TooFewPoses {
+            needed: 2,
+            got: motions.len() as u32,
+        });
+    }
+    let mut sum = T::zero();
+    for (i, motion) in motions.iter().enumerate() {
+        let held_out = fit_from(motions, nominal, start, cfg, Some(i))?;
+        let a = motion_angle(motion, &held_out.calibration, cfg.dt)?;
+        per_motion(i, a);
+        sum += a * a;
+    }
+    Ok((sum / nalgebra::convert(motions.len() as f64)).sqrt())
+}
