@@ -174,6 +174,16 @@ pub const CASES: &[Case] = &[
         run: xsens_static_detector,
     },
     Case {
+        name: "gyro_motion_integration",
+        max_ulps: 4,
+        run: gyro_motion_integration,
+    },
+    Case {
+        name: "gyro_zero_rate_tracker",
+        max_ulps: 0,
+        run: gyro_zero_rate_tracker,
+    },
+    Case {
         name: "xsens_multipos_fit",
         max_ulps: 4,
         run: xsens_multipos_fit,
@@ -437,6 +447,68 @@ fn kalman_pvb(o: &mut Out) -> Result<(), Error> {
     }
     o.extend(f.state().as_slice())?;
     o.extend(f.covariance().as_slice())
+}
+
+/// A 3 s motion (300 samples of a MotionPlus-like 14-bit gyro turning about a slowly moving
+/// axis, plus noise) integrated by RK4 with all 12 parameter sensitivities; out: the gravity
+/// residual, its 3×12 Jacobian, the angle and the orientation.
+fn gyro_motion_integration(o: &mut Out) -> Result<(), Error> {
+    use wiical_core::gyro::{Adjustment, GyroCalibration, MotionIntegrator, NPARAM};
+    let nominal =
+        GyroCalibration::<f32>::nominal([8190.0, 8200.0, 8185.0], [1.2e-3, -1.2e-3, 1.2e-3]);
+    let adj = Adjustment {
+        p: wiical_core::Mat3::new(1.01, 0.01, -0.02, 0.015, 0.98, 0.01, -0.01, 0.02, 1.02),
+        delta: wiical_core::Vec3::new(0.002, -0.001, 0.003),
+    };
+    let mut m = MotionIntegrator::new(nominal, adj, 0.01, [true; NPARAM])?;
+    let mut rng = XorShift::new(13);
+    for i in 0..300 {
+        let t = i as f32 * 0.01;
+        let bump = 1.0 - libm::cosf(core::f32::consts::TAU * t / 3.0);
+        m.push(&[
+            8190.0 + 600.0 * bump + 2.0 * rng.next_f32(),
+            8200.0 - 300.0 * bump * libm::sinf(t) + 2.0 * rng.next_f32(),
+            8185.0 + 200.0 * bump + 2.0 * rng.next_f32(),
+        ])?;
+    }
+    let out = m.finish(
+        &wiical_core::Vec3::new(0.1, 0.2, 0.97),
+        &wiical_core::Vec3::new(0.5, -0.3, 0.8),
+    )?;
+    o.extend(out.residual.as_slice())?;
+    o.extend(out.jacobian.as_slice())?;
+    o.push(out.angle)?;
+    o.extend(out.rotation.as_slice())
+}
+
+/// The zero-rate tracker on 2000 samples: rest, turning, rest with a drifted bias; out: the
+/// bias after every update and the number of updates.
+fn gyro_zero_rate_tracker(o: &mut Out) -> Result<(), Error> {
+    use wiical_core::gyro_zero::{ZeroRateConfig, ZeroRateTracker};
+    let cfg = ZeroRateConfig {
+        block: 50,
+        max_spread: 12.0f32,
+        blend: 0.5,
+    };
+    let mut z = ZeroRateTracker::new(cfg, [8192.0, 8190.0, 8195.0])?;
+    let mut rng = XorShift::new(17);
+    for i in 0..2000u32 {
+        let (moving, drift) = (i % 500 < 150, (i / 500) as f32 * 7.0);
+        let turn = if moving {
+            400.0 * libm::sinf(i as f32 * 0.05)
+        } else {
+            0.0
+        };
+        let m = [
+            8192.0 + drift + turn + 1.5 * rng.next_f32(),
+            8190.0 - drift + 1.5 * rng.next_f32(),
+            8195.0 + 0.5 * drift - turn + 1.5 * rng.next_f32(),
+        ];
+        if let Some(b) = z.push(m, !moving)? {
+            o.extend(&b)?;
+        }
+    }
+    o.push(z.updates() as f32)
 }
 
 fn static_detector(o: &mut Out) -> Result<(), Error> {

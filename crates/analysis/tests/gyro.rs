@@ -243,3 +243,107 @@ fn mismatched_recordings_and_missing_scale_are_errors() {
     let e = run(&a, &a, &GyroOptions::new([1e-3, 0.0, 1e-3])).unwrap_err();
     assert!(e.to_string().contains("non-zero"), "{e}");
 }
+
+/// A simulated accelerometer + gyro recording with known gyro truth (scale within ±3 %,
+/// misalignment within ±2°, bias off the rest estimate by nothing but noise): 5 s rest, then
+/// `poses` static poses of 3 s joined by 2 s single-axis turns of 50–140°, 100 Hz, integer
+/// counts with 2-count noise on both sensors.
+fn simulate_imu(seed: u64, poses: usize) -> (Recording, Recording, Matrix3<f64>, Vector3<f64>) {
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+    use rand_distr::{Distribution, Normal};
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let noise = Normal::new(0.0, 2.0).unwrap();
+    let s0 = 1e-3;
+    let k_true = Matrix3::from_fn(|i, j| {
+        if i == j {
+            s0 * (1.0 + rng.random_range(-0.03..0.03))
+        } else {
+            s0 * rng.random_range(-2.0f64..2.0).to_radians()
+        }
+    });
+    let b_true = Vector3::new(
+        rng.random_range(-300.0..300.0),
+        rng.random_range(-300.0..300.0),
+        rng.random_range(-300.0..300.0),
+    );
+    let k_inv = k_true.try_inverse().unwrap();
+    let dt = 0.01;
+    let mut q = UnitQuaternion::from_euler_angles(0.3, -0.2, 0.1);
+    let (mut acc, mut gyro) = (Vec::new(), Vec::new());
+    let mut emit = |q: &UnitQuaternion<f64>, w: Vector3<f64>, rng: &mut ChaCha8Rng| {
+        // Specific force of a sensor at rest in the world: +1 g up, seen in the body frame.
+        let f = q.inverse_transform_vector(&Vector3::z());
+        let a = f * 4000.0 + Vector3::new(120.0, -80.0, 40.0);
+        let g = k_inv * w + b_true;
+        acc.push(a.map(|v| (v + noise.sample(rng)).round()).into());
+        gyro.push(g.map(|v| (v + noise.sample(rng)).round()).into());
+    };
+    for _ in 0..500 {
+        emit(&q, Vector3::zeros(), &mut rng);
+    }
+    for _ in 0..poses {
+        let axis = Vector3::new(
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-1.0..1.0),
+        )
+        .normalize();
+        let angle = rng.random_range(50.0f64..140.0).to_radians();
+        let n = 200;
+        let period = n as f64 * dt;
+        let rate =
+            |t: f64| axis * angle / period * (1.0 - (std::f64::consts::TAU * t / period).cos());
+        for i in 0..n {
+            let t = i as f64 * dt;
+            emit(&q, rate(t), &mut rng);
+            // Exact for a fixed axis: the angle turned during this step.
+            let turned = angle / period
+                * (dt
+                    - period / std::f64::consts::TAU
+                        * ((std::f64::consts::TAU * (t + dt) / period).sin()
+                            - (std::f64::consts::TAU * t / period).sin()));
+            q *= UnitQuaternion::from_scaled_axis(axis * turned);
+        }
+        for _ in 0..300 {
+            emit(&q, Vector3::zeros(), &mut rng);
+        }
+    }
+    let rec = |xyz| Recording {
+        xyz,
+        sample_rate_hz: Some(100.0),
+        ..Default::default()
+    };
+    (rec(acc), rec(gyro), k_true, b_true)
+}
+
+#[test]
+fn simulated_recording_recovers_the_gyro_truth() {
+    check_simulated(31, 20);
+}
+
+/// The same with 40 poses (a minute on a loaded 2-core machine, so not in the default run):
+/// `cargo test -p wiical-analysis --test gyro -- --ignored --nocapture`.
+#[test]
+#[ignore]
+fn simulated_recording_with_40_poses_recovers_the_gyro_truth() {
+    check_simulated(32, 40);
+}
+
+fn check_simulated(seed: u64, poses: usize) {
+    let (acc, gyro, k_true, b_true) = simulate_imu(seed, poses);
+    let rep = run(&acc, &gyro, &GyroOptions::new([1e-3; 3])).unwrap();
+    let k = matrix(&rep);
+    // Relative to the scale: the truth departs from nominal by up to 3e-2.
+    let dk = (k - k_true).amax() / 1e-3;
+    let db = (Vector3::from(rep.bias) - b_true).amax();
+    println!(
+            "{poses} poses: {} windows, {} motions, chosen {}; K error {dk:.1e} of scale, bias error {db:.2} counts; RMS {:.3}° → {:.4}°, held-out {:.4}°",
+            rep.static_windows, rep.motions, rep.model, rep.rms_deg_before, rep.rms_deg_after, rep.cv_rms_deg
+        );
+    assert_eq!(rep.motions, poses);
+    assert!(rep.model.starts_with("full"), "{}", rep.model);
+    assert!(dk < 2e-3, "K error {dk:e}");
+    assert!(db < 1.0, "bias error {db} counts");
+    assert!(rep.cv_rms_deg < 0.2 * rep.rms_deg_before);
+}

@@ -299,6 +299,10 @@ impl<T: RealField + Copy> MotionIntegrator<T> {
         let k4 = half_q_pure(&q4, &w1, half);
         // Forcing terms ½ q_stage ⊗ ∂ω/∂p_k: every ∂ω/∂p_k is a combination of the unit
         // vectors, so ½ q_stage ⊗ e_i (i = 0..3) per stage is all that is needed.
+        self.q = q + (k1 + k2 * two + k3 * two + k4) * h6;
+        if !self.tracked.contains(&true) {
+            return;
+        }
         let stages = [q, q2, q3, q4];
         let rates = [*u0, um, um, *u1];
         let units: [Vector3<T>; 3] = [Vector3::x(), Vector3::y(), Vector3::z()];
@@ -330,7 +334,6 @@ impl<T: RealField + Copy> MotionIntegrator<T> {
             self.sens
                 .set_column(k, &(s + (l1 + l2 * two + l3 * two + l4) * h6));
         }
-        self.q = q + (k1 + k2 * two + k3 * two + k4) * h6;
     }
 
     /// Ends the motion: gravity residual between `g_start` (window before) and `g_end`

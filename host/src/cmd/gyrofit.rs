@@ -79,6 +79,13 @@ struct GyroCalFile<'a> {
 /// Runs `wiical gyrofit`; returns what to print.
 pub fn run(a: &Args) -> Result<String> {
     let scale = nominal(a)?;
+    if a.gyro_columns.len() != 3 {
+        bail!(
+            "--gyro-columns needs exactly three names (e.g. gx,gy,gz), got {}: {}",
+            a.gyro_columns.len(),
+            a.gyro_columns.join(",")
+        );
+    }
     let acc = load(&a.file, &a.detect.load_options()?)?;
     let gyro = match &a.gyro_file {
         Some(g) => load(g, &load_options(None)?)?,
