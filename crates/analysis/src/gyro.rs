@@ -137,36 +137,34 @@ const CANDIDATES: [(&str, GyroModel, bool); 6] = [
     ("full+bias", GyroModel::Full, true),
 ];
 
-/// Rows of `acc` and `gyro` that belong together: all of them when the lengths agree, else
-/// (a capture whose rows alternate between gyro and other data) the accelerometer rows at the
-/// gyro rows' times.
-fn align(acc: &Recording, gyro: &Recording) -> Result<(Vec<[f64; 3]>, Vec<f64>)> {
+/// Rows of `acc` and `gyro` that belong together: all of them when the lengths agree (`None`),
+/// else (a capture whose rows alternate between gyro and other data, so the loader skipped the
+/// rows without gyro values) the accelerometer rows at the gyro rows' times, with those times.
+type Aligned = (Vec<[f64; 3]>, Option<Vec<f64>>);
+
+fn align(acc: &Recording, gyro: &Recording) -> Result<Aligned> {
     if acc.len() == gyro.len() {
-        return Ok((acc.xyz.clone(), acc.times(0.0)));
+        return Ok((acc.xyz.clone(), None));
     }
+    let mismatch = || Error::GyroRowsMismatch {
+        accel: acc.len(),
+        gyro: gyro.len(),
+    };
     let (Some(ta), Some(tg)) = (&acc.t, &gyro.t) else {
-        return Err(Error::GyroRowsMismatch {
-            accel: acc.len(),
-            gyro: gyro.len(),
-        });
+        return Err(mismatch());
     };
     let mut out = Vec::with_capacity(tg.len());
-    let mut times = Vec::with_capacity(tg.len());
     let mut i = 0;
     for t in tg {
         while i < ta.len() && ta[i] < *t {
             i += 1;
         }
         if i >= ta.len() || ta[i] != *t {
-            return Err(Error::GyroRowsMismatch {
-                accel: acc.len(),
-                gyro: gyro.len(),
-            });
+            return Err(mismatch());
         }
         out.push(acc.xyz[i]);
-        times.push(*t);
     }
-    Ok((out, times))
+    Ok((out, Some(tg.clone())))
 }
 
 fn deg(rad: f64) -> f64 {
@@ -183,16 +181,25 @@ pub fn run(acc: &Recording, gyro: &Recording, opts: &GyroOptions) -> Result<Gyro
     {
         return Err(Error::GyroNominalScale);
     }
-    let (acc_xyz, times) = align(acc, gyro)?;
-    let acc_rec = Recording {
-        xyz: acc_xyz,
-        t: acc.t.as_ref().map(|_| times.clone()),
-        sample_rate_hz: acc.sample_rate_hz.or(gyro.sample_rate_hz),
-        ..Default::default()
+    let (acc_xyz, subset_times) = align(acc, gyro)?;
+    let acc_rec = match subset_times {
+        // A subset of the rows: the rate comes from their times, not from the file's Fs.
+        Some(t) => Recording {
+            xyz: acc_xyz,
+            t: Some(t),
+            ..Default::default()
+        },
+        None => Recording {
+            xyz: acc_xyz,
+            t: acc.t.clone(),
+            sample_rate_hz: acc.sample_rate_hz.or(gyro.sample_rate_hz),
+            ..Default::default()
+        },
     };
     let rate = acc_rec
         .estimated_rate_hz()
         .unwrap_or(opts.detect.default_rate_hz);
+    let times = acc_rec.times(rate);
     let det = detect(&acc_rec, &opts.detect)?;
     let means: Vec<[f32; 3]> = det.intervals.iter().map(|iv| iv.mean).collect();
     let accel = fit_means(&means, opts.accel_model)?.calibration;
