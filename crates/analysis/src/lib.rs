@@ -68,6 +68,7 @@ pub mod candidate;
 pub mod error;
 pub mod evidence;
 pub mod fit;
+pub mod input;
 pub mod load;
 pub mod magnetometer;
 pub mod model;
@@ -82,7 +83,9 @@ pub mod simulate;
 pub mod six;
 pub mod six_position;
 pub mod stats;
+pub mod timecheck;
 pub mod trial;
+pub mod verdict;
 pub mod windows;
 pub mod write;
 

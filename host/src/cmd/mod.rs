@@ -99,8 +99,13 @@ pub fn to_json<T: serde::Serialize>(v: &T) -> Result<String> {
 }
 
 /// Loads a recording, errors told the CLI's way.
+/// Notes on the file (time gaps, a millisecond-looking time step) go to stderr as warnings.
 pub fn load(path: &std::path::Path, opts: &LoadOptions) -> Result<wiical_analysis::Recording> {
-    wiical_analysis::load(path, opts).map_err(cli_error)
+    let rec = wiical_analysis::load(path, opts).map_err(cli_error)?;
+    for note in &rec.notes {
+        eprintln!("warning: in {}: {note}", path.display());
+    }
+    Ok(rec)
 }
 
 /// Writes a calibration file (`--out`), errors told the CLI's way.
