@@ -95,9 +95,16 @@ where
     Ok(())
 }
 
-/// Writes the residual plot as SVG.
+/// Writes the residual plot as SVG (drawn in memory, then written atomically like every
+/// output).
 pub fn write_plot(rep: &AnalyzeReport, path: &Path) -> Result<()> {
-    let root = SVGBackend::new(path, (1200, 520)).into_drawing_area();
+    let mut svg = String::new();
+    draw(rep, &mut svg)?;
+    wiical_analysis::write::write_file(path, svg.as_bytes()).map_err(crate::cli_error::cli_error)
+}
+
+fn draw(rep: &AnalyzeReport, svg: &mut String) -> Result<()> {
+    let root = SVGBackend::with_string(svg, (1200, 520)).into_drawing_area();
     root.fill(&WHITE).map_err(|e| anyhow!("plot: {e}"))?;
     if let Some(six) = &rep.six_position {
         // Pair residuals per axis: x = pair index (0 x, 1 y, 2 z) offset by axis.
@@ -115,8 +122,7 @@ pub fn write_plot(rep: &AnalyzeReport, path: &Path) -> Result<()> {
             &Vec::new(),
             &Vec::new(),
         )?;
-        root.present()
-            .map_err(|e| anyhow!("plot: cannot write {}: {e}", path.display()))?;
+        root.present().map_err(|e| anyhow!("plot: {e}"))?;
         return Ok(());
     }
     let panels = if rep.effects.is_empty() { 1 } else { 2 };
@@ -171,7 +177,6 @@ pub fn write_plot(rep: &AnalyzeReport, path: &Path) -> Result<()> {
             &r,
         )?;
     }
-    root.present()
-        .map_err(|e| anyhow!("plot: cannot write {}: {e}", path.display()))?;
+    root.present().map_err(|e| anyhow!("plot: {e}"))?;
     Ok(())
 }
