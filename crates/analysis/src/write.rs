@@ -31,30 +31,109 @@ pub fn write_with<F>(path: &Path, fill: F) -> Result<()>
 where
     F: FnOnce(&mut dyn Write) -> std::io::Result<()>,
 {
-    let wrap = |source: std::io::Error| Error::Write {
-        path: path.into(),
-        source,
-    };
-    let target = resolve_target(path)?;
-    let dir = match target.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
-    let name = target
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    let prefix = format!(".{name}.");
-    let mut builder = tempfile::Builder::new();
-    builder.prefix(&prefix).suffix(".tmp");
-    set_permissions(&mut builder, &target);
-    let tmp = builder.tempfile_in(&dir).map_err(wrap)?;
-    let mut out = std::io::BufWriter::new(tmp);
-    fill(&mut out).map_err(wrap)?;
-    let tmp = out.into_inner().map_err(|e| wrap(e.into_error()))?;
-    tmp.as_file().sync_all().map_err(wrap)?;
-    tmp.persist(&target).map_err(|e| wrap(e.error))?;
-    sync_dir(&dir).map_err(wrap)
+    let pending = PendingFile::create(path)?;
+    let mut out = std::io::BufWriter::new(pending.file());
+    fill(&mut out).map_err(|e| pending.error(e))?;
+    out.flush().map_err(|e| pending.error(e))?;
+    drop(out);
+    pending.commit()
+}
+
+/// A file being written for a long time (a capture): the bytes go to a temporary file next
+/// to the target, which replaces the target only on [`PendingFile::commit`]. Dropped without
+/// a commit, the temporary file is deleted; [`PendingFile::keep_aside`] keeps it under its
+/// temporary name instead (a partial recording that must not replace an existing file).
+#[derive(Debug)]
+pub struct PendingFile {
+    tmp: tempfile::NamedTempFile,
+    target: PathBuf,
+    given: PathBuf,
+    existed: bool,
+}
+
+impl PendingFile {
+    /// Opens the temporary file next to `path` (nothing at `path` changes yet).
+    pub fn create(path: &Path) -> Result<Self> {
+        let target = resolve_target(path)?;
+        let existed = target.exists();
+        let dir = match target.parent() {
+            Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+            _ => PathBuf::from("."),
+        };
+        let name = target
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        let prefix = format!(".{name}.");
+        let mut builder = tempfile::Builder::new();
+        builder.prefix(&prefix).suffix(".tmp");
+        set_permissions(&mut builder, &target);
+        let tmp = builder.tempfile_in(&dir).map_err(|source| Error::Write {
+            path: path.into(),
+            source,
+        })?;
+        Ok(Self {
+            tmp,
+            target,
+            given: path.to_path_buf(),
+            existed,
+        })
+    }
+
+    /// The temporary file to write into.
+    pub fn file(&self) -> &std::fs::File {
+        self.tmp.as_file()
+    }
+
+    /// True when a file existed at the target when this was created.
+    pub fn target_existed(&self) -> bool {
+        self.existed
+    }
+
+    /// The target path as given.
+    pub fn path(&self) -> &Path {
+        &self.given
+    }
+
+    /// An I/O error as a write error of the target.
+    pub fn error(&self, source: std::io::Error) -> Error {
+        Error::Write {
+            path: self.given.clone(),
+            source,
+        }
+    }
+
+    /// `fsync`s the data and renames the temporary file over the target (then `fsync`s the
+    /// directory).
+    pub fn commit(self) -> Result<()> {
+        self.tmp.as_file().sync_all().map_err(|e| self.error(e))?;
+        let given = self.given.clone();
+        let dir = self.target.parent().map(Path::to_path_buf);
+        self.tmp.persist(&self.target).map_err(|e| Error::Write {
+            path: given.clone(),
+            source: e.error,
+        })?;
+        match dir {
+            Some(d) if !d.as_os_str().is_empty() => sync_dir(&d),
+            _ => sync_dir(Path::new(".")),
+        }
+        .map_err(|source| Error::Write {
+            path: given,
+            source,
+        })
+    }
+
+    /// `fsync`s the data and keeps the temporary file under its own name, leaving the target
+    /// untouched; returns where the data are.
+    pub fn keep_aside(self) -> Result<PathBuf> {
+        self.tmp.as_file().sync_all().map_err(|e| self.error(e))?;
+        let given = self.given.clone();
+        let (_, path) = self.tmp.keep().map_err(|e| Error::Write {
+            path: given,
+            source: e.error,
+        })?;
+        Ok(path)
+    }
 }
 
 /// The file to replace: `path`, or what it links to; refused if it exists and is not a

@@ -1,12 +1,12 @@
 //! `wiical analyze`: the residual analysis.
 
 use super::{check_outputs, load, to_json_with_quality, write_calibration_with, DetectArgs};
-use wiical_analysis::verdict::Quality;
 use crate::cli_error::cli_error;
 use crate::render;
 use anyhow::Result;
 use std::path::PathBuf;
 use wiical_analysis::select::check_rule;
+use wiical_analysis::verdict::Quality;
 use wiical_analysis::{AnalyzeOptions, Candidate};
 use wiical_core::multipos::MultiPosModel;
 

@@ -194,7 +194,10 @@ fn checked_for_put(path: &std::path::Path, force: bool) -> Result<Calibration> {
             );
         }
         for r in &check.refusals {
-            eprintln!("warning: {}: uploading with --force although {r}", path.display());
+            eprintln!(
+                "warning: {}: uploading with --force although {r}",
+                path.display()
+            );
         }
     }
     Ok(file.calibration)

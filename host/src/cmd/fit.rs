@@ -4,11 +4,11 @@
 #![allow(rustdoc::broken_intra_doc_links)]
 
 use super::{check_outputs, load, to_json_with_quality, write_calibration_with, DetectArgs};
-use wiical_analysis::verdict::Quality;
 use crate::cli_error::cli_error;
 use crate::render;
 use anyhow::Result;
 use std::path::PathBuf;
+use wiical_analysis::verdict::Quality;
 use wiical_core::multipos::MultiPosModel;
 
 /// Arguments of `wiical fit`.
