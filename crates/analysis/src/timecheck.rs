@@ -67,6 +67,8 @@ pub fn time_notes(column: &str, t: &[f64]) -> Vec<String> {
         .filter(|(_, d)| **d > GAP_FACTOR * median)
         .map(|(i, _)| i)
         .collect();
+    // Rounded for the message (a median of 0.009999999999990905 s reads as 0.01 s).
+    let median_shown = (median * 1e9).round() / 1e9;
     if !gaps.is_empty() {
         let listed: Vec<String> = gaps
             .iter()
@@ -79,7 +81,7 @@ pub fn time_notes(column: &str, t: &[f64]) -> Vec<String> {
             ""
         };
         notes.push(format!(
-            "column '{}': time jumps {} time(s) by more than {GAP_FACTOR}× the median step of {median} s ({}{more}); samples are missing there",
+            "column '{}': time jumps {} time(s) by more than {GAP_FACTOR}× the median step of {median_shown} s ({}{more}); samples are missing there",
             quote(column),
             gaps.len(),
             listed.join(", ")

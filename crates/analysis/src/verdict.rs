@@ -41,7 +41,8 @@ impl Quality {
     /// Judges a fit: `cal` the fitted calibration, `pose_means` the raw mean of every pose,
     /// `fit_rms_mg` the fit's RMS of `‖a‖ − 1` in milli-g.
     pub fn assess(cal: &Calibration, pose_means: &[[f64; 3]], fit_rms_mg: f64) -> Self {
-        let max_fit_rms_mg = f64::from(Acceptance::nunchuk().max_fit_rms) * 1000.0;
+        // The core's f32 limit in mg, rounded to the µg (0.03_f32 is 29.99999933 mg).
+        let max_fit_rms_mg = (f64::from(Acceptance::nunchuk().max_fit_rms) * 1e6).round() / 1e3;
         let directions: Vec<[f32; 3]> = pose_means
             .iter()
             .map(|m| cal.correct_linear(m.map(|v| v as f32)))

@@ -132,11 +132,14 @@ pub fn check_outputs(inputs: &[&Path], outputs: &[Option<&Path>]) -> Result<()> 
     wiical_analysis::write::check_outputs(inputs, &outputs).map_err(cli_error)
 }
 
-/// A report as JSON with the quality verdict added under `quality` (`fit`/`analyze --json`).
+/// A report as JSON with the quality verdict added under `quality`, after the report's own
+/// keys (`fit`/`analyze --json`).
 pub fn to_json_with_quality<T: serde::Serialize>(report: &T, quality: &Quality) -> Result<String> {
-    let mut v = serde_json::to_value(report)?;
-    if let serde_json::Value::Object(map) = &mut v {
-        map.insert("quality".into(), serde_json::to_value(quality)?);
+    #[derive(serde::Serialize)]
+    struct WithQuality<'a, T> {
+        #[serde(flatten)]
+        report: &'a T,
+        quality: &'a Quality,
     }
-    to_json(&v)
+    to_json(&WithQuality { report, quality })
 }
