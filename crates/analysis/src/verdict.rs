@@ -71,12 +71,12 @@ impl Quality {
     pub fn line(&self) -> String {
         let rms = if self.fit_rms_mg <= self.max_fit_rms_mg {
             format!(
-                "fit RMS {:.1} mg ≤ {:.0} mg",
+                "fit RMS {:.2} mg ≤ {:.0} mg",
                 self.fit_rms_mg, self.max_fit_rms_mg
             )
         } else {
             format!(
-                "fit RMS {:.1} mg exceeds {:.0} mg",
+                "fit RMS {:.2} mg exceeds {:.0} mg",
                 self.fit_rms_mg, self.max_fit_rms_mg
             )
         };
@@ -144,7 +144,7 @@ mod tests {
         assert_eq!(q.poses, 14);
         assert!(q
             .line()
-            .starts_with("quality: good (fit RMS 4.0 mg ≤ 30 mg, 14 poses"));
+            .starts_with("quality: good (fit RMS 4.00 mg ≤ 30 mg, 14 poses"));
     }
 
     #[test]
