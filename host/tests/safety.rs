@@ -387,3 +387,25 @@ fn flash_mirror_power_cut_at_every_write_leaves_old_or_new() {
     assert!(checked > 4);
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn standard_input_is_read_when_asked_for_with_a_dash() {
+    let dir = scratch("stdin");
+    let rec = simulated(&dir);
+    let out = Command::new(env!("CARGO_BIN_EXE_wiical"))
+        .args(["fit", "-", "--json"])
+        .stdin(std::fs::File::open(&rec).unwrap())
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let from_stdin: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let (ok, json, _) = wiical(&["fit", s(&rec), "--json"]);
+    assert!(ok);
+    let from_file: serde_json::Value = serde_json::from_str(&json).unwrap();
+    assert_eq!(from_stdin["bias"], from_file["bias"]);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
