@@ -57,6 +57,7 @@ fn an_output_equal_to_an_input_or_to_another_output_is_refused_and_nothing_chang
         vec!["analyze", s(&rec), "--out", s(&rec), "--plot", s(&rec)],
         vec!["six-position", s(&rec), "--out", s(&rec)],
         vec!["magfit", s(&rec), "--out", s(&rec)],
+        vec!["gyrofit", s(&rec), "--scale", "1", "--out", s(&rec)],
     ] {
         let (ok, _, err) = wiical(&args);
         assert!(!ok, "{args:?}");
