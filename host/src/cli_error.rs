@@ -2,6 +2,7 @@
 //! setting, it names the flag that changes it (the engine's own messages name no flags).
 
 use anyhow::anyhow;
+use wiical_analysis::error::Setting;
 use wiical_analysis::Error;
 
 /// Converts an engine error into the CLI's error, naming flags where a setting is concerned.
@@ -42,6 +43,17 @@ pub fn cli_error(e: Error) -> anyhow::Error {
             model,
         } => anyhow!(
             "found {found} static windows but the {model} needs at least {needed}: hold the sensor still in more orientations (or lower --min-static-s / raise --threshold)"
+        ),
+        Error::DetectorSetting { setting, why } => {
+            let flag = match setting {
+                Setting::InitialRest => "--init-s",
+                Setting::MinStatic => "--min-static-s",
+                Setting::Threshold => "--threshold",
+            };
+            anyhow!("{flag} ({setting}) is too short or invalid: {why}")
+        }
+        Error::AxisIsNotAnAxis { name } => anyhow!(
+            "--columns: column '{name}' is not a sensor axis (it is the time, temperature or pose column); give three axis columns"
         ),
         other => anyhow::Error::new(other),
     }

@@ -84,10 +84,16 @@ impl NorFlashError for SimFlashError {
 
 /// A NOR flash image shared between simulator runs (clone it to keep it across a restart),
 /// optionally mirrored to a file after every program / erase.
+///
+/// The mirror file is replaced atomically at every step (temporary file, fsync, rename), so
+/// that a crash or a full disk leaves the image of the previous step, never a torn file the
+/// next start refuses: the store's power-loss safety then carries over to the mirror.
 #[derive(Debug, Clone)]
 pub struct SimFlash {
     image: Arc<Mutex<Vec<u8>>>,
     file: Option<PathBuf>,
+    /// Fault injection (power-cut tests): mirror writes left before the power is cut.
+    power: Option<Arc<AtomicU32>>,
 }
 
 impl SimFlash {
@@ -96,6 +102,7 @@ impl SimFlash {
         Self {
             image: Arc::new(Mutex::new(vec![0xFF; FLASH_SIZE])),
             file: None,
+            power: None,
         }
     }
 
@@ -103,8 +110,15 @@ impl SimFlash {
     /// [`FLASH_SIZE`]-byte image), created blank otherwise.
     pub fn file(path: &Path) -> Result<Self> {
         let image = if path.exists() {
-            let data =
-                std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
+            // Bounded: `/dev/zero` or a huge file is refused, not read whole.
+            let data = match wiical_analysis::input::read_bounded(path, FLASH_SIZE as u64) {
+                Ok(d) => d,
+                Err(wiical_analysis::Error::TooLarge { .. }) => bail!(
+                    "{} is not a device-sim flash image (larger than {FLASH_SIZE} bytes)",
+                    path.display()
+                ),
+                Err(e) => return Err(crate::cli_error::cli_error(e)),
+            };
             if data.len() != FLASH_SIZE {
                 bail!(
                     "{} is not a device-sim flash image ({} bytes, expected {FLASH_SIZE})",
@@ -115,14 +129,24 @@ impl SimFlash {
             data
         } else {
             let data = vec![0xFF; FLASH_SIZE];
-            std::fs::write(path, &data)
+            wiical_analysis::write::write_file(path, &data)
+                .map_err(crate::cli_error::cli_error)
                 .with_context(|| format!("cannot create {}", path.display()))?;
             data
         };
         Ok(Self {
             image: Arc::new(Mutex::new(image)),
             file: Some(path.to_path_buf()),
+            power: None,
         })
+    }
+
+    /// Fault injection for power-cut tests: the next `writes` mirror updates succeed, the
+    /// one after is interrupted half-way (as a process killed while writing), and every
+    /// later one fails. The in-memory image is what the flash chip would hold; the file
+    /// keeps the last complete update.
+    pub fn cut_power_after(&mut self, writes: u32) {
+        self.power = Some(Arc::new(AtomicU32::new(writes)));
     }
 
     /// A copy of the image.
@@ -137,10 +161,24 @@ impl SimFlash {
     }
 
     fn persist(&self, image: &[u8]) -> Result<(), SimFlashError> {
-        match &self.file {
-            Some(p) => std::fs::write(p, image).map_err(|_| SimFlashError::Io),
-            None => Ok(()),
-        }
+        let Some(path) = &self.file else {
+            return Ok(());
+        };
+        let powered = match &self.power {
+            None => true,
+            Some(left) => left
+                .fetch_update(Ordering::SeqCst, Ordering::SeqCst, |n| n.checked_sub(1))
+                .is_ok(),
+        };
+        wiical_analysis::write::write_with(path, |w| {
+            if powered {
+                w.write_all(image)
+            } else {
+                w.write_all(&image[..image.len() / 2])?;
+                Err(io::Error::other("simulated power cut"))
+            }
+        })
+        .map_err(|_| SimFlashError::Io)
     }
 
     fn range(

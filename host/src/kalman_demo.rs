@@ -123,9 +123,18 @@ pub struct KalmanDemoReport {
 /// Two-sided 95 % interval of χ²(3).
 const CHI2_3_95: (f64, f64) = (0.215_795, 9.348_404);
 
+/// Most runs accepted: memory and time grow linearly (per-run results are kept for the
+/// medians), and 10⁵ runs already take seconds.
+pub const MAX_RUNS: u32 = 100_000;
+
 /// Runs the Monte Carlo described in the [module docs](self).
 pub fn run(cfg: &KalmanDemoConfig) -> Result<KalmanDemoReport> {
     ensure!(cfg.runs >= 1, "runs must be at least 1");
+    ensure!(
+        cfg.runs <= MAX_RUNS,
+        "runs must be at most {MAX_RUNS} (about 5 s; more adds no precision worth the wait), got {}",
+        cfg.runs
+    );
     let finite = [
         cfg.true_bias,
         cfg.dt,

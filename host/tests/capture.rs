@@ -1035,3 +1035,52 @@ fn cli_capture_replays_a_raw_log_in_guided_mode() {
         "{err}"
     );
 }
+
+#[test]
+fn a_failed_capture_leaves_existing_files_untouched() {
+    // Malformed reports right after the set-up: the capture fails with no samples.
+    let failing = || {
+        let mut dev = fake(false);
+        for k in 0..300 {
+            dev.push_report(k as f64 * 0.01, vec![0x35, 0, 0, 1]);
+        }
+        dev
+    };
+    let out = tmp("keep_me.csv");
+    let side = PathBuf::from(format!("{}.cal.json", out.display()));
+    std::fs::write(&out, "t,x,y,z\n0,512,512,612\n").unwrap();
+    std::fs::write(&side, "{\"an\": \"older side file\"}\n").unwrap();
+    let e = capture(
+        &mut failing(),
+        &opts(out.clone(), CaptureMode::Duration(5.0)),
+        &mut CollectUi::default(),
+    )
+    .unwrap_err();
+    let e = format!("{e:#}");
+    assert!(e.contains("and its side file were left untouched"), "{e}");
+    assert_eq!(
+        std::fs::read_to_string(&out).unwrap(),
+        "t,x,y,z\n0,512,512,612\n"
+    );
+    assert_eq!(
+        std::fs::read_to_string(&side).unwrap(),
+        "{\"an\": \"older side file\"}\n"
+    );
+    // The (empty) partial recording is kept aside, named in the message.
+    let kept = e.split("the samples are in ").nth(1).unwrap();
+    let kept = PathBuf::from(kept.split(" (side file").next().unwrap());
+    assert!(kept.exists(), "{}", kept.display());
+    let _ = std::fs::remove_file(&kept);
+    let _ = std::fs::remove_file(format!("{}.cal.json", kept.display()));
+    // With no file there before, the partial recording becomes OUT (nothing to lose).
+    let fresh = tmp("fresh_failure.csv");
+    let _ = std::fs::remove_file(&fresh);
+    let e = capture(
+        &mut failing(),
+        &opts(fresh.clone(), CaptureMode::Duration(5.0)),
+        &mut CollectUi::default(),
+    )
+    .unwrap_err();
+    assert!(format!("{e:#}").contains("they are in"), "{e:#}");
+    assert!(fresh.exists());
+}

@@ -241,14 +241,18 @@ fn decode_cal_contract() {
     assert_eq!(v["zero"], serde_json::json!([521, 521, 521]));
     assert_eq!(v["one_g"], serde_json::json!([627, 626, 632]));
     assert_eq!(v["checksum_ok"], Value::Bool(true));
-    // A corrupted checksum byte is reported, not hidden.
-    let v = json(&[
+    // A corrupted checksum byte is reported, not hidden: the block is still printed, and
+    // the exit status says it is bad.
+    let (ok, out, err) = wiical(&[
         "decode-cal",
         "--device",
         "wiimote",
         "82 82 82 15 9C 9C 9E 38 40 3F",
         "--json",
     ]);
+    assert!(!ok, "a bad checksum must fail the command");
+    assert!(err.contains("checksum is wrong"), "{err}");
+    let v: Value = serde_json::from_str(&out).unwrap();
     assert_eq!(v["checksum_ok"], Value::Bool(false));
     let (ok, _, err) = wiical(&["decode-cal", "--device", "wiimote", "82 ZZ"]);
     assert!(!ok && err.starts_with("error:"), "{err}");

@@ -30,6 +30,37 @@ pub enum Error {
         #[source]
         source: std::io::Error,
     },
+    /// An output would replace one of the command's inputs.
+    #[error("refusing to write {}: it is the input {} (choose another output file)", output.display(), input.display())]
+    OutputIsInput {
+        /// The output asked for.
+        output: PathBuf,
+        /// The input it is the same file as.
+        input: PathBuf,
+    },
+    /// Two outputs of one command are the same file (one would overwrite the other).
+    #[error("refusing to write {} twice: it is also given as {} (choose different output files)", first.display(), second.display())]
+    OutputsCollide {
+        /// One output.
+        first: PathBuf,
+        /// Another output naming the same file.
+        second: PathBuf,
+    },
+    /// An input or output path names something other than a regular file (a device, a
+    /// directory, a pipe): `/dev/zero` would never end.
+    #[error("{} is not a regular file (give a file, or - for standard input)", path.display())]
+    NotRegularFile {
+        /// The path.
+        path: PathBuf,
+    },
+    /// An input larger than the cap for its kind.
+    #[error("{} is larger than {limit_mib} MiB, the limit for this kind of file", path.display())]
+    TooLarge {
+        /// The file (`-` for standard input).
+        path: PathBuf,
+        /// The cap, MiB.
+        limit_mib: u64,
+    },
     /// The file is not UTF-8 text.
     #[error("{} is not UTF-8 text", path.display())]
     NotUtf8 {
@@ -141,6 +172,30 @@ pub enum Error {
         /// The header, comma-separated.
         header: String,
     },
+    /// The time column does not increase.
+    #[error("line {line}: column '{column}': time goes from {previous} back to {value} (or repeats); rows must be in increasing time order")]
+    TimeNotIncreasing {
+        /// 1-based line.
+        line: usize,
+        /// The time column's name.
+        column: String,
+        /// Time on the previous row.
+        previous: f64,
+        /// Time on this row.
+        value: f64,
+    },
+    /// An axis column chosen is the time, temperature or label column.
+    #[error("column '{name}' is not a sensor axis (it is the time, temperature or pose column); choose three axis columns")]
+    AxisIsNotAnAxis {
+        /// The column.
+        name: String,
+    },
+    /// The same column chosen for two axes.
+    #[error("the axis columns {columns} name one column twice; choose three different columns")]
+    AxisTwice {
+        /// The chosen columns, comma-separated.
+        columns: String,
+    },
     /// No recognisable axis columns.
     #[error("no x/y/z columns recognised in the header ({header}); name them x,y,z (or ax,ay,az / mx,my,mz / gx,gy,gz), or choose the axis columns explicitly")]
     NoAxisColumns {
@@ -189,6 +244,14 @@ pub enum Error {
         init_s: f64,
         /// Sample rate, Hz.
         rate_hz: f64,
+    },
+    /// A detector setting that cannot work with this recording, named.
+    #[error("{setting} is too short or invalid: {why}")]
+    DetectorSetting {
+        /// Which setting.
+        setting: Setting,
+        /// Why, with the numbers.
+        why: String,
     },
     /// The core refused the detector settings.
     #[error("static detector settings: {0}")]
@@ -391,5 +454,26 @@ impl Error {
             path: path.into(),
             source: Box::new(self),
         }
+    }
+}
+
+/// A static-detector setting, named in errors (the CLI names its flag instead).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Setting {
+    /// The initial rest period (noise reference).
+    InitialRest,
+    /// The shortest static duration.
+    MinStatic,
+    /// The detection threshold factor.
+    Threshold,
+}
+
+impl std::fmt::Display for Setting {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Setting::InitialRest => "the initial rest period",
+            Setting::MinStatic => "the shortest static duration",
+            Setting::Threshold => "the detection threshold",
+        })
     }
 }

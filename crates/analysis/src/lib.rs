@@ -70,6 +70,7 @@ pub mod error;
 pub mod evidence;
 pub mod fit;
 pub mod gyro;
+pub mod input;
 pub mod load;
 pub mod magnetometer;
 pub mod model;
@@ -84,7 +85,9 @@ pub mod simulate;
 pub mod six;
 pub mod six_position;
 pub mod stats;
+pub mod timecheck;
 pub mod trial;
+pub mod verdict;
 pub mod windows;
 pub mod write;
 

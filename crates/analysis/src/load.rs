@@ -13,7 +13,9 @@
 //! Every value must be finite; the first bad line is reported with its number.
 
 use crate::error::{Error, Result};
+use crate::input::{quote, quote_header, read_text, MAX_RECORDING_BYTES};
 use crate::recording::Recording;
+use crate::timecheck::{time_notes, TimeCheck};
 use std::path::Path;
 
 /// Options for [`load`].
@@ -24,12 +26,10 @@ pub struct LoadOptions {
 }
 
 /// Loads a recording from a file; see the module docs for the accepted formats.
+/// `path` may be `-` for standard input; only regular files are read, at most
+/// [`MAX_RECORDING_BYTES`].
 pub fn load(path: &Path, opts: &LoadOptions) -> Result<Recording> {
-    let bytes = std::fs::read(path).map_err(|source| Error::Read {
-        path: path.into(),
-        source,
-    })?;
-    let text = String::from_utf8(bytes).map_err(|_| Error::NotUtf8 { path: path.into() })?;
+    let text = read_text(path, MAX_RECORDING_BYTES)?;
     parse(&text, opts).map_err(|e| e.in_file(path))
 }
 
@@ -38,35 +38,127 @@ fn is_comment_or_blank(line: &str) -> bool {
     l.is_empty() || l.starts_with('#') || l.starts_with('%')
 }
 
-/// Parses recording text (see [`load`]).
+/// Parses recording text (see [`load`]). A leading byte-order mark is ignored.
 pub fn parse(text: &str, opts: &LoadOptions) -> Result<Recording> {
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let first = text
         .lines()
         .find(|l| !is_comment_or_blank(l))
         .ok_or(Error::Empty)?;
-    if first.contains(',') || first.contains(';') {
-        parse_csv(text, opts)
-    } else {
-        if opts.columns.is_some() {
-            return Err(Error::ColumnsNeedHeader);
+    let rec = match Delimiter::of_first_line(first) {
+        Some(delim) => parse_csv(&blank_comments(text), opts, delim)?,
+        None => {
+            if opts.columns.is_some() {
+                return Err(Error::ColumnsNeedHeader);
+            }
+            parse_whitespace(text)?
         }
-        parse_whitespace(text)
+    };
+    check_axis_columns(&rec)?;
+    Ok(rec)
+}
+
+/// How a file with a header separates its fields, decided by the first non-comment line.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Delimiter {
+    /// `,` (decimal point `.`).
+    Comma,
+    /// `;`, as spreadsheets write in locales with a decimal comma: `1,5` is 1.5.
+    Semicolon,
+    /// A tab, with a header (tab-separated numbers without a header are whitespace text).
+    Tab,
+}
+
+impl Delimiter {
+    fn of_first_line(line: &str) -> Option<Self> {
+        if line.contains(';') {
+            Some(Self::Semicolon)
+        } else if line.contains(',') {
+            Some(Self::Comma)
+        } else if line.contains('\t') && line.split('\t').any(|f| f.trim().parse::<f64>().is_err())
+        {
+            Some(Self::Tab)
+        } else {
+            None
+        }
+    }
+
+    fn byte(self) -> u8 {
+        match self {
+            Self::Comma => b',',
+            Self::Semicolon => b';',
+            Self::Tab => b'\t',
+        }
     }
 }
 
+/// The text with `#` and `%` comment lines blanked (line numbers kept), since the CSV reader
+/// knows only one comment character and would split `% recorded 2024, 100 Hz` into fields.
+fn blank_comments(text: &str) -> std::borrow::Cow<'_, str> {
+    let is_comment = |l: &str| {
+        let l = l.trim_start();
+        l.starts_with('#') || l.starts_with('%')
+    };
+    if !text.lines().any(is_comment) {
+        return text.into();
+    }
+    let mut out = String::with_capacity(text.len());
+    for line in text.split_inclusive('\n') {
+        if is_comment(line) {
+            // A blank record (skipped by the reader's caller), not an empty line: the CSV
+            // reader does not count every empty line in its line numbers.
+            out.push_str(" \n");
+        } else {
+            out.push_str(line);
+        }
+    }
+    out.into()
+}
+
+/// The axes must be three different columns, none of them the time, temperature or label
+/// column (`--columns t,x,y` would calibrate time as an axis).
+fn check_axis_columns(rec: &Recording) -> Result<()> {
+    for name in &rec.axis_columns {
+        let lower = name.to_ascii_lowercase();
+        if TIME_NAMES.contains(&lower.as_str())
+            || TEMP_NAMES.contains(&lower.as_str())
+            || LABEL_NAMES.contains(&lower.as_str())
+        {
+            return Err(Error::AxisIsNotAnAxis { name: name.clone() });
+        }
+    }
+    let [a, b, c] = &rec.axis_columns;
+    if a == b || a == c || b == c {
+        return Err(Error::AxisTwice {
+            columns: rec.axis_columns.join(","),
+        });
+    }
+    Ok(())
+}
+
 /// Parses one field. Callers hand over fields already free of surrounding blanks (split on
-/// ASCII whitespace, or trimmed by the CSV reader).
-fn parse_number(s: &str, line_no: usize, col: &str) -> Result<f64> {
-    let v: f64 = s.parse().map_err(|_| Error::NotANumber {
+/// ASCII whitespace, or trimmed by the CSV reader). With `decimal_comma` one `,` is the
+/// decimal separator. Quoted text in errors is cut to a readable length.
+fn parse_number(s: &str, line_no: usize, col: &str, decimal_comma: bool) -> Result<f64> {
+    let parsed = if decimal_comma && s.contains(',') {
+        if s.matches(',').count() == 1 && !s.contains('.') {
+            s.replacen(',', ".", 1).parse::<f64>()
+        } else {
+            "x".parse::<f64>()
+        }
+    } else {
+        s.parse::<f64>()
+    };
+    let v = parsed.map_err(|_| Error::NotANumber {
         line: line_no,
-        column: col.into(),
-        text: s.into(),
+        column: quote(col),
+        text: quote(s),
     })?;
     if !v.is_finite() {
         return Err(Error::NotFinite {
             line: line_no,
-            column: col.into(),
-            text: s.into(),
+            column: quote(col),
+            text: quote(s),
         });
     }
     Ok(v)
@@ -76,6 +168,7 @@ fn parse_whitespace(text: &str) -> Result<Recording> {
     let mut rec = Recording::default();
     let mut ncols = None;
     let (mut t, mut temp) = (Vec::new(), Vec::new());
+    let mut clock = TimeCheck::new("t");
     for (i, line) in text.lines().enumerate() {
         let line_no = i + 1;
         if is_comment_or_blank(line) {
@@ -112,10 +205,11 @@ fn parse_whitespace(text: &str) -> Result<Recording> {
         };
         let mut vals = [0.0f64; 5];
         for (k, f) in fields.iter().take(n).enumerate() {
-            vals[k] = parse_number(f, line_no, names[k])?;
+            vals[k] = parse_number(f, line_no, names[k], false)?;
         }
         let off = if n == 3 { 0 } else { 1 };
         if n >= 4 {
+            clock.push(vals[0], line_no)?;
             t.push(vals[0]);
         }
         if n == 5 {
@@ -127,6 +221,7 @@ fn parse_whitespace(text: &str) -> Result<Recording> {
         return Err(Error::NoDataRows);
     }
     if !t.is_empty() {
+        rec.notes = time_notes("t", &t);
         rec.t = Some(t);
     }
     if !temp.is_empty() {
@@ -154,19 +249,15 @@ const AXIS_TRIPLETS: &[[&str; 3]] = &[
     ["x_raw", "y_raw", "z_raw"],
 ];
 
-fn parse_csv(text: &str, opts: &LoadOptions) -> Result<Recording> {
-    let delim = if text.lines().any(|l| l.contains(';')) && !text.lines().any(|l| l.contains(',')) {
-        b';'
-    } else {
-        b','
-    };
+fn parse_csv(text: &str, opts: &LoadOptions, delim: Delimiter) -> Result<Recording> {
+    let decimal_comma = delim == Delimiter::Semicolon;
     let mut reader = csv::ReaderBuilder::new()
         .has_headers(false)
         .flexible(true)
         .trim(csv::Trim::All)
-        .comment(Some(b'#'))
-        .delimiter(delim)
+        .delimiter(delim.byte())
         .from_reader(text.as_bytes());
+    let mut clock: Option<TimeCheck> = None;
 
     let mut rec = Recording::default();
     let mut header: Option<Vec<String>> = None;
@@ -182,13 +273,18 @@ fn parse_csv(text: &str, opts: &LoadOptions) -> Result<Recording> {
         let Some(cols) = &header else {
             // Before the header: metadata `key,value` lines, or the header itself.
             let fields: Vec<String> = record.iter().map(|f| f.to_ascii_lowercase()).collect();
-            let numeric = fields.iter().filter(|f| f.parse::<f64>().is_ok()).count();
+            let is_number = |f: &String| {
+                f.parse::<f64>().is_ok()
+                    || (decimal_comma && f.replacen(',', ".", 1).parse::<f64>().is_ok())
+            };
+            let numeric = fields.iter().filter(|f| is_number(f)).count();
             if numeric == fields.len() {
                 return Err(Error::DataBeforeHeader { line: line_no });
             }
-            if fields.len() == 2 && numeric == 1 && fields[1].parse::<f64>().is_ok() {
+            if fields.len() == 2 && numeric == 1 && is_number(&fields[1]) {
                 if fields[0] == "fs" || fields[0] == "sample_rate" || fields[0] == "rate_hz" {
-                    let fs: f64 = fields[1].parse().unwrap_or(f64::NAN);
+                    let fs = parse_number(&fields[1], line_no, &fields[0], decimal_comma)
+                        .unwrap_or(f64::NAN);
                     if !(fs.is_finite() && fs > 0.0) {
                         return Err(Error::BadSampleRate {
                             line: line_no,
@@ -201,6 +297,9 @@ fn parse_csv(text: &str, opts: &LoadOptions) -> Result<Recording> {
             }
             idx = map_header(&fields, opts)?;
             rec.axis_columns = idx.1.map(|i| fields[i].clone());
+            if idx.0 != usize::MAX {
+                clock = Some(TimeCheck::new(&fields[idx.0]));
+            }
             header = Some(fields);
             continue;
         };
@@ -215,11 +314,13 @@ fn parse_csv(text: &str, opts: &LoadOptions) -> Result<Recording> {
             rec.skipped_empty_rows += 1;
             continue;
         }
-        let get = |i: usize| parse_number(&record[i], line_no, &cols[i]);
+        let get = |i: usize| parse_number(&record[i], line_no, &cols[i], decimal_comma);
         rec.xyz
             .push([get(idx.1[0])?, get(idx.1[1])?, get(idx.1[2])?]);
-        if idx.0 != usize::MAX {
-            t.push(get(idx.0)?);
+        if let Some(clock) = clock.as_mut() {
+            let time = get(idx.0)?;
+            clock.push(time, line_no)?;
+            t.push(time);
         }
         if idx.2 != usize::MAX {
             temp.push(get(idx.2)?);
@@ -235,6 +336,7 @@ fn parse_csv(text: &str, opts: &LoadOptions) -> Result<Recording> {
         return Err(Error::HeaderOnly);
     }
     if idx.0 != usize::MAX {
+        rec.notes = time_notes(&rec_time_name(&header, idx.0), &t);
         rec.t = Some(t);
     }
     if idx.2 != usize::MAX {
@@ -246,12 +348,21 @@ fn parse_csv(text: &str, opts: &LoadOptions) -> Result<Recording> {
     Ok(rec)
 }
 
+/// The time column's header name (for notes).
+fn rec_time_name(header: &Option<Vec<String>>, idx: usize) -> String {
+    header
+        .as_ref()
+        .and_then(|h| h.get(idx))
+        .cloned()
+        .unwrap_or_default()
+}
+
 fn map_header(fields: &[String], opts: &LoadOptions) -> Result<(usize, [usize; 3], usize, usize)> {
     let find = |names: &[&str]| fields.iter().position(|f| names.contains(&f.as_str()));
     let mut seen = std::collections::HashSet::new();
     for f in fields {
         if !seen.insert(f) {
-            return Err(Error::DuplicateColumn { name: f.clone() });
+            return Err(Error::DuplicateColumn { name: quote(f) });
         }
     }
     let xyz = if let Some(cols) = &opts.columns {
@@ -262,8 +373,8 @@ fn map_header(fields: &[String], opts: &LoadOptions) -> Result<(usize, [usize; 3
                 .iter()
                 .position(|f| *f == c)
                 .ok_or_else(|| Error::ColumnNotFound {
-                    name: c.clone(),
-                    header: fields.join(", "),
+                    name: quote(&c),
+                    header: quote_header(&fields.join(", ")),
                 })?;
         }
         out
@@ -277,7 +388,7 @@ fn map_header(fields: &[String], opts: &LoadOptions) -> Result<(usize, [usize; 3
                 Some([a, b, c])
             })
             .ok_or_else(|| Error::NoAxisColumns {
-                header: fields.join(", "),
+                header: quote_header(&fields.join(", ")),
             })?
     };
     Ok((
@@ -344,6 +455,93 @@ mod tests {
         // A partly empty row is an error, not a skip.
         let e = parse("t,x,y,z\n0,1,,3\n", &LoadOptions::default()).unwrap_err();
         assert!(e.full_message().contains("not a number"));
+    }
+
+    #[test]
+    fn tab_separated_with_header() {
+        let r = p("t\tx\ty\tz\n0\t1\t2\t3\n0.01\t4\t5\t6\n").unwrap();
+        assert_eq!(r.xyz, vec![[1.0, 2.0, 3.0], [4.0, 5.0, 6.0]]);
+        assert_eq!(r.t.unwrap(), vec![0.0, 0.01]);
+        // Tab-separated numbers without a header stay whitespace text.
+        let r = p("0\t1\t2\t3\n").unwrap();
+        assert_eq!(r.xyz, vec![[1.0, 2.0, 3.0]]);
+    }
+
+    #[test]
+    fn percent_and_hash_comments_in_csv_keep_line_numbers() {
+        let text = "% logger v2, 100 Hz\nt,x,y,z\n# a, b\n0,1,2,3\n%, x\n0.01,1,zz,3\n";
+        let e = p(text).unwrap_err().to_string();
+        assert_eq!(e, "line 6: column 'y': 'zz' is not a number");
+        let r = p("% header, comment\nx,y,z\n1,2,3\n").unwrap();
+        assert_eq!(r.xyz, vec![[1.0, 2.0, 3.0]]);
+    }
+
+    #[test]
+    fn byte_order_mark_is_ignored() {
+        let r = p("\u{feff}0.0 1 2 3\n0.01 4 5 6\n").unwrap();
+        assert_eq!(r.xyz[0], [1.0, 2.0, 3.0]);
+        let r = p("\u{feff}x,y,z\n1,2,3\n").unwrap();
+        assert_eq!(r.axis_columns[0], "x");
+    }
+
+    #[test]
+    fn semicolon_csv_with_decimal_commas() {
+        let r = p("Fs;50,5\nt;x;y;z\n0;1,5;-2,25;3\n0,02;4;5;6,125\n").unwrap();
+        assert_eq!(r.sample_rate_hz, Some(50.5));
+        assert_eq!(r.xyz, vec![[1.5, -2.25, 3.0], [4.0, 5.0, 6.125]]);
+        assert_eq!(r.t.unwrap(), vec![0.0, 0.02]);
+        // A semicolon file with decimal points still reads; a field with two commas does not.
+        assert_eq!(p("x;y;z\n1.5;2;3\n").unwrap().xyz[0], [1.5, 2.0, 3.0]);
+        let e = p("x;y;z\n1,5,5;2;3\n").unwrap_err().to_string();
+        assert!(e.contains("'1,5,5' is not a number"), "{e}");
+    }
+
+    #[test]
+    fn a_huge_bad_field_is_quoted_short() {
+        let text = format!("x,y,z\n1,{},3\n", "7a".repeat(5_000_000));
+        let e = p(&text).unwrap_err().to_string();
+        assert!(e.len() < 200, "{} bytes", e.len());
+        assert!(e.contains("(10000000 characters)"), "{e}");
+    }
+
+    #[test]
+    fn time_and_temperature_are_not_axes() {
+        let cols = |c: [&str; 3]| LoadOptions {
+            columns: Some(c.map(String::from)),
+        };
+        let text = "t,x,y,z,temp\n0,1,2,3,20\n0.01,1,2,3,20\n";
+        let e = parse(text, &cols(["t", "x", "y"])).unwrap_err();
+        assert!(
+            matches!(e, Error::AxisIsNotAnAxis { ref name } if name == "t"),
+            "{e}"
+        );
+        let e = parse(text, &cols(["x", "y", "temp"])).unwrap_err();
+        assert!(matches!(e, Error::AxisIsNotAnAxis { .. }), "{e}");
+        let e = parse(text, &cols(["x", "x", "y"])).unwrap_err();
+        assert!(matches!(e, Error::AxisTwice { .. }), "{e}");
+    }
+
+    #[test]
+    fn time_must_increase() {
+        let e = p("t,x,y,z\n0,1,2,3\n0.02,1,2,3\n0.01,1,2,3\n").unwrap_err();
+        assert!(matches!(e, Error::TimeNotIncreasing { line: 4, .. }), "{e}");
+        let e = p("t,x,y,z\n0,1,2,3\n0,1,2,3\n").unwrap_err();
+        assert!(matches!(e, Error::TimeNotIncreasing { line: 3, .. }), "{e}");
+        let e = p("0 1 2 3\n0.01 1 2 3\n# c\n0.005 1 2 3\n").unwrap_err();
+        assert!(matches!(e, Error::TimeNotIncreasing { line: 4, .. }), "{e}");
+        // A gap is a note, not an error.
+        let mut text = String::from("t,x,y,z\n");
+        for i in 0..20 {
+            let t = if i < 10 {
+                i as f64 * 0.01
+            } else {
+                5.0 + i as f64 * 0.01
+            };
+            text += &format!("{t},1,2,3\n");
+        }
+        let r = p(&text).unwrap();
+        assert_eq!(r.notes.len(), 1, "{:?}", r.notes);
+        assert!(r.notes[0].contains("time jumps 1 time(s)"), "{:?}", r.notes);
     }
 
     #[test]

@@ -20,6 +20,10 @@ pub struct Recording {
     /// Rows skipped because all three selected axis fields were empty (e.g. `wiical capture`
     /// leaves the Nunchuk columns empty while the Nunchuk is unplugged).
     pub skipped_empty_rows: usize,
+    /// Things about the file worth telling the user that do not stop the analysis (gaps in
+    /// the time column, a time step that looks like milliseconds); see
+    /// [`crate::timecheck::time_notes`].
+    pub notes: Vec<String>,
 }
 
 impl Recording {

@@ -4,7 +4,7 @@
 //! works from.
 
 #![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x > 0.0)` is deliberately true for NaN.
-use crate::error::{Error, Result};
+use crate::error::{Error, Result, Setting};
 use crate::recording::{infer_units, Recording};
 use crate::stats as st;
 use wiical_core::static_detect::{StaticDetector, StaticDetectorConfig, StaticInterval};
@@ -80,6 +80,7 @@ pub fn detect(rec: &Recording, opts: &DetectOptions) -> Result<Detection> {
             rate_hz: rate,
         });
     }
+    check_detector_settings(&cfg, rate)?;
     let mut det: StaticDetector<MAX_WINDOW> =
         StaticDetector::new(cfg).map_err(Error::DetectorSettings)?;
     let mut intervals = Vec::new();
@@ -233,7 +234,43 @@ fn detector_view(rec: &Recording, opts: &DetectOptions) -> Option<Recording> {
         sample_rate_hz: rec.sample_rate_hz,
         axis_columns: rec.axis_columns.clone(),
         skipped_empty_rows: rec.skipped_empty_rows,
+        notes: Vec::new(),
     })
+}
+
+/// Names the setting the core's detector would refuse with a bare "invalid parameter": the
+/// rest period shorter than the window, a zero minimum static duration, a threshold that is
+/// not positive. At a sample rate under 2 Hz the message suggests millisecond times.
+fn check_detector_settings(cfg: &StaticDetectorConfig, rate: f64) -> Result<()> {
+    // Rounded for the message (a rate from a time column is 100.00000000000213 Hz).
+    let rate_hz = (rate * 1e6).round() / 1e6;
+    let hint = if rate < 2.0 {
+        format!(" (the sample rate is {rate_hz} Hz: is the time column in milliseconds rather than seconds?)")
+    } else {
+        String::new()
+    };
+    if cfg.init_samples < u32::from(cfg.window) {
+        return Err(Error::DetectorSetting {
+            setting: Setting::InitialRest,
+            why: format!(
+                "{} samples at {rate_hz} Hz, fewer than the {}-sample variance window{hint}",
+                cfg.init_samples, cfg.window
+            ),
+        });
+    }
+    if cfg.min_static_samples < 1 {
+        return Err(Error::DetectorSetting {
+            setting: Setting::MinStatic,
+            why: format!("less than one sample at {rate_hz} Hz{hint}"),
+        });
+    }
+    if !(cfg.threshold_factor.is_finite() && cfg.threshold_factor > 0.0) {
+        return Err(Error::DetectorSetting {
+            setting: Setting::Threshold,
+            why: format!("{} is not a positive number", cfg.threshold_factor),
+        });
+    }
+    Ok(())
 }
 
 /// Batch means per window: the window split into this many blocks.

@@ -1,14 +1,360 @@
-//! Writing output files. Every file the engine or the CLI writes goes through
-//! [`write_file`], so that how files are written (today a plain `std::fs::write`) is decided
-//! in one place.
+//! Writing output files: every file the engine or the CLI writes goes through
+//! [`write_with`] (or [`write_file`]), so that no failure can leave a half-written file where
+//! a good one was.
+//!
+//! How: the bytes go to a temporary file in the target's own directory (so the final rename
+//! never crosses a file system), which is flushed and `fsync`ed, then renamed over the target
+//! in one step; the directory is `fsync`ed too so the rename itself survives a power cut. If
+//! anything fails before the rename (a full disk, a file-size limit, an error while the
+//! caller produces the bytes) the temporary file is deleted and the target keeps its old
+//! bytes. A symbolic link as target is followed (the file it points to is replaced, the link
+//! kept); anything that is not a regular file (`/dev/null`, a directory) is refused rather
+//! than replaced by a rename.
+//!
+//! [`check_outputs`] refuses, before anything is opened, outputs that are one of the inputs
+//! or each other (same file by device and inode where it exists, by canonical directory and
+//! name where it does not yet).
 
 use crate::error::{Error, Result};
-use std::path::Path;
+use std::io::Write;
+use std::path::{Path, PathBuf};
 
-/// Writes `bytes` to `path` (created or replaced).
+/// Writes `bytes` to `path` atomically (created or replaced; see the module docs).
 pub fn write_file(path: &Path, bytes: &[u8]) -> Result<()> {
-    std::fs::write(path, bytes).map_err(|source| Error::Write {
-        path: path.into(),
-        source,
-    })
+    write_with(path, |w| w.write_all(bytes))
+}
+
+/// Writes what `fill` produces to `path` atomically: `fill` writes into a buffered temporary
+/// file; only when it returns `Ok` and the data are on disk does the file replace `path`.
+/// An error from `fill` (or from the disk) leaves `path` untouched.
+pub fn write_with<F>(path: &Path, fill: F) -> Result<()>
+where
+    F: FnOnce(&mut dyn Write) -> std::io::Result<()>,
+{
+    let pending = PendingFile::create(path)?;
+    let mut out = std::io::BufWriter::new(pending.file());
+    fill(&mut out).map_err(|e| pending.error(e))?;
+    out.flush().map_err(|e| pending.error(e))?;
+    drop(out);
+    pending.commit()
+}
+
+/// A file being written for a long time (a capture): the bytes go to a temporary file next
+/// to the target, which replaces the target only on [`PendingFile::commit`]. Dropped without
+/// a commit, the temporary file is deleted; [`PendingFile::keep_aside`] keeps it under its
+/// temporary name instead (a partial recording that must not replace an existing file).
+#[derive(Debug)]
+pub struct PendingFile {
+    tmp: tempfile::NamedTempFile,
+    target: PathBuf,
+    given: PathBuf,
+    existed: bool,
+}
+
+impl PendingFile {
+    /// Opens the temporary file next to `path` (nothing at `path` changes yet).
+    pub fn create(path: &Path) -> Result<Self> {
+        let target = resolve_target(path)?;
+        let existed = target.exists();
+        let dir = match target.parent() {
+            Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+            _ => PathBuf::from("."),
+        };
+        let name = target
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        let prefix = format!(".{name}.");
+        let mut builder = tempfile::Builder::new();
+        builder.prefix(&prefix).suffix(".tmp");
+        set_permissions(&mut builder, &target);
+        let tmp = builder.tempfile_in(&dir).map_err(|source| Error::Write {
+            path: path.into(),
+            source,
+        })?;
+        Ok(Self {
+            tmp,
+            target,
+            given: path.to_path_buf(),
+            existed,
+        })
+    }
+
+    /// The temporary file to write into.
+    pub fn file(&self) -> &std::fs::File {
+        self.tmp.as_file()
+    }
+
+    /// True when a file existed at the target when this was created.
+    pub fn target_existed(&self) -> bool {
+        self.existed
+    }
+
+    /// The target path as given.
+    pub fn path(&self) -> &Path {
+        &self.given
+    }
+
+    /// An I/O error as a write error of the target.
+    pub fn error(&self, source: std::io::Error) -> Error {
+        Error::Write {
+            path: self.given.clone(),
+            source,
+        }
+    }
+
+    /// `fsync`s the data and renames the temporary file over the target (then `fsync`s the
+    /// directory).
+    pub fn commit(self) -> Result<()> {
+        self.tmp.as_file().sync_all().map_err(|e| self.error(e))?;
+        let given = self.given.clone();
+        let dir = self.target.parent().map(Path::to_path_buf);
+        self.tmp.persist(&self.target).map_err(|e| Error::Write {
+            path: given.clone(),
+            source: e.error,
+        })?;
+        match dir {
+            Some(d) if !d.as_os_str().is_empty() => sync_dir(&d),
+            _ => sync_dir(Path::new(".")),
+        }
+        .map_err(|source| Error::Write {
+            path: given,
+            source,
+        })
+    }
+
+    /// `fsync`s the data and keeps the temporary file under its own name, leaving the target
+    /// untouched; returns where the data are.
+    pub fn keep_aside(self) -> Result<PathBuf> {
+        self.tmp.as_file().sync_all().map_err(|e| self.error(e))?;
+        let given = self.given.clone();
+        let (_, path) = self.tmp.keep().map_err(|e| Error::Write {
+            path: given,
+            source: e.error,
+        })?;
+        Ok(path)
+    }
+}
+
+/// The file to replace: `path`, or what it links to; refused if it exists and is not a
+/// regular file.
+fn resolve_target(path: &Path) -> Result<PathBuf> {
+    match std::fs::metadata(path) {
+        Ok(meta) if meta.is_file() => std::fs::canonicalize(path).map_err(|source| Error::Write {
+            path: path.into(),
+            source,
+        }),
+        Ok(_) => Err(Error::NotRegularFile { path: path.into() }),
+        Err(_) => Ok(path.to_path_buf()),
+    }
+}
+
+/// New files get `0666` less the umask (as `File::create`); a replaced file keeps its mode.
+#[cfg(unix)]
+fn set_permissions(builder: &mut tempfile::Builder, target: &Path) {
+    use std::os::unix::fs::PermissionsExt;
+    let perms = match std::fs::metadata(target) {
+        Ok(meta) => meta.permissions(),
+        Err(_) => std::fs::Permissions::from_mode(0o666),
+    };
+    builder.permissions(perms);
+}
+
+#[cfg(not(unix))]
+fn set_permissions(_: &mut tempfile::Builder, _: &Path) {}
+
+/// `fsync` of the directory, so the rename is durable (a no-op where directories cannot be
+/// opened).
+fn sync_dir(dir: &Path) -> std::io::Result<()> {
+    #[cfg(unix)]
+    {
+        std::fs::File::open(dir)?.sync_all()?;
+    }
+    #[cfg(not(unix))]
+    let _ = dir;
+    Ok(())
+}
+
+/// What identifies a file: device and inode for one that exists, canonical directory plus
+/// name for one that does not exist yet.
+#[derive(Debug, PartialEq, Eq)]
+enum FileKey {
+    Inode(u64, u64),
+    Path(PathBuf),
+}
+
+fn file_key(path: &Path) -> Option<FileKey> {
+    if let Ok(meta) = std::fs::metadata(path) {
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::MetadataExt;
+            return Some(FileKey::Inode(meta.dev(), meta.ino()));
+        }
+        #[cfg(not(unix))]
+        {
+            let _ = meta;
+            return std::fs::canonicalize(path).ok().map(FileKey::Path);
+        }
+    }
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    let dir = std::fs::canonicalize(dir).ok()?;
+    Some(FileKey::Path(dir.join(path.file_name()?)))
+}
+
+/// Refuses outputs that are one of the inputs, or each other, before anything is written.
+/// `-` (standard input) as an input is skipped. Paths whose directory does not exist are not
+/// compared (writing them fails later with a clear error).
+pub fn check_outputs(inputs: &[&Path], outputs: &[&Path]) -> Result<()> {
+    let input_keys: Vec<(&Path, FileKey)> = inputs
+        .iter()
+        .filter(|p| p.as_os_str() != "-")
+        .filter_map(|p| file_key(p).map(|k| (*p, k)))
+        .collect();
+    let mut seen: Vec<(&Path, FileKey)> = Vec::new();
+    for out in outputs {
+        let Some(key) = file_key(out) else { continue };
+        if let Some((input, _)) = input_keys.iter().find(|(_, k)| *k == key) {
+            return Err(Error::OutputIsInput {
+                output: out.to_path_buf(),
+                input: input.to_path_buf(),
+            });
+        }
+        if let Some((first, _)) = seen.iter().find(|(_, k)| *k == key) {
+            return Err(Error::OutputsCollide {
+                first: first.to_path_buf(),
+                second: out.to_path_buf(),
+            });
+        }
+        seen.push((out, key));
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn scratch(tag: &str) -> PathBuf {
+        let dir = std::env::temp_dir().join(format!("wiical-write-{tag}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        dir
+    }
+
+    fn entries(dir: &Path) -> Vec<String> {
+        let mut v: Vec<String> = std::fs::read_dir(dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        v.sort();
+        v
+    }
+
+    #[test]
+    fn creates_and_replaces() {
+        let dir = scratch("replace");
+        let p = dir.join("a.json");
+        write_file(&p, b"first").unwrap();
+        assert_eq!(std::fs::read(&p).unwrap(), b"first");
+        write_file(&p, b"second, longer").unwrap();
+        assert_eq!(std::fs::read(&p).unwrap(), b"second, longer");
+        assert_eq!(entries(&dir), vec!["a.json"], "no temporary file left");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn a_failure_while_writing_keeps_the_old_bytes() {
+        let dir = scratch("fail");
+        let p = dir.join("good_cal.json");
+        std::fs::write(&p, b"{\"the\": \"good calibration\"}").unwrap();
+        // The failpoint: the producer writes half its output, then fails (as a full disk or
+        // a file-size limit would).
+        let e = write_with(&p, |w| {
+            w.write_all(&[b'x'; 100_000])?;
+            Err(std::io::Error::other("simulated: no space left"))
+        })
+        .unwrap_err();
+        assert!(e.to_string().starts_with("cannot write"), "{e}");
+        assert_eq!(
+            std::fs::read(&p).unwrap(),
+            b"{\"the\": \"good calibration\"}"
+        );
+        assert_eq!(
+            entries(&dir),
+            vec!["good_cal.json"],
+            "temporary file removed"
+        );
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn a_missing_directory_is_an_error_not_a_panic() {
+        let dir = scratch("nodir");
+        let e = write_file(&dir.join("no/such/dir/x.json"), b"x").unwrap_err();
+        assert!(e.to_string().starts_with("cannot write"), "{e}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn devices_are_refused_and_links_followed() {
+        let e = write_file(Path::new("/dev/null"), b"x").unwrap_err();
+        assert!(matches!(e, Error::NotRegularFile { .. }), "{e}");
+        let dir = scratch("link");
+        let real = dir.join("real.json");
+        std::fs::write(&real, b"old").unwrap();
+        let link = dir.join("link.json");
+        std::os::unix::fs::symlink(&real, &link).unwrap();
+        write_file(&link, b"new").unwrap();
+        assert_eq!(std::fs::read(&real).unwrap(), b"new");
+        assert!(std::fs::symlink_metadata(&link)
+            .unwrap()
+            .file_type()
+            .is_symlink());
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn a_replaced_file_keeps_its_mode() {
+        use std::os::unix::fs::PermissionsExt;
+        let dir = scratch("mode");
+        let p = dir.join("a.csv");
+        std::fs::write(&p, b"old").unwrap();
+        std::fs::set_permissions(&p, std::fs::Permissions::from_mode(0o640)).unwrap();
+        write_file(&p, b"new").unwrap();
+        let mode = std::fs::metadata(&p).unwrap().permissions().mode() & 0o777;
+        assert_eq!(mode, 0o640);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn outputs_equal_to_an_input_or_each_other_are_refused() {
+        let dir = scratch("distinct");
+        let rec = dir.join("victim.csv");
+        std::fs::write(&rec, b"t,x,y,z\n").unwrap();
+        let other = dir.join("out.json");
+        // Same file under another spelling.
+        let respelled = dir.join(".").join("victim.csv");
+        let e = check_outputs(&[&rec], &[&other, &respelled]).unwrap_err();
+        assert!(matches!(e, Error::OutputIsInput { .. }), "{e}");
+        // Two outputs, neither existing yet, one file.
+        let plot = dir.join("sub/../out.json");
+        std::fs::create_dir_all(dir.join("sub")).unwrap();
+        let e = check_outputs(&[&rec], &[&other, &plot]).unwrap_err();
+        assert!(matches!(e, Error::OutputsCollide { .. }), "{e}");
+        assert!(check_outputs(&[&rec, Path::new("-")], &[&other, &dir.join("p.svg")]).is_ok());
+        #[cfg(unix)]
+        {
+            // A hard link is the same file under another name.
+            let hard = dir.join("hard.csv");
+            std::fs::hard_link(&rec, &hard).unwrap();
+            assert!(check_outputs(&[&rec], &[&hard]).is_err());
+        }
+        assert_eq!(std::fs::read(&rec).unwrap(), b"t,x,y,z\n");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
 }

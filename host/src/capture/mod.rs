@@ -49,6 +49,7 @@ pub mod protocol;
 pub mod replay;
 pub mod session;
 
+use crate::cli_error::cli_error;
 use anyhow::{anyhow, bail, Context, Result};
 use guided::{Guided, GuidedConfig, GuidedEvent, PoseRecord};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
@@ -61,6 +62,7 @@ use std::fmt::Write as _;
 use std::io::{BufWriter, IsTerminal};
 use std::path::PathBuf;
 use std::time::Duration;
+use wiical_analysis::write::PendingFile;
 use wiical_extbus::motionplus::{Frame, MotionPlusReport, PassthroughMode};
 
 /// How long a capture runs.
@@ -208,8 +210,12 @@ pub fn capture<D: WiimoteIo + ?Sized>(
     let mut cal = CalFile::new(&setup)?;
     report_setup(&setup, &cal, ui);
     let cal_file = cal_path(&opts.out);
-    cal.write(&cal_file)?;
-    let file = std::fs::File::create(&opts.out)
+    // The CSV goes to a temporary file next to OUT; OUT and its side file are only replaced
+    // when the capture succeeds (see `finish_failed`).
+    let pending = PendingFile::create(&opts.out).map_err(cli_error)?;
+    let file = pending
+        .file()
+        .try_clone()
         .with_context(|| format!("cannot create {}", opts.out.display()))?;
     let cal_name = cal_file
         .file_name()
@@ -249,21 +255,51 @@ pub fn capture<D: WiimoteIo + ?Sized>(
     }
     let n = stats.samples;
     cal.capture = Some(stats);
-    let written = cal.write(&cal_file);
-    if let Err(e) = result {
-        return Err(e.context(format!(
-            "capture stopped after {n} samples; they are in {} (side file {})",
-            opts.out.display(),
-            cal_file.display()
-        )));
+    let failure = match (result, flushed) {
+        (Err(e), _) => Some(e),
+        (Ok(()), Err(e)) => Some(e.context(format!("cannot write {}", opts.out.display()))),
+        (Ok(()), Ok(())) => None,
+    };
+    if let Some(e) = failure {
+        let kept = finish_failed(pending, &cal, &cal_file)?;
+        return Err(e.context(format!("capture stopped after {n} samples; {kept}")));
     }
-    flushed.with_context(|| format!("cannot write {}", opts.out.display()))?;
-    written?;
+    pending.commit().map_err(cli_error)?;
+    cal.write(&cal_file)?;
     Ok(CaptureSummary {
         csv: opts.out.clone(),
         cal_file,
         calibration: cal,
     })
+}
+
+/// After a failed capture: existing files are never replaced. If neither OUT nor its side
+/// file existed, the samples so far become OUT (nothing is lost by that); otherwise they are
+/// kept under the temporary name next to it. Returns the sentence saying where they are.
+fn finish_failed(
+    pending: PendingFile,
+    cal: &CalFile,
+    cal_file: &std::path::Path,
+) -> Result<String> {
+    let out = pending.path().to_path_buf();
+    if !pending.target_existed() && !cal_file.exists() {
+        pending.commit().map_err(cli_error)?;
+        cal.write(cal_file)?;
+        return Ok(format!(
+            "they are in {} (side file {})",
+            out.display(),
+            cal_file.display()
+        ));
+    }
+    let kept = pending.keep_aside().map_err(cli_error)?;
+    let kept_cal = cal_path(&kept);
+    cal.write(&kept_cal)?;
+    Ok(format!(
+        "{} and its side file were left untouched; the samples are in {} (side file {})",
+        out.display(),
+        kept.display(),
+        kept_cal.display()
+    ))
 }
 
 fn report_setup(setup: &DeviceSetup, cal: &CalFile, ui: &mut dyn CaptureUi) {
@@ -619,11 +655,30 @@ fn run_on<D: WiimoteIo>(
     let opts = args.options();
     match &args.raw_log {
         Some(path) => {
-            let f = std::fs::File::create(path)
+            // Written like the CSV: replaced only when the capture succeeds; after a failure
+            // a new log is kept (it shows what went wrong) but an existing one is not
+            // replaced.
+            let pending = PendingFile::create(path).map_err(cli_error)?;
+            let f = pending
+                .file()
+                .try_clone()
                 .with_context(|| format!("cannot create {}", path.display()))?;
             let mut logged = io::RawLogger::new(io, BufWriter::new(f))?;
             let r = capture(&mut logged, &opts, ui);
             logged.flush()?;
+            drop(logged);
+            if r.is_ok() || !pending.target_existed() {
+                pending.commit().map_err(cli_error)?;
+            } else {
+                let kept = pending.keep_aside().map_err(cli_error)?;
+                return r.with_context(|| {
+                    format!(
+                        "the raw log {} was left untouched; this session's log is in {}",
+                        path.display(),
+                        kept.display()
+                    )
+                });
+            }
             r
         }
         None => {
@@ -636,6 +691,13 @@ fn run_on<D: WiimoteIo>(
 /// `wiical capture`: open the first Wii Remote (or replay a raw log), record, and return the
 /// text (or JSON) to print.
 pub fn run(args: &CaptureArgs) -> Result<String> {
+    // Outputs must differ from the replayed log and from each other (`--replay L --out L`
+    // would replace the session log), checked before anything is opened.
+    let cal_file = cal_path(&args.out);
+    let inputs: Vec<&std::path::Path> = args.replay.iter().map(|p| p.as_path()).collect();
+    let mut outputs = vec![args.out.as_path(), cal_file.as_path()];
+    outputs.extend(args.raw_log.as_deref());
+    wiical_analysis::write::check_outputs(&inputs, &outputs).map_err(cli_error)?;
     let mut ui = TerminalUi::new();
     let summary = match &args.replay {
         Some(path) => run_on(io::LogReplay::load(path)?, args, &mut ui)?,

@@ -285,10 +285,11 @@ impl CalFile {
         })
     }
 
-    /// Writes the file (pretty JSON).
+    /// Writes the file (pretty JSON), atomically.
     pub fn write(&self, path: &Path) -> Result<()> {
         let text = serde_json::to_string_pretty(self)? + "\n";
-        std::fs::write(path, text).with_context(|| format!("cannot write {}", path.display()))
+        wiical_analysis::write::write_file(path, text.as_bytes())
+            .map_err(crate::cli_error::cli_error)
     }
 }
 

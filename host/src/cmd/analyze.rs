@@ -1,11 +1,12 @@
 //! `wiical analyze`: the residual analysis.
 
-use super::{load, to_json, write_calibration, DetectArgs};
+use super::{check_outputs, load, to_json_with_quality, write_calibration_with, DetectArgs};
 use crate::cli_error::cli_error;
 use crate::render;
 use anyhow::Result;
 use std::path::PathBuf;
 use wiical_analysis::select::check_rule;
+use wiical_analysis::verdict::Quality;
 use wiical_analysis::{AnalyzeOptions, Candidate};
 use wiical_core::multipos::MultiPosModel;
 
@@ -39,6 +40,7 @@ pub struct Args {
 
 /// Runs `wiical analyze`; returns what to print.
 pub fn run(a: &Args) -> Result<String> {
+    check_outputs(&[&a.file], &[a.out.as_deref(), a.plot.as_deref()])?;
     let rec = load(&a.file, &a.detect.load_options()?)?;
     // The rule's settings first, then the names, as the engine would.
     check_rule(a.alpha, a.cv_factor).map_err(cli_error)?;
@@ -56,17 +58,19 @@ pub fn run(a: &Args) -> Result<String> {
         ..Default::default()
     };
     let rep = wiical_analysis::analyze(&rec, &opts).map_err(cli_error)?;
+    let means: Vec<[f64; 3]> = rep.windows.iter().map(|w| w.mean).collect();
+    let quality = Quality::assess(&rep.calibration, &means, rep.final_model.rms_mg);
     if let Some(path) = &a.out {
-        write_calibration(path, &rep.calibration)?;
+        write_calibration_with(path, &rep.calibration, &quality)?;
     }
     if let Some(path) = &a.plot {
         render::plot::write_plot(&rep, path)?;
     }
     if a.json {
-        return to_json(&rep);
+        return to_json_with_quality(&rep, &quality);
     }
-    Ok(render::analyze::render_text(
-        &rep,
-        &a.file.display().to_string(),
-    ))
+    let mut text = render::analyze::render_text(&rep, &a.file.display().to_string());
+    text.push_str(&quality.line());
+    text.push('\n');
+    Ok(text)
 }

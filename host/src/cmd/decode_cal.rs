@@ -1,8 +1,9 @@
 //! `wiical decode-cal`: a factory calibration block.
 
 use super::to_json;
-use anyhow::Result;
+use anyhow::{bail, Result};
 use std::fmt::Write as _;
+use std::io::Write as _;
 
 /// Arguments of `wiical decode-cal`.
 #[derive(clap::Args, Debug)]
@@ -18,14 +19,30 @@ pub struct Args {
     pub json: bool,
 }
 
-/// Runs `wiical decode-cal`; returns what to print.
+/// Runs `wiical decode-cal`; returns what to print. A block whose checksum fails (in every
+/// copy given) is still decoded and printed, but the command then fails (exit status 1), so
+/// that a script does not take a corrupt block for a good one.
 pub fn run(a: &Args) -> Result<String> {
     if a.device == "motionplus" {
         return motionplus(a);
     }
     let rep = crate::decode_cal::decode_cal(&a.device, &a.hex.join(" "))?;
+    let text = render(a, &rep)?;
+    if rep.checksum_ok {
+        return Ok(text);
+    }
+    let mut stdout = std::io::stdout().lock();
+    stdout.write_all(text.as_bytes())?;
+    stdout.flush()?;
+    bail!(
+        "the {} calibration block's checksum is wrong (in every copy given): the values above are not trustworthy",
+        rep.device
+    )
+}
+
+fn render(a: &Args, rep: &crate::decode_cal::DecodeCalReport) -> Result<String> {
     if a.json {
-        return to_json(&rep);
+        return to_json(rep);
     }
     let mut o = String::new();
     writeln!(o, "{} calibration block", rep.device)?;

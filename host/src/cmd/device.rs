@@ -9,7 +9,9 @@ use crate::cli_error::cli_error;
 use crate::client::{same_bits, ClientOptions, Device};
 use anyhow::{anyhow, bail, Result};
 use serde::Serialize;
-use wiical_analysis::calfile;
+use wiical_analysis::calfile::{self, CalibrationFile};
+use wiical_analysis::verdict::Verdict;
+use wiical_core::quality::Acceptance;
 use wiical_core::Calibration;
 use wiical_wire::{
     AdapterStatus, Sample, SelfCalOutcome, SelfCalPhase, PROTOCOL_VERSION, SCHEMA_KEY,
@@ -26,11 +28,13 @@ pub struct DeviceArgs {
     /// Print JSON (stream: one JSON object per line).
     #[arg(long, global = true)]
     pub json: bool,
-    /// Answer timeout per request (and per sample), ms.
-    #[arg(long, global = true, default_value_t = 1000)]
+    /// Answer timeout per request (and per sample), ms (1 to 600000).
+    #[arg(long, global = true, default_value_t = 1000,
+          value_parser = clap::value_parser!(u64).range(1..=600_000))]
     pub timeout_ms: u64,
-    /// Re-sends of a request whose answer was lost or corrupted.
-    #[arg(long, global = true, default_value_t = 3)]
+    /// Re-sends of a request whose answer was lost or corrupted (0 to 20).
+    #[arg(long, global = true, default_value_t = 3,
+          value_parser = clap::value_parser!(u32).range(0..=20))]
     pub retries: u32,
 }
 
@@ -54,11 +58,18 @@ pub enum DeviceAction {
         /// Commit in the same session.
         #[arg(long)]
         commit: bool,
+        /// Upload even when the fit's quality verdict is poor or the calibration is not
+        /// plausible for a Nunchuk (the adapter still refuses an implausible one).
+        #[arg(long)]
+        force: bool,
     },
     /// Upload FILE, verify it and make it live and stored, in one session.
     Commit {
         /// Calibration JSON.
         file: PathBuf,
+        /// As for `put`: upload even when the quality verdict is poor.
+        #[arg(long)]
+        force: bool,
     },
     /// The adapter's self-calibration (C + Z held at plug-in): progress, last result, and
     /// the stale-calibration estimate from still moments during play.
@@ -132,9 +143,10 @@ fn fmt_cal(o: &mut String, title: &str, c: &Calibration) -> Result<()> {
     Ok(())
 }
 
-/// Upload `file` and read it back: the staged copy must be bit-identical.
-fn put_verified(dev: &mut Device, file: &std::path::Path) -> Result<Calibration> {
-    let cal = calfile::read_calibration(file).map_err(cli_error)?;
+/// Upload `cal` (read and judged by [`checked_for_put`]) and read it back: the staged copy
+/// must be bit-identical.
+fn put_verified(dev: &mut Device, cal: Option<Calibration>) -> Result<Calibration> {
+    let cal = cal.ok_or_else(|| anyhow!("internal: calibration not read"))?;
     dev.put_calibration(&cal)?;
     let s = dev.get_calibration()?;
     let ok = s
@@ -221,6 +233,78 @@ fn json<T: Serialize>(v: &T) -> Result<String> {
     Ok(serde_json::to_string_pretty(v)? + "\n")
 }
 
+/// What `device put` thinks of a calibration file before sending it.
+#[derive(Debug, Default, PartialEq)]
+pub struct PutCheck {
+    /// Reasons to refuse without `--force`.
+    pub refusals: Vec<String>,
+    /// Things to warn about in any case.
+    pub warnings: Vec<String>,
+}
+
+/// Judges a calibration file for the adapter: the core's plausibility limits for the
+/// Nunchuk ([`Acceptance::nunchuk`], the same the adapter applies), the fit's stored
+/// quality verdict, and terms the adapter does not apply (it corrects without a clock origin
+/// or a temperature: drift and temperature terms are ignored).
+pub fn judge_for_put(file: &CalibrationFile) -> PutCheck {
+    let mut check = PutCheck::default();
+    if let Err(why) = Acceptance::nunchuk().check(&file.calibration, None) {
+        check
+            .refusals
+            .push(format!("not plausible for a Nunchuk: {why}"));
+    }
+    match &file.quality {
+        Some(q) if q.verdict == Verdict::Poor => {
+            check.refusals.push(format!("the fit's {}", q.line()))
+        }
+        Some(_) => {}
+        None => check.warnings.push(
+            "the file has no quality verdict (not from `wiical fit` / `analyze`): only plausibility was checked"
+                .into(),
+        ),
+    }
+    let e = &file.calibration.effects;
+    let nonzero = |v: &[f32; 3]| v.iter().any(|x| *x != 0.0);
+    for (name, terms) in [
+        ("bias_drift", &e.bias_drift),
+        ("bias_temp", &e.bias_temp),
+        ("scale_temp", &e.scale_temp),
+    ] {
+        if nonzero(terms) {
+            check.warnings.push(format!(
+                "the adapter does not apply the {name} terms (it has no clock origin or temperature sensor); they are stored but ignored"
+            ));
+        }
+    }
+    check
+}
+
+/// Reads a calibration file for `device put`, prints the warnings, and refuses (without
+/// `force`) a poor or implausible one.
+fn checked_for_put(path: &std::path::Path, force: bool) -> Result<Calibration> {
+    let file = calfile::read_calibration_file(path).map_err(cli_error)?;
+    let check = judge_for_put(&file);
+    for w in &check.warnings {
+        eprintln!("warning: {}: {w}", path.display());
+    }
+    if !check.refusals.is_empty() {
+        if !force {
+            bail!(
+                "refusing to upload {}: {} (re-record, or pass --force to upload anyway)",
+                path.display(),
+                check.refusals.join("; ")
+            );
+        }
+        for r in &check.refusals {
+            eprintln!(
+                "warning: {}: uploading with --force although {r}",
+                path.display()
+            );
+        }
+    }
+    Ok(file.calibration)
+}
+
 /// Run `wiical device …`. Streamed samples are written to `out` as they arrive; the
 /// returned text is printed afterwards.
 pub fn run(args: &DeviceArgs, out: &mut dyn Write) -> Result<String> {
@@ -231,6 +315,13 @@ pub fn run(args: &DeviceArgs, out: &mut dyn Write) -> Result<String> {
     let opts = ClientOptions {
         timeout: Duration::from_millis(args.timeout_ms.max(1)),
         retries: args.retries,
+    };
+    // A calibration file is read and judged before the adapter is even opened.
+    let to_put = match &args.action {
+        DeviceAction::Put { file, force, .. } | DeviceAction::Commit { file, force } => {
+            Some(checked_for_put(file, *force)?)
+        }
+        _ => None,
     };
     let (mut dev, hello) = Device::connect(port, opts)?;
     let mut o = String::new();
@@ -288,8 +379,9 @@ pub fn run(args: &DeviceArgs, out: &mut dyn Write) -> Result<String> {
         DeviceAction::Put {
             file,
             commit: false,
+            ..
         } => {
-            let cal = put_verified(&mut dev, file)?;
+            let cal = put_verified(&mut dev, to_put)?;
             if args.json {
                 return json(&serde_json::json!({
                     "port": port, "staged": true, "verified": true, "calibration": cal
@@ -306,8 +398,8 @@ pub fn run(args: &DeviceArgs, out: &mut dyn Write) -> Result<String> {
                 port
             )?;
         }
-        DeviceAction::Put { file, commit: true } | DeviceAction::Commit { file } => {
-            put_verified(&mut dev, file)?;
+        DeviceAction::Put { commit: true, .. } | DeviceAction::Commit { .. } => {
+            put_verified(&mut dev, to_put)?;
             dev.commit()?;
             let s = dev.get_calibration()?;
             if args.json {

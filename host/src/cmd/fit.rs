@@ -3,11 +3,12 @@
 // Field docs are clap help text, shown verbatim: `[,temp]` is not a link.
 #![allow(rustdoc::broken_intra_doc_links)]
 
-use super::{load, to_json, write_calibration, DetectArgs};
+use super::{check_outputs, load, to_json_with_quality, write_calibration_with, DetectArgs};
 use crate::cli_error::cli_error;
 use crate::render;
 use anyhow::Result;
 use std::path::PathBuf;
+use wiical_analysis::verdict::Quality;
 use wiical_core::multipos::MultiPosModel;
 
 /// Arguments of `wiical fit`.
@@ -37,14 +38,22 @@ fn parse_model(s: &str) -> Result<MultiPosModel, String> {
 }
 
 /// Runs `wiical fit`; returns what to print.
+/// The quality verdict (fit RMS and pose coverage) is printed, added to `--json` and stored
+/// in the `--out` file for `device put` to check.
 pub fn run(a: &Args) -> Result<String> {
+    check_outputs(&[&a.file], &[a.out.as_deref()])?;
     let rec = load(&a.file, &a.detect.load_options()?)?;
     let rep = wiical_analysis::fit::run(&rec, &a.detect.fit_options(a.model)).map_err(cli_error)?;
+    let means: Vec<[f64; 3]> = rep.windows.iter().map(|w| w.mean.map(f64::from)).collect();
+    let quality = Quality::assess(&rep.calibration, &means, f64::from(rep.rms_mg));
     if let Some(path) = &a.out {
-        write_calibration(path, &rep.calibration)?;
+        write_calibration_with(path, &rep.calibration, &quality)?;
     }
     if a.json {
-        return to_json(&rep);
+        return to_json_with_quality(&rep, &quality);
     }
-    Ok(render::fit_text(&rep, &rec, &a.file.display().to_string()))
+    let mut text = render::fit_text(&rep, &rec, &a.file.display().to_string());
+    text.push_str(&quality.line());
+    text.push('\n');
+    Ok(text)
 }

@@ -1,7 +1,7 @@
 //! `wiical gyrofit`: gyroscope scale, misalignment and bias from a multi-position recording
 //! (engine: [`wiical_analysis::gyro`]; method: docs/gyro.md).
 
-use super::{load, load_options, to_json, DetectArgs};
+use super::{check_outputs, load, load_options, to_json, DetectArgs};
 use crate::cli_error::cli_error;
 use anyhow::{bail, Result};
 use serde::Serialize;
@@ -86,6 +86,9 @@ pub fn run(a: &Args) -> Result<String> {
             a.gyro_columns.join(",")
         );
     }
+    let mut inputs = vec![a.file.as_path()];
+    inputs.extend(a.gyro_file.as_deref());
+    check_outputs(&inputs, &[a.out.as_deref()])?;
     let acc = load(&a.file, &a.detect.load_options()?)?;
     let gyro = match &a.gyro_file {
         Some(g) => load(g, &load_options(None)?)?,

@@ -1,6 +1,6 @@
 //! `wiical magfit`: magnetometer hard/soft-iron fit.
 
-use super::{load, load_options, to_json, write_calibration};
+use super::{check_outputs, load, load_options, to_json, write_calibration};
 use crate::cli_error::cli_error;
 use crate::render;
 use anyhow::Result;
@@ -29,6 +29,7 @@ pub struct Args {
 
 /// Runs `wiical magfit`; returns what to print.
 pub fn run(a: &Args) -> Result<String> {
+    check_outputs(&[&a.file], &[a.out.as_deref()])?;
     let rec = load(&a.file, &load_options(a.columns.as_deref())?)?;
     let rep = magnetometer::fit_points(&rec.xyz, a.model).map_err(cli_error)?;
     if let Some(path) = &a.out {

@@ -13,6 +13,8 @@ pub mod six_position;
 
 use crate::cli_error::cli_error;
 use anyhow::Result;
+use std::path::Path;
+use wiical_analysis::verdict::Quality;
 use wiical_analysis::{DetectOptions, Error, FitOptions, LoadOptions};
 use wiical_core::multipos::MultiPosModel;
 
@@ -100,11 +102,44 @@ pub fn to_json<T: serde::Serialize>(v: &T) -> Result<String> {
 }
 
 /// Loads a recording, errors told the CLI's way.
+/// Notes on the file (time gaps, a millisecond-looking time step) go to stderr as warnings.
 pub fn load(path: &std::path::Path, opts: &LoadOptions) -> Result<wiical_analysis::Recording> {
-    wiical_analysis::load(path, opts).map_err(cli_error)
+    let rec = wiical_analysis::load(path, opts).map_err(cli_error)?;
+    for note in &rec.notes {
+        eprintln!("warning: in {}: {note}", path.display());
+    }
+    Ok(rec)
 }
 
 /// Writes a calibration file (`--out`), errors told the CLI's way.
 pub fn write_calibration(path: &std::path::Path, cal: &wiical_core::Calibration) -> Result<()> {
     wiical_analysis::calfile::write_calibration(path, cal).map_err(cli_error)
+}
+
+/// Writes a calibration file with the fit's quality verdict (`fit --out`, `analyze --out`).
+pub fn write_calibration_with(
+    path: &std::path::Path,
+    cal: &wiical_core::Calibration,
+    quality: &Quality,
+) -> Result<()> {
+    wiical_analysis::calfile::write_calibration_with(path, cal, Some(quality)).map_err(cli_error)
+}
+
+/// Refuses, before anything is read or written, outputs that are an input or each other.
+/// `None`s (options not given) are skipped.
+pub fn check_outputs(inputs: &[&Path], outputs: &[Option<&Path>]) -> Result<()> {
+    let outputs: Vec<&Path> = outputs.iter().flatten().copied().collect();
+    wiical_analysis::write::check_outputs(inputs, &outputs).map_err(cli_error)
+}
+
+/// A report as JSON with the quality verdict added under `quality`, after the report's own
+/// keys (`fit`/`analyze --json`).
+pub fn to_json_with_quality<T: serde::Serialize>(report: &T, quality: &Quality) -> Result<String> {
+    #[derive(serde::Serialize)]
+    struct WithQuality<'a, T> {
+        #[serde(flatten)]
+        report: &'a T,
+        quality: &'a Quality,
+    }
+    to_json(&WithQuality { report, quality })
 }

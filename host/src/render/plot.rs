@@ -99,8 +99,7 @@ where
 /// file, through [`wiical_analysis::write::write_file`]).
 pub fn write_plot(rep: &AnalyzeReport, path: &Path) -> Result<()> {
     let svg = render_svg(rep)?;
-    wiical_analysis::write::write_file(path, svg.as_bytes())
-        .map_err(|e| anyhow::Error::new(e).context("plot"))
+    wiical_analysis::write::write_file(path, svg.as_bytes()).map_err(crate::cli_error::cli_error)
 }
 
 /// The residual plot as SVG text.

@@ -1,0 +1,143 @@
+//! Reading input files with bounds: only regular files (or `-` for standard input), never
+//! more than a cap, so that `/dev/zero`, a FIFO that never ends or a 40 GB file give a clear
+//! error instead of filling the memory.
+
+use crate::error::{Error, Result};
+use std::io::Read;
+use std::path::Path;
+
+/// Largest recording accepted, bytes (256 MiB: about 5 million `t,x,y,z` lines; the largest
+/// real recording in the project's data is a few MB).
+pub const MAX_RECORDING_BYTES: u64 = 256 << 20;
+
+/// Largest calibration file accepted, bytes (a calibration is under 1 kB of JSON).
+pub const MAX_CALIBRATION_BYTES: u64 = 1 << 20;
+
+/// Longest piece of a field quoted back in an error message, characters.
+pub const MAX_QUOTED_CHARS: usize = 40;
+
+/// Reads `path` (a regular file, or `-` for standard input) whole, refusing more than
+/// `limit` bytes.
+pub fn read_bounded(path: &Path, limit: u64) -> Result<Vec<u8>> {
+    let read_err = |source| Error::Read {
+        path: path.into(),
+        source,
+    };
+    let mut bytes = Vec::new();
+    if path.as_os_str() == "-" {
+        std::io::stdin()
+            .lock()
+            .take(limit + 1)
+            .read_to_end(&mut bytes)
+            .map_err(read_err)?;
+    } else {
+        let meta = std::fs::metadata(path).map_err(read_err)?;
+        if !meta.is_file() {
+            return Err(Error::NotRegularFile { path: path.into() });
+        }
+        if meta.len() > limit {
+            return Err(too_large(path, limit));
+        }
+        std::fs::File::open(path)
+            .map_err(read_err)?
+            .take(limit + 1)
+            .read_to_end(&mut bytes)
+            .map_err(read_err)?;
+    }
+    if bytes.len() as u64 > limit {
+        return Err(too_large(path, limit));
+    }
+    Ok(bytes)
+}
+
+fn too_large(path: &Path, limit: u64) -> Error {
+    Error::TooLarge {
+        path: path.into(),
+        limit_mib: limit.div_ceil(1 << 20),
+    }
+}
+
+/// Reads `path` as UTF-8 text (a leading byte-order mark removed), bounded as
+/// [`read_bounded`].
+pub fn read_text(path: &Path, limit: u64) -> Result<String> {
+    let mut bytes = read_bounded(path, limit)?;
+    if bytes.starts_with(b"\xEF\xBB\xBF") {
+        bytes.drain(..3);
+    }
+    String::from_utf8(bytes).map_err(|_| Error::NotUtf8 { path: path.into() })
+}
+
+/// `text` as quoted in an error message: at most [`MAX_QUOTED_CHARS`] characters, control
+/// characters escaped, with the full length said when it was cut (a 10 MB bad field must not
+/// be echoed whole).
+pub fn quote(text: &str) -> String {
+    quote_at_most(text, MAX_QUOTED_CHARS)
+}
+
+/// A header line as quoted in an error message (longer than a field, still bounded).
+pub fn quote_header(text: &str) -> String {
+    quote_at_most(text, 5 * MAX_QUOTED_CHARS)
+}
+
+fn quote_at_most(text: &str, max: usize) -> String {
+    let count = text.chars().count();
+    let shown: String = text
+        .chars()
+        .take(max)
+        .flat_map(char::escape_debug)
+        .collect();
+    if count > max {
+        format!("{shown}… ({count} characters)")
+    } else {
+        shown
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn quote_cuts_long_fields_and_escapes_controls() {
+        assert_eq!(quote("abc"), "abc");
+        assert_eq!(quote("a\tb"), "a\\tb");
+        let long = "9".repeat(10_000_000);
+        let q = quote(&long);
+        assert!(q.len() < 80, "{q}");
+        assert!(q.ends_with("… (10000000 characters)"), "{q}");
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn devices_and_directories_are_refused() {
+        for p in ["/dev/zero", "/dev/null", "/"] {
+            let e = read_bounded(Path::new(p), 1 << 20).unwrap_err();
+            assert!(matches!(e, Error::NotRegularFile { .. }), "{p}: {e}");
+        }
+    }
+
+    #[test]
+    fn size_cap_and_bom() {
+        let dir = std::env::temp_dir().join(format!("wiical-input-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let p = dir.join("big.txt");
+        std::fs::write(&p, vec![b'1'; 2000]).unwrap();
+        let e = read_bounded(&p, 1000).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            format!(
+                "{} is larger than 1 MiB, the limit for this kind of file",
+                p.display()
+            )
+        );
+        assert_eq!(read_bounded(&p, 2000).unwrap().len(), 2000);
+        std::fs::write(&p, b"\xEF\xBB\xBF1 2 3\n").unwrap();
+        assert_eq!(read_text(&p, 100).unwrap(), "1 2 3\n");
+        std::fs::write(&p, b"1 \xFF 3\n").unwrap();
+        assert!(matches!(
+            read_text(&p, 100).unwrap_err(),
+            Error::NotUtf8 { .. }
+        ));
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}

@@ -1,0 +1,46 @@
+//! Arbitrary text to the recording loader (`wiical fit FILE`): it must never panic, and
+//! whatever it accepts must be a usable recording — at least one sample, every value finite,
+//! the time column (if any) one value per sample and strictly increasing, the axis columns
+//! three different non-time columns. The first byte picks the `--columns` option.
+#![no_main]
+
+use libfuzzer_sys::fuzz_target;
+use wiical_analysis::{parse, LoadOptions};
+
+const CHOICES: [Option<[&str; 3]>; 4] = [
+    None,
+    Some(["x", "y", "z"]),
+    Some(["gx", "gy", "gz"]),
+    Some(["t", "x", "y"]),
+];
+
+fuzz_target!(|data: &[u8]| {
+    let Some((&pick, rest)) = data.split_first() else {
+        return;
+    };
+    let Ok(text) = std::str::from_utf8(rest) else {
+        return;
+    };
+    let opts = LoadOptions {
+        columns: CHOICES[usize::from(pick) % CHOICES.len()].map(|c| c.map(String::from)),
+    };
+    let Ok(rec) = parse(text, &opts) else {
+        return;
+    };
+    assert!(!rec.xyz.is_empty());
+    assert!(rec.xyz.iter().flatten().all(|v| v.is_finite()));
+    if let Some(t) = &rec.t {
+        assert_eq!(t.len(), rec.xyz.len());
+        assert!(t.iter().all(|v| v.is_finite()));
+        assert!(t.windows(2).all(|w| w[0] < w[1]), "time not increasing");
+    }
+    if let Some(temp) = &rec.temp {
+        assert_eq!(temp.len(), rec.xyz.len());
+    }
+    let [a, b, c] = &rec.axis_columns;
+    assert!(a != b && a != c && b != c, "{:?}", rec.axis_columns);
+    assert!(!rec
+        .axis_columns
+        .iter()
+        .any(|n| ["t", "time", "timestamp"].contains(&n.to_ascii_lowercase().as_str())));
+});
