@@ -3,7 +3,7 @@
 use criterion::{criterion_group, criterion_main, Criterion};
 use std::hint::black_box;
 use wiical_analysis::fit::{self, FitOptions};
-use wiical_analysis::simulate::{simulate, SimConfig, SimEffect};
+use wiical_analysis::simulate::{simulate, EffectSpec, SimConfig, SimEffect};
 use wiical_analysis::{analyze, AnalyzeOptions};
 
 fn bench(c: &mut Criterion) {
@@ -11,7 +11,7 @@ fn bench(c: &mut Criterion) {
     let mut poses = 50;
     let rec = loop {
         let sim = simulate(&SimConfig {
-            effect: SimEffect::Quadratic,
+            effects: vec![EffectSpec::new(SimEffect::Quadratic, None)],
             poses,
             seed: 11,
             ..Default::default()
