@@ -122,7 +122,9 @@ function newRig(flashImage = null, options = {}) {
 async function putCommit(rig, calPath, extra = []) {
   const put = await rig.wiical(['put', calPath, ...extra]);
   if (put.code !== 0) return `wiical device put: exit ${put.code}: ${put.stderr.trim()}`;
-  const commit = await rig.wiical(['commit', ...extra]);
+  // A staged upload belongs to its session (wire protocol 2): `commit FILE` uploads again,
+  // verifies and commits within one session.
+  const commit = await rig.wiical(['commit', calPath, ...extra]);
   if (commit.code !== 0) return `wiical device commit: exit ${commit.code}: ${commit.stderr.trim()}`;
   return null;
 }
@@ -204,7 +206,7 @@ const scenarios = [
       await rig.board.run(300);
       rig.board.onFlashStep = (_step, index) => index === k;
       await rig.wiical(['put', calB]);
-      await rig.wiical(['commit', '--timeout-ms', '3000', '--retries', '0']);
+      await rig.wiical(['commit', calB, '--timeout-ms', '3000', '--retries', '0']);
       rig.close();
       if (!rig.board.powerCut) return fail(`step ${k}: the commit finished without reaching flash step ${k}`);
       const after = newRig(rig.board.flashImage());

@@ -258,6 +258,22 @@ impl Device {
             bail!("unexpected answer to Hello: {resp:?}");
         };
         if h.check().is_err() {
+            // Say which side is older when the key is a known one.
+            if let Some(v) = wiical_wire::protocol_of_key(h.schema_key) {
+                let older = if v < PROTOCOL_VERSION {
+                    "the adapter's firmware is older: flash the firmware built with this wiical"
+                } else {
+                    "this wiical is older than the firmware: update wiical"
+                };
+                bail!(
+                    "the adapter on {} (firmware {:?}) speaks wire protocol v{}, this wiical v{}: \
+                     {older}",
+                    self.name,
+                    h.firmware_version.as_str(),
+                    v,
+                    PROTOCOL_VERSION
+                );
+            }
             bail!(
                 "the adapter on {} (firmware {:?}) speaks wire protocol v{} with schema key \
                  0x{:08X}, but this wiical speaks v{} with schema key 0x{:08X}: they cannot \
@@ -294,12 +310,29 @@ impl Device {
         }
     }
 
-    /// Stage a calibration (checked locally first).
+    /// Stage a calibration for this session (checked locally first with the same
+    /// acceptance predicate the adapter applies, so that a refusal names its reason).
     pub fn put_calibration(&mut self, cal: &Calibration) -> Result<()> {
         cal.validate()
             .map_err(|e| anyhow!("refusing to upload an invalid calibration: {e}"))?;
+        wiical_core::quality::Acceptance::nunchuk()
+            .check(cal, None)
+            .map_err(|r| {
+                anyhow!(
+                    "refusing to upload an implausible calibration: {r} (the adapter applies \
+                     the same limits, wiical_core::quality::Acceptance::nunchuk)"
+                )
+            })?;
         self.expect_ok(&Request::PutCalibration((*cal).into()))?;
         Ok(())
+    }
+
+    /// Self-calibration progress and result, and the stale-calibration estimate.
+    pub fn status(&mut self) -> Result<wiical_wire::AdapterStatus> {
+        match self.expect_ok(&Request::GetStatus)?.0 {
+            Response::Status(s) => Ok(s),
+            other => bail!("unexpected answer to GetStatus: {other:?}"),
+        }
     }
 
     /// Commit the staged calibration. If the acknowledgement is lost and the retry finds
@@ -308,7 +341,8 @@ impl Device {
         let before = self.get_calibration()?;
         let Some(staged) = before.staged else {
             bail!(
-                "nothing to commit on {}: upload a calibration with `wiical device put` first",
+                "nothing to commit on {}: the adapter only commits a calibration uploaded in \
+                 the same session; use `wiical device commit FILE` (or `put FILE --commit`)",
                 self.name
             );
         };

@@ -208,7 +208,9 @@ pub fn decode_cal(device: &str, hex: &str) -> Result<DecodeCalReport> {
                 bytes_hex: hex_string(used),
             })
         }
-        _ => bail!("unknown device {device:?}: expected \"wiimote\" or \"nunchuk\""),
+        _ => {
+            bail!("unknown device {device:?}: expected \"wiimote\", \"nunchuk\" or \"motionplus\"")
+        }
     }
 }
 

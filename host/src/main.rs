@@ -22,6 +22,11 @@ enum Cmd {
     SixPosition(cmd::six_position::Args),
     /// Static-interval detection + multi-position fit (bias + scale + non-orthogonality).
     Fit(cmd::fit::Args),
+    /// Gyroscope scale, misalignment and bias from the motions between static poses
+    /// (Tedaldi et al. 2014): FILE with x,y,z and gx,gy,gz columns, or an accelerometer file and
+    /// a gyro file (IMU-TK). The model (uncalibrated, bias, scale, full, each ± bias) is chosen
+    /// by leave-one-motion-out error.
+    Gyrofit(cmd::gyrofit::Args),
     /// Residual analysis: find what the linear model leaves unexplained, trace it to a missing
     /// effect (quadratic, cubic, bias-drift, temperature, temperature-scale, outliers), add it
     /// and report the error before and after (in-sample and leave-one-window-out CV).
@@ -43,8 +48,9 @@ enum Cmd {
     /// Magnetometer hard/soft-iron fit: sphere (4 parameters), axis-aligned ellipsoid (6) or
     /// rotated ellipsoid (9), from streaming normal equations solved by Cholesky.
     Magfit(cmd::magfit::Args),
-    /// Decode a factory accelerometer calibration block (hex bytes) of a Wii Remote (10 bytes
-    /// at EEPROM 0x16, or both copies) or a Nunchuk (16 bytes at 0x20, or 0x20–0x3F).
+    /// Decode a factory calibration block (hex bytes) of a Wii Remote (10 bytes at EEPROM 0x16,
+    /// or both copies), a Nunchuk (16 bytes at 0x20, or 0x20–0x3F) or a MotionPlus (the 32
+    /// gyro calibration bytes at 0xA60020, CRC-32 checked).
     DecodeCal(cmd::decode_cal::Args),
     /// The Wiimote article's Kalman filter ([position, velocity, bias]) as a Monte Carlo:
     /// a still accelerometer with a 0.25 m/s² bias, positions every 0.01 s with 0.5 cm noise.
@@ -56,6 +62,7 @@ fn run(cli: Cli) -> Result<String> {
         Cmd::SixPosition(a) => cmd::six_position::run(&a),
         Cmd::Fit(a) => cmd::fit::run(&a),
         Cmd::Analyze(a) => cmd::analyze::run(&a),
+        Cmd::Gyrofit(a) => cmd::gyrofit::run(&a),
         Cmd::Simulate(a) => cmd::simulate::run(&a),
         Cmd::Capture(a) => wiical::capture::run(&a),
         Cmd::Device(a) => cmd::device::run(&a, &mut std::io::stdout().lock()),

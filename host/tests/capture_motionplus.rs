@@ -192,7 +192,7 @@ fn motionplus_with_nunchuk_passthrough_records_both_streams() {
     // The side file carries the decoded block: (scale − zero)/4/degrees.
     let mp = summary.calibration.motionplus.as_ref().unwrap();
     assert!(mp.checksum_ok);
-    assert_eq!(mp.mode, 0x05);
+    assert_eq!(mp.mode, Some(0x05));
     assert_eq!(mp.fast.degrees, 1200);
     assert_eq!(mp.slow.degrees, 270);
     let cpd = mp.slow.counts_per_dps.unwrap();
@@ -300,4 +300,32 @@ fn without_a_motionplus_nothing_changes() {
     assert!(write_position(&dev.written, [0xA6, 0x00, 0xFE], 0x04).is_none());
     let (header, _) = data_rows(&std::fs::read_to_string(&out).unwrap());
     assert_eq!(header.join(","), "t,x,y,z");
+}
+
+#[test]
+fn decode_cal_motionplus_reads_the_block_and_its_crc() {
+    use wiical::cmd::decode_cal::{run, Args};
+    let hex: Vec<String> = mp_block().iter().map(|b| format!("{b:02X}")).collect();
+    let args = |hex: Vec<String>, json| Args {
+        device: "motionplus".into(),
+        hex,
+        json,
+    };
+    let out: serde_json::Value =
+        serde_json::from_str(&run(&args(hex.clone(), true)).unwrap()).unwrap();
+    assert_eq!(out["checksum_ok"], true);
+    assert_eq!(out["fast"]["degrees"], 1200);
+    assert_eq!(out["slow"]["zero"][1], 0x8010);
+    let roll = out["slow"]["counts_per_dps"][1].as_f64().unwrap();
+    assert!((roll - (0xC400 - 0x8010) as f64 / 4.0 / 270.0).abs() < 1e-4);
+    assert!(out.get("mode").is_none());
+    let text = run(&args(hex.clone(), false)).unwrap();
+    assert!(text.contains("CRC-32:   ok"), "{text}");
+    let mut bad = hex.clone();
+    bad[20] = "00".into();
+    assert!(run(&args(bad, false)).unwrap().contains("CRC-32:   BAD"));
+    let short = run(&args(hex[..31].to_vec(), false))
+        .unwrap_err()
+        .to_string();
+    assert!(short.contains("expected 32 bytes, got 31"), "{short}");
 }

@@ -17,7 +17,7 @@ use device_sim::{spawn, SimArgs, SimFlash, SimOptions, TRUE_BIAS, TRUE_D};
 use nalgebra::{Matrix3, Vector3};
 use serialport::SerialPort;
 use wiical_core::Calibration;
-use wiical_wire::{WireCalibration, SCHEMA_KEY};
+use wiical_wire::{WireCalibration, PROTOCOL_VERSION, SCHEMA_KEY};
 
 /// The calibration a perfect fit of the simulated sensor gives: `K = D⁻¹`, `b`.
 fn true_calibration() -> Calibration {
@@ -270,10 +270,29 @@ fn schema_mismatch_is_refused_naming_both_versions() {
         .to_string();
     assert!(err.contains("0xDEADBEEF"), "{err}");
     assert!(err.contains(&format!("0x{SCHEMA_KEY:08X}")), "{err}");
-    assert!(err.contains("v1"), "{err}");
+    assert!(err.contains(&format!("v{PROTOCOL_VERSION}")), "{err}");
     // Nothing else is served on that session either.
     let mut dev = Device::open(&port(&path), opts(300)).unwrap();
     assert!(dev.get_calibration().is_err());
+    sim.stop().unwrap();
+}
+
+/// An adapter whose key is a known older protocol's gets told apart: the message says which
+/// side to update.
+#[test]
+fn an_older_firmware_is_named_as_such() {
+    let (v1, key1) = wiical_wire::PREVIOUS_SCHEMA_KEYS[0];
+    let (path, sim) = spawn(SimOptions {
+        schema_key: Some(key1),
+        ..Default::default()
+    })
+    .unwrap();
+    let err = Device::connect(&port(&path), opts(2000))
+        .err()
+        .expect("mismatch accepted")
+        .to_string();
+    assert!(err.contains(&format!("wire protocol v{v1}")), "{err}");
+    assert!(err.contains("firmware is older"), "{err}");
     sim.stop().unwrap();
 }
 
@@ -390,6 +409,20 @@ fn cli_commands_over_the_pty() {
     let info: serde_json::Value = serde_json::from_str(&info).unwrap();
     assert_eq!(info["host_schema_key"], info["schema_key"]);
     assert_eq!(info["device_id"], "77696963616C534D");
+    let (text, _) = run(&["info"]);
+    assert!(text.contains("stale-calibration monitor"), "{text}");
+    let (text, _) = run(&["selfcal-status"]);
+    // The simulated Nunchuk presses C + Z for the first 0.5 s (too short to enter the mode).
+    assert!(
+        text.starts_with("self-calibration: not running")
+            || text.starts_with("self-calibration: arming"),
+        "{text}"
+    );
+    assert!(text.contains("last result: none since power-up"), "{text}");
+    let (st, _) = run(&["selfcal-status", "--json"]);
+    let st: serde_json::Value = serde_json::from_str(&st).unwrap();
+    assert!(st["phase"] == "Off" || st["phase"] == "Arming", "{st}");
+    assert_eq!(st["recalibration_suggested"], false);
 
     // put reads what `wiical fit --out` writes (pretty serde JSON of a Calibration).
     let cal = true_calibration();
@@ -397,7 +430,11 @@ fn cli_commands_over_the_pty() {
     std::fs::write(&file, serde_json::to_string_pretty(&cal).unwrap()).unwrap();
     let (text, _) = run(&["put", file.to_str().unwrap()]);
     assert!(text.contains("verified bit for bit"), "{text}");
-    let (text, _) = run(&["commit"]);
+    // The upload belonged to that session: a later commit finds nothing (issue 11).
+    let mut o = Vec::new();
+    let err = device::run(&device_args(&["device", "get", "--port", &p]), &mut o).unwrap();
+    assert!(err.contains("nothing staged"), "{err}");
+    let (text, _) = run(&["commit", file.to_str().unwrap()]);
     assert!(text.contains("live and stored"), "{text}");
     let out_file = temp_path("live.json");
     let (state, _) = run(&["get", "--json", "--out", out_file.to_str().unwrap()]);

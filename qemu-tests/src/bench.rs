@@ -13,14 +13,15 @@ use core::fmt::Write as _;
 use core::hint::black_box;
 use cortex_m_rt::{entry, exception};
 use cortex_m_semihosting::hprintln;
-use wiical_adapter::{Corrector, EmulatedNunchuk, IdealScale};
+use wiical_adapter::{Corrector, EmulatedNunchuk, IdealScale, SelfCal, SelfCalConfig};
 use wiical_core::gyro::{Adjustment, GyroCalibration, MotionIntegrator, NPARAM};
 use wiical_core::gyro_zero::{ZeroRateConfig, ZeroRateTracker};
 use wiical_core::kalman::PvbFilter;
 use wiical_core::magfit::{AxisEllipsoidFit, EllipsoidFit, SphereFit};
 use wiical_core::multipos::{self, MultiPosConfig};
+use wiical_core::quality::{Acceptance, CoverageRule};
 use wiical_core::six_position;
-use wiical_core::static_detect::{StaticDetector, StaticDetectorConfig};
+use wiical_core::static_detect::{NoiseSurvey, StaticDetector, StaticDetectorConfig};
 use wiical_core::{Calibration, Conditions};
 use wiical_qemu_tests::cases::{
     adapter_report_update, adapter_wiimote_read, factory_info, mag_point, poses30,
@@ -417,6 +418,27 @@ fn main() -> ! {
         );
     }
 
+    // --- the adaptive detector's noise survey (pass 1 of static_detect::adaptive), 100 Hz:
+    // 25-sample blocks, so the per-block histogram update is amortised over 25 pushes.
+    if let Ok(mut survey) = NoiseSurvey::for_rate(100.0) {
+        let base = rt::time_reps(R_SD, |i| {
+            let s = black_box(&mut survey);
+            (s as *mut NoiseSurvey, stream(i))
+        });
+        let Ok(mut survey) = NoiseSurvey::for_rate(100.0) else {
+            rt::exit(false)
+        };
+        let op = rt::time_reps(R_SD, |i| black_box(&mut survey).push(stream(i)));
+        let st = stack_of(|| black_box(&mut survey).push(black_box(stream(3))));
+        all_ok &= row(
+            "static_detect::NoiseSurvey::push (adaptive, 25/block)",
+            "sample",
+            sc.per_op(op, base, R_SD),
+            st,
+            NONE,
+        );
+    }
+
     // --- the adapter (wiical-adapter): per-report update and the Wii Remote's read
     let Ok(info) = factory_info() else {
         rt::exit(false)
@@ -494,6 +516,8 @@ fn main() -> ! {
         );
     }
 
+    all_ok &= selfcal_rows(sc);
+
     hprintln!();
     hprintln!(
         "multipos::fit used {} Levenberg-Marquardt iterations on the 30 poses",
@@ -504,4 +528,185 @@ fn main() -> ! {
         if all_ok { "all met" } else { "some MISSED" }
     );
     rt::exit(true)
+}
+
+/// Report `k` of a synthetic self-calibration session at 200 Hz (the one of
+/// `crates/adapter/tests/self_calibration.rs`, simplified): C + Z held 3.3 s at plug-in, then
+/// 14 poses (six half-axes, eight diagonals) held 1.6 s each with 0.7 s moves between them;
+/// `m = D·u + b` with a Nunchuk-like `D`, ±0.5 count of deterministic noise, rounded.
+/// Returns `None` after the end.
+fn session_report(k: usize, rng: &mut XorShift) -> Option<([u16; 3], bool)> {
+    const HOLD: usize = 660;
+    const STILL: usize = 320;
+    const MOVE: usize = 140;
+    let s = 0.577_350_26f32;
+    let poses: [[f32; 3]; 14] = [
+        [0.0, 0.0, 1.0],
+        [1.0, 0.0, 0.0],
+        [0.0, 0.0, -1.0],
+        [-1.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        [0.0, -1.0, 0.0],
+        [s, s, s],
+        [-s, -s, -s],
+        [s, -s, s],
+        [-s, s, -s],
+        [s, s, -s],
+        [-s, -s, s],
+        [s, -s, -s],
+        [-s, s, s],
+    ];
+    let (up, buttons) = if k < HOLD {
+        (poses[0], true)
+    } else {
+        let j = k - HOLD;
+        let (i, t) = (j / (STILL + MOVE), j % (STILL + MOVE));
+        let p = *poses.get(i)?;
+        if t < STILL {
+            (p, false)
+        } else {
+            let next = poses.get(i + 1).copied().unwrap_or(p);
+            let f = (t - STILL) as f32 / MOVE as f32;
+            let h = 0.3 * libm::sinf(0.0628 * t as f32);
+            let mut d = [0.0f32; 3];
+            for a in 0..3 {
+                d[a] = p[a] * (1.0 - f) + next[a] * f;
+            }
+            ([d[0] + 0.2 + h, d[1] - h, d[2] + 0.5 * h], false)
+        }
+    };
+    let dm = [
+        [203.0f32, 2.5, -1.0],
+        [-3.0, 196.0, 1.5],
+        [0.8, -2.2, 207.0],
+    ];
+    let b = [505.3f32, 497.8, 518.6];
+    let raw = core::array::from_fn(|r| {
+        let m = dm[r][0] * up[0] + dm[r][1] * up[1] + dm[r][2] * up[2] + b[r];
+        libm::roundf(m + 0.5 * rng.next_f32()).clamp(0.0, 1023.0) as u16
+    });
+    Some((raw, buttons))
+}
+
+/// Runs the synthetic session through a fresh [`SelfCal`]; true when it produced a
+/// calibration to commit.
+fn run_session(live: &Calibration) -> bool {
+    let mut sc = SelfCal::new(SelfCalConfig::nunchuk(200));
+    sc.on_plug_in();
+    let mut rng = XorShift::new(14);
+    let mut k = 0;
+    while let Some((raw, b)) = session_report(k, &mut rng) {
+        sc.on_report(raw, b, b, black_box(live));
+        if sc.take_pending().is_some() {
+            return true;
+        }
+        k += 1;
+    }
+    false
+}
+
+/// The adapter's self-calibration: per report while collecting, the checks, and the whole
+/// session (detector on every report, pose bookkeeping, coverage, fit, acceptance).
+fn selfcal_rows(sc_scale: Scale) -> bool {
+    let mut ok = true;
+    let live = wiical_adapter::corrector::nominal_calibration();
+    // Per report, collecting, on a still stream with small noise (the common case).
+    let mut sc = SelfCal::new(SelfCalConfig::nunchuk(200));
+    sc.on_plug_in();
+    for _ in 0..700 {
+        sc.on_report([512, 512, 712], true, true, &live);
+    }
+    if !sc.active() {
+        hprintln!("self-calibration did not start");
+        return false;
+    }
+    let still = |i: u32| [512 + (i % 3) as u16, 511 + (i % 2) as u16, 712];
+    const R: u32 = 4_000;
+    let base = rt::time_reps(R, |i| {
+        let s = black_box(&mut sc);
+        (s as *mut SelfCal, still(i))
+    });
+    let op = rt::time_reps(R, |i| {
+        black_box(&mut sc).on_report(still(i), false, false, black_box(&live))
+    });
+    let st = stack_of(|| black_box(&mut sc).on_report(still(1), false, false, black_box(&live)));
+    ok &= row(
+        "adapter: SelfCal::on_report, collecting (detector<64>)",
+        "report",
+        sc_scale.per_op(op, base, R),
+        st,
+        NONE,
+    );
+    // The checks at the end of a session, on a 12-pose set.
+    let poses: [[f32; 3]; 12] = core::array::from_fn(|i| {
+        let mut rng = XorShift::new(14);
+        let mut r = None;
+        // Middle of pose i's still segment.
+        for k in 0..=(660 + i * 460 + 160) {
+            r = session_report(k, &mut rng);
+        }
+        r.map_or([0.0; 3], |(m, _)| m.map(f32::from))
+    });
+    let cfg = MultiPosConfig::default();
+    const R_FIT: u32 = 4;
+    let base = rt::time_reps(R_FIT, |_| black_box(&poses) as *const _);
+    let op = rt::time_reps(R_FIT, |_| multipos::fit(black_box(&poses), &cfg));
+    let st = stack_of(|| multipos::fit(black_box(&poses), &cfg));
+    ok &= row(
+        "multipos::fit, 12 poses (self-calibration)",
+        "fit",
+        sc_scale.per_op(op, base, R_FIT),
+        st,
+        NONE,
+    );
+    let Ok(fit) = multipos::fit(&poses, &cfg) else {
+        hprintln!("12-pose fit failed");
+        return false;
+    };
+    let acc = Acceptance::nunchuk();
+    const R_CHK: u32 = 50;
+    let base = rt::time_reps(R_CHK, |_| black_box(&fit.calibration) as *const _);
+    let op = rt::time_reps(R_CHK, |_| {
+        acc.check(black_box(&fit.calibration), Some(fit.rms))
+    });
+    let st = stack_of(|| acc.check(black_box(&fit.calibration), Some(fit.rms)));
+    ok &= row(
+        "quality::Acceptance::check (Nunchuk limits, exact bound)",
+        "check",
+        sc_scale.per_op(op, base, R_CHK),
+        st,
+        NONE,
+    );
+    let dirs: [[f32; 3]; 12] = poses.map(|m| live.correct_linear(m));
+    let rule = CoverageRule::default();
+    let base = rt::time_reps(R_CHK, |_| black_box(&dirs) as *const _);
+    let op = rt::time_reps(R_CHK, |_| rule.check(black_box(&dirs)));
+    let st = stack_of(|| rule.check(black_box(&dirs)));
+    ok &= row(
+        "quality::CoverageRule::check, 12 directions",
+        "check",
+        sc_scale.per_op(op, base, R_CHK),
+        st,
+        NONE,
+    );
+    // The whole session, once.
+    let mut done = false;
+    let op = rt::time_reps(1, |_| done = run_session(&live));
+    let base = rt::time_reps(1, |_| black_box(&live) as *const _);
+    let st = stack_of(|| run_session(black_box(&live)));
+    ok &= done;
+    ok &= row(
+        "adapter: whole self-cal session (6200 reports, fit, checks)",
+        "session",
+        sc_scale.per_op(op, base, 1),
+        st,
+        Target {
+            max_instr: None,
+            max_stack: Some(8 * 1024),
+        },
+    );
+    if !done {
+        hprintln!("the synthetic self-calibration session did not finish: MISSED");
+    }
+    ok
 }

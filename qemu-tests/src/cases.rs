@@ -19,7 +19,7 @@ use wiical_adapter::{Corrector, EmulatedNunchuk, IdealScale, NunchukInfo};
 use wiical_core::kalman::{PvbConfig, PvbFilter};
 use wiical_core::magfit::{AxisEllipsoidFit, EllipsoidFit, MagFit, SphereFit};
 use wiical_core::multipos::{self, MultiPosConfig, MultiPosModel};
-use wiical_core::static_detect::{StaticDetector, StaticDetectorConfig};
+use wiical_core::static_detect::{adaptive, StaticDetector, StaticDetectorConfig};
 use wiical_core::stats::{ConstantKalman, ConstantKalman3, Welford, Welford3};
 use wiical_core::{six_position, Calibration, Conditions, Error, Mat3, Vec3};
 use wiical_extbus::nunchuk::StickAxisCalibration;
@@ -132,6 +132,11 @@ pub const CASES: &[Case] = &[
         name: "static_detector",
         max_ulps: 0,
         run: static_detector,
+    },
+    Case {
+        name: "adaptive_detector_and_fit",
+        max_ulps: 4,
+        run: adaptive_detector_and_fit,
     },
     Case {
         name: "welford",
@@ -482,6 +487,85 @@ fn static_detector(o: &mut Out) -> Result<(), Error> {
         record(o, iv)?;
     }
     o.extend(&[intervals as f32, idx as f32])
+}
+
+/// Sample `i` of a 100-Hz stream in raw counts that starts with 3 s of motion (no rest period)
+/// and then holds 12 orientations for 1 s each, with 0.5-s turns between them: what the
+/// adaptive detector is for. A pure function of `i` (noise from a per-sample xorshift), so that
+/// the stream can be replayed for the detector's passes.
+fn short_hold_sample(i: u32) -> [f32; 3] {
+    const DIRS: [[f32; 3]; 12] = [
+        [0.0, 0.0, 1.0],
+        [0.0, 0.0, -1.0],
+        [1.0, 0.0, 0.0],
+        [-1.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        [0.0, -1.0, 0.0],
+        [0.6, 0.0, 0.8],
+        [0.0, 0.6, -0.8],
+        [-0.8, 0.6, 0.0],
+        [0.48, -0.6, 0.64],
+        [-0.6, -0.48, -0.64],
+        [0.8, 0.36, -0.48],
+    ];
+    let mut rng = XorShift::new(i.wrapping_mul(2_654_435_761).wrapping_add(1));
+    let mut noise = || 4.0 * rng.next_f32();
+    let raw = |a: [f32; 3]| {
+        [
+            33000.0 + 4100.0 * a[0],
+            33300.0 + 4050.0 * a[1],
+            32400.0 + 4000.0 * a[2],
+        ]
+    };
+    if i < 300 {
+        let ph = i as f32 * 0.05;
+        let m = raw([libm::sinf(ph), libm::cosf(ph), 0.3 * libm::sinf(2.0 * ph)]);
+        return [m[0] + noise(), m[1] + noise(), m[2] + noise()];
+    }
+    let k = (i - 300) / 150;
+    let within = (i - 300) % 150;
+    let d = DIRS[k as usize % DIRS.len()];
+    let a = if within < 100 {
+        d
+    } else {
+        let q = DIRS[(k as usize + 1) % DIRS.len()];
+        let t = (within - 100) as f32 / 50.0;
+        [0, 1, 2].map(|j| d[j] + (q[j] - d[j]) * t)
+    };
+    let m = raw(a);
+    [m[0] + noise(), m[1] + noise(), m[2] + noise()]
+}
+
+/// `static_detect::adaptive::detect_fitted` on [`short_hold_sample`]: noise survey, hold
+/// schedule, detector with the measured reference, and the multi-position fit of its windows.
+fn adaptive_detector_and_fit(o: &mut Out) -> Result<(), Error> {
+    let samples = (0..300 + 12 * 150).map(short_hold_sample);
+    let mut scratch = [[0.0f32; 3]; 40];
+    let mut intervals = 0u32;
+    let mut rec: Result<(), Error> = Ok(());
+    let (det, fit) = adaptive::detect_fitted::<101, _>(
+        samples,
+        100.0,
+        12,
+        &MultiPosConfig::default(),
+        &mut scratch,
+        |iv| {
+            intervals += 1;
+            if rec.is_ok() {
+                rec = o
+                    .extend(&[iv.start as f32, iv.end as f32])
+                    .and_then(|_| o.extend(&iv.mean));
+            }
+        },
+    )?;
+    rec?;
+    o.extend(&det.thresholds.reference_variance)?;
+    o.extend(&[
+        det.config.window as f32,
+        det.config.min_static_samples as f32,
+        intervals as f32,
+    ])?;
+    push_multipos(o, &fit?)
 }
 
 fn welford(o: &mut Out) -> Result<(), Error> {

@@ -313,6 +313,34 @@ pub enum Error {
         source: wiical_core::Error,
     },
 
+    // ---- gyroscope ----
+    /// The accelerometer and gyro recordings cannot be paired row by row.
+    #[error("the accelerometer has {accel} samples and the gyro {gyro}: they must be the same samples (same length, or time columns whose gyro times are all accelerometer times)")]
+    GyroRowsMismatch {
+        /// Accelerometer samples.
+        accel: usize,
+        /// Gyro samples.
+        gyro: usize,
+    },
+    /// Too few motions between static windows for a gyro fit.
+    #[error(
+        "found {found} motions between static windows, need at least {needed}: record more poses"
+    )]
+    TooFewMotions {
+        /// Motions found.
+        found: usize,
+        /// Needed.
+        needed: usize,
+    },
+    /// The nominal gyro sensitivity is missing, zero or not finite.
+    #[error(
+        "the nominal gyro sensitivity (rad/s per count) must be finite and non-zero on every axis"
+    )]
+    GyroNominalScale,
+    /// The core's gyro fit failed on the data.
+    #[error("gyro fit failed: {0}")]
+    GyroFitFailed(wiical_core::Error),
+
     // ---- calibration files ----
     /// Not a calibration JSON.
     #[error("{} is not a calibration JSON", path.display())]

@@ -2,7 +2,7 @@
 //! tests, the runner-up and whether the two are separable) and the verdict paragraph. Numbers
 //! are formatted here once, so the report and the text output agree.
 
-use crate::model::{self as am, Fit, Normalisation, Params, Term, Win};
+use crate::model::{self as am, Blocks, Fit, Normalisation, Params, Term, Win};
 use crate::outliers::OutlierTrial;
 use crate::report::{EffectReport, ModelSummary};
 use crate::select::{cv_over, paired_p};
@@ -35,7 +35,7 @@ pub fn term_values(
     let raw = nrm.raw(p);
     // Standard errors scale like the values (each is a fixed multiple of its parameter).
     let ratio = |v: f64, q: f64, s: f64| if q != 0.0 { (v / q * s).abs() } else { 0.0 };
-    let o = t.offset();
+    let (pt, set) = (Blocks::of(p).term(t), Blocks::of(se).term(t));
     let k = raw.matrix;
     // Raw-unit bias terms are reported in mg via the diagonal of K (g per raw unit).
     let (vals, unit) = match t {
@@ -51,11 +51,11 @@ pub fn term_values(
         ),
         Term::ScaleTemp => (raw.scale_temp.map(|x| x * 1e6), "ppm/°C".to_string()),
         Term::Drift2 => (
-            std::array::from_fn(|a| p[am::DRIFT2 + a] * nrm.scale * k[a][a] * 1e3),
+            std::array::from_fn(|a| pt[a] * nrm.scale * k[a][a] * 1e3),
             "mg of curvature (bias at the ends minus the middle, normalised time)".to_string(),
         ),
     };
-    let ses = std::array::from_fn(|a| ratio(vals[a], p[o + a], se[o + a]));
+    let ses = std::array::from_fn(|a| ratio(vals[a], pt[a], set[a]));
     (vals, ses, unit)
 }
 

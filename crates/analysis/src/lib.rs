@@ -15,6 +15,7 @@
 //! | load | [`mod@load`] | file or text → [`Recording`] (CSV with a header, or `t x y z` text) |
 //! | units, rate | [`recording`] | recording → sample rate; window means → `raw` / `g` / `m/s^2` |
 //! | window detection | [`windows`] | recording → static windows (core detector) + f64 window statistics |
+//! | gyroscope | [`gyro`] | accelerometer + gyro recordings → motions between windows, gyro scale / misalignment / bias by held-out error ([`gyro::run`]) |
 //! | base fit | [`fit`] | window means → 9- (or 6-) parameter [`Calibration`] (core `f32` LM) |
 //! | effect model | [`model`] | base + effect blocks, f64 residual ‖a‖ − 1 g, LM, leave-one-out |
 //! | noise floor | [`noise`] | window variances → per-window floor, χ² of a model |
@@ -68,6 +69,7 @@ pub mod candidate;
 pub mod error;
 pub mod evidence;
 pub mod fit;
+pub mod gyro;
 pub mod load;
 pub mod magnetometer;
 pub mod model;

@@ -1,4 +1,4 @@
-//! The `f64` joint model behind `wiical analyze`: the core's 9-parameter multi-position model
+//! The `f64` effect model of the analysis: the core's 9-parameter multi-position model
 //! plus optional effect terms, fitted together by Levenberg–Marquardt over static-window means.
 //!
 //! Per window `i` with mean `m` (raw units), centre time `t` and mean temperature `θ`, in the
@@ -21,11 +21,14 @@
 //! are free, so the sensor frame is fixed by the same convention as the core's fit (x kept,
 //! y in the x–y plane): per-axis effect terms refer to the axes of that frame.
 //!
-//! All 24 parameters always exist; a mask says which are free. The Jacobian is analytic
-//! (derivatives written out below), so a leave-one-window-out cross-validation over 40 windows
-//! with a dozen candidate models costs milliseconds.
+//! All 27 parameters (9 base + six effect blocks of 3) always exist; a mask says which are
+//! free. The Jacobian is analytic (derivatives written out below). The fit is the core's
+//! Levenberg–Marquardt ([`wiical_core::lm`], the same code as the device's `f32`
+//! multi-position fit, instantiated in `f64`), so there is one solver in the project.
 
 #![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x > 0.0)` is deliberately true for NaN.
+use nalgebra::SVector;
+use wiical_core::lm::{self, LmFit, LmSettings, Problem};
 use wiical_core::{Calibration, Effects};
 
 /// Total number of parameters (9 base + 6 effect blocks of 3).
@@ -49,6 +52,79 @@ pub const QUAD: usize = 18;
 pub const CUBIC: usize = 21;
 /// Curvature of the bias drift in time `d₂` (diagnostic only: `Effects` has no such term).
 pub const DRIFT2: usize = 24;
+
+/// Entries of the flat vector fixed in the diagonal model: the off-diagonal `k01 k02 k12`.
+pub const K_OFF_DIAGONAL: [usize; 3] = [KMAT + 1, KMAT + 2, KMAT + 4];
+
+/// The parameter vector as named blocks (normalised units, see the module docs). The solver
+/// works on the flat [`Params`] ([`Blocks::flat`], offsets [`BIAS`], [`KMAT`], …); everything
+/// else reads and writes blocks.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Blocks {
+    /// Bias `b`.
+    pub bias: [f64; 3],
+    /// Upper triangle of `K`: `k00 k01 k02 k11 k12 k22`.
+    pub k: [f64; 6],
+    /// Bias drift `d`.
+    pub drift: [f64; 3],
+    /// Bias temperature coefficient `β`.
+    pub bias_temp: [f64; 3],
+    /// Scale temperature coefficient `σ`.
+    pub scale_temp: [f64; 3],
+    /// Quadratic `q`.
+    pub quadratic: [f64; 3],
+    /// Cubic `c`.
+    pub cubic: [f64; 3],
+    /// Drift curvature `d₂` (diagnostic only).
+    pub drift2: [f64; 3],
+}
+
+impl Blocks {
+    /// The named view of a flat vector.
+    pub fn of(p: &Params) -> Self {
+        let b3 = |o: usize| [p[o], p[o + 1], p[o + 2]];
+        Blocks {
+            bias: b3(BIAS),
+            k: std::array::from_fn(|i| p[KMAT + i]),
+            drift: b3(DRIFT),
+            bias_temp: b3(BTEMP),
+            scale_temp: b3(STEMP),
+            quadratic: b3(QUAD),
+            cubic: b3(CUBIC),
+            drift2: b3(DRIFT2),
+        }
+    }
+
+    /// The flat vector the solver works on.
+    pub fn flat(&self) -> Params {
+        let mut p = [0.0; NP];
+        p[BIAS..BIAS + 3].copy_from_slice(&self.bias);
+        p[KMAT..KMAT + 6].copy_from_slice(&self.k);
+        for t in [
+            Term::Drift,
+            Term::BiasTemp,
+            Term::ScaleTemp,
+            Term::Quadratic,
+            Term::Cubic,
+            Term::Drift2,
+        ] {
+            p[t.offset()..t.offset() + 3].copy_from_slice(&self.term(t));
+        }
+        p
+    }
+
+    /// The block of an effect term.
+    pub fn term(&self, t: Term) -> [f64; 3] {
+        match t {
+            Term::Drift => self.drift,
+            Term::BiasTemp => self.bias_temp,
+            Term::ScaleTemp => self.scale_temp,
+            Term::Quadratic => self.quadratic,
+            Term::Cubic => self.cubic,
+            Term::Drift2 => self.drift2,
+        }
+    }
+}
 
 /// A parametric effect block (3 parameters, one per axis).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -139,14 +215,13 @@ pub fn mask_of(terms: &[Term]) -> Mask {
 /// Residual `r = ‖a‖ − 1` (g) of one window and its gradient with respect to all parameters.
 #[inline]
 pub fn residual_and_grad(p: &Params, w: &Win) -> (f64, Params) {
+    let b = Blocks::of(p);
     let (tau, th) = (w.tau, w.theta);
     let tau2 = tau * tau;
-    let e = [
-        w.y[0] - p[BIAS] - p[DRIFT] * tau - p[DRIFT2] * tau2 - p[BTEMP] * th,
-        w.y[1] - p[BIAS + 1] - p[DRIFT + 1] * tau - p[DRIFT2 + 1] * tau2 - p[BTEMP + 1] * th,
-        w.y[2] - p[BIAS + 2] - p[DRIFT + 2] * tau - p[DRIFT2 + 2] * tau2 - p[BTEMP + 2] * th,
-    ];
-    let k = &p[KMAT..KMAT + 6];
+    let e: [f64; 3] = std::array::from_fn(|j| {
+        w.y[j] - b.bias[j] - b.drift[j] * tau - b.drift2[j] * tau2 - b.bias_temp[j] * th
+    });
+    let k = &b.k;
     let v = [
         k[0] * e[0] + k[1] * e[1] + k[2] * e[2],
         k[3] * e[1] + k[4] * e[2],
@@ -156,9 +231,9 @@ pub fn residual_and_grad(p: &Params, w: &Win) -> (f64, Params) {
     let mut a = [0.0; 3];
     let mut h = [0.0; 3];
     for j in 0..3 {
-        let sf = 1.0 + p[STEMP + j] * th;
+        let sf = 1.0 + b.scale_temp[j] * th;
         let uj = v[j] * sf;
-        let (q, c) = (p[QUAD + j], p[CUBIC + j]);
+        let (q, c) = (b.quadratic[j], b.cubic[j]);
         u[j] = uj;
         a[j] = uj + q * uj * uj + c * uj * uj * uj;
         h[j] = 1.0 + 2.0 * q * uj + 3.0 * c * uj * uj;
@@ -171,7 +246,7 @@ pub fn residual_and_grad(p: &Params, w: &Win) -> (f64, Params) {
     let mut z = [0.0; 3];
     for j in 0..3 {
         let w_j = g[j] * h[j];
-        z[j] = w_j * (1.0 + p[STEMP + j] * th);
+        z[j] = w_j * (1.0 + b.scale_temp[j] * th);
         grad[STEMP + j] = w_j * v[j] * th;
         grad[QUAD + j] = g[j] * u[j] * u[j];
         grad[CUBIC + j] = g[j] * u[j] * u[j] * u[j];
@@ -225,203 +300,176 @@ impl Fit {
     }
 }
 
-/// Cholesky factorisation of a symmetric positive definite `n×n` matrix (row-major), in
-/// place (lower triangle). `None` when a pivot is not positive relative to the diagonal.
-fn cholesky(a: &mut [f64], n: usize) -> Option<()> {
-    for j in 0..n {
-        let mut d = a[j * n + j];
-        for k in 0..j {
-            d -= a[j * n + k] * a[j * n + k];
-        }
-        if !(d > 1e-13 * a[j * n + j].abs().max(1e-300)) {
-            return None;
-        }
-        let d = d.sqrt();
-        a[j * n + j] = d;
-        for i in j + 1..n {
-            let mut s = a[i * n + j];
-            for k in 0..j {
-                s -= a[i * n + k] * a[j * n + k];
-            }
-            a[i * n + j] = s / d;
-        }
-    }
-    Some(())
+/// The windows as a least-squares problem for the core's generic solver
+/// ([`wiical_core::lm`], instantiated in `f64`): one residual `‖a‖ − 1` per window, over the
+/// `K` free parameters only (`idx` says which; the fixed ones keep their value in `base`).
+/// Solving in the free parameters rather than masking all 27 keeps the normal equations
+/// `K×K`: a 12-parameter candidate costs a fifth of the masked 27×27 system, and the
+/// leave-one-window-out cross-validation refits every candidate once per window.
+struct Reduced<'a, const K: usize> {
+    wins: &'a [Win],
+    base: Params,
+    idx: [usize; K],
 }
 
-fn cholesky_solve(l: &[f64], n: usize, b: &mut [f64]) {
-    for i in 0..n {
-        let mut s = b[i];
-        for k in 0..i {
-            s -= l[i * n + k] * b[k];
+impl<const K: usize> Reduced<'_, K> {
+    fn expand(&self, q: &SVector<f64, K>) -> Params {
+        let mut p = self.base;
+        for (a, &i) in self.idx.iter().enumerate() {
+            p[i] = q[a];
         }
-        b[i] = s / l[i * n + i];
+        p
     }
-    for i in (0..n).rev() {
-        let mut s = b[i];
-        for k in i + 1..n {
-            s -= l[k * n + i] * b[k];
-        }
-        b[i] = s / l[i * n + i];
+
+    fn reduce(&self, p: &Params) -> SVector<f64, K> {
+        SVector::from_fn(|a, _| p[self.idx[a]])
     }
 }
 
-fn cost(p: &Params, wins: &[Win], weights: &[f64]) -> f64 {
-    wins.iter()
-        .zip(weights)
-        .filter(|(_, u)| **u > 0.0)
-        .map(|(w, u)| u * residual(p, w).powi(2))
-        .sum()
+impl<const K: usize> Problem<f64, K> for Reduced<'_, K> {
+    fn observations(&self) -> usize {
+        self.wins.len()
+    }
+
+    fn residual_and_gradient(&self, q: &SVector<f64, K>, i: usize) -> (f64, SVector<f64, K>) {
+        let (r, g) = residual_and_grad(&self.expand(q), &self.wins[i]);
+        (r, SVector::from_fn(|a, _| g[self.idx[a]]))
+    }
+
+    fn residual(&self, q: &SVector<f64, K>, i: usize) -> f64 {
+        residual(&self.expand(q), &self.wins[i])
+    }
 }
 
-/// Normal equations `JᵀWJ`, `JᵀWr` over the free parameters `idx`.
-fn normal(p: &Params, wins: &[Win], weights: &[f64], idx: &[usize]) -> (Vec<f64>, Vec<f64>) {
-    let n = idx.len();
-    let mut jtj = vec![0.0; n * n];
-    let mut jtr = vec![0.0; n];
-    for (w, &u) in wins.iter().zip(weights).filter(|(_, u)| **u > 0.0) {
-        let (r, g) = residual_and_grad(p, w);
-        for (a, &ia) in idx.iter().enumerate() {
-            let ga = u * g[ia];
-            jtr[a] += ga * r;
-            for (b, &ib) in idx.iter().enumerate().skip(a) {
-                jtj[a * n + b] += ga * g[ib];
-            }
+/// Calls `$f::<K>(args…)` with `K` the number of free parameters (`$k`): base 6 or 9 plus 3
+/// per effect block, so a multiple of 3 from 6 to 27 (`None` otherwise).
+macro_rules! with_free_count {
+    ($k:expr, $f:ident($($arg:expr),*)) => {
+        match $k {
+            6 => $f::<6>($($arg),*),
+            9 => $f::<9>($($arg),*),
+            12 => $f::<12>($($arg),*),
+            15 => $f::<15>($($arg),*),
+            18 => $f::<18>($($arg),*),
+            21 => $f::<21>($($arg),*),
+            24 => $f::<24>($($arg),*),
+            27 => $f::<27>($($arg),*),
+            _ => None,
         }
+    };
+}
+
+fn reduced<'a, const K: usize>(p: &Params, mask: &Mask, wins: &'a [Win]) -> Reduced<'a, K> {
+    let free: Vec<usize> = (0..NP).filter(|i| mask[*i]).collect();
+    Reduced {
+        wins,
+        base: *p,
+        idx: std::array::from_fn(|a| free[a]),
     }
-    for a in 0..n {
-        for b in 0..a {
-            jtj[a * n + b] = jtj[b * n + a];
-        }
-    }
-    (jtj, jtr)
+}
+
+fn free_count(mask: &Mask) -> usize {
+    mask.iter().filter(|m| **m).count()
+}
+
+fn weights_of(used: &[bool]) -> Vec<f64> {
+    used.iter().map(|u| if *u { 1.0 } else { 0.0 }).collect()
 }
 
 /// Levenberg–Marquardt from `p0` over the windows with `used[i]`, freeing the parameters in
 /// `mask`. `None` when the problem is singular (too few windows, collinear regressors) or the
 /// solver does not converge.
 pub fn fit(p0: &Params, mask: &Mask, wins: &[Win], used: &[bool]) -> Option<Fit> {
-    let w: Vec<f64> = used.iter().map(|u| if *u { 1.0 } else { 0.0 }).collect();
-    fit_weighted(p0, mask, wins, &w)
+    fit_weighted(p0, mask, wins, &weights_of(used))
 }
 
 /// [`fit`] with non-negative per-window weights (0 excludes a window); `rss` is then the
-/// weighted sum and `n` the number of windows with positive weight.
+/// weighted sum and `n` the number of windows with positive weight. The core's solver with
+/// its `f64` schedule ([`LmSettings::default`]); a minimum whose normal matrix is singular
+/// (some free combination undetermined) is refused.
 pub fn fit_weighted(p0: &Params, mask: &Mask, wins: &[Win], used: &[f64]) -> Option<Fit> {
-    let idx: Vec<usize> = (0..NP).filter(|i| mask[*i]).collect();
-    let k = idx.len();
-    let n = used.iter().filter(|u| **u > 0.0).count();
-    if n < k || wins.len() != used.len() || !used.iter().all(|u| u.is_finite() && *u >= 0.0) {
+    if wins.len() != used.len() {
         return None;
     }
-    let mut p = *p0;
-    let mut c = cost(&p, wins, used);
-    if !c.is_finite() {
-        return None;
-    }
-    let mut lambda = 1e-4;
-    let mut iterations = 0;
-    let mut converged = false;
-    while iterations < 200 {
-        iterations += 1;
-        let (jtj, jtr) = normal(&p, wins, used, &idx);
-        let mut accepted = false;
-        for _ in 0..40 {
-            let mut a = jtj.clone();
-            for i in 0..k {
-                a[i * k + i] += lambda * jtj[i * k + i].max(1e-300);
-            }
-            if cholesky(&mut a, k).is_none() {
-                lambda *= 10.0;
-                continue;
-            }
-            let mut step: Vec<f64> = jtr.iter().map(|x| -x).collect();
-            cholesky_solve(&a, k, &mut step);
-            let mut cand = p;
-            for (s, &i) in step.iter().zip(&idx) {
-                cand[i] += s;
-            }
-            let nc = cost(&cand, wins, used);
-            if nc.is_finite() && nc <= c {
-                let gain = c - nc;
-                let small_step = step
-                    .iter()
-                    .zip(&idx)
-                    .all(|(s, &i)| s.abs() <= 1e-12 * (1.0 + p[i].abs()));
-                p = cand;
-                c = nc;
-                lambda = (lambda * 0.2).max(1e-12);
-                accepted = true;
-                if small_step || gain <= 1e-15 * c + 1e-300 {
-                    converged = true;
-                }
-                break;
-            }
-            lambda *= 4.0;
-        }
-        if !accepted {
-            // No step lowers the cost: at the minimum to within f64 resolution, provided the
-            // damped system was solvable at all.
-            converged = lambda < 1e20;
-        }
-        if converged {
-            break;
-        }
-    }
-    if !converged {
-        return None;
-    }
-    // A singular normal matrix at the minimum means some free combination is undetermined.
-    let (mut jtj, _) = normal(&p, wins, used, &idx);
-    cholesky(&mut jtj, k)?;
+    with_free_count!(free_count(mask), fit_k(p0, mask, wins, used))
+}
+
+fn fit_k<const K: usize>(p0: &Params, mask: &Mask, wins: &[Win], used: &[f64]) -> Option<Fit> {
+    let problem = reduced::<K>(p0, mask, wins);
+    let all = [true; K];
+    let f = lm::minimize(
+        &problem,
+        problem.reduce(p0),
+        &all,
+        Some(used),
+        &LmSettings::default(),
+    )
+    .ok()?;
+    let (jtj, _) = lm::normal_equations(&problem, &f.params, Some(used));
+    lm::factor_normal(&jtj, &all, lm::REL_PIVOT_F64)?;
     Some(Fit {
-        p,
-        rss: c,
-        n,
-        k,
-        iterations,
+        p: problem.expand(&f.params),
+        rss: f.cost,
+        n: f.used,
+        k: f.free,
+        iterations: f.iterations,
     })
 }
 
 /// Standard errors of the free parameters (`σ̂²·(JᵀJ)⁻¹`, σ̂² = RSS/(n − k)), in the order of
-/// the full parameter vector (0 for fixed parameters).
+/// the full parameter vector (0 for fixed parameters, and all 0 without residual degrees of
+/// freedom or with a singular normal matrix).
 pub fn standard_errors(f: &Fit, mask: &Mask, wins: &[Win], used: &[bool]) -> Params {
-    let idx: Vec<usize> = (0..NP).filter(|i| mask[*i]).collect();
-    let k = idx.len();
+    let w = weights_of(used);
+    with_free_count!(free_count(mask), standard_errors_k(f, mask, wins, &w)).unwrap_or([0.0; NP])
+}
+
+fn standard_errors_k<const K: usize>(
+    f: &Fit,
+    mask: &Mask,
+    wins: &[Win],
+    w: &[f64],
+) -> Option<Params> {
+    let problem = reduced::<K>(&f.p, mask, wins);
+    let lm_fit = LmFit {
+        params: problem.reduce(&f.p),
+        cost: f.rss,
+        iterations: f.iterations,
+        used: f.n,
+        free: K,
+    };
+    let se = lm::standard_errors(&problem, &lm_fit, &[true; K], Some(w), lm::REL_PIVOT_F64)?;
     let mut out = [0.0; NP];
-    let dof = f.n.saturating_sub(k);
-    if dof == 0 {
-        return out;
+    for (a, &i) in problem.idx.iter().enumerate() {
+        out[i] = se[a];
     }
-    let s2 = f.rss / dof as f64;
-    let w: Vec<f64> = used.iter().map(|u| if *u { 1.0 } else { 0.0 }).collect();
-    let (mut jtj, _) = normal(&f.p, wins, &w, &idx);
-    if cholesky(&mut jtj, k).is_none() {
-        return out;
-    }
-    for (a, &ia) in idx.iter().enumerate() {
-        let mut e = vec![0.0; k];
-        e[a] = 1.0;
-        cholesky_solve(&jtj, k, &mut e);
-        out[ia] = (s2 * e[a]).max(0.0).sqrt();
-    }
-    out
+    Some(out)
 }
 
 /// Leverage of window `i` with respect to the windows `used` at parameters `p`:
 /// `h = gᵢᵀ(JᵀJ)⁻¹gᵢ`, so that the prediction error of a window outside the fit has variance
 /// `σ²·(1 + h)`. `None` when the normal matrix is singular.
 pub fn leverage(p: &Params, mask: &Mask, wins: &[Win], used: &[bool], i: usize) -> Option<f64> {
-    let idx: Vec<usize> = (0..NP).filter(|j| mask[*j]).collect();
-    let k = idx.len();
-    let w: Vec<f64> = used.iter().map(|u| if *u { 1.0 } else { 0.0 }).collect();
-    let (mut jtj, _) = normal(p, wins, &w, &idx);
-    cholesky(&mut jtj, k)?;
-    let (_, g) = residual_and_grad(p, wins.get(i)?);
-    let gi: Vec<f64> = idx.iter().map(|&j| g[j]).collect();
-    let mut x = gi.clone();
-    cholesky_solve(&jtj, k, &mut x);
-    Some(gi.iter().zip(&x).map(|(a, b)| a * b).sum())
+    let w = weights_of(used);
+    with_free_count!(free_count(mask), leverage_k(p, mask, wins, &w, i))
+}
+
+fn leverage_k<const K: usize>(
+    p: &Params,
+    mask: &Mask,
+    wins: &[Win],
+    w: &[f64],
+    i: usize,
+) -> Option<f64> {
+    let problem = reduced::<K>(p, mask, wins);
+    lm::leverage(
+        &problem,
+        &problem.reduce(p),
+        &[true; K],
+        Some(w),
+        i,
+        lm::REL_PIVOT_F64,
+    )
 }
 
 /// Leave-one-window-out cross-validation: for each used window, refit without it (warm start
@@ -506,37 +554,33 @@ impl Normalisation {
 
     /// Initial parameters from a raw-unit calibration (effects zero).
     pub fn params_from(&self, cal: &Calibration) -> Params {
-        let mut p = [0.0; NP];
-        for a in 0..3 {
-            p[BIAS + a] = (cal.bias[a] as f64 - self.centre[a]) / self.scale;
-        }
         let k = cal.matrix;
         let s = self.scale;
-        p[KMAT] = k[0][0] as f64 * s;
-        p[KMAT + 1] = k[0][1] as f64 * s;
-        p[KMAT + 2] = k[0][2] as f64 * s;
-        p[KMAT + 3] = k[1][1] as f64 * s;
-        p[KMAT + 4] = k[1][2] as f64 * s;
-        p[KMAT + 5] = k[2][2] as f64 * s;
-        p
+        Blocks {
+            bias: std::array::from_fn(|a| (cal.bias[a] as f64 - self.centre[a]) / self.scale),
+            k: [k[0][0], k[0][1], k[0][2], k[1][1], k[1][2], k[2][2]].map(|x| x as f64 * s),
+            ..Blocks::default()
+        }
+        .flat()
     }
 
     /// The parameters as raw-unit effect values (f64): bias at t = 0 (raw), K (g/raw),
     /// drift (raw/s), bias_temp (raw/°C), scale_temp (1/°C), quadratic, cubic.
     pub fn raw(&self, p: &Params) -> RawParams {
         let s = self.scale;
+        let b = Blocks::of(p);
         let mut r = RawParams::default();
         for a in 0..3 {
-            let d = p[DRIFT + a];
+            let d = b.drift[a];
             // b_eff(t) = c + s·(b + d·(t − t̄)/T + …): at t = 0 the bias is c + s·(b − d·t̄/T).
-            r.bias[a] = self.centre[a] + s * (p[BIAS + a] - d * self.t_mean / self.t_scale);
+            r.bias[a] = self.centre[a] + s * (b.bias[a] - d * self.t_mean / self.t_scale);
             r.drift[a] = s * d / self.t_scale;
-            r.bias_temp[a] = s * p[BTEMP + a] / self.temp_scale;
-            r.scale_temp[a] = p[STEMP + a] / self.temp_scale;
-            r.quadratic[a] = p[QUAD + a];
-            r.cubic[a] = p[CUBIC + a];
+            r.bias_temp[a] = s * b.bias_temp[a] / self.temp_scale;
+            r.scale_temp[a] = b.scale_temp[a] / self.temp_scale;
+            r.quadratic[a] = b.quadratic[a];
+            r.cubic[a] = b.cubic[a];
         }
-        let k = &p[KMAT..KMAT + 6];
+        let k = &b.k;
         r.matrix = [
             [k[0] / s, k[1] / s, k[2] / s],
             [0.0, k[3] / s, k[4] / s],
@@ -598,6 +642,23 @@ mod tests {
             *x = 0.01 * ((i * 7 % 5) as f64 - 2.0);
         }
         p
+    }
+
+    /// The named blocks and the flat vector are two views of the same numbers.
+    #[test]
+    fn blocks_round_trip_and_name_the_offsets() {
+        let p = sample_params();
+        let b = Blocks::of(&p);
+        assert_eq!(b.flat(), p);
+        assert_eq!(b.bias, [p[BIAS], p[BIAS + 1], p[BIAS + 2]]);
+        assert_eq!(b.k[4], p[KMAT + 4]);
+        for t in Term::ALL.into_iter().chain([Term::Drift2]) {
+            assert_eq!(
+                b.term(t),
+                [p[t.offset()], p[t.offset() + 1], p[t.offset() + 2]]
+            );
+        }
+        assert_eq!(K_OFF_DIAGONAL.map(|i| p[i]), [b.k[1], b.k[2], b.k[4]]);
     }
 
     /// The analytic gradient against central differences.

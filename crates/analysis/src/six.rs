@@ -38,8 +38,10 @@ use crate::recording::Recording;
 use crate::report::{AnalyzeReport, EffectReport, ModelSummary, SixPositionDetails};
 use crate::six_position::{pose_means, solve_poses, PoseEstimator};
 use crate::stats as st;
+use nalgebra::{Matrix3, SMatrix};
 use std::fmt::Write as _;
 use wiical_core::six_position::{Pose, SixPositionFit};
+use wiical_core::{linalg, lm};
 use wiical_core::{Calibration, Conditions, Effects};
 
 /// `[D | b]`, 3×4.
@@ -73,83 +75,25 @@ fn pose_variances(rec: &Recording) -> Option<[[f64; 3]; 6]> {
     Some(out)
 }
 
-/// Inverse of a 4×4 matrix by Gauss–Jordan elimination with partial pivoting.
-fn inv4(m: [[f64; 4]; 4]) -> Option<[[f64; 4]; 4]> {
-    let mut a = m;
-    let mut inv = [[0.0; 4]; 4];
-    for (i, row) in inv.iter_mut().enumerate() {
-        row[i] = 1.0;
-    }
-    for c in 0..4 {
-        let piv = (c..4).max_by(|&i, &j| a[i][c].abs().total_cmp(&a[j][c].abs()))?;
-        if a[piv][c].abs() < 1e-12 {
-            return None;
-        }
-        a.swap(c, piv);
-        inv.swap(c, piv);
-        let d = a[c][c];
-        for k in 0..4 {
-            a[c][k] /= d;
-            inv[c][k] /= d;
-        }
-        for r in 0..4 {
-            if r != c {
-                let f = a[r][c];
-                for k in 0..4 {
-                    a[r][k] -= f * a[c][k];
-                    inv[r][k] -= f * inv[c][k];
-                }
-            }
-        }
-    }
-    Some(inv)
-}
-
-/// `[D | b] = M·Ûᵀ(ÛÛᵀ)⁻¹` for targets `u` (one 3-vector per pose) and the residual.
+/// `[D | b] = M·Ûᵀ(ÛÛᵀ)⁻¹` for targets `u` (one 3-vector per pose) and the residual `M − T̂Û`
+/// (`ÛÛᵀ` is symmetric positive definite for six turned poses: Cholesky).
 fn solve_targets(means: &[[f64; 3]; 6], u: &[[f64; 3]; 6]) -> Option<(THat, Residual)> {
-    let uh: [[f64; 4]; 6] = std::array::from_fn(|p| [u[p][0], u[p][1], u[p][2], 1.0]);
-    let mut g = [[0.0; 4]; 4];
-    for row in &uh {
-        for i in 0..4 {
-            for j in 0..4 {
-                g[i][j] += row[i] * row[j];
-            }
-        }
-    }
-    let gi = inv4(g)?;
-    let mut t = [[0.0; 4]; 3];
-    for (r, trow) in t.iter_mut().enumerate() {
-        for (c, out) in trow.iter_mut().enumerate() {
-            *out = (0..6)
-                .map(|p| means[p][r] * (0..4).map(|k| uh[p][k] * gi[k][c]).sum::<f64>())
-                .sum();
-        }
-    }
-    let mut res = [[0.0; 6]; 3];
-    for p in 0..6 {
-        for r in 0..3 {
-            let model: f64 = (0..4).map(|k| t[r][k] * uh[p][k]).sum();
-            res[r][p] = means[p][r] - model;
-        }
-    }
-    Some((t, res))
+    let uh = SMatrix::<f64, 4, 6>::from_fn(|k, p| if k < 3 { u[p][k] } else { 1.0 });
+    let m = SMatrix::<f64, 3, 6>::from_fn(|r, p| means[p][r]);
+    let chol = linalg::cholesky_checked(&(uh * uh.transpose()), lm::REL_PIVOT_F64)?;
+    // T̂ = M Ûᵀ G⁻¹, i.e. G T̂ᵀ = Û Mᵀ.
+    let t_hat = chol.solve(&(uh * m.transpose())).transpose();
+    let res = m - t_hat * uh;
+    Some((
+        std::array::from_fn(|r| std::array::from_fn(|c| t_hat[(r, c)])),
+        std::array::from_fn(|r| std::array::from_fn(|p| res[(r, p)])),
+    ))
 }
 
+/// `K = D⁻¹` (the core's checked inverse; `None` when `D` is singular).
 fn inv3(d: [[f64; 3]; 3]) -> Option<[[f64; 3]; 3]> {
-    let det = d[0][0] * (d[1][1] * d[2][2] - d[1][2] * d[2][1])
-        - d[0][1] * (d[1][0] * d[2][2] - d[1][2] * d[2][0])
-        + d[0][2] * (d[1][0] * d[2][1] - d[1][1] * d[2][0]);
-    if !(det.abs() > 1e-300) {
-        return None;
-    }
-    let c = |r: usize, k: usize| {
-        let (r1, r2) = ((r + 1) % 3, (r + 2) % 3);
-        let (k1, k2) = ((k + 1) % 3, (k + 2) % 3);
-        d[r1][k1] * d[r2][k2] - d[r1][k2] * d[r2][k1]
-    };
-    Some(std::array::from_fn(|i| {
-        std::array::from_fn(|j| c(j, i) / det)
-    }))
+    let k = linalg::invert3_checked(&Matrix3::from_fn(|r, c| d[r][c]), 1e-12).ok()?;
+    Some(std::array::from_fn(|r| std::array::from_fn(|c| k[(r, c)])))
 }
 
 /// Residual in g: `K·r_p` per pose.

@@ -14,9 +14,9 @@ use wiical_core::multipos::MultiPosModel;
 pub fn base_mask(model: MultiPosModel) -> Mask {
     let mut m = am::mask_of(&[]);
     if model == MultiPosModel::Diagonal {
-        m[am::KMAT + 1] = false;
-        m[am::KMAT + 2] = false;
-        m[am::KMAT + 4] = false;
+        for i in am::K_OFF_DIAGONAL {
+            m[i] = false;
+        }
     }
     m
 }

@@ -33,6 +33,10 @@ pub enum Error {
     Singular,
     /// The iterative solver did not converge within its iteration budget.
     NotConverged,
+    /// The solver's parameters ran off to infinity: the data are fitted ever better by an
+    /// ever larger model (for a multi-position fit, an ever larger sphere: the poses cover too
+    /// few orientations, or the windows are not static), so there is no finite solution.
+    Diverged,
     /// A sample sits at the ADC rail, so it does not measure the true value.
     Saturated,
     /// No axis is close enough to vertical for an offset-only accelerometer calibration.
@@ -62,6 +66,10 @@ impl fmt::Display for Error {
             ),
             Error::Singular => f.write_str("matrix is singular or not positive definite"),
             Error::NotConverged => f.write_str("solver did not converge"),
+            Error::Diverged => f.write_str(
+                "no finite solution: the fit runs off to an ever larger sphere (the poses cover \
+                 too few orientations, or the windows are not static)",
+            ),
             Error::Saturated => f.write_str("sample is saturated at the sensor's range limit"),
             Error::NoVerticalAxis => {
                 f.write_str("no sensor axis is close to vertical (needed for offset calibration)")

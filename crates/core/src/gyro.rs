@@ -194,19 +194,6 @@ fn pure<T: RealField + Copy>(v: &Vector3<T>) -> Vector4<T> {
     Vector4::new(T::zero(), v.x, v.y, v.z)
 }
 
-/// `∂ω/∂p_k` for a nominal rate `u` (already `K₀(m − b₀) − δ`): `P_ij` moves `ω_i` by `u_j`,
-/// `δ_j` moves `ω` by `−P[:, j]`.
-#[inline]
-fn d_omega<T: RealField + Copy>(k: usize, u: &Vector3<T>, p: &Matrix3<T>) -> Vector3<T> {
-    if k < 9 {
-        let mut d = Vector3::zeros();
-        d[k / 3] = u[k % 3];
-        d
-    } else {
-        -p.column(k - 9).into_owned()
-    }
-}
-
 /// What a motion gives: the gravity residual, its Jacobian and the angle.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MotionResidual<T: RealField + Copy> {
@@ -310,19 +297,36 @@ impl<T: RealField + Copy> MotionIntegrator<T> {
         let k3 = half_q_pure(&q3, &wm, half);
         let q4 = q + k3 * h;
         let k4 = half_q_pure(&q4, &w1, half);
+        // Forcing terms ½ q_stage ⊗ ∂ω/∂p_k: every ∂ω/∂p_k is a combination of the unit
+        // vectors, so ½ q_stage ⊗ e_i (i = 0..3) per stage is all that is needed.
+        let stages = [q, q2, q3, q4];
+        let rates = [*u0, um, um, *u1];
+        let units: [Vector3<T>; 3] = [Vector3::x(), Vector3::y(), Vector3::z()];
+        let e: [[Vector4<T>; 3]; 4] = core::array::from_fn(|st| {
+            core::array::from_fn(|i| half_q_pure(&stages[st], &units[i], half))
+        });
+        let forcing = |k: usize, st: usize| -> Vector4<T> {
+            if k < 9 {
+                // P_ij moves ω_i by u_j.
+                e[st][k / 3] * rates[st][k % 3]
+            } else {
+                // δ_j moves ω by −P[:, j].
+                let j = k - 9;
+                -(e[st][0] * p[(0, j)] + e[st][1] * p[(1, j)] + e[st][2] * p[(2, j)])
+            }
+        };
         for k in 0..NPARAM {
             if !self.tracked[k] {
                 continue;
             }
             let s = self.sens.column(k).into_owned();
-            let (d0, dm, d1) = (d_omega(k, u0, &p), d_omega(k, &um, &p), d_omega(k, u1, &p));
-            let l1 = half_q_pure(&s, &w0, half) + half_q_pure(&q, &d0, half);
+            let l1 = half_q_pure(&s, &w0, half) + forcing(k, 0);
             let s2 = s + l1 * h2;
-            let l2 = half_q_pure(&s2, &wm, half) + half_q_pure(&q2, &dm, half);
+            let l2 = half_q_pure(&s2, &wm, half) + forcing(k, 1);
             let s3 = s + l2 * h2;
-            let l3 = half_q_pure(&s3, &wm, half) + half_q_pure(&q3, &dm, half);
+            let l3 = half_q_pure(&s3, &wm, half) + forcing(k, 2);
             let s4 = s + l3 * h;
-            let l4 = half_q_pure(&s4, &w1, half) + half_q_pure(&q4, &d1, half);
+            let l4 = half_q_pure(&s4, &w1, half) + forcing(k, 3);
             self.sens
                 .set_column(k, &(s + (l1 + l2 * two + l3 * two + l4) * h6));
         }

@@ -33,7 +33,7 @@
 //! | [`gyro`] | gyro model `ω = K(m − b)`, RK4 quaternion integration of a motion with exact parameter sensitivities |
 //! | [`gyro_fit`] | multi-position gyro scale / misalignment / bias fit (Tedaldi et al. 2014), leave-one-motion-out |
 //! | [`gyro_zero`] | zero-rate (bias) tracker that re-zeroes whenever the sensor is still |
-//! | [`static_detect`] | static-interval detection on a stream |
+//! | [`static_detect`] | static-interval detection on a stream; [`static_detect::adaptive`]: thresholds from the recording's own noise, no rest period needed |
 //! | [`lm`] | Levenberg–Marquardt generic over the float type (`f32` device, `f64` analysis), standard errors, leverage, leave-one-out |
 //! | [`quality`] | the one acceptance predicate (plausibility limits) and the pose-coverage rule |
 //! | [`linalg`] | small helpers (Cholesky solves of normal equations) |

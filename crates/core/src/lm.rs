@@ -151,7 +151,21 @@ pub struct LmSettings<T> {
     /// resolution); `Some(x)` means converged only if `λ < x`, else [`Error::NotConverged`]
     /// (the damped system was never solvable).
     pub stall_limit: Option<T>,
+    /// Stop with [`Error::Diverged`] as soon as an accepted step leaves some free parameter
+    /// with `|p_j| > bound` (a problem whose cost keeps falling towards infinity); `None`: no
+    /// bound.
+    pub param_bound: Option<T>,
 }
+
+/// Parameter bound of the multi-position schedule, in its normalised units: a bias 100 pose
+/// spreads away from the poses' centre (a sphere whose radius is ~100× the poses' spread, i.e.
+/// poses within ~1° of each other as seen from its centre) is a fit running off to
+/// infinity, not a sensor.
+pub const MULTIPOS_PARAM_BOUND: f64 = 1e2;
+
+/// When the iteration budget runs out with a free parameter beyond `param_bound / 10`, the
+/// error is [`Error::Diverged`] rather than [`Error::NotConverged`].
+const RUNAWAY_FRACTION_INV: f64 = 10.0;
 
 impl LmSettings<f32> {
     /// The multi-position fit's schedule (`multipos::fit` since the first release):
@@ -179,6 +193,7 @@ impl<T: RealField + Copy> LmSettings<T> {
             max_iterations,
             max_inner: 30,
             stall_limit: None,
+            param_bound: Some(lit(MULTIPOS_PARAM_BOUND)),
         }
     }
 }
@@ -202,6 +217,7 @@ impl Default for LmSettings<f64> {
             max_iterations: 200,
             max_inner: 40,
             stall_limit: Some(1e20),
+            param_bound: None,
         }
     }
 }
@@ -339,7 +355,9 @@ fn check_inputs<T: RealField + Copy, const N: usize, P: Problem<T, N>>(
 /// Errors: [`Error::InvalidParameter`] (weights of the wrong length, negative or non-finite;
 /// a zero iteration budget), [`Error::TooFewPoses`] (fewer used observations than free
 /// parameters), [`Error::NonFinite`] (the cost at `p0` is not finite),
-/// [`Error::NotConverged`] (iteration budget spent, or `stall_limit` exceeded).
+/// [`Error::NotConverged`] (iteration budget spent, or `stall_limit` exceeded),
+/// [`Error::Diverged`] (a free parameter beyond `param_bound`, or beyond a tenth of it when
+/// the budget runs out).
 pub fn minimize<T: RealField + Copy, const N: usize, P: Problem<T, N>>(
     problem: &P,
     p0: SVector<T, N>,
@@ -411,6 +429,11 @@ fn minimize_skipping<T: RealField + Copy, const N: usize, P: Problem<T, N>>(
                 cost = new_cost;
                 lambda = (lambda * s.damping_down).max(s.min_damping);
                 accepted = true;
+                if let Some(bound) = s.param_bound {
+                    if (0..N).any(|j| mask[j] && p[j].abs() > bound) {
+                        return Err(Error::Diverged);
+                    }
+                }
                 if small_step || small_gain {
                     converged = true;
                 }
@@ -426,7 +449,16 @@ fn minimize_skipping<T: RealField + Copy, const N: usize, P: Problem<T, N>>(
         }
     }
     if !converged {
-        return Err(Error::NotConverged);
+        // Out of budget while far out and still moving: report the run-away, not the budget.
+        let far = s.param_bound.is_some_and(|bound| {
+            let limit = bound / lit(RUNAWAY_FRACTION_INV);
+            (0..N).any(|j| mask[j] && p[j].abs() > limit)
+        });
+        return Err(if far {
+            Error::Diverged
+        } else {
+            Error::NotConverged
+        });
     }
     Ok(LmFit {
         params: p,
@@ -655,6 +687,35 @@ mod tests {
         .unwrap();
         assert_eq!(fw.used, 5);
         assert!((Line(&pts).residual(&fw.params, 2) - loo[2].unwrap()).abs() < 1e-9);
+    }
+
+    /// r = exp(−p): the cost falls towards 0 as p → ∞, there is no finite minimum.
+    struct Runaway;
+    impl Problem<f64, 1> for Runaway {
+        fn observations(&self) -> usize {
+            2
+        }
+        fn residual_and_gradient(&self, p: &SVector<f64, 1>, _: usize) -> (f64, SVector<f64, 1>) {
+            let e = (-p[0]).exp();
+            (e, SVector::<f64, 1>::new(-e))
+        }
+    }
+
+    #[test]
+    fn runaway_is_reported_as_diverged() {
+        let p0 = SVector::<f64, 1>::new(0.0);
+        let mut s = LmSettings::multipos(200);
+        s.param_bound = Some(10.0);
+        assert_eq!(
+            minimize(&Runaway, p0, &[true], None, &s),
+            Err(Error::Diverged)
+        );
+        // Without a bound the same problem stops where the gain is no longer resolved
+        // (a "minimum" at p ≈ 15, by the absolute gradient test), which is why the
+        // multi-position schedule has one.
+        s.param_bound = None;
+        let f = minimize(&Runaway, p0, &[true], None, &s).unwrap();
+        assert!(f.params[0] > 10.0, "{}", f.params[0]);
     }
 
     #[test]

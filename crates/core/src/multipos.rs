@@ -323,6 +323,13 @@ pub fn fit_weighted(
 /// Same model, normalisation, initial guess, Levenberg–Marquardt schedule
 /// ([`LmSettings::multipos`]) and geometry checks as [`fit_weighted`]; the identifiability
 /// threshold is [`MIN_IDENTIFIABILITY`] in both types.
+///
+/// When the solver started from the algebraic sphere does not converge, it is restarted once
+/// from the neutral point (bias at the poses' centre, `K` = identity in the normalised frame).
+/// Errors: [`Error::Diverged`] when the parameters run off to infinity from both starts (no
+/// finite solution: too few orientations, or windows that are not static),
+/// [`Error::NotConverged`] when the budget runs out otherwise, [`Error::DegenerateGeometry`]
+/// when the minimum is not identifiable.
 pub fn fit_generic<T: RealField + Copy>(
     poses: &[[T; 3]],
     weights: Option<&[T]>,
@@ -361,12 +368,27 @@ pub fn fit_generic<T: RealField + Copy>(
             .map(|(i, m)| (frame.apply(m), w_of(i))),
     )?;
     let k0 = T::one() / r;
-    let z = T::zero();
-    let p0 = SVector::<T, 9>::from([c[0], c[1], c[2], k0, z, z, k0, z, k0]);
+    let (z, one) = (T::zero(), T::one());
+    let from_sphere = SVector::<T, 9>::from([c[0], c[1], c[2], k0, z, z, k0, z, k0]);
+    // Restart point: bias at the poses' centre, K = identity in the normalised frame (a sphere
+    // through the poses' spread). An algebraic sphere through poses that cover a small part of
+    // the sphere can start the solver in a valley that falls towards infinity while a finite
+    // minimum exists elsewhere; from here the solver finds that minimum (as SciPy does from
+    // the same start).
+    let neutral = SVector::<T, 9>::from([z, z, z, one, z, z, one, z, one]);
     let mask: [bool; 9] = core::array::from_fn(|i| cfg.model.free(i));
     let problem = Poses { frame, poses };
     let settings = LmSettings::multipos(cfg.max_iterations);
-    let sol = lm::minimize(&problem, p0, &mask, weights, &settings)?;
+    let sol = match lm::minimize(&problem, from_sphere, &mask, weights, &settings) {
+        Err(first @ (Error::NotConverged | Error::Diverged)) => {
+            lm::minimize(&problem, neutral, &mask, weights, &settings).map_err(|e| match e {
+                // Report divergence when either start diverged: the more telling reason.
+                Error::NotConverged if first == Error::Diverged => Error::Diverged,
+                e => e,
+            })?
+        }
+        other => other?,
+    };
     let p = sol.params;
     let identifiability = identifiability(&problem, &p, weights, &mask);
     #[allow(clippy::eq_op)] // `x != x`: NaN test.

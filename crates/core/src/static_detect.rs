@@ -24,6 +24,9 @@ use crate::stats::Welford3;
 use crate::Error;
 use heapless::HistoryBuf;
 
+pub mod adaptive;
+pub use adaptive::{AdaptiveDetection, AdaptiveThresholds, NoiseSurvey};
+
 /// Detector settings.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct StaticDetectorConfig {
@@ -97,6 +100,9 @@ pub struct StaticDetector<const N: usize> {
     threshold: Option<f32>,
     /// The static run being accumulated: start index and statistics.
     run: Option<(u32, Welford3)>,
+    /// A noise reference given up front ([`StaticDetector::with_reference`]) instead of an
+    /// initial rest period.
+    given_reference: Option<[f32; 3]>,
     /// Running sums over the current window.
     sums: WindowSums,
 }
@@ -152,8 +158,31 @@ impl<const N: usize> StaticDetector<N> {
             init: Welford3::new(),
             threshold: None,
             run: None,
+            given_reference: None,
             sums: WindowSums::default(),
         })
+    }
+
+    /// Creates a detector whose noise reference is known before the first sample (e.g. from
+    /// [`AdaptiveThresholds`], measured on the recording itself), so that no initial rest period
+    /// is needed: every sample, from the first full window on, is classified against
+    /// `threshold_factor × Σ_axes max(reference_variance, min_variance)`; `init_samples` is not
+    /// used (it must still be ≥ the window for [`StaticDetector::new`]'s checks).
+    pub fn with_reference(
+        cfg: StaticDetectorConfig,
+        reference_variance: [f32; 3],
+    ) -> Result<Self, Error> {
+        if !reference_variance
+            .iter()
+            .all(|v| v.is_finite() && *v >= 0.0)
+        {
+            return Err(Error::InvalidParameter);
+        }
+        let mut det = Self::new(cfg)?;
+        let floored = reference_variance.map(|v| v.max(cfg.min_variance));
+        det.threshold = Some((floored[0] + floored[1] + floored[2]) * cfg.threshold_factor);
+        det.given_reference = Some(floored);
+        Ok(det)
     }
 
     /// Half the window: how many samples the decisions lag behind the input.
@@ -180,6 +209,9 @@ impl<const N: usize> StaticDetector<N> {
 
     /// The noise reference (per-axis variance of the init period, floored), once known.
     pub fn reference_variance(&self) -> Option<[f32; 3]> {
+        if self.given_reference.is_some() {
+            return self.given_reference;
+        }
         self.threshold?;
         let v = self
             .init

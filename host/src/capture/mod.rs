@@ -284,7 +284,7 @@ fn report_setup(setup: &DeviceSetup, cal: &CalFile, ui: &mut dyn CaptureUi) {
         ui.message(&format!(
             "MotionPlus found ({}), activated in mode 0x{:02X}; its calibration block's CRC-32 is {}",
             protocol::hex(&setup.motionplus.as_ref().map(|m| m.id).unwrap_or_default()),
-            mp.mode,
+            mp.mode.unwrap_or(0),
             if mp.checksum_ok { "correct" } else { "WRONG (bytes in the side file)" }
         ));
     }

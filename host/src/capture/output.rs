@@ -183,13 +183,15 @@ pub struct MotionPlusFactory {
     pub slow: GyroRange,
     /// The two UID bytes.
     pub uid: [u8; 2],
-    /// The activation mode byte written to `0xA600FE` (`0x04` gyro only, `0x05` Nunchuk
-    /// pass-through).
-    pub mode: u8,
+    /// Capture only: the activation mode byte written to `0xA600FE` (`0x04` gyro only,
+    /// `0x05` Nunchuk pass-through).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub mode: Option<u8>,
 }
 
-/// Decodes a MotionPlus calibration block (32 bytes).
-pub fn motionplus_calibration(bytes: &[u8], mode: u8) -> Result<MotionPlusFactory> {
+/// Decodes a MotionPlus calibration block (32 bytes); `mode` is the activation byte of a
+/// capture (none for a block decoded on its own).
+pub fn motionplus_calibration(bytes: &[u8], mode: Option<u8>) -> Result<MotionPlusFactory> {
     let c = MotionPlusCalibration::decode(bytes)
         .map_err(|e| anyhow::anyhow!("MotionPlus calibration: {e}"))?;
     Ok(MotionPlusFactory {
@@ -261,7 +263,10 @@ impl CalFile {
         };
         let ext = nunchuk.is_some();
         let motionplus = match &setup.motionplus {
-            Some(mp) => Some(motionplus_calibration(&mp.calibration, mp.mode as u8)?),
+            Some(mp) => Some(motionplus_calibration(
+                &mp.calibration,
+                Some(mp.mode as u8),
+            )?),
             None => None,
         };
         let mut columns = columns_doc(ext).to_string();
@@ -364,7 +369,7 @@ impl<W: Write> CsvOut<W> {
                 "motionplus_cal: {} (CRC-32 {}), mode 0x{:02X}",
                 mp.hex,
                 if mp.checksum_ok { "ok" } else { "BAD" },
-                mp.mode
+                mp.mode.unwrap_or(0)
             ));
         }
         lines.push(format!("columns: {}", cal.columns));

@@ -7,7 +7,7 @@ use std::fmt::Write as _;
 /// Arguments of `wiical decode-cal`.
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// wiimote | nunchuk.
+    /// wiimote | nunchuk | motionplus.
     #[arg(long)]
     pub device: String,
     /// The bytes, e.g. "82 82 82 15 9C 9C 9E 38 40 3E" (spaces, commas, 0x prefixes allowed).
@@ -20,6 +20,9 @@ pub struct Args {
 
 /// Runs `wiical decode-cal`; returns what to print.
 pub fn run(a: &Args) -> Result<String> {
+    if a.device == "motionplus" {
+        return motionplus(a);
+    }
     let rep = crate::decode_cal::decode_cal(&a.device, &a.hex.join(" "))?;
     if a.json {
         return to_json(&rep);
@@ -32,6 +35,40 @@ pub fn run(a: &Args) -> Result<String> {
     writeln!(
         o,
         "  checksum:         {}",
+        if rep.checksum_ok { "ok" } else { "BAD" }
+    )?;
+    Ok(o)
+}
+
+/// The MotionPlus's 32-byte gyro calibration block (`0xA60020`–`0xA6003F`, read while the
+/// MotionPlus is inactive): both ranges, their sensitivities and the CRC-32 check.
+fn motionplus(a: &Args) -> Result<String> {
+    let bytes = crate::decode_cal::parse_hex(&a.hex.join(" "))?;
+    let rep = crate::capture::output::motionplus_calibration(&bytes, None)?;
+    if a.json {
+        return to_json(&rep);
+    }
+    let mut o = String::new();
+    writeln!(o, "motionplus calibration block (yaw, roll, pitch)")?;
+    for (name, r) in [("fast", &rep.fast), ("slow", &rep.slow)] {
+        writeln!(
+            o,
+            "  {name}: zero {:?}, reading at {} °/s {:?}",
+            r.zero, r.degrees, r.scale
+        )?;
+        match r.counts_per_dps {
+            Some(c) => writeln!(
+                o,
+                "        14-bit counts per °/s: {:.3} {:.3} {:.3}",
+                c[0], c[1], c[2]
+            )?,
+            None => writeln!(o, "        reference rate 0: no sensitivity")?,
+        }
+    }
+    writeln!(o, "  uid: {:02X} {:02X}", rep.uid[0], rep.uid[1])?;
+    writeln!(
+        o,
+        "  CRC-32:   {}",
         if rep.checksum_ok { "ok" } else { "BAD" }
     )?;
     Ok(o)

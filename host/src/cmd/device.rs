@@ -11,7 +11,9 @@ use anyhow::{anyhow, bail, Result};
 use serde::Serialize;
 use wiical_analysis::calfile;
 use wiical_core::Calibration;
-use wiical_wire::{Sample, PROTOCOL_VERSION, SCHEMA_KEY};
+use wiical_wire::{
+    AdapterStatus, Sample, SelfCalOutcome, SelfCalPhase, PROTOCOL_VERSION, SCHEMA_KEY,
+};
 
 /// Arguments of `wiical device`.
 #[derive(clap::Args, Debug, Clone)]
@@ -43,13 +45,24 @@ pub enum DeviceAction {
         #[arg(long)]
         out: Option<PathBuf>,
     },
-    /// Stage a calibration (JSON from `wiical fit --out`); `commit` makes it live.
+    /// Upload a calibration (JSON from `wiical fit --out`) and verify it; with `--commit`
+    /// also make it live and store it. Without `--commit` the adapter discards the upload
+    /// when this command closes the port (a staged calibration belongs to its session).
     Put {
         /// Calibration JSON.
         file: PathBuf,
+        /// Commit in the same session.
+        #[arg(long)]
+        commit: bool,
     },
-    /// Make the staged calibration live and store it in the adapter's flash.
-    Commit,
+    /// Upload FILE, verify it and make it live and stored, in one session.
+    Commit {
+        /// Calibration JSON.
+        file: PathBuf,
+    },
+    /// The adapter's self-calibration (C + Z held at plug-in): progress, last result, and
+    /// the stale-calibration estimate from still moments during play.
+    SelfcalStatus,
     /// Stream corrected samples (CSV: seq,raw_x,raw_y,raw_z,ax,ay,az,c,z,stick_x,stick_y).
     Stream {
         /// Stop after this many samples (default: until interrupted).
@@ -119,6 +132,91 @@ fn fmt_cal(o: &mut String, title: &str, c: &Calibration) -> Result<()> {
     Ok(())
 }
 
+/// Upload `file` and read it back: the staged copy must be bit-identical.
+fn put_verified(dev: &mut Device, file: &std::path::Path) -> Result<Calibration> {
+    let cal = calfile::read_calibration(file).map_err(cli_error)?;
+    dev.put_calibration(&cal)?;
+    let s = dev.get_calibration()?;
+    let ok = s
+        .staged
+        .map(|w| same_bits(&w, &cal.into()))
+        .unwrap_or(false);
+    if !ok {
+        bail!("the calibration read back from the adapter differs from the one sent");
+    }
+    Ok(cal)
+}
+
+fn phase_text(p: SelfCalPhase) -> &'static str {
+    match p {
+        SelfCalPhase::Off => "not running",
+        SelfCalPhase::Arming => "arming (C + Z held after plug-in)",
+        SelfCalPhase::WaitingForStillness => "running: hold still in a new orientation",
+        SelfCalPhase::PoseTaken => "running: pose taken",
+        SelfCalPhase::MoveToNewOrientation => "running: orientation already taken, move on",
+        SelfCalPhase::Committing => "storing the new calibration",
+        SelfCalPhase::Done => "done",
+        SelfCalPhase::Failed => "failed",
+    }
+}
+
+fn fmt_stale(o: &mut String, st: &AdapterStatus) -> Result<()> {
+    if st.stale_moments == 0 {
+        writeln!(o, "  stale-calibration monitor: no still moment seen yet")?;
+    } else {
+        writeln!(
+            o,
+            "  stale-calibration monitor: ‖a‖ − 1 g RMS {:.1} mg over {} still moments{}",
+            st.stale_rms_mg,
+            st.stale_moments,
+            if st.recalibration_suggested {
+                ": recalibration suggested"
+            } else {
+                ""
+            }
+        )?;
+    }
+    Ok(())
+}
+
+fn fmt_status(o: &mut String, st: &AdapterStatus) -> Result<()> {
+    writeln!(o, "self-calibration: {}", phase_text(st.phase))?;
+    writeln!(o, "  poses taken: {}", st.poses)?;
+    match &st.last_result {
+        None => writeln!(o, "  last result: none since power-up")?,
+        Some(SelfCalOutcome::Done { rms_mg, poses }) => writeln!(
+            o,
+            "  last result: done, {poses} poses, fit RMS {rms_mg:.2} mg (stored and live)"
+        )?,
+        Some(SelfCalOutcome::Failed { message }) => writeln!(
+            o,
+            "  last result: failed, {message}; the previous calibration is kept"
+        )?,
+    }
+    fmt_stale(o, st)
+}
+
+fn selfcal_json(port: &str, st: &AdapterStatus) -> serde_json::Value {
+    let last = match &st.last_result {
+        None => serde_json::Value::Null,
+        Some(SelfCalOutcome::Done { rms_mg, poses }) => {
+            serde_json::json!({"ok": true, "rms_mg": rms_mg, "poses": poses})
+        }
+        Some(SelfCalOutcome::Failed { message }) => {
+            serde_json::json!({"ok": false, "message": message.as_str()})
+        }
+    };
+    serde_json::json!({
+        "port": port,
+        "phase": format!("{:?}", st.phase),
+        "poses": st.poses,
+        "last_result": last,
+        "stale_moments": st.stale_moments,
+        "stale_rms_mg": st.stale_rms_mg,
+        "recalibration_suggested": st.recalibration_suggested,
+    })
+}
+
 fn json<T: Serialize>(v: &T) -> Result<String> {
     Ok(serde_json::to_string_pretty(v)? + "\n")
 }
@@ -158,6 +256,8 @@ pub fn run(args: &DeviceArgs, out: &mut dyn Write) -> Result<String> {
                 "  protocol:  v{} (schema {}), host v{} (schema {}): compatible",
                 j.protocol_version, j.schema_key, j.host_protocol_version, j.host_schema_key
             )?;
+            let st = dev.status()?;
+            fmt_stale(&mut o, &st)?;
         }
         DeviceAction::Get { out: file } => {
             let s = dev.get_calibration()?;
@@ -181,22 +281,15 @@ pub fn run(args: &DeviceArgs, out: &mut dyn Write) -> Result<String> {
             };
             fmt_cal(&mut o, title, &j.live)?;
             match &j.staged {
-                Some(c) => fmt_cal(&mut o, "staged (not live until `wiical device commit`):", c)?,
+                Some(c) => fmt_cal(&mut o, "staged in this session (not live):", c)?,
                 None => writeln!(o, "nothing staged")?,
             }
         }
-        DeviceAction::Put { file } => {
-            let cal = calfile::read_calibration(file).map_err(cli_error)?;
-            dev.put_calibration(&cal)?;
-            // Read it back: the staged copy must be bit-identical.
-            let s = dev.get_calibration()?;
-            let ok = s
-                .staged
-                .map(|w| same_bits(&w, &cal.into()))
-                .unwrap_or(false);
-            if !ok {
-                bail!("the calibration read back from the adapter differs from the one sent");
-            }
+        DeviceAction::Put {
+            file,
+            commit: false,
+        } => {
+            let cal = put_verified(&mut dev, file)?;
             if args.json {
                 return json(&serde_json::json!({
                     "port": port, "staged": true, "verified": true, "calibration": cal
@@ -204,14 +297,17 @@ pub fn run(args: &DeviceArgs, out: &mut dyn Write) -> Result<String> {
             }
             writeln!(
                 o,
-                "staged {} on {} (verified bit for bit); run `wiical device commit --port {}` \
-                 to make it live and store it",
+                "staged {} on {} (verified bit for bit) for this session only: the adapter \
+                 discards it when the port closes. `wiical device commit {} --port {}` uploads \
+                 and commits it in one go",
                 file.display(),
                 port,
+                file.display(),
                 port
             )?;
         }
-        DeviceAction::Commit => {
+        DeviceAction::Put { file, commit: true } | DeviceAction::Commit { file } => {
+            put_verified(&mut dev, file)?;
             dev.commit()?;
             let s = dev.get_calibration()?;
             if args.json {
@@ -224,6 +320,13 @@ pub fn run(args: &DeviceArgs, out: &mut dyn Write) -> Result<String> {
                 o,
                 "committed on {port}: the calibration is live and stored in the adapter's flash"
             )?;
+        }
+        DeviceAction::SelfcalStatus => {
+            let st = dev.status()?;
+            if args.json {
+                return json(&selfcal_json(port, &st));
+            }
+            fmt_status(&mut o, &st)?;
         }
         DeviceAction::Stream { count, divider } => {
             stream(&mut dev, *count, *divider, args.json, out)?;

@@ -5,6 +5,7 @@ pub mod analyze;
 pub mod decode_cal;
 pub mod device;
 pub mod fit;
+pub mod gyrofit;
 pub mod kalman_demo;
 pub mod magfit;
 pub mod simulate;

@@ -1,0 +1,333 @@
+//! Gyroscope calibration from a multi-position recording (the engine of `wiical gyrofit`):
+//! static windows from the accelerometer, gravity directions from the accelerometer's own
+//! multi-position fit, the motions between windows, and the core's gyro fit
+//! ([`wiical_core::gyro_fit`], here in `f64`) for each candidate model, the model chosen by its
+//! leave-one-motion-out error (method and sources: `docs/gyro.md`).
+//!
+//! Candidate models, from nothing fitted to everything:
+//!
+//! | name | fitted | parameters |
+//! |---|---|---|
+//! | `uncalibrated` | nothing: the nominal scale, bias from the first static window | 0 |
+//! | `bias` | bias | 3 |
+//! | `scale` | one scale per axis | 3 |
+//! | `scale+bias` | | 6 |
+//! | `full` | scale and misalignment (3×3) | 9 |
+//! | `full+bias` | | 12 |
+//!
+//! Each fitted model is refitted without each motion in turn and judged on the motion held out;
+//! the one with the smallest held-out RMS angle wins. `uncalibrated` is a candidate too (its
+//! held-out error is its in-sample error, nothing being fitted), so the chosen calibration never
+//! does worse on held-out motions than none. When the motions do not pin down the full model
+//! (e.g. small turns about similar axes) its held-out error exceeds the uncalibrated one and the
+//! report says so.
+
+use crate::error::{Error, Result};
+use crate::fit::fit_means;
+use crate::recording::Recording;
+use crate::windows::{detect, DetectOptions};
+use serde::Serialize;
+use wiical_core::gyro::GyroCalibration;
+use wiical_core::gyro_fit::{
+    self, fit_from, leave_one_out, motion_angle, GyroFitConfig, GyroModel, Motion,
+};
+use wiical_core::multipos::MultiPosModel;
+
+/// Settings of [`run`].
+#[derive(Debug, Clone)]
+pub struct GyroOptions {
+    /// Static-window detection on the accelerometer.
+    pub detect: DetectOptions,
+    /// Nominal gyro sensitivity per axis, rad/s per count (signed: an inverted axis is
+    /// negative), from the datasheet.
+    pub nominal_rad_per_count: [f64; 3],
+    /// Accelerometer model for the gravity directions.
+    pub accel_model: MultiPosModel,
+    /// Levenberg–Marquardt iteration budget per fit.
+    pub max_iterations: u32,
+}
+
+impl GyroOptions {
+    /// Defaults for a nominal sensitivity.
+    pub fn new(nominal_rad_per_count: [f64; 3]) -> Self {
+        Self {
+            detect: DetectOptions::default(),
+            nominal_rad_per_count,
+            accel_model: MultiPosModel::Full,
+            max_iterations: 100,
+        }
+    }
+}
+
+/// One candidate model's numbers.
+#[derive(Debug, Clone, Serialize)]
+pub struct GyroModelRow {
+    /// Model name (see the module docs).
+    pub name: &'static str,
+    /// Fitted parameters.
+    pub parameters: usize,
+    /// In-sample RMS angle error over the motions, degrees (null if the fit failed).
+    pub rms_deg: Option<f64>,
+    /// Leave-one-motion-out RMS angle error, degrees (null if a fit failed).
+    pub cv_rms_deg: Option<f64>,
+    /// Smallest eigenvalue of the unit-diagonal normal matrix (near 0: badly determined).
+    pub identifiability: Option<f64>,
+    /// Why the fit failed, if it did.
+    pub error: Option<String>,
+}
+
+/// One motion between two static windows.
+#[derive(Debug, Clone, Serialize)]
+pub struct MotionRow {
+    /// Time of the motion's first sample, s.
+    pub t_start: f64,
+    /// Time of its last sample, s.
+    pub t_end: f64,
+    /// Angle between the gravity directions of the two windows, degrees (how much the motion
+    /// tilted the sensor).
+    pub tilt_deg: f64,
+    /// Angle error with the uncalibrated gyro, degrees.
+    pub error_before_deg: f64,
+    /// With the chosen calibration (fitted with this motion), degrees.
+    pub error_after_deg: f64,
+    /// With the chosen model fitted without this motion, degrees.
+    pub held_out_deg: f64,
+}
+
+/// The result (the JSON contract of `wiical gyrofit --json`: `static_windows`, `motions`,
+/// `bias`, `matrix`, `rms_deg_before`, `rms_deg_after`, `cv_rms_deg`).
+#[derive(Debug, Clone, Serialize)]
+pub struct GyroReport {
+    /// Static windows found on the accelerometer.
+    pub static_windows: usize,
+    /// Motions between consecutive windows.
+    pub motions: usize,
+    /// Gyro bias of the chosen calibration, raw counts.
+    pub bias: [f64; 3],
+    /// `K` of the chosen calibration, raw → rad/s (`ω = K·(m − b)`), row-major.
+    pub matrix: [[f64; 3]; 3],
+    /// RMS angle error of the uncalibrated gyro over the motions, degrees.
+    pub rms_deg_before: f64,
+    /// In-sample RMS angle error of the chosen model, degrees.
+    pub rms_deg_after: f64,
+    /// Leave-one-motion-out RMS angle error of the chosen model, degrees.
+    pub cv_rms_deg: f64,
+    /// The chosen model.
+    pub model: &'static str,
+    /// Every candidate.
+    pub models: Vec<GyroModelRow>,
+    /// Per motion, with the chosen model.
+    pub motion_table: Vec<MotionRow>,
+    /// Sample rate used, Hz.
+    pub sample_rate_hz: f64,
+    /// Nominal sensitivity, rad/s per count.
+    pub nominal_rad_per_count: [f64; 3],
+    /// Bias from the first static window, raw counts.
+    pub bias_from_rest: [f64; 3],
+    /// Remarks on the choice (e.g. that the full model generalises worse than none).
+    pub notes: Vec<String>,
+}
+
+const CANDIDATES: [(&str, GyroModel, bool); 6] = [
+    ("uncalibrated", GyroModel::BiasOnly, false),
+    ("bias", GyroModel::BiasOnly, true),
+    ("scale", GyroModel::Scale, false),
+    ("scale+bias", GyroModel::Scale, true),
+    ("full", GyroModel::Full, false),
+    ("full+bias", GyroModel::Full, true),
+];
+
+/// Rows of `acc` and `gyro` that belong together: all of them when the lengths agree, else
+/// (a capture whose rows alternate between gyro and other data) the accelerometer rows at the
+/// gyro rows' times.
+fn align(acc: &Recording, gyro: &Recording) -> Result<(Vec<[f64; 3]>, Vec<f64>)> {
+    if acc.len() == gyro.len() {
+        return Ok((acc.xyz.clone(), acc.times(0.0)));
+    }
+    let (Some(ta), Some(tg)) = (&acc.t, &gyro.t) else {
+        return Err(Error::GyroRowsMismatch {
+            accel: acc.len(),
+            gyro: gyro.len(),
+        });
+    };
+    let mut out = Vec::with_capacity(tg.len());
+    let mut times = Vec::with_capacity(tg.len());
+    let mut i = 0;
+    for t in tg {
+        while i < ta.len() && ta[i] < *t {
+            i += 1;
+        }
+        if i >= ta.len() || ta[i] != *t {
+            return Err(Error::GyroRowsMismatch {
+                accel: acc.len(),
+                gyro: gyro.len(),
+            });
+        }
+        out.push(acc.xyz[i]);
+        times.push(*t);
+    }
+    Ok((out, times))
+}
+
+fn deg(rad: f64) -> f64 {
+    rad.to_degrees()
+}
+
+/// Runs the gyro calibration on an accelerometer recording and the gyro recording of the same
+/// samples.
+pub fn run(acc: &Recording, gyro: &Recording, opts: &GyroOptions) -> Result<GyroReport> {
+    if !opts
+        .nominal_rad_per_count
+        .iter()
+        .all(|s| s.is_finite() && *s != 0.0)
+    {
+        return Err(Error::GyroNominalScale);
+    }
+    let (acc_xyz, times) = align(acc, gyro)?;
+    let acc_rec = Recording {
+        xyz: acc_xyz,
+        t: acc.t.as_ref().map(|_| times.clone()),
+        sample_rate_hz: acc.sample_rate_hz.or(gyro.sample_rate_hz),
+        ..Default::default()
+    };
+    let rate = acc_rec
+        .estimated_rate_hz()
+        .unwrap_or(opts.detect.default_rate_hz);
+    let det = detect(&acc_rec, &opts.detect)?;
+    let means: Vec<[f32; 3]> = det.intervals.iter().map(|iv| iv.mean).collect();
+    let accel = fit_means(&means, opts.accel_model)?.calibration;
+    let rest = det.intervals.first().ok_or(Error::TooFewMotions {
+        found: 0,
+        needed: 2,
+    })?;
+    let rest_samples = &gyro.xyz[rest.start as usize..rest.end as usize];
+    let n = rest_samples.len() as f64;
+    let bias_from_rest: [f64; 3] =
+        std::array::from_fn(|a| rest_samples.iter().map(|s| s[a]).sum::<f64>() / n);
+    let nominal = GyroCalibration::nominal(bias_from_rest, opts.nominal_rad_per_count);
+    let spans: Vec<gyro_fit::MotionSpan> = gyro_fit::motion_spans(&det.intervals, &accel)
+        .collect::<std::result::Result<_, _>>()
+        .map_err(Error::GyroFitFailed)?;
+    if spans.len() < 2 {
+        return Err(Error::TooFewMotions {
+            found: spans.len(),
+            needed: 2,
+        });
+    }
+    let motions: Vec<Motion<'_, f64>> = spans
+        .iter()
+        .map(|s| Motion {
+            samples: &gyro.xyz[s.start as usize..s.end as usize],
+            g_start: nalgebra::Vector3::from(s.g_start).cast(),
+            g_end: nalgebra::Vector3::from(s.g_end).cast(),
+        })
+        .collect();
+    let dt = 1.0 / rate;
+    let (rows, best) = evaluate_candidates(&motions, &nominal, dt, opts)?;
+    let (name, fit, cv, held) = best;
+    let before = rows[0].rms_deg.unwrap_or(f64::NAN);
+    let uncal_cv = rows[0].cv_rms_deg.unwrap_or(f64::NAN);
+    let mut notes = Vec::new();
+    if let Some(full) = rows.iter().find(|r| r.name == "full") {
+        if let Some(c) = full.cv_rms_deg {
+            if c > uncal_cv {
+                notes.push(format!(
+                    "the full 9-parameter fit does worse on held-out motions ({c:.3}°) than the uncalibrated gyro ({uncal_cv:.3}°): these motions do not determine it; {name} was chosen instead"
+                ));
+            }
+        }
+    }
+    if name == "uncalibrated" {
+        notes.push("no fitted model beats the nominal scale on held-out motions: the calibration is the nominal one with the bias from rest".into());
+    }
+    let cal = fit.calibration;
+    let motion_table = spans
+        .iter()
+        .zip(&motions)
+        .zip(&held)
+        .map(|((s, m), h)| {
+            let t = |i: u32| times.get(i as usize).copied().unwrap_or(f64::NAN);
+            Ok(MotionRow {
+                t_start: t(s.start),
+                t_end: t(s.end.saturating_sub(1)),
+                tilt_deg: deg(m.g_start.angle(&m.g_end)),
+                error_before_deg: deg(motion_angle(m, &nominal, dt).map_err(Error::GyroFitFailed)?),
+                error_after_deg: deg(motion_angle(m, &cal, dt).map_err(Error::GyroFitFailed)?),
+                held_out_deg: deg(*h),
+            })
+        })
+        .collect::<Result<Vec<_>>>()?;
+    let k = cal.matrix;
+    Ok(GyroReport {
+        static_windows: det.intervals.len(),
+        motions: motions.len(),
+        bias: cal.bias.into(),
+        matrix: std::array::from_fn(|r| std::array::from_fn(|c| k[(r, c)])),
+        rms_deg_before: before,
+        rms_deg_after: deg(fit.rms_after),
+        cv_rms_deg: cv,
+        model: name,
+        models: rows,
+        motion_table,
+        sample_rate_hz: rate,
+        nominal_rad_per_count: opts.nominal_rad_per_count,
+        bias_from_rest,
+        notes,
+    })
+}
+
+/// The chosen candidate: name, fit, held-out RMS (degrees), held-out angle per motion (rad).
+type Best = (&'static str, gyro_fit::GyroFit<f64>, f64, Vec<f64>);
+
+/// Fits every candidate model, measures its held-out error, and picks the smallest.
+fn evaluate_candidates(
+    motions: &[Motion<'_, f64>],
+    nominal: &GyroCalibration<f64>,
+    dt: f64,
+    opts: &GyroOptions,
+) -> Result<(Vec<GyroModelRow>, Best)> {
+    let mut rows = Vec::new();
+    let mut best: Option<Best> = None;
+    for (name, model, fit_bias) in CANDIDATES {
+        let cfg = GyroFitConfig {
+            model,
+            fit_bias,
+            dt,
+            max_iterations: opts.max_iterations,
+        };
+        let parameters = model.mask(fit_bias).iter().filter(|f| **f).count();
+        let start = wiical_core::gyro::Adjustment::identity();
+        let outcome = fit_from(motions, nominal, &start, &cfg, None).and_then(|f| {
+            let mut held = vec![0.0; motions.len()];
+            let cv = leave_one_out(motions, nominal, &f.adjustment, &cfg, |i, a| held[i] = a)?;
+            Ok((f, cv, held))
+        });
+        match outcome {
+            Ok((f, cv, held)) => {
+                rows.push(GyroModelRow {
+                    name,
+                    parameters,
+                    rms_deg: Some(deg(f.rms_after)),
+                    cv_rms_deg: Some(deg(cv)),
+                    identifiability: Some(f.identifiability),
+                    error: None,
+                });
+                if best.as_ref().is_none_or(|b| deg(cv) < b.2) {
+                    best = Some((name, f, deg(cv), held));
+                }
+            }
+            // The uncalibrated candidate fits nothing: its failure is a data error.
+            Err(e) if parameters == 0 => return Err(Error::GyroFitFailed(e)),
+            Err(e) => rows.push(GyroModelRow {
+                name,
+                parameters,
+                rms_deg: None,
+                cv_rms_deg: None,
+                identifiability: None,
+                error: Some(e.to_string()),
+            }),
+        }
+    }
+    let best = best.ok_or(Error::GyroFitFailed(wiical_core::Error::NotConverged))?;
+    Ok((rows, best))
+}

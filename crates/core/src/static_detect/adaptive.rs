@@ -1,0 +1,468 @@
+//! Static detection whose thresholds come from the recording itself: no initial rest period,
+//! and short holds accepted when the recording has nothing longer.
+//!
+//! ## Why
+//! The IMU-TK detector ([`super::StaticDetector::new`]) takes its noise reference from an
+//! initial rest period. A recording that starts moving (or never rests for the first seconds)
+//! gets a reference made of motion, a threshold hundreds of times too high, and "static"
+//! windows that average over motion; a recording whose holds last ~1 s has none of 2 s.
+//!
+//! ## How
+//! 1. **Noise survey** ([`NoiseSurvey`], one streaming pass, fixed memory): the samples are cut
+//!    into blocks of [`SURVEY_BLOCK_S`] (0.25 s; short, so that blocks fit inside even 0.5 s
+//!    holds) and each block's summed per-axis variance goes into a logarithmic histogram
+//!    ([`BINS_PER_OCTAVE`] bins per octave, 2⁻⁸⁰…2⁴⁸ units², 512 bins, ~8 KB). The reference is
+//!    the [`DEFAULT_QUANTILE`] (20 %) quantile of the block variances — the noise of the quietest
+//!    fifth of the recording, which for any recording that holds still at least a fifth of the
+//!    time is the static noise itself (motion only adds variance), and the per-axis reference is
+//!    the mean per-axis variance of the blocks in that quantile's bin. A quantile, not the
+//!    minimum: a few blocks of a quantised sensor that happen not to toggle would make the
+//!    minimum zero. Integer-valued data get the quantisation floor `1/12` (a uniform quantiser of
+//!    step 1), floating-point data none.
+//! 2. **Detection** with that reference ([`super::StaticDetector::with_reference`]) and the
+//!    usual threshold factor 6, trying the hold lengths of [`HOLD_SCHEDULE`] from the longest
+//!    (1 s window, 2 s holds: the IMU-TK defaults) down to 0.25 s windows and 0.5 s holds, and
+//!    keeping the first that yields at least the caller's `min_windows` static windows (the
+//!    most windows when none does). [`detect_fitted`] also requires the setting's windows to
+//!    give a multi-position fit, so that windows spanning too few orientations or including
+//!    motion (no finite solution, [`Error::Diverged`]) give way to the next setting — IMU-TK's
+//!    idea of letting the fit choose among detector settings.
+//!
+//! On the device the survey runs on a first recording pass (or on a previous session's data);
+//! on the host [`detect`] / [`detect_fitted`] run all passes over a slice (an iterator that
+//! can be cloned). Measured on every accelerometer recording in the shared data:
+//! `docs/solver-and-detection.md`.
+
+use super::{StaticDetector, StaticDetectorConfig, StaticInterval};
+use crate::stats::Welford3;
+use crate::Error;
+
+/// Histogram resolution of the survey: 4 bins per octave, so a quantile is known to ±9 %.
+pub const BINS_PER_OCTAVE: i32 = 4;
+const LOG2_LO: i32 = -80;
+const LOG2_HI: i32 = 48;
+const BINS: usize = ((LOG2_HI - LOG2_LO) * BINS_PER_OCTAVE) as usize;
+
+/// Length of a survey block, seconds.
+pub const SURVEY_BLOCK_S: f32 = 0.25;
+/// Quantile of the block variances taken as the noise reference.
+pub const DEFAULT_QUANTILE: f32 = 0.2;
+/// Threshold factor on the reference (as IMU-TK's default and `wiical fit`'s).
+pub const THRESHOLD_FACTOR: f32 = 6.0;
+/// Fewest survey blocks for a meaningful quantile.
+pub const MIN_SURVEY_BLOCKS: u32 = 8;
+/// `(window_s, min_static_s)` pairs tried in order by [`detect`]: the IMU-TK defaults first,
+/// then shorter holds.
+pub const HOLD_SCHEDULE: [(f32, f32); 3] = [(1.0, 2.0), (0.5, 1.0), (0.25, 0.5)];
+
+/// Streaming noise survey (see the module docs).
+#[derive(Debug, Clone)]
+pub struct NoiseSurvey {
+    block: u32,
+    current: Welford3,
+    counts: [u32; BINS],
+    axis_sums: [[f32; 3]; BINS],
+    blocks: u32,
+    all_integer: bool,
+}
+
+/// Noise reference measured on the recording.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AdaptiveThresholds {
+    /// Per-axis noise variance of a static block, raw units².
+    pub reference_variance: [f32; 3],
+    /// Floor of the per-axis reference (1/12 for integer data, 0 otherwise).
+    pub min_variance: f32,
+    /// Blocks surveyed.
+    pub blocks: u32,
+}
+
+/// Bin of a block variance (0 for zero or underflow, the last bin for overflow).
+fn bin_of(v: f32) -> usize {
+    // Zero, negative rounding residue or NaN: the lowest bin.
+    if v.partial_cmp(&0.0) != Some(core::cmp::Ordering::Greater) {
+        return 0;
+    }
+    let x =
+        libm::floorf(libm::log2f(v) * BINS_PER_OCTAVE as f32) as i32 - LOG2_LO * BINS_PER_OCTAVE;
+    x.clamp(0, BINS as i32 - 1) as usize
+}
+
+impl NoiseSurvey {
+    /// A survey with blocks of `block_samples` (≥ 3) samples.
+    pub fn new(block_samples: u32) -> Result<Self, Error> {
+        if block_samples < 3 {
+            return Err(Error::InvalidParameter);
+        }
+        Ok(Self {
+            block: block_samples,
+            current: Welford3::new(),
+            counts: [0; BINS],
+            axis_sums: [[0.0; 3]; BINS],
+            blocks: 0,
+            all_integer: true,
+        })
+    }
+
+    /// A survey with blocks of [`SURVEY_BLOCK_S`] at `rate_hz` (at least 5 samples).
+    pub fn for_rate(rate_hz: f32) -> Result<Self, Error> {
+        if !(rate_hz.is_finite() && rate_hz > 0.0) {
+            return Err(Error::InvalidParameter);
+        }
+        Self::new(((rate_hz * SURVEY_BLOCK_S) as u32).max(5))
+    }
+
+    /// Feeds one sample (non-finite samples are refused and leave the state unchanged).
+    pub fn push(&mut self, m: [f32; 3]) -> Result<(), Error> {
+        self.current.push(m)?;
+        self.all_integer &= m.iter().all(|x| libm::truncf(*x) == *x);
+        if self.current.count() >= self.block {
+            let v = self.current.variance()?;
+            let total = v.x + v.y + v.z;
+            let b = bin_of(total);
+            self.counts[b] = self.counts[b].saturating_add(1);
+            for a in 0..3 {
+                self.axis_sums[b][a] += v[a];
+            }
+            self.blocks += 1;
+            self.current.reset();
+        }
+        Ok(())
+    }
+
+    /// Complete blocks surveyed so far.
+    pub fn blocks(&self) -> u32 {
+        self.blocks
+    }
+
+    /// The noise reference at `quantile` (0 < q < 1) of the block variances:
+    /// [`Error::TooFewSamples`] below [`MIN_SURVEY_BLOCKS`] blocks.
+    pub fn thresholds(&self, quantile: f32) -> Result<AdaptiveThresholds, Error> {
+        if !(quantile > 0.0 && quantile < 1.0) {
+            return Err(Error::InvalidParameter);
+        }
+        if self.blocks < MIN_SURVEY_BLOCKS {
+            return Err(Error::TooFewSamples {
+                needed: MIN_SURVEY_BLOCKS * self.block,
+                got: self.blocks * self.block,
+            });
+        }
+        let rank = libm::ceilf(quantile * self.blocks as f32).max(1.0) as u32;
+        let mut seen = 0u32;
+        let mut bin = BINS - 1;
+        for (b, &c) in self.counts.iter().enumerate() {
+            seen += c;
+            if seen >= rank {
+                bin = b;
+                break;
+            }
+        }
+        let n = self.counts[bin].max(1) as f32;
+        Ok(AdaptiveThresholds {
+            reference_variance: self.axis_sums[bin].map(|s| s / n),
+            min_variance: if self.all_integer { 1.0 / 12.0 } else { 0.0 },
+            blocks: self.blocks,
+        })
+    }
+}
+
+impl AdaptiveThresholds {
+    /// Surveys `samples` (one pass) at `rate_hz` with the default block and quantile.
+    pub fn from_samples<I: IntoIterator<Item = [f32; 3]>>(
+        samples: I,
+        rate_hz: f32,
+    ) -> Result<Self, Error> {
+        let mut survey = NoiseSurvey::for_rate(rate_hz)?;
+        for m in samples {
+            survey.push(m)?;
+        }
+        survey.thresholds(DEFAULT_QUANTILE)
+    }
+
+    /// Detector settings for windows of `window_s` and holds of at least `min_static_s` at
+    /// `rate_hz`, threshold factor [`THRESHOLD_FACTOR`], this reference's floor; use with
+    /// [`StaticDetector::with_reference`]`(cfg, self.reference_variance)`.
+    pub fn detector_config(
+        &self,
+        rate_hz: f32,
+        window_s: f32,
+        min_static_s: f32,
+    ) -> StaticDetectorConfig {
+        let mut cfg = StaticDetectorConfig::for_rate(rate_hz, window_s, window_s, min_static_s);
+        cfg.init_samples = cfg.init_samples.max(cfg.window as u32);
+        cfg.min_static_samples = cfg.min_static_samples.max(1);
+        cfg.threshold_factor = THRESHOLD_FACTOR;
+        cfg.min_variance = self.min_variance;
+        cfg
+    }
+}
+
+/// What [`detect`] chose.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AdaptiveDetection {
+    /// The noise reference measured on the recording.
+    pub thresholds: AdaptiveThresholds,
+    /// The detector settings used (window, shortest hold, threshold factor, floor).
+    pub config: StaticDetectorConfig,
+    /// Static windows found with them.
+    pub windows: u32,
+}
+
+/// Runs one detector over `samples`, calling `on_interval` for each static interval.
+pub fn run<const N: usize, I: IntoIterator<Item = [f32; 3]>>(
+    samples: I,
+    cfg: StaticDetectorConfig,
+    reference_variance: [f32; 3],
+    mut on_interval: impl FnMut(StaticInterval),
+) -> Result<u32, Error> {
+    let mut det: StaticDetector<N> = StaticDetector::with_reference(cfg, reference_variance)?;
+    let mut count = 0;
+    for m in samples {
+        if let Some(iv) = det.push(m)? {
+            on_interval(iv);
+            count += 1;
+        }
+    }
+    if let Some(iv) = det.finish() {
+        on_interval(iv);
+        count += 1;
+    }
+    Ok(count)
+}
+
+/// The whole adaptive detection (module docs): survey, then the [`HOLD_SCHEDULE`] from the
+/// longest holds down until one gives at least `min_windows` windows (else the one giving the
+/// most), then a last pass reporting that setting's intervals to `on_interval`. Settings whose
+/// window exceeds the capacity `N` are skipped ([`Error::InvalidParameter`] if all are).
+pub fn detect<const N: usize, I>(
+    samples: I,
+    rate_hz: f32,
+    min_windows: u32,
+    on_interval: impl FnMut(StaticInterval),
+) -> Result<AdaptiveDetection, Error>
+where
+    I: Iterator<Item = [f32; 3]> + Clone,
+{
+    let thresholds = AdaptiveThresholds::from_samples(samples.clone(), rate_hz)?;
+    let (config, _) = choose::<N, I>(&samples, rate_hz, &thresholds, |_, count| {
+        count >= min_windows
+    })?;
+    finish::<N, I>(samples, thresholds, config, on_interval)
+}
+
+/// [`detect`], where a setting is accepted only when its windows also give a multi-position
+/// fit (`multipos::fit_weighted` with `fit_cfg`): like IMU-TK's threshold sweep, the fit
+/// decides, so that a setting whose windows include motion or span too few orientations
+/// (no finite solution) gives way to the next. `scratch` holds the window means of one
+/// setting (a setting with more windows than `scratch` is accepted on its count). Falls back
+/// to [`detect`]'s count rule when no setting fits. Returns the detection and the fit of the
+/// chosen windows (or why it failed).
+pub fn detect_fitted<const N: usize, I>(
+    samples: I,
+    rate_hz: f32,
+    min_windows: u32,
+    fit_cfg: &crate::multipos::MultiPosConfig,
+    scratch: &mut [[f32; 3]],
+    on_interval: impl FnMut(StaticInterval),
+) -> Result<
+    (
+        AdaptiveDetection,
+        Result<crate::multipos::MultiPosFit, Error>,
+    ),
+    Error,
+>
+where
+    I: Iterator<Item = [f32; 3]> + Clone,
+{
+    let thresholds = AdaptiveThresholds::from_samples(samples.clone(), rate_hz)?;
+    let fits = |cfg: StaticDetectorConfig, count: u32, scratch: &mut [[f32; 3]]| {
+        if count < min_windows {
+            return false;
+        }
+        let mut n = 0usize;
+        let stored = run::<N, _>(samples.clone(), cfg, thresholds.reference_variance, |iv| {
+            if let Some(slot) = scratch.get_mut(n) {
+                *slot = iv.mean;
+            }
+            n += 1;
+        });
+        stored.is_ok()
+            && (n > scratch.len() || crate::multipos::fit(&scratch[..n], fit_cfg).is_ok())
+    };
+    let (mut config, fitted) = choose::<N, I>(&samples, rate_hz, &thresholds, |cfg, count| {
+        fits(cfg, count, scratch)
+    })?;
+    if !fitted {
+        config = choose::<N, I>(&samples, rate_hz, &thresholds, |_, count| {
+            count >= min_windows
+        })?
+        .0;
+    }
+    let mut n = 0usize;
+    let mut on_interval = on_interval;
+    let detection = finish::<N, I>(samples, thresholds, config, |iv| {
+        if let Some(slot) = scratch.get_mut(n) {
+            *slot = iv.mean;
+        }
+        n += 1;
+        on_interval(iv);
+    })?;
+    let fit = if n > scratch.len() {
+        Err(Error::CapacityExceeded)
+    } else {
+        crate::multipos::fit(&scratch[..n], fit_cfg)
+    };
+    Ok((detection, fit))
+}
+
+/// The first setting of the schedule that `accept(config, window count)` takes (`true` with
+/// it), else the one with the most windows (ties: the longer holds; `false`). Only settings
+/// whose window fits `N` count; `accept` is not called for the others.
+fn choose<const N: usize, I>(
+    samples: &I,
+    rate_hz: f32,
+    thresholds: &AdaptiveThresholds,
+    mut accept: impl FnMut(StaticDetectorConfig, u32) -> bool,
+) -> Result<(StaticDetectorConfig, bool), Error>
+where
+    I: Iterator<Item = [f32; 3]> + Clone,
+{
+    let mut best: Option<(StaticDetectorConfig, u32)> = None;
+    let mut any_accepted = false;
+    for (window_s, min_static_s) in HOLD_SCHEDULE {
+        let cfg = thresholds.detector_config(rate_hz, window_s, min_static_s);
+        if cfg.window as usize > N {
+            continue;
+        }
+        let count = run::<N, _>(samples.clone(), cfg, thresholds.reference_variance, |_| {})?;
+        if accept(cfg, count) {
+            best = Some((cfg, count));
+            any_accepted = true;
+            break;
+        }
+        if best.is_none_or(|(_, c)| count > c) {
+            best = Some((cfg, count));
+        }
+    }
+    best.map(|(cfg, _)| (cfg, any_accepted))
+        .ok_or(Error::InvalidParameter)
+}
+
+fn finish<const N: usize, I>(
+    samples: I,
+    thresholds: AdaptiveThresholds,
+    config: StaticDetectorConfig,
+    on_interval: impl FnMut(StaticInterval),
+) -> Result<AdaptiveDetection, Error>
+where
+    I: Iterator<Item = [f32; 3]> + Clone,
+{
+    let windows = run::<N, _>(samples, config, thresholds.reference_variance, on_interval)?;
+    Ok(AdaptiveDetection {
+        thresholds,
+        config,
+        windows,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    extern crate std;
+    use std::vec::Vec;
+
+    /// Deterministic pseudo-noise (xorshift), ±amp.
+    struct Noise(u32);
+    impl Noise {
+        fn next(&mut self, amp: f32) -> f32 {
+            self.0 ^= self.0 << 13;
+            self.0 ^= self.0 >> 17;
+            self.0 ^= self.0 << 5;
+            (self.0 as f32 / u32::MAX as f32 - 0.5) * 2.0 * amp
+        }
+    }
+
+    /// A recording that starts moving, then alternates 1-s holds (4 orientations) and 0.5-s
+    /// turns, at 100 Hz, in g with noise 1e-3 g (uniform ±1.7e-3).
+    fn short_holds() -> Vec<[f32; 3]> {
+        let mut noise = Noise(99);
+        let poses = [
+            [0.0f32, 0.0, 1.0],
+            [1.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [
+                0.0,
+                -core::f32::consts::FRAC_1_SQRT_2,
+                core::f32::consts::FRAC_1_SQRT_2,
+            ],
+        ];
+        let mut out = Vec::new();
+        // 3 s of motion first: no rest period at the start.
+        for k in 0..300 {
+            let ph = k as f32 * 0.05;
+            out.push([libm::sinf(ph), libm::cosf(ph), 0.3 * libm::sinf(2.0 * ph)]);
+        }
+        for rep in 0..6 {
+            for (i, p) in poses.iter().enumerate() {
+                for _ in 0..100 {
+                    out.push(p.map(|x| x + noise.next(1.7e-3)));
+                }
+                let q = poses[(i + 1) % poses.len()];
+                for k in 0..50 {
+                    let t = k as f32 / 50.0 + 0.01 * rep as f32;
+                    out.push(
+                        [0, 1, 2].map(|a| p[a] + (q[a] - p[a]) * t + 0.05 * libm::sinf(7.0 * t)),
+                    );
+                }
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn survey_measures_static_noise_despite_motion_at_start() {
+        let xs = short_holds();
+        let th = AdaptiveThresholds::from_samples(xs.iter().copied(), 100.0).unwrap();
+        // Uniform ±a has variance a²/3 = 9.6e-7 per axis; the quantile's bin is ±9 %, and
+        // block variances scatter ~±30 % (25 samples).
+        for v in th.reference_variance {
+            assert!(v > 0.5e-6 && v < 1.5e-6, "{:?}", th.reference_variance);
+        }
+        assert_eq!(th.min_variance, 0.0);
+    }
+
+    #[test]
+    fn short_holds_are_found_when_nothing_longer_exists() {
+        let xs = short_holds();
+        let mut found = Vec::new();
+        let d = detect::<101, _>(xs.iter().copied(), 100.0, 12, |iv| found.push(iv)).unwrap();
+        assert_eq!(d.windows as usize, found.len());
+        // 24 holds of 1 s: the 2-s and 1-s settings find none, the 0.5-s one all of them.
+        assert_eq!(found.len(), 24, "{d:?}");
+        assert_eq!(d.config.window, 25);
+        for iv in &found {
+            let n = (iv.mean[0].powi(2) + iv.mean[1].powi(2) + iv.mean[2].powi(2)).sqrt();
+            assert!((n - 1.0).abs() < 2e-3, "{iv:?}");
+            assert!(iv.len() >= 50 && iv.len() <= 100, "{iv:?}");
+        }
+    }
+
+    #[test]
+    fn integer_data_get_the_quantisation_floor_and_bad_input_is_typed() {
+        let mut s = NoiseSurvey::new(10).unwrap();
+        for k in 0..200 {
+            s.push([512.0, 500.0 + (k % 2) as f32, 300.0]).unwrap();
+        }
+        let th = s.thresholds(0.2).unwrap();
+        assert_eq!(th.min_variance, 1.0 / 12.0);
+        assert!(th.reference_variance[1] > 0.2 && th.reference_variance[1] < 0.3);
+        assert_eq!(NoiseSurvey::new(2).err(), Some(Error::InvalidParameter));
+        assert_eq!(s.thresholds(1.0).err(), Some(Error::InvalidParameter));
+        let few = NoiseSurvey::new(10).unwrap();
+        assert!(matches!(
+            few.thresholds(0.2),
+            Err(Error::TooFewSamples { .. })
+        ));
+        assert_eq!(s.push([f32::NAN, 0.0, 0.0]), Err(Error::NonFinite));
+    }
+}
