@@ -124,7 +124,7 @@ impl<'a> Context<'a> {
         let bmask = base_mask(self.model);
         let all = vec![true; self.n()];
         let fit = am::fit(&p0, &bmask, &self.wins, &all).ok_or(Error::RefinementFailed)?;
-        let loo = am::loo(&fit, &bmask, &self.wins, &all);
+        let loo = crate::press::loo(&fit, &bmask, &self.wins, &all);
         let floor = floors(&fit.p, &self.wins, &self.ws.stats, self.nrm.scale, false);
         let floor_batch = floors(&fit.p, &self.wins, &self.ws.stats, self.nrm.scale, true);
         let fb: Vec<f64> = floor_batch
@@ -420,7 +420,7 @@ impl Search {
                 let with = terms.iter().find(|t| t.name() == name)?;
                 let cv_before = cv_over(&with.loo, &o.used);
                 let fit = am::fit(&self.state.fit.p, &cur_mask, &ctx.wins, &o.used)?;
-                let loo = am::loo(&fit, &cur_mask, &ctx.wins, &o.used)?;
+                let loo = crate::press::loo(&fit, &cur_mask, &ctx.wins, &o.used)?;
                 Some(OutlierTrial {
                     fit,
                     loo,

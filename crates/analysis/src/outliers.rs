@@ -200,7 +200,7 @@ fn test_suspects(
     if rejected.is_empty() {
         return None;
     }
-    let loo = am::loo(&fit, mask, wins, &used)?;
+    let loo = crate::press::loo(&fit, mask, wins, &used)?;
     Some(OutlierTrial {
         rejected,
         p_values,

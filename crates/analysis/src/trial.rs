@@ -243,7 +243,7 @@ pub fn try_term(
     let p = st::f_sf(fstat, dp as f64, dof);
     rep.f_stat = Some(fstat);
     rep.p_value = Some(p);
-    let Some(loo) = am::loo(&f, &mask, wins, &state.used) else {
+    let Some(loo) = crate::press::loo(&f, &mask, wins, &state.used) else {
         rep.note =
             "cross-validation refit failed (a held-out window leaves it undetermined)".into();
         return (rep, None);
