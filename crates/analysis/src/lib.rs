@@ -67,6 +67,7 @@
 pub mod analyze;
 pub mod calfile;
 pub mod candidate;
+pub mod columns;
 pub mod error;
 pub mod evidence;
 pub mod fit;

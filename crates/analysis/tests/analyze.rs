@@ -259,7 +259,14 @@ fn input_in_g_is_detected_and_analysed() {
     let raw = run_analyze(&s.recording, &AnalyzeOptions::default()).unwrap();
     assert_eq!(raw.units, "raw");
     assert_eq!(raw.static_windows, r.static_windows);
-    assert!((raw.base.rms_mg - r.base.rms_mg).abs() < 1e-3);
+    // The adaptive detector floors integer counts at the quantisation variance (1/12) and
+    // data in g at nothing, so window edges may differ by a few samples: same fit to 3 %.
+    assert!(
+        (raw.base.rms_mg - r.base.rms_mg).abs() < 0.03 * raw.base.rms_mg,
+        "{} vs {}",
+        raw.base.rms_mg,
+        r.base.rms_mg
+    );
 }
 
 /// Time and temperature both available, no effect: neither is picked; the temperature term

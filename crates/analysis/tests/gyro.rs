@@ -188,6 +188,7 @@ fn mpu9150_chosen_model_never_worse_than_uncalibrated_on_held_out_motions() {
     let dir = data_dir().join("mpu9150_mikoff_5units");
     let gyro_cols = LoadOptions {
         columns: Some(["gx".into(), "gy".into(), "gz".into()]),
+        ..Default::default()
     };
     // ±2000 °/s on 16 bits: 16.384 counts per °/s (SOURCE.md).
     let s0 = 1f64.to_radians() / 16.384;

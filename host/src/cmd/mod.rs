@@ -78,7 +78,10 @@ pub fn load_options(columns: Option<&[String]>) -> Result<LoadOptions> {
         Some([x, y, z]) => Some([x.clone(), y.clone(), z.clone()]),
         Some(other) => return Err(cli_error(Error::ColumnsNotThree(other.to_vec()))),
     };
-    Ok(LoadOptions { columns })
+    Ok(LoadOptions {
+        columns,
+        ..Default::default()
+    })
 }
 
 /// `LO:HI` with finite LO < HI.
