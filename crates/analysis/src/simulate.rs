@@ -399,9 +399,9 @@ fn check_config(cfg: &SimConfig) -> Result<(Vec<(SimEffect, f64)>, f64)> {
     if !(cfg.rate_hz.is_finite() && cfg.rate_hz >= 20.0 && cfg.rate_hz <= 2000.0) {
         return Err(Error::InvalidSetting("rate must be between 20 and 2000 Hz"));
     }
-    if cfg.poses < 9 || cfg.poses > 500 {
+    if cfg.poses < 9 || cfg.poses > 20_000 {
         return Err(Error::InvalidSetting(
-            "poses must be between 9 and 500 (the full model needs at least 9)",
+            "poses must be between 9 and 20000 (the full model needs at least 9)",
         ));
     }
     let mut effects: Vec<(SimEffect, f64)> = Vec::new();

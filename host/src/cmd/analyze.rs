@@ -55,7 +55,10 @@ pub fn run(a: &Args) -> Result<String> {
         candidates,
         ..Default::default()
     };
-    let rep = wiical_analysis::analyze(&rec, &opts).map_err(cli_error)?;
+    let rep = super::with_spinner("analysing (windows, base fit, candidate effects)", || {
+        wiical_analysis::analyze(&rec, &opts)
+    })
+    .map_err(cli_error)?;
     if let Some(path) = &a.out {
         write_calibration(path, &rep.calibration)?;
     }

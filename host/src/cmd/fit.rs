@@ -39,7 +39,10 @@ fn parse_model(s: &str) -> Result<MultiPosModel, String> {
 /// Runs `wiical fit`; returns what to print.
 pub fn run(a: &Args) -> Result<String> {
     let rec = load(&a.file, &a.detect.load_options()?)?;
-    let rep = wiical_analysis::fit::run(&rec, &a.detect.fit_options(a.model)).map_err(cli_error)?;
+    let rep = super::with_spinner("detecting static windows and fitting", || {
+        wiical_analysis::fit::run(&rec, &a.detect.fit_options(a.model))
+    })
+    .map_err(cli_error)?;
     if let Some(path) = &a.out {
         write_calibration(path, &rep.calibration)?;
     }

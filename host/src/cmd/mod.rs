@@ -117,3 +117,20 @@ pub fn load(path: &std::path::Path, opts: &LoadOptions) -> Result<wiical_analysi
 pub fn write_calibration(path: &std::path::Path, cal: &wiical_core::Calibration) -> Result<()> {
     wiical_analysis::calfile::write_calibration(path, cal).map_err(cli_error)
 }
+
+/// Runs `work` with an indicatif spinner on stderr saying `what` and the elapsed time (hidden
+/// when stderr is not a terminal, so scripted output is unchanged). Analyses of long
+/// recordings (thousands of windows) take seconds; the spinner says the program is working.
+pub fn with_spinner<T>(what: &str, work: impl FnOnce() -> T) -> T {
+    let bar =
+        indicatif::ProgressBar::with_draw_target(None, indicatif::ProgressDrawTarget::stderr());
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{spinner} {msg} ({elapsed})")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_spinner()),
+    );
+    bar.set_message(what.to_string());
+    bar.enable_steady_tick(std::time::Duration::from_millis(120));
+    let out = work();
+    bar.finish_and_clear();
+    out
+}
