@@ -396,11 +396,18 @@ impl Search {
         let n_used = self.state.n_used();
         let max_reject = ((ctx.opts.max_outlier_fraction * n_used as f64).floor() as usize).max(1);
         let cur_mask = mask_for(ctx.model, &self.state.terms);
-        let screen = |fit: &am::Fit, mask: &am::Mask| {
+        let screen = |fit: &am::Fit, mask: &am::Mask, level: f64| {
             find_outliers(fit, &self.state.used, mask, &ctx.wins, level, max_reject)
         };
-        let mut tr = screen(&self.state.fit, &cur_mask);
+        let mut tr = screen(&self.state.fit, &cur_mask, level);
         if tr.is_none() {
+            // Every extra model screened is one more chance of a false rejection: Bonferroni
+            // over the models.
+            let models = 1 + terms
+                .iter()
+                .filter(|t| !t.is_combination() && t.candidate.storable())
+                .count();
+            let level = level / models as f64;
             let mut best: Option<(f64, OutlierTrial, String)> = None;
             for t in terms
                 .iter()
@@ -408,7 +415,7 @@ impl Search {
             {
                 let mut with = self.state.terms.clone();
                 with.extend(t.terms.iter().copied());
-                let Some(o) = screen(&t.fit, &mask_for(ctx.model, &with)) else {
+                let Some(o) = screen(&t.fit, &mask_for(ctx.model, &with), level) else {
                     continue;
                 };
                 let cv = cv_over(&o.loo, &o.used).unwrap_or(f64::INFINITY);

@@ -227,14 +227,20 @@ fn pair_sweep() {
     println!("{}", table(&all_pairs(), 0..40, true));
 }
 
-/// The single-effect table and 300 clean recordings (150 with a temperature column, 150
-/// without) of docs/residuals.md:
-/// `cargo test -p wiical-analysis --release --test several_effects -- --ignored --nocapture single_and_clean_sweep`
+/// The single-effect table of docs/residuals.md:
+/// `cargo test -p wiical-analysis --release --test several_effects -- --ignored --nocapture single_sweep`
 #[test]
 #[ignore]
-fn single_and_clean_sweep() {
+fn single_sweep() {
     let singles: Vec<Vec<SimEffect>> = EFFECTS.iter().map(|e| vec![*e]).collect();
     println!("{}", table(&singles, 0..40, true));
+}
+
+/// 300 clean recordings (150 with a temperature column, 150 without) of docs/residuals.md:
+/// `cargo test -p wiical-analysis --release --test several_effects -- --ignored --nocapture clean_sweep`
+#[test]
+#[ignore]
+fn clean_sweep() {
     println!("with temp\n{}", table(&[vec![]], 0..150, true));
     println!("without temp\n{}", table(&[vec![]], 150..300, false));
 }
