@@ -418,6 +418,18 @@ impl Search {
                 let Some(o) = screen(&t.fit, &mask_for(ctx.model, &with), level) else {
                     continue;
                 };
+                // The screen is justified only if the effect it assumed is then significant on
+                // the kept windows (the F-test it failed because of them).
+                let Some(cur_kept) = am::fit(&self.state.fit.p, &cur_mask, &ctx.wins, &o.used)
+                else {
+                    continue;
+                };
+                let dof = o.fit.n.saturating_sub(o.fit.k).max(1) as f64;
+                let f = ((cur_kept.rss - o.fit.rss).max(0.0) / t.dp as f64)
+                    / (o.fit.rss / dof).max(1e-300);
+                if !(crate::stats::f_sf(f, t.dp as f64, dof) < level) {
+                    continue;
+                }
                 let cv = cv_over(&o.loo, &o.used).unwrap_or(f64::INFINITY);
                 if best.as_ref().is_none_or(|b| cv < b.0) {
                     best = Some((cv, o, t.name()));
