@@ -13,6 +13,7 @@
 //! | step | module | in → out |
 //! |---|---|---|
 //! | load | [`mod@load`] | file or text → [`Recording`] (CSV with a header, or `t x y z` text) |
+//! | columns | [`columns`] | header names → the wanted sensor's axis triplet by pattern |
 //! | units, rate | [`recording`] | recording → sample rate; window means → `raw` / `g` / `m/s^2` |
 //! | window detection | [`windows`] | recording → static windows (core detector) + f64 window statistics |
 //! | gyroscope | [`gyro`] | accelerometer + gyro recordings → motions between windows, gyro scale / misalignment / bias by held-out error ([`gyro::run`]) |
