@@ -204,11 +204,11 @@ fn a_combination_explains_each_member() {
     assert!(step.candidates.iter().any(|c| c.name == "quadratic"));
 }
 
-/// A modest version of the pairs table: every pair at default magnitudes, 2 runs each, both
+/// A modest version of the pairs table: every pair at default magnitudes, one run each, both
 /// named in most runs and never an effect that is not there.
 #[test]
 fn pairs_are_found_and_nothing_is_invented() {
-    let t = table(&all_pairs(), 0..2, true);
+    let t = table(&all_pairs(), 0..1, true);
     println!("{t}");
     let mut exact = 0;
     for l in t.lines().skip(2) {
@@ -216,7 +216,7 @@ fn pairs_are_found_and_nothing_is_invented() {
         exact += f[3].parse::<usize>().unwrap();
         assert_eq!(f[10], "-", "an effect that is not there: {l}");
     }
-    assert!(exact >= 26, "only {exact} of 30 runs name both:\n{t}");
+    assert!(exact >= 13, "only {exact} of 15 runs name both:\n{t}");
 }
 
 /// The pairs table of docs/residuals.md (40 runs per pair, default magnitudes):
