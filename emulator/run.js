@@ -10,6 +10,9 @@ import { join } from 'node:path';
 import { spawnSync } from 'node:child_process';
 import { Rig } from './src/rig.js';
 import { decodeReport, calibrationBlock } from './src/nunchuk.js';
+import { selfCalScenarios } from './src/selfcal-scenarios.js';
+import { mulberry32 } from './src/pose-nunchuk.js';
+import { decodeFrames, unitRequestFrame, REQUEST, RESPONSE, RawHost } from './src/wire.js';
 
 const args = process.argv.slice(2);
 function option(name) {
@@ -57,11 +60,11 @@ const IDEAL_BLOCK = calibrationBlock([512, 512, 512], [712, 712, 712], [0xe0, 0x
 /**
  * Checks the reports the Wii Remote read after handshake `fromHandshake` against the Nunchuk's
  * raw reports: each must equal `transform(raw)` (accel), with stick and buttons unchanged, for
- * one of the last three raw reports the adapter polled before the read. Returns a detail
- * string on failure, null when all match.
+ * one of the last three raw reports the adapter polled before the read. `keep(report)` narrows
+ * the reports checked. Returns a detail string on failure, null when all match.
  */
-function checkReports(rig, fromHandshake, transform, minReports = 40) {
-  const reports = rig.remote.reports.filter((r) => r.handshake >= fromHandshake);
+function checkReports(rig, fromHandshake, transform, minReports = 40, keep = () => true) {
+  const reports = rig.remote.reports.filter((r) => r.handshake >= fromHandshake && keep(r));
   if (reports.length < minReports) return `only ${reports.length} reports read by the Wii Remote`;
   const served = rig.nunchuk.served;
   const poses = new Set();
@@ -105,6 +108,8 @@ function correctionBatch(calPath) {
   return fn;
 }
 
+/** `ErrorCode::BadFrame` (crates/wire messages.rs; serialized as its u8). */
+const ERROR_BAD_FRAME = 2;
 const sameBytes = (a, b) => a.length === b.length && a.every((v, i) => v === b[i]);
 const f32eq = (a, b) => Math.fround(a) === Math.fround(b);
 function sameCal(live, cal) {
@@ -127,6 +132,58 @@ async function putCommit(rig, calPath, extra = []) {
   const commit = await rig.wiical(['commit', calPath, ...extra]);
   if (commit.code !== 0) return `wiical device commit: exit ${commit.code}: ${commit.stderr.trim()}`;
   return null;
+}
+
+/**
+ * Commits `next` over the calibration in `image` (through the wire protocol, without the CLI:
+ * fast), cutting the power at flash step `k` (`done`: the fraction of the step completed, 0 =
+ * before it), then boots a new emulator on what the flash holds and asks the real CLI.
+ * Returns 'old' / 'new' (the live, stored calibration is `old` / `next`), or what went wrong.
+ */
+async function cutCommitAt(image, old, next, k, done, seed) {
+  const rig = newRig(image);
+  await rig.board.runUntilTrue(() => rig.usb.configured, 500);
+  const host = new RawHost(rig);
+  if (!(await host.hello())) return 'no Hello answer before the commit';
+  const random = mulberry32(seed);
+  rig.board.onFlashStep = (_step, index) => index === k && (done > 0 ? { done, random } : true);
+  await host.putCommit(next);
+  rig.close();
+  if (!rig.board.powerCut) return `the commit finished without reaching flash step ${k}`;
+  const after = newRig(rig.board.flashImage());
+  await after.board.runUntilTrue(() => after.remote.reports.length > 0, 1000);
+  const state = await getState(after);
+  after.close();
+  if (after.board.fault) return `firmware fault ${after.board.fault}`;
+  if (!after.remote.reports.length) return 'no report served to the Wii Remote after the reboot';
+  if (state.error) return state.error;
+  if (state.stored && sameCal(state.live, old)) return 'old';
+  if (state.stored && sameCal(state.live, next)) return 'new';
+  return `the live calibration is neither the old nor the new one (stored: ${state.stored})`;
+}
+
+/**
+ * Commits A and B alternately over `image` until a commit erases a sector (the store's
+ * sectors fill up and it reclaims one). Returns the image just before that commit, the
+ * calibration live in it and the one that commit stores, or null.
+ */
+async function fillUntilErase(image, live, maxCommits = 300) {
+  const rig = newRig(image);
+  await rig.board.runUntilTrue(() => rig.usb.configured, 500);
+  const host = new RawHost(rig);
+  let found = null;
+  if (await host.hello()) {
+    for (let i = 0; i < maxCommits && !found; i++) {
+      const next = live === CAL_A ? CAL_B : CAL_A;
+      const before = rig.board.flashImage();
+      const n = rig.board.flashSteps.length;
+      if (!(await host.putCommit(next))) break;
+      if (rig.board.flashSteps.slice(n).some((s) => s.kind === 'erase')) found = { image: before, old: live, next, commits: i };
+      live = next;
+    }
+  }
+  rig.close();
+  return found;
 }
 
 /** A scenario's failure (a success is the plain detail string). */
@@ -190,36 +247,52 @@ const scenarios = [
     if (!state.stored || !sameCal(state.live, CAL_A)) return fail('the committed calibration is not live after the power cycle');
     return err ? fail(err) : 'new emulator on the same flash: calibration still live, reports corrected';
   }],
+  ...selfCalScenarios({
+    newRig, getState, fail, shared, work, sameBytes, sameCal, checkReports, correctionBatch, prefill,
+    expectedCounts, IDEAL_BLOCK, CAL_A, calA, measurements,
+  }),
   ['power-cut-commit', async () => {
     if (!shared.committedA) return fail('needs commit-live');
-    // Count the flash steps of a complete commit of B over A.
-    const probe = newRig(shared.committedA);
-    await probe.board.run(300);
-    const e = await putCommit(probe, calB);
-    if (e) return fail(`uninterrupted commit: ${e}`);
-    const steps = probe.board.flashSteps.length;
-    probe.close();
-    if (!steps) return fail('the commit wrote nothing to flash');
-    const outcomes = { old: 0, new: 0 };
-    for (let k = 0; k < steps; k++) {
-      const rig = newRig(shared.committedA);
-      await rig.board.run(300);
-      rig.board.onFlashStep = (_step, index) => index === k;
-      await rig.wiical(['put', calB]);
-      await rig.wiical(['commit', calB, '--timeout-ms', '3000', '--retries', '0']);
-      rig.close();
-      if (!rig.board.powerCut) return fail(`step ${k}: the commit finished without reaching flash step ${k}`);
-      const after = newRig(rig.board.flashImage());
-      await after.board.run(300);
-      const state = await getState(after);
-      after.close();
-      if (state.error) return fail(`cut before step ${k}: ${state.error}`);
-      if (after.board.fault) return fail(`cut before step ${k}: firmware fault ${after.board.fault}`);
-      if (state.stored && sameCal(state.live, CAL_A)) outcomes.old += 1;
-      else if (state.stored && sameCal(state.live, CAL_B)) outcomes.new += 1;
-      else return fail(`cut before flash step ${k}: the live calibration is neither the old nor the new one`);
+    // Two commits to cut: B over A (page programs only), and the commit that finds the
+    // store's sectors full and erases one (reached by committing A and B alternately).
+    const erasing = await fillUntilErase(shared.committedA, CAL_A);
+    if (!erasing) return fail('no commit erased a sector');
+    const commits = [
+      { name: 'B over A', image: shared.committedA, old: CAL_A, next: CAL_B },
+      { name: `commit ${erasing.commits + 2} (erases)`, ...erasing },
+    ];
+    // At every step: a cut before it and halfway through it (an erase that flipped about half
+    // the programmed bits back to 1; a page program with half its bytes written and the next
+    // one partly); an erase also at 10 % and 90 %.
+    const tally = {};
+    const corrupt = [];
+    let cuts = 0;
+    for (const c of commits) {
+      const probe = newRig(c.image);
+      await probe.board.runUntilTrue(() => probe.usb.configured, 500);
+      const host = new RawHost(probe);
+      const ok = (await host.hello()) && (await host.putCommit(c.next));
+      const kinds = probe.board.flashSteps.map((s) => s.kind);
+      probe.close();
+      if (!ok || !kinds.length) return fail(`${c.name}: the uninterrupted commit failed or wrote nothing`);
+      for (let k = 0; k < kinds.length; k++) {
+        const fractions = kinds[k] === 'erase' ? [0, 0.1, 0.5, 0.9] : [0, 0.5];
+        for (const done of fractions) {
+          cuts += 1;
+          const outcome = await cutCommitAt(c.image, c.old, c.next, k, done, cuts * 7919);
+          const key = `${done ? 'during' : 'before'} ${kinds[k]}`;
+          tally[key] ??= { old: 0, new: 0, corrupt: 0 };
+          if (outcome === 'old' || outcome === 'new') tally[key][outcome] += 1;
+          else {
+            tally[key].corrupt += 1;
+            corrupt.push(`${c.name}, ${Math.round(done * 100)} % into ${kinds[k]} step ${k}: ${outcome}`);
+          }
+        }
+      }
     }
-    return `${steps} cuts (one before each erase/program step): ${outcomes.old} old, ${outcomes.new} new, 0 corrupt`;
+    const summary = Object.entries(tally).map(([k, t]) => `${k}: ${t.old} old/${t.new} new/${t.corrupt} corrupt`).join('; ');
+    if (corrupt.length) return fail(`${summary}; first: ${corrupt[0]}`);
+    return `${cuts} cuts in 2 commits (${summary})`;
   }],
   ['nunchuk-replug', async () => {
     const rig = newRig();
@@ -245,13 +318,32 @@ const scenarios = [
     let lines = 0;
     let injected = false;
     let reset = false;
+    // From the garbage on, the adapter's bytes are captured (until the bus reset) to check
+    // its answers: nothing or BadFrame errors for the garbage, then one clean reply to the
+    // valid request sent right after it, samples throughout.
+    const junk = Array.from({ length: 300 }, (_, i) => (i * 73 + 11) & 0xff);
+    const junkFrames = junk.filter((b) => b === 0).length + 1;
+    const captured = [];
+    let capturing = false;
+    let atFrameStart = true;
+    const forward = rig.usb.onData;
+    rig.usb.onData = (bytes) => {
+      // Start at the first frame boundary after the garbage went out.
+      if (injected && !reset && (capturing || atFrameStart)) {
+        capturing = true;
+        captured.push(...bytes);
+      }
+      if (bytes.length) atFrameStart = bytes[bytes.length - 1] === 0;
+      forward(bytes);
+    };
     const stream = await rig.wiical(['stream', '--count', '2000', '--timeout-ms', '500'], {
       onStdout: (text) => {
         lines += (text.match(/\n/g) || []).length;
         if (lines > 40 && !injected) {
           injected = true;
-          const junk = Array.from({ length: 300 }, (_, i) => (i * 73 + 11) & 0xff);
-          rig.usb.write(junk);
+          // Garbage ending mid-"frame", then the lone 0x00 a host sends to resynchronise, then
+          // a valid GetCalibration request.
+          rig.usb.write([...junk, 0, ...unitRequestFrame(REQUEST.getCalibration)]);
           rig.linesAtGarbage = lines;
         }
         if (lines > rig.linesAtGarbage + 60 && !reset && injected) {
@@ -262,6 +354,8 @@ const scenarios = [
     });
     if (!injected) return fail(`stream gave only ${lines} lines (exit ${stream.code}: ${stream.stderr.trim()})`);
     if (!reset) return fail(`stream stopped after the garbage: ${lines} lines (exit ${stream.code}: ${stream.stderr.trim()})`);
+    const answer = checkGarbageAnswers(decodeFrames(captured), junkFrames);
+    if (answer.error) return fail(answer.error);
     const gapNs = maxGap(rig.remote.reports.map((r) => r.tNs));
     if (rig.remote.reports.length < 100) return fail(`the Wii Remote read only ${rig.remote.reports.length} reports meanwhile`);
     await rig.board.runUntilTrue(() => rig.usb.configured, 1000);
@@ -270,9 +364,29 @@ const scenarios = [
     if (rig.board.fault) return fail(`firmware fault: ${rig.board.fault}`);
     if (info.code !== 0) return fail(`after the disconnect wiical device info fails: ${info.stderr.trim()}`);
     if (gapNs > 50e6) return fail(`the Wii Remote went ${(gapNs / 1e6).toFixed(1)} ms without a report`);
-    return `stream survived 300 garbage bytes, then a bus reset; re-enumerated, info works, Wii Remote never starved (max gap ${(gapNs / 1e6).toFixed(1)} ms)`;
+    return `stream survived 300 garbage bytes (answered: ${answer.detail}), then a bus reset; re-enumerated, info works, Wii Remote never starved (max gap ${(gapNs / 1e6).toFixed(1)} ms)`;
   }],
 ];
+
+/**
+ * The adapter's frames after garbage + resync + GetCalibration: every frame intact; before
+ * the reply only samples and at most `maxErrors` BadFrame errors; exactly one Calibration
+ * reply; after it only samples.
+ */
+function checkGarbageAnswers(frames, maxErrors) {
+  const bad = frames.filter((f) => f.bad);
+  if (bad.length) return { error: `${bad.length} of the adapter's frames are corrupt (${bad[0].bad})` };
+  const replies = frames.filter((f) => f.tag !== RESPONSE.sample);
+  const reply = replies.findIndex((f) => f.tag === RESPONSE.calibration);
+  if (reply < 0) return { error: `no reply to the GetCalibration sent after the garbage (got tags ${replies.map((f) => f.tag)})` };
+  const errors = replies.slice(0, reply);
+  const notBadFrame = errors.find((f) => !(f.tag === RESPONSE.error && f.body[1] === ERROR_BAD_FRAME));
+  if (notBadFrame) return { error: `before the reply the adapter sent tag ${notBadFrame.tag} ${notBadFrame.body}, not a BadFrame error` };
+  if (errors.length > maxErrors) return { error: `${errors.length} BadFrame errors for ${maxErrors} garbage frames` };
+  if (replies.length > reply + 1) return { error: `${replies.length - reply - 1} unexpected replies after the GetCalibration reply` };
+  const samples = frames.length - replies.length;
+  return { detail: `${errors.length} BadFrame error(s) for ${maxErrors} garbage frame(s), then the calibration reply; ${samples} intact samples` };
+}
 
 function maxGap(times) {
   let gap = 0;
@@ -321,6 +435,11 @@ if (measurements.stretchNs?.length) {
 if (measurements.pollPeriodsNs?.length) {
   const s = stats(measurements.pollPeriodsNs.map((ns) => ns / 1000));
   console.log(`measure Nunchuk poll period: mean ${s.mean.toFixed(1)} us, sd ${s.sd.toFixed(2)} us, min ${s.min.toFixed(1)}, max ${s.max.toFixed(1)} us (jitter ${(s.max - s.min).toFixed(1)} us), n=${s.n}`);
+}
+if (measurements.selfCal) {
+  const m = measurements.selfCal;
+  const ms = (ns) => (ns / 1e6).toFixed(1);
+  console.log(`measure self-calibration on the RP2040: longest Nunchuk poll interval while the last pose ends and the 12-pose fit + checks run ${ms(m.pollGapNs)} ms (nominal 5 ms); last pose left -> first flash step of the commit ${ms(m.fitToCommitNs)} ms; Wii Remote's longest wait for a report ${ms(m.remoteGapNs)} ms during the session, ${ms(m.commitGapNs)} ms including the commit and the 100 ms extension-detect drop that makes it re-read the block`);
 }
 if (measurements.bootToFirstReportNs) {
   const ns = measurements.bootToFirstReportNs;

@@ -22,6 +22,13 @@ export const PAGE_PROGRAM_NS = 0.4e6;
 /** DREQ number of the XIP stream (datasheet 2.5.3.1). */
 const DREQ_XIP_STREAM = 37;
 
+/** A byte whose bits are each set with probability `p` (`random()` uniform in [0, 1)). */
+function randomBits(random, p) {
+  let b = 0;
+  for (let i = 0; i < 8; i++) if (random() < p) b |= 1 << i;
+  return b;
+}
+
 /** Thrown out of the run loop when a scripted power cut happens at a flash step. */
 export class PowerCut extends Error {}
 
@@ -208,7 +215,10 @@ export class Board {
 
     this.fault = null;
     this.flashSteps = []; // { kind, offset, length, atNs }
-    /** Called before each flash erase sector / program page; return true to cut the power. */
+    /**
+     * Called before each flash erase sector / program page; return true to cut the power
+     * before it, or { done, random } to cut it a fraction `done` of the way through.
+     */
     this.onFlashStep = null;
     this.bootedAtNs = null;
     this.stopped = false;
@@ -289,7 +299,13 @@ export class Board {
       case 'flash_range_erase': {
         const [offset, count] = [r(0), r(1)];
         for (let o = offset & ~0xfff; o < offset + count; o += 4096) {
-          this.flashStep('erase', o, 4096, SECTOR_ERASE_NS, () => rp2040.flash.fill(0xff, o, o + 4096));
+          this.flashStep('erase', o, 4096, SECTOR_ERASE_NS, (done = 1, random = Math.random) => {
+            // An erase raises every cell of the sector towards 1 at once; cut short, each
+            // programmed (0) bit has flipped to 1 with probability `done`.
+            for (let i = o; i < o + 4096; i++) {
+              rp2040.flash[i] |= done >= 1 ? 0xff : randomBits(random, done);
+            }
+          });
         }
         return;
       }
@@ -297,10 +313,13 @@ export class Board {
         const [offset, data, count] = [r(0), r(1), r(2)];
         for (let o = 0; o < count; o += 256) {
           const n = Math.min(256, count - o);
-          this.flashStep('program', offset + o, n, PAGE_PROGRAM_NS, () => {
-            // NOR flash: programming can only clear bits.
-            for (let i = 0; i < n; i++) {
-              rp2040.flash[offset + o + i] &= rp2040.readUint8(data + o + i);
+          this.flashStep('program', offset + o, n, PAGE_PROGRAM_NS, (done = 1, random = Math.random) => {
+            // NOR flash: programming can only clear bits. Cut short, the first `done` of the
+            // bytes are programmed, the next one only partly (some of its 0 bits), the rest not.
+            const whole = Math.floor(n * done);
+            for (let i = 0; i < Math.min(n, whole + 1); i++) {
+              const want = rp2040.readUint8(data + o + i);
+              rp2040.flash[offset + o + i] &= i < whole ? want : want | randomBits(random, 0.5);
             }
           });
         }
@@ -344,9 +363,17 @@ export class Board {
    */
   flashStep(kind, offset, length, ns, apply) {
     const step = { kind, offset, length, atNs: this.nanos };
-    if (this.onFlashStep && this.onFlashStep(step, this.flashSteps.length)) {
+    const cut = this.onFlashStep?.(step, this.flashSteps.length);
+    if (cut) {
+      // `true` or { done: 0 }: before the step; { done: f, random } with 0 < f < 1: after a
+      // fraction f of it (the chip's cells left as NOR flash leaves them).
+      const done = cut === true ? 0 : cut.done;
+      if (done > 0) {
+        this.clock.tick(ns * done);
+        apply(done, cut.random);
+      }
       this.stopped = true;
-      throw new PowerCut(`power cut before ${kind} at 0x${offset.toString(16)}`);
+      throw new PowerCut(`power cut ${done > 0 ? `${Math.round(done * 100)} % into` : 'before'} ${kind} at 0x${offset.toString(16)}`);
     }
     this.flashSteps.push(step);
     this.clock.tick(ns);

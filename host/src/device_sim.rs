@@ -558,6 +558,8 @@ impl Worker {
                         self.counters.samples.fetch_add(1, Ordering::Relaxed);
                     }
                 }
+                // Commit a finished self-calibration, as the firmware's Nunchuk task does.
+                embassy_futures::block_on(self.proto.service());
                 next_poll += self.period;
                 if next_poll + 20 * self.period < now {
                     // Fell far behind (machine busy): skip instead of bursting.

@@ -31,7 +31,7 @@
 //!
 //! ## Stale-calibration monitor
 //! Outside a session the same detector watches the game: every still moment's mean,
-//! corrected with the live calibration, should have ‖a‖ = 1 g. [`StaleMonitor`] keeps an
+//! corrected with the live calibration, should have ‖a‖ = 1 g. [`SelfCal::stale`] keeps an
 //! exponentially weighted RMS of ‖a‖ − 1 g over those moments; past
 //! [`SelfCalConfig::stale_threshold_g`] (after a few moments) it suggests recalibration.
 //!
@@ -450,7 +450,15 @@ impl SelfCal {
             }
             return None;
         };
-        let out = det.push(raw.map(f32::from)).ok().flatten();
+        let out = match det.push(raw.map(f32::from)) {
+            Ok(out) => out,
+            // 2³² samples (248 days at 200 Hz): start counting again.
+            Err(wiical_core::Error::CapacityExceeded) => {
+                self.restart_detector();
+                return None;
+            }
+            Err(_) => None,
+        };
         if det.samples_seen() == self.cfg.detector.init_samples {
             let shaky = det
                 .reference_variance()
