@@ -209,13 +209,15 @@ pub fn triplets(fields: &[String]) -> Vec<Triplet> {
     out
 }
 
-/// The triplet for `want`: the first of that sensor, else the first unnamed one (`x,y,z`).
-/// `None` when neither exists.
+/// The triplet for `want`: the first of that sensor, else the first unnamed one (`x,y,z`),
+/// else the first triplet at all (a file holding only another sensor's axes is taken as it
+/// is, as before names were read by pattern). `None` when the header has no triplet.
 pub fn find_triplet(fields: &[String], want: Sensor) -> Option<Triplet> {
     let all = triplets(fields);
     all.iter()
         .find(|t| t.sensor == want)
         .or_else(|| all.iter().find(|t| t.sensor == Sensor::Unnamed))
+        .or_else(|| all.first())
         .cloned()
 }
 
@@ -263,13 +265,20 @@ mod tests {
         assert_eq!(acc.columns, [1, 2, 3]);
         let gyro = find_triplet(&f, Sensor::Gyroscope).unwrap();
         assert_eq!(gyro.columns, [4, 5, 6]);
-        assert!(find_triplet(&f, Sensor::Magnetometer).is_none());
+        // No magnetometer: the first triplet, as the loader always did.
+        assert_eq!(
+            find_triplet(&f, Sensor::Magnetometer).unwrap().sensor,
+            Sensor::Accelerometer
+        );
         let f = fields("t_s,mag_x_gauss,mag_y_gauss,mag_z_gauss");
         assert_eq!(
             find_triplet(&f, Sensor::Magnetometer).unwrap().columns,
             [1, 2, 3]
         );
-        assert!(find_triplet(&f, Sensor::Accelerometer).is_none());
+        assert_eq!(
+            find_triplet(&f, Sensor::Accelerometer).unwrap().sensor,
+            Sensor::Magnetometer
+        );
         let f = fields("AccX,AccY,AccZ,MagX,MagY,MagZ");
         assert_eq!(
             find_triplet(&f, Sensor::Magnetometer).unwrap().columns,
