@@ -302,6 +302,7 @@ fn replay_session_decodes_the_real_calibrations_and_writes_a_loadable_csv() {
         &out,
         &LoadOptions {
             columns: Some(["ext_x".into(), "ext_y".into(), "ext_z".into()]),
+            ..Default::default()
         },
     )
     .unwrap();
@@ -438,7 +439,14 @@ fn guided_capture_counts_the_poses_and_the_fit_recovers_the_simulated_sensors() 
 
     // `wiical fit` on the CSV finds the 12 poses and the simulated sensor, for both devices.
     let check = |columns: Option<[String; 3]>, truth: Sensor, lsb_shift: [f64; 3]| {
-        let rec = input::load(&out, &LoadOptions { columns }).unwrap();
+        let rec = input::load(
+            &out,
+            &LoadOptions {
+                columns,
+                ..Default::default()
+            },
+        )
+        .unwrap();
         let rep = fit_cmd::run(&rec, &FitOptions::default()).unwrap();
         eprintln!(
             "fit: bias {:?} (truth {:?}), K·sens {:?}, rms {} mg",
@@ -806,6 +814,7 @@ fn nunchuk_unplugged_and_plugged_back_in() {
         &out,
         &LoadOptions {
             columns: Some(["ext_x".into(), "ext_y".into(), "ext_z".into()]),
+            ..Default::default()
         },
     )
     .unwrap();

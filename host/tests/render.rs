@@ -1,14 +1,13 @@
 //! Rendering of an analysis: the text report and the SVG plot (numbers from the engine).
 
 use wiical::render;
-use wiical_analysis::simulate::{simulate, Device, SimConfig, SimEffect};
+use wiical_analysis::simulate::{simulate, Device, EffectSpec, SimConfig, SimEffect};
 use wiical_analysis::{analyze, AnalyzeOptions};
 
 #[test]
 fn text_report_and_plot_render() {
     let s = simulate(&SimConfig {
-        effect: SimEffect::Cubic,
-        magnitude_mg: Some(30.0),
+        effects: vec![EffectSpec::new(SimEffect::Cubic, Some(30.0))],
         seed: 61,
         device: Device::Wiimote,
         ..Default::default()

@@ -1,9 +1,11 @@
-//! End-to-end `analyze` on a 50k-sample recording (issue: must finish under 2 s), and `fit`.
+//! End-to-end `analyze` on a 50k-sample recording (issue: must finish under 2 s), and `fit`;
+//! `analyze` on the real Xsens recording (`$WIICAL_DATA` or `../shared/data`) and on a
+//! 1 M-row simulation (~1,200 windows: the PRESS identity replaces the per-window refits).
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use std::hint::black_box;
 use wiical_analysis::fit::{self, FitOptions};
-use wiical_analysis::simulate::{simulate, SimConfig, SimEffect};
+use wiical_analysis::simulate::{simulate, EffectSpec, SimConfig, SimEffect};
 use wiical_analysis::{analyze, AnalyzeOptions};
 
 fn bench(c: &mut Criterion) {
@@ -11,7 +13,7 @@ fn bench(c: &mut Criterion) {
     let mut poses = 50;
     let rec = loop {
         let sim = simulate(&SimConfig {
-            effect: SimEffect::Quadratic,
+            effects: vec![EffectSpec::new(SimEffect::Quadratic, None)],
             poses,
             seed: 11,
             ..Default::default()
@@ -31,6 +33,31 @@ fn bench(c: &mut Criterion) {
     g.bench_function(format!("fit ({} samples)", rec.len()), |b| {
         b.iter(|| fit::run(black_box(&rec), &FitOptions::default()).unwrap())
     });
+    let data = std::env::var_os("WIICAL_DATA")
+        .map(std::path::PathBuf::from)
+        .unwrap_or_else(|| {
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data")
+        });
+    let xsens = wiical_analysis::load(
+        &data.join("imu_tk_xsens/xsens_acc.mat"),
+        &Default::default(),
+    )
+    .expect("the Xsens recording (set WIICAL_DATA)");
+    g.bench_function(format!("analyze Xsens ({} samples)", xsens.len()), |b| {
+        b.iter(|| analyze(black_box(&xsens), &AnalyzeOptions::default()).unwrap())
+    });
+    let big = simulate(&SimConfig {
+        effects: vec![EffectSpec::new(SimEffect::Quadratic, None)],
+        poses: 1200,
+        seed: 12,
+        ..Default::default()
+    })
+    .unwrap()
+    .recording;
+    g.bench_function(
+        format!("analyze ({} samples, 1200 poses, quadratic)", big.len()),
+        |b| b.iter(|| analyze(black_box(&big), &AnalyzeOptions::default()).unwrap()),
+    );
     g.finish();
 }
 

@@ -30,7 +30,9 @@ use crate::report::{
 };
 use crate::select::{check_rule, cv_over, select, Choice, OutlierScore, TermScore};
 use crate::stats as st;
-use crate::trial::{base_mask, mask_for, term_note, try_term, CandSpec, State, TermTrial};
+use crate::trial::{
+    base_mask, drop_tests, mask_for, term_note, try_term, CandSpec, State, TermTrial,
+};
 use crate::windows::{detect_windows, Windows};
 use wiical_core::multipos::MultiPosModel;
 use wiical_core::Calibration;
@@ -122,7 +124,7 @@ impl<'a> Context<'a> {
         let bmask = base_mask(self.model);
         let all = vec![true; self.n()];
         let fit = am::fit(&p0, &bmask, &self.wins, &all).ok_or(Error::RefinementFailed)?;
-        let loo = am::loo(&fit, &bmask, &self.wins, &all);
+        let loo = crate::press::loo(&fit, &bmask, &self.wins, &all);
         let floor = floors(&fit.p, &self.wins, &self.ws.stats, self.nrm.scale, false);
         let floor_batch = floors(&fit.p, &self.wins, &self.ws.stats, self.nrm.scale, true);
         let fb: Vec<f64> = floor_batch
@@ -139,9 +141,12 @@ impl<'a> Context<'a> {
         })
     }
 
-    /// The parametric candidates to try on top of `state`.
-    fn candidate_specs(&self, state: &State) -> Vec<CandSpec> {
-        let mut specs = Vec::new();
+    /// The parametric candidates to try on top of `state`: each effect alone, every
+    /// combination of up to `room` of them (several effects at once: with one of two effects
+    /// unmodelled, the other's F-test divides by a residual variance the first inflates, so
+    /// neither passes alone), and the curved-drift diagnostic.
+    fn candidate_specs(&self, state: &State, room: usize) -> Vec<CandSpec> {
+        let mut singles = Vec::new();
         for t in Term::ALL {
             let candidate = Candidate::of_term(t);
             if state.terms.contains(&t) || !self.opts.allows(candidate) {
@@ -153,10 +158,16 @@ impl<'a> Context<'a> {
             if t == Term::Drift && !(self.duration > 0.0) {
                 continue;
             }
-            specs.push(CandSpec {
-                candidate,
-                terms: vec![t],
-            });
+            singles.push(t);
+        }
+        let mut specs: Vec<CandSpec> = singles
+            .iter()
+            .map(|&t| CandSpec::single(Candidate::of_term(t), vec![t]))
+            .collect();
+        for size in 2..=room.min(singles.len()) {
+            for combo in subsets(&singles, size) {
+                specs.push(CandSpec::combination(combo));
+            }
         }
         if self.duration > 0.0
             && self.opts.allows(Candidate::BiasDriftCurved)
@@ -167,10 +178,7 @@ impl<'a> Context<'a> {
             } else {
                 vec![Term::Drift, Term::Drift2]
             };
-            specs.push(CandSpec {
-                candidate: Candidate::BiasDriftCurved,
-                terms,
-            });
+            specs.push(CandSpec::single(Candidate::BiasDriftCurved, terms));
         }
         specs
     }
@@ -178,6 +186,26 @@ impl<'a> Context<'a> {
     /// Sample spans (first, one past the last) of the windows.
     fn spans(&self) -> Vec<(usize, usize)> {
         self.ws.stats.iter().map(|w| (w.start, w.end)).collect()
+    }
+}
+
+/// Every `size`-element subset of `items`, in lexicographic order of positions.
+fn subsets<T: Copy>(items: &[T], size: usize) -> Vec<Vec<T>> {
+    let mut out = Vec::new();
+    let mut idx: Vec<usize> = (0..size).collect();
+    if size == 0 || size > items.len() {
+        return out;
+    }
+    loop {
+        out.push(idx.iter().map(|&i| items[i]).collect());
+        // Advance the rightmost position that can still move.
+        let Some(k) = (0..size).rev().find(|&k| idx[k] < items.len() - size + k) else {
+            return out;
+        };
+        idx[k] += 1;
+        for j in k + 1..size {
+            idx[j] = idx[j - 1] + 1;
+        }
     }
 }
 
@@ -234,11 +262,18 @@ impl Search {
                     .as_ref()
                     .map(|(_, o)| cv_over(&t.loo, &o.used).unwrap_or(f64::INFINITY)),
                 storable: t.candidate.storable(),
+                members_pass: t.members_pass(),
             })
             .collect();
-        let out_score = tr.outliers.as_ref().map(|(_, o)| OutlierScore {
-            cv_kept: cv_over(&o.loo, &o.used).unwrap_or(f64::INFINITY),
-            cv_current_kept: cv_over(&self.state.loo, &o.used),
+        let out_score = tr.outliers.as_ref().map(|(_, o)| match o.judged_cv {
+            Some((cv_kept, cv_current_kept)) => OutlierScore {
+                cv_kept,
+                cv_current_kept,
+            },
+            None => OutlierScore {
+                cv_kept: cv_over(&o.loo, &o.used).unwrap_or(f64::INFINITY),
+                cv_current_kept: cv_over(&self.state.loo, &o.used),
+            },
         });
         let sel = select(
             &scores,
@@ -249,10 +284,10 @@ impl Search {
         );
         for (i, t) in tr.terms.iter_mut().enumerate() {
             let (sig, ok, storable) = (sel.significant[i], sel.cv_improved[i], scores[i].storable);
-            t.passes_rules = sig && ok;
+            t.passes_rules = sig && ok && t.members_pass();
             let rep = &mut tr.reports[t.report];
-            rep.passed = sig && ok && storable;
-            rep.note = term_note(sig, ok, storable, tr.level, ctx.opts.cv_factor);
+            rep.passed = t.passes_rules && storable;
+            rep.note = term_note(t, (sig, ok, storable), tr.level, ctx.opts.cv_factor);
         }
         if let Some((idx, o)) = &tr.outliers {
             tr.reports[*idx].passed = sel.outliers_pass;
@@ -287,7 +322,7 @@ impl Search {
                 true
             }
             Choice::Term(b) => {
-                step.accepted = Some(tr.terms[b].candidate.to_string());
+                step.accepted = Some(tr.terms[b].name());
                 self.steps.push(step);
                 self.accept_term(ctx, b, &tr);
                 true
@@ -297,9 +332,17 @@ impl Search {
 
     /// Fits every candidate of this step (`None`: nothing left to try).
     fn trials(&self, ctx: &Context<'_>) -> Option<StepTrials> {
-        let specs = ctx.candidate_specs(&self.state);
+        let room = ctx.opts.max_effects.saturating_sub(self.effects.len());
+        let specs = ctx.candidate_specs(&self.state, room);
         let try_outliers = !self.outliers_done && ctx.opts.allows(Candidate::Outliers);
-        let m = specs.len() + usize::from(try_outliers);
+        // Bonferroni over the candidates of the library (each effect once, the diagnostic,
+        // the outliers): a combination is no new hypothesis, every member must pass its own
+        // drop test at the same level.
+        let singles = specs
+            .iter()
+            .filter(|s| !s.terms.is_empty() && s.name() == s.candidate.name())
+            .count();
+        let m = singles + usize::from(try_outliers);
         if m == 0 {
             return None;
         }
@@ -315,9 +358,15 @@ impl Search {
             }
             reports.push(rep);
         }
+        for i in 0..terms.len() {
+            if terms[i].is_combination() {
+                let drops = drop_tests(&terms[i], &terms, &self.state, level, ctx.opts.cv_factor);
+                terms[i].drops = drops;
+            }
+        }
         let mut outliers = None;
         if try_outliers {
-            let (rep, trial) = self.outlier_trial(ctx, level);
+            let (rep, trial) = self.outlier_trial(ctx, level, &terms);
             if let Some(t) = trial {
                 outliers = Some((reports.len(), t));
             }
@@ -332,23 +381,74 @@ impl Search {
         })
     }
 
-    /// The outlier candidate's report row (verdict filled in later) and trial.
+    /// The outlier candidate's report row (verdict filled in later) and trial. The screen runs
+    /// under the current model and under the current model plus each single effect tried at
+    /// this step: an effect the model still lacks inflates the robust scale and can hide the
+    /// windows that were not still (and they, in turn, hide the effect from its F-test). The
+    /// screen whose kept windows that model explains best (lowest CV) is taken; its windows
+    /// are then judged under the current model, refitted without them.
     fn outlier_trial(
         &self,
         ctx: &Context<'_>,
         level: f64,
+        terms: &[TermTrial],
     ) -> (CandidateReport, Option<OutlierTrial>) {
         let n_used = self.state.n_used();
         let max_reject = ((ctx.opts.max_outlier_fraction * n_used as f64).floor() as usize).max(1);
         let cur_mask = mask_for(ctx.model, &self.state.terms);
-        let tr = find_outliers(
-            &self.state.fit,
-            &self.state.used,
-            &cur_mask,
-            &ctx.wins,
-            level,
-            max_reject,
-        );
+        let screen = |fit: &am::Fit, mask: &am::Mask, level: f64| {
+            find_outliers(fit, &self.state.used, mask, &ctx.wins, level, max_reject)
+        };
+        let mut tr = screen(&self.state.fit, &cur_mask, level);
+        if tr.is_none() {
+            // Every extra model screened is one more chance of a false rejection: Bonferroni
+            // over the models.
+            let models = 1 + terms
+                .iter()
+                .filter(|t| !t.is_combination() && t.candidate.storable())
+                .count();
+            let level = level / models as f64;
+            let mut best: Option<(f64, OutlierTrial, String)> = None;
+            for t in terms
+                .iter()
+                .filter(|t| !t.is_combination() && t.candidate.storable())
+            {
+                let mut with = self.state.terms.clone();
+                with.extend(t.terms.iter().copied());
+                let Some(o) = screen(&t.fit, &mask_for(ctx.model, &with), level) else {
+                    continue;
+                };
+                // The screen is justified only if the effect it assumed is then significant on
+                // the kept windows (the F-test it failed because of them).
+                let Some(cur_kept) = am::fit(&self.state.fit.p, &cur_mask, &ctx.wins, &o.used)
+                else {
+                    continue;
+                };
+                let dof = o.fit.n.saturating_sub(o.fit.k).max(1) as f64;
+                let f = ((cur_kept.rss - o.fit.rss).max(0.0) / t.dp as f64)
+                    / (o.fit.rss / dof).max(1e-300);
+                if !(crate::stats::f_sf(f, t.dp as f64, dof) < level) {
+                    continue;
+                }
+                let cv = cv_over(&o.loo, &o.used).unwrap_or(f64::INFINITY);
+                if best.as_ref().is_none_or(|b| cv < b.0) {
+                    best = Some((cv, o, t.name()));
+                }
+            }
+            tr = best.and_then(|(cv_kept, o, name)| {
+                let with = terms.iter().find(|t| t.name() == name)?;
+                let cv_before = cv_over(&with.loo, &o.used);
+                let fit = am::fit(&self.state.fit.p, &cur_mask, &ctx.wins, &o.used)?;
+                let loo = crate::press::loo(&fit, &cur_mask, &ctx.wins, &o.used)?;
+                Some(OutlierTrial {
+                    fit,
+                    loo,
+                    screened_with: Some(name),
+                    judged_cv: Some((cv_kept, cv_before)),
+                    ..o
+                })
+            });
+        }
         let mut rep = CandidateReport {
             name: Candidate::Outliers.to_string(),
             params: 0,
@@ -364,8 +464,11 @@ impl Search {
             let cv_kept = cv_over(&tr.loo, &tr.used).unwrap_or(f64::INFINITY);
             rep.params = tr.rejected.len();
             rep.rms_mg = Some(tr.fit.rms() * 1e3);
+            let (cv_kept, cv_cur) = tr
+                .judged_cv
+                .unwrap_or((cv_kept, cv_over(&self.state.loo, &tr.used)));
             rep.cv_rms_mg = Some(cv_kept * 1e3);
-            rep.cv_rms_current_mg = cv_over(&self.state.loo, &tr.used).map(|x| x * 1e3);
+            rep.cv_rms_current_mg = cv_cur.map(|x| x * 1e3);
             rep.f_stat = tr.f_stats.iter().copied().reduce(f64::min);
             rep.p_value = tr.p_values.iter().copied().reduce(f64::max);
         }
@@ -423,16 +526,6 @@ impl Search {
         new_terms.extend(bt.terms.iter().copied());
         let mask = mask_for(ctx.model, &new_terms);
         let se = am::standard_errors(&bt.fit, &mask, &ctx.wins, &self.state.used);
-        let (vals, ses, unit) =
-            ev::term_values(bt.terms[0], &ctx.nrm, &bt.fit.p, &se, ctx.duration);
-        let tctx = TermContext {
-            current: &self.state.fit,
-            used: &self.state.used,
-            wins: &ctx.wins,
-            cur_cv: tr.cur_cv,
-            time_temp_r: ctx.time_temp_r,
-        };
-        let evidence = ev::term_evidence(&tctx, bt, &tr.terms, (&vals, &ses, &unit));
         if self.first_signature.is_none() {
             let sig = (0..ctx.n())
                 .map(|i| {
@@ -443,23 +536,81 @@ impl Search {
                 .collect();
             self.first_signature = Some(sig);
         }
-        self.effects.push(EffectReport {
-            name: bt.candidate.to_string(),
-            params: bt.dp,
-            rms_mg: bt.fit.rms() * 1e3,
-            cv_rms_mg: Some(bt.cv * 1e3),
-            cv_rms_before_mg: tr.cur_cv.map(|x| x * 1e3),
-            evidence,
-            f_stat: Some(bt.f),
-            p_value: Some(bt.p),
-            values: Some(vals),
-            std_errors: Some(ses),
-            unit: Some(unit),
-            rejected_windows: None,
-        });
+        if bt.is_combination() {
+            self.accept_combination(ctx, bt, tr, &se);
+        } else {
+            let (vals, ses, unit) =
+                ev::term_values(bt.terms[0], &ctx.nrm, &bt.fit.p, &se, ctx.duration);
+            let tctx = TermContext {
+                current: &self.state.fit,
+                used: &self.state.used,
+                wins: &ctx.wins,
+                cur_cv: tr.cur_cv,
+                time_temp_r: ctx.time_temp_r,
+            };
+            let evidence = ev::term_evidence(&tctx, bt, &tr.terms, (&vals, &ses, &unit));
+            self.effects.push(EffectReport {
+                name: bt.candidate.to_string(),
+                params: bt.dp,
+                rms_mg: bt.fit.rms() * 1e3,
+                cv_rms_mg: Some(bt.cv * 1e3),
+                cv_rms_before_mg: tr.cur_cv.map(|x| x * 1e3),
+                evidence,
+                f_stat: Some(bt.f),
+                p_value: Some(bt.p),
+                values: Some(vals),
+                std_errors: Some(ses),
+                unit: Some(unit),
+                rejected_windows: None,
+            });
+        }
         self.state.terms = new_terms;
         self.state.fit = bt.fit.clone();
         self.state.loo = bt.loo.clone();
+    }
+
+    /// One effect report per member of an accepted combination, the most needed first
+    /// (highest CV without it): each member's numbers are its drop test, so its evidence says
+    /// what the other members leave and how much of that it explains.
+    fn accept_combination(
+        &mut self,
+        ctx: &Context<'_>,
+        bt: &TermTrial,
+        tr: &StepTrials,
+        se: &am::Params,
+    ) {
+        let mut drops = bt.drops.clone();
+        drops.sort_by(|a, b| b.cv_without.total_cmp(&a.cv_without));
+        for d in &drops {
+            let rest: Vec<Term> = bt.terms.iter().copied().filter(|t| *t != d.term).collect();
+            let without = tr
+                .terms
+                .iter()
+                .find(|t| t.adds(&rest) && t.candidate != Candidate::BiasDriftCurved)
+                .map(|t| &t.fit);
+            let (vals, ses, unit) = ev::term_values(d.term, &ctx.nrm, &bt.fit.p, se, ctx.duration);
+            let mctx = ev::MemberContext {
+                without: without.unwrap_or(&self.state.fit),
+                used: &self.state.used,
+                wins: &ctx.wins,
+                time_temp_r: ctx.time_temp_r,
+            };
+            let evidence = ev::member_evidence(&mctx, bt, d, &tr.terms, (&vals, &ses, &unit));
+            self.effects.push(EffectReport {
+                name: d.term.name().to_string(),
+                params: 3,
+                rms_mg: bt.fit.rms() * 1e3,
+                cv_rms_mg: Some(bt.cv * 1e3),
+                cv_rms_before_mg: Some(d.cv_without * 1e3),
+                evidence,
+                f_stat: Some(d.f),
+                p_value: Some(d.p),
+                values: Some(vals),
+                std_errors: Some(ses),
+                unit: Some(unit),
+                rejected_windows: None,
+            });
+        }
     }
 }
 

@@ -7,7 +7,7 @@ use crate::outliers::OutlierTrial;
 use crate::report::{EffectReport, ModelSummary};
 use crate::select::{cv_over, paired_p};
 use crate::stats as st;
-use crate::trial::TermTrial;
+use crate::trial::{DropTest, TermTrial};
 use std::fmt::Write as _;
 
 /// `[a, b, c]` with `prec` decimals.
@@ -212,7 +212,11 @@ fn compare_with_others(
     trials: &[TermTrial],
     evidence: &mut String,
 ) {
-    let others = || trials.iter().filter(|t| t.candidate != bt.candidate);
+    let others = || {
+        trials
+            .iter()
+            .filter(|t| t.candidate != bt.candidate && !t.is_combination())
+    };
     let runner = others()
         .filter(|t| t.passes_rules && t.candidate.storable())
         .min_by(|a, b| a.cv.total_cmp(&b.cv))
@@ -262,6 +266,98 @@ fn compare_with_others(
     }
 }
 
+/// What an accepted combination's member is judged against.
+pub struct MemberContext<'a> {
+    /// The fit with the other members only (the current model when there is no other).
+    pub without: &'a Fit,
+    /// Windows in use.
+    pub used: &'a [bool],
+    /// The windows.
+    pub wins: &'a [Win],
+    /// Correlation of window time and temperature.
+    pub time_temp_r: Option<f64>,
+}
+
+/// Evidence for one member of an accepted combination `combo`: the pattern it explains in
+/// what the other members leave, its drop test, its fitted values, and — for a time- or
+/// temperature-like member — the same combination with its counterpart instead.
+pub fn member_evidence(
+    ctx: &MemberContext<'_>,
+    combo: &TermTrial,
+    d: &DropTest,
+    trials: &[TermTrial],
+    (vals, ses, unit): (&[f64; 3], &[f64; 3], &str),
+) -> String {
+    let used_idx = || (0..ctx.wins.len()).filter(|i| ctx.used[*i]);
+    let r_rest: Vec<f64> = used_idx()
+        .map(|i| am::residual(&ctx.without.p, &ctx.wins[i]))
+        .collect();
+    let r_all: Vec<f64> = used_idx()
+        .map(|i| am::residual(&combo.fit.p, &ctx.wins[i]))
+        .collect();
+    let sig: Vec<f64> = r_rest.iter().zip(&r_all).map(|(a, b)| a - b).collect();
+    let r_sig = st::correlation(&r_rest, &sig);
+    let explained = 1.0 - combo.fit.rss / ctx.without.rss.max(1e-300);
+    let others: Vec<&str> = combo
+        .terms
+        .iter()
+        .filter(|t| **t != d.term)
+        .map(|t| t.name())
+        .collect();
+    let mut evidence = format!(
+        "found together with {} ({} at once): {}: the others leave CV {:.3} mg, with it {:.3} mg; it explains {:.0}% of the residual variance they leave (r = {r_sig:.2}); without it F(3,{}) = {:.1}, p {}; fitted {} ± {} {unit}",
+        others.join(" + "),
+        combo.name(),
+        pattern(d.term),
+        d.cv_without * 1e3,
+        combo.cv * 1e3,
+        100.0 * explained,
+        combo.fit.n - combo.fit.k,
+        d.f,
+        fmt_p(d.p),
+        fmt_vec(vals, 3),
+        fmt_vec(ses, 3),
+    );
+    let counterpart = match d.term {
+        Term::Drift => Some(Term::BiasTemp),
+        Term::BiasTemp => Some(Term::Drift),
+        _ => None,
+    };
+    if let Some(c) = counterpart.filter(|c| !combo.terms.contains(c)) {
+        let swapped: Vec<Term> = combo
+            .terms
+            .iter()
+            .map(|t| if *t == d.term { c } else { *t })
+            .collect();
+        if let Some(alt) = trials.iter().find(|t| t.adds(&swapped)) {
+            let pp = paired_p(&combo.loo, &alt.loo, ctx.used);
+            let _ = write!(
+                evidence,
+                "; against {}: CV {:.3} mg (paired test on held-out errors p {})",
+                alt.name(),
+                alt.cv * 1e3,
+                pp.map_or("n/a".into(), fmt_p)
+            );
+            if let Some(r) = ctx.time_temp_r {
+                let _ = write!(
+                    evidence,
+                    "; window time and temperature correlate r = {r:.2}"
+                );
+            }
+            if alt.passes_rules && pp.is_some_and(|p| p > 0.05) {
+                let _ = write!(
+                    evidence,
+                    "; {} and {} are NOT separable by these data (both pass; their held-out errors do not differ significantly): chose {} by its lower CV",
+                    d.term.name(),
+                    c.name(),
+                    d.term.name()
+                );
+            }
+        }
+    }
+    evidence
+}
+
 /// Evidence for rejecting the outlier candidate's windows. `times`: sample times;
 /// `spans`: each window's first and last sample; `current_loo`: the current model's held-out
 /// residuals (g); `best_term`: the best smooth effect that passes, if any.
@@ -300,8 +396,19 @@ pub fn outlier_evidence(
             )
         })
         .unwrap_or_else(|| "; no smooth effect explains them (none passes its test)".into());
+    let under = ot
+        .screened_with
+        .as_ref()
+        .map_or(String::new(), |n| {
+            let (after, before) = ot.judged_cv.unwrap_or((f64::NAN, None));
+            format!(
+                " (screened with {n} added to the model, which the windows hide from its own test: with it the kept windows' CV goes {:.3} → {:.3} mg on rejection)",
+                before.unwrap_or(f64::NAN) * 1e3,
+                after * 1e3
+            )
+        });
     format!(
-        "{} window(s) sit far outside the held-out spread of the others (robust biweight screen, then a prediction-error t-test against the fit on the others, Bonferroni over windows): {}{}; CV of the kept windows {:.3} → {:.3} mg",
+        "{} window(s) sit far outside the held-out spread of the others (robust biweight screen, then a prediction-error t-test against the fit on the others, Bonferroni over windows){under}: {}{}; CV of the kept windows {:.3} → {:.3} mg",
         ot.rejected.len(),
         list.join("; "),
         smooth,

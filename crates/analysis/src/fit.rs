@@ -3,7 +3,7 @@
 
 use crate::error::{Error, Result};
 use crate::recording::Recording;
-use crate::windows::{check_saturation, detect, infer_adc_range, DetectOptions};
+use crate::windows::{detect_windows, DetectOptions};
 use serde::Serialize;
 use wiical_core::multipos::{self, MultiPosConfig, MultiPosFit, MultiPosModel};
 use wiical_core::Calibration;
@@ -37,7 +37,8 @@ pub struct WindowReport {
     pub samples: u32,
     /// Mean raw reading.
     pub mean: [f32; 3],
-    /// Per-axis standard deviation of the raw readings.
+    /// Per-axis standard deviation of the raw readings (at least the quantisation's √(1/12)
+    /// for integer counts).
     pub std: [f32; 3],
     /// Residual ‖a‖ − 1 g after calibration, milli-g.
     pub residual_mg: f32,
@@ -60,7 +61,9 @@ pub struct FitReport {
     pub iterations: u32,
     /// Smallest eigenvalue of the scaled normal matrix (near 0: poorly spread poses).
     pub identifiability: f32,
-    /// Per-axis noise std of the initial rest period, raw units.
+    /// Per-axis noise std of the detector's reference (the initial rest period, or the
+    /// adaptive detector's quiet-block quantile), raw units (in the detector's view: rescaled
+    /// for non-integer data with the fixed detector).
     pub noise_std: [f32; 3],
     /// The windows.
     pub windows: Vec<WindowReport>,
@@ -69,32 +72,25 @@ pub struct FitReport {
     pub calibration: Calibration,
 }
 
-/// Detects static windows and fits the multi-position model.
+/// Detects static windows and fits the multi-position model: the same windows as
+/// [`crate::analyze()`] ([`detect_windows`]: one pipeline for `fit` and `analyze`), their
+/// means fitted by the core's `f32` solver.
 pub fn run(rec: &Recording, opts: &FitOptions) -> Result<FitReport> {
-    let det = detect(rec, &opts.detect)?;
-    let range = opts.detect.adc_range.or_else(|| infer_adc_range(rec));
-    check_saturation(rec, &det.intervals, range)?;
-    let means: Vec<[f32; 3]> = det.intervals.iter().map(|iv| iv.mean).collect();
+    let ws = detect_windows(rec, &opts.detect)?;
+    let means: Vec<[f32; 3]> = ws.stats.iter().map(|w| w.mean.map(|x| x as f32)).collect();
     let fit = fit_means(&means, opts.model)?;
     let cal = fit.calibration;
-    let windows: Vec<WindowReport> = det
-        .intervals
+    let windows: Vec<WindowReport> = ws
+        .stats
         .iter()
-        .map(|iv| WindowReport {
-            t_start: det
-                .times
-                .get(iv.start as usize)
-                .copied()
-                .unwrap_or(f64::NAN),
-            t_end: det
-                .times
-                .get((iv.end as usize).saturating_sub(1))
-                .copied()
-                .unwrap_or(f64::NAN),
-            samples: iv.len(),
-            mean: iv.mean,
-            std: iv.variance.map(f32::sqrt),
-            residual_mg: 1000.0 * multipos::norm_residual(&cal, iv.mean, 1.0),
+        .zip(&means)
+        .map(|(w, m)| WindowReport {
+            t_start: ws.times[w.start],
+            t_end: ws.times[w.end - 1],
+            samples: w.n() as u32,
+            mean: *m,
+            std: w.var.map(|v| v.sqrt() as f32),
+            residual_mg: 1000.0 * multipos::norm_residual(&cal, *m, 1.0),
         })
         .collect();
     Ok(FitReport {
@@ -105,7 +101,7 @@ pub fn run(rec: &Recording, opts: &FitOptions) -> Result<FitReport> {
         max_abs_mg: 1000.0 * fit.max_abs_residual,
         iterations: fit.iterations,
         identifiability: fit.identifiability,
-        noise_std: det.reference_variance.map(f32::sqrt),
+        noise_std: ws.reference_variance.map(f32::sqrt),
         windows,
         calibration: cal,
     })

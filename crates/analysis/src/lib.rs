@@ -13,11 +13,13 @@
 //! | step | module | in → out |
 //! |---|---|---|
 //! | load | [`mod@load`] | file or text → [`Recording`] (CSV with a header, or `t x y z` text) |
+//! | columns | [`columns`] | header names → the wanted sensor's axis triplet by pattern |
 //! | units, rate | [`recording`] | recording → sample rate; window means → `raw` / `g` / `m/s^2` |
 //! | window detection | [`windows`] | recording → static windows (core detector) + f64 window statistics |
 //! | gyroscope | [`gyro`] | accelerometer + gyro recordings → motions between windows, gyro scale / misalignment / bias by held-out error ([`gyro::run`]) |
 //! | base fit | [`fit`] | window means → 9- (or 6-) parameter [`Calibration`] (core `f32` LM) |
 //! | effect model | [`model`] | base + effect blocks, f64 residual ‖a‖ − 1 g, LM, leave-one-out |
+//! | held-out errors at linear cost | [`press`] | full fit → leave-one-window-out residuals (PRESS identity above 200 windows) |
 //! | noise floor | [`noise`] | window variances → per-window floor, χ² of a model |
 //! | candidates | [`candidate`], [`trial`], [`outliers`] | current model → each candidate's fit, F-test, CV |
 //! | selection | [`select`] | the candidates' numbers → the one added (the rule and its constants) |
@@ -66,6 +68,7 @@
 pub mod analyze;
 pub mod calfile;
 pub mod candidate;
+pub mod columns;
 pub mod error;
 pub mod evidence;
 pub mod fit;
@@ -77,6 +80,7 @@ pub mod model;
 pub mod noise;
 pub mod options;
 pub mod outliers;
+pub mod press;
 pub mod recording;
 pub mod report;
 pub mod select;

@@ -3,7 +3,8 @@
 //!
 //! Accepted shapes:
 //! * CSV (comma or semicolon) with a header line. Column names map by meaning, case-insensitive:
-//!   time `t|time|timestamp|time_s`, axes `x|ax|mx|gx|acc_x|accx|…` (first triplet found),
+//!   time `t|time|timestamp|time_s`, axes by pattern (`x`, `ax`, `acc_x_g`, `AccX`,
+//!   `mag_x_gauss`, `gyro_x_dps`, … see [`crate::columns`]: the wanted sensor's triplet),
 //!   temperature `temp|temperature|temp_c`, pose label `pose|label`. A different triplet can be
 //!   chosen with [`LoadOptions::columns`]. Lines before the header of the form `key,value`
 //!   (e.g. `Fs,100`) are metadata; `Fs` gives the sample rate.
@@ -12,6 +13,7 @@
 //!
 //! Every value must be finite; the first bad line is reported with its number.
 
+use crate::columns::Sensor;
 use crate::error::{Error, Result};
 use crate::input::{quote, quote_header, read_text, MAX_RECORDING_BYTES};
 use crate::recording::Recording;
@@ -23,6 +25,9 @@ use std::path::Path;
 pub struct LoadOptions {
     /// Explicit header names for the x, y, z columns (e.g. `["gx","gy","gz"]`).
     pub columns: Option<[String; 3]>,
+    /// Which sensor's triplet to take from a header naming several
+    /// ([`crate::columns`]; `None`: the accelerometer).
+    pub sensor: Option<Sensor>,
 }
 
 /// Loads a recording from a file; see the module docs for the accepted formats.
@@ -235,20 +240,6 @@ const TIME_NAMES: &[&str] = &["t", "time", "timestamp", "time_s", "t_s", "second
 const TEMP_NAMES: &[&str] = &["temp", "temperature", "temp_c", "temperature_c"];
 const LABEL_NAMES: &[&str] = &["pose", "label"];
 
-/// Axis triplets recognised by name, in order of preference.
-const AXIS_TRIPLETS: &[[&str; 3]] = &[
-    ["x", "y", "z"],
-    ["ax", "ay", "az"],
-    ["acc_x", "acc_y", "acc_z"],
-    ["accx", "accy", "accz"],
-    ["accel_x", "accel_y", "accel_z"],
-    ["mx", "my", "mz"],
-    ["mag_x", "mag_y", "mag_z"],
-    ["gx", "gy", "gz"],
-    ["gyro_x", "gyro_y", "gyro_z"],
-    ["x_raw", "y_raw", "z_raw"],
-];
-
 fn parse_csv(text: &str, opts: &LoadOptions, delim: Delimiter) -> Result<Recording> {
     let decimal_comma = delim == Delimiter::Semicolon;
     let mut reader = csv::ReaderBuilder::new()
@@ -379,14 +370,8 @@ fn map_header(fields: &[String], opts: &LoadOptions) -> Result<(usize, [usize; 3
         }
         out
     } else {
-        AXIS_TRIPLETS
-            .iter()
-            .find_map(|tri| {
-                let a = fields.iter().position(|f| f == tri[0])?;
-                let b = fields.iter().position(|f| f == tri[1])?;
-                let c = fields.iter().position(|f| f == tri[2])?;
-                Some([a, b, c])
-            })
+        crate::columns::find_triplet(fields, opts.sensor.unwrap_or(Sensor::Accelerometer))
+            .map(|t| t.columns)
             .ok_or_else(|| Error::NoAxisColumns {
                 header: quote_header(&fields.join(", ")),
             })?
@@ -428,6 +413,7 @@ mod tests {
             "ax,ay,az,gx,gy,gz\n1,2,3,4,5,6\n",
             &LoadOptions {
                 columns: Some(["gx".into(), "gy".into(), "gz".into()]),
+                ..Default::default()
             },
         )
         .unwrap();
@@ -447,6 +433,7 @@ mod tests {
         let text = "t,x,y,z,ext_x,ext_y,ext_z\n0,1,2,3,4,5,6\n0.01,1,2,3,,,\n0.02,1,2,3,7,8,9\n";
         let opts = LoadOptions {
             columns: Some(["ext_x".into(), "ext_y".into(), "ext_z".into()]),
+            ..Default::default()
         };
         let r = parse(text, &opts).unwrap();
         assert_eq!(r.xyz, vec![[4.0, 5.0, 6.0], [7.0, 8.0, 9.0]]);
@@ -508,6 +495,7 @@ mod tests {
     fn time_and_temperature_are_not_axes() {
         let cols = |c: [&str; 3]| LoadOptions {
             columns: Some(c.map(String::from)),
+            sensor: None,
         };
         let text = "t,x,y,z,temp\n0,1,2,3,20\n0.01,1,2,3,20\n";
         let e = parse(text, &cols(["t", "x", "y"])).unwrap_err();

@@ -20,6 +20,13 @@ pub struct OutlierTrial {
     pub loo: Vec<Option<f64>>,
     /// Windows in use after the rejection.
     pub used: Vec<bool>,
+    /// The effect added to the current model for the screen, when the current model alone
+    /// could not single the windows out (`None`: screened under the current model).
+    pub screened_with: Option<String>,
+    /// With `screened_with`: the leave-one-window-out RMS of the kept windows under that
+    /// model, fitted without the rejected windows and with them (g). The rejection is judged
+    /// by these (an effect the current model lacks would otherwise hide its benefit).
+    pub judged_cv: Option<(f64, Option<f64>)>,
 }
 
 /// Outlier screening and test under the current model.
@@ -193,7 +200,7 @@ fn test_suspects(
     if rejected.is_empty() {
         return None;
     }
-    let loo = am::loo(&fit, mask, wins, &used)?;
+    let loo = crate::press::loo(&fit, mask, wins, &used)?;
     Some(OutlierTrial {
         rejected,
         p_values,
@@ -201,6 +208,8 @@ fn test_suspects(
         fit,
         loo,
         used,
+        screened_with: None,
+        judged_cv: None,
     })
 }
 

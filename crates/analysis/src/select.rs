@@ -63,6 +63,10 @@ pub struct TermScore {
     pub cv_on_kept: Option<f64>,
     /// The core can store it (false: diagnostic only, never added).
     pub storable: bool,
+    /// For several effects added at once: every member passes its drop test (the combination
+    /// without it is significantly worse, F-test at the same level, and its CV at least the
+    /// factor higher). True for a single effect.
+    pub members_pass: bool,
 }
 
 /// The numbers the outlier candidate was measured by: its suspects already passed their own
@@ -105,7 +109,9 @@ pub enum Choice {
 
 /// The rule. A term candidate passes when its F-test p-value is below `level` (= α divided by
 /// the candidates tried at this step) **and** its CV times `cv_factor` is at most the current
-/// CV; the passing storable candidate with the lowest CV wins. The outlier candidate passes when
+/// CV **and**, for several effects at once, every member passes its drop test; the passing
+/// storable candidate with the lowest CV wins (so a combination wins over its parts only when
+/// each part is needed). The outlier candidate passes when
 /// rejecting its windows improves the CV of the kept windows by the same factor; it wins over
 /// the best term candidate when its CV on the kept windows is lower than that candidate's on
 /// the same windows (so that both are judged on the same poses).
@@ -121,7 +127,7 @@ pub fn select(
         .iter()
         .map(|t| current_cv.is_some_and(|c0| t.cv * cv_factor <= c0))
         .collect();
-    let passes = |i: usize| significant[i] && cv_improved[i];
+    let passes = |i: usize| significant[i] && cv_improved[i] && terms[i].members_pass;
     let best_among = |storable: bool| {
         (0..terms.len())
             .filter(|&i| passes(i) && terms[i].storable == storable)
@@ -199,7 +205,20 @@ mod tests {
             cv,
             cv_on_kept: None,
             storable: true,
+            members_pass: true,
         }
+    }
+
+    #[test]
+    fn a_combination_wins_only_when_every_member_is_needed() {
+        let single = term(1e-9, 0.6);
+        let mut pair = term(1e-12, 0.3);
+        let s = select(&[single, pair], None, Some(1.0), 1e-4, CV_FACTOR);
+        assert_eq!(s.choice, Choice::Term(1));
+        // One member fails its drop test: the pair is refused, the single wins.
+        pair.members_pass = false;
+        let s = select(&[single, pair], None, Some(1.0), 1e-4, CV_FACTOR);
+        assert_eq!(s.choice, Choice::Term(0));
     }
 
     #[test]

@@ -1,5 +1,5 @@
 //! The simulator: Wiimote- / Nunchuk-like multi-position recordings with known truth and,
-//! optionally, one effect the linear model lacks, for testing `wiical analyze` blind.
+//! optionally, one or several effects the linear model lacks, for testing `wiical analyze` blind.
 //!
 //! What a recording looks like:
 //! * 10-bit counts (bias near 512; ~105 counts/g for the Wiimote's ADXL330, ~200 counts/g for
@@ -20,13 +20,15 @@
 //! triangular: x axis kept, y in the x–y plane), so the truth's parameters are directly
 //! comparable with what `analyze` reports.
 //!
-//! The effect and its `--magnitude` (always milli-g):
+//! The effects (`--effect a,b`: several at once, each drawn as if it were alone, in the order
+//! given) and their `--magnitude` (always milli-g, one value for all or one per effect):
 //! | effect | truth term (correction side, see `wiical_core::model`) | magnitude X means |
 //! |---|---|---|
 //! | `quadratic` | `k2` per axis | largest `|k2|` is X mg/g² (X mg at 1 g on that axis) |
 //! | `cubic` | `k3` per axis | largest `|k3|` is X mg/g³ |
 //! | `bias-drift` | bias drift per axis (raw/s) | the bias moves by X mg (vector norm) over the recording |
 //! | `temperature` | bias temperature coefficient (raw/°C) | the bias moves by X mg over the recording's temperature range |
+//! | `temperature-scale` | relative scale temperature coefficient (1/°C) per axis | the largest axis's scale moves by X mg/g over the recording's temperature range |
 //! | `outliers` | 2–3 poses that were not still | each carries an extra specific force along gravity that shifts its mean ‖a‖ by ±X mg |
 //!
 //! The truth is written next to the recording as `FILE.truth.json` ([`Truth`]).
@@ -55,18 +57,21 @@ pub enum SimEffect {
     BiasDrift,
     /// Bias linear in temperature.
     Temperature,
+    /// Scale linear in temperature.
+    TemperatureScale,
     /// A few poses that were not still.
     Outliers,
 }
 
 impl SimEffect {
     /// All effects, `None` first.
-    pub const ALL: [SimEffect; 6] = [
+    pub const ALL: [SimEffect; 7] = [
         SimEffect::None,
         SimEffect::Quadratic,
         SimEffect::Cubic,
         SimEffect::BiasDrift,
         SimEffect::Temperature,
+        SimEffect::TemperatureScale,
         SimEffect::Outliers,
     ];
 
@@ -78,6 +83,7 @@ impl SimEffect {
             SimEffect::Cubic => "cubic",
             SimEffect::BiasDrift => "bias-drift",
             SimEffect::Temperature => "temperature",
+            SimEffect::TemperatureScale => "temperature-scale",
             SimEffect::Outliers => "outliers",
         }
     }
@@ -95,8 +101,39 @@ impl SimEffect {
             SimEffect::Cubic => 30.0,
             SimEffect::BiasDrift => 10.0,
             SimEffect::Temperature => 10.0,
+            SimEffect::TemperatureScale => 10.0,
             SimEffect::Outliers => 10.0,
         }
+    }
+
+    /// True when the effect needs the temperature column (it is then always written).
+    pub fn needs_temperature(self) -> bool {
+        matches!(self, SimEffect::Temperature | SimEffect::TemperatureScale)
+    }
+}
+
+/// One effect put into a simulation and its size.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EffectSpec {
+    /// Which effect.
+    pub effect: SimEffect,
+    /// Its size in milli-g (see the module docs); `None`: [`SimEffect::default_magnitude_mg`].
+    pub magnitude_mg: Option<f64>,
+}
+
+impl EffectSpec {
+    /// `effect` at `magnitude_mg` (`None`: its default).
+    pub fn new(effect: SimEffect, magnitude_mg: Option<f64>) -> Self {
+        Self {
+            effect,
+            magnitude_mg,
+        }
+    }
+
+    /// The magnitude in use, mg.
+    pub fn magnitude(&self) -> f64 {
+        self.magnitude_mg
+            .unwrap_or_else(|| self.effect.default_magnitude_mg())
     }
 }
 
@@ -147,10 +184,9 @@ impl Device {
 /// Simulation settings.
 #[derive(Debug, Clone)]
 pub struct SimConfig {
-    /// The effect to put in.
-    pub effect: SimEffect,
-    /// Its size in milli-g (see the module docs); `None`: [`SimEffect::default_magnitude_mg`].
-    pub magnitude_mg: Option<f64>,
+    /// The effects to put in (empty or `none` only: the linear model alone). Each appears at
+    /// most once.
+    pub effects: Vec<EffectSpec>,
     /// Seed of every random choice.
     pub seed: u64,
     /// Device.
@@ -161,7 +197,7 @@ pub struct SimConfig {
     pub rate_hz: f64,
     /// Initial rest, s.
     pub init_s: f64,
-    /// Write a `temp` column (forced on for the `temperature` effect).
+    /// Write a `temp` column (forced on for the `temperature` and `temperature-scale` effects).
     pub temp_column: bool,
     /// Per-sample noise std (counts); `None`: the device's.
     pub noise_counts: Option<f64>,
@@ -170,8 +206,7 @@ pub struct SimConfig {
 impl Default for SimConfig {
     fn default() -> Self {
         Self {
-            effect: SimEffect::None,
-            magnitude_mg: None,
+            effects: Vec::new(),
             seed: 1,
             device: Device::Wiimote,
             poses: 30,
@@ -212,10 +247,13 @@ pub struct TrueOutlier {
 pub struct Truth {
     /// Device imitated.
     pub device: &'static str,
-    /// Effect put in.
-    pub effect: &'static str,
-    /// Its magnitude, milli-g (meaning per effect: see the module docs).
+    /// Effects put in, comma-separated as on the command line (`none` without any).
+    pub effect: String,
+    /// The first effect's magnitude, milli-g (meaning per effect: see the module docs; 0 for
+    /// `none`).
     pub magnitude_mg: f64,
+    /// Every effect's magnitude, milli-g, in the order of `effect`.
+    pub magnitudes_mg: Vec<f64>,
     /// Seed.
     pub seed: u64,
     /// Sample rate, Hz.
@@ -355,23 +393,32 @@ fn axis_coefficients(rng: &mut ChaCha8Rng, x: f64) -> [f64; 3] {
     k
 }
 
-/// Checks the settings; returns the effect magnitude (mg) and the noise (counts) in use.
-fn check_config(cfg: &SimConfig) -> Result<(f64, f64)> {
+/// Checks the settings; returns the effects in use (without `none`) with their magnitudes (mg)
+/// and the noise (counts).
+fn check_config(cfg: &SimConfig) -> Result<(Vec<(SimEffect, f64)>, f64)> {
     if !(cfg.rate_hz.is_finite() && cfg.rate_hz >= 20.0 && cfg.rate_hz <= 2000.0) {
         return Err(Error::InvalidSetting("rate must be between 20 and 2000 Hz"));
     }
-    if cfg.poses < 9 || cfg.poses > 500 {
+    if cfg.poses < 9 || cfg.poses > 20_000 {
         return Err(Error::InvalidSetting(
-            "poses must be between 9 and 500 (the full model needs at least 9)",
+            "poses must be between 9 and 20000 (the full model needs at least 9)",
         ));
     }
-    let magnitude = cfg
-        .magnitude_mg
-        .unwrap_or_else(|| cfg.effect.default_magnitude_mg());
-    if !(magnitude.is_finite() && (0.0..=200.0).contains(&magnitude)) {
-        return Err(Error::InvalidSetting(
-            "magnitude must be between 0 and 200 mg",
-        ));
+    let mut effects: Vec<(SimEffect, f64)> = Vec::new();
+    for spec in &cfg.effects {
+        let magnitude = spec.magnitude();
+        if !(magnitude.is_finite() && (0.0..=200.0).contains(&magnitude)) {
+            return Err(Error::InvalidSetting(
+                "magnitude must be between 0 and 200 mg",
+            ));
+        }
+        if spec.effect == SimEffect::None {
+            continue;
+        }
+        if effects.iter().any(|(e, _)| *e == spec.effect) {
+            return Err(Error::InvalidSetting("effect: each effect may appear once"));
+        }
+        effects.push((spec.effect, magnitude));
     }
     if !(cfg.init_s.is_finite() && cfg.init_s >= 3.0) {
         return Err(Error::InvalidSetting(
@@ -386,7 +433,7 @@ fn check_config(cfg: &SimConfig) -> Result<(f64, f64)> {
             "noise must be between 0 and 20 counts",
         ));
     }
-    Ok((magnitude, noise))
+    Ok((effects, noise))
 }
 
 /// One stretch of the timeline.
@@ -513,68 +560,81 @@ struct Scene {
     segs: Vec<Seg>,
     tm: TempModel,
     temps: Vec<f64>,
-    /// Quadratic, cubic, drift (counts/s), bias temperature coefficient (counts/°C).
-    eff64: [[f64; 3]; 4],
+    /// Quadratic, cubic, drift (counts/s), bias temperature coefficient (counts/°C), scale
+    /// temperature coefficient (1/°C).
+    eff64: [[f64; 3]; 5],
     outliers: Vec<TrueOutlier>,
 }
 
-/// The effect terms (and the outlier poses) for `cfg.effect` of size `magnitude` mg.
+/// The effect terms (and the outlier poses) for `effects` (each with its size in mg), drawn
+/// in the order given, each as if it were alone (so a single effect draws exactly what it
+/// always did).
 fn effect_terms(
     rng: &mut ChaCha8Rng,
-    effect: SimEffect,
-    magnitude: f64,
+    effects: &[(SimEffect, f64)],
     s: &[f64; 3],
     scene: &Scene,
     duration: f64,
-) -> Result<([[f64; 3]; 4], Vec<TrueOutlier>)> {
+) -> Result<([[f64; 3]; 5], Vec<TrueOutlier>)> {
     let (tmin, tmax) = scene
         .temps
         .iter()
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| {
             (a.min(*x), b.max(*x))
         });
-    let mut eff64 = [[0.0f64; 3]; 4];
-    let x = magnitude / 1000.0;
+    let t_range = (tmax - tmin).max(0.5);
+    let mut eff64 = [[0.0f64; 3]; 5];
     let mut outliers = Vec::new();
-    match effect {
-        SimEffect::None => {}
-        SimEffect::Quadratic => eff64[0] = axis_coefficients(rng, x),
-        SimEffect::Cubic => eff64[1] = axis_coefficients(rng, x),
-        SimEffect::BiasDrift => {
-            let v = random_unit(rng);
-            eff64[2] = std::array::from_fn(|j| v[j] * x * s[j] / duration);
-        }
-        SimEffect::Temperature => {
-            let v = random_unit(rng);
-            eff64[3] = std::array::from_fn(|j| v[j] * x * s[j] / (tmax - tmin).max(0.5));
-        }
-        SimEffect::Outliers => {
-            let count = rng.random_range(2..=3usize);
-            let mut chosen: Vec<usize> = Vec::new();
-            while chosen.len() < count {
-                let k = rng.random_range(1..scene.dirs.len());
-                if !chosen.contains(&k) {
-                    chosen.push(k);
-                }
+    for &(effect, magnitude) in effects {
+        let x = magnitude / 1000.0;
+        match effect {
+            SimEffect::None => {}
+            SimEffect::Quadratic => eff64[0] = axis_coefficients(rng, x),
+            SimEffect::Cubic => eff64[1] = axis_coefficients(rng, x),
+            SimEffect::BiasDrift => {
+                let v = random_unit(rng);
+                eff64[2] = std::array::from_fn(|j| v[j] * x * s[j] / duration);
             }
-            chosen.sort_unstable();
-            for k in chosen {
-                let seg = scene
-                    .segs
-                    .iter()
-                    .find(|s| matches!(s.kind, SegKind::Hold(p) if p == k))
-                    .ok_or_else(|| Error::Internal("hold segment".into()))?;
-                let sign = if rng.random::<bool>() { 1.0 } else { -1.0 };
-                outliers.push(TrueOutlier {
-                    pose: k,
-                    t_start: seg.t0,
-                    t_end: seg.t1,
-                    shift_mg: sign * magnitude,
-                });
+            SimEffect::Temperature => {
+                let v = random_unit(rng);
+                eff64[3] = std::array::from_fn(|j| v[j] * x * s[j] / t_range);
             }
+            SimEffect::TemperatureScale => {
+                eff64[4] = axis_coefficients(rng, x).map(|k| k / t_range);
+            }
+            SimEffect::Outliers => outliers = outlier_poses(rng, magnitude, scene)?,
         }
     }
     Ok((eff64, outliers))
+}
+
+/// 2–3 distinct poses (not the rest) whose mean ‖a‖ is pushed by ±`magnitude` mg.
+fn outlier_poses(rng: &mut ChaCha8Rng, magnitude: f64, scene: &Scene) -> Result<Vec<TrueOutlier>> {
+    let count = rng.random_range(2..=3usize);
+    let mut chosen: Vec<usize> = Vec::new();
+    while chosen.len() < count {
+        let k = rng.random_range(1..scene.dirs.len());
+        if !chosen.contains(&k) {
+            chosen.push(k);
+        }
+    }
+    chosen.sort_unstable();
+    let mut outliers = Vec::new();
+    for k in chosen {
+        let seg = scene
+            .segs
+            .iter()
+            .find(|s| matches!(s.kind, SegKind::Hold(p) if p == k))
+            .ok_or_else(|| Error::Internal("hold segment".into()))?;
+        let sign = if rng.random::<bool>() { 1.0 } else { -1.0 };
+        outliers.push(TrueOutlier {
+            pose: k,
+            t_start: seg.t0,
+            t_end: seg.t1,
+            shift_mg: sign * magnitude,
+        });
+    }
+    Ok(outliers)
 }
 
 impl Scene {
@@ -616,13 +676,16 @@ impl Scene {
     }
 
     /// The noiseless reading (counts) of specific force `f` at time `ti` and temperature
-    /// `theta`: the correction-side model inverted, `a = u + q u² + c u³`, `u = D⁻¹(m − b_eff)`.
+    /// `theta`: the correction-side model inverted, `a = u + q u² + c u³`,
+    /// `u = (1 + σ·Δθ)·D⁻¹(m − b_eff)` per axis.
     fn reading(&self, f: &[f64; 3], ti: f64, theta: f64) -> [f64; 3] {
         let e = &self.eff64;
-        let u: [f64; 3] = std::array::from_fn(|j| invert_nonlinearity(f[j], e[0][j], e[1][j]));
         let dth = theta - self.tm.room_c;
+        let v: [f64; 3] = std::array::from_fn(|j| {
+            invert_nonlinearity(f[j], e[0][j], e[1][j]) / (1.0 + e[4][j] * dth)
+        });
         std::array::from_fn(|j| {
-            let lin: f64 = (0..3).map(|k| self.d[j][k] * u[k]).sum();
+            let lin: f64 = (0..3).map(|k| self.d[j][k] * v[k]).sum();
             let b_eff = self.bias[j] + e[2][j] * ti + e[3][j] * dth;
             lin + b_eff
         })
@@ -685,7 +748,7 @@ impl Scene {
             cubic: e[1].map(|v| v as f32),
             bias_drift: e[2].map(|v| v as f32),
             bias_temp: e[3].map(|v| v as f32),
-            ..Effects::default()
+            scale_temp: e[4].map(|v| v as f32),
         };
         Ok(calibration)
     }
@@ -741,7 +804,7 @@ impl Scene {
 
 /// Simulates a recording (see the module docs).
 pub fn simulate(cfg: &SimConfig) -> Result<SimOutput> {
-    let (magnitude, noise) = check_config(cfg)?;
+    let (effects, noise) = check_config(cfg)?;
     let mut rng = ChaCha8Rng::seed_from_u64(cfg.seed);
     let cpg = cfg.device.counts_per_g();
     let fs = cfg.rate_hz;
@@ -763,23 +826,24 @@ pub fn simulate(cfg: &SimConfig) -> Result<SimOutput> {
         segs,
         tm,
         temps,
-        eff64: [[0.0; 3]; 4],
+        eff64: [[0.0; 3]; 5],
         outliers: Vec::new(),
     };
-    (scene.eff64, scene.outliers) =
-        effect_terms(&mut rng, cfg.effect, magnitude, &s, &scene, duration)?;
+    (scene.eff64, scene.outliers) = effect_terms(&mut rng, &effects, &s, &scene, duration)?;
     let rec = scene.record(
         &mut rng,
-        cfg.temp_column || cfg.effect == SimEffect::Temperature,
+        cfg.temp_column || effects.iter().any(|(e, _)| e.needs_temperature()),
     );
+    let names: Vec<&str> = effects.iter().map(|(e, _)| e.name()).collect();
     let truth = Truth {
         device: cfg.device.name(),
-        effect: cfg.effect.name(),
-        magnitude_mg: if cfg.effect == SimEffect::None {
-            0.0
+        effect: if names.is_empty() {
+            "none".into()
         } else {
-            magnitude
+            names.join(",")
         },
+        magnitude_mg: effects.first().map_or(0.0, |e| e.1),
+        magnitudes_mg: effects.iter().map(|e| e.1).collect(),
         seed: cfg.seed,
         rate_hz: fs,
         samples: n,
@@ -849,7 +913,7 @@ mod tests {
     fn same_seed_same_recording_and_parses_back() {
         let cfg = SimConfig {
             poses: 10,
-            effect: SimEffect::Temperature,
+            effects: vec![EffectSpec::new(SimEffect::Temperature, None)],
             ..Default::default()
         };
         let a = simulate(&cfg).unwrap();

@@ -31,10 +31,61 @@ pub fn mask_for(model: MultiPosModel, terms: &[Term]) -> Mask {
 /// A parametric candidate: one or more effect blocks added together.
 #[derive(Debug, Clone)]
 pub struct CandSpec {
-    /// Which candidate.
+    /// Which candidate (for a combination of several effects: its first).
     pub candidate: Candidate,
     /// The blocks it adds to the current model.
     pub terms: Vec<Term>,
+}
+
+impl CandSpec {
+    /// A single effect (or the curved-drift diagnostic, which is one candidate of two blocks).
+    pub fn single(candidate: Candidate, terms: Vec<Term>) -> Self {
+        Self { candidate, terms }
+    }
+
+    /// Several effects added at once (`terms` in the order of [`Term::ALL`]).
+    pub fn combination(terms: Vec<Term>) -> Self {
+        Self {
+            candidate: Candidate::of_term(terms[0]),
+            terms,
+        }
+    }
+
+    /// The report name: the candidate's, or the effects joined by `+`.
+    pub fn name(&self) -> String {
+        combination_name(self.candidate, &self.terms)
+    }
+}
+
+/// The report name of a candidate adding `terms`: `quadratic`, `quadratic+temperature`, …
+fn combination_name(candidate: Candidate, terms: &[Term]) -> String {
+    if is_combination(candidate, terms) {
+        terms.iter().map(|t| t.name()).collect::<Vec<_>>().join("+")
+    } else {
+        candidate.to_string()
+    }
+}
+
+/// True when the candidate adds several effects (not the curved drift, which is one
+/// candidate of two blocks).
+fn is_combination(candidate: Candidate, terms: &[Term]) -> bool {
+    candidate != Candidate::BiasDriftCurved && terms.len() > 1
+}
+
+/// The test that one member of a combination is needed: the combination against the same
+/// combination without it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DropTest {
+    /// The member.
+    pub term: Term,
+    /// F statistic of removing it (denominator: the combination's residual variance).
+    pub f: f64,
+    /// Its p-value.
+    pub p: f64,
+    /// Leave-one-window-out RMS without it (what the other members leave), g.
+    pub cv_without: f64,
+    /// Significant at the step's level and the CV without it at least the factor higher.
+    pub passes: bool,
 }
 
 /// The current model of the greedy search.
@@ -80,6 +131,76 @@ pub struct TermTrial {
     pub passes_rules: bool,
     /// Index of its row in the step's candidate reports.
     pub report: usize,
+    /// For a combination: each member's drop test (empty for a single effect).
+    pub drops: Vec<DropTest>,
+}
+
+impl TermTrial {
+    /// The report name (see [`CandSpec::name`]).
+    pub fn name(&self) -> String {
+        combination_name(self.candidate, &self.terms)
+    }
+
+    /// True for several effects added at once.
+    pub fn is_combination(&self) -> bool {
+        is_combination(self.candidate, &self.terms)
+    }
+
+    /// True when the trial adds exactly the blocks `terms` (in any order).
+    pub fn adds(&self, terms: &[Term]) -> bool {
+        self.terms.len() == terms.len() && terms.iter().all(|t| self.terms.contains(t))
+    }
+
+    /// Every member of a combination passes its drop test (true for a single effect).
+    pub fn members_pass(&self) -> bool {
+        self.drops.iter().all(|d| d.passes)
+    }
+}
+
+/// The drop tests of combination `c` (see [`DropTest`]): each member removed in turn, the
+/// rest taken from `trials` (or, when only one member would be left out of nothing, from the
+/// current model `state`). A member whose reduced model could not be fitted fails.
+pub fn drop_tests(
+    c: &TermTrial,
+    trials: &[TermTrial],
+    state: &State,
+    level: f64,
+    cv_factor: f64,
+) -> Vec<DropTest> {
+    let dof = c.fit.n.saturating_sub(c.fit.k).max(1) as f64;
+    let s2 = (c.fit.rss / dof).max(1e-300);
+    c.terms
+        .iter()
+        .map(|&term| {
+            let rest: Vec<Term> = c.terms.iter().copied().filter(|t| *t != term).collect();
+            let reduced = if rest.is_empty() {
+                Some((state.fit.rss, cv_over(&state.loo, &state.used)))
+            } else {
+                trials
+                    .iter()
+                    .find(|t| t.adds(&rest) && t.candidate != Candidate::BiasDriftCurved)
+                    .map(|t| (t.fit.rss, Some(t.cv)))
+            };
+            let Some((rss_without, Some(cv_without))) = reduced else {
+                return DropTest {
+                    term,
+                    f: f64::NAN,
+                    p: 1.0,
+                    cv_without: f64::NAN,
+                    passes: false,
+                };
+            };
+            let f = ((rss_without - c.fit.rss).max(0.0) / 3.0) / s2;
+            let p = st::f_sf(f, 3.0, dof);
+            DropTest {
+                term,
+                f,
+                p,
+                cv_without,
+                passes: p < level && c.cv * cv_factor <= cv_without,
+            }
+        })
+        .collect()
 }
 
 /// Fits one candidate on top of `state`. Returns its report row (without the verdict, which
@@ -98,7 +219,7 @@ pub fn try_term(
     let mask = mask_for(model, &terms);
     let k_new = mask.iter().filter(|x| **x).count();
     let mut rep = CandidateReport {
-        name: spec.candidate.to_string(),
+        name: spec.name(),
         params: dp,
         rms_mg: None,
         cv_rms_mg: None,
@@ -122,7 +243,7 @@ pub fn try_term(
     let p = st::f_sf(fstat, dp as f64, dof);
     rep.f_stat = Some(fstat);
     rep.p_value = Some(p);
-    let Some(loo) = am::loo(&f, &mask, wins, &state.used) else {
+    let Some(loo) = crate::press::loo(&f, &mask, wins, &state.used) else {
         rep.note =
             "cross-validation refit failed (a held-out window leaves it undetermined)".into();
         return (rep, None);
@@ -140,12 +261,35 @@ pub fn try_term(
         cv,
         passes_rules: false,
         report: 0,
+        drops: Vec::new(),
     };
     (rep, Some(trial))
 }
 
 /// The note of a term candidate's report row once the rule has judged it.
-pub fn term_note(sig: bool, cv_ok: bool, storable: bool, level: f64, cv_factor: f64) -> String {
+pub fn term_note(
+    t: &TermTrial,
+    (sig, cv_ok, storable): (bool, bool, bool),
+    level: f64,
+    cv_factor: f64,
+) -> String {
+    let weak: Vec<String> = t
+        .drops
+        .iter()
+        .filter(|d| !d.passes)
+        .map(|d| {
+            format!(
+                "{} is not needed (without it F = {:.1}, p {}, CV {:.3} mg)",
+                d.term.name(),
+                d.f,
+                crate::evidence::fmt_p(d.p),
+                d.cv_without * 1e3
+            )
+        })
+        .collect();
+    if sig && cv_ok && !weak.is_empty() {
+        return format!("passes as a whole, but {}", weak.join("; "));
+    }
     match (sig, cv_ok) {
         (true, true) if storable => "passes".into(),
         (true, true) => {

@@ -7,11 +7,17 @@
 use crate::error::{Error, Result, Setting};
 use crate::recording::{infer_units, Recording};
 use crate::stats as st;
+use wiical_core::multipos::MultiPosConfig;
+use wiical_core::static_detect::adaptive;
 use wiical_core::static_detect::{StaticDetector, StaticDetectorConfig, StaticInterval};
 
 /// Settings of the static-window detection.
 #[derive(Debug, Clone)]
 pub struct DetectOptions {
+    /// Thresholds from the recording's own noise, no rest period needed, shorter holds when
+    /// the recording has no long ones (the core's `static_detect::adaptive`, the default);
+    /// false: the IMU-TK detector with the settings below (any detector flag turns it on).
+    pub adaptive: bool,
     /// Variance window, seconds.
     pub window_s: f64,
     /// Initial rest period used as the noise reference, seconds.
@@ -30,6 +36,7 @@ pub struct DetectOptions {
 impl Default for DetectOptions {
     fn default() -> Self {
         Self {
+            adaptive: true,
             window_s: 1.0,
             init_s: 2.0,
             min_static_s: 2.0,
@@ -51,6 +58,50 @@ pub struct Detection {
     pub reference_variance: [f32; 3],
     /// Sample times.
     pub times: Vec<f64>,
+}
+
+/// Windows the adaptive detection asks for before it settles on a hold length: the full
+/// model's 9 parameters plus 3 degrees of freedom.
+pub const ADAPTIVE_MIN_WINDOWS: u32 = 12;
+
+/// Window means the adaptive detection's fit check holds (a setting with more windows is
+/// accepted on its count).
+const ADAPTIVE_SCRATCH: usize = 4096;
+
+/// The core's adaptive detection (`static_detect::adaptive::detect_fitted`): the noise
+/// reference is a low quantile of the recording's block variances, and the hold lengths are
+/// tried from the IMU-TK defaults (1 s windows, 2 s holds) down to 0.25 s / 0.5 s until one
+/// gives at least [`ADAPTIVE_MIN_WINDOWS`] windows that a multi-position fit accepts.
+pub fn detect_adaptive(rec: &Recording, opts: &DetectOptions) -> Result<Detection> {
+    let rate = rec.estimated_rate_hz().unwrap_or(opts.default_rate_hz);
+    if !(rate.is_finite() && rate > 0.0) {
+        return Err(Error::NoSampleRate);
+    }
+    let samples = rec.xyz.iter().map(|s| s.map(|v| v as f32));
+    let mut scratch = vec![[0.0f32; 3]; ADAPTIVE_SCRATCH];
+    let mut intervals = Vec::new();
+    let (det, _fit) = adaptive::detect_fitted::<MAX_WINDOW, _>(
+        samples,
+        rate as f32,
+        ADAPTIVE_MIN_WINDOWS,
+        &MultiPosConfig::default(),
+        &mut scratch,
+        |iv| intervals.push(iv),
+    )
+    .map_err(|e| match e {
+        wiical_core::Error::TooFewSamples { needed, .. } => Error::TooShort {
+            samples: rec.len(),
+            needed,
+            init_s: f64::from(adaptive::SURVEY_BLOCK_S) * f64::from(adaptive::MIN_SURVEY_BLOCKS),
+            rate_hz: rate,
+        },
+        other => Error::DetectorSettings(other),
+    })?;
+    Ok(Detection {
+        intervals,
+        reference_variance: det.thresholds.reference_variance,
+        times: rec.times(rate),
+    })
 }
 
 /// Runs the core's streaming static detector over a recording.
@@ -195,6 +246,8 @@ pub struct Windows {
     pub times: Vec<f64>,
     /// Detected units.
     pub units: &'static str,
+    /// The detector's per-axis reference variance.
+    pub reference_variance: [f32; 3],
 }
 
 /// The recording as the detector should see it. The detector floors variances at the
@@ -347,9 +400,13 @@ fn window_stats(
 /// computes their f64 statistics and infers the input units.
 pub fn detect_windows(rec: &Recording, opts: &DetectOptions) -> Result<Windows> {
     let integer = rec.is_integer();
-    let det = match detector_view(rec, opts) {
-        None => detect(rec, opts)?,
-        Some(scaled) => detect(&scaled, opts)?,
+    let det = if opts.adaptive {
+        detect_adaptive(rec, opts)?
+    } else {
+        match detector_view(rec, opts) {
+            None => detect(rec, opts)?,
+            Some(scaled) => detect(&scaled, opts)?,
+        }
     };
     let range = opts.adc_range.or_else(|| infer_adc_range(rec));
     check_saturation(rec, &det.intervals, range)?;
@@ -369,5 +426,6 @@ pub fn detect_windows(rec: &Recording, opts: &DetectOptions) -> Result<Windows> 
         units: infer_units(integer, st::median(&norms)),
         stats,
         times: det.times,
+        reference_variance: det.reference_variance,
     })
 }

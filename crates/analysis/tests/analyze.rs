@@ -9,15 +9,14 @@ use wiical_analysis::load;
 use wiical_analysis::simulate;
 use wiical_analysis::Recording;
 
-use simulate::{Device, SimConfig, SimEffect, SimOutput};
+use simulate::{Device, EffectSpec, SimConfig, SimEffect, SimOutput};
 use wiical_analysis::{analyze as run_analyze, AnalyzeOptions, AnalyzeReport, Candidate};
 
 use wiical_core::Conditions;
 
 fn sim(effect: SimEffect, mag: f64, seed: u64, device: Device) -> SimOutput {
     simulate::simulate(&SimConfig {
-        effect,
-        magnitude_mg: Some(mag),
+        effects: vec![EffectSpec::new(effect, Some(mag))],
         seed,
         device,
         ..Default::default()
@@ -149,6 +148,11 @@ fn each_effect_is_named_and_cv_halved() {
                         std::array::from_fn(|a| se[a] / v[a].abs().max(1e-12) * got[a].abs());
                     check(got, se_raw, truth.bias_temp.map(|x| x as f64));
                 }
+                SimEffect::TemperatureScale => check(
+                    e.values.unwrap(),
+                    e.std_errors.unwrap(),
+                    truth.scale_temp.map(|x| x as f64 * 1e6),
+                ),
                 SimEffect::Outliers => {
                     // Every rejected window overlaps a pose that was not still, and every such
                     // pose is rejected.
@@ -255,7 +259,14 @@ fn input_in_g_is_detected_and_analysed() {
     let raw = run_analyze(&s.recording, &AnalyzeOptions::default()).unwrap();
     assert_eq!(raw.units, "raw");
     assert_eq!(raw.static_windows, r.static_windows);
-    assert!((raw.base.rms_mg - r.base.rms_mg).abs() < 1e-3);
+    // The adaptive detector floors integer counts at the quantisation variance (1/12) and
+    // data in g at nothing, so window edges may differ by a few samples: same fit to 3 %.
+    assert!(
+        (raw.base.rms_mg - r.base.rms_mg).abs() < 0.03 * raw.base.rms_mg,
+        "{} vs {}",
+        raw.base.rms_mg,
+        r.base.rms_mg
+    );
 }
 
 /// Time and temperature both available, no effect: neither is picked; the temperature term
@@ -263,8 +274,7 @@ fn input_in_g_is_detected_and_analysed() {
 #[test]
 fn temperature_candidates_need_a_temperature_column() {
     let s = simulate::simulate(&SimConfig {
-        effect: SimEffect::BiasDrift,
-        magnitude_mg: Some(10.0),
+        effects: vec![EffectSpec::new(SimEffect::BiasDrift, Some(10.0))],
         seed: 51,
         temp_column: false,
         ..Default::default()

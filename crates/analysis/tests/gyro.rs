@@ -188,6 +188,7 @@ fn mpu9150_chosen_model_never_worse_than_uncalibrated_on_held_out_motions() {
     let dir = data_dir().join("mpu9150_mikoff_5units");
     let gyro_cols = LoadOptions {
         columns: Some(["gx".into(), "gy".into(), "gz".into()]),
+        ..Default::default()
     };
     // ±2000 °/s on 16 bits: 16.384 counts per °/s (SOURCE.md).
     let s0 = 1f64.to_radians() / 16.384;
@@ -372,6 +373,7 @@ fn alternating_gyro_rows_are_paired_by_time() {
     let acc = wiical_analysis::parse(&csv, &LoadOptions::default()).unwrap();
     let cols = LoadOptions {
         columns: Some(["gx".into(), "gy".into(), "gz".into()]),
+        ..LoadOptions::default()
     };
     let gyro = wiical_analysis::parse(&csv, &cols).unwrap();
     assert_eq!(gyro.len() * 2, acc.len());

@@ -57,7 +57,10 @@ pub fn run(a: &Args) -> Result<String> {
         candidates,
         ..Default::default()
     };
-    let rep = wiical_analysis::analyze(&rec, &opts).map_err(cli_error)?;
+    let rep = super::with_spinner("analysing (windows, base fit, candidate effects)", || {
+        wiical_analysis::analyze(&rec, &opts)
+    })
+    .map_err(cli_error)?;
     let means: Vec<[f64; 3]> = rep.windows.iter().map(|w| w.mean).collect();
     let quality = Quality::assess(&rep.calibration, &means, rep.final_model.rms_mg);
     if let Some(path) = &a.out {

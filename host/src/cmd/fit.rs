@@ -43,7 +43,10 @@ fn parse_model(s: &str) -> Result<MultiPosModel, String> {
 pub fn run(a: &Args) -> Result<String> {
     check_outputs(&[&a.file], &[a.out.as_deref()])?;
     let rec = load(&a.file, &a.detect.load_options()?)?;
-    let rep = wiical_analysis::fit::run(&rec, &a.detect.fit_options(a.model)).map_err(cli_error)?;
+    let rep = super::with_spinner("detecting static windows and fitting", || {
+        wiical_analysis::fit::run(&rec, &a.detect.fit_options(a.model))
+    })
+    .map_err(cli_error)?;
     let means: Vec<[f64; 3]> = rep.windows.iter().map(|w| w.mean.map(f64::from)).collect();
     let quality = Quality::assess(&rep.calibration, &means, f64::from(rep.rms_mg));
     if let Some(path) = &a.out {

@@ -30,7 +30,11 @@ pub struct Args {
 /// Runs `wiical magfit`; returns what to print.
 pub fn run(a: &Args) -> Result<String> {
     check_outputs(&[&a.file], &[a.out.as_deref()])?;
-    let rec = load(&a.file, &load_options(a.columns.as_deref())?)?;
+    let opts = wiical_analysis::LoadOptions {
+        sensor: Some(wiical_analysis::columns::Sensor::Magnetometer),
+        ..load_options(a.columns.as_deref())?
+    };
+    let rec = load(&a.file, &opts)?;
     let rep = magnetometer::fit_points(&rec.xyz, a.model).map_err(cli_error)?;
     if let Some(path) = &a.out {
         let k = rep.matrix.map(|r| r.map(|x| (x / rep.radius) as f32));

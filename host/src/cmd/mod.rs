@@ -24,18 +24,19 @@ pub struct DetectArgs {
     /// Header names of the x,y,z columns to use (e.g. gx,gy,gz).
     #[arg(long, value_delimiter = ',')]
     pub columns: Option<Vec<String>>,
-    /// Variance window, seconds.
-    #[arg(long, default_value_t = 1.0)]
-    pub window_s: f64,
+    /// Variance window, seconds (any of the four detector flags switches from the adaptive
+    /// detector to the IMU-TK one with an initial rest period; defaults 1, 2, 2, 6).
+    #[arg(long)]
+    pub window_s: Option<f64>,
     /// Initial rest period (noise reference), seconds.
-    #[arg(long, default_value_t = 2.0)]
-    pub init_s: f64,
+    #[arg(long)]
+    pub init_s: Option<f64>,
     /// Shortest static interval, seconds.
-    #[arg(long, default_value_t = 2.0)]
-    pub min_static_s: f64,
+    #[arg(long)]
+    pub min_static_s: Option<f64>,
     /// Static when window variance ≤ THRESHOLD × rest-period variance.
-    #[arg(long, default_value_t = 6.0)]
-    pub threshold: f64,
+    #[arg(long)]
+    pub threshold: Option<f64>,
     /// Sample rate when the file has no time column or Fs metadata, Hz.
     #[arg(long, default_value_t = 100.0)]
     pub rate_hz: f64,
@@ -53,12 +54,17 @@ impl DetectArgs {
 
     /// The base fit's options.
     pub fn fit_options(&self, model: MultiPosModel) -> FitOptions {
+        let d = DetectOptions::default();
         FitOptions {
             detect: DetectOptions {
-                window_s: self.window_s,
-                init_s: self.init_s,
-                min_static_s: self.min_static_s,
-                threshold_factor: self.threshold,
+                adaptive: self.window_s.is_none()
+                    && self.init_s.is_none()
+                    && self.min_static_s.is_none()
+                    && self.threshold.is_none(),
+                window_s: self.window_s.unwrap_or(d.window_s),
+                init_s: self.init_s.unwrap_or(d.init_s),
+                min_static_s: self.min_static_s.unwrap_or(d.min_static_s),
+                threshold_factor: self.threshold.unwrap_or(d.threshold_factor),
                 default_rate_hz: self.rate_hz,
                 adc_range: self.adc_range,
             },
@@ -74,7 +80,10 @@ pub fn load_options(columns: Option<&[String]>) -> Result<LoadOptions> {
         Some([x, y, z]) => Some([x.clone(), y.clone(), z.clone()]),
         Some(other) => return Err(cli_error(Error::ColumnsNotThree(other.to_vec()))),
     };
-    Ok(LoadOptions { columns })
+    Ok(LoadOptions {
+        columns,
+        ..Default::default()
+    })
 }
 
 /// `LO:HI` with finite LO < HI.
@@ -142,4 +151,21 @@ pub fn to_json_with_quality<T: serde::Serialize>(report: &T, quality: &Quality) 
         quality: &'a Quality,
     }
     to_json(&WithQuality { report, quality })
+}
+
+/// Runs `work` with an indicatif spinner on stderr saying `what` and the elapsed time (hidden
+/// when stderr is not a terminal, so scripted output is unchanged). Analyses of long
+/// recordings (thousands of windows) take seconds; the spinner says the program is working.
+pub fn with_spinner<T>(what: &str, work: impl FnOnce() -> T) -> T {
+    let bar =
+        indicatif::ProgressBar::with_draw_target(None, indicatif::ProgressDrawTarget::stderr());
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{spinner} {msg} ({elapsed})")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_spinner()),
+    );
+    bar.set_message(what.to_string());
+    bar.enable_steady_tick(std::time::Duration::from_millis(120));
+    let out = work();
+    bar.finish_and_clear();
+    out
 }

@@ -4,7 +4,7 @@ use crate::cli_error::cli_error;
 use anyhow::Result;
 use std::fmt::Write as _;
 use std::path::PathBuf;
-use wiical_analysis::simulate::{self, Device, SimConfig, SimEffect};
+use wiical_analysis::simulate::{self, Device, EffectSpec, SimConfig, SimEffect};
 
 /// Arguments of `wiical simulate`.
 #[derive(clap::Args, Debug)]
@@ -12,12 +12,14 @@ pub struct Args {
     /// Output CSV (t,x,y,z,temp).
     #[arg(long)]
     pub out: PathBuf,
-    /// none | quadratic | cubic | bias-drift | temperature | outliers.
-    #[arg(long, default_value = "none", value_parser = parse_effect)]
-    pub effect: SimEffect,
-    /// Size of the effect in milli-g (meaning per effect: see `wiical_analysis::simulate`).
-    #[arg(long)]
-    pub magnitude: Option<f64>,
+    /// none | quadratic | cubic | bias-drift | temperature | temperature-scale | outliers, or
+    /// several comma-separated (`quadratic,temperature`).
+    #[arg(long, default_value = "none", value_parser = parse_effect, value_delimiter = ',')]
+    pub effect: Vec<SimEffect>,
+    /// Size of the effect in milli-g (meaning per effect: see `wiical_analysis::simulate`):
+    /// one value for every effect, or one per effect (comma-separated, same order).
+    #[arg(long, value_delimiter = ',')]
+    pub magnitude: Vec<f64>,
     /// Random seed.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
@@ -34,7 +36,10 @@ pub struct Args {
 
 fn parse_effect(s: &str) -> Result<SimEffect, String> {
     SimEffect::parse(s).ok_or_else(|| {
-        format!("'{s}': expected none, quadratic, cubic, bias-drift, temperature or outliers")
+        format!(
+            "'{s}': expected none, quadratic, cubic, bias-drift, temperature, \
+             temperature-scale or outliers"
+        )
     })
 }
 
@@ -42,11 +47,27 @@ fn parse_device(s: &str) -> Result<Device, String> {
     Device::parse(s).ok_or_else(|| format!("'{s}': expected wiimote or nunchuk"))
 }
 
+/// Pairs `--effect` with `--magnitude` (none, one for all, or one per effect).
+fn effect_specs(effects: &[SimEffect], mags: &[f64]) -> Result<Vec<EffectSpec>> {
+    if mags.len() > 1 && mags.len() != effects.len() {
+        anyhow::bail!(
+            "--magnitude: {} values for {} effects (give one for all or one per effect)",
+            mags.len(),
+            effects.len()
+        );
+    }
+    Ok(effects
+        .iter()
+        .enumerate()
+        .map(|(i, e)| EffectSpec::new(*e, mags.get(i).or(mags.first()).copied()))
+        .collect())
+}
+
 /// Runs `wiical simulate`; returns what to print.
 pub fn run(a: &Args) -> Result<String> {
+    let effects = effect_specs(&a.effect, &a.magnitude)?;
     let cfg = SimConfig {
-        effect: a.effect,
-        magnitude_mg: a.magnitude,
+        effects,
         seed: a.seed,
         device: a.device,
         poses: a.poses,
@@ -69,7 +90,16 @@ pub fn run(a: &Args) -> Result<String> {
             "without temp"
         },
         sim.truth.effect,
-        sim.truth.magnitude_mg,
+        if sim.truth.magnitudes_mg.len() > 1 {
+            sim.truth
+                .magnitudes_mg
+                .iter()
+                .map(|m| m.to_string())
+                .collect::<Vec<_>>()
+                .join(",")
+        } else {
+            sim.truth.magnitude_mg.to_string()
+        },
         truth.display()
     )?;
     Ok(o)
