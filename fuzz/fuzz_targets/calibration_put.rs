@@ -72,7 +72,10 @@ impl NorFlash for RamFlash {
 /// A calibration near the Nunchuk's nominal one, each term perturbed by one input byte (so
 /// that accepted and refused calibrations both occur, many near the limits).
 fn near_nominal(bytes: &[u8]) -> Calibration {
-    let mut b = bytes.iter().map(|&x| f32::from(x as i8)).chain(core::iter::repeat(0.0));
+    let mut b = bytes
+        .iter()
+        .map(|&x| f32::from(x as i8))
+        .chain(core::iter::repeat(0.0));
     let mut next = || b.next().unwrap_or(0.0);
     let mut cal = Calibration {
         bias: [0.0; 3],
@@ -192,7 +195,12 @@ fuzz_target!(|data: &[u8]| {
             return;
         }
         // Corners and centre of the 10-bit input box stay within the output bound.
-        for raw in [[0u16, 0, 0], [1023, 1023, 1023], [0, 1023, 512], [512, 512, 512]] {
+        for raw in [
+            [0u16, 0, 0],
+            [1023, 1023, 1023],
+            [0, 1023, 512],
+            [512, 512, 512],
+        ] {
             let g = p.corrector().correct(raw).g;
             assert!(
                 g.iter().all(|v| v.abs() <= acceptance.output_bound * 1.001),

@@ -5,6 +5,7 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
+use wiical_analysis::columns::Sensor;
 use wiical_analysis::{parse, LoadOptions};
 
 const CHOICES: [Option<[&str; 3]>; 4] = [
@@ -21,8 +22,17 @@ fuzz_target!(|data: &[u8]| {
     let Ok(text) = std::str::from_utf8(rest) else {
         return;
     };
+    // The first byte picks the explicit columns (if any) and which sensor's triplet to prefer.
+    const SENSORS: [Option<Sensor>; 4] = [
+        None,
+        Some(Sensor::Accelerometer),
+        Some(Sensor::Magnetometer),
+        Some(Sensor::Gyroscope),
+    ];
+    let pick = usize::from(pick);
     let opts = LoadOptions {
-        columns: CHOICES[usize::from(pick) % CHOICES.len()].map(|c| c.map(String::from)),
+        columns: CHOICES[pick % CHOICES.len()].map(|c| c.map(String::from)),
+        sensor: SENSORS[(pick / CHOICES.len()) % SENSORS.len()],
     };
     let Ok(rec) = parse(text, &opts) else {
         return;
