@@ -15,14 +15,7 @@ pub fn fmt_vec(v: &[f64; 3], prec: usize) -> String {
     format!("[{:.p$}, {:.p$}, {:.p$}]", v[0], v[1], v[2], p = prec)
 }
 
-/// A p-value for text: `= 1.2e-5`, or `< 1e-15` below what the tail functions resolve.
-pub fn fmt_p(p: f64) -> String {
-    if p < 1e-15 {
-        "< 1e-15".into()
-    } else {
-        format!("= {p:.1e}")
-    }
-}
+pub use crate::stats::fmt_p;
 
 /// Per-axis values of a term in reporting units: (values, std errors, unit).
 pub fn term_values(

@@ -215,6 +215,15 @@ pub fn rms(v: &[f64]) -> f64 {
     (v.iter().map(|x| x * x).sum::<f64>() / v.len() as f64).sqrt()
 }
 
+/// A p-value for text: `= 1.2e-5`, or `< 1e-15` below what the tail functions resolve.
+pub fn fmt_p(p: f64) -> String {
+    if p < 1e-15 {
+        "< 1e-15".into()
+    } else {
+        format!("= {p:.1e}")
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

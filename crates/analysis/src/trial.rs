@@ -282,7 +282,7 @@ pub fn term_note(
                 "{} is not needed (without it F = {:.1}, p {}, CV {:.3} mg)",
                 d.term.name(),
                 d.f,
-                crate::evidence::fmt_p(d.p),
+                crate::stats::fmt_p(d.p),
                 d.cv_without * 1e3
             )
         })
