@@ -6,6 +6,7 @@
 #![allow(clippy::needless_range_loop)] // per-axis loops over several parallel arrays
 
 mod common;
+use common::wiical;
 
 use proptest::prelude::*;
 use rand::{Rng, SeedableRng};
@@ -916,18 +917,6 @@ proptest! {
         };
         let _ = capture(&mut dev, &opts(tmp("prop.csv"), mode), &mut CollectUi::default());
     }
-}
-
-fn wiical(args: &[&str]) -> (bool, String, String) {
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_wiical"))
-        .args(args)
-        .output()
-        .expect("run wiical");
-    (
-        out.status.success(),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
 }
 
 #[test]

@@ -2,22 +2,10 @@
 
 mod common;
 use common::data_dir;
+use common::wiical;
 
 use serde_json::Value;
 use std::path::PathBuf;
-use std::process::Command;
-
-fn wiical(args: &[&str]) -> (bool, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_wiical"))
-        .args(args)
-        .output()
-        .expect("run wiical");
-    (
-        out.status.success(),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
 
 fn json(args: &[&str]) -> Value {
     let (ok, out, err) = wiical(args);

@@ -4,21 +4,9 @@
 
 mod common;
 use common::data_dir;
+use common::wiical;
 
 use serde_json::Value;
-use std::process::Command;
-
-fn wiical(args: &[&str]) -> (bool, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_wiical"))
-        .args(args)
-        .output()
-        .expect("run wiical");
-    (
-        out.status.success(),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
 
 #[test]
 fn json_contract_and_out_file_on_an_mpu9150_unit() {

@@ -1,6 +1,8 @@
 //! Issue 11, "nothing lost, nothing absurd": every case a hostile user tried, through the
 //! command line (or the library where a failure must be injected). Data-loss cases check that
 //! the old file's bytes are intact after the failure.
+mod common;
+use common::wiical;
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -13,18 +15,6 @@ use wiical_adapter::CalibrationStore;
 use wiical_analysis::calfile::{self, CalibrationFile};
 use wiical_analysis::verdict::{Quality, Verdict};
 use wiical_core::Calibration;
-
-fn wiical(args: &[&str]) -> (bool, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_wiical"))
-        .args(args)
-        .output()
-        .expect("run wiical");
-    (
-        out.status.success(),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
 
 fn scratch(tag: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("wiical-safety-{tag}-{}", std::process::id()));
