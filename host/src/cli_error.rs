@@ -41,6 +41,7 @@ pub fn cli_error(e: Error) -> anyhow::Error {
             found,
             needed,
             model,
+            adaptive: false,
         } => anyhow!(
             "found {found} static windows but the {model} needs at least {needed}: hold the sensor still in more orientations (or lower --min-static-s / raise --threshold)"
         ),
@@ -55,6 +56,9 @@ pub fn cli_error(e: Error) -> anyhow::Error {
         Error::AxisIsNotAnAxis { name } => anyhow!(
             "--columns: column '{name}' is not a sensor axis (it is the time, temperature or pose column); give three axis columns"
         ),
+        e @ Error::PoseTable { .. } => {
+            anyhow!("{e}: use `wiical six-position FILE` or `wiical analyze FILE`")
+        }
         other => anyhow::Error::new(other),
     }
 }
@@ -74,8 +78,19 @@ mod tests {
             found: 4,
             needed: 9,
             model: "9-parameter model",
+            adaptive: false,
         };
         assert!(format!("{:#}", cli_error(e)).contains("--min-static-s"));
+        // The adaptive detector already tried its shortest holds: no flag to suggest.
+        let e = Error::TooFewWindows {
+            found: 4,
+            needed: 9,
+            model: "9-parameter model",
+            adaptive: true,
+        };
+        let text = format!("{:#}", cli_error(e));
+        assert!(!text.contains("--"), "{text}");
+        assert!(text.contains("record again"), "{text}");
         // Others keep the engine's message and its causes.
         let io = std::io::Error::new(std::io::ErrorKind::NotFound, "gone");
         let e = Error::Read {

@@ -84,7 +84,9 @@ impl<'a> Context<'a> {
         let ws = detect_windows(rec, &opts.fit.detect)?;
         let model = opts.fit.model;
         let means32: Vec<[f32; 3]> = ws.stats.iter().map(|w| w.mean.map(|x| x as f32)).collect();
-        let core_cal = fit_means_named(&means32, model, "model")?.calibration;
+        let core_cal = fit_means_named(&means32, model, "model")
+            .map_err(|e| e.found_by(opts.fit.detect.adaptive))?
+            .calibration;
         let means: Vec<[f64; 3]> = ws.stats.iter().map(|w| w.mean).collect();
         let times: Vec<f64> = ws.stats.iter().map(|w| w.t_centre).collect();
         let temps: Option<Vec<f64>> = ws.stats.iter().map(|w| w.temp).collect();

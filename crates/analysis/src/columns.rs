@@ -195,9 +195,10 @@ pub fn triplets(fields: &[String]) -> Vec<Triplet> {
     for (i, c) in classes.iter().enumerate() {
         let Some((0, sensor, key)) = c else { continue };
         let find = |axis: usize| {
-            classes
-                .iter()
-                .position(|o| o.as_ref().is_some_and(|(a, _, k)| *a == axis && k == key))
+            classes.iter().position(|o| {
+                o.as_ref()
+                    .is_some_and(|(a, s, k)| *a == axis && s == sensor && k == key)
+            })
         };
         if let (Some(y), Some(z)) = (find(1), find(2)) {
             out.push(Triplet {
@@ -219,6 +220,32 @@ pub fn find_triplet(fields: &[String], want: Sensor) -> Option<Triplet> {
         .or_else(|| all.iter().find(|t| t.sensor == Sensor::Unnamed))
         .or_else(|| all.first())
         .cloned()
+}
+
+/// One sentence saying which triplet was taken for `want` when the header offers a choice
+/// (several triplets) or none of the wanted sensor; `None` when there was nothing to choose.
+/// `fields`: the header names, `chosen`: what [`find_triplet`] returned.
+pub fn choice_note(fields: &[String], chosen: &Triplet, want: Sensor) -> Option<String> {
+    let all = triplets(fields);
+    let names = |t: &Triplet| t.columns.map(|i| fields[i].as_str()).join(",");
+    let described = |t: &Triplet| format!("{} ({})", t.sensor.name(), names(t));
+    if chosen.sensor != want && chosen.sensor != Sensor::Unnamed {
+        return Some(format!(
+            "no {} columns named in the header; took the {} for it",
+            want.name(),
+            described(chosen)
+        ));
+    }
+    if all.len() < 2 {
+        return None;
+    }
+    let others: Vec<String> = all.iter().filter(|t| *t != chosen).map(described).collect();
+    Some(format!(
+        "took {} as the {}; also in the header: {}",
+        names(chosen),
+        want.name(),
+        others.join(", ")
+    ))
 }
 
 #[cfg(test)]
@@ -297,5 +324,32 @@ mod tests {
         // Axes of different units do not form a triplet.
         let f = fields("acc_x_g,acc_y_g,acc_z_mg");
         assert!(triplets(&f).is_empty());
+    }
+
+    #[test]
+    fn the_choice_is_said_when_there_was_one() {
+        let f = fields("t_s,acc_x_g,acc_y_g,acc_z_g,gyro_x_dps,gyro_y_dps,gyro_z_dps");
+        let acc = find_triplet(&f, Sensor::Accelerometer).unwrap();
+        let note = choice_note(&f, &acc, Sensor::Accelerometer).unwrap();
+        assert_eq!(
+            note,
+            "took acc_x_g,acc_y_g,acc_z_g as the accelerometer; also in the header: gyroscope (gyro_x_dps,gyro_y_dps,gyro_z_dps)"
+        );
+        // Only a magnetometer in the file, the accelerometer wanted: said plainly.
+        let f = fields("t_s,mag_x_gauss,mag_y_gauss,mag_z_gauss");
+        let mag = find_triplet(&f, Sensor::Accelerometer).unwrap();
+        let note = choice_note(&f, &mag, Sensor::Accelerometer).unwrap();
+        assert!(note.starts_with("no accelerometer columns named"), "{note}");
+        // One plain triplet: nothing to say.
+        let f = fields("t,x,y,z");
+        let xyz = find_triplet(&f, Sensor::Accelerometer).unwrap();
+        assert_eq!(choice_note(&f, &xyz, Sensor::Accelerometer), None);
+        // Short forms pair only with their own sensor: `gx` is not the x of `y,z`.
+        let f = fields("t,x,y,z,gx,gy,gz");
+        let found: Vec<_> = triplets(&f).iter().map(|t| (t.columns, t.sensor)).collect();
+        assert_eq!(
+            found,
+            [([1, 2, 3], Sensor::Unnamed), ([4, 5, 6], Sensor::Gyroscope)]
+        );
     }
 }

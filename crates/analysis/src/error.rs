@@ -114,6 +114,24 @@ pub enum Error {
         /// Columns of this one.
         found: usize,
     },
+    /// `fit` was given a six-position table (a `pose` column): its rows are labelled poses for
+    /// the six-position method, not samples in which to look for static windows.
+    #[error("the file has a pose column: its {rows} rows are labelled poses for the six-position method, not samples to search for static windows")]
+    PoseTable {
+        /// Rows in the file.
+        rows: usize,
+    },
+    /// A GRT file whose samples are not 3-dimensional.
+    #[error("line {line}: GRT file with NumDimensions {text}; only 3-axis data can be calibrated")]
+    GrtDimensions {
+        /// 1-based line.
+        line: usize,
+        /// The value given.
+        text: String,
+    },
+    /// A GRT file without the `NumDimensions:` line before its data.
+    #[error("GRT file without a NumDimensions line before LabelledTrainingData")]
+    GrtNoDimensions,
     /// A header-less file with a column count that has no meaning.
     #[error("line {line}: {found} columns without a header; expected 3 (x y z), 4 (t x y z) or 5 (t x y z temp)")]
     HeaderlessColumns {
@@ -245,6 +263,19 @@ pub enum Error {
         /// Sample rate, Hz.
         rate_hz: f64,
     },
+    /// Shorter than the adaptive detector's noise survey (it needs that many quiet-or-not
+    /// blocks to find the recording's own noise level).
+    #[error("recording too short: {samples} samples, the adaptive detector's noise survey alone needs {needed} ({survey_s} s at {rate_hz:.3} Hz) to learn the sensor's noise")]
+    TooShortForSurvey {
+        /// Samples in the recording.
+        samples: usize,
+        /// Samples the survey needs.
+        needed: u32,
+        /// Survey length, s.
+        survey_s: f64,
+        /// Sample rate, Hz.
+        rate_hz: f64,
+    },
     /// A detector setting that cannot work with this recording, named.
     #[error("{setting} is too short or invalid: {why}")]
     DetectorSetting {
@@ -281,7 +312,7 @@ pub enum Error {
         sample: usize,
     },
     /// Fewer static windows than the model has parameters.
-    #[error("found {found} static windows but the {model} needs at least {needed}: hold the sensor still in more orientations (or shorten the minimum static duration / raise the detection threshold)")]
+    #[error("found {found} static windows but the {model} needs at least {needed}: {}", too_few_windows_hint(*adaptive))]
     TooFewWindows {
         /// Windows found.
         found: u32,
@@ -289,6 +320,9 @@ pub enum Error {
         needed: u32,
         /// `9-parameter model`, `6-parameter model` or just `model`.
         model: &'static str,
+        /// True when the adaptive detector found them: it already tried holds down to its
+        /// shortest, so only the recording can change the count, not a setting.
+        adaptive: bool,
     },
     /// The poses lie in a plane or a line.
     #[error("the {poses} static poses do not spread over enough orientations (e.g. all in one plane): turn the sensor so that each axis points up and down")]
@@ -475,5 +509,39 @@ impl std::fmt::Display for Setting {
             Setting::MinStatic => "the shortest static duration",
             Setting::Threshold => "the detection threshold",
         })
+    }
+}
+
+impl Error {
+    /// The same error, a too-few-windows one marked as found by the adaptive detector when
+    /// `adaptive` (its advice is then about the recording, not the settings).
+    pub fn found_by(self, adaptive: bool) -> Self {
+        match self {
+            Error::TooFewWindows {
+                found,
+                needed,
+                model,
+                ..
+            } => Error::TooFewWindows {
+                found,
+                needed,
+                model,
+                adaptive,
+            },
+            other => other,
+        }
+    }
+}
+
+/// What to do about too few static windows: with the adaptive detector only a new recording
+/// helps; with fixed settings, shorter holds or a looser threshold may find more.
+fn too_few_windows_hint(adaptive: bool) -> String {
+    if adaptive {
+        let shortest = wiical_core::static_detect::adaptive::HOLD_SCHEDULE
+            .last()
+            .map_or(0.0, |h| h.1);
+        format!("the recording is still (for at least {shortest} s) in no more orientations than that; record again holding the sensor still for about a second in more orientations, each axis up and down")
+    } else {
+        "hold the sensor still in more orientations (or shorten the minimum static duration / raise the detection threshold)".to_string()
     }
 }

@@ -76,9 +76,12 @@ pub struct FitReport {
 /// [`crate::analyze()`] ([`detect_windows`]: one pipeline for `fit` and `analyze`), their
 /// means fitted by the core's `f32` solver.
 pub fn run(rec: &Recording, opts: &FitOptions) -> Result<FitReport> {
+    if rec.labels.is_some() {
+        return Err(Error::PoseTable { rows: rec.len() });
+    }
     let ws = detect_windows(rec, &opts.detect)?;
     let means: Vec<[f32; 3]> = ws.stats.iter().map(|w| w.mean.map(|x| x as f32)).collect();
-    let fit = fit_means(&means, opts.model)?;
+    let fit = fit_means(&means, opts.model).map_err(|e| e.found_by(opts.detect.adaptive))?;
     let cal = fit.calibration;
     let windows: Vec<WindowReport> = ws
         .stats
@@ -127,6 +130,7 @@ pub(crate) fn fit_means_named(
             found: got,
             needed,
             model: name,
+            adaptive: false,
         },
         wiical_core::Error::DegenerateGeometry => Error::DegeneratePoses { poses: means.len() },
         other => Error::FitFailed(other),

@@ -13,6 +13,7 @@
 //! | step | module | in → out |
 //! |---|---|---|
 //! | load | [`mod@load`] | file or text → [`Recording`] (CSV with a header, or `t x y z` text) |
+//! | GRT files | [`grt`] | Gesture Recognition Toolkit `.grt` text → [`Recording`] (no time) |
 //! | columns | [`columns`] | header names → the wanted sensor's axis triplet by pattern |
 //! | units, rate | [`recording`] | recording → sample rate; window means → `raw` / `g` / `m/s^2` |
 //! | window detection | [`windows`] | recording → static windows (core detector) + f64 window statistics |
@@ -72,6 +73,7 @@ pub mod columns;
 pub mod error;
 pub mod evidence;
 pub mod fit;
+pub mod grt;
 pub mod gyro;
 pub mod input;
 pub mod load;

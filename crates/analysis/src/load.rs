@@ -50,6 +50,9 @@ pub fn parse(text: &str, opts: &LoadOptions) -> Result<Recording> {
         .lines()
         .find(|l| !is_comment_or_blank(l))
         .ok_or(Error::Empty)?;
+    if crate::grt::is_grt(first) {
+        return crate::grt::parse(text);
+    }
     let rec = match Delimiter::of_first_line(first) {
         Some(delim) => parse_csv(&blank_comments(text), opts, delim)?,
         None => {
@@ -169,6 +172,11 @@ fn parse_number(s: &str, line_no: usize, col: &str, decimal_comma: bool) -> Resu
     Ok(v)
 }
 
+/// One numeric field of a data line (decimal point), errors naming the line and column.
+pub(crate) fn parse_field(s: &str, line_no: usize, col: &str) -> Result<f64> {
+    parse_number(s, line_no, col, false)
+}
+
 fn parse_whitespace(text: &str) -> Result<Recording> {
     let mut rec = Recording::default();
     let mut ncols = None;
@@ -286,7 +294,9 @@ fn parse_csv(text: &str, opts: &LoadOptions, delim: Delimiter) -> Result<Recordi
                 }
                 continue;
             }
-            idx = map_header(&fields, opts)?;
+            let mut choice = None;
+            idx = map_header(&fields, opts, &mut choice)?;
+            rec.info.extend(choice);
             rec.axis_columns = idx.1.map(|i| fields[i].clone());
             if idx.0 != usize::MAX {
                 clock = Some(TimeCheck::new(&fields[idx.0]));
@@ -348,7 +358,13 @@ fn rec_time_name(header: &Option<Vec<String>>, idx: usize) -> String {
         .unwrap_or_default()
 }
 
-fn map_header(fields: &[String], opts: &LoadOptions) -> Result<(usize, [usize; 3], usize, usize)> {
+/// Column indices of time, x/y/z, temperature and label (`usize::MAX`: absent); `choice`
+/// receives the sentence saying which triplet was taken when there was a choice.
+fn map_header(
+    fields: &[String],
+    opts: &LoadOptions,
+    choice: &mut Option<String>,
+) -> Result<(usize, [usize; 3], usize, usize)> {
     let find = |names: &[&str]| fields.iter().position(|f| names.contains(&f.as_str()));
     let mut seen = std::collections::HashSet::new();
     for f in fields {
@@ -370,11 +386,12 @@ fn map_header(fields: &[String], opts: &LoadOptions) -> Result<(usize, [usize; 3
         }
         out
     } else {
-        crate::columns::find_triplet(fields, opts.sensor.unwrap_or(Sensor::Accelerometer))
-            .map(|t| t.columns)
-            .ok_or_else(|| Error::NoAxisColumns {
-                header: quote_header(&fields.join(", ")),
-            })?
+        let want = opts.sensor.unwrap_or(Sensor::Accelerometer);
+        let t = crate::columns::find_triplet(fields, want).ok_or_else(|| Error::NoAxisColumns {
+            header: quote_header(&fields.join(", ")),
+        })?;
+        *choice = crate::columns::choice_note(fields, &t, want);
+        t.columns
     };
     Ok((
         find(TIME_NAMES).unwrap_or(usize::MAX),

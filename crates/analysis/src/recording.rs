@@ -1,6 +1,8 @@
 //! A loaded recording and what can be inferred from it alone: the sample rate (from a time
 //! column or metadata) and the input units (raw counts, g or m/s², from the window means).
 
+use crate::timecheck::TimeSteps;
+
 /// A loaded 3-axis recording. Values are kept in f64 exactly as read; conversion to the core's
 /// f32 happens at the solver boundary.
 #[derive(Debug, Clone, Default)]
@@ -24,6 +26,9 @@ pub struct Recording {
     /// the time column, a time step that looks like milliseconds); see
     /// [`crate::timecheck::time_notes`].
     pub notes: Vec<String>,
+    /// What the loader chose that the user should see but that is no warning (which axis
+    /// triplet it took from a header naming several).
+    pub info: Vec<String>,
 }
 
 impl Recording {
@@ -52,19 +57,14 @@ impl Recording {
         self.xyz.iter().all(|s| s.iter().all(|v| v.fract() == 0.0))
     }
 
-    /// Estimated sample rate from the time column or metadata.
+    /// Estimated sample rate from metadata, else from the time column: one over the median
+    /// step, or over the mean step when the timestamps come in bursts
+    /// ([`crate::timecheck::TimeSteps::rate_hz`]).
     pub fn estimated_rate_hz(&self) -> Option<f64> {
         if let Some(fs) = self.sample_rate_hz {
             return Some(fs);
         }
-        let t = self.t.as_ref()?;
-        if t.len() < 2 {
-            return None;
-        }
-        let mut dts: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
-        dts.sort_by(|a, b| a.total_cmp(b));
-        let med = dts[dts.len() / 2];
-        (med > 0.0).then(|| 1.0 / med)
+        TimeSteps::of(self.t.as_ref()?).map(|s| s.rate_hz())
     }
 }
 

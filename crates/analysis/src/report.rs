@@ -169,6 +169,8 @@ pub struct AnalyzeReport {
 pub struct SixPositionDetails {
     /// Samples per pose (x+ x- y+ y- z+ z-).
     pub samples_per_pose: [u32; 6],
+    /// Mean reading of each pose (x+ x- y+ y- z+ z-), raw units.
+    pub pose_means_raw: [[f64; 3]; 6],
     /// Residual `K·(M − T̂Â)` in milli-g: rows = axes x, y, z; columns = poses x+ x- y+ y- z+ z-.
     pub pose_residual_mg: [[f64; 6]; 3],
     /// The same per ± pair (the + and − entries are equal): rows = axes, columns = pairs x, y, z.

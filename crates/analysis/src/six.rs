@@ -402,6 +402,7 @@ pub fn analyze_six(rec: &Recording, opts: &AnalyzeOptions) -> Result<AnalyzeRepo
     );
     let details = SixPositionDetails {
         samples_per_pose: s.counts,
+        pose_means_raw: s.means,
         pose_residual_mg: s.rg.map(|r| r.map(|x| x * 1e3)),
         pair_residual_mg: s.pr.map(|r| r.map(|x| x * 1e3)),
         norm_residual_mg: s.norm_res,

@@ -47,47 +47,113 @@ impl TimeCheck {
     }
 }
 
+/// A time column is read as bursts when more than this fraction of its steps are gaps
+/// (over [`GAP_FACTOR`] × the median step): a logger that timestamps FIFO reads on arrival
+/// writes a few samples 1–2 ms apart, then waits for the next read. A logger that dropped
+/// samples a few times stays far below this fraction.
+pub const BURST_GAP_FRACTION: f64 = 0.1;
+
+/// What the steps of a strictly increasing time column say about the sample rate.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TimeSteps {
+    /// Median step, s.
+    pub median_s: f64,
+    /// Mean step over the whole span, (t_last − t_first)/(rows − 1), s.
+    pub mean_s: f64,
+    /// Steps over [`GAP_FACTOR`] × the median step.
+    pub gaps: usize,
+    /// Steps in all (rows − 1).
+    pub steps: usize,
+}
+
+impl TimeSteps {
+    /// The summary of `t` (`None` with fewer than 3 rows or a non-positive median step).
+    pub fn of(t: &[f64]) -> Option<Self> {
+        if t.len() < 3 {
+            return None;
+        }
+        let mut sorted: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
+        sorted.sort_by(|a, b| a.total_cmp(b));
+        let median_s = sorted[sorted.len() / 2];
+        if !(median_s.is_finite() && median_s > 0.0) {
+            return None;
+        }
+        let gaps = sorted
+            .iter()
+            .filter(|d| **d > GAP_FACTOR * median_s)
+            .count();
+        Some(Self {
+            median_s,
+            mean_s: (t[t.len() - 1] - t[0]) / (t.len() - 1) as f64,
+            gaps,
+            steps: sorted.len(),
+        })
+    }
+
+    /// True when the timestamps come in bursts ([`BURST_GAP_FRACTION`]): the median step is
+    /// the spacing inside a burst, not the sample period.
+    pub fn bursty(&self) -> bool {
+        self.gaps as f64 > BURST_GAP_FRACTION * self.steps as f64
+    }
+
+    /// The sample rate, Hz: one over the median step, or over the mean step for bursty
+    /// timestamps (whose median step is the arrival spacing inside a burst).
+    pub fn rate_hz(&self) -> f64 {
+        if self.bursty() {
+            1.0 / self.mean_s
+        } else {
+            1.0 / self.median_s
+        }
+    }
+}
+
+/// Rounded for messages (a median of 0.009999999999990905 s reads as 0.01 s).
+fn shown(x: f64) -> f64 {
+    (x * 1e9).round() / 1e9
+}
+
 /// Notes on a strictly increasing time column: gaps (steps over [`GAP_FACTOR`] × the median
-/// step). Empty when all is regular.
+/// step), or, when there are so many that the timestamps come in bursts, how the rate is
+/// taken instead. Empty when all is regular.
 pub fn time_notes(column: &str, t: &[f64]) -> Vec<String> {
-    let mut notes = Vec::new();
-    if t.len() < 3 {
-        return notes;
+    let Some(steps) = TimeSteps::of(t) else {
+        return Vec::new();
+    };
+    let median_shown = shown(steps.median_s);
+    if steps.bursty() {
+        return vec![format!(
+            "column '{}': timestamps come in bursts ({} of {} steps exceed {GAP_FACTOR}× the median step of {median_shown} s), as from a logger that stamps FIFO reads on arrival; the sample rate is taken from the whole span: {} Hz",
+            quote(column),
+            steps.gaps,
+            steps.steps,
+            (steps.rate_hz() * 1e3).round() / 1e3,
+        )];
     }
-    let steps: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
-    let mut sorted = steps.clone();
-    sorted.sort_by(|a, b| a.total_cmp(b));
-    let median = sorted[sorted.len() / 2];
-    if !(median.is_finite() && median > 0.0) {
-        return notes;
-    }
-    let gaps: Vec<usize> = steps
-        .iter()
+    let gaps: Vec<usize> = t
+        .windows(2)
         .enumerate()
-        .filter(|(_, d)| **d > GAP_FACTOR * median)
+        .filter(|(_, w)| w[1] - w[0] > GAP_FACTOR * steps.median_s)
         .map(|(i, _)| i)
         .collect();
-    // Rounded for the message (a median of 0.009999999999990905 s reads as 0.01 s).
-    let median_shown = (median * 1e9).round() / 1e9;
-    if !gaps.is_empty() {
-        let listed: Vec<String> = gaps
-            .iter()
-            .take(MAX_LISTED_GAPS)
-            .map(|&i| format!("{} s → {} s", t[i], t[i + 1]))
-            .collect();
-        let more = if gaps.len() > MAX_LISTED_GAPS {
-            ", …"
-        } else {
-            ""
-        };
-        notes.push(format!(
-            "column '{}': time jumps {} time(s) by more than {GAP_FACTOR}× the median step of {median_shown} s ({}{more}); samples are missing there",
-            quote(column),
-            gaps.len(),
-            listed.join(", ")
-        ));
+    if gaps.is_empty() {
+        return Vec::new();
     }
-    notes
+    let listed: Vec<String> = gaps
+        .iter()
+        .take(MAX_LISTED_GAPS)
+        .map(|&i| format!("{} s → {} s", t[i], t[i + 1]))
+        .collect();
+    let more = if gaps.len() > MAX_LISTED_GAPS {
+        ", …"
+    } else {
+        ""
+    };
+    vec![format!(
+        "column '{}': time jumps {} time(s) by more than {GAP_FACTOR}× the median step of {median_shown} s ({}{more}); samples are missing there",
+        quote(column),
+        gaps.len(),
+        listed.join(", ")
+    )]
 }
 
 #[cfg(test)]
@@ -124,5 +190,32 @@ mod tests {
         assert_eq!(notes.len(), 1, "{notes:?}");
         assert!(notes[0].contains("jumps 1 time(s)"), "{}", notes[0]);
         assert!(notes[0].contains("0.49 s → 3.5 s"), "{}", notes[0]);
+        // A few gaps leave the rate at one over the median step.
+        let s = TimeSteps::of(&gap).unwrap();
+        assert!(!s.bursty());
+        assert!((s.rate_hz() - 100.0).abs() < 1e-6, "{s:?}");
+    }
+
+    /// A 100 Hz sensor read through a FIFO every 50 ms, each read's five samples stamped on
+    /// arrival 1.5 ms apart: the rate is the span's, 100 Hz, not the 667 Hz of the median
+    /// step, and the note says why instead of reporting hundreds of "missing samples".
+    #[test]
+    fn bursty_timestamps_take_the_rate_from_the_span() {
+        let t: Vec<f64> = (0..1000)
+            .map(|i| (i / 5) as f64 * 0.05 + (i % 5) as f64 * 0.0015)
+            .collect();
+        let s = TimeSteps::of(&t).unwrap();
+        assert!(s.bursty(), "{s:?}");
+        let expected = 999.0 / t[999];
+        assert!((s.rate_hz() - expected).abs() < 1e-9, "{s:?}");
+        assert!((s.rate_hz() - 100.0).abs() < 1.0, "{s:?}");
+        let notes = time_notes("t_s", &t);
+        assert_eq!(notes.len(), 1, "{notes:?}");
+        assert!(
+            notes[0].contains("timestamps come in bursts"),
+            "{}",
+            notes[0]
+        );
+        assert!(!notes[0].contains("missing"), "{}", notes[0]);
     }
 }

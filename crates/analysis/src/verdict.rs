@@ -41,16 +41,24 @@ impl Quality {
     /// Judges a fit: `cal` the fitted calibration, `pose_means` the raw mean of every pose,
     /// `fit_rms_mg` the fit's RMS of `‖a‖ − 1` in milli-g.
     pub fn assess(cal: &Calibration, pose_means: &[[f64; 3]], fit_rms_mg: f64) -> Self {
+        Self::assess_with(cal, pose_means, fit_rms_mg, CoverageRule::default())
+    }
+
+    /// [`Quality::assess`] with the poses held to `rule` (e.g.
+    /// [`CoverageRule::six_position`] for a six-position table).
+    pub fn assess_with(
+        cal: &Calibration,
+        pose_means: &[[f64; 3]],
+        fit_rms_mg: f64,
+        rule: CoverageRule,
+    ) -> Self {
         // The core's f32 limit in mg, rounded to the µg (0.03_f32 is 29.99999933 mg).
         let max_fit_rms_mg = (f64::from(Acceptance::nunchuk().max_fit_rms) * 1e6).round() / 1e3;
         let directions: Vec<[f32; 3]> = pose_means
             .iter()
             .map(|m| cal.correct_linear(m.map(|v| v as f32)))
             .collect();
-        let coverage_gap = CoverageRule::default()
-            .check(&directions)
-            .err()
-            .map(|gap| gap.to_string());
+        let coverage_gap = rule.check(&directions).err().map(|gap| gap.to_string());
         let rms_ok = fit_rms_mg.is_finite() && fit_rms_mg <= max_fit_rms_mg;
         let verdict = if rms_ok && coverage_gap.is_none() {
             Verdict::Good
@@ -159,5 +167,19 @@ mod tests {
         let q = Quality::assess(&nunchuk_cal(), &raw_means(&many), 4.0);
         assert_eq!(q.verdict, Verdict::Poor);
         assert!(q.coverage_gap.as_deref().unwrap().contains("z"), "{q:?}");
+    }
+
+    /// The six canonical poses are the six-position method's whole design: good under its
+    /// rule, poor under the multi-position default (12 poses), and five of them miss a side.
+    #[test]
+    fn six_poses_pass_the_six_position_rule_only() {
+        let six = raw_means(&sphere_dirs()[..6]);
+        let q = Quality::assess(&nunchuk_cal(), &six, 4.0);
+        assert_eq!(q.verdict, Verdict::Poor, "{q:?}");
+        let rule = CoverageRule::six_position();
+        let q = Quality::assess_with(&nunchuk_cal(), &six, 4.0, rule);
+        assert_eq!(q.verdict, Verdict::Good, "{q:?}");
+        let q = Quality::assess_with(&nunchuk_cal(), &six[..5], 4.0, rule);
+        assert_eq!(q.verdict, Verdict::Poor, "{q:?}");
     }
 }

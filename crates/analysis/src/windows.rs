@@ -89,10 +89,10 @@ pub fn detect_adaptive(rec: &Recording, opts: &DetectOptions) -> Result<Detectio
         |iv| intervals.push(iv),
     )
     .map_err(|e| match e {
-        wiical_core::Error::TooFewSamples { needed, .. } => Error::TooShort {
+        wiical_core::Error::TooFewSamples { needed, .. } => Error::TooShortForSurvey {
             samples: rec.len(),
             needed,
-            init_s: f64::from(adaptive::SURVEY_BLOCK_S) * f64::from(adaptive::MIN_SURVEY_BLOCKS),
+            survey_s: f64::from(adaptive::SURVEY_BLOCK_S) * f64::from(adaptive::MIN_SURVEY_BLOCKS),
             rate_hz: rate,
         },
         other => Error::DetectorSettings(other),
@@ -288,6 +288,7 @@ fn detector_view(rec: &Recording, opts: &DetectOptions) -> Option<Recording> {
         axis_columns: rec.axis_columns.clone(),
         skipped_empty_rows: rec.skipped_empty_rows,
         notes: Vec::new(),
+        info: Vec::new(),
     })
 }
 

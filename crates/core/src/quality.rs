@@ -379,6 +379,19 @@ impl Default for CoverageRule {
     }
 }
 
+impl CoverageRule {
+    /// The six-position method's rule: its six poses (each axis up and down) are the whole
+    /// design, so 6 poses suffice; the direction and spread conditions are the default's.
+    /// Six poses leave no redundancy to catch a bad pose, which is why multi-position
+    /// recordings are held to [`CoverageRule::default`]'s 12.
+    pub fn six_position() -> Self {
+        Self {
+            min_poses: 6,
+            ..Self::default()
+        }
+    }
+}
+
 /// Why a set of poses does not cover the sphere well enough.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]

@@ -9,6 +9,7 @@ use wiical_analysis::select::check_rule;
 use wiical_analysis::verdict::Quality;
 use wiical_analysis::{AnalyzeOptions, Candidate};
 use wiical_core::multipos::MultiPosModel;
+use wiical_core::quality::CoverageRule;
 
 /// Arguments of `wiical analyze`.
 #[derive(clap::Args, Debug)]
@@ -61,8 +62,19 @@ pub fn run(a: &Args) -> Result<String> {
         wiical_analysis::analyze(&rec, &opts)
     })
     .map_err(cli_error)?;
-    let means: Vec<[f64; 3]> = rep.windows.iter().map(|w| w.mean).collect();
-    let quality = Quality::assess(&rep.calibration, &means, rep.final_model.rms_mg);
+    // A six-position table is judged on its six poses by the six-position rule.
+    let quality = match &rep.six_position {
+        Some(six) => Quality::assess_with(
+            &rep.calibration,
+            &six.pose_means_raw,
+            rep.final_model.rms_mg,
+            CoverageRule::six_position(),
+        ),
+        None => {
+            let means: Vec<[f64; 3]> = rep.windows.iter().map(|w| w.mean).collect();
+            Quality::assess(&rep.calibration, &means, rep.final_model.rms_mg)
+        }
+    };
     if let Some(path) = &a.out {
         write_calibration_with(path, &rep.calibration, &quality)?;
     }

@@ -111,9 +111,13 @@ pub fn to_json<T: serde::Serialize>(v: &T) -> Result<String> {
 }
 
 /// Loads a recording, errors told the CLI's way.
-/// Notes on the file (time gaps, a millisecond-looking time step) go to stderr as warnings.
+/// Which axis triplet was taken (when the header offers several) goes to stderr as a note;
+/// notes on the file (time gaps, a millisecond-looking time step) go there as warnings.
 pub fn load(path: &std::path::Path, opts: &LoadOptions) -> Result<wiical_analysis::Recording> {
     let rec = wiical_analysis::load(path, opts).map_err(cli_error)?;
+    for note in &rec.info {
+        eprintln!("note: in {}: {note}", path.display());
+    }
     for note in &rec.notes {
         eprintln!("warning: in {}: {note}", path.display());
     }
