@@ -685,6 +685,23 @@ impl Context<'_> {
     }
 
     /// Assembles the report.
+    /// The [`crate::motion`] check on the base fit: are the windows really still?
+    fn motion_diagnostic(&self, base: &Base) -> Option<String> {
+        let k = self
+            .nrm
+            .to_calibration(&base.fit.p)
+            .matrix
+            .map(|row| row.map(f64::from));
+        let residuals: Vec<f64> = self
+            .wins
+            .iter()
+            .map(|w| am::residual(&base.fit.p, w))
+            .collect();
+        let reference = crate::motion::reference_variance(&self.ws.stats);
+        let m = crate::motion::check(&k, &self.ws.stats, reference, &residuals)?;
+        crate::motion::diagnostic(&m, self.opts.alpha, base.noise_floor * 1e3)
+    }
+
     fn report(&self, rec: &Recording, base: &Base, search: Search) -> Result<AnalyzeReport> {
         let (base_summary, final_model) = self.summaries(base, &search.state);
         let calibration = self.nrm.to_calibration(&search.state.fit.p);
@@ -699,7 +716,9 @@ impl Context<'_> {
             self.opts.alpha,
             base.loo.is_some(),
         );
-        for d in &search.diagnostics {
+        let mut diagnostics = search.diagnostics;
+        diagnostics.extend(self.motion_diagnostic(base));
+        for d in &diagnostics {
             verdict.push_str(&format!(" Diagnostic: {d}."));
         }
         Ok(AnalyzeReport {
@@ -716,7 +735,7 @@ impl Context<'_> {
             verdict,
             time_origin_s: self.ws.times.first().copied().unwrap_or(0.0),
             time_temp_correlation: self.time_temp_r,
-            diagnostics: search.diagnostics,
+            diagnostics,
             calibration,
             windows,
             six_position: None,

@@ -24,6 +24,7 @@
 //! | noise floor | [`noise`] | window variances → per-window floor, χ² of a model |
 //! | candidates | [`candidate`], [`trial`], [`outliers`] | current model → each candidate's fit, F-test, CV |
 //! | selection | [`select`] | the candidates' numbers → the one added (the rule and its constants) |
+//! | motion check | [`motion`] | window spread → predicted shortening of each mean, correlated with the base residual (not-still windows) |
 //! | evidence | [`evidence`] | the chosen effect → why (pattern, tests, runner-up), verdict |
 //! | report | [`report`] | → [`AnalyzeReport`] (the JSON contract of `wiical analyze`) |
 //! | six-position | [`six_position`], [`six`] | labelled poses → the seed's `T̂ = M·Â⁺` and its residual contrasts |
@@ -79,6 +80,7 @@ pub mod input;
 pub mod load;
 pub mod magnetometer;
 pub mod model;
+pub mod motion;
 pub mod noise;
 pub mod options;
 pub mod outliers;
