@@ -217,6 +217,8 @@ struct Search {
     first_signature: Option<Vec<f64>>,
     outliers_done: bool,
     diagnostics: Vec<String>,
+    /// The base model's per-window noise floor (g): the outlier test's least reference scale.
+    floor: Vec<f64>,
 }
 
 /// The candidates tried at one step.
@@ -243,6 +245,7 @@ impl Search {
             first_signature: None,
             outliers_done: false,
             diagnostics: Vec::new(),
+            floor: base.floor.clone(),
         }
     }
 
@@ -397,7 +400,15 @@ impl Search {
         let max_reject = ((ctx.opts.max_outlier_fraction * n_used as f64).floor() as usize).max(1);
         let cur_mask = mask_for(ctx.model, &self.state.terms);
         let screen = |fit: &am::Fit, mask: &am::Mask, level: f64| {
-            find_outliers(fit, &self.state.used, mask, &ctx.wins, level, max_reject)
+            find_outliers(
+                fit,
+                &self.state.used,
+                mask,
+                &ctx.wins,
+                &self.floor,
+                level,
+                max_reject,
+            )
         };
         let mut tr = screen(&self.state.fit, &cur_mask, level);
         if tr.is_none() {

@@ -36,15 +36,25 @@ pub struct OutlierTrial {
 ///    scales are the suspects. (A plain least-squares screen fails here: a few windows that
 ///    were not still pull the fit towards themselves and inflate the scale, masking each other.)
 /// 2. Each suspect is tested against the fit on the other windows: its prediction error
-///    `e` has variance `σ²(1 + h)` (σ² from that fit, `h` the leverage), so
-///    `t = e/(σ√(1 + h))` is Student-t; the two-sided p-value is multiplied by the number of
-///    windows searched (Bonferroni) and compared with `level`. Suspects that fail are put
-///    back and the test repeated until the rejected set is stable.
+///    `e` has variance `σ²(1 + h)` (`h` the leverage). `σ²` is the residual variance of
+///    that fit (`RSS/dof`), **but never less than the suspect's own noise floor** `f²`
+///    (`floor`, the variance of its mean from its samples, propagated to ‖a‖ − 1 g): a still
+///    window's mean cannot scatter less than its samples allow, and `RSS/dof` on ~20 dof
+///    falls to half its expectation in about one recording of a hundred. Without the floor
+///    such a recording turns an ordinary 3–4 σ window into t ≈ 7 (the clean-recording false
+///    positive of docs/residuals.md). `t = e/(σ_ref√(1 + h))`, `σ_ref² = max(σ², f²)`, is
+///    referred to Student-t on the fit's dof (exact when `σ²` is taken, conservative when the
+///    floor is); the two-sided p-value is multiplied by the number of windows searched
+///    (Bonferroni, the family-wise level over all windows) and compared with `level`.
+///    Suspects that fail are put back and the test repeated until the rejected set is stable.
+///
+/// `floor` is per window (g); an empty slice (or zeros) tests against `σ²` alone.
 pub fn find_outliers(
     current: &Fit,
     used0: &[bool],
     mask: &Mask,
     wins: &[Win],
+    floor: &[f64],
     level: f64,
     max_reject: usize,
 ) -> Option<OutlierTrial> {
@@ -63,7 +73,7 @@ pub fn find_outliers(
     if suspects.is_empty() {
         return None;
     }
-    test_suspects(&p, &suspects, used0, mask, wins, level)
+    test_suspects(&p, &suspects, used0, mask, wins, floor, level)
 }
 
 /// Tukey biweight tuning constant (95 % efficiency at Gaussian residuals).
@@ -132,6 +142,7 @@ fn test_suspects(
     used0: &[bool],
     mask: &Mask,
     wins: &[Win],
+    floor: &[f64],
     level: f64,
 ) -> Option<OutlierTrial> {
     let n = used0.iter().filter(|u| **u).count();
@@ -155,7 +166,7 @@ fn test_suspects(
         for &(i, _) in suspects {
             // Suspects currently rejected are outside the fit; the others are tested by their
             // deletion residual (refit without them).
-            let (e, h, s2) = if used[i] {
+            let (e, h, s2, d) = if used[i] {
                 let mut u2 = used.clone();
                 u2[i] = false;
                 let f2 = am::fit(&clean.p, mask, wins, &u2)?;
@@ -164,16 +175,24 @@ fn test_suspects(
                     am::residual(&f2.p, &wins[i]),
                     am::leverage(&f2.p, mask, wins, &u2, i)?,
                     f2.rss / d2 as f64,
+                    d2,
                 )
             } else {
                 (
                     am::residual(&clean.p, &wins[i]),
                     am::leverage(&clean.p, mask, wins, &used, i)?,
                     sigma2,
+                    dof,
                 )
             };
+            let fl = floor
+                .get(i)
+                .copied()
+                .filter(|f| f.is_finite())
+                .unwrap_or(0.0);
+            let s2 = s2.max(fl * fl);
             let t = e / (s2 * (1.0 + h)).max(1e-300).sqrt();
-            let pval = (st::t_two_sided(t, dof as f64) * n as f64).min(1.0);
+            let pval = (st::t_two_sided(t, d as f64) * n as f64).min(1.0);
             if pval < level {
                 keep.push(i);
                 pv.push(pval);
@@ -259,7 +278,7 @@ mod tests {
     #[test]
     fn one_window_far_off_is_rejected_and_only_it() {
         let (wins, fit, mask) = scene(30, &[(11, 0.01)]);
-        let t = find_outliers(&fit, &[true; 30], &mask, &wins, 1e-3, 6).unwrap();
+        let t = find_outliers(&fit, &[true; 30], &mask, &wins, &[], 1e-3, 6).unwrap();
         assert_eq!(t.rejected, vec![11]);
         assert!(!t.used[11] && t.used.iter().filter(|u| **u).count() == 29);
         assert!(t.p_values[0] < 1e-3);
@@ -271,7 +290,7 @@ mod tests {
     #[test]
     fn two_outliers_do_not_mask_each_other() {
         let (wins, fit, mask) = scene(30, &[(4, 0.008), (20, -0.006)]);
-        let t = find_outliers(&fit, &[true; 30], &mask, &wins, 1e-3, 6).unwrap();
+        let t = find_outliers(&fit, &[true; 30], &mask, &wins, &[], 1e-3, 6).unwrap();
         let mut r = t.rejected.clone();
         r.sort_unstable();
         assert_eq!(r, vec![4, 20]);
@@ -280,21 +299,42 @@ mod tests {
     #[test]
     fn clean_windows_and_too_few_windows_give_nothing() {
         let (wins, fit, mask) = scene(30, &[]);
-        assert!(find_outliers(&fit, &[true; 30], &mask, &wins, 1e-3, 6).is_none());
+        assert!(find_outliers(&fit, &[true; 30], &mask, &wins, &[], 1e-3, 6).is_none());
         // A shift at the level of the scatter is not an outlier.
         let (wins, fit, mask) = scene(30, &[(7, 1e-4)]);
-        assert!(find_outliers(&fit, &[true; 30], &mask, &wins, 1e-3, 6).is_none());
+        assert!(find_outliers(&fit, &[true; 30], &mask, &wins, &[], 1e-3, 6).is_none());
         // 9 parameters need at least 13 windows before anything is screened.
         let (wins, fit, mask) = scene(12, &[(3, 0.01)]);
-        assert!(find_outliers(&fit, &[true; 12], &mask, &wins, 1e-3, 6).is_none());
+        assert!(find_outliers(&fit, &[true; 12], &mask, &wins, &[], 1e-3, 6).is_none());
+    }
+
+    #[test]
+    fn the_noise_floor_bounds_the_reference_scale_from_below() {
+        // The others scatter by ≈ 0.1 mg, so a 1.5 mg shift is ~15 of their σ: rejected when
+        // the test trusts their RSS alone.
+        let (wins, fit, mask) = scene(30, &[(7, 1.5e-3)]);
+        let t = find_outliers(&fit, &[true; 30], &mask, &wins, &[], 1e-3, 6).unwrap();
+        assert_eq!(t.rejected, vec![7]);
+        // Each window's mean is known to scatter by 0.5 mg (its samples' floor): the same shift
+        // is then 3 floors, ordinary among 30 windows, and nothing is rejected.
+        let floor = vec![5e-4; 30];
+        assert!(find_outliers(&fit, &[true; 30], &mask, &wins, &floor, 1e-3, 6).is_none());
+        // A window 10 mg off is still far beyond the floor.
+        let (wins, fit, mask) = scene(30, &[(7, 1e-2)]);
+        let t = find_outliers(&fit, &[true; 30], &mask, &wins, &floor, 1e-3, 6).unwrap();
+        assert_eq!(t.rejected, vec![7]);
+        // NaN floors (too short for a batch estimate) fall back to the RSS.
+        let nan = vec![f64::NAN; 30];
+        let (wins, fit, mask) = scene(30, &[(7, 1.5e-3)]);
+        assert!(find_outliers(&fit, &[true; 30], &mask, &wins, &nan, 1e-3, 6).is_some());
     }
 
     #[test]
     fn at_most_max_reject_windows_are_suspected() {
         let (wins, fit, mask) = scene(30, &[(9, 0.02), (17, -0.004)]);
-        let t = find_outliers(&fit, &[true; 30], &mask, &wins, 1e-3, 1).unwrap();
+        let t = find_outliers(&fit, &[true; 30], &mask, &wins, &[], 1e-3, 1).unwrap();
         assert_eq!(t.rejected, vec![9], "only the most extreme one");
-        let t = find_outliers(&fit, &[true; 30], &mask, &wins, 1e-3, 2).unwrap();
+        let t = find_outliers(&fit, &[true; 30], &mask, &wins, &[], 1e-3, 2).unwrap();
         assert_eq!(t.rejected.len(), 2);
     }
 }
