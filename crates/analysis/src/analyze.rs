@@ -21,7 +21,7 @@ use crate::error::{Error, Result};
 use crate::evidence::{self as ev, TermContext};
 use crate::fit::fit_means_named;
 use crate::model::{self as am, Fit, Normalisation, Term, Win};
-use crate::noise::{chi2_summary, floors};
+use crate::noise::{chi2_summary, floors, reference_variance};
 use crate::options::AnalyzeOptions;
 use crate::outliers::{find_outliers, OutlierTrial};
 use crate::recording::Recording;
@@ -217,8 +217,6 @@ struct Search {
     first_signature: Option<Vec<f64>>,
     outliers_done: bool,
     diagnostics: Vec<String>,
-    /// The base model's per-window noise floor (g): the outlier test's least reference scale.
-    floor: Vec<f64>,
 }
 
 /// The candidates tried at one step.
@@ -239,13 +237,13 @@ impl Search {
                 used: vec![true; n],
                 fit: base.fit.clone(),
                 loo: base.loo.clone().unwrap_or_else(|| vec![None; n]),
+                floor: base.floor.clone(),
             },
             effects: Vec::new(),
             steps: Vec::new(),
             first_signature: None,
             outliers_done: false,
             diagnostics: Vec::new(),
-            floor: base.floor.clone(),
         }
     }
 
@@ -405,7 +403,7 @@ impl Search {
                 &self.state.used,
                 mask,
                 &ctx.wins,
-                &self.floor,
+                &self.state.floor,
                 level,
                 max_reject,
             )
@@ -436,8 +434,8 @@ impl Search {
                     continue;
                 };
                 let dof = o.fit.n.saturating_sub(o.fit.k).max(1) as f64;
-                let f = ((cur_kept.rss - o.fit.rss).max(0.0) / t.dp as f64)
-                    / (o.fit.rss / dof).max(1e-300);
+                let s2 = reference_variance(o.fit.rss, dof, &self.state.floor, &o.used);
+                let f = ((cur_kept.rss - o.fit.rss).max(0.0) / t.dp as f64) / s2;
                 if !(crate::stats::f_sf(f, t.dp as f64, dof) < level) {
                     continue;
                 }
