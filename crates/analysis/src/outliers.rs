@@ -3,6 +3,7 @@
 
 #![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x > 0.0)` is deliberately true for NaN.
 use crate::model::{self as am, Fit, Mask, Params, Win};
+use crate::noise::reference_variance;
 use crate::select::{MIN_DOF_OUTLIER, MIN_SPARE_OUTLIER};
 use crate::stats as st;
 
@@ -36,19 +37,19 @@ pub struct OutlierTrial {
 ///    scales are the suspects. (A plain least-squares screen fails here: a few windows that
 ///    were not still pull the fit towards themselves and inflate the scale, masking each other.)
 /// 2. Each suspect is tested against the fit on the other windows: its prediction error
-///    `e` has variance `σ²(1 + h)` (`h` the leverage). `σ²` is the residual variance of
-///    that fit (`RSS/dof`), **but never less than the suspect's own noise floor** `f²`
-///    (`floor`, the variance of its mean from its samples, propagated to ‖a‖ − 1 g): a still
-///    window's mean cannot scatter less than its samples allow, and `RSS/dof` on ~20 dof
-///    falls to half its expectation in about one recording of a hundred. Without the floor
-///    such a recording turns an ordinary 3–4 σ window into t ≈ 7 (the clean-recording false
-///    positive of docs/residuals.md). `t = e/(σ_ref√(1 + h))`, `σ_ref² = max(σ², f²)`, is
-///    referred to Student-t on the fit's dof (exact when `σ²` is taken, conservative when the
-///    floor is); the two-sided p-value is multiplied by the number of windows searched
-///    (Bonferroni, the family-wise level over all windows) and compared with `level`.
-///    Suspects that fail are put back and the test repeated until the rejected set is stable.
+///    `e` has variance `σ²(1 + h)` (`h` the leverage), `σ²` that fit's reference variance
+///    ([`crate::noise::reference_variance`]: `RSS/dof`, but never less than the mean squared
+///    noise floor of the windows it uses — a chance-low `RSS/dof` on ~20 dof otherwise turns
+///    an ordinary 3–4 σ window into t ≈ 7, the clean-recording false positive of
+///    docs/residuals.md). The others' floor, not the suspect's own: a window that was not
+///    still has a large sample variance of its own, which would hide it. `t = e/(σ√(1 + h))`
+///    is referred to Student-t on the fit's dof (exact when `RSS/dof` is taken, conservative
+///    when the floor is); the two-sided p-value is multiplied by the number of windows
+///    searched (Bonferroni: the family-wise level over all windows) and compared with
+///    `level`. Suspects that fail are put back and the test repeated until the rejected set
+///    is stable.
 ///
-/// `floor` is per window (g); an empty slice (or zeros) tests against `σ²` alone.
+/// `floor` is per window (g); an empty slice (or zeros) tests against `RSS/dof` alone.
 pub fn find_outliers(
     current: &Fit,
     used0: &[bool],
@@ -159,7 +160,7 @@ fn test_suspects(
         if dof < MIN_DOF_OUTLIER {
             return None;
         }
-        let sigma2 = clean.rss / dof as f64;
+        let sigma2 = reference_variance(clean.rss, dof as f64, floor, &used);
         let mut keep = Vec::new();
         let mut pv = Vec::new();
         let mut ts = Vec::new();
@@ -174,7 +175,7 @@ fn test_suspects(
                 (
                     am::residual(&f2.p, &wins[i]),
                     am::leverage(&f2.p, mask, wins, &u2, i)?,
-                    f2.rss / d2 as f64,
+                    reference_variance(f2.rss, d2 as f64, floor, &u2),
                     d2,
                 )
             } else {
@@ -185,12 +186,6 @@ fn test_suspects(
                     dof,
                 )
             };
-            let fl = floor
-                .get(i)
-                .copied()
-                .filter(|f| f.is_finite())
-                .unwrap_or(0.0);
-            let s2 = s2.max(fl * fl);
             let t = e / (s2 * (1.0 + h)).max(1e-300).sqrt();
             let pval = (st::t_two_sided(t, d as f64) * n as f64).min(1.0);
             if pval < level {
@@ -323,6 +318,11 @@ mod tests {
         let (wins, fit, mask) = scene(30, &[(7, 1e-2)]);
         let t = find_outliers(&fit, &[true; 30], &mask, &wins, &floor, 1e-3, 6).unwrap();
         assert_eq!(t.rejected, vec![7]);
+        // The suspect's own floor does not count (a window that moved has a large one).
+        let mut own = vec![0.0; 30];
+        own[7] = 1e-2;
+        let (wins, fit, mask) = scene(30, &[(7, 1.5e-3)]);
+        assert!(find_outliers(&fit, &[true; 30], &mask, &wins, &own, 1e-3, 6).is_some());
         // NaN floors (too short for a batch estimate) fall back to the RSS.
         let nan = vec![f64::NAN; 30];
         let (wins, fit, mask) = scene(30, &[(7, 1.5e-3)]);

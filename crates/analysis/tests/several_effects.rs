@@ -128,7 +128,10 @@ fn table(sets: &[Vec<SimEffect>], seeds: std::ops::Range<u64>, temp: bool) -> St
         } else {
             truth.join(" + ")
         };
-        out += &row.line(&label);
+        let line = row.line(&label);
+        // Progress for the long sweeps (stderr; the table itself is printed at the end).
+        eprint!("{line}");
+        out += &line;
     }
     out
 }
