@@ -40,7 +40,7 @@ pub struct OutlierTrial {
 ///    `e` has variance `σ²(1 + h)` (`h` the leverage), `σ²` that fit's reference variance
 ///    ([`crate::noise::reference_variance`]: `RSS/dof`, but never less than the mean squared
 ///    noise floor of the windows it uses — a chance-low `RSS/dof` on ~20 dof otherwise turns
-///    an ordinary 3–4 σ window into t ≈ 7, the clean-recording false positive of
+///    an ordinary 3–4 σ window into t ≈ 6.6, the clean-recording false positive of
 ///    docs/residuals.md). The others' floor, not the suspect's own: a window that was not
 ///    still has a large sample variance of its own, which would hide it. `t = e/(σ√(1 + h))`
 ///    is referred to Student-t on the fit's dof (exact when `RSS/dof` is taken, conservative
