@@ -21,7 +21,7 @@ use crate::error::{Error, Result};
 use crate::evidence::{self as ev, TermContext};
 use crate::fit::fit_means_named;
 use crate::model::{self as am, Fit, Normalisation, Term, Win};
-use crate::noise::{chi2_summary, floors};
+use crate::noise::{chi2_summary, floors, reference_variance};
 use crate::options::AnalyzeOptions;
 use crate::outliers::{find_outliers, OutlierTrial};
 use crate::recording::Recording;
@@ -239,6 +239,7 @@ impl Search {
                 used: vec![true; n],
                 fit: base.fit.clone(),
                 loo: base.loo.clone().unwrap_or_else(|| vec![None; n]),
+                floor: base.floor.clone(),
             },
             effects: Vec::new(),
             steps: Vec::new(),
@@ -399,7 +400,15 @@ impl Search {
         let max_reject = ((ctx.opts.max_outlier_fraction * n_used as f64).floor() as usize).max(1);
         let cur_mask = mask_for(ctx.model, &self.state.terms);
         let screen = |fit: &am::Fit, mask: &am::Mask, level: f64| {
-            find_outliers(fit, &self.state.used, mask, &ctx.wins, level, max_reject)
+            find_outliers(
+                fit,
+                &self.state.used,
+                mask,
+                &ctx.wins,
+                &self.state.floor,
+                level,
+                max_reject,
+            )
         };
         let mut tr = screen(&self.state.fit, &cur_mask, level);
         if tr.is_none() {
@@ -427,8 +436,8 @@ impl Search {
                     continue;
                 };
                 let dof = o.fit.n.saturating_sub(o.fit.k).max(1) as f64;
-                let f = ((cur_kept.rss - o.fit.rss).max(0.0) / t.dp as f64)
-                    / (o.fit.rss / dof).max(1e-300);
+                let s2 = reference_variance(o.fit.rss, dof, &self.state.floor, &o.used);
+                let f = ((cur_kept.rss - o.fit.rss).max(0.0) / t.dp as f64) / s2;
                 if !(crate::stats::f_sf(f, t.dp as f64, dof) < level) {
                     continue;
                 }

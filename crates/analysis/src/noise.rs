@@ -36,6 +36,39 @@ pub fn floors(
         .collect()
 }
 
+/// Mean of the squared floors (g²) over the windows in use whose floor is finite and
+/// positive; 0 when there is none. The residual variance a right model leaves (unweighted
+/// least squares: `E[rss] ≈ Σ (1 − hᵢ) fᵢ²`, i.e. `dof` times about this mean).
+pub fn mean_square_floor(floor: &[f64], used: &[bool]) -> f64 {
+    let (sum, n) = floor
+        .iter()
+        .zip(used)
+        .filter(|(f, u)| **u && **f > 0.0 && f.is_finite())
+        .fold((0.0, 0usize), |(s, n), (f, _)| (s + f * f, n + 1));
+    if n == 0 {
+        0.0
+    } else {
+        sum / n as f64
+    }
+}
+
+/// The variance every test of the search (F-tests of candidates and drop tests, the outlier
+/// prediction-error test) refers its residuals to, g²: the fit's `rss/dof`, but never less
+/// than [`mean_square_floor`] of the windows in `used`.
+///
+/// Why: under a model that is right, each residual still carries its window's sampling
+/// noise, so `E[rss/dof] ≈ mean f²`, and the floor (hundreds of samples per window) is far
+/// better determined than `rss/dof` (~20 dof). On ~20 dof `rss/dof` falls below half its
+/// expectation in about one recording of a hundred; taken alone it then inflates every F
+/// (and outlier t) by that factor, and a clean recording gained an effect or lost a window
+/// in about one run of 150 (docs/residuals.md). With the floor as the lower bound the
+/// F-distribution on the fit's dof is exact when `rss/dof` is taken and conservative when
+/// the floor is. A residual above the floor (an effect the model lacks, or noise the floor
+/// misses, such as drift inside the windows) is unaffected.
+pub fn reference_variance(rss: f64, dof: f64, floor: &[f64], used: &[bool]) -> f64 {
+    (rss / dof).max(mean_square_floor(floor, used)).max(1e-300)
+}
+
 /// χ², its degrees of freedom and its p-value for the windows in use with a positive floor
 /// (`None`s when there are no more such windows than the `k` parameters).
 pub fn chi2_summary(

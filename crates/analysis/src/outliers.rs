@@ -3,6 +3,7 @@
 
 #![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x > 0.0)` is deliberately true for NaN.
 use crate::model::{self as am, Fit, Mask, Params, Win};
+use crate::noise::reference_variance;
 use crate::select::{MIN_DOF_OUTLIER, MIN_SPARE_OUTLIER};
 use crate::stats as st;
 
@@ -36,15 +37,25 @@ pub struct OutlierTrial {
 ///    scales are the suspects. (A plain least-squares screen fails here: a few windows that
 ///    were not still pull the fit towards themselves and inflate the scale, masking each other.)
 /// 2. Each suspect is tested against the fit on the other windows: its prediction error
-///    `e` has variance `σ²(1 + h)` (σ² from that fit, `h` the leverage), so
-///    `t = e/(σ√(1 + h))` is Student-t; the two-sided p-value is multiplied by the number of
-///    windows searched (Bonferroni) and compared with `level`. Suspects that fail are put
-///    back and the test repeated until the rejected set is stable.
+///    `e` has variance `σ²(1 + h)` (`h` the leverage), `σ²` that fit's reference variance
+///    ([`crate::noise::reference_variance`]: `RSS/dof`, but never less than the mean squared
+///    noise floor of the windows it uses — a chance-low `RSS/dof` on ~20 dof otherwise turns
+///    an ordinary 3–4 σ window into t ≈ 6.6, the clean-recording false positive of
+///    docs/residuals.md). The others' floor, not the suspect's own: a window that was not
+///    still has a large sample variance of its own, which would hide it. `t = e/(σ√(1 + h))`
+///    is referred to Student-t on the fit's dof (exact when `RSS/dof` is taken, conservative
+///    when the floor is); the two-sided p-value is multiplied by the number of windows
+///    searched (Bonferroni: the family-wise level over all windows) and compared with
+///    `level`. Suspects that fail are put back and the test repeated until the rejected set
+///    is stable.
+///
+/// `floor` is per window (g); an empty slice (or zeros) tests against `RSS/dof` alone.
 pub fn find_outliers(
     current: &Fit,
     used0: &[bool],
     mask: &Mask,
     wins: &[Win],
+    floor: &[f64],
     level: f64,
     max_reject: usize,
 ) -> Option<OutlierTrial> {
@@ -63,7 +74,7 @@ pub fn find_outliers(
     if suspects.is_empty() {
         return None;
     }
-    test_suspects(&p, &suspects, used0, mask, wins, level)
+    test_suspects(&p, &suspects, used0, mask, wins, floor, level)
 }
 
 /// Tukey biweight tuning constant (95 % efficiency at Gaussian residuals).
@@ -132,6 +143,7 @@ fn test_suspects(
     used0: &[bool],
     mask: &Mask,
     wins: &[Win],
+    floor: &[f64],
     level: f64,
 ) -> Option<OutlierTrial> {
     let n = used0.iter().filter(|u| **u).count();
@@ -148,14 +160,14 @@ fn test_suspects(
         if dof < MIN_DOF_OUTLIER {
             return None;
         }
-        let sigma2 = clean.rss / dof as f64;
+        let sigma2 = reference_variance(clean.rss, dof as f64, floor, &used);
         let mut keep = Vec::new();
         let mut pv = Vec::new();
         let mut ts = Vec::new();
         for &(i, _) in suspects {
             // Suspects currently rejected are outside the fit; the others are tested by their
             // deletion residual (refit without them).
-            let (e, h, s2) = if used[i] {
+            let (e, h, s2, d) = if used[i] {
                 let mut u2 = used.clone();
                 u2[i] = false;
                 let f2 = am::fit(&clean.p, mask, wins, &u2)?;
@@ -163,17 +175,19 @@ fn test_suspects(
                 (
                     am::residual(&f2.p, &wins[i]),
                     am::leverage(&f2.p, mask, wins, &u2, i)?,
-                    f2.rss / d2 as f64,
+                    reference_variance(f2.rss, d2 as f64, floor, &u2),
+                    d2,
                 )
             } else {
                 (
                     am::residual(&clean.p, &wins[i]),
                     am::leverage(&clean.p, mask, wins, &used, i)?,
                     sigma2,
+                    dof,
                 )
             };
             let t = e / (s2 * (1.0 + h)).max(1e-300).sqrt();
-            let pval = (st::t_two_sided(t, dof as f64) * n as f64).min(1.0);
+            let pval = (st::t_two_sided(t, d as f64) * n as f64).min(1.0);
             if pval < level {
                 keep.push(i);
                 pv.push(pval);
@@ -259,7 +273,7 @@ mod tests {
     #[test]
     fn one_window_far_off_is_rejected_and_only_it() {
         let (wins, fit, mask) = scene(30, &[(11, 0.01)]);
-        let t = find_outliers(&fit, &[true; 30], &mask, &wins, 1e-3, 6).unwrap();
+        let t = find_outliers(&fit, &[true; 30], &mask, &wins, &[], 1e-3, 6).unwrap();
         assert_eq!(t.rejected, vec![11]);
         assert!(!t.used[11] && t.used.iter().filter(|u| **u).count() == 29);
         assert!(t.p_values[0] < 1e-3);
@@ -271,7 +285,7 @@ mod tests {
     #[test]
     fn two_outliers_do_not_mask_each_other() {
         let (wins, fit, mask) = scene(30, &[(4, 0.008), (20, -0.006)]);
-        let t = find_outliers(&fit, &[true; 30], &mask, &wins, 1e-3, 6).unwrap();
+        let t = find_outliers(&fit, &[true; 30], &mask, &wins, &[], 1e-3, 6).unwrap();
         let mut r = t.rejected.clone();
         r.sort_unstable();
         assert_eq!(r, vec![4, 20]);
@@ -280,21 +294,47 @@ mod tests {
     #[test]
     fn clean_windows_and_too_few_windows_give_nothing() {
         let (wins, fit, mask) = scene(30, &[]);
-        assert!(find_outliers(&fit, &[true; 30], &mask, &wins, 1e-3, 6).is_none());
+        assert!(find_outliers(&fit, &[true; 30], &mask, &wins, &[], 1e-3, 6).is_none());
         // A shift at the level of the scatter is not an outlier.
         let (wins, fit, mask) = scene(30, &[(7, 1e-4)]);
-        assert!(find_outliers(&fit, &[true; 30], &mask, &wins, 1e-3, 6).is_none());
+        assert!(find_outliers(&fit, &[true; 30], &mask, &wins, &[], 1e-3, 6).is_none());
         // 9 parameters need at least 13 windows before anything is screened.
         let (wins, fit, mask) = scene(12, &[(3, 0.01)]);
-        assert!(find_outliers(&fit, &[true; 12], &mask, &wins, 1e-3, 6).is_none());
+        assert!(find_outliers(&fit, &[true; 12], &mask, &wins, &[], 1e-3, 6).is_none());
+    }
+
+    #[test]
+    fn the_noise_floor_bounds_the_reference_scale_from_below() {
+        // The others scatter by ≈ 0.1 mg, so a 1.5 mg shift is ~15 of their σ: rejected when
+        // the test trusts their RSS alone.
+        let (wins, fit, mask) = scene(30, &[(7, 1.5e-3)]);
+        let t = find_outliers(&fit, &[true; 30], &mask, &wins, &[], 1e-3, 6).unwrap();
+        assert_eq!(t.rejected, vec![7]);
+        // Each window's mean is known to scatter by 0.5 mg (its samples' floor): the same shift
+        // is then 3 floors, ordinary among 30 windows, and nothing is rejected.
+        let floor = vec![5e-4; 30];
+        assert!(find_outliers(&fit, &[true; 30], &mask, &wins, &floor, 1e-3, 6).is_none());
+        // A window 10 mg off is still far beyond the floor.
+        let (wins, fit, mask) = scene(30, &[(7, 1e-2)]);
+        let t = find_outliers(&fit, &[true; 30], &mask, &wins, &floor, 1e-3, 6).unwrap();
+        assert_eq!(t.rejected, vec![7]);
+        // The suspect's own floor does not count (a window that moved has a large one).
+        let mut own = vec![0.0; 30];
+        own[7] = 1e-2;
+        let (wins, fit, mask) = scene(30, &[(7, 1.5e-3)]);
+        assert!(find_outliers(&fit, &[true; 30], &mask, &wins, &own, 1e-3, 6).is_some());
+        // NaN floors (too short for a batch estimate) fall back to the RSS.
+        let nan = vec![f64::NAN; 30];
+        let (wins, fit, mask) = scene(30, &[(7, 1.5e-3)]);
+        assert!(find_outliers(&fit, &[true; 30], &mask, &wins, &nan, 1e-3, 6).is_some());
     }
 
     #[test]
     fn at_most_max_reject_windows_are_suspected() {
         let (wins, fit, mask) = scene(30, &[(9, 0.02), (17, -0.004)]);
-        let t = find_outliers(&fit, &[true; 30], &mask, &wins, 1e-3, 1).unwrap();
+        let t = find_outliers(&fit, &[true; 30], &mask, &wins, &[], 1e-3, 1).unwrap();
         assert_eq!(t.rejected, vec![9], "only the most extreme one");
-        let t = find_outliers(&fit, &[true; 30], &mask, &wins, 1e-3, 2).unwrap();
+        let t = find_outliers(&fit, &[true; 30], &mask, &wins, &[], 1e-3, 2).unwrap();
         assert_eq!(t.rejected.len(), 2);
     }
 }

@@ -2,6 +2,13 @@
 //!
 //! Everything that decides is here, in [`select`], with its constants; the rest of the
 //! analysis only measures (fits, F-tests, held-out errors) and reports.
+//!
+//! Every p-value the rule compares with its level refers residuals to one variance,
+//! [`crate::noise::reference_variance`]: the fit's `rss/dof`, bounded below by the mean
+//! squared noise floor of the windows in use. The levels below assume that bound: with
+//! `rss/dof` alone a chance-low residual variance (one recording in ~100 on ~20 dof) inflates
+//! every statistic, and clean recordings gained an effect or lost a window about once in 150
+//! at these same levels (docs/residuals.md).
 
 use crate::error::{Error, Result};
 use crate::stats as st;
@@ -10,7 +17,8 @@ use crate::stats as st;
 /// (Bonferroni). 10⁻³ rather than the usual 0.05 because a recording has tens of windows and
 /// the analysis tries up to seven candidates per step for up to [`MAX_EFFECTS`] steps: at 0.05
 /// a clean recording would gain a spurious effect in roughly one run of five, at 10⁻³ in about
-/// one of a thousand (the false-positive rates measured in docs/residuals.md).
+/// one of a thousand (the false-positive rates measured in docs/residuals.md: 0 of 800 clean
+/// recordings with the floor-bounded reference variance).
 pub const ALPHA: f64 = 1e-3;
 
 /// Default factor by which a candidate must divide the leave-one-window-out RMS. The F-test

@@ -99,12 +99,21 @@ pub struct State {
     pub fit: Fit,
     /// Its held-out residuals, g.
     pub loo: Vec<Option<f64>>,
+    /// Per-window noise floor of the residual (g; [`crate::noise::floors`] under the base
+    /// model): what each window's mean scatters by from its own samples alone.
+    pub floor: Vec<f64>,
 }
 
 impl State {
     /// Windows in use.
     pub fn n_used(&self) -> usize {
         self.used.iter().filter(|u| **u).count()
+    }
+
+    /// The variance the tests refer residuals to ([`crate::noise::reference_variance`] over
+    /// the windows in use), g².
+    pub fn reference_variance(&self, rss: f64, dof: f64) -> f64 {
+        crate::noise::reference_variance(rss, dof, &self.floor, &self.used)
     }
 }
 
@@ -168,7 +177,7 @@ pub fn drop_tests(
     cv_factor: f64,
 ) -> Vec<DropTest> {
     let dof = c.fit.n.saturating_sub(c.fit.k).max(1) as f64;
-    let s2 = (c.fit.rss / dof).max(1e-300);
+    let s2 = state.reference_variance(c.fit.rss, dof);
     c.terms
         .iter()
         .map(|&term| {
@@ -239,7 +248,8 @@ pub fn try_term(
     };
     rep.rms_mg = Some(f.rms() * 1e3);
     let dof = (n_used - k_new) as f64;
-    let fstat = ((state.fit.rss - f.rss).max(0.0) / dp as f64) / (f.rss / dof).max(1e-300);
+    let fstat =
+        ((state.fit.rss - f.rss).max(0.0) / dp as f64) / state.reference_variance(f.rss, dof);
     let p = st::f_sf(fstat, dp as f64, dof);
     rep.f_stat = Some(fstat);
     rep.p_value = Some(p);

@@ -77,7 +77,9 @@ pub fn detect_adaptive(rec: &Recording, opts: &DetectOptions) -> Result<Detectio
     if !(rate.is_finite() && rate > 0.0) {
         return Err(Error::NoSampleRate);
     }
-    let samples = rec.xyz.iter().map(|s| s.map(|v| v as f32));
+    let lattice = lattice_view(&rec.xyz);
+    let xyz = lattice.as_deref().unwrap_or(&rec.xyz);
+    let samples = xyz.iter().map(|s| s.map(|v| v as f32));
     let mut scratch = vec![[0.0f32; 3]; ADAPTIVE_SCRATCH];
     let mut intervals = Vec::new();
     let (det, _fit) = adaptive::detect_fitted::<MAX_WINDOW, _>(
@@ -102,6 +104,63 @@ pub fn detect_adaptive(rec: &Recording, opts: &DetectOptions) -> Result<Detectio
         reference_variance: det.thresholds.reference_variance,
         times: rec.times(rate),
     })
+}
+
+/// Most quantiser levels per axis [`lattice_view`] recognises: a 16-bit ADC has 65 536;
+/// beyond it the values are taken as continuous (and f32 still holds every level exactly).
+const MAX_LATTICE_LEVELS: usize = 1 << 17;
+
+/// How far (in steps) a value may sit from its lattice point and still count as on it: a
+/// count converted to g and printed with 7 significant digits is ~10⁻⁵ step off.
+const LATTICE_TOLERANCE: f64 = 1e-3;
+
+/// The samples as quantiser levels (`round((v − v_min)/q)` per axis) when non-integer input
+/// lies on a lattice of step `q` per axis (counts converted to g or m/s² by a constant scale
+/// and offset); `None` for integer input (already levels) and for continuous values.
+///
+/// Why: the adaptive detector's noise survey bins block variances on a log scale at absolute
+/// positions and floors integer data at the quantisation variance 1/12, so the same recording
+/// in counts and in g would be detected with slightly different references (window edges a
+/// sample apart). In levels it is the counts recording up to an offset, which a variance
+/// does not see: the same windows, whatever unit or scale the counts were converted to.
+fn lattice_view(xyz: &[[f64; 3]]) -> Option<Vec<[f64; 3]>> {
+    if xyz.iter().all(|s| s.iter().all(|v| v.fract() == 0.0)) {
+        return None;
+    }
+    let mut step = [0.0; 3];
+    let mut origin = [0.0; 3];
+    for a in 0..3 {
+        let mut v: Vec<f64> = xyz.iter().map(|s| s[a]).collect();
+        if v.iter().any(|x| !x.is_finite()) {
+            return None;
+        }
+        v.sort_by(f64::total_cmp);
+        v.dedup();
+        if v.len() > MAX_LATTICE_LEVELS {
+            return None;
+        }
+        let span = v[v.len() - 1] - v[0];
+        // The smallest gap that is not float noise is the step candidate.
+        let q = v
+            .windows(2)
+            .map(|w| w[1] - w[0])
+            .filter(|g| *g > 1e-9 * span.max(v[0].abs()))
+            .fold(f64::INFINITY, f64::min);
+        origin[a] = v[0];
+        step[a] = if q.is_finite() { q } else { 1.0 };
+        let on_lattice = v.iter().all(|x| {
+            let k = (x - v[0]) / step[a];
+            (k - k.round()).abs() <= LATTICE_TOLERANCE
+        });
+        if !on_lattice || span / step[a] > MAX_LATTICE_LEVELS as f64 {
+            return None;
+        }
+    }
+    Some(
+        xyz.iter()
+            .map(|s| std::array::from_fn(|a| ((s[a] - origin[a]) / step[a]).round()))
+            .collect(),
+    )
 }
 
 /// Runs the core's streaming static detector over a recording.
@@ -429,4 +488,51 @@ pub fn detect_windows(rec: &Recording, opts: &DetectOptions) -> Result<Windows> 
         times: det.times,
         reference_variance: det.reference_variance,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn counts_converted_by_scale_and_offset_are_mapped_back_to_levels() {
+        let counts: Vec<[f64; 3]> = (0..200)
+            .map(|i| {
+                let i = i as f64;
+                [500.0 + (i * 7.0) % 13.0, 300.0 + (i * 3.0) % 5.0, 700.0]
+            })
+            .collect();
+        // Integers are levels already.
+        assert!(lattice_view(&counts).is_none());
+        let in_g: Vec<[f64; 3]> = counts
+            .iter()
+            .map(|c| {
+                [
+                    (c[0] - 512.0) / 105.0,
+                    (c[1] - 512.0) / 98.5,
+                    (c[2] - 512.0) / 101.0,
+                ]
+            })
+            .collect();
+        let levels = lattice_view(&in_g).unwrap();
+        for (l, c) in levels.iter().zip(&counts) {
+            // The counts up to each axis's offset (its smallest value); a constant axis is 0.
+            assert_eq!(*l, [c[0] - 500.0, c[1] - 300.0, 0.0]);
+        }
+        // Scaled again (g → m/s²): the same levels.
+        let ms2: Vec<[f64; 3]> = in_g.iter().map(|v| v.map(|x| x * 9.80665)).collect();
+        assert_eq!(lattice_view(&ms2).unwrap(), levels);
+    }
+
+    #[test]
+    fn continuous_values_are_left_alone() {
+        let cont: Vec<[f64; 3]> = (0..200)
+            .map(|i| {
+                let x = (i as f64 * 12.9898).sin() * 0.01;
+                [x, 1.0 + x * x, -x]
+            })
+            .collect();
+        assert!(lattice_view(&cont).is_none());
+        assert!(lattice_view(&[[f64::NAN, 0.5, 0.5]]).is_none());
+    }
 }

@@ -245,28 +245,65 @@ fn noise_floor_matches_truth_residuals() {
     );
 }
 
-/// Data already in g (non-integer, |m| ≈ 1) is recognised and analysed the same way.
+/// Data already in g (non-integer, |m| ≈ 1) is recognised and analysed the same way: counts
+/// converted by a constant scale and offset lie on a lattice, which the detector maps back to
+/// quantiser levels, so the windows are the counts' own (any scale: g or m/s²) and the fit
+/// agrees with the counts' to far below a micro-g.
 #[test]
 fn input_in_g_is_detected_and_analysed() {
     let s = sim(SimEffect::Quadratic, 25.0, 41, Device::Wiimote);
-    let mut rec = s.recording.clone();
-    for m in rec.xyz.iter_mut() {
-        *m = m.map(|v| (v - 512.0) / 105.0);
-    }
-    let r = run_analyze(&rec, &AnalyzeOptions::default()).unwrap();
+    let in_units = |per_g: f64| {
+        let mut rec = s.recording.clone();
+        for m in rec.xyz.iter_mut() {
+            *m = m.map(|v| (v - 512.0) / 105.0 * per_g);
+        }
+        rec
+    };
+    let r = run_analyze(&in_units(1.0), &AnalyzeOptions::default()).unwrap();
     assert_eq!(r.units, "g");
     assert_eq!(names(&r), vec!["quadratic".to_string()]);
     let raw = run_analyze(&s.recording, &AnalyzeOptions::default()).unwrap();
     assert_eq!(raw.units, "raw");
-    assert_eq!(raw.static_windows, r.static_windows);
-    // The adaptive detector floors integer counts at the quantisation variance (1/12) and
-    // data in g at nothing, so window edges may differ by a few samples: same fit to 3 %.
-    assert!(
-        (raw.base.rms_mg - r.base.rms_mg).abs() < 0.03 * raw.base.rms_mg,
-        "{} vs {}",
-        raw.base.rms_mg,
-        r.base.rms_mg
+    let spans = |r: &AnalyzeReport| -> Vec<(f64, f64, usize)> {
+        r.windows
+            .iter()
+            .map(|w| (w.t_start, w.t_end, w.samples))
+            .collect()
+    };
+    assert_eq!(
+        spans(&raw),
+        spans(&r),
+        "the same windows in counts and in g"
     );
+    let ms2 = run_analyze(&in_units(9.80665), &AnalyzeOptions::default()).unwrap();
+    assert_eq!(spans(&ms2), spans(&r), "and in m/s²");
+    // The same window means up to the scale: the same fit, residuals in mg alike.
+    for (a, b) in [
+        (raw.base.rms_mg, r.base.rms_mg),
+        (raw.final_model.rms_mg, r.final_model.rms_mg),
+        (raw.base.cv_rms_mg.unwrap(), r.base.cv_rms_mg.unwrap()),
+        (
+            raw.final_model.cv_rms_mg.unwrap(),
+            r.final_model.cv_rms_mg.unwrap(),
+        ),
+    ] {
+        assert!((a - b).abs() < 1e-6, "{a} vs {b} mg");
+    }
+    // The two stored calibrations (f32) map each window's mean to the same g vector.
+    for (wr, wg) in raw.windows.iter().zip(&r.windows) {
+        let at = |cal: &wiical_core::Calibration, m: [f64; 3]| {
+            let c = Conditions {
+                time_s: wr.t_centre as f32,
+                temperature_c: wr.temp.map(|t| t as f32),
+            };
+            cal.correct(m.map(|x| x as f32), &c)
+        };
+        let (a, b) = (at(&raw.calibration, wr.mean), at(&r.calibration, wg.mean));
+        for k in 0..3 {
+            let d = (a[k] as f64 - b[k] as f64).abs() * 1e3;
+            assert!(d < 1e-3, "window {}: axis {k} differs by {d} mg", wr.index);
+        }
+    }
 }
 
 /// Time and temperature both available, no effect: neither is picked; the temperature term
