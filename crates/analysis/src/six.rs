@@ -450,6 +450,8 @@ pub fn analyze_six(rec: &Recording, opts: &AnalyzeOptions) -> Result<AnalyzeRepo
         calibration: cal,
         windows: Vec::new(),
         six_position: Some(details),
+        window_input: None,
+        autocalibration: None,
     })
 }
 

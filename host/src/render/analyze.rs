@@ -27,7 +27,7 @@ pub fn render_text(rep: &AnalyzeReport, file: &str) -> String {
                 w.index,
                 w.t_start,
                 w.t_end,
-                w.samples,
+                w.samples.map_or("-".into(), |n| n.to_string()),
                 w.temp.map_or("-".into(), |t| format!("{t:.2}")),
                 w.residual_base_mg,
                 w.residual_final_mg,

@@ -63,7 +63,7 @@ pub fn fit_text(rep: &FitReport, rec: &Recording, file: &str) -> String {
             i + 1,
             w.t_start,
             w.t_end,
-            w.samples,
+            w.samples.map_or("-".into(), |n| n.to_string()),
             w.residual_mg
         );
     }
