@@ -733,6 +733,7 @@ impl Context<'_> {
             six_position: None,
             window_input: None,
             autocalibration: None,
+            autocalibration_converged: None,
         })
     }
 }

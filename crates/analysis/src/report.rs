@@ -169,6 +169,10 @@ pub struct AnalyzeReport {
     /// the same windows, for comparison; `--out` writes `calibration`, not this.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub autocalibration: Option<crate::autocal::AutocalReport>,
+    /// Window-mean input only: the same method iterated to its fixed point (GGIR's stop
+    /// criterion ends it early on thousands of epochs; see [`crate::autocal`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub autocalibration_converged: Option<crate::autocal::AutocalReport>,
 }
 
 /// Six-position specifics of an [`AnalyzeReport`].

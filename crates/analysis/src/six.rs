@@ -452,6 +452,7 @@ pub fn analyze_six(rec: &Recording, opts: &AnalyzeOptions) -> Result<AnalyzeRepo
         six_position: Some(details),
         window_input: None,
         autocalibration: None,
+        autocalibration_converged: None,
     })
 }
 

@@ -155,7 +155,7 @@ fn thousands(n: usize) -> String {
     let s = n.to_string();
     let mut out = String::new();
     for (i, c) in s.chars().enumerate() {
-        if i > 0 && (s.len() - i) % 3 == 0 {
+        if i > 0 && (s.len() - i).is_multiple_of(3) {
             out.push(',');
         }
         out.push(c);
@@ -413,15 +413,19 @@ pub fn analyze_table(
     let mut rep = crate::analyze::analyze_windows(&table.recording, ws, opts)?;
     rep.window_input = Some(table.info.clone());
     let rec = &table.recording;
-    let ac = if units == "g" {
-        match autocal::autocalibrate(&rec.xyz, rec.temp.as_deref(), &Default::default()) {
+    let run = |opts: &autocal::AutocalOptions| {
+        let fit = if units == "g" {
+            autocal::autocalibrate(&rec.xyz, rec.temp.as_deref(), opts)
+        } else {
+            Err(autocal::AutocalError::NotInG { units })
+        };
+        match fit {
             Ok(fit) => fit.report(),
             Err(e) => autocal::AutocalReport::not_done(rec.len(), &e),
         }
-    } else {
-        autocal::AutocalReport::not_done(rec.len(), &autocal::AutocalError::NotInG { units })
     };
-    rep.autocalibration = Some(ac);
+    rep.autocalibration = Some(run(&autocal::AutocalOptions::default()));
+    rep.autocalibration_converged = Some(run(&autocal::AutocalOptions::converged()));
     Ok(rep)
 }
 

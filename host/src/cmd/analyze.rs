@@ -22,7 +22,8 @@ pub struct Args {
     /// Draw the residuals before/after against the relevant regressor (SVG).
     #[arg(long)]
     pub plot: Option<PathBuf>,
-    /// Write the final calibration, effect terms included, here (JSON).
+    /// Write the final calibration, effect terms included, here (JSON). For a window-mean
+    /// table this is the pipeline's selected model, not the GGIR-method comparison.
     #[arg(long)]
     pub out: Option<PathBuf>,
     #[command(flatten)]
@@ -41,7 +42,11 @@ pub struct Args {
 /// Runs `wiical analyze`; returns what to print.
 pub fn run(a: &Args) -> Result<String> {
     check_outputs(&[&a.file], &[a.out.as_deref(), a.plot.as_deref()])?;
-    let rec = load(&a.file, &a.detect.load_options()?)?;
+    let table = a.detect.window_table(&a.file)?;
+    let rec = match &table {
+        Some(t) => t.recording.clone(),
+        None => load(&a.file, &a.detect.load_options()?)?,
+    };
     // The rule's settings first, then the names, as the engine would.
     check_rule(a.alpha, a.cv_factor).map_err(cli_error)?;
     let candidates = a
@@ -57,10 +62,15 @@ pub fn run(a: &Args) -> Result<String> {
         candidates,
         ..Default::default()
     };
-    let rep = super::with_spinner("analysing (windows, base fit, candidate effects)", || {
-        wiical_analysis::analyze(&rec, &opts)
-    })
-    .map_err(cli_error)?;
+    let rep =
+        super::with_spinner(
+            "analysing (windows, base fit, candidate effects)",
+            || match &table {
+                Some(t) => wiical_analysis::window_input::analyze_table(t, &opts),
+                None => wiical_analysis::analyze(&rec, &opts),
+            },
+        )
+        .map_err(cli_error)?;
     let means: Vec<[f64; 3]> = rep.windows.iter().map(|w| w.mean).collect();
     let quality = Quality::assess(&rep.calibration, &means, rep.final_model.rms_mg);
     if let Some(path) = &a.out {

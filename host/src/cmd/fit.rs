@@ -42,11 +42,21 @@ fn parse_model(s: &str) -> Result<MultiPosModel, String> {
 /// in the `--out` file for `device put` to check.
 pub fn run(a: &Args) -> Result<String> {
     check_outputs(&[&a.file], &[a.out.as_deref()])?;
-    let rec = load(&a.file, &a.detect.load_options()?)?;
-    let rep = super::with_spinner("detecting static windows and fitting", || {
-        wiical_analysis::fit::run(&rec, &a.detect.fit_options(a.model))
-    })
-    .map_err(cli_error)?;
+    let opts = a.detect.fit_options(a.model);
+    let (rep, rec) = match a.detect.window_table(&a.file)? {
+        Some(table) => (
+            wiical_analysis::window_input::fit_table(&table, &opts).map_err(cli_error)?,
+            table.recording,
+        ),
+        None => {
+            let rec = load(&a.file, &a.detect.load_options()?)?;
+            let rep = super::with_spinner("detecting static windows and fitting", || {
+                wiical_analysis::fit::run(&rec, &opts)
+            })
+            .map_err(cli_error)?;
+            (rep, rec)
+        }
+    };
     let means: Vec<[f64; 3]> = rep.windows.iter().map(|w| w.mean.map(f64::from)).collect();
     let quality = Quality::assess(&rep.calibration, &means, f64::from(rep.rms_mg));
     if let Some(path) = &a.out {

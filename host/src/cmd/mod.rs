@@ -15,6 +15,7 @@ use crate::cli_error::cli_error;
 use anyhow::Result;
 use std::path::Path;
 use wiical_analysis::verdict::Quality;
+use wiical_analysis::window_input::{load_window_table, WindowInputOptions, WindowTable};
 use wiical_analysis::{DetectOptions, Error, FitOptions, LoadOptions};
 use wiical_core::multipos::MultiPosModel;
 
@@ -44,12 +45,27 @@ pub struct DetectArgs {
     /// from integer data: 8-bit, 10-bit or 16-bit).
     #[arg(long, value_parser = parse_range)]
     pub adc_range: Option<(f64, f64)>,
+    /// Every row is already one still window (x,y,z means; optional SD, n, temp, t columns):
+    /// analyse the rows directly, no static detection. Files with per-axis SD columns (sdx,
+    /// sd_x, x_sd, std_x, …) or a sample-count column (n, samples) are read so without it.
+    #[arg(long)]
+    pub windows: bool,
 }
 
 impl DetectArgs {
     /// The loader's options (`--columns`).
     pub fn load_options(&self) -> Result<LoadOptions> {
         load_options(self.columns.as_deref())
+    }
+
+    /// Reads `path` as a window-mean table when its header says so or `--windows` is given;
+    /// `None`: an ordinary recording (read it with [`load`]).
+    pub fn window_table(&self, path: &Path) -> Result<Option<WindowTable>> {
+        let opts = WindowInputOptions {
+            load: self.load_options()?,
+            force: self.windows,
+        };
+        load_window_table(path, &opts).map_err(cli_error)
     }
 
     /// The base fit's options.

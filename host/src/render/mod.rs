@@ -47,6 +47,9 @@ pub fn fit_text(rep: &FitReport, rec: &Recording, file: &str) -> String {
         rec.len(),
         rep.static_windows
     );
+    if let Some(w) = &rep.window_input {
+        let _ = writeln!(o, "{}", w.description);
+    }
     if rec.skipped_empty_rows > 0 {
         let _ = writeln!(
             o,
