@@ -544,4 +544,26 @@ mod tests {
         assert_eq!(thousands(10958), "10,958");
         assert_eq!(thousands(1234567), "1,234,567");
     }
+
+    proptest::proptest! {
+        /// Arbitrary SD / count fields never panic; what is accepted is finite, ≥ 0, ≥ 2.
+        #[test]
+        fn arbitrary_sd_and_count_fields(
+            fields in proptest::collection::vec(("[-0-9.eEinfNa]{0,8}", "[-0-9.eE]{0,6}"), 1..20),
+            force in proptest::bool::ANY,
+        ) {
+            let mut text = String::from("x,y,z,sdx,sdy,sdz,n\n");
+            for (sd, n) in &fields {
+                text += &format!("0.01,0.02,1,{sd},0.001,0.002,{n}\n");
+            }
+            if let Ok(Some(t)) = read(&text, force) {
+                let ws = t.to_windows();
+                proptest::prop_assert_eq!(ws.stats.len(), fields.len());
+                for w in &ws.stats {
+                    proptest::prop_assert!(w.var.iter().all(|v| v.is_finite() && *v >= 0.0));
+                    proptest::prop_assert!(w.n().is_some_and(|n| n >= 2));
+                }
+            }
+        }
+    }
 }
