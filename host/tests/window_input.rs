@@ -53,8 +53,9 @@ fn simulated_table(n: usize) -> String {
     let tbar = temps.iter().sum::<f64>() / n as f64;
     let mut text = String::from("t,x,y,z,temp,sdx,sdy,sdz\n");
     for (i, temp) in temps.iter().enumerate() {
-        // Orientation order shuffled relative to temperature by a stride coprime with n.
-        let k = (i * 7919) % n;
+        // Orientation order shuffled relative to time and temperature: a stride coprime with n
+        // (97; not ≡ ±1 mod n, which would only reverse the order).
+        let k = (i * 97) % n;
         let z = 1.0 - 2.0 * (k as f64 + 0.5) / n as f64;
         let r = (1.0 - z * z).sqrt();
         let a = [
