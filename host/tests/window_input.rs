@@ -246,3 +246,22 @@ fn ggir_file_analyze_names_temperature_and_agrees_with_fit() {
     );
     assert_eq!(an["autocalibration"]["done"], true);
 }
+
+/// Standard input is read once, whether it turns out to be a table or samples.
+#[test]
+fn a_table_on_standard_input_is_read_once() {
+    let file = temp_file("stdin_windows.csv", &simulated_table(30));
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_wiical"))
+        .args(["fit", "-", "--json"])
+        .stdin(std::fs::File::open(&file).unwrap())
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["static_windows"], 30);
+    assert_eq!(v["window_input"]["rows"], 30);
+}

@@ -91,6 +91,27 @@ pub fn load_window_table(path: &Path, opts: &WindowInputOptions) -> Result<Optio
     parse_window_table(&text, opts).map_err(|e| e.in_file(path))
 }
 
+/// What a file holds: samples for the detector, or a window-mean table.
+#[derive(Debug, Clone)]
+pub enum Input {
+    /// An ordinary recording.
+    Samples(Recording),
+    /// Rows that are windows already.
+    Table(WindowTable),
+}
+
+/// Reads `path` once (standard input can be read only once) as a window-mean table when its
+/// header says so or `opts.force`, else as an ordinary recording ([`crate::load()`]).
+pub fn load_input(path: &Path, opts: &WindowInputOptions) -> Result<Input> {
+    let text = read_text(path, MAX_RECORDING_BYTES)?;
+    let parsed = match parse_window_table(&text, opts) {
+        Ok(Some(table)) => Ok(Input::Table(table)),
+        Ok(None) => load::parse(&text, &opts.load).map(Input::Samples),
+        Err(e) => Err(e),
+    };
+    parsed.map_err(|e| e.in_file(path))
+}
+
 /// [`load_window_table`] on text.
 pub fn parse_window_table(text: &str, opts: &WindowInputOptions) -> Result<Option<WindowTable>> {
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);

@@ -1,12 +1,13 @@
 //! `wiical analyze`: the residual analysis.
 
-use super::{check_outputs, load, to_json_with_quality, write_calibration_with, DetectArgs};
+use super::{check_outputs, to_json_with_quality, write_calibration_with, DetectArgs};
 use crate::cli_error::cli_error;
 use crate::render;
 use anyhow::Result;
 use std::path::PathBuf;
 use wiical_analysis::select::check_rule;
 use wiical_analysis::verdict::Quality;
+use wiical_analysis::window_input::Input;
 use wiical_analysis::{AnalyzeOptions, Candidate};
 use wiical_core::multipos::MultiPosModel;
 
@@ -42,11 +43,7 @@ pub struct Args {
 /// Runs `wiical analyze`; returns what to print.
 pub fn run(a: &Args) -> Result<String> {
     check_outputs(&[&a.file], &[a.out.as_deref(), a.plot.as_deref()])?;
-    let table = a.detect.window_table(&a.file)?;
-    let rec = match &table {
-        Some(t) => t.recording.clone(),
-        None => load(&a.file, &a.detect.load_options()?)?,
-    };
+    let input = a.detect.input(&a.file)?;
     // The rule's settings first, then the names, as the engine would.
     check_rule(a.alpha, a.cv_factor).map_err(cli_error)?;
     let candidates = a
@@ -65,9 +62,9 @@ pub fn run(a: &Args) -> Result<String> {
     let rep =
         super::with_spinner(
             "analysing (windows, base fit, candidate effects)",
-            || match &table {
-                Some(t) => wiical_analysis::window_input::analyze_table(t, &opts),
-                None => wiical_analysis::analyze(&rec, &opts),
+            || match &input {
+                Input::Table(t) => wiical_analysis::window_input::analyze_table(t, &opts),
+                Input::Samples(rec) => wiical_analysis::analyze(rec, &opts),
             },
         )
         .map_err(cli_error)?;

@@ -15,7 +15,7 @@ use crate::cli_error::cli_error;
 use anyhow::Result;
 use std::path::Path;
 use wiical_analysis::verdict::Quality;
-use wiical_analysis::window_input::{load_window_table, WindowInputOptions, WindowTable};
+use wiical_analysis::window_input::{load_input, Input, WindowInputOptions};
 use wiical_analysis::{DetectOptions, Error, FitOptions, LoadOptions};
 use wiical_core::multipos::MultiPosModel;
 
@@ -58,14 +58,21 @@ impl DetectArgs {
         load_options(self.columns.as_deref())
     }
 
-    /// Reads `path` as a window-mean table when its header says so or `--windows` is given;
-    /// `None`: an ordinary recording (read it with [`load`]).
-    pub fn window_table(&self, path: &Path) -> Result<Option<WindowTable>> {
+    /// Reads `path` (once: it may be standard input) as a window-mean table when its header
+    /// says so or `--windows` is given, else as a recording of samples (notes on the file go
+    /// to stderr as warnings, as [`load`] does).
+    pub fn input(&self, path: &Path) -> Result<Input> {
         let opts = WindowInputOptions {
             load: self.load_options()?,
             force: self.windows,
         };
-        load_window_table(path, &opts).map_err(cli_error)
+        let input = load_input(path, &opts).map_err(cli_error)?;
+        if let Input::Samples(rec) = &input {
+            for note in &rec.notes {
+                eprintln!("warning: in {}: {note}", path.display());
+            }
+        }
+        Ok(input)
     }
 
     /// The base fit's options.

@@ -11,8 +11,16 @@ pub fn render_text(rep: &AnalyzeReport, file: &str) -> String {
     let mut o = String::new();
     let _ = writeln!(
         o,
-        "Residual analysis of {file} ({} samples, {} mode, units {}): {} static windows",
-        rep.samples, rep.mode, rep.units, rep.static_windows
+        "Residual analysis of {file} ({} {}, {} mode, units {}): {} static windows",
+        rep.samples,
+        if rep.window_input.is_some() {
+            "rows"
+        } else {
+            "samples"
+        },
+        rep.mode,
+        rep.units,
+        rep.static_windows
     );
     if let Some(w) = &rep.window_input {
         let _ = writeln!(o, "{}", w.description);

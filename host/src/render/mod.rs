@@ -43,8 +43,13 @@ pub fn fit_text(rep: &FitReport, rec: &Recording, file: &str) -> String {
     let mut o = String::new();
     let _ = writeln!(
         o,
-        "Multi-position fit of {file} ({} samples): {} static windows",
+        "Multi-position fit of {file} ({} {}): {} static windows",
         rec.len(),
+        if rep.window_input.is_some() {
+            "rows"
+        } else {
+            "samples"
+        },
         rep.static_windows
     );
     if let Some(w) = &rep.window_input {
