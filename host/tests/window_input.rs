@@ -128,7 +128,8 @@ fn simulated_table_fit_and_analyze_agree_and_recover_the_truth() {
     }
     // The GGIR method on the same windows, iterated to its fixed point: the truth within
     // 4 standard errors. With GGIR's own stop (a tolerance on a per-epoch average, reached
-    // early) it ends short of that point: within 2 mg, 2e-3 and 0.3 mg/°C of the truth here.
+    // early) it ends short of that point: 0.12 mg, 1.5e-4 and 0.02 mg/°C from the truth here at
+    // most; the test allows about three times that.
     let conv = &an["autocalibration_converged"];
     let ac = &an["autocalibration"];
     assert_eq!(ac["done"], true, "{ac:#}");
@@ -138,7 +139,7 @@ fn simulated_table_fit_and_analyze_agree_and_recover_the_truth() {
         let truth = [OFFSET[j] * 1e3, SCALE[j], TEMP_COEF[j] * 1e3];
         let keys = ["offset_mg", "scale", "temp_offset_mg_per_c"];
         let se_keys = ["offset", "scale", "temp_coef"];
-        let early_tol = [2.0, 2e-3, 0.3];
+        let early_tol = [0.4, 5e-4, 0.06];
         for q in 0..3 {
             let s = se[se_keys[q]][j].as_f64().unwrap();
             assert!(
