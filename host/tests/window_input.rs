@@ -223,6 +223,12 @@ fn ggir_file_fit_reads_its_rows_as_windows() {
         "read as 10,958 window means (columns sdx,sdy,sdz): no static detection"
     );
     assert!(v["rms_mg"].as_f64().unwrap() < 4.0, "{}", v["rms_mg"]);
+    // Detector settings do not apply to a table: said, not silently dropped.
+    let (ok, _, err) = wiical(&["fit", file.to_str().unwrap(), "--init-s", "5", "--json"]);
+    assert!(
+        ok && err.contains("the detector settings are not used"),
+        "{err}"
+    );
 }
 
 /// The full analysis of the GGIR file (≈ 11 000 windows: about 6 s in the test profile,

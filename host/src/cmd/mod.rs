@@ -67,12 +67,29 @@ impl DetectArgs {
             force: self.windows,
         };
         let input = load_input(path, &opts).map_err(cli_error)?;
-        if let Input::Samples(rec) = &input {
-            for note in &rec.notes {
-                eprintln!("warning: in {}: {note}", path.display());
+        match &input {
+            Input::Samples(rec) => {
+                for note in &rec.notes {
+                    eprintln!("warning: in {}: {note}", path.display());
+                }
             }
+            Input::Table(_) if self.detector_flags_given() || self.adc_range.is_some() => {
+                eprintln!(
+                    "warning: in {}: the rows are windows already: the detector settings are not used",
+                    path.display()
+                );
+            }
+            Input::Table(_) => {}
         }
         Ok(input)
+    }
+
+    /// True when any of the IMU-TK detector's flags is given.
+    fn detector_flags_given(&self) -> bool {
+        self.window_s.is_some()
+            || self.init_s.is_some()
+            || self.min_static_s.is_some()
+            || self.threshold.is_some()
     }
 
     /// The base fit's options.
@@ -80,10 +97,7 @@ impl DetectArgs {
         let d = DetectOptions::default();
         FitOptions {
             detect: DetectOptions {
-                adaptive: self.window_s.is_none()
-                    && self.init_s.is_none()
-                    && self.min_static_s.is_none()
-                    && self.threshold.is_none(),
+                adaptive: !self.detector_flags_given(),
                 window_s: self.window_s.unwrap_or(d.window_s),
                 init_s: self.init_s.unwrap_or(d.init_s),
                 min_static_s: self.min_static_s.unwrap_or(d.min_static_s),
