@@ -1,11 +1,14 @@
 //! Arbitrary text to the recording loader (`wiical fit FILE`): it must never panic, and
 //! whatever it accepts must be a usable recording — at least one sample, every value finite,
 //! the time column (if any) one value per sample and strictly increasing, the axis columns
-//! three different non-time columns. The first byte picks the `--columns` option.
+//! three different non-time columns. The first byte picks the `--columns` option. The same
+//! text read as a window-mean table (forced or not) must give one window per row with SDs
+//! finite and ≥ 0 and counts ≥ 2.
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
 use wiical_analysis::columns::Sensor;
+use wiical_analysis::window_input::{parse_window_table, WindowInputOptions};
 use wiical_analysis::{parse, LoadOptions};
 
 const CHOICES: [Option<[&str; 3]>; 4] = [
@@ -34,6 +37,7 @@ fuzz_target!(|data: &[u8]| {
         columns: CHOICES[pick % CHOICES.len()].map(|c| c.map(String::from)),
         sensor: SENSORS[(pick / CHOICES.len()) % SENSORS.len()],
     };
+    check_window_table(text, &opts, pick % 2 == 0);
     let Ok(rec) = parse(text, &opts) else {
         return;
     };
@@ -54,3 +58,24 @@ fuzz_target!(|data: &[u8]| {
         .iter()
         .any(|n| ["t", "time", "timestamp"].contains(&n.to_ascii_lowercase().as_str())));
 });
+
+fn check_window_table(text: &str, opts: &LoadOptions, force: bool) {
+    let wopts = WindowInputOptions {
+        load: opts.clone(),
+        force,
+    };
+    let Ok(Some(table)) = parse_window_table(text, &wopts) else {
+        return;
+    };
+    let n = table.recording.len();
+    assert_eq!(table.info.rows, n);
+    if let Some(sd) = &table.sd {
+        assert_eq!(sd.len(), n);
+        assert!(sd.iter().flatten().all(|v| v.is_finite() && *v >= 0.0));
+    }
+    if let Some(count) = &table.count {
+        assert_eq!(count.len(), n);
+        assert!(count.iter().all(|c| *c >= 2));
+    }
+    assert_eq!(table.to_windows().stats.len(), n);
+}

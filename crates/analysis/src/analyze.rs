@@ -44,7 +44,20 @@ pub fn analyze(rec: &Recording, opts: &AnalyzeOptions) -> Result<AnalyzeReport> 
     if rec.labels.is_some() {
         return crate::six::analyze_six(rec, opts);
     }
-    let ctx = Context::new(rec, opts)?;
+    let ws = detect_windows(rec, &opts.fit.detect)?;
+    analyze_windows(rec, ws, opts)
+}
+
+/// The multi-position analysis of windows already found: detected by [`analyze`], or read
+/// from a window-mean table ([`crate::window_input`]); everything after the detection is the
+/// same pipeline.
+pub fn analyze_windows(
+    rec: &Recording,
+    ws: Windows,
+    opts: &AnalyzeOptions,
+) -> Result<AnalyzeReport> {
+    check_rule(opts.alpha, opts.cv_factor)?;
+    let ctx = Context::new(ws, opts)?;
     let base = ctx.base_fit()?;
     let mut search = Search::new(&ctx, &base);
     if base.loo.is_some() {
@@ -80,8 +93,7 @@ struct Base {
 }
 
 impl<'a> Context<'a> {
-    fn new(rec: &Recording, opts: &'a AnalyzeOptions) -> Result<Self> {
-        let ws = detect_windows(rec, &opts.fit.detect)?;
+    fn new(ws: Windows, opts: &'a AnalyzeOptions) -> Result<Self> {
         let model = opts.fit.model;
         let means32: Vec<[f32; 3]> = ws.stats.iter().map(|w| w.mean.map(|x| x as f32)).collect();
         let core_cal = fit_means_named(&means32, model, "model")
@@ -735,7 +747,8 @@ impl Context<'_> {
             units: self.ws.units,
             samples: rec.len(),
             static_windows: self.n(),
-            noise_floor_mg: Some(base.noise_floor * 1e3),
+            // Unknown (NaN) when the windows' sample counts are not known.
+            noise_floor_mg: Some(base.noise_floor * 1e3).filter(|x| x.is_finite()),
             noise_floor_batch_mg: base.noise_floor_batch.map(|x| x * 1e3),
             base: base_summary,
             effects: search.effects,
@@ -748,6 +761,9 @@ impl Context<'_> {
             calibration,
             windows,
             six_position: None,
+            window_input: None,
+            autocalibration: None,
+            autocalibration_converged: None,
         })
     }
 }

@@ -176,6 +176,50 @@ pub enum Error {
     /// A header and nothing else.
     #[error("file has a header but no data rows")]
     HeaderOnly,
+    /// A window-mean table's standard deviation is negative, NaN or infinite.
+    #[error("line {line}: column '{column}': window standard deviation '{text}' must be a finite number ≥ 0")]
+    WindowSdInvalid {
+        /// 1-based line.
+        line: usize,
+        /// Column name.
+        column: String,
+        /// The field.
+        text: String,
+    },
+    /// A window-mean table's sample count is not an integer ≥ 2.
+    #[error("line {line}: column '{column}': sample count '{text}' must be an integer ≥ 2 (a window averages at least two samples)")]
+    WindowCountInvalid {
+        /// 1-based line.
+        line: usize,
+        /// Column name.
+        column: String,
+        /// The field.
+        text: String,
+    },
+    /// A window-mean table names standard-deviation columns for some axes but not all.
+    #[error("window-mean table: standard-deviation column(s) {found} found but none for axis {axis} (e.g. sd{axis}); give all three or none")]
+    WindowSdColumnMissing {
+        /// The SD columns found.
+        found: String,
+        /// The axis without one.
+        axis: &'static str,
+    },
+    /// The SD/count columns were read for a different number of rows than the means.
+    #[error("window-mean table: {values} rows of SD/count values for {rows} rows of means")]
+    WindowRowsMismatch {
+        /// Rows of means.
+        rows: usize,
+        /// Rows of SD/count values.
+        values: usize,
+    },
+    /// A window-mean table with more rows than the analysis accepts.
+    #[error("window-mean table with {rows} rows: at most {max} windows are analysed")]
+    TooManyWindowRows {
+        /// Rows in the file.
+        rows: usize,
+        /// The cap.
+        max: usize,
+    },
     /// The same column name twice.
     #[error("column '{name}' appears twice in the header")]
     DuplicateColumn {

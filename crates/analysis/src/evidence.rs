@@ -64,34 +64,45 @@ pub fn verdict_text(
 ) -> String {
     let mut s = String::new();
     let above = base.chi2_p.is_some_and(|p| p < alpha);
-    let _ = write!(
-        s,
-        "Base model: RMS {:.3} mg (CV {}) against a noise floor of {:.3} mg{}: ",
-        base.rms_mg,
-        base.cv_rms_mg
-            .map_or("n/a".into(), |x| format!("{x:.3} mg")),
-        floor_mg,
-        batch_mg.map_or(String::new(), |b| format!(" ({b:.3} mg from batch means)"))
-    );
-    let _ = write!(
-        s,
-        "{}. ",
-        if above {
-            format!(
-                "the residual is above the floor (χ² = {:.0} on {} dof, p {})",
-                base.chi2.unwrap_or(f64::NAN),
-                base.chi2_dof.unwrap_or(0),
-                fmt_p(base.chi2_p.unwrap_or(f64::NAN))
-            )
-        } else {
-            format!(
-                "the residual is consistent with the floor (χ² = {:.1} on {} dof, p {})",
-                base.chi2.unwrap_or(f64::NAN),
-                base.chi2_dof.unwrap_or(0),
-                fmt_p(base.chi2_p.unwrap_or(f64::NAN))
-            )
-        }
-    );
+    if !floor_mg.is_finite() {
+        // Window means without their sample counts (a window-mean table): var/n is unknown.
+        let _ = write!(
+            s,
+            "Base model: RMS {:.3} mg (CV {}); the noise floor is unknown (the windows' sample counts are not given), so the residual is not compared with it. ",
+            base.rms_mg,
+            base.cv_rms_mg
+                .map_or("n/a".into(), |x| format!("{x:.3} mg")),
+        );
+    } else {
+        let _ = write!(
+            s,
+            "Base model: RMS {:.3} mg (CV {}) against a noise floor of {:.3} mg{}: ",
+            base.rms_mg,
+            base.cv_rms_mg
+                .map_or("n/a".into(), |x| format!("{x:.3} mg")),
+            floor_mg,
+            batch_mg.map_or(String::new(), |b| format!(" ({b:.3} mg from batch means)"))
+        );
+        let _ = write!(
+            s,
+            "{}. ",
+            if above {
+                format!(
+                    "the residual is above the floor (χ² = {:.0} on {} dof, p {})",
+                    base.chi2.unwrap_or(f64::NAN),
+                    base.chi2_dof.unwrap_or(0),
+                    fmt_p(base.chi2_p.unwrap_or(f64::NAN))
+                )
+            } else {
+                format!(
+                    "the residual is consistent with the floor (χ² = {:.1} on {} dof, p {})",
+                    base.chi2.unwrap_or(f64::NAN),
+                    base.chi2_dof.unwrap_or(0),
+                    fmt_p(base.chi2_p.unwrap_or(f64::NAN))
+                )
+            }
+        );
+    }
     if !cv_possible {
         s.push_str("Cross-validation is not possible with these windows (a held-out window leaves the model undetermined), so no effect was tested.");
         return s;

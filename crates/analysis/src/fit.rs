@@ -3,7 +3,7 @@
 
 use crate::error::{Error, Result};
 use crate::recording::Recording;
-use crate::windows::{detect_windows, DetectOptions};
+use crate::windows::{detect_windows, DetectOptions, Windows};
 use serde::Serialize;
 use wiical_core::multipos::{self, MultiPosConfig, MultiPosFit, MultiPosModel};
 use wiical_core::Calibration;
@@ -33,8 +33,8 @@ pub struct WindowReport {
     pub t_start: f64,
     /// End time, s.
     pub t_end: f64,
-    /// Number of samples.
-    pub samples: u32,
+    /// Number of samples (`null` for a window-mean table without a count column).
+    pub samples: Option<u32>,
     /// Mean raw reading.
     pub mean: [f32; 3],
     /// Per-axis standard deviation of the raw readings (at least the quantisation's √(1/12)
@@ -67,6 +67,9 @@ pub struct FitReport {
     pub noise_std: [f32; 3],
     /// The windows.
     pub windows: Vec<WindowReport>,
+    /// Window-mean input only: how the table was read (absent for recordings of samples).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub window_input: Option<crate::window_input::WindowInputInfo>,
     /// The calibration (what `--out` writes).
     #[serde(skip)]
     pub calibration: Calibration,
@@ -79,7 +82,12 @@ pub fn run(rec: &Recording, opts: &FitOptions) -> Result<FitReport> {
     if rec.labels.is_some() {
         return Err(Error::PoseTable { rows: rec.len() });
     }
-    let ws = detect_windows(rec, &opts.detect)?;
+    run_windows(&detect_windows(rec, &opts.detect)?, opts)
+}
+
+/// The fit of windows already found: detected by [`run`], or read from a window-mean table
+/// ([`crate::window_input`]) — the same windows `analyze` uses for the same file.
+pub fn run_windows(ws: &Windows, opts: &FitOptions) -> Result<FitReport> {
     let means: Vec<[f32; 3]> = ws.stats.iter().map(|w| w.mean.map(|x| x as f32)).collect();
     let fit = fit_means(&means, opts.model).map_err(|e| e.found_by(opts.detect.adaptive))?;
     let cal = fit.calibration;
@@ -90,7 +98,7 @@ pub fn run(rec: &Recording, opts: &FitOptions) -> Result<FitReport> {
         .map(|(w, m)| WindowReport {
             t_start: ws.times[w.start],
             t_end: ws.times[w.end - 1],
-            samples: w.n() as u32,
+            samples: w.n().map(|n| n as u32),
             mean: *m,
             std: w.var.map(|v| v.sqrt() as f32),
             residual_mg: 1000.0 * multipos::norm_residual(&cal, *m, 1.0),
@@ -106,6 +114,7 @@ pub fn run(rec: &Recording, opts: &FitOptions) -> Result<FitReport> {
         identifiability: fit.identifiability,
         noise_std: ws.reference_variance.map(f32::sqrt),
         windows,
+        window_input: None,
         calibration: cal,
     })
 }

@@ -17,6 +17,8 @@
 //! | columns | [`columns`] | header names → the wanted sensor's axis triplet by pattern |
 //! | units, rate | [`recording`] | recording → sample rate; window means → `raw` / `g` / `m/s^2` |
 //! | window detection | [`windows`] | recording → static windows (core detector) + f64 window statistics |
+//! | window-mean input | [`window_input`] | a table of still-window means (GGIR sphere data) → the windows directly, no detection |
+//! | autocalibration | [`autocal`] | still-epoch means (g) + temperature → van Hees et al. 2014 offset / scale / temperature (GGIR's method) |
 //! | gyroscope | [`gyro`] | accelerometer + gyro recordings → motions between windows, gyro scale / misalignment / bias by held-out error ([`gyro::run`]) |
 //! | base fit | [`fit`] | window means → 9- (or 6-) parameter [`Calibration`] (core `f32` LM) |
 //! | effect model | [`model`] | base + effect blocks, f64 residual ‖a‖ − 1 g, LM, leave-one-out |
@@ -68,6 +70,7 @@
 #![warn(missing_docs)]
 
 pub mod analyze;
+pub mod autocal;
 pub mod calfile;
 pub mod candidate;
 pub mod columns;
@@ -96,6 +99,7 @@ pub mod stats;
 pub mod timecheck;
 pub mod trial;
 pub mod verdict;
+pub mod window_input;
 pub mod windows;
 pub mod write;
 

@@ -38,7 +38,7 @@ pub fn load(path: &Path, opts: &LoadOptions) -> Result<Recording> {
     parse(&text, opts).map_err(|e| e.in_file(path))
 }
 
-fn is_comment_or_blank(line: &str) -> bool {
+pub(crate) fn is_comment_or_blank(line: &str) -> bool {
     let l = line.trim();
     l.is_empty() || l.starts_with('#') || l.starts_with('%')
 }
@@ -68,7 +68,7 @@ pub fn parse(text: &str, opts: &LoadOptions) -> Result<Recording> {
 
 /// How a file with a header separates its fields, decided by the first non-comment line.
 #[derive(Debug, Clone, Copy, PartialEq)]
-enum Delimiter {
+pub(crate) enum Delimiter {
     /// `,` (decimal point `.`).
     Comma,
     /// `;`, as spreadsheets write in locales with a decimal comma: `1,5` is 1.5.
@@ -78,7 +78,7 @@ enum Delimiter {
 }
 
 impl Delimiter {
-    fn of_first_line(line: &str) -> Option<Self> {
+    pub(crate) fn of_first_line(line: &str) -> Option<Self> {
         if line.contains(';') {
             Some(Self::Semicolon)
         } else if line.contains(',') {
@@ -91,7 +91,7 @@ impl Delimiter {
         }
     }
 
-    fn byte(self) -> u8 {
+    pub(crate) fn byte(self) -> u8 {
         match self {
             Self::Comma => b',',
             Self::Semicolon => b';',
@@ -102,7 +102,7 @@ impl Delimiter {
 
 /// The text with `#` and `%` comment lines blanked (line numbers kept), since the CSV reader
 /// knows only one comment character and would split `% recorded 2024, 100 Hz` into fields.
-fn blank_comments(text: &str) -> std::borrow::Cow<'_, str> {
+pub(crate) fn blank_comments(text: &str) -> std::borrow::Cow<'_, str> {
     let is_comment = |l: &str| {
         let l = l.trim_start();
         l.starts_with('#') || l.starts_with('%')
@@ -147,7 +147,7 @@ fn check_axis_columns(rec: &Recording) -> Result<()> {
 /// Parses one field. Callers hand over fields already free of surrounding blanks (split on
 /// ASCII whitespace, or trimmed by the CSV reader). With `decimal_comma` one `,` is the
 /// decimal separator. Quoted text in errors is cut to a readable length.
-fn parse_number(s: &str, line_no: usize, col: &str, decimal_comma: bool) -> Result<f64> {
+pub(crate) fn parse_number(s: &str, line_no: usize, col: &str, decimal_comma: bool) -> Result<f64> {
     let parsed = if decimal_comma && s.contains(',') {
         if s.matches(',').count() == 1 && !s.contains('.') {
             s.replacen(',', ".", 1).parse::<f64>()

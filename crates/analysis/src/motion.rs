@@ -120,6 +120,7 @@ mod tests {
             batch_var_of_mean: None,
             t_centre: 0.0,
             temp: None,
+            count: None,
         }
     }
 
@@ -154,7 +155,9 @@ mod tests {
     #[test]
     fn flags_residuals_that_follow_the_motion_only() {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
-        let stats: Vec<WindowStats> = (0..30).map(|_| window(rng.random_range(1e-4..4e-3))).collect();
+        let stats: Vec<WindowStats> = (0..30)
+            .map(|_| window(rng.random_range(1e-4..4e-3)))
+            .collect();
         let d: Vec<f64> = stats
             .iter()
             .map(|w| predicted_shortening(&I, w.var, [1e-5; 3]))
@@ -167,7 +170,9 @@ mod tests {
         assert!(m.correlation > 0.9, "{m:?}");
         assert!(diagnostic(&m, 0.01, 0.1).unwrap().contains("not still"));
         assert!(diagnostic(&m, 0.01, 100.0).is_none(), "below the floor");
-        let unrelated: Vec<f64> = (0..30).map(|_| 3e-3 * rng.random_range(-1.0..1.0)).collect();
+        let unrelated: Vec<f64> = (0..30)
+            .map(|_| 3e-3 * rng.random_range(-1.0..1.0))
+            .collect();
         let m = check(&I, &stats, [1e-5; 3], &unrelated).unwrap();
         assert!(diagnostic(&m, 0.01, 0.1).is_none(), "{m:?}");
     }

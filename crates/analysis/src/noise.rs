@@ -6,7 +6,7 @@ use crate::model::{self as am, Params, Win};
 use crate::stats as st;
 use crate::windows::WindowStats;
 
-/// Per-window noise floor of the residual (g): var/n (or, with `batch`, the batch-means
+/// Per-window noise floor of the residual (g): var/n (NaN where n is unknown) (or, with `batch`, the batch-means
 /// variance of the mean; NaN where a window is too short for it) propagated through ∂r/∂m.
 pub fn floors(
     p: &Params,
@@ -25,7 +25,11 @@ pub fn floors(
                     None => return f64::NAN,
                 }
             } else {
-                s.var.map(|v| v / s.n() as f64)
+                match s.n() {
+                    Some(n) => s.var.map(|v| v / n as f64),
+                    // Unknown sample count: the floor is unknown (NaN), not guessed.
+                    None => return f64::NAN,
+                }
             };
             // r depends on y = (m − c)/s exactly as on −b: ∂r/∂m = −∂r/∂b / s.
             (0..3)

@@ -99,8 +99,8 @@ pub struct WindowInfo {
     pub t_end: f64,
     /// Mean sample time, s since the first sample.
     pub t_centre: f64,
-    /// Samples.
-    pub samples: usize,
+    /// Samples (`null` for a window-mean table without a count column).
+    pub samples: Option<usize>,
     /// Mean temperature, °C.
     pub temp: Option<f64>,
     /// Mean reading, raw units.
@@ -162,6 +162,17 @@ pub struct AnalyzeReport {
     pub windows: Vec<WindowInfo>,
     /// Six-position mode only.
     pub six_position: Option<SixPositionDetails>,
+    /// Window-mean input only: how the table was read (absent for recordings of samples).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub window_input: Option<crate::window_input::WindowInputInfo>,
+    /// Window-mean input only: the van Hees et al. 2014 autocalibration (GGIR's method) of
+    /// the same windows, for comparison; `--out` writes `calibration`, not this.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub autocalibration: Option<crate::autocal::AutocalReport>,
+    /// Window-mean input only: the same method iterated to its fixed point (GGIR's stop
+    /// criterion ends it early on thousands of epochs; see [`crate::autocal`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub autocalibration_converged: Option<crate::autocal::AutocalReport>,
 }
 
 /// Six-position specifics of an [`AnalyzeReport`].

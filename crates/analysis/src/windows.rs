@@ -288,12 +288,16 @@ pub struct WindowStats {
     pub t_centre: f64,
     /// Mean temperature.
     pub temp: Option<f64>,
+    /// Samples averaged: the span for detected windows; for windows read from a window-mean
+    /// table ([`crate::window_input`]) the file's count column, `None` when it has none (the
+    /// noise floor var/n is then unknown, not guessed).
+    pub count: Option<usize>,
 }
 
 impl WindowStats {
-    /// Samples.
-    pub fn n(&self) -> usize {
-        self.end - self.start
+    /// Samples averaged, when known (see [`WindowStats::count`]).
+    pub fn n(&self) -> Option<usize> {
+        self.count
     }
 }
 
@@ -453,6 +457,7 @@ fn window_stats(
         batch_var_of_mean: batch_var_of_mean(xs),
         t_centre: times[s..e].iter().sum::<f64>() / n - t0,
         temp: rec.temp.as_ref().map(|tc| tc[s..e].iter().sum::<f64>() / n),
+        count: Some(e - s),
     }
 }
 

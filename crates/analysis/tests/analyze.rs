@@ -264,7 +264,7 @@ fn input_in_g_is_detected_and_analysed() {
     assert_eq!(names(&r), vec!["quadratic".to_string()]);
     let raw = run_analyze(&s.recording, &AnalyzeOptions::default()).unwrap();
     assert_eq!(raw.units, "raw");
-    let spans = |r: &AnalyzeReport| -> Vec<(f64, f64, usize)> {
+    let spans = |r: &AnalyzeReport| -> Vec<(f64, f64, Option<usize>)> {
         r.windows
             .iter()
             .map(|w| (w.t_start, w.t_end, w.samples))

@@ -21,7 +21,7 @@ fn fit_and_analyze_agree(rel: &str) -> (usize, f64) {
     assert_eq!(f.static_windows, a.static_windows, "{rel}");
     for (w, aw) in f.windows.iter().zip(&a.windows) {
         assert_eq!(
-            (w.t_start, w.samples as usize),
+            (w.t_start, w.samples.map(|n| n as usize)),
             (aw.t_start, aw.samples),
             "{rel}"
         );

@@ -1,12 +1,13 @@
 //! `wiical analyze`: the residual analysis.
 
-use super::{check_outputs, load, to_json_with_quality, write_calibration_with, DetectArgs};
+use super::{check_outputs, to_json_with_quality, write_calibration_with, DetectArgs};
 use crate::cli_error::cli_error;
 use crate::render;
 use anyhow::Result;
 use std::path::PathBuf;
 use wiical_analysis::select::check_rule;
 use wiical_analysis::verdict::Quality;
+use wiical_analysis::window_input::Input;
 use wiical_analysis::{AnalyzeOptions, Candidate};
 use wiical_core::multipos::MultiPosModel;
 use wiical_core::quality::CoverageRule;
@@ -23,7 +24,8 @@ pub struct Args {
     /// Draw the residuals before/after against the relevant regressor (SVG).
     #[arg(long)]
     pub plot: Option<PathBuf>,
-    /// Write the final calibration, effect terms included, here (JSON).
+    /// Write the final calibration, effect terms included, here (JSON). For a window-mean
+    /// table this is the pipeline's selected model, not the GGIR-method comparison.
     #[arg(long)]
     pub out: Option<PathBuf>,
     #[command(flatten)]
@@ -42,7 +44,7 @@ pub struct Args {
 /// Runs `wiical analyze`; returns what to print.
 pub fn run(a: &Args) -> Result<String> {
     check_outputs(&[&a.file], &[a.out.as_deref(), a.plot.as_deref()])?;
-    let rec = load(&a.file, &a.detect.load_options()?)?;
+    let input = a.detect.input(&a.file)?;
     // The rule's settings first, then the names, as the engine would.
     check_rule(a.alpha, a.cv_factor).map_err(cli_error)?;
     let candidates = a
@@ -58,10 +60,15 @@ pub fn run(a: &Args) -> Result<String> {
         candidates,
         ..Default::default()
     };
-    let rep = super::with_spinner("analysing (windows, base fit, candidate effects)", || {
-        wiical_analysis::analyze(&rec, &opts)
-    })
-    .map_err(cli_error)?;
+    let rep =
+        super::with_spinner(
+            "analysing (windows, base fit, candidate effects)",
+            || match &input {
+                Input::Table(t) => wiical_analysis::window_input::analyze_table(t, &opts),
+                Input::Samples(rec) => wiical_analysis::analyze(rec, &opts),
+            },
+        )
+        .map_err(cli_error)?;
     // A six-position table is judged on its six poses by the six-position rule.
     let quality = match &rep.six_position {
         Some(six) => Quality::assess_with(

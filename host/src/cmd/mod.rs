@@ -15,6 +15,7 @@ use crate::cli_error::cli_error;
 use anyhow::Result;
 use std::path::Path;
 use wiical_analysis::verdict::Quality;
+use wiical_analysis::window_input::{load_input, Input, WindowInputOptions};
 use wiical_analysis::{DetectOptions, Error, FitOptions, LoadOptions};
 use wiical_core::multipos::MultiPosModel;
 
@@ -44,6 +45,11 @@ pub struct DetectArgs {
     /// from integer data: 8-bit, 10-bit or 16-bit).
     #[arg(long, value_parser = parse_range)]
     pub adc_range: Option<(f64, f64)>,
+    /// Every row is already one still window (x,y,z means; optional SD, n, temp, t columns):
+    /// analyse the rows directly, no static detection. Files with per-axis SD columns (sdx,
+    /// sd_x, x_sd, std_x, …) or a sample-count column (n, samples) are read so without it.
+    #[arg(long)]
+    pub windows: bool,
 }
 
 impl DetectArgs {
@@ -52,15 +58,46 @@ impl DetectArgs {
         load_options(self.columns.as_deref())
     }
 
+    /// Reads `path` (once: it may be standard input) as a window-mean table when its header
+    /// says so or `--windows` is given, else as a recording of samples (notes on the file go
+    /// to stderr as warnings, as [`load`] does).
+    pub fn input(&self, path: &Path) -> Result<Input> {
+        let opts = WindowInputOptions {
+            load: self.load_options()?,
+            force: self.windows,
+        };
+        let input = load_input(path, &opts).map_err(cli_error)?;
+        match &input {
+            Input::Samples(rec) => {
+                for note in &rec.notes {
+                    eprintln!("warning: in {}: {note}", path.display());
+                }
+            }
+            Input::Table(_) if self.detector_flags_given() || self.adc_range.is_some() => {
+                eprintln!(
+                    "warning: in {}: the rows are windows already: the detector settings are not used",
+                    path.display()
+                );
+            }
+            Input::Table(_) => {}
+        }
+        Ok(input)
+    }
+
+    /// True when any of the IMU-TK detector's flags is given.
+    fn detector_flags_given(&self) -> bool {
+        self.window_s.is_some()
+            || self.init_s.is_some()
+            || self.min_static_s.is_some()
+            || self.threshold.is_some()
+    }
+
     /// The base fit's options.
     pub fn fit_options(&self, model: MultiPosModel) -> FitOptions {
         let d = DetectOptions::default();
         FitOptions {
             detect: DetectOptions {
-                adaptive: self.window_s.is_none()
-                    && self.init_s.is_none()
-                    && self.min_static_s.is_none()
-                    && self.threshold.is_none(),
+                adaptive: !self.detector_flags_given(),
                 window_s: self.window_s.unwrap_or(d.window_s),
                 init_s: self.init_s.unwrap_or(d.init_s),
                 min_static_s: self.min_static_s.unwrap_or(d.min_static_s),

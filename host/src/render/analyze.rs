@@ -2,17 +2,29 @@
 //! and verdict (six-position files: the pose residual tables instead of the window table).
 
 use std::fmt::Write as _;
+use wiical_analysis::autocal::AutocalReport;
 use wiical_analysis::evidence::{fmt_p, fmt_vec};
-use wiical_analysis::report::{AnalyzeReport, ModelSummary, SixPositionDetails};
+use wiical_analysis::report::{AnalyzeReport, ModelSummary, SixPositionDetails, WindowInfo};
 
 /// Human-readable report.
 pub fn render_text(rep: &AnalyzeReport, file: &str) -> String {
     let mut o = String::new();
     let _ = writeln!(
         o,
-        "Residual analysis of {file} ({} samples, {} mode, units {}): {} static windows",
-        rep.samples, rep.mode, rep.units, rep.static_windows
+        "Residual analysis of {file} ({} {}, {} mode, units {}): {} static windows",
+        rep.samples,
+        if rep.window_input.is_some() {
+            "rows"
+        } else {
+            "samples"
+        },
+        rep.mode,
+        rep.units,
+        rep.static_windows
     );
+    if let Some(w) = &rep.window_input {
+        let _ = writeln!(o, "{}", w.description);
+    }
     if let Some(six) = &rep.six_position {
         o.push_str(&six_text(six));
     } else {
@@ -27,7 +39,7 @@ pub fn render_text(rep: &AnalyzeReport, file: &str) -> String {
                 w.index,
                 w.t_start,
                 w.t_end,
-                w.samples,
+                w.samples.map_or("-".into(), |n| n.to_string()),
                 w.temp.map_or("-".into(), |t| format!("{t:.2}")),
                 w.residual_base_mg,
                 w.residual_final_mg,
@@ -104,6 +116,74 @@ pub fn render_text(rep: &AnalyzeReport, file: &str) -> String {
         }
     }
     let _ = writeln!(o, "\n{}", rep.verdict);
+    if let Some(ac) = &rep.autocalibration {
+        o.push_str(&autocal_text(rep, ac));
+    }
+    if let Some(ac) = &rep.autocalibration_converged {
+        o.push_str("The same method iterated to its fixed point (GGIR stops earlier):\n");
+        o.push_str(&autocal_values(ac));
+    }
+    o
+}
+
+/// The GGIR-method block of a window-mean table's report, with the pipeline's mean
+/// |‖a‖ − 1| beside it (the same measure GGIR reports).
+fn autocal_text(rep: &AnalyzeReport, ac: &AutocalReport) -> String {
+    let mut o = String::new();
+    let mean_abs = |f: fn(&WindowInfo) -> f64| {
+        rep.windows.iter().map(|w| f(w).abs()).sum::<f64>() / rep.windows.len().max(1) as f64
+    };
+    let _ = writeln!(
+        o,
+        "\nPipeline (written by --out): mean |‖a‖ − 1| over the windows {:.3} mg (base model) → {:.3} mg (final model)",
+        mean_abs(|w| w.residual_base_mg),
+        mean_abs(|w| w.residual_final_mg)
+    );
+    let _ = writeln!(
+        o,
+        "GGIR's autocalibration (van Hees et al. 2014) of the same windows, stopped as GGIR stops it, for comparison:"
+    );
+    if !ac.done {
+        let _ = writeln!(
+            o,
+            "  not done: {}",
+            ac.reason.as_deref().unwrap_or("unknown reason")
+        );
+        return o;
+    }
+    o.push_str(&autocal_values(ac));
+    o
+}
+
+/// The numbers of one autocalibration.
+fn autocal_values(ac: &AutocalReport) -> String {
+    let mut o = String::new();
+    if !ac.done {
+        let _ = writeln!(o, "  not done: {}", ac.reason.as_deref().unwrap_or("?"));
+        return o;
+    }
+    let v3 = |v: Option<[f64; 3]>, d: usize| v.map_or("-".into(), |v| fmt_vec(&v, d));
+    let _ = writeln!(
+        o,
+        "  offset {} mg (added before scaling)",
+        v3(ac.offset_mg, 2)
+    );
+    let _ = writeln!(o, "  scale {}", v3(ac.scale, 5));
+    if let (Some(k), Some(t)) = (ac.temp_offset_mg_per_c, ac.temp_mean_c) {
+        let _ = writeln!(
+            o,
+            "  temperature offset {} mg/°C (about the mean {t:.2} °C)",
+            fmt_vec(&k, 3)
+        );
+    }
+    let _ = writeln!(
+        o,
+        "  mean |‖a‖ − 1| {:.3} mg → {:.3} mg ({} epochs, {} iterations)",
+        ac.error_before_mg.unwrap_or(f64::NAN),
+        ac.error_after_mg.unwrap_or(f64::NAN),
+        ac.epochs,
+        ac.iterations.unwrap_or(0)
+    );
     o
 }
 

@@ -43,10 +43,18 @@ pub fn fit_text(rep: &FitReport, rec: &Recording, file: &str) -> String {
     let mut o = String::new();
     let _ = writeln!(
         o,
-        "Multi-position fit of {file} ({} samples): {} static windows",
+        "Multi-position fit of {file} ({} {}): {} static windows",
         rec.len(),
+        if rep.window_input.is_some() {
+            "rows"
+        } else {
+            "samples"
+        },
         rep.static_windows
     );
+    if let Some(w) = &rep.window_input {
+        let _ = writeln!(o, "{}", w.description);
+    }
     if rec.skipped_empty_rows > 0 {
         let _ = writeln!(
             o,
@@ -63,7 +71,7 @@ pub fn fit_text(rep: &FitReport, rec: &Recording, file: &str) -> String {
             i + 1,
             w.t_start,
             w.t_end,
-            w.samples,
+            w.samples.map_or("-".into(), |n| n.to_string()),
             w.residual_mg
         );
     }
