@@ -50,14 +50,15 @@ pub fn run(a: &Args) -> Result<String> {
         .map(|names| names.iter().map(|n| n.parse::<Candidate>()).collect())
         .transpose()
         .map_err(cli_error)?;
-    let opts = AnalyzeOptions {
-        fit: a.detect.fit_options(MultiPosModel::Full),
-        alpha: a.alpha,
-        cv_factor: a.cv_factor,
-        candidates,
-        ..Default::default()
-    };
-    let rep = super::with_spinner("analysing (windows, base fit, candidate effects)", || {
+    let rep = super::with_progress(|progress| {
+        let opts = AnalyzeOptions {
+            fit: a.detect.fit_options(MultiPosModel::Full),
+            alpha: a.alpha,
+            cv_factor: a.cv_factor,
+            candidates,
+            progress,
+            ..Default::default()
+        };
         wiical_analysis::analyze(&rec, &opts)
     })
     .map_err(cli_error)?;

@@ -153,6 +153,38 @@ pub fn to_json_with_quality<T: serde::Serialize>(report: &T, quality: &Quality) 
     to_json(&WithQuality { report, quality })
 }
 
+/// Runs `work` with an indicatif progress display on stderr, fed by the analysis's progress
+/// callback: a spinner while the stage has no known total (detection), a bar of the
+/// candidates fitted of the step's total during the greedy search. Hidden when stderr is
+/// not a terminal (indicatif's stderr target draws nothing then), so scripted output, tests
+/// and goldens are unchanged.
+pub fn with_progress<T>(work: impl FnOnce(wiical_analysis::ProgressHook) -> T) -> T {
+    let bar =
+        indicatif::ProgressBar::with_draw_target(None, indicatif::ProgressDrawTarget::stderr());
+    let spinner = indicatif::ProgressStyle::with_template("{spinner} {msg} ({elapsed})")
+        .unwrap_or_else(|_| indicatif::ProgressStyle::default_spinner());
+    let counted =
+        indicatif::ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} ({elapsed})")
+            .map(|s| s.progress_chars("=> "))
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar());
+    bar.set_style(spinner.clone());
+    bar.enable_steady_tick(std::time::Duration::from_millis(120));
+    let shown = bar.clone();
+    let hook = wiical_analysis::ProgressHook::new(move |p| {
+        if p.total == 0 {
+            shown.set_style(spinner.clone());
+        } else {
+            shown.set_length(p.total as u64);
+            shown.set_position(p.done as u64);
+            shown.set_style(counted.clone());
+        }
+        shown.set_message(p.to_string());
+    });
+    let out = work(hook);
+    bar.finish_and_clear();
+    out
+}
+
 /// Runs `work` with an indicatif spinner on stderr saying `what` and the elapsed time (hidden
 /// when stderr is not a terminal, so scripted output is unchanged). Analyses of long
 /// recordings (thousands of windows) take seconds; the spinner says the program is working.
