@@ -113,7 +113,11 @@ pub fn to_json<T: serde::Serialize>(v: &T) -> Result<String> {
 /// Loads a recording, errors told the CLI's way.
 /// Notes on the file (time gaps, a millisecond-looking time step) go to stderr as warnings.
 pub fn load(path: &std::path::Path, opts: &LoadOptions) -> Result<wiical_analysis::Recording> {
-    let rec = wiical_analysis::load(path, opts).map_err(cli_error)?;
+    // Millions of rows take seconds to read: say so (hidden when stderr is not a terminal).
+    let rec = with_spinner(&format!("reading {}", path.display()), || {
+        wiical_analysis::load(path, opts)
+    })
+    .map_err(cli_error)?;
     for note in &rec.notes {
         eprintln!("warning: in {}: {note}", path.display());
     }
