@@ -274,38 +274,15 @@ pub fn detect_fitted<const N: usize, I>(
 where
     I: Iterator<Item = [f32; 3]> + Clone,
 {
-    let thresholds = AdaptiveThresholds::from_samples(samples.clone(), rate_hz)?;
-    // One pass per setting: its count and its window means (in `scratch`) together, so a
-    // setting costs one detector pass before the final one (not three: count, means, final).
-    let mut tried: [Option<(StaticDetectorConfig, u32)>; HOLD_SCHEDULE.len()] =
-        [None; HOLD_SCHEDULE.len()];
-    let mut accepted = None;
-    for (slot, (window_s, min_static_s)) in tried.iter_mut().zip(HOLD_SCHEDULE) {
-        let cfg = thresholds.detector_config(rate_hz, window_s, min_static_s);
-        if cfg.window as usize > N {
-            continue;
-        }
-        let mut n = 0usize;
-        let count = run::<N, _>(samples.clone(), cfg, thresholds.reference_variance, |iv| {
-            if let Some(m) = scratch.get_mut(n) {
-                *m = iv.mean;
-            }
-            n += 1;
-        })?;
-        *slot = Some((cfg, count));
-        // A setting with more windows than `scratch` holds is accepted on its count.
-        if count >= min_windows
-            && (n > scratch.len() || crate::multipos::fit(&scratch[..n], fit_cfg).is_ok())
-        {
-            accepted = Some(cfg);
-            break;
-        }
-    }
-    let config = match accepted {
-        Some(cfg) => cfg,
-        // No setting fits: the count rule of [`detect`] over the counts already known.
-        None => by_count(&tried, min_windows).ok_or(Error::InvalidParameter)?,
-    };
+    let (chosen, _) = detect_fitted_each::<N, I>(
+        samples.clone(),
+        rate_hz,
+        min_windows,
+        fit_cfg,
+        scratch,
+        |_, _| {},
+    )?;
+    let (thresholds, config) = (chosen.thresholds, chosen.config);
     let mut n = 0usize;
     let mut on_interval = on_interval;
     let detection = finish::<N, I>(samples, thresholds, config, |iv| {
@@ -323,23 +300,87 @@ where
     Ok((detection, fit))
 }
 
-/// [`choose`]'s rule on settings already run: the first with at least `min_windows` windows,
-/// else the one with the most windows (ties: the earlier, i.e. the longer holds).
-fn by_count(
-    tried: &[Option<(StaticDetectorConfig, u32)>],
+/// [`detect_fitted`]'s choice without its final pass: each setting tried reports its
+/// intervals as it runs, to `on_interval(setting, interval)` (`setting` the index in
+/// [`HOLD_SCHEDULE`]), and the result names the chosen setting's index. A caller that can
+/// keep the intervals of every setting tried (the host, with memory to spare) keeps the
+/// chosen one's and saves a pass over the samples; [`detect_fitted`] (no storage on the
+/// device) runs the chosen setting once more instead.
+pub fn detect_fitted_each<const N: usize, I>(
+    samples: I,
+    rate_hz: f32,
     min_windows: u32,
-) -> Option<StaticDetectorConfig> {
-    let run = || tried.iter().flatten();
-    if let Some((cfg, _)) = run().find(|(_, count)| *count >= min_windows) {
-        return Some(*cfg);
-    }
-    let mut best: Option<(StaticDetectorConfig, u32)> = None;
-    for &(cfg, count) in run() {
-        if best.is_none_or(|(_, c)| count > c) {
-            best = Some((cfg, count));
+    fit_cfg: &crate::multipos::MultiPosConfig,
+    scratch: &mut [[f32; 3]],
+    mut on_interval: impl FnMut(usize, StaticInterval),
+) -> Result<(AdaptiveDetection, usize), Error>
+where
+    I: Iterator<Item = [f32; 3]> + Clone,
+{
+    let thresholds = AdaptiveThresholds::from_samples(samples.clone(), rate_hz)?;
+    // One pass per setting: its count and its window means (in `scratch`) together, so a
+    // setting costs one detector pass (before: one to count, one for the means).
+    let mut tried: [Option<(StaticDetectorConfig, u32)>; HOLD_SCHEDULE.len()] =
+        [None; HOLD_SCHEDULE.len()];
+    let mut accepted = None;
+    for (setting, (window_s, min_static_s)) in HOLD_SCHEDULE.into_iter().enumerate() {
+        let cfg = thresholds.detector_config(rate_hz, window_s, min_static_s);
+        if cfg.window as usize > N {
+            continue;
+        }
+        let mut n = 0usize;
+        let count = run::<N, _>(samples.clone(), cfg, thresholds.reference_variance, |iv| {
+            if let Some(m) = scratch.get_mut(n) {
+                *m = iv.mean;
+            }
+            n += 1;
+            on_interval(setting, iv);
+        })?;
+        tried[setting] = Some((cfg, count));
+        // A setting with more windows than `scratch` holds is accepted on its count.
+        if count >= min_windows
+            && (n > scratch.len() || crate::multipos::fit(&scratch[..n], fit_cfg).is_ok())
+        {
+            accepted = Some(setting);
+            break;
         }
     }
-    best.map(|(cfg, _)| cfg)
+    // No setting fits: the count rule of [`detect`] over the counts already known.
+    let setting = match accepted {
+        Some(s) => s,
+        None => by_count(&tried, min_windows).ok_or(Error::InvalidParameter)?,
+    };
+    let (config, windows) = tried[setting].ok_or(Error::InvalidParameter)?;
+    Ok((
+        AdaptiveDetection {
+            thresholds,
+            config,
+            windows,
+        },
+        setting,
+    ))
+}
+
+/// [`choose`]'s rule on settings already run (their index): the first with at least
+/// `min_windows` windows, else the one with the most windows (ties: the earlier, i.e. the
+/// longer holds).
+fn by_count(tried: &[Option<(StaticDetectorConfig, u32)>], min_windows: u32) -> Option<usize> {
+    let known = || {
+        tried
+            .iter()
+            .enumerate()
+            .filter_map(|(i, t)| t.map(|(_, count)| (i, count)))
+    };
+    if let Some((i, _)) = known().find(|(_, count)| *count >= min_windows) {
+        return Some(i);
+    }
+    let mut best: Option<(usize, u32)> = None;
+    for (i, count) in known() {
+        if best.is_none_or(|(_, c)| count > c) {
+            best = Some((i, count));
+        }
+    }
+    best.map(|(i, _)| i)
 }
 
 /// The first setting of the schedule that `accept(config, window count)` takes (`true` with
@@ -528,6 +569,19 @@ mod tests {
             let ctx = (min_windows, scratch_len);
             assert_eq!(d.config, want.0, "{ctx:?}");
             assert_eq!(got, want.1, "{ctx:?}");
+            // Without the final pass: the chosen setting's intervals as they were found.
+            let mut each = std::vec![Vec::new(); HOLD_SCHEDULE.len()];
+            let (d_each, setting) = detect_fitted_each::<101, _>(
+                xs.iter().copied(),
+                100.0,
+                min_windows,
+                &fit_cfg,
+                &mut scratch,
+                |s, iv| each[s].push(iv),
+            )
+            .unwrap();
+            assert_eq!(d_each, d, "{ctx:?}");
+            assert_eq!(each[setting], got, "{ctx:?}");
             let means: Vec<[f32; 3]> = got.iter().map(|iv| iv.mean).collect();
             if got.len() <= scratch_len {
                 assert_eq!(fit, crate::multipos::fit(&means, &fit_cfg), "{ctx:?}");
