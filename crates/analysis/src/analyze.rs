@@ -24,6 +24,7 @@ use crate::model::{self as am, Fit, Normalisation, Term, Win};
 use crate::noise::{chi2_summary, floors, reference_variance};
 use crate::options::AnalyzeOptions;
 use crate::outliers::{find_outliers, OutlierTrial};
+use crate::progress::{Progress, Stage};
 use crate::recording::Recording;
 use crate::report::{
     AnalyzeReport, CandidateReport, EffectReport, ModelSummary, StepReport, WindowInfo,
@@ -44,6 +45,8 @@ pub fn analyze(rec: &Recording, opts: &AnalyzeOptions) -> Result<AnalyzeReport> 
     if rec.labels.is_some() {
         return crate::six::analyze_six(rec, opts);
     }
+    let report = |stage, done, total| opts.progress.report(Progress { stage, done, total });
+    report(Stage::Windows, 0, 0);
     let ws = detect_windows(rec, &opts.fit.detect)?;
     analyze_windows(rec, ws, opts)
 }
@@ -57,8 +60,11 @@ pub fn analyze_windows(
     opts: &AnalyzeOptions,
 ) -> Result<AnalyzeReport> {
     check_rule(opts.alpha, opts.cv_factor)?;
+    let report = |stage, done, total| opts.progress.report(Progress { stage, done, total });
     let ctx = Context::new(ws, opts)?;
+    report(Stage::BaseFit, 0, 1);
     let base = ctx.base_fit()?;
+    report(Stage::BaseFit, 1, 1);
     let mut search = Search::new(&ctx, &base);
     if base.loo.is_some() {
         while search.effects.len() < opts.max_effects && search.step(&ctx) {}
@@ -365,7 +371,13 @@ impl Search {
         let cur_cv = cv_over(&self.state.loo, &self.state.used);
         let mut reports = Vec::new();
         let mut terms = Vec::new();
-        for spec in &specs {
+        let stage = Stage::Candidates {
+            step: self.steps.len() + 1,
+        };
+        let total = specs.len() + usize::from(try_outliers);
+        let progress = |done| ctx.opts.progress.report(Progress { stage, done, total });
+        for (done, spec) in specs.iter().enumerate() {
+            progress(done);
             let (rep, trial) = try_term(spec, &self.state, ctx.model, &ctx.wins, cur_cv);
             if let Some(mut t) = trial {
                 t.report = reports.len();
@@ -380,12 +392,14 @@ impl Search {
             }
         }
         let mut outliers = None;
+        progress(specs.len());
         if try_outliers {
             let (rep, trial) = self.outlier_trial(ctx, level, &terms);
             if let Some(t) = trial {
                 outliers = Some((reports.len(), t));
             }
             reports.push(rep);
+            progress(total);
         }
         Some(StepTrials {
             level,

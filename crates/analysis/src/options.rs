@@ -2,6 +2,7 @@
 
 use crate::candidate::Candidate;
 use crate::fit::FitOptions;
+use crate::progress::ProgressHook;
 use crate::select::{ALPHA, CV_FACTOR, MAX_EFFECTS, MAX_OUTLIER_FRACTION};
 
 /// Settings of the analysis; the defaults are the selection rule's constants
@@ -20,6 +21,8 @@ pub struct AnalyzeOptions {
     pub max_outlier_fraction: f64,
     /// Restrict the candidates to these (`None`: all).
     pub candidates: Option<Vec<Candidate>>,
+    /// Where progress goes (a terminal bar in the CLI; nowhere by default).
+    pub progress: ProgressHook,
 }
 
 impl Default for AnalyzeOptions {
@@ -31,6 +34,7 @@ impl Default for AnalyzeOptions {
             max_effects: MAX_EFFECTS,
             max_outlier_fraction: MAX_OUTLIER_FRACTION,
             candidates: None,
+            progress: ProgressHook::default(),
         }
     }
 }

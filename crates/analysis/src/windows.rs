@@ -68,7 +68,7 @@ pub const ADAPTIVE_MIN_WINDOWS: u32 = 12;
 /// accepted on its count).
 const ADAPTIVE_SCRATCH: usize = 4096;
 
-/// The core's adaptive detection (`static_detect::adaptive::detect_fitted`): the noise
+/// The core's adaptive detection (`static_detect::adaptive::detect_fitted_each`): the noise
 /// reference is a low quantile of the recording's block variances, and the hold lengths are
 /// tried from the IMU-TK defaults (1 s windows, 2 s holds) down to 0.25 s / 0.5 s until one
 /// gives at least [`ADAPTIVE_MIN_WINDOWS`] windows that a multi-position fit accepts.
@@ -81,14 +81,16 @@ pub fn detect_adaptive(rec: &Recording, opts: &DetectOptions) -> Result<Detectio
     let xyz = lattice.as_deref().unwrap_or(&rec.xyz);
     let samples = xyz.iter().map(|s| s.map(|v| v as f32));
     let mut scratch = vec![[0.0f32; 3]; ADAPTIVE_SCRATCH];
-    let mut intervals = Vec::new();
-    let (det, _fit) = adaptive::detect_fitted::<MAX_WINDOW, _>(
+    // The intervals of every setting tried, kept as found: the chosen one's are the result,
+    // with no final pass over the samples (`detect_fitted_each`).
+    let mut per_setting = vec![Vec::new(); adaptive::HOLD_SCHEDULE.len()];
+    let (det, chosen) = adaptive::detect_fitted_each::<MAX_WINDOW, _>(
         samples,
         rate as f32,
         ADAPTIVE_MIN_WINDOWS,
         &MultiPosConfig::default(),
         &mut scratch,
-        |iv| intervals.push(iv),
+        |setting, iv| per_setting[setting].push(iv),
     )
     .map_err(|e| match e {
         wiical_core::Error::TooFewSamples { needed, .. } => Error::TooShortForSurvey {
@@ -100,7 +102,7 @@ pub fn detect_adaptive(rec: &Recording, opts: &DetectOptions) -> Result<Detectio
         other => Error::DetectorSettings(other),
     })?;
     Ok(Detection {
-        intervals,
+        intervals: std::mem::take(&mut per_setting[chosen]),
         reference_variance: det.thresholds.reference_variance,
         times: rec.times(rate),
     })

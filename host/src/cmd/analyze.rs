@@ -53,22 +53,21 @@ pub fn run(a: &Args) -> Result<String> {
         .map(|names| names.iter().map(|n| n.parse::<Candidate>()).collect())
         .transpose()
         .map_err(cli_error)?;
-    let opts = AnalyzeOptions {
-        fit: a.detect.fit_options(MultiPosModel::Full),
-        alpha: a.alpha,
-        cv_factor: a.cv_factor,
-        candidates,
-        ..Default::default()
-    };
-    let rep =
-        super::with_spinner(
-            "analysing (windows, base fit, candidate effects)",
-            || match &input {
-                Input::Table(t) => wiical_analysis::window_input::analyze_table(t, &opts),
-                Input::Samples(rec) => wiical_analysis::analyze(rec, &opts),
-            },
-        )
-        .map_err(cli_error)?;
+    let rep = super::with_progress(|progress| {
+        let opts = AnalyzeOptions {
+            fit: a.detect.fit_options(MultiPosModel::Full),
+            alpha: a.alpha,
+            cv_factor: a.cv_factor,
+            candidates,
+            progress,
+            ..Default::default()
+        };
+        match &input {
+            Input::Table(t) => wiical_analysis::window_input::analyze_table(t, &opts),
+            Input::Samples(rec) => wiical_analysis::analyze(rec, &opts),
+        }
+    })
+    .map_err(cli_error)?;
     // A six-position table is judged on its six poses by the six-position rule.
     let quality = match &rep.six_position {
         Some(six) => Quality::assess_with(

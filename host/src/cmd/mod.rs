@@ -66,13 +66,13 @@ impl DetectArgs {
             load: self.load_options()?,
             force: self.windows,
         };
-        let input = load_input(path, &opts).map_err(cli_error)?;
+        // Millions of rows take seconds to read: say so (hidden when stderr is not a terminal).
+        let input = with_spinner(&format!("reading {}", path.display()), || {
+            load_input(path, &opts)
+        })
+        .map_err(cli_error)?;
         match &input {
-            Input::Samples(rec) => {
-                for note in &rec.notes {
-                    eprintln!("warning: in {}: {note}", path.display());
-                }
-            }
+            Input::Samples(rec) => print_notes(path, rec),
             Input::Table(_) if self.detector_flags_given() || self.adc_range.is_some() => {
                 eprintln!(
                     "warning: in {}: the rows are windows already: the detector settings are not used",
@@ -151,14 +151,24 @@ pub fn to_json<T: serde::Serialize>(v: &T) -> Result<String> {
 /// Which axis triplet was taken (when the header offers several) goes to stderr as a note;
 /// notes on the file (time gaps, a millisecond-looking time step) go there as warnings.
 pub fn load(path: &std::path::Path, opts: &LoadOptions) -> Result<wiical_analysis::Recording> {
-    let rec = wiical_analysis::load(path, opts).map_err(cli_error)?;
+    // Millions of rows take seconds to read: say so (hidden when stderr is not a terminal).
+    let rec = with_spinner(&format!("reading {}", path.display()), || {
+        wiical_analysis::load(path, opts)
+    })
+    .map_err(cli_error)?;
+    print_notes(path, &rec);
+    Ok(rec)
+}
+
+/// What the loader chose (which triplet, a GRT file) as notes, what it noticed about the
+/// file (time gaps, bursts) as warnings, on stderr.
+fn print_notes(path: &Path, rec: &wiical_analysis::Recording) {
     for note in &rec.info {
         eprintln!("note: in {}: {note}", path.display());
     }
     for note in &rec.notes {
         eprintln!("warning: in {}: {note}", path.display());
     }
-    Ok(rec)
 }
 
 /// Writes a calibration file (`--out`), errors told the CLI's way.
@@ -192,6 +202,38 @@ pub fn to_json_with_quality<T: serde::Serialize>(report: &T, quality: &Quality) 
         quality: &'a Quality,
     }
     to_json(&WithQuality { report, quality })
+}
+
+/// Runs `work` with an indicatif progress display on stderr, fed by the analysis's progress
+/// callback: a spinner while the stage has no known total (detection), a bar of the
+/// candidates fitted of the step's total during the greedy search. Hidden when stderr is
+/// not a terminal (indicatif's stderr target draws nothing then), so scripted output, tests
+/// and goldens are unchanged.
+pub fn with_progress<T>(work: impl FnOnce(wiical_analysis::ProgressHook) -> T) -> T {
+    let bar =
+        indicatif::ProgressBar::with_draw_target(None, indicatif::ProgressDrawTarget::stderr());
+    let spinner = indicatif::ProgressStyle::with_template("{spinner} {msg} ({elapsed})")
+        .unwrap_or_else(|_| indicatif::ProgressStyle::default_spinner());
+    let counted =
+        indicatif::ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} ({elapsed})")
+            .map(|s| s.progress_chars("=> "))
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar());
+    bar.set_style(spinner.clone());
+    bar.enable_steady_tick(std::time::Duration::from_millis(120));
+    let shown = bar.clone();
+    let hook = wiical_analysis::ProgressHook::new(move |p| {
+        if p.total == 0 {
+            shown.set_style(spinner.clone());
+        } else {
+            shown.set_length(p.total as u64);
+            shown.set_position(p.done as u64);
+            shown.set_style(counted.clone());
+        }
+        shown.set_message(p.to_string());
+    });
+    let out = work(hook);
+    bar.finish_and_clear();
+    out
 }
 
 /// Runs `work` with an indicatif spinner on stderr saying `what` and the elapsed time (hidden

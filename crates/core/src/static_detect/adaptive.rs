@@ -274,30 +274,15 @@ pub fn detect_fitted<const N: usize, I>(
 where
     I: Iterator<Item = [f32; 3]> + Clone,
 {
-    let thresholds = AdaptiveThresholds::from_samples(samples.clone(), rate_hz)?;
-    let fits = |cfg: StaticDetectorConfig, count: u32, scratch: &mut [[f32; 3]]| {
-        if count < min_windows {
-            return false;
-        }
-        let mut n = 0usize;
-        let stored = run::<N, _>(samples.clone(), cfg, thresholds.reference_variance, |iv| {
-            if let Some(slot) = scratch.get_mut(n) {
-                *slot = iv.mean;
-            }
-            n += 1;
-        });
-        stored.is_ok()
-            && (n > scratch.len() || crate::multipos::fit(&scratch[..n], fit_cfg).is_ok())
-    };
-    let (mut config, fitted) = choose::<N, I>(&samples, rate_hz, &thresholds, |cfg, count| {
-        fits(cfg, count, scratch)
-    })?;
-    if !fitted {
-        config = choose::<N, I>(&samples, rate_hz, &thresholds, |_, count| {
-            count >= min_windows
-        })?
-        .0;
-    }
+    let (chosen, _) = detect_fitted_each::<N, I>(
+        samples.clone(),
+        rate_hz,
+        min_windows,
+        fit_cfg,
+        scratch,
+        |_, _| {},
+    )?;
+    let (thresholds, config) = (chosen.thresholds, chosen.config);
     let mut n = 0usize;
     let mut on_interval = on_interval;
     let detection = finish::<N, I>(samples, thresholds, config, |iv| {
@@ -313,6 +298,89 @@ where
         crate::multipos::fit(&scratch[..n], fit_cfg)
     };
     Ok((detection, fit))
+}
+
+/// [`detect_fitted`]'s choice without its final pass: each setting tried reports its
+/// intervals as it runs, to `on_interval(setting, interval)` (`setting` the index in
+/// [`HOLD_SCHEDULE`]), and the result names the chosen setting's index. A caller that can
+/// keep the intervals of every setting tried (the host, with memory to spare) keeps the
+/// chosen one's and saves a pass over the samples; [`detect_fitted`] (no storage on the
+/// device) runs the chosen setting once more instead.
+pub fn detect_fitted_each<const N: usize, I>(
+    samples: I,
+    rate_hz: f32,
+    min_windows: u32,
+    fit_cfg: &crate::multipos::MultiPosConfig,
+    scratch: &mut [[f32; 3]],
+    mut on_interval: impl FnMut(usize, StaticInterval),
+) -> Result<(AdaptiveDetection, usize), Error>
+where
+    I: Iterator<Item = [f32; 3]> + Clone,
+{
+    let thresholds = AdaptiveThresholds::from_samples(samples.clone(), rate_hz)?;
+    // One pass per setting: its count and its window means (in `scratch`) together, so a
+    // setting costs one detector pass (before: one to count, one for the means).
+    let mut tried: [Option<(StaticDetectorConfig, u32)>; HOLD_SCHEDULE.len()] =
+        [None; HOLD_SCHEDULE.len()];
+    let mut accepted = None;
+    for (setting, (window_s, min_static_s)) in HOLD_SCHEDULE.into_iter().enumerate() {
+        let cfg = thresholds.detector_config(rate_hz, window_s, min_static_s);
+        if cfg.window as usize > N {
+            continue;
+        }
+        let mut n = 0usize;
+        let count = run::<N, _>(samples.clone(), cfg, thresholds.reference_variance, |iv| {
+            if let Some(m) = scratch.get_mut(n) {
+                *m = iv.mean;
+            }
+            n += 1;
+            on_interval(setting, iv);
+        })?;
+        tried[setting] = Some((cfg, count));
+        // A setting with more windows than `scratch` holds is accepted on its count.
+        if count >= min_windows
+            && (n > scratch.len() || crate::multipos::fit(&scratch[..n], fit_cfg).is_ok())
+        {
+            accepted = Some(setting);
+            break;
+        }
+    }
+    // No setting fits: the count rule of [`detect`] over the counts already known.
+    let setting = match accepted {
+        Some(s) => s,
+        None => by_count(&tried, min_windows).ok_or(Error::InvalidParameter)?,
+    };
+    let (config, windows) = tried[setting].ok_or(Error::InvalidParameter)?;
+    Ok((
+        AdaptiveDetection {
+            thresholds,
+            config,
+            windows,
+        },
+        setting,
+    ))
+}
+
+/// [`choose`]'s rule on settings already run (their index): the first with at least
+/// `min_windows` windows, else the one with the most windows (ties: the earlier, i.e. the
+/// longer holds).
+fn by_count(tried: &[Option<(StaticDetectorConfig, u32)>], min_windows: u32) -> Option<usize> {
+    let known = || {
+        tried
+            .iter()
+            .enumerate()
+            .filter_map(|(i, t)| t.map(|(_, count)| (i, count)))
+    };
+    if let Some((i, _)) = known().find(|(_, count)| *count >= min_windows) {
+        return Some(i);
+    }
+    let mut best: Option<(usize, u32)> = None;
+    for (i, count) in known() {
+        if best.is_none_or(|(_, c)| count > c) {
+            best = Some((i, count));
+        }
+    }
+    best.map(|(i, _)| i)
 }
 
 /// The first setting of the schedule that `accept(config, window count)` takes (`true` with
@@ -444,6 +512,82 @@ mod tests {
             let n = (iv.mean[0].powi(2) + iv.mean[1].powi(2) + iv.mean[2].powi(2)).sqrt();
             assert!((n - 1.0).abs() < 2e-3, "{iv:?}");
             assert!(iv.len() >= 50 && iv.len() <= 100, "{iv:?}");
+        }
+    }
+
+    /// The single pass per setting of [`detect_fitted`] chooses what the documented rule
+    /// chooses when every setting is run on its own: the first setting with enough windows
+    /// that fit, else (none fits) the count rule; the fit is the chosen windows' fit. Checked
+    /// on holds only the 0.5-s setting finds, with a scratch too small for them (accepted on
+    /// their count) and big enough (fitted), and with a fit that cannot succeed (3 windows
+    /// asked for the 9-parameter model's 9 is fine, but 40 windows asked: count rule).
+    #[test]
+    fn one_pass_per_setting_chooses_as_separate_runs_would() {
+        let xs = short_holds();
+        let th = AdaptiveThresholds::from_samples(xs.iter().copied(), 100.0).unwrap();
+        let fit_cfg = crate::multipos::MultiPosConfig::default();
+        // Reference: every setting run separately, its windows collected, the rule applied.
+        let per_setting: Vec<(StaticDetectorConfig, Vec<StaticInterval>)> = HOLD_SCHEDULE
+            .iter()
+            .map(|&(w, h)| {
+                let cfg = th.detector_config(100.0, w, h);
+                let mut ivs = Vec::new();
+                run::<101, _>(xs.iter().copied(), cfg, th.reference_variance, |iv| {
+                    ivs.push(iv)
+                })
+                .unwrap();
+                (cfg, ivs)
+            })
+            .collect();
+        for (min_windows, scratch_len) in [(12u32, 4096usize), (12, 5), (40, 4096)] {
+            let fits = |ivs: &[StaticInterval]| {
+                let means: Vec<[f32; 3]> = ivs.iter().map(|iv| iv.mean).collect();
+                ivs.len() >= min_windows as usize
+                    && (ivs.len() > scratch_len || crate::multipos::fit(&means, &fit_cfg).is_ok())
+            };
+            let want = per_setting
+                .iter()
+                .find(|(_, ivs)| fits(ivs))
+                .or_else(|| {
+                    per_setting
+                        .iter()
+                        .find(|(_, ivs)| ivs.len() >= min_windows as usize)
+                })
+                .or_else(|| per_setting.iter().rev().max_by_key(|(_, ivs)| ivs.len()))
+                .unwrap();
+            let mut scratch = std::vec![[0.0f32; 3]; scratch_len];
+            let mut got = Vec::new();
+            let (d, fit) = detect_fitted::<101, _>(
+                xs.iter().copied(),
+                100.0,
+                min_windows,
+                &fit_cfg,
+                &mut scratch,
+                |iv| got.push(iv),
+            )
+            .unwrap();
+            let ctx = (min_windows, scratch_len);
+            assert_eq!(d.config, want.0, "{ctx:?}");
+            assert_eq!(got, want.1, "{ctx:?}");
+            // Without the final pass: the chosen setting's intervals as they were found.
+            let mut each = std::vec![Vec::new(); HOLD_SCHEDULE.len()];
+            let (d_each, setting) = detect_fitted_each::<101, _>(
+                xs.iter().copied(),
+                100.0,
+                min_windows,
+                &fit_cfg,
+                &mut scratch,
+                |s, iv| each[s].push(iv),
+            )
+            .unwrap();
+            assert_eq!(d_each, d, "{ctx:?}");
+            assert_eq!(each[setting], got, "{ctx:?}");
+            let means: Vec<[f32; 3]> = got.iter().map(|iv| iv.mean).collect();
+            if got.len() <= scratch_len {
+                assert_eq!(fit, crate::multipos::fit(&means, &fit_cfg), "{ctx:?}");
+            } else {
+                assert_eq!(fit.err(), Some(Error::CapacityExceeded), "{ctx:?}");
+            }
         }
     }
 
