@@ -56,6 +56,9 @@ pub fn cli_error(e: Error) -> anyhow::Error {
         Error::AxisIsNotAnAxis { name } => anyhow!(
             "--columns: column '{name}' is not a sensor axis (it is the time, temperature or pose column); give three axis columns"
         ),
+        e @ Error::RateTooLow { .. } => {
+            anyhow!("{e} (a table of window means is read with --windows)")
+        }
         e @ Error::PoseTable { .. } => {
             anyhow!("{e}: use `wiical six-position FILE` or `wiical analyze FILE`")
         }

@@ -307,6 +307,12 @@ pub enum Error {
         /// Sample rate, Hz.
         rate_hz: f64,
     },
+    /// A sample rate too low to find still holds in (see `windows::MIN_SAMPLE_RATE_HZ`).
+    #[error("the sample rate is {rate_hz} Hz, too low to find still holds of half a second to two seconds: is the time column in milliseconds rather than seconds, or are the rows already window means?")]
+    RateTooLow {
+        /// The rate, Hz (from the time column or metadata).
+        rate_hz: f64,
+    },
     /// Shorter than the adaptive detector's noise survey (it needs that many quiet-or-not
     /// blocks to find the recording's own noise level).
     #[error("recording too short: {samples} samples, the adaptive detector's noise survey alone needs {needed} ({survey_s} s at {rate_hz:.3} Hz) to learn the sensor's noise")]

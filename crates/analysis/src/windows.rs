@@ -64,6 +64,11 @@ pub struct Detection {
 /// model's 9 parameters plus 3 degrees of freedom.
 pub const ADAPTIVE_MIN_WINDOWS: u32 = 12;
 
+/// Below this rate (Hz) the adaptive detector's shortest hold (0.5 s) is a single sample: a
+/// recording of samples that slow is far more likely a time column in milliseconds, or a
+/// table of window means read as samples.
+pub const MIN_SAMPLE_RATE_HZ: f64 = 2.0;
+
 /// Window means the adaptive detection's fit check holds (a setting with more windows is
 /// accepted on its count).
 const ADAPTIVE_SCRATCH: usize = 4096;
@@ -76,6 +81,11 @@ pub fn detect_adaptive(rec: &Recording, opts: &DetectOptions) -> Result<Detectio
     let rate = rec.estimated_rate_hz().unwrap_or(opts.default_rate_hz);
     if !(rate.is_finite() && rate > 0.0) {
         return Err(Error::NoSampleRate);
+    }
+    if rate < MIN_SAMPLE_RATE_HZ {
+        return Err(Error::RateTooLow {
+            rate_hz: (rate * 1e6).round() / 1e6,
+        });
     }
     let lattice = lattice_view(&rec.xyz);
     let xyz = lattice.as_deref().unwrap_or(&rec.xyz);
@@ -541,5 +551,26 @@ mod tests {
             .collect();
         assert!(lattice_view(&cont).is_none());
         assert!(lattice_view(&[[f64::NAN, 0.5, 0.5]]).is_none());
+    }
+
+    /// A 100 Hz recording whose time column is in milliseconds reads as 0.1 Hz: refused with
+    /// the question, not analysed with holds of a fraction of a sample.
+    #[test]
+    fn millisecond_times_are_refused_with_the_question() {
+        let rec = Recording {
+            t: Some((0..3000).map(|i| i as f64 * 10.0).collect()),
+            xyz: (0..3000)
+                .map(|i| [0.0, 0.0, 1.0 + 1e-3 * (i % 7) as f64])
+                .collect(),
+            ..Default::default()
+        };
+        let e = detect_windows(&rec, &DetectOptions::default())
+            .err()
+            .expect("refused");
+        assert!(
+            matches!(e, Error::RateTooLow { rate_hz } if rate_hz == 0.1),
+            "{e:?}"
+        );
+        assert!(e.to_string().contains("milliseconds"), "{e}");
     }
 }
