@@ -1,25 +1,9 @@
 //! The CLI contract: JSON keys and values of each command, and readable errors on bad input.
 
 mod common;
-use common::data_dir;
-use common::wiical;
+use common::{data_dir, json, temp_file, wiical};
 
 use serde_json::Value;
-use std::path::PathBuf;
-
-fn json(args: &[&str]) -> Value {
-    let (ok, out, err) = wiical(args);
-    assert!(ok, "wiical {args:?} failed: {err}");
-    serde_json::from_str(&out).unwrap_or_else(|e| panic!("bad JSON ({e}): {out}"))
-}
-
-fn temp_file(name: &str, contents: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("wiical-cli-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let p = dir.join(name);
-    std::fs::write(&p, contents).unwrap();
-    p
-}
 
 fn f(v: &Value) -> f64 {
     v.as_f64().unwrap()
@@ -124,27 +108,27 @@ fn bad_inputs_give_readable_errors() {
             "{args:?}: stderr was {err:?}, expected it to mention {needle:?}"
         );
     };
-    let empty = temp_file("empty.csv", "");
+    let empty = temp_file("cli", "empty.csv", "");
     check(&["fit", empty.to_str().unwrap()], "empty");
-    let nan = temp_file("nan.csv", "t,x,y,z\n0,1,NaN,3\n");
+    let nan = temp_file("cli", "nan.csv", "t,x,y,z\n0,1,NaN,3\n");
     check(&["fit", nan.to_str().unwrap()], "not finite");
-    let cols = temp_file("cols.csv", "time,a,b,c\n0,1,2,3\n");
+    let cols = temp_file("cli", "cols.csv", "time,a,b,c\n0,1,2,3\n");
     check(&["fit", cols.to_str().unwrap()], "no x/y/z columns");
-    let short = temp_file("short.csv", "t,x,y,z\n0,1,2,3\n0.01,1,2,3\n");
+    let short = temp_file("cli", "short.csv", "t,x,y,z\n0,1,2,3\n0.01,1,2,3\n");
     check(&["fit", short.to_str().unwrap()], "too short");
     check(&["fit", "/nonexistent/file.csv"], "cannot read");
 
-    let dup = temp_file(
+    let dup = temp_file("cli", 
         "dup.csv",
         "pose,x,y,z\nx+,153,127,130\nx-,103,128,130\ny+,128,153,130\nx+,153,127,130\ny-,128,101,129\nz+,128,128,154\nz-,128,127,105\n",
     );
     check(&["six-position", dup.to_str().unwrap()], "more than once");
-    let missing = temp_file(
+    let missing = temp_file("cli", 
         "missing.csv",
         "pose,x,y,z\nx+,153,127,130\nx-,103,128,130\ny+,128,153,130\ny-,128,101,129\nz+,128,128,154\n",
     );
     check(&["six-position", missing.to_str().unwrap()], "'z-'");
-    let label = temp_file("label.csv", "pose,x,y,z\nup,1,2,3\n");
+    let label = temp_file("cli", "label.csv", "pose,x,y,z\nup,1,2,3\n");
     check(
         &["six-position", label.to_str().unwrap()],
         "unknown pose label",
@@ -157,7 +141,7 @@ fn bad_inputs_give_readable_errors() {
             [th.cos(), th.sin(), 0.0]
         })
         .collect();
-    let p = temp_file("planar.csv", &synthetic_recording(&planar, false));
+    let p = temp_file("cli", "planar.csv", &synthetic_recording(&planar, false));
     check(&["fit", p.to_str().unwrap()], "one plane");
 
     // Well spread poses fit; the same with one pose at the ADC rail is refused.
@@ -169,11 +153,11 @@ fn bad_inputs_give_readable_errors() {
             [r * th.cos(), r * th.sin(), z]
         })
         .collect();
-    let good = temp_file("good.csv", &synthetic_recording(&spread, false));
+    let good = temp_file("cli", "good.csv", &synthetic_recording(&spread, false));
     let v = json(&["fit", good.to_str().unwrap(), "--json"]);
     assert_eq!(v["static_windows"].as_u64().unwrap(), 14);
     assert!(f(&v["rms_mg"]) < 5.0, "{v}");
-    let sat = temp_file("sat.csv", &synthetic_recording(&spread, true));
+    let sat = temp_file("cli", "sat.csv", &synthetic_recording(&spread, true));
     check(&["fit", sat.to_str().unwrap()], "saturated");
 }
 
@@ -256,7 +240,7 @@ fn columns_option_selects_a_triplet() {
         let v: Vec<&str> = line.split_whitespace().collect();
         csv += &format!("0,0,1,{},{},{}\n", v[0], v[1], v[2]);
     }
-    let file = temp_file("decoy.csv", &csv);
+    let file = temp_file("cli", "decoy.csv", &csv);
     let plain = data_dir().join("mag_ellipsoid_fit_python/mag_out.txt");
     let a = json(&[
         "magfit",

@@ -2,7 +2,7 @@
 //! command line (or the library where a failure must be injected). Data-loss cases check that
 //! the old file's bytes are intact after the failure.
 mod common;
-use common::wiical;
+use common::{wiical, wiical_stdin};
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -383,17 +383,9 @@ fn flash_mirror_power_cut_at_every_write_leaves_old_or_new() {
 fn standard_input_is_read_when_asked_for_with_a_dash() {
     let dir = scratch("stdin");
     let rec = simulated(&dir);
-    let out = Command::new(env!("CARGO_BIN_EXE_wiical"))
-        .args(["fit", "-", "--json"])
-        .stdin(std::fs::File::open(&rec).unwrap())
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let from_stdin: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let (ok, out, err) = wiical_stdin(&["fit", "-", "--json"], &rec);
+    assert!(ok, "{err}");
+    let from_stdin: serde_json::Value = serde_json::from_str(&out).unwrap();
     let (ok, json, _) = wiical(&["fit", s(&rec), "--json"]);
     assert!(ok);
     let from_file: serde_json::Value = serde_json::from_str(&json).unwrap();

@@ -3,24 +3,9 @@
 //! detection, with the GGIR-method autocalibration beside the pipeline; bad tables refused.
 
 mod common;
-use common::{data_dir, wiical};
+use common::{data_dir, json, temp_file, wiical, wiical_stdin};
 
 use serde_json::Value;
-use std::path::PathBuf;
-
-fn json(args: &[&str]) -> Value {
-    let (ok, out, err) = wiical(args);
-    assert!(ok, "wiical {args:?} failed: {err}");
-    serde_json::from_str(&out).unwrap_or_else(|e| panic!("bad JSON ({e}): {out}"))
-}
-
-fn temp_file(name: &str, contents: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("wiical-windows-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let p = dir.join(name);
-    std::fs::write(&p, contents).unwrap();
-    p
-}
 
 /// Truth of the simulated table, in GGIR's convention `a = s∘(x + o) + k∘(T − T̄)`.
 const OFFSET: [f64; 3] = [-0.012, 0.006, 0.020];
@@ -79,7 +64,7 @@ fn simulated_table(n: usize) -> String {
 
 #[test]
 fn simulated_table_fit_and_analyze_agree_and_recover_the_truth() {
-    let file = temp_file("sim_windows.csv", &simulated_table(240));
+    let file = temp_file("windows", "sim_windows.csv", &simulated_table(240));
     let path = file.to_str().unwrap();
     let (ok, text, err) = wiical(&["fit", path]);
     assert!(ok, "{err}");
@@ -165,7 +150,7 @@ fn windows_flag_forces_a_table_without_sd_columns() {
         .lines()
         .map(|l| l.split(',').take(5).collect::<Vec<_>>().join(",") + "\n")
         .collect();
-    let file = temp_file("plain_windows.csv", &plain);
+    let file = temp_file("windows", "plain_windows.csv", &plain);
     let path = file.to_str().unwrap();
     let v = json(&["fit", path, "--windows", "--json"]);
     assert_eq!(v["static_windows"], 60);
@@ -202,7 +187,7 @@ fn bad_tables_are_refused_naming_file_line_and_column() {
         ),
     ];
     for (name, text, want) in cases {
-        let file = temp_file(name, text);
+        let file = temp_file("windows", name, text);
         for cmd in ["fit", "analyze"] {
             let (ok, out, err) = wiical(&[cmd, file.to_str().unwrap()]);
             assert!(!ok && out.is_empty(), "{name}: {out}");
@@ -257,18 +242,10 @@ fn ggir_file_analyze_names_temperature_and_agrees_with_fit() {
 /// Standard input is read once, whether it turns out to be a table or samples.
 #[test]
 fn a_table_on_standard_input_is_read_once() {
-    let file = temp_file("stdin_windows.csv", &simulated_table(30));
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_wiical"))
-        .args(["fit", "-", "--json"])
-        .stdin(std::fs::File::open(&file).unwrap())
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let v: Value = serde_json::from_slice(&out.stdout).unwrap();
+    let file = temp_file("windows", "stdin_windows.csv", &simulated_table(30));
+    let (ok, out, err) = wiical_stdin(&["fit", "-", "--json"], &file);
+    assert!(ok, "{err}");
+    let v: Value = serde_json::from_str(&out).unwrap();
     assert_eq!(v["static_windows"], 30);
     assert_eq!(v["window_input"]["rows"], 30);
 }

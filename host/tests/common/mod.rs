@@ -1,4 +1,5 @@
-//! Test support shared by the CLI's integration tests: where the real recordings are.
+//! Test support shared by the CLI's integration tests: where the real recordings are, running
+//! the binary (with arguments, or with a file on standard input), its JSON, scratch files.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -30,4 +31,39 @@ pub fn wiical(args: &[&str]) -> (bool, String, String) {
         String::from_utf8_lossy(&out.stdout).into_owned(),
         String::from_utf8_lossy(&out.stderr).into_owned(),
     )
+}
+
+/// Runs `wiical` with `file` on standard input: (exit status success, stdout, stderr).
+#[allow(dead_code)]
+pub fn wiical_stdin(args: &[&str], file: &Path) -> (bool, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_wiical"))
+        .args(args)
+        .stdin(std::fs::File::open(file).expect("open stdin file"))
+        .output()
+        .expect("run wiical");
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+/// Runs `wiical` and parses its stdout as JSON; a failed run or bad JSON fails the test with
+/// the command's stderr or output.
+#[allow(dead_code)]
+pub fn json(args: &[&str]) -> serde_json::Value {
+    let (ok, out, err) = wiical(args);
+    assert!(ok, "wiical {args:?} failed: {err}");
+    serde_json::from_str(&out).unwrap_or_else(|e| panic!("bad JSON ({e}): {out}"))
+}
+
+/// Writes `contents` to `name` in this test process's scratch directory
+/// (`$TMPDIR/wiical-<tag>-<pid>`) and returns its path.
+#[allow(dead_code)]
+pub fn temp_file(tag: &str, name: &str, contents: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("wiical-{tag}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let p = dir.join(name);
+    std::fs::write(&p, contents).unwrap();
+    p
 }
