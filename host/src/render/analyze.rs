@@ -28,25 +28,7 @@ pub fn render_text(rep: &AnalyzeReport, file: &str) -> String {
     if let Some(six) = &rep.six_position {
         o.push_str(&six_text(six));
     } else {
-        let _ = writeln!(
-            o,
-            "\n  #   t_start    t_end  samples  temp°C   base(mg)  final(mg)  floor(mg)"
-        );
-        for w in &rep.windows {
-            let _ = writeln!(
-                o,
-                "{:>3} {:>9.2} {:>8.2} {:>8} {:>7} {:>10.3} {:>10.3} {:>10.3}{}",
-                w.index,
-                w.t_start,
-                w.t_end,
-                w.samples.map_or("-".into(), |n| n.to_string()),
-                w.temp.map_or("-".into(), |t| format!("{t:.2}")),
-                w.residual_base_mg,
-                w.residual_final_mg,
-                w.floor_mg,
-                if w.rejected { "  rejected" } else { "" }
-            );
-        }
+        o.push_str(&window_table(&rep.windows));
     }
     let line = |name: &str, m: &ModelSummary| {
         format!(
@@ -187,6 +169,52 @@ fn autocal_values(ac: &AutocalReport) -> String {
     o
 }
 
+/// Window rows shown in full; longer tables (window-mean files hold thousands) show their
+/// first and last rows and every rejected window.
+const MAX_WINDOW_ROWS: usize = 60;
+
+/// The per-window table of the text report.
+fn window_table(windows: &[WindowInfo]) -> String {
+    let mut o = String::new();
+    let _ = writeln!(
+        o,
+        "\n  #   t_start    t_end  samples  temp°C   base(mg)  final(mg)  floor(mg)"
+    );
+    // Long tables (window-mean files hold thousands) show their head and tail; the JSON
+    // has every window.
+    let n = windows.len();
+    let shown = |i: usize| {
+        n <= MAX_WINDOW_ROWS || i < MAX_WINDOW_ROWS - 10 || i >= n - 10 || windows[i].rejected
+    };
+    for (i, w) in windows.iter().enumerate() {
+        if !shown(i) {
+            if shown(i - 1) {
+                let hidden = (i..n).take_while(|&j| !shown(j)).count();
+                let _ = writeln!(o, "  … {hidden} more windows (all of them in --json)");
+            }
+            continue;
+        }
+        let _ = writeln!(
+            o,
+            "{:>3} {:>9.2} {:>8.2} {:>8} {:>7} {:>10.3} {:>10.3} {:>10}{}",
+            w.index,
+            w.t_start,
+            w.t_end,
+            w.samples.map_or("-".into(), |n| n.to_string()),
+            w.temp.map_or("-".into(), |t| format!("{t:.2}")),
+            w.residual_base_mg,
+            w.residual_final_mg,
+            if w.floor_mg.is_finite() {
+                format!("{:.3}", w.floor_mg)
+            } else {
+                "-".into()
+            },
+            if w.rejected { "  rejected" } else { "" }
+        );
+    }
+    o
+}
+
 /// The six-position block of the report.
 pub fn six_text(d: &SixPositionDetails) -> String {
     let mut o = String::new();
@@ -228,4 +256,45 @@ pub fn six_text(d: &SixPositionDetails) -> String {
         );
     }
     o
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn window(index: usize, rejected: bool) -> WindowInfo {
+        WindowInfo {
+            index,
+            t_start: index as f64,
+            t_end: index as f64 + 1.0,
+            t_centre: index as f64 + 0.5,
+            samples: None,
+            temp: None,
+            mean: [0.0, 0.0, 1.0],
+            residual_base_mg: 1.0,
+            residual_final_mg: 0.5,
+            cv_base_mg: None,
+            cv_final_mg: None,
+            floor_mg: f64::NAN,
+            rejected,
+            signature_mg: None,
+        }
+    }
+
+    /// A window-mean file's thousands of rows: head, tail and every rejected window shown,
+    /// the rest counted; an unknown floor reads "-", not NaN.
+    #[test]
+    fn long_window_tables_show_head_tail_and_rejections() {
+        let windows: Vec<WindowInfo> = (1..=1000).map(|i| window(i, i == 500)).collect();
+        let text = window_table(&windows);
+        let rows: Vec<&str> = text.lines().filter(|l| !l.trim().is_empty()).collect();
+        // header + 50 head rows + gap + row 500 + gap + 10 tail rows
+        assert_eq!(rows.len(), 1 + 50 + 1 + 1 + 1 + 10, "{text}");
+        assert!(rows.iter().any(|l| l.contains("rejected")), "{text}");
+        assert!(text.contains("  … 449 more windows"), "{text}");
+        assert!(text.contains("  … 490 more windows"), "{text}");
+        assert!(!text.contains("NaN"), "{text}");
+        let short: Vec<WindowInfo> = (1..=60).map(|i| window(i, false)).collect();
+        assert_eq!(window_table(&short).lines().count(), 2 + 60);
+    }
 }
