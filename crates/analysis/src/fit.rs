@@ -69,7 +69,7 @@ pub struct FitReport {
     pub windows: Vec<WindowReport>,
     /// Window-mean input only: how the table was read (absent for recordings of samples).
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub window_input: Option<crate::window_input::WindowInputInfo>,
+    pub window_input: Option<crate::report::WindowInputInfo>,
     /// The calibration (what `--out` writes).
     #[serde(skip)]
     pub calibration: Calibration,

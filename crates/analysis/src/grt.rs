@@ -55,7 +55,7 @@ pub fn parse(text: &str) -> Result<Recording> {
         classes.insert(fields[0].to_string());
         let mut xyz = [0.0; 3];
         for (a, (f, name)) in fields[1..].iter().zip(["x", "y", "z"]).enumerate() {
-            xyz[a] = crate::load::parse_field(f, i + 1, name)?;
+            xyz[a] = crate::input::parse_number(f, i + 1, name, false)?;
         }
         rec.xyz.push(xyz);
     }

@@ -1,6 +1,7 @@
 //! Reading input files with bounds: only regular files (or `-` for standard input), never
 //! more than a cap, so that `/dev/zero`, a FIFO that never ends or a 40 GB file give a clear
-//! error instead of filling the memory.
+//! error instead of filling the memory; and reading one numeric field, its errors naming the
+//! line and column (shared by every file format's reader).
 
 use crate::error::{Error, Result};
 use std::io::Read;
@@ -91,6 +92,34 @@ fn quote_at_most(text: &str, max: usize) -> String {
     } else {
         shown
     }
+}
+
+/// Parses one field. Callers hand over fields already free of surrounding blanks (split on
+/// ASCII whitespace, or trimmed by the CSV reader). With `decimal_comma` one `,` is the
+/// decimal separator. Quoted text in errors is cut to a readable length.
+pub(crate) fn parse_number(s: &str, line_no: usize, col: &str, decimal_comma: bool) -> Result<f64> {
+    let parsed = if decimal_comma && s.contains(',') {
+        if s.matches(',').count() == 1 && !s.contains('.') {
+            s.replacen(',', ".", 1).parse::<f64>()
+        } else {
+            "x".parse::<f64>()
+        }
+    } else {
+        s.parse::<f64>()
+    };
+    let v = parsed.map_err(|_| Error::NotANumber {
+        line: line_no,
+        column: quote(col),
+        text: quote(s),
+    })?;
+    if !v.is_finite() {
+        return Err(Error::NotFinite {
+            line: line_no,
+            column: quote(col),
+            text: quote(s),
+        });
+    }
+    Ok(v)
 }
 
 #[cfg(test)]

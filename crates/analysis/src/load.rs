@@ -15,7 +15,7 @@
 
 use crate::columns::Sensor;
 use crate::error::{Error, Result};
-use crate::input::{quote, quote_header, read_text, MAX_RECORDING_BYTES};
+use crate::input::{parse_number, quote, quote_header, read_text, MAX_RECORDING_BYTES};
 use crate::recording::Recording;
 use crate::timecheck::{time_notes, TimeCheck};
 use std::path::Path;
@@ -142,39 +142,6 @@ fn check_axis_columns(rec: &Recording) -> Result<()> {
         });
     }
     Ok(())
-}
-
-/// Parses one field. Callers hand over fields already free of surrounding blanks (split on
-/// ASCII whitespace, or trimmed by the CSV reader). With `decimal_comma` one `,` is the
-/// decimal separator. Quoted text in errors is cut to a readable length.
-pub(crate) fn parse_number(s: &str, line_no: usize, col: &str, decimal_comma: bool) -> Result<f64> {
-    let parsed = if decimal_comma && s.contains(',') {
-        if s.matches(',').count() == 1 && !s.contains('.') {
-            s.replacen(',', ".", 1).parse::<f64>()
-        } else {
-            "x".parse::<f64>()
-        }
-    } else {
-        s.parse::<f64>()
-    };
-    let v = parsed.map_err(|_| Error::NotANumber {
-        line: line_no,
-        column: quote(col),
-        text: quote(s),
-    })?;
-    if !v.is_finite() {
-        return Err(Error::NotFinite {
-            line: line_no,
-            column: quote(col),
-            text: quote(s),
-        });
-    }
-    Ok(v)
-}
-
-/// One numeric field of a data line (decimal point), errors naming the line and column.
-pub(crate) fn parse_field(s: &str, line_no: usize, col: &str) -> Result<f64> {
-    parse_number(s, line_no, col, false)
 }
 
 fn parse_whitespace(text: &str) -> Result<Recording> {

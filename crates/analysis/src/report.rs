@@ -164,7 +164,7 @@ pub struct AnalyzeReport {
     pub six_position: Option<SixPositionDetails>,
     /// Window-mean input only: how the table was read (absent for recordings of samples).
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub window_input: Option<crate::window_input::WindowInputInfo>,
+    pub window_input: Option<WindowInputInfo>,
     /// Window-mean input only: the van Hees et al. 2014 autocalibration (GGIR's method) of
     /// the same windows, for comparison; `--out` writes `calibration`, not this.
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -205,4 +205,21 @@ pub struct SixPositionDetails {
     pub p_misalignment: Option<f64>,
     /// What six poses can and cannot identify, with this file's numbers.
     pub explanation: String,
+}
+
+/// How a window-mean table was read (reported with the analysis).
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct WindowInputInfo {
+    /// Rows read, one window each.
+    pub rows: usize,
+    /// The per-axis standard-deviation columns (x, y, z), if any.
+    pub sd_columns: Option<[String; 3]>,
+    /// The sample-count column, if any.
+    pub count_column: Option<String>,
+    /// True when the rows were taken as windows because the caller asked (`--windows`), not
+    /// because of the header.
+    pub forced: bool,
+    /// One line saying so, e.g. "read as 10,958 window means (columns sdx,sdy,sdz): no
+    /// static detection".
+    pub description: String,
 }

@@ -18,12 +18,12 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x >= 0.0)` is deliberately true for NaN.
 use crate::autocal;
 use crate::error::{Error, Result};
-use crate::input::{quote, read_text, MAX_RECORDING_BYTES};
-use crate::load::{self, blank_comments, is_comment_or_blank, parse_number, Delimiter};
+use crate::input::{parse_number, quote, read_text, MAX_RECORDING_BYTES};
+use crate::load::{self, blank_comments, is_comment_or_blank, Delimiter};
 use crate::recording::{infer_units, Recording};
+pub use crate::report::WindowInputInfo;
 use crate::stats as st;
 use crate::windows::{WindowStats, Windows};
-use serde::Serialize;
 use std::path::Path;
 
 /// Most rows a window-mean table may have: 200 000 windows is 23 days of 10-s epochs, far
@@ -51,23 +51,6 @@ pub struct WindowInputOptions {
     pub load: load::LoadOptions,
     /// Take the rows as windows even without SD or count columns (`--windows`).
     pub force: bool,
-}
-
-/// How a window-mean table was read (reported with the analysis).
-#[derive(Debug, Clone, Serialize, PartialEq)]
-pub struct WindowInputInfo {
-    /// Rows read, one window each.
-    pub rows: usize,
-    /// The per-axis standard-deviation columns (x, y, z), if any.
-    pub sd_columns: Option<[String; 3]>,
-    /// The sample-count column, if any.
-    pub count_column: Option<String>,
-    /// True when the rows were taken as windows because the caller asked (`--windows`), not
-    /// because of the header.
-    pub forced: bool,
-    /// One line saying so, e.g. "read as 10,958 window means (columns sdx,sdy,sdz): no
-    /// static detection".
-    pub description: String,
 }
 
 /// A window-mean table: the rows as a [`Recording`] (means as its samples, with time and
