@@ -573,4 +573,23 @@ mod tests {
         );
         assert!(e.to_string().contains("milliseconds"), "{e}");
     }
+
+    /// Fewer samples than the adaptive detector's noise survey: the error names the survey
+    /// (not an initial rest period, which the adaptive detector does not need).
+    #[test]
+    fn too_short_for_the_survey_says_so() {
+        let rec = Recording {
+            xyz: vec![[0.0, 0.0, 1.0]; 10],
+            sample_rate_hz: Some(100.0),
+            ..Default::default()
+        };
+        let e = detect_windows(&rec, &DetectOptions::default())
+            .err()
+            .expect("refused");
+        assert!(
+            matches!(e, Error::TooShortForSurvey { samples: 10, .. }),
+            "{e:?}"
+        );
+        assert!(e.to_string().contains("noise survey"), "{e}");
+    }
 }
