@@ -94,6 +94,16 @@ mod tests {
         let text = format!("{:#}", cli_error(e));
         assert!(!text.contains("--"), "{text}");
         assert!(text.contains("record again"), "{text}");
+        // Millisecond times: the engine's question, plus the flag for window-mean tables.
+        let text = format!("{:#}", cli_error(Error::RateTooLow { rate_hz: 0.1 }));
+        assert!(text.contains("milliseconds"), "{text}");
+        assert!(
+            text.ends_with("(a table of window means is read with --windows)"),
+            "{text}"
+        );
+        // A pose table given to `fit`: the commands that take it.
+        let text = format!("{:#}", cli_error(Error::PoseTable { rows: 6 }));
+        assert!(text.contains("wiical six-position FILE"), "{text}");
         // Others keep the engine's message and its causes.
         let io = std::io::Error::new(std::io::ErrorKind::NotFound, "gone");
         let e = Error::Read {

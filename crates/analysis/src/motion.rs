@@ -50,13 +50,7 @@ pub fn predicted_shortening(k: &[[f64; 3]; 3], var: [f64; 3], reference_var: [f6
 /// stillest window's noise. Self-contained and in the windows' own units, whatever detector
 /// (or none, for window-mean input) produced them.
 pub fn reference_variance(stats: &[WindowStats]) -> [f64; 3] {
-    [0, 1, 2].map(|a| {
-        stats
-            .iter()
-            .map(|w| w.var[a])
-            .fold(f64::INFINITY, f64::min)
-            .min(f64::MAX)
-    })
+    [0, 1, 2].map(|a| stats.iter().map(|w| w.var[a]).fold(f64::INFINITY, f64::min))
 }
 
 /// Correlates the base residuals (g, one per window) with the predicted shortening.
