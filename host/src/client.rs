@@ -161,6 +161,7 @@ pub type Result<T, E = ClientError> = std::result::Result<T, E>;
 use serde::Serialize;
 use serialport::SerialPort;
 use wiical_core::Calibration;
+use wiical_wire::endpoints::{self, Endpoint};
 use wiical_wire::{
     encode_frame, CalibrationState, DefaultFrameDecoder, ErrorCode, FrameError, Hello,
     HelloResponse, Request, Response, Sample, MAX_FRAME_LEN, PROTOCOL_VERSION, SCHEMA_KEY,
@@ -208,38 +209,8 @@ pub struct Device {
 
 fn unexpected(req: &Request, resp: &Response) -> ClientError {
     ClientError::Unexpected {
-        request: request_name(req),
+        request: req.name(),
         answer: format!("{resp:?}"),
-    }
-}
-
-fn request_name(r: &Request) -> &'static str {
-    match r {
-        Request::Hello(_) => "Hello",
-        Request::GetCalibration => "GetCalibration",
-        Request::PutCalibration(_) => "PutCalibration",
-        Request::CommitCalibration => "CommitCalibration",
-        Request::StartStream { .. } => "StartStream",
-        Request::StopStream => "StopStream",
-        Request::GetStatus => "GetStatus",
-    }
-}
-
-/// True when `resp` is an answer `req` can get (so a late answer to another request is
-/// not taken for this one).
-fn answers(req: &Request, resp: &Response) -> bool {
-    match (req, resp) {
-        (Request::Hello(_), Response::Hello(_)) => true,
-        (Request::Hello(_), _) => false,
-        (_, Response::Error(_)) => true,
-        (Request::GetCalibration, Response::Calibration(_)) => true,
-        (Request::GetStatus, Response::Status(_)) => true,
-        (Request::StartStream { .. }, Response::StreamStarted { .. }) => true,
-        (
-            Request::PutCalibration(_) | Request::CommitCalibration | Request::StopStream,
-            Response::Ack,
-        ) => true,
-        _ => false,
     }
 }
 
@@ -301,7 +272,7 @@ impl Device {
         let mut buf = [0u8; MAX_FRAME_LEN];
         let frame = encode_frame(req, &mut buf)
             .map_err(|cause| ClientError::Encode {
-                request: request_name(req),
+                request: req.name(),
                 cause,
             })?
             .to_vec();
@@ -376,7 +347,7 @@ impl Device {
                     None => break,
                     Some(Err(_)) => continue,
                     Some(Ok(Response::Error(ErrorCode::BadFrame))) => break,
-                    Some(Ok(resp)) if answers(req, &resp) => return Ok((resp, attempt)),
+                    Some(Ok(resp)) if req.is_answered_by(&resp) => return Ok((resp, attempt)),
                     Some(Ok(_)) => self.stats.discarded += 1,
                 }
             }
@@ -386,7 +357,7 @@ impl Device {
         }
         Err(ClientError::NoAnswer {
             port: self.name.clone(),
-            request: request_name(req),
+            request: req.name(),
             attempts,
             timeout_ms: self.opts.timeout.as_millis(),
         })
@@ -396,10 +367,8 @@ impl Device {
     pub fn hello(&mut self) -> Result<HelloResponse> {
         // A lone delimiter ends whatever half frame the adapter may hold.
         self.write_raw(&[0])?;
-        let (resp, _) = self.transact(&Request::Hello(Hello::CURRENT))?;
-        let Response::Hello(h) = resp else {
-            return Err(unexpected(&Request::Hello(Hello::CURRENT), &resp));
-        };
+        let (resp, _) = self.transact(&Hello::CURRENT.request())?;
+        let h = Hello::reply(&resp).ok_or_else(|| unexpected(&Hello::CURRENT.request(), &resp))?;
         if h.check().is_err() {
             // Say which side is older when the key is a known one.
             if let Some(v) = wiical_wire::protocol_of_key(h.schema_key) {
@@ -425,23 +394,24 @@ impl Device {
         Ok(h)
     }
 
-    fn expect_ok(&mut self, req: &Request) -> Result<(Response, u32)> {
-        let (resp, n) = self.transact(req)?;
+    /// Send an endpoint's request, wait for its answer and take its typed reply: an
+    /// adapter error is [`ClientError::Refused`], an answer of another kind
+    /// [`ClientError::Unexpected`] (the pairing is `wiical_wire::endpoints`').
+    pub fn call<E: Endpoint>(&mut self, endpoint: E) -> Result<E::Reply> {
+        let req = endpoint.request();
+        let (resp, _) = self.transact(&req)?;
         if let Response::Error(code) = resp {
             return Err(ClientError::Refused {
-                request: request_name(req),
+                request: E::NAME,
                 code,
             });
         }
-        Ok((resp, n))
+        E::reply(&resp).ok_or_else(|| unexpected(&req, &resp))
     }
 
     /// The live and staged calibrations.
     pub fn get_calibration(&mut self) -> Result<CalibrationState> {
-        match self.expect_ok(&Request::GetCalibration)?.0 {
-            Response::Calibration(s) => Ok(s),
-            other => Err(unexpected(&Request::GetCalibration, &other)),
-        }
+        self.call(endpoints::GetCalibration)
     }
 
     /// Stage a calibration for this session (checked locally first with the same
@@ -451,16 +421,12 @@ impl Device {
         wiical_core::quality::Acceptance::nunchuk()
             .check(cal, None)
             .map_err(ClientError::Implausible)?;
-        self.expect_ok(&Request::PutCalibration((*cal).into()))?;
-        Ok(())
+        self.call(endpoints::PutCalibration((*cal).into()))
     }
 
     /// Self-calibration progress and result, and the stale-calibration estimate.
     pub fn status(&mut self) -> Result<wiical_wire::AdapterStatus> {
-        match self.expect_ok(&Request::GetStatus)?.0 {
-            Response::Status(s) => Ok(s),
-            other => Err(unexpected(&Request::GetStatus, &other)),
-        }
+        self.call(endpoints::GetStatus)
     }
 
     /// Commit the staged calibration. If the acknowledgement is lost and the retry finds
@@ -492,10 +458,7 @@ impl Device {
 
     /// Start streaming; returns the sample rate in mHz.
     pub fn start_stream(&mut self, rate_divider: u16) -> Result<u32> {
-        match self.expect_ok(&Request::StartStream { rate_divider })?.0 {
-            Response::StreamStarted { sample_rate_mhz } => Ok(sample_rate_mhz),
-            other => Err(unexpected(&Request::StartStream { rate_divider }, &other)),
-        }
+        self.call(endpoints::StartStream { rate_divider })
     }
 
     /// The next streamed sample (corrupted frames are skipped and counted).
@@ -518,7 +481,7 @@ impl Device {
 
     /// Stop streaming.
     pub fn stop_stream(&mut self) -> Result<()> {
-        self.expect_ok(&Request::StopStream).map(|_| ())
+        self.call(endpoints::StopStream)
     }
 }
 

@@ -52,10 +52,12 @@
 #![deny(unsafe_code)]
 #![warn(missing_docs)]
 
+pub mod endpoints;
 pub mod frame;
 pub mod messages;
 pub mod schema;
 
+pub use endpoints::Endpoint;
 pub use frame::{
     encode_frame, DefaultFrameDecoder, FrameDecoder, FrameError, Frames, MAX_FRAME_LEN,
 };
