@@ -888,19 +888,19 @@ pub fn adapter_wiimote_read(e: &mut EmulatedNunchuk, buf: &mut [u8; 6]) {
 // ---------------------------------------------------------------------------------------
 // Real recordings (`crate::real_data`; see build.rs for how they are read).
 
-/// Capacity of the static detector's window ring in `wiical fit` (`host/src/fit_cmd.rs`,
+/// Capacity of the static detector's window ring in `wiical fit` (`crates/analysis/src/windows.rs`,
 /// `MAX_WINDOW`): windows up to 5 s at 100 Hz.
 pub const FIT_MAX_WINDOW: usize = 511;
 
 /// The detector settings of `wiical fit` with its defaults on a 100 Hz recording: window 1 s
 /// (101 samples after rounding to odd), initial rest 2 s, minimum static run 2 s, threshold
-/// factor 6 (`for_rate`'s default, which `fit_cmd` sets again from `--threshold 6`).
+/// factor 6 (`for_rate`'s default, which the analysis sets again from `--threshold 6`).
 pub fn fit_detector_config() -> StaticDetectorConfig {
     StaticDetectorConfig::for_rate(100.0, 1.0, 2.0, 2.0)
 }
 
 /// Runs the static detector over the IMU-TK Xsens accelerometer recording (raw 16-bit counts
-/// as `f32`, in file order) exactly as `wiical fit` does (`fit_cmd::detect`: every sample
+/// as `f32`, in file order) exactly as `wiical fit` does (`wiical_analysis::windows::detect`: every sample
 /// pushed, then `finish`), calling `found` for each static interval. Returns the detector
 /// (for its reference variance) and the number of samples pushed.
 pub fn xsens_detect(

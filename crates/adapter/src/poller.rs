@@ -225,14 +225,6 @@ impl NunchukPoller {
         }
     }
 
-    /// Forget the connection (e.g. the firmware saw the detect pin drop): the next `poll`
-    /// re-initialises at once.
-    pub fn force_reinit(&mut self) {
-        self.state = State::Disconnected { retry_at_ms: 0 };
-        self.failures = 0;
-        self.backoff_ms = self.config.backoff_min_ms;
-    }
-
     async fn init<B: I2c, D: DelayNs>(
         &mut self,
         bus: &mut B,

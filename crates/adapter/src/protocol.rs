@@ -458,11 +458,6 @@ impl<F: NorFlash> Protocol<F> {
             staged: self.staged.is_some(),
         }
     }
-
-    /// Give the store (and through it the flash) back.
-    pub fn into_store(self) -> CalibrationStore<F> {
-        self.store
-    }
 }
 
 /// Bitwise equality of every parameter (so that `-0.0 ≠ 0.0` and NaN payloads count).

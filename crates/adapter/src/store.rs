@@ -232,9 +232,4 @@ impl<F: NorFlash> CalibrationStore<F> {
     pub fn flash(&mut self) -> &mut F {
         self.map.flash()
     }
-
-    /// Give the flash back.
-    pub fn into_flash(self) -> F {
-        self.map.destroy().0
-    }
 }

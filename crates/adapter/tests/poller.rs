@@ -230,7 +230,7 @@ fn stuck_bus_disconnects_and_init_timeouts_back_off() {
 }
 
 #[test]
-fn garbage_reports_are_skipped_then_force_reinit() {
+fn garbage_reports_are_skipped_then_a_brown_out_reinitialises() {
     let mut bus = MockBus::new(nunchuk());
     bus.ff_until_initialised = true;
     let mut p = NunchukPoller::default();

@@ -315,6 +315,21 @@ pub enum Rejection {
     },
 }
 
+/// A number in a message: plain below 1e6 (as `{}` prints it), scientific above (1e30 would
+/// otherwise print as thirty-one digits) and for tiny non-zero values.
+struct Num(f32);
+
+impl core::fmt::Display for Num {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        let a = libm::fabsf(self.0);
+        if a.is_finite() && (a >= 1e6 || (a != 0.0 && a < 1e-4)) {
+            write!(f, "{:e}", self.0)
+        } else {
+            write!(f, "{}", self.0)
+        }
+    }
+}
+
 impl core::fmt::Display for Rejection {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         const AXES: [&str; 3] = ["x", "y", "z"];
@@ -324,29 +339,37 @@ impl core::fmt::Display for Rejection {
             Rejection::InvalidLimits => f.write_str("invalid acceptance limits"),
             Rejection::Offset { axis, offset } => write!(
                 f,
-                "{} offset {offset} counts from nominal is beyond the limit",
-                ax(axis)
+                "{} offset {} counts from nominal is beyond the limit",
+                ax(axis),
+                Num(*offset)
             ),
             Rejection::Sensitivity { axis, ratio } => write!(
                 f,
-                "{} sensitivity is {ratio} × nominal, outside the accepted range",
-                ax(axis)
+                "{} sensitivity is {} × nominal, outside the accepted range",
+                ax(axis),
+                Num(*ratio)
             ),
             Rejection::CrossAxis { row, col, ratio } => write!(
                 f,
-                "cross-axis term {}{} is {ratio} of the diagonal, beyond the limit",
+                "cross-axis term {}{} is {} of the diagonal, beyond the limit",
                 ax(row),
-                ax(col)
+                ax(col),
+                Num(*ratio)
             ),
             Rejection::TemperatureReference { temp_ref_c } => {
-                write!(f, "reference temperature {temp_ref_c} °C is implausible")
+                write!(
+                    f,
+                    "reference temperature {} °C is implausible",
+                    Num(*temp_ref_c)
+                )
             }
             Rejection::OutputBound { axis, max_abs } => write!(
                 f,
-                "corrected {} output reaches {max_abs} (reference units) within the sensor's input range",
-                ax(axis)
+                "corrected {} output reaches {} (reference units) within the sensor's input range",
+                ax(axis),
+                Num(*max_abs)
             ),
-            Rejection::FitRms { rms } => write!(f, "fit RMS {rms} is beyond the limit"),
+            Rejection::FitRms { rms } => write!(f, "fit RMS {} is beyond the limit", Num(*rms)),
         }
     }
 }
@@ -548,6 +571,25 @@ mod tests {
             acc.check(&nunchuk_like(), Some(0.2)),
             Err(Rejection::FitRms { .. })
         ));
+    }
+
+    #[test]
+    fn huge_numbers_in_messages_are_scientific() {
+        extern crate std;
+        use std::string::ToString;
+        let r = Rejection::Offset {
+            axis: 2,
+            offset: 1e30,
+        };
+        assert_eq!(
+            r.to_string(),
+            "z offset 1e30 counts from nominal is beyond the limit"
+        );
+        let r = Rejection::TemperatureReference { temp_ref_c: 25.5 };
+        assert_eq!(
+            r.to_string(),
+            "reference temperature 25.5 °C is implausible"
+        );
     }
 
     #[test]

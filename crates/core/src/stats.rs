@@ -185,11 +185,6 @@ impl Welford3 {
         Ok(())
     }
 
-    /// [`Self::push`] for an nalgebra vector.
-    pub fn push_vec(&mut self, x: &Vec3) -> Result<(), Error> {
-        self.push([x.x, x.y, x.z])
-    }
-
     /// Number of samples accumulated.
     pub const fn count(&self) -> u32 {
         self.axes[0].count()
@@ -313,11 +308,6 @@ impl ConstantKalman {
     /// Current error variance `p_k` (units²).
     pub fn variance(&self) -> f32 {
         self.p
-    }
-
-    /// Measurement noise variance `σ²` the filter was built with.
-    pub fn noise_variance(&self) -> f32 {
-        self.sigma2
     }
 
     /// Number of measurements processed (saturating).

@@ -405,11 +405,6 @@ impl<W: Write> CsvOut<W> {
         self.ext
     }
 
-    /// Whether the file has MotionPlus columns.
-    pub fn has_gyro(&self) -> bool {
-        self.gyro
-    }
-
     /// One row. `ext` is ignored without Nunchuk columns and `gyro` without MotionPlus
     /// columns; `None` leaves them empty. The MotionPlus's `[yaw, roll, pitch]` go to
     /// `gz, gy, gx`.
