@@ -38,13 +38,13 @@ enum Cmd {
     ///
     /// Columns t,x,y,z (+ ext_x,ext_y,ext_z with a Nunchuk), raw counts; the factory
     /// calibrations go to OUT.cal.json. `--guided N` walks through N still poses for `fit`.
-    Capture(wiical::capture::CaptureArgs),
+    Capture(wiical::cmd::capture::CaptureArgs),
     /// Talk to a wiical adapter over its serial port: info, get, put CAL.json, commit, stream.
     Device(cmd::device::DeviceArgs),
     /// Run the adapter's logic with a simulated Nunchuk and flash, serving the wire protocol
     /// on a pseudo-terminal (prints its path).
     #[cfg(unix)]
-    DeviceSim(wiical::device_sim::SimArgs),
+    DeviceSim(wiical::cmd::device_sim::SimArgs),
     /// Magnetometer hard/soft-iron fit: sphere (4 parameters), axis-aligned ellipsoid (6) or
     /// rotated ellipsoid (9), from streaming normal equations solved by Cholesky.
     Magfit(cmd::magfit::Args),
@@ -64,10 +64,10 @@ fn run(cli: Cli) -> Result<String> {
         Cmd::Analyze(a) => cmd::analyze::run(&a),
         Cmd::Gyrofit(a) => cmd::gyrofit::run(&a),
         Cmd::Simulate(a) => cmd::simulate::run(&a),
-        Cmd::Capture(a) => wiical::capture::run(&a),
+        Cmd::Capture(a) => wiical::cmd::capture::run(&a),
         Cmd::Device(a) => cmd::device::run(&a, &mut std::io::stdout().lock()),
         #[cfg(unix)]
-        Cmd::DeviceSim(a) => wiical::device_sim::run(&a),
+        Cmd::DeviceSim(a) => wiical::cmd::device_sim::run(&a),
         Cmd::Magfit(a) => cmd::magfit::run(&a),
         Cmd::DecodeCal(a) => cmd::decode_cal::run(&a),
         Cmd::KalmanDemo(a) => cmd::kalman_demo::run(&a),

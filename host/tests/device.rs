@@ -13,9 +13,10 @@ use std::time::{Duration, Instant};
 use clap::Parser;
 use client::{ClientOptions, Device};
 use device::{DeviceAction, DeviceArgs};
-use device_sim::{spawn, SimArgs, SimFlash, SimOptions, TRUE_BIAS, TRUE_D};
+use device_sim::{spawn, SimFlash, SimOptions, TRUE_BIAS, TRUE_D};
 use nalgebra::{Matrix3, Vector3};
 use serialport::SerialPort;
+use wiical::cmd::device_sim::SimArgs;
 use wiical_core::Calibration;
 use wiical_wire::{WireCalibration, PROTOCOL_VERSION, SCHEMA_KEY};
 

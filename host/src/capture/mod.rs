@@ -50,7 +50,7 @@ pub mod replay;
 pub mod session;
 
 use crate::cli_error::cli_error;
-use anyhow::{anyhow, bail, Context, Result};
+use anyhow::{bail, Context, Result};
 use guided::{Guided, GuidedConfig, GuidedEvent, PoseRecord};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use io::WiimoteIo;
@@ -58,7 +58,6 @@ use output::{cal_path, CalFile, CaptureStats, CsvOut};
 use protocol::{parse_input, InputReport, ReportError, MAX_INPUT_LEN};
 use serde::Serialize;
 use session::{is_nunchuk_id, DeviceSetup, Session};
-use std::fmt::Write as _;
 use std::io::{BufWriter, IsTerminal};
 use std::path::PathBuf;
 use std::time::Duration;
@@ -226,20 +225,7 @@ pub fn capture<D: WiimoteIo + ?Sized>(
         session,
         setup: &setup,
         opts,
-        stats: CaptureStats {
-            mode: match opts.mode {
-                CaptureMode::Duration(_) => "duration".into(),
-                CaptureMode::Guided(_) => "guided".into(),
-            },
-            samples: 0,
-            duration_s: 0.0,
-            mean_rate_hz: None,
-            bad_reports: 0,
-            unknown_reports: 0,
-            status_reports: 0,
-            poses: Vec::new(),
-            complete: false,
-        },
+        stats: empty_stats(&opts.mode),
         ext_present: csv.has_ext(),
         last_ext: [0.0; 3],
     };
@@ -271,6 +257,24 @@ pub fn capture<D: WiimoteIo + ?Sized>(
         cal_file,
         calibration: cal,
     })
+}
+
+/// The statistics of a capture that has not recorded anything yet.
+fn empty_stats(mode: &CaptureMode) -> CaptureStats {
+    CaptureStats {
+        mode: match mode {
+            CaptureMode::Duration(_) => "duration".into(),
+            CaptureMode::Guided(_) => "guided".into(),
+        },
+        samples: 0,
+        duration_s: 0.0,
+        mean_rate_hz: None,
+        bad_reports: 0,
+        unknown_reports: 0,
+        status_reports: 0,
+        poses: Vec::new(),
+        complete: false,
+    }
 }
 
 /// After a failed capture: existing files are never replaced. If neither OUT nor its side
@@ -362,130 +366,179 @@ fn split_motionplus_frame(
 /// After this many consecutive undecodable reports the capture gives up.
 const MAX_BAD_IN_A_ROW: u32 = 100;
 
+/// What one input report means for the recording.
+enum Incoming {
+    /// A data report: the remote's accelerometer, the Nunchuk's (if any) and the gyro's.
+    Sample([u16; 3], Option<[u16; 3]>, Option<MotionPlusReport>),
+    /// An unrequested status report: the extension is (dis)connected.
+    Status(bool),
+    /// Nothing to record (read replies, acks, reports without accelerometer data).
+    Nothing,
+}
+
+/// The recording's clock: the host's time of the first sample (t = 0), of the last data
+/// report (for the silence timeout) and of the last flush.
+struct Clock {
+    t_first: Option<f64>,
+    last_data: f64,
+    last_flush: f64,
+}
+
 impl<D: WiimoteIo + ?Sized> Recorder<'_, '_, D> {
     fn run<W: std::io::Write>(
         &mut self,
         csv: &mut CsvOut<W>,
         ui: &mut dyn CaptureUi,
     ) -> Result<()> {
-        let mut guided = match &self.opts.mode {
+        let mut guided = self.start(csv.has_ext(), ui)?;
+        let mut buf = [0u8; MAX_INPUT_LEN + 10];
+        let start = self.session.io().now_s();
+        let mut clock = Clock {
+            t_first: None,
+            last_data: start,
+            last_flush: start,
+        };
+        let mut bad_in_a_row = 0u32;
+        loop {
+            let Some((now, incoming)) = self.next_report(&mut buf, &mut bad_in_a_row, &clock)?
+            else {
+                continue;
+            };
+            let (accel, nunchuk, gyro) = match incoming {
+                Incoming::Sample(a, n, g) => (a, n, g),
+                Incoming::Status(connected) => {
+                    self.stats.status_reports += 1;
+                    let t = clock.t_first.map(|t0| now - t0).unwrap_or(0.0);
+                    self.on_status(connected, t, csv, ui)?;
+                    clock.last_data = self.session.io().now_s();
+                    continue;
+                }
+                Incoming::Nothing => continue,
+            };
+            clock.last_data = now;
+            let t = now - *clock.t_first.get_or_insert(now);
+            let ext = if self.ext_present { nunchuk } else { None };
+            csv.row(t, accel, ext, gyro.as_ref())?;
+            self.stats.samples += 1;
+            self.stats.duration_s = t;
+            if now - clock.last_flush > 1.0 {
+                csv.flush()?;
+                clock.last_flush = now;
+            }
+            if self.after_sample(t, accel, ext, guided.as_mut(), csv.has_ext(), ui)? {
+                return Ok(());
+            }
+        }
+    }
+
+    /// Says what is about to happen and, in guided mode, starts the pose guide.
+    fn start(&self, has_ext: bool, ui: &mut dyn CaptureUi) -> Result<Option<Guided>> {
+        match &self.opts.mode {
             CaptureMode::Guided(cfg) => {
                 let mut quantum = vec![[1.0, 2.0, 2.0]];
-                if csv.has_ext() {
+                if has_ext {
                     quantum.push([1.0, 1.0, 1.0]);
                 }
                 ui.message(&format!(
                     "guided capture of {} poses: lay the remote{} still for {} s to start",
                     cfg.poses,
-                    if csv.has_ext() {
-                        " and the Nunchuk"
-                    } else {
-                        ""
-                    },
+                    if has_ext { " and the Nunchuk" } else { "" },
                     cfg.init_s
                 ));
-                Some(Guided::new(cfg.clone(), quantum)?)
+                Ok(Some(Guided::new(cfg.clone(), quantum)?))
             }
             CaptureMode::Duration(d) => {
                 ui.message(&format!("recording {d} s to {}", self.opts.out.display()));
-                None
-            }
-        };
-        let mut buf = [0u8; MAX_INPUT_LEN + 10];
-        let mut t_first: Option<f64> = None;
-        let mut last_data = self.session.io().now_s();
-        let mut bad_in_a_row = 0u32;
-        let mut last_flush = last_data;
-        loop {
-            let n = self.session.io().read_timeout(&mut buf, 200)?;
-            let now = self.session.io().now_s();
-            if n == 0 {
-                if now - last_data > self.opts.silence_timeout_s {
-                    bail!(
-                        "no data report from the Wii Remote for {} s (out of range, batteries, or switched off?)",
-                        self.opts.silence_timeout_s
-                    );
-                }
-                continue;
-            }
-            let bytes = buf.get(..n).unwrap_or(&buf);
-            let report = match parse_input(bytes) {
-                Ok(r) => {
-                    bad_in_a_row = 0;
-                    r
-                }
-                Err(ReportError::Unknown(_)) => {
-                    self.session.unknown_reports += 1;
-                    continue;
-                }
-                Err(e) => {
-                    self.stats.bad_reports += 1;
-                    bad_in_a_row += 1;
-                    if bad_in_a_row >= MAX_BAD_IN_A_ROW {
-                        bail!("the Wii Remote sends malformed reports ({MAX_BAD_IN_A_ROW} in a row; last: {e})");
-                    }
-                    continue;
-                }
-            };
-            let (accel, nunchuk, gyro) = match report {
-                InputReport::Data(core) => match core.accel {
-                    Some(a) => match &self.setup.motionplus {
-                        Some(mp) => {
-                            let (n, g) = split_motionplus_frame(core.ext, mp.mode);
-                            (a, n, g)
-                        }
-                        None => (a, core.nunchuk().map(|n| n.accel), None),
-                    },
-                    None => continue,
-                },
-                InputReport::Status(s) => {
-                    self.stats.status_reports += 1;
-                    let t = t_first.map(|t0| now - t0).unwrap_or(0.0);
-                    self.on_status(s.extension_connected(), t, csv, ui)?;
-                    last_data = self.session.io().now_s();
-                    continue;
-                }
-                InputReport::ReadReply(_) | InputReport::Ack(_) => continue,
-            };
-            last_data = now;
-            let t = now - *t_first.get_or_insert(now);
-            let ext = if self.ext_present { nunchuk } else { None };
-            csv.row(t, accel, ext, gyro.as_ref())?;
-            self.stats.samples += 1;
-            self.stats.duration_s = t;
-            if now - last_flush > 1.0 {
-                csv.flush()?;
-                last_flush = now;
-            }
-            let prompt = match guided.as_mut() {
-                Some(g) => {
-                    let mut devs = vec![accel.map(f64::from)];
-                    if csv.has_ext() {
-                        // An unplugged Nunchuk holds its last reading for the stillness test.
-                        if let Some(e) = ext {
-                            self.last_ext = e.map(f64::from);
-                        }
-                        devs.push(self.last_ext);
-                    }
-                    for ev in g.push(t, &devs)? {
-                        self.on_guided(&ev, ui);
-                    }
-                    if g.finished() {
-                        self.stats.poses = g.poses().to_vec();
-                        return Ok(());
-                    }
-                    self.stats.poses = g.poses().to_vec();
-                    g.prompt()
-                }
-                None => String::new(),
-            };
-            ui.progress(self.stats.samples, t, &prompt);
-            if let CaptureMode::Duration(d) = self.opts.mode {
-                if t >= d {
-                    return Ok(());
-                }
+                Ok(None)
             }
         }
+    }
+
+    /// Reads and decodes the next input report (`None`: nothing arrived within 200 ms, or
+    /// an unknown or malformed report was skipped and counted). Fails after
+    /// `silence_timeout_s` without data, or after [`MAX_BAD_IN_A_ROW`] malformed reports.
+    fn next_report(
+        &mut self,
+        buf: &mut [u8],
+        bad_in_a_row: &mut u32,
+        clock: &Clock,
+    ) -> Result<Option<(f64, Incoming)>> {
+        let n = self.session.io().read_timeout(buf, 200)?;
+        let now = self.session.io().now_s();
+        if n == 0 {
+            if now - clock.last_data > self.opts.silence_timeout_s {
+                bail!(
+                    "no data report from the Wii Remote for {} s (out of range, batteries, or switched off?)",
+                    self.opts.silence_timeout_s
+                );
+            }
+            return Ok(None);
+        }
+        let report = match parse_input(buf.get(..n).unwrap_or(buf)) {
+            Ok(r) => r,
+            Err(ReportError::Unknown(_)) => {
+                self.session.unknown_reports += 1;
+                return Ok(None);
+            }
+            Err(e) => {
+                self.stats.bad_reports += 1;
+                *bad_in_a_row += 1;
+                if *bad_in_a_row >= MAX_BAD_IN_A_ROW {
+                    bail!("the Wii Remote sends malformed reports ({MAX_BAD_IN_A_ROW} in a row; last: {e})");
+                }
+                return Ok(None);
+            }
+        };
+        *bad_in_a_row = 0;
+        let incoming = match report {
+            InputReport::Data(core) => match (core.accel, &self.setup.motionplus) {
+                (Some(a), Some(mp)) => {
+                    let (n, g) = split_motionplus_frame(core.ext, mp.mode);
+                    Incoming::Sample(a, n, g)
+                }
+                (Some(a), None) => Incoming::Sample(a, core.nunchuk().map(|n| n.accel), None),
+                (None, _) => Incoming::Nothing,
+            },
+            InputReport::Status(s) => Incoming::Status(s.extension_connected()),
+            InputReport::ReadReply(_) | InputReport::Ack(_) => Incoming::Nothing,
+        };
+        Ok(Some((now, incoming)))
+    }
+
+    /// Feeds a recorded sample to the pose guide (if any) and shows the progress; true when
+    /// the capture is complete (all poses taken, or the duration reached).
+    fn after_sample(
+        &mut self,
+        t: f64,
+        accel: [u16; 3],
+        ext: Option<[u16; 3]>,
+        guided: Option<&mut Guided>,
+        has_ext: bool,
+        ui: &mut dyn CaptureUi,
+    ) -> Result<bool> {
+        let prompt = match guided {
+            Some(g) => {
+                let mut devs = vec![accel.map(f64::from)];
+                if has_ext {
+                    // An unplugged Nunchuk holds its last reading for the stillness test.
+                    if let Some(e) = ext {
+                        self.last_ext = e.map(f64::from);
+                    }
+                    devs.push(self.last_ext);
+                }
+                for ev in g.push(t, &devs)? {
+                    self.on_guided(&ev, ui);
+                }
+                self.stats.poses = g.poses().to_vec();
+                if g.finished() {
+                    return Ok(true);
+                }
+                g.prompt()
+            }
+            None => String::new(),
+        };
+        ui.progress(self.stats.samples, t, &prompt);
+        Ok(matches!(self.opts.mode, CaptureMode::Duration(d) if t >= d))
     }
 
     fn on_guided(&mut self, ev: &GuidedEvent, ui: &mut dyn CaptureUi) {
@@ -584,183 +637,4 @@ impl<D: WiimoteIo + ?Sized> Recorder<'_, '_, D> {
         }
         self.session.start_reporting()
     }
-}
-
-/// Arguments of `wiical capture`.
-#[derive(clap::Args, Debug, Clone)]
-pub struct CaptureArgs {
-    /// Output CSV: t,x,y,z (+ ext_x,ext_y,ext_z with a Nunchuk, + gx,gy,gz and slow flags with a MotionPlus), raw counts; calibrations in OUT.cal.json.
-    #[arg(long)]
-    pub out: PathBuf,
-    /// Plain mode: record this many seconds.
-    #[arg(long, default_value_t = 30.0)]
-    pub duration_s: f64,
-    /// Guided mode: walk through N poses, each held still (for `wiical fit`: 9 or more).
-    #[arg(long, value_name = "N")]
-    pub guided: Option<usize>,
-    /// Guided: how long each pose is held still, seconds.
-    #[arg(long, default_value_t = 4.0)]
-    pub hold_s: f64,
-    /// Guided: initial rest (noise reference), seconds.
-    #[arg(long, default_value_t = 2.0)]
-    pub init_s: f64,
-    /// Guided: still when the 0.5 s window variance ≤ THRESHOLD × rest variance.
-    #[arg(long, default_value_t = 6.0)]
-    pub threshold: f64,
-    /// Guided: give up when a pose is not held still (or no motion comes) within this time, s.
-    #[arg(long, default_value_t = 60.0)]
-    pub still_timeout_s: f64,
-    /// Fail when no data report arrives for this long, seconds.
-    #[arg(long, default_value_t = 2.0)]
-    pub silence_timeout_s: f64,
-    /// Also log every raw HID report (in and out, timestamped hex) to this file.
-    #[arg(long)]
-    pub raw_log: Option<PathBuf>,
-    /// Replay a raw log written with --raw-log instead of opening a device.
-    #[arg(long)]
-    pub replay: Option<PathBuf>,
-    /// Print JSON (the side file's content) instead of a summary.
-    #[arg(long)]
-    pub json: bool,
-}
-
-impl CaptureArgs {
-    /// The capture options these arguments describe.
-    pub fn options(&self) -> CaptureOptions {
-        let mode = match self.guided {
-            Some(poses) => CaptureMode::Guided(GuidedConfig {
-                poses,
-                init_s: self.init_s,
-                hold_s: self.hold_s,
-                threshold: self.threshold,
-                still_timeout_s: self.still_timeout_s,
-                ..Default::default()
-            }),
-            None => CaptureMode::Duration(self.duration_s),
-        };
-        CaptureOptions {
-            out: self.out.clone(),
-            mode,
-            silence_timeout_s: self.silence_timeout_s,
-            ..Default::default()
-        }
-    }
-}
-
-fn run_on<D: WiimoteIo>(
-    io: D,
-    args: &CaptureArgs,
-    ui: &mut dyn CaptureUi,
-) -> Result<CaptureSummary> {
-    let opts = args.options();
-    match &args.raw_log {
-        Some(path) => {
-            // Written like the CSV: replaced only when the capture succeeds; after a failure
-            // a new log is kept (it shows what went wrong) but an existing one is not
-            // replaced.
-            let pending = PendingFile::create(path).map_err(cli_error)?;
-            let f = pending
-                .file()
-                .try_clone()
-                .with_context(|| format!("cannot create {}", path.display()))?;
-            let mut logged = io::RawLogger::new(io, BufWriter::new(f))?;
-            let r = capture(&mut logged, &opts, ui);
-            logged.flush()?;
-            drop(logged);
-            if r.is_ok() || !pending.target_existed() {
-                pending.commit().map_err(cli_error)?;
-            } else {
-                let kept = pending.keep_aside().map_err(cli_error)?;
-                return r.with_context(|| {
-                    format!(
-                        "the raw log {} was left untouched; this session's log is in {}",
-                        path.display(),
-                        kept.display()
-                    )
-                });
-            }
-            r
-        }
-        None => {
-            let mut io = io;
-            capture(&mut io, &opts, ui)
-        }
-    }
-}
-
-/// `wiical capture`: open the first Wii Remote (or replay a raw log), record, and return the
-/// text (or JSON) to print.
-pub fn run(args: &CaptureArgs) -> Result<String> {
-    // Outputs must differ from the replayed log and from each other (`--replay L --out L`
-    // would replace the session log), checked before anything is opened.
-    let cal_file = cal_path(&args.out);
-    let inputs: Vec<&std::path::Path> = args.replay.iter().map(|p| p.as_path()).collect();
-    let mut outputs = vec![args.out.as_path(), cal_file.as_path()];
-    outputs.extend(args.raw_log.as_deref());
-    wiical_analysis::write::check_outputs(&inputs, &outputs).map_err(cli_error)?;
-    let mut ui = TerminalUi::new();
-    let summary = match &args.replay {
-        Some(path) => run_on(io::LogReplay::load(path)?, args, &mut ui)?,
-        None => run_on(io::open_wiimote()?, args, &mut ui)?,
-    };
-    render(&summary, args.json)
-}
-
-/// The text (or JSON) printed after a capture.
-pub fn render(summary: &CaptureSummary, json: bool) -> Result<String> {
-    if json {
-        return Ok(serde_json::to_string_pretty(&summary.calibration)? + "\n");
-    }
-    let mut o = String::new();
-    let c = &summary.calibration;
-    let stats = c
-        .capture
-        .as_ref()
-        .ok_or_else(|| anyhow!("capture summary missing"))?;
-    writeln!(
-        o,
-        "wrote {} ({} samples, {:.1} s{}) and {}",
-        summary.csv.display(),
-        stats.samples,
-        stats.duration_s,
-        stats
-            .mean_rate_hz
-            .map(|r| format!(", {r:.1} Hz"))
-            .unwrap_or_default(),
-        summary.cal_file.display()
-    )?;
-    for f in std::iter::once(&c.wiimote).chain(c.nunchuk.as_ref()) {
-        match (&f.zero, &f.counts_per_g) {
-            (Some(z), Some(s)) => writeln!(
-                o,
-                "  {} factory calibration: zero {:?}, counts per g {:?} ({} copy)",
-                f.device,
-                z,
-                s,
-                f.copy_used.as_deref().unwrap_or("-")
-            )?,
-            _ => writeln!(o, "  {} factory calibration: no valid copy", f.device)?,
-        }
-    }
-    if !stats.poses.is_empty() {
-        writeln!(o, "  poses: {}", stats.poses.len())?;
-        for p in &stats.poses {
-            writeln!(
-                o,
-                "    {:>2}: t {:>7.2}–{:>7.2} s  mean {:?}",
-                p.pose,
-                p.t_start,
-                p.t_end,
-                p.mean[0].map(|v| (v * 10.0).round() / 10.0)
-            )?;
-        }
-    }
-    if stats.bad_reports + stats.unknown_reports > 0 {
-        writeln!(
-            o,
-            "  skipped reports: {} malformed, {} unknown",
-            stats.bad_reports, stats.unknown_reports
-        )?;
-    }
-    Ok(o)
 }

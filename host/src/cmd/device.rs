@@ -7,6 +7,8 @@ use std::time::Duration;
 
 use crate::cli_error::cli_error;
 use crate::client::{same_bits, ClientOptions, Device};
+use crate::cmd::to_json;
+use crate::render::device as render;
 use anyhow::{anyhow, bail, Result};
 use serde::Serialize;
 use wiical_analysis::calfile::{self, CalibrationFile};
@@ -14,7 +16,7 @@ use wiical_analysis::verdict::Verdict;
 use wiical_core::quality::Acceptance;
 use wiical_core::Calibration;
 use wiical_wire::{
-    AdapterStatus, Sample, SelfCalOutcome, SelfCalPhase, PROTOCOL_VERSION, SCHEMA_KEY,
+    AdapterStatus, HelloResponse, Sample, SelfCalOutcome, PROTOCOL_VERSION, SCHEMA_KEY,
 };
 
 /// Arguments of `wiical device`.
@@ -120,29 +122,6 @@ fn hex(bytes: &[u8]) -> String {
     bytes.iter().map(|b| format!("{b:02X}")).collect()
 }
 
-fn fmt_cal(o: &mut String, title: &str, c: &Calibration) -> Result<()> {
-    writeln!(o, "{title}")?;
-    writeln!(
-        o,
-        "  bias b (counts): {:>12.4} {:>12.4} {:>12.4}",
-        c.bias[0], c.bias[1], c.bias[2]
-    )?;
-    writeln!(o, "  K = D⁻¹ (g per count, ×1e-3):")?;
-    for r in &c.matrix {
-        writeln!(
-            o,
-            "    {:>12.6} {:>12.6} {:>12.6}",
-            r[0] * 1e3,
-            r[1] * 1e3,
-            r[2] * 1e3
-        )?;
-    }
-    if !c.effects.is_none() {
-        writeln!(o, "  (+ effect terms; see --json)")?;
-    }
-    Ok(())
-}
-
 /// Upload `cal` (read and judged by [`checked_for_put`]) and read it back: the staged copy
 /// must be bit-identical.
 fn put_verified(dev: &mut Device, cal: Option<Calibration>) -> Result<Calibration> {
@@ -157,55 +136,6 @@ fn put_verified(dev: &mut Device, cal: Option<Calibration>) -> Result<Calibratio
         bail!("the calibration read back from the adapter differs from the one sent");
     }
     Ok(cal)
-}
-
-fn phase_text(p: SelfCalPhase) -> &'static str {
-    match p {
-        SelfCalPhase::Off => "not running",
-        SelfCalPhase::Arming => "arming (C + Z held after plug-in)",
-        SelfCalPhase::WaitingForStillness => "running: hold still in a new orientation",
-        SelfCalPhase::PoseTaken => "running: pose taken",
-        SelfCalPhase::MoveToNewOrientation => "running: orientation already taken, move on",
-        SelfCalPhase::Committing => "storing the new calibration",
-        SelfCalPhase::Done => "done",
-        SelfCalPhase::Failed => "failed",
-    }
-}
-
-fn fmt_stale(o: &mut String, st: &AdapterStatus) -> Result<()> {
-    if st.stale_moments == 0 {
-        writeln!(o, "  stale-calibration monitor: no still moment seen yet")?;
-    } else {
-        writeln!(
-            o,
-            "  stale-calibration monitor: ‖a‖ − 1 g RMS {:.1} mg over {} still moments{}",
-            st.stale_rms_mg,
-            st.stale_moments,
-            if st.recalibration_suggested {
-                ": recalibration suggested"
-            } else {
-                ""
-            }
-        )?;
-    }
-    Ok(())
-}
-
-fn fmt_status(o: &mut String, st: &AdapterStatus) -> Result<()> {
-    writeln!(o, "self-calibration: {}", phase_text(st.phase))?;
-    writeln!(o, "  poses taken: {}", st.poses)?;
-    match &st.last_result {
-        None => writeln!(o, "  last result: none since power-up")?,
-        Some(SelfCalOutcome::Done { rms_mg, poses }) => writeln!(
-            o,
-            "  last result: done, {poses} poses, fit RMS {rms_mg:.2} mg (stored and live)"
-        )?,
-        Some(SelfCalOutcome::Failed { message }) => writeln!(
-            o,
-            "  last result: failed, {message}; the previous calibration is kept"
-        )?,
-    }
-    fmt_stale(o, st)
 }
 
 fn selfcal_json(port: &str, st: &AdapterStatus) -> serde_json::Value {
@@ -227,10 +157,6 @@ fn selfcal_json(port: &str, st: &AdapterStatus) -> serde_json::Value {
         "stale_rms_mg": st.stale_rms_mg,
         "recalibration_suggested": st.recalibration_suggested,
     })
-}
-
-fn json<T: Serialize>(v: &T) -> Result<String> {
-    Ok(serde_json::to_string_pretty(v)? + "\n")
 }
 
 /// What `device put` thinks of a calibration file before sending it.
@@ -324,105 +250,118 @@ pub fn run(args: &DeviceArgs, out: &mut dyn Write) -> Result<String> {
         _ => None,
     };
     let (mut dev, hello) = Device::connect(port, opts)?;
-    let mut o = String::new();
+    let json = args.json;
     match &args.action {
-        DeviceAction::Info => {
-            let j = InfoJson {
-                port: port.to_string(),
-                firmware_version: hello.firmware_version.to_string(),
-                device_id: hex(&hello.device_id),
-                protocol_version: hello.protocol_version,
-                schema_key: format!("0x{:08X}", hello.schema_key),
-                host_protocol_version: PROTOCOL_VERSION,
-                host_schema_key: format!("0x{SCHEMA_KEY:08X}"),
-            };
-            if args.json {
-                return json(&j);
-            }
-            writeln!(o, "adapter on {}", j.port)?;
-            writeln!(o, "  firmware:  {}", j.firmware_version)?;
-            writeln!(o, "  device id: {}", j.device_id)?;
-            writeln!(
-                o,
-                "  protocol:  v{} (schema {}), host v{} (schema {}): compatible",
-                j.protocol_version, j.schema_key, j.host_protocol_version, j.host_schema_key
-            )?;
-            let st = dev.status()?;
-            fmt_stale(&mut o, &st)?;
-        }
-        DeviceAction::Get { out: file } => {
-            let s = dev.get_calibration()?;
-            let live = Calibration::from(s.live);
-            if let Some(path) = file {
-                calfile::write_calibration_unchecked(path, &live).map_err(cli_error)?;
-            }
-            let j = StateJson {
-                port: port.to_string(),
-                live,
-                staged: s.staged.map(Calibration::from),
-                stored: s.stored,
-            };
-            if args.json {
-                return json(&j);
-            }
-            let title = if s.stored {
-                "live calibration (committed, stored on the adapter):"
-            } else {
-                "live calibration: none committed, pass-through (the Nunchuk's factory calibration):"
-            };
-            fmt_cal(&mut o, title, &j.live)?;
-            match &j.staged {
-                Some(c) => fmt_cal(&mut o, "staged in this session (not live):", c)?,
-                None => writeln!(o, "nothing staged")?,
-            }
-        }
+        DeviceAction::Info => info(&mut dev, &hello, port, json),
+        DeviceAction::Get { out: file } => get(&mut dev, port, file.as_deref(), json),
         DeviceAction::Put {
             file,
             commit: false,
             ..
         } => {
             let cal = put_verified(&mut dev, to_put)?;
-            if args.json {
-                return json(&serde_json::json!({
+            if json {
+                return to_json(&serde_json::json!({
                     "port": port, "staged": true, "verified": true, "calibration": cal
                 }));
             }
-            writeln!(
-                o,
+            Ok(format!(
                 "staged {} on {} (verified bit for bit) for this session only: the adapter \
                  discards it when the port closes. `wiical device commit {} --port {}` uploads \
-                 and commits it in one go",
+                 and commits it in one go\n",
                 file.display(),
                 port,
                 file.display(),
                 port
-            )?;
+            ))
         }
         DeviceAction::Put { commit: true, .. } | DeviceAction::Commit { .. } => {
             put_verified(&mut dev, to_put)?;
             dev.commit()?;
             let s = dev.get_calibration()?;
-            if args.json {
-                return json(&serde_json::json!({
+            if json {
+                return to_json(&serde_json::json!({
                     "port": port, "committed": true, "stored": s.stored,
                     "live": Calibration::from(s.live)
                 }));
             }
-            writeln!(
-                o,
-                "committed on {port}: the calibration is live and stored in the adapter's flash"
-            )?;
+            Ok(format!(
+                "committed on {port}: the calibration is live and stored in the adapter's flash\n"
+            ))
         }
         DeviceAction::SelfcalStatus => {
             let st = dev.status()?;
-            if args.json {
-                return json(&selfcal_json(port, &st));
+            if json {
+                return to_json(&selfcal_json(port, &st));
             }
-            fmt_status(&mut o, &st)?;
+            let mut o = String::new();
+            render::fmt_status(&mut o, &st)?;
+            Ok(o)
         }
         DeviceAction::Stream { count, divider } => {
-            stream(&mut dev, *count, *divider, args.json, out)?;
+            stream(&mut dev, *count, *divider, json, out)?;
+            Ok(String::new())
         }
+    }
+}
+
+/// `device info`: the handshake's answer and the stale-calibration monitor.
+fn info(dev: &mut Device, hello: &HelloResponse, port: &str, json: bool) -> Result<String> {
+    let j = InfoJson {
+        port: port.to_string(),
+        firmware_version: hello.firmware_version.to_string(),
+        device_id: hex(&hello.device_id),
+        protocol_version: hello.protocol_version,
+        schema_key: format!("0x{:08X}", hello.schema_key),
+        host_protocol_version: PROTOCOL_VERSION,
+        host_schema_key: format!("0x{SCHEMA_KEY:08X}"),
+    };
+    if json {
+        return to_json(&j);
+    }
+    let mut o = String::new();
+    render::fmt_info(
+        &mut o,
+        &render::InfoText {
+            port: &j.port,
+            firmware_version: &j.firmware_version,
+            device_id: &j.device_id,
+            protocol_version: j.protocol_version,
+            schema_key: &j.schema_key,
+            host_protocol_version: j.host_protocol_version,
+            host_schema_key: &j.host_schema_key,
+        },
+    )?;
+    render::fmt_stale(&mut o, &dev.status()?)?;
+    Ok(o)
+}
+
+/// `device get [--out FILE]`: the live and staged calibrations.
+fn get(dev: &mut Device, port: &str, file: Option<&std::path::Path>, json: bool) -> Result<String> {
+    let s = dev.get_calibration()?;
+    let live = Calibration::from(s.live);
+    if let Some(path) = file {
+        calfile::write_calibration_unchecked(path, &live).map_err(cli_error)?;
+    }
+    let j = StateJson {
+        port: port.to_string(),
+        live,
+        staged: s.staged.map(Calibration::from),
+        stored: s.stored,
+    };
+    if json {
+        return to_json(&j);
+    }
+    let title = if s.stored {
+        "live calibration (committed, stored on the adapter):"
+    } else {
+        "live calibration: none committed, pass-through (the Nunchuk's factory calibration):"
+    };
+    let mut o = String::new();
+    render::fmt_cal(&mut o, title, &j.live)?;
+    match &j.staged {
+        Some(c) => render::fmt_cal(&mut o, "staged in this session (not live):", c)?,
+        None => writeln!(o, "nothing staged")?,
     }
     Ok(o)
 }

@@ -2,8 +2,10 @@
 //! Shared here: the detection flags, the small value parsers and JSON output.
 
 pub mod analyze;
+pub mod capture;
 pub mod decode_cal;
 pub mod device;
+pub mod device_sim;
 pub mod fit;
 pub mod gyrofit;
 pub mod kalman_demo;

@@ -2,6 +2,8 @@
 //! computes a result; every number comes from a library report.
 
 pub mod analyze;
+pub mod capture;
+pub mod device;
 pub mod plot;
 
 use std::fmt::Write as _;

@@ -1,0 +1,132 @@
+//! `wiical capture`: its arguments and run. The capture itself (start-up sequence, recording,
+//! pose guide) is [`crate::capture`]; the summary's text is [`crate::render::capture`].
+
+use crate::capture::guided::GuidedConfig;
+use crate::capture::io::{self, WiimoteIo};
+use crate::capture::output::cal_path;
+use crate::capture::{capture, CaptureMode, CaptureOptions, CaptureSummary, CaptureUi, TerminalUi};
+use crate::cli_error::cli_error;
+use anyhow::{Context, Result};
+use std::io::BufWriter;
+use std::path::PathBuf;
+use wiical_analysis::write::PendingFile;
+
+/// Arguments of `wiical capture`.
+#[derive(clap::Args, Debug, Clone)]
+pub struct CaptureArgs {
+    /// Output CSV: t,x,y,z (+ ext_x,ext_y,ext_z with a Nunchuk, + gx,gy,gz and slow flags with a MotionPlus), raw counts; calibrations in OUT.cal.json.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Plain mode: record this many seconds.
+    #[arg(long, default_value_t = 30.0)]
+    pub duration_s: f64,
+    /// Guided mode: walk through N poses, each held still (for `wiical fit`: 9 or more).
+    #[arg(long, value_name = "N")]
+    pub guided: Option<usize>,
+    /// Guided: how long each pose is held still, seconds.
+    #[arg(long, default_value_t = 4.0)]
+    pub hold_s: f64,
+    /// Guided: initial rest (noise reference), seconds.
+    #[arg(long, default_value_t = 2.0)]
+    pub init_s: f64,
+    /// Guided: still when the 0.5 s window variance ≤ THRESHOLD × rest variance.
+    #[arg(long, default_value_t = 6.0)]
+    pub threshold: f64,
+    /// Guided: give up when a pose is not held still (or no motion comes) within this time, s.
+    #[arg(long, default_value_t = 60.0)]
+    pub still_timeout_s: f64,
+    /// Fail when no data report arrives for this long, seconds.
+    #[arg(long, default_value_t = 2.0)]
+    pub silence_timeout_s: f64,
+    /// Also log every raw HID report (in and out, timestamped hex) to this file.
+    #[arg(long)]
+    pub raw_log: Option<PathBuf>,
+    /// Replay a raw log written with --raw-log instead of opening a device.
+    #[arg(long)]
+    pub replay: Option<PathBuf>,
+    /// Print JSON (the side file's content) instead of a summary.
+    #[arg(long)]
+    pub json: bool,
+}
+
+impl CaptureArgs {
+    /// The capture options these arguments describe.
+    pub fn options(&self) -> CaptureOptions {
+        let mode = match self.guided {
+            Some(poses) => CaptureMode::Guided(GuidedConfig {
+                poses,
+                init_s: self.init_s,
+                hold_s: self.hold_s,
+                threshold: self.threshold,
+                still_timeout_s: self.still_timeout_s,
+                ..Default::default()
+            }),
+            None => CaptureMode::Duration(self.duration_s),
+        };
+        CaptureOptions {
+            out: self.out.clone(),
+            mode,
+            silence_timeout_s: self.silence_timeout_s,
+            ..Default::default()
+        }
+    }
+}
+
+fn run_on<D: WiimoteIo>(
+    io: D,
+    args: &CaptureArgs,
+    ui: &mut dyn CaptureUi,
+) -> Result<CaptureSummary> {
+    let opts = args.options();
+    match &args.raw_log {
+        Some(path) => {
+            // Written like the CSV: replaced only when the capture succeeds; after a failure
+            // a new log is kept (it shows what went wrong) but an existing one is not
+            // replaced.
+            let pending = PendingFile::create(path).map_err(cli_error)?;
+            let f = pending
+                .file()
+                .try_clone()
+                .with_context(|| format!("cannot create {}", path.display()))?;
+            let mut logged = io::RawLogger::new(io, BufWriter::new(f))?;
+            let r = capture(&mut logged, &opts, ui);
+            logged.flush()?;
+            drop(logged);
+            if r.is_ok() || !pending.target_existed() {
+                pending.commit().map_err(cli_error)?;
+            } else {
+                let kept = pending.keep_aside().map_err(cli_error)?;
+                return r.with_context(|| {
+                    format!(
+                        "the raw log {} was left untouched; this session's log is in {}",
+                        path.display(),
+                        kept.display()
+                    )
+                });
+            }
+            r
+        }
+        None => {
+            let mut io = io;
+            capture(&mut io, &opts, ui)
+        }
+    }
+}
+
+/// `wiical capture`: open the first Wii Remote (or replay a raw log), record, and return the
+/// text (or JSON) to print.
+pub fn run(args: &CaptureArgs) -> Result<String> {
+    // Outputs must differ from the replayed log and from each other (`--replay L --out L`
+    // would replace the session log), checked before anything is opened.
+    let cal_file = cal_path(&args.out);
+    let inputs: Vec<&std::path::Path> = args.replay.iter().map(|p| p.as_path()).collect();
+    let mut outputs = vec![args.out.as_path(), cal_file.as_path()];
+    outputs.extend(args.raw_log.as_deref());
+    wiical_analysis::write::check_outputs(&inputs, &outputs).map_err(cli_error)?;
+    let mut ui = TerminalUi::new();
+    let summary = match &args.replay {
+        Some(path) => run_on(io::LogReplay::load(path)?, args, &mut ui)?,
+        None => run_on(io::open_wiimote()?, args, &mut ui)?,
+    };
+    crate::render::capture::render(&summary, args.json)
+}
