@@ -28,6 +28,7 @@
 //! | selection | [`select`] | the candidates' numbers → the one added (the rule and its constants) |
 //! | motion check | [`motion`] | window spread → predicted shortening of each mean, correlated with the base residual (not-still windows) |
 //! | evidence | [`evidence`] | the chosen effect → why (pattern, tests, runner-up), verdict |
+//! | entries | [`pipeline`] | input (samples or window table) → report + quality verdict: what `fit`/`analyze --json` print |
 //! | report | [`report`] | → [`AnalyzeReport`] (the JSON contract of `wiical analyze`) |
 //! | six-position | [`six_position`], [`six`] | labelled poses → the seed's `T̂ = M·Â⁺` and its residual contrasts |
 //! | magnetometer | [`magnetometer`] | points → sphere / ellipsoid hard/soft-iron fit |
@@ -87,6 +88,7 @@ pub mod motion;
 pub mod noise;
 pub mod options;
 pub mod outliers;
+pub mod pipeline;
 pub mod press;
 pub mod progress;
 pub mod recording;

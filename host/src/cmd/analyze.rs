@@ -1,16 +1,13 @@
 //! `wiical analyze`: the residual analysis.
 
-use super::{check_outputs, to_json_with_quality, write_calibration_with, DetectArgs};
+use super::{check_outputs, to_json, write_calibration_with, DetectArgs};
 use crate::cli_error::cli_error;
 use crate::render;
 use anyhow::Result;
 use std::path::PathBuf;
 use wiical_analysis::select::check_rule;
-use wiical_analysis::verdict::Quality;
-use wiical_analysis::window_input::Input;
 use wiical_analysis::{AnalyzeOptions, Candidate};
 use wiical_core::multipos::MultiPosModel;
-use wiical_core::quality::CoverageRule;
 
 /// Arguments of `wiical analyze`.
 #[derive(clap::Args, Debug)]
@@ -53,7 +50,7 @@ pub fn run(a: &Args) -> Result<String> {
         .map(|names| names.iter().map(|n| n.parse::<Candidate>()).collect())
         .transpose()
         .map_err(cli_error)?;
-    let rep = super::with_progress(|progress| {
+    let judged = super::with_progress(|progress| {
         let opts = AnalyzeOptions {
             fit: a.detect.fit_options(MultiPosModel::Full),
             alpha: a.alpha,
@@ -62,35 +59,20 @@ pub fn run(a: &Args) -> Result<String> {
             progress,
             ..Default::default()
         };
-        match &input {
-            Input::Table(t) => wiical_analysis::window_input::analyze_table(t, &opts),
-            Input::Samples(rec) => wiical_analysis::analyze(rec, &opts),
-        }
+        wiical_analysis::pipeline::analyze(&input, &opts)
     })
     .map_err(cli_error)?;
-    // A six-position table is judged on its six poses by the six-position rule.
-    let quality = match &rep.six_position {
-        Some(six) => Quality::assess_with(
-            &rep.calibration,
-            &six.pose_means_raw,
-            rep.final_model.rms_mg,
-            CoverageRule::six_position(),
-        ),
-        None => {
-            let means: Vec<[f64; 3]> = rep.windows.iter().map(|w| w.mean).collect();
-            Quality::assess(&rep.calibration, &means, rep.final_model.rms_mg)
-        }
-    };
+    let (rep, quality) = (&judged.report, &judged.quality);
     if let Some(path) = &a.out {
-        write_calibration_with(path, &rep.calibration, &quality)?;
+        write_calibration_with(path, &rep.calibration, quality)?;
     }
     if let Some(path) = &a.plot {
-        render::plot::write_plot(&rep, path)?;
+        render::plot::write_plot(rep, path)?;
     }
     if a.json {
-        return to_json_with_quality(&rep, &quality);
+        return to_json(&judged);
     }
-    let mut text = render::analyze::render_text(&rep, &a.file.display().to_string());
+    let mut text = render::analyze::render_text(rep, &a.file.display().to_string());
     text.push_str(&quality.line());
     text.push('\n');
     Ok(text)

@@ -3,12 +3,11 @@
 // Field docs are clap help text, shown verbatim: `[,temp]` is not a link.
 #![allow(rustdoc::broken_intra_doc_links)]
 
-use super::{check_outputs, to_json_with_quality, write_calibration_with, DetectArgs};
+use super::{check_outputs, to_json, write_calibration_with, DetectArgs};
 use crate::cli_error::cli_error;
 use crate::render;
 use anyhow::Result;
 use std::path::PathBuf;
-use wiical_analysis::verdict::Quality;
 use wiical_analysis::window_input::Input;
 use wiical_core::multipos::MultiPosModel;
 
@@ -44,28 +43,23 @@ fn parse_model(s: &str) -> Result<MultiPosModel, String> {
 pub fn run(a: &Args) -> Result<String> {
     check_outputs(&[&a.file], &[a.out.as_deref()])?;
     let opts = a.detect.fit_options(a.model);
-    let (rep, rec) = match a.detect.input(&a.file)? {
-        Input::Table(table) => (
-            wiical_analysis::window_input::fit_table(&table, &opts).map_err(cli_error)?,
-            table.recording,
-        ),
-        Input::Samples(rec) => {
-            let rep = super::with_spinner("detecting static windows and fitting", || {
-                wiical_analysis::fit::run(&rec, &opts)
-            })
-            .map_err(cli_error)?;
-            (rep, rec)
-        }
-    };
-    let means: Vec<[f64; 3]> = rep.windows.iter().map(|w| w.mean.map(f64::from)).collect();
-    let quality = Quality::assess(&rep.calibration, &means, f64::from(rep.rms_mg));
+    let input = a.detect.input(&a.file)?;
+    let judged = super::with_spinner("detecting static windows and fitting", || {
+        wiical_analysis::pipeline::fit(&input, &opts)
+    })
+    .map_err(cli_error)?;
+    let (rep, quality) = (&judged.report, &judged.quality);
     if let Some(path) = &a.out {
-        write_calibration_with(path, &rep.calibration, &quality)?;
+        write_calibration_with(path, &rep.calibration, quality)?;
     }
     if a.json {
-        return to_json_with_quality(&rep, &quality);
+        return to_json(&judged);
     }
-    let mut text = render::fit_text(&rep, &rec, &a.file.display().to_string());
+    let rec = match &input {
+        Input::Table(t) => &t.recording,
+        Input::Samples(rec) => rec,
+    };
+    let mut text = render::fit_text(rep, rec, &a.file.display().to_string());
     text.push_str(&quality.line());
     text.push('\n');
     Ok(text)

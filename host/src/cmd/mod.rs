@@ -194,18 +194,6 @@ pub fn check_outputs(inputs: &[&Path], outputs: &[Option<&Path>]) -> Result<()> 
     wiical_analysis::write::check_outputs(inputs, &outputs).map_err(cli_error)
 }
 
-/// A report as JSON with the quality verdict added under `quality`, after the report's own
-/// keys (`fit`/`analyze --json`).
-pub fn to_json_with_quality<T: serde::Serialize>(report: &T, quality: &Quality) -> Result<String> {
-    #[derive(serde::Serialize)]
-    struct WithQuality<'a, T> {
-        #[serde(flatten)]
-        report: &'a T,
-        quality: &'a Quality,
-    }
-    to_json(&WithQuality { report, quality })
-}
-
 /// Runs `work` with an indicatif progress display on stderr, fed by the analysis's progress
 /// callback: a spinner while the stage has no known total (detection), a bar of the
 /// candidates fitted of the step's total during the greedy search. Hidden when stderr is

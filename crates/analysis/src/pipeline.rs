@@ -1,0 +1,63 @@
+//! One entry per pipeline: what `wiical fit --json` and `wiical analyze --json` print, as
+//! library calls, so that the CLI and the Python package return the same contract from the
+//! same types.
+//!
+//! Each takes the file's content as the loader read it ([`Input`]: samples, or a table whose
+//! rows are still windows already) and returns the report with the quality verdict that
+//! `device put` checks ([`Judged`]: the report's own keys, then `quality`).
+
+use crate::error::Result;
+use crate::verdict::Quality;
+use crate::window_input::{analyze_table, fit_table, Input};
+use crate::{AnalyzeOptions, AnalyzeReport, FitOptions, FitReport};
+use serde::Serialize;
+use wiical_core::quality::CoverageRule;
+
+/// A report and its quality verdict; serialises as the report's keys followed by
+/// `quality` (the `--json` contract of `fit` and `analyze`).
+#[derive(Debug, Clone, Serialize)]
+pub struct Judged<R> {
+    /// The pipeline's report.
+    #[serde(flatten)]
+    pub report: R,
+    /// Fit RMS and pose coverage, judged.
+    pub quality: Quality,
+}
+
+/// `wiical fit`: static windows (or the table's rows) → the 9- or 6-parameter calibration,
+/// judged on its poses.
+pub fn fit(input: &Input, opts: &FitOptions) -> Result<Judged<FitReport>> {
+    let report = match input {
+        Input::Table(table) => fit_table(table, opts)?,
+        Input::Samples(rec) => crate::fit::run(rec, opts)?,
+    };
+    let means: Vec<[f64; 3]> = report
+        .windows
+        .iter()
+        .map(|w| w.mean.map(f64::from))
+        .collect();
+    let quality = Quality::assess(&report.calibration, &means, f64::from(report.rms_mg));
+    Ok(Judged { report, quality })
+}
+
+/// `wiical analyze`: the residual analysis, judged on its poses (a six-position table on its
+/// six poses, by the six-position coverage rule).
+pub fn analyze(input: &Input, opts: &AnalyzeOptions) -> Result<Judged<AnalyzeReport>> {
+    let report = match input {
+        Input::Table(t) => analyze_table(t, opts)?,
+        Input::Samples(rec) => crate::analyze(rec, opts)?,
+    };
+    let quality = match &report.six_position {
+        Some(six) => Quality::assess_with(
+            &report.calibration,
+            &six.pose_means_raw,
+            report.final_model.rms_mg,
+            CoverageRule::six_position(),
+        ),
+        None => {
+            let means: Vec<[f64; 3]> = report.windows.iter().map(|w| w.mean).collect();
+            Quality::assess(&report.calibration, &means, report.final_model.rms_mg)
+        }
+    };
+    Ok(Judged { report, quality })
+}
