@@ -7,7 +7,6 @@ pub mod capture;
 pub mod cli_error;
 pub mod client;
 pub mod cmd;
-pub mod decode_cal;
 #[cfg(unix)]
 pub mod device_sim;
 pub mod kalman_demo;

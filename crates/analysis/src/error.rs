@@ -507,6 +507,11 @@ pub enum Error {
         cause: wiical_core::Error,
     },
 
+    // ---- factory calibration blocks ----
+    /// A factory calibration block (hex text, length, device name) that cannot be decoded.
+    #[error(transparent)]
+    Factory(#[from] crate::factory::FactoryError),
+
     // ---- internal consistency ----
     /// A self-check failed: a bug, not bad input.
     #[error("internal: {0}")]

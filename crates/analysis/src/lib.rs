@@ -32,6 +32,7 @@
 //! | report | [`report`] | → [`AnalyzeReport`] (the JSON contract of `wiical analyze`) |
 //! | six-position | [`six_position`], [`six`] | labelled poses → the seed's `T̂ = M·Â⁺` and its residual contrasts |
 //! | magnetometer | [`magnetometer`] | points → sphere / ellipsoid hard/soft-iron fit |
+//! | factory calibration blocks | [`factory`] | Wii Remote / Nunchuk / MotionPlus block bytes → decoded report (`decode-cal`, the capture side file) |
 //! | calibration file | [`calfile`], [`mod@write`] | [`Calibration`] ↔ JSON file |
 //! | simulator (feature `simulate`) | [`simulate`] | settings → recording with known truth |
 //!
@@ -77,6 +78,7 @@ pub mod candidate;
 pub mod columns;
 pub mod error;
 pub mod evidence;
+pub mod factory;
 pub mod fit;
 pub mod grt;
 pub mod gyro;

@@ -2,16 +2,12 @@
 //! header comments with the factory calibrations) and the side file `FILE.cal.json`.
 
 use super::guided::PoseRecord;
-use super::protocol::hex;
 use super::session::{describe_extension, DeviceSetup};
-use anyhow::{Context, Result};
+use anyhow::Result;
 use serde::Serialize;
 use std::io::Write;
 use std::path::{Path, PathBuf};
-use wiical_extbus::motionplus::{MotionPlusCalibration, MotionPlusReport, RangeCalibration};
-use wiical_extbus::nunchuk::CalibrationBlock;
-use wiical_extbus::wiimote::{EEPROM_CALIBRATION_ADDR, EEPROM_CALIBRATION_BACKUP_ADDR};
-use wiical_extbus::{AccelCalibration, CalibrationCopy};
+use wiical_extbus::motionplus::MotionPlusReport;
 
 /// Where the calibration side file of a recording written to `path` goes:
 /// `path` + `.cal.json` (like `simulate`'s `FILE.truth.json`).
@@ -21,188 +17,10 @@ pub fn cal_path(path: &Path) -> PathBuf {
     PathBuf::from(p)
 }
 
-/// One stored copy of a calibration block, decoded.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct BlockCopy {
-    /// Address of the copy (`0x0016`/`0x0020` in the EEPROM, `0xA40020`/`0xA40030` in the
-    /// extension registers).
-    pub address: String,
-    /// The bytes, uppercase hex.
-    pub hex: String,
-    /// Whether its checksum is correct.
-    pub checksum_ok: bool,
-    /// Zero-g reading per axis, 10-bit counts.
-    pub zero: [u16; 3],
-    /// +1 g reading per axis, 10-bit counts.
-    pub one_g: [u16; 3],
-    /// `one_g − zero`, counts per g.
-    pub counts_per_g: [i32; 3],
-}
-
-/// A device's factory calibration: both copies, and the one Nintendo's rule picks (the
-/// first whose checksum is correct; none if both fail).
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct FactoryCalibration {
-    /// `"wiimote"` or `"nunchuk"`.
-    pub device: String,
-    /// The two stored copies.
-    pub copies: Vec<BlockCopy>,
-    /// `"first"`, `"second"`, or null when no checksum passes.
-    pub copy_used: Option<String>,
-    /// Zero-g of the copy used (null if none passes).
-    pub zero: Option<[u16; 3]>,
-    /// +1 g of the copy used.
-    pub one_g: Option<[u16; 3]>,
-    /// Counts per g of the copy used.
-    pub counts_per_g: Option<[i32; 3]>,
-    /// Nunchuk only: the 8-bit values (the stored high bytes; exact), of the copy used.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub zero_8bit: Option<[u8; 3]>,
-    /// Nunchuk only: 1-g high bytes.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub one_g_8bit: Option<[u8; 3]>,
-    /// Nunchuk only: joystick calibration `[max, min, centre]` for X then Y.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub stick: Option<[[u8; 3]; 2]>,
-    /// Whether the order of the packed low bits is documented (Wii Remote yes; Nunchuk no,
-    /// assumed the same, so its 10-bit values may have the low 2 bits permuted between axes).
-    pub lsb_order_confirmed: bool,
-}
-
-fn copy_name(c: CalibrationCopy) -> String {
-    match c {
-        CalibrationCopy::First => "first".into(),
-        CalibrationCopy::Second => "second".into(),
-    }
-}
-
-/// Decodes the 20 EEPROM bytes `0x0016`–`0x0029`.
-pub fn wiimote_calibration(bytes: &[u8]) -> Result<FactoryCalibration> {
-    let addrs = [EEPROM_CALIBRATION_ADDR, EEPROM_CALIBRATION_BACKUP_ADDR];
-    let mut copies = Vec::new();
-    for (k, a) in addrs.iter().enumerate() {
-        let b = bytes
-            .get(k * 10..k * 10 + 10)
-            .context("EEPROM calibration: 20 bytes expected")?;
-        let c = AccelCalibration::decode(b).map_err(|e| anyhow::anyhow!("{e}"))?;
-        copies.push(BlockCopy {
-            address: format!("0x{a:04X}"),
-            hex: hex(b),
-            checksum_ok: c.checksum_ok,
-            zero: c.value.zero,
-            one_g: c.value.one_g,
-            counts_per_g: c.value.counts_per_g(),
-        });
-    }
-    let used = AccelCalibration::from_copies(&bytes[..10], &bytes[10..20]).ok();
-    Ok(FactoryCalibration {
-        device: "wiimote".into(),
-        copies,
-        copy_used: used.map(|u| copy_name(u.copy)),
-        zero: used.map(|u| u.value.zero),
-        one_g: used.map(|u| u.value.one_g),
-        counts_per_g: used.map(|u| u.value.counts_per_g()),
-        zero_8bit: None,
-        one_g_8bit: None,
-        stick: None,
-        lsb_order_confirmed: true,
-    })
-}
-
-/// Decodes the 32 Nunchuk register bytes `0xA40020`–`0xA4003F`.
-pub fn nunchuk_calibration(bytes: &[u8]) -> Result<FactoryCalibration> {
-    let mut copies = Vec::new();
-    for (k, a) in [0xA4_0020u32, 0xA4_0030].iter().enumerate() {
-        let b = bytes
-            .get(k * 16..k * 16 + 16)
-            .context("Nunchuk calibration: 32 bytes expected")?;
-        let c = CalibrationBlock::decode(b).map_err(|e| anyhow::anyhow!("{e}"))?;
-        copies.push(BlockCopy {
-            address: format!("0x{a:06X}"),
-            hex: hex(b),
-            checksum_ok: c.checksum_ok,
-            zero: c.value.zero,
-            one_g: c.value.one_g,
-            counts_per_g: c.value.counts_per_g(),
-        });
-    }
-    let used = CalibrationBlock::from_registers(&bytes[..32]).ok();
-    Ok(FactoryCalibration {
-        device: "nunchuk".into(),
-        copies,
-        copy_used: used.map(|u| copy_name(u.copy)),
-        zero: used.map(|u| u.value.zero),
-        one_g: used.map(|u| u.value.one_g),
-        counts_per_g: used.map(|u| u.value.counts_per_g()),
-        zero_8bit: used.map(|u| u.value.zero_8bit()),
-        one_g_8bit: used.map(|u| u.value.one_g_8bit()),
-        stick: used.map(|u| {
-            let (x, y) = (u.value.stick_x, u.value.stick_y);
-            [[x.max, x.min, x.centre], [y.max, y.min, y.centre]]
-        }),
-        lsb_order_confirmed: false,
-    })
-}
-
-/// One range (fast or slow) of a MotionPlus calibration block.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct GyroRange {
-    /// Zero-rate readings `[yaw, roll, pitch]` as stored (16-bit = 14-bit × 4).
-    pub zero: [u16; 3],
-    /// Readings at the reference rate, as stored.
-    pub scale: [u16; 3],
-    /// The reference rate, °/s (`degrees_div_6 · 6`).
-    pub degrees: u16,
-    /// `(scale − zero)/4/degrees`: 14-bit counts per °/s `[yaw, roll, pitch]`, signed as stored
-    /// (null when the reference rate is 0).
-    pub counts_per_dps: Option<[f32; 3]>,
-}
-
-impl GyroRange {
-    fn of(r: &RangeCalibration) -> Self {
-        Self {
-            zero: r.zero,
-            scale: r.scale,
-            degrees: u16::from(r.degrees_div_6) * 6,
-            counts_per_dps: r.counts_per_dps(),
-        }
-    }
-}
-
-/// The MotionPlus's factory calibration (`wiical decode-cal --device motionplus` prints the
-/// same fields).
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct MotionPlusFactory {
-    /// The 32 bytes at `0xA60020`, uppercase hex.
-    pub hex: String,
-    /// Whether the stored CRC-32 matches.
-    pub checksum_ok: bool,
-    /// Fast (±2000 °/s class) range.
-    pub fast: GyroRange,
-    /// Slow (±440 °/s class) range.
-    pub slow: GyroRange,
-    /// The two UID bytes.
-    pub uid: [u8; 2],
-    /// Capture only: the activation mode byte written to `0xA600FE` (`0x04` gyro only,
-    /// `0x05` Nunchuk pass-through).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub mode: Option<u8>,
-}
-
-/// Decodes a MotionPlus calibration block (32 bytes); `mode` is the activation byte of a
-/// capture (none for a block decoded on its own).
-pub fn motionplus_calibration(bytes: &[u8], mode: Option<u8>) -> Result<MotionPlusFactory> {
-    let c = MotionPlusCalibration::decode(bytes)
-        .map_err(|e| anyhow::anyhow!("MotionPlus calibration: {e}"))?;
-    Ok(MotionPlusFactory {
-        hex: hex(bytes),
-        checksum_ok: c.checksum_ok,
-        fast: GyroRange::of(&c.value.fast),
-        slow: GyroRange::of(&c.value.slow),
-        uid: c.value.uid,
-        mode,
-    })
-}
+pub use wiical_analysis::factory::{
+    motionplus_calibration, nunchuk_calibration, wiimote_calibration, BlockCopy,
+    FactoryCalibration, GyroRange, MotionPlusFactory,
+};
 
 /// Summary of a capture (also in the side file).
 #[derive(Debug, Clone, PartialEq, Serialize)]

@@ -352,14 +352,8 @@ pub fn parse_input(bytes: &[u8]) -> Result<InputReport<'_>, ReportError> {
     }
 }
 
-/// Bytes as uppercase hex separated by spaces (the notation of WiiBrew and `decode-cal`).
-pub fn hex(bytes: &[u8]) -> String {
-    bytes
-        .iter()
-        .map(|b| format!("{b:02X}"))
-        .collect::<Vec<_>>()
-        .join(" ")
-}
+/// Bytes as uppercase hex separated by spaces (the factory-block module's helper).
+pub use wiical_analysis::factory::hex;
 
 #[cfg(test)]
 mod tests {

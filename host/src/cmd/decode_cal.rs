@@ -4,6 +4,7 @@ use super::to_json;
 use anyhow::{bail, Result};
 use std::fmt::Write as _;
 use std::io::Write as _;
+use wiical_analysis::factory;
 
 /// Arguments of `wiical decode-cal`.
 #[derive(clap::Args, Debug)]
@@ -26,7 +27,7 @@ pub fn run(a: &Args) -> Result<String> {
     if a.device == "motionplus" {
         return motionplus(a);
     }
-    let rep = crate::decode_cal::decode_cal(&a.device, &a.hex.join(" "))?;
+    let rep = factory::decode_cal(&a.device, &a.hex.join(" "))?;
     let text = render(a, &rep)?;
     if rep.checksum_ok {
         return Ok(text);
@@ -40,7 +41,7 @@ pub fn run(a: &Args) -> Result<String> {
     )
 }
 
-fn render(a: &Args, rep: &crate::decode_cal::DecodeCalReport) -> Result<String> {
+fn render(a: &Args, rep: &factory::DecodeCalReport) -> Result<String> {
     if a.json {
         return to_json(rep);
     }
@@ -60,8 +61,8 @@ fn render(a: &Args, rep: &crate::decode_cal::DecodeCalReport) -> Result<String> 
 /// The MotionPlus's 32-byte gyro calibration block (`0xA60020`–`0xA6003F`, read while the
 /// MotionPlus is inactive): both ranges, their sensitivities and the CRC-32 check.
 fn motionplus(a: &Args) -> Result<String> {
-    let bytes = crate::decode_cal::parse_hex(&a.hex.join(" "))?;
-    let rep = crate::capture::output::motionplus_calibration(&bytes, None)?;
+    let bytes = factory::parse_hex(&a.hex.join(" "))?;
+    let rep = factory::motionplus_calibration(&bytes, None)?;
     if a.json {
         return to_json(&rep);
     }
