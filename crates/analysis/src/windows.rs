@@ -33,6 +33,34 @@ pub struct DetectOptions {
     pub adc_range: Option<(f64, f64)>,
 }
 
+impl DetectOptions {
+    /// The options a user's settings describe (the CLI's flags, the Python package's keyword
+    /// arguments): giving any of the four IMU-TK settings switches from the adaptive detector
+    /// to IMU-TK's, with the defaults for the ones not given.
+    pub fn from_settings(
+        window_s: Option<f64>,
+        init_s: Option<f64>,
+        min_static_s: Option<f64>,
+        threshold_factor: Option<f64>,
+        default_rate_hz: f64,
+        adc_range: Option<(f64, f64)>,
+    ) -> Self {
+        let d = Self::default();
+        Self {
+            adaptive: window_s.is_none()
+                && init_s.is_none()
+                && min_static_s.is_none()
+                && threshold_factor.is_none(),
+            window_s: window_s.unwrap_or(d.window_s),
+            init_s: init_s.unwrap_or(d.init_s),
+            min_static_s: min_static_s.unwrap_or(d.min_static_s),
+            threshold_factor: threshold_factor.unwrap_or(d.threshold_factor),
+            default_rate_hz,
+            adc_range,
+        }
+    }
+}
+
 impl Default for DetectOptions {
     fn default() -> Self {
         Self {

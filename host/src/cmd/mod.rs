@@ -96,17 +96,15 @@ impl DetectArgs {
 
     /// The base fit's options.
     pub fn fit_options(&self, model: MultiPosModel) -> FitOptions {
-        let d = DetectOptions::default();
         FitOptions {
-            detect: DetectOptions {
-                adaptive: !self.detector_flags_given(),
-                window_s: self.window_s.unwrap_or(d.window_s),
-                init_s: self.init_s.unwrap_or(d.init_s),
-                min_static_s: self.min_static_s.unwrap_or(d.min_static_s),
-                threshold_factor: self.threshold.unwrap_or(d.threshold_factor),
-                default_rate_hz: self.rate_hz,
-                adc_range: self.adc_range,
-            },
+            detect: DetectOptions::from_settings(
+                self.window_s,
+                self.init_s,
+                self.min_static_s,
+                self.threshold,
+                self.rate_hz,
+                self.adc_range,
+            ),
             model,
         }
     }
