@@ -31,6 +31,9 @@ enum Cmd {
     /// effect (quadratic, cubic, bias-drift, temperature, temperature-scale, outliers), add it
     /// and report the error before and after (in-sample and leave-one-window-out CV).
     Analyze(cmd::analyze::Args),
+    /// Many recordings through `analyze` (or `fit`): one JSON line per file in a resumable
+    /// results file (files already in it are skipped), `--jobs N` at once.
+    Batch(cmd::batch::Args),
     /// Simulate a Wiimote/Nunchuk multi-position recording with known truth and, optionally,
     /// one effect the linear model lacks (truth written to FILE.truth.json).
     Simulate(cmd::simulate::Args),
@@ -63,6 +66,7 @@ fn run(cli: Cli) -> Result<String> {
         Cmd::Fit(a) => cmd::fit::run(&a),
         Cmd::Analyze(a) => cmd::analyze::run(&a),
         Cmd::Gyrofit(a) => cmd::gyrofit::run(&a),
+        Cmd::Batch(a) => cmd::batch::run(&a),
         Cmd::Simulate(a) => cmd::simulate::run(&a),
         Cmd::Capture(a) => wiical::cmd::capture::run(&a),
         Cmd::Device(a) => cmd::device::run(&a, &mut std::io::stdout().lock()),

@@ -507,6 +507,17 @@ pub enum Error {
         cause: wiical_core::Error,
     },
 
+    // ---- batch ----
+    /// An input of `wiical batch` that is neither a file, a directory nor a pattern that
+    /// can be expanded.
+    #[error("batch input {}: {why}", input.display())]
+    BatchInput {
+        /// The input as given.
+        input: PathBuf,
+        /// Why it cannot be used.
+        why: String,
+    },
+
     // ---- factory calibration blocks ----
     /// A factory calibration block (hex text, length, device name) that cannot be decoded.
     #[error(transparent)]

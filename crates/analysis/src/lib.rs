@@ -28,6 +28,7 @@
 //! | selection | [`select`] | the candidates' numbers → the one added (the rule and its constants) |
 //! | motion check | [`motion`] | window spread → predicted shortening of each mean, correlated with the base residual (not-still windows) |
 //! | evidence | [`evidence`] | the chosen effect → why (pattern, tests, runner-up), verdict |
+//! | many files | [`batch`] | files → one JSON line each (fit or analyze), resumable results file |
 //! | entries | [`pipeline`] | input (samples or window table) → report + quality verdict: what `fit`/`analyze --json` print |
 //! | report | [`report`] | → [`AnalyzeReport`] (the JSON contract of `wiical analyze`) |
 //! | six-position | [`six_position`], [`six`] | labelled poses → the seed's `T̂ = M·Â⁺` and its residual contrasts |
@@ -73,6 +74,7 @@
 
 pub mod analyze;
 pub mod autocal;
+pub mod batch;
 pub mod calfile;
 pub mod candidate;
 pub mod columns;

@@ -2,6 +2,7 @@
 //! Shared here: the detection flags, the small value parsers and JSON output.
 
 pub mod analyze;
+pub mod batch;
 pub mod capture;
 pub mod decode_cal;
 pub mod device;
