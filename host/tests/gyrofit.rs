@@ -76,3 +76,106 @@ fn readable_errors() {
         "{err}"
     );
 }
+
+/// `wiical fit --json`'s windows as (t_start, t_end).
+fn fit_windows(args: &[&str]) -> Vec<(f64, f64)> {
+    let mut all = vec!["fit"];
+    all.extend_from_slice(args);
+    all.push("--json");
+    let (ok, stdout, stderr) = wiical(&all);
+    assert!(ok, "{stderr}");
+    let v: Value = serde_json::from_str(&stdout).unwrap();
+    v["windows"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|w| (w["t_start"].as_f64().unwrap(), w["t_end"].as_f64().unwrap()))
+        .collect()
+}
+
+/// gyrofit's windows are fit's: as many, and every motion runs from the last sample of one of
+/// fit's windows to the first of the next (issue 24).
+fn assert_same_windows(gyro: &Value, fit: &[(f64, f64)], what: &str) {
+    assert_eq!(
+        gyro["static_windows"].as_u64().unwrap() as usize,
+        fit.len(),
+        "{what}"
+    );
+    let motions = gyro["motion_table"].as_array().unwrap();
+    assert_eq!(motions.len() + 1, fit.len(), "{what}");
+    for (i, m) in motions.iter().enumerate() {
+        let (t0, t1) = (m["t_start"].as_f64().unwrap(), m["t_end"].as_f64().unwrap());
+        assert_eq!((t0, t1), (fit[i].1, fit[i + 1].0), "{what}: motion {i}");
+    }
+}
+
+#[test]
+fn sunsided_full_sphere_needs_no_flags_and_uses_fits_windows() {
+    let file = data_dir().join("mpu6050_hmc5883l_sunsided_set2/full-sphere_mpu6050.csv");
+    let f = file.to_str().unwrap();
+    let (ok, stdout, stderr) = wiical(&["gyrofit", f, "--json"]);
+    assert!(ok, "{stderr}");
+    let v: Value = serde_json::from_str(&stdout).unwrap();
+    assert_same_windows(&v, &fit_windows(&[f]), "sunsided");
+    assert_eq!(v["static_windows"], 30);
+    // The unit comes from the names: 1 count = 1 °/s, and the JSON says so.
+    let s0 = 1f64.to_radians();
+    assert!(v["nominal_rad_per_count"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .all(|x| (x.as_f64().unwrap() - s0).abs() < 1e-15));
+    assert!(v["nominal_source"].as_str().unwrap().contains("deg/s"));
+    // Each warning once (the file is read once for both sensors).
+    assert_eq!(
+        stderr.matches("timestamps come in bursts").count(),
+        1,
+        "{stderr}"
+    );
+    assert_eq!(stderr.matches("took gyro_x_dps").count(), 1, "{stderr}");
+    // The author's README says the gyro's X axis has a flipped sign: the fit finds it.
+    assert!(v["matrix"][0][0].as_f64().unwrap() < 0.0);
+    assert!(v["notes"]
+        .to_string()
+        .contains("x gyro axis turns the other way"));
+    // Before/after and held out, like the Xsens run.
+    let (before, cv) = (
+        v["rms_deg_before"].as_f64().unwrap(),
+        v["cv_rms_deg"].as_f64().unwrap(),
+    );
+    assert!(cv < before, "{cv} vs {before}");
+    let (ok, text, _) = wiical(&["gyrofit", f]);
+    assert!(ok && text.contains("from the columns' unit") && text.contains("held-out"));
+}
+
+#[test]
+fn xsens_pair_uses_fits_windows() {
+    let dir = data_dir().join("imu_tk_xsens");
+    let (acc, gyro) = (dir.join("xsens_acc.mat"), dir.join("xsens_gyro.mat"));
+    let (a, g) = (acc.to_str().unwrap(), gyro.to_str().unwrap());
+    let (ok, stdout, stderr) = wiical(&["gyrofit", a, g, "--scale", "1.598e-4", "--json"]);
+    assert!(ok, "{stderr}");
+    let v: Value = serde_json::from_str(&stdout).unwrap();
+    assert_same_windows(&v, &fit_windows(&[a]), "xsens");
+    assert_eq!(v["nominal_source"], "--scale");
+}
+
+#[test]
+fn mpu9150_units_use_fits_windows() {
+    for unit in 0..5 {
+        let file = data_dir().join(format!("mpu9150_mikoff_5units/imu{unit}.csv"));
+        let f = file.to_str().unwrap();
+        let (ok, stdout, stderr) = wiical(&["gyrofit", f, "--counts-per-dps", "16.384", "--json"]);
+        assert!(ok, "{stderr}");
+        let v: Value = serde_json::from_str(&stdout).unwrap();
+        assert_same_windows(&v, &fit_windows(&[f]), &format!("imu{unit}"));
+        assert_eq!(v["static_windows"], 22);
+    }
+}
+
+#[test]
+fn an_accelerometer_only_file_is_not_taken_for_a_gyro() {
+    let file = data_dir().join("acc_mag_ck_explorer/acc_log.csv");
+    let (ok, _, err) = wiical(&["gyrofit", file.to_str().unwrap(), "--scale", "1e-3"]);
+    assert!(!ok && err.contains("no gyroscope columns"), "{err}");
+}

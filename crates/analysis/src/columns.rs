@@ -183,7 +183,45 @@ fn split_words(name: &str) -> Vec<String> {
         }
         words.push(part.replace('/', ""));
     }
-    words
+    // Units written in two words (`rad_s`, `deg_s`, `m_s2`) are one unit word.
+    let mut merged: Vec<String> = Vec::with_capacity(words.len());
+    for w in words {
+        let joined = match (merged.last().map(String::as_str), w.as_str()) {
+            (Some("rad"), "s") => Some("rads"),
+            (Some("deg"), "s") => Some("degs"),
+            (Some("m"), "s2") => Some("ms2"),
+            _ => None,
+        };
+        match joined {
+            Some(j) => *merged.last_mut().expect("checked above") = j.to_string(),
+            None => merged.push(w),
+        }
+    }
+    merged
+}
+
+/// The unit a column's name states (`gyro_x_dps` → `deg/s`, `acc_x_g` → `g`, `gyro_x_rad_s`
+/// → `rad/s`, `acc_x_ms2` → `m/s^2`); `None` when the name states none (`gx`, `x_raw`).
+pub fn unit_of(name: &str) -> Option<&'static str> {
+    let words = split_words(&name.to_ascii_lowercase());
+    Some(match words.last()?.as_str() {
+        "dps" | "degs" => "deg/s",
+        "rads" | "rad/s" => "rad/s",
+        "g" => "g",
+        "mg" => "mg",
+        "mps2" | "ms2" | "m/s^2" | "m/s2" => "m/s^2",
+        "gauss" => "gauss",
+        "mgauss" => "mgauss",
+        "ut" => "uT",
+        "nt" => "nT",
+        _ => return None,
+    })
+}
+
+/// The unit of a triplet: the one all three names state, else `None`.
+pub fn triplet_unit(names: &[String; 3]) -> Option<&'static str> {
+    let u = unit_of(&names[0])?;
+    (unit_of(&names[1]) == Some(u) && unit_of(&names[2]) == Some(u)).then_some(u)
 }
 
 /// Every axis triplet in `fields` (lower-cased header names), in header order of their x
@@ -250,6 +288,27 @@ pub fn choice_note(fields: &[String], chosen: &Triplet, want: Sensor) -> Option<
 
 #[cfg(test)]
 mod tests {
+
+    #[test]
+    fn units_are_read_from_the_names() {
+        assert_eq!(unit_of("gyro_x_dps"), Some("deg/s"));
+        assert_eq!(unit_of("gyro_x_rad_s"), Some("rad/s"));
+        assert_eq!(unit_of("gyro_x_rads"), Some("rad/s"));
+        assert_eq!(unit_of("acc_x_g"), Some("g"));
+        assert_eq!(unit_of("acc_x_ms2"), Some("m/s^2"));
+        assert_eq!(unit_of("acc_x_mps2"), Some("m/s^2"));
+        assert_eq!(unit_of("mag_x_uT"), Some("uT"));
+        assert_eq!(unit_of("gx"), None);
+        assert_eq!(unit_of("x_raw"), None);
+        let names = ["gyro_x_dps", "gyro_y_dps", "gyro_z_dps"].map(String::from);
+        assert_eq!(triplet_unit(&names), Some("deg/s"));
+        let mixed = ["gyro_x_dps", "gyro_y_rads", "gyro_z_dps"].map(String::from);
+        assert_eq!(triplet_unit(&mixed), None);
+        // A two-word unit keeps the column an axis of its sensor.
+        let (axis, sensor, _) = classify("gyro_y_rad_s").unwrap();
+        assert_eq!((axis, sensor), (1, Sensor::Gyroscope));
+    }
+
     use super::*;
 
     fn fields(s: &str) -> Vec<String> {

@@ -507,6 +507,13 @@ pub enum Error {
         cause: wiical_core::Error,
     },
 
+    /// A single-file gyro calibration whose header names no gyroscope columns.
+    #[error("the header names no gyroscope columns (the nearest triplet is {taken}, not a gyroscope): name them gx,gy,gz or gyro_x_dps,… (deg/s), gyro_x_rads,… (rad/s)")]
+    NoGyroColumns {
+        /// The triplet the loader would have taken.
+        taken: String,
+    },
+
     // ---- batch ----
     /// An input of `wiical batch` that is neither a file, a directory nor a pattern that
     /// can be expanded.

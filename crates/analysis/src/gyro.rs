@@ -23,15 +23,16 @@
 //! report says so.
 
 use crate::error::{Error, Result};
-use crate::fit::fit_means;
+use crate::fit::{run_windows, FitOptions};
 use crate::recording::Recording;
-use crate::windows::{detect, DetectOptions};
+use crate::windows::{detect_windows, DetectOptions};
 use serde::Serialize;
 use wiical_core::gyro::GyroCalibration;
 use wiical_core::gyro_fit::{
     self, fit_from, leave_one_out, motion_angle, GyroFitConfig, GyroModel, Motion,
 };
 use wiical_core::multipos::MultiPosModel;
+use wiical_core::static_detect::StaticInterval;
 
 /// Settings of [`run`].
 #[derive(Debug, Clone)]
@@ -45,6 +46,8 @@ pub struct GyroOptions {
     pub accel_model: MultiPosModel,
     /// Levenberg–Marquardt iteration budget per fit.
     pub max_iterations: u32,
+    /// Where the nominal came from, for the report (`--scale`, the columns' unit, …).
+    pub nominal_source: String,
 }
 
 impl GyroOptions {
@@ -55,6 +58,7 @@ impl GyroOptions {
             nominal_rad_per_count,
             accel_model: MultiPosModel::Full,
             max_iterations: 100,
+            nominal_source: "given".into(),
         }
     }
 }
@@ -122,6 +126,9 @@ pub struct GyroReport {
     pub sample_rate_hz: f64,
     /// Nominal sensitivity, rad/s per count.
     pub nominal_rad_per_count: [f64; 3],
+    /// Where the nominal came from: a flag (`--scale`, `--counts-per-dps`) or the gyro
+    /// columns' unit (`deg/s` in `gyro_x_dps`: 1 count = 1 °/s).
+    pub nominal_source: String,
     /// Bias from the first static window, raw counts.
     pub bias_from_rest: [f64; 3],
     /// Remarks on the choice (e.g. that the full model generalises worse than none).
@@ -167,6 +174,47 @@ fn align(acc: &Recording, gyro: &Recording) -> Result<Aligned> {
     Ok((out, Some(tg.clone())))
 }
 
+/// A note per axis whose fitted sensitivity has the opposite sign of the nominal: the gyro
+/// axis points the other way from the accelerometer's (a flipped axis, as in sunsided's
+/// MPU-6050 logs); the fit has absorbed it, and a datasheet nominal would have missed it.
+fn flipped_axes(cal: &GyroCalibration<f64>, nominal: &[f64; 3]) -> Vec<String> {
+    (0..3)
+        .filter(|&a| cal.matrix[(a, a)] * nominal[a] < 0.0)
+        .map(|a| {
+            format!(
+                "the {} gyro axis turns the other way from the accelerometer's (fitted sensitivity {:.4e} rad/s per count against the nominal {:.4e}): its sign is flipped",
+                ["x", "y", "z"][a],
+                cal.matrix[(a, a)],
+                nominal[a]
+            )
+        })
+        .collect()
+}
+
+/// The static windows as the core's gyro fit takes them.
+struct Intervals {
+    intervals: Vec<StaticInterval>,
+}
+
+/// The gyro's nominal sensitivity from its columns' unit, when the names state one:
+/// `deg/s` (`gyro_x_dps`) is 1 count = 1 °/s, `rad/s` 1 count = 1 rad/s. Returns the nominal
+/// (rad/s per count) and a sentence saying where it came from.
+pub fn nominal_from_columns(gyro: &Recording) -> Option<([f64; 3], String)> {
+    let unit = crate::columns::triplet_unit(&gyro.axis_columns)?;
+    let per_count = match unit {
+        "deg/s" => 1f64.to_radians(),
+        "rad/s" => 1.0,
+        _ => return None,
+    };
+    Some((
+        [per_count; 3],
+        format!(
+            "the columns' unit ({unit} in {}): 1 count = 1 {unit}",
+            gyro.axis_columns.join(", ")
+        ),
+    ))
+}
+
 fn deg(rad: f64) -> f64 {
     rad.to_degrees()
 }
@@ -199,10 +247,26 @@ pub fn run(acc: &Recording, gyro: &Recording, opts: &GyroOptions) -> Result<Gyro
     let rate = acc_rec
         .estimated_rate_hz()
         .unwrap_or(opts.detect.default_rate_hz);
-    let times = acc_rec.times(rate);
-    let det = detect(&acc_rec, &opts.detect)?;
-    let means: Vec<[f32; 3]> = det.intervals.iter().map(|iv| iv.mean).collect();
-    let accel = fit_means(&means, opts.accel_model)?.calibration;
+    // The windows `wiical fit` finds on the same file and settings, and its calibration.
+    let ws = detect_windows(&acc_rec, &opts.detect)?;
+    let times = ws.times.clone();
+    let fit_opts = FitOptions {
+        detect: opts.detect.clone(),
+        model: opts.accel_model,
+    };
+    let accel = run_windows(&ws, &fit_opts)?.calibration;
+    let det = Intervals {
+        intervals: ws
+            .stats
+            .iter()
+            .map(|w| StaticInterval {
+                start: w.start as u32,
+                end: w.end as u32,
+                mean: w.mean.map(|x| x as f32),
+                variance: w.var.map(|x| x as f32),
+            })
+            .collect(),
+    };
     let rest = det.intervals.first().ok_or(Error::TooFewMotions {
         found: 0,
         needed: 2,
@@ -248,6 +312,7 @@ pub fn run(acc: &Recording, gyro: &Recording, opts: &GyroOptions) -> Result<Gyro
         notes.push("no fitted model beats the nominal scale on held-out motions: the calibration is the nominal one with the bias from rest".into());
     }
     let cal = fit.calibration;
+    notes.extend(flipped_axes(&cal, &opts.nominal_rad_per_count));
     let motion_table = spans
         .iter()
         .zip(&motions)
@@ -278,6 +343,7 @@ pub fn run(acc: &Recording, gyro: &Recording, opts: &GyroOptions) -> Result<Gyro
         motion_table,
         sample_rate_hz: rate,
         nominal_rad_per_count: opts.nominal_rad_per_count,
+        nominal_source: opts.nominal_source.clone(),
         bias_from_rest,
         notes,
     })

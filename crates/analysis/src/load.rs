@@ -38,6 +38,37 @@ pub fn load(path: &Path, opts: &LoadOptions) -> Result<Recording> {
     parse(&text, opts).map_err(|e| e.in_file(path))
 }
 
+/// An accelerometer and a gyroscope from one file, read once (`wiical gyrofit FILE`, so each
+/// note on the file is made once): the accelerometer's triplet by `acc`, the gyroscope's by
+/// `gyro_columns` when given, else by the header's names — a gyroscope triplet must be named
+/// (`gx,gy,gz`, `gyro_x_dps`, …): the loader's fallback to another sensor's triplet would
+/// take gravity for rotation.
+pub fn load_imu(
+    path: &Path,
+    acc: &LoadOptions,
+    gyro_columns: Option<[String; 3]>,
+) -> Result<(Recording, Recording)> {
+    let text = read_text(path, MAX_RECORDING_BYTES)?;
+    let accel = parse(&text, acc).map_err(|e| e.in_file(path))?;
+    let named = gyro_columns.is_none();
+    let gyro_opts = LoadOptions {
+        columns: gyro_columns,
+        sensor: Some(Sensor::Gyroscope),
+    };
+    let gyro = parse(&text, &gyro_opts).map_err(|e| e.in_file(path))?;
+    let is_gyro = |n: &String| {
+        crate::columns::classify(&n.to_ascii_lowercase())
+            .is_some_and(|(_, s, _)| s == Sensor::Gyroscope)
+    };
+    if named && !gyro.axis_columns.iter().all(is_gyro) {
+        return Err(Error::NoGyroColumns {
+            taken: gyro.axis_columns.join(","),
+        }
+        .in_file(path));
+    }
+    Ok((accel, gyro))
+}
+
 pub(crate) fn is_comment_or_blank(line: &str) -> bool {
     let l = line.trim();
     l.is_empty() || l.starts_with('#') || l.starts_with('%')

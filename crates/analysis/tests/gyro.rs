@@ -9,7 +9,7 @@ use common::data_dir;
 use nalgebra::{Matrix3, SMatrix, SVector, UnitQuaternion, Vector3};
 use wiical_analysis::fit::fit_means;
 use wiical_analysis::gyro::{run, GyroOptions, GyroReport};
-use wiical_analysis::windows::detect;
+use wiical_analysis::windows::detect_windows;
 use wiical_analysis::{load, DetectOptions, LoadOptions, Recording};
 use wiical_core::multipos::MultiPosModel;
 
@@ -120,24 +120,25 @@ fn reference_fit(
     (k, b, cost)
 }
 
-/// The reference's own segmentation: windows from the accelerometer (the engine's detector
-/// and accelerometer fit, which are tested elsewhere), a motion from the last sample of one
+/// The reference's own segmentation: windows from the accelerometer (the engine's detector —
+/// the windows `wiical fit` finds — and accelerometer fit, which are tested elsewhere), a motion from the last sample of one
 /// window to the first of the next, gravity = calibrated accelerometer mean.
 fn reference_motions(acc: &Recording, gyro: &Recording) -> (Vec<RefMotion>, Vector3<f64>) {
-    let det = detect(acc, &DetectOptions::default()).unwrap();
-    let means: Vec<[f32; 3]> = det.intervals.iter().map(|iv| iv.mean).collect();
+    let ws = detect_windows(acc, &DetectOptions::default()).unwrap();
+    let means: Vec<[f32; 3]> = ws.stats.iter().map(|w| w.mean.map(|x| x as f32)).collect();
     let accel = fit_means(&means, MultiPosModel::Full).unwrap().calibration;
     let gdir = |m: [f32; 3]| Vector3::from(accel.correct_linear(m)).cast::<f64>();
-    let motions = det
-        .intervals
+    let motions = ws
+        .stats
         .windows(2)
-        .map(|w| RefMotion {
-            samples: gyro.xyz[w[0].end as usize - 1..=w[1].start as usize].to_vec(),
-            g0: gdir(w[0].mean),
-            g1: gdir(w[1].mean),
+        .zip(means.windows(2))
+        .map(|(w, m)| RefMotion {
+            samples: gyro.xyz[w[0].end - 1..=w[1].start].to_vec(),
+            g0: gdir(m[0]),
+            g1: gdir(m[1]),
         })
         .collect();
-    let rest = &gyro.xyz[det.intervals[0].start as usize..det.intervals[0].end as usize];
+    let rest = &gyro.xyz[ws.stats[0].start..ws.stats[0].end];
     let b0 = rest
         .iter()
         .fold(Vector3::zeros(), |s, v| s + Vector3::from(*v))

@@ -5,9 +5,9 @@ use super::{check_outputs, load, load_options, to_json, DetectArgs};
 use crate::cli_error::cli_error;
 use anyhow::{bail, Result};
 use serde::Serialize;
-use std::fmt::Write as _;
 use std::path::PathBuf;
-use wiical_analysis::gyro::{GyroOptions, GyroReport};
+use wiical_analysis::gyro::{nominal_from_columns, GyroOptions};
+use wiical_analysis::Recording;
 
 /// Arguments of `wiical gyrofit`.
 #[derive(clap::Args, Debug)]
@@ -25,9 +25,10 @@ pub struct Args {
     /// on 16 bits); one value or three (signed). Alternative to --scale.
     #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
     pub counts_per_dps: Option<Vec<f64>>,
-    /// Header names of the gyro columns in a single file.
-    #[arg(long, value_delimiter = ',', default_value = "gx,gy,gz")]
-    pub gyro_columns: Vec<String>,
+    /// Header names of the gyro columns in a single file (default: the triplet the header
+    /// names as the gyroscope: gx,gy,gz, gyro_x_dps, …).
+    #[arg(long, value_delimiter = ',')]
+    pub gyro_columns: Option<Vec<String>>,
     /// Print JSON.
     #[arg(long)]
     pub json: bool,
@@ -47,20 +48,28 @@ fn per_axis(v: &[f64], flag: &str) -> Result<[f64; 3]> {
     }
 }
 
-/// The nominal sensitivity in rad/s per count from `--scale` or `--counts-per-dps`.
-fn nominal(a: &Args) -> Result<[f64; 3]> {
-    let s = match (&a.scale, &a.counts_per_dps) {
-        (Some(s), None) => per_axis(s, "--scale")?,
-        (None, Some(c)) => per_axis(c, "--counts-per-dps")?.map(|c| 1f64.to_radians() / c),
-        (Some(_), Some(_)) => bail!("give either --scale or --counts-per-dps, not both"),
-        (None, None) => bail!(
-            "the gyro's nominal sensitivity is needed (the uncalibrated baseline and the fit's start): --scale RAD_PER_S_PER_COUNT or --counts-per-dps COUNTS (from the datasheet)"
+/// The nominal sensitivity in rad/s per count and where it came from: `--scale` or
+/// `--counts-per-dps`, else the gyro columns' unit (`gyro_x_dps`: 1 count = 1 °/s).
+fn nominal(a: &Args, gyro: &Recording) -> Result<([f64; 3], String)> {
+    let (s, source) = match (&a.scale, &a.counts_per_dps) {
+        (Some(s), None) => (per_axis(s, "--scale")?, "--scale".to_string()),
+        (None, Some(c)) => (
+            per_axis(c, "--counts-per-dps")?.map(|c| 1f64.to_radians() / c),
+            "--counts-per-dps".to_string(),
         ),
+        (Some(_), Some(_)) => bail!("give either --scale or --counts-per-dps, not both"),
+        (None, None) => match nominal_from_columns(gyro) {
+            Some(n) => n,
+            None => bail!(
+                "the gyro's nominal sensitivity is needed (the uncalibrated baseline and the fit's start) and the gyro columns ({}) do not state a unit: --scale RAD_PER_S_PER_COUNT or --counts-per-dps COUNTS (from the datasheet)",
+                gyro.axis_columns.join(",")
+            ),
+        },
     };
     if !s.iter().all(|x| x.is_finite() && *x != 0.0) {
         bail!("the nominal sensitivity must be finite and non-zero on every axis");
     }
-    Ok(s)
+    Ok((s, source))
 }
 
 /// What `--out` writes.
@@ -78,23 +87,39 @@ struct GyroCalFile<'a> {
 
 /// Runs `wiical gyrofit`; returns what to print.
 pub fn run(a: &Args) -> Result<String> {
-    let scale = nominal(a)?;
-    if a.gyro_columns.len() != 3 {
-        bail!(
+    let gyro_columns = match a.gyro_columns.as_deref() {
+        None => None,
+        Some([x, y, z]) => Some([x.clone(), y.clone(), z.clone()]),
+        Some(other) => bail!(
             "--gyro-columns needs exactly three names (e.g. gx,gy,gz), got {}: {}",
-            a.gyro_columns.len(),
-            a.gyro_columns.join(",")
-        );
-    }
+            other.len(),
+            other.join(",")
+        ),
+    };
     let mut inputs = vec![a.file.as_path()];
     inputs.extend(a.gyro_file.as_deref());
     check_outputs(&inputs, &[a.out.as_deref()])?;
-    let acc = load(&a.file, &a.detect.load_options()?)?;
-    let gyro = match &a.gyro_file {
-        Some(g) => load(g, &load_options(None)?)?,
-        None => load(&a.file, &load_options(Some(&a.gyro_columns))?)?,
+    let (acc, gyro) = match &a.gyro_file {
+        Some(g) => (
+            load(&a.file, &a.detect.load_options()?)?,
+            load(g, &load_options(None)?)?,
+        ),
+        None => {
+            let acc_opts = a.detect.load_options()?;
+            let (acc, gyro) = super::with_spinner(&format!("reading {}", a.file.display()), || {
+                wiical_analysis::load::load_imu(&a.file, &acc_opts, gyro_columns)
+            })
+            .map_err(cli_error)?;
+            super::print_notes(&a.file, &acc);
+            for note in &gyro.info {
+                eprintln!("note: in {}: {note}", a.file.display());
+            }
+            (acc, gyro)
+        }
     };
+    let (scale, source) = nominal(a, &gyro)?;
     let mut opts = GyroOptions::new(scale);
+    opts.nominal_source = source;
     opts.detect = a
         .detect
         .fit_options(wiical_core::multipos::MultiPosModel::Full)
@@ -114,58 +139,8 @@ pub fn run(a: &Args) -> Result<String> {
     if a.json {
         return to_json(&rep);
     }
-    Ok(text(&rep, &a.file.display().to_string()))
-}
-
-/// The readable report.
-fn text(r: &GyroReport, file: &str) -> String {
-    let mut o = String::new();
-    let _ = writeln!(
-        o,
-        "Gyro calibration (multi-position, Tedaldi et al. 2014), {file}\n{} static windows, {} motions, {:.1} Hz",
-        r.static_windows, r.motions, r.sample_rate_hz
-    );
-    let _ = writeln!(
-        o,
-        "\n{:<13} {:>6} {:>12} {:>14} {:>10}",
-        "model", "params", "in-sample °", "held-out °", "ident."
-    );
-    for m in &r.models {
-        let f = |v: Option<f64>, p: usize| v.map_or("—".to_string(), |x| format!("{x:.*}", p));
-        let _ = writeln!(
-            o,
-            "{:<13} {:>6} {:>12} {:>14} {:>10}{}",
-            m.name,
-            m.parameters,
-            f(m.rms_deg, 4),
-            f(m.cv_rms_deg, 4),
-            m.identifiability.map_or("—".into(), |x| format!("{x:.1e}")),
-            if m.name == r.model {
-                "  ← chosen"
-            } else {
-                ""
-            }
-        );
-        if let Some(e) = &m.error {
-            let _ = writeln!(o, "              ({e})");
-        }
-    }
-    let _ = writeln!(
-        o,
-        "\nchosen: {} — RMS angle error {:.4}° → {:.4}° in-sample, {:.4}° on held-out motions",
-        r.model, r.rms_deg_before, r.rms_deg_after, r.cv_rms_deg
-    );
-    let _ = writeln!(
-        o,
-        "bias (counts): {:.3} {:.3} {:.3}",
-        r.bias[0], r.bias[1], r.bias[2]
-    );
-    let _ = writeln!(o, "K (raw → rad/s):");
-    for row in &r.matrix {
-        let _ = writeln!(o, "  {:>14.6e} {:>14.6e} {:>14.6e}", row[0], row[1], row[2]);
-    }
-    for n in &r.notes {
-        let _ = writeln!(o, "note: {n}");
-    }
-    o
+    Ok(crate::render::gyrofit::text(
+        &rep,
+        &a.file.display().to_string(),
+    ))
 }

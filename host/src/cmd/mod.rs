@@ -163,7 +163,7 @@ pub fn load(path: &std::path::Path, opts: &LoadOptions) -> Result<wiical_analysi
 
 /// What the loader chose (which triplet, a GRT file) as notes, what it noticed about the
 /// file (time gaps, bursts) as warnings, on stderr.
-fn print_notes(path: &Path, rec: &wiical_analysis::Recording) {
+pub fn print_notes(path: &Path, rec: &wiical_analysis::Recording) {
     for note in &rec.info {
         eprintln!("note: in {}: {note}", path.display());
     }

@@ -1,0 +1,67 @@
+//! The readable report of `wiical gyrofit`.
+
+use std::fmt::Write as _;
+use wiical_analysis::gyro::GyroReport;
+
+/// The readable report.
+pub fn text(r: &GyroReport, file: &str) -> String {
+    let mut o = String::new();
+    let _ = writeln!(
+        o,
+        "Gyro calibration (multi-position, Tedaldi et al. 2014), {file}\n{} static windows, {} motions, {:.1} Hz",
+        r.static_windows, r.motions, r.sample_rate_hz
+    );
+    let _ = writeln!(
+        o,
+        "nominal sensitivity {} rad/s per count, from {}",
+        r.nominal_rad_per_count
+            .iter()
+            .map(|v| format!("{v:.4e}"))
+            .collect::<Vec<_>>()
+            .join(" / "),
+        r.nominal_source
+    );
+    let _ = writeln!(
+        o,
+        "\n{:<13} {:>6} {:>12} {:>14} {:>10}",
+        "model", "params", "in-sample °", "held-out °", "ident."
+    );
+    for m in &r.models {
+        let f = |v: Option<f64>, p: usize| v.map_or("—".to_string(), |x| format!("{x:.*}", p));
+        let _ = writeln!(
+            o,
+            "{:<13} {:>6} {:>12} {:>14} {:>10}{}",
+            m.name,
+            m.parameters,
+            f(m.rms_deg, 4),
+            f(m.cv_rms_deg, 4),
+            m.identifiability.map_or("—".into(), |x| format!("{x:.1e}")),
+            if m.name == r.model {
+                "  ← chosen"
+            } else {
+                ""
+            }
+        );
+        if let Some(e) = &m.error {
+            let _ = writeln!(o, "              ({e})");
+        }
+    }
+    let _ = writeln!(
+        o,
+        "\nchosen: {} — RMS angle error {:.4}° → {:.4}° in-sample, {:.4}° on held-out motions",
+        r.model, r.rms_deg_before, r.rms_deg_after, r.cv_rms_deg
+    );
+    let _ = writeln!(
+        o,
+        "bias (counts): {:.3} {:.3} {:.3}",
+        r.bias[0], r.bias[1], r.bias[2]
+    );
+    let _ = writeln!(o, "K (raw → rad/s):");
+    for row in &r.matrix {
+        let _ = writeln!(o, "  {:>14.6e} {:>14.6e} {:>14.6e}", row[0], row[1], row[2]);
+    }
+    for n in &r.notes {
+        let _ = writeln!(o, "note: {n}");
+    }
+    o
+}
