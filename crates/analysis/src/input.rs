@@ -61,7 +61,11 @@ fn too_large(path: &Path, limit: u64) -> Error {
 /// Reads `path` as UTF-8 text (a leading byte-order mark removed), bounded as
 /// [`read_bounded`].
 pub fn read_text(path: &Path, limit: u64) -> Result<String> {
-    let mut bytes = read_bounded(path, limit)?;
+    text_of(path, read_bounded(path, limit)?)
+}
+
+/// `bytes` read from `path` as UTF-8 text (a leading byte-order mark removed).
+pub fn text_of(path: &Path, mut bytes: Vec<u8>) -> Result<String> {
     if bytes.starts_with(b"\xEF\xBB\xBF") {
         bytes.drain(..3);
     }

@@ -89,6 +89,7 @@ pub mod options;
 pub mod outliers;
 pub mod press;
 pub mod progress;
+pub mod raw;
 pub mod recording;
 pub mod report;
 pub mod select;

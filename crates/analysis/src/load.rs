@@ -15,7 +15,7 @@
 
 use crate::columns::Sensor;
 use crate::error::{Error, Result};
-use crate::input::{parse_number, quote, quote_header, read_text, MAX_RECORDING_BYTES};
+use crate::input::{parse_number, quote, quote_header, read_bounded, text_of, MAX_RECORDING_BYTES};
 use crate::recording::Recording;
 use crate::timecheck::{time_notes, TimeCheck};
 use std::path::Path;
@@ -33,8 +33,15 @@ pub struct LoadOptions {
 /// Loads a recording from a file; see the module docs for the accepted formats.
 /// `path` may be `-` for standard input; only regular files are read, at most
 /// [`MAX_RECORDING_BYTES`].
+/// Raw accelerometer files (Axivity `.cwa`, GENEActiv `.bin`, recognised by their first bytes)
+/// are read by [`crate::raw`]: every decoded sample with its time and temperature.
 pub fn load(path: &Path, opts: &LoadOptions) -> Result<Recording> {
-    let text = read_text(path, MAX_RECORDING_BYTES)?;
+    let bytes = read_bounded(path, MAX_RECORDING_BYTES)?;
+    let raw = crate::raw::parse_bytes(&bytes, path).map_err(|e| e.in_file(path))?;
+    if let Some(raw) = raw {
+        return crate::raw::to_recording(&raw, opts).map_err(|e| e.in_file(path));
+    }
+    let text = text_of(path, bytes)?;
     parse(&text, opts).map_err(|e| e.in_file(path))
 }
 
