@@ -120,6 +120,16 @@ pub enum Error {
         /// The most accepted.
         max: usize,
     },
+    /// GGIRread's grid would be far longer than the blocks' samples (timestamps years apart).
+    #[error("blocks {start}..{end} span {rows} grid rows at the file's rate, far more than their samples: their timestamps are inconsistent")]
+    GridTooLong {
+        /// First block asked for.
+        start: usize,
+        /// End block asked for.
+        end: usize,
+        /// Rows the grid would have.
+        rows: f64,
+    },
     /// Too few still 10-s epochs in a raw recording for the autocalibration.
     #[error("found {found} still 10-s epochs (SD < 13 mg on every axis, |mean| < 2 g) among {examined} complete epochs in {span_s:.0} s of data, but the autocalibration needs at least {needed}: a longer recording (days of wear) is needed")]
     TooFewStillEpochs {

@@ -22,6 +22,7 @@
 //! reason ([`Block::Invalid`]); a cut-off last block is a note. Nothing here panics on any
 //! bytes: every offset is inside a 512-byte block and every count is checked against it.
 
+#![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x > 0.0)` is deliberately true for NaN.
 use super::{civil_seconds, valid_civil, Block, GoodBlock, RawFile, RawFormat};
 use crate::error::{Error, Result};
 

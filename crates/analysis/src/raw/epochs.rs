@@ -80,10 +80,10 @@ impl Acc {
     fn push(&mut self, x: [f64; 3], temp: f64) {
         self.n += 1;
         let n = self.n as f64;
-        for a in 0..3 {
-            let d = x[a] - self.mean[a];
+        for (a, &xa) in x.iter().enumerate() {
+            let d = xa - self.mean[a];
             self.mean[a] += d / n;
-            self.m2[a] += d * (x[a] - self.mean[a]);
+            self.m2[a] += d * (xa - self.mean[a]);
         }
         self.temp += temp;
     }

@@ -16,6 +16,7 @@
 //! is a note (GENEActiv files copied in part end mid-page). Header lines may hold NUL padding:
 //! everything is read as bytes.
 
+#![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x > 0.0)` is deliberately true for NaN.
 use super::{civil_seconds, valid_civil, Block, GoodBlock, RawFile, RawFormat};
 use crate::error::{Error, Result};
 
@@ -168,7 +169,7 @@ fn page_time(v: &str) -> Option<f64> {
 /// 12-bit two's complement of three hex digits.
 fn hex3(d: &[u8]) -> Option<i32> {
     let s = std::str::from_utf8(d).ok()?;
-    u16::from_str_radix(s, 16).ok().map(|v| i32::from(v))
+    u16::from_str_radix(s, 16).ok().map(i32::from)
 }
 
 fn decode_page(

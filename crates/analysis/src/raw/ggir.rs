@@ -28,6 +28,7 @@
 //!
 //! Rows carry the block's temperature, battery and light, as GGIRread's columns do.
 
+#![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x > 0.0)` is deliberately true for NaN.
 use super::{Block, GoodBlock, RawFile};
 use crate::error::{Error, Result};
 
@@ -138,7 +139,8 @@ fn end_time(raw: &RawFile, start: usize, mut end: usize, grid: &mut Grid) -> Res
     let step = 1.0 / raw.header_rate_hz;
     let mut end_ts = None;
     if end < nb {
-        for ii in end..=(nb - 1).min(end + MAX_CORRUPT) {
+        let first_end = end; // the range is fixed before `end` moves, as in GGIRread
+        for ii in first_end..=(nb - 1).min(first_end + MAX_CORRUPT) {
             if let Some(b) = good(raw, ii) {
                 end_ts = Some(b.start_s);
                 break;
@@ -152,7 +154,8 @@ fn end_time(raw: &RawFile, start: usize, mut end: usize, grid: &mut Grid) -> Res
         let lo = start.max(end.saturating_sub(MAX_CORRUPT + 1));
         let first_len = raw.good().next().map_or(0, |g| g.len(raw.n_channels()));
         let mut found = None;
-        for ii in (lo..end).rev() {
+        let last_end = end;
+        for ii in (lo..last_end).rev() {
             if let Some(b) = good(raw, ii) {
                 found = Some(b);
                 break;
@@ -220,6 +223,17 @@ pub fn grid(raw: &RawFile, start: usize, end: usize) -> Result<Grid> {
         return Err(all_corrupt());
     };
     let step = 1.0 / raw.header_rate_hz;
+    // GGIRread stops at gaps of 5 days; here the grid may not exceed twice the samples the
+    // blocks can hold (plus a minute), so garbage timestamps cannot ask for gigabytes.
+    let rows = ((end_ts - first.start_s) / step).floor();
+    let cap = 2.0 * ((end - start + 1) * 480) as f64 + 60.0 * raw.header_rate_hz;
+    if !(rows <= cap) {
+        return Err(Error::GridTooLong {
+            start: req_start,
+            end: req_end,
+            rows,
+        });
+    }
     let mut time = seq_by(first.start_s, end_ts, step);
     time.pop();
     let written = fill(raw, &mut g, &time, first, start, end)?;
