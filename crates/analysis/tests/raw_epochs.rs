@@ -38,7 +38,9 @@ fn simulate() -> Recording {
     for i in 0..total {
         let ti = i as f64 / RATE;
         let h = i / n_per;
-        let in_hold = (i % n_per) as f64 / RATE < HOLD_S;
+        // Still 0.2 s beyond the hold, so a sample timed a few µs early by a file's
+        // quantised block times does not carry movement into the hold's last epoch.
+        let in_hold = (i % n_per) as f64 / RATE < HOLD_S + 0.2;
         let z = 1.0 - 2.0 * (h as f64 + 0.5) / HOLDS as f64;
         let r = (1.0 - z * z).sqrt();
         let phi = h as f64 * 2.399_963;
@@ -167,4 +169,113 @@ fn too_few_epochs_in_a_simulation_are_counted() {
         "{err}"
     );
     let _ = Input::Samples(rec);
+}
+
+/// Writes `rec` (g, 25 Hz, with temperature) as an unpacked 3-axis Axivity `.cwa` file, from
+/// the published layout (a test-only writer: 80 samples of `i16` at 1/256 g per block, the
+/// start time as whole seconds plus a 15-bit fraction, the sample index cancelling the
+/// firmware's shift, checksum word last).
+fn write_cwa(rec: &Recording, path: &std::path::Path) {
+    let mut f = vec![0u8; 1024];
+    f[..2].copy_from_slice(b"MD");
+    f[2..4].copy_from_slice(&1020u16.to_le_bytes());
+    f[36] = 8; // 3200 / 2^7 = 25 Hz
+    let t = rec.t.as_ref().unwrap();
+    let temp = rec.temp.as_ref().unwrap();
+    for (k, chunk) in rec.xyz.chunks(80).enumerate() {
+        let i0 = k * 80;
+        let mut b = vec![0u8; 512];
+        b[..2].copy_from_slice(b"AX");
+        b[2..4].copy_from_slice(&508u16.to_le_bytes());
+        let whole = t[i0].floor();
+        let frac15 = (((t[i0] - whole) * 32768.0).round() as u32).min(0x7fff);
+        b[4..6].copy_from_slice(&(0x8000u16 | frac15 as u16).to_le_bytes());
+        b[10..14].copy_from_slice(&(k as u32).to_le_bytes());
+        // Civil time of `whole` (seconds since 1970, no zone) packed as the device does.
+        let days = (whole / 86400.0).floor() as i64;
+        let sod = (whole - days as f64 * 86400.0) as u32;
+        let (y, mo, d) = civil_from_days(days);
+        let ts = (((y - 2000) as u32) << 26)
+            | (mo << 22)
+            | (d << 17)
+            | ((sod / 3600) << 12)
+            | ((sod / 60 % 60) << 6)
+            | (sod % 60);
+        b[14..18].copy_from_slice(&ts.to_le_bytes());
+        let tv = ((temp[i0] + 50.0) * 256.0 / 75.0).round() as u16;
+        b[20..22].copy_from_slice(&tv.to_le_bytes());
+        b[24] = 8;
+        b[25] = 0x32;
+        let shift = ((frac15 << 1) * 25) >> 16;
+        b[26..28].copy_from_slice(&(-(shift as i16)).to_le_bytes());
+        b[28..30].copy_from_slice(&(chunk.len() as u16).to_le_bytes());
+        for (i, s) in chunk.iter().enumerate() {
+            for a in 0..3 {
+                let v = (s[a] * 256.0).round() as i16;
+                let at = 30 + 6 * i + 2 * a;
+                b[at..at + 2].copy_from_slice(&v.to_le_bytes());
+            }
+        }
+        let sum = b.chunks_exact(2).fold(0u16, |s, w| {
+            s.wrapping_add(u16::from_le_bytes([w[0], w[1]]))
+        });
+        b[510..512].copy_from_slice(&0u16.wrapping_sub(sum).to_le_bytes());
+        f.extend(b);
+    }
+    std::fs::write(path, f).unwrap();
+}
+
+/// Civil date of a day count since 1970-01-01 (H. Hinnant's algorithm).
+fn civil_from_days(z: i64) -> (i64, u32, u32) {
+    let z = z + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z - era * 146_097;
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let d = (doy - (153 * mp + 2) / 5 + 1) as u32;
+    let m = if mp < 10 { mp + 3 } else { mp - 9 } as u32;
+    (yoe + era * 400 + i64::from(m <= 2), m, d)
+}
+
+/// End to end: the simulation written as a `.cwa` file, read by `load_input` (what `fit` and
+/// `analyze` call) → the still-epoch table → the autocalibration recovers the truth through
+/// the file's 1/256-g and 0.29-°C quantisation.
+#[test]
+fn simulated_cwa_file_runs_the_autocalibration() {
+    let rec = simulate();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("sim.cwa");
+    write_cwa(&rec, &path);
+    let Input::Table(table) = load_input(&path, &WindowInputOptions::default()).unwrap() else {
+        panic!("a raw file must give the still-epoch table");
+    };
+    assert_eq!(table.info.rows, 6 * HOLDS);
+    assert!(
+        table.info.description.starts_with("240 still 10-s epochs"),
+        "{}",
+        table.info.description
+    );
+    assert!(
+        table.recording.notes.is_empty(),
+        "{:?}",
+        table.recording.notes
+    );
+    let rep = wiical_analysis::window_input::analyze_table(&table, &Default::default()).unwrap();
+    assert!(rep.autocalibration_converged.is_some());
+    let fit = wiical_analysis::autocal::autocalibrate(
+        &table.recording.xyz,
+        table.recording.temp.as_deref(),
+        &wiical_analysis::autocal::AutocalOptions::converged(),
+    )
+    .unwrap();
+    for a in 0..3 {
+        assert!((fit.offset[a] - OFFSET[a]).abs() < 2e-3, "{:?}", fit.offset);
+        assert!((fit.scale[a] - SCALE[a]).abs() < 2e-3, "{:?}", fit.scale);
+        assert!(
+            (fit.temp_coef[a] - TEMP_COEF[a]).abs() < 4e-4,
+            "{:?}",
+            fit.temp_coef
+        );
+    }
 }
