@@ -210,8 +210,8 @@ fn write_cwa(rec: &Recording, path: &std::path::Path) {
         b[26..28].copy_from_slice(&(-(shift as i16)).to_le_bytes());
         b[28..30].copy_from_slice(&(chunk.len() as u16).to_le_bytes());
         for (i, s) in chunk.iter().enumerate() {
-            for a in 0..3 {
-                let v = (s[a] * 256.0).round() as i16;
+            for (a, &sa) in s.iter().enumerate() {
+                let v = (sa * 256.0).round() as i16;
                 let at = 30 + 6 * i + 2 * a;
                 b[at..at + 2].copy_from_slice(&v.to_le_bytes());
             }
