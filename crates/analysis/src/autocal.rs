@@ -222,16 +222,19 @@ pub fn autocalibrate(
 }
 
 /// Enough epochs, finite values, and each axis beyond ±crit on both sides.
+/// Fewest still epochs the autocalibration accepts (a handful of orientations is not a
+/// sphere; GGIR asks for many more in practice).
+pub const MIN_EPOCHS: usize = 10;
+
 fn check_input(
     means: &[[f64; 3]],
     temps: Option<&[f64]>,
     opts: &AutocalOptions,
 ) -> Result<(), AutocalError> {
-    const NEEDED: usize = 10;
-    if means.len() < NEEDED {
+    if means.len() < MIN_EPOCHS {
         return Err(AutocalError::TooFewEpochs {
             found: means.len(),
-            needed: NEEDED,
+            needed: MIN_EPOCHS,
         });
     }
     let finite = means.iter().flatten().all(|v| v.is_finite())

@@ -77,6 +77,72 @@ pub enum Error {
         source: Box<Error>,
     },
 
+    // ---- raw accelerometer files (Axivity .cwa, GENEActiv .bin) ----
+    /// A file named or shaped like a raw format that is not one (wrong magic, bad header).
+    #[error("not a readable {format} file: {why}")]
+    RawHeader {
+        /// `Axivity .cwa` or `GENEActiv .bin`.
+        format: &'static str,
+        /// What is wrong, one clause.
+        why: String,
+    },
+    /// A raw file without one readable data block.
+    #[error("none of its {blocks} data blocks is readable ({skipped} skipped: {why})")]
+    RawNoData {
+        /// Data blocks (pages) in the file.
+        blocks: usize,
+        /// Blocks skipped.
+        skipped: usize,
+        /// Why they were skipped.
+        why: String,
+    },
+    /// A channel asked for (`--columns`, the gyroscope) that the raw file does not record.
+    #[error("the file records {have}; {wanted} was asked for")]
+    RawNoChannel {
+        /// The channels of the file.
+        have: String,
+        /// What was asked for.
+        wanted: String,
+    },
+    /// GGIRread's block selection: every block of the requested range fails its checksum.
+    #[error("blocks {start}..{end}: all requested blocks are corrupt")]
+    AllBlocksCorrupt {
+        /// First block asked for.
+        start: usize,
+        /// End block (exclusive) asked for.
+        end: usize,
+    },
+    /// GGIRread's block selection: more consecutive corrupt blocks than it accepts.
+    #[error("more than {max} consecutive corrupt blocks from block #{block}")]
+    TooManyCorruptBlocks {
+        /// The first of them.
+        block: usize,
+        /// The most accepted.
+        max: usize,
+    },
+    /// GGIRread's grid would be far longer than the blocks' samples (timestamps years apart).
+    #[error("blocks {start}..{end} span {rows} grid rows at the file's rate, far more than their samples: their timestamps are inconsistent")]
+    GridTooLong {
+        /// First block asked for.
+        start: usize,
+        /// End block asked for.
+        end: usize,
+        /// Rows the grid would have.
+        rows: f64,
+    },
+    /// Too few still 10-s epochs in a raw recording for the autocalibration.
+    #[error("found {found} still 10-s epochs (SD < 13 mg on every axis, |mean| < 2 g) among {examined} complete epochs in {span_s:.0} s of data, but the autocalibration needs at least {needed}: a longer recording (days of wear) is needed")]
+    TooFewStillEpochs {
+        /// Epochs found.
+        found: usize,
+        /// Complete 10-s epochs examined.
+        examined: usize,
+        /// Epochs needed.
+        needed: usize,
+        /// Seconds of data searched.
+        span_s: f64,
+    },
+
     // ---- parsing recordings ----
     /// No data lines at all.
     #[error("file is empty (no data lines)")]

@@ -61,7 +61,11 @@ fn too_large(path: &Path, limit: u64) -> Error {
 /// Reads `path` as UTF-8 text (a leading byte-order mark removed), bounded as
 /// [`read_bounded`].
 pub fn read_text(path: &Path, limit: u64) -> Result<String> {
-    let mut bytes = read_bounded(path, limit)?;
+    text_of(path, read_bounded(path, limit)?)
+}
+
+/// `bytes` read from `path` as UTF-8 text (a leading byte-order mark removed).
+pub fn text_of(path: &Path, mut bytes: Vec<u8>) -> Result<String> {
     if bytes.starts_with(b"\xEF\xBB\xBF") {
         bytes.drain(..3);
     }
@@ -94,18 +98,25 @@ fn quote_at_most(text: &str, max: usize) -> String {
     }
 }
 
+/// A decimal number as Rust's `str::parse::<f64>` reads it (correctly rounded; `inf`, `nan`
+/// accepted here and refused as not finite by the caller), by `fast-float2`. Whitespace or
+/// anything after the number is refused.
+pub(crate) fn parse_f64(s: &[u8]) -> Option<f64> {
+    fast_float2::parse::<f64, _>(s).ok()
+}
+
 /// Parses one field. Callers hand over fields already free of surrounding blanks (split on
 /// ASCII whitespace, or trimmed by the CSV reader). With `decimal_comma` one `,` is the
 /// decimal separator. Quoted text in errors is cut to a readable length.
 pub(crate) fn parse_number(s: &str, line_no: usize, col: &str, decimal_comma: bool) -> Result<f64> {
     let parsed = if decimal_comma && s.contains(',') {
         if s.matches(',').count() == 1 && !s.contains('.') {
-            s.replacen(',', ".", 1).parse::<f64>()
+            parse_f64(s.replacen(',', ".", 1).as_bytes()).ok_or(())
         } else {
-            "x".parse::<f64>()
+            Err(())
         }
     } else {
-        s.parse::<f64>()
+        parse_f64(s.as_bytes()).ok_or(())
     };
     let v = parsed.map_err(|_| Error::NotANumber {
         line: line_no,
@@ -125,6 +136,53 @@ pub(crate) fn parse_number(s: &str, line_no: usize, col: &str, decimal_comma: bo
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn parse_f64_reads_as_str_parse_does() {
+        let cases = [
+            "0",
+            "-0",
+            "509",
+            "24.68",
+            "-0.80836403369903564",
+            "0.1",
+            "1.",
+            ".5",
+            "-.5",
+            "+3.25",
+            "123456789012345",
+            "1234567890123456",
+            "9007199254740993",
+            "0.000000000000001",
+            "99999.9999999999",
+            "1e3",
+            "inf",
+            "NaN",
+            "-",
+            ".",
+            "1.2.3",
+            "",
+            "1,5",
+            " 1",
+        ];
+        for c in cases {
+            let want = c.parse::<f64>().ok();
+            let got = parse_f64(c.as_bytes());
+            assert_eq!(
+                got.map(f64::to_bits),
+                want.map(f64::to_bits),
+                "{c:?}: {got:?} vs {want:?}"
+            );
+        }
+        // A sweep of short decimals, bit for bit.
+        for i in (-200_000i64..200_000).step_by(7) {
+            for d in 0..6 {
+                let c = format!("{}.{:0d$}", i / 1000, (i % 1000).unsigned_abs(), d = d);
+                let want = c.parse::<f64>().ok().map(f64::to_bits);
+                assert_eq!(parse_f64(c.as_bytes()).map(f64::to_bits), want, "{c}");
+            }
+        }
+    }
 
     #[test]
     fn quote_cuts_long_fields_and_escapes_controls() {

@@ -13,6 +13,7 @@
 //! | step | module | in → out |
 //! |---|---|---|
 //! | load | [`mod@load`] | file or text → [`Recording`] (CSV with a header, or `t x y z` text) |
+//! | raw files | [`raw`] | Axivity `.cwa` / GENEActiv `.bin` bytes → blocks → [`Recording`]; GGIR's still 10-s epochs → window-mean table; GGIRread's grid (tests) |
 //! | GRT files | [`grt`] | Gesture Recognition Toolkit `.grt` text → [`Recording`] (no time) |
 //! | columns | [`columns`] | header names → the wanted sensor's axis triplet by pattern |
 //! | units, rate | [`recording`] | recording → sample rate; window means → `raw` / `g` / `m/s^2` |
@@ -95,6 +96,7 @@ pub mod outliers;
 pub mod pipeline;
 pub mod press;
 pub mod progress;
+pub mod raw;
 pub mod recording;
 pub mod report;
 pub mod select;

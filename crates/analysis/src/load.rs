@@ -15,7 +15,7 @@
 
 use crate::columns::Sensor;
 use crate::error::{Error, Result};
-use crate::input::{parse_number, quote, quote_header, read_text, MAX_RECORDING_BYTES};
+use crate::input::{parse_number, quote, quote_header, read_bounded, text_of, MAX_RECORDING_BYTES};
 use crate::recording::Recording;
 use crate::timecheck::{time_notes, TimeCheck};
 use std::path::Path;
@@ -33,8 +33,15 @@ pub struct LoadOptions {
 /// Loads a recording from a file; see the module docs for the accepted formats.
 /// `path` may be `-` for standard input; only regular files are read, at most
 /// [`MAX_RECORDING_BYTES`].
+/// Raw accelerometer files (Axivity `.cwa`, GENEActiv `.bin`, recognised by their first bytes)
+/// are read by [`crate::raw`]: every decoded sample with its time and temperature.
 pub fn load(path: &Path, opts: &LoadOptions) -> Result<Recording> {
-    let text = read_text(path, MAX_RECORDING_BYTES)?;
+    let bytes = read_bounded(path, MAX_RECORDING_BYTES)?;
+    let raw = crate::raw::parse_bytes(&bytes, path).map_err(|e| e.in_file(path))?;
+    if let Some(raw) = raw {
+        return crate::raw::to_recording(&raw, opts).map_err(|e| e.in_file(path));
+    }
+    let text = text_of(path, bytes)?;
     parse(&text, opts).map_err(|e| e.in_file(path))
 }
 
@@ -48,13 +55,28 @@ pub fn load_imu(
     acc: &LoadOptions,
     gyro_columns: Option<[String; 3]>,
 ) -> Result<(Recording, Recording)> {
-    let text = read_text(path, MAX_RECORDING_BYTES)?;
-    let accel = parse(&text, acc).map_err(|e| e.in_file(path))?;
+    let bytes = read_bounded(path, MAX_RECORDING_BYTES)?;
     let named = gyro_columns.is_none();
     let gyro_opts = LoadOptions {
         columns: gyro_columns,
         sensor: Some(Sensor::Gyroscope),
     };
+    if let Some(raw) = crate::raw::parse_bytes(&bytes, path).map_err(|e| e.in_file(path))? {
+        // An AX6 file: its gyro is `gx,gy,gz` (crate::raw); the other formats have none.
+        let gyro_opts = LoadOptions {
+            columns: Some(
+                gyro_opts
+                    .columns
+                    .unwrap_or_else(|| ["gx".into(), "gy".into(), "gz".into()]),
+            ),
+            ..gyro_opts
+        };
+        let accel = crate::raw::to_recording(&raw, acc).map_err(|e| e.in_file(path))?;
+        let gyro = crate::raw::to_recording(&raw, &gyro_opts).map_err(|e| e.in_file(path))?;
+        return Ok((accel, gyro));
+    }
+    let text = text_of(path, bytes)?;
+    let accel = parse(&text, acc).map_err(|e| e.in_file(path))?;
     let gyro = parse(&text, &gyro_opts).map_err(|e| e.in_file(path))?;
     let is_gyro = |n: &String| {
         crate::columns::classify(&n.to_ascii_lowercase())
@@ -138,7 +160,9 @@ pub(crate) fn blank_comments(text: &str) -> std::borrow::Cow<'_, str> {
         let l = l.trim_start();
         l.starts_with('#') || l.starts_with('%')
     };
-    if !text.lines().any(is_comment) {
+    // One memchr pass per marker instead of a walk over every line (most files have none).
+    let bytes = text.as_bytes();
+    if !bytes.contains(&b'#') && !bytes.contains(&b'%') || !text.lines().any(is_comment) {
         return text.into();
     }
     let mut out = String::with_capacity(text.len());
@@ -246,114 +270,248 @@ const TIME_NAMES: &[&str] = &["t", "time", "timestamp", "time_s", "t_s", "second
 const TEMP_NAMES: &[&str] = &["temp", "temperature", "temp_c", "temperature_c"];
 const LABEL_NAMES: &[&str] = &["pose", "label"];
 
+/// One CSV record's fields, from the `csv` reader or from the fast line splitter.
+trait Fields {
+    fn count(&self) -> usize;
+    fn get(&self, i: usize) -> &str;
+}
+
+impl Fields for csv::StringRecord {
+    fn count(&self) -> usize {
+        self.len()
+    }
+    fn get(&self, i: usize) -> &str {
+        &self[i]
+    }
+}
+
+impl Fields for [&str] {
+    fn count(&self) -> usize {
+        self.len()
+    }
+    fn get(&self, i: usize) -> &str {
+        self[i]
+    }
+}
+
+/// True when plain splitting at line ends and delimiters reads `text` exactly as the `csv`
+/// reader does: no quote character anywhere (quoting is the only thing the reader adds) and no
+/// carriage return other than in a CR LF pair (the reader ends a line at a lone CR too).
+fn plain_csv(text: &str) -> bool {
+    let b = text.as_bytes();
+    if b.contains(&b'"') {
+        return false;
+    }
+    !b.contains(&b'\r')
+        || b.iter()
+            .enumerate()
+            .all(|(i, &c)| c != b'\r' || b.get(i + 1) == Some(&b'\n'))
+}
+
 fn parse_csv(text: &str, opts: &LoadOptions, delim: Delimiter) -> Result<Recording> {
-    let decimal_comma = delim == Delimiter::Semicolon;
-    let mut reader = csv::ReaderBuilder::new()
-        .has_headers(false)
-        .flexible(true)
-        // Fields are trimmed where read (`field`): the reader's own trimming copies each record.
-        .delimiter(delim.byte())
-        .from_reader(text.as_bytes());
-    let mut clock: Option<TimeCheck> = None;
+    parse_csv_by(text, opts, delim, plain_csv(text))
+}
 
-    let mut rec = Recording::default();
-    let mut header: Option<Vec<String>> = None;
-    let mut idx = (usize::MAX, [0usize; 3], usize::MAX, usize::MAX); // t, xyz, temp, label
-    let (mut t, mut temp, mut labels) = (Vec::new(), Vec::new(), Vec::new());
-
-    // One record reused for every row: no allocation per line (most of the time `fit` spends
-    // on a multi-million-row file was the allocator).
-    let mut record = csv::StringRecord::new();
-    while reader
-        .read_record(&mut record)
-        .map_err(Error::MalformedCsv)?
-    {
-        let line_no = record.position().map(|p| p.line() as usize).unwrap_or(0);
-        if record.iter().all(|f| f.trim_ascii().is_empty()) {
-            continue;
-        }
-        let Some(cols) = &header else {
-            // Before the header: metadata `key,value` lines, or the header itself.
-            let fields: Vec<String> = record
-                .iter()
-                .map(|f| f.trim_ascii().to_ascii_lowercase())
-                .collect();
-            let is_number = |f: &String| {
-                f.parse::<f64>().is_ok()
-                    || (decimal_comma && f.replacen(',', ".", 1).parse::<f64>().is_ok())
-            };
-            let numeric = fields.iter().filter(|f| is_number(f)).count();
-            if numeric == fields.len() {
-                return Err(Error::DataBeforeHeader { line: line_no });
+/// [`parse_csv`] by the fast splitter (`plain`) or the `csv` reader.
+fn parse_csv_by(
+    text: &str,
+    opts: &LoadOptions,
+    delim: Delimiter,
+    plain: bool,
+) -> Result<Recording> {
+    let mut st = CsvState::new(opts, delim, text.len());
+    if plain {
+        // The fast path (most files): lines split by memchr, fields by a byte loop over the
+        // line into one reused vector of field slices; no copy of any record (reading speed:
+        // BENCHMARKS.md). The delimiter and line ends are ASCII, so every cut is a character
+        // boundary.
+        let d = delim.byte();
+        let mut fields: Vec<&str> = Vec::new();
+        for (i, line) in text.split('\n').enumerate() {
+            let line = line.strip_suffix('\r').unwrap_or(line);
+            if line.is_empty() {
+                continue; // the csv reader skips empty lines too
             }
-            if fields.len() == 2 && numeric == 1 && is_number(&fields[1]) {
-                if fields[0] == "fs" || fields[0] == "sample_rate" || fields[0] == "rate_hz" {
-                    let fs = parse_number(&fields[1], line_no, &fields[0], decimal_comma)
-                        .unwrap_or(f64::NAN);
-                    if !(fs.is_finite() && fs > 0.0) {
-                        return Err(Error::BadSampleRate {
-                            line: line_no,
-                            value: fs,
-                        });
-                    }
-                    rec.sample_rate_hz = Some(fs);
+            fields.clear();
+            let mut start = 0;
+            for (j, &c) in line.as_bytes().iter().enumerate() {
+                if c == d {
+                    fields.push(&line[start..j]);
+                    start = j + 1;
                 }
-                continue;
             }
-            let mut choice = None;
-            idx = map_header(&fields, opts, &mut choice)?;
-            rec.info.extend(choice);
-            rec.axis_columns = idx.1.map(|i| fields[i].clone());
-            if idx.0 != usize::MAX {
-                clock = Some(TimeCheck::new(&fields[idx.0]));
-            }
-            header = Some(fields);
-            continue;
+            fields.push(&line[start..]);
+            st.row(&fields[..], i + 1)?;
+        }
+    } else {
+        let mut reader = csv::ReaderBuilder::new()
+            .has_headers(false)
+            .flexible(true)
+            // Fields are trimmed where read: the reader's own trimming copies each record.
+            .delimiter(delim.byte())
+            .from_reader(text.as_bytes());
+        // One record reused for every row: no allocation per line.
+        let mut record = csv::StringRecord::new();
+        while reader
+            .read_record(&mut record)
+            .map_err(Error::MalformedCsv)?
+        {
+            let line_no = record.position().map(|p| p.line() as usize).unwrap_or(0);
+            st.row(&record, line_no)?;
+        }
+    }
+    st.finish()
+}
+
+/// What [`parse_csv`] has read so far.
+struct CsvState<'o> {
+    opts: &'o LoadOptions,
+    decimal_comma: bool,
+    text_len: usize,
+    clock: Option<TimeCheck>,
+    rec: Recording,
+    header: Option<Vec<String>>,
+    /// Column indices of time, x/y/z, temperature and label (`usize::MAX`: absent).
+    idx: (usize, [usize; 3], usize, usize),
+    t: Vec<f64>,
+    temp: Vec<f64>,
+    labels: Vec<String>,
+}
+
+impl<'o> CsvState<'o> {
+    fn new(opts: &'o LoadOptions, delim: Delimiter, text_len: usize) -> Self {
+        Self {
+            opts,
+            decimal_comma: delim == Delimiter::Semicolon,
+            text_len,
+            clock: None,
+            rec: Recording::default(),
+            header: None,
+            idx: (usize::MAX, [0usize; 3], usize::MAX, usize::MAX),
+            t: Vec::new(),
+            temp: Vec::new(),
+            labels: Vec::new(),
+        }
+    }
+
+    /// One record (line `line_no`): metadata or the header before the header, else a row.
+    fn row<F: Fields + ?Sized>(&mut self, record: &F, line_no: usize) -> Result<()> {
+        let n = record.count();
+        if (0..n).all(|i| record.get(i).trim_ascii().is_empty()) {
+            return Ok(());
+        }
+        if self.header.is_some() && self.rec.xyz.is_empty() {
+            self.reserve(record);
+        }
+        let Some(cols) = &self.header else {
+            return self.before_header(record, line_no);
         };
-        if record.len() != cols.len() {
+        if n != cols.len() {
             return Err(Error::RaggedRow {
                 line: line_no,
                 expected: cols.len(),
-                found: record.len(),
+                found: n,
             });
         }
-        let field = |i: usize| record[i].trim_ascii();
+        let field = |i: usize| record.get(i).trim_ascii();
+        let idx = self.idx;
         if idx.1.iter().all(|&i| field(i).is_empty()) {
-            rec.skipped_empty_rows += 1;
-            continue;
+            self.rec.skipped_empty_rows += 1;
+            return Ok(());
         }
-        let get = |i: usize| parse_number(field(i), line_no, &cols[i], decimal_comma);
-        rec.xyz
+        let dc = self.decimal_comma;
+        let get = |i: usize| parse_number(field(i), line_no, &cols[i], dc);
+        self.rec
+            .xyz
             .push([get(idx.1[0])?, get(idx.1[1])?, get(idx.1[2])?]);
-        if let Some(clock) = clock.as_mut() {
+        if let Some(clock) = self.clock.as_mut() {
             let time = get(idx.0)?;
             clock.push(time, line_no)?;
-            t.push(time);
+            self.t.push(time);
         }
         if idx.2 != usize::MAX {
-            temp.push(get(idx.2)?);
+            self.temp.push(get(idx.2)?);
         }
         if idx.3 != usize::MAX {
-            labels.push(field(idx.3).to_string());
+            self.labels.push(field(idx.3).to_string());
+        }
+        Ok(())
+    }
+
+    /// Room for the rows the file's size suggests (from the first row's length; at most 20 M):
+    /// no reallocation and copy of the growing columns on a long file.
+    fn reserve<F: Fields + ?Sized>(&mut self, record: &F) {
+        let n = record.count();
+        let line = (0..n).map(|i| record.get(i).len()).sum::<usize>() + n;
+        let rows = (self.text_len / line.max(1)).min(20_000_000);
+        self.rec.xyz.reserve(rows);
+        if self.clock.is_some() {
+            self.t.reserve(rows);
+        }
+        if self.idx.2 != usize::MAX {
+            self.temp.reserve(rows);
         }
     }
-    if header.is_none() {
-        return Err(Error::NoHeader);
+
+    /// Before the header: metadata `key,value` lines, or the header itself.
+    fn before_header<F: Fields + ?Sized>(&mut self, record: &F, line_no: usize) -> Result<()> {
+        let decimal_comma = self.decimal_comma;
+        let fields: Vec<String> = (0..record.count())
+            .map(|i| record.get(i).trim_ascii().to_ascii_lowercase())
+            .collect();
+        let is_number = |f: &String| {
+            f.parse::<f64>().is_ok()
+                || (decimal_comma && f.replacen(',', ".", 1).parse::<f64>().is_ok())
+        };
+        let numeric = fields.iter().filter(|f| is_number(f)).count();
+        if numeric == fields.len() {
+            return Err(Error::DataBeforeHeader { line: line_no });
+        }
+        if fields.len() == 2 && numeric == 1 && is_number(&fields[1]) {
+            if fields[0] == "fs" || fields[0] == "sample_rate" || fields[0] == "rate_hz" {
+                let fs = parse_number(&fields[1], line_no, &fields[0], decimal_comma)
+                    .unwrap_or(f64::NAN);
+                if !(fs.is_finite() && fs > 0.0) {
+                    return Err(Error::BadSampleRate {
+                        line: line_no,
+                        value: fs,
+                    });
+                }
+                self.rec.sample_rate_hz = Some(fs);
+            }
+            return Ok(());
+        }
+        let mut choice = None;
+        self.idx = map_header(&fields, self.opts, &mut choice)?;
+        self.rec.info.extend(choice);
+        self.rec.axis_columns = self.idx.1.map(|i| fields[i].clone());
+        if self.idx.0 != usize::MAX {
+            self.clock = Some(TimeCheck::new(&fields[self.idx.0]));
+        }
+        self.header = Some(fields);
+        Ok(())
     }
-    if rec.xyz.is_empty() {
-        return Err(Error::HeaderOnly);
+
+    fn finish(self) -> Result<Recording> {
+        let (mut rec, idx) = (self.rec, self.idx);
+        if self.header.is_none() {
+            return Err(Error::NoHeader);
+        }
+        if rec.xyz.is_empty() {
+            return Err(Error::HeaderOnly);
+        }
+        if idx.0 != usize::MAX {
+            rec.notes = time_notes(&rec_time_name(&self.header, idx.0), &self.t);
+            rec.t = Some(self.t);
+        }
+        if idx.2 != usize::MAX {
+            rec.temp = Some(self.temp);
+        }
+        if idx.3 != usize::MAX {
+            rec.labels = Some(self.labels);
+        }
+        Ok(rec)
     }
-    if idx.0 != usize::MAX {
-        rec.notes = time_notes(&rec_time_name(&header, idx.0), &t);
-        rec.t = Some(t);
-    }
-    if idx.2 != usize::MAX {
-        rec.temp = Some(temp);
-    }
-    if idx.3 != usize::MAX {
-        rec.labels = Some(labels);
-    }
-    Ok(rec)
 }
 
 /// The time column's header name (for notes).
@@ -485,6 +643,56 @@ mod tests {
         assert_eq!(e, "line 6: column 'y': 'zz' is not a number");
         let r = p("% header, comment\nx,y,z\n1,2,3\n").unwrap();
         assert_eq!(r.xyz, vec![[1.0, 2.0, 3.0]]);
+    }
+
+    /// The fast splitter reads every plain file exactly as the `csv` reader does: values,
+    /// skipped rows, and the errors (line numbers too, except after empty lines, which the
+    /// reader does not count).
+    #[test]
+    fn fast_splitter_matches_the_csv_reader() {
+        let texts = [
+            "t,x,y,z\n0,1,2,3\n0.01,4,5,6",
+            "t,x,y,z\r\n0,1,2,3\r\n\r\n0.01,4,5,6\r\n",
+            "Fs,50\n\nx,y,z\n \n1,2,3\n\n\n4,5,6\n",
+            "t,x,y,z,ext_x,ext_y,ext_z\n0,1,2,3,,,\n0.01, 4 ,5,6,7,8,9\n",
+            "x,y,z\n1,2,3\n1,2\n",
+            "t,x,y,z\n0,1,2,3\n0,1,2,3\n",
+            "x,y,z\n1,2,3\n1,abc,3\n",
+            "pose,x,y,z\nx+,1,2,3\nx-,-1,2,3\n",
+            "x;y;z\n1,5;2;3\n",
+            "x,y,z\n1,2,3,\n",
+            ",,\nx,y,z\n1,2,3\n",
+        ];
+        for text in texts {
+            let delim = Delimiter::of_first_line(text.lines().next().unwrap()).unwrap();
+            let opts = LoadOptions::default();
+            let fast = parse_csv_by(text, &opts, delim, true);
+            let slow = parse_csv_by(text, &opts, delim, false);
+            match (fast, slow) {
+                (Ok(a), Ok(b)) => {
+                    assert_eq!(a.xyz, b.xyz, "{text:?}");
+                    assert_eq!(a.t, b.t, "{text:?}");
+                    assert_eq!(a.labels, b.labels, "{text:?}");
+                    assert_eq!(a.skipped_empty_rows, b.skipped_empty_rows, "{text:?}");
+                    assert_eq!(a.sample_rate_hz, b.sample_rate_hz, "{text:?}");
+                }
+                (Err(a), Err(b)) => assert_eq!(a.to_string(), b.to_string(), "{text:?}"),
+                (a, b) => panic!("{text:?}: {a:?} vs {b:?}"),
+            }
+        }
+        // After an empty line the fast splitter names the true line (4); the csv reader does
+        // not count empty lines and said line 3.
+        let e = parse_csv_by(
+            "t,x,y,z\n0,1,2,3\n\n0,1,2,3\n",
+            &LoadOptions::default(),
+            Delimiter::Comma,
+            true,
+        )
+        .unwrap_err();
+        assert!(matches!(e, Error::TimeNotIncreasing { line: 4, .. }), "{e}");
+        assert!(plain_csv("x,y\r\n1,2\n"));
+        assert!(!plain_csv("x,y\r1,2\n"));
+        assert!(!plain_csv("\"x\",y\n"));
     }
 
     #[test]

@@ -85,14 +85,35 @@ pub enum Input {
 
 /// Reads `path` once (standard input can be read only once) as a window-mean table when its
 /// header says so or `opts.force`, else as an ordinary recording ([`crate::load()`]).
+///
+/// A raw accelerometer file (Axivity `.cwa`, GENEActiv `.bin`) becomes the table of its still
+/// 10-s epochs ([`crate::raw::epochs`]: GGIR's free-living autocalibration input); too few of
+/// them is an error saying how many were found and needed.
 pub fn load_input(path: &Path, opts: &WindowInputOptions) -> Result<Input> {
-    let text = read_text(path, MAX_RECORDING_BYTES)?;
+    let bytes = crate::input::read_bounded(path, MAX_RECORDING_BYTES)?;
+    if let Some(raw) = crate::raw::parse_bytes(&bytes, path).map_err(|e| e.in_file(path))? {
+        return raw_epochs(&raw, &opts.load).map_err(|e| e.in_file(path));
+    }
+    let text = crate::input::text_of(path, bytes)?;
     let parsed = match parse_window_table(&text, opts) {
         Ok(Some(table)) => Ok(Input::Table(table)),
         Ok(None) => load::parse(&text, &opts.load).map(Input::Samples),
         Err(e) => Err(e),
     };
     parsed.map_err(|e| e.in_file(path))
+}
+
+/// A raw file's still epochs as a table.
+fn raw_epochs(raw: &crate::raw::RawFile, opts: &load::LoadOptions) -> Result<Input> {
+    let rec = crate::raw::to_recording(raw, opts)?;
+    let source = rec.info.first().cloned().unwrap_or_default();
+    let source = source
+        .strip_prefix("read as ")
+        .and_then(|s| s.split(':').next())
+        .unwrap_or("the raw file")
+        .to_string();
+    let table = crate::raw::epochs::epoch_table(&rec, &source, &Default::default())?;
+    Ok(Input::Table(table))
 }
 
 /// [`load_window_table`] on text.
@@ -102,7 +123,10 @@ pub fn parse_window_table(text: &str, opts: &WindowInputOptions) -> Result<Optio
     if extra.is_none() && !opts.force {
         return Ok(None);
     }
-    let recording = load::parse(text, &opts.load)?;
+    let mut recording = load::parse(text, &opts.load)?;
+    // Jumps between window times are expected (still epochs are scattered over the days):
+    // the sample loader's notes about its time column do not apply to windows.
+    recording.notes.clear();
     if recording.len() > MAX_WINDOW_ROWS {
         return Err(Error::TooManyWindowRows {
             rows: recording.len(),

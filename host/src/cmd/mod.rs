@@ -82,7 +82,12 @@ impl DetectArgs {
                     path.display()
                 );
             }
-            Input::Table(_) => {}
+            // A raw file's still-epoch table keeps the reader's warnings (skipped blocks).
+            Input::Table(t) => {
+                for note in &t.recording.notes {
+                    eprintln!("warning: in {}: {note}", path.display());
+                }
+            }
         }
         Ok(input)
     }

@@ -1,0 +1,304 @@
+//! Axivity `.cwa` files (AX3, AX6), from OpenMovement's published format (`cwa.h`, the AX3
+//! technical documentation). All values little-endian.
+//!
+//! * Header block, 1024 bytes: `MD`, length 1020, hardware type at byte 4 (`0x64` = AX6,
+//!   else AX3), sample-rate code at byte 36.
+//! * Data blocks, 512 bytes each after the header: `AX`, length 508; byte 4 `u16`: with its
+//!   top bit set, a 15-bit fraction of a second of the timestamp; 10 `u32` sequence number;
+//!   14 `u32` packed timestamp `YYYYYYMM MMDDDDDh hhhhmmmm mmssssss` (year − 2000); 18 `u16`:
+//!   light in the low 10 bits, the gyroscope range code in bits 10–12 (range `8000 / 2ⁿ` °/s)
+//!   and the accelerometer scale code in bits 13–15 (`2^(8+n)` counts per g); 20 `u16`
+//!   temperature in the low 10 bits (`v·75/256 − 50` °C); 23 battery; 24 rate code (rate
+//!   `3200 / 2^(15 − (c & 15))` Hz); 25 channels (high nibble: 3, 6 = gyro+accel, 9 =
+//!   +magnetometer) and packing (low nibble: 0 = three 10-bit values with a shared 2-bit
+//!   exponent in a `u32`, 2 = one `i16` per channel); 26 `i16` the sample index the whole-second
+//!   timestamp belongs to; 28 `u16` sample count; 30 the samples (480 bytes); 510 a checksum
+//!   word making the 256 words of the block sum to 0 (mod 2¹⁶).
+//! * Very old files have 0 at byte 24: no checksum, the rate at byte 26.
+//!
+//! A block whose checksum fails is skipped ([`Block::Corrupt`]); one whose checksum passes but
+//! whose fields are impossible (not `AX`, a sample count that overruns the 480 data bytes, an
+//! impossible date, a channel layout different from the first block's) is skipped with its
+//! reason ([`Block::Invalid`]); a cut-off last block is a note. Nothing here panics on any
+//! bytes: every offset is inside a 512-byte block and every count is checked against it.
+
+#![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x > 0.0)` is deliberately true for NaN.
+use super::{civil_seconds, valid_civil, Block, GoodBlock, RawFile, RawFormat};
+use crate::error::{Error, Result};
+
+/// Bytes of the header block.
+pub const HEADER_BYTES: usize = 1024;
+/// Bytes of a data block.
+pub const BLOCK_BYTES: usize = 512;
+/// Bytes of sample data in a block.
+const DATA_BYTES: usize = 480;
+
+fn u16_at(b: &[u8], at: usize) -> u16 {
+    u16::from_le_bytes([b[at], b[at + 1]])
+}
+
+fn u32_at(b: &[u8], at: usize) -> u32 {
+    u32::from_le_bytes([b[at], b[at + 1], b[at + 2], b[at + 3]])
+}
+
+/// The rate (Hz) of a rate code: `3200 / 2^(15 − (code & 15))`.
+pub fn rate_of_code(code: u8) -> f64 {
+    3200.0 / f64::from(1u32 << (15 - u32::from(code & 15)))
+}
+
+/// Reads a whole `.cwa` file.
+pub fn parse(bytes: &[u8]) -> Result<RawFile> {
+    let header_err = |why: String| Error::RawHeader {
+        format: "Axivity .cwa",
+        why,
+    };
+    if bytes.len() < HEADER_BYTES {
+        return Err(header_err(format!(
+            "the header block is cut short ({} of {HEADER_BYTES} bytes)",
+            bytes.len()
+        )));
+    }
+    if &bytes[..2] != b"MD" || u16_at(bytes, 2) != 1020 {
+        return Err(header_err("no 'MD' header block of 1024 bytes".into()));
+    }
+    let device = if bytes[4] == 0x64 { "AX6" } else { "AX3" };
+    let body = &bytes[HEADER_BYTES..];
+    let mut layout: Option<(u8, bool)> = None; // channels, packed
+    let mut blocks = Vec::with_capacity(body.len() / BLOCK_BYTES);
+    for (index, block) in body.chunks_exact(BLOCK_BYTES).enumerate() {
+        blocks.push(decode_block(block, index, &mut layout));
+    }
+    let mut notes = Vec::new();
+    let rest = body.len() % BLOCK_BYTES;
+    if rest != 0 {
+        notes.push(format!(
+            "the file is cut short: its last data block (#{}) has {rest} of {BLOCK_BYTES} bytes and is not read",
+            blocks.len()
+        ));
+    }
+    let channels = match layout.map(|l| l.0) {
+        Some(6) => &["gx", "gy", "gz", "ax", "ay", "az"][..],
+        Some(9) => &["gx", "gy", "gz", "ax", "ay", "az", "mx", "my", "mz"][..],
+        _ => &["ax", "ay", "az"][..],
+    };
+    Ok(RawFile {
+        format: RawFormat::Cwa,
+        device: device.into(),
+        channels: channels.iter().map(|s| s.to_string()).collect(),
+        header_rate_hz: rate_of_code(bytes[36]),
+        blocks,
+        declared_blocks: None,
+        notes,
+    })
+}
+
+/// True when the 256 little-endian words of a block sum to 0 modulo 2¹⁶.
+pub fn checksum_ok(block: &[u8]) -> bool {
+    block.chunks_exact(2).fold(0u16, |s, w| {
+        s.wrapping_add(u16::from_le_bytes([w[0], w[1]]))
+    }) == 0
+}
+
+/// Decodes one 512-byte block. `layout` is the first good block's channel count and packing;
+/// a later block with another layout is invalid (its samples would not line up).
+fn decode_block(b: &[u8], index: usize, layout: &mut Option<(u8, bool)>) -> Block {
+    let rate_code = b[24];
+    if rate_code != 0 && !checksum_ok(b) {
+        return Block::Corrupt;
+    }
+    match decode_fields(b, index, layout) {
+        Ok(g) => Block::Good(g),
+        Err(why) => Block::Invalid(why),
+    }
+}
+
+/// The block's start time: the packed whole-second timestamp, plus the fraction of a second
+/// when stored, minus the time of the samples before the one the timestamp belongs to.
+fn start_time(b: &[u8], rate_hz: f64) -> std::result::Result<f64, String> {
+    let ts = u32_at(b, 14);
+    let (y, mo, d) = (
+        2000 + (ts >> 26) as i64,
+        (ts >> 22) & 0xf,
+        (ts >> 17) & 0x1f,
+    );
+    let (h, mi, s) = ((ts >> 12) & 0x1f, (ts >> 6) & 0x3f, ts & 0x3f);
+    if !valid_civil(y, mo, d, h, mi, s) {
+        return Err(format!("impossible timestamp 0x{ts:08x}"));
+    }
+    let whole = civil_seconds(y, mo, d, h, mi, f64::from(s));
+    let frac_word = u16_at(b, 4);
+    let mut shift = f64::from(i16::from_le_bytes([b[26], b[27]]));
+    let mut fraction = 0.0;
+    if b[24] == 0 {
+        shift = 0.0; // old files: byte 26 holds the rate
+    } else if frac_word & 0x8000 != 0 {
+        // 15-bit fraction stored as a 16-bit one; the firmware moved the timestamp's sample
+        // index by the whole samples this fraction spans (with the rate truncated to an
+        // integer), which is undone here.
+        let frac16 = u32::from(frac_word & 0x7fff) << 1;
+        fraction = f64::from(frac16) / 65536.0;
+        shift += f64::from((frac16 * rate_hz as u32) >> 16);
+    }
+    Ok(whole + fraction - shift / rate_hz)
+}
+
+fn decode_fields(
+    b: &[u8],
+    index: usize,
+    layout: &mut Option<(u8, bool)>,
+) -> std::result::Result<GoodBlock, String> {
+    if &b[..2] != b"AX" || u16_at(b, 2) != 508 {
+        return Err("not an 'AX' data block of 512 bytes".into());
+    }
+    let rate_hz = if b[24] == 0 {
+        f64::from(u16_at(b, 26))
+    } else {
+        rate_of_code(b[24])
+    };
+    if !(rate_hz > 0.0) {
+        return Err("sample rate 0".into());
+    }
+    let channels = b[25] >> 4;
+    let packed = b[25] & 0x0f == 0;
+    let per_sample = match (channels, packed) {
+        (3, true) => 4,
+        (3 | 6 | 9, false) if b[25] & 0x0f == 2 => 2 * channels as usize,
+        _ => return Err(format!("unknown channel layout 0x{:02x}", b[25])),
+    };
+    if *layout.get_or_insert((channels, packed)) != (channels, packed) {
+        return Err("channel layout differs from the first block's".into());
+    }
+    let n = usize::from(u16_at(b, 28));
+    if n * per_sample > DATA_BYTES {
+        return Err(format!(
+            "{n} samples overrun the block's {DATA_BYTES} data bytes"
+        ));
+    }
+    let word18 = u16_at(b, 18);
+    let accel_scale = 1.0 / f64::from(1u32 << (8 + (word18 >> 13)));
+    let gyro_range = 8000.0 / f64::from(1u32 << ((word18 >> 10) & 7));
+    let samples = &b[30..30 + n * per_sample];
+    let mut data = Vec::with_capacity(n * channels as usize);
+    if packed {
+        for w in samples.chunks_exact(4) {
+            let v = u32::from_le_bytes([w[0], w[1], w[2], w[3]]);
+            let e = v >> 30;
+            for k in 0..3 {
+                // 10-bit two's complement, then shifted left by the shared exponent.
+                let raw = (((v >> (10 * k)) & 0x3ff) as i32) << 22 >> 22;
+                data.push(f64::from(raw << e) * accel_scale);
+            }
+        }
+    } else {
+        for (i, w) in samples.chunks_exact(2).enumerate() {
+            let v = f64::from(i16::from_le_bytes([w[0], w[1]]));
+            data.push(match (channels, i % channels as usize) {
+                (3, _) | (_, 3..=5) => v * accel_scale,
+                (_, 0..=2) => v / 32768.0 * gyro_range,
+                _ => v, // magnetometer: raw counts
+            });
+        }
+    }
+    Ok(GoodBlock {
+        index,
+        sequence: u32_at(b, 10),
+        start_s: start_time(b, rate_hz)?,
+        rate_hz,
+        temp_c: f64::from(u16_at(b, 20) & 0x3ff) * 75.0 / 256.0 - 50.0,
+        battery_v: 3.0 * (f64::from(b[23]) / 256.0 + 1.0),
+        light: f64::from(word18 & 0x3ff),
+        data,
+        light_per_sample: None,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A block with the checksum word set so that the words sum to 0.
+    fn seal(mut b: Vec<u8>) -> Vec<u8> {
+        b[510] = 0;
+        b[511] = 0;
+        let s = b.chunks_exact(2).fold(0u16, |s, w| {
+            s.wrapping_add(u16::from_le_bytes([w[0], w[1]]))
+        });
+        b[510..512].copy_from_slice(&0u16.wrapping_sub(s).to_le_bytes());
+        b
+    }
+
+    fn block(samples: &[[i16; 3]]) -> Vec<u8> {
+        let mut b = vec![0u8; 512];
+        b[..2].copy_from_slice(b"AX");
+        b[2..4].copy_from_slice(&508u16.to_le_bytes());
+        // 2024-01-02 03:04:05
+        let ts: u32 = (24 << 26) | (1 << 22) | (2 << 17) | (3 << 12) | (4 << 6) | 5;
+        b[14..18].copy_from_slice(&ts.to_le_bytes());
+        b[20..22].copy_from_slice(&256u16.to_le_bytes()); // 25 °C
+        b[24] = 0x4a; // 100 Hz
+        b[25] = 0x32; // 3 channels, unpacked
+        b[28..30].copy_from_slice(&(samples.len() as u16).to_le_bytes());
+        for (i, s) in samples.iter().enumerate() {
+            for k in 0..3 {
+                b[30 + 6 * i + 2 * k..32 + 6 * i + 2 * k].copy_from_slice(&s[k].to_le_bytes());
+            }
+        }
+        seal(b)
+    }
+
+    fn file(blocks: &[Vec<u8>]) -> Vec<u8> {
+        let mut f = vec![0u8; 1024];
+        f[..2].copy_from_slice(b"MD");
+        f[2..4].copy_from_slice(&1020u16.to_le_bytes());
+        f[36] = 0x4a;
+        for b in blocks {
+            f.extend(b);
+        }
+        f
+    }
+
+    #[test]
+    fn unpacked_block_decodes_scale_time_and_temperature() {
+        let raw = parse(&file(&[block(&[[256, -128, 512]; 80])])).unwrap();
+        let b = raw.good().next().unwrap();
+        assert_eq!(&b.data[..3], &[1.0, -0.5, 2.0]);
+        assert_eq!(b.len(3), 80);
+        assert_eq!(b.temp_c, 25.0);
+        assert_eq!(b.start_s, civil_seconds(2024, 1, 2, 3, 4, 5.0));
+        assert_eq!(raw.header_rate_hz, 100.0);
+    }
+
+    #[test]
+    fn packed_values_use_the_shared_exponent() {
+        let mut b = block(&[]);
+        b[25] = 0x30;
+        b[28..30].copy_from_slice(&1u16.to_le_bytes());
+        // x = −1 (0x3ff), y = 3, z = 0x200 (−512), exponent 2.
+        let v: u32 = 0x3ff | (3 << 10) | (0x200 << 20) | (2 << 30);
+        b[30..34].copy_from_slice(&v.to_le_bytes());
+        let raw = parse(&file(&[seal(b)])).unwrap();
+        let g = raw.good().next().unwrap();
+        assert_eq!(g.data, vec![-4.0 / 256.0, 12.0 / 256.0, -2048.0 / 256.0]);
+    }
+
+    #[test]
+    fn bad_checksum_overrun_and_truncation_are_skipped_not_fatal() {
+        let good = block(&[[256, 0, 0]; 80]);
+        let mut corrupt = good.clone();
+        corrupt[40] ^= 1;
+        let mut overrun = block(&[]);
+        overrun[28..30].copy_from_slice(&81u16.to_le_bytes()); // 81·6 > 480
+        let mut bytes = file(&[good, corrupt, seal(overrun)]);
+        bytes.extend([0u8; 100]);
+        let raw = parse(&bytes).unwrap();
+        assert_eq!(raw.corrupt_blocks(), vec![1]);
+        assert_eq!(raw.invalid_blocks().len(), 1);
+        assert!(
+            raw.notes[0].contains("(#3) has 100 of 512 bytes"),
+            "{:?}",
+            raw.notes
+        );
+        let e = parse(&bytes[..500]).unwrap_err().to_string();
+        assert!(e.contains("500 of 1024"), "{e}");
+    }
+}
