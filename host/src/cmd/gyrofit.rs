@@ -111,7 +111,7 @@ pub fn run(a: &Args) -> Result<String> {
             })
             .map_err(cli_error)?;
             super::print_notes(&a.file, &acc);
-            for note in &gyro.info {
+            for note in gyro.info.iter().filter(|n| !acc.info.contains(n)) {
                 eprintln!("note: in {}: {note}", a.file.display());
             }
             (acc, gyro)
