@@ -22,9 +22,9 @@ fuzz_target!(|data: &[u8]| {
         for b in file[cwa::HEADER_BYTES..].chunks_exact_mut(cwa::BLOCK_BYTES) {
             b[510] = 0;
             b[511] = 0;
-            let s = b
-                .chunks_exact(2)
-                .fold(0u16, |s, w| s.wrapping_add(u16::from_le_bytes([w[0], w[1]])));
+            let s = b.chunks_exact(2).fold(0u16, |s, w| {
+                s.wrapping_add(u16::from_le_bytes([w[0], w[1]]))
+            });
             b[510..512].copy_from_slice(&0u16.wrapping_sub(s).to_le_bytes());
         }
     }

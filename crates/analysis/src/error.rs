@@ -61,6 +61,22 @@ pub enum Error {
         /// The cap, MiB.
         limit_mib: u64,
     },
+    /// A gzip file that cannot be decompressed (corrupt or cut short).
+    #[error("cannot decompress {} (gzip): {source}", path.display())]
+    Gzip {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        source: std::io::Error,
+    },
+    /// A gzip file whose content is larger than the cap.
+    #[error("{} decompresses to more than {limit_mib} MiB: split the recording or decompress only the part to analyse", path.display())]
+    GzipTooLarge {
+        /// The file.
+        path: PathBuf,
+        /// The cap, MiB.
+        limit_mib: u64,
+    },
     /// The file is not UTF-8 text.
     #[error("{} is not UTF-8 text", path.display())]
     NotUtf8 {

@@ -18,7 +18,8 @@ pub const MAX_CALIBRATION_BYTES: u64 = 1 << 20;
 pub const MAX_QUOTED_CHARS: usize = 40;
 
 /// Reads `path` (a regular file, or `-` for standard input) whole, refusing more than
-/// `limit` bytes.
+/// `limit` bytes. A gzip file (recognised by its first bytes, whatever its name) is
+/// decompressed, its content held to the same limit.
 pub fn read_bounded(path: &Path, limit: u64) -> Result<Vec<u8>> {
     let read_err = |source| Error::Read {
         path: path.into(),
@@ -48,7 +49,40 @@ pub fn read_bounded(path: &Path, limit: u64) -> Result<Vec<u8>> {
     if bytes.len() as u64 > limit {
         return Err(too_large(path, limit));
     }
+    if bytes.starts_with(&GZIP_MAGIC) {
+        return gunzip(path, &bytes, limit);
+    }
     Ok(bytes)
+}
+
+/// The first two bytes of a gzip member (RFC 1952).
+const GZIP_MAGIC: [u8; 2] = [0x1f, 0x8b];
+
+/// Decompresses gzip bytes held in memory (standard input's name in errors), bounded as
+/// [`read_bounded`] bounds a file (the fuzz target's entry).
+pub fn gunzip_bounded(compressed: &[u8], limit: u64) -> Result<Vec<u8>> {
+    gunzip(Path::new("-"), compressed, limit)
+}
+
+/// A gzip file's content (every member, as `gzip -d` gives it), refused once it passes
+/// `limit` bytes: a small file that inflates without end (a gzip bomb) stops at the limit,
+/// like a large plain file.
+fn gunzip(path: &Path, compressed: &[u8], limit: u64) -> Result<Vec<u8>> {
+    let mut out = Vec::new();
+    flate2::read::MultiGzDecoder::new(compressed)
+        .take(limit + 1)
+        .read_to_end(&mut out)
+        .map_err(|source| Error::Gzip {
+            path: path.into(),
+            source,
+        })?;
+    if out.len() as u64 > limit {
+        return Err(Error::GzipTooLarge {
+            path: path.into(),
+            limit_mib: limit.div_ceil(1 << 20),
+        });
+    }
+    Ok(out)
 }
 
 fn too_large(path: &Path, limit: u64) -> Error {
@@ -136,6 +170,49 @@ pub(crate) fn parse_number(s: &str, line_no: usize, col: &str, decimal_comma: bo
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn gz(bytes: &[u8]) -> Vec<u8> {
+        use std::io::Write;
+        let mut e = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::fast());
+        e.write_all(bytes).unwrap();
+        e.finish().unwrap()
+    }
+
+    #[test]
+    fn gzip_files_are_read_as_their_content_and_bounded() {
+        let dir = tempfile::tempdir().unwrap();
+        let text = b"t,x,y,z\n0,1,2,3\n0.01,1,2,3\n";
+        let p = dir.path().join("rec.csv.gz");
+        std::fs::write(&p, gz(text)).unwrap();
+        assert_eq!(read_bounded(&p, 1 << 20).unwrap(), text);
+        // The same content under any name: recognised by its first bytes.
+        let q = dir.path().join("rec.csv");
+        std::fs::write(&q, gz(text)).unwrap();
+        assert_eq!(read_text(&q, 1 << 20).unwrap().as_bytes(), text);
+        // Two members (cat a.gz b.gz) are both read, as gzip -d does.
+        let mut two = gz(b"a\n");
+        two.extend(gz(b"b\n"));
+        std::fs::write(&p, two).unwrap();
+        assert_eq!(read_bounded(&p, 1 << 20).unwrap(), b"a\nb\n");
+        // A bomb: 64 MiB of zeros in a few kB stops at the limit with its own sentence.
+        let bomb = gz(&vec![0u8; 64 << 20]);
+        assert!(bomb.len() < 1 << 20);
+        std::fs::write(&p, &bomb).unwrap();
+        let e = read_bounded(&p, 8 << 20).unwrap_err();
+        assert!(
+            matches!(e, Error::GzipTooLarge { limit_mib: 8, .. }),
+            "{e:?}"
+        );
+        assert!(
+            e.to_string().contains("decompresses to more than 8 MiB"),
+            "{e}"
+        );
+        // Cut short: an error naming the file, not a panic.
+        let cut = gz(text);
+        std::fs::write(&p, &cut[..cut.len() - 6]).unwrap();
+        let e = read_bounded(&p, 1 << 20).unwrap_err();
+        assert!(e.to_string().starts_with("cannot decompress"), "{e}");
+    }
 
     #[test]
     fn parse_f64_reads_as_str_parse_does() {
