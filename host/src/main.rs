@@ -51,6 +51,10 @@ enum Cmd {
     /// Magnetometer hard/soft-iron fit: sphere (4 parameters), axis-aligned ellipsoid (6) or
     /// rotated ellipsoid (9), from streaming normal equations solved by Cholesky.
     Magfit(cmd::magfit::Args),
+    /// Noise of a still recording: overlapping Allan deviation per axis (accelerometer, gyro,
+    /// magnetometer) and the IEEE 952 terms where their slope is seen — white noise N,
+    /// bias instability B, rate random walk K, quantisation Q, rate ramp R.
+    Noise(cmd::noise::Args),
     /// Decode a factory calibration block (hex bytes) of a Wii Remote (10 bytes at EEPROM 0x16,
     /// or both copies), a Nunchuk (16 bytes at 0x20, or 0x20–0x3F) or a MotionPlus (the 32
     /// gyro calibration bytes at 0xA60020, CRC-32 checked).
@@ -74,6 +78,7 @@ fn run(cli: Cli) -> Result<String> {
         Cmd::DeviceSim(a) => wiical::cmd::device_sim::run(&a),
         Cmd::Magfit(a) => cmd::magfit::run(&a),
         Cmd::DecodeCal(a) => cmd::decode_cal::run(&a),
+        Cmd::Noise(a) => cmd::noise::run(&a),
         Cmd::KalmanDemo(a) => cmd::kalman_demo::run(&a),
     }
 }

@@ -596,6 +596,15 @@ pub enum Error {
         taken: String,
     },
 
+    /// A recording too short for an Allan deviation.
+    #[error("{samples} samples are too few for an Allan deviation (at least {needed}; the curve reaches τ = n/9 samples, so a long still recording — hours — is what shows bias instability and random walk)")]
+    NoiseTooShort {
+        /// Samples given.
+        samples: usize,
+        /// Fewest accepted.
+        needed: usize,
+    },
+
     // ---- batch ----
     /// An input of `wiical batch` that is neither a file, a directory nor a pattern that
     /// can be expanded.

@@ -29,6 +29,7 @@
 //! | selection | [`select`] | the candidates' numbers → the one added (the rule and its constants) |
 //! | motion check | [`motion`] | window spread → predicted shortening of each mean, correlated with the base residual (not-still windows) |
 //! | evidence | [`evidence`] | the chosen effect → why (pattern, tests, runner-up), verdict |
+//! | noise | [`allan`], [`noise_report`] | still recording → overlapping Allan deviation per axis and the IEEE 952 terms (`wiical noise`) |
 //! | many files | [`batch`] | files → one JSON line each (fit or analyze), resumable results file |
 //! | entries | [`pipeline`] | input (samples or window table) → report + quality verdict: what `fit`/`analyze --json` print |
 //! | report | [`report`] | → [`AnalyzeReport`] (the JSON contract of `wiical analyze`) |
@@ -73,6 +74,7 @@
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
+pub mod allan;
 pub mod analyze;
 pub mod autocal;
 pub mod batch;
@@ -91,6 +93,9 @@ pub mod magnetometer;
 pub mod model;
 pub mod motion;
 pub mod noise;
+pub mod noise_report;
+#[cfg(feature = "simulate")]
+pub mod noise_sim;
 pub mod options;
 pub mod outliers;
 pub mod pipeline;

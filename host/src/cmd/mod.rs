@@ -11,6 +11,7 @@ pub mod fit;
 pub mod gyrofit;
 pub mod kalman_demo;
 pub mod magfit;
+pub mod noise;
 pub mod simulate;
 pub mod six_position;
 
@@ -127,6 +128,19 @@ pub fn load_options(columns: Option<&[String]>) -> Result<LoadOptions> {
         columns,
         ..Default::default()
     })
+}
+
+/// A finite number > 0 (rates, durations).
+pub fn positive_finite(s: &str) -> Result<f64, String> {
+    let v: f64 = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("'{s}' is not a number"))?;
+    if v.is_finite() && v > 0.0 {
+        Ok(v)
+    } else {
+        Err(format!("'{s}': must be a finite number above 0"))
+    }
 }
 
 /// `LO:HI` with finite LO < HI.

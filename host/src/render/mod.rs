@@ -5,6 +5,7 @@ pub mod analyze;
 pub mod capture;
 pub mod device;
 pub mod gyrofit;
+pub mod noise;
 pub mod plot;
 
 use std::fmt::Write as _;

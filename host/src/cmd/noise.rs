@@ -1,0 +1,51 @@
+//! `wiical noise`: the Allan deviation of a still recording, per axis, and the IEEE 952 noise
+//! terms (engine: [`wiical_analysis::allan`], [`wiical_analysis::noise_report`]).
+
+use super::{check_outputs, load_options, to_json};
+use crate::cli_error::cli_error;
+use crate::render;
+use anyhow::Result;
+use std::path::PathBuf;
+use wiical_analysis::noise_report::{load_sensors, noise};
+
+/// Arguments of `wiical noise`.
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// A still recording (hours for bias instability and random walk): every accelerometer,
+    /// gyroscope and magnetometer triplet its header names is analysed (.gz read as is).
+    pub file: PathBuf,
+    /// Only these three columns.
+    #[arg(long, value_delimiter = ',')]
+    pub columns: Option<Vec<String>>,
+    /// Sample rate when the file has no time column or Fs metadata, Hz.
+    #[arg(long, default_value_t = 100.0, value_parser = super::positive_finite)]
+    pub rate_hz: f64,
+    /// Print JSON.
+    #[arg(long)]
+    pub json: bool,
+    /// Draw the Allan deviation of every axis with its fitted terms (SVG, log-log).
+    #[arg(long)]
+    pub plot: Option<PathBuf>,
+}
+
+/// Runs `wiical noise`; returns what to print.
+pub fn run(a: &Args) -> Result<String> {
+    check_outputs(&[&a.file], &[a.plot.as_deref()])?;
+    let columns = load_options(a.columns.as_deref())?.columns;
+    let recs = super::with_spinner(&format!("reading {}", a.file.display()), || {
+        load_sensors(&a.file, columns)
+    })
+    .map_err(cli_error)?;
+    if let Some(first) = recs.first() {
+        super::print_notes(&a.file, first);
+    }
+    let rep = super::with_spinner("computing Allan deviations", || noise(&recs, a.rate_hz))
+        .map_err(cli_error)?;
+    if let Some(path) = &a.plot {
+        render::noise::write_plot(&rep, path)?;
+    }
+    if a.json {
+        return to_json(&rep);
+    }
+    Ok(render::noise::text(&rep, &a.file.display().to_string()))
+}
