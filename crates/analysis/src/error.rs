@@ -316,8 +316,8 @@ pub enum Error {
         /// The header, comma-separated.
         header: String,
     },
-    /// The time column does not increase.
-    #[error("line {line}: column '{column}': time goes from {previous} back to {value} (or repeats); rows must be in increasing time order")]
+    /// The time column goes back.
+    #[error("line {line}: column '{column}': time goes from {previous} back to {value}; rows must be in time order")]
     TimeNotIncreasing {
         /// 1-based line.
         line: usize,

@@ -1,8 +1,10 @@
-//! Sanity of a recording's time column: it must increase from row to row (time that goes
-//! backwards or repeats means reordered, merged or duplicated rows, and the drift and rate
-//! estimates built on it would be wrong without a word); jumps are reported as notes (a
-//! logger that dropped samples is common and harmless for static poses, but the user should
-//! know). A rate that suggests millisecond times is named where it makes a setting fail
+//! Sanity of a recording's time column: it must not go back from row to row (time that goes
+//! backwards means reordered or merged rows, and the drift and rate estimates built on it
+//! would be wrong without a word). A time that repeats the previous row's is read: many
+//! loggers print times coarser than the sample period (a 200 Hz log with times to 10 ms has
+//! each time twice); the rate then comes from the whole span and one note says how many rows
+//! repeat. Jumps are reported as notes (a logger that dropped samples is common and harmless
+//! for static poses, but the user should know). A rate that suggests millisecond times is named where it makes a setting fail
 //! (`windows::detect`).
 
 use crate::error::{Error, Result};
@@ -30,10 +32,11 @@ impl TimeCheck {
         }
     }
 
-    /// The next row's time `t` (seconds by contract), read on 1-based `line`.
+    /// The next row's time `t` (seconds by contract), read on 1-based `line`: an error when it
+    /// is earlier than the previous row's (equal is accepted: coarse timestamps).
     pub fn push(&mut self, t: f64, line: usize) -> Result<()> {
         if let Some(prev) = self.prev {
-            if t <= prev {
+            if t < prev {
                 return Err(Error::TimeNotIncreasing {
                     line,
                     column: self.column.clone(),
@@ -64,17 +67,30 @@ pub struct TimeSteps {
     pub gaps: usize,
     /// Steps in all (rows − 1).
     pub steps: usize,
+    /// Rows whose time repeats the previous row's (timestamps coarser than the sample
+    /// period).
+    pub repeats: usize,
 }
 
 impl TimeSteps {
-    /// The summary of `t` (`None` with fewer than 3 rows or a non-positive median step).
+    /// The summary of `t` (`None` with fewer than 3 rows or no time elapsed). With repeated
+    /// times the step statistics are those of the positive steps.
     pub fn of(t: &[f64]) -> Option<Self> {
         if t.len() < 3 {
             return None;
         }
         // The median by selection, not a full sort: there is a step per row of the file
         // (millions for a long recording), and the gap count needs no order.
-        let mut steps: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
+        let all = t.len() - 1;
+        let mut steps: Vec<f64> = t
+            .windows(2)
+            .map(|w| w[1] - w[0])
+            .filter(|d| *d > 0.0)
+            .collect();
+        let repeats = all - steps.len();
+        if steps.is_empty() {
+            return None;
+        }
         let mid = steps.len() / 2;
         let median_s = *steps.select_nth_unstable_by(mid, |a, b| a.total_cmp(b)).1;
         if !(median_s.is_finite() && median_s > 0.0) {
@@ -83,9 +99,10 @@ impl TimeSteps {
         let gaps = steps.iter().filter(|d| **d > GAP_FACTOR * median_s).count();
         Some(Self {
             median_s,
-            mean_s: (t[t.len() - 1] - t[0]) / (t.len() - 1) as f64,
+            mean_s: (t[t.len() - 1] - t[0]) / all as f64,
             gaps,
-            steps: steps.len(),
+            steps: all,
+            repeats,
         })
     }
 
@@ -96,9 +113,10 @@ impl TimeSteps {
     }
 
     /// The sample rate, Hz: one over the median step, or over the mean step for bursty
-    /// timestamps (whose median step is the arrival spacing inside a burst).
+    /// timestamps (whose median step is the arrival spacing inside a burst) and for coarse
+    /// ones (repeated times: the median step is the timestamps' resolution).
     pub fn rate_hz(&self) -> f64 {
-        if self.bursty() {
+        if self.bursty() || self.repeats > 0 {
             1.0 / self.mean_s
         } else {
             1.0 / self.median_s
@@ -119,6 +137,15 @@ pub fn time_notes(column: &str, t: &[f64]) -> Vec<String> {
         return Vec::new();
     };
     let median_shown = shown(steps.median_s);
+    if steps.repeats > 0 {
+        return vec![format!(
+            "column '{}': {} of {} rows repeat the previous row's time (timestamps coarser than the sample period); the sample rate is taken from the whole span: {} Hz",
+            quote(column),
+            steps.repeats,
+            steps.steps + 1,
+            (steps.rate_hz() * 1e3).round() / 1e3,
+        )];
+    }
     if steps.bursty() {
         return vec![format!(
             "column '{}': timestamps come in bursts ({} of {} steps exceed {GAP_FACTOR}× the median step of {median_shown} s), as from a logger that stamps FIFO reads on arrival; the sample rate is taken from the whole span: {} Hz",
@@ -159,22 +186,47 @@ pub fn time_notes(column: &str, t: &[f64]) -> Vec<String> {
 mod tests {
     use super::*;
 
+    /// A 200 Hz log with times printed to 10 ms (each time twice, issue 19): read, the rate
+    /// from the span, one note naming how many rows repeat; time that goes back stays an error.
     #[test]
-    fn backwards_and_repeated_times_name_the_line() {
+    fn coarse_times_are_read_with_the_rate_from_the_span() {
+        let t: Vec<f64> = (0..2000)
+            .map(|i| ((i as f64 / 200.0) * 100.0).floor() / 100.0)
+            .collect();
+        let mut check = TimeCheck::new("t");
+        for (i, v) in t.iter().enumerate() {
+            check.push(*v, i + 2).unwrap();
+        }
+        let steps = TimeSteps::of(&t).unwrap();
+        assert_eq!(steps.repeats, 1000);
+        // Span 9.99 s over 1999 steps: 200.1 Hz (the last 10 ms tick is not a full period).
+        assert!(
+            (steps.rate_hz() - 1999.0 / 9.99).abs() < 1e-9,
+            "{}",
+            steps.rate_hz()
+        );
+        let notes = time_notes("t", &t);
+        assert_eq!(notes.len(), 1);
+        assert!(notes[0].contains("1000 of 2000 rows repeat"), "{notes:?}");
+        let mut back = TimeCheck::new("t");
+        back.push(0.02, 2).unwrap();
+        let e = back.push(0.01, 3).unwrap_err();
+        assert!(matches!(e, Error::TimeNotIncreasing { line: 3, .. }), "{e}");
+    }
+
+    #[test]
+    fn backwards_times_name_the_line_and_repeats_are_read() {
         let mut c = TimeCheck::new("t");
         c.push(0.0, 2).unwrap();
         c.push(0.01, 3).unwrap();
         let e = c.push(0.005, 4).unwrap_err().to_string();
         assert_eq!(
             e,
-            "line 4: column 't': time goes from 0.01 back to 0.005 (or repeats); rows must be in increasing time order"
+            "line 4: column 't': time goes from 0.01 back to 0.005; rows must be in time order"
         );
         let mut c = TimeCheck::new("time");
         c.push(1.0, 2).unwrap();
-        assert!(matches!(
-            c.push(1.0, 3),
-            Err(Error::TimeNotIncreasing { line: 3, .. })
-        ));
+        assert!(c.push(1.0, 3).is_ok());
     }
 
     #[test]

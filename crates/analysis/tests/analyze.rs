@@ -676,3 +676,35 @@ mod no_panic {
         }
     }
 }
+
+/// Issue 19, item 5: a 200 Hz recording whose times are printed to 10 ms (each time twice)
+/// is read and analysed like the same recording with exact times: the rate comes from the
+/// span, one note says how many rows repeat, the windows are the same.
+#[test]
+fn coarse_timestamps_are_read_and_analysed_like_exact_ones() {
+    use wiical_analysis::simulate::{simulate, to_csv, SimConfig};
+    let sim = simulate(&SimConfig {
+        seed: 19,
+        poses: 20,
+        rate_hz: 200.0,
+        ..Default::default()
+    })
+    .unwrap();
+    let exact = wiical_analysis::parse(&to_csv(&sim.recording), &Default::default()).unwrap();
+    let mut coarse = sim.recording.clone();
+    let t = coarse.t.as_mut().unwrap();
+    for v in t.iter_mut() {
+        *v = (*v * 100.0).floor() / 100.0;
+    }
+    let coarse = wiical_analysis::parse(&to_csv(&coarse), &Default::default()).unwrap();
+    assert_eq!(coarse.notes.len(), 1, "{:?}", coarse.notes);
+    assert!(coarse.notes[0].contains("rows repeat the previous row's time"));
+    let rate = coarse.estimated_rate_hz().unwrap();
+    assert!((rate - 200.0).abs() < 0.5, "{rate}");
+    let (a, b) = (
+        wiical_analysis::analyze(&exact, &Default::default()).unwrap(),
+        wiical_analysis::analyze(&coarse, &Default::default()).unwrap(),
+    );
+    assert_eq!(a.static_windows, b.static_windows);
+    assert!((a.final_model.rms_mg - b.final_model.rms_mg).abs() < 0.05 * a.final_model.rms_mg);
+}
