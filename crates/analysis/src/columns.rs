@@ -40,6 +40,17 @@ impl Sensor {
     }
 }
 
+/// Which columns a loader takes (`crate::load`, `crate::raw`): explicit header names, else
+/// the named sensor's triplet.
+#[derive(Debug, Clone, Default)]
+pub struct LoadOptions {
+    /// Explicit header names for the x, y, z columns (e.g. `["gx","gy","gz"]`).
+    pub columns: Option<[String; 3]>,
+    /// Which sensor's triplet to take from a header naming several (`None`: the
+    /// accelerometer).
+    pub sensor: Option<Sensor>,
+}
+
 /// One axis triplet found in a header.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Triplet {

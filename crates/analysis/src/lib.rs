@@ -110,6 +110,7 @@ pub mod simulate;
 pub mod six;
 pub mod six_position;
 pub mod stats;
+pub mod table;
 pub mod timecheck;
 pub mod trial;
 pub mod verdict;

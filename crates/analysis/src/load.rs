@@ -20,15 +20,7 @@ use crate::recording::Recording;
 use crate::timecheck::{time_notes, TimeCheck};
 use std::path::Path;
 
-/// Options for [`load`].
-#[derive(Debug, Clone, Default)]
-pub struct LoadOptions {
-    /// Explicit header names for the x, y, z columns (e.g. `["gx","gy","gz"]`).
-    pub columns: Option<[String; 3]>,
-    /// Which sensor's triplet to take from a header naming several
-    /// ([`crate::columns`]; `None`: the accelerometer).
-    pub sensor: Option<Sensor>,
-}
+pub use crate::columns::LoadOptions;
 
 /// Loads a recording from a file; see the module docs for the accepted formats.
 /// `path` may be `-` for standard input; only regular files are read, at most

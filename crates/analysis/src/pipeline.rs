@@ -6,9 +6,10 @@
 //! rows are still windows already) and returns the report with the quality verdict that
 //! `device put` checks ([`Judged`]: the report's own keys, then `quality`).
 
+use crate::autocal;
 use crate::error::Result;
 use crate::verdict::Quality;
-use crate::window_input::{analyze_table, fit_table, Input};
+use crate::window_input::{Input, WindowTable};
 use crate::{AnalyzeOptions, AnalyzeReport, FitOptions, FitReport};
 use serde::Serialize;
 use wiical_core::quality::CoverageRule;
@@ -60,4 +61,40 @@ pub fn analyze(input: &Input, opts: &AnalyzeOptions) -> Result<Judged<AnalyzeRep
         }
     };
     Ok(Judged { report, quality })
+}
+
+/// `fit` on a window-mean table: the rows are the windows ([`crate::fit::run_windows`]).
+pub fn fit_table(table: &WindowTable, opts: &crate::fit::FitOptions) -> Result<crate::FitReport> {
+    let mut rep = crate::fit::run_windows(&table.to_windows(), opts)?;
+    rep.window_input = Some(table.info.clone());
+    Ok(rep)
+}
+
+/// `analyze` on a window-mean table: the standard pipeline on the rows as windows
+/// ([`crate::analyze::analyze_windows`]: full model, effects by the usual rule; its
+/// `calibration` is what `--out` writes) plus, for comparison, the van Hees et al. 2014
+/// autocalibration of the same windows ([`crate::autocal`], when the means are in g).
+pub fn analyze_table(
+    table: &WindowTable,
+    opts: &crate::AnalyzeOptions,
+) -> Result<crate::AnalyzeReport> {
+    let ws = table.to_windows();
+    let units = ws.units;
+    let mut rep = crate::analyze::analyze_windows(&table.recording, ws, opts)?;
+    rep.window_input = Some(table.info.clone());
+    let rec = &table.recording;
+    let run = |opts: &autocal::AutocalOptions| {
+        let fit = if units == "g" {
+            autocal::autocalibrate(&rec.xyz, rec.temp.as_deref(), opts)
+        } else {
+            Err(autocal::AutocalError::NotInG { units })
+        };
+        match fit {
+            Ok(fit) => fit.report(),
+            Err(e) => autocal::AutocalReport::not_done(rec.len(), &e),
+        }
+    };
+    rep.autocalibration = Some(run(&autocal::AutocalOptions::default()));
+    rep.autocalibration_converged = Some(run(&autocal::AutocalOptions::converged()));
+    Ok(rep)
 }

@@ -7,7 +7,7 @@
 //! sample-level detector would find "windows" among the epochs. It is recognised by its header
 //! — per-axis standard-deviation columns (`sdx`, `sd_x`, `x_sd`, `std_x`, …) or a sample-count
 //! column (`n`, `samples`, `count`) — or forced with [`WindowInputOptions::force`] (the CLI's
-//! `--windows`). Its rows become the analysis's [`Windows`] directly (mean; variance = SD²;
+//! `--windows`). Its rows become the analysis's [`crate::windows::Windows`] directly (mean; variance = SD²;
 //! count when given; temperature; time), and from there `fit` and `analyze` run the same
 //! pipeline as for detected windows.
 //!
@@ -16,14 +16,12 @@
 //! (F-tests on the residuals and cross-validation), so effects are still chosen.
 
 #![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x >= 0.0)` is deliberately true for NaN.
-use crate::autocal;
 use crate::error::{Error, Result};
 use crate::input::{parse_number, quote, read_text, MAX_RECORDING_BYTES};
 use crate::load::{self, blank_comments, is_comment_or_blank, Delimiter};
-use crate::recording::{infer_units, Recording};
+use crate::recording::Recording;
 pub use crate::report::WindowInputInfo;
-use crate::stats as st;
-use crate::windows::{WindowStats, Windows};
+pub use crate::table::WindowTable;
 use std::path::Path;
 
 /// Most rows a window-mean table may have: 200 000 windows is 23 days of 10-s epochs, far
@@ -51,20 +49,6 @@ pub struct WindowInputOptions {
     pub load: load::LoadOptions,
     /// Take the rows as windows even without SD or count columns (`--windows`).
     pub force: bool,
-}
-
-/// A window-mean table: the rows as a [`Recording`] (means as its samples, with time and
-/// temperature) plus what the extra columns said.
-#[derive(Debug, Clone)]
-pub struct WindowTable {
-    /// The means, times and temperatures as the loader reads any file.
-    pub recording: Recording,
-    /// Per-row standard deviations (x, y, z), when the file has them.
-    pub sd: Option<Vec<[f64; 3]>>,
-    /// Per-row sample counts, when the file has them.
-    pub count: Option<Vec<usize>>,
-    /// How it was read.
-    pub info: WindowInputInfo,
 }
 
 /// Loads `path` as a window-mean table when its header says so or `opts.force`; `Ok(None)`
@@ -373,88 +357,6 @@ fn read_count(text: &str, line: usize, column: &str) -> Result<usize> {
         return Err(bad());
     }
     Ok(v as usize)
-}
-
-impl WindowTable {
-    /// The rows as the analysis's windows: mean; variance = SD² (NaN without SD columns);
-    /// the count when given (else unknown); temperature; time = the file's time column (s),
-    /// else the row index (rows taken as equally spaced, 1 s apart). Units are inferred from
-    /// the median norm of the means, as for detected windows.
-    pub fn to_windows(&self) -> Windows {
-        let rec = &self.recording;
-        let times: Vec<f64> = rec
-            .t
-            .clone()
-            .unwrap_or_else(|| (0..rec.len()).map(|i| i as f64).collect());
-        let t0 = times.first().copied().unwrap_or(0.0);
-        let stats: Vec<WindowStats> = (0..rec.len())
-            .map(|i| WindowStats {
-                start: i,
-                end: i + 1,
-                mean: rec.xyz[i],
-                var: self
-                    .sd
-                    .as_ref()
-                    .map_or([f64::NAN; 3], |sd| sd[i].map(|s| s * s)),
-                batch_var_of_mean: None,
-                t_centre: times[i] - t0,
-                temp: rec.temp.as_ref().map(|t| t[i]),
-                count: self.count.as_ref().map(|c| c[i]),
-            })
-            .collect();
-        let norms: Vec<f64> = rec
-            .xyz
-            .iter()
-            .map(|m| (m[0] * m[0] + m[1] * m[1] + m[2] * m[2]).sqrt())
-            .collect();
-        // The "reference" noise of a table: the median within-window variance per axis.
-        let reference_variance = std::array::from_fn(|a| match &self.sd {
-            Some(sd) => st::median(&sd.iter().map(|s| s[a] * s[a]).collect::<Vec<_>>()) as f32,
-            None => f32::NAN,
-        });
-        Windows {
-            units: infer_units(rec.is_integer(), st::median(&norms)),
-            stats,
-            times,
-            reference_variance,
-        }
-    }
-}
-
-/// `fit` on a window-mean table: the rows are the windows ([`crate::fit::run_windows`]).
-pub fn fit_table(table: &WindowTable, opts: &crate::fit::FitOptions) -> Result<crate::FitReport> {
-    let mut rep = crate::fit::run_windows(&table.to_windows(), opts)?;
-    rep.window_input = Some(table.info.clone());
-    Ok(rep)
-}
-
-/// `analyze` on a window-mean table: the standard pipeline on the rows as windows
-/// ([`crate::analyze::analyze_windows`]: full model, effects by the usual rule; its
-/// `calibration` is what `--out` writes) plus, for comparison, the van Hees et al. 2014
-/// autocalibration of the same windows ([`crate::autocal`], when the means are in g).
-pub fn analyze_table(
-    table: &WindowTable,
-    opts: &crate::AnalyzeOptions,
-) -> Result<crate::AnalyzeReport> {
-    let ws = table.to_windows();
-    let units = ws.units;
-    let mut rep = crate::analyze::analyze_windows(&table.recording, ws, opts)?;
-    rep.window_input = Some(table.info.clone());
-    let rec = &table.recording;
-    let run = |opts: &autocal::AutocalOptions| {
-        let fit = if units == "g" {
-            autocal::autocalibrate(&rec.xyz, rec.temp.as_deref(), opts)
-        } else {
-            Err(autocal::AutocalError::NotInG { units })
-        };
-        match fit {
-            Ok(fit) => fit.report(),
-            Err(e) => autocal::AutocalReport::not_done(rec.len(), &e),
-        }
-    };
-    rep.autocalibration = Some(run(&autocal::AutocalOptions::default()));
-    rep.autocalibration_converged = Some(run(&autocal::AutocalOptions::converged()));
-    Ok(rep)
 }
 
 #[cfg(test)]

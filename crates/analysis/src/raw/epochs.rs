@@ -15,7 +15,8 @@
 use crate::autocal::MIN_EPOCHS;
 use crate::error::{Error, Result};
 use crate::recording::Recording;
-use crate::window_input::{WindowInputInfo, WindowTable};
+use crate::report::WindowInputInfo;
+use crate::table::WindowTable;
 
 /// The still-epoch rule (defaults: GGIR's).
 #[derive(Debug, Clone)]

@@ -14,8 +14,8 @@
 //! Times are the device clock's date and time counted in seconds since 1970-01-01 **as if it
 //! were UTC**: neither format stores the time zone of its clock, so none is applied.
 
+use crate::columns::LoadOptions;
 use crate::error::{Error, Result};
-use crate::load::LoadOptions;
 use crate::recording::Recording;
 use std::path::Path;
 
