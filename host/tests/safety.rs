@@ -201,6 +201,7 @@ fn good_quality() -> Quality {
         max_fit_rms_mg: 30.0,
         poses: 14,
         coverage_gap: None,
+        residual: None,
     }
 }
 
@@ -235,6 +236,18 @@ fn device_put_refuses_absurd_or_poor_calibrations_and_names_ignored_terms() {
     poor.coverage_gap = Some("no pose with the −z axis pointing up".into());
     let check = judge_for_put(&file(nunchuk_cal(), Some(poor)));
     assert!(check.refusals[0].contains("quality: POOR"), "{check:?}");
+    // An unexplained residual (issue 19): refused like a poor fit, uploadable with --force.
+    let unexplained = good_quality().with_residual(Some(13.6), Some(0.31), Some(1e-20));
+    assert_eq!(unexplained.verdict, Verdict::UnexplainedResidual);
+    let check = judge_for_put(&file(nunchuk_cal(), Some(unexplained)));
+    assert!(
+        check.refusals[0].contains("UNEXPLAINED RESIDUAL"),
+        "{check:?}"
+    );
+    assert!(
+        check.refusals[0].contains("44× the noise floor"),
+        "{check:?}"
+    );
     let mut drift = nunchuk_cal();
     drift.effects.bias_drift = [0.01, 0.0, 0.0];
     drift.effects.scale_temp = [1e-4, 0.0, 0.0];

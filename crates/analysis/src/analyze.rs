@@ -496,6 +496,7 @@ impl Search {
             p_value: None,
             passed: false,
             note: "no window stands out (robust screen + Bonferroni prediction-error test)".into(),
+            windows_short: None,
         };
         if let Some(tr) = &tr {
             let cv_kept = cv_over(&tr.loo, &tr.used).unwrap_or(f64::INFINITY);
@@ -742,14 +743,28 @@ impl Context<'_> {
         let calibration = self.nrm.to_calibration(&search.state.fit.p);
         calibration.validate().map_err(Error::InvalidCalibration)?;
         let windows = self.window_infos(base, &search);
+        // Candidates the last step could not test at all (too few windows for them).
+        let untested: Vec<(String, usize)> = search
+            .steps
+            .last()
+            .map(|st| {
+                st.candidates
+                    .iter()
+                    .filter_map(|c| c.windows_short.map(|k| (c.name.clone(), k)))
+                    .collect()
+            })
+            .unwrap_or_default();
         let mut verdict = ev::verdict_text(
             &base_summary,
             &final_model,
             &search.effects,
-            base.noise_floor * 1e3,
-            base.noise_floor_batch.map(|x| x * 1e3),
+            &ev::Floor {
+                mg: base.noise_floor * 1e3,
+                batch_mg: base.noise_floor_batch.map(|x| x * 1e3),
+            },
             self.opts.alpha,
             base.loo.is_some(),
+            &untested,
         );
         let mut diagnostics = search.diagnostics;
         diagnostics.extend(self.motion_diagnostic(base));

@@ -262,6 +262,7 @@ mod tests {
             max_fit_rms_mg: 30.0,
             poses: 10,
             coverage_gap: Some("too few poses: 10 of 12".into()),
+            residual: None,
         };
         let text = to_json_with(&sample(), Some(&q)).unwrap();
         assert_eq!(parse(&text).unwrap().quality, Some(q));

@@ -52,16 +52,27 @@ pub fn term_values(
     (vals, ses, unit)
 }
 
-/// The one-paragraph conclusion of a multi-position analysis.
+/// The noise floor a verdict compares with, milli-g (NaN: unknown).
+pub struct Floor {
+    /// From the windows' variances.
+    pub mg: f64,
+    /// From batch means, when computed.
+    pub batch_mg: Option<f64>,
+}
+
+/// The one-paragraph conclusion of a multi-position analysis. `untested`: candidates the
+/// windows were too few to test at all, with how many more windows each needs — the verdict
+/// then never says that nothing is missing.
 pub fn verdict_text(
     base: &ModelSummary,
     fin: &ModelSummary,
     effects: &[EffectReport],
-    floor_mg: f64,
-    batch_mg: Option<f64>,
+    floor: &Floor,
     alpha: f64,
     cv_possible: bool,
+    untested: &[(String, usize)],
 ) -> String {
+    let (floor_mg, batch_mg) = (floor.mg, floor.batch_mg);
     let mut s = String::new();
     let above = base.chi2_p.is_some_and(|p| p < alpha);
     if !floor_mg.is_finite() {
@@ -108,12 +119,13 @@ pub fn verdict_text(
         return s;
     }
     if effects.is_empty() {
-        s.push_str("No candidate effect passes both the F-test and the cross-validation rule: nothing the candidates describe is missing.");
+        s.push_str(&nothing_found(untested));
         if above {
             s.push_str(" The excess over the floor is not explained by any candidate (slow noise, imperfect stillness, or an effect outside the library).");
         }
     } else {
         let names: Vec<&str> = effects.iter().map(|e| e.name.as_str()).collect();
+        let untested_note = untested_sentence(untested);
         let _ = write!(
             s,
             "Added {}: RMS {:.3} → {:.3} mg, CV {} → {} mg (×{:.1} lower).",
@@ -134,8 +146,42 @@ pub fn verdict_text(
                 s.push_str(" The final residual is consistent with the noise floor.");
             }
         }
+        if let Some(u) = untested_note {
+            s.push(' ');
+            s.push_str(&u);
+        }
     }
     s
+}
+
+/// The sentence when no candidate was added: "nothing missing" only when every candidate
+/// could be tested.
+fn nothing_found(untested: &[(String, usize)]) -> String {
+    match untested_sentence(untested) {
+        None => "No candidate effect passes both the F-test and the cross-validation rule: nothing the candidates describe is missing.".into(),
+        Some(u) => format!("No candidate effect that could be tested passes both the F-test and the cross-validation rule. {u}"),
+    }
+}
+
+/// "Not tested: … (needs N more windows), …: nothing is known about them." (`None` when every
+/// candidate was tested.)
+fn untested_sentence(untested: &[(String, usize)]) -> Option<String> {
+    if untested.is_empty() {
+        return None;
+    }
+    let list: Vec<String> = untested
+        .iter()
+        .map(|(name, k)| {
+            format!(
+                "{name} (needs {k} more window{})",
+                if *k == 1 { "" } else { "s" }
+            )
+        })
+        .collect();
+    Some(format!(
+        "Not tested, too few windows: {}; whether they are missing is not known (hold more poses to test them).",
+        list.join(", ")
+    ))
 }
 
 /// Which residual pattern points to a term.

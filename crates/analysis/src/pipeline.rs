@@ -60,6 +60,11 @@ pub fn analyze(input: &Input, opts: &AnalyzeOptions) -> Result<Judged<AnalyzeRep
             Quality::assess(&report.calibration, &means, report.final_model.rms_mg)
         }
     };
+    let quality = quality.with_residual(
+        report.final_model.cv_rms_mg,
+        report.noise_floor_mg,
+        report.final_model.chi2_p,
+    );
     Ok(Judged { report, quality })
 }
 

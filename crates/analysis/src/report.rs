@@ -75,6 +75,10 @@ pub struct CandidateReport {
     pub passed: bool,
     /// Why not, or what it found.
     pub note: String,
+    /// Windows short of what the candidate needs to be tested at all (`None`: it was
+    /// tested). Not in the JSON (the note says it); the verdict lists the untested.
+    #[serde(skip)]
+    pub windows_short: Option<usize>,
 }
 
 /// One greedy step.
@@ -140,7 +144,7 @@ pub struct AnalyzeReport {
     pub noise_floor_batch_mg: Option<f64>,
     /// The base model.
     pub base: ModelSummary,
-    /// Accepted effects, in the order added (empty: nothing is missing).
+    /// Accepted effects, in the order added (empty: none passed the rule).
     pub effects: Vec<EffectReport>,
     /// The final model.
     #[serde(rename = "final")]

@@ -237,9 +237,11 @@ pub fn try_term(
         p_value: None,
         passed: false,
         note: String::new(),
+        windows_short: None,
     };
     if n_used < k_new + MIN_DOF_TERM {
         rep.note = format!("too few windows ({n_used}) for {k_new} parameters");
+        rep.windows_short = Some(k_new + MIN_DOF_TERM - n_used);
         return (rep, None);
     }
     let Some(f) = am::fit(&state.fit.p, &mask, wins, &state.used) else {

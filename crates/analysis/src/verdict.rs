@@ -15,10 +15,36 @@ use wiical_core::Calibration;
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Verdict {
-    /// Fit RMS within the limit and the poses cover the sphere.
+    /// Fit RMS within the limit, the poses cover the sphere, and (analyze) the residual is
+    /// explained.
     Good,
-    /// Either fails: re-record before uploading.
+    /// Fit RMS or coverage fails: re-record before uploading.
     Poor,
+    /// (analyze) Good by RMS and coverage, but the final model's held-out error is more than
+    /// [`UNEXPLAINED_CV_FACTOR`] × the noise floor with χ² p < [`UNEXPLAINED_P`]: something the
+    /// model lacks; uploadable with `--force`.
+    #[serde(rename = "unexplained-residual")]
+    UnexplainedResidual,
+}
+
+/// The residual test's factor: held-out RMS over the noise floor (issue 19).
+pub const UNEXPLAINED_CV_FACTOR: f64 = 3.0;
+
+/// The residual test's χ² p-value.
+pub const UNEXPLAINED_P: f64 = 1e-3;
+
+/// The residual test of a final model (`analyze`): its held-out error against the noise floor.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ResidualCheck {
+    /// Leave-one-window-out RMS of the final model, milli-g.
+    pub cv_rms_mg: f64,
+    /// The windows' noise floor, milli-g.
+    pub floor_mg: f64,
+    /// χ² p-value of the final model against the floor.
+    pub chi2_p: f64,
+    /// True when `cv_rms_mg > 3 × floor_mg` and `chi2_p < 1e-3`.
+    pub unexplained: bool,
 }
 
 /// The verdict and the numbers behind it.
@@ -35,6 +61,10 @@ pub struct Quality {
     pub poses: usize,
     /// Why the poses do not cover the sphere (`None`: they do).
     pub coverage_gap: Option<String>,
+    /// (analyze) The final model's held-out error against the noise floor; absent for `fit`
+    /// (no floor) and when the floor or the CV is unknown.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub residual: Option<ResidualCheck>,
 }
 
 impl Quality {
@@ -71,7 +101,36 @@ impl Quality {
             max_fit_rms_mg,
             poses: pose_means.len(),
             coverage_gap,
+            residual: None,
         }
+    }
+
+    /// Adds the residual test of an analysis (final model's held-out RMS `cv_rms_mg` and χ²
+    /// p-value against the floor `floor_mg`): a good verdict whose residual is unexplained
+    /// becomes [`Verdict::UnexplainedResidual`]. Unknown numbers leave it as it is.
+    pub fn with_residual(
+        mut self,
+        cv_rms_mg: Option<f64>,
+        floor_mg: Option<f64>,
+        chi2_p: Option<f64>,
+    ) -> Self {
+        let (Some(cv), Some(floor), Some(p)) = (cv_rms_mg, floor_mg, chi2_p) else {
+            return self;
+        };
+        if !(cv.is_finite() && floor.is_finite() && floor > 0.0 && p.is_finite()) {
+            return self;
+        }
+        let unexplained = cv > UNEXPLAINED_CV_FACTOR * floor && p < UNEXPLAINED_P;
+        if unexplained && self.verdict == Verdict::Good {
+            self.verdict = Verdict::UnexplainedResidual;
+        }
+        self.residual = Some(ResidualCheck {
+            cv_rms_mg: cv,
+            floor_mg: floor,
+            chi2_p: p,
+            unexplained,
+        });
+        self
     }
 
     /// One line for the text output, e.g. `quality: good (fit RMS 3.1 mg ≤ 30 mg, 14 poses
@@ -97,6 +156,16 @@ impl Quality {
             Verdict::Poor => format!(
                 "quality: POOR ({rms}, {cover}); `wiical device put` refuses it without --force"
             ),
+            Verdict::UnexplainedResidual => {
+                let r = self.residual.as_ref();
+                let (cv, floor, p) = r.map_or((f64::NAN, f64::NAN, f64::NAN), |r| {
+                    (r.cv_rms_mg, r.floor_mg, r.chi2_p)
+                });
+                format!(
+                    "quality: UNEXPLAINED RESIDUAL ({rms}, {cover}; but the held-out error {cv:.2} mg is {:.0}× the noise floor {floor:.2} mg, χ² p = {p:.1e}: the model misses something); `wiical device put` refuses it without --force",
+                    cv / floor
+                )
+            }
         }
     }
 }

@@ -180,7 +180,7 @@ pub fn judge_for_put(file: &CalibrationFile) -> PutCheck {
             .push(format!("not plausible for a Nunchuk: {why}"));
     }
     match &file.quality {
-        Some(q) if q.verdict == Verdict::Poor => {
+        Some(q) if q.verdict != Verdict::Good => {
             check.refusals.push(format!("the fit's {}", q.line()))
         }
         Some(_) => {}
