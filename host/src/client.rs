@@ -35,6 +35,12 @@ pub enum ClientError {
         /// The path given.
         path: String,
     },
+    /// The path exists but is not a terminal device (`/dev/null`, a regular file).
+    #[error("{path} is not a serial port (not a terminal device): give the adapter's port, e.g. /dev/ttyACM0, or the pty `wiical device-sim --pty` prints")]
+    NotASerialPort {
+        /// The path given.
+        path: String,
+    },
     /// The port exists but cannot be opened.
     #[error("cannot open serial port {path}: {cause}")]
     Open {
@@ -223,9 +229,18 @@ impl Device {
         let port = serialport::new(path, 115_200)
             .timeout(opts.timeout)
             .open()
-            .map_err(|cause| ClientError::Open {
-                path: path.into(),
-                cause,
+            .map_err(|cause| {
+                // ENOTTY ("Not a typewriter"): the path is no terminal device at all.
+                if cause.to_string().contains("Not a typewriter")
+                    || cause.to_string().contains("Inappropriate ioctl")
+                {
+                    ClientError::NotASerialPort { path: path.into() }
+                } else {
+                    ClientError::Open {
+                        path: path.into(),
+                        cause,
+                    }
+                }
             })?;
         let d = Self {
             port,

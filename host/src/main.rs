@@ -87,16 +87,19 @@ fn main() {
     let cli = Cli::parse();
     match run(cli) {
         Ok(text) => {
-            // A closed pipe (`wiical … | head`) is not an error worth a panic.
+            // A closed pipe (`wiical … | head`) is no panic, but the output was not all
+            // written: say so and exit non-zero, as a shell expects.
             let mut stdout = std::io::stdout().lock();
             if let Err(e) = stdout
                 .write_all(text.as_bytes())
                 .and_then(|_| stdout.flush())
             {
-                if e.kind() != std::io::ErrorKind::BrokenPipe {
-                    eprintln!("error: {e:#}");
-                    std::process::exit(1);
+                if e.kind() == std::io::ErrorKind::BrokenPipe {
+                    eprintln!("error: standard output was closed before the output was written");
+                } else {
+                    eprintln!("error: writing the output: {e:#}");
                 }
+                std::process::exit(1);
             }
         }
         Err(e) => {

@@ -321,9 +321,18 @@ fn decode_cal_motionplus_reads_the_block_and_its_crc() {
     assert!(out.get("mode").is_none());
     let text = run(&args(hex.clone(), false)).unwrap();
     assert!(text.contains("CRC-32:   ok"), "{text}");
+    // A bad CRC-32 is printed and the command fails (issue 25), as for the other devices;
+    // the device name is case-insensitive.
     let mut bad = hex.clone();
     bad[20] = "00".into();
-    assert!(run(&args(bad, false)).unwrap().contains("CRC-32:   BAD"));
+    let e = run(&args(bad, false)).unwrap_err().to_string();
+    assert!(e.contains("checksum is wrong"), "{e}");
+    let mixed = Args {
+        device: "MotionPlus".into(),
+        hex: hex.clone(),
+        json: true,
+    };
+    assert!(run(&mixed).is_ok());
     let short = run(&args(hex[..31].to_vec(), false))
         .unwrap_err()
         .to_string();

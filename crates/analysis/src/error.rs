@@ -30,6 +30,18 @@ pub enum Error {
         #[source]
         source: std::io::Error,
     },
+    /// An output named `-`.
+    #[error("{}: standard output carries the report; give a file name for this output", output.display())]
+    OutputIsStdout {
+        /// The output as given.
+        output: PathBuf,
+    },
+    /// An output in a directory that does not exist.
+    #[error("cannot write {}: its directory does not exist (nothing was written)", output.display())]
+    OutputDirMissing {
+        /// The output as given.
+        output: PathBuf,
+    },
     /// An output would replace one of the command's inputs.
     #[error("refusing to write {}: it is the input {} (choose another output file)", output.display(), input.display())]
     OutputIsInput {
@@ -60,6 +72,16 @@ pub enum Error {
         path: PathBuf,
         /// The cap, MiB.
         limit_mib: u64,
+    },
+    /// A text line too long to be part of a recording.
+    #[error("line {line} is {bytes} bytes long (the limit is {max}): not a recording's line (a file without line breaks?)")]
+    LineTooLong {
+        /// 1-based line.
+        line: usize,
+        /// Its length.
+        bytes: usize,
+        /// The limit.
+        max: usize,
     },
     /// A gzip file that cannot be decompressed (corrupt or cut short).
     #[error("cannot decompress {} (gzip): {source}", path.display())]

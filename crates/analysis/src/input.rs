@@ -14,6 +14,36 @@ pub const MAX_RECORDING_BYTES: u64 = 256 << 20;
 /// Largest calibration file accepted, bytes (a calibration is under 1 kB of JSON).
 pub const MAX_CALIBRATION_BYTES: u64 = 1 << 20;
 
+/// Longest line of a text recording, bytes (a header of a thousand long column names, or a row
+/// of a hundred numbers, is a few kB; a 50 MB line is not a recording and must not be split
+/// into millions of fields).
+pub const MAX_LINE_BYTES: usize = 64 << 10;
+
+/// Refuses a text with a line longer than [`MAX_LINE_BYTES`], naming the line: the readers
+/// then need memory in proportion to the file, not to one line's fields.
+pub fn check_line_lengths(text: &str) -> Result<()> {
+    let mut line = 1;
+    let mut start = 0;
+    for (i, b) in text.bytes().enumerate() {
+        if b == b'\n' {
+            if i - start > MAX_LINE_BYTES {
+                break;
+            }
+            line += 1;
+            start = i + 1;
+        }
+    }
+    let len = text[start..].find('\n').unwrap_or(text.len() - start);
+    if len > MAX_LINE_BYTES {
+        return Err(Error::LineTooLong {
+            line,
+            bytes: len,
+            max: MAX_LINE_BYTES,
+        });
+    }
+    Ok(())
+}
+
 /// Longest piece of a field quoted back in an error message, characters.
 pub const MAX_QUOTED_CHARS: usize = 40;
 

@@ -91,6 +91,7 @@ pub(crate) fn is_comment_or_blank(line: &str) -> bool {
 /// Parses recording text (see [`load`]). A leading byte-order mark is ignored.
 pub fn parse(text: &str, opts: &LoadOptions) -> Result<Recording> {
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+    crate::input::check_line_lengths(text)?;
     let first = text
         .lines()
         .find(|l| !is_comment_or_blank(l))

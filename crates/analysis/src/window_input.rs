@@ -103,6 +103,7 @@ fn raw_epochs(raw: &crate::raw::RawFile, opts: &load::LoadOptions) -> Result<Inp
 /// [`load_window_table`] on text.
 pub fn parse_window_table(text: &str, opts: &WindowInputOptions) -> Result<Option<WindowTable>> {
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+    crate::input::check_line_lengths(text)?;
     let extra = read_extra_columns(text, opts)?;
     if extra.is_none() && !opts.force {
         return Ok(None);

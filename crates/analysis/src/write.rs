@@ -215,6 +215,22 @@ pub fn check_outputs(inputs: &[&Path], outputs: &[&Path]) -> Result<()> {
         .collect();
     let mut seen: Vec<(&Path, FileKey)> = Vec::new();
     for out in outputs {
+        // Every output's place is checked before any is written, so that a command with two
+        // outputs writes both or neither.
+        if out.as_os_str() == "-" {
+            return Err(Error::OutputIsStdout {
+                output: out.to_path_buf(),
+            });
+        }
+        let dir = match out.parent() {
+            Some(d) if !d.as_os_str().is_empty() => d,
+            _ => Path::new("."),
+        };
+        if !dir.is_dir() {
+            return Err(Error::OutputDirMissing {
+                output: out.to_path_buf(),
+            });
+        }
         let Some(key) = file_key(out) else { continue };
         if let Some((input, _)) = input_keys.iter().find(|(_, k)| *k == key) {
             return Err(Error::OutputIsInput {

@@ -24,20 +24,25 @@ pub struct Args {
 /// copy given) is still decoded and printed, but the command then fails (exit status 1), so
 /// that a script does not take a corrupt block for a good one.
 pub fn run(a: &Args) -> Result<String> {
-    if a.device == "motionplus" {
-        return motionplus(a);
-    }
-    let rep = factory::decode_cal(&a.device, &a.hex.join(" "))?;
-    let text = render(a, &rep)?;
-    if rep.checksum_ok {
+    let device: factory::Device = a.device.parse().map_err(anyhow::Error::new)?;
+    let (text, checksum_ok, name) = match device {
+        factory::Device::MotionPlus => {
+            let (text, ok) = motionplus(a)?;
+            (text, ok, "motionplus".to_string())
+        }
+        _ => {
+            let rep = factory::decode_cal(&a.device, &a.hex.join(" "))?;
+            (render(a, &rep)?, rep.checksum_ok, rep.device.clone())
+        }
+    };
+    if checksum_ok {
         return Ok(text);
     }
     let mut stdout = std::io::stdout().lock();
     stdout.write_all(text.as_bytes())?;
     stdout.flush()?;
     bail!(
-        "the {} calibration block's checksum is wrong (in every copy given): the values above are not trustworthy",
-        rep.device
+        "the {name} calibration block's checksum is wrong (in every copy given): the values above are not trustworthy"
     )
 }
 
@@ -60,11 +65,11 @@ fn render(a: &Args, rep: &factory::DecodeCalReport) -> Result<String> {
 
 /// The MotionPlus's 32-byte gyro calibration block (`0xA60020`–`0xA6003F`, read while the
 /// MotionPlus is inactive): both ranges, their sensitivities and the CRC-32 check.
-fn motionplus(a: &Args) -> Result<String> {
+fn motionplus(a: &Args) -> Result<(String, bool)> {
     let bytes = factory::parse_hex(&a.hex.join(" "))?;
     let rep = factory::motionplus_calibration(&bytes, None)?;
     if a.json {
-        return to_json(&rep);
+        return Ok((to_json(&rep)?, rep.checksum_ok));
     }
     let mut o = String::new();
     writeln!(o, "motionplus calibration block (yaw, roll, pitch)")?;
@@ -89,5 +94,5 @@ fn motionplus(a: &Args) -> Result<String> {
         "  CRC-32:   {}",
         if rep.checksum_ok { "ok" } else { "BAD" }
     )?;
-    Ok(o)
+    Ok((o, rep.checksum_ok))
 }

@@ -19,7 +19,7 @@ pub struct SimArgs {
     #[arg(long)]
     pub flash: Option<PathBuf>,
     /// Stop after this many seconds (default: run until interrupted).
-    #[arg(long)]
+    #[arg(long, value_parser = super::positive_finite)]
     pub seconds: Option<f64>,
     /// Seed of the simulated sensor noise.
     #[arg(long, default_value_t = 1)]

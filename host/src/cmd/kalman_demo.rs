@@ -14,10 +14,10 @@ pub struct Args {
     #[arg(long, default_value_t = 2008)]
     pub seed: u64,
     /// Accelerometer white noise per sample, m/s².
-    #[arg(long)]
+    #[arg(long, value_parser = super::positive_finite)]
     pub accel_noise: Option<f64>,
     /// Position measurement noise, m.
-    #[arg(long)]
+    #[arg(long, value_parser = super::positive_finite)]
     pub pos_noise: Option<f64>,
     /// Print JSON.
     #[arg(long)]

@@ -31,19 +31,19 @@ pub struct DetectArgs {
     pub columns: Option<Vec<String>>,
     /// Variance window, seconds (any of the four detector flags switches from the adaptive
     /// detector to the IMU-TK one with an initial rest period; defaults 1, 2, 2, 6).
-    #[arg(long)]
+    #[arg(long, value_parser = duration_s)]
     pub window_s: Option<f64>,
     /// Initial rest period (noise reference), seconds.
-    #[arg(long)]
+    #[arg(long, value_parser = duration_s)]
     pub init_s: Option<f64>,
     /// Shortest static interval, seconds.
-    #[arg(long)]
+    #[arg(long, value_parser = duration_s)]
     pub min_static_s: Option<f64>,
     /// Static when window variance ≤ THRESHOLD × rest-period variance.
-    #[arg(long)]
+    #[arg(long, value_parser = positive_finite)]
     pub threshold: Option<f64>,
     /// Sample rate when the file has no time column or Fs metadata, Hz.
-    #[arg(long, default_value_t = 100.0)]
+    #[arg(long, default_value_t = 100.0, value_parser = positive_finite)]
     pub rate_hz: f64,
     /// ADC limits LO:HI; static samples at a limit are refused as saturated (default: inferred
     /// from integer data: 8-bit, 10-bit or 16-bit).
@@ -140,6 +140,17 @@ pub fn positive_finite(s: &str) -> Result<f64, String> {
         Ok(v)
     } else {
         Err(format!("'{s}': must be a finite number above 0"))
+    }
+}
+
+/// A duration in seconds, 1 ms to 10⁶ s (a window of 1e-300 s would silently become the
+/// detector's 3-sample minimum).
+pub fn duration_s(s: &str) -> Result<f64, String> {
+    let v = positive_finite(s)?;
+    if (1e-3..=1e6).contains(&v) {
+        Ok(v)
+    } else {
+        Err(format!("'{s}': give a duration from 0.001 to 1000000 s"))
     }
 }
 

@@ -26,8 +26,9 @@ pub struct Args {
     /// wiimote (~105 counts/g) | nunchuk (~200 counts/g).
     #[arg(long, default_value = "wiimote", value_parser = parse_device)]
     pub device: Device,
-    /// Number of poses after the initial rest.
-    #[arg(long, default_value_t = 30)]
+    /// Number of poses after the initial rest (1 to 5000: about 22 kB of CSV per pose, so the
+    /// file stays well inside the 256 MiB that `fit` and `analyze` read).
+    #[arg(long, default_value_t = 30, value_parser = parse_poses)]
     pub poses: usize,
     /// Leave out the temperature column.
     #[arg(long)]
@@ -62,6 +63,22 @@ fn effect_specs(effects: &[SimEffect], mags: &[f64]) -> Result<Vec<EffectSpec>> 
         .map(|(i, e)| EffectSpec::new(*e, mags.get(i).or(mags.first()).copied()))
         .collect())
 }
+
+/// `--poses`: 1 to [`MAX_POSES`].
+fn parse_poses(s: &str) -> Result<usize, String> {
+    let n: usize = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("'{s}' is not a whole number"))?;
+    if (1..=MAX_POSES).contains(&n) {
+        Ok(n)
+    } else {
+        Err(format!("{n} poses: give 1 to {MAX_POSES} (a larger simulation would write a file the readers refuse)"))
+    }
+}
+
+/// Most poses a simulation writes (≈ 110 MB of CSV).
+pub const MAX_POSES: usize = 5000;
 
 /// Runs `wiical simulate`; returns what to print.
 pub fn run(a: &Args) -> Result<String> {
