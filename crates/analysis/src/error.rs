@@ -84,12 +84,12 @@ pub enum Error {
         max: usize,
     },
     /// A gzip file that cannot be decompressed (corrupt or cut short).
-    #[error("cannot decompress {} (gzip): {source}", path.display())]
+    #[error("cannot decompress {} (gzip): {cause}", path.display())]
     Gzip {
         /// The file.
         path: PathBuf,
         /// Why.
-        source: std::io::Error,
+        cause: std::io::Error,
     },
     /// A gzip file whose content is larger than the cap.
     #[error("{} decompresses to more than {limit_mib} MiB: split the recording or decompress only the part to analyse", path.display())]

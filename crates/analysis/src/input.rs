@@ -102,9 +102,9 @@ fn gunzip(path: &Path, compressed: &[u8], limit: u64) -> Result<Vec<u8>> {
     flate2::read::MultiGzDecoder::new(compressed)
         .take(limit + 1)
         .read_to_end(&mut out)
-        .map_err(|source| Error::Gzip {
+        .map_err(|cause| Error::Gzip {
             path: path.into(),
-            source,
+            cause,
         })?;
     if out.len() as u64 > limit {
         return Err(Error::GzipTooLarge {
