@@ -57,11 +57,14 @@ fn json_contract_and_out_file_on_an_mpu9150_unit() {
 fn readable_errors() {
     let file = data_dir().join("mpu9150_mikoff_5units/imu1.csv");
     let f = file.to_str().unwrap();
-    let (ok, _, err) = wiical(&["gyrofit", f]);
-    assert!(
-        !ok && err.contains("--scale") && err.contains("--counts-per-dps"),
-        "{err}"
-    );
+    // No datasheet number and no unit in the names: the nominal comes from the motions.
+    let (ok, out, err) = wiical(&["gyrofit", f, "--json"]);
+    assert!(ok, "{err}");
+    let v: Value = serde_json::from_str(&out).unwrap();
+    assert!(v["nominal_source"]
+        .as_str()
+        .unwrap()
+        .starts_with("estimated from the motions"));
     let (ok, _, err) = wiical(&["gyrofit", f, "--scale", "1e-3,2e-3"]);
     assert!(!ok && err.contains("one value or three"), "{err}");
     let (ok, _, err) = wiical(&["gyrofit", f, "--scale", "0"]);

@@ -48,9 +48,20 @@ pub struct GyroOptions {
     pub max_iterations: u32,
     /// Where the nominal came from, for the report (`--scale`, the columns' unit, …).
     pub nominal_source: String,
+    /// Estimate the nominal from the motions instead ([`estimate_nominal`]): no datasheet.
+    pub estimate_nominal: bool,
 }
 
 impl GyroOptions {
+    /// Defaults with the nominal estimated from the motions ([`estimate_nominal`]).
+    pub fn estimated() -> Self {
+        Self {
+            estimate_nominal: true,
+            nominal_source: "estimated from the motions".into(),
+            ..Self::new([1.0; 3])
+        }
+    }
+
     /// Defaults for a nominal sensitivity.
     pub fn new(nominal_rad_per_count: [f64; 3]) -> Self {
         Self {
@@ -59,6 +70,7 @@ impl GyroOptions {
             accel_model: MultiPosModel::Full,
             max_iterations: 100,
             nominal_source: "given".into(),
+            estimate_nominal: false,
         }
     }
 }
@@ -174,6 +186,58 @@ fn align(acc: &Recording, gyro: &Recording) -> Result<Aligned> {
     Ok((out, Some(tg.clone())))
 }
 
+/// The gyro's sensitivity (rad/s per count, signed per axis) without a datasheet: the scale
+/// whose integration best turns each static window's gravity direction into the next's (the
+/// RMS of the motions' angle errors, the same error the fit minimises). A coarse search over
+/// seven decades (10⁻⁷ to 1 rad/s per count, steps of 10^0.05 ≈ 12 %) with one scale for all
+/// axes, then the sign of each axis (a flipped axis), then a golden-section refinement of the
+/// scale within the best step. The candidate fits then adjust each axis from there.
+pub fn estimate_nominal(motions: &[Motion<'_, f64>], bias: [f64; 3], dt: f64) -> Result<[f64; 3]> {
+    let cost = |scale: [f64; 3]| -> f64 {
+        let cal = GyroCalibration::nominal(bias, scale);
+        let sq: f64 = motions
+            .iter()
+            .map(|m| motion_angle(m, &cal, dt).map_or(f64::INFINITY, |a| a * a))
+            .sum();
+        sq / motions.len() as f64
+    };
+    let at = |log_s: f64, sign: [f64; 3]| sign.map(|g| g * 10f64.powf(log_s));
+    let grid = (0..=140).map(|i| -7.0 + 0.05 * i as f64);
+    let mut signs = [1.0; 3];
+    let (mut best_log, _) = grid
+        .clone()
+        .map(|l| (l, cost(at(l, signs))))
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .ok_or(Error::GyroFitFailed(wiical_core::Error::NotConverged))?;
+    // The sign of each axis, then the scale again with those signs.
+    signs = (0..8)
+        .map(|k| std::array::from_fn(|a| if k >> a & 1 == 1 { -1.0 } else { 1.0 }))
+        .min_by(|a: &[f64; 3], b: &[f64; 3]| {
+            cost(at(best_log, *a)).total_cmp(&cost(at(best_log, *b)))
+        })
+        .unwrap_or([1.0; 3]);
+    best_log = grid
+        .map(|l| (l, cost(at(l, signs))))
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .map_or(best_log, |(l, _)| l);
+    // Golden-section search on log₁₀(scale) within one grid step either side.
+    let (mut lo, mut hi) = (best_log - 0.05, best_log + 0.05);
+    let r = (5f64.sqrt() - 1.0) / 2.0;
+    for _ in 0..30 {
+        let (a, b) = (hi - r * (hi - lo), lo + r * (hi - lo));
+        if cost(at(a, signs)) < cost(at(b, signs)) {
+            hi = b;
+        } else {
+            lo = a;
+        }
+    }
+    let s = at((lo + hi) / 2.0, signs);
+    if !cost(s).is_finite() {
+        return Err(Error::GyroFitFailed(wiical_core::Error::NotConverged));
+    }
+    Ok(s)
+}
+
 /// A note per axis whose fitted sensitivity has the opposite sign of the nominal: the gyro
 /// axis points the other way from the accelerometer's (a flipped axis, as in sunsided's
 /// MPU-6050 logs); the fit has absorbed it, and a datasheet nominal would have missed it.
@@ -222,10 +286,11 @@ fn deg(rad: f64) -> f64 {
 /// Runs the gyro calibration on an accelerometer recording and the gyro recording of the same
 /// samples.
 pub fn run(acc: &Recording, gyro: &Recording, opts: &GyroOptions) -> Result<GyroReport> {
-    if !opts
-        .nominal_rad_per_count
-        .iter()
-        .all(|s| s.is_finite() && *s != 0.0)
+    if !opts.estimate_nominal
+        && !opts
+            .nominal_rad_per_count
+            .iter()
+            .all(|s| s.is_finite() && *s != 0.0)
     {
         return Err(Error::GyroNominalScale);
     }
@@ -275,7 +340,7 @@ pub fn run(acc: &Recording, gyro: &Recording, opts: &GyroOptions) -> Result<Gyro
     let n = rest_samples.len() as f64;
     let bias_from_rest: [f64; 3] =
         std::array::from_fn(|a| rest_samples.iter().map(|s| s[a]).sum::<f64>() / n);
-    let nominal = GyroCalibration::nominal(bias_from_rest, opts.nominal_rad_per_count);
+    let dt = 1.0 / rate;
     let spans: Vec<gyro_fit::MotionSpan> = gyro_fit::motion_spans(&det.intervals, &accel)
         .collect::<std::result::Result<_, _>>()
         .map_err(Error::GyroFitFailed)?;
@@ -293,7 +358,17 @@ pub fn run(acc: &Recording, gyro: &Recording, opts: &GyroOptions) -> Result<Gyro
             g_end: nalgebra::Vector3::from(s.g_end).cast(),
         })
         .collect();
-    let dt = 1.0 / rate;
+    let (nominal_scale, nominal_source) = if opts.estimate_nominal {
+        let s = estimate_nominal(&motions, bias_from_rest, dt)?;
+        let source = format!(
+            "estimated from the motions ({:.4e}, {:.4e}, {:.4e} rad/s per count: the scale that best turns each window's gravity direction into the next's)",
+            s[0], s[1], s[2]
+        );
+        (s, source)
+    } else {
+        (opts.nominal_rad_per_count, opts.nominal_source.clone())
+    };
+    let nominal = GyroCalibration::nominal(bias_from_rest, nominal_scale);
     let (rows, best) = evaluate_candidates(&motions, &nominal, dt, opts)?;
     let (name, fit, cv, held) = best;
     let before = rows[0].rms_deg.unwrap_or(f64::NAN);
@@ -312,7 +387,7 @@ pub fn run(acc: &Recording, gyro: &Recording, opts: &GyroOptions) -> Result<Gyro
         notes.push("no fitted model beats the nominal scale on held-out motions: the calibration is the nominal one with the bias from rest".into());
     }
     let cal = fit.calibration;
-    notes.extend(flipped_axes(&cal, &opts.nominal_rad_per_count));
+    notes.extend(flipped_axes(&cal, &nominal_scale));
     let motion_table = spans
         .iter()
         .zip(&motions)
@@ -342,8 +417,8 @@ pub fn run(acc: &Recording, gyro: &Recording, opts: &GyroOptions) -> Result<Gyro
         models: rows,
         motion_table,
         sample_rate_hz: rate,
-        nominal_rad_per_count: opts.nominal_rad_per_count,
-        nominal_source: opts.nominal_source.clone(),
+        nominal_rad_per_count: nominal_scale,
+        nominal_source,
         bias_from_rest,
         notes,
     })

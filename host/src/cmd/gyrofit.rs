@@ -49,8 +49,9 @@ fn per_axis(v: &[f64], flag: &str) -> Result<[f64; 3]> {
 }
 
 /// The nominal sensitivity in rad/s per count and where it came from: `--scale` or
-/// `--counts-per-dps`, else the gyro columns' unit (`gyro_x_dps`: 1 count = 1 °/s).
-fn nominal(a: &Args, gyro: &Recording) -> Result<([f64; 3], String)> {
+/// `--counts-per-dps`, else the gyro columns' unit (`gyro_x_dps`: 1 count = 1 °/s); `None`:
+/// neither, the engine estimates it from the motions.
+fn nominal(a: &Args, gyro: &Recording) -> Result<Option<([f64; 3], String)>> {
     let (s, source) = match (&a.scale, &a.counts_per_dps) {
         (Some(s), None) => (per_axis(s, "--scale")?, "--scale".to_string()),
         (None, Some(c)) => (
@@ -58,18 +59,12 @@ fn nominal(a: &Args, gyro: &Recording) -> Result<([f64; 3], String)> {
             "--counts-per-dps".to_string(),
         ),
         (Some(_), Some(_)) => bail!("give either --scale or --counts-per-dps, not both"),
-        (None, None) => match nominal_from_columns(gyro) {
-            Some(n) => n,
-            None => bail!(
-                "the gyro's nominal sensitivity is needed (the uncalibrated baseline and the fit's start) and the gyro columns ({}) do not state a unit: --scale RAD_PER_S_PER_COUNT or --counts-per-dps COUNTS (from the datasheet)",
-                gyro.axis_columns.join(",")
-            ),
-        },
+        (None, None) => return Ok(nominal_from_columns(gyro)),
     };
     if !s.iter().all(|x| x.is_finite() && *x != 0.0) {
         bail!("the nominal sensitivity must be finite and non-zero on every axis");
     }
-    Ok((s, source))
+    Ok(Some((s, source)))
 }
 
 /// What `--out` writes.
@@ -117,9 +112,13 @@ pub fn run(a: &Args) -> Result<String> {
             (acc, gyro)
         }
     };
-    let (scale, source) = nominal(a, &gyro)?;
-    let mut opts = GyroOptions::new(scale);
-    opts.nominal_source = source;
+    let mut opts = match nominal(a, &gyro)? {
+        Some((scale, source)) => GyroOptions {
+            nominal_source: source,
+            ..GyroOptions::new(scale)
+        },
+        None => GyroOptions::estimated(),
+    };
     opts.detect = a
         .detect
         .fit_options(wiical_core::multipos::MultiPosModel::Full)
