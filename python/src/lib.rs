@@ -322,6 +322,75 @@ fn decode_cal(device: &str, hex: &str) -> PyResult<(String, bool)> {
     }
 }
 
+/// `wiical gyrofit --json`: gyro scale, misalignment and bias from the motions between the
+/// static windows `fit` finds. `gyro_path`: the gyro file of a pair (IMU-TK); else the gyro
+/// columns of `path` (named in the header, or `gyro_columns`). The nominal: `scale` (rad/s per
+/// count, one or three values) or `counts_per_dps`, else the columns' unit, else estimated
+/// from the motions — the CLI's order.
+#[pyfunction]
+#[pyo3(signature = (path, detect, gyro_path=None, gyro_columns=None, scale=None, counts_per_dps=None))]
+fn gyrofit(
+    py: Python<'_>,
+    path: PathBuf,
+    detect: Detect,
+    gyro_path: Option<PathBuf>,
+    gyro_columns: Option<Vec<String>>,
+    scale: Option<Vec<f64>>,
+    counts_per_dps: Option<Vec<f64>>,
+) -> PyResult<String> {
+    use wiical_analysis::gyro::{nominal_from_columns, GyroOptions};
+    let three = |v: Vec<f64>, what: &str| -> PyResult<[f64; 3]> {
+        match v.as_slice() {
+            [a] => Ok([*a; 3]),
+            [a, b, c] => Ok([*a, *b, *c]),
+            _ => Err(arg_err(format!(
+                "{what} takes one value or three, got {}",
+                v.len()
+            ))),
+        }
+    };
+    let gyro_columns = match gyro_columns.as_deref() {
+        None => None,
+        Some([x, y, z]) => Some([x.clone(), y.clone(), z.clone()]),
+        Some(o) => {
+            return Err(arg_err(format!(
+                "gyro_columns needs three names, got {}",
+                o.len()
+            )))
+        }
+    };
+    let (acc, gyro) = py
+        .detach(|| match &gyro_path {
+            Some(g) => Ok((
+                wiical_analysis::load(&path, &LoadOptions::default())?,
+                wiical_analysis::load(g, &LoadOptions::default())?,
+            )),
+            None => wiical_analysis::load::load_imu(&path, &LoadOptions::default(), gyro_columns),
+        })
+        .map_err(py_err)?;
+    let given = match (scale, counts_per_dps) {
+        (Some(s), None) => Some((three(s, "scale")?, "--scale".to_string())),
+        (None, Some(c)) => Some((
+            three(c, "counts_per_dps")?.map(|c| 1f64.to_radians() / c),
+            "--counts-per-dps".to_string(),
+        )),
+        (Some(_), Some(_)) => return Err(arg_err("give scale or counts_per_dps, not both".into())),
+        (None, None) => nominal_from_columns(&gyro),
+    };
+    let mut opts = match given {
+        Some((s, source)) => GyroOptions {
+            nominal_source: source,
+            ..GyroOptions::new(s)
+        },
+        None => GyroOptions::estimated(),
+    };
+    opts.detect = detect.options();
+    let rep = py
+        .detach(|| wiical_analysis::gyro::run(&acc, &gyro, &opts))
+        .map_err(py_err)?;
+    to_json(&rep)
+}
+
 /// What `read` returns: samples as bytes plus the loader's metadata (JSON).
 type ReadResult<'py> = (
     Bound<'py, PyBytes>,
@@ -385,6 +454,7 @@ fn _wiical(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(fit, m)?)?;
     m.add_function(wrap_pyfunction!(analyze, m)?)?;
     m.add_function(wrap_pyfunction!(magfit, m)?)?;
+    m.add_function(wrap_pyfunction!(gyrofit, m)?)?;
     m.add_function(wrap_pyfunction!(six_position, m)?)?;
     m.add_function(wrap_pyfunction!(decode_cal, m)?)?;
     m.add_function(wrap_pyfunction!(read, m)?)?;

@@ -111,6 +111,17 @@ def test_magfit_equals_cli(folder: str, name: str, model: str) -> None:
     assert wiical.magfit(path, model=model) == cli_json("magfit", path, "--model", model)
 
 
+def test_gyrofit_equals_cli() -> None:
+    sunsided = data("mpu6050_hmc5883l_sunsided_set2", "full-sphere_mpu6050.csv")
+    assert wiical.gyrofit(sunsided) == cli_json("gyrofit", sunsided)
+    acc, gyro = data("imu_tk_xsens", "xsens_acc.mat"), data("imu_tk_xsens", "xsens_gyro.mat")
+    got = wiical.gyrofit(acc, gyro, scale=1.598e-4)
+    assert got == cli_json("gyrofit", acc, gyro, "--scale", "1.598e-4")
+    unit = data("mpu9150_mikoff_5units", "imu2.csv")
+    got = wiical.gyrofit(unit, counts_per_dps=16.384)
+    assert got == cli_json("gyrofit", unit, "--counts-per-dps", "16.384")
+
+
 @pytest.mark.parametrize("estimator", ["mean", "kalman"])
 def test_six_position_equals_cli(estimator: str) -> None:
     path = data("seed_six_position", "wiimote_M.csv")

@@ -33,6 +33,7 @@ __all__ = [
     "fit",
     "analyze",
     "magfit",
+    "gyrofit",
     "six_position",
     "decode_cal",
     "read",
@@ -147,6 +148,40 @@ def magfit(
     """Magnetometer hard/soft-iron fit (sphere, axis or ellipsoid): ``wiical magfit --json``."""
     out = _wiical.magfit(
         _source(data), model, list(columns) if columns is not None else None
+    )
+    return json.loads(out)
+
+
+def gyrofit(
+    path: PathLike,
+    gyro_path: Optional[PathLike] = None,
+    *,
+    gyro_columns: Optional[Sequence[str]] = None,
+    scale: Optional[Union[float, Sequence[float]]] = None,
+    counts_per_dps: Optional[Union[float, Sequence[float]]] = None,
+    rate_hz: float = 100.0,
+    window_s: Optional[float] = None,
+    init_s: Optional[float] = None,
+    min_static_s: Optional[float] = None,
+    threshold: Optional[float] = None,
+    adc_range: Optional[Tuple[float, float]] = None,
+) -> Dict[str, Any]:
+    """Gyro scale, misalignment and bias from the motions between fit's static windows:
+    ``wiical gyrofit --json``. The nominal: ``scale`` (rad/s per count) or ``counts_per_dps``,
+    else the gyro columns' unit, else estimated from the motions."""
+
+    def many(v: Any) -> Optional[list]:
+        if v is None:
+            return None
+        return [float(x) for x in (v if isinstance(v, (list, tuple)) else [v])]
+
+    out = _wiical.gyrofit(
+        os.fspath(path),
+        _detect(rate_hz, window_s, init_s, min_static_s, threshold, adc_range),
+        None if gyro_path is None else os.fspath(gyro_path),
+        list(gyro_columns) if gyro_columns is not None else None,
+        many(scale),
+        many(counts_per_dps),
     )
     return json.loads(out)
 
