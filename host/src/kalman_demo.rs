@@ -127,8 +127,8 @@ const CHI2_3_95: (f64, f64) = (0.215_795, 9.348_404);
 /// medians), and 10⁵ runs already take seconds.
 pub const MAX_RUNS: u32 = 100_000;
 
-/// Runs the Monte Carlo described in the [module docs](self).
-pub fn run(cfg: &KalmanDemoConfig) -> Result<KalmanDemoReport> {
+/// The checked settings: the number of steps and the filter's configuration.
+fn checked(cfg: &KalmanDemoConfig) -> Result<(u32, PvbConfig)> {
     ensure!(cfg.runs >= 1, "runs must be at least 1");
     ensure!(
         cfg.runs <= MAX_RUNS,
@@ -153,7 +153,6 @@ pub fn run(cfg: &KalmanDemoConfig) -> Result<KalmanDemoReport> {
         (1.0..=1e7).contains(&steps_f),
         "duration_s / dt must give between 1 and 10^7 steps"
     );
-    let steps = steps_f as u32;
     let filter_cfg = PvbConfig {
         dt: cfg.dt as f32,
         accel_noise: cfg.accel_noise as f32,
@@ -164,55 +163,89 @@ pub fn run(cfg: &KalmanDemoConfig) -> Result<KalmanDemoReport> {
     };
     // Validate once, with a readable message.
     PvbFilter::new(&filter_cfg).context("invalid filter configuration")?;
+    Ok((steps_f as u32, filter_cfg))
+}
 
-    let n = cfg.runs as usize;
-    let mut abs_err = Vec::with_capacity(n);
-    let mut estimates = Vec::with_capacity(n);
-    let mut reported_sd = Vec::with_capacity(n);
-    let mut nees = Vec::with_capacity(n);
-    let mut trace = Vec::with_capacity(steps as usize);
-    for run in 0..cfg.runs {
-        let mut rng = ChaCha8Rng::seed_from_u64(cfg.seed);
-        rng.set_stream(u64::from(run));
-        let mut filter = PvbFilter::new(&filter_cfg)?;
-        let mut bias = cfg.true_bias;
-        for k in 1..=steps {
-            // Still device: true acceleration 0, so the accelerometer reads its bias + noise.
-            let w: f64 = StandardNormal.sample(&mut rng);
-            let a_m = bias + cfg.accel_noise * w;
-            filter
-                .predict(a_m as f32)
-                .with_context(|| format!("run {run}, step {k}: predict"))?;
-            // The bias random walk (if any) happens over the step, like the filter's model.
-            let wb: f64 = StandardNormal.sample(&mut rng);
-            bias += cfg.bias_walk * cfg.dt.sqrt() * wb;
-            let e: f64 = StandardNormal.sample(&mut rng);
-            let z = cfg.pos_noise_m * e;
-            filter
-                .update(z as f32)
-                .with_context(|| format!("run {run}, step {k}: update"))?;
-            if run == 0 {
-                trace.push([f64::from(k) * cfg.dt, f64::from(filter.bias())]);
-            }
+/// One run's outcome: the bias estimate and its truth, the filter's reported SD of the bias,
+/// and the NEES of [p, v, b].
+struct RunOutcome {
+    b_hat: f64,
+    bias: f64,
+    reported_sd: f64,
+    nees: f64,
+}
+
+/// One Monte Carlo run (its own random stream); the first run's bias estimate per step goes
+/// to `trace`.
+fn one_run(
+    cfg: &KalmanDemoConfig,
+    filter_cfg: &PvbConfig,
+    steps: u32,
+    run: u32,
+    mut trace: Option<&mut Vec<[f64; 2]>>,
+) -> Result<RunOutcome> {
+    let mut rng = ChaCha8Rng::seed_from_u64(cfg.seed);
+    rng.set_stream(u64::from(run));
+    let mut filter = PvbFilter::new(filter_cfg)?;
+    let mut bias = cfg.true_bias;
+    for k in 1..=steps {
+        // Still device: true acceleration 0, so the accelerometer reads its bias + noise.
+        let w: f64 = StandardNormal.sample(&mut rng);
+        let a_m = bias + cfg.accel_noise * w;
+        filter
+            .predict(a_m as f32)
+            .with_context(|| format!("run {run}, step {k}: predict"))?;
+        // The bias random walk (if any) happens over the step, like the filter's model.
+        let wb: f64 = StandardNormal.sample(&mut rng);
+        bias += cfg.bias_walk * cfg.dt.sqrt() * wb;
+        let e: f64 = StandardNormal.sample(&mut rng);
+        let z = cfg.pos_noise_m * e;
+        filter
+            .update(z as f32)
+            .with_context(|| format!("run {run}, step {k}: update"))?;
+        if let Some(t) = trace.as_deref_mut() {
+            t.push([f64::from(k) * cfg.dt, f64::from(filter.bias())]);
         }
-        // Error of [p, v, b] against the truth [0, 0, bias], and the NEES eᵀP⁻¹e in f64 via
-        // a Cholesky solve.
-        let x = filter.state().cast::<f64>();
-        let b_hat = x[2];
-        let mut err = -x;
-        err[2] += bias;
-        let p = filter.covariance().cast::<f64>();
-        let q = p
-            .cholesky()
-            .map(|c| err.dot(&c.solve(&err)))
-            .with_context(|| format!("run {run}: covariance not positive definite"))?;
-        abs_err.push((b_hat - bias).abs());
-        estimates.push(b_hat);
-        reported_sd.push(p[(2, 2)].sqrt());
-        nees.push(q);
     }
+    // Error of [p, v, b] against the truth [0, 0, bias], and the NEES eᵀP⁻¹e in f64 via a
+    // Cholesky solve.
+    let x = filter.state().cast::<f64>();
+    let mut err = -x;
+    err[2] += bias;
+    let p = filter.covariance().cast::<f64>();
+    let nees = p
+        .cholesky()
+        .map(|c| err.dot(&c.solve(&err)))
+        .with_context(|| format!("run {run}: covariance not positive definite"))?;
+    Ok(RunOutcome {
+        b_hat: x[2],
+        bias,
+        reported_sd: p[(2, 2)].sqrt(),
+        nees,
+    })
+}
 
+/// Runs the Monte Carlo described in the [module docs](self).
+pub fn run(cfg: &KalmanDemoConfig) -> Result<KalmanDemoReport> {
+    let (steps, filter_cfg) = checked(cfg)?;
+    let mut trace = Vec::with_capacity(steps as usize);
+    let outcomes: Vec<RunOutcome> = (0..cfg.runs)
+        .map(|run| {
+            one_run(
+                cfg,
+                &filter_cfg,
+                steps,
+                run,
+                (run == 0).then_some(&mut trace),
+            )
+        })
+        .collect::<Result<_>>()?;
+    let n = outcomes.len();
     let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+    let estimates: Vec<f64> = outcomes.iter().map(|o| o.b_hat).collect();
+    let nees: Vec<f64> = outcomes.iter().map(|o| o.nees).collect();
+    let reported_sd: Vec<f64> = outcomes.iter().map(|o| o.reported_sd).collect();
+    let mut abs_err: Vec<f64> = outcomes.iter().map(|o| (o.b_hat - o.bias).abs()).collect();
     let mean_b = mean(&estimates);
     let sd_b = if n > 1 {
         (estimates.iter().map(|b| (b - mean_b).powi(2)).sum::<f64>() / (n - 1) as f64).sqrt()

@@ -72,9 +72,53 @@ pub fn verdict_text(
     cv_possible: bool,
     untested: &[(String, usize)],
 ) -> String {
+    let above = base.chi2_p.is_some_and(|p| p < alpha);
+    let mut s = base_sentence(base, floor, above);
+    if !cv_possible {
+        s.push_str("Cross-validation is not possible with these windows (a held-out window leaves the model undetermined), so no effect was tested.");
+        return s;
+    }
+    if effects.is_empty() {
+        s.push_str(&nothing_found(untested));
+        if above {
+            s.push_str(" The excess over the floor is not explained by any candidate (slow noise, imperfect stillness, or an effect outside the library).");
+        }
+    } else {
+        let names: Vec<&str> = effects.iter().map(|e| e.name.as_str()).collect();
+        let untested_note = untested_sentence(untested);
+        let _ = write!(
+            s,
+            "Added {}: RMS {:.3} → {:.3} mg, CV {} → {} mg (×{:.1} lower).",
+            names.join(" + "),
+            base.rms_mg,
+            fin.rms_mg,
+            base.cv_rms_mg.map_or("n/a".into(), |x| format!("{x:.3}")),
+            fin.cv_rms_mg.map_or("n/a".into(), |x| format!("{x:.3}")),
+            match (base.cv_rms_mg, fin.cv_rms_mg) {
+                (Some(a), Some(b)) if b > 0.0 => a / b,
+                _ => f64::NAN,
+            }
+        );
+        if let Some(p) = fin.chi2_p {
+            if p < alpha {
+                s.push_str(" The final residual is still above the floor.");
+            } else {
+                s.push_str(" The final residual is consistent with the noise floor.");
+            }
+        }
+        if let Some(u) = untested_note {
+            s.push(' ');
+            s.push_str(&u);
+        }
+    }
+    s
+}
+
+/// The base model against the noise floor: "Base model: RMS … (CV …) against a noise floor of
+/// …: the residual is above / consistent with the floor (χ² …)." (or: the floor is unknown).
+fn base_sentence(base: &ModelSummary, floor: &Floor, above: bool) -> String {
     let (floor_mg, batch_mg) = (floor.mg, floor.batch_mg);
     let mut s = String::new();
-    let above = base.chi2_p.is_some_and(|p| p < alpha);
     if !floor_mg.is_finite() {
         // Window means without their sample counts (a window-mean table): var/n is unknown.
         let _ = write!(
@@ -113,43 +157,6 @@ pub fn verdict_text(
                 )
             }
         );
-    }
-    if !cv_possible {
-        s.push_str("Cross-validation is not possible with these windows (a held-out window leaves the model undetermined), so no effect was tested.");
-        return s;
-    }
-    if effects.is_empty() {
-        s.push_str(&nothing_found(untested));
-        if above {
-            s.push_str(" The excess over the floor is not explained by any candidate (slow noise, imperfect stillness, or an effect outside the library).");
-        }
-    } else {
-        let names: Vec<&str> = effects.iter().map(|e| e.name.as_str()).collect();
-        let untested_note = untested_sentence(untested);
-        let _ = write!(
-            s,
-            "Added {}: RMS {:.3} → {:.3} mg, CV {} → {} mg (×{:.1} lower).",
-            names.join(" + "),
-            base.rms_mg,
-            fin.rms_mg,
-            base.cv_rms_mg.map_or("n/a".into(), |x| format!("{x:.3}")),
-            fin.cv_rms_mg.map_or("n/a".into(), |x| format!("{x:.3}")),
-            match (base.cv_rms_mg, fin.cv_rms_mg) {
-                (Some(a), Some(b)) if b > 0.0 => a / b,
-                _ => f64::NAN,
-            }
-        );
-        if let Some(p) = fin.chi2_p {
-            if p < alpha {
-                s.push_str(" The final residual is still above the floor.");
-            } else {
-                s.push_str(" The final residual is consistent with the noise floor.");
-            }
-        }
-        if let Some(u) = untested_note {
-            s.push(' ');
-            s.push_str(&u);
-        }
     }
     s
 }

@@ -255,11 +255,6 @@ fn flipped_axes(cal: &GyroCalibration<f64>, nominal: &[f64; 3]) -> Vec<String> {
         .collect()
 }
 
-/// The static windows as the core's gyro fit takes them.
-struct Intervals {
-    intervals: Vec<StaticInterval>,
-}
-
 /// The gyro's nominal sensitivity from its columns' unit, when the names state one:
 /// `deg/s` (`gyro_x_dps`) is 1 count = 1 °/s, `rad/s` 1 count = 1 rad/s. Returns the nominal
 /// (rad/s per count) and a sentence saying where it came from.
@@ -283,19 +278,10 @@ fn deg(rad: f64) -> f64 {
     rad.to_degrees()
 }
 
-/// Runs the gyro calibration on an accelerometer recording and the gyro recording of the same
-/// samples.
-pub fn run(acc: &Recording, gyro: &Recording, opts: &GyroOptions) -> Result<GyroReport> {
-    if !opts.estimate_nominal
-        && !opts
-            .nominal_rad_per_count
-            .iter()
-            .all(|s| s.is_finite() && *s != 0.0)
-    {
-        return Err(Error::GyroNominalScale);
-    }
+/// The accelerometer rows that belong to the gyro's, as a recording with its clock.
+fn paired_accelerometer(acc: &Recording, gyro: &Recording) -> Result<Recording> {
     let (acc_xyz, subset_times) = align(acc, gyro)?;
-    let acc_rec = match subset_times {
+    Ok(match subset_times {
         // A subset of the rows: the rate comes from their times, not from the file's Fs.
         Some(t) => Recording {
             xyz: acc_xyz,
@@ -308,40 +294,36 @@ pub fn run(acc: &Recording, gyro: &Recording, opts: &GyroOptions) -> Result<Gyro
             sample_rate_hz: acc.sample_rate_hz.or(gyro.sample_rate_hz),
             ..Default::default()
         },
-    };
-    let rate = acc_rec
-        .estimated_rate_hz()
-        .unwrap_or(opts.detect.default_rate_hz);
-    // The windows `wiical fit` finds on the same file and settings, and its calibration.
-    let ws = detect_windows(&acc_rec, &opts.detect)?;
-    let times = ws.times.clone();
+    })
+}
+
+/// What the accelerometer says: the windows `wiical fit` finds on the same file and settings
+/// (as the core's intervals), their times, and the motions between them with `fit`'s
+/// gravity directions.
+struct Segmentation {
+    intervals: Vec<StaticInterval>,
+    times: Vec<f64>,
+    spans: Vec<gyro_fit::MotionSpan>,
+}
+
+fn segment(acc_rec: &Recording, opts: &GyroOptions) -> Result<Segmentation> {
+    let ws = detect_windows(acc_rec, &opts.detect)?;
     let fit_opts = FitOptions {
         detect: opts.detect.clone(),
         model: opts.accel_model,
     };
     let accel = run_windows(&ws, &fit_opts)?.calibration;
-    let det = Intervals {
-        intervals: ws
-            .stats
-            .iter()
-            .map(|w| StaticInterval {
-                start: w.start as u32,
-                end: w.end as u32,
-                mean: w.mean.map(|x| x as f32),
-                variance: w.var.map(|x| x as f32),
-            })
-            .collect(),
-    };
-    let rest = det.intervals.first().ok_or(Error::TooFewMotions {
-        found: 0,
-        needed: 2,
-    })?;
-    let rest_samples = &gyro.xyz[rest.start as usize..rest.end as usize];
-    let n = rest_samples.len() as f64;
-    let bias_from_rest: [f64; 3] =
-        std::array::from_fn(|a| rest_samples.iter().map(|s| s[a]).sum::<f64>() / n);
-    let dt = 1.0 / rate;
-    let spans: Vec<gyro_fit::MotionSpan> = gyro_fit::motion_spans(&det.intervals, &accel)
+    let intervals: Vec<StaticInterval> = ws
+        .stats
+        .iter()
+        .map(|w| StaticInterval {
+            start: w.start as u32,
+            end: w.end as u32,
+            mean: w.mean.map(|x| x as f32),
+            variance: w.var.map(|x| x as f32),
+        })
+        .collect();
+    let spans: Vec<gyro_fit::MotionSpan> = gyro_fit::motion_spans(&intervals, &accel)
         .collect::<std::result::Result<_, _>>()
         .map_err(Error::GyroFitFailed)?;
     if spans.len() < 2 {
@@ -350,7 +332,40 @@ pub fn run(acc: &Recording, gyro: &Recording, opts: &GyroOptions) -> Result<Gyro
             needed: 2,
         });
     }
-    let motions: Vec<Motion<'_, f64>> = spans
+    Ok(Segmentation {
+        intervals,
+        times: ws.times,
+        spans,
+    })
+}
+
+/// The gyro's mean over the first window (the uncalibrated bias), raw counts.
+fn bias_at_rest(gyro: &Recording, rest: &StaticInterval) -> [f64; 3] {
+    let rest_samples = &gyro.xyz[rest.start as usize..rest.end as usize];
+    let n = rest_samples.len() as f64;
+    std::array::from_fn(|a| rest_samples.iter().map(|s| s[a]).sum::<f64>() / n)
+}
+
+/// Runs the gyro calibration on an accelerometer recording and the gyro recording of the same
+/// samples.
+pub fn run(acc: &Recording, gyro: &Recording, opts: &GyroOptions) -> Result<GyroReport> {
+    if !opts.estimate_nominal
+        && !opts
+            .nominal_rad_per_count
+            .iter()
+            .all(|s| s.is_finite() && *s != 0.0)
+    {
+        return Err(Error::GyroNominalScale);
+    }
+    let acc_rec = paired_accelerometer(acc, gyro)?;
+    let rate = acc_rec
+        .estimated_rate_hz()
+        .unwrap_or(opts.detect.default_rate_hz);
+    let seg = segment(&acc_rec, opts)?;
+    let bias_from_rest = bias_at_rest(gyro, &seg.intervals[0]);
+    let dt = 1.0 / rate;
+    let motions: Vec<Motion<'_, f64>> = seg
+        .spans
         .iter()
         .map(|s| Motion {
             samples: &gyro.xyz[s.start as usize..s.end as usize],
@@ -371,46 +386,17 @@ pub fn run(acc: &Recording, gyro: &Recording, opts: &GyroOptions) -> Result<Gyro
     let nominal = GyroCalibration::nominal(bias_from_rest, nominal_scale);
     let (rows, best) = evaluate_candidates(&motions, &nominal, dt, opts)?;
     let (name, fit, cv, held) = best;
-    let before = rows[0].rms_deg.unwrap_or(f64::NAN);
-    let uncal_cv = rows[0].cv_rms_deg.unwrap_or(f64::NAN);
-    let mut notes = Vec::new();
-    if let Some(full) = rows.iter().find(|r| r.name == "full") {
-        if let Some(c) = full.cv_rms_deg {
-            if c > uncal_cv {
-                notes.push(format!(
-                    "the full 9-parameter fit does worse on held-out motions ({c:.3}°) than the uncalibrated gyro ({uncal_cv:.3}°): these motions do not determine it; {name} was chosen instead"
-                ));
-            }
-        }
-    }
-    if name == "uncalibrated" {
-        notes.push("no fitted model beats the nominal scale on held-out motions: the calibration is the nominal one with the bias from rest".into());
-    }
     let cal = fit.calibration;
+    let mut notes = choice_notes(&rows, name);
     notes.extend(flipped_axes(&cal, &nominal_scale));
-    let motion_table = spans
-        .iter()
-        .zip(&motions)
-        .zip(&held)
-        .map(|((s, m), h)| {
-            let t = |i: u32| times.get(i as usize).copied().unwrap_or(f64::NAN);
-            Ok(MotionRow {
-                t_start: t(s.start),
-                t_end: t(s.end.saturating_sub(1)),
-                tilt_deg: deg(m.g_start.angle(&m.g_end)),
-                error_before_deg: deg(motion_angle(m, &nominal, dt).map_err(Error::GyroFitFailed)?),
-                error_after_deg: deg(motion_angle(m, &cal, dt).map_err(Error::GyroFitFailed)?),
-                held_out_deg: deg(*h),
-            })
-        })
-        .collect::<Result<Vec<_>>>()?;
+    let motion_table = motion_table(&seg, &motions, &held, (&nominal, &cal), dt)?;
     let k = cal.matrix;
     Ok(GyroReport {
-        static_windows: det.intervals.len(),
+        static_windows: seg.intervals.len(),
         motions: motions.len(),
         bias: cal.bias.into(),
         matrix: std::array::from_fn(|r| std::array::from_fn(|c| k[(r, c)])),
-        rms_deg_before: before,
+        rms_deg_before: rows[0].rms_deg.unwrap_or(f64::NAN),
         rms_deg_after: deg(fit.rms_after),
         cv_rms_deg: cv,
         model: name,
@@ -422,6 +408,55 @@ pub fn run(acc: &Recording, gyro: &Recording, opts: &GyroOptions) -> Result<Gyro
         bias_from_rest,
         notes,
     })
+}
+
+/// Remarks on the choice: a full model that generalises worse than none, or no fitted model
+/// at all.
+fn choice_notes(rows: &[GyroModelRow], name: &str) -> Vec<String> {
+    let uncal_cv = rows[0].cv_rms_deg.unwrap_or(f64::NAN);
+    let mut notes = Vec::new();
+    if let Some(c) = rows
+        .iter()
+        .find(|r| r.name == "full")
+        .and_then(|r| r.cv_rms_deg)
+    {
+        if c > uncal_cv {
+            notes.push(format!(
+                "the full 9-parameter fit does worse on held-out motions ({c:.3}°) than the uncalibrated gyro ({uncal_cv:.3}°): these motions do not determine it; {name} was chosen instead"
+            ));
+        }
+    }
+    if name == "uncalibrated" {
+        notes.push("no fitted model beats the nominal scale on held-out motions: the calibration is the nominal one with the bias from rest".into());
+    }
+    notes
+}
+
+/// Per motion: its times, tilt, error before (`cals.0`, the nominal) and after (`cals.1`),
+/// and held out.
+fn motion_table(
+    seg: &Segmentation,
+    motions: &[Motion<'_, f64>],
+    held: &[f64],
+    cals: (&GyroCalibration<f64>, &GyroCalibration<f64>),
+    dt: f64,
+) -> Result<Vec<MotionRow>> {
+    seg.spans
+        .iter()
+        .zip(motions)
+        .zip(held)
+        .map(|((s, m), h)| {
+            let t = |i: u32| seg.times.get(i as usize).copied().unwrap_or(f64::NAN);
+            Ok(MotionRow {
+                t_start: t(s.start),
+                t_end: t(s.end.saturating_sub(1)),
+                tilt_deg: deg(m.g_start.angle(&m.g_end)),
+                error_before_deg: deg(motion_angle(m, cals.0, dt).map_err(Error::GyroFitFailed)?),
+                error_after_deg: deg(motion_angle(m, cals.1, dt).map_err(Error::GyroFitFailed)?),
+                held_out_deg: deg(*h),
+            })
+        })
+        .collect()
 }
 
 /// The chosen candidate: name, fit, held-out RMS (degrees), held-out angle per motion (rad).

@@ -97,34 +97,7 @@ pub fn write_plot(r: &NoiseReport, path: &Path) -> Result<()> {
             .y_desc("σ(τ) (column unit)")
             .draw()
             .map_err(|e| anyhow!("{e}"))?;
-        for (i, a) in r.axes.iter().enumerate() {
-            let color = Palette99::pick(i).to_rgba();
-            let label = format!(
-                "{} ({})",
-                a.column,
-                a.unit.as_deref().unwrap_or("file unit")
-            );
-            let series: Vec<(f64, f64)> = a
-                .curve
-                .tau_s
-                .iter()
-                .copied()
-                .zip(a.curve.adev.iter().copied())
-                .collect();
-            chart
-                .draw_series(series.iter().map(|p| Circle::new(*p, 3, color.filled())))
-                .map_err(|e| anyhow!("{e}"))?
-                .label(label)
-                .legend(move |(x, y)| Circle::new((x + 10, y), 3, color.filled()));
-            let model: Vec<(f64, f64)> = series
-                .iter()
-                .map(|(t, _)| (*t, model_adev(&a.terms, *t)))
-                .filter(|(_, s)| *s > 0.0)
-                .collect();
-            chart
-                .draw_series(LineSeries::new(model, color.stroke_width(1)))
-                .map_err(|e| anyhow!("{e}"))?;
-        }
+        draw_axes(&mut chart, r)?;
         chart
             .configure_series_labels()
             .border_style(BLACK)
@@ -136,4 +109,50 @@ pub fn write_plot(r: &NoiseReport, path: &Path) -> Result<()> {
     let bytes = std::fs::read(&tmp)?;
     let _ = std::fs::remove_file(&tmp);
     wiical_analysis::write::write_file(path, &bytes).map_err(crate::cli_error::cli_error)
+}
+
+/// One axis's points and fitted line per colour.
+fn draw_axes<DB: DrawingBackend>(
+    chart: &mut ChartContext<
+        '_,
+        DB,
+        Cartesian2d<
+            plotters::coord::combinators::LogCoord<f64>,
+            plotters::coord::combinators::LogCoord<f64>,
+        >,
+    >,
+    r: &NoiseReport,
+) -> Result<()>
+where
+    DB::ErrorType: 'static,
+{
+    for (i, a) in r.axes.iter().enumerate() {
+        let color = Palette99::pick(i).to_rgba();
+        let label = format!(
+            "{} ({})",
+            a.column,
+            a.unit.as_deref().unwrap_or("file unit")
+        );
+        let series: Vec<(f64, f64)> = a
+            .curve
+            .tau_s
+            .iter()
+            .copied()
+            .zip(a.curve.adev.iter().copied())
+            .collect();
+        chart
+            .draw_series(series.iter().map(|p| Circle::new(*p, 3, color.filled())))
+            .map_err(|e| anyhow!("{e}"))?
+            .label(label)
+            .legend(move |(x, y)| Circle::new((x + 10, y), 3, color.filled()));
+        let model: Vec<(f64, f64)> = series
+            .iter()
+            .map(|(t, _)| (*t, model_adev(&a.terms, *t)))
+            .filter(|(_, s)| *s > 0.0)
+            .collect();
+        chart
+            .draw_series(LineSeries::new(model, color.stroke_width(1)))
+            .map_err(|e| anyhow!("{e}"))?;
+    }
+    Ok(())
 }
