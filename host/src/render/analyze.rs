@@ -4,7 +4,60 @@
 use std::fmt::Write as _;
 use wiical_analysis::autocal::AutocalReport;
 use wiical_analysis::evidence::{fmt_p, fmt_vec};
-use wiical_analysis::report::{AnalyzeReport, ModelSummary, SixPositionDetails, WindowInfo};
+use wiical_analysis::report::{
+    AnalyzeReport, ModelSummary, SixPositionDetails, StepReport, WindowInfo,
+};
+
+/// One model's line: parameters, RMS, CV, windows, χ²/dof.
+fn model_line(name: &str, m: &ModelSummary) -> String {
+    format!(
+        "{name:<6} params {:>3}  RMS {:>9.4} mg  CV {:>10}  windows {:>3}  χ²/dof {}",
+        m.params,
+        m.rms_mg,
+        m.cv_rms_mg.map_or("n/a".into(), |x| format!("{x:.4} mg")),
+        m.windows_used,
+        match (m.chi2, m.chi2_dof) {
+            (Some(c), Some(d)) => format!(
+                "{:.2} (p {})",
+                c / d.max(1) as f64,
+                fmt_p(m.chi2_p.unwrap_or(f64::NAN))
+            ),
+            _ => "n/a".into(),
+        }
+    )
+}
+
+/// The candidates of every step of the search.
+fn steps_text(steps: &[StepReport]) -> String {
+    let mut o = String::new();
+    if steps.is_empty() {
+        return o;
+    }
+    let _ = writeln!(o, "\nCandidates per step (level = α / candidates):");
+    for (k, s) in steps.iter().enumerate() {
+        let _ = writeln!(
+            o,
+            "  step {} (level {:.1e}) → {}",
+            k + 1,
+            s.level,
+            s.accepted.as_deref().unwrap_or("none accepted")
+        );
+        for c in &s.candidates {
+            let _ = writeln!(
+                o,
+                "    {:<18} CV {:>10} (current {:>10})  F {:>8}  p {:>9}  {}",
+                c.name,
+                c.cv_rms_mg.map_or("-".into(), |x| format!("{x:.4}")),
+                c.cv_rms_current_mg
+                    .map_or("-".into(), |x| format!("{x:.4}")),
+                c.f_stat.map_or("-".into(), |x| format!("{x:.2}")),
+                c.p_value.map_or("-".into(), |x| format!("{x:.1e}")),
+                c.note
+            );
+        }
+    }
+    o
+}
 
 /// Human-readable report.
 pub fn render_text(rep: &AnalyzeReport, file: &str) -> String {
@@ -30,23 +83,6 @@ pub fn render_text(rep: &AnalyzeReport, file: &str) -> String {
     } else {
         o.push_str(&window_table(&rep.windows));
     }
-    let line = |name: &str, m: &ModelSummary| {
-        format!(
-            "{name:<6} params {:>3}  RMS {:>9.4} mg  CV {:>10}  windows {:>3}  χ²/dof {}",
-            m.params,
-            m.rms_mg,
-            m.cv_rms_mg.map_or("n/a".into(), |x| format!("{x:.4} mg")),
-            m.windows_used,
-            match (m.chi2, m.chi2_dof) {
-                (Some(c), Some(d)) => format!(
-                    "{:.2} (p {})",
-                    c / d.max(1) as f64,
-                    fmt_p(m.chi2_p.unwrap_or(f64::NAN))
-                ),
-                _ => "n/a".into(),
-            }
-        )
-    };
     let _ = writeln!(
         o,
         "\nnoise floor {} mg{}",
@@ -55,33 +91,9 @@ pub fn render_text(rep: &AnalyzeReport, file: &str) -> String {
         rep.noise_floor_batch_mg
             .map_or(String::new(), |x| format!(" (batch means {x:.4} mg)"))
     );
-    let _ = writeln!(o, "{}", line("base", &rep.base));
-    let _ = writeln!(o, "{}", line("final", &rep.final_model));
-    if !rep.steps.is_empty() {
-        let _ = writeln!(o, "\nCandidates per step (level = α / candidates):");
-        for (k, s) in rep.steps.iter().enumerate() {
-            let _ = writeln!(
-                o,
-                "  step {} (level {:.1e}) → {}",
-                k + 1,
-                s.level,
-                s.accepted.as_deref().unwrap_or("none accepted")
-            );
-            for c in &s.candidates {
-                let _ = writeln!(
-                    o,
-                    "    {:<18} CV {:>10} (current {:>10})  F {:>8}  p {:>9}  {}",
-                    c.name,
-                    c.cv_rms_mg.map_or("-".into(), |x| format!("{x:.4}")),
-                    c.cv_rms_current_mg
-                        .map_or("-".into(), |x| format!("{x:.4}")),
-                    c.f_stat.map_or("-".into(), |x| format!("{x:.2}")),
-                    c.p_value.map_or("-".into(), |x| format!("{x:.1e}")),
-                    c.note
-                );
-            }
-        }
-    }
+    let _ = writeln!(o, "{}", model_line("base", &rep.base));
+    let _ = writeln!(o, "{}", model_line("final", &rep.final_model));
+    o.push_str(&steps_text(&rep.steps));
     if rep.effects.is_empty() {
         let _ = writeln!(o, "\nEffects added: none");
     } else {
