@@ -272,30 +272,7 @@ impl Search {
         let Some(mut tr) = self.trials(ctx) else {
             return false;
         };
-        let scores: Vec<TermScore> = tr
-            .terms
-            .iter()
-            .map(|t| TermScore {
-                p_value: t.p,
-                cv: t.cv,
-                cv_on_kept: tr
-                    .outliers
-                    .as_ref()
-                    .map(|(_, o)| cv_over(&t.loo, &o.used).unwrap_or(f64::INFINITY)),
-                storable: t.candidate.storable(),
-                members_pass: t.members_pass(),
-            })
-            .collect();
-        let out_score = tr.outliers.as_ref().map(|(_, o)| match o.judged_cv {
-            Some((cv_kept, cv_current_kept)) => OutlierScore {
-                cv_kept,
-                cv_current_kept,
-            },
-            None => OutlierScore {
-                cv_kept: cv_over(&o.loo, &o.used).unwrap_or(f64::INFINITY),
-                cv_current_kept: cv_over(&self.state.loo, &o.used),
-            },
-        });
+        let (scores, out_score) = self.scores(&tr);
         let sel = select(
             &scores,
             out_score.as_ref(),
@@ -349,6 +326,35 @@ impl Search {
                 true
             }
         }
+    }
+
+    /// What the selection rule sees of each candidate of the step.
+    fn scores(&self, tr: &StepTrials) -> (Vec<TermScore>, Option<OutlierScore>) {
+        let scores: Vec<TermScore> = tr
+            .terms
+            .iter()
+            .map(|t| TermScore {
+                p_value: t.p,
+                cv: t.cv,
+                cv_on_kept: tr
+                    .outliers
+                    .as_ref()
+                    .map(|(_, o)| cv_over(&t.loo, &o.used).unwrap_or(f64::INFINITY)),
+                storable: t.candidate.storable(),
+                members_pass: t.members_pass(),
+            })
+            .collect();
+        let out_score = tr.outliers.as_ref().map(|(_, o)| match o.judged_cv {
+            Some((cv_kept, cv_current_kept)) => OutlierScore {
+                cv_kept,
+                cv_current_kept,
+            },
+            None => OutlierScore {
+                cv_kept: cv_over(&o.loo, &o.used).unwrap_or(f64::INFINITY),
+                cv_current_kept: cv_over(&self.state.loo, &o.used),
+            },
+        });
+        (scores, out_score)
     }
 
     /// Fits every candidate of this step (`None`: nothing left to try).
@@ -486,6 +492,11 @@ impl Search {
                 })
             });
         }
+        (self.outlier_report(&tr), tr)
+    }
+
+    /// The outlier candidate's line in the step's report.
+    fn outlier_report(&self, tr: &Option<OutlierTrial>) -> CandidateReport {
         let mut rep = CandidateReport {
             name: Candidate::Outliers.to_string(),
             params: 0,
@@ -510,7 +521,7 @@ impl Search {
             rep.f_stat = tr.f_stats.iter().copied().reduce(f64::min);
             rep.p_value = tr.p_values.iter().copied().reduce(f64::max);
         }
-        (rep, tr)
+        rep
     }
 
     fn accept_outliers(

@@ -710,10 +710,15 @@ mod tests {
 
     #[test]
     fn a_huge_bad_field_is_quoted_short() {
-        let text = format!("x,y,z\n1,{},3\n", "7a".repeat(5_000_000));
+        // A long bad field inside a line of legal length is quoted short …
+        let text = format!("x,y,z\n1,{},3\n", "7a".repeat(15_000));
         let e = p(&text).unwrap_err().to_string();
         assert!(e.len() < 200, "{} bytes", e.len());
-        assert!(e.contains("(10000000 characters)"), "{e}");
+        assert!(e.contains("(30000 characters)"), "{e}");
+        // … and a line too long to be a recording's is refused by its length.
+        let text = format!("x,y,z\n1,{},3\n", "7a".repeat(5_000_000));
+        let e = p(&text).unwrap_err().to_string();
+        assert!(e.contains("line 2 is 10000004 bytes long"), "{e}");
     }
 
     #[test]

@@ -137,6 +137,41 @@ fn robust_fit(current: &Fit, used0: &[bool], mask: &Mask, wins: &[Win]) -> Optio
 
 /// Tests each suspect against the fit on the other windows (see [`find_outliers`]) and
 /// iterates until the rejected set is stable.
+/// The prediction-error t statistic of window `i` and its degrees of freedom. A suspect
+/// currently rejected is outside the fit `clean` (whose variance and dof are `clean_s2`); one
+/// still in it is tested by its deletion residual (a refit without it).
+fn deletion_t(
+    clean: &am::Fit,
+    clean_s2: (f64, usize),
+    i: usize,
+    used: &[bool],
+    mask: &Mask,
+    wins: &[Win],
+    floor: &[f64],
+) -> Option<(f64, usize)> {
+    let (e, h, s2, d) = if used[i] {
+        let mut u2 = used.to_vec();
+        u2[i] = false;
+        let f2 = am::fit(&clean.p, mask, wins, &u2)?;
+        let d2 = f2.n.saturating_sub(f2.k).max(1);
+        (
+            am::residual(&f2.p, &wins[i]),
+            am::leverage(&f2.p, mask, wins, &u2, i)?,
+            reference_variance(f2.rss, d2 as f64, floor, &u2),
+            d2,
+        )
+    } else {
+        (
+            am::residual(&clean.p, &wins[i]),
+            am::leverage(&clean.p, mask, wins, used, i)?,
+            clean_s2.0,
+            clean_s2.1,
+        )
+    };
+    Some((e / (s2 * (1.0 + h)).max(1e-300).sqrt(), d))
+}
+
+#[allow(clippy::too_many_arguments)]
 fn test_suspects(
     p: &Params,
     suspects: &[(usize, f64)],
@@ -165,28 +200,8 @@ fn test_suspects(
         let mut pv = Vec::new();
         let mut ts = Vec::new();
         for &(i, _) in suspects {
-            // Suspects currently rejected are outside the fit; the others are tested by their
-            // deletion residual (refit without them).
-            let (e, h, s2, d) = if used[i] {
-                let mut u2 = used.clone();
-                u2[i] = false;
-                let f2 = am::fit(&clean.p, mask, wins, &u2)?;
-                let d2 = f2.n.saturating_sub(f2.k).max(1);
-                (
-                    am::residual(&f2.p, &wins[i]),
-                    am::leverage(&f2.p, mask, wins, &u2, i)?,
-                    reference_variance(f2.rss, d2 as f64, floor, &u2),
-                    d2,
-                )
-            } else {
-                (
-                    am::residual(&clean.p, &wins[i]),
-                    am::leverage(&clean.p, mask, wins, &used, i)?,
-                    sigma2,
-                    dof,
-                )
-            };
-            let t = e / (s2 * (1.0 + h)).max(1e-300).sqrt();
+            let t_d = deletion_t(&clean, (sigma2, dof), i, &used, mask, wins, floor)?;
+            let (t, d) = t_d;
             let pval = (st::t_two_sided(t, d as f64) * n as f64).min(1.0);
             if pval < level {
                 keep.push(i);

@@ -360,6 +360,40 @@ fn six_effects(
     (effects, cal, final_rms, final_params)
 }
 
+/// The six-position section of the report.
+fn details(s: &Structure, t: &Tests, explanation: String) -> SixPositionDetails {
+    SixPositionDetails {
+        samples_per_pose: s.counts,
+        pose_means_raw: s.means,
+        pose_residual_mg: s.rg.map(|r| r.map(|x| x * 1e3)),
+        pair_residual_mg: s.pr.map(|r| r.map(|x| x * 1e3)),
+        norm_residual_mg: s.norm_res,
+        implied_k2_mg: s.implied_k2,
+        misalignment_contrast_mg: s.mis,
+        pose_mean_std_raw: t.pose_mean_var.map(|v| v.map(f64::sqrt)),
+        chi2_even: t.chi_e,
+        p_even: t.p_e,
+        chi2_misalignment: t.chi_m,
+        p_misalignment: t.p_m,
+        explanation,
+    }
+}
+
+/// Sanity: the stored calibration reproduces the fit on the pose means.
+fn check_reproduces_poses(cal: &Calibration, means32: &[[f32; 3]]) -> Result<()> {
+    for (p, m) in means32.iter().enumerate() {
+        let a = cal.correct(*m, &Conditions::default());
+        let dir = Pose::ALL[p].direction();
+        let err = (0..3).map(|j| (a[j] - dir[j]).abs()).fold(0.0f32, f32::max);
+        if !(err < 0.2) {
+            return Err(Error::Internal(
+                "six-position calibration does not reproduce the poses".into(),
+            ));
+        }
+    }
+    Ok(())
+}
+
 /// Runs the six-position analysis.
 pub fn analyze_six(rec: &Recording, opts: &AnalyzeOptions) -> Result<AnalyzeReport> {
     let s = structure(rec)?;
@@ -380,17 +414,7 @@ pub fn analyze_six(rec: &Recording, opts: &AnalyzeOptions) -> Result<AnalyzeRepo
         chi2_p: chi_total.map(|c| st::chi2_sf(c, 6.0)),
     };
     let (effects, cal, final_rms, final_params) = six_effects(&s, &t, base_rms);
-    // Sanity: the stored calibration reproduces the fit on the pose means.
-    for (p, m) in s.means32.iter().enumerate() {
-        let a = cal.correct(*m, &Conditions::default());
-        let dir = Pose::ALL[p].direction();
-        let err = (0..3).map(|j| (a[j] - dir[j]).abs()).fold(0.0f32, f32::max);
-        if !(err < 0.2) {
-            return Err(Error::Internal(
-                "six-position calibration does not reproduce the poses".into(),
-            ));
-        }
-    }
+    check_reproduces_poses(&cal, &s.means32)?;
     let counts_total: u32 = s.counts.iter().sum();
     let explanation = explanation(
         &s.pr,
@@ -400,21 +424,7 @@ pub fn analyze_six(rec: &Recording, opts: &AnalyzeOptions) -> Result<AnalyzeRepo
         t.pose_mean_var.is_some(),
         counts_total,
     );
-    let details = SixPositionDetails {
-        samples_per_pose: s.counts,
-        pose_means_raw: s.means,
-        pose_residual_mg: s.rg.map(|r| r.map(|x| x * 1e3)),
-        pair_residual_mg: s.pr.map(|r| r.map(|x| x * 1e3)),
-        norm_residual_mg: s.norm_res,
-        implied_k2_mg: s.implied_k2,
-        misalignment_contrast_mg: s.mis,
-        pose_mean_std_raw: t.pose_mean_var.map(|v| v.map(f64::sqrt)),
-        chi2_even: t.chi_e,
-        p_even: t.p_e,
-        chi2_misalignment: t.chi_m,
-        p_misalignment: t.p_m,
-        explanation: explanation.clone(),
-    };
+    let details = details(&s, &t, explanation.clone());
     let final_model = ModelSummary {
         params: final_params,
         rms_mg: final_rms,

@@ -262,8 +262,7 @@ fn fill(
     let (mut raw_t, mut raw_a) = (vec![0.0f64; 2], vec![0.0f64; 2 * nch]);
     let (mut prev, mut cur) = (first, first);
     let (mut prev_start, mut prev_len) = (f64::NAN, 0usize);
-    let (mut pos, mut last, mut consecutive) = (1usize, 0usize, 0usize);
-    let mut started = false;
+    let (mut pos, mut last, mut consecutive, mut started) = (1usize, 0usize, 0usize, false);
     for ii in start + 1..=end {
         let raw_last;
         if ii == nb {
@@ -277,20 +276,7 @@ fn fill(
             set_times(&mut raw_t, prev_start, new_t, raw_last);
         } else {
             let Some(b) = good(raw, ii) else {
-                g.log.push(QcEntry {
-                    checksum_pass: false,
-                    block: ii as u64,
-                    next: ii as u64 + 1,
-                    imputed: false,
-                });
-                g.warnings.push(format!("Skipping corrupt block #{ii}"));
-                consecutive += 1;
-                if consecutive > MAX_CORRUPT {
-                    return Err(Error::TooManyCorruptBlocks {
-                        block: ii,
-                        max: MAX_CORRUPT,
-                    });
-                }
+                skip_corrupt(g, ii, &mut consecutive)?;
                 continue;
             };
             consecutive = 0;
@@ -321,41 +307,16 @@ fn fill(
             raw_a.resize((raw_last + 1) * nch, 0.0);
             raw_a[2 * nch..(raw_last + 1) * nch].copy_from_slice(&prev.data);
         }
-        // Grid points this block may reach: 200 ahead, more after a time jump.
-        let mut hi = (pos + 200).min(nr);
-        if pos > nr || hi == 0 {
+        let Some(hi) = reach(pos, time, raw_t[raw_last], prev.rate_hz) else {
             break;
-        }
-        if raw_t[raw_last] > time[hi - 1] {
-            let jump = raw_t[raw_last] - time[hi - 1];
-            hi = (hi + (jump * prev.rate_hz).floor() as usize).min(nr);
-        }
+        };
         let slice = &time[pos - 1..hi];
         let rows = if impute {
-            let v = &raw_a[nch..nch + 3];
-            let norm = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-            let unit = if norm > 0.8 && norm < 1.2 {
-                [v[0] / norm, v[1] / norm, v[2] / norm]
-            } else {
-                [0.0, 0.0, 1.0]
-            };
-            let n = slice.iter().filter(|&&t| t < raw_t[raw_last]).count();
-            let mut r = vec![0.0; n * nch];
-            for row in r.chunks_exact_mut(nch) {
-                row[..3].copy_from_slice(&unit);
-            }
-            r
+            imputed_rows(&raw_a[nch..nch + 3], nch, slice, raw_t[raw_last])
         } else {
             resample(&raw_a[nch..], nch, &raw_t[1..], slice, raw_last)
         };
-        let n = rows.len() / nch;
-        last = n + pos - 1;
-        if n > 0 {
-            g.values[(pos - 1) * nch..last * nch].copy_from_slice(&rows);
-            g.temp[pos - 1..last].fill(prev.temp_c);
-            g.battery[pos - 1..last].fill(prev.battery_v);
-            g.light[pos - 1..last].fill(prev.light);
-        }
+        last = write_rows(g, &rows, pos, nch, prev);
         if last >= 1 {
             raw_t[1] = time[last - 1];
             let row: Vec<f64> = g.values[(last - 1) * nch..last * nch].to_vec();
@@ -365,6 +326,72 @@ fn fill(
         pos = last + 1;
     }
     Ok(last)
+}
+
+/// A corrupt block: logged (checksum failed, not imputed) and warned about; too many in a row
+/// stop the reading.
+fn skip_corrupt(g: &mut Grid, ii: usize, consecutive: &mut usize) -> Result<()> {
+    g.log.push(QcEntry {
+        checksum_pass: false,
+        block: ii as u64,
+        next: ii as u64 + 1,
+        imputed: false,
+    });
+    g.warnings.push(format!("Skipping corrupt block #{ii}"));
+    *consecutive += 1;
+    if *consecutive > MAX_CORRUPT {
+        return Err(Error::TooManyCorruptBlocks {
+            block: ii,
+            max: MAX_CORRUPT,
+        });
+    }
+    Ok(())
+}
+
+/// The grid points (1-based end index) a block may reach from `pos`: 200 ahead, more after a
+/// time jump; `None` past the grid's end.
+fn reach(pos: usize, time: &[f64], raw_t_last: f64, rate_hz: f64) -> Option<usize> {
+    let nr = time.len();
+    let mut hi = (pos + 200).min(nr);
+    if pos > nr || hi == 0 {
+        return None;
+    }
+    if raw_t_last > time[hi - 1] {
+        let jump = raw_t_last - time[hi - 1];
+        hi = (hi + (jump * rate_hz).floor() as usize).min(nr);
+    }
+    Some(hi)
+}
+
+/// An imputed gap: the last good sample's direction `v` scaled to 1 g (or straight up when
+/// its norm is not near 1 g), for every grid point before `until`.
+fn imputed_rows(v: &[f64], nch: usize, slice: &[f64], until: f64) -> Vec<f64> {
+    let norm = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+    let unit = if norm > 0.8 && norm < 1.2 {
+        [v[0] / norm, v[1] / norm, v[2] / norm]
+    } else {
+        [0.0, 0.0, 1.0]
+    };
+    let n = slice.iter().filter(|&&t| t < until).count();
+    let mut r = vec![0.0; n * nch];
+    for row in r.chunks_exact_mut(nch) {
+        row[..3].copy_from_slice(&unit);
+    }
+    r
+}
+
+/// Writes `rows` at grid row `pos` (1-based) with the block's temperature, battery and
+/// light; returns the last row written (1-based; `pos − 1` when none).
+fn write_rows(g: &mut Grid, rows: &[f64], pos: usize, nch: usize, block: &GoodBlock) -> usize {
+    let n = rows.len() / nch;
+    let last = n + pos - 1;
+    if n > 0 {
+        g.values[(pos - 1) * nch..last * nch].copy_from_slice(rows);
+        g.temp[pos - 1..last].fill(block.temp_c);
+        g.battery[pos - 1..last].fill(block.battery_v);
+        g.light[pos - 1..last].fill(block.light);
+    }
+    last
 }
 
 /// R's `rawTime[2:(n+1)] = seq(a, b, length.out = n)` (growing the vector as R does).
