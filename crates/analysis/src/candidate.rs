@@ -4,6 +4,7 @@
 //! block, residual and derivatives) and, if the device should apply it, in the core's
 //! `Effects`.
 
+use crate::effect_names as names;
 use crate::error::Error;
 use crate::model::Term;
 use std::fmt;
@@ -44,13 +45,13 @@ impl Candidate {
     /// The name of the JSON contract.
     pub fn name(self) -> &'static str {
         match self {
-            Candidate::Quadratic => "quadratic",
-            Candidate::Cubic => "cubic",
-            Candidate::BiasDrift => "bias-drift",
-            Candidate::Temperature => "temperature",
-            Candidate::TemperatureScale => "temperature-scale",
-            Candidate::Outliers => "outliers",
-            Candidate::BiasDriftCurved => "bias-drift-curved",
+            Candidate::Quadratic => names::QUADRATIC,
+            Candidate::Cubic => names::CUBIC,
+            Candidate::BiasDrift => names::BIAS_DRIFT,
+            Candidate::Temperature => names::TEMPERATURE,
+            Candidate::TemperatureScale => names::TEMPERATURE_SCALE,
+            Candidate::Outliers => names::OUTLIERS,
+            Candidate::BiasDriftCurved => names::BIAS_DRIFT_CURVED,
         }
     }
 

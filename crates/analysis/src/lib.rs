@@ -81,6 +81,7 @@ pub mod batch;
 pub mod calfile;
 pub mod candidate;
 pub mod columns;
+pub mod effect_names;
 pub mod error;
 pub mod evidence;
 pub mod factory;

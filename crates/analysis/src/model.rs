@@ -27,6 +27,7 @@
 //! multi-position fit, instantiated in `f64`), so there is one solver in the project.
 
 #![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x > 0.0)` is deliberately true for NaN.
+use crate::effect_names as names;
 use nalgebra::SVector;
 use wiical_core::lm::{self, LmFit, LmSettings, Problem};
 use wiical_core::{Calibration, Effects};
@@ -169,12 +170,12 @@ impl Term {
     /// Name used in reports (the `effects[].name` of the JSON contract).
     pub fn name(self) -> &'static str {
         match self {
-            Term::Drift => "bias-drift",
-            Term::BiasTemp => "temperature",
-            Term::ScaleTemp => "temperature-scale",
-            Term::Quadratic => "quadratic",
-            Term::Cubic => "cubic",
-            Term::Drift2 => "bias-drift-curved",
+            Term::Drift => names::BIAS_DRIFT,
+            Term::BiasTemp => names::TEMPERATURE,
+            Term::ScaleTemp => names::TEMPERATURE_SCALE,
+            Term::Quadratic => names::QUADRATIC,
+            Term::Cubic => names::CUBIC,
+            Term::Drift2 => names::BIAS_DRIFT_CURVED,
         }
     }
 

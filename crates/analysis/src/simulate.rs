@@ -34,6 +34,7 @@
 //! The truth is written next to the recording as `FILE.truth.json` ([`Truth`]).
 
 #![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x > 0.0)` is deliberately true for NaN.
+use crate::effect_names as names;
 use crate::error::{Error, Result};
 use crate::recording::Recording;
 use crate::write::write_file;
@@ -78,13 +79,13 @@ impl SimEffect {
     /// The name used on the command line and by `analyze`.
     pub fn name(self) -> &'static str {
         match self {
-            SimEffect::None => "none",
-            SimEffect::Quadratic => "quadratic",
-            SimEffect::Cubic => "cubic",
-            SimEffect::BiasDrift => "bias-drift",
-            SimEffect::Temperature => "temperature",
-            SimEffect::TemperatureScale => "temperature-scale",
-            SimEffect::Outliers => "outliers",
+            SimEffect::None => names::NONE,
+            SimEffect::Quadratic => names::QUADRATIC,
+            SimEffect::Cubic => names::CUBIC,
+            SimEffect::BiasDrift => names::BIAS_DRIFT,
+            SimEffect::Temperature => names::TEMPERATURE,
+            SimEffect::TemperatureScale => names::TEMPERATURE_SCALE,
+            SimEffect::Outliers => names::OUTLIERS,
         }
     }
 

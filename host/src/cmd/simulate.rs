@@ -12,8 +12,8 @@ pub struct Args {
     /// Output CSV (t,x,y,z,temp).
     #[arg(long)]
     pub out: PathBuf,
-    /// none | quadratic | cubic | bias-drift | temperature | temperature-scale | outliers, or
-    /// several comma-separated (`quadratic,temperature`).
+    /// The effect(s) to put in, comma-separated (`quadratic,temperature`); `none`: the
+    /// linear model alone. An unknown name is answered with the list of names.
     #[arg(long, default_value = "none", value_parser = parse_effect, value_delimiter = ',')]
     pub effect: Vec<SimEffect>,
     /// Size of the effect in milli-g (meaning per effect: see `wiical_analysis::simulate`):
@@ -37,10 +37,8 @@ pub struct Args {
 
 fn parse_effect(s: &str) -> Result<SimEffect, String> {
     SimEffect::parse(s).ok_or_else(|| {
-        format!(
-            "'{s}': expected none, quadratic, cubic, bias-drift, temperature, \
-             temperature-scale or outliers"
-        )
+        let names: Vec<&str> = SimEffect::ALL.iter().map(|e| e.name()).collect();
+        format!("'{s}': expected one of {}", names.join(", "))
     })
 }
 

@@ -157,14 +157,15 @@ fn draw(rep: &AnalyzeReport, root: &Root<'_>) -> Result<()> {
         };
     // Panel 1: against the effect's own variable (time, temperature, window index).
     let first = rep.effects.first().map(|e| e.name.as_str());
+    use wiical_analysis::effect_names as names;
     let (title, xd, f): (&str, &str, fn(&wiical_analysis::report::WindowInfo) -> f64) = match first
     {
-        Some("temperature") | Some("temperature-scale") => (
+        Some(names::TEMPERATURE) | Some(names::TEMPERATURE_SCALE) => (
             "residual vs window temperature",
             "window temperature (°C)",
             |w| w.temp.unwrap_or(f64::NAN),
         ),
-        Some("outliers") => ("residual vs window", "window #", |w| w.index as f64),
+        Some(names::OUTLIERS) => ("residual vs window", "window #", |w| w.index as f64),
         _ => (
             "residual vs window time",
             "window time since start (s)",
