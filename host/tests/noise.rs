@@ -56,3 +56,34 @@ fn a_recording_too_short_for_a_curve_is_one_sentence() {
     );
     assert_eq!(err.trim().lines().count(), 1, "{err}");
 }
+
+/// `kalman-demo --noise`: σ_a = N/√dt from the noise file's noisiest accelerometer axis, in
+/// m/s² (the ADIS16405's accelerometer is in g: ×9.80665), computed here from the JSON.
+#[test]
+fn kalman_demo_takes_its_noise_from_a_noise_file() {
+    let file = data_dir().join("adis16405_static_smac/imu1.csv.gz");
+    let (ok, noise, err) = wiical(&["noise", file.to_str().unwrap(), "--json"]);
+    assert!(ok, "{err}");
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("noise.json");
+    std::fs::write(&path, &noise).unwrap();
+    let v: Value = serde_json::from_str(&noise).unwrap();
+    let n_max = v["axes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|a| a["sensor"] == "accelerometer")
+        .filter_map(|a| a["n"].as_f64())
+        .fold(0.0f64, f64::max);
+    let p = path.to_str().unwrap();
+    let (ok, out, err) = wiical(&["kalman-demo", "--noise", p, "--runs", "20", "--json"]);
+    assert!(ok, "{err}");
+    let r: Value = serde_json::from_str(&out).unwrap();
+    let dt = r["config"]["dt"].as_f64().unwrap();
+    let sigma_a = r["config"]["accel_noise"].as_f64().unwrap();
+    let want = n_max * 9.80665 / dt.sqrt();
+    assert!((sigma_a / want - 1.0).abs() < 1e-5, "{sigma_a} vs {want}");
+    // A gyro axis is not an accelerometer's noise: one sentence.
+    let (ok, _, err) = wiical(&["kalman-demo", "--noise", p, "--noise-axis", "gx"]);
+    assert!(!ok && err.contains("not g or m/s²"), "{err}");
+}

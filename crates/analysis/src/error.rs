@@ -627,6 +627,13 @@ pub enum Error {
         needed: usize,
     },
 
+    /// A noise file that cannot give the Kalman filter its σ's.
+    #[error("the noise file cannot give the filter's noise: {why}")]
+    NoiseFileUnusable {
+        /// Why.
+        why: String,
+    },
+
     // ---- batch ----
     /// An input of `wiical batch` that is neither a file, a directory nor a pattern that
     /// can be expanded.

@@ -169,3 +169,83 @@ fn sensor_name(s: Sensor) -> &'static str {
         Sensor::Unnamed => "unnamed",
     }
 }
+
+/// One accelerometer axis's noise from a `wiical noise --json` file, in m/s² units: what the
+/// `[p, v, b]` Kalman filter takes (`wiical_core::kalman::PvbConfig::from_allan`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct AccelNoise {
+    /// The column it came from.
+    pub column: String,
+    /// White noise density N, m/s²/√Hz.
+    pub n_ms2_per_sqrt_hz: f64,
+    /// Rate random walk K, m/s²/√s (0 when its slope was not seen).
+    pub k_ms2_per_sqrt_s: f64,
+    /// Whether K was seen.
+    pub k_seen: bool,
+}
+
+/// Standard gravity, m/s² per g.
+const G: f64 = 9.80665;
+
+#[derive(serde::Deserialize)]
+struct NoiseFile {
+    axes: Vec<AxisIn>,
+}
+
+#[derive(serde::Deserialize)]
+struct AxisIn {
+    column: String,
+    sensor: String,
+    unit: Option<String>,
+    n: Option<f64>,
+    k: Option<f64>,
+}
+
+/// The accelerometer noise of a `wiical noise --json` file: the axis named `axis`, else the
+/// noisiest accelerometer axis (largest N: the filter's σ must cover every axis it is used
+/// on). Refused, in one sentence, when the file has no such axis, its unit is not g or m/s², or
+/// its N was not seen.
+pub fn accel_noise_from_json(text: &str, axis: Option<&str>) -> Result<AccelNoise> {
+    let why = |w: String| Error::NoiseFileUnusable { why: w };
+    let file: NoiseFile = serde_json::from_str(text)
+        .map_err(|e| why(format!("not a `wiical noise --json` file: {e}")))?;
+    let accel = |a: &&AxisIn| a.sensor == "accelerometer" || a.sensor == "unnamed";
+    let chosen = match axis {
+        Some(name) => file.axes.iter().find(|a| a.column == name),
+        None => file
+            .axes
+            .iter()
+            .filter(accel)
+            .filter(|a| a.n.is_some())
+            .max_by(|a, b| a.n.unwrap_or(0.0).total_cmp(&b.n.unwrap_or(0.0))),
+    }
+    .ok_or_else(|| {
+        why(format!(
+            "no axis {} in it",
+            axis.unwrap_or("of an accelerometer with N seen")
+        ))
+    })?;
+    let to_ms2 = match chosen.unit.as_deref() {
+        Some("g") => G,
+        Some("m/s^2") => 1.0,
+        other => {
+            return Err(why(format!(
+                "axis {} is in {}, not g or m/s²",
+                chosen.column,
+                other.unwrap_or("an unknown unit")
+            )))
+        }
+    };
+    let n = chosen.n.ok_or_else(|| {
+        why(format!(
+            "axis {}'s white noise N was not seen (the curve has no −½ slope)",
+            chosen.column
+        ))
+    })?;
+    Ok(AccelNoise {
+        column: chosen.column.clone(),
+        n_ms2_per_sqrt_hz: n * to_ms2,
+        k_ms2_per_sqrt_s: chosen.k.unwrap_or(0.0) * to_ms2,
+        k_seen: chosen.k.is_some(),
+    })
+}

@@ -82,6 +82,31 @@ pub struct PvbConfig {
 }
 
 impl PvbConfig {
+    /// The noise terms from an Allan deviation of the still accelerometer (`wiical noise`,
+    /// IEEE 952): `velocity_random_walk` N in m/s²/√Hz (the white noise density) gives the
+    /// per-sample σ_a = N/√dt; `rate_random_walk` K in m/s²/√s (the +½ slope; 0 when not
+    /// seen) is the bias random-walk density σ_bw directly. The bias instability B is not a
+    /// term of this filter (a flicker process has no finite-state model); a filter tuned to
+    /// hold B can raise `bias_walk` so that σ_bw·√τ ≈ B at the τ of interest.
+    pub fn from_allan(
+        dt: f32,
+        velocity_random_walk: f32,
+        rate_random_walk: f32,
+        pos_noise: f32,
+        initial_std: [f32; 3],
+    ) -> Result<Self, Error> {
+        let cfg = Self {
+            dt,
+            accel_noise: velocity_random_walk / libm::sqrtf(dt),
+            bias_walk: rate_random_walk,
+            pos_noise,
+            initial_state: [0.0; 3],
+            initial_std,
+        };
+        cfg.validate()?;
+        Ok(cfg)
+    }
+
     fn validate(&self) -> Result<(), Error> {
         let scalars = [self.dt, self.accel_noise, self.bias_walk, self.pos_noise];
         if !crate::all_finite(&scalars)

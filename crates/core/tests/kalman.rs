@@ -363,3 +363,14 @@ proptest! {
         }
     }
 }
+
+/// `PvbConfig::from_allan`: σ_a = N/√dt and σ_bw = K (IEEE 952 densities to the filter's
+/// per-step terms), refused for a non-positive dt.
+#[test]
+fn pvb_config_from_allan_terms() {
+    use wiical_core::kalman::PvbConfig;
+    let c = PvbConfig::from_allan(0.01, 0.05, 2e-4, 0.005, [0.005, 0.02, 0.5]).unwrap();
+    assert!((c.accel_noise - 0.5).abs() < 1e-6);
+    assert_eq!(c.bias_walk, 2e-4);
+    assert!(PvbConfig::from_allan(0.0, 0.05, 0.0, 0.005, [1.0; 3]).is_err());
+}

@@ -1,6 +1,7 @@
 //! `wiical kalman-demo`: Monte Carlo of the Wiimote article's Kalman filter.
 
 use super::to_json;
+use crate::cli_error::cli_error;
 use anyhow::Result;
 use std::fmt::Write as _;
 
@@ -19,6 +20,13 @@ pub struct Args {
     /// Position measurement noise, m.
     #[arg(long, value_parser = super::positive_finite)]
     pub pos_noise: Option<f64>,
+    /// Take σ_a and the bias random walk from a still accelerometer's noise
+    /// (`wiical noise --json` output): σ_a = N/√dt, bias walk = K (0 where K was not seen).
+    #[arg(long, conflicts_with = "accel_noise")]
+    pub noise: Option<std::path::PathBuf>,
+    /// The axis of the noise file to use (default: the accelerometer axis with the largest N).
+    #[arg(long, requires = "noise")]
+    pub noise_axis: Option<String>,
     /// Print JSON.
     #[arg(long)]
     pub json: bool,
@@ -37,6 +45,35 @@ pub fn run(a: &Args) -> Result<String> {
     if let Some(p) = a.pos_noise {
         cfg.pos_noise_m = p;
     }
+    let mut from_file = String::new();
+    if let Some(path) = &a.noise {
+        let text = wiical_analysis::input::read_text(path, 1 << 24).map_err(cli_error)?;
+        let n =
+            wiical_analysis::noise_report::accel_noise_from_json(&text, a.noise_axis.as_deref())
+                .map_err(|e| cli_error(e.in_file(path)))?;
+        // The core's constructor does the conversion (σ_a = N/√dt, σ_bw = K).
+        let pvb = wiical_core::kalman::PvbConfig::from_allan(
+            cfg.dt as f32,
+            n.n_ms2_per_sqrt_hz as f32,
+            n.k_ms2_per_sqrt_s as f32,
+            cfg.pos_noise_m as f32,
+            cfg.initial_std.map(|v| v as f32),
+        )
+        .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+        cfg.accel_noise = f64::from(pvb.accel_noise);
+        cfg.bias_walk = f64::from(pvb.bias_walk);
+        from_file = format!(
+            " (from {}, axis {}: N {:.3e} m/s²/√Hz, K {})",
+            path.display(),
+            n.column,
+            n.n_ms2_per_sqrt_hz,
+            if n.k_seen {
+                format!("{:.3e} m/s²/√s", n.k_ms2_per_sqrt_s)
+            } else {
+                "not seen: bias held constant".into()
+            }
+        );
+    }
     let rep = crate::kalman_demo::run(&cfg)?;
     if a.json {
         return to_json(&rep);
@@ -44,7 +81,7 @@ pub fn run(a: &Args) -> Result<String> {
     let mut o = String::new();
     writeln!(
         o,
-        "Kalman [p, v, b] demo: {} runs, seed {}, true bias {} m/s², σ_p {} m, σ_a {} m/s²",
+        "Kalman [p, v, b] demo: {} runs, seed {}, true bias {} m/s², σ_p {} m, σ_a {} m/s²{from_file}",
         rep.runs, cfg.seed, rep.true_bias, cfg.pos_noise_m, cfg.accel_noise
     )?;
     writeln!(
