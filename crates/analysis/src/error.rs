@@ -634,6 +634,27 @@ pub enum Error {
         why: String,
     },
 
+    /// A six-position axis that reads lower with it up than down.
+    #[error("axis {} reads {up:.2} with it up and {down:.2} with it down (pose {}+ and {}−): the ± labels are swapped, which would make its scale negative; relabel the poses", ["x","y","z"][*axis], ["x","y","z"][*axis], ["x","y","z"][*axis])]
+    SixPoseSwapped {
+        /// Axis 0..3.
+        axis: usize,
+        /// Mean with the axis up.
+        up: f64,
+        /// Mean with the axis down.
+        down: f64,
+    },
+    /// A six-position axis whose up and down blocks differ by no more than their noise.
+    #[error("the {}+ and {}− poses differ by {difference:.3} on that axis, within the noise of their blocks (standard error {standard_error:.3}): they are not opposite orientations; record each pose with the axis straight up and straight down", ["x","y","z"][*axis], ["x","y","z"][*axis])]
+    SixPoseNotSeparated {
+        /// Axis 0..3.
+        axis: usize,
+        /// Mean up − mean down.
+        difference: f64,
+        /// Its standard error.
+        standard_error: f64,
+    },
+
     // ---- batch ----
     /// An input of `wiical batch` that is neither a file, a directory nor a pattern that
     /// can be expanded.

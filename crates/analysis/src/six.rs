@@ -189,6 +189,7 @@ fn others(a: usize) -> (usize, usize) {
 
 fn structure(rec: &Recording) -> Result<Structure> {
     let (means32, counts) = pose_means(rec, PoseEstimator::Mean)?;
+    crate::six_position::check_poses(rec, &means32)?;
     let fit = solve_poses(&means32)?;
     // Recompute in f64 from the f32 means (the solve is linear; f64 keeps the residual exact).
     let means: [[f64; 3]; 6] = means32.map(|m| m.map(|x| x as f64));

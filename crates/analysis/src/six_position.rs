@@ -95,6 +95,47 @@ pub fn pose_means(rec: &Recording, est: PoseEstimator) -> Result<([[f32; 3]; 6],
     Ok((means, counts))
 }
 
+/// Plausibility of the six poses before they are solved (issue 25): each axis's blocks with it
+/// up and down must differ by much more than their noise (else they are not the opposite
+/// orientations they are labelled as: 10 standard errors; poses given as one averaged row have
+/// no noise to compare with), and it must read higher up than down (else the ± labels are
+/// swapped, which would give a negative scale).
+pub(crate) fn check_poses(rec: &Recording, means: &[[f32; 3]; 6]) -> Result<()> {
+    let labels = rec.labels.as_ref().ok_or(Error::NoPoseColumn)?;
+    // Per pose and axis: n, Σx, Σx².
+    let mut acc = [[(0.0f64, 0.0f64, 0.0f64); 3]; 6];
+    for (l, v) in labels.iter().zip(&rec.xyz) {
+        if let Some(p) = Pose::from_label(l) {
+            for a in 0..3 {
+                let e = &mut acc[p as usize][a];
+                *e = (e.0 + 1.0, e.1 + v[a], e.2 + v[a] * v[a]);
+            }
+        }
+    }
+    let var_of_mean = |(n, s, q): (f64, f64, f64)| {
+        if n < 2.0 {
+            f64::NAN
+        } else {
+            ((q - s * s / n) / (n - 1.0)).max(0.0) / n
+        }
+    };
+    for a in 0..3 {
+        let (up, down) = (f64::from(means[2 * a][a]), f64::from(means[2 * a + 1][a]));
+        let se = (var_of_mean(acc[2 * a][a]) + var_of_mean(acc[2 * a + 1][a])).sqrt();
+        if se.is_finite() && (up - down).abs() < 10.0 * se.max(f64::MIN_POSITIVE) {
+            return Err(Error::SixPoseNotSeparated {
+                axis: a,
+                difference: up - down,
+                standard_error: se,
+            });
+        }
+        if up - down <= 0.0 {
+            return Err(Error::SixPoseSwapped { axis: a, up, down });
+        }
+    }
+    Ok(())
+}
+
 fn reduce(samples: &[[f32; 3]], est: PoseEstimator) -> Result<[f32; 3]> {
     let mut w = Welford3::new();
     for s in samples {
@@ -119,6 +160,7 @@ fn reduce(samples: &[[f32; 3]], est: PoseEstimator) -> Result<[f32; 3]> {
 /// Runs the six-position test on a labelled recording.
 pub fn run(rec: &Recording, est: PoseEstimator) -> Result<SixPositionReport> {
     let (means, counts) = pose_means(rec, est)?;
+    check_poses(rec, &means)?;
     let fit = solve_poses(&means)?;
     Ok(SixPositionReport::new(&fit, means, counts))
 }
@@ -129,4 +171,45 @@ pub fn solve_poses(means: &[[f32; 3]; 6]) -> Result<SixPositionFit> {
         wiical_core::Error::DegenerateGeometry => Error::PosesNotTurned,
         other => Error::SixPositionFailed(other),
     })
+}
+
+#[cfg(test)]
+mod plausibility {
+    use super::*;
+
+    /// The seed's six poses (its own numbers) as a pose table.
+    const SEED: &str = "pose,x,y,z\nx+,153.329,127.181,129.991\nx-,102.978,127.989,129.991\ny+,128.072,153.248,129.586\ny-,127.989,101.200,128.992\nz+,127.989,127.989,154.179\nz-,127.989,127.183,105.012\n";
+
+    #[test]
+    fn swapped_labels_are_refused_naming_the_axis() {
+        assert!(run(
+            &crate::parse(SEED, &Default::default()).unwrap(),
+            PoseEstimator::Mean
+        )
+        .is_ok());
+        let swapped = SEED
+            .replace("x+,", "X,")
+            .replace("x-,", "x+,")
+            .replace("X,", "x-,");
+        let rec = crate::parse(&swapped, &Default::default()).unwrap();
+        let e = run(&rec, PoseEstimator::Mean).unwrap_err();
+        assert!(matches!(e, Error::SixPoseSwapped { axis: 0, .. }), "{e:?}");
+        assert!(e.to_string().contains("labels are swapped"), "{e}");
+    }
+
+    #[test]
+    fn blocks_of_pure_noise_are_refused() {
+        // Six blocks of 50 samples of the same still orientation with ±1 count of noise.
+        let mut text = String::from("pose,x,y,z\n");
+        for pose in ["x+", "x-", "y+", "y-", "z+", "z-"] {
+            for i in 0..50 {
+                let d = f64::from(i * 37 % 7 - 3) / 3.0;
+                text += &format!("{pose},{},{},{}\n", 512.0 + d, 512.0 - d, 700.0 + d);
+            }
+        }
+        let rec = crate::parse(&text, &Default::default()).unwrap();
+        let e = run(&rec, PoseEstimator::Mean).unwrap_err();
+        assert!(matches!(e, Error::SixPoseNotSeparated { .. }), "{e:?}");
+        assert!(e.to_string().contains("not opposite orientations"), "{e}");
+    }
 }
