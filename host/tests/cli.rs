@@ -36,7 +36,8 @@ fn six_position_reproduces_the_seed() {
 #[test]
 fn fit_on_imu_tk_xsens() {
     let file = data_dir().join("imu_tk_xsens/xsens_acc.mat");
-    let out = std::env::temp_dir().join(format!("wiical-xsens-{}.json", std::process::id()));
+    let out = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join(format!("wiical-xsens-{}.json", std::process::id()));
     let v = json(&[
         "fit",
         file.to_str().unwrap(),

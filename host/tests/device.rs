@@ -63,7 +63,8 @@ fn wait_for(what: &str, mut cond: impl FnMut() -> bool) {
 }
 
 fn temp_path(name: &str) -> PathBuf {
-    std::env::temp_dir().join(format!("wiical-device-test-{}-{name}", std::process::id()))
+    std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join(format!("wiical-device-test-{}-{name}", std::process::id()))
 }
 
 #[test]

@@ -64,7 +64,8 @@ fn compare(path: &str, got: &Value, want: &Value, diffs: &mut Vec<String>) {
 
 /// Runs one case; returns its differences from the golden (empty: identical).
 fn run_case(name: &str, line: &str, data: &str) -> Vec<String> {
-    let tmp = std::env::temp_dir().join(format!("wiical-golden-{}-{name}", std::process::id()));
+    let tmp = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join(format!("wiical-golden-{}-{name}", std::process::id()));
     std::fs::create_dir_all(&tmp).unwrap();
     let tmp_s = tmp.to_str().unwrap().to_string();
     let line = line.replace("@DATA", data).replace("@TMP", &tmp_s);

@@ -11,7 +11,8 @@ use serde_json::Value;
 #[test]
 fn json_contract_and_out_file_on_an_mpu9150_unit() {
     let file = data_dir().join("mpu9150_mikoff_5units/imu1.csv");
-    let out = std::env::temp_dir().join(format!("wiical-gyrofit-{}.json", std::process::id()));
+    let out = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join(format!("wiical-gyrofit-{}.json", std::process::id()));
     let (ok, stdout, stderr) = wiical(&[
         "gyrofit",
         file.to_str().unwrap(),

@@ -16,7 +16,8 @@ fn text_report_and_plot_render() {
     let r = analyze(&s.recording, &AnalyzeOptions::default()).unwrap();
     let text = render::analyze::render_text(&r, "sim.csv");
     assert!(text.contains("cubic") && text.contains("noise floor"));
-    let svg = std::env::temp_dir().join(format!("wiical-analyze-{}.svg", std::process::id()));
+    let svg = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join(format!("wiical-analyze-{}.svg", std::process::id()));
     render::plot::write_plot(&r, &svg).unwrap();
     let body = std::fs::read_to_string(&svg).unwrap();
     assert!(body.starts_with("<svg") && body.contains("circle"));

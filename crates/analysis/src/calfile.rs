@@ -190,8 +190,8 @@ mod tests {
 
     #[test]
     fn round_trip_and_refusals() {
-        let dir = std::env::temp_dir().join(format!("wiical-calfile-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
+        let guard = tempfile::tempdir().unwrap();
+        let dir = guard.path();
         let path = dir.join("cal.json");
         let cal = sample();
         write_calibration(&path, &cal).unwrap();
@@ -211,7 +211,6 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.starts_with("cannot read"), "{e}");
-        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]

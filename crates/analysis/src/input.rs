@@ -312,8 +312,8 @@ mod tests {
 
     #[test]
     fn size_cap_and_bom() {
-        let dir = std::env::temp_dir().join(format!("wiical-input-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
+        let guard = tempfile::tempdir().unwrap();
+        let dir = guard.path();
         let p = dir.join("big.txt");
         std::fs::write(&p, vec![b'1'; 2000]).unwrap();
         let e = read_bounded(&p, 1000).unwrap_err();
@@ -332,6 +332,5 @@ mod tests {
             read_text(&p, 100).unwrap_err(),
             Error::NotUtf8 { .. }
         ));
-        std::fs::remove_dir_all(&dir).unwrap();
     }
 }

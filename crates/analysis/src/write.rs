@@ -253,11 +253,15 @@ pub fn check_outputs(inputs: &[&Path], outputs: &[&Path]) -> Result<()> {
 mod tests {
     use super::*;
 
-    fn scratch(tag: &str) -> PathBuf {
-        let dir = std::env::temp_dir().join(format!("wiical-write-{tag}-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
-        std::fs::create_dir_all(&dir).unwrap();
-        dir
+    /// A new scratch directory, removed when the test ends (the guard is kept alive by the
+    /// caller's binding).
+    fn scratch(tag: &str) -> (tempfile::TempDir, PathBuf) {
+        let guard = tempfile::Builder::new()
+            .prefix(&format!("wiical-write-{tag}-"))
+            .tempdir()
+            .unwrap();
+        let dir = guard.path().to_path_buf();
+        (guard, dir)
     }
 
     fn entries(dir: &Path) -> Vec<String> {
@@ -271,7 +275,7 @@ mod tests {
 
     #[test]
     fn creates_and_replaces() {
-        let dir = scratch("replace");
+        let (_guard, dir) = scratch("replace");
         let p = dir.join("a.json");
         write_file(&p, b"first").unwrap();
         assert_eq!(std::fs::read(&p).unwrap(), b"first");
@@ -283,7 +287,7 @@ mod tests {
 
     #[test]
     fn a_failure_while_writing_keeps_the_old_bytes() {
-        let dir = scratch("fail");
+        let (_guard, dir) = scratch("fail");
         let p = dir.join("good_cal.json");
         std::fs::write(&p, b"{\"the\": \"good calibration\"}").unwrap();
         // The failpoint: the producer writes half its output, then fails (as a full disk or
@@ -308,7 +312,7 @@ mod tests {
 
     #[test]
     fn a_missing_directory_is_an_error_not_a_panic() {
-        let dir = scratch("nodir");
+        let (_guard, dir) = scratch("nodir");
         let e = write_file(&dir.join("no/such/dir/x.json"), b"x").unwrap_err();
         assert!(e.to_string().starts_with("cannot write"), "{e}");
         std::fs::remove_dir_all(&dir).unwrap();
@@ -319,7 +323,7 @@ mod tests {
     fn devices_are_refused_and_links_followed() {
         let e = write_file(Path::new("/dev/null"), b"x").unwrap_err();
         assert!(matches!(e, Error::NotRegularFile { .. }), "{e}");
-        let dir = scratch("link");
+        let (_guard, dir) = scratch("link");
         let real = dir.join("real.json");
         std::fs::write(&real, b"old").unwrap();
         let link = dir.join("link.json");
@@ -337,7 +341,7 @@ mod tests {
     #[test]
     fn a_replaced_file_keeps_its_mode() {
         use std::os::unix::fs::PermissionsExt;
-        let dir = scratch("mode");
+        let (_guard, dir) = scratch("mode");
         let p = dir.join("a.csv");
         std::fs::write(&p, b"old").unwrap();
         std::fs::set_permissions(&p, std::fs::Permissions::from_mode(0o640)).unwrap();
@@ -349,7 +353,7 @@ mod tests {
 
     #[test]
     fn outputs_equal_to_an_input_or_each_other_are_refused() {
-        let dir = scratch("distinct");
+        let (_guard, dir) = scratch("distinct");
         let rec = dir.join("victim.csv");
         std::fs::write(&rec, b"t,x,y,z\n").unwrap();
         let other = dir.join("out.json");

@@ -363,7 +363,8 @@ fn json_contract() {
 #[test]
 fn simulate_writes_recording_and_truth() {
     let s = sim(SimEffect::Outliers, 10.0, 71, Device::Nunchuk);
-    let dir = std::env::temp_dir().join(format!("wiical-sim-{}", std::process::id()));
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join(format!("wiical-sim-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let path = dir.join("rec.csv");
     let tp = simulate::write(&s, &path).unwrap();

@@ -61,7 +61,8 @@ pub fn json(args: &[&str]) -> serde_json::Value {
 /// (`$TMPDIR/wiical-<tag>-<pid>`) and returns its path.
 #[allow(dead_code)]
 pub fn temp_file(tag: &str, name: &str, contents: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("wiical-{tag}-{}", std::process::id()));
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join(format!("wiical-{tag}-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let p = dir.join(name);
     std::fs::write(&p, contents).unwrap();
