@@ -103,3 +103,55 @@ fn dev_null_is_not_a_serial_port() {
         &["/dev/null is not a serial port"],
     );
 }
+
+/// Item 4: gyrofit pairs two files only when their clocks agree and the gyro spans the
+/// recording; a "gyro" that turns with the pose like gravity is refused.
+#[test]
+fn gyrofit_refuses_shifted_cut_short_and_gravity_gyros() {
+    let dir = tempfile::tempdir().unwrap();
+    let xsens = data_dir().join("imu_tk_xsens");
+    let acc = xsens.join("xsens_acc.mat");
+    let gyro_text = std::fs::read_to_string(xsens.join("xsens_gyro.mat")).unwrap();
+    let shifted: String = gyro_text
+        .lines()
+        .map(|l| {
+            let mut f: Vec<String> = l.split_whitespace().map(String::from).collect();
+            if let Ok(t) = f[0].parse::<f64>() {
+                f[0] = format!("{}", t + 0.5);
+            }
+            f.join(" ") + "\n"
+        })
+        .collect();
+    let shifted_path = dir.path().join("shifted.mat");
+    std::fs::write(&shifted_path, shifted).unwrap();
+    let a = acc.to_str().unwrap();
+    fails_with(
+        &[
+            "gyrofit",
+            a,
+            shifted_path.to_str().unwrap(),
+            "--scale",
+            "1.6e-4",
+        ],
+        &["times differ by up to 0.5"],
+    );
+    let lines: Vec<&str> = gyro_text.lines().collect();
+    let cut_path = dir.path().join("cut.mat");
+    std::fs::write(&cut_path, lines[..lines.len() * 6 / 10].join("\n") + "\n").unwrap();
+    fails_with(
+        &[
+            "gyrofit",
+            a,
+            cut_path.to_str().unwrap(),
+            "--scale",
+            "1.6e-4",
+        ],
+        &["the gyro file is cut short"],
+    );
+    fails_with(&["gyrofit", a, a, "--scale", "1.6e-4"], &["like gravity"]);
+    let unit = data_dir().join("mpu9150_mikoff_5units/imu0.csv");
+    fails_with(
+        &["gyrofit", unit.to_str().unwrap(), "--gyro-columns", "x,y,z"],
+        &["like gravity", "x,y,z"],
+    );
+}

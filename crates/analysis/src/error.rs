@@ -655,6 +655,31 @@ pub enum Error {
         standard_error: f64,
     },
 
+    /// The gyro's clock does not match the accelerometer's row for row.
+    #[error("the accelerometer's and the gyro's times differ by up to {offset_s:.4} s on the same row: the two files are not the same samples (shifted or from another recording)")]
+    GyroClocksDiffer {
+        /// Largest difference, s.
+        offset_s: f64,
+    },
+    /// A gyro file that covers only part of the accelerometer's recording.
+    #[error("the gyro covers t = {:.2}…{:.2} s but the accelerometer {:.2}…{:.2} s: the gyro file is cut short (or from another recording)", gyro.0, gyro.1, accel.0, accel.1)]
+    GyroSpanShort {
+        /// The gyro's first and last time, s.
+        gyro: (f64, f64),
+        /// The accelerometer's first and last time, s.
+        accel: (f64, f64),
+    },
+    /// "Gyro" data that turn with the pose like gravity.
+    #[error("the gyro columns ({columns}) change between the still poses like gravity (spread {spread:.3} against {motion_rms:.3} RMS during the motions): they are an accelerometer's, not a gyro's; give the gyro's columns (--gyro-columns) or its file")]
+    GyroLooksLikeGravity {
+        /// The columns taken as the gyro.
+        columns: String,
+        /// RMS spread of the gyro's window means.
+        spread: f64,
+        /// RMS of the gyro during the motions.
+        motion_rms: f64,
+    },
+
     // ---- batch ----
     /// An input of `wiical batch` that is neither a file, a directory nor a pattern that
     /// can be expanded.

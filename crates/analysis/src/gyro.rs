@@ -25,6 +25,7 @@
 use crate::error::{Error, Result};
 use crate::fit::{run_windows, FitOptions};
 use crate::recording::Recording;
+use crate::timecheck::TimeSteps;
 use crate::windows::{detect_windows, DetectOptions};
 use serde::Serialize;
 use wiical_core::gyro::GyroCalibration;
@@ -162,16 +163,44 @@ const CANDIDATES: [(&str, GyroModel, bool); 6] = [
 type Aligned = (Vec<[f64; 3]>, Option<Vec<f64>>);
 
 fn align(acc: &Recording, gyro: &Recording) -> Result<Aligned> {
-    if acc.len() == gyro.len() {
-        return Ok((acc.xyz.clone(), None));
-    }
     let mismatch = || Error::GyroRowsMismatch {
         accel: acc.len(),
         gyro: gyro.len(),
     };
+    if acc.len() == gyro.len() {
+        // Rows pair by position, but only when both clocks agree on them (a shifted copy of
+        // the gyro log must not be paired silently).
+        if let (Some(ta), Some(tg)) = (&acc.t, &gyro.t) {
+            let worst = ta
+                .iter()
+                .zip(tg)
+                .map(|(a, g)| (a - g).abs())
+                .fold(0.0, f64::max);
+            let step = TimeSteps::of(ta).map_or(f64::INFINITY, |s| s.median_s);
+            if worst > 0.5 * step {
+                return Err(Error::GyroClocksDiffer { offset_s: worst });
+            }
+        }
+        return Ok((acc.xyz.clone(), None));
+    }
     let (Some(ta), Some(tg)) = (&acc.t, &gyro.t) else {
         return Err(mismatch());
     };
+    // A subset of the rows (a capture whose rows alternate): it must span the recording, not
+    // stop early (a cut-off gyro file would silently drop the rest of the accelerometer).
+    let span = |t: &[f64]| t.last().copied().unwrap_or(0.0) - t.first().copied().unwrap_or(0.0);
+    if span(tg) < 0.95 * span(ta) {
+        return Err(Error::GyroSpanShort {
+            gyro: (
+                tg.first().copied().unwrap_or(0.0),
+                tg.last().copied().unwrap_or(0.0),
+            ),
+            accel: (
+                ta.first().copied().unwrap_or(0.0),
+                ta.last().copied().unwrap_or(0.0),
+            ),
+        });
+    }
     let mut out = Vec::with_capacity(tg.len());
     let mut i = 0;
     for t in tg {
@@ -339,6 +368,38 @@ fn segment(acc_rec: &Recording, opts: &GyroOptions) -> Result<Segmentation> {
     })
 }
 
+/// Refuses a "gyro" that is an accelerometer (the same file twice, or accelerometer columns
+/// given as the gyro's, issue 25): a gyro's mean over the still windows is its bias, the same
+/// in every pose, while gravity's points a different way in each. Refused when the spread of
+/// the window means is more than half the RMS of the signal during the motions.
+fn check_not_gravity(gyro: &Recording, seg: &Segmentation) -> Result<()> {
+    let means: Vec<[f64; 3]> = seg
+        .intervals
+        .iter()
+        .map(|iv| bias_at_rest(gyro, iv))
+        .collect();
+    let n = means.len() as f64;
+    let centre: [f64; 3] = std::array::from_fn(|a| means.iter().map(|m| m[a]).sum::<f64>() / n);
+    let sq = |v: [f64; 3]| (0..3).map(|a| (v[a] - centre[a]).powi(2)).sum::<f64>();
+    let spread = (means.iter().map(|m| sq(*m)).sum::<f64>() / n).sqrt();
+    let (mut acc, mut count) = (0.0, 0usize);
+    for s in &seg.spans {
+        for v in &gyro.xyz[s.start as usize..s.end as usize] {
+            acc += sq(*v);
+            count += 1;
+        }
+    }
+    let motion_rms = (acc / count.max(1) as f64).sqrt();
+    if spread > 0.5 * motion_rms {
+        return Err(Error::GyroLooksLikeGravity {
+            columns: gyro.axis_columns.join(","),
+            spread,
+            motion_rms,
+        });
+    }
+    Ok(())
+}
+
 /// The gyro's mean over the first window (the uncalibrated bias), raw counts.
 fn bias_at_rest(gyro: &Recording, rest: &StaticInterval) -> [f64; 3] {
     let rest_samples = &gyro.xyz[rest.start as usize..rest.end as usize];
@@ -362,6 +423,7 @@ pub fn run(acc: &Recording, gyro: &Recording, opts: &GyroOptions) -> Result<Gyro
         .estimated_rate_hz()
         .unwrap_or(opts.detect.default_rate_hz);
     let seg = segment(&acc_rec, opts)?;
+    check_not_gravity(gyro, &seg)?;
     let bias_from_rest = bias_at_rest(gyro, &seg.intervals[0]);
     let dt = 1.0 / rate;
     let motions: Vec<Motion<'_, f64>> = seg
