@@ -122,11 +122,12 @@ pub(crate) fn check_poses(rec: &Recording, means: &[[f32; 3]; 6]) -> Result<()> 
     for a in 0..3 {
         let (up, down) = (f64::from(means[2 * a][a]), f64::from(means[2 * a + 1][a]));
         let se = (var_of_mean(acc[2 * a][a]) + var_of_mean(acc[2 * a + 1][a])).sqrt();
-        if se.is_finite() && (up - down).abs() < 10.0 * se.max(f64::MIN_POSITIVE) {
+        let same = (up - down).abs() <= 16.0 * f64::EPSILON * up.abs().max(1.0);
+        if same || (se.is_finite() && (up - down).abs() < 10.0 * se.max(f64::MIN_POSITIVE)) {
             return Err(Error::SixPoseNotSeparated {
                 axis: a,
                 difference: up - down,
-                standard_error: se,
+                standard_error: if se.is_finite() { se } else { 0.0 },
             });
         }
         if up - down <= 0.0 {
