@@ -4,6 +4,7 @@
 //! `wiical-analysis` crate; the adapter client is [`client`]. `main.rs` only parses and
 //! dispatches.
 pub mod capture;
+pub mod cli;
 pub mod cli_error;
 pub mod client;
 pub mod cmd;

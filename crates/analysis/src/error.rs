@@ -256,13 +256,29 @@ pub enum Error {
         /// 1-based line.
         line: usize,
     },
-    /// `Fs,0` or negative.
-    #[error("line {line}: sample rate must be positive, got {value}")]
+    /// `Fs,0`, negative, not a number or above 1 MHz.
+    #[error("line {line}: the sample rate '{text}' must be a number above 0 and at most 1 MHz")]
     BadSampleRate {
         /// 1-based line.
         line: usize,
-        /// The rate given.
-        value: f64,
+        /// The rate as written.
+        text: String,
+    },
+    /// A sensor value beyond ±10¹²: a corrupt cell (no sensor reports such numbers).
+    #[error("line {line}, column {column}: the reading {text} is beyond ±1e12, which no sensor reports; the cell is corrupt or in the wrong column")]
+    ReadingOutOfRange {
+        /// 1-based line.
+        line: usize,
+        /// Column name.
+        column: String,
+        /// The text of the cell.
+        text: String,
+    },
+    /// Every reading is numerically zero.
+    #[error("every reading is smaller than 1e-9 in magnitude (largest {largest:.2e}): the recording carries no measurable signal; check its unit or scale")]
+    ReadingsTooSmall {
+        /// The largest |value| seen.
+        largest: f64,
     },
     /// A CSV row with a different number of fields from the header.
     #[error("line {line}: expected {expected} fields like the header, found {found}")]
@@ -588,6 +604,16 @@ pub enum Error {
         "the nominal gyro sensitivity (rad/s per count) must be finite and non-zero on every axis"
     )]
     GyroNominalScale,
+    /// The nominal turns the motions by absurd angles: a wrong unit or a typo.
+    #[error("the gyro nominal from {source_name} turns the motions by {ratio:.3e} times the tilt the accelerometer sees between their poses (median of {motions} motions; a right nominal gives about 1 to 5): check the value and its unit")]
+    GyroNominalImplausible {
+        /// Where the nominal came from (`--scale`, `--counts-per-dps`, the columns' unit).
+        source_name: String,
+        /// Median of integrated rotation angle / tilt.
+        ratio: f64,
+        /// Motions that tilted enough to compare.
+        motions: usize,
+    },
     /// The core's gyro fit failed on the data.
     #[error("gyro fit failed: {0}")]
     GyroFitFailed(wiical_core::Error),

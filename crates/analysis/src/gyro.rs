@@ -267,6 +267,54 @@ pub fn estimate_nominal(motions: &[Motion<'_, f64>], bias: [f64; 3], dt: f64) ->
     Ok(s)
 }
 
+/// Refuses a given nominal whose integrated rotation is absurd next to the tilt the
+/// accelerometer sees: over the motions that tilt by more than 20°, the median of
+/// ∫|ω|dt / tilt must lie in [0.2, 50]. The path turned is at least the net tilt (ratio ≥ 1 for a
+/// right nominal; turns about gravity raise it, rarely past 5), so a factor-of-five unit error is
+/// still passed to the fit (which corrects it) while 10^±3 (a rad/deg or counts/LSB mix-up, a
+/// typo in the exponent) is named here instead of ending in a singular matrix.
+fn check_nominal_plausible(
+    motions: &[Motion<'_, f64>],
+    bias: [f64; 3],
+    scale: [f64; 3],
+    dt: f64,
+    source: &str,
+) -> Result<()> {
+    let mut ratios: Vec<f64> = motions
+        .iter()
+        .filter_map(|m| {
+            let tilt = m.g_start.angle(&m.g_end);
+            (tilt > 20f64.to_radians()).then(|| {
+                let path: f64 = m
+                    .samples
+                    .iter()
+                    .map(|s| {
+                        (0..3)
+                            .map(|a| ((s[a] - bias[a]) * scale[a]).powi(2))
+                            .sum::<f64>()
+                            .sqrt()
+                    })
+                    .sum::<f64>()
+                    * dt;
+                path / tilt
+            })
+        })
+        .collect();
+    if ratios.is_empty() {
+        return Ok(());
+    }
+    ratios.sort_by(f64::total_cmp);
+    let median = ratios[ratios.len() / 2];
+    if (0.2..=50.0).contains(&median) {
+        return Ok(());
+    }
+    Err(Error::GyroNominalImplausible {
+        source_name: source.chars().take(60).collect(),
+        ratio: median,
+        motions: ratios.len(),
+    })
+}
+
 /// A note per axis whose fitted sensitivity has the opposite sign of the nominal: the gyro
 /// axis points the other way from the accelerometer's (a flipped axis, as in sunsided's
 /// MPU-6050 logs); the fit has absorbed it, and a datasheet nominal would have missed it.
@@ -445,6 +493,9 @@ pub fn run(acc: &Recording, gyro: &Recording, opts: &GyroOptions) -> Result<Gyro
     } else {
         (opts.nominal_rad_per_count, opts.nominal_source.clone())
     };
+    if !opts.estimate_nominal {
+        check_nominal_plausible(&motions, bias_from_rest, nominal_scale, dt, &nominal_source)?;
+    }
     let nominal = GyroCalibration::nominal(bias_from_rest, nominal_scale);
     let (rows, best) = evaluate_candidates(&motions, &nominal, dt, opts)?;
     let (name, fit, cv, held) = best;

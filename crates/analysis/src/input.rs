@@ -197,6 +197,51 @@ pub(crate) fn parse_number(s: &str, line_no: usize, col: &str, decimal_comma: bo
     Ok(v)
 }
 
+/// Largest magnitude a sensor reading may have. No sensor in any unit reports 10¹² (a 32-bit
+/// counter is 4·10⁹); values beyond are a corrupt cell, and squares of them (10²⁴, summed over
+/// windows) would lose every digit of the noise the detector measures.
+pub(crate) const MAX_READING: f64 = 1e12;
+
+/// The largest reading of a recording must reach this (any unit: 1 nano-g, 1 count): below it
+/// every reading is numerically zero next to rounding and no pose can be told from another.
+pub(crate) const MIN_FULL_SCALE: f64 = 1e-9;
+
+/// Highest sample rate a recording or `--rate-hz` may state (1 MHz; inertial sensors stop at
+/// a few kHz).
+pub const MAX_RATE_HZ: f64 = 1e6;
+
+/// A sensor reading (axis or temperature): a finite number of magnitude at most
+/// [`MAX_READING`], else an error naming the line and column.
+pub(crate) fn parse_reading(
+    s: &str,
+    line_no: usize,
+    col: &str,
+    decimal_comma: bool,
+) -> Result<f64> {
+    let v = parse_number(s, line_no, col, decimal_comma)?;
+    if v.abs() > MAX_READING {
+        return Err(Error::ReadingOutOfRange {
+            line: line_no,
+            column: quote(col),
+            text: quote(s),
+        });
+    }
+    Ok(v)
+}
+
+/// Refuses a recording whose readings are all numerically zero (largest |value| below
+/// [`MIN_FULL_SCALE`]): a unit error (e.g. a scale applied twice), not a sensor.
+pub(crate) fn check_reading_scale(xyz: &[[f64; 3]]) -> Result<()> {
+    let largest = xyz
+        .iter()
+        .flat_map(|r| r.iter())
+        .fold(0.0f64, |m, v| m.max(v.abs()));
+    if !xyz.is_empty() && largest < MIN_FULL_SCALE {
+        return Err(Error::ReadingsTooSmall { largest });
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -15,7 +15,10 @@
 
 use crate::columns::Sensor;
 use crate::error::{Error, Result};
-use crate::input::{parse_number, quote, quote_header, read_bounded, text_of, MAX_RECORDING_BYTES};
+use crate::input::{
+    check_reading_scale, parse_number, parse_reading, quote, quote_header, read_bounded, text_of,
+    MAX_RATE_HZ, MAX_RECORDING_BYTES,
+};
 use crate::recording::Recording;
 use crate::timecheck::{time_notes, TimeCheck};
 use std::path::Path;
@@ -109,6 +112,7 @@ pub fn parse(text: &str, opts: &LoadOptions) -> Result<Recording> {
         }
     };
     check_axis_columns(&rec)?;
+    check_reading_scale(&rec.xyz)?;
     Ok(rec)
 }
 
@@ -233,7 +237,11 @@ fn parse_whitespace(text: &str) -> Result<Recording> {
         };
         let mut vals = [0.0f64; 5];
         for (k, f) in fields.iter().take(n).enumerate() {
-            vals[k] = parse_number(f, line_no, names[k], false)?;
+            vals[k] = if names[k] == "t" {
+                parse_number(f, line_no, names[k], false)?
+            } else {
+                parse_reading(f, line_no, names[k], false)?
+            };
         }
         let off = if n == 3 { 0 } else { 1 };
         if n >= 4 {
@@ -413,12 +421,12 @@ impl<'o> CsvState<'o> {
             return Ok(());
         }
         let dc = self.decimal_comma;
-        let get = |i: usize| parse_number(field(i), line_no, &cols[i], dc);
+        let get = |i: usize| parse_reading(field(i), line_no, &cols[i], dc);
         self.rec
             .xyz
             .push([get(idx.1[0])?, get(idx.1[1])?, get(idx.1[2])?]);
         if let Some(clock) = self.clock.as_mut() {
-            let time = get(idx.0)?;
+            let time = parse_number(field(idx.0), line_no, &cols[idx.0], dc)?;
             clock.push(time, line_no)?;
             self.t.push(time);
         }
@@ -460,14 +468,15 @@ impl<'o> CsvState<'o> {
         if numeric == fields.len() {
             return Err(Error::DataBeforeHeader { line: line_no });
         }
-        if fields.len() == 2 && numeric == 1 && is_number(&fields[1]) {
-            if fields[0] == "fs" || fields[0] == "sample_rate" || fields[0] == "rate_hz" {
+        let rate_key = ["fs", "sample_rate", "rate_hz"].contains(&fields[0].as_str());
+        if fields.len() == 2 && (rate_key || (numeric == 1 && is_number(&fields[1]))) {
+            if rate_key {
                 let fs = parse_number(&fields[1], line_no, &fields[0], decimal_comma)
                     .unwrap_or(f64::NAN);
-                if !(fs.is_finite() && fs > 0.0) {
+                if !(fs.is_finite() && fs > 0.0 && fs <= MAX_RATE_HZ) {
                     return Err(Error::BadSampleRate {
                         line: line_no,
-                        value: fs,
+                        text: record.get(1).trim_ascii().chars().take(40).collect(),
                     });
                 }
                 self.rec.sample_rate_hz = Some(fs);

@@ -18,25 +18,25 @@ pub struct CaptureArgs {
     #[arg(long)]
     pub out: PathBuf,
     /// Plain mode: record this many seconds.
-    #[arg(long, default_value_t = 30.0, value_parser = super::positive_finite)]
+    #[arg(long, default_value_t = 30.0, value_parser = super::duration_s, allow_negative_numbers = true)]
     pub duration_s: f64,
     /// Guided mode: walk through N poses, each held still (for `wiical fit`: 9 or more).
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", value_parser = clap::builder::TypedValueParser::map(clap::value_parser!(u16).range(1..=1000), usize::from))]
     pub guided: Option<usize>,
     /// Guided: how long each pose is held still, seconds.
-    #[arg(long, default_value_t = 4.0, value_parser = super::positive_finite)]
+    #[arg(long, default_value_t = 4.0, value_parser = super::duration_s, allow_negative_numbers = true)]
     pub hold_s: f64,
     /// Guided: initial rest (noise reference), seconds.
-    #[arg(long, default_value_t = 2.0, value_parser = super::positive_finite)]
+    #[arg(long, default_value_t = 2.0, value_parser = super::duration_s, allow_negative_numbers = true)]
     pub init_s: f64,
     /// Guided: still when the 0.5 s window variance ≤ THRESHOLD × rest variance.
-    #[arg(long, default_value_t = 6.0, value_parser = super::positive_finite)]
+    #[arg(long, default_value_t = 6.0, value_parser = super::threshold, allow_negative_numbers = true)]
     pub threshold: f64,
     /// Guided: give up when a pose is not held still (or no motion comes) within this time, s.
-    #[arg(long, default_value_t = 60.0, value_parser = super::positive_finite)]
+    #[arg(long, default_value_t = 60.0, value_parser = super::duration_s, allow_negative_numbers = true)]
     pub still_timeout_s: f64,
     /// Fail when no data report arrives for this long, seconds.
-    #[arg(long, default_value_t = 2.0, value_parser = super::positive_finite)]
+    #[arg(long, default_value_t = 2.0, value_parser = super::duration_s, allow_negative_numbers = true)]
     pub silence_timeout_s: f64,
     /// Also log every raw HID report (in and out, timestamped hex) to this file.
     #[arg(long)]

@@ -19,7 +19,7 @@ pub struct SimArgs {
     #[arg(long)]
     pub flash: Option<PathBuf>,
     /// Stop after this many seconds (default: run until interrupted).
-    #[arg(long, value_parser = super::positive_finite)]
+    #[arg(long, value_parser = super::duration_s, allow_negative_numbers = true)]
     pub seconds: Option<f64>,
     /// Seed of the simulated sensor noise.
     #[arg(long, default_value_t = 1)]

@@ -9,16 +9,16 @@ use std::fmt::Write as _;
 #[derive(clap::Args, Debug)]
 pub struct Args {
     /// Number of independent runs.
-    #[arg(long, default_value_t = 1000)]
+    #[arg(long, default_value_t = 1000, value_parser = runs)]
     pub runs: u32,
     /// Random seed (same seed, same report).
     #[arg(long, default_value_t = 2008)]
     pub seed: u64,
     /// Accelerometer white noise per sample, m/s².
-    #[arg(long, value_parser = super::positive_finite)]
+    #[arg(long, value_parser = |s: &str| super::noise_sigma(s, 100.0, "m/s²"), allow_negative_numbers = true)]
     pub accel_noise: Option<f64>,
     /// Position measurement noise, m.
-    #[arg(long, value_parser = super::positive_finite)]
+    #[arg(long, value_parser = |s: &str| super::noise_sigma(s, 100.0, "m"), allow_negative_numbers = true)]
     pub pos_noise: Option<f64>,
     /// Take σ_a and the bias random walk from a still accelerometer's noise
     /// (`wiical noise --json` output): σ_a = N/√dt, bias walk = K (0 where K was not seen).
@@ -95,4 +95,15 @@ pub fn run(a: &Args) -> Result<String> {
         rep.nees_mean
     )?;
     Ok(o)
+}
+
+/// `--runs`: 1 to [`MAX_RUNS`](crate::kalman_demo::MAX_RUNS), named where it is parsed.
+fn runs(s: &str) -> Result<u32, String> {
+    let max = crate::kalman_demo::MAX_RUNS;
+    match s.trim().parse::<u32>() {
+        Ok(n) if (1..=max).contains(&n) => Ok(n),
+        _ => Err(format!(
+            "'{s}': give a whole number of runs from 1 to at most {max} (about 5 s; more adds no precision worth the wait)"
+        )),
+    }
 }

@@ -31,19 +31,19 @@ pub struct DetectArgs {
     pub columns: Option<Vec<String>>,
     /// Variance window, seconds (any of the four detector flags switches from the adaptive
     /// detector to the IMU-TK one with an initial rest period; defaults 1, 2, 2, 6).
-    #[arg(long, value_parser = duration_s)]
+    #[arg(long, value_parser = duration_s, allow_negative_numbers = true)]
     pub window_s: Option<f64>,
     /// Initial rest period (noise reference), seconds.
-    #[arg(long, value_parser = duration_s)]
+    #[arg(long, value_parser = duration_s, allow_negative_numbers = true)]
     pub init_s: Option<f64>,
     /// Shortest static interval, seconds.
-    #[arg(long, value_parser = duration_s)]
+    #[arg(long, value_parser = duration_s, allow_negative_numbers = true)]
     pub min_static_s: Option<f64>,
     /// Static when window variance ≤ THRESHOLD × rest-period variance.
-    #[arg(long, value_parser = positive_finite)]
+    #[arg(long, value_parser = threshold, allow_negative_numbers = true)]
     pub threshold: Option<f64>,
     /// Sample rate when the file has no time column or Fs metadata, Hz.
-    #[arg(long, default_value_t = 100.0, value_parser = positive_finite)]
+    #[arg(long, default_value_t = 100.0, value_parser = rate_hz, allow_negative_numbers = true)]
     pub rate_hz: f64,
     /// ADC limits LO:HI; static samples at a limit are refused as saturated (default: inferred
     /// from integer data: 8-bit, 10-bit or 16-bit).
@@ -151,6 +151,44 @@ pub fn duration_s(s: &str) -> Result<f64, String> {
         Ok(v)
     } else {
         Err(format!("'{s}': give a duration from 0.001 to 1000000 s"))
+    }
+}
+
+/// A sample rate in Hz: above 0, at most 1 MHz (inertial sensors stop at a few kHz; 1e300 Hz
+/// would make every window one sample).
+pub fn rate_hz(s: &str) -> Result<f64, String> {
+    let v = positive_finite(s)?;
+    if v <= wiical_analysis::input::MAX_RATE_HZ {
+        Ok(v)
+    } else {
+        Err(format!(
+            "'{s}': give a sample rate from above 0 to 1000000 Hz"
+        ))
+    }
+}
+
+/// A variance-ratio threshold: above 1 (at or below the rest variance nothing is ever still),
+/// at most 10⁶.
+pub fn threshold(s: &str) -> Result<f64, String> {
+    let v = positive_finite(s)?;
+    if v > 1.0 && v <= 1e6 {
+        Ok(v)
+    } else {
+        Err(format!(
+            "'{s}': give a threshold above 1 and at most 1000000 (times the rest variance)"
+        ))
+    }
+}
+
+/// A noise standard deviation: above 0, at most `max` in `unit`.
+pub fn noise_sigma(s: &str, max: f64, unit: &str) -> Result<f64, String> {
+    let v = positive_finite(s)?;
+    if v <= max {
+        Ok(v)
+    } else {
+        Err(format!(
+            "'{s}': give a noise level above 0 and at most {max} {unit}"
+        ))
     }
 }
 

@@ -18,7 +18,7 @@ pub struct Args {
     #[arg(long, value_delimiter = ',')]
     pub columns: Option<Vec<String>>,
     /// Sample rate when the file has no time column or Fs metadata, Hz.
-    #[arg(long, default_value_t = 100.0, value_parser = super::positive_finite)]
+    #[arg(long, default_value_t = 100.0, value_parser = super::rate_hz, allow_negative_numbers = true)]
     pub rate_hz: f64,
     /// Print JSON.
     #[arg(long)]
