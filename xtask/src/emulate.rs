@@ -91,9 +91,11 @@ pub fn emulate(args: &[String]) -> Result<bool> {
         .join("release/wiical-firmware");
     let wiical = root.join("target/debug/wiical");
     let me = std::env::current_exe().map_err(|e| e.to_string())?;
-    run(Command::new("node")
-        .current_dir(&emulator)
-        .args(["--test", "src/uf2.test.js"]))?;
+    run(Command::new("node").current_dir(&emulator).args([
+        "--test",
+        "--test-reporter=spec",
+        "src/uf2.test.js",
+    ]))?;
     let status = Command::new("node")
         .current_dir(&emulator)
         .arg(Path::new("run.js"))

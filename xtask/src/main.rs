@@ -5,7 +5,7 @@
 //! | `cargo xtask qemu` | runs the core's test vectors on an emulated Cortex-M33 (QEMU `mps2-an505`) and compares them with the host's; ends with `N passed, M failed` |
 //! | `cargo xtask qemu-bench` | deterministic instruction counts (`-icount shift=0`) and peak stack of the on-device operations |
 //! | `cargo xtask firmware [--chip rp2350\|rp2040]` | builds the release firmware for that chip (default RP2350), prints its flash and static RAM use (fails over 128 KiB / 32 KiB) and writes the drag-and-drop image `target/uf2/wiical-adapter-<chip>.uf2` |
-//! | `cargo xtask emulate [SCENARIO…]` | runs the RP2040 firmware ELF in rp2040js with a simulated Nunchuk, Wii Remote and USB host (`emulator/`); one line per scenario, then `N passed, M failed` |
+//! | `cargo xtask emulate [SCENARIO…]` | boots the RP2040 firmware's UF2 image in rp2040js with a simulated Nunchuk, Wii Remote and USB host (`emulator/`); one line per scenario, then `N passed, M failed` |
 //!
 //! Each installs what it is missing first: the rustup target (`thumbv8m.main-none-eabihf`, or
 //! `thumbv6m-none-eabi` for the RP2040 firmware) and,
@@ -43,7 +43,7 @@ commands:
               build the release firmware for that chip (default rp2350), print its
               flash and static RAM use, write target/uf2/wiical-adapter-<chip>.uf2
   emulate [SCENARIO...]
-              run the RP2040 firmware in rp2040js (emulator/) against a simulated
+              boot the RP2040 firmware's UF2 in rp2040js (emulator/) against a simulated
               Nunchuk, Wii Remote and the wiical CLI; all scenarios by default
 ";
 
