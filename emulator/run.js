@@ -1,6 +1,9 @@
 #!/usr/bin/env node
 // Scenarios for the real RP2040 firmware in rp2040js (see README.md and firmware/README.md).
-// usage: node run.js --elf FIRMWARE.elf --wiical target/debug/wiical --expect XTASK [NAME…]
+// usage: node run.js --elf FIRMWARE.elf [--uf2 FIRMWARE.uf2] --wiical target/debug/wiical
+//                    --expect XTASK [NAME…]
+// With --uf2 every scenario's board boots from the UF2 file (the file a user drops on the
+// Pico's drive, read into flash as the boot ROM writes it) instead of the ELF's segments.
 // Prints one `ok|FAIL <name>: <detail>` line per scenario, measurements, and a closing
 // `N passed, M failed`; exits non-zero when a scenario failed.
 
@@ -9,6 +12,9 @@ import { tmpdir } from 'node:os';
 import { join } from 'node:path';
 import { spawnSync } from 'node:child_process';
 import { Rig } from './src/rig.js';
+import { Board, FLASH_SIZE } from './src/board.js';
+import { parseElf } from './src/elf.js';
+import { parseUf2, Uf2Error } from './src/uf2.js';
 import { decodeReport, calibrationBlock } from './src/nunchuk.js';
 import { selfCalScenarios } from './src/selfcal-scenarios.js';
 import { mulberry32 } from './src/pose-nunchuk.js';
@@ -23,6 +29,8 @@ function option(name) {
   return v;
 }
 const elfBytes = readFileSync(option('--elf'));
+const uf2Path = args.includes('--uf2') ? option('--uf2') : null;
+const uf2Bytes = uf2Path ? readFileSync(uf2Path) : null;
 const wiical = option('--wiical');
 const expectBin = option('--expect');
 const only = args;
@@ -122,7 +130,7 @@ async function getState(rig) {
   return JSON.parse(r.stdout);
 }
 function newRig(flashImage = null, options = {}) {
-  return new Rig({ elfBytes, flashImage, wiical, link, ...options });
+  return new Rig({ elfBytes, uf2Bytes, flashImage, wiical, link, ...options });
 }
 async function putCommit(rig, calPath, extra = []) {
   const put = await rig.wiical(['put', calPath, ...extra]);
@@ -191,7 +199,56 @@ const fail = (message) => ({ fail: message });
 const measurements = {};
 const shared = {}; // images handed from one scenario to the next
 
+/**
+ * The UF2 file against the ELF it was made from: every byte the ELF's segments put in flash is
+ * the same in flash loaded from the UF2, and every other byte the UF2 writes is 0 (padding of
+ * a page or of an erase sector). Then the same file, damaged, must be refused.
+ */
+function checkUf2Image() {
+  const fromUf2 = new Board({ uf2Bytes }).flashImage();
+  const elfWrites = new Uint8Array(FLASH_SIZE);
+  const fromElf = new Uint8Array(FLASH_SIZE).fill(0xff);
+  for (const { paddr, bytes } of parseElf(elfBytes).segments) {
+    if (paddr < 0x10000000 || paddr + bytes.length > 0x10000000 + FLASH_SIZE) continue;
+    fromElf.set(bytes, paddr - 0x10000000);
+    elfWrites.fill(1, paddr - 0x10000000, paddr - 0x10000000 + bytes.length);
+  }
+  let elfCount = 0;
+  let padding = 0;
+  for (let i = 0; i < FLASH_SIZE; i++) {
+    if (elfWrites[i]) {
+      elfCount += 1;
+      if (fromUf2[i] !== fromElf[i]) return { error: `flash offset 0x${i.toString(16)}: the UF2 holds ${fromUf2[i]}, the ELF ${fromElf[i]}` };
+    } else if (fromUf2[i] === 0) padding += 1;
+    else if (fromUf2[i] !== 0xff) return { error: `flash offset 0x${i.toString(16)}: the UF2 writes ${fromUf2[i]} where the ELF writes nothing` };
+  }
+  const pages = parseUf2(uf2Bytes).length;
+  const damaged = {
+    'bad magic': (b) => { b[512 * 7 + 1] ^= 0xff; },
+    'missing block': null,
+    'wrong family': (b) => { b[512 * 3 + 28] ^= 0x0f; },
+  };
+  const refusals = [];
+  for (const [what, damage] of Object.entries(damaged)) {
+    const bytes = damage ? Uint8Array.from(uf2Bytes) : Buffer.concat([uf2Bytes.subarray(0, 512 * 5), uf2Bytes.subarray(512 * 6)]);
+    damage?.(bytes);
+    try {
+      new Board({ uf2Bytes: bytes });
+      return { error: `a UF2 with a ${what} was loaded` };
+    } catch (e) {
+      if (!(e instanceof Uf2Error)) throw e;
+      refusals.push(`${what}: "${e.message}"`);
+    }
+  }
+  return { detail: `${pages} pages (${uf2Bytes.length} B) hold the ELF's ${elfCount} flash bytes at their load addresses, plus ${padding} bytes of zero padding; refused ${refusals.join('; ')}` };
+}
+
 const scenarios = [
+  ['uf2-image', async () => {
+    if (!uf2Bytes) return fail('no --uf2 file (cargo xtask emulate passes target/uf2/wiical-adapter-rp2040.uf2)');
+    const r = checkUf2Image();
+    return r.error ? fail(r.error) : r.detail;
+  }],
   ['boot-passthrough', async () => {
     const rig = newRig();
     await rig.board.runUntilTrue(() => rig.remote.reports.length > 0, 2000);
@@ -206,7 +263,8 @@ const scenarios = [
     const err = checkReports(rig, 1, (a) => a);
     collectTiming(rig);
     rig.close();
-    return err ? fail(err) : `${rig.remote.reports.length} reports equal the raw Nunchuk reports (pass-through)`;
+    const from = uf2Bytes ? `booted from ${rig.board.uf2Pages} UF2 pages` : 'booted from the ELF';
+    return err ? fail(err) : `${from}; ${rig.remote.reports.length} reports equal the raw Nunchuk reports (pass-through)`;
   }],
   ['commit-live', async () => {
     const rig = newRig();

@@ -6,6 +6,7 @@
 import { RP2040, ConsoleLogger, LogLevel, BasePeripheral } from 'rp2040js';
 import { buildBootrom, ROM_FUNCTIONS, TRAP_RESET, TRAP_NMI, TRAP_HARDFAULT } from './bootrom.js';
 import { parseElf } from './elf.js';
+import { loadUf2 } from './uf2.js';
 import { I2CTarget } from './i2c-target.js';
 
 /** Size of the Pico's flash (W25Q16JV). */
@@ -185,24 +186,30 @@ function patchI2cController(i2c) {
 
 /**
  * One emulated board. `flashImage` (2 MiB) restores a previous board's flash (power cycle);
- * otherwise the ELF is loaded into an erased flash.
+ * otherwise `uf2Bytes` (the drag-and-drop file, as the boot ROM would write it) or else the
+ * ELF's loadable segments are written into an erased flash. Throws Uf2Error for a UF2 file
+ * the loader refuses.
  */
 export class Board {
-  constructor({ elfBytes, flashImage = null, uniqueId = [0xe6, 0x60, 0x38, 0xb7, 0x13, 0x2a, 0x4c, 0x2d] }) {
+  constructor({ elfBytes = null, uf2Bytes = null, flashImage = null, uniqueId = [0xe6, 0x60, 0x38, 0xb7, 0x13, 0x2a, 0x4c, 0x2d] }) {
     const rp2040 = new RP2040();
     this.rp2040 = rp2040;
     rp2040.logger = new ConsoleLogger(LogLevel.Error, true);
     rp2040.loadBootrom(buildBootrom(BOOT_STACK));
-    const elf = parseElf(elfBytes);
-    this.symbols = elf.symbols;
+    const elf = elfBytes ? parseElf(elfBytes) : null;
+    this.symbols = elf ? elf.symbols : new Map();
     if (flashImage) {
       rp2040.flash.set(flashImage.subarray(0, FLASH_SIZE));
-    } else {
+    } else if (uf2Bytes) {
+      this.uf2Pages = loadUf2(uf2Bytes, rp2040.flash, { flashSize: FLASH_SIZE });
+    } else if (elf) {
       for (const { paddr, bytes } of elf.segments) {
         if (paddr >= 0x10000000 && paddr + bytes.length <= 0x10000000 + FLASH_SIZE) {
           rp2040.flash.set(bytes, paddr - 0x10000000);
         }
       }
+    } else {
+      throw new Error('Board needs a flash image, a UF2 file or an ELF');
     }
     patchI2cController(rp2040.i2c[0]);
     const xip = new XipCtrl(this);

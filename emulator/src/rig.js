@@ -28,8 +28,8 @@ export function scriptedMotion({ zero = [508, 516, 520], perG = [204, 200, 204],
 }
 
 export class Rig {
-  constructor({ elfBytes, flashImage = null, wiical, link, nunchuk = {}, remote = {} }) {
-    this.board = new Board({ elfBytes, flashImage });
+  constructor({ elfBytes = null, uf2Bytes = null, flashImage = null, wiical, link, nunchuk = {}, remote = {} }) {
+    this.board = new Board({ elfBytes, uf2Bytes, flashImage });
     this.nunchuk = new Nunchuk(this.board, { motion: scriptedMotion(), ...nunchuk });
     this.remote = new WiiRemote(this.board, remote);
     this.remote.start();

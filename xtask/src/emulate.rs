@@ -1,6 +1,9 @@
-//! `cargo xtask emulate`: runs the real RP2040 firmware binary in rp2040js (`emulator/`, a
-//! Node.js harness) with a simulated Nunchuk, Wii Remote and USB host, and the real `wiical`
-//! CLI on a pseudo-terminal; and `emulate-correct`, the independent expectation the harness
+//! `cargo xtask emulate`: runs the real RP2040 firmware in rp2040js (`emulator/`, a Node.js
+//! harness) with a simulated Nunchuk, Wii Remote and USB host, and the real `wiical` CLI on a
+//! pseudo-terminal. The boards boot from the drag-and-drop file `cargo xtask firmware` writes
+//! (`target/uf2/wiical-adapter-rp2040.uf2`), so the file a user drops is the file tested; the
+//! ELF is compared with it. The UF2 loader's own tests (`node --test src/uf2.test.js`) run
+//! first. And `emulate-correct`, the independent expectation the harness
 //! compares the Wii Remote's reports with.
 
 use std::io::{BufRead, Write};
@@ -58,9 +61,9 @@ fn have(program: &str, arg: &str) -> bool {
         .is_ok_and(|o| o.status.success())
 }
 
-/// Builds the firmware (RP2040) and the host CLI, installs the harness's npm packages from
-/// the lockfile if missing, and runs the scenarios. The harness prints one line per scenario
-/// and a closing `N passed, M failed`.
+/// Builds the firmware (RP2040, with its UF2 image) and the host CLI, installs the harness's
+/// npm packages from the lockfile if missing, runs the UF2 loader's tests, then the scenarios.
+/// The harness prints one line per scenario and a closing `N passed, M failed`.
 pub fn emulate(args: &[String]) -> Result<bool> {
     for (program, package) in [("node", "nodejs"), ("npm", "npm"), ("socat", "socat")] {
         if !have(program, "--version") && !have(program, "-V") {
@@ -88,11 +91,18 @@ pub fn emulate(args: &[String]) -> Result<bool> {
         .join("release/wiical-firmware");
     let wiical = root.join("target/debug/wiical");
     let me = std::env::current_exe().map_err(|e| e.to_string())?;
+    run(Command::new("node").current_dir(&emulator).args([
+        "--test",
+        "--test-reporter=spec",
+        "src/uf2.test.js",
+    ]))?;
     let status = Command::new("node")
         .current_dir(&emulator)
         .arg(Path::new("run.js"))
         .arg("--elf")
         .arg(&elf)
+        .arg("--uf2")
+        .arg(Chip::Rp2040.uf2_path())
         .arg("--wiical")
         .arg(&wiical)
         .arg("--expect")

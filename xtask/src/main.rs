@@ -4,8 +4,8 @@
 //! |---|---|
 //! | `cargo xtask qemu` | runs the core's test vectors on an emulated Cortex-M33 (QEMU `mps2-an505`) and compares them with the host's; ends with `N passed, M failed` |
 //! | `cargo xtask qemu-bench` | deterministic instruction counts (`-icount shift=0`) and peak stack of the on-device operations |
-//! | `cargo xtask firmware [--chip rp2350\|rp2040]` | builds the release firmware for that chip (default RP2350) and prints its flash and static RAM use (fails over 128 KiB / 32 KiB) |
-//! | `cargo xtask emulate [SCENARIO…]` | runs the RP2040 firmware ELF in rp2040js with a simulated Nunchuk, Wii Remote and USB host (`emulator/`); one line per scenario, then `N passed, M failed` |
+//! | `cargo xtask firmware [--chip rp2350\|rp2040]` | builds the release firmware for that chip (default RP2350), prints its flash and static RAM use (fails over 128 KiB / 32 KiB) and writes the drag-and-drop image `target/uf2/wiical-adapter-<chip>.uf2` |
+//! | `cargo xtask emulate [SCENARIO…]` | boots the RP2040 firmware's UF2 image in rp2040js with a simulated Nunchuk, Wii Remote and USB host (`emulator/`); one line per scenario, then `N passed, M failed` |
 //!
 //! Each installs what it is missing first: the rustup target (`thumbv8m.main-none-eabihf`, or
 //! `thumbv6m-none-eabi` for the RP2040 firmware) and,
@@ -15,6 +15,7 @@
 
 mod elfsize;
 mod emulate;
+mod uf2;
 
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
@@ -40,9 +41,9 @@ commands:
   qemu-bench  instruction counts and peak stack on QEMU (-icount shift=0)
   firmware [--chip rp2350|rp2040]
               build the release firmware for that chip (default rp2350), print its
-              flash and static RAM use
+              flash and static RAM use, write target/uf2/wiical-adapter-<chip>.uf2
   emulate [SCENARIO...]
-              run the RP2040 firmware in rp2040js (emulator/) against a simulated
+              boot the RP2040 firmware's UF2 in rp2040js (emulator/) against a simulated
               Nunchuk, Wii Remote and the wiical CLI; all scenarios by default
 ";
 
@@ -324,6 +325,21 @@ impl Chip {
             Chip::Rp2040 => TARGET_RP2040,
         }
     }
+
+    /// What this chip's boot ROM expects of a UF2 file.
+    fn uf2_target(self) -> uf2::Target {
+        match self {
+            Chip::Rp2350 => uf2::Target::RP2350,
+            Chip::Rp2040 => uf2::Target::RP2040,
+        }
+    }
+
+    /// The drag-and-drop image `cargo xtask firmware` writes (the emulator boots the RP2040's).
+    pub(crate) fn uf2_path(self) -> PathBuf {
+        root()
+            .join("target/uf2")
+            .join(format!("wiical-adapter-{}.uf2", self.name()))
+    }
 }
 
 /// Parses the options of `firmware`: nothing, or `--chip rp2350|rp2040` (also `--chip=…`).
@@ -378,7 +394,47 @@ pub(crate) fn firmware(chip: Chip) -> Result<bool> {
         sizes.ram() as f64 / 1024.0,
         verdict(ram_ok)
     );
+    write_uf2(chip, &data)?;
     Ok(flash_ok && ram_ok)
+}
+
+/// Writes the chip's UF2 image of the firmware ELF `elf` (atomically: a temporary file renamed
+/// over the old image), reads it back to check the round trip, and prints what it holds.
+fn write_uf2(chip: Chip, elf: &[u8]) -> Result<()> {
+    let target = chip.uf2_target();
+    let pages = uf2::pages_from_elf(elf, target).map_err(|e| format!("UF2: {e}"))?;
+    let bytes = uf2::encode(&pages, target);
+    let back = uf2::decode(&bytes, target.family_id).map_err(|e| format!("UF2 read-back: {e}"))?;
+    if back.pages != pages {
+        return Err("UF2 read-back: the pages differ from the ELF's".into());
+    }
+    let path = chip.uf2_path();
+    let dir = path.parent().ok_or("UF2 path has no directory")?;
+    std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
+    let tmp = path.with_extension("uf2.tmp");
+    std::fs::write(&tmp, &bytes).map_err(|e| format!("cannot write {}: {e}", tmp.display()))?;
+    std::fs::rename(&tmp, &path)
+        .map_err(|e| format!("cannot rename {} to {}: {e}", tmp.display(), path.display()))?;
+    let (first, last) = match (pages.keys().next(), pages.keys().next_back()) {
+        (Some(&f), Some(&l)) => (f, l + uf2::PAGE),
+        _ => return Err("UF2: no pages".into()),
+    };
+    let e10 = match back.e10_block {
+        Some(addr) => format!(
+            " + 1 RP2350-E10 block (family {:#010x} absolute, at {addr:#010x})",
+            uf2::ABSOLUTE_FAMILY_ID
+        ),
+        None => String::new(),
+    };
+    println!(
+        "{}: {} B = {:.1} KiB, {} blocks of 256 B at {first:#010x}..{last:#010x}{e10}, family {:#010x}",
+        path.display(),
+        bytes.len(),
+        bytes.len() as f64 / 1024.0,
+        pages.len(),
+        target.family_id
+    );
+    Ok(())
 }
 
 #[cfg(test)]
