@@ -43,6 +43,12 @@ pub const TIE_REL: f64 = 0.01;
 /// A block whose within-block SD exceeds this many times the median block SD is taken as
 /// moving (a hand, a turn between poses) and left out.
 pub const MOVING_FACTOR: f64 = 5.0;
+/// [`TempcalAxis::noise_ratio`] above this: the record is not a still warm-up (the CLI warns).
+/// Between what still sensors give and what a worn one gives: white noise 1.0 (simulation);
+/// the static ADIS16405 log with a temperature ramp put on it 1.08–1.22 over 30 min and
+/// 1.29–1.70 over 2.8 h (its slow drift is not all a cubic); the GGIR wrist epochs 2.4–2.6
+/// (docs/tempcal.md). A heuristic: no real still warm-up with temperatures was at hand.
+pub const STILL_RATIO: f64 = 2.0;
 /// Most blocks used (a day at 1 block/s); more would only cost time.
 pub const MAX_BLOCKS: usize = 200_000;
 
@@ -137,6 +143,11 @@ pub struct TempcalAxis {
     pub heldout_rms: Vec<Option<f64>>,
     /// In-sample RMS of the chosen fit, file units.
     pub residual_rms: f64,
+    /// In-sample RMS over the block-to-block noise (RMS of successive differences within a
+    /// pose, /√2): ≈ 1 for a still sensor whose bias follows the temperature; well above 1
+    /// (see [`STILL_RATIO`]) when the poses were not still or the bias depends on more than
+    /// the temperature. Null when no pose has two successive blocks.
+    pub noise_ratio: Option<f64>,
     /// The order-1 fit's slope and its standard error (what a calibration file's `bias_temp`
     /// holds), file units per °C.
     pub linear: [f64; 2],
@@ -314,6 +325,7 @@ fn axis_report(
     let all = vec![true; y.len()];
     let chosen = fit_axis(&data, &all, order).ok_or(TempcalError::NothingHeldOut)?;
     let linear = fit_axis(&data, &all, 1).ok_or(TempcalError::NothingHeldOut)?;
+    let residual_rms = (chosen.rss / y.len() as f64).sqrt();
     let points = (0..y.len())
         .map(|i| {
             (
@@ -328,10 +340,22 @@ fn axis_report(
         coefficients: chosen.coef.clone(),
         std_errors: chosen.se.clone(),
         heldout_rms: rms,
-        residual_rms: (chosen.rss / y.len() as f64).sqrt(),
+        residual_rms,
+        noise_ratio: step_noise(&y, &b.pose).map(|s| residual_rms / s),
         linear: [linear.coef[0], linear.se[0]],
         points,
     })
+}
+
+/// The noise of one block from successive differences within a pose (a slow drift, such as
+/// the bias following the temperature, hardly enters them): `√(mean (Δy)² / 2)`.
+fn step_noise(y: &[f64], pose: &[usize]) -> Option<f64> {
+    let (ss, n) = (1..y.len())
+        .filter(|i| pose[*i] == pose[i - 1])
+        .fold((0.0, 0usize), |(s, n), i| {
+            (s + (y[i] - y[i - 1]).powi(2), n + 1)
+        });
+    (n > 0 && ss > 0.0).then(|| (ss / (2.0 * n as f64)).sqrt())
 }
 
 /// `g`, `m/s^2` or `raw`, from whether the values are integers and the median block magnitude.

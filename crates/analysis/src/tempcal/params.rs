@@ -65,8 +65,8 @@ pub fn ardupilot(rep: &TempcalReport, to_ms2: f64) -> String {
         .map(|a| about(&a.coefficients, rep.t_ref_c, super::TEMP_REF_C))
         .collect();
     for k in 0..3 {
-        for (axis, name) in ["X", "Y", "Z"].iter().enumerate() {
-            let v = c[axis][k] * to_ms2 * ARDUPILOT_SCALE;
+        for (ck, name) in c.iter().zip(["X", "Y", "Z"]) {
+            let v = ck[k] * to_ms2 * ARDUPILOT_SCALE;
             o.push_str(&format!("INS_TCAL1_ACC{}_{name} {v:.9}\n", k + 1));
         }
     }
