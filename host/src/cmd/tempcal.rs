@@ -39,16 +39,17 @@ pub struct Args {
     #[arg(long, value_delimiter = ',')]
     pub columns: Option<Vec<String>>,
     /// Reference temperature T_ref of the polynomial, °C (ArduPilot's TCAL uses 35).
-    #[arg(long, default_value_t = wiical_analysis::tempcal::TEMP_REF_C, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = wiical_analysis::tempcal::TEMP_REF_C, allow_negative_numbers = true, value_parser = in_range(-100.0, 200.0))]
     pub tref: f64,
     /// Contiguous segments (by time) for the leave-one-segment-out choice of order, 2–50.
-    #[arg(long, default_value_t = 8)]
-    pub segments: usize,
+    #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u16).range(2..=50))]
+    pub segments: u16,
     /// Samples are averaged over blocks this long before the fit, s.
-    #[arg(long, default_value_t = 1.0, value_parser = super::positive_finite)]
+    #[arg(long, default_value_t = 1.0, value_parser = super::duration_s)]
     pub block_s: f64,
-    /// A block more than this many degrees from its pose's first block starts a new pose.
-    #[arg(long, default_value_t = 10.0, value_parser = super::positive_finite)]
+    /// A block more than this many degrees from its pose's first block starts a new pose
+    /// (above 0, below 180).
+    #[arg(long, default_value_t = 10.0, value_parser = in_range(0.0, 180.0))]
     pub pose_deg: f64,
     /// Sample rate when the file has no time column or Fs metadata, Hz.
     #[arg(long, default_value_t = 100.0, value_parser = super::positive_finite)]
@@ -77,6 +78,21 @@ pub struct Args {
     pub out: Option<PathBuf>,
 }
 
+/// A parser of a finite number strictly between `lo` and `hi`.
+fn in_range(lo: f64, hi: f64) -> impl Fn(&str) -> Result<f64, String> + Clone {
+    move |s: &str| {
+        let v: f64 = s
+            .trim()
+            .parse()
+            .map_err(|_| format!("'{s}' is not a number"))?;
+        if v.is_finite() && v > lo && v < hi {
+            Ok(v)
+        } else {
+            Err(format!("'{s}': give a number above {lo} and below {hi}"))
+        }
+    }
+}
+
 /// Runs `wiical tempcal`; returns what to print.
 pub fn run(a: &Args) -> Result<String> {
     if a.out.is_some() && a.format.is_none() {
@@ -93,7 +109,7 @@ pub fn run(a: &Args) -> Result<String> {
     let rec = load(&a.file, &load_options(a.columns.as_deref())?)?;
     let opts = TempcalOptions {
         t_ref_c: a.tref,
-        segments: a.segments,
+        segments: a.segments.into(),
         block_s: a.block_s,
         pose_deg: a.pose_deg,
         default_rate_hz: a.rate_hz,

@@ -286,8 +286,8 @@ fn check_options(o: &TempcalOptions) -> std::result::Result<(), TempcalError> {
     if !(2..=50).contains(&o.segments) {
         return bad("the number of segments must be from 2 to 50");
     }
-    if !(o.block_s.is_finite() && o.block_s > 0.0 && o.block_s <= 3600.0) {
-        return bad("the block length must be above 0 and at most 3600 s");
+    if !(o.block_s.is_finite() && (1e-3..=1e6).contains(&o.block_s)) {
+        return bad("the block length must be from 0.001 to 1000000 s");
     }
     if !(o.pose_deg.is_finite() && o.pose_deg > 0.0 && o.pose_deg < 180.0) {
         return bad("the pose angle must be above 0 and below 180°");
