@@ -191,6 +191,25 @@ fn refusals_are_one_sentence() {
     assert_eq!(err.trim().lines().count(), 1, "{err}");
     let (ok, _, err) = wiical(&["tempcal", file, "--out", "x.parm"]);
     assert!(!ok && err.contains("give --format"), "{err}");
+    let (ok, _, err) = wiical(&["tempcal", file, "--json", "--format", "px4"]);
+    assert!(!ok && err.contains("give --out"), "{err}");
+    // A different pose label on every row (100 000 of them, read in linear time): every
+    // block straddles two poses.
+    let mut rows = String::from("t,x,y,z,temp,pose\n");
+    for i in 0..100_000 {
+        rows.push_str(&format!(
+            "{},0,0,1,{},p{i}\n",
+            i as f64 / 100.0,
+            10.0 + i as f64 * 2e-4
+        ));
+    }
+    let h = temp_file("tempcal", "labels.csv", &rows);
+    let (ok, _, err) = wiical(&["tempcal", h.to_str().unwrap()]);
+    assert!(
+        !ok && err.contains("(of 1000 blocks, 1000 moving)"),
+        "{err}"
+    );
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
     let g = temp_file("tempcal", "notemp.csv", "t,x,y,z\n0,0,0,1\n0.01,0,0,1\n");
     let (ok, _, err) = wiical(&["tempcal", g.to_str().unwrap()]);
     assert!(!ok && err.contains("no temperature column"), "{err}");

@@ -103,6 +103,11 @@ pub fn run(a: &Args) -> Result<String> {
     if (a.format == Some(Format::Calfile)) != a.calibration.is_some() {
         bail!("--format calfile and --calibration CAL.json go together (the calibration the temperature term is added to)");
     }
+    if a.json && a.format.is_some() && a.out.is_none() {
+        bail!(
+            "--json and --format both print to standard output: give --out for the --format file"
+        );
+    }
     let mut inputs = vec![a.file.as_path()];
     inputs.extend(a.calibration.as_deref());
     check_outputs(&inputs, &[a.plot.as_deref(), a.out.as_deref()])?;

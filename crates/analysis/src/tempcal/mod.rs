@@ -181,7 +181,7 @@ pub struct TempcalReport {
     pub block_samples: usize,
     /// Blocks used in the fit.
     pub blocks: usize,
-    /// Blocks left out as moving.
+    /// Blocks left out as moving (or straddling two pose labels).
     pub blocks_moving: usize,
     /// Blocks left out because their pose was held for one block only.
     pub blocks_single: usize,
@@ -372,7 +372,11 @@ fn units_of(rec: &Recording, kept: &[Block]) -> &'static str {
 /// Averages the samples into blocks, drops moving blocks, assigns poses (by the pose label
 /// when the file has one, else by direction) and drops poses held for one block only.
 fn blocks(rec: &Recording, opts: &TempcalOptions) -> std::result::Result<Blocks, TempcalError> {
-    let temp = rec.temp.as_ref().ok_or(TempcalError::NoTemperature)?;
+    let temp = rec
+        .temp
+        .as_ref()
+        .filter(|t| t.len() == rec.len())
+        .ok_or(TempcalError::NoTemperature)?;
     if let Some(i) = temp.iter().position(|t| !t.is_finite()) {
         return Err(TempcalError::NonFiniteTemperature { row: i + 1 });
     }
@@ -386,10 +390,11 @@ fn blocks(rec: &Recording, opts: &TempcalOptions) -> std::result::Result<Blocks,
         .max(n.div_ceil(MAX_BLOCKS))
         .min(n.max(1));
     let labels = label_ids(rec);
-    let mut all: Vec<Block> = (0..n / per_block)
+    // A block straddling two pose labels is a change of pose: counted as moving.
+    let total = n / per_block;
+    let mut all: Vec<Block> = (0..total)
         .filter_map(|k| block_of(rec, temp, labels.as_deref(), k * per_block, per_block))
         .collect();
-    let total = all.len();
     let mut sds: Vec<f64> = all.iter().filter_map(|b| b.sd).collect();
     sds.sort_by(f64::total_cmp);
     let median_sd = sds.get(sds.len() / 2).copied().unwrap_or(0.0);
@@ -414,16 +419,13 @@ fn blocks(rec: &Recording, opts: &TempcalOptions) -> std::result::Result<Blocks,
 /// Each sample's pose label as a small integer (the file's `pose`/`label` column), if any.
 fn label_ids(rec: &Recording) -> Option<Vec<usize>> {
     let labels = rec.labels.as_ref()?;
-    let mut names: Vec<&str> = Vec::new();
+    let mut ids: std::collections::HashMap<&str, usize> = std::collections::HashMap::new();
     Some(
         labels
             .iter()
-            .map(|l| match names.iter().position(|n| *n == l) {
-                Some(i) => i,
-                None => {
-                    names.push(l);
-                    names.len() - 1
-                }
+            .map(|l| {
+                let next = ids.len();
+                *ids.entry(l.as_str()).or_insert(next)
             })
             .collect(),
     )

@@ -133,6 +133,25 @@ fn several_poses_share_the_polynomial() {
 }
 
 #[test]
+fn pose_labels_give_the_poses() {
+    let mut sim = Sim::new(8, CUBIC);
+    // Two poses only 3° apart: the direction test would take them as one; the labels do not.
+    sim.poses = vec![[0.05, -0.1, 0.9937], [0.05, -0.1523, 0.9870]];
+    let mut rec = sim.recording();
+    let half = rec.len() / 2;
+    rec.labels = Some(
+        (0..rec.len())
+            .map(|i| if i < half { "a" } else { "b" }.to_string())
+            .collect(),
+    );
+    let rep = tempcal(&rec, &Default::default()).unwrap();
+    assert_eq!(rep.poses, 2, "{rep:?}");
+    assert_within_3se(&rep, &CUBIC);
+    let unlabelled = tempcal(&sim.recording(), &Default::default()).unwrap();
+    assert_eq!(unlabelled.poses, 1);
+}
+
+#[test]
 fn linear_truth_chooses_order_1() {
     let linear = [[1.0e-3, 0.0, 0.0], [-0.7e-3, 0.0, 0.0], [0.4e-3, 0.0, 0.0]];
     let mut chosen = [0usize; 4];
