@@ -691,11 +691,6 @@ pub enum Error {
         why: String,
     },
 
-    // ---- temperature calibration ----
-    /// A warm-up recording that cannot give a temperature calibration.
-    #[error(transparent)]
-    Tempcal(#[from] crate::tempcal::TempcalError),
-
     // ---- factory calibration blocks ----
     /// A factory calibration block (hex text, length, device name) that cannot be decoded.
     #[error(transparent)]

@@ -6,7 +6,9 @@ use crate::cli_error::cli_error;
 use crate::render;
 use anyhow::{anyhow, bail, Result};
 use std::path::PathBuf;
-use wiical_analysis::tempcal::{params, tempcal, TempcalOptions, TempcalReport, STILL_RATIO};
+use wiical_analysis::tempcal::{
+    params, tempcal, TempcalError, TempcalOptions, TempcalReport, STILL_RATIO,
+};
 
 /// What `--format` writes.
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
@@ -120,7 +122,7 @@ pub fn run(a: &Args) -> Result<String> {
         default_rate_hz: a.rate_hz,
     };
     let rep = super::with_spinner("fitting bias against temperature", || tempcal(&rec, &opts))
-        .map_err(|e| tempcal_error(e.into()).context(format!("in {}", a.file.display())))?;
+        .map_err(|e| tempcal_error(e).context(format!("in {}", a.file.display())))?;
     warn_not_still(&rep, &a.file);
     if let Some(path) = &a.plot {
         render::tempcal::write_plot(&rep, path)?;
@@ -158,14 +160,14 @@ fn warn_not_still(rep: &TempcalReport, file: &std::path::Path) {
     }
 }
 
-/// The engine's refusals, naming this command's flags where a setting is concerned.
-fn tempcal_error(e: wiical_analysis::Error) -> anyhow::Error {
-    use wiical_analysis::tempcal::TempcalError as T;
+/// The engine's refusals, naming this command's flags where a setting is concerned (clap
+/// checks them first; the engine checks again for other callers).
+fn tempcal_error(e: TempcalError) -> anyhow::Error {
     match e {
-        wiical_analysis::Error::Tempcal(T::Setting { what }) => {
+        TempcalError::Setting { what } => {
             anyhow!("{what} (--tref, --segments, --block-s, --pose-deg)")
         }
-        other => cli_error(other),
+        other => anyhow::Error::new(other),
     }
 }
 

@@ -80,7 +80,9 @@ impl Default for TempcalOptions {
     }
 }
 
-/// Why a temperature calibration cannot be made.
+/// Why a temperature calibration cannot be made. Not a variant of [`crate::Error`]: this
+/// module imports only [`crate::recording`], and the crate error importing it back would be an
+/// import circle (`scripts/module-graph`).
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum TempcalError {
