@@ -262,3 +262,36 @@ fn parameter_files_read_back_with_the_autopilots_names_and_units() {
         assert_eq!(line.split('\t').count(), 5, "{line}");
     }
 }
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(64))]
+    /// Any finite recording gives a report or a refusal, never a panic or a non-finite
+    /// coefficient.
+    #[test]
+    fn arbitrary_recordings_never_panic(
+        rows in proptest::collection::vec(
+            (-1e6f64..1e6, -1e6f64..1e6, -1e6f64..1e6, -50f64..150.0), 0..400),
+        block_s in 0.01f64..0.05,
+        pose_deg in 0.1f64..170.0,
+        still in proptest::bool::ANY,
+    ) {
+        // `still`: values within ±0.01 of one direction, so poses, fits and order choices run.
+        let xyz = |r: &(f64, f64, f64, f64)| if still {
+            [r.0 * 1e-8, r.1 * 1e-8, 1.0 + r.2 * 1e-8]
+        } else {
+            [r.0, r.1, r.2]
+        };
+        let rec = Recording {
+            xyz: rows.iter().map(xyz).collect(),
+            temp: Some(rows.iter().map(|r| r.3).collect()),
+            axis_columns: ["x".into(), "y".into(), "z".into()],
+            ..Default::default()
+        };
+        let opts = TempcalOptions { block_s, pose_deg, ..Default::default() };
+        if let Ok(rep) = tempcal(&rec, &opts) {
+            for a in &rep.axes {
+                proptest::prop_assert!(a.coefficients.iter().all(|c| c.is_finite()));
+            }
+        }
+    }
+}
