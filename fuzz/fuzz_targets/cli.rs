@@ -12,7 +12,7 @@ use std::path::PathBuf;
 use std::sync::OnceLock;
 
 /// Subcommands and fixed leading arguments (gyrofit with and without a nominal).
-const COMMANDS: [&[&str]; 9] = [
+const COMMANDS: [&[&str]; 10] = [
     &["fit"],
     &["analyze"],
     &["magfit"],
@@ -20,6 +20,7 @@ const COMMANDS: [&[&str]; 9] = [
     &["gyrofit"],
     &["gyrofit", "--counts-per-dps", "16.4"],
     &["noise"],
+    &["tempcal"],
     &["fit", "--windows"],
     &["decode-cal", "--device"],
 ];

@@ -55,6 +55,10 @@ pub enum Cmd {
     /// magnetometer) and the IEEE 952 terms where their slope is seen — white noise N,
     /// bias instability B, rate random walk K, quantisation Q, rate ramp R.
     Noise(cmd::noise::Args),
+    /// Bias against temperature of a still warm-up (one or more poses): per axis a polynomial
+    /// of order 1–3 in T − T_ref (chosen by leave-one-segment-out error), ArduPilot
+    /// (INS_TCAL1_*) and PX4 (TC_A0_*) parameter files, or a calibration file's linear term.
+    Tempcal(cmd::tempcal::Args),
     /// Decode a factory calibration block (hex bytes) of a Wii Remote (10 bytes at EEPROM 0x16,
     /// or both copies), a Nunchuk (16 bytes at 0x20, or 0x20–0x3F) or a MotionPlus (the 32
     /// gyro calibration bytes at 0xA60020, CRC-32 checked).
@@ -80,6 +84,7 @@ pub fn run(cli: Cli) -> Result<String> {
         Cmd::Magfit(a) => cmd::magfit::run(&a),
         Cmd::DecodeCal(a) => cmd::decode_cal::run(&a),
         Cmd::Noise(a) => cmd::noise::run(&a),
+        Cmd::Tempcal(a) => cmd::tempcal::run(&a),
         Cmd::KalmanDemo(a) => cmd::kalman_demo::run(&a),
     }
 }

@@ -34,6 +34,7 @@
 //! | entries | [`pipeline`] | input (samples or window table) → report + quality verdict: what `fit`/`analyze --json` print |
 //! | report | [`report`] | → [`AnalyzeReport`] (the JSON contract of `wiical analyze`) |
 //! | six-position | [`six_position`], [`six`] | labelled poses → the seed's `T̂ = M·Â⁺` and its residual contrasts |
+//! | temperature | [`tempcal`] | still warm-up (one or more poses) + temperature → bias polynomial in T − T_ref, order by held-out segments; ArduPilot / PX4 parameter files (`wiical tempcal`) |
 //! | magnetometer | [`magnetometer`] | points → sphere / ellipsoid hard/soft-iron fit |
 //! | factory calibration blocks | [`factory`] | Wii Remote / Nunchuk / MotionPlus block bytes → decoded report (`decode-cal`, the capture side file) |
 //! | calibration file | [`calfile`], [`mod@write`] | [`Calibration`] ↔ JSON file |
@@ -112,6 +113,7 @@ pub mod six;
 pub mod six_position;
 pub mod stats;
 pub mod table;
+pub mod tempcal;
 pub mod timecheck;
 pub mod trial;
 pub mod verdict;

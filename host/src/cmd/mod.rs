@@ -14,6 +14,7 @@ pub mod magfit;
 pub mod noise;
 pub mod simulate;
 pub mod six_position;
+pub mod tempcal;
 
 use crate::cli_error::cli_error;
 use anyhow::Result;

@@ -7,6 +7,7 @@ pub mod device;
 pub mod gyrofit;
 pub mod noise;
 pub mod plot;
+pub mod tempcal;
 
 use std::fmt::Write as _;
 use wiical_analysis::fit::FitReport;
