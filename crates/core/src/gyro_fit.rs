@@ -381,6 +381,58 @@ pub fn fit_from<T: RealField + Copy>(
     })
 }
 
+/// Leave-one-motion-out by one Gauss–Newton step from the all-motion fit instead of a refit
+/// per motion: with `H = JᵀJ` and `g = Jᵀr` of all motions at the fit `fitted`, motion `i`'s
+/// held-out parameters are `p − (H − JᵢᵀJᵢ)⁻¹(g − Jᵢᵀrᵢ)`, and its held-out angle is then
+/// integrated exactly at those parameters. The refit's objective differs from the full one by
+/// one motion of 3 observations, so its minimum lies close to the full fit's and one step
+/// lands on it to second order; the cost is two passes over the motions with sensitivities
+/// plus one without, against one full Levenberg–Marquardt fit per motion for
+/// [`leave_one_out`]. A motion without which the normal matrix is singular (it alone
+/// determines a parameter) falls back to the exact refit. Returns the RMS of the held-out
+/// angles, rad; `per_motion(i, angle)` sees each.
+pub fn leave_one_out_one_step<T: RealField + Copy>(
+    motions: &[Motion<'_, T>],
+    nominal: &GyroCalibration<T>,
+    fitted: &Adjustment<T>,
+    cfg: &GyroFitConfig<T>,
+    mut per_motion: impl FnMut(usize, T),
+) -> Result<T, Error> {
+    if motions.len() < 2 {
+        return Err(Error::TooFewPoses {
+            needed: 2,
+            got: motions.len() as u32,
+        });
+    }
+    let free = cfg.model.mask(cfg.fit_bias);
+    let p = fitted.to_params();
+    let problem = GyroProblem::new(motions, *nominal, cfg.dt, free, None)?;
+    let (jtj, jtr) = lm::normal_equations(&problem, &p, None);
+    let mut sum = T::zero();
+    for (i, motion) in motions.iter().enumerate() {
+        let own = problem.motion(i, &p, true);
+        let jt = own.jacobian.transpose();
+        let h = jtj - jt * own.jacobian;
+        let mut g = jtr - jt * own.residual;
+        for k in (0..NPARAM).filter(|k| !free[*k]) {
+            g[k] = T::zero();
+        }
+        // A pivot that loses all but ~3 digits: the motion alone determined a parameter.
+        let rel_pivot = T::default_epsilon() * nalgebra::convert(1000.0);
+        let cal = match lm::factor_normal(&h, &free, rel_pivot) {
+            Some(chol) if free.iter().any(|f| *f) => {
+                Adjustment::from_params(&(p - chol.solve(&g))).apply(nominal)?
+            }
+            Some(_) => fitted.apply(nominal)?,
+            None => fit_from(motions, nominal, fitted, cfg, Some(i))?.calibration,
+        };
+        let a = motion_angle(motion, &cal, cfg.dt)?;
+        per_motion(i, a);
+        sum += a * a;
+    }
+    Ok((sum / nalgebra::convert(motions.len() as f64)).sqrt())
+}
+
 /// Leave-one-motion-out: for each motion, fit on the others (starting from `start`) and
 /// measure the angle error on the one held out. Returns the RMS of the held-out angles, rad.
 /// `per_motion(i, angle)` sees each held-out angle.

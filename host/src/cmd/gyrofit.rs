@@ -32,6 +32,10 @@ pub struct Args {
     /// Print JSON.
     #[arg(long)]
     pub json: bool,
+    /// Held-out errors by a refit per motion (slow: one fit per motion and model) instead of
+    /// one Gauss–Newton step from the all-motion fit (docs/gyro.md: how far apart they are).
+    #[arg(long)]
+    pub exact_held_out: bool,
     /// Write the chosen gyro calibration (bias, matrix raw → rad/s, model) as JSON here.
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -123,6 +127,7 @@ pub fn run(a: &Args) -> Result<String> {
         .detect
         .fit_options(wiical_core::multipos::MultiPosModel::Full)
         .detect;
+    opts.exact_held_out = a.exact_held_out;
     let rep = wiical_analysis::gyro::run(&acc, &gyro, &opts).map_err(cli_error)?;
     if let Some(path) = &a.out {
         let file = GyroCalFile {
