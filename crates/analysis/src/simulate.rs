@@ -9,7 +9,10 @@
 //! * An initial rest period (lying flat, +z up), then `poses` hand-placed static poses
 //!   (4–8 s each: six near the ± axes, the rest uniformly spread) with 1.5–3 s of hand
 //!   motion between them (a rotation with a smooth profile plus hand accelerations of a few
-//!   tenths of g).
+//!   tenths of g). The `brisk` [`Profile`]: holds of 2–4 s, moves of 1–2 s with two hand
+//!   bumps (lifting, knocking down: 20–40 ms pulses of 0.3–1 g).
+//! * [`Device::Mems16`]: a 16-bit MEMS (16 384 counts/g, bias near 0) written in m/s²; the
+//!   truth is in the same unit.
 //! * A `temp` column (°C, 0.01 °C resolution): room temperature plus a self-heating warm-up
 //!   `ΔT·(1 − e^{−t/τ})`, the hand warming the case while it moves the sensor (first-order,
 //!   τ = 30 s) and a slow air-conditioning wobble. Temperature therefore rises with time, so
