@@ -263,3 +263,30 @@ fn columns_option_selects_a_triplet() {
     let (ok, _, err) = wiical(&["magfit", file.to_str().unwrap(), "--columns", "bx,by"]);
     assert!(!ok && err.contains("exactly three"), "{err}");
 }
+
+/// Issue 19 item 1 through the CLI: a brisk 16-bit MEMS recording at 400 Hz (m/s²) gets a
+/// window for every hold of its truth (31: the rest and 30 poses of 2–4 s).
+#[test]
+fn simulate_brisk_mems16_and_fit_finds_every_hold() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("brisk.csv");
+    let o = out.to_str().unwrap();
+    let (ok, _, err) = wiical(&[
+        "simulate",
+        "--out",
+        o,
+        "--device",
+        "mems16",
+        "--profile",
+        "brisk",
+        "--seed",
+        "2",
+    ]);
+    assert!(ok, "{err}");
+    let truth: Value =
+        serde_json::from_str(&std::fs::read_to_string(format!("{o}.truth.json")).unwrap()).unwrap();
+    assert_eq!(truth["rate_hz"], 400.0);
+    let poses = truth["poses"].as_array().unwrap().len();
+    let v = json(&["fit", o, "--json"]);
+    assert_eq!(v["static_windows"].as_u64().unwrap() as usize, poses);
+}

@@ -29,6 +29,14 @@ fn absurd_numeric_flags_are_refused_naming_the_flag() {
         &["simulate", "--out", "x.csv", "--poses", "20000"],
         &["--poses", "5000"],
     );
+    fails_with(
+        &["simulate", "--out", "x.csv", "--rate", "5"],
+        &["--rate", "20 to 2000"],
+    );
+    fails_with(
+        &["simulate", "--out", "x.csv", "--profile", "quick"],
+        &["--profile", "brisk"],
+    );
 }
 
 /// Item 2: an output that cannot be written stops the command before any output is written.

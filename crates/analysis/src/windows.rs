@@ -139,11 +139,53 @@ pub fn detect_adaptive(rec: &Recording, opts: &DetectOptions) -> Result<Detectio
         },
         other => Error::DetectorSettings(other),
     })?;
+    let mut intervals = std::mem::take(&mut per_setting[chosen]);
+    if chosen < FILL_SETTING {
+        let (window_s, min_static_s) = adaptive::HOLD_SCHEDULE[FILL_SETTING];
+        let cfg = det
+            .thresholds
+            .detector_config(rate as f32, window_s, min_static_s);
+        let mut short = Vec::new();
+        let samples = xyz.iter().map(|s| s.map(|v| v as f32));
+        adaptive::run::<MAX_WINDOW, _>(samples, cfg, det.thresholds.reference_variance, |iv| {
+            short.push(iv)
+        })
+        .map_err(Error::DetectorSettings)?;
+        intervals = fill_holds(intervals, &short);
+    }
     Ok(Detection {
-        intervals: std::mem::take(&mut per_setting[chosen]),
+        intervals,
         reference_variance: det.thresholds.reference_variance,
         times: rec.times(rate),
     })
+}
+
+/// The [`adaptive::HOLD_SCHEDULE`] setting (0.5 s windows, 1 s holds) whose holds fill the
+/// gaps of a longer chosen setting.
+const FILL_SETTING: usize = 1;
+
+/// The chosen setting's intervals plus every interval of the shorter setting `short` that
+/// overlaps none of them, in time order.
+///
+/// Why: the adaptive detection stops at the first setting that gives enough windows for a
+/// fit, which on most recordings is IMU-TK's 1 s window with 2 s holds. A centred 1 s window
+/// only calls a sample static when the whole second around it is still, so a hold must have
+/// 3 s of still samples to give a 2 s interval: on brisk recordings (holds of 2–4 s) a third
+/// of the holds were dropped although they average noise just as well per sample. The 0.5 s
+/// setting finds every hold with ≥ 1.5 s of still samples; where the long setting already has
+/// a window its window is kept (the same windows as before on recordings with long holds), and
+/// only holds it has none in are added. A short window's own noise (its variance over its
+/// sample count) is its noise floor in `analyze` (`noise::floors`), so it counts for what it is.
+fn fill_holds(mut chosen: Vec<StaticInterval>, short: &[StaticInterval]) -> Vec<StaticInterval> {
+    let overlaps = |a: &StaticInterval, b: &StaticInterval| a.start < b.end && b.start < a.end;
+    let extra: Vec<StaticInterval> = short
+        .iter()
+        .filter(|s| !chosen.iter().any(|c| overlaps(c, s)))
+        .copied()
+        .collect();
+    chosen.extend(extra);
+    chosen.sort_by_key(|iv| iv.start);
+    chosen
 }
 
 /// Most quantiser levels per axis [`lattice_view`] recognises: a 16-bit ADC has 65 536;
@@ -567,6 +609,25 @@ mod tests {
         // Scaled again (g → m/s²): the same levels.
         let ms2: Vec<[f64; 3]> = in_g.iter().map(|v| v.map(|x| x * 9.80665)).collect();
         assert_eq!(lattice_view(&ms2).unwrap(), levels);
+    }
+
+    /// The chosen setting's windows are kept as they are; a shorter-setting interval is added
+    /// only where it overlaps none of them, and the result is in time order.
+    #[test]
+    fn fill_holds_adds_only_the_holds_without_a_window() {
+        let iv = |start: u32, end: u32| StaticInterval {
+            start,
+            end,
+            mean: [start as f32; 3],
+            variance: [0.0; 3],
+        };
+        let chosen = vec![iv(0, 300), iv(600, 900)];
+        let short = [iv(10, 290), iv(350, 500), iv(550, 610), iv(950, 1100)];
+        let got = fill_holds(chosen, &short);
+        assert_eq!(
+            got,
+            vec![iv(0, 300), iv(350, 500), iv(600, 900), iv(950, 1100)]
+        );
     }
 
     #[test]

@@ -177,3 +177,39 @@ fn continuous_tumbling_is_diagnosed_as_not_still() {
         );
     }
 }
+
+/// Issue 19 item 1: filling the gaps of the long-hold setting with the 0.5 s setting's holds
+/// never loses a window on a real recording. The counts are those of the detector before the
+/// change (release binary of 89be00d, `scripts/windows-table`), the floor each must keep.
+#[test]
+fn real_recordings_keep_their_windows() {
+    for (rel, before) in [
+        ("imu_tk_xsens/xsens_acc.mat", 38),
+        ("acc_mag_ck_explorer/acc_log.csv", 100),
+        ("acc_mag_ck_explorer/acc_mag_log.csv", 18),
+        ("mpu9150_mikoff_5units/imu0.csv", 22),
+        ("mpu9150_mikoff_5units/imu1.csv", 22),
+        ("mpu9150_mikoff_5units/imu2.csv", 22),
+        ("mpu9150_mikoff_5units/imu3.csv", 22),
+        ("mpu9150_mikoff_5units/imu4.csv", 22),
+        ("mpu6050_hmc5883l_sunsided_set2/full-sphere_mpu6050.csv", 30),
+        (
+            "mpu6050_hmc5883l_sunsided_set2/full-sphere_hmc5883l.csv",
+            24,
+        ),
+        ("qmc5883l_mag_tomisuarez/filtered_raw_data.csv", 36),
+        (
+            "mpu6050_multipos_tomisuarez/example_data_calibration.csv",
+            11,
+        ),
+    ] {
+        let rec = load_file(rel);
+        let ws = wiical_analysis::windows::detect_windows(&rec, &Default::default())
+            .unwrap_or_else(|e| panic!("{rel}: {e}"));
+        assert!(
+            ws.stats.len() >= before,
+            "{rel}: {} windows, {before} before",
+            ws.stats.len()
+        );
+    }
+}

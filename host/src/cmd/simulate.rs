@@ -4,7 +4,7 @@ use crate::cli_error::cli_error;
 use anyhow::Result;
 use std::fmt::Write as _;
 use std::path::PathBuf;
-use wiical_analysis::simulate::{self, Device, EffectSpec, SimConfig, SimEffect};
+use wiical_analysis::simulate::{self, Device, EffectSpec, Profile, SimConfig, SimEffect};
 
 /// Arguments of `wiical simulate`.
 #[derive(clap::Args, Debug)]
@@ -23,9 +23,17 @@ pub struct Args {
     /// Random seed.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
-    /// wiimote (~105 counts/g) | nunchuk (~200 counts/g).
+    /// wiimote (~105 counts/g) | nunchuk (~200 counts/g) | mems16 (16-bit, 16 384 counts/g,
+    /// written in m/s²).
     #[arg(long, default_value = "wiimote", value_parser = parse_device)]
     pub device: Device,
+    /// Sample rate, Hz (20 to 2000); default: the device's usual (100, or 400 for mems16).
+    #[arg(long, value_parser = parse_rate)]
+    pub rate: Option<f64>,
+    /// calm (holds of 4–8 s, moves of 1.5–3 s) | brisk (holds of 2–4 s, moves of 1–2 s with
+    /// hand bumps).
+    #[arg(long, default_value = "calm", value_parser = parse_profile)]
+    pub profile: Profile,
     /// Number of poses after the initial rest (1 to 5000: about 22 kB of CSV per pose, so the
     /// file stays well inside the 256 MiB that `fit` and `analyze` read).
     #[arg(long, default_value_t = 30, value_parser = parse_poses)]
@@ -43,7 +51,20 @@ fn parse_effect(s: &str) -> Result<SimEffect, String> {
 }
 
 fn parse_device(s: &str) -> Result<Device, String> {
-    Device::parse(s).ok_or_else(|| format!("'{s}': expected wiimote or nunchuk"))
+    Device::parse(s).ok_or_else(|| format!("'{s}': expected wiimote, nunchuk or mems16"))
+}
+
+/// `--rate`: 20 to 2000 Hz (the simulator's bounds).
+fn parse_rate(s: &str) -> Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(r) if (20.0..=2000.0).contains(&r) => Ok(r),
+        Ok(r) => Err(format!("{r} Hz: give 20 to 2000")),
+        Err(_) => Err(format!("'{s}' is not a number")),
+    }
+}
+
+fn parse_profile(s: &str) -> Result<Profile, String> {
+    Profile::parse(s).ok_or_else(|| format!("'{s}': expected calm or brisk"))
 }
 
 /// Pairs `--effect` with `--magnitude` (none, one for all, or one per effect).
@@ -86,6 +107,8 @@ pub fn run(a: &Args) -> Result<String> {
         seed: a.seed,
         device: a.device,
         poses: a.poses,
+        rate_hz: a.rate.unwrap_or_else(|| a.device.typical_rate_hz()),
+        profile: a.profile,
         temp_column: !a.no_temp,
         ..Default::default()
     };
