@@ -605,7 +605,7 @@ pub enum Error {
     )]
     GyroNominalScale,
     /// The nominal turns the motions by absurd angles: a wrong unit or a typo.
-    #[error("the gyro nominal from {source_name} turns the motions by {ratio:.3e} times the tilt the accelerometer sees between their poses (median of {motions} motions; a right nominal gives about 1 to 5): check the value and its unit")]
+    #[error("the gyro nominal from {source_name} turns the motions by {} the tilt the accelerometer sees between their poses (median of {motions} motions; a right nominal gives about 1 to 5 times): check the value and its unit", if ratio.is_finite() { format!("{ratio:.3e} times") } else { "infinitely more than".to_string() })]
     GyroNominalImplausible {
         /// Where the nominal came from (`--scale`, `--counts-per-dps`, the columns' unit).
         source_name: String,
