@@ -334,7 +334,7 @@ impl LiveSession {
     }
 
     fn push_mag(&mut self, xyz: [f64; 3]) {
-        if (self.samples - 1) % MAG_KEEP_EVERY != 0 {
+        if !(self.samples - 1).is_multiple_of(MAG_KEEP_EVERY) {
             return;
         }
         if self.mag_points.len() >= MAX_MAG_POINTS {
