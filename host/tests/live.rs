@@ -1,0 +1,271 @@
+//! `wiical live` end to end: the page in a real browser (Debian's headless Chromium, installed
+//! by scripts/setup) while a real recording is replayed, and the server's bounds: loopback
+//! unless `--bind`, at most 8 event streams, viewers that vanish mid-stream.
+
+mod common;
+
+use common::{data_dir, json};
+use std::io::{BufRead, BufReader, Read, Write};
+use std::net::TcpStream;
+use std::path::PathBuf;
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+/// A running `wiical live`, killed when dropped.
+struct Live {
+    child: Child,
+    port: u16,
+}
+
+impl Drop for Live {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+fn xsens() -> PathBuf {
+    data_dir().join("imu_tk_xsens/xsens_acc.mat")
+}
+
+/// Starts `wiical live ARGS` and reads the port from its first line.
+fn start(args: &[&str]) -> Live {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_wiical"))
+        .arg("live")
+        .args(args)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut line = String::new();
+    BufReader::new(child.stdout.take().unwrap())
+        .read_line(&mut line)
+        .unwrap();
+    let port = line
+        .split("http://")
+        .nth(1)
+        .and_then(|r| r.split('/').next())
+        .and_then(|a| a.rsplit(':').next())
+        .and_then(|p| p.parse().ok())
+        .unwrap_or_else(|| panic!("no address in {line:?}"));
+    Live { child, port }
+}
+
+/// One GET with `Connection: close`: status code and body.
+fn get(port: u16, path: &str) -> (u16, String) {
+    let mut s = TcpStream::connect(("127.0.0.1", port)).unwrap();
+    write!(
+        s,
+        "GET {path} HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n"
+    )
+    .unwrap();
+    let mut buf = String::new();
+    s.read_to_string(&mut buf).unwrap();
+    let code = buf[9..12].parse().unwrap();
+    let body = buf
+        .split_once("\r\n\r\n")
+        .map_or("", |(_, b)| b)
+        .to_string();
+    (code, body)
+}
+
+/// Opens `/events`: the status code and the stream after its status line.
+fn open_stream(port: u16) -> (u16, TcpStream) {
+    let mut s = TcpStream::connect(("127.0.0.1", port)).unwrap();
+    s.set_read_timeout(Some(Duration::from_secs(10))).unwrap();
+    write!(s, "GET /events HTTP/1.1\r\nHost: x\r\n\r\n").unwrap();
+    let mut head = [0u8; 12];
+    s.read_exact(&mut head).unwrap();
+    let code = std::str::from_utf8(&head[9..12]).unwrap().parse().unwrap();
+    (code, s)
+}
+
+/// Opens `/events`, retrying while the server answers 503 (for up to 5 s).
+fn open_when_free(port: u16) -> TcpStream {
+    let t0 = Instant::now();
+    loop {
+        let (code, s) = open_stream(port);
+        if code == 200 {
+            return s;
+        }
+        assert_eq!(code, 503);
+        assert!(t0.elapsed() < Duration::from_secs(5), "slots never freed");
+        std::thread::sleep(Duration::from_millis(100));
+    }
+}
+
+/// Text of the element with `id` in a dumped DOM.
+fn element(dom: &str, id: &str) -> Option<String> {
+    let at = dom.find(&format!("id=\"{id}\""))?;
+    let rest = &dom[at..];
+    let open = rest.find('>')? + 1;
+    let close = rest[open..].find('<')? + open;
+    Some(rest[open..close].trim().to_string())
+}
+
+fn chromium() -> String {
+    let bin = std::env::var("WIICAL_CHROMIUM").unwrap_or_else(|_| "chromium".into());
+    let found = Command::new(&bin)
+        .arg("--version")
+        .output()
+        .is_ok_and(|o| o.status.success());
+    assert!(
+        found,
+        "`{bin}` not found: run scripts/setup (it installs Debian's chromium), or set WIICAL_CHROMIUM"
+    );
+    bin
+}
+
+/// The DOM of the page after its script ran (headless Chromium `--dump-dom`).
+fn dump_dom(chromium: &str, port: u16) -> String {
+    let out = Command::new(chromium)
+        .args(["--headless", "--disable-gpu", "--no-sandbox", "--dump-dom"])
+        .arg(format!("http://127.0.0.1:{port}/"))
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8(out.stdout).unwrap()
+}
+
+#[test]
+fn live_replay_in_chromium_shows_poses_appearing_and_38_good_at_the_end() {
+    let chromium = chromium();
+    let file = xsens();
+    let path = file.to_str().unwrap();
+    // Independent reference: the batch pipeline with the same detector settings.
+    let fit = json(&["fit", "--json", "--init-s", "2", path]);
+    let want_poses = fit["static_windows"].as_u64().unwrap() as usize;
+    assert_eq!(want_poses, 38);
+    let live = start(&["--replay", path, "--speed", "50", "--port", "0"]);
+    let t0 = Instant::now();
+    let mut seen: Vec<usize> = Vec::new();
+    let dom = loop {
+        assert!(t0.elapsed() < Duration::from_secs(120), "no end: {seen:?}");
+        let dom = dump_dom(&chromium, live.port);
+        let poses: usize = element(&dom, "poses").unwrap().parse().unwrap();
+        seen.push(poses);
+        if element(&dom, "status").unwrap().contains("source ended") {
+            break dom;
+        }
+        std::thread::sleep(Duration::from_millis(700));
+    };
+    // Poses appear as the replay proceeds: never fewer, and several counts on the way.
+    assert!(seen.windows(2).all(|w| w[0] <= w[1]), "{seen:?}");
+    let between = seen.iter().filter(|&&n| n > 0 && n < want_poses).count();
+    assert!(between >= 2, "too few pictures during the replay: {seen:?}");
+    assert_eq!(*seen.last().unwrap(), want_poses);
+    assert_eq!(element(&dom, "verdict").unwrap(), "good");
+    assert_eq!(element(&dom, "coverage").unwrap(), "covers the sphere");
+    let rms: f64 = element(&dom, "rms")
+        .unwrap()
+        .trim_end_matches(" mg")
+        .parse()
+        .unwrap();
+    let want_rms = fit["rms_mg"].as_f64().unwrap();
+    assert!((rms - want_rms).abs() < 0.002, "{rms} vs fit's {want_rms}");
+    // One residual row per pose, drawn by the page.
+    assert_eq!(dom.matches("<tr class=\"pose\">").count(), want_poses);
+}
+
+#[test]
+fn live_refuses_a_non_local_address_unless_bind() {
+    let path = xsens();
+    let out = Command::new(env!("CARGO_BIN_EXE_wiical"))
+        .args([
+            "live",
+            "--replay",
+            path.to_str().unwrap(),
+            "--port",
+            "0.0.0.0:0",
+        ])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("0.0.0.0") && err.contains("--bind"), "{err}");
+    // Asked for, it listens there (and still answers on the loopback).
+    let live = start(&[
+        "--replay",
+        path.to_str().unwrap(),
+        "--bind",
+        "0.0.0.0",
+        "--port",
+        "0",
+    ]);
+    assert_eq!(get(live.port, "/snapshot.json").0, 200);
+}
+
+#[test]
+fn live_bounds_streams_and_survives_viewers_that_vanish() {
+    let path = xsens();
+    let live = start(&[
+        "--replay",
+        path.to_str().unwrap(),
+        "--speed",
+        "20",
+        "--port",
+        "0",
+    ]);
+    // Viewers that close mid-stream, again and again, more of them than there are slots:
+    // each vanished viewer's slot is freed at its next write (a snapshot or a keep-alive).
+    for _ in 0..20 {
+        let mut s = open_when_free(live.port);
+        let mut buf = [0u8; 256];
+        let _ = s.read(&mut buf).unwrap();
+    }
+    // Eight streams at once; the ninth is refused with 503 (the vanished viewers' slots are
+    // freed at their next write, within a keep-alive period).
+    let held: Vec<TcpStream> = (0..8).map(|_| open_when_free(live.port)).collect();
+    let (code, _) = open_stream(live.port);
+    assert_eq!(code, 503);
+    drop(held);
+    let mut s = open_when_free(live.port);
+    let mut buf = vec![0u8; 4096];
+    let n = s.read(&mut buf).unwrap();
+    assert!(n > 0);
+    // The server still serves the page and snapshots; an unknown path is 404.
+    let (code, page) = get(live.port, "/");
+    assert_eq!(code, 200);
+    assert!(
+        page.contains("id=\"verdict\"") && !page.contains("http://") && !page.contains("https://")
+    );
+    assert_eq!(get(live.port, "/nothing").0, 404);
+    let (code, snap) = get(live.port, "/snapshot.json");
+    assert_eq!(code, 200);
+    let v: serde_json::Value = serde_json::from_str(&snap).unwrap();
+    assert!(v["samples"].as_u64().unwrap() > 0);
+}
+
+#[test]
+fn live_source_end_is_in_the_snapshot() {
+    // A short recording (the first 10 s of the Xsens file's rest) ends quickly.
+    let text = std::fs::read_to_string(xsens()).unwrap();
+    let short: String = text.lines().take(1000).map(|l| format!("{l}\n")).collect();
+    let file = common::temp_file("live", "short.txt", &short);
+    let live = start(&[
+        "--replay",
+        file.to_str().unwrap(),
+        "--speed",
+        "100",
+        "--port",
+        "0",
+    ]);
+    let t0 = Instant::now();
+    loop {
+        let (_, snap) = get(live.port, "/snapshot.json");
+        let v: serde_json::Value = serde_json::from_str(&snap).unwrap();
+        if v["ended"].as_str() == Some("source ended") {
+            assert_eq!(v["samples"].as_u64(), Some(1000));
+            // One hold (the rest) and no fit: the page says why.
+            assert_eq!(v["pose_count"].as_u64(), Some(1));
+            assert!(v["fit"].is_null() && v["coverage_gap"].as_str().unwrap().contains("12"));
+            break;
+        }
+        assert!(t0.elapsed() < Duration::from_secs(30), "{snap}");
+        std::thread::sleep(Duration::from_millis(100));
+    }
+}
