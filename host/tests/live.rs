@@ -269,3 +269,33 @@ fn live_source_end_is_in_the_snapshot() {
         std::thread::sleep(Duration::from_millis(100));
     }
 }
+
+#[test]
+fn live_magnetometer_replay_gives_the_ellipsoid_fit_error() {
+    // QMC5883L magnetometer (mx,my,mz): the live view keeps one sample in ten; its ellipsoid
+    // fit error is close to `magfit`'s on every sample.
+    let file = data_dir().join("qmc5883l_mag_tomisuarez/noisy_raw_data.csv");
+    let path = file.to_str().unwrap();
+    let want = json(&["magfit", "--json", path]);
+    let want_pct = want["fit_error_pct"].as_f64().unwrap();
+    let live = start(&["--replay", path, "--speed", "2000", "--port", "0"]);
+    let t0 = Instant::now();
+    let v = loop {
+        let (_, snap) = get(live.port, "/snapshot.json");
+        let v: serde_json::Value = serde_json::from_str(&snap).unwrap();
+        if v["ended"].is_string() {
+            break v;
+        }
+        assert!(t0.elapsed() < Duration::from_secs(30), "{snap}");
+        std::thread::sleep(Duration::from_millis(100));
+    };
+    assert_eq!(v["sensor"], "magnetometer");
+    let mag = &v["mag"];
+    let n = mag["points"].as_u64().unwrap();
+    let samples = v["samples"].as_u64().unwrap();
+    // One kept in ten, thinned to stay within the 2000-point bound.
+    assert!(samples.div_ceil(10) > 2000 && (1000..=2000).contains(&n), "{n} of {samples}");
+    let pct = mag["fit_error_pct"].as_f64().unwrap();
+    assert!((pct - want_pct).abs() < 0.5, "{pct} vs magfit's {want_pct}");
+    assert_eq!(mag["directions"].as_array().unwrap().len() as u64, n);
+}

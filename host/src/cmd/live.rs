@@ -119,14 +119,25 @@ pub fn run(a: &Args) -> Result<String> {
     let (speed, shared2, file) = (a.speed, shared.clone(), a.replay.display().to_string());
     std::thread::spawn(move || {
         let snap = source::replay(&rec, &times, speed, session, &shared2);
-        let verdict = snap.fit.as_ref().map_or_else(
-            || snap.fit_note.clone().unwrap_or_else(|| "no fit".into()),
-            |f| f.line.clone(),
-        );
-        println!(
-            "source ended ({file}): {} poses; {verdict}",
-            snap.pose_count
-        );
+        match (&snap.mag, &snap.fit) {
+            (Some(m), _) => println!(
+                "source ended ({file}): {} magnetometer points; ellipsoid fit error {}",
+                m.points,
+                m.fit_error_pct
+                    .map_or_else(|| "unknown".to_string(), |e| format!("{e:.2} %"))
+            ),
+            (None, Some(f)) => {
+                println!(
+                    "source ended ({file}): {} poses; {}",
+                    snap.pose_count, f.line
+                )
+            }
+            (None, None) => println!(
+                "source ended ({file}): {} poses; no fit: {}",
+                snap.pose_count,
+                snap.fit_note.as_deref().unwrap_or("too few poses")
+            ),
+        }
     });
     server.serve(&shared);
     Ok(String::new())

@@ -160,13 +160,15 @@ impl LiveServer {
         let result = match path.as_str() {
             "/" | "/index.html" => req.respond(
                 Response::from_string(page(&shared.latest().0))
-                    .with_header(header("Content-Type", "text/html; charset=utf-8")),
+                    .with_header(header("Content-Type", "text/html; charset=utf-8"))
+                    .with_chunked_threshold(usize::MAX),
             ),
             "/snapshot.json" => {
                 let (json, _) = shared.latest();
                 req.respond(
                     Response::from_string(json.as_str())
-                        .with_header(header("Content-Type", "application/json")),
+                        .with_header(header("Content-Type", "application/json"))
+                        .with_chunked_threshold(usize::MAX),
                 )
             }
             "/events" => {
