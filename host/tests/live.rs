@@ -294,7 +294,10 @@ fn live_magnetometer_replay_gives_the_ellipsoid_fit_error() {
     let n = mag["points"].as_u64().unwrap();
     let samples = v["samples"].as_u64().unwrap();
     // One kept in ten, thinned to stay within the 2000-point bound.
-    assert!(samples.div_ceil(10) > 2000 && (1000..=2000).contains(&n), "{n} of {samples}");
+    assert!(
+        samples.div_ceil(10) > 2000 && (1000..=2000).contains(&n),
+        "{n} of {samples}"
+    );
     let pct = mag["fit_error_pct"].as_f64().unwrap();
     assert!((pct - want_pct).abs() < 0.5, "{pct} vs magfit's {want_pct}");
     assert_eq!(mag["directions"].as_array().unwrap().len() as u64, n);
