@@ -302,3 +302,42 @@ fn live_magnetometer_replay_gives_the_ellipsoid_fit_error() {
     assert!((pct - want_pct).abs() < 0.5, "{pct} vs magfit's {want_pct}");
     assert_eq!(mag["directions"].as_array().unwrap().len() as u64, n);
 }
+
+/// Polls `/snapshot.json` until `done` holds (30 s at most).
+fn wait_for(port: u16, done: impl Fn(&serde_json::Value) -> bool) -> serde_json::Value {
+    let t0 = Instant::now();
+    loop {
+        let (_, snap) = get(port, "/snapshot.json");
+        if let Ok(v) = serde_json::from_str::<serde_json::Value>(&snap) {
+            if done(&v) {
+                return v;
+            }
+        }
+        assert!(t0.elapsed() < Duration::from_secs(30), "{snap}");
+        std::thread::sleep(Duration::from_millis(100));
+    }
+}
+
+#[cfg(unix)]
+#[test]
+fn live_streams_the_device_simulator_and_survives_its_disconnect() {
+    use wiical::device_sim::{spawn, SimOptions};
+    let (pty, sim) = spawn(SimOptions::default()).unwrap();
+    let live = start(&["--device", pty.to_str().unwrap(), "--port", "0"]);
+    // Samples arrive at the adapter's rate; the simulated Nunchuk turns slowly.
+    let v = wait_for(live.port, |v| v["samples"].as_u64().unwrap_or(0) >= 400);
+    assert!(v["ended"].is_null(), "{v}");
+    assert_eq!(v["sensor"], "accelerometer");
+    // The simulator goes away (cable pulled): the session ends with the reason, and the
+    // server keeps serving the last picture.
+    sim.stop().unwrap();
+    let v = wait_for(live.port, |v| v["ended"].is_string());
+    let why = v["ended"].as_str().unwrap();
+    assert!(why.starts_with("source ended"), "{why}");
+    let (code, page) = get(live.port, "/");
+    assert_eq!(code, 200);
+    assert!(
+        page.contains("source ended"),
+        "the page is served with the ended snapshot"
+    );
+}

@@ -5,10 +5,10 @@ use crate::live::{source, LiveServer, Shared};
 use anyhow::{bail, Result};
 use std::io::Write;
 use std::net::{IpAddr, Ipv4Addr};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use wiical_analysis::columns::Sensor;
-use wiical_analysis::live::{LiveSensor, LiveSession};
+use wiical_analysis::live::{LiveSensor, LiveSession, Snapshot};
 
 /// Fastest replay (`--speed`).
 const MAX_SPEED: f64 = 10_000.0;
@@ -18,8 +18,12 @@ const MAX_SPEED: f64 = 10_000.0;
 pub struct Args {
     /// Replay this recording (any file `fit` reads) at its own pace: its time column, else
     /// its rate.
+    #[arg(long, required_unless_present = "device", conflicts_with = "device")]
+    pub replay: Option<PathBuf>,
+    /// Stream an adapter's samples (its serial port, or the pty `wiical device-sim --pty`
+    /// prints) until it stops answering.
     #[arg(long)]
-    pub replay: PathBuf,
+    pub device: Option<String>,
     /// Replay this many times faster than recorded (0 < X ≤ 10000).
     #[arg(long, default_value_t = 1.0, value_parser = speed)]
     pub speed: f64,
@@ -80,15 +84,17 @@ fn listen_addr(a: &Args) -> Result<(IpAddr, u16, bool)> {
     }
 }
 
-/// Runs `wiical live`: prints the address, replays the file, serves until interrupted.
-pub fn run(a: &Args) -> Result<String> {
-    let (ip, port, allow_remote) = listen_addr(a)?;
+/// The source thread's work: it publishes to the shared state and returns the last snapshot.
+type SourceFn = Box<dyn FnOnce(&Arc<Shared>) -> Option<Snapshot> + Send>;
+
+/// The replay source for `--replay FILE` and what to print about it.
+fn replay_source(a: &Args, file: &Path) -> Result<(SourceFn, String)> {
     let mag_asked = a.sensor.as_deref() == Some("mag");
     let opts = wiical_analysis::LoadOptions {
         sensor: mag_asked.then_some(Sensor::Magnetometer),
         ..load_options(a.columns.as_deref())?
     };
-    let rec = load(&a.replay, &opts)?;
+    let rec = load(file, &opts)?;
     let names_mag = rec
         .axis_columns
         .iter()
@@ -101,42 +107,68 @@ pub fn run(a: &Args) -> Result<String> {
     };
     let rate = rec.estimated_rate_hz().unwrap_or(a.rate_hz);
     let session = LiveSession::new(sensor, rate, rec.is_integer())
-        .map_err(|e| anyhow::anyhow!("{}: {e}", a.replay.display()))?;
+        .map_err(|e| anyhow::anyhow!("{}: {e}", file.display()))?;
+    let what = format!(
+        "replaying {} at {}x, {} samples at {rate:.1} Hz",
+        file.display(),
+        a.speed,
+        rec.len()
+    );
+    let speed = a.speed;
+    let times = rec.times(rate);
+    let run: SourceFn =
+        Box::new(move |shared| Some(source::replay(&rec, &times, speed, session, shared)));
+    Ok((run, what))
+}
+
+/// One line about how the session ended.
+fn summary(source: &str, snap: &Snapshot) -> String {
+    let end = snap.ended.as_deref().unwrap_or("source ended");
+    match (&snap.mag, &snap.fit) {
+        (Some(m), _) => format!(
+            "{end} ({source}): {} magnetometer points; ellipsoid fit error {}",
+            m.points,
+            m.fit_error_pct
+                .map_or_else(|| "unknown".to_string(), |e| format!("{e:.2} %"))
+        ),
+        (None, Some(f)) => format!("{end} ({source}): {} poses; {}", snap.pose_count, f.line),
+        (None, None) => format!(
+            "{end} ({source}): {} poses; no fit: {}",
+            snap.pose_count,
+            snap.fit_note.as_deref().unwrap_or("too few poses")
+        ),
+    }
+}
+
+/// Runs `wiical live`: prints the address, runs the source, serves until interrupted.
+pub fn run(a: &Args) -> Result<String> {
+    let (ip, port, allow_remote) = listen_addr(a)?;
+    let (run_source, what, name): (SourceFn, String, String) = match (&a.replay, &a.device) {
+        (Some(file), _) => {
+            let (f, what) = replay_source(a, file)?;
+            (f, what, file.display().to_string())
+        }
+        (None, Some(dev)) => {
+            let dev2 = dev.clone();
+            let f: SourceFn = Box::new(move |shared| source::device(&dev2, shared));
+            (f, format!("streaming {dev}"), dev.clone())
+        }
+        (None, None) => bail!("give --replay FILE or --device PORT"),
+    };
     let server = LiveServer::bind(ip, port, allow_remote)?;
     let shared = Arc::new(Shared::default());
     let mut out = std::io::stdout().lock();
     writeln!(
         out,
-        "wiical live: http://{}/ (replaying {} at {}x, {} samples at {rate:.1} Hz; Ctrl-C stops)",
-        server.addr(),
-        a.replay.display(),
-        a.speed,
-        rec.len()
+        "wiical live: http://{}/ ({what}; Ctrl-C stops)",
+        server.addr()
     )?;
     out.flush()?;
     drop(out);
-    let times = rec.times(rate);
-    let (speed, shared2, file) = (a.speed, shared.clone(), a.replay.display().to_string());
+    let shared2 = shared.clone();
     std::thread::spawn(move || {
-        let snap = source::replay(&rec, &times, speed, session, &shared2);
-        match (&snap.mag, &snap.fit) {
-            (Some(m), _) => println!(
-                "source ended ({file}): {} magnetometer points; ellipsoid fit error {}",
-                m.points,
-                m.fit_error_pct
-                    .map_or_else(|| "unknown".to_string(), |e| format!("{e:.2} %"))
-            ),
-            (None, Some(f)) => {
-                println!(
-                    "source ended ({file}): {} poses; {}",
-                    snap.pose_count, f.line
-                )
-            }
-            (None, None) => println!(
-                "source ended ({file}): {} poses; no fit: {}",
-                snap.pose_count,
-                snap.fit_note.as_deref().unwrap_or("too few poses")
-            ),
+        if let Some(snap) = run_source(&shared2) {
+            println!("{}", summary(&name, &snap));
         }
     });
     server.serve(&shared);
