@@ -187,6 +187,24 @@ fn live_refuses_a_non_local_address_unless_bind() {
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("0.0.0.0") && err.contains("--bind"), "{err}");
+    // Bad flags are named.
+    for (args, flag) in [
+        (&["--port", "99999"][..], "--port"),
+        (&["--port", "nowhere:80"][..], "--port"),
+        (&["--speed", "0"][..], "--speed"),
+        (&["--speed", "1e9"][..], "--speed"),
+    ] {
+        let out = Command::new(env!("CARGO_BIN_EXE_wiical"))
+            .args(["live", "--replay", path.to_str().unwrap()])
+            .args(args)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            !out.status.success() && err.contains(flag),
+            "{args:?}: {err}"
+        );
+    }
     // Asked for, it listens there (and still answers on the loopback).
     let live = start(&[
         "--replay",

@@ -491,6 +491,35 @@ mod tests {
     }
 
     #[test]
+    fn live_still_during_holds_and_moving_between_them() {
+        let cfg = SimConfig {
+            poses: 12,
+            seed: 5,
+            ..SimConfig::default()
+        };
+        let out = simulate(&cfg).unwrap();
+        let rec = &out.recording;
+        let rate = rec.estimated_rate_hz().unwrap();
+        let mut s = LiveSession::new(LiveSensor::Accelerometer, rate, rec.is_integer()).unwrap();
+        // The middle of every hold after the rest, and the middle of the motion before it.
+        let poses = &out.truth.poses;
+        let mut checks: Vec<(f64, bool)> = Vec::new();
+        for w in poses.windows(2) {
+            checks.push((0.5 * (w[0].t_end + w[1].t_start), false));
+            checks.push((0.5 * (w[1].t_start + w[1].t_end), true));
+        }
+        let mut k = 0;
+        for (t, x) in rec.times(rate).iter().zip(&rec.xyz) {
+            s.push(*t, *x).unwrap();
+            while k < checks.len() && *t >= checks[k].0 {
+                assert_eq!(s.snapshot().still, checks[k].1, "at {} s", checks[k].0);
+                k += 1;
+            }
+        }
+        assert_eq!(k, checks.len());
+    }
+
+    #[test]
     fn live_directions_match_the_simulated_truth() {
         let cfg = SimConfig {
             poses: 16,
