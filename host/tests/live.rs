@@ -272,20 +272,12 @@ fn live_source_end_is_in_the_snapshot() {
         "--port",
         "0",
     ]);
-    let t0 = Instant::now();
-    loop {
-        let (_, snap) = get(live.port, "/snapshot.json");
-        let v: serde_json::Value = serde_json::from_str(&snap).unwrap();
-        if v["ended"].as_str() == Some("source ended") {
-            assert_eq!(v["samples"].as_u64(), Some(1000));
-            // One hold (the rest) and no fit: the page says why.
-            assert_eq!(v["pose_count"].as_u64(), Some(1));
-            assert!(v["fit"].is_null() && v["coverage_gap"].as_str().unwrap().contains("12"));
-            break;
-        }
-        assert!(t0.elapsed() < Duration::from_secs(30), "{snap}");
-        std::thread::sleep(Duration::from_millis(100));
-    }
+    let v = wait_for(live.port, |v| v["ended"].is_string());
+    assert_eq!(v["ended"], "source ended");
+    assert_eq!(v["samples"].as_u64(), Some(1000));
+    // One hold (the rest) and no fit: the page says why.
+    assert_eq!(v["pose_count"].as_u64(), Some(1));
+    assert!(v["fit"].is_null() && v["coverage_gap"].as_str().unwrap().contains("12"));
 }
 
 #[test]
@@ -297,16 +289,7 @@ fn live_magnetometer_replay_gives_the_ellipsoid_fit_error() {
     let want = json(&["magfit", "--json", path]);
     let want_pct = want["fit_error_pct"].as_f64().unwrap();
     let live = start(&["--replay", path, "--speed", "2000", "--port", "0"]);
-    let t0 = Instant::now();
-    let v = loop {
-        let (_, snap) = get(live.port, "/snapshot.json");
-        let v: serde_json::Value = serde_json::from_str(&snap).unwrap();
-        if v["ended"].is_string() {
-            break v;
-        }
-        assert!(t0.elapsed() < Duration::from_secs(30), "{snap}");
-        std::thread::sleep(Duration::from_millis(100));
-    };
+    let v = wait_for(live.port, |v| v["ended"].is_string());
     assert_eq!(v["sensor"], "magnetometer");
     let mag = &v["mag"];
     let n = mag["points"].as_u64().unwrap();
@@ -358,4 +341,159 @@ fn live_streams_the_device_simulator_and_survives_its_disconnect() {
         page.contains("source ended"),
         "the page is served with the ended snapshot"
     );
+}
+
+/// Headless Chromium with the DevTools protocol on a free port, killed when dropped.
+struct Browser {
+    child: Child,
+    devtools_port: u16,
+}
+
+impl Drop for Browser {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+fn browser(chromium: &str, url: &str, profile: &std::path::Path) -> Browser {
+    let mut child = Command::new(chromium)
+        .args([
+            "--headless",
+            "--disable-gpu",
+            "--no-sandbox",
+            "--remote-debugging-port=0",
+        ])
+        .arg(format!("--user-data-dir={}", profile.display()))
+        .arg(url)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // "DevTools listening on ws://127.0.0.1:PORT/devtools/browser/…"
+    let mut err = BufReader::new(child.stderr.take().unwrap());
+    let mut line = String::new();
+    let port = loop {
+        line.clear();
+        assert!(err.read_line(&mut line).unwrap() > 0, "chromium ended");
+        if let Some(rest) = line.split("ws://127.0.0.1:").nth(1) {
+            break rest.split('/').next().unwrap().parse().unwrap();
+        }
+    };
+    // Keep draining stderr so that chromium never blocks on it.
+    std::thread::spawn(move || std::io::copy(&mut err, &mut std::io::sink()));
+    Browser {
+        child,
+        devtools_port: port,
+    }
+}
+
+/// The DevTools HTTP endpoint's target list (its answer has a Content-Length; the connection
+/// may stay open, so the body is read by length).
+fn devtools_targets(port: u16) -> serde_json::Value {
+    let mut s = TcpStream::connect(("127.0.0.1", port)).unwrap();
+    s.set_read_timeout(Some(Duration::from_secs(10))).unwrap();
+    write!(
+        s,
+        "GET /json/list HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\n\r\n"
+    )
+    .unwrap();
+    let mut r = BufReader::new(s);
+    let mut len = 0usize;
+    loop {
+        let mut line = String::new();
+        r.read_line(&mut line).unwrap();
+        if line.trim().is_empty() {
+            break;
+        }
+        if let Some(v) = line.to_ascii_lowercase().strip_prefix("content-length:") {
+            len = v.trim().parse().unwrap();
+        }
+    }
+    let mut body = vec![0u8; len];
+    r.read_exact(&mut body).unwrap();
+    serde_json::from_slice(&body).unwrap()
+}
+
+#[test]
+fn live_page_updates_in_chromium_without_reloading() {
+    let chromium = chromium();
+    let file = xsens();
+    let live = start(&[
+        "--replay",
+        file.to_str().unwrap(),
+        "--speed",
+        "50",
+        "--port",
+        "0",
+    ]);
+    let profile = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join(format!("live-chromium-{}", std::process::id()));
+    let b = browser(
+        &chromium,
+        &format!("http://127.0.0.1:{}/", live.port),
+        &profile,
+    );
+    let targets = devtools_targets(b.devtools_port);
+    let ws_url = targets
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|t| t["type"] == "page")
+        .and_then(|t| t["webSocketDebuggerUrl"].as_str())
+        .unwrap()
+        .to_string();
+    let (mut ws, _) = tungstenite::connect(ws_url.as_str()).unwrap();
+    // The page's own text, read through the DevTools protocol while it stays loaded: the
+    // server-sent events redraw it.
+    let mut read = |id: u64| -> (u64, u64, String, String) {
+        let expr = "['samples','poses','status','verdict'].map(i => document.getElementById(i).textContent).join('|')";
+        let msg = serde_json::json!({"id": id, "method": "Runtime.evaluate", "params": {"expression": expr}});
+        ws.send(tungstenite::Message::Text(msg.to_string().into()))
+            .unwrap();
+        loop {
+            let reply = ws.read().unwrap();
+            let Ok(text) = reply.to_text() else { continue };
+            let v: serde_json::Value = serde_json::from_str(text).unwrap();
+            if v["id"] == id {
+                // Before the page has loaded the expression throws: an empty reading.
+                let s = v["result"]["result"]["value"]
+                    .as_str()
+                    .unwrap_or("")
+                    .to_string();
+                let f: Vec<&str> = s.split('|').collect();
+                if f.len() != 4 {
+                    return (0, 0, String::new(), String::new());
+                }
+                return (
+                    f[0].parse().unwrap_or(0),
+                    f[1].parse().unwrap_or(0),
+                    f[2].into(),
+                    f[3].into(),
+                );
+            }
+        }
+    };
+    let t0 = Instant::now();
+    let mut seen = Vec::new();
+    let mut id = 0;
+    let (poses, verdict) = loop {
+        assert!(t0.elapsed() < Duration::from_secs(120), "no end: {seen:?}");
+        id += 1;
+        let (samples, poses, status, verdict) = read(id);
+        seen.push((samples, poses));
+        if status.contains("source ended") {
+            break (poses, verdict);
+        }
+        std::thread::sleep(Duration::from_millis(500));
+    };
+    // One page load, many pictures: samples and poses grow as the events arrive.
+    let growing = seen.windows(2).filter(|w| w[1].0 > w[0].0).count();
+    assert!(growing >= 5, "{seen:?}");
+    assert!(seen.windows(2).all(|w| w[0].1 <= w[1].1), "{seen:?}");
+    assert!(seen.iter().any(|&(_, p)| p > 0 && p < 38), "{seen:?}");
+    assert_eq!((poses, verdict.as_str()), (38, "good"));
+    assert_eq!(seen.last().unwrap().0, 51175);
+    drop(b);
+    let _ = std::fs::remove_dir_all(&profile);
 }
