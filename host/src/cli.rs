@@ -51,6 +51,11 @@ pub enum Cmd {
     /// Magnetometer hard/soft-iron fit: sphere (4 parameters), axis-aligned ellipsoid (6) or
     /// rotated ellipsoid (9), from streaming normal equations solved by Cholesky.
     Magfit(cmd::magfit::Args),
+    /// Watch a calibration in the browser: a local page (127.0.0.1, port printed) with the
+    /// poses' gravity directions on two hemispheres, still/moving, the coverage gap, the fit
+    /// RMS, per-pose residuals and the verdict after each pose (magnetometer: the points and
+    /// the ellipsoid fit error), from a recording replayed at its pace (`--replay`).
+    Live(cmd::live::Args),
     /// Noise of a still recording: overlapping Allan deviation per axis (accelerometer, gyro,
     /// magnetometer) and the IEEE 952 terms where their slope is seen — white noise N,
     /// bias instability B, rate random walk K, quantisation Q, rate ramp R.
@@ -82,6 +87,7 @@ pub fn run(cli: Cli) -> Result<String> {
         #[cfg(unix)]
         Cmd::DeviceSim(a) => cmd::device_sim::run(&a),
         Cmd::Magfit(a) => cmd::magfit::run(&a),
+        Cmd::Live(a) => cmd::live::run(&a),
         Cmd::DecodeCal(a) => cmd::decode_cal::run(&a),
         Cmd::Noise(a) => cmd::noise::run(&a),
         Cmd::Tempcal(a) => cmd::tempcal::run(&a),

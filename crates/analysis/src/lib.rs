@@ -90,6 +90,7 @@ pub mod fit;
 pub mod grt;
 pub mod gyro;
 pub mod input;
+pub mod live;
 pub mod load;
 pub mod magnetometer;
 pub mod model;

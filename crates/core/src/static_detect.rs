@@ -220,6 +220,13 @@ impl<const N: usize> StaticDetector<N> {
         Some([v.x, v.y, v.z].map(|x| x.max(self.cfg.min_variance)))
     }
 
+    /// True while a static run is open: the noise reference is known and the latest window
+    /// centre was still (a live view's "still / moving"; the run becomes a pose only once it
+    /// has lasted `min_static_samples` and ended).
+    pub fn is_still(&self) -> bool {
+        self.threshold.is_some() && self.run.is_some()
+    }
+
     /// Number of samples pushed so far.
     pub fn samples_seen(&self) -> u32 {
         self.count

@@ -10,6 +10,7 @@ pub mod device_sim;
 pub mod fit;
 pub mod gyrofit;
 pub mod kalman_demo;
+pub mod live;
 pub mod magfit;
 pub mod noise;
 pub mod simulate;
