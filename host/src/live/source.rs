@@ -60,7 +60,7 @@ pub fn replay(
 
 /// Streams an adapter (or `wiical device-sim`) at `path` into `session`: the raw 10-bit
 /// counts, timed by the sample sequence number at the rate the adapter announces. Ends when
-/// the device stops answering (unplugged, simulator stopped): "source ended: <why>".
+/// the device stops answering (unplugged, simulator stopped): `source ended: <why>`.
 pub fn device(path: &str, shared: &Arc<Shared>) -> Option<Snapshot> {
     let fail = |why: String| -> Option<Snapshot> {
         let mut s = LiveSession::new(LiveSensor::Accelerometer, 100.0, true).ok()?;
