@@ -257,7 +257,7 @@ fn absurd_gyro_nominals_are_named_and_right_ones_pass() {
             &["gyrofit", a, g, "--scale", s],
             &[
                 "nominal from --scale",
-                "times the tilt",
+                "the tilt the accelerometer sees",
                 "check the value and its unit",
             ],
         );
@@ -268,7 +268,7 @@ fn absurd_gyro_nominals_are_named_and_right_ones_pass() {
     for c in ["1e300", "1e-300"] {
         fails_with(
             &["gyrofit", u, "--counts-per-dps", c],
-            &["--counts-per-dps", "times the tilt"],
+            &["--counts-per-dps", "the tilt the accelerometer sees"],
         );
     }
     assert!(wiical(&["gyrofit", u, "--counts-per-dps", "16.384"]).0);
