@@ -7,9 +7,12 @@
 //! and a [`CalibrationStore`] keeps the committed calibration in a simulated NOR flash
 //! (in memory, or mirrored to a file with `--flash` so that it survives a restart).
 //!
-//! The simulated sensor has a known forward model ([`TRUE_D`], [`TRUE_BIAS`]): the gravity
-//! vector turns slowly (periods of 13 s and 20 s) with 0.6-count noise, the stick circles
-//! and the buttons blink. Its factory block is the diagonal, rounded part of that model.
+//! The simulated sensor has a known forward model ([`TRUE_D`], [`TRUE_BIAS`]) with 0.6-count
+//! noise; its factory block is the diagonal, rounded part of that model. Its motion
+//! ([`SimMotion`]): by default the gravity vector turns slowly (periods of 13 s and 20 s), the
+//! stick circles and the buttons blink; `poses` is a calibration by hand (held orientations,
+//! smooth turns, the C + Z self-calibration gesture at plug-in). The simulated clock can run
+//! faster than the wall clock ([`SimOptions::time_scale`]) so that a test need not wait.
 //!
 //! A host opening the pty is like plugging the USB cable in; closing it (the simulator sees
 //! a hang-up) closes the session and stops the stream, as a real adapter does when the port
@@ -328,22 +331,136 @@ impl embedded_hal_async::delay::DelayNs for NoDelay {
     async fn delay_ns(&mut self, _ns: u32) {}
 }
 
-/// Slow synthetic motion of the simulated Nunchuk.
+/// Which motion the simulated Nunchuk makes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
+pub enum SimMotion {
+    /// Gravity turns continuously (periods of 13 s and 20 s), never still; the stick circles
+    /// and the buttons blink. Plugged in from the start.
+    #[default]
+    Sweep,
+    /// A calibration by hand ([`POSE_DIRECTIONS`]): plugged in when a host first opens the
+    /// port, with C + Z held for the first [`POSE_CZ_HOLD_S`] (the adapter's self-calibration
+    /// gesture), then each orientation held [`POSE_HOLD_S`] with smooth
+    /// [`POSE_MOVE_S`] turns between, then back to the first and still from then on.
+    Poses,
+}
+
+/// Gravity directions (sensor frame, unit after normalising) the `poses` motion holds, in
+/// order: the six half-axes, the eight cube corners and four edge midpoints, ordered so that
+/// no turn is a half turn. Every direction is at least 35° from every other.
+pub const POSE_DIRECTIONS: [[f64; 3]; 18] = [
+    [0.0, 0.0, 1.0],
+    [1.0, 0.0, 0.0],
+    [1.0, 1.0, 1.0],
+    [0.0, 1.0, 0.0],
+    [-1.0, 1.0, 1.0],
+    [-1.0, 0.0, 0.0],
+    [-1.0, -1.0, 1.0],
+    [0.0, -1.0, 0.0],
+    [1.0, -1.0, 1.0],
+    [1.0, -1.0, -1.0],
+    [0.0, 0.0, -1.0],
+    [1.0, 1.0, -1.0],
+    [-1.0, 1.0, -1.0],
+    [-1.0, -1.0, -1.0],
+    [0.0, -1.0, -1.0],
+    [1.0, 0.0, -1.0],
+    [0.0, 1.0, -1.0],
+    [-1.0, 0.0, -1.0],
+];
+/// `poses` motion: the first orientation (the rest the detectors take their noise from), s.
+pub const POSE_REST_S: f64 = 6.0;
+/// `poses` motion: C and Z held from plug-in for this long (the adapter enters its
+/// self-calibration after a 3 s hold starting within 1 s of plug-in), s.
+pub const POSE_CZ_HOLD_S: f64 = 4.5;
+/// `poses` motion: each later orientation is held this long, s.
+pub const POSE_HOLD_S: f64 = 4.0;
+/// `poses` motion: each turn between two orientations takes this long, s.
+pub const POSE_MOVE_S: f64 = 2.0;
+
+fn unit(v: [f64; 3]) -> [f64; 3] {
+    let n = v.iter().map(|x| x * x).sum::<f64>().sqrt();
+    v.map(|x| x / n)
+}
+
+/// Gravity direction of the `poses` motion at `t` s after plug-in: holds, and great-circle
+/// turns between them with a smooth (zero velocity at both ends) angle profile.
+pub fn pose_direction(t: f64) -> [f64; 3] {
+    let n = POSE_DIRECTIONS.len();
+    let step = POSE_MOVE_S + POSE_HOLD_S;
+    let after_rest = t - POSE_REST_S;
+    if after_rest < 0.0 {
+        return unit(POSE_DIRECTIONS[0]);
+    }
+    // Turn k (0-based) goes from pose k to pose k+1; turn n-1 goes back to the first.
+    let k = (after_rest / step).floor() as usize;
+    if k >= n {
+        return unit(POSE_DIRECTIONS[0]);
+    }
+    let a = unit(POSE_DIRECTIONS[k]);
+    let b = unit(POSE_DIRECTIONS[(k + 1) % n]);
+    let u = ((after_rest - k as f64 * step) / POSE_MOVE_S).min(1.0);
+    let f = u * u * (3.0 - 2.0 * u);
+    let cos = a
+        .iter()
+        .zip(&b)
+        .map(|(x, y)| x * y)
+        .sum::<f64>()
+        .clamp(-1.0, 1.0);
+    let theta = cos.acos();
+    if theta < 1e-9 {
+        return b;
+    }
+    let (wa, wb) = (
+        ((1.0 - f) * theta).sin() / theta.sin(),
+        (f * theta).sin() / theta.sin(),
+    );
+    std::array::from_fn(|i| wa * a[i] + wb * b[i])
+}
+
+/// Synthetic motion of the simulated Nunchuk.
 struct Motion {
+    kind: SimMotion,
     rng: ChaCha8Rng,
     noise: Normal<f64>,
 }
 
 impl Motion {
-    fn new(seed: u64) -> Self {
+    fn new(kind: SimMotion, seed: u64) -> Self {
         Self {
+            kind,
             rng: ChaCha8Rng::seed_from_u64(seed),
             noise: Normal::new(0.0, 0.6).unwrap_or_else(|_| unreachable!()),
         }
     }
 
-    /// The report at time `t` (s).
+    /// The report at time `t` (s of the simulated clock since the motion started).
     fn report(&mut self, t: f64) -> NunchukReport {
+        match self.kind {
+            SimMotion::Sweep => self.sweep(t),
+            SimMotion::Poses => {
+                let hold = t < POSE_CZ_HOLD_S;
+                NunchukReport {
+                    stick: [128, 128],
+                    accel: self.counts(pose_direction(t)),
+                    c: hold,
+                    z: hold,
+                }
+            }
+        }
+    }
+
+    /// Raw 10-bit counts for gravity along `a` (g): the true forward model plus noise.
+    fn counts(&mut self, a: [f64; 3]) -> [u16; 3] {
+        std::array::from_fn(|i| {
+            let m = TRUE_BIAS[i]
+                + (0..3).map(|j| TRUE_D[i][j] * a[j]).sum::<f64>()
+                + self.noise.sample(&mut self.rng);
+            m.round().clamp(0.0, 1023.0) as u16
+        })
+    }
+
+    fn sweep(&mut self, t: f64) -> NunchukReport {
         use std::f64::consts::TAU;
         let theta = 1.2 * (TAU * t / 20.0).sin();
         let phi = TAU * t / 13.0;
@@ -352,12 +469,7 @@ impl Motion {
             theta.sin() * phi.sin(),
             theta.cos(),
         ];
-        let accel: [u16; 3] = std::array::from_fn(|i| {
-            let m = TRUE_BIAS[i]
-                + (0..3).map(|j| TRUE_D[i][j] * a[j]).sum::<f64>()
-                + self.noise.sample(&mut self.rng);
-            m.round().clamp(0.0, 1023.0) as u16
-        });
+        let accel = self.counts(a);
         let stick = [
             (128.0 + 60.0 * (TAU * t / 7.0).cos()).round() as u8,
             (128.0 + 60.0 * (TAU * t / 7.0).sin()).round() as u8,
@@ -383,8 +495,14 @@ pub struct SimOptions {
     pub seed: u64,
     /// Present this schema key instead of the real one (to exercise the mismatch path).
     pub schema_key: Option<u32>,
-    /// Report poll rate, Hz.
+    /// Report poll rate, Hz (of the simulated clock).
     pub poll_hz: u32,
+    /// What the simulated Nunchuk does.
+    pub motion: SimMotion,
+    /// The simulated clock runs this many times faster than the wall clock (polls, and so
+    /// samples, come this many times more often; the adapter still announces `poll_hz`, so
+    /// a host timing samples by their sequence number sees simulated time). At least 1.
+    pub time_scale: f64,
 }
 
 impl Default for SimOptions {
@@ -394,6 +512,8 @@ impl Default for SimOptions {
             seed: 1,
             schema_key: None,
             poll_hz: wiical_adapter::DEFAULT_POLL_HZ,
+            motion: SimMotion::Sweep,
+            time_scale: 1.0,
         }
     }
 }
@@ -511,7 +631,8 @@ pub fn spawn(opts: SimOptions) -> Result<(PathBuf, SimHandle)> {
     }
 
     let stop = Arc::new(AtomicBool::new(false));
-    let plugged = Arc::new(AtomicBool::new(true));
+    // The `poses` motion plugs the Nunchuk in when a host first opens the port.
+    let plugged = Arc::new(AtomicBool::new(opts.motion == SimMotion::Sweep));
     let counters = Arc::new(SimCounters::default());
     let corrupt = Arc::new(AtomicU32::new(0));
     let corrupt_acks = Arc::new(AtomicU32::new(0));
@@ -525,8 +646,14 @@ pub fn spawn(opts: SimOptions) -> Result<(PathBuf, SimHandle)> {
             plugged: plugged.clone(),
             was_plugged: true,
         },
-        motion: Motion::new(opts.seed),
-        period: Duration::from_secs_f64(1.0 / f64::from(opts.poll_hz.max(1))),
+        motion: Motion::new(opts.motion, opts.seed),
+        poll_hz: f64::from(opts.poll_hz.max(1)),
+        period: Duration::from_secs_f64(
+            1.0 / f64::from(opts.poll_hz.max(1)) / opts.time_scale.max(1.0),
+        ),
+        plugged: plugged.clone(),
+        ticks: 0,
+        motion_start: (opts.motion == SimMotion::Sweep).then_some(0),
         stop: stop.clone(),
         inject: rx,
         corrupt: corrupt.clone(),
@@ -553,13 +680,25 @@ pub fn spawn(opts: SimOptions) -> Result<(PathBuf, SimHandle)> {
     ))
 }
 
+/// Most polls made in a row before the port is read again.
+const MAX_BURST: u32 = 64;
+
 struct Worker {
     master: TTYPort,
     proto: Protocol<SimFlash>,
     poller: NunchukPoller,
     bus: SimBus,
     motion: Motion,
+    /// Simulated poll rate, Hz.
+    poll_hz: f64,
+    /// Wall time between polls (the simulated period over the time scale).
     period: Duration,
+    plugged: Arc<AtomicBool>,
+    /// Polls so far: the simulated clock is `ticks / poll_hz` (it runs on even when the
+    /// machine is too busy to keep the wall-clock pace, so the stream stays consistent).
+    ticks: u64,
+    /// Tick at which the motion started (`poses`: the first host's arrival).
+    motion_start: Option<u64>,
     stop: Arc<AtomicBool>,
     inject: mpsc::Receiver<Vec<u8>>,
     corrupt: Arc<AtomicU32>,
@@ -571,38 +710,25 @@ struct Worker {
 
 impl Worker {
     fn run(mut self) -> Result<()> {
-        let start = Instant::now();
-        let mut next_poll = start;
+        let mut next_poll = Instant::now();
         let mut rx = DefaultFrameDecoder::new();
         let mut buf = [0u8; 512];
         while !self.stop.load(Ordering::Relaxed) {
             while let Ok(bytes) = self.inject.try_recv() {
                 self.send_bytes(&bytes);
             }
-            let now = Instant::now();
-            if now >= next_poll {
-                let t = now.duration_since(start);
-                self.bus
-                    .nunchuk
-                    .set_report(&self.motion.report(t.as_secs_f64()));
-                let now_ms = u64::try_from(t.as_millis()).unwrap_or(u64::MAX);
-                let r = embassy_futures::block_on(self.poller.poll(
-                    &mut self.bus,
-                    &mut NoDelay,
-                    now_ms,
-                ));
-                if let Some(sample) = self.proto.on_poll(&r, self.poller.is_connected()) {
-                    if self.send(&Response::Sample(sample)) {
-                        self.counters.samples.fetch_add(1, Ordering::Relaxed);
-                    }
-                }
-                // Commit a finished self-calibration, as the firmware's Nunchuk task does.
-                embassy_futures::block_on(self.proto.service());
+            // Every poll due (a sped-up clock has several per millisecond), within bounds.
+            let mut burst = 0;
+            while Instant::now() >= next_poll && burst < MAX_BURST {
+                self.poll_once();
                 next_poll += self.period;
-                if next_poll + 20 * self.period < now {
-                    // Fell far behind (machine busy): skip instead of bursting.
-                    next_poll = now + self.period;
-                }
+                burst += 1;
+            }
+            let now = Instant::now();
+            if next_poll + (20 * self.period).max(Duration::from_millis(20)) < now {
+                // Fell far behind (machine busy): the simulated clock slows down instead of
+                // bursting.
+                next_poll = now + self.period;
             }
             let wait = next_poll
                 .saturating_duration_since(Instant::now())
@@ -611,6 +737,11 @@ impl Worker {
             match self.master.read(&mut buf) {
                 Ok(n) if n > 0 => {
                     self.attached = true;
+                    if self.motion_start.is_none() {
+                        // `poses`: the user plugs the Nunchuk in (C + Z held) and starts.
+                        self.motion_start = Some(self.ticks);
+                        self.plugged.store(true, Ordering::Relaxed);
+                    }
                     let items: Vec<_> = rx.feed::<Request>(&buf[..n]).collect();
                     for item in items {
                         let resp = match item {
@@ -641,6 +772,25 @@ impl Worker {
             }
         }
         Ok(())
+    }
+
+    /// One poll of the simulated Nunchuk at the simulated time, as the firmware's Nunchuk
+    /// task does it: read, correct, stream, commit a finished self-calibration.
+    fn poll_once(&mut self) {
+        let t = self.ticks as f64 / self.poll_hz;
+        let motion_t = self
+            .motion_start
+            .map_or(0.0, |s| self.ticks.saturating_sub(s) as f64 / self.poll_hz);
+        self.ticks += 1;
+        self.bus.nunchuk.set_report(&self.motion.report(motion_t));
+        let now_ms = (t * 1000.0) as u64;
+        let r = embassy_futures::block_on(self.poller.poll(&mut self.bus, &mut NoDelay, now_ms));
+        if let Some(sample) = self.proto.on_poll(&r, self.poller.is_connected()) {
+            if self.send(&Response::Sample(sample)) {
+                self.counters.samples.fetch_add(1, Ordering::Relaxed);
+            }
+        }
+        embassy_futures::block_on(self.proto.service());
     }
 
     fn send(&mut self, resp: &Response) -> bool {

@@ -1,7 +1,7 @@
 //! `wiical device-sim`: its arguments and run. The simulated adapter itself is
 //! [`crate::device_sim`].
 
-use crate::device_sim::{spawn, SimFlash, SimOptions};
+use crate::device_sim::{spawn, SimFlash, SimMotion, SimOptions};
 use anyhow::{bail, Result};
 use std::io::{self, Write};
 use std::path::PathBuf;
@@ -24,9 +24,28 @@ pub struct SimArgs {
     /// Seed of the simulated sensor noise.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
+    /// What the simulated Nunchuk does: sweep (turns continuously, never still) or poses (a
+    /// calibration by hand: 18 orientations held 4 s each, smooth turns between, C + Z held
+    /// at plug-in for the adapter's self-calibration; starts when a host opens the port).
+    #[arg(long, value_enum, default_value_t = SimMotion::Sweep)]
+    pub motion: SimMotion,
+    /// Run the simulated clock this many times faster than real time (1 to 50): samples
+    /// come that much more often, timed (by their sequence number) in simulated time.
+    #[arg(long, default_value_t = 1.0, value_parser = time_scale)]
+    pub time_scale: f64,
     /// Present this schema key (hex) instead of the real one, to see how hosts refuse it.
     #[arg(long, hide = true, value_parser = parse_hex_u32)]
     pub schema_key: Option<u32>,
+}
+
+/// Fastest simulated clock (`--time-scale`): 50 × 200 Hz = 10 000 samples a second.
+const MAX_TIME_SCALE: f64 = 50.0;
+
+fn time_scale(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(v) if (1.0..=MAX_TIME_SCALE).contains(&v) => Ok(v),
+        _ => Err(format!("'{s}': a number from 1 to {MAX_TIME_SCALE}")),
+    }
 }
 
 fn parse_hex_u32(s: &str) -> Result<u32, String> {
@@ -48,6 +67,8 @@ pub fn run(args: &SimArgs) -> Result<String> {
         flash,
         seed: args.seed,
         schema_key: args.schema_key,
+        motion: args.motion,
+        time_scale: args.time_scale,
         ..Default::default()
     })?;
     {
