@@ -1083,3 +1083,134 @@ fn a_failed_capture_leaves_existing_files_untouched() {
     assert!(format!("{e:#}").contains("they are in"), "{e:#}");
     assert!(fresh.exists());
 }
+
+/// GET `path` from a local HTTP server (`Connection: close`): the body.
+fn http_get(port: u16, path: &str) -> String {
+    use std::io::{Read, Write};
+    let mut s = std::net::TcpStream::connect(("127.0.0.1", port)).unwrap();
+    write!(
+        s,
+        "GET {path} HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n"
+    )
+    .unwrap();
+    let mut buf = String::new();
+    s.read_to_string(&mut buf).unwrap();
+    buf.split_once("\r\n\r\n")
+        .map_or("", |(_, b)| b)
+        .to_string()
+}
+
+#[test]
+fn cli_capture_live_feeds_the_live_page_while_capturing() {
+    use std::io::BufRead;
+    // A guided session of twelve poses from the fake remote, logged as a real one would be…
+    let poses = twelve_poses();
+    let mut segs = vec![Seg::Still(poses[0], 5.0)];
+    for w in poses.windows(2) {
+        segs.push(Seg::Turn(w[0], w[1], 1.5));
+        segs.push(Seg::Still(w[1], 5.0));
+    }
+    let mut dev = fake(false);
+    script(&mut dev, &segs, false, 21, 0.0);
+    let log_path = tmp("live_session.log");
+    {
+        let f = std::io::BufWriter::new(std::fs::File::create(&log_path).unwrap());
+        let mut logged = RawLogger::new(&mut dev, f).unwrap();
+        let cfg = GuidedConfig {
+            poses: 12,
+            ..Default::default()
+        };
+        capture(
+            &mut logged,
+            &opts(tmp("live_session.csv"), CaptureMode::Guided(cfg)),
+            &mut CollectUi::default(),
+        )
+        .unwrap();
+        logged.flush().unwrap();
+    }
+    // …replayed by `wiical capture --live` at 10× its pace (≈ 8 s): the page's address comes
+    // first on stderr.
+    let out = tmp("live_capture.csv");
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_wiical"))
+        .args(["capture", "--replay", log_path.to_str().unwrap()])
+        .args(["--out", out.to_str().unwrap(), "--guided", "12", "--json"])
+        .args(["--live", "--live-port", "0", "--replay-speed", "10"])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut err = std::io::BufReader::new(child.stderr.take().unwrap());
+    let mut line = String::new();
+    err.read_line(&mut line).unwrap();
+    let port: u16 = line
+        .split("http://127.0.0.1:")
+        .nth(1)
+        .and_then(|r| r.split('/').next())
+        .and_then(|p| p.parse().ok())
+        .unwrap_or_else(|| panic!("no address in {line:?}"));
+    std::thread::spawn(move || std::io::copy(&mut err, &mut std::io::sink()));
+    let t0 = std::time::Instant::now();
+    let mut during = Vec::new();
+    let v = loop {
+        let snap: Value = serde_json::from_str(&http_get(port, "/snapshot.json")).unwrap();
+        if snap["ended"].is_string() {
+            break snap;
+        }
+        during.push(snap["pose_count"].as_u64().unwrap());
+        assert!(t0.elapsed().as_secs() < 60, "{snap}");
+        std::thread::sleep(std::time::Duration::from_millis(100));
+    };
+    // Poses appeared on the page while the capture was running.
+    assert!(during.windows(2).all(|w| w[0] <= w[1]), "{during:?}");
+    assert!(
+        during.iter().filter(|&&n| n > 0 && n < 12).count() >= 3,
+        "{during:?}"
+    );
+    // The page is served after the capture too: its status is the capture's end.
+    assert!(http_get(port, "/").contains("capture finished"));
+    let _ = child.kill();
+    let _ = child.wait();
+    assert_eq!(v["ended"], "capture finished");
+    assert_eq!(v["source_status"], "all 12 poses done");
+    // Independent reference: the batch fit (same detector, 2 s rest) of the CSV the capture
+    // wrote; the live view saw the same samples, so the same poses and fit.
+    let csv_rows = std::fs::read_to_string(&out)
+        .unwrap()
+        .lines()
+        .filter(|l| !l.starts_with('#') && !l.starts_with('t'))
+        .count() as u64;
+    assert_eq!(v["samples"].as_u64(), Some(csv_rows));
+    let (ok, fit, e) = wiical(&["fit", "--json", "--init-s", "2", out.to_str().unwrap()]);
+    assert!(ok, "{e}");
+    let fit: Value = serde_json::from_str(&fit).unwrap();
+    assert_eq!(fit["static_windows"].as_u64(), Some(12));
+    assert_eq!(v["pose_count"].as_u64(), Some(12));
+    assert_eq!(v["fit"]["verdict"], fit["quality"]["verdict"]);
+    assert_eq!(v["fit"]["verdict"], "good");
+    let (live_rms, fit_rms) = (
+        v["fit"]["rms_mg"].as_f64().unwrap(),
+        fit["rms_mg"].as_f64().unwrap(),
+    );
+    assert!((live_rms - fit_rms).abs() < 0.01, "{live_rms} vs {fit_rms}");
+}
+
+#[test]
+fn cli_capture_live_flags_are_checked_before_anything_is_opened() {
+    let out = tmp("live_flags.csv");
+    let out = out.to_str().unwrap();
+    for (args, flag) in [
+        (&["--live", "--live-port", "99999"][..], "--live-port"),
+        (&["--live", "--live-port", "nowhere:80"][..], "--live-port"),
+        (&["--live", "--live-port", "0.0.0.0:0"][..], "--live-bind"),
+        (&["--live-port", "0"][..], "--live"),
+        (&["--replay-speed", "2"][..], "--replay"),
+        (
+            &["--replay", out, "--replay-speed", "0"][..],
+            "--replay-speed",
+        ),
+    ] {
+        let (ok, _, err) = wiical(&[&["capture", "--out", out][..], args].concat());
+        assert!(!ok && err.contains(flag), "{args:?}: {err}");
+    }
+    assert!(!std::path::Path::new(out).exists());
+}

@@ -24,6 +24,8 @@ use wiical_core::Calibration;
 
 /// Poses kept (a session of more is not a calibration; later poses are counted, not kept).
 pub const MAX_POSES: usize = 500;
+/// Longest source status line kept, bytes.
+pub const MAX_SOURCE_STATUS: usize = 500;
 /// Magnetometer points kept for the view and the fit.
 pub const MAX_MAG_POINTS: usize = 2000;
 /// Magnetometer: refit after this many newly kept points.
@@ -140,6 +142,9 @@ pub struct Snapshot {
     pub mag: Option<MagSnapshot>,
     /// `None` while the source runs; the reason once it ended.
     pub ended: Option<String>,
+    /// What the source says about itself (an adapter's streaming and self-calibration
+    /// state, a capture's latest instruction), one line; `None` when it says nothing.
+    pub source_status: Option<String>,
 }
 
 /// One live calibration session.
@@ -161,6 +166,7 @@ pub struct LiveSession {
     mag_fit: Option<(f64, f64, [f64; 3])>,
     mag_note: Option<String>,
     ended: Option<String>,
+    source_status: Option<String>,
 }
 
 impl LiveSession {
@@ -196,6 +202,7 @@ impl LiveSession {
             mag_fit: None,
             mag_note: None,
             ended: None,
+            source_status: None,
         })
     }
 
@@ -239,6 +246,16 @@ impl LiveSession {
             self.refit_mag();
         }
         self.ended = Some(why.to_string());
+    }
+
+    /// Sets the source's status line (see [`Snapshot::source_status`]); at most
+    /// [`MAX_SOURCE_STATUS`] bytes are kept.
+    pub fn set_source_status(&mut self, line: &str) {
+        let mut end = line.len().min(MAX_SOURCE_STATUS);
+        while !line.is_char_boundary(end) {
+            end -= 1;
+        }
+        self.source_status = Some(line[..end].to_string());
     }
 
     /// True once [`LiveSession::finish`] was called.
@@ -406,6 +423,7 @@ impl LiveSession {
             fit_note: self.fit_note.clone(),
             mag: (!is_acc).then(|| self.mag_snapshot()),
             ended: self.ended.clone(),
+            source_status: self.source_status.clone(),
         }
     }
 

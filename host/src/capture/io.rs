@@ -202,7 +202,12 @@ impl<D: WiimoteIo, W: Write> WiimoteIo for RawLogger<D, W> {
 pub struct LogReplay {
     reports: VecDeque<(f64, Vec<u8>)>,
     clock: f64,
+    /// Time of the first logged report (the pace's origin).
+    first: f64,
     description: String,
+    /// `Some((speed, start))`: reports are handed out no earlier than their logged time
+    /// divided by `speed` after `start` (see [`LogReplay::paced`]).
+    pace: Option<(f64, std::time::Instant)>,
 }
 
 impl LogReplay {
@@ -253,8 +258,18 @@ impl LogReplay {
         Ok(Self {
             reports,
             clock,
+            first: clock,
             description,
+            pace: None,
         })
+    }
+
+    /// Replays at `speed` times the logged pace (wall clock) instead of as fast as possible,
+    /// as the session happened (`wiical capture --replay LOG --replay-speed X`, e.g. to
+    /// watch it with `--live`). The simulated clock is unchanged, so the recording is the same.
+    pub fn paced(mut self, speed: f64) -> Self {
+        self.pace = Some((speed, std::time::Instant::now()));
+        self
     }
 
     /// Reads and parses a log file (a regular file of at most the recording size cap).
@@ -279,6 +294,15 @@ impl WiimoteIo for LogReplay {
         if *t > self.clock + wait {
             self.clock += wait;
             return Ok(0);
+        }
+        if let Some((speed, start)) = self.pace {
+            let t0 = self.first;
+            let due = std::time::Duration::from_secs_f64(((*t - t0) / speed).max(0.0));
+            let now = start.elapsed();
+            // Sleeps of under 2 ms are left for the next report (scheduler overhead).
+            if due > now + std::time::Duration::from_millis(2) {
+                std::thread::sleep(due - now);
+            }
         }
         let (t, bytes) = self
             .reports

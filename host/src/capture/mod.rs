@@ -103,6 +103,10 @@ pub trait CaptureUi {
     fn message(&mut self, text: &str);
     /// Called after every sample: number written, time of the last one, and what to do now.
     fn progress(&mut self, _samples: u64, _t: f64, _prompt: &str) {}
+    /// Called with every recorded sample (before [`CaptureUi::progress`]): its time (s since
+    /// the first sample, host clock) and the raw counts of the remote and of the Nunchuk
+    /// (when plugged in). `wiical capture --live` feeds its live view from here.
+    fn sample(&mut self, _t: f64, _remote: [u16; 3], _nunchuk: Option<[u16; 3]>) {}
     /// The capture is over.
     fn finish(&mut self) {}
 }
@@ -419,6 +423,7 @@ impl<D: WiimoteIo + ?Sized> Recorder<'_, '_, D> {
             let t = now - *clock.t_first.get_or_insert(now);
             let ext = if self.ext_present { nunchuk } else { None };
             csv.row(t, accel, ext, gyro.as_ref())?;
+            ui.sample(t, accel, ext);
             self.stats.samples += 1;
             self.stats.duration_s = t;
             if now - clock.last_flush > 1.0 {

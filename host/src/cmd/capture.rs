@@ -6,9 +6,13 @@ use crate::capture::io::{self, WiimoteIo};
 use crate::capture::output::cal_path;
 use crate::capture::{capture, CaptureMode, CaptureOptions, CaptureSummary, CaptureUi, TerminalUi};
 use crate::cli_error::cli_error;
-use anyhow::{Context, Result};
+use crate::live::capture::LiveCaptureUi;
+use crate::live::{LiveServer, ServeError, Shared};
+use anyhow::{bail, Context, Result};
 use std::io::BufWriter;
+use std::io::Write;
 use std::path::PathBuf;
+use std::sync::Arc;
 use wiical_analysis::write::PendingFile;
 
 /// Arguments of `wiical capture`.
@@ -44,9 +48,24 @@ pub struct CaptureArgs {
     /// Replay a raw log written with --raw-log instead of opening a device.
     #[arg(long)]
     pub replay: Option<PathBuf>,
+    /// With --replay: replay at this many times the logged pace (default: as fast as
+    /// possible), e.g. to watch it with --live (a number above 0).
+    #[arg(long, requires = "replay", value_parser = super::positive_finite)]
+    pub replay_speed: Option<f64>,
     /// Print JSON (the side file's content) instead of a summary.
     #[arg(long)]
     pub json: bool,
+    /// Watch the capture in the browser (the `wiical live` page, fed the remote's
+    /// accelerometer while it records); after the capture the page stays up until Ctrl-C.
+    #[arg(long)]
+    pub live: bool,
+    /// With --live: HTTP port (0: any free port; the one chosen is printed), or ADDR:PORT.
+    #[arg(long, default_value = "8765", requires = "live")]
+    pub live_port: String,
+    /// With --live: listen on this address even if it is not the loopback (anyone on that
+    /// network can then watch).
+    #[arg(long, requires = "live")]
+    pub live_bind: Option<std::net::IpAddr>,
 }
 
 impl CaptureArgs {
@@ -124,9 +143,59 @@ pub fn run(args: &CaptureArgs) -> Result<String> {
     outputs.extend(args.raw_log.as_deref());
     wiical_analysis::write::check_outputs(&inputs, &outputs).map_err(cli_error)?;
     let mut ui = TerminalUi::new();
-    let summary = match &args.replay {
-        Some(path) => run_on(io::LogReplay::load(path)?, args, &mut ui)?,
-        None => run_on(io::open_wiimote()?, args, &mut ui)?,
-    };
+    if args.live {
+        return run_live(args, &mut ui);
+    }
+    let summary = open_and_run(args, &mut ui)?;
     crate::render::capture::render(&summary, args.json)
+}
+
+fn open_and_run(args: &CaptureArgs, ui: &mut dyn CaptureUi) -> Result<CaptureSummary> {
+    match &args.replay {
+        Some(path) => {
+            let log = io::LogReplay::load(path)?;
+            match args.replay_speed {
+                Some(speed) => run_on(log.paced(speed), args, ui),
+                None => run_on(log, args, ui),
+            }
+        }
+        None => run_on(io::open_wiimote()?, args, ui),
+    }
+}
+
+/// `--live`: serves the live page (its address on stderr, before the device is opened),
+/// captures through a [`LiveCaptureUi`], prints the summary, then serves until interrupted.
+fn run_live(args: &CaptureArgs, ui: &mut dyn CaptureUi) -> Result<String> {
+    let (ip, port, allow_remote) = crate::cmd::live::parse_listen(
+        &args.live_port,
+        args.live_bind,
+        ["--live-port", "--live-bind"],
+    )?;
+    let server = match LiveServer::bind(ip, port, allow_remote) {
+        Ok(s) => s,
+        Err(ServeError::NotLocal { addr }) => bail!(
+            "the live view listens on {addr} only when asked: anyone on that network could watch; give --live-bind {addr} to mean it"
+        ),
+        Err(e) => return Err(e.into()),
+    };
+    let addr = server.addr();
+    let shared = Arc::new(Shared::default());
+    let mut live_ui = LiveCaptureUi::new(ui, shared.clone())?;
+    eprintln!("wiical capture: live view at http://{addr}/");
+    let serving = shared.clone();
+    let server_thread = std::thread::spawn(move || server.serve(&serving));
+    let result = open_and_run(args, &mut live_ui);
+    match &result {
+        Ok(_) => live_ui.end("capture finished"),
+        Err(e) => live_ui.end(&format!("capture failed: {e:#}")),
+    }
+    let text = crate::render::capture::render(&result?, args.json)?;
+    let mut out = std::io::stdout().lock();
+    out.write_all(text.as_bytes())?;
+    out.flush()?;
+    drop(out);
+    eprintln!("wiical capture: the live view stays at http://{addr}/ (Ctrl-C stops)");
+    // The server serves until the process is interrupted.
+    let _ = server_thread.join();
+    Ok(String::new())
 }

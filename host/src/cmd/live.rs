@@ -57,26 +57,35 @@ fn speed(s: &str) -> Result<f64, String> {
 /// The address and port `--port` / `--bind` ask for, and whether a non-loopback address
 /// was asked for explicitly.
 fn listen_addr(a: &Args) -> Result<(IpAddr, u16, bool)> {
-    let (host, port) = match a.port.rsplit_once(':') {
+    parse_listen(&a.port, a.bind, ["--port", "--bind"])
+}
+
+/// The address and port a port flag (`PORT` or `ADDR:PORT`) and a bind flag ask for, and
+/// whether a non-loopback address was asked for explicitly; `flags` names the two flags in
+/// messages.
+pub(crate) fn parse_listen(
+    port_arg: &str,
+    bind: Option<IpAddr>,
+    flags: [&str; 2],
+) -> Result<(IpAddr, u16, bool)> {
+    let [port_flag, bind_flag] = flags;
+    let (host, port) = match port_arg.rsplit_once(':') {
         Some((h, p)) => (Some(h.trim_matches(['[', ']'])), p),
-        None => (None, a.port.as_str()),
+        None => (None, port_arg),
     };
     let Ok(port) = port.parse::<u16>() else {
-        bail!(
-            "--port {}: not a port number (0 to 65535, or ADDR:PORT)",
-            a.port
-        );
+        bail!("{port_flag} {port_arg}: not a port number (0 to 65535, or ADDR:PORT)");
     };
     let from_port = match host {
         Some(h) => match h.parse::<IpAddr>() {
             Ok(ip) => Some(ip),
-            Err(_) => bail!("--port {}: {h} is not an IP address", a.port),
+            Err(_) => bail!("{port_flag} {port_arg}: {h} is not an IP address"),
         },
         None => None,
     };
-    match (from_port, a.bind) {
+    match (from_port, bind) {
         (Some(p), Some(b)) if p != b => {
-            bail!("--port names {p} and --bind {b}: give the address once")
+            bail!("{port_flag} names {p} and {bind_flag} {b}: give the address once")
         }
         (_, Some(b)) => Ok((b, port, true)),
         (Some(p), None) => Ok((p, port, false)),

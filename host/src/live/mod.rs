@@ -8,6 +8,7 @@
 //!
 //! [`Snapshot`]: wiical_analysis::live::Snapshot
 
+pub mod capture;
 pub mod source;
 
 use std::io::Write;
