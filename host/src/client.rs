@@ -444,6 +444,28 @@ impl Device {
         self.call(endpoints::GetStatus)
     }
 
+    /// Self-calibration status asked for while streaming: unlike [`Device::status`], which
+    /// discards the samples that arrive before the answer, this keeps them (returned in
+    /// order, to be used as if read by [`Device::next_sample`]). Asks once; `None` when no
+    /// status came within the timeout (or the adapter refused), which a live view can
+    /// survive.
+    pub fn status_while_streaming(
+        &mut self,
+    ) -> Result<(Option<wiical_wire::AdapterStatus>, Vec<Sample>)> {
+        self.send(&Request::GetStatus)?;
+        let deadline = Instant::now() + self.opts.timeout;
+        let mut samples = Vec::new();
+        loop {
+            match self.recv(deadline)? {
+                Some(Ok(Response::Sample(s))) => samples.push(s),
+                Some(Ok(Response::Status(st))) => return Ok((Some(st), samples)),
+                Some(Ok(Response::Error(_))) | None => return Ok((None, samples)),
+                Some(Ok(_)) => self.stats.discarded += 1,
+                Some(Err(_)) => {}
+            }
+        }
+    }
+
     /// Commit the staged calibration. If the acknowledgement is lost and the retry finds
     /// nothing staged, the state is read back to decide whether the first attempt worked.
     pub fn commit(&mut self) -> Result<()> {

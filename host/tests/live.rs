@@ -514,12 +514,18 @@ fn live_device_sim_poses_reach_all_poses_and_a_good_verdict_in_chromium() {
     let want = POSE_DIRECTIONS.len();
     let t0 = Instant::now();
     let mut seen: Vec<usize> = Vec::new();
+    let mut adapter_seen: Vec<String> = Vec::new();
     let dom = loop {
         assert!(t0.elapsed() < Duration::from_secs(90), "stuck: {seen:?}");
         let dom = dump_dom(&chromium, live.port);
         let poses: usize = element(&dom, "poses").unwrap().parse().unwrap();
         seen.push(poses);
-        if poses >= want && element(&dom, "verdict").as_deref() == Some("good") {
+        let adapter = element(&dom, "source-status").unwrap();
+        adapter_seen.push(adapter.clone());
+        if poses >= want
+            && element(&dom, "verdict").as_deref() == Some("good")
+            && adapter.contains("last self-calibration stored")
+        {
             break dom;
         }
         std::thread::sleep(Duration::from_millis(300));
@@ -541,6 +547,33 @@ fn live_device_sim_poses_reach_all_poses_and_a_good_verdict_in_chromium() {
         .unwrap();
     // 0.6-count noise averaged over ~800 samples a pose, at ~200 counts/g: well under 1 mg.
     assert!(rms < 1.0, "{rms} mg");
+    // The adapter's own state on the page: its stream, and its C + Z self-calibration (the
+    // simulated hand held C + Z at plug-in), which took its own poses (20° apart, stopping
+    // once they cover the sphere: 12 at least) from the same movements and stored the fit.
+    let adapter = element(&dom, "source-status").unwrap();
+    eprintln!("{adapter}");
+    assert!(
+        adapter.starts_with("adapter streaming at 200 Hz: "),
+        "{adapter}"
+    );
+    let stored = adapter
+        .split("last self-calibration stored: ")
+        .nth(1)
+        .unwrap();
+    let (rms_mg, rest) = stored.split_once(" mg RMS over ").unwrap();
+    let adapter_poses: usize = rest.split(' ').next().unwrap().parse().unwrap();
+    assert!((12..=want).contains(&adapter_poses), "{adapter}");
+    assert!(rms_mg.parse::<f64>().unwrap() < 1.0, "{adapter}");
+    // …and the session was shown while it ran.
+    assert!(
+        adapter_seen.iter().any(|a| [
+            "self-calibration: hold still in a new orientation, ",
+            "self-calibration: pose taken, "
+        ]
+        .iter()
+        .any(|p| a.contains(p))),
+        "{adapter_seen:#?}"
+    );
     // The poses are the simulated ones, in order (the fit's frame is the sensor's to within
     // the true model's ~1 % cross-axis terms).
     let v = wait_for(live.port, |v| v["pose_count"].as_u64() >= Some(want as u64));

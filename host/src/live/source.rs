@@ -2,6 +2,8 @@
 //! rate), `speed` times faster, or an adapter's sample stream (a real adapter or `wiical
 //! device-sim --pty`). The samples go through a [`LiveSession`]; a snapshot is
 //! published at most every [`PUBLISH_EVERY`] of wall time, on every new pose and at the end.
+//! An adapter's stream state and self-calibration status (the C + Z mode, protocol 2's
+//! `GetStatus`) become the page's source status line.
 
 use super::Shared;
 use crate::client::{ClientOptions, Device};
@@ -9,6 +11,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 use wiical_analysis::live::{LiveSensor, LiveSession, Snapshot};
 use wiical_analysis::Recording;
+use wiical_wire::{AdapterStatus, Sample, SelfCalOutcome, SelfCalPhase};
 
 /// Snapshots a second at most (besides one per pose and the last).
 pub const PUBLISH_EVERY: Duration = Duration::from_millis(100);
@@ -58,9 +61,14 @@ pub fn replay(
     snap
 }
 
+/// How often an adapter's self-calibration status is asked for while streaming.
+pub const STATUS_EVERY: Duration = Duration::from_millis(500);
+
 /// Streams an adapter (or `wiical device-sim`) at `path` into `session`: the raw 10-bit
-/// counts, timed by the sample sequence number at the rate the adapter announces. Ends when
-/// the device stops answering (unplugged, simulator stopped): `source ended: <why>`.
+/// counts, timed by the sample sequence number at the rate the adapter announces. Every
+/// [`STATUS_EVERY`] the adapter's self-calibration status is asked for (keeping the samples
+/// that arrive meanwhile) and shown with the stream's state as the source status line.
+/// Ends when the device stops answering (unplugged, simulator stopped): `source ended: <why>`.
 pub fn device(path: &str, shared: &Arc<Shared>) -> Option<Snapshot> {
     let fail = |why: String| -> Option<Snapshot> {
         let mut s = LiveSession::new(LiveSensor::Accelerometer, 100.0, true).ok()?;
@@ -77,32 +85,133 @@ pub fn device(path: &str, shared: &Arc<Shared>) -> Option<Snapshot> {
         Ok(mhz) => f64::from(mhz) / 1000.0,
         Err(e) => return fail(e.to_string()),
     };
-    let mut session = match LiveSession::new(LiveSensor::Accelerometer, rate_hz, true) {
-        Ok(s) => s,
+    let mut feed = match LiveSession::new(LiveSensor::Accelerometer, rate_hz, true) {
+        Ok(session) => Feed {
+            session,
+            shared: shared.clone(),
+            rate_hz,
+            last_publish: Instant::now(),
+            first_seq: None,
+            last_seq: 0,
+            received: 0,
+        },
         Err(e) => return fail(e.to_string()),
     };
-    shared.publish(&session.snapshot());
-    let mut last_publish = Instant::now();
-    let mut first_seq = None;
+    feed.status(None);
+    let mut last_status = Instant::now();
     let why = loop {
-        let s = match dev.next_sample() {
-            Ok(s) => s,
+        if last_status.elapsed() >= STATUS_EVERY {
+            last_status = Instant::now();
+            match dev.status_while_streaming() {
+                Ok((status, samples)) => {
+                    if let Some(e) = samples.iter().find_map(|s| feed.push(s).err()) {
+                        break e;
+                    }
+                    feed.status(status.as_ref());
+                }
+                Err(e) => break e.to_string(),
+            }
+        }
+        let pushed = match dev.next_sample() {
+            Ok(s) => feed.push(&s),
             Err(e) => break e.to_string(),
         };
-        // Sequence numbers wrap at 2³²; the wrapping difference keeps time monotonic.
-        let seq0 = *first_seq.get_or_insert(s.seq);
-        let t = f64::from(s.seq.wrapping_sub(seq0)) / rate_hz;
-        match session.push(t, s.raw.map(f64::from)) {
-            Ok(new_pose) if new_pose || last_publish.elapsed() >= PUBLISH_EVERY => {
-                shared.publish(&session.snapshot());
-                last_publish = Instant::now();
-            }
-            Ok(_) => {}
-            Err(e) => break e.to_string(),
+        if let Err(e) = pushed {
+            break e;
         }
     };
-    session.finish(&format!("source ended: {why}"));
-    let snap = session.snapshot();
+    feed.session.finish(&format!("source ended: {why}"));
+    let snap = feed.session.snapshot();
     shared.publish(&snap);
     Some(snap)
+}
+
+/// An adapter's samples on their way into a session.
+struct Feed {
+    session: LiveSession,
+    shared: Arc<Shared>,
+    rate_hz: f64,
+    last_publish: Instant,
+    first_seq: Option<u32>,
+    last_seq: u32,
+    received: u64,
+}
+
+impl Feed {
+    /// One sample; the session's refusal as a sentence.
+    fn push(&mut self, s: &Sample) -> Result<(), String> {
+        // Sequence numbers wrap at 2³²; the wrapping difference keeps time monotonic.
+        let seq0 = *self.first_seq.get_or_insert(s.seq);
+        self.last_seq = s.seq;
+        self.received += 1;
+        let t = f64::from(s.seq.wrapping_sub(seq0)) / self.rate_hz;
+        let new_pose = self
+            .session
+            .push(t, s.raw.map(f64::from))
+            .map_err(|e| e.to_string())?;
+        if new_pose || self.last_publish.elapsed() >= PUBLISH_EVERY {
+            self.publish();
+        }
+        Ok(())
+    }
+
+    fn publish(&mut self) {
+        self.shared.publish(&self.session.snapshot());
+        self.last_publish = Instant::now();
+    }
+
+    /// Sets the status line from the stream's counters and the adapter's `status`.
+    fn status(&mut self, status: Option<&AdapterStatus>) {
+        let sent = self
+            .first_seq
+            .map_or(0, |s0| u64::from(self.last_seq.wrapping_sub(s0)) + 1);
+        let mut line = format!(
+            "adapter streaming at {} Hz: {} samples, {} lost",
+            self.rate_hz,
+            self.received,
+            sent.saturating_sub(self.received)
+        );
+        match status {
+            Some(st) => line.push_str(&format!("; {}", selfcal_text(st))),
+            None => line.push_str("; self-calibration status not known"),
+        }
+        self.session.set_source_status(&line);
+        self.publish();
+    }
+}
+
+/// The adapter's self-calibration state in words: the phase (what its LED shows), the last
+/// session's result, and the stale-calibration suggestion.
+pub fn selfcal_text(st: &AdapterStatus) -> String {
+    let phase = match st.phase {
+        SelfCalPhase::Off => "off (hold C + Z while plugging the Nunchuk in to start it)",
+        SelfCalPhase::Arming => "arming (keep C + Z held)",
+        SelfCalPhase::WaitingForStillness => "hold still in a new orientation",
+        SelfCalPhase::PoseTaken => "pose taken",
+        SelfCalPhase::MoveToNewOrientation => "that orientation was taken: turn further",
+        SelfCalPhase::Committing => "storing the calibration",
+        SelfCalPhase::Done => "done",
+        SelfCalPhase::Failed => "failed",
+    };
+    let mut text = format!("self-calibration: {phase}");
+    let in_session = !matches!(st.phase, SelfCalPhase::Off | SelfCalPhase::Arming);
+    if in_session && st.poses > 0 {
+        text.push_str(&format!(", {} poses", st.poses));
+    }
+    match &st.last_result {
+        Some(SelfCalOutcome::Done { rms_mg, poses }) => text.push_str(&format!(
+            "; last self-calibration stored: {rms_mg:.2} mg RMS over {poses} poses"
+        )),
+        Some(SelfCalOutcome::Failed { message }) => {
+            text.push_str(&format!("; last self-calibration failed: {message}"))
+        }
+        None => {}
+    }
+    if st.recalibration_suggested {
+        text.push_str(&format!(
+            "; recalibration suggested ({:.0} mg RMS over {} still moments)",
+            st.stale_rms_mg, st.stale_moments
+        ));
+    }
+    text
 }
