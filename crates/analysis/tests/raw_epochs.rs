@@ -1,4 +1,4 @@
-//! GGIR's still 10-s epochs of raw recordings (`wiical_analysis::raw::epochs`): on a simulated
+//! GGIR's still 10-s epochs of raw recordings (`wiical_analysis::input::raw::epochs`): on a simulated
 //! raw recording with known truth (holds on the sphere between movements, a miscalibrated
 //! sensor with a temperature drift), and on GGIRread's minutes-long test files, which are too
 //! short for the autocalibration and must say so.
@@ -8,8 +8,8 @@ mod common;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
-use wiical_analysis::raw::epochs::{epoch_table, still_epochs, EpochOptions};
-use wiical_analysis::window_input::{load_input, Input, WindowInputOptions};
+use wiical_analysis::input::raw::epochs::{epoch_table, still_epochs, EpochOptions};
+use wiical_analysis::input::window_table::{load_input, Input, WindowInputOptions};
 use wiical_analysis::{Error, Recording};
 
 /// Truth of the simulated sensor: `x = (a − k·(T − T̄))/s − o` for gravity `a` (GGIR's model

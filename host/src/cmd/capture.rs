@@ -9,7 +9,7 @@ use crate::cli_error::cli_error;
 use anyhow::{Context, Result};
 use std::io::BufWriter;
 use std::path::PathBuf;
-use wiical_analysis::write::PendingFile;
+use wiical_analysis::output::write::PendingFile;
 
 /// Arguments of `wiical capture`.
 #[derive(clap::Args, Debug, Clone)]
@@ -122,7 +122,7 @@ pub fn run(args: &CaptureArgs) -> Result<String> {
     let inputs: Vec<&std::path::Path> = args.replay.iter().map(|p| p.as_path()).collect();
     let mut outputs = vec![args.out.as_path(), cal_file.as_path()];
     outputs.extend(args.raw_log.as_deref());
-    wiical_analysis::write::check_outputs(&inputs, &outputs).map_err(cli_error)?;
+    wiical_analysis::output::write::check_outputs(&inputs, &outputs).map_err(cli_error)?;
     let mut ui = TerminalUi::new();
     let summary = match &args.replay {
         Some(path) => run_on(io::LogReplay::load(path)?, args, &mut ui)?,

@@ -11,8 +11,8 @@ use crate::cmd::to_json;
 use crate::render::device as render;
 use anyhow::{anyhow, bail, Result};
 use serde::Serialize;
-use wiical_analysis::calfile::{self, CalibrationFile};
-use wiical_analysis::verdict::Verdict;
+use wiical_analysis::output::calfile::{self, CalibrationFile};
+use wiical_analysis::report::verdict::Verdict;
 use wiical_core::quality::Acceptance;
 use wiical_core::Calibration;
 use wiical_wire::{

@@ -47,9 +47,9 @@ pub fn run(a: &Args) -> Result<String> {
     }
     let mut from_file = String::new();
     if let Some(path) = &a.noise {
-        let text = wiical_analysis::input::read_text(path, 1 << 24).map_err(cli_error)?;
+        let text = wiical_analysis::input::bounded::read_text(path, 1 << 24).map_err(cli_error)?;
         let n =
-            wiical_analysis::noise_report::accel_noise_from_json(&text, a.noise_axis.as_deref())
+            wiical_analysis::noise::report::accel_noise_from_json(&text, a.noise_axis.as_deref())
                 .map_err(|e| cli_error(e.in_file(path)))?;
         // The core's constructor does the conversion (σ_a = N/√dt, σ_bw = K).
         let pvb = wiical_core::kalman::PvbConfig::from_allan(
