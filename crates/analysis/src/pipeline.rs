@@ -69,10 +69,7 @@ pub fn analyze(input: &Input, opts: &AnalyzeOptions) -> Result<Judged<AnalyzeRep
 }
 
 /// `fit` on a window-mean table: the rows are the windows ([`crate::fit::base::run_windows`]).
-pub fn fit_table(
-    table: &WindowTable,
-    opts: &crate::fit::base::FitOptions,
-) -> Result<crate::FitReport> {
+fn fit_table(table: &WindowTable, opts: &crate::fit::base::FitOptions) -> Result<crate::FitReport> {
     let mut rep = crate::fit::base::run_windows(&table.to_windows(), opts)?;
     rep.window_input = Some(table.info.clone());
     Ok(rep)
@@ -82,7 +79,7 @@ pub fn fit_table(
 /// ([`crate::search::analyze::analyze_windows`]: full model, effects by the usual rule; its
 /// `calibration` is what `--out` writes) plus, for comparison, the van Hees et al. 2014
 /// autocalibration of the same windows ([`crate::autocal`], when the means are in g).
-pub fn analyze_table(
+fn analyze_table(
     table: &WindowTable,
     opts: &crate::AnalyzeOptions,
 ) -> Result<crate::AnalyzeReport> {

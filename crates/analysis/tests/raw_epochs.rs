@@ -112,7 +112,9 @@ fn autocalibration_from_simulated_raw_recovers_the_truth() {
         );
     }
     // And the whole `analyze` pipeline runs on the table.
-    let rep = wiical_analysis::pipeline::analyze_table(&table, &Default::default()).unwrap();
+    let rep = wiical_analysis::pipeline::analyze(&Input::Table(table), &Default::default())
+        .unwrap()
+        .report;
     assert!(rep.autocalibration.is_some());
 }
 
@@ -261,7 +263,9 @@ fn simulated_cwa_file_runs_the_autocalibration() {
         "{:?}",
         table.recording.notes
     );
-    let rep = wiical_analysis::pipeline::analyze_table(&table, &Default::default()).unwrap();
+    let rep = wiical_analysis::pipeline::analyze(&Input::Table(table.clone()), &Default::default())
+        .unwrap()
+        .report;
     assert!(rep.autocalibration_converged.is_some());
     let fit = wiical_analysis::autocal::autocalibrate(
         &table.recording.xyz,

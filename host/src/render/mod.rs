@@ -3,8 +3,10 @@
 
 pub mod analyze;
 pub mod capture;
+pub mod decode_cal;
 pub mod device;
 pub mod gyrofit;
+pub mod kalman_demo;
 pub mod noise;
 pub mod plot;
 pub mod tempcal;

@@ -37,6 +37,8 @@
 //! The truth is written next to the recording as `FILE.truth.json` ([`Truth`]).
 
 #![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x > 0.0)` is deliberately true for NaN.
+pub mod kalman;
+
 use crate::error::{Error, Result};
 use crate::input::recording::Recording;
 use crate::output::write::write_file;

@@ -1,4 +1,4 @@
-//! `wiical kalman-demo`: the fiducial experiment of *Where's the Wiimote?* (seed
+//! The Monte Carlo behind `wiical kalman-demo`: the fiducial experiment of *Where's the Wiimote?* (seed
 //! `kalman_wiimote_article.txt`) as a deterministic Monte Carlo.
 //!
 //! The remote sits still (true acceleration 0, true position and velocity 0) while its
@@ -39,11 +39,53 @@
 //! (`set_stream(i)`): runs are independent, reproducible one by one, and the report depends
 //! only on the configuration.
 
-use anyhow::{ensure, Context, Result};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 use wiical_core::kalman::{PvbConfig, PvbFilter};
+
+/// Why a Monte Carlo did not run: a setting out of range (checked before any run), or the
+/// filter failing inside one run (a step's `predict` / `update`, or a covariance that lost
+/// positive definiteness). The sentences are those of `wiical kalman-demo`.
+#[derive(Debug, thiserror::Error)]
+pub enum KalmanDemoError {
+    /// `runs` is 0.
+    #[error("runs must be at least 1")]
+    NoRuns,
+    /// `runs` above [`MAX_RUNS`].
+    #[error("runs must be at most {MAX_RUNS} (about 5 s; more adds no precision worth the wait), got {0}")]
+    TooManyRuns(u32),
+    /// A NaN or infinite setting.
+    #[error("every parameter must be finite")]
+    NotFinite,
+    /// `dt` ≤ 0.
+    #[error("dt must be > 0")]
+    NonPositiveDt,
+    /// `duration_s / dt` outside 1 ..= 10⁷ steps.
+    #[error("duration_s / dt must give between 1 and 10^7 steps")]
+    Steps,
+    /// The core refused the filter's settings.
+    #[error("invalid filter configuration")]
+    Filter(#[source] wiical_core::Error),
+    /// The filter failed at one step of one run (`stage` is `predict` or `update`).
+    #[error("run {run}, step {step}: {stage}")]
+    Step {
+        /// The run (its random stream).
+        run: u32,
+        /// The step, from 1.
+        step: u32,
+        /// `predict` or `update`.
+        stage: &'static str,
+        /// The core's reason.
+        #[source]
+        source: wiical_core::Error,
+    },
+    /// The covariance at the end of a run has no Cholesky factor.
+    #[error("run {0}: covariance not positive definite")]
+    Covariance(u32),
+}
+
+type Result<T> = std::result::Result<T, KalmanDemoError>;
 
 /// Settings of the Monte Carlo. Units: s, m, m/s, m/s².
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
@@ -129,12 +171,12 @@ pub const MAX_RUNS: u32 = 100_000;
 
 /// The checked settings: the number of steps and the filter's configuration.
 fn checked(cfg: &KalmanDemoConfig) -> Result<(u32, PvbConfig)> {
-    ensure!(cfg.runs >= 1, "runs must be at least 1");
-    ensure!(
-        cfg.runs <= MAX_RUNS,
-        "runs must be at most {MAX_RUNS} (about 5 s; more adds no precision worth the wait), got {}",
-        cfg.runs
-    );
+    if cfg.runs < 1 {
+        return Err(KalmanDemoError::NoRuns);
+    }
+    if cfg.runs > MAX_RUNS {
+        return Err(KalmanDemoError::TooManyRuns(cfg.runs));
+    }
     let finite = [
         cfg.true_bias,
         cfg.dt,
@@ -146,13 +188,16 @@ fn checked(cfg: &KalmanDemoConfig) -> Result<(u32, PvbConfig)> {
     .iter()
     .chain(cfg.initial_std.iter())
     .all(|v| v.is_finite());
-    ensure!(finite, "every parameter must be finite");
-    ensure!(cfg.dt > 0.0, "dt must be > 0");
+    if !finite {
+        return Err(KalmanDemoError::NotFinite);
+    }
+    if cfg.dt <= 0.0 {
+        return Err(KalmanDemoError::NonPositiveDt);
+    }
     let steps_f = (cfg.duration_s / cfg.dt).round();
-    ensure!(
-        (1.0..=1e7).contains(&steps_f),
-        "duration_s / dt must give between 1 and 10^7 steps"
-    );
+    if !(1.0..=1e7).contains(&steps_f) {
+        return Err(KalmanDemoError::Steps);
+    }
     let filter_cfg = PvbConfig {
         dt: cfg.dt as f32,
         accel_noise: cfg.accel_noise as f32,
@@ -162,7 +207,7 @@ fn checked(cfg: &KalmanDemoConfig) -> Result<(u32, PvbConfig)> {
         initial_std: cfg.initial_std.map(|v| v as f32),
     };
     // Validate once, with a readable message.
-    PvbFilter::new(&filter_cfg).context("invalid filter configuration")?;
+    PvbFilter::new(&filter_cfg).map_err(KalmanDemoError::Filter)?;
     Ok((steps_f as u32, filter_cfg))
 }
 
@@ -186,7 +231,7 @@ fn one_run(
 ) -> Result<RunOutcome> {
     let mut rng = ChaCha8Rng::seed_from_u64(cfg.seed);
     rng.set_stream(u64::from(run));
-    let mut filter = PvbFilter::new(filter_cfg)?;
+    let mut filter = PvbFilter::new(filter_cfg).map_err(KalmanDemoError::Filter)?;
     let mut bias = cfg.true_bias;
     for k in 1..=steps {
         // Still device: true acceleration 0, so the accelerometer reads its bias + noise.
@@ -194,7 +239,12 @@ fn one_run(
         let a_m = bias + cfg.accel_noise * w;
         filter
             .predict(a_m as f32)
-            .with_context(|| format!("run {run}, step {k}: predict"))?;
+            .map_err(|source| KalmanDemoError::Step {
+                run,
+                step: k,
+                stage: "predict",
+                source,
+            })?;
         // The bias random walk (if any) happens over the step, like the filter's model.
         let wb: f64 = StandardNormal.sample(&mut rng);
         bias += cfg.bias_walk * cfg.dt.sqrt() * wb;
@@ -202,7 +252,12 @@ fn one_run(
         let z = cfg.pos_noise_m * e;
         filter
             .update(z as f32)
-            .with_context(|| format!("run {run}, step {k}: update"))?;
+            .map_err(|source| KalmanDemoError::Step {
+                run,
+                step: k,
+                stage: "update",
+                source,
+            })?;
         if let Some(t) = trace.as_deref_mut() {
             t.push([f64::from(k) * cfg.dt, f64::from(filter.bias())]);
         }
@@ -216,7 +271,7 @@ fn one_run(
     let nees = p
         .cholesky()
         .map(|c| err.dot(&c.solve(&err)))
-        .with_context(|| format!("run {run}: covariance not positive definite"))?;
+        .ok_or(KalmanDemoError::Covariance(run))?;
     Ok(RunOutcome {
         b_hat: x[2],
         bias,
