@@ -54,7 +54,7 @@ const MAG_ROWS: usize = 347;
 /// What `wiical fit --json <data>/imu_tk_xsens/xsens_acc.mat` prints (defaults; the CLI's
 /// JSON writes each `f32` in its shortest round-trip form, so these literals are its bits).
 /// The build script's own run must give the same numbers: it is the same pipeline
-/// (`crates/analysis/src/windows.rs`: detector settings from the time column's 100 Hz, `StaticDetector`
+/// (`crates/analysis/src/detect/windows.rs`: detector settings from the time column's 100 Hz, `StaticDetector`
 /// with capacity 511, `multipos::fit` with the default full model). If the core's detector or
 /// solver is changed on purpose, re-run the CLI and update these numbers.
 const CLI_FIT_WINDOWS: usize = 38;

@@ -6,7 +6,7 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use wiical_analysis::raw::{cwa, ggir, to_recording};
+use wiical_analysis::input::raw::{cwa, ggir, to_recording};
 
 fuzz_target!(|data: &[u8]| {
     let Some((&pick, rest)) = data.split_first() else {

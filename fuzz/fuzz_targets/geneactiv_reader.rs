@@ -5,7 +5,7 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use wiical_analysis::raw::{geneactiv, to_recording};
+use wiical_analysis::input::raw::{geneactiv, to_recording};
 
 const HEADER: &[u8] = b"Device Identity\r\nDevice Model:1.1\r\nMeasurement Frequency:85.7 Hz\r\nx gain:25875\r\nx offset:439\r\ny gain:25734\r\ny offset:-662\r\nz gain:25538\r\nz offset:-3056\r\nVolts:300\r\nLux:800\r\nNumber of Pages:3\r\n";
 

@@ -4,7 +4,7 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use wiical_analysis::input::gunzip_bounded;
+use wiical_analysis::input::bounded::gunzip_bounded;
 use wiical_analysis::{parse, LoadOptions};
 
 const LIMIT: u64 = 1 << 20;

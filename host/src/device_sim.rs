@@ -114,7 +114,8 @@ impl SimFlash {
     pub fn file(path: &Path) -> Result<Self> {
         let image = if path.exists() {
             // Bounded: `/dev/zero` or a huge file is refused, not read whole.
-            let data = match wiical_analysis::input::read_bounded(path, FLASH_SIZE as u64) {
+            let data = match wiical_analysis::input::bounded::read_bounded(path, FLASH_SIZE as u64)
+            {
                 Ok(d) => d,
                 Err(wiical_analysis::Error::TooLarge { .. }) => bail!(
                     "{} is not a device-sim flash image (larger than {FLASH_SIZE} bytes)",
@@ -132,7 +133,7 @@ impl SimFlash {
             data
         } else {
             let data = vec![0xFF; FLASH_SIZE];
-            wiical_analysis::write::write_file(path, &data)
+            wiical_analysis::output::write::write_file(path, &data)
                 .map_err(crate::cli_error::cli_error)
                 .with_context(|| format!("cannot create {}", path.display()))?;
             data
@@ -173,7 +174,7 @@ impl SimFlash {
                 .fetch_update(Ordering::SeqCst, Ordering::SeqCst, |n| n.checked_sub(1))
                 .is_ok(),
         };
-        wiical_analysis::write::write_with(path, |w| {
+        wiical_analysis::output::write::write_with(path, |w| {
             if powered {
                 w.write_all(image)
             } else {

@@ -10,6 +10,5 @@ pub mod client;
 pub mod cmd;
 #[cfg(unix)]
 pub mod device_sim;
-pub mod kalman_demo;
 pub mod live;
 pub mod render;

@@ -21,8 +21,8 @@ use wiical::capture::replay::{
     report_0x35, status_report, EndOfScript, ReadRequest, ReplayWiimote,
 };
 use wiical::capture::{capture, CaptureMode, CaptureOptions, CollectUi};
-use wiical_analysis::fit::{self as fit_cmd, FitOptions};
-use wiical_analysis::load::{self as input, LoadOptions};
+use wiical_analysis::fit::base::{self as fit_cmd, FitOptions};
+use wiical_analysis::input::load::{self as input, LoadOptions};
 use wiical_extbus::NunchukReport;
 
 // ---------------------------------------------------------------------------------------------

@@ -1,7 +1,7 @@
 //! `wiical noise` on the real 2.8-h static ADIS16405 log (gzip CSV, read as is) against the
 //! datasheet figures quoted in its SOURCE.md, the JSON contract, and a short file refused in
 //! one sentence. The estimator and term fit are checked against simulated noise with known
-//! coefficients in `crates/analysis/src/allan.rs`.
+//! coefficients in `crates/analysis/src/noise/allan.rs`.
 
 mod common;
 use common::{data_dir, temp_file, wiical};

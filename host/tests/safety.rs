@@ -12,8 +12,8 @@ use wiical::cmd::device::judge_for_put;
 use wiical::device_sim::{SimFlash, FLASH_SIZE};
 use wiical_adapter::store::Loaded;
 use wiical_adapter::CalibrationStore;
-use wiical_analysis::calfile::{self, CalibrationFile};
-use wiical_analysis::verdict::{Quality, Verdict};
+use wiical_analysis::output::calfile::{self, CalibrationFile};
+use wiical_analysis::report::verdict::{Quality, Verdict};
 use wiical_core::Calibration;
 
 fn scratch(tag: &str) -> PathBuf {

@@ -14,9 +14,10 @@ use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyBytes;
 use std::path::PathBuf;
-use wiical_analysis::window_input::{load_input, Input, WindowInputOptions};
+use wiical_analysis::input::window_table::{load_input, Input, WindowInputOptions};
 use wiical_analysis::{
-    columns::Sensor, AnalyzeOptions, Candidate, DetectOptions, FitOptions, LoadOptions, Recording,
+    input::columns::Sensor, AnalyzeOptions, Candidate, DetectOptions, FitOptions, LoadOptions,
+    Recording,
 };
 use wiical_core::multipos::MultiPosModel;
 
@@ -224,7 +225,7 @@ fn analyze(
 ) -> PyResult<String> {
     let d = AnalyzeOptions::default();
     let (alpha, cv_factor) = (alpha.unwrap_or(d.alpha), cv_factor.unwrap_or(d.cv_factor));
-    wiical_analysis::select::check_rule(alpha, cv_factor).map_err(py_err)?;
+    wiical_analysis::search::select::check_rule(alpha, cv_factor).map_err(py_err)?;
     let candidates = candidates
         .map(|names| names.iter().map(|n| n.parse::<Candidate>()).collect())
         .transpose()
@@ -284,7 +285,7 @@ fn magfit(
 #[pyfunction]
 #[pyo3(signature = (path, estimator="mean"))]
 fn six_position(py: Python<'_>, path: PathBuf, estimator: &str) -> PyResult<String> {
-    use wiical_analysis::six_position::PoseEstimator;
+    use wiical_analysis::fit::six_position::PoseEstimator;
     let est = match estimator {
         "mean" => PoseEstimator::Mean,
         "kalman" => PoseEstimator::Kalman,
@@ -297,7 +298,7 @@ fn six_position(py: Python<'_>, path: PathBuf, estimator: &str) -> PyResult<Stri
     let rep = py
         .detach(|| {
             let rec = wiical_analysis::load(&path, &LoadOptions::default())?;
-            wiical_analysis::six_position::run(&rec, est)
+            wiical_analysis::fit::six_position::run(&rec, est)
         })
         .map_err(py_err)?;
     to_json(&rep)
@@ -365,7 +366,9 @@ fn gyrofit(
                 wiical_analysis::load(&path, &LoadOptions::default())?,
                 wiical_analysis::load(g, &LoadOptions::default())?,
             )),
-            None => wiical_analysis::load::load_imu(&path, &LoadOptions::default(), gyro_columns),
+            None => {
+                wiical_analysis::input::load::load_imu(&path, &LoadOptions::default(), gyro_columns)
+            }
         })
         .map_err(py_err)?;
     let given = match (scale, counts_per_dps) {

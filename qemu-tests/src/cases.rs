@@ -888,7 +888,7 @@ pub fn adapter_wiimote_read(e: &mut EmulatedNunchuk, buf: &mut [u8; 6]) {
 // ---------------------------------------------------------------------------------------
 // Real recordings (`crate::real_data`; see build.rs for how they are read).
 
-/// Capacity of the static detector's window ring in `wiical fit` (`crates/analysis/src/windows.rs`,
+/// Capacity of the static detector's window ring in `wiical fit` (`crates/analysis/src/detect/windows.rs`,
 /// `MAX_WINDOW`): windows up to 5 s at 100 Hz.
 pub const FIT_MAX_WINDOW: usize = 511;
 
@@ -900,7 +900,7 @@ pub fn fit_detector_config() -> StaticDetectorConfig {
 }
 
 /// Runs the static detector over the IMU-TK Xsens accelerometer recording (raw 16-bit counts
-/// as `f32`, in file order) exactly as `wiical fit` does (`wiical_analysis::windows::detect`: every sample
+/// as `f32`, in file order) exactly as `wiical fit` does (`wiical_analysis::detect::windows::detect`: every sample
 /// pushed, then `finish`), calling `found` for each static interval. Returns the detector
 /// (for its reference variance) and the number of samples pushed.
 pub fn xsens_detect(

@@ -4,7 +4,7 @@
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use std::hint::black_box;
-use wiical_analysis::fit::{self, FitOptions};
+use wiical_analysis::fit::base::{self as fit, FitOptions};
 use wiical_analysis::simulate::{simulate, EffectSpec, SimConfig, SimEffect};
 use wiical_analysis::{analyze, AnalyzeOptions};
 

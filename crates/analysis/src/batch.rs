@@ -16,8 +16,8 @@
 //! memory is that of `jobs` files at a time plus the set of names already done.
 
 use crate::error::{Error, Result};
+use crate::input::window_table::{load_input, WindowInputOptions};
 use crate::pipeline;
-use crate::window_input::{load_input, WindowInputOptions};
 use crate::{AnalyzeOptions, FitOptions};
 use serde::{Deserialize, Serialize};
 use std::collections::HashSet;

@@ -22,11 +22,11 @@
 //! (e.g. small turns about similar axes) its held-out error exceeds the uncalibrated one and the
 //! report says so.
 
+use crate::detect::windows::{detect_windows, DetectOptions};
 use crate::error::{Error, Result};
-use crate::fit::{run_windows, FitOptions};
-use crate::recording::Recording;
-use crate::timecheck::TimeSteps;
-use crate::windows::{detect_windows, DetectOptions};
+use crate::fit::base::{run_windows, FitOptions};
+use crate::input::recording::Recording;
+use crate::input::timecheck::TimeSteps;
 use serde::Serialize;
 use wiical_core::gyro::GyroCalibration;
 use wiical_core::gyro_fit::{
@@ -346,7 +346,7 @@ fn flipped_axes(cal: &GyroCalibration<f64>, nominal: &[f64; 3]) -> Vec<String> {
 /// `deg/s` (`gyro_x_dps`) is 1 count = 1 °/s, `rad/s` 1 count = 1 rad/s. Returns the nominal
 /// (rad/s per count) and a sentence saying where it came from.
 pub fn nominal_from_columns(gyro: &Recording) -> Option<([f64; 3], String)> {
-    let unit = crate::columns::triplet_unit(&gyro.axis_columns)?;
+    let unit = crate::input::columns::triplet_unit(&gyro.axis_columns)?;
     let per_count = match unit {
         "deg/s" => 1f64.to_radians(),
         "rad/s" => 1.0,

@@ -10,37 +10,36 @@
 //!
 //! # Pipeline
 //!
-//! | step | module | in → out |
+//! The crate is laid out by stage; each room's `mod.rs` says what its stage takes and gives.
+//!
+//! | stage | room | in → out |
 //! |---|---|---|
-//! | load | [`mod@load`] | file or text → [`Recording`] (CSV with a header, or `t x y z` text) |
-//! | raw files | [`raw`] | Axivity `.cwa` / GENEActiv `.bin` bytes → blocks → [`Recording`]; GGIR's still 10-s epochs → window-mean table; GGIRread's grid (tests) |
-//! | GRT files | [`grt`] | Gesture Recognition Toolkit `.grt` text → [`Recording`] (no time) |
-//! | columns | [`columns`] | header names → the wanted sensor's axis triplet by pattern |
-//! | units, rate | [`recording`] | recording → sample rate; window means → `raw` / `g` / `m/s^2` |
-//! | window detection | [`windows`] | recording → static windows (core detector) + f64 window statistics |
-//! | window-mean input | [`window_input`] | a table of still-window means (GGIR sphere data) → the windows directly, no detection |
-//! | autocalibration | [`autocal`] | still-epoch means (g) + temperature → van Hees et al. 2014 offset / scale / temperature (GGIR's method) |
-//! | gyroscope | [`gyro`] | accelerometer + gyro recordings → motions between windows, gyro scale / misalignment / bias by held-out error ([`gyro::run`]) |
-//! | base fit | [`fit`] | window means → 9- (or 6-) parameter [`Calibration`] (core `f32` LM) |
-//! | effect model | [`model`] | base + effect blocks, f64 residual ‖a‖ − 1 g, LM, leave-one-out |
-//! | held-out errors at linear cost | [`press`] | full fit → leave-one-window-out residuals (PRESS identity above 200 windows) |
-//! | noise floor | [`noise`] | window variances → per-window floor, χ² of a model |
-//! | candidates | [`candidate`], [`trial`], [`outliers`] | current model → each candidate's fit, F-test, CV |
-//! | selection | [`select`] | the candidates' numbers → the one added (the rule and its constants) |
-//! | motion check | [`motion`] | window spread → predicted shortening of each mean, correlated with the base residual (not-still windows) |
-//! | evidence | [`evidence`] | the chosen effect → why (pattern, tests, runner-up), verdict |
-//! | noise | [`allan`], [`noise_report`] | still recording → overlapping Allan deviation per axis and the IEEE 952 terms (`wiical noise`) |
-//! | many files | [`batch`] | files → one JSON line each (fit or analyze), resumable results file |
+//! | input | [`input`] | file or text → [`Recording`] (CSV / `t x y z` text, GRT, raw `.cwa` / `.bin`), or a table whose rows are still windows; bounded reads, time and column checks |
+//! | detection | [`detect`] | recording → static windows (core detector) + f64 window statistics; the not-still check |
+//! | fit | [`fit`] | window means → 9- (or 6-) parameter [`Calibration`] (core `f32` LM); the f64 effect model; PRESS; the six-position test |
+//! | search | [`search`] | base fit → candidate effects tried, tested, selected one per step, with evidence ([`analyze()`]) |
+//! | report | [`report`] | → [`AnalyzeReport`] (the JSON contract), effect names, quality verdict, progress |
+//! | output | [`output`] | [`Calibration`] ↔ calibration file; atomic writes |
 //! | entries | [`pipeline`] | input (samples or window table) → report + quality verdict: what `fit`/`analyze --json` print |
-//! | report | [`report`] | → [`AnalyzeReport`] (the JSON contract of `wiical analyze`) |
-//! | six-position | [`six_position`], [`six`] | labelled poses → the seed's `T̂ = M·Â⁺` and its residual contrasts |
-//! | temperature | [`tempcal`] | still warm-up (one or more poses) + temperature → bias polynomial in T − T_ref, order by held-out segments; ArduPilot / PX4 parameter files (`wiical tempcal`) |
+//! | many files | [`batch`] | files → one JSON line each (through [`pipeline`]), resumable results file |
+//!
+//! Pipelines of their own, each one module or room:
+//!
+//! | pipeline | module | in → out |
+//! |---|---|---|
+//! | autocalibration | [`autocal`] | still-epoch means (g) + temperature → van Hees et al. 2014 offset / scale / temperature (GGIR's method) |
+//! | gyroscope | [`gyro`] | accelerometer + gyro recordings → gyro scale / misalignment / bias by held-out error ([`gyro::run`]) |
 //! | magnetometer | [`magnetometer`] | points → sphere / ellipsoid hard/soft-iron fit |
-//! | factory calibration blocks | [`factory`] | Wii Remote / Nunchuk / MotionPlus block bytes → decoded report (`decode-cal`, the capture side file) |
-//! | calibration file | [`calfile`], [`mod@write`] | [`Calibration`] ↔ JSON file |
+//! | noise | [`noise`] | still recording → overlapping Allan deviation per axis and the IEEE 952 terms (`wiical noise`) |
+//! | temperature | [`tempcal`] | still warm-up + temperature → bias polynomial in T − T_ref; ArduPilot / PX4 parameter files (`wiical tempcal`) |
+//! | factory blocks | [`factory`] | Wii Remote / Nunchuk / MotionPlus block bytes → decoded report (`decode-cal`) |
+//! | live session | [`live`] | samples as they come → poses, refit and verdict after each pose (`wiical live`) |
 //! | simulator (feature `simulate`) | [`simulate`] | settings → recording with known truth |
 //!
-//! [`analyze()`] runs the whole analysis; [`fit::run`] only the base fit.
+//! Shared below them all: [`error`] (the error type) and [`stats`] (distribution functions).
+//!
+//! [`pipeline::fit`] and [`pipeline::analyze`] are the entries of `wiical fit` and `wiical
+//! analyze`; [`analyze()`] runs the analysis on a [`Recording`] you hold.
 //!
 //! # Example: analysing samples from your own program
 //!
@@ -75,61 +74,34 @@
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
-pub mod allan;
-pub mod analyze;
 pub mod autocal;
 pub mod batch;
-pub mod calfile;
-pub mod candidate;
-pub mod columns;
-pub mod effect_names;
+pub mod detect;
 pub mod error;
-pub mod evidence;
 pub mod factory;
 pub mod fit;
-pub mod grt;
 pub mod gyro;
 pub mod input;
 pub mod live;
-pub mod load;
 pub mod magnetometer;
-pub mod model;
-pub mod motion;
 pub mod noise;
-pub mod noise_report;
-#[cfg(feature = "simulate")]
-pub mod noise_sim;
-pub mod options;
-pub mod outliers;
+pub mod output;
 pub mod pipeline;
-pub mod press;
-pub mod progress;
-pub mod raw;
-pub mod recording;
 pub mod report;
-pub mod select;
+pub mod search;
 #[cfg(feature = "simulate")]
 pub mod simulate;
-pub mod six;
-pub mod six_position;
 pub mod stats;
-pub mod table;
 pub mod tempcal;
-pub mod timecheck;
-pub mod trial;
-pub mod verdict;
-pub mod window_input;
-pub mod windows;
-pub mod write;
 
-pub use analyze::analyze;
-pub use candidate::Candidate;
+pub use detect::windows::DetectOptions;
 pub use error::{Error, Result};
-pub use fit::{FitOptions, FitReport};
-pub use load::{load, parse, LoadOptions};
-pub use options::AnalyzeOptions;
-pub use progress::{Progress, ProgressHook, Stage};
-pub use recording::Recording;
-pub use report::AnalyzeReport;
+pub use fit::base::{FitOptions, FitReport};
+pub use input::load::{load, parse, LoadOptions};
+pub use input::recording::Recording;
+pub use report::contract::AnalyzeReport;
+pub use report::progress::{Progress, ProgressHook, Stage};
+pub use search::analyze::analyze;
+pub use search::candidate::Candidate;
+pub use search::options::AnalyzeOptions;
 pub use wiical_core::Calibration;
-pub use windows::DetectOptions;

@@ -3,7 +3,7 @@
 //!
 //! Accelerometer: the core's streaming static detector (the IMU-TK detector with a 2 s initial
 //! rest, as `wiical fit --init-s 2`; the adaptive detector needs the whole recording) finds
-//! the poses; after each new pose the multi-position fit is run again ([`crate::fit::fit_means`])
+//! the poses; after each new pose the multi-position fit is run again ([`crate::fit::base::fit_means`])
 //! and judged ([`Quality::assess`], which applies the core's coverage rule). Before a fit
 //! exists, directions are provisional: the sample minus the mid-range of the pose means, and
 //! the coverage rule is applied to those.
@@ -12,10 +12,10 @@
 //! [`crate::magnetometer::fit_points`] (MATLAB `magcal`'s fit error, percent), refitted every
 //! [`MAG_REFIT_EVERY`] kept points.
 
-use crate::fit::fit_means;
+use crate::detect::windows::MAX_WINDOW;
+use crate::fit::base::fit_means;
 use crate::magnetometer::{fit_points, MagModel};
-use crate::verdict::{Quality, Verdict};
-use crate::windows::MAX_WINDOW;
+use crate::report::verdict::{Quality, Verdict};
 use serde::Serialize;
 use wiical_core::multipos::{norm_residual, MultiPosModel};
 use wiical_core::quality::CoverageRule;

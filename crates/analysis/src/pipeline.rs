@@ -8,8 +8,8 @@
 
 use crate::autocal;
 use crate::error::Result;
-use crate::verdict::Quality;
-use crate::window_input::{Input, WindowTable};
+use crate::input::window_table::{Input, WindowTable};
+use crate::report::verdict::Quality;
 use crate::{AnalyzeOptions, AnalyzeReport, FitOptions, FitReport};
 use serde::Serialize;
 use wiical_core::quality::CoverageRule;
@@ -30,7 +30,7 @@ pub struct Judged<R> {
 pub fn fit(input: &Input, opts: &FitOptions) -> Result<Judged<FitReport>> {
     let report = match input {
         Input::Table(table) => fit_table(table, opts)?,
-        Input::Samples(rec) => crate::fit::run(rec, opts)?,
+        Input::Samples(rec) => crate::fit::base::run(rec, opts)?,
     };
     let means: Vec<[f64; 3]> = report
         .windows
@@ -68,24 +68,24 @@ pub fn analyze(input: &Input, opts: &AnalyzeOptions) -> Result<Judged<AnalyzeRep
     Ok(Judged { report, quality })
 }
 
-/// `fit` on a window-mean table: the rows are the windows ([`crate::fit::run_windows`]).
-pub fn fit_table(table: &WindowTable, opts: &crate::fit::FitOptions) -> Result<crate::FitReport> {
-    let mut rep = crate::fit::run_windows(&table.to_windows(), opts)?;
+/// `fit` on a window-mean table: the rows are the windows ([`crate::fit::base::run_windows`]).
+fn fit_table(table: &WindowTable, opts: &crate::fit::base::FitOptions) -> Result<crate::FitReport> {
+    let mut rep = crate::fit::base::run_windows(&table.to_windows(), opts)?;
     rep.window_input = Some(table.info.clone());
     Ok(rep)
 }
 
 /// `analyze` on a window-mean table: the standard pipeline on the rows as windows
-/// ([`crate::analyze::analyze_windows`]: full model, effects by the usual rule; its
+/// ([`crate::search::analyze::analyze_windows`]: full model, effects by the usual rule; its
 /// `calibration` is what `--out` writes) plus, for comparison, the van Hees et al. 2014
 /// autocalibration of the same windows ([`crate::autocal`], when the means are in g).
-pub fn analyze_table(
+fn analyze_table(
     table: &WindowTable,
     opts: &crate::AnalyzeOptions,
 ) -> Result<crate::AnalyzeReport> {
     let ws = table.to_windows();
     let units = ws.units;
-    let mut rep = crate::analyze::analyze_windows(&table.recording, ws, opts)?;
+    let mut rep = crate::search::analyze::analyze_windows(&table.recording, ws, opts)?;
     rep.window_input = Some(table.info.clone());
     let rec = &table.recording;
     let run = |opts: &autocal::AutocalOptions| {

@@ -4,8 +4,8 @@
 mod common;
 use common::data_dir;
 
-use wiical_analysis::fit;
-use wiical_analysis::load;
+use wiical_analysis::fit::base as fit;
+use wiical_analysis::input::load;
 use wiical_analysis::simulate;
 use wiical_analysis::Recording;
 
@@ -716,9 +716,9 @@ fn coarse_timestamps_are_read_and_analysed_like_exact_ones() {
 /// "good" but an unexplained residual (uploadable only with --force).
 #[test]
 fn untested_candidates_are_named_and_an_unexplained_residual_is_not_good() {
+    use wiical_analysis::input::window_table::Input;
+    use wiical_analysis::report::verdict::Verdict;
     use wiical_analysis::simulate::{simulate, EffectSpec, SimConfig, SimEffect};
-    use wiical_analysis::verdict::Verdict;
-    use wiical_analysis::window_input::Input;
     let rec = simulate(&SimConfig {
         effects: vec![EffectSpec::new(SimEffect::Quadratic, Some(20.0))],
         poses: 13,

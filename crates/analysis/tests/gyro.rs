@@ -7,9 +7,9 @@ mod common;
 use common::data_dir;
 
 use nalgebra::{Matrix3, SMatrix, SVector, UnitQuaternion, Vector3};
-use wiical_analysis::fit::fit_means;
+use wiical_analysis::detect::windows::detect_windows;
+use wiical_analysis::fit::base::fit_means;
 use wiical_analysis::gyro::{run, GyroOptions, GyroReport};
-use wiical_analysis::windows::detect_windows;
 use wiical_analysis::{load, DetectOptions, LoadOptions, Recording};
 use wiical_core::multipos::MultiPosModel;
 

@@ -4,8 +4,8 @@
 //! (~105 counts/g, 200 Hz) and a 16-bit MEMS written in m/s² at 400 Hz. The truth is the
 //! simulator's (`simulate::score_holds` defines found / present); no window lies outside a hold.
 
+use wiical_analysis::detect::windows::detect_windows;
 use wiical_analysis::simulate::{self, score_holds, Device, Profile, SimConfig};
-use wiical_analysis::windows::detect_windows;
 use wiical_analysis::DetectOptions;
 
 const SEEDS: std::ops::RangeInclusive<u64> = 1..=6;

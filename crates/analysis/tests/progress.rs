@@ -2,7 +2,7 @@
 //! `src/` has no edge from `progress` back to the pipeline it reports on).
 
 use std::sync::{Arc, Mutex};
-use wiical_analysis::progress::{Progress, ProgressHook, Stage};
+use wiical_analysis::report::progress::{Progress, ProgressHook, Stage};
 use wiical_analysis::simulate::{simulate, EffectSpec, SimConfig, SimEffect};
 
 /// An analysis reports its stages in order — detection, base fit, then each step's

@@ -1,4 +1,4 @@
-//! GGIR's still 10-s epochs of raw recordings (`wiical_analysis::raw::epochs`): on a simulated
+//! GGIR's still 10-s epochs of raw recordings (`wiical_analysis::input::raw::epochs`): on a simulated
 //! raw recording with known truth (holds on the sphere between movements, a miscalibrated
 //! sensor with a temperature drift), and on GGIRread's minutes-long test files, which are too
 //! short for the autocalibration and must say so.
@@ -8,8 +8,8 @@ mod common;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
-use wiical_analysis::raw::epochs::{epoch_table, still_epochs, EpochOptions};
-use wiical_analysis::window_input::{load_input, Input, WindowInputOptions};
+use wiical_analysis::input::raw::epochs::{epoch_table, still_epochs, EpochOptions};
+use wiical_analysis::input::window_table::{load_input, Input, WindowInputOptions};
 use wiical_analysis::{Error, Recording};
 
 /// Truth of the simulated sensor: `x = (a − k·(T − T̄))/s − o` for gravity `a` (GGIR's model
@@ -112,7 +112,9 @@ fn autocalibration_from_simulated_raw_recovers_the_truth() {
         );
     }
     // And the whole `analyze` pipeline runs on the table.
-    let rep = wiical_analysis::pipeline::analyze_table(&table, &Default::default()).unwrap();
+    let rep = wiical_analysis::pipeline::analyze(&Input::Table(table), &Default::default())
+        .unwrap()
+        .report;
     assert!(rep.autocalibration.is_some());
 }
 
@@ -261,7 +263,9 @@ fn simulated_cwa_file_runs_the_autocalibration() {
         "{:?}",
         table.recording.notes
     );
-    let rep = wiical_analysis::pipeline::analyze_table(&table, &Default::default()).unwrap();
+    let rep = wiical_analysis::pipeline::analyze(&Input::Table(table.clone()), &Default::default())
+        .unwrap()
+        .report;
     assert!(rep.autocalibration_converged.is_some());
     let fit = wiical_analysis::autocal::autocalibrate(
         &table.recording.xyz,

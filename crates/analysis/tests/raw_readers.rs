@@ -3,7 +3,7 @@
 //! shared data (never copied into the repository).
 //!
 //! GGIRread's `readAxivity(file, start, end)` values come from its block selection and its
-//! resampling onto a regular grid; they are checked through [`wiical_analysis::raw::ggir::grid`],
+//! resampling onto a regular grid; they are checked through [`wiical_analysis::input::raw::ggir::grid`],
 //! which reproduces those steps on this crate's decoder. GGIRread's tests pass
 //! `desiredtz = "Europe/Berlin"` (Axivity) and `"Europe/London"` (GENEActiv): the devices' clocks
 //! are local time, and on the recording dates (February, December: CET; May: BST) both zones
@@ -12,7 +12,7 @@
 mod common;
 
 use std::path::PathBuf;
-use wiical_analysis::raw::{self, ggir, Block, RawFile};
+use wiical_analysis::input::raw::{self, ggir, Block, RawFile};
 
 /// Europe/Berlin in February and December, Europe/London in May: UTC+1 h.
 const UTC_PLUS_1: f64 = 3600.0;
@@ -436,7 +436,7 @@ fn geneactiv_page_samples() {
 #[test]
 fn geneactiv_page_times_ms() {
     let g = gene();
-    let rec = wiical_analysis::raw::to_recording(&g, &Default::default()).unwrap();
+    let rec = wiical_analysis::input::raw::to_recording(&g, &Default::default()).unwrap();
     let t = rec.t.unwrap();
     assert_eq!(((t[0] - t[0]) * 1000.0).floor(), 0.0);
     assert_eq!(((t[299] - t[0]) * 1000.0).floor(), 3488.0);
@@ -481,7 +481,7 @@ fn geneactiv_start_time() {
 #[test]
 fn geneactiv_time_600() {
     let g = gene();
-    let rec = wiical_analysis::raw::to_recording(&g, &Default::default()).unwrap();
+    let rec = wiical_analysis::input::raw::to_recording(&g, &Default::default()).unwrap();
     let t600 = rec.t.unwrap()[599] - UTC_PLUS_1;
     close(t600, 1_369_905_181.0, 0.5);
     close(t600, 1_369_905_174.5 + 599.0 / 85.7, 0.01);

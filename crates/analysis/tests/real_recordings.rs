@@ -6,7 +6,8 @@
 mod common;
 
 use common::data_dir;
-use wiical_analysis::{analyze, fit, load, AnalyzeOptions, Error, LoadOptions, Recording};
+use wiical_analysis::fit::base as fit;
+use wiical_analysis::{analyze, load, AnalyzeOptions, Error, LoadOptions, Recording};
 
 fn load_file(rel: &str) -> Recording {
     load(&data_dir().join(rel), &LoadOptions::default()).unwrap_or_else(|e| panic!("{rel}: {e}"))
@@ -204,7 +205,7 @@ fn real_recordings_keep_their_windows() {
         ),
     ] {
         let rec = load_file(rel);
-        let ws = wiical_analysis::windows::detect_windows(&rec, &Default::default())
+        let ws = wiical_analysis::detect::windows::detect_windows(&rec, &Default::default())
             .unwrap_or_else(|e| panic!("{rel}: {e}"));
         assert!(
             ws.stats.len() >= before,

@@ -10,7 +10,7 @@ use wiical_core::multipos::{self, MultiPosConfig, MultiPosFit};
 use wiical_core::static_detect::adaptive::{self, AdaptiveDetection};
 use wiical_core::static_detect::StaticInterval;
 
-/// The host's detector capacity (`MAX_WINDOW` in crates/analysis/src/windows.rs).
+/// The host's detector capacity (`MAX_WINDOW` in crates/analysis/src/detect/windows.rs).
 const CAPACITY: usize = 511;
 /// Windows the host asks for: the 9 parameters plus 3 degrees of freedom.
 const MIN_WINDOWS: u32 = 12;

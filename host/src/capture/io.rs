@@ -274,9 +274,11 @@ impl LogReplay {
 
     /// Reads and parses a log file (a regular file of at most the recording size cap).
     pub fn load(path: &Path) -> Result<Self> {
-        let text =
-            wiical_analysis::input::read_text(path, wiical_analysis::input::MAX_RECORDING_BYTES)
-                .map_err(crate::cli_error::cli_error)?;
+        let text = wiical_analysis::input::bounded::read_text(
+            path,
+            wiical_analysis::input::bounded::MAX_RECORDING_BYTES,
+        )
+        .map_err(crate::cli_error::cli_error)?;
         Self::parse(&text).with_context(|| format!("in {}", path.display()))
     }
 }

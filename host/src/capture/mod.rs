@@ -61,7 +61,7 @@ use session::{is_nunchuk_id, DeviceSetup, Session};
 use std::io::{BufWriter, IsTerminal};
 use std::path::PathBuf;
 use std::time::Duration;
-use wiical_analysis::write::PendingFile;
+use wiical_analysis::output::write::PendingFile;
 use wiical_extbus::motionplus::{Frame, MotionPlusReport, PassthroughMode};
 
 /// How long a capture runs.

@@ -106,7 +106,7 @@ impl CalFile {
     /// Writes the file (pretty JSON), atomically.
     pub fn write(&self, path: &Path) -> Result<()> {
         let text = serde_json::to_string_pretty(self)? + "\n";
-        wiical_analysis::write::write_file(path, text.as_bytes())
+        wiical_analysis::output::write::write_file(path, text.as_bytes())
             .map_err(crate::cli_error::cli_error)
     }
 }

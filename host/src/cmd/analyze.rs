@@ -5,7 +5,7 @@ use crate::cli_error::cli_error;
 use crate::render;
 use anyhow::Result;
 use std::path::PathBuf;
-use wiical_analysis::select::check_rule;
+use wiical_analysis::search::select::check_rule;
 use wiical_analysis::{AnalyzeOptions, Candidate};
 use wiical_core::multipos::MultiPosModel;
 
@@ -28,10 +28,10 @@ pub struct Args {
     #[command(flatten)]
     pub detect: DetectArgs,
     /// Family-wise significance level per step (Bonferroni over the candidates).
-    #[arg(long, default_value_t = wiical_analysis::select::ALPHA)]
+    #[arg(long, default_value_t = wiical_analysis::search::select::ALPHA)]
     pub alpha: f64,
     /// A candidate must divide the cross-validated RMS by at least this factor.
-    #[arg(long, default_value_t = wiical_analysis::select::CV_FACTOR)]
+    #[arg(long, default_value_t = wiical_analysis::search::select::CV_FACTOR)]
     pub cv_factor: f64,
     /// Only try these candidates (comma-separated names).
     #[arg(long, value_delimiter = ',')]

@@ -13,7 +13,7 @@ use std::io::BufWriter;
 use std::io::Write;
 use std::path::PathBuf;
 use std::sync::Arc;
-use wiical_analysis::write::PendingFile;
+use wiical_analysis::output::write::PendingFile;
 
 /// Arguments of `wiical capture`.
 #[derive(clap::Args, Debug, Clone)]
@@ -141,7 +141,7 @@ pub fn run(args: &CaptureArgs) -> Result<String> {
     let inputs: Vec<&std::path::Path> = args.replay.iter().map(|p| p.as_path()).collect();
     let mut outputs = vec![args.out.as_path(), cal_file.as_path()];
     outputs.extend(args.raw_log.as_deref());
-    wiical_analysis::write::check_outputs(&inputs, &outputs).map_err(cli_error)?;
+    wiical_analysis::output::write::check_outputs(&inputs, &outputs).map_err(cli_error)?;
     let mut ui = TerminalUi::new();
     if args.live {
         return run_live(args, &mut ui);

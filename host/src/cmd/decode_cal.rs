@@ -1,8 +1,8 @@
 //! `wiical decode-cal`: a factory calibration block.
 
 use super::to_json;
+use crate::render;
 use anyhow::{bail, Result};
-use std::fmt::Write as _;
 use std::io::Write as _;
 use wiical_analysis::factory;
 
@@ -50,17 +50,7 @@ fn render(a: &Args, rep: &factory::DecodeCalReport) -> Result<String> {
     if a.json {
         return to_json(rep);
     }
-    let mut o = String::new();
-    writeln!(o, "{} calibration block", rep.device)?;
-    writeln!(o, "  zero-g (10-bit):  {:?}", rep.zero)?;
-    writeln!(o, "  one-g  (10-bit):  {:?}", rep.one_g)?;
-    writeln!(o, "  counts per g:     {:?}", rep.counts_per_g)?;
-    writeln!(
-        o,
-        "  checksum:         {}",
-        if rep.checksum_ok { "ok" } else { "BAD" }
-    )?;
-    Ok(o)
+    render::decode_cal::block_text(rep)
 }
 
 /// The MotionPlus's 32-byte gyro calibration block (`0xA60020`–`0xA6003F`, read while the
@@ -71,28 +61,5 @@ fn motionplus(a: &Args) -> Result<(String, bool)> {
     if a.json {
         return Ok((to_json(&rep)?, rep.checksum_ok));
     }
-    let mut o = String::new();
-    writeln!(o, "motionplus calibration block (yaw, roll, pitch)")?;
-    for (name, r) in [("fast", &rep.fast), ("slow", &rep.slow)] {
-        writeln!(
-            o,
-            "  {name}: zero {:?}, reading at {} °/s {:?}",
-            r.zero, r.degrees, r.scale
-        )?;
-        match r.counts_per_dps {
-            Some(c) => writeln!(
-                o,
-                "        14-bit counts per °/s: {:.3} {:.3} {:.3}",
-                c[0], c[1], c[2]
-            )?,
-            None => writeln!(o, "        reference rate 0: no sensitivity")?,
-        }
-    }
-    writeln!(o, "  uid: {:02X} {:02X}", rep.uid[0], rep.uid[1])?;
-    writeln!(
-        o,
-        "  CRC-32:   {}",
-        if rep.checksum_ok { "ok" } else { "BAD" }
-    )?;
-    Ok((o, rep.checksum_ok))
+    Ok((render::decode_cal::motionplus_text(&rep)?, rep.checksum_ok))
 }

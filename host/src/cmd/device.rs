@@ -1,6 +1,5 @@
 //! `wiical device …`: the command line of the adapter client ([`crate::client`]).
 
-use std::fmt::Write as _;
 use std::io::{self, Write};
 use std::path::PathBuf;
 use std::time::Duration;
@@ -11,8 +10,8 @@ use crate::cmd::to_json;
 use crate::render::device as render;
 use anyhow::{anyhow, bail, Result};
 use serde::Serialize;
-use wiical_analysis::calfile::{self, CalibrationFile};
-use wiical_analysis::verdict::Verdict;
+use wiical_analysis::output::calfile::{self, CalibrationFile};
+use wiical_analysis::report::verdict::Verdict;
 use wiical_core::quality::Acceptance;
 use wiical_core::Calibration;
 use wiical_wire::{
@@ -265,15 +264,7 @@ pub fn run(args: &DeviceArgs, out: &mut dyn Write) -> Result<String> {
                     "port": port, "staged": true, "verified": true, "calibration": cal
                 }));
             }
-            Ok(format!(
-                "staged {} on {} (verified bit for bit) for this session only: the adapter \
-                 discards it when the port closes. `wiical device commit {} --port {}` uploads \
-                 and commits it in one go\n",
-                file.display(),
-                port,
-                file.display(),
-                port
-            ))
+            Ok(render::staged_text(file, port))
         }
         DeviceAction::Put { commit: true, .. } | DeviceAction::Commit { .. } => {
             put_verified(&mut dev, to_put)?;
@@ -285,9 +276,7 @@ pub fn run(args: &DeviceArgs, out: &mut dyn Write) -> Result<String> {
                     "live": Calibration::from(s.live)
                 }));
             }
-            Ok(format!(
-                "committed on {port}: the calibration is live and stored in the adapter's flash\n"
-            ))
+            Ok(render::committed_text(port))
         }
         DeviceAction::SelfcalStatus => {
             let st = dev.status()?;
@@ -352,18 +341,7 @@ fn get(dev: &mut Device, port: &str, file: Option<&std::path::Path>, json: bool)
     if json {
         return to_json(&j);
     }
-    let title = if s.stored {
-        "live calibration (committed, stored on the adapter):"
-    } else {
-        "live calibration: none committed, pass-through (the Nunchuk's factory calibration):"
-    };
-    let mut o = String::new();
-    render::fmt_cal(&mut o, title, &j.live)?;
-    match &j.staged {
-        Some(c) => render::fmt_cal(&mut o, "staged in this session (not live):", c)?,
-        None => writeln!(o, "nothing staged")?,
-    }
-    Ok(o)
+    render::state_text(&j.live, j.staged.as_ref(), j.stored)
 }
 
 /// Stream samples to `out` (CSV with header, or JSON lines). Ends after `count` samples, or

@@ -106,7 +106,7 @@ pub fn run(a: &Args) -> Result<String> {
         None => {
             let acc_opts = a.detect.load_options()?;
             let (acc, gyro) = super::with_spinner(&format!("reading {}", a.file.display()), || {
-                wiical_analysis::load::load_imu(&a.file, &acc_opts, gyro_columns)
+                wiical_analysis::input::load::load_imu(&a.file, &acc_opts, gyro_columns)
             })
             .map_err(cli_error)?;
             super::print_notes(&a.file, &acc);
@@ -138,7 +138,8 @@ pub fn run(a: &Args) -> Result<String> {
             units: "rad/s",
             cv_rms_deg: rep.cv_rms_deg,
         };
-        wiical_analysis::write::write_file(path, to_json(&file)?.as_bytes()).map_err(cli_error)?;
+        wiical_analysis::output::write::write_file(path, to_json(&file)?.as_bytes())
+            .map_err(cli_error)?;
     }
     if a.json {
         return to_json(&rep);

@@ -2,8 +2,9 @@
 
 use super::to_json;
 use crate::cli_error::cli_error;
+use crate::render;
 use anyhow::Result;
-use std::fmt::Write as _;
+use wiical_analysis::simulate::kalman::{self, KalmanDemoConfig, MAX_RUNS};
 
 /// Arguments of `wiical kalman-demo`.
 #[derive(clap::Args, Debug)]
@@ -34,7 +35,7 @@ pub struct Args {
 
 /// Runs `wiical kalman-demo`; returns what to print.
 pub fn run(a: &Args) -> Result<String> {
-    let mut cfg = crate::kalman_demo::KalmanDemoConfig {
+    let mut cfg = KalmanDemoConfig {
         runs: a.runs,
         seed: a.seed,
         ..Default::default()
@@ -45,11 +46,11 @@ pub fn run(a: &Args) -> Result<String> {
     if let Some(p) = a.pos_noise {
         cfg.pos_noise_m = p;
     }
-    let mut from_file = String::new();
+    let mut source = None;
     if let Some(path) = &a.noise {
-        let text = wiical_analysis::input::read_text(path, 1 << 24).map_err(cli_error)?;
+        let text = wiical_analysis::input::bounded::read_text(path, 1 << 24).map_err(cli_error)?;
         let n =
-            wiical_analysis::noise_report::accel_noise_from_json(&text, a.noise_axis.as_deref())
+            wiical_analysis::noise::report::accel_noise_from_json(&text, a.noise_axis.as_deref())
                 .map_err(|e| cli_error(e.in_file(path)))?;
         // The core's constructor does the conversion (σ_a = N/√dt, σ_bw = K).
         let pvb = wiical_core::kalman::PvbConfig::from_allan(
@@ -62,44 +63,18 @@ pub fn run(a: &Args) -> Result<String> {
         .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
         cfg.accel_noise = f64::from(pvb.accel_noise);
         cfg.bias_walk = f64::from(pvb.bias_walk);
-        from_file = format!(
-            " (from {}, axis {}: N {:.3e} m/s²/√Hz, K {})",
-            path.display(),
-            n.column,
-            n.n_ms2_per_sqrt_hz,
-            if n.k_seen {
-                format!("{:.3e} m/s²/√s", n.k_ms2_per_sqrt_s)
-            } else {
-                "not seen: bias held constant".into()
-            }
-        );
+        source = Some((path.as_path(), n));
     }
-    let rep = crate::kalman_demo::run(&cfg)?;
+    let rep = kalman::run(&cfg)?;
     if a.json {
         return to_json(&rep);
     }
-    let mut o = String::new();
-    writeln!(
-        o,
-        "Kalman [p, v, b] demo: {} runs, seed {}, true bias {} m/s², σ_p {} m, σ_a {} m/s²{from_file}",
-        rep.runs, cfg.seed, rep.true_bias, cfg.pos_noise_m, cfg.accel_noise
-    )?;
-    writeln!(
-        o,
-        "  |b̂ − b| after {} s: median {:.4} m/s², 95th percentile {:.4} m/s²",
-        cfg.duration_s, rep.median_abs_bias_error_1s, rep.p95_abs_bias_error_1s
-    )?;
-    writeln!(
-        o,
-        "  mean NEES {:.3} (state dimension 3: a consistent filter gives ≈ 3)",
-        rep.nees_mean
-    )?;
-    Ok(o)
+    Ok(render::kalman_demo::kalman_demo_text(&rep, source))
 }
 
-/// `--runs`: 1 to [`MAX_RUNS`](crate::kalman_demo::MAX_RUNS), named where it is parsed.
+/// `--runs`: 1 to [`MAX_RUNS`], named where it is parsed.
 fn runs(s: &str) -> Result<u32, String> {
-    let max = crate::kalman_demo::MAX_RUNS;
+    let max = MAX_RUNS;
     match s.trim().parse::<u32>() {
         Ok(n) if (1..=max).contains(&n) => Ok(n),
         _ => Err(format!(

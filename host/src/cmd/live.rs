@@ -7,7 +7,7 @@ use std::io::Write;
 use std::net::{IpAddr, Ipv4Addr};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
-use wiical_analysis::columns::Sensor;
+use wiical_analysis::input::columns::Sensor;
 use wiical_analysis::live::{LiveSensor, LiveSession, Snapshot};
 
 /// Fastest replay (`--speed`).

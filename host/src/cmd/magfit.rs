@@ -31,7 +31,7 @@ pub struct Args {
 pub fn run(a: &Args) -> Result<String> {
     check_outputs(&[&a.file], &[a.out.as_deref()])?;
     let opts = wiical_analysis::LoadOptions {
-        sensor: Some(wiical_analysis::columns::Sensor::Magnetometer),
+        sensor: Some(wiical_analysis::input::columns::Sensor::Magnetometer),
         ..load_options(a.columns.as_deref())?
     };
     let rec = load(&a.file, &opts)?;

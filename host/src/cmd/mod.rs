@@ -20,8 +20,8 @@ pub mod tempcal;
 use crate::cli_error::cli_error;
 use anyhow::Result;
 use std::path::Path;
-use wiical_analysis::verdict::Quality;
-use wiical_analysis::window_input::{load_input, Input, WindowInputOptions};
+use wiical_analysis::input::window_table::{load_input, Input, WindowInputOptions};
+use wiical_analysis::report::verdict::Quality;
 use wiical_analysis::{DetectOptions, Error, FitOptions, LoadOptions};
 use wiical_core::multipos::MultiPosModel;
 
@@ -160,7 +160,7 @@ pub fn duration_s(s: &str) -> Result<f64, String> {
 /// would make every window one sample).
 pub fn rate_hz(s: &str) -> Result<f64, String> {
     let v = positive_finite(s)?;
-    if v <= wiical_analysis::input::MAX_RATE_HZ {
+    if v <= wiical_analysis::input::bounded::MAX_RATE_HZ {
         Ok(v)
     } else {
         Err(format!(
@@ -244,7 +244,7 @@ pub fn print_notes(path: &Path, rec: &wiical_analysis::Recording) {
 
 /// Writes a calibration file (`--out`), errors told the CLI's way.
 pub fn write_calibration(path: &std::path::Path, cal: &wiical_core::Calibration) -> Result<()> {
-    wiical_analysis::calfile::write_calibration(path, cal).map_err(cli_error)
+    wiical_analysis::output::calfile::write_calibration(path, cal).map_err(cli_error)
 }
 
 /// Writes a calibration file with the fit's quality verdict (`fit --out`, `analyze --out`).
@@ -253,14 +253,15 @@ pub fn write_calibration_with(
     cal: &wiical_core::Calibration,
     quality: &Quality,
 ) -> Result<()> {
-    wiical_analysis::calfile::write_calibration_with(path, cal, Some(quality)).map_err(cli_error)
+    wiical_analysis::output::calfile::write_calibration_with(path, cal, Some(quality))
+        .map_err(cli_error)
 }
 
 /// Refuses, before anything is read or written, outputs that are an input or each other.
 /// `None`s (options not given) are skipped.
 pub fn check_outputs(inputs: &[&Path], outputs: &[Option<&Path>]) -> Result<()> {
     let outputs: Vec<&Path> = outputs.iter().flatten().copied().collect();
-    wiical_analysis::write::check_outputs(inputs, &outputs).map_err(cli_error)
+    wiical_analysis::output::write::check_outputs(inputs, &outputs).map_err(cli_error)
 }
 
 /// Runs `work` with an indicatif progress display on stderr, fed by the analysis's progress

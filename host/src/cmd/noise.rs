@@ -1,12 +1,12 @@
 //! `wiical noise`: the Allan deviation of a still recording, per axis, and the IEEE 952 noise
-//! terms (engine: [`wiical_analysis::allan`], [`wiical_analysis::noise_report`]).
+//! terms (engine: [`wiical_analysis::noise::allan`], [`wiical_analysis::noise::report`]).
 
 use super::{check_outputs, load_options, to_json};
 use crate::cli_error::cli_error;
 use crate::render;
 use anyhow::Result;
 use std::path::PathBuf;
-use wiical_analysis::noise_report::{load_sensors, noise};
+use wiical_analysis::noise::report::{load_sensors, noise};
 
 /// Arguments of `wiical noise`.
 #[derive(clap::Args, Debug)]

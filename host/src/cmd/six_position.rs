@@ -5,7 +5,7 @@ use crate::cli_error::cli_error;
 use crate::render;
 use anyhow::Result;
 use std::path::PathBuf;
-use wiical_analysis::six_position::{self, PoseEstimator};
+use wiical_analysis::fit::six_position::{self, PoseEstimator};
 use wiical_analysis::LoadOptions;
 use wiical_core::Calibration;
 

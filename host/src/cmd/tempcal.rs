@@ -179,7 +179,7 @@ fn output(a: &Args, f: Format, rep: &TempcalReport) -> Result<String> {
         Format::Calfile => calfile(a, rep)?,
     };
     if let Some(path) = &a.out {
-        wiical_analysis::write::write_file(path, text.as_bytes()).map_err(cli_error)?;
+        wiical_analysis::output::write::write_file(path, text.as_bytes()).map_err(cli_error)?;
     }
     Ok(text)
 }
@@ -203,7 +203,8 @@ fn calfile(a: &Args, rep: &TempcalReport) -> Result<String> {
         .calibration
         .as_deref()
         .ok_or_else(|| anyhow!("--format calfile needs --calibration"))?;
-    let mut file = wiical_analysis::calfile::read_calibration_file(path).map_err(cli_error)?;
+    let mut file =
+        wiical_analysis::output::calfile::read_calibration_file(path).map_err(cli_error)?;
     let e = &mut file.calibration.effects;
     if e.bias_temp.iter().any(|v| *v != 0.0) {
         eprintln!(
@@ -221,6 +222,6 @@ fn calfile(a: &Args, rep: &TempcalReport) -> Result<String> {
     file.calibration
         .validate()
         .map_err(|e| anyhow!("the calibration with the temperature term is invalid: {e}"))?;
-    wiical_analysis::calfile::to_json_with(&file.calibration, file.quality.as_ref())
+    wiical_analysis::output::calfile::to_json_with(&file.calibration, file.quality.as_ref())
         .map_err(cli_error)
 }

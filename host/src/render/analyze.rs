@@ -3,10 +3,10 @@
 
 use std::fmt::Write as _;
 use wiical_analysis::autocal::AutocalReport;
-use wiical_analysis::evidence::{fmt_p, fmt_vec};
-use wiical_analysis::report::{
+use wiical_analysis::report::contract::{
     AnalyzeReport, ModelSummary, SixPositionDetails, StepReport, WindowInfo,
 };
+use wiical_analysis::search::evidence::{fmt_p, fmt_vec};
 
 /// One model's line: parameters, RMS, CV, windows, χ²/dof.
 fn model_line(name: &str, m: &ModelSummary) -> String {

@@ -3,6 +3,7 @@
 
 use anyhow::Result;
 use std::fmt::Write as _;
+use std::path::Path;
 use wiical_core::Calibration;
 use wiical_wire::{AdapterStatus, SelfCalOutcome, SelfCalPhase};
 
@@ -110,4 +111,42 @@ pub struct InfoText<'a> {
     pub host_protocol_version: u16,
     /// This build's schema key, `0x…`.
     pub host_schema_key: &'a str,
+}
+
+/// `device get`: the live calibration (stored or pass-through) and the staged one, if any.
+pub fn state_text(
+    live: &Calibration,
+    staged: Option<&Calibration>,
+    stored: bool,
+) -> Result<String> {
+    let title = if stored {
+        "live calibration (committed, stored on the adapter):"
+    } else {
+        "live calibration: none committed, pass-through (the Nunchuk's factory calibration):"
+    };
+    let mut o = String::new();
+    fmt_cal(&mut o, title, live)?;
+    match staged {
+        Some(c) => fmt_cal(&mut o, "staged in this session (not live):", c)?,
+        None => writeln!(o, "nothing staged")?,
+    }
+    Ok(o)
+}
+
+/// `device put` without `--commit`: what was staged, and that it lasts only this session.
+pub fn staged_text(file: &Path, port: &str) -> String {
+    format!(
+        "staged {} on {} (verified bit for bit) for this session only: the adapter \
+         discards it when the port closes. `wiical device commit {} --port {}` uploads \
+         and commits it in one go\n",
+        file.display(),
+        port,
+        file.display(),
+        port
+    )
+}
+
+/// `device commit` (or `put --commit`): the calibration is live and in flash.
+pub fn committed_text(port: &str) -> String {
+    format!("committed on {port}: the calibration is live and stored in the adapter's flash\n")
 }

@@ -3,16 +3,18 @@
 
 pub mod analyze;
 pub mod capture;
+pub mod decode_cal;
 pub mod device;
 pub mod gyrofit;
+pub mod kalman_demo;
 pub mod noise;
 pub mod plot;
 pub mod tempcal;
 
 use std::fmt::Write as _;
-use wiical_analysis::fit::FitReport;
+use wiical_analysis::fit::base::FitReport;
+use wiical_analysis::fit::six_position::SixPositionReport;
 use wiical_analysis::magnetometer::MagFitReport;
-use wiical_analysis::six_position::SixPositionReport;
 use wiical_analysis::Recording;
 
 /// One row of `f32` values, 13 characters each.

@@ -4,8 +4,8 @@ use anyhow::{anyhow, Result};
 use plotters::prelude::*;
 use std::fmt::Write as _;
 use std::path::Path;
-use wiical_analysis::allan::model_adev;
-use wiical_analysis::noise_report::NoiseReport;
+use wiical_analysis::noise::allan::model_adev;
+use wiical_analysis::noise::report::NoiseReport;
 
 fn fmt(v: Option<f64>) -> String {
     v.map_or("—".into(), |x| format!("{x:.3e}"))
@@ -108,7 +108,7 @@ pub fn write_plot(r: &NoiseReport, path: &Path) -> Result<()> {
     }
     let bytes = std::fs::read(&tmp)?;
     let _ = std::fs::remove_file(&tmp);
-    wiical_analysis::write::write_file(path, &bytes).map_err(crate::cli_error::cli_error)
+    wiical_analysis::output::write::write_file(path, &bytes).map_err(crate::cli_error::cli_error)
 }
 
 /// One axis's points and fitted line per colour.

@@ -11,6 +11,7 @@
 use anyhow::{anyhow, Result};
 use plotters::prelude::*;
 use std::path::Path;
+use wiical_analysis::report::contract::WindowInfo;
 use wiical_analysis::AnalyzeReport;
 
 fn range(v: impl Iterator<Item = f64> + Clone) -> (f64, f64) {
@@ -96,10 +97,11 @@ where
 }
 
 /// Writes the residual plot as SVG (drawn in memory, then written like every other output
-/// file, through [`wiical_analysis::write::write_file`]).
+/// file, through [`wiical_analysis::output::write::write_file`]).
 pub fn write_plot(rep: &AnalyzeReport, path: &Path) -> Result<()> {
     let svg = render_svg(rep)?;
-    wiical_analysis::write::write_file(path, svg.as_bytes()).map_err(crate::cli_error::cli_error)
+    wiical_analysis::output::write::write_file(path, svg.as_bytes())
+        .map_err(crate::cli_error::cli_error)
 }
 
 /// The residual plot as SVG text.
@@ -137,29 +139,27 @@ fn draw(rep: &AnalyzeReport, root: &Root<'_>) -> Result<()> {
     }
     let panels = if rep.effects.is_empty() { 1 } else { 2 };
     let areas = root.split_evenly((1, panels));
-    let kept =
-        |f: fn(&wiical_analysis::report::WindowInfo) -> f64, after: bool| -> (Pts, Pts, Pts) {
-            let mut b = Vec::new();
-            let mut a = Vec::new();
-            let mut r = Vec::new();
-            for w in &rep.windows {
-                let x = f(w);
-                b.push((x, w.residual_base_mg));
-                if after {
-                    if w.rejected {
-                        r.push((x, w.residual_final_mg));
-                    } else {
-                        a.push((x, w.residual_final_mg));
-                    }
+    let kept = |f: fn(&WindowInfo) -> f64, after: bool| -> (Pts, Pts, Pts) {
+        let mut b = Vec::new();
+        let mut a = Vec::new();
+        let mut r = Vec::new();
+        for w in &rep.windows {
+            let x = f(w);
+            b.push((x, w.residual_base_mg));
+            if after {
+                if w.rejected {
+                    r.push((x, w.residual_final_mg));
+                } else {
+                    a.push((x, w.residual_final_mg));
                 }
             }
-            (b, a, r)
-        };
+        }
+        (b, a, r)
+    };
     // Panel 1: against the effect's own variable (time, temperature, window index).
     let first = rep.effects.first().map(|e| e.name.as_str());
-    use wiical_analysis::effect_names as names;
-    let (title, xd, f): (&str, &str, fn(&wiical_analysis::report::WindowInfo) -> f64) = match first
-    {
+    use wiical_analysis::report::effect_names as names;
+    let (title, xd, f): (&str, &str, fn(&WindowInfo) -> f64) = match first {
         Some(names::TEMPERATURE) | Some(names::TEMPERATURE_SCALE) => (
             "residual vs window temperature",
             "window temperature (°C)",

@@ -97,7 +97,7 @@ pub fn write_plot(r: &TempcalReport, path: &Path) -> Result<()> {
     }
     let bytes = std::fs::read(&tmp)?;
     let _ = std::fs::remove_file(&tmp);
-    wiical_analysis::write::write_file(path, &bytes).map_err(crate::cli_error::cli_error)
+    wiical_analysis::output::write::write_file(path, &bytes).map_err(crate::cli_error::cli_error)
 }
 
 fn draw_axis<DB: DrawingBackend>(

@@ -27,7 +27,7 @@
 pub mod fit;
 pub mod params;
 
-use crate::recording::{infer_units, Recording};
+use crate::input::recording::{infer_units, Recording};
 use fit::{fit_axis, heldout_rms, segment_of};
 use serde::Serialize;
 
@@ -81,7 +81,7 @@ impl Default for TempcalOptions {
 }
 
 /// Why a temperature calibration cannot be made. Not a variant of [`crate::Error`]: this
-/// module imports only [`crate::recording`], and the crate error importing it back would be an
+/// module imports only [`crate::input::recording`], and the crate error importing it back would be an
 /// import circle (`scripts/module-graph`).
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]

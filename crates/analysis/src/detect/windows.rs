@@ -1,0 +1,684 @@
+//! Window detection: the core's streaming static detector over a recording (the same `f32`
+//! code the adapter firmware runs), the ADC-saturation check, and the `f64` statistics of each
+//! static window (mean, variance, batch means, centre time, temperature) that the analysis
+//! works from.
+
+#![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x > 0.0)` is deliberately true for NaN.
+use crate::error::{Error, Result, Setting};
+use crate::input::recording::{infer_units, Recording};
+use crate::stats as st;
+use wiical_core::multipos::MultiPosConfig;
+use wiical_core::static_detect::adaptive;
+use wiical_core::static_detect::{StaticDetector, StaticDetectorConfig, StaticInterval};
+
+/// Settings of the static-window detection.
+#[derive(Debug, Clone)]
+pub struct DetectOptions {
+    /// Thresholds from the recording's own noise, no rest period needed, shorter holds when
+    /// the recording has no long ones (the core's `static_detect::adaptive`, the default);
+    /// false: the IMU-TK detector with the settings below (any detector flag turns it on).
+    pub adaptive: bool,
+    /// Variance window, seconds.
+    pub window_s: f64,
+    /// Initial rest period used as the noise reference, seconds.
+    pub init_s: f64,
+    /// Shortest static interval, seconds.
+    pub min_static_s: f64,
+    /// Static when window variance ≤ this × reference variance.
+    pub threshold_factor: f64,
+    /// Sample rate to assume when the file has neither a time column nor metadata.
+    pub default_rate_hz: f64,
+    /// ADC limits (lo, hi): a static interval touching them is refused as saturated.
+    /// `None`: inferred from the data (integer counts in 10-bit or 16-bit ranges).
+    pub adc_range: Option<(f64, f64)>,
+}
+
+impl DetectOptions {
+    /// The options a user's settings describe (the CLI's flags, the Python package's keyword
+    /// arguments): giving any of the four IMU-TK settings switches from the adaptive detector
+    /// to IMU-TK's, with the defaults for the ones not given.
+    pub fn from_settings(
+        window_s: Option<f64>,
+        init_s: Option<f64>,
+        min_static_s: Option<f64>,
+        threshold_factor: Option<f64>,
+        default_rate_hz: f64,
+        adc_range: Option<(f64, f64)>,
+    ) -> Self {
+        let d = Self::default();
+        Self {
+            adaptive: window_s.is_none()
+                && init_s.is_none()
+                && min_static_s.is_none()
+                && threshold_factor.is_none(),
+            window_s: window_s.unwrap_or(d.window_s),
+            init_s: init_s.unwrap_or(d.init_s),
+            min_static_s: min_static_s.unwrap_or(d.min_static_s),
+            threshold_factor: threshold_factor.unwrap_or(d.threshold_factor),
+            default_rate_hz,
+            adc_range,
+        }
+    }
+}
+
+impl Default for DetectOptions {
+    fn default() -> Self {
+        Self {
+            adaptive: true,
+            window_s: 1.0,
+            init_s: 2.0,
+            min_static_s: 2.0,
+            threshold_factor: 6.0,
+            default_rate_hz: 100.0,
+            adc_range: None,
+        }
+    }
+}
+
+/// Capacity of the detector's window ring (samples). At 100 Hz this allows windows up to 5 s.
+pub const MAX_WINDOW: usize = 511;
+
+/// Detected static intervals plus the noise reference.
+pub struct Detection {
+    /// Intervals in sample indices.
+    pub intervals: Vec<StaticInterval>,
+    /// Per-axis reference variance (raw units²).
+    pub reference_variance: [f32; 3],
+    /// Sample times.
+    pub times: Vec<f64>,
+}
+
+/// Windows the adaptive detection asks for before it settles on a hold length: the full
+/// model's 9 parameters plus 3 degrees of freedom.
+pub const ADAPTIVE_MIN_WINDOWS: u32 = 12;
+
+/// Below this rate (Hz) the adaptive detector's shortest hold (0.5 s) is a single sample: a
+/// recording of samples that slow is far more likely a time column in milliseconds, or a
+/// table of window means read as samples.
+pub const MIN_SAMPLE_RATE_HZ: f64 = 2.0;
+
+/// Window means the adaptive detection's fit check holds (a setting with more windows is
+/// accepted on its count).
+const ADAPTIVE_SCRATCH: usize = 4096;
+
+/// The core's adaptive detection (`static_detect::adaptive::detect_fitted_each`): the noise
+/// reference is a low quantile of the recording's block variances, and the hold lengths are
+/// tried from the IMU-TK defaults (1 s windows, 2 s holds) down to 0.25 s / 0.5 s until one
+/// gives at least [`ADAPTIVE_MIN_WINDOWS`] windows that a multi-position fit accepts.
+pub fn detect_adaptive(rec: &Recording, opts: &DetectOptions) -> Result<Detection> {
+    let rate = rec.estimated_rate_hz().unwrap_or(opts.default_rate_hz);
+    if !(rate.is_finite() && rate > 0.0) {
+        return Err(Error::NoSampleRate);
+    }
+    if rate < MIN_SAMPLE_RATE_HZ {
+        return Err(Error::RateTooLow {
+            rate_hz: (rate * 1e6).round() / 1e6,
+        });
+    }
+    let lattice = lattice_view(&rec.xyz);
+    let xyz = lattice.as_deref().unwrap_or(&rec.xyz);
+    let samples = xyz.iter().map(|s| s.map(|v| v as f32));
+    let mut scratch = vec![[0.0f32; 3]; ADAPTIVE_SCRATCH];
+    // The intervals of every setting tried, kept as found: the chosen one's are the result,
+    // with no final pass over the samples (`detect_fitted_each`).
+    let mut per_setting = vec![Vec::new(); adaptive::HOLD_SCHEDULE.len()];
+    let (det, chosen) = adaptive::detect_fitted_each::<MAX_WINDOW, _>(
+        samples,
+        rate as f32,
+        ADAPTIVE_MIN_WINDOWS,
+        &MultiPosConfig::default(),
+        &mut scratch,
+        |setting, iv| per_setting[setting].push(iv),
+    )
+    .map_err(|e| match e {
+        wiical_core::Error::TooFewSamples { needed, .. } => Error::TooShortForSurvey {
+            samples: rec.len(),
+            needed,
+            survey_s: f64::from(adaptive::SURVEY_BLOCK_S) * f64::from(adaptive::MIN_SURVEY_BLOCKS),
+            rate_hz: rate,
+        },
+        other => Error::DetectorSettings(other),
+    })?;
+    let mut intervals = std::mem::take(&mut per_setting[chosen]);
+    if chosen < FILL_SETTING {
+        let (window_s, min_static_s) = adaptive::HOLD_SCHEDULE[FILL_SETTING];
+        let cfg = det
+            .thresholds
+            .detector_config(rate as f32, window_s, min_static_s);
+        let mut short = Vec::new();
+        let samples = xyz.iter().map(|s| s.map(|v| v as f32));
+        adaptive::run::<MAX_WINDOW, _>(samples, cfg, det.thresholds.reference_variance, |iv| {
+            short.push(iv)
+        })
+        .map_err(Error::DetectorSettings)?;
+        intervals = fill_holds(intervals, &short);
+    }
+    Ok(Detection {
+        intervals,
+        reference_variance: det.thresholds.reference_variance,
+        times: rec.times(rate),
+    })
+}
+
+/// The [`adaptive::HOLD_SCHEDULE`] setting (0.5 s windows, 1 s holds) whose holds fill the
+/// gaps of a longer chosen setting.
+const FILL_SETTING: usize = 1;
+
+/// The chosen setting's intervals plus every interval of the shorter setting `short` that
+/// overlaps none of them, in time order.
+///
+/// Why: the adaptive detection stops at the first setting that gives enough windows for a
+/// fit, which on most recordings is IMU-TK's 1 s window with 2 s holds. A centred 1 s window
+/// only calls a sample static when the whole second around it is still, so a hold must have
+/// 3 s of still samples to give a 2 s interval: on brisk recordings (holds of 2–4 s) a third
+/// of the holds were dropped although they average noise just as well per sample. The 0.5 s
+/// setting finds every hold with ≥ 1.5 s of still samples; where the long setting already has
+/// a window its window is kept (the same windows as before on recordings with long holds), and
+/// only holds it has none in are added. A short window's own noise (its variance over its
+/// sample count) is its noise floor in `analyze` (`noise::floors`), so it counts for what it is.
+fn fill_holds(mut chosen: Vec<StaticInterval>, short: &[StaticInterval]) -> Vec<StaticInterval> {
+    let overlaps = |a: &StaticInterval, b: &StaticInterval| a.start < b.end && b.start < a.end;
+    let extra: Vec<StaticInterval> = short
+        .iter()
+        .filter(|s| !chosen.iter().any(|c| overlaps(c, s)))
+        .copied()
+        .collect();
+    chosen.extend(extra);
+    chosen.sort_by_key(|iv| iv.start);
+    chosen
+}
+
+/// Most quantiser levels per axis [`lattice_view`] recognises: a 16-bit ADC has 65 536;
+/// beyond it the values are taken as continuous (and f32 still holds every level exactly).
+const MAX_LATTICE_LEVELS: usize = 1 << 17;
+
+/// How far (in steps) a value may sit from its lattice point and still count as on it: a
+/// count converted to g and printed with 7 significant digits is ~10⁻⁵ step off.
+const LATTICE_TOLERANCE: f64 = 1e-3;
+
+/// The samples as quantiser levels (`round((v − v_min)/q)` per axis) when non-integer input
+/// lies on a lattice of step `q` per axis (counts converted to g or m/s² by a constant scale
+/// and offset); `None` for integer input (already levels) and for continuous values.
+///
+/// Why: the adaptive detector's noise survey bins block variances on a log scale at absolute
+/// positions and floors integer data at the quantisation variance 1/12, so the same recording
+/// in counts and in g would be detected with slightly different references (window edges a
+/// sample apart). In levels it is the counts recording up to an offset, which a variance
+/// does not see: the same windows, whatever unit or scale the counts were converted to.
+fn lattice_view(xyz: &[[f64; 3]]) -> Option<Vec<[f64; 3]>> {
+    if xyz.iter().all(|s| s.iter().all(|v| v.fract() == 0.0)) {
+        return None;
+    }
+    let mut step = [0.0; 3];
+    let mut origin = [0.0; 3];
+    for a in 0..3 {
+        let mut v: Vec<f64> = xyz.iter().map(|s| s[a]).collect();
+        if v.iter().any(|x| !x.is_finite()) {
+            return None;
+        }
+        v.sort_by(f64::total_cmp);
+        v.dedup();
+        if v.len() > MAX_LATTICE_LEVELS {
+            return None;
+        }
+        let span = v[v.len() - 1] - v[0];
+        // The smallest gap that is not float noise is the step candidate.
+        let q = v
+            .windows(2)
+            .map(|w| w[1] - w[0])
+            .filter(|g| *g > 1e-9 * span.max(v[0].abs()))
+            .fold(f64::INFINITY, f64::min);
+        origin[a] = v[0];
+        step[a] = if q.is_finite() { q } else { 1.0 };
+        let on_lattice = v.iter().all(|x| {
+            let k = (x - v[0]) / step[a];
+            (k - k.round()).abs() <= LATTICE_TOLERANCE
+        });
+        if !on_lattice || span / step[a] > MAX_LATTICE_LEVELS as f64 {
+            return None;
+        }
+    }
+    Some(
+        xyz.iter()
+            .map(|s| std::array::from_fn(|a| ((s[a] - origin[a]) / step[a]).round()))
+            .collect(),
+    )
+}
+
+/// Runs the core's streaming static detector over a recording.
+pub fn detect(rec: &Recording, opts: &DetectOptions) -> Result<Detection> {
+    let rate = rec.estimated_rate_hz().unwrap_or(opts.default_rate_hz);
+    if !(rate.is_finite() && rate > 0.0) {
+        return Err(Error::NoSampleRate);
+    }
+    let mut cfg = StaticDetectorConfig::for_rate(
+        rate as f32,
+        opts.window_s as f32,
+        opts.init_s as f32,
+        opts.min_static_s as f32,
+    );
+    cfg.threshold_factor = opts.threshold_factor as f32;
+    if cfg.window as usize > MAX_WINDOW {
+        return Err(Error::WindowTooLong {
+            samples: cfg.window as usize,
+            max: MAX_WINDOW,
+        });
+    }
+    if (rec.len() as u32) < cfg.init_samples.max(cfg.window as u32) {
+        return Err(Error::TooShort {
+            samples: rec.len(),
+            needed: cfg.init_samples,
+            init_s: opts.init_s,
+            rate_hz: rate,
+        });
+    }
+    check_detector_settings(&cfg, rate)?;
+    let mut det: StaticDetector<MAX_WINDOW> =
+        StaticDetector::new(cfg).map_err(Error::DetectorSettings)?;
+    let mut intervals = Vec::new();
+    for (i, s) in rec.xyz.iter().enumerate() {
+        let m = [s[0] as f32, s[1] as f32, s[2] as f32];
+        if let Some(iv) = det.push(m).map_err(|cause| Error::Sample {
+            index: i + 1,
+            cause,
+        })? {
+            intervals.push(iv);
+        }
+    }
+    if let Some(iv) = det.finish() {
+        intervals.push(iv);
+    }
+    let reference_variance = det.reference_variance().unwrap_or([0.0; 3]);
+    Ok(Detection {
+        intervals,
+        reference_variance,
+        times: rec.times(rate),
+    })
+}
+
+/// ADC limits inferred from integer-valued data: 10-bit (0..1023), 8-bit (0..255),
+/// signed 16-bit or unsigned 16-bit. `None` for non-integer (already scaled) data.
+pub fn infer_adc_range(rec: &Recording) -> Option<(f64, f64)> {
+    if !rec.is_integer() {
+        return None;
+    }
+    let lo = rec
+        .xyz
+        .iter()
+        .flatten()
+        .copied()
+        .fold(f64::INFINITY, f64::min);
+    let hi = rec
+        .xyz
+        .iter()
+        .flatten()
+        .copied()
+        .fold(f64::NEG_INFINITY, f64::max);
+    [
+        (0.0, 255.0),
+        (0.0, 1023.0),
+        (-32768.0, 32767.0),
+        (0.0, 65535.0),
+    ]
+    .into_iter()
+    .find(|(a, b)| lo >= *a && hi <= *b)
+}
+
+/// Refuses static intervals with a sample at an ADC limit.
+pub fn check_saturation(
+    rec: &Recording,
+    intervals: &[StaticInterval],
+    range: Option<(f64, f64)>,
+) -> Result<()> {
+    let Some((lo, hi)) = range else {
+        return Ok(());
+    };
+    for (k, iv) in intervals.iter().enumerate() {
+        for i in iv.start as usize..(iv.end as usize).min(rec.len()) {
+            for a in 0..3 {
+                let v = rec.xyz[i][a];
+                if v <= lo || v >= hi {
+                    return Err(Error::Saturated {
+                        window: k + 1,
+                        start: iv.start,
+                        end: iv.end,
+                        axis: ["x", "y", "z"][a],
+                        value: v,
+                        sample: i + 1,
+                    });
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Statistics of one detected window, computed in f64 from the samples.
+#[derive(Debug, Clone)]
+pub struct WindowStats {
+    /// First sample index.
+    pub start: usize,
+    /// One past the last.
+    pub end: usize,
+    /// Mean, raw.
+    pub mean: [f64; 3],
+    /// Per-axis sample variance, raw² (floored at 1/12 for integer data).
+    pub var: [f64; 3],
+    /// Per-axis variance of the mean from 10 batch means, raw² (`None` if too short).
+    pub batch_var_of_mean: Option<[f64; 3]>,
+    /// Mean time, s since the first sample.
+    pub t_centre: f64,
+    /// Mean temperature.
+    pub temp: Option<f64>,
+    /// Samples averaged: the span for detected windows; for windows read from a window-mean
+    /// table ([`crate::input::window_table`]) the file's count column, `None` when it has none (the
+    /// noise floor var/n is then unknown, not guessed).
+    pub count: Option<usize>,
+}
+
+impl WindowStats {
+    /// Samples averaged, when known (see [`WindowStats::count`]).
+    pub fn n(&self) -> Option<usize> {
+        self.count
+    }
+}
+
+/// Detected windows and context.
+pub struct Windows {
+    /// The windows.
+    pub stats: Vec<WindowStats>,
+    /// Sample times (recording clock), s.
+    pub times: Vec<f64>,
+    /// Detected units.
+    pub units: &'static str,
+    /// The detector's per-axis reference variance.
+    pub reference_variance: [f32; 3],
+}
+
+/// The recording as the detector should see it. The detector floors variances at the
+/// quantisation variance of integer counts (1/12); non-integer input (already in g or m/s²)
+/// is therefore rescaled, for the detector only, so that the rest period's quietest axis has
+/// unit std and the floor sits well below the noise.
+fn detector_view(rec: &Recording, opts: &DetectOptions) -> Option<Recording> {
+    if rec.is_integer() {
+        return None;
+    }
+    let rate = rec.estimated_rate_hz().unwrap_or(opts.default_rate_hz);
+    let init = ((opts.init_s * rate) as usize).clamp(2, rec.len().max(2));
+    let head = &rec.xyz[..init.min(rec.len())];
+    let mut sd_min = f64::INFINITY;
+    for a in 0..3 {
+        let m = head.iter().map(|s| s[a]).sum::<f64>() / head.len().max(1) as f64;
+        let v =
+            head.iter().map(|s| (s[a] - m).powi(2)).sum::<f64>() / (head.len().max(2) - 1) as f64;
+        sd_min = sd_min.min(v.sqrt());
+    }
+    let mags: Vec<f64> = rec
+        .xyz
+        .iter()
+        .map(|s| (s[0] * s[0] + s[1] * s[1] + s[2] * s[2]).sqrt())
+        .collect();
+    let med = st::median(&mags);
+    let k = if sd_min > 0.0 && sd_min.is_finite() {
+        1.0 / sd_min
+    } else {
+        1e4 / med.max(1e-30)
+    };
+    Some(Recording {
+        xyz: rec.xyz.iter().map(|s| s.map(|v| v * k)).collect(),
+        t: rec.t.clone(),
+        temp: None,
+        labels: None,
+        sample_rate_hz: rec.sample_rate_hz,
+        axis_columns: rec.axis_columns.clone(),
+        skipped_empty_rows: rec.skipped_empty_rows,
+        notes: Vec::new(),
+        info: Vec::new(),
+    })
+}
+
+/// Names the setting the core's detector would refuse with a bare "invalid parameter": the
+/// rest period shorter than the window, a zero minimum static duration, a threshold that is
+/// not positive. At a sample rate under 2 Hz the message suggests millisecond times.
+fn check_detector_settings(cfg: &StaticDetectorConfig, rate: f64) -> Result<()> {
+    // Rounded for the message (a rate from a time column is 100.00000000000213 Hz).
+    let rate_hz = (rate * 1e6).round() / 1e6;
+    let hint = if rate < 2.0 {
+        format!(" (the sample rate is {rate_hz} Hz: is the time column in milliseconds rather than seconds?)")
+    } else {
+        String::new()
+    };
+    if cfg.init_samples < u32::from(cfg.window) {
+        return Err(Error::DetectorSetting {
+            setting: Setting::InitialRest,
+            why: format!(
+                "{} samples at {rate_hz} Hz, fewer than the {}-sample variance window{hint}",
+                cfg.init_samples, cfg.window
+            ),
+        });
+    }
+    if cfg.min_static_samples < 1 {
+        return Err(Error::DetectorSetting {
+            setting: Setting::MinStatic,
+            why: format!("less than one sample at {rate_hz} Hz{hint}"),
+        });
+    }
+    if !(cfg.threshold_factor.is_finite() && cfg.threshold_factor > 0.0) {
+        return Err(Error::DetectorSetting {
+            setting: Setting::Threshold,
+            why: format!("{} is not a positive number", cfg.threshold_factor),
+        });
+    }
+    Ok(())
+}
+
+/// Batch means per window: the window split into this many blocks.
+const BATCHES: usize = 10;
+
+/// Per-axis variance of the mean from [`BATCHES`] batch means (sees slow noise that var/n
+/// misses); `None` when the window is shorter than 5 samples per batch.
+fn batch_var_of_mean(xs: &[[f64; 3]]) -> Option<[f64; 3]> {
+    const B: usize = BATCHES;
+    if xs.len() < 5 * B {
+        return None;
+    }
+    let len = xs.len() / B;
+    let mut bm = [[0.0; 3]; B];
+    for (b, m) in bm.iter_mut().enumerate() {
+        for x in &xs[b * len..(b + 1) * len] {
+            for a in 0..3 {
+                m[a] += x[a] / len as f64;
+            }
+        }
+    }
+    let mut out = [0.0; 3];
+    for a in 0..3 {
+        let mu = bm.iter().map(|m| m[a]).sum::<f64>() / B as f64;
+        let v = bm.iter().map(|m| (m[a] - mu).powi(2)).sum::<f64>() / (B - 1) as f64;
+        out[a] = v / B as f64;
+    }
+    Some(out)
+}
+
+/// The f64 statistics of samples `s..e` (at least two). `t0`: time of the first sample.
+fn window_stats(
+    rec: &Recording,
+    (s, e): (usize, usize),
+    times: &[f64],
+    t0: f64,
+    integer: bool,
+) -> WindowStats {
+    let xs = &rec.xyz[s..e];
+    let n = xs.len() as f64;
+    let mut mean = [0.0; 3];
+    for x in xs {
+        for a in 0..3 {
+            mean[a] += x[a];
+        }
+    }
+    mean = mean.map(|v| v / n);
+    let mut var = [0.0; 3];
+    for x in xs {
+        for a in 0..3 {
+            var[a] += (x[a] - mean[a]).powi(2);
+        }
+    }
+    var = var.map(|v| {
+        let v = v / (n - 1.0);
+        if integer {
+            v.max(1.0 / 12.0)
+        } else {
+            v
+        }
+    });
+    WindowStats {
+        start: s,
+        end: e,
+        mean,
+        var,
+        batch_var_of_mean: batch_var_of_mean(xs),
+        t_centre: times[s..e].iter().sum::<f64>() / n - t0,
+        temp: rec.temp.as_ref().map(|tc| tc[s..e].iter().sum::<f64>() / n),
+        count: Some(e - s),
+    }
+}
+
+/// Detects the static windows (the core's detector via [`detect`]), refuses saturated ones,
+/// computes their f64 statistics and infers the input units.
+pub fn detect_windows(rec: &Recording, opts: &DetectOptions) -> Result<Windows> {
+    let integer = rec.is_integer();
+    let det = if opts.adaptive {
+        detect_adaptive(rec, opts)?
+    } else {
+        match detector_view(rec, opts) {
+            None => detect(rec, opts)?,
+            Some(scaled) => detect(&scaled, opts)?,
+        }
+    };
+    let range = opts.adc_range.or_else(|| infer_adc_range(rec));
+    check_saturation(rec, &det.intervals, range)?;
+    let t0 = det.times.first().copied().unwrap_or(0.0);
+    let stats: Vec<WindowStats> = det
+        .intervals
+        .iter()
+        .map(|iv| (iv.start as usize, (iv.end as usize).min(rec.len())))
+        .filter(|(s, e)| *e > s + 1)
+        .map(|span| window_stats(rec, span, &det.times, t0, integer))
+        .collect();
+    let norms: Vec<f64> = stats
+        .iter()
+        .map(|w| (w.mean[0].powi(2) + w.mean[1].powi(2) + w.mean[2].powi(2)).sqrt())
+        .collect();
+    Ok(Windows {
+        units: infer_units(integer, st::median(&norms)),
+        stats,
+        times: det.times,
+        reference_variance: det.reference_variance,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn counts_converted_by_scale_and_offset_are_mapped_back_to_levels() {
+        let counts: Vec<[f64; 3]> = (0..200)
+            .map(|i| {
+                let i = i as f64;
+                [500.0 + (i * 7.0) % 13.0, 300.0 + (i * 3.0) % 5.0, 700.0]
+            })
+            .collect();
+        // Integers are levels already.
+        assert!(lattice_view(&counts).is_none());
+        let in_g: Vec<[f64; 3]> = counts
+            .iter()
+            .map(|c| {
+                [
+                    (c[0] - 512.0) / 105.0,
+                    (c[1] - 512.0) / 98.5,
+                    (c[2] - 512.0) / 101.0,
+                ]
+            })
+            .collect();
+        let levels = lattice_view(&in_g).unwrap();
+        for (l, c) in levels.iter().zip(&counts) {
+            // The counts up to each axis's offset (its smallest value); a constant axis is 0.
+            assert_eq!(*l, [c[0] - 500.0, c[1] - 300.0, 0.0]);
+        }
+        // Scaled again (g → m/s²): the same levels.
+        let ms2: Vec<[f64; 3]> = in_g.iter().map(|v| v.map(|x| x * 9.80665)).collect();
+        assert_eq!(lattice_view(&ms2).unwrap(), levels);
+    }
+
+    /// The chosen setting's windows are kept as they are; a shorter-setting interval is added
+    /// only where it overlaps none of them, and the result is in time order.
+    #[test]
+    fn fill_holds_adds_only_the_holds_without_a_window() {
+        let iv = |start: u32, end: u32| StaticInterval {
+            start,
+            end,
+            mean: [start as f32; 3],
+            variance: [0.0; 3],
+        };
+        let chosen = vec![iv(0, 300), iv(600, 900)];
+        let short = [iv(10, 290), iv(350, 500), iv(550, 610), iv(950, 1100)];
+        let got = fill_holds(chosen, &short);
+        assert_eq!(
+            got,
+            vec![iv(0, 300), iv(350, 500), iv(600, 900), iv(950, 1100)]
+        );
+    }
+
+    #[test]
+    fn continuous_values_are_left_alone() {
+        let cont: Vec<[f64; 3]> = (0..200)
+            .map(|i| {
+                let x = (i as f64 * 12.9898).sin() * 0.01;
+                [x, 1.0 + x * x, -x]
+            })
+            .collect();
+        assert!(lattice_view(&cont).is_none());
+        assert!(lattice_view(&[[f64::NAN, 0.5, 0.5]]).is_none());
+    }
+
+    /// A 100 Hz recording whose time column is in milliseconds reads as 0.1 Hz: refused with
+    /// the question, not analysed with holds of a fraction of a sample.
+    #[test]
+    fn millisecond_times_are_refused_with_the_question() {
+        let rec = Recording {
+            t: Some((0..3000).map(|i| i as f64 * 10.0).collect()),
+            xyz: (0..3000)
+                .map(|i| [0.0, 0.0, 1.0 + 1e-3 * (i % 7) as f64])
+                .collect(),
+            ..Default::default()
+        };
+        let e = detect_windows(&rec, &DetectOptions::default())
+            .err()
+            .expect("refused");
+        assert!(
+            matches!(e, Error::RateTooLow { rate_hz } if rate_hz == 0.1),
+            "{e:?}"
+        );
+        assert!(e.to_string().contains("milliseconds"), "{e}");
+    }
+
+    /// Fewer samples than the adaptive detector's noise survey: the error names the survey
+    /// (not an initial rest period, which the adaptive detector does not need).
+    #[test]
+    fn too_short_for_the_survey_says_so() {
+        let rec = Recording {
+            xyz: vec![[0.0, 0.0, 1.0]; 10],
+            sample_rate_hz: Some(100.0),
+            ..Default::default()
+        };
+        let e = detect_windows(&rec, &DetectOptions::default())
+            .err()
+            .expect("refused");
+        assert!(
+            matches!(e, Error::TooShortForSurvey { samples: 10, .. }),
+            "{e:?}"
+        );
+        assert!(e.to_string().contains("noise survey"), "{e}");
+    }
+}

@@ -1,0 +1,794 @@
+//! Loading recordings: CSV with a header naming the columns, or header-less
+//! whitespace-separated numeric text (`t x y z`, as in IMU-TK's test data).
+//!
+//! Accepted shapes:
+//! * CSV (comma or semicolon) with a header line. Column names map by meaning, case-insensitive:
+//!   time `t|time|timestamp|time_s`, axes by pattern (`x`, `ax`, `acc_x_g`, `AccX`,
+//!   `mag_x_gauss`, `gyro_x_dps`, … see [`crate::input::columns`]: the wanted sensor's triplet),
+//!   temperature `temp|temperature|temp_c`, pose label `pose|label`. A different triplet can be
+//!   chosen with [`LoadOptions::columns`]. Lines before the header of the form `key,value`
+//!   (e.g. `Fs,100`) are metadata; `Fs` gives the sample rate.
+//! * Whitespace-separated numbers without a header: 3 columns `x y z`, 4 columns `t x y z`,
+//!   5 columns `t x y z temp`. Lines starting with `#` or `%` are comments.
+//!
+//! Every value must be finite; the first bad line is reported with its number.
+
+use crate::error::{Error, Result};
+use crate::input::bounded::{
+    check_reading_scale, parse_number, parse_reading, quote, quote_header, read_bounded, text_of,
+    MAX_RATE_HZ, MAX_RECORDING_BYTES,
+};
+use crate::input::columns::Sensor;
+use crate::input::recording::Recording;
+use crate::input::timecheck::{time_notes, TimeCheck};
+use std::path::Path;
+
+pub use crate::input::columns::LoadOptions;
+
+/// Loads a recording from a file; see the module docs for the accepted formats.
+/// `path` may be `-` for standard input; only regular files are read, at most
+/// [`MAX_RECORDING_BYTES`].
+/// Raw accelerometer files (Axivity `.cwa`, GENEActiv `.bin`, recognised by their first bytes)
+/// are read by [`crate::input::raw`]: every decoded sample with its time and temperature.
+pub fn load(path: &Path, opts: &LoadOptions) -> Result<Recording> {
+    let bytes = read_bounded(path, MAX_RECORDING_BYTES)?;
+    let raw = crate::input::raw::parse_bytes(&bytes, path).map_err(|e| e.in_file(path))?;
+    if let Some(raw) = raw {
+        return crate::input::raw::to_recording(&raw, opts).map_err(|e| e.in_file(path));
+    }
+    let text = text_of(path, bytes)?;
+    parse(&text, opts).map_err(|e| e.in_file(path))
+}
+
+/// An accelerometer and a gyroscope from one file, read once (`wiical gyrofit FILE`, so each
+/// note on the file is made once): the accelerometer's triplet by `acc`, the gyroscope's by
+/// `gyro_columns` when given, else by the header's names — a gyroscope triplet must be named
+/// (`gx,gy,gz`, `gyro_x_dps`, …): the loader's fallback to another sensor's triplet would
+/// take gravity for rotation.
+pub fn load_imu(
+    path: &Path,
+    acc: &LoadOptions,
+    gyro_columns: Option<[String; 3]>,
+) -> Result<(Recording, Recording)> {
+    let bytes = read_bounded(path, MAX_RECORDING_BYTES)?;
+    let named = gyro_columns.is_none();
+    let gyro_opts = LoadOptions {
+        columns: gyro_columns,
+        sensor: Some(Sensor::Gyroscope),
+    };
+    if let Some(raw) = crate::input::raw::parse_bytes(&bytes, path).map_err(|e| e.in_file(path))? {
+        // An AX6 file: its gyro is `gx,gy,gz` (crate::input::raw); the other formats have none.
+        let gyro_opts = LoadOptions {
+            columns: Some(
+                gyro_opts
+                    .columns
+                    .unwrap_or_else(|| ["gx".into(), "gy".into(), "gz".into()]),
+            ),
+            ..gyro_opts
+        };
+        let accel = crate::input::raw::to_recording(&raw, acc).map_err(|e| e.in_file(path))?;
+        let gyro =
+            crate::input::raw::to_recording(&raw, &gyro_opts).map_err(|e| e.in_file(path))?;
+        return Ok((accel, gyro));
+    }
+    let text = text_of(path, bytes)?;
+    let accel = parse(&text, acc).map_err(|e| e.in_file(path))?;
+    let gyro = parse(&text, &gyro_opts).map_err(|e| e.in_file(path))?;
+    let is_gyro = |n: &String| {
+        crate::input::columns::classify(&n.to_ascii_lowercase())
+            .is_some_and(|(_, s, _)| s == Sensor::Gyroscope)
+    };
+    if named && !gyro.axis_columns.iter().all(is_gyro) {
+        return Err(Error::NoGyroColumns {
+            taken: gyro.axis_columns.join(","),
+        }
+        .in_file(path));
+    }
+    Ok((accel, gyro))
+}
+
+pub(crate) fn is_comment_or_blank(line: &str) -> bool {
+    let l = line.trim();
+    l.is_empty() || l.starts_with('#') || l.starts_with('%')
+}
+
+/// Parses recording text (see [`load`]). A leading byte-order mark is ignored.
+pub fn parse(text: &str, opts: &LoadOptions) -> Result<Recording> {
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+    crate::input::bounded::check_line_lengths(text)?;
+    let first = text
+        .lines()
+        .find(|l| !is_comment_or_blank(l))
+        .ok_or(Error::Empty)?;
+    if crate::input::grt::is_grt(first) {
+        return crate::input::grt::parse(text);
+    }
+    let rec = match Delimiter::of_first_line(first) {
+        Some(delim) => parse_csv(&blank_comments(text), opts, delim)?,
+        None => {
+            if opts.columns.is_some() {
+                return Err(Error::ColumnsNeedHeader);
+            }
+            parse_whitespace(text)?
+        }
+    };
+    check_axis_columns(&rec)?;
+    check_reading_scale(&rec.xyz)?;
+    Ok(rec)
+}
+
+/// How a file with a header separates its fields, decided by the first non-comment line.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) enum Delimiter {
+    /// `,` (decimal point `.`).
+    Comma,
+    /// `;`, as spreadsheets write in locales with a decimal comma: `1,5` is 1.5.
+    Semicolon,
+    /// A tab, with a header (tab-separated numbers without a header are whitespace text).
+    Tab,
+}
+
+impl Delimiter {
+    pub(crate) fn of_first_line(line: &str) -> Option<Self> {
+        if line.contains(';') {
+            Some(Self::Semicolon)
+        } else if line.contains(',') {
+            Some(Self::Comma)
+        } else if line.contains('\t') && line.split('\t').any(|f| f.trim().parse::<f64>().is_err())
+        {
+            Some(Self::Tab)
+        } else {
+            None
+        }
+    }
+
+    pub(crate) fn byte(self) -> u8 {
+        match self {
+            Self::Comma => b',',
+            Self::Semicolon => b';',
+            Self::Tab => b'\t',
+        }
+    }
+}
+
+/// The text with `#` and `%` comment lines blanked (line numbers kept), since the CSV reader
+/// knows only one comment character and would split `% recorded 2024, 100 Hz` into fields.
+pub(crate) fn blank_comments(text: &str) -> std::borrow::Cow<'_, str> {
+    let is_comment = |l: &str| {
+        let l = l.trim_start();
+        l.starts_with('#') || l.starts_with('%')
+    };
+    // One memchr pass per marker instead of a walk over every line (most files have none).
+    let bytes = text.as_bytes();
+    if !bytes.contains(&b'#') && !bytes.contains(&b'%') || !text.lines().any(is_comment) {
+        return text.into();
+    }
+    let mut out = String::with_capacity(text.len());
+    for line in text.split_inclusive('\n') {
+        if is_comment(line) {
+            // A blank record (skipped by the reader's caller), not an empty line: the CSV
+            // reader does not count every empty line in its line numbers.
+            out.push_str(" \n");
+        } else {
+            out.push_str(line);
+        }
+    }
+    out.into()
+}
+
+/// The axes must be three different columns, none of them the time, temperature or label
+/// column (`--columns t,x,y` would calibrate time as an axis).
+fn check_axis_columns(rec: &Recording) -> Result<()> {
+    for name in &rec.axis_columns {
+        let lower = name.to_ascii_lowercase();
+        if TIME_NAMES.contains(&lower.as_str())
+            || TEMP_NAMES.contains(&lower.as_str())
+            || LABEL_NAMES.contains(&lower.as_str())
+        {
+            return Err(Error::AxisIsNotAnAxis { name: name.clone() });
+        }
+    }
+    let [a, b, c] = &rec.axis_columns;
+    if a == b || a == c || b == c {
+        return Err(Error::AxisTwice {
+            columns: rec.axis_columns.join(","),
+        });
+    }
+    Ok(())
+}
+
+fn parse_whitespace(text: &str) -> Result<Recording> {
+    let mut rec = Recording::default();
+    let mut ncols = None;
+    let (mut t, mut temp) = (Vec::new(), Vec::new());
+    let mut clock = TimeCheck::new("t");
+    for (i, line) in text.lines().enumerate() {
+        let line_no = i + 1;
+        if is_comment_or_blank(line) {
+            continue;
+        }
+        // Up to 5 fields without allocating a Vec per line (this loop is most of the time
+        // `fit` spends on a 50k-line file).
+        let mut fields = [""; 6];
+        let mut count = 0usize;
+        for f in line.split_ascii_whitespace() {
+            if let Some(slot) = fields.get_mut(count) {
+                *slot = f;
+            }
+            count += 1;
+        }
+        let n = *ncols.get_or_insert(count);
+        if count != n {
+            return Err(Error::RaggedLine {
+                line: line_no,
+                expected: n,
+                found: count,
+            });
+        }
+        let names: &[&str] = match n {
+            3 => &["x", "y", "z"],
+            4 => &["t", "x", "y", "z"],
+            5 => &["t", "x", "y", "z", "temp"],
+            _ => {
+                return Err(Error::HeaderlessColumns {
+                    line: line_no,
+                    found: n,
+                })
+            }
+        };
+        let mut vals = [0.0f64; 5];
+        for (k, f) in fields.iter().take(n).enumerate() {
+            vals[k] = if names[k] == "t" {
+                parse_number(f, line_no, names[k], false)?
+            } else {
+                parse_reading(f, line_no, names[k], false)?
+            };
+        }
+        let off = if n == 3 { 0 } else { 1 };
+        if n >= 4 {
+            clock.push(vals[0], line_no)?;
+            t.push(vals[0]);
+        }
+        if n == 5 {
+            temp.push(vals[4]);
+        }
+        rec.xyz.push([vals[off], vals[off + 1], vals[off + 2]]);
+    }
+    if rec.xyz.is_empty() {
+        return Err(Error::NoDataRows);
+    }
+    if !t.is_empty() {
+        rec.notes = time_notes("t", &t);
+        rec.t = Some(t);
+    }
+    if !temp.is_empty() {
+        rec.temp = Some(temp);
+    }
+    rec.axis_columns = ["x".into(), "y".into(), "z".into()];
+    Ok(rec)
+}
+
+const TIME_NAMES: &[&str] = &["t", "time", "timestamp", "time_s", "t_s", "seconds"];
+const TEMP_NAMES: &[&str] = &["temp", "temperature", "temp_c", "temperature_c"];
+const LABEL_NAMES: &[&str] = &["pose", "label"];
+
+/// One CSV record's fields, from the `csv` reader or from the fast line splitter.
+trait Fields {
+    fn count(&self) -> usize;
+    fn get(&self, i: usize) -> &str;
+}
+
+impl Fields for csv::StringRecord {
+    fn count(&self) -> usize {
+        self.len()
+    }
+    fn get(&self, i: usize) -> &str {
+        &self[i]
+    }
+}
+
+impl Fields for [&str] {
+    fn count(&self) -> usize {
+        self.len()
+    }
+    fn get(&self, i: usize) -> &str {
+        self[i]
+    }
+}
+
+/// True when plain splitting at line ends and delimiters reads `text` exactly as the `csv`
+/// reader does: no quote character anywhere (quoting is the only thing the reader adds) and no
+/// carriage return other than in a CR LF pair (the reader ends a line at a lone CR too).
+fn plain_csv(text: &str) -> bool {
+    let b = text.as_bytes();
+    if b.contains(&b'"') {
+        return false;
+    }
+    !b.contains(&b'\r')
+        || b.iter()
+            .enumerate()
+            .all(|(i, &c)| c != b'\r' || b.get(i + 1) == Some(&b'\n'))
+}
+
+fn parse_csv(text: &str, opts: &LoadOptions, delim: Delimiter) -> Result<Recording> {
+    parse_csv_by(text, opts, delim, plain_csv(text))
+}
+
+/// [`parse_csv`] by the fast splitter (`plain`) or the `csv` reader.
+fn parse_csv_by(
+    text: &str,
+    opts: &LoadOptions,
+    delim: Delimiter,
+    plain: bool,
+) -> Result<Recording> {
+    let mut st = CsvState::new(opts, delim, text.len());
+    if plain {
+        // The fast path (most files): lines split by memchr, fields by a byte loop over the
+        // line into one reused vector of field slices; no copy of any record (reading speed:
+        // BENCHMARKS.md). The delimiter and line ends are ASCII, so every cut is a character
+        // boundary.
+        let d = delim.byte();
+        let mut fields: Vec<&str> = Vec::new();
+        for (i, line) in text.split('\n').enumerate() {
+            let line = line.strip_suffix('\r').unwrap_or(line);
+            if line.is_empty() {
+                continue; // the csv reader skips empty lines too
+            }
+            fields.clear();
+            let mut start = 0;
+            for (j, &c) in line.as_bytes().iter().enumerate() {
+                if c == d {
+                    fields.push(&line[start..j]);
+                    start = j + 1;
+                }
+            }
+            fields.push(&line[start..]);
+            st.row(&fields[..], i + 1)?;
+        }
+    } else {
+        let mut reader = csv::ReaderBuilder::new()
+            .has_headers(false)
+            .flexible(true)
+            // Fields are trimmed where read: the reader's own trimming copies each record.
+            .delimiter(delim.byte())
+            .from_reader(text.as_bytes());
+        // One record reused for every row: no allocation per line.
+        let mut record = csv::StringRecord::new();
+        while reader
+            .read_record(&mut record)
+            .map_err(Error::MalformedCsv)?
+        {
+            let line_no = record.position().map(|p| p.line() as usize).unwrap_or(0);
+            st.row(&record, line_no)?;
+        }
+    }
+    st.finish()
+}
+
+/// What [`parse_csv`] has read so far.
+struct CsvState<'o> {
+    opts: &'o LoadOptions,
+    decimal_comma: bool,
+    text_len: usize,
+    clock: Option<TimeCheck>,
+    rec: Recording,
+    header: Option<Vec<String>>,
+    /// Column indices of time, x/y/z, temperature and label (`usize::MAX`: absent).
+    idx: (usize, [usize; 3], usize, usize),
+    t: Vec<f64>,
+    temp: Vec<f64>,
+    labels: Vec<String>,
+}
+
+impl<'o> CsvState<'o> {
+    fn new(opts: &'o LoadOptions, delim: Delimiter, text_len: usize) -> Self {
+        Self {
+            opts,
+            decimal_comma: delim == Delimiter::Semicolon,
+            text_len,
+            clock: None,
+            rec: Recording::default(),
+            header: None,
+            idx: (usize::MAX, [0usize; 3], usize::MAX, usize::MAX),
+            t: Vec::new(),
+            temp: Vec::new(),
+            labels: Vec::new(),
+        }
+    }
+
+    /// One record (line `line_no`): metadata or the header before the header, else a row.
+    fn row<F: Fields + ?Sized>(&mut self, record: &F, line_no: usize) -> Result<()> {
+        let n = record.count();
+        if (0..n).all(|i| record.get(i).trim_ascii().is_empty()) {
+            return Ok(());
+        }
+        if self.header.is_some() && self.rec.xyz.is_empty() {
+            self.reserve(record);
+        }
+        let Some(cols) = &self.header else {
+            return self.before_header(record, line_no);
+        };
+        if n != cols.len() {
+            return Err(Error::RaggedRow {
+                line: line_no,
+                expected: cols.len(),
+                found: n,
+            });
+        }
+        let field = |i: usize| record.get(i).trim_ascii();
+        let idx = self.idx;
+        if idx.1.iter().all(|&i| field(i).is_empty()) {
+            self.rec.skipped_empty_rows += 1;
+            return Ok(());
+        }
+        let dc = self.decimal_comma;
+        let get = |i: usize| parse_reading(field(i), line_no, &cols[i], dc);
+        self.rec
+            .xyz
+            .push([get(idx.1[0])?, get(idx.1[1])?, get(idx.1[2])?]);
+        if let Some(clock) = self.clock.as_mut() {
+            let time = parse_number(field(idx.0), line_no, &cols[idx.0], dc)?;
+            clock.push(time, line_no)?;
+            self.t.push(time);
+        }
+        if idx.2 != usize::MAX {
+            self.temp.push(get(idx.2)?);
+        }
+        if idx.3 != usize::MAX {
+            self.labels.push(field(idx.3).to_string());
+        }
+        Ok(())
+    }
+
+    /// Room for the rows the file's size suggests (from the first row's length; at most 20 M):
+    /// no reallocation and copy of the growing columns on a long file.
+    fn reserve<F: Fields + ?Sized>(&mut self, record: &F) {
+        let n = record.count();
+        let line = (0..n).map(|i| record.get(i).len()).sum::<usize>() + n;
+        let rows = (self.text_len / line.max(1)).min(20_000_000);
+        self.rec.xyz.reserve(rows);
+        if self.clock.is_some() {
+            self.t.reserve(rows);
+        }
+        if self.idx.2 != usize::MAX {
+            self.temp.reserve(rows);
+        }
+    }
+
+    /// Before the header: metadata `key,value` lines, or the header itself.
+    fn before_header<F: Fields + ?Sized>(&mut self, record: &F, line_no: usize) -> Result<()> {
+        let decimal_comma = self.decimal_comma;
+        let fields: Vec<String> = (0..record.count())
+            .map(|i| record.get(i).trim_ascii().to_ascii_lowercase())
+            .collect();
+        let is_number = |f: &String| {
+            f.parse::<f64>().is_ok()
+                || (decimal_comma && f.replacen(',', ".", 1).parse::<f64>().is_ok())
+        };
+        let numeric = fields.iter().filter(|f| is_number(f)).count();
+        if numeric == fields.len() {
+            return Err(Error::DataBeforeHeader { line: line_no });
+        }
+        let rate_key = ["fs", "sample_rate", "rate_hz"].contains(&fields[0].as_str());
+        if fields.len() == 2 && (rate_key || (numeric == 1 && is_number(&fields[1]))) {
+            if rate_key {
+                let fs = parse_number(&fields[1], line_no, &fields[0], decimal_comma)
+                    .unwrap_or(f64::NAN);
+                if !(fs.is_finite() && fs > 0.0 && fs <= MAX_RATE_HZ) {
+                    return Err(Error::BadSampleRate {
+                        line: line_no,
+                        text: record.get(1).trim_ascii().chars().take(40).collect(),
+                    });
+                }
+                self.rec.sample_rate_hz = Some(fs);
+            }
+            return Ok(());
+        }
+        let mut choice = None;
+        self.idx = map_header(&fields, self.opts, &mut choice)?;
+        self.rec.info.extend(choice);
+        self.rec.axis_columns = self.idx.1.map(|i| fields[i].clone());
+        if self.idx.0 != usize::MAX {
+            self.clock = Some(TimeCheck::new(&fields[self.idx.0]));
+        }
+        self.header = Some(fields);
+        Ok(())
+    }
+
+    fn finish(self) -> Result<Recording> {
+        let (mut rec, idx) = (self.rec, self.idx);
+        if self.header.is_none() {
+            return Err(Error::NoHeader);
+        }
+        if rec.xyz.is_empty() {
+            return Err(Error::HeaderOnly);
+        }
+        if idx.0 != usize::MAX {
+            rec.notes = time_notes(&rec_time_name(&self.header, idx.0), &self.t);
+            rec.t = Some(self.t);
+        }
+        if idx.2 != usize::MAX {
+            rec.temp = Some(self.temp);
+        }
+        if idx.3 != usize::MAX {
+            rec.labels = Some(self.labels);
+        }
+        Ok(rec)
+    }
+}
+
+/// The time column's header name (for notes).
+fn rec_time_name(header: &Option<Vec<String>>, idx: usize) -> String {
+    header
+        .as_ref()
+        .and_then(|h| h.get(idx))
+        .cloned()
+        .unwrap_or_default()
+}
+
+/// Column indices of time, x/y/z, temperature and label (`usize::MAX`: absent); `choice`
+/// receives the sentence saying which triplet was taken when there was a choice.
+fn map_header(
+    fields: &[String],
+    opts: &LoadOptions,
+    choice: &mut Option<String>,
+) -> Result<(usize, [usize; 3], usize, usize)> {
+    let find = |names: &[&str]| fields.iter().position(|f| names.contains(&f.as_str()));
+    let mut seen = std::collections::HashSet::new();
+    for f in fields {
+        if !seen.insert(f) {
+            return Err(Error::DuplicateColumn { name: quote(f) });
+        }
+    }
+    let xyz = if let Some(cols) = &opts.columns {
+        let mut out = [0usize; 3];
+        for (k, c) in cols.iter().enumerate() {
+            let c = c.to_ascii_lowercase();
+            out[k] = fields
+                .iter()
+                .position(|f| *f == c)
+                .ok_or_else(|| Error::ColumnNotFound {
+                    name: quote(&c),
+                    header: quote_header(&fields.join(", ")),
+                })?;
+        }
+        out
+    } else {
+        let want = opts.sensor.unwrap_or(Sensor::Accelerometer);
+        let t = crate::input::columns::find_triplet(fields, want).ok_or_else(|| {
+            Error::NoAxisColumns {
+                header: quote_header(&fields.join(", ")),
+            }
+        })?;
+        *choice = crate::input::columns::choice_note(fields, &t, want);
+        t.columns
+    };
+    Ok((
+        find(TIME_NAMES).unwrap_or(usize::MAX),
+        xyz,
+        find(TEMP_NAMES).unwrap_or(usize::MAX),
+        find(LABEL_NAMES).unwrap_or(usize::MAX),
+    ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn p(s: &str) -> Result<Recording> {
+        parse(s, &LoadOptions::default())
+    }
+
+    #[test]
+    fn whitespace_t_x_y_z() {
+        let r = p("  2.98e-02   3.3108e+04 3.3329e+04 3.6429e+04\n0.0398 1 2 3\n").unwrap();
+        assert_eq!(r.len(), 2);
+        assert_eq!(r.xyz[0], [33108.0, 33329.0, 36429.0]);
+        assert_eq!(r.t.as_ref().unwrap()[1], 0.0398);
+    }
+
+    #[test]
+    fn csv_with_metadata_and_named_columns() {
+        let r = p("Fs,50.00\nInitialization time,60\nmx,my,mz\n6242,980,3872\n6267,945,3860\n")
+            .unwrap();
+        assert_eq!(r.sample_rate_hz, Some(50.0));
+        assert_eq!(r.xyz[1], [6267.0, 945.0, 3860.0]);
+        assert!(r.t.is_none());
+        let r = p("ax,ay,az,gx,gy,gz\n1,2,3,4,5,6\n").unwrap();
+        assert_eq!(r.xyz[0], [1.0, 2.0, 3.0]);
+        let gyro = parse(
+            "ax,ay,az,gx,gy,gz\n1,2,3,4,5,6\n",
+            &LoadOptions {
+                columns: Some(["gx".into(), "gy".into(), "gz".into()]),
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        assert_eq!(gyro.xyz[0], [4.0, 5.0, 6.0]);
+    }
+
+    #[test]
+    fn csv_with_time_temp_and_labels() {
+        let r = p("time,x,y,z,temp\n0,1,2,3,25\n0.01,1,2,3,25.5\n").unwrap();
+        assert_eq!(r.temp.unwrap(), vec![25.0, 25.5]);
+        let r = p("pose,x,y,z\nx+,1,2,3\n").unwrap();
+        assert_eq!(r.labels.unwrap(), vec!["x+".to_string()]);
+    }
+
+    #[test]
+    fn rows_with_empty_selected_axes_are_skipped() {
+        let text = "t,x,y,z,ext_x,ext_y,ext_z\n0,1,2,3,4,5,6\n0.01,1,2,3,,,\n0.02,1,2,3,7,8,9\n";
+        let opts = LoadOptions {
+            columns: Some(["ext_x".into(), "ext_y".into(), "ext_z".into()]),
+            ..Default::default()
+        };
+        let r = parse(text, &opts).unwrap();
+        assert_eq!(r.xyz, vec![[4.0, 5.0, 6.0], [7.0, 8.0, 9.0]]);
+        assert_eq!(r.t.unwrap(), vec![0.0, 0.02]);
+        assert_eq!(r.skipped_empty_rows, 1);
+        // A partly empty row is an error, not a skip.
+        let e = parse("t,x,y,z\n0,1,,3\n", &LoadOptions::default()).unwrap_err();
+        assert!(e.full_message().contains("not a number"));
+    }
+
+    #[test]
+    fn tab_separated_with_header() {
+        let r = p("t\tx\ty\tz\n0\t1\t2\t3\n0.01\t4\t5\t6\n").unwrap();
+        assert_eq!(r.xyz, vec![[1.0, 2.0, 3.0], [4.0, 5.0, 6.0]]);
+        assert_eq!(r.t.unwrap(), vec![0.0, 0.01]);
+        // Tab-separated numbers without a header stay whitespace text.
+        let r = p("0\t1\t2\t3\n").unwrap();
+        assert_eq!(r.xyz, vec![[1.0, 2.0, 3.0]]);
+    }
+
+    #[test]
+    fn percent_and_hash_comments_in_csv_keep_line_numbers() {
+        let text = "% logger v2, 100 Hz\nt,x,y,z\n# a, b\n0,1,2,3\n%, x\n0.01,1,zz,3\n";
+        let e = p(text).unwrap_err().to_string();
+        assert_eq!(e, "line 6: column 'y': 'zz' is not a number");
+        let r = p("% header, comment\nx,y,z\n1,2,3\n").unwrap();
+        assert_eq!(r.xyz, vec![[1.0, 2.0, 3.0]]);
+    }
+
+    /// The fast splitter reads every plain file exactly as the `csv` reader does: values,
+    /// skipped rows, and the errors (line numbers too, except after empty lines, which the
+    /// reader does not count).
+    #[test]
+    fn fast_splitter_matches_the_csv_reader() {
+        let texts = [
+            "t,x,y,z\n0,1,2,3\n0.01,4,5,6",
+            "t,x,y,z\r\n0,1,2,3\r\n\r\n0.01,4,5,6\r\n",
+            "Fs,50\n\nx,y,z\n \n1,2,3\n\n\n4,5,6\n",
+            "t,x,y,z,ext_x,ext_y,ext_z\n0,1,2,3,,,\n0.01, 4 ,5,6,7,8,9\n",
+            "x,y,z\n1,2,3\n1,2\n",
+            "t,x,y,z\n0,1,2,3\n0,1,2,3\n",
+            "x,y,z\n1,2,3\n1,abc,3\n",
+            "pose,x,y,z\nx+,1,2,3\nx-,-1,2,3\n",
+            "x;y;z\n1,5;2;3\n",
+            "x,y,z\n1,2,3,\n",
+            ",,\nx,y,z\n1,2,3\n",
+        ];
+        for text in texts {
+            let delim = Delimiter::of_first_line(text.lines().next().unwrap()).unwrap();
+            let opts = LoadOptions::default();
+            let fast = parse_csv_by(text, &opts, delim, true);
+            let slow = parse_csv_by(text, &opts, delim, false);
+            match (fast, slow) {
+                (Ok(a), Ok(b)) => {
+                    assert_eq!(a.xyz, b.xyz, "{text:?}");
+                    assert_eq!(a.t, b.t, "{text:?}");
+                    assert_eq!(a.labels, b.labels, "{text:?}");
+                    assert_eq!(a.skipped_empty_rows, b.skipped_empty_rows, "{text:?}");
+                    assert_eq!(a.sample_rate_hz, b.sample_rate_hz, "{text:?}");
+                }
+                (Err(a), Err(b)) => assert_eq!(a.to_string(), b.to_string(), "{text:?}"),
+                (a, b) => panic!("{text:?}: {a:?} vs {b:?}"),
+            }
+        }
+        // After an empty line the fast splitter names the true line (4); the csv reader does
+        // not count empty lines and said line 3.
+        let e = parse_csv_by(
+            "t,x,y,z\n0,1,2,3\n\n-1,1,2,3\n",
+            &LoadOptions::default(),
+            Delimiter::Comma,
+            true,
+        )
+        .unwrap_err();
+        assert!(matches!(e, Error::TimeNotIncreasing { line: 4, .. }), "{e}");
+        assert!(plain_csv("x,y\r\n1,2\n"));
+        assert!(!plain_csv("x,y\r1,2\n"));
+        assert!(!plain_csv("\"x\",y\n"));
+    }
+
+    #[test]
+    fn byte_order_mark_is_ignored() {
+        let r = p("\u{feff}0.0 1 2 3\n0.01 4 5 6\n").unwrap();
+        assert_eq!(r.xyz[0], [1.0, 2.0, 3.0]);
+        let r = p("\u{feff}x,y,z\n1,2,3\n").unwrap();
+        assert_eq!(r.axis_columns[0], "x");
+    }
+
+    #[test]
+    fn semicolon_csv_with_decimal_commas() {
+        let r = p("Fs;50,5\nt;x;y;z\n0;1,5;-2,25;3\n0,02;4;5;6,125\n").unwrap();
+        assert_eq!(r.sample_rate_hz, Some(50.5));
+        assert_eq!(r.xyz, vec![[1.5, -2.25, 3.0], [4.0, 5.0, 6.125]]);
+        assert_eq!(r.t.unwrap(), vec![0.0, 0.02]);
+        // A semicolon file with decimal points still reads; a field with two commas does not.
+        assert_eq!(p("x;y;z\n1.5;2;3\n").unwrap().xyz[0], [1.5, 2.0, 3.0]);
+        let e = p("x;y;z\n1,5,5;2;3\n").unwrap_err().to_string();
+        assert!(e.contains("'1,5,5' is not a number"), "{e}");
+    }
+
+    #[test]
+    fn a_huge_bad_field_is_quoted_short() {
+        // A long bad field inside a line of legal length is quoted short …
+        let text = format!("x,y,z\n1,{},3\n", "7a".repeat(15_000));
+        let e = p(&text).unwrap_err().to_string();
+        assert!(e.len() < 200, "{} bytes", e.len());
+        assert!(e.contains("(30000 characters)"), "{e}");
+        // … and a line too long to be a recording's is refused by its length.
+        let text = format!("x,y,z\n1,{},3\n", "7a".repeat(5_000_000));
+        let e = p(&text).unwrap_err().to_string();
+        assert!(e.contains("line 2 is 10000004 bytes long"), "{e}");
+    }
+
+    #[test]
+    fn time_and_temperature_are_not_axes() {
+        let cols = |c: [&str; 3]| LoadOptions {
+            columns: Some(c.map(String::from)),
+            sensor: None,
+        };
+        let text = "t,x,y,z,temp\n0,1,2,3,20\n0.01,1,2,3,20\n";
+        let e = parse(text, &cols(["t", "x", "y"])).unwrap_err();
+        assert!(
+            matches!(e, Error::AxisIsNotAnAxis { ref name } if name == "t"),
+            "{e}"
+        );
+        let e = parse(text, &cols(["x", "y", "temp"])).unwrap_err();
+        assert!(matches!(e, Error::AxisIsNotAnAxis { .. }), "{e}");
+        let e = parse(text, &cols(["x", "x", "y"])).unwrap_err();
+        assert!(matches!(e, Error::AxisTwice { .. }), "{e}");
+    }
+
+    #[test]
+    fn time_must_increase() {
+        let e = p("t,x,y,z\n0,1,2,3\n0.02,1,2,3\n0.01,1,2,3\n").unwrap_err();
+        assert!(matches!(e, Error::TimeNotIncreasing { line: 4, .. }), "{e}");
+        // A repeated time is read (coarse timestamps), a time that goes back is not.
+        assert!(p("t,x,y,z\n0,1,2,3\n0,1,2,3\n0.01,1,2,3\n").is_ok());
+        let e = p("t,x,y,z\n0,1,2,3\n0,1,2,3\n-0.01,1,2,3\n").unwrap_err();
+        assert!(matches!(e, Error::TimeNotIncreasing { line: 4, .. }), "{e}");
+        let e = p("0 1 2 3\n0.01 1 2 3\n# c\n0.005 1 2 3\n").unwrap_err();
+        assert!(matches!(e, Error::TimeNotIncreasing { line: 4, .. }), "{e}");
+        // A gap is a note, not an error.
+        let mut text = String::from("t,x,y,z\n");
+        for i in 0..20 {
+            let t = if i < 10 {
+                i as f64 * 0.01
+            } else {
+                5.0 + i as f64 * 0.01
+            };
+            text += &format!("{t},1,2,3\n");
+        }
+        let r = p(&text).unwrap();
+        assert_eq!(r.notes.len(), 1, "{:?}", r.notes);
+        assert!(r.notes[0].contains("time jumps 1 time(s)"), "{:?}", r.notes);
+    }
+
+    #[test]
+    fn bad_inputs_give_readable_errors() {
+        let e = |s: &str| p(s).unwrap_err().full_message();
+        assert!(e("").contains("empty"));
+        assert!(e("a,b,c\n1,2,3\n").contains("no x/y/z columns"));
+        assert!(e("x,y,z\n1,NaN,3\n").contains("not finite"));
+        assert!(e("x,y,z\n1,2\n").contains("expected 3 fields"));
+        assert!(e("x,y,z\n").contains("no data rows"));
+        assert!(e("1 2 3\n1 2\n").contains("expected 3 columns"));
+        assert!(e("1 2\n").contains("without a header"));
+        assert!(e("1 inf 3\n").contains("not finite"));
+        assert!(e("x,x,y,z\n1,2,3,4\n").contains("twice"));
+        assert!(e("x,y,z\n1,abc,3\n").contains("not a number"));
+        assert!(e("1,2,3\n").contains("before any header"));
+    }
+}

@@ -1,0 +1,201 @@
+//! GGIR's still epochs of a raw recording, the input of its free-living autocalibration (van
+//! Hees et al. 2014; GGIR `g.calibrate`): the recording is cut into consecutive 10-s epochs;
+//! an epoch is **still** when the standard deviation of every axis is below 13 mg and the
+//! absolute mean of every axis below 2 g (a mean beyond the range is a clipped or broken
+//! sample stream, not gravity). The still epochs' means, SDs, sample counts, mean temperatures
+//! and centre times become a window-mean table ([`WindowTable`]), analysed exactly as a GGIR
+//! sphere-data file ([`crate::input::window_table`]: the autocalibration report and the residual
+//! analysis with temperature).
+//!
+//! GGIR cuts epochs on its resampled grid by sample count; here the samples keep their own
+//! times, so an epoch is `[t₀ + 10k, t₀ + 10(k+1))` and counts only when it holds at least 90 %
+//! of the samples the rate promises (an epoch across a gap of skipped blocks is left out
+//! rather than judged on a fraction of its samples).
+
+use crate::autocal::MIN_EPOCHS;
+use crate::error::{Error, Result};
+use crate::input::recording::Recording;
+use crate::input::table::WindowTable;
+use crate::report::contract::WindowInputInfo;
+
+/// The still-epoch rule (defaults: GGIR's).
+#[derive(Debug, Clone)]
+pub struct EpochOptions {
+    /// Epoch length, s (10).
+    pub epoch_s: f64,
+    /// Largest per-axis SD of a still epoch, g (0.013).
+    pub sd_max_g: f64,
+    /// Largest per-axis |mean|, g (2).
+    pub mean_max_g: f64,
+    /// Smallest fraction of the expected samples an epoch must hold (0.9).
+    pub min_fill: f64,
+}
+
+impl Default for EpochOptions {
+    fn default() -> Self {
+        Self {
+            epoch_s: 10.0,
+            sd_max_g: 0.013,
+            mean_max_g: 2.0,
+            min_fill: 0.9,
+        }
+    }
+}
+
+/// One epoch's statistics.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Epoch {
+    /// Centre time, s (the recording's clock).
+    pub t_centre: f64,
+    /// Per-axis mean, g.
+    pub mean: [f64; 3],
+    /// Per-axis sample SD (n − 1), g.
+    pub sd: [f64; 3],
+    /// Samples.
+    pub count: usize,
+    /// Mean temperature, °C (NaN without temperature).
+    pub temp: f64,
+}
+
+/// What the search found.
+#[derive(Debug, Clone, Default)]
+pub struct StillEpochs {
+    /// The still epochs, in time order.
+    pub still: Vec<Epoch>,
+    /// Complete epochs examined (still or not).
+    pub examined: usize,
+    /// Seconds from the first to the last sample.
+    pub span_s: f64,
+}
+
+/// Running sums of one epoch (Welford's update: no cancellation over 1000 samples near 1 g).
+#[derive(Default)]
+struct Acc {
+    n: usize,
+    mean: [f64; 3],
+    m2: [f64; 3],
+    temp: f64,
+}
+
+impl Acc {
+    fn push(&mut self, x: [f64; 3], temp: f64) {
+        self.n += 1;
+        let n = self.n as f64;
+        for (a, &xa) in x.iter().enumerate() {
+            let d = xa - self.mean[a];
+            self.mean[a] += d / n;
+            self.m2[a] += d * (xa - self.mean[a]);
+        }
+        self.temp += temp;
+    }
+
+    fn epoch(&self, t_centre: f64) -> Epoch {
+        let n = self.n as f64;
+        Epoch {
+            t_centre,
+            mean: self.mean,
+            sd: self.m2.map(|m| (m / (n - 1.0).max(1.0)).sqrt()),
+            count: self.n,
+            temp: self.temp / n,
+        }
+    }
+}
+
+/// The still epochs of samples `xyz` (g) at times `t` (s, rising) sampled at `rate_hz`, with
+/// their temperatures when given.
+pub fn still_epochs(
+    t: &[f64],
+    xyz: &[[f64; 3]],
+    temp: Option<&[f64]>,
+    rate_hz: f64,
+    opts: &EpochOptions,
+) -> StillEpochs {
+    let (Some(&t0), Some(&t_end)) = (t.first(), t.last()) else {
+        return StillEpochs::default();
+    };
+    let mut out = StillEpochs {
+        span_s: t_end - t0,
+        ..StillEpochs::default()
+    };
+    let needed = (opts.min_fill * opts.epoch_s * rate_hz).ceil().max(2.0) as usize;
+    let mut acc = Acc::default();
+    let mut k_cur = 0u64;
+    let close = |acc: &Acc, k: u64, out: &mut StillEpochs| {
+        if acc.n < needed {
+            return;
+        }
+        out.examined += 1;
+        let e = acc.epoch(t0 + (k as f64 + 0.5) * opts.epoch_s);
+        let still = e.sd.iter().all(|&s| s < opts.sd_max_g)
+            && e.mean.iter().all(|&m| m.abs() < opts.mean_max_g);
+        if still {
+            out.still.push(e);
+        }
+    };
+    for (i, (&ti, &x)) in t.iter().zip(xyz).enumerate() {
+        let k = ((ti - t0) / opts.epoch_s).floor().max(0.0) as u64;
+        if k != k_cur {
+            close(&acc, k_cur, &mut out);
+            acc = Acc::default();
+            k_cur = k;
+        }
+        acc.push(x, temp.map_or(f64::NAN, |tp| tp[i]));
+    }
+    // The last epoch counts only when it ends inside the data.
+    if t_end - t0 >= (k_cur as f64 + 1.0) * opts.epoch_s - 1.0 / rate_hz {
+        close(&acc, k_cur, &mut out);
+    }
+    out
+}
+
+/// The still epochs of a raw recording (in g, with times) as a window-mean table; too few for
+/// the autocalibration is the error [`Error::TooFewStillEpochs`]. `source` describes the file
+/// for the table's description (e.g. "an Axivity AX3 .cwa file").
+pub fn epoch_table(rec: &Recording, source: &str, opts: &EpochOptions) -> Result<WindowTable> {
+    let t = rec.times(100.0);
+    let rate = rec.estimated_rate_hz().unwrap_or(100.0);
+    let found = still_epochs(&t, &rec.xyz, rec.temp.as_deref(), rate, opts);
+    if found.still.len() < MIN_EPOCHS {
+        return Err(Error::TooFewStillEpochs {
+            found: found.still.len(),
+            examined: found.examined,
+            needed: MIN_EPOCHS,
+            span_s: found.span_s,
+        });
+    }
+    let mut means = Recording {
+        t: Some(found.still.iter().map(|e| e.t_centre).collect()),
+        xyz: found.still.iter().map(|e| e.mean).collect(),
+        temp: rec
+            .temp
+            .as_ref()
+            .map(|_| found.still.iter().map(|e| e.temp).collect()),
+        axis_columns: rec.axis_columns.clone(),
+        // The reader's warnings (skipped blocks, gaps) stay with the table: the CLI shows them.
+        notes: rec.notes.clone(),
+        info: rec.info.clone(),
+        ..Recording::default()
+    };
+    means.sample_rate_hz = None;
+    let description = format!(
+        "{} still {}-s epochs (SD < {} mg on every axis, |mean| < {} g) of {} complete epochs in {:.1} h of {source}: analysed as window means, no static detection",
+        found.still.len(),
+        opts.epoch_s,
+        opts.sd_max_g * 1000.0,
+        opts.mean_max_g,
+        found.examined,
+        found.span_s / 3600.0
+    );
+    Ok(WindowTable {
+        info: WindowInputInfo {
+            rows: found.still.len(),
+            sd_columns: None,
+            count_column: None,
+            forced: false,
+            description,
+        },
+        sd: Some(found.still.iter().map(|e| e.sd).collect()),
+        count: Some(found.still.iter().map(|e| e.count).collect()),
+        recording: means,
+    })
+}

@@ -1,0 +1,428 @@
+//! Raw accelerometer files of population studies: Axivity `.cwa` (AX3, AX6) and GENEActiv
+//! `.bin`, read from their published format descriptions (OpenMovement's `cwa.h` /
+//! AX3 technical documentation; Activinsights' "Decoding .bin files").
+//!
+//! A raw file is read into [`RawFile`]: its data blocks (pages) in file order, each either
+//! decoded ([`GoodBlock`]: start time, temperature, samples in g and °/s) or skipped with the
+//! reason counted (a failed checksum, an impossible field). [`to_recording`] turns it into the
+//! [`Recording`] every command analyses, with the samples' times taken from the blocks' own
+//! timestamps (no resampling), the block temperature per sample, and the accelerometer or
+//! gyroscope triplet chosen by the load options. [`ggir`] reproduces GGIRread's resampling
+//! onto a regular grid (the values GGIRread's tests assert), [`epochs`] finds GGIR's still
+//! 10-s epochs for the free-living autocalibration.
+//!
+//! Times are the device clock's date and time counted in seconds since 1970-01-01 **as if it
+//! were UTC**: neither format stores the time zone of its clock, so none is applied.
+
+use crate::error::{Error, Result};
+use crate::input::columns::LoadOptions;
+use crate::input::recording::Recording;
+use std::path::Path;
+
+pub mod cwa;
+pub mod epochs;
+pub mod geneactiv;
+pub mod ggir;
+
+/// Which raw format a file is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RawFormat {
+    /// Axivity `.cwa` (`MD` header block, `AX` data blocks).
+    Cwa,
+    /// GENEActiv `.bin` (text header starting `Device Identity`, hex-encoded pages).
+    GeneActiv,
+}
+
+/// One decoded data block (Axivity) or page (GENEActiv).
+#[derive(Debug, Clone)]
+pub struct GoodBlock {
+    /// Position in the file (0: the first data block).
+    pub index: usize,
+    /// The block's sequence number as stored (Axivity `sequenceId`, GENEActiv `Sequence Number`).
+    pub sequence: u32,
+    /// Time of the block's first sample, device-clock seconds (see the module docs).
+    pub start_s: f64,
+    /// The block's sample rate, Hz.
+    pub rate_hz: f64,
+    /// Sensor temperature, °C.
+    pub temp_c: f64,
+    /// Battery voltage, V (Axivity: `3·(b/256 + 1)`; GENEActiv: the page's value).
+    pub battery_v: f64,
+    /// Light: Axivity's raw 10-bit light value per block; GENEActiv's lux of the first sample.
+    pub light: f64,
+    /// Samples, row-major, [`RawFile::channels`] values each (g for the accelerometer, °/s for
+    /// the gyroscope, raw counts for a magnetometer).
+    pub data: Vec<f64>,
+    /// GENEActiv: light per sample (lux); `None` for Axivity.
+    pub light_per_sample: Option<Vec<f64>>,
+}
+
+impl GoodBlock {
+    /// Samples in the block.
+    pub fn len(&self, channels: usize) -> usize {
+        self.data.len() / channels.max(1)
+    }
+}
+
+/// A data block of the file: decoded, or skipped and why.
+#[derive(Debug, Clone)]
+pub enum Block {
+    /// Decoded.
+    Good(GoodBlock),
+    /// Its checksum fails (bits were corrupted; nothing in it can be trusted).
+    Corrupt,
+    /// Checksum fine but a field is impossible (header, length, date, layout); the reason.
+    Invalid(String),
+}
+
+/// A raw file as read: what the header says and every data block.
+#[derive(Debug, Clone)]
+pub struct RawFile {
+    /// The format.
+    pub format: RawFormat,
+    /// Device as the header names it (`AX3`, `AX6`, `GENEActiv 1.1`).
+    pub device: String,
+    /// Channel names of each sample: `ax, ay, az` (+ `gx, gy, gz` first on an AX6, as stored).
+    pub channels: Vec<String>,
+    /// Sample rate the header declares, Hz.
+    pub header_rate_hz: f64,
+    /// Data blocks in file order.
+    pub blocks: Vec<Block>,
+    /// Blocks (pages) the header declares, when it does (GENEActiv `Number of Pages`).
+    pub declared_blocks: Option<usize>,
+    /// What the reader noticed that does not stop it (a cut-off last block), one sentence each.
+    pub notes: Vec<String>,
+}
+
+impl RawFile {
+    /// Number of values per sample.
+    pub fn n_channels(&self) -> usize {
+        self.channels.len()
+    }
+
+    /// The decoded blocks.
+    pub fn good(&self) -> impl Iterator<Item = &GoodBlock> {
+        self.blocks.iter().filter_map(|b| match b {
+            Block::Good(g) => Some(g),
+            _ => None,
+        })
+    }
+
+    /// Indices of the blocks that failed their checksum.
+    pub fn corrupt_blocks(&self) -> Vec<usize> {
+        (0..self.blocks.len())
+            .filter(|&i| matches!(self.blocks[i], Block::Corrupt))
+            .collect()
+    }
+
+    /// Indices and reasons of the blocks skipped for an impossible field.
+    pub fn invalid_blocks(&self) -> Vec<(usize, &str)> {
+        (0..self.blocks.len())
+            .filter_map(|i| match &self.blocks[i] {
+                Block::Invalid(why) => Some((i, why.as_str())),
+                _ => None,
+            })
+            .collect()
+    }
+}
+
+/// The raw format `bytes` are in, by their first bytes (Axivity: `MD` and the header length
+/// 1020; GENEActiv: `Device Identity`); `Ok(None)` for anything else, unless the file's
+/// extension (`.cwa`, `.bin`) promises a raw format its bytes do not have: then the error
+/// says so instead of a text parser's confusion.
+pub fn detect(bytes: &[u8], path: &Path) -> Result<Option<RawFormat>> {
+    if bytes.len() >= 4 && &bytes[..2] == b"MD" && u16::from_le_bytes([bytes[2], bytes[3]]) == 1020
+    {
+        return Ok(Some(RawFormat::Cwa));
+    }
+    if bytes.starts_with(b"Device Identity") {
+        return Ok(Some(RawFormat::GeneActiv));
+    }
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(|e| e.to_ascii_lowercase());
+    match ext.as_deref() {
+        Some("cwa") => Err(Error::RawHeader {
+            format: "Axivity .cwa",
+            why: "it does not start with the 'MD' header block of 1024 bytes".into(),
+        }),
+        Some("bin") => Err(Error::RawHeader {
+            format: "GENEActiv .bin",
+            why: "it does not start with 'Device Identity' (other .bin formats are not read)"
+                .into(),
+        }),
+        _ => Ok(None),
+    }
+}
+
+/// Reads `bytes` as the raw format they are in ([`detect`]); `Ok(None)` when they are not raw.
+pub fn parse_bytes(bytes: &[u8], path: &Path) -> Result<Option<RawFile>> {
+    match detect(bytes, path)? {
+        Some(RawFormat::Cwa) => cwa::parse(bytes).map(Some),
+        Some(RawFormat::GeneActiv) => geneactiv::parse(bytes).map(Some),
+        None => Ok(None),
+    }
+}
+
+/// Reads a raw file from disk (bounded as every recording,
+/// [`crate::input::bounded::MAX_RECORDING_BYTES`]); errors name the file.
+pub fn read(path: &Path) -> Result<RawFile> {
+    let bytes =
+        crate::input::bounded::read_bounded(path, crate::input::bounded::MAX_RECORDING_BYTES)?;
+    match parse_bytes(&bytes, path) {
+        Ok(Some(raw)) => Ok(raw),
+        Ok(None) => Err(Error::RawHeader {
+            format: "Axivity .cwa or GENEActiv .bin",
+            why: "its first bytes are neither 'MD' nor 'Device Identity'".into(),
+        }
+        .in_file(path)),
+        Err(e) => Err(e.in_file(path)),
+    }
+}
+
+/// Seconds since 1970-01-01 of a civil date and time (proleptic Gregorian, no time zone):
+/// the days-from-civil count of H. Hinnant's date algorithms.
+pub(crate) fn civil_seconds(y: i64, mo: u32, d: u32, h: u32, mi: u32, s: f64) -> f64 {
+    let y = if mo <= 2 { y - 1 } else { y };
+    let era = y.div_euclid(400);
+    let yoe = y - era * 400;
+    let mp = (mo as i64 + 9) % 12;
+    let doy = (153 * mp + 2) / 5 + d as i64 - 1;
+    let doe = yoe * 365 + yoe / 4 - yoe / 100 + doy;
+    let days = era * 146_097 + doe - 719_468;
+    days as f64 * 86_400.0 + (h * 3600 + mi * 60) as f64 + s
+}
+
+/// True when a civil date and time is possible (day checked against the month's length).
+pub(crate) fn valid_civil(y: i64, mo: u32, d: u32, h: u32, mi: u32, s: u32) -> bool {
+    let leap = (y % 4 == 0 && y % 100 != 0) || y % 400 == 0;
+    let month_days = [
+        31,
+        if leap { 29 } else { 28 },
+        31,
+        30,
+        31,
+        30,
+        31,
+        31,
+        30,
+        31,
+        30,
+        31,
+    ];
+    (1..=12).contains(&mo)
+        && d >= 1
+        && d <= month_days[(mo - 1) as usize]
+        && h < 24
+        && mi < 60
+        && s < 60
+}
+
+/// The recording every command analyses: the chosen triplet of every decoded sample, its time
+/// and the block's temperature. See [`sample_times`] for the times.
+pub fn to_recording(raw: &RawFile, opts: &LoadOptions) -> Result<Recording> {
+    let cols = choose_channels(raw, opts)?;
+    let nch = raw.n_channels();
+    let times = sample_times(raw);
+    let mut rec = Recording::default();
+    let (mut t, mut temp) = (Vec::new(), Vec::new());
+    for (b, bt) in raw.good().zip(&times) {
+        let Some(bt) = bt else { continue };
+        for (i, &ti) in bt.iter().enumerate() {
+            let row = &b.data[i * nch..(i + 1) * nch];
+            rec.xyz.push(cols.map(|c| row[c]));
+            t.push(ti);
+            temp.push(b.temp_c);
+        }
+    }
+    if rec.xyz.is_empty() {
+        return Err(no_data(raw));
+    }
+    rec.axis_columns = cols.map(|c| raw.channels[c].clone());
+    rec.notes = skip_notes(raw, times.iter().filter(|t| t.is_none()).count());
+    rec.notes
+        .extend(crate::input::timecheck::time_notes("time", &t));
+    rec.info.push(describe(raw));
+    rec.t = Some(t);
+    rec.temp = Some(temp);
+    Ok(rec)
+}
+
+/// The error for a file without one decoded block.
+pub(crate) fn no_data(raw: &RawFile) -> Error {
+    let corrupt = raw.corrupt_blocks().len();
+    let invalid = raw.invalid_blocks();
+    let why = match (corrupt, invalid.first()) {
+        (0, Some((i, why))) => format!("block #{i}: {why}"),
+        (0, None) => "the file ends before its first data block".to_string(),
+        (c, _) => format!("{c} fail their checksum"),
+    };
+    Error::RawNoData {
+        blocks: raw.blocks.len(),
+        skipped: corrupt + invalid.len(),
+        why,
+    }
+}
+
+/// Which three channels the options ask for: `--columns` names, else the wanted sensor's
+/// triplet (the accelerometer by default) among the channel names.
+fn choose_channels(raw: &RawFile, opts: &LoadOptions) -> Result<[usize; 3]> {
+    let have = raw.channels.join(",");
+    if let Some(cols) = &opts.columns {
+        let mut out = [0usize; 3];
+        for (k, c) in cols.iter().enumerate() {
+            let c = c.to_ascii_lowercase();
+            out[k] =
+                raw.channels
+                    .iter()
+                    .position(|n| *n == c)
+                    .ok_or_else(|| Error::RawNoChannel {
+                        have: have.clone(),
+                        wanted: format!("channel '{c}'"),
+                    })?;
+        }
+        return Ok(out);
+    }
+    let want = opts
+        .sensor
+        .unwrap_or(crate::input::columns::Sensor::Accelerometer);
+    crate::input::columns::find_triplet(&raw.channels, want)
+        .filter(|t| t.sensor == want)
+        .map(|t| t.columns)
+        .ok_or_else(|| Error::RawNoChannel {
+            have,
+            wanted: format!("the {}", want.name()),
+        })
+}
+
+/// Each decoded block's sample times (`None`: the block is left out because its start is not
+/// after the previous block's last sample, a clock step back). A block's samples are spread
+/// evenly from its start to the next block's start when the next block follows it in the file
+/// and starts within half to twice the nominal block duration later (the devices' own clocks
+/// set the rate, as GGIRread and OpenMovement's converters do); otherwise (last block, a gap of
+/// skipped blocks, a time jump) at the block's nominal rate.
+pub fn sample_times(raw: &RawFile) -> Vec<Option<Vec<f64>>> {
+    let nch = raw.n_channels();
+    let good: Vec<&GoodBlock> = raw.good().collect();
+    let mut out = Vec::with_capacity(good.len());
+    let mut last_t = f64::NEG_INFINITY;
+    for (k, b) in good.iter().enumerate() {
+        let n = b.len(nch);
+        if n == 0 || b.start_s <= last_t {
+            out.push(None);
+            continue;
+        }
+        let nominal = n as f64 / b.rate_hz;
+        let dur = match good.get(k + 1) {
+            Some(next) if next.index == b.index + 1 => {
+                let d = next.start_s - b.start_s;
+                if d > 0.5 * nominal && d < 2.0 * nominal {
+                    d
+                } else {
+                    nominal
+                }
+            }
+            _ => nominal,
+        };
+        let ts: Vec<f64> = (0..n)
+            .map(|i| b.start_s + i as f64 * dur / n as f64)
+            .collect();
+        last_t = ts[n - 1];
+        out.push(Some(ts));
+    }
+    out
+}
+
+/// Warnings on skipped blocks: counted, the first few named.
+fn skip_notes(raw: &RawFile, out_of_order: usize) -> Vec<String> {
+    let mut notes = raw.notes.clone();
+    let unit = match raw.format {
+        RawFormat::Cwa => "data block",
+        RawFormat::GeneActiv => "page",
+    };
+    let list = |idx: &[usize]| {
+        let shown: Vec<String> = idx.iter().take(8).map(|i| format!("#{i}")).collect();
+        let more = if idx.len() > 8 { ", …" } else { "" };
+        format!("{}{more}", shown.join(", "))
+    };
+    let corrupt = raw.corrupt_blocks();
+    if !corrupt.is_empty() {
+        notes.push(format!(
+            "skipped {} corrupt {unit}(s) of {} (checksum failed): {}",
+            corrupt.len(),
+            raw.blocks.len(),
+            list(&corrupt)
+        ));
+    }
+    let invalid = raw.invalid_blocks();
+    if let Some((_, why)) = invalid.first() {
+        let idx: Vec<usize> = invalid.iter().map(|(i, _)| *i).collect();
+        notes.push(format!(
+            "skipped {} unreadable {unit}(s) of {}: {} (the first: {why})",
+            invalid.len(),
+            raw.blocks.len(),
+            list(&idx)
+        ));
+    }
+    if out_of_order > 0 {
+        notes.push(format!(
+            "left out {out_of_order} {unit}(s) whose time steps back before the previous one's samples"
+        ));
+    }
+    notes
+}
+
+/// "read as an Axivity AX6 .cwa file: 285 data blocks at 100 Hz, channels gx,gy,gz,ax,ay,az".
+fn describe(raw: &RawFile) -> String {
+    let (what, unit) = match raw.format {
+        RawFormat::Cwa => (
+            format!("an Axivity {} .cwa file", raw.device),
+            "data blocks",
+        ),
+        RawFormat::GeneActiv => (format!("a {} .bin file", raw.device), "pages"),
+    };
+    let units = if raw.channels.iter().any(|c| c.starts_with('g')) {
+        "g and °/s"
+    } else {
+        "g"
+    };
+    format!(
+        "read as {what}: {} {unit} at {} Hz, channels {} ({units}), times from the device clock",
+        raw.blocks.len(),
+        raw.header_rate_hz,
+        raw.channels.join(",")
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn civil_seconds_match_known_instants() {
+        // 2019-02-26 09:55:06 UTC is 1551174906 (date -u -d @1551174906).
+        assert_eq!(civil_seconds(2019, 2, 26, 9, 55, 6.0), 1_551_174_906.0);
+        assert_eq!(civil_seconds(1970, 1, 1, 0, 0, 0.0), 0.0);
+        assert_eq!(civil_seconds(2000, 3, 1, 0, 0, 0.0), 951_868_800.0);
+        assert!(valid_civil(2024, 2, 29, 23, 59, 59));
+        assert!(!valid_civil(2023, 2, 29, 0, 0, 0));
+        assert!(!valid_civil(2023, 13, 1, 0, 0, 0));
+    }
+
+    #[test]
+    fn detect_by_magic_and_extension() {
+        let p = Path::new("a.csv");
+        assert_eq!(detect(b"t,x,y,z\n", p).unwrap(), None);
+        let mut md = b"MD".to_vec();
+        md.extend(1020u16.to_le_bytes());
+        assert_eq!(detect(&md, p).unwrap(), Some(RawFormat::Cwa));
+        assert_eq!(
+            detect(b"Device Identity\r\n", p).unwrap(),
+            Some(RawFormat::GeneActiv)
+        );
+        let e = detect(b"x,y,z\n", Path::new("rec.CWA")).unwrap_err();
+        assert!(e.to_string().contains("'MD'"), "{e}");
+        assert!(detect(b"\0\0", Path::new("rec.bin")).is_err());
+    }
+}

@@ -1,0 +1,272 @@
+//! Sanity of a recording's time column: it must not go back from row to row (time that goes
+//! backwards means reordered or merged rows, and the drift and rate estimates built on it
+//! would be wrong without a word). A time that repeats the previous row's is read: many
+//! loggers print times coarser than the sample period (a 200 Hz log with times to 10 ms has
+//! each time twice); the rate then comes from the whole span and one note says how many rows
+//! repeat. Jumps are reported as notes (a logger that dropped samples is common and harmless
+//! for static poses, but the user should know). A rate that suggests millisecond times is named where it makes a setting fail
+//! (`windows::detect`).
+
+use crate::error::{Error, Result};
+use crate::input::bounded::quote;
+
+/// A gap is a step longer than this many median steps.
+pub const GAP_FACTOR: f64 = 5.0;
+
+/// At most this many gaps are listed in the notes (the count is always given).
+const MAX_LISTED_GAPS: usize = 3;
+
+/// Checks time values row by row as the loader reads them (so that an error names the line).
+#[derive(Debug, Clone)]
+pub struct TimeCheck {
+    column: String,
+    prev: Option<f64>,
+}
+
+impl TimeCheck {
+    /// A check of the column named `column` (for messages).
+    pub fn new(column: &str) -> Self {
+        Self {
+            column: quote(column),
+            prev: None,
+        }
+    }
+
+    /// The next row's time `t` (seconds by contract), read on 1-based `line`: an error when it
+    /// is earlier than the previous row's (equal is accepted: coarse timestamps).
+    pub fn push(&mut self, t: f64, line: usize) -> Result<()> {
+        if let Some(prev) = self.prev {
+            if t < prev {
+                return Err(Error::TimeNotIncreasing {
+                    line,
+                    column: self.column.clone(),
+                    previous: prev,
+                    value: t,
+                });
+            }
+        }
+        self.prev = Some(t);
+        Ok(())
+    }
+}
+
+/// A time column is read as bursts when more than this fraction of its steps are gaps
+/// (over [`GAP_FACTOR`] × the median step): a logger that timestamps FIFO reads on arrival
+/// writes a few samples 1–2 ms apart, then waits for the next read. A logger that dropped
+/// samples a few times stays far below this fraction.
+pub const BURST_GAP_FRACTION: f64 = 0.1;
+
+/// What the steps of a strictly increasing time column say about the sample rate.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TimeSteps {
+    /// Median step, s.
+    pub median_s: f64,
+    /// Mean step over the whole span, (t_last − t_first)/(rows − 1), s.
+    pub mean_s: f64,
+    /// Steps over [`GAP_FACTOR`] × the median step.
+    pub gaps: usize,
+    /// Steps in all (rows − 1).
+    pub steps: usize,
+    /// Rows whose time repeats the previous row's (timestamps coarser than the sample
+    /// period).
+    pub repeats: usize,
+}
+
+impl TimeSteps {
+    /// The summary of `t` (`None` with fewer than 3 rows or no time elapsed). With repeated
+    /// times the step statistics are those of the positive steps.
+    pub fn of(t: &[f64]) -> Option<Self> {
+        if t.len() < 3 {
+            return None;
+        }
+        // The median by selection, not a full sort: there is a step per row of the file
+        // (millions for a long recording), and the gap count needs no order.
+        let all = t.len() - 1;
+        let mut steps: Vec<f64> = t
+            .windows(2)
+            .map(|w| w[1] - w[0])
+            .filter(|d| *d > 0.0)
+            .collect();
+        let repeats = all - steps.len();
+        if steps.is_empty() {
+            return None;
+        }
+        let mid = steps.len() / 2;
+        let median_s = *steps.select_nth_unstable_by(mid, |a, b| a.total_cmp(b)).1;
+        if !(median_s.is_finite() && median_s > 0.0) {
+            return None;
+        }
+        let gaps = steps.iter().filter(|d| **d > GAP_FACTOR * median_s).count();
+        Some(Self {
+            median_s,
+            mean_s: (t[t.len() - 1] - t[0]) / all as f64,
+            gaps,
+            steps: all,
+            repeats,
+        })
+    }
+
+    /// True when the timestamps come in bursts ([`BURST_GAP_FRACTION`]): the median step is
+    /// the spacing inside a burst, not the sample period.
+    pub fn bursty(&self) -> bool {
+        self.gaps as f64 > BURST_GAP_FRACTION * self.steps as f64
+    }
+
+    /// The sample rate, Hz: one over the median step, or over the mean step for bursty
+    /// timestamps (whose median step is the arrival spacing inside a burst) and for coarse
+    /// ones (repeated times: the median step is the timestamps' resolution).
+    pub fn rate_hz(&self) -> f64 {
+        if self.bursty() || self.repeats > 0 {
+            1.0 / self.mean_s
+        } else {
+            1.0 / self.median_s
+        }
+    }
+}
+
+/// Rounded for messages (a median of 0.009999999999990905 s reads as 0.01 s).
+fn shown(x: f64) -> f64 {
+    (x * 1e9).round() / 1e9
+}
+
+/// Notes on a strictly increasing time column: gaps (steps over [`GAP_FACTOR`] × the median
+/// step), or, when there are so many that the timestamps come in bursts, how the rate is
+/// taken instead. Empty when all is regular.
+pub fn time_notes(column: &str, t: &[f64]) -> Vec<String> {
+    let Some(steps) = TimeSteps::of(t) else {
+        return Vec::new();
+    };
+    let median_shown = shown(steps.median_s);
+    if steps.repeats > 0 {
+        return vec![format!(
+            "column '{}': {} of {} rows repeat the previous row's time (timestamps coarser than the sample period); the sample rate is taken from the whole span: {} Hz",
+            quote(column),
+            steps.repeats,
+            steps.steps + 1,
+            (steps.rate_hz() * 1e3).round() / 1e3,
+        )];
+    }
+    if steps.bursty() {
+        return vec![format!(
+            "column '{}': timestamps come in bursts ({} of {} steps exceed {GAP_FACTOR}× the median step of {median_shown} s), as from a logger that stamps FIFO reads on arrival; the sample rate is taken from the whole span: {} Hz",
+            quote(column),
+            steps.gaps,
+            steps.steps,
+            (steps.rate_hz() * 1e3).round() / 1e3,
+        )];
+    }
+    let gaps: Vec<usize> = t
+        .windows(2)
+        .enumerate()
+        .filter(|(_, w)| w[1] - w[0] > GAP_FACTOR * steps.median_s)
+        .map(|(i, _)| i)
+        .collect();
+    if gaps.is_empty() {
+        return Vec::new();
+    }
+    let listed: Vec<String> = gaps
+        .iter()
+        .take(MAX_LISTED_GAPS)
+        .map(|&i| format!("{} s → {} s", t[i], t[i + 1]))
+        .collect();
+    let more = if gaps.len() > MAX_LISTED_GAPS {
+        ", …"
+    } else {
+        ""
+    };
+    vec![format!(
+        "column '{}': time jumps {} time(s) by more than {GAP_FACTOR}× the median step of {median_shown} s ({}{more}); samples are missing there",
+        quote(column),
+        gaps.len(),
+        listed.join(", ")
+    )]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A 200 Hz log with times printed to 10 ms (each time twice, issue 19): read, the rate
+    /// from the span, one note naming how many rows repeat; time that goes back stays an error.
+    #[test]
+    fn coarse_times_are_read_with_the_rate_from_the_span() {
+        let t: Vec<f64> = (0..2000)
+            .map(|i| ((i as f64 / 200.0) * 100.0).floor() / 100.0)
+            .collect();
+        let mut check = TimeCheck::new("t");
+        for (i, v) in t.iter().enumerate() {
+            check.push(*v, i + 2).unwrap();
+        }
+        let steps = TimeSteps::of(&t).unwrap();
+        assert_eq!(steps.repeats, 1000);
+        // Span 9.99 s over 1999 steps: 200.1 Hz (the last 10 ms tick is not a full period).
+        assert!(
+            (steps.rate_hz() - 1999.0 / 9.99).abs() < 1e-9,
+            "{}",
+            steps.rate_hz()
+        );
+        let notes = time_notes("t", &t);
+        assert_eq!(notes.len(), 1);
+        assert!(notes[0].contains("1000 of 2000 rows repeat"), "{notes:?}");
+        let mut back = TimeCheck::new("t");
+        back.push(0.02, 2).unwrap();
+        let e = back.push(0.01, 3).unwrap_err();
+        assert!(matches!(e, Error::TimeNotIncreasing { line: 3, .. }), "{e}");
+    }
+
+    #[test]
+    fn backwards_times_name_the_line_and_repeats_are_read() {
+        let mut c = TimeCheck::new("t");
+        c.push(0.0, 2).unwrap();
+        c.push(0.01, 3).unwrap();
+        let e = c.push(0.005, 4).unwrap_err().to_string();
+        assert_eq!(
+            e,
+            "line 4: column 't': time goes from 0.01 back to 0.005; rows must be in time order"
+        );
+        let mut c = TimeCheck::new("time");
+        c.push(1.0, 2).unwrap();
+        assert!(c.push(1.0, 3).is_ok());
+    }
+
+    #[test]
+    fn gaps_are_noted() {
+        let regular: Vec<f64> = (0..100).map(|i| i as f64 * 0.01).collect();
+        assert!(time_notes("t", &regular).is_empty());
+        let mut gap = regular.clone();
+        for v in gap.iter_mut().skip(50) {
+            *v += 3.0;
+        }
+        let notes = time_notes("t", &gap);
+        assert_eq!(notes.len(), 1, "{notes:?}");
+        assert!(notes[0].contains("jumps 1 time(s)"), "{}", notes[0]);
+        assert!(notes[0].contains("0.49 s → 3.5 s"), "{}", notes[0]);
+        // A few gaps leave the rate at one over the median step.
+        let s = TimeSteps::of(&gap).unwrap();
+        assert!(!s.bursty());
+        assert!((s.rate_hz() - 100.0).abs() < 1e-6, "{s:?}");
+    }
+
+    /// A 100 Hz sensor read through a FIFO every 50 ms, each read's five samples stamped on
+    /// arrival 1.5 ms apart: the rate is the span's, 100 Hz, not the 667 Hz of the median
+    /// step, and the note says why instead of reporting hundreds of "missing samples".
+    #[test]
+    fn bursty_timestamps_take_the_rate_from_the_span() {
+        let t: Vec<f64> = (0..1000)
+            .map(|i| (i / 5) as f64 * 0.05 + (i % 5) as f64 * 0.0015)
+            .collect();
+        let s = TimeSteps::of(&t).unwrap();
+        assert!(s.bursty(), "{s:?}");
+        let expected = 999.0 / t[999];
+        assert!((s.rate_hz() - expected).abs() < 1e-9, "{s:?}");
+        assert!((s.rate_hz() - 100.0).abs() < 1.0, "{s:?}");
+        let notes = time_notes("t_s", &t);
+        assert_eq!(notes.len(), 1, "{notes:?}");
+        assert!(
+            notes[0].contains("timestamps come in bursts"),
+            "{}",
+            notes[0]
+        );
+        assert!(!notes[0].contains("missing"), "{}", notes[0]);
+    }
+}

@@ -1,0 +1,8 @@
+//! Noise of a still sensor (`wiical noise`): a still recording in → per axis the overlapping
+//! Allan deviation and the IEEE 952 terms ([`allan`]) out, as the command's report
+//! ([`report`]); [`sim`] (feature `simulate`) makes still noise with known terms.
+
+pub mod allan;
+pub mod report;
+#[cfg(feature = "simulate")]
+pub mod sim;

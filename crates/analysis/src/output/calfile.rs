@@ -1,0 +1,271 @@
+//! The calibration file: what `wiical fit --out`, `analyze --out`, `six-position --out` and
+//! `magfit --out` write and `wiical device put` reads. Pretty-printed JSON:
+//!
+//! ```json
+//! { "schema": "wiical-calibration/1",
+//!   "bias": [..3], "matrix": [[..3], [..3], [..3]],
+//!   "effects": { "quadratic": [..3], "cubic": [..3], "bias_drift": [..3],
+//!                "temp_ref_c": 0.0, "bias_temp": [..3], "scale_temp": [..3] },
+//!   "quality": { "verdict": "good", "fit_rms_mg": .., "max_fit_rms_mg": 30.0,
+//!                "poses": 14, "coverage_gap": null } }
+//! ```
+//!
+//! Reading is strict: an unknown key anywhere is an error (a misspelt `bias-drift` or
+//! `effect` would otherwise drop the terms silently, and a `fit --json` report would pass for
+//! a calibration). `effects` and each of its keys may be left out (zero); `quality` may be
+//! left out (a calibration not from a fit: six-position, magfit, hand-written).
+//!
+//! **Files without `schema`** (written before it existed) are still read, as version 1: the
+//! keys were the same and are now checked strictly. A different `schema` value is refused
+//! (a file from a newer wiical must not be half-understood).
+
+use crate::error::{Error, Result};
+use crate::input::bounded::{read_text, MAX_CALIBRATION_BYTES};
+use crate::output::write::write_file;
+use crate::report::verdict::Quality;
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+use wiical_core::{Calibration, Effects};
+
+/// The `schema` value this version writes and reads.
+pub const SCHEMA: &str = "wiical-calibration/1";
+
+/// The file's layout (see the module docs).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FileV1 {
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    schema: Option<String>,
+    bias: [f32; 3],
+    matrix: [[f32; 3]; 3],
+    #[serde(default)]
+    effects: EffectsV1,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    quality: Option<Quality>,
+}
+
+/// The effect terms, strict (the core's serde derive is lenient, for its other users).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+struct EffectsV1 {
+    quadratic: [f32; 3],
+    cubic: [f32; 3],
+    bias_drift: [f32; 3],
+    temp_ref_c: f32,
+    bias_temp: [f32; 3],
+    scale_temp: [f32; 3],
+}
+
+impl From<Effects> for EffectsV1 {
+    fn from(e: Effects) -> Self {
+        Self {
+            quadratic: e.quadratic,
+            cubic: e.cubic,
+            bias_drift: e.bias_drift,
+            temp_ref_c: e.temp_ref_c,
+            bias_temp: e.bias_temp,
+            scale_temp: e.scale_temp,
+        }
+    }
+}
+
+impl From<EffectsV1> for Effects {
+    fn from(e: EffectsV1) -> Self {
+        Self {
+            quadratic: e.quadratic,
+            cubic: e.cubic,
+            bias_drift: e.bias_drift,
+            temp_ref_c: e.temp_ref_c,
+            bias_temp: e.bias_temp,
+            scale_temp: e.scale_temp,
+        }
+    }
+}
+
+/// A calibration file's contents: the calibration and, when it came from a fit, the fit's
+/// quality verdict.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CalibrationFile {
+    /// The calibration.
+    pub calibration: Calibration,
+    /// The fit's quality (absent for calibrations not from a multi-position fit).
+    pub quality: Option<Quality>,
+}
+
+/// The JSON text of a calibration file (pretty-printed, with a final newline).
+pub fn to_json_with(cal: &Calibration, quality: Option<&Quality>) -> Result<String> {
+    let file = FileV1 {
+        schema: Some(SCHEMA.into()),
+        bias: cal.bias,
+        matrix: cal.matrix,
+        effects: cal.effects.into(),
+        quality: quality.cloned(),
+    };
+    Ok(serde_json::to_string_pretty(&file)? + "\n")
+}
+
+/// The JSON text of a calibration without a quality section.
+pub fn to_json(cal: &Calibration) -> Result<String> {
+    to_json_with(cal, None)
+}
+
+/// Parses calibration-file text strictly (see the module docs); does not validate.
+pub fn parse(text: &str) -> std::result::Result<CalibrationFile, serde_json::Error> {
+    let file: FileV1 = serde_json::from_str(text)?;
+    if let Some(schema) = &file.schema {
+        if schema != SCHEMA {
+            return Err(serde::de::Error::custom(format!(
+                "schema '{}' is not '{SCHEMA}' (written by another version of wiical?)",
+                crate::input::bounded::quote(schema)
+            )));
+        }
+    }
+    Ok(CalibrationFile {
+        calibration: Calibration {
+            bias: file.bias,
+            matrix: file.matrix,
+            effects: file.effects.into(),
+        },
+        quality: file.quality,
+    })
+}
+
+/// Writes a calibration (with the fit's quality, if any) after checking it is valid (finite,
+/// invertible), atomically.
+pub fn write_calibration_with(
+    path: &Path,
+    cal: &Calibration,
+    quality: Option<&Quality>,
+) -> Result<()> {
+    cal.validate().map_err(Error::RefuseInvalidCalibration)?;
+    write_file(path, to_json_with(cal, quality)?.as_bytes())
+}
+
+/// Writes a calibration after checking it is valid (finite, invertible: what the adapter
+/// accepts).
+pub fn write_calibration(path: &Path, cal: &Calibration) -> Result<()> {
+    write_calibration_with(path, cal, None)
+}
+
+/// Writes a calibration as it is (e.g. one read back from a device, to be inspected).
+pub fn write_calibration_unchecked(path: &Path, cal: &Calibration) -> Result<()> {
+    write_file(path, to_json(cal)?.as_bytes())
+}
+
+/// Reads a calibration file (a regular file of at most [`MAX_CALIBRATION_BYTES`], or `-`),
+/// strictly, and checks the calibration is valid.
+pub fn read_calibration_file(path: &Path) -> Result<CalibrationFile> {
+    let text = read_text(path, MAX_CALIBRATION_BYTES)?;
+    let file = parse(&text).map_err(|source| Error::NotCalibrationJson {
+        path: path.into(),
+        source,
+    })?;
+    file.calibration
+        .validate()
+        .map_err(|cause| Error::InvalidCalibrationFile {
+            path: path.into(),
+            cause,
+        })?;
+    Ok(file)
+}
+
+/// Reads a calibration file and checks it is valid (the quality section, if any, dropped).
+pub fn read_calibration(path: &Path) -> Result<Calibration> {
+    Ok(read_calibration_file(path)?.calibration)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sample() -> Calibration {
+        let mut cal = Calibration {
+            bias: [512.0, 511.5, 530.25],
+            ..Default::default()
+        };
+        cal.matrix[0][1] = 1e-4;
+        cal.effects.quadratic = [0.01, 0.0, -0.02];
+        cal
+    }
+
+    #[test]
+    fn round_trip_and_refusals() {
+        let guard = tempfile::tempdir().unwrap();
+        let dir = guard.path();
+        let path = dir.join("cal.json");
+        let cal = sample();
+        write_calibration(&path, &cal).unwrap();
+        assert_eq!(read_calibration(&path).unwrap(), cal);
+        let mut bad = cal;
+        bad.matrix[1][1] = f32::NAN;
+        let e = write_calibration(&path, &bad).unwrap_err().to_string();
+        assert!(
+            e.starts_with("refusing to write an invalid calibration"),
+            "{e}"
+        );
+        assert_eq!(read_calibration(&path).unwrap(), cal, "old file intact");
+        std::fs::write(&path, "{\"bias\": 1}").unwrap();
+        let e = read_calibration(&path).unwrap_err().to_string();
+        assert!(e.ends_with("is not a calibration JSON"), "{e}");
+        let e = read_calibration(&dir.join("missing.json"))
+            .unwrap_err()
+            .to_string();
+        assert!(e.starts_with("cannot read"), "{e}");
+    }
+
+    #[test]
+    fn the_schema_is_written_and_checked() {
+        let text = to_json(&sample()).unwrap();
+        assert!(
+            text.starts_with("{\n  \"schema\": \"wiical-calibration/1\","),
+            "{text}"
+        );
+        assert_eq!(parse(&text).unwrap().calibration, sample());
+        let other = text.replace("wiical-calibration/1", "wiical-calibration/2");
+        let e = parse(&other).unwrap_err().to_string();
+        assert!(e.contains("schema 'wiical-calibration/2'"), "{e}");
+    }
+
+    #[test]
+    fn old_files_without_schema_are_read_strictly() {
+        let old =
+            r#"{"bias":[1,2,3],"matrix":[[1,0,0],[0,1,0],[0,0,1]],"effects":{"cubic":[0,0,0.5]}}"#;
+        let f = parse(old).unwrap();
+        assert_eq!(f.calibration.effects.cubic, [0.0, 0.0, 0.5]);
+        assert_eq!(f.quality, None);
+        let no_effects = r#"{"bias":[1,2,3],"matrix":[[1,0,0],[0,1,0],[0,0,1]]}"#;
+        assert!(parse(no_effects).unwrap().calibration.effects.is_none());
+    }
+
+    #[test]
+    fn unknown_keys_are_refused() {
+        let base = to_json(&sample()).unwrap();
+        // A misspelt effect term, a misspelt section, an extra top-level key.
+        for (from, to) in [
+            ("\"bias_drift\"", "\"bias-drift\""),
+            ("\"effects\"", "\"effect\""),
+            ("\"bias\": [", "\"static_windows\": 12, \"bias\": ["),
+        ] {
+            let text = base.replacen(from, to, 1);
+            assert_ne!(text, base);
+            let e = parse(&text).unwrap_err().to_string();
+            assert!(e.contains("unknown field"), "{to}: {e}");
+        }
+    }
+
+    #[test]
+    fn quality_round_trips() {
+        let q = Quality {
+            verdict: crate::report::verdict::Verdict::Poor,
+            fit_rms_mg: 41.5,
+            max_fit_rms_mg: 30.0,
+            poses: 10,
+            coverage_gap: Some("too few poses: 10 of 12".into()),
+            residual: None,
+        };
+        let text = to_json_with(&sample(), Some(&q)).unwrap();
+        assert_eq!(parse(&text).unwrap().quality, Some(q));
+        let e = parse(&text.replace("\"poses\"", "\"pose_count\"")).unwrap_err();
+        assert!(e.to_string().contains("unknown field"), "{e}");
+    }
+}

@@ -1,0 +1,17 @@
+//! The search: a base fit and its windows in → the effects the residual asks for, one per
+//! greedy step, with the evidence, out ([`analyze::analyze`], `wiical analyze`).
+//!
+//! [`floor`] gives the noise floor the residual is compared with; [`candidate`] lists the
+//! effects, [`trial`] and [`outliers`] fit and test each one, [`select`] holds the rule that
+//! picks one, [`evidence`] says why; [`six_contrasts`] is the residual analysis of a
+//! six-position file; [`options`] the settings.
+
+pub mod analyze;
+pub mod candidate;
+pub mod evidence;
+pub mod floor;
+pub mod options;
+pub mod outliers;
+pub mod select;
+pub mod six_contrasts;
+pub mod trial;
