@@ -23,10 +23,12 @@
 //! that holds its terms: `wiical-calibration/1` (exactly the version-1 layout) when every
 //! cross term is zero, so that an older wiical still reads it, and `wiical-calibration/2`
 //! otherwise, which an older wiical refuses by its schema instead of dropping the terms.
-//! Reading accepts both; a version-1 file with cross keys is refused (version 1 has none).
-//! **Files without `schema`** (written before it existed) are read as version 1: the keys
-//! were the same and are now checked strictly. Any other `schema` value is refused (a file
-//! from a newer wiical must not be half-understood).
+//! Reading accepts both; a file labelled version 1 with a non-zero cross term is refused
+//! (version 1 has none: the label or the terms are wrong).
+//! **Files without `schema`** (written before it existed, or the core's plain serde JSON as
+//! `device get --json` prints it) are read with the same strict keys, cross terms included.
+//! Any other `schema` value is refused (a file from a newer wiical must not be
+//! half-understood).
 
 use crate::error::{Error, Result};
 use crate::input::{read_text, MAX_CALIBRATION_BYTES};
@@ -80,9 +82,10 @@ fn nonzero<const N: usize>(rows: [[f32; N]; 3]) -> Option<[[f32; N]; 3]> {
 }
 
 impl EffectsV1 {
-    /// True when the file carries a cross key, even a zero one (version 2 only).
-    fn has_cross_keys(&self) -> bool {
-        self.cross_quadratic.is_some() || self.cross_cubic.is_some()
+    /// True when the file carries a non-zero cross term (version 2 only).
+    fn has_cross_terms(&self) -> bool {
+        self.cross_quadratic.and_then(nonzero).is_some()
+            || self.cross_cubic.and_then(nonzero).is_some()
     }
 }
 
@@ -152,11 +155,11 @@ pub fn to_json(cal: &Calibration) -> Result<String> {
 pub fn parse(text: &str) -> std::result::Result<CalibrationFile, serde_json::Error> {
     let file: FileV1 = serde_json::from_str(text)?;
     match file.schema.as_deref() {
-        Some(SCHEMA) => {}
-        None | Some(SCHEMA_V1) => {
-            if file.effects.has_cross_keys() {
+        None | Some(SCHEMA) => {}
+        Some(SCHEMA_V1) => {
+            if file.effects.has_cross_terms() {
                 return Err(serde::de::Error::custom(format!(
-                    "cross_quadratic / cross_cubic are version-2 keys, but the file says schema '{SCHEMA_V1}' (or none): set \"schema\": \"{SCHEMA}\""
+                    "the file says schema '{SCHEMA_V1}' but has cross_quadratic / cross_cubic terms, which version 1 does not have: set \"schema\": \"{SCHEMA}\""
                 )));
             }
         }
@@ -310,18 +313,24 @@ mod tests {
     }
 
     #[test]
-    fn version_1_files_with_cross_keys_and_bad_cross_shapes_are_refused() {
+    fn version_1_files_with_cross_terms_and_bad_cross_shapes_are_refused() {
         let v2 = to_json(&with_cross()).unwrap();
         let e = parse(&v2.replace("calibration/2", "calibration/1"))
             .unwrap_err()
             .to_string();
         assert!(
-            e.contains("version-2 keys") && e.contains("wiical-calibration/2"),
+            e.contains("version 1 does not have") && e.contains("wiical-calibration/2"),
             "{e}"
         );
+        // Zero cross keys under the version-1 label are harmless.
+        let zeros = r#"{"schema":"wiical-calibration/1","bias":[1,2,3],"matrix":[[1,0,0],[0,1,0],[0,0,1]],"effects":{"cross_cubic":[[0,0,0,0,0,0,0,0,0],[0,0,0,0,0,0,0,0,0],[0,0,0,0,0,0,0,0,0]]}}"#;
+        assert!(!parse(zeros).unwrap().calibration.effects.has_cross_terms());
+        // Unlabelled (the core's plain serde JSON): read with the cross terms.
         let unlabelled = v2.replacen("\"schema\": \"wiical-calibration/2\",", "", 1);
         assert_ne!(unlabelled, v2);
-        assert!(parse(&unlabelled).is_err());
+        assert_eq!(parse(&unlabelled).unwrap().calibration, with_cross());
+        let plain = serde_json::to_string(&with_cross()).unwrap();
+        assert_eq!(parse(&plain).unwrap().calibration, with_cross());
         // Four coefficients where an axis has five monomials.
         let short = r#"{"schema":"wiical-calibration/2","bias":[1,2,3],"matrix":[[1,0,0],[0,1,0],[0,0,1]],"effects":{"cross_quadratic":[[0,0,0,0],[0,0,0,0,0],[0,0,0,0,0]]}}"#;
         assert!(parse(short).is_err());
