@@ -132,12 +132,22 @@ pub struct Effects {
     pub scale_temp: [f32; 3],
     /// Orientation-dependent degree-2 cross terms (1/reference unit, i.e. 1/g): row `i`
     /// holds the coefficients of output axis `i` for the monomials [`DEGREE2`]`[`[`CROSS2`]`[i][j]]`
-    /// (every square and product but `u_i²`). Applied by the adapter.
+    /// (every square and product but `u_i²`). Applied by the adapter. Left out of serde
+    /// output when all zero, so that JSON without cross terms is what it was before them.
+    #[cfg_attr(feature = "serde", serde(skip_serializing_if = "rows_are_zero"))]
     pub cross_quadratic: [[f32; 5]; 3],
     /// Orientation-dependent degree-3 cross terms (1/reference unit², i.e. 1/g²): row `i`
     /// holds the coefficients of output axis `i` for the monomials [`DEGREE3`]`[`[`CROSS3`]`[i][j]]`
-    /// (every cubic monomial but `u_i³`, `xyz` included). Applied by the adapter.
+    /// (every cubic monomial but `u_i³`, `xyz` included). Applied by the adapter. Left out of
+    /// serde output when all zero.
+    #[cfg_attr(feature = "serde", serde(skip_serializing_if = "rows_are_zero"))]
     pub cross_cubic: [[f32; 9]; 3],
+}
+
+/// True when every coefficient is zero (serde: cross terms left out of the output).
+#[cfg(feature = "serde")]
+fn rows_are_zero<const N: usize>(rows: &[[f32; N]; 3]) -> bool {
+    rows.iter().flatten().all(|x| *x == 0.0)
 }
 
 impl Effects {
@@ -154,8 +164,11 @@ impl Effects {
 
     /// True when some orientation-dependent cross coefficient is non-zero.
     pub fn has_cross_terms(&self) -> bool {
-        self.cross_quadratic.iter().flatten().any(|c| *c != 0.0)
-            || self.cross_cubic.iter().flatten().any(|c| *c != 0.0)
+        // Branch-free OR of the bits without the sign (±0 count as zero, as `!= 0.0` does):
+        // on a Cortex-M this is a few integer instructions per coefficient.
+        let or = |v: &[f32]| v.iter().fold(0u32, |a, c| a | c.to_bits());
+        let acc = or(self.cross_quadratic.as_flattened()) | or(self.cross_cubic.as_flattened());
+        acc << 1 != 0
     }
 
     /// True when some term that needs a clock or a thermometer (bias drift, bias or scale
@@ -293,11 +306,14 @@ impl Calibration {
     /// multiply–adds on a Cortex-M.
     #[inline]
     pub fn correct_linear(&self, m: [f32; 3]) -> [f32; 3] {
-        let d = [
-            m[0] - self.bias[0],
-            m[1] - self.bias[1],
-            m[2] - self.bias[2],
-        ];
+        self.linear_with_bias(m, &self.bias)
+    }
+
+    /// `K·(m − b)` for a given bias `b` (the calibration's, or the drift- and
+    /// temperature-shifted one), without copying the calibration.
+    #[inline]
+    fn linear_with_bias(&self, m: [f32; 3], b: &[f32; 3]) -> [f32; 3] {
+        let d = [m[0] - b[0], m[1] - b[1], m[2] - b[2]];
         let k = &self.matrix;
         [
             k[0][0] * d[0] + k[0][1] * d[1] + k[0][2] * d[2],
@@ -307,7 +323,19 @@ impl Calibration {
     }
 
     /// Full correction including the effect terms (see the module docs for their definition).
+    ///
+    /// Checks for cross terms on every call (42 comparisons when there are none); a hot path
+    /// that corrects many samples with one calibration checks once and calls
+    /// [`Self::correct_terms`].
     pub fn correct(&self, m: [f32; 3], cond: &Conditions) -> [f32; 3] {
+        self.correct_terms(m, cond, self.effects.has_cross_terms())
+    }
+
+    /// [`Self::correct`] with the cross-term check done by the caller: `cross` must be
+    /// `self.effects.has_cross_terms()` (computed once when the calibration is installed);
+    /// `false` skips the cross terms.
+    #[inline]
+    pub fn correct_terms(&self, m: [f32; 3], cond: &Conditions, cross: bool) -> [f32; 3] {
         let e = &self.effects;
         let dtheta = cond.temperature_c.map(|t| t - e.temp_ref_c);
         let mut b = self.bias;
@@ -317,14 +345,13 @@ impl Calibration {
                 *bi += temp * dt;
             }
         }
-        let shifted = Self { bias: b, ..*self };
-        let mut u = shifted.correct_linear(m);
+        let mut u = self.linear_with_bias(m, &b);
         for (i, ui) in u.iter_mut().enumerate() {
             if let Some(dt) = dtheta {
                 *ui *= 1.0 + e.scale_temp[i] * dt;
             }
         }
-        let cross = e.has_cross_terms().then(|| e.cross_terms(&u));
+        let cross = cross.then(|| e.cross_terms(&u));
         for (i, ui) in u.iter_mut().enumerate() {
             let x = *ui;
             *ui = x + e.quadratic[i] * x * x + e.cubic[i] * x * x * x;

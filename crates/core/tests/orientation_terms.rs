@@ -146,6 +146,12 @@ fn zero_cross_terms_give_the_per_axis_correction_bit_for_bit() {
 fn cross_terms_count_for_is_none_and_finiteness() {
     let mut cal = nunchuk();
     assert!(cal.effects.is_none());
+    // −0 is zero, the smallest subnormal is not.
+    cal.effects.cross_quadratic[0][0] = -0.0;
+    assert!(cal.effects.is_none() && !cal.effects.has_cross_terms());
+    cal.effects.cross_quadratic[1][4] = f32::from_bits(1);
+    assert!(cal.effects.has_cross_terms());
+    cal.effects.cross_quadratic[1][4] = 0.0;
     cal.effects.cross_cubic[2][8] = 1e-3;
     assert!(!cal.effects.is_none());
     assert!(cal.effects.has_cross_terms());
