@@ -53,6 +53,29 @@ function writeCal(name, cal) {
 }
 const calA = writeCal('a', CAL_A);
 const calB = writeCal('b', CAL_B);
+/**
+ * A calibration with orientation-dependent cross terms (issue 19; calibration file version 2):
+ * per output axis the coefficients of the degree-2 monomials other than its own square, in the
+ * order x², y², z², xy, xz, yz (1/g), and of the degree-3 ones other than its own cube, in the
+ * order x³, y³, z³, x²y, x²z, xy², y²z, xz², yz², xyz (1/g²); large enough to move the
+ * Wii Remote's counts by several counts away from the axes. Plus a drift term, which the
+ * adapter must leave alone (no clock origin).
+ */
+const CAL_X = {
+  schema: 'wiical-calibration/2',
+  ...CAL_A,
+  effects: {
+    quadratic: [0.004, 0, -0.003],
+    bias_drift: [0.05, 0, 0],
+    cross_quadratic: [[0, 0, 0.03, 0, -0.02], [0.01, 0, 0, 0.025, 0], [0, -0.015, 0.04, 0, 0.01]],
+    cross_cubic: [
+      [0, 0, 0, 0.01, 0, 0, 0, 0, -0.02],
+      [0, 0, 0, 0, 0, 0.015, 0, 0, 0],
+      [-0.01, 0, 0, 0, 0, 0, 0, 0, 0.03],
+    ],
+  },
+};
+const calX = writeCal('x', CAL_X);
 
 /** Expected Wii Remote counts for raw triples, from the core (xtask emulate-correct). */
 function expectedCounts(calPath, raws) {
@@ -304,6 +327,51 @@ const scenarios = [
     if (state.error) return fail(state.error);
     if (!state.stored || !sameCal(state.live, CAL_A)) return fail('the committed calibration is not live after the power cycle');
     return err ? fail(err) : 'new emulator on the same flash: calibration still live, reports corrected';
+  }],
+  ['commit-cross-terms', async () => {
+    // Issue 19: a calibration with orientation-dependent cross terms, committed through the
+    // CLI, corrects the Wii Remote's reports on the device (expected counts: the core's
+    // correction with the acceleration-only terms, xtask emulate-correct), survives a power
+    // cycle (flash record version 2), and `device put` says which terms the adapter applies.
+    const rig = newRig();
+    await rig.board.runUntilTrue(() => rig.remote.handshakes.length > 0, 2000);
+    const put = await rig.wiical(['put', calX]);
+    if (put.code !== 0) return fail(`wiical device put: exit ${put.code}: ${put.stderr.trim()}`);
+    const applied = 'applied by the adapter: bias and K, quadratic, cross_quadratic (orientation), cross_cubic (orientation)';
+    const hostOnly = 'not applied by the adapter: bias_drift (time)';
+    if (!put.stdout.includes(applied) || !put.stdout.includes(hostOnly)) return fail(`device put does not name the applied terms: ${put.stdout.trim()}`);
+    const commit = await rig.wiical(['commit', calX]);
+    if (commit.code !== 0) return fail(`wiical device commit: exit ${commit.code}: ${commit.stderr.trim()}`);
+    const before = rig.remote.handshakes.length;
+    if (!(await rig.board.runUntilTrue(() => rig.remote.handshakes.length > before, 1000))) return fail('the Wii Remote did not re-read the extension after the commit');
+    await rig.board.run(600);
+    const fn = correctionBatch(calX);
+    prefill(fn, calX, rig);
+    const linear = correctionBatch(calA);
+    prefill(linear, calA, rig);
+    let err = checkReports(rig, rig.remote.handshakes.length, fn);
+    // The cross terms must matter for the reports checked: some differ from the linear ones.
+    const moved = rig.nunchuk.served.filter((s) => fn(s.raw.accel).some((v, i) => v !== linear(s.raw.accel)[i])).length;
+    const state = await getState(rig);
+    const image = rig.board.flashImage();
+    rig.close();
+    if (err) return fail(err);
+    if (!moved) return fail('the cross terms change none of the served readings: the test would not see them');
+    if (state.error) return fail(state.error);
+    const sameCross = (live) => live && ['cross_quadratic', 'cross_cubic'].every((k) =>
+      CAL_X.effects[k].every((row, i) => row.every((v, j) => f32eq(v, live.effects[k][i][j]))));
+    if (!state.stored || !sameCal(state.live, CAL_X) || !sameCross(state.live)) return fail('wiical device get does not show the committed cross terms as stored and live');
+    const again = newRig(image);
+    await again.board.runUntilTrue(() => again.remote.reports.length > 0, 2000);
+    await again.board.run(500);
+    prefill(fn, calX, again);
+    err = checkReports(again, 1, fn);
+    const after = await getState(again);
+    again.close();
+    if (err) return fail(`after the power cycle: ${err}`);
+    if (after.error) return fail(after.error);
+    if (!after.stored || !sameCross(after.live)) return fail('the cross terms are not live after the power cycle');
+    return `put names the applied terms; ${moved} of ${rig.nunchuk.served.length} served readings move with the cross terms; reports equal the core's correction before and after a power cycle`;
   }],
   ...selfCalScenarios({
     newRig, getState, fail, shared, work, sameBytes, sameCal, checkReports, correctionBatch, prefill,

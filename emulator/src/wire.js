@@ -124,9 +124,12 @@ export function helloFrame(protocolVersion, schemaKey) {
   return frame([0, ...varint(protocolVersion), ...varint(schemaKey)]);
 }
 
-/** PutCalibration of a linear calibration ({ bias, matrix }; effect terms zero). */
+/**
+ * PutCalibration of a linear calibration ({ bias, matrix }; effect terms zero): protocol 3's
+ * WireCalibration is 12 floats, then 16 effect floats and 15 + 27 orientation cross terms.
+ */
 export function putFrame(cal) {
-  return frame([2, ...f32le([...cal.bias, ...cal.matrix.flat(), ...new Array(16).fill(0)])]);
+  return frame([2, ...f32le([...cal.bias, ...cal.matrix.flat(), ...new Array(16 + 42).fill(0)])]);
 }
 
 /** Decodes the varint at `body[i]`: [value, next index]. */
@@ -168,7 +171,7 @@ export class RawHost {
   }
 
   /** Opens a session: learns the adapter's schema key from a first Hello, then matches it. */
-  async hello(protocolVersion = 2) {
+  async hello(protocolVersion = 3) {
     const first = await this.request(helloFrame(protocolVersion, 0));
     if (first?.tag !== RESPONSE.hello) return false;
     const [, i] = readVarint(first.body, 1);

@@ -98,6 +98,12 @@ fn near_nominal(bytes: &[u8]) -> Calibration {
         e.bias_drift[i] = next() * 1e-3;
         e.bias_temp[i] = next() * 1e-2;
         e.scale_temp[i] = next() * 1e-5;
+        for c in e.cross_quadratic[i].iter_mut() {
+            *c = next() * 1e-4;
+        }
+        for c in e.cross_cubic[i].iter_mut() {
+            *c = next() * 1e-5;
+        }
     }
     e.temp_ref_c = 25.0 + next();
     cal
@@ -128,6 +134,12 @@ fn raw_floats(bytes: &[u8]) -> Calibration {
         e.bias_drift[i] = next();
         e.bias_temp[i] = next();
         e.scale_temp[i] = next();
+        for c in e.cross_quadratic[i].iter_mut() {
+            *c = next();
+        }
+        for c in e.cross_cubic[i].iter_mut() {
+            *c = next();
+        }
     }
     e.temp_ref_c = next();
     cal

@@ -432,6 +432,11 @@ fn cli_commands_over_the_pty() {
     std::fs::write(&file, serde_json::to_string_pretty(&cal).unwrap()).unwrap();
     let (text, _) = run(&["put", file.to_str().unwrap()]);
     assert!(text.contains("verified bit for bit"), "{text}");
+    assert!(
+        text.contains("applied by the adapter: bias and K\n"),
+        "{text}"
+    );
+    assert!(!text.contains("not applied"), "{text}");
     // The upload belonged to that session: a later commit finds nothing (issue 11).
     let mut o = Vec::new();
     let err = device::run(&device_args(&["device", "get", "--port", &p]), &mut o).unwrap();
@@ -469,6 +474,39 @@ fn cli_commands_over_the_pty() {
         let v: serde_json::Value = serde_json::from_str(l).unwrap();
         assert!(v["corrected"].as_array().unwrap().len() == 3);
     }
+    // Orientation-dependent cross terms (issue 19) are applied by the adapter, the drift
+    // term in the same file is not: `commit` says so, and the stream is the correction with
+    // the acceleration-only terms.
+    let mut cross = cal;
+    cross.effects.cross_quadratic[2][2] = 0.02; // a_z += 0.02·xy
+    cross.effects.cross_cubic[0][8] = -0.01; // a_x −= 0.01·xyz
+    cross.effects.bias_drift = [0.05, 0.0, 0.0];
+    let cross_file = temp_path("cross.json");
+    wiical_analysis::output::calfile::write_calibration(&cross_file, &cross).unwrap();
+    let (text, _) = run(&["commit", cross_file.to_str().unwrap()]);
+    assert!(
+        text.contains("applied by the adapter: bias and K, cross_quadratic (orientation), cross_cubic (orientation)\n"),
+        "{text}"
+    );
+    assert!(
+        text.contains("not applied by the adapter: bias_drift (time)"),
+        "{text}"
+    );
+    let (_, csv) = run(&["stream", "--count", "6"]);
+    let mut changed = 0;
+    for r in csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').collect::<Vec<_>>())
+    {
+        let raw: [f32; 3] = std::array::from_fn(|i| r[1 + i].parse().unwrap());
+        let a: [f32; 3] = std::array::from_fn(|i| r[4 + i].parse().unwrap());
+        let want = cross.correct(raw, &wiical_core::Conditions::default());
+        assert_eq!(a, want);
+        changed += usize::from(a != cal.correct_linear(raw));
+    }
+    assert!(changed > 0, "the cross terms changed no sample");
+    let _ = std::fs::remove_file(&cross_file);
     // A missing --port is a clear error.
     let mut sink = Vec::new();
     let err = device::run(&device_args(&["device", "info"]), &mut sink)

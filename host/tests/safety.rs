@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use embassy_futures::block_on;
-use wiical::cmd::device::judge_for_put;
+use wiical::cmd::device::{adapter_terms, judge_for_put};
 use wiical::device_sim::{SimFlash, FLASH_SIZE};
 use wiical_adapter::store::Loaded;
 use wiical_adapter::CalibrationStore;
@@ -405,4 +405,52 @@ fn standard_input_is_read_when_asked_for_with_a_dash() {
     let from_file: serde_json::Value = serde_json::from_str(&json).unwrap();
     assert_eq!(from_stdin["bias"], from_file["bias"]);
     std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// Issue 19: `device put` names the terms the adapter applies (bias and K, per-axis and
+/// orientation cross terms) and those it leaves to hosts (time and temperature).
+#[test]
+fn device_put_names_the_terms_the_adapter_applies() {
+    let linear = adapter_terms(&nunchuk_cal());
+    assert_eq!(linear.applied, vec!["bias and K"]);
+    assert!(linear.host_only.is_empty());
+    let mut cal = nunchuk_cal();
+    cal.effects.cubic[1] = 1e-3;
+    cal.effects.cross_cubic[2][8] = 2e-3;
+    cal.effects.bias_temp = [0.0, 0.1, 0.0];
+    cal.effects.bias_drift = [1e-3, 0.0, 0.0];
+    let t = adapter_terms(&cal);
+    assert_eq!(
+        t.applied,
+        vec!["bias and K", "cubic", "cross_cubic (orientation)"]
+    );
+    assert_eq!(
+        t.host_only,
+        vec!["bias_drift (time)", "bias_temp (temperature)"]
+    );
+    let mut o = String::new();
+    wiical::render::device::fmt_terms(&mut o, &t).unwrap();
+    assert!(
+        o.contains("applied by the adapter: bias and K, cubic, cross_cubic (orientation)\n"),
+        "{o}"
+    );
+    assert!(
+        o.contains("not applied by the adapter: bias_drift (time), bias_temp (temperature)"),
+        "{o}"
+    );
+    // Cross terms of a plausible size are accepted for the adapter; absurd ones refused.
+    let file = |cal: Calibration| CalibrationFile {
+        calibration: cal,
+        quality: Some(good_quality()),
+    };
+    let mut ok = nunchuk_cal();
+    ok.effects.cross_quadratic[0] = [1e-3, -2e-3, 5e-4, 0.0, 0.0];
+    assert!(judge_for_put(&file(ok)).refusals.is_empty());
+    let mut absurd = nunchuk_cal();
+    absurd.effects.cross_quadratic[1][4] = 1e30;
+    let check = judge_for_put(&file(absurd));
+    assert!(
+        check.refusals[0].contains("not plausible for a Nunchuk"),
+        "{check:?}"
+    );
 }

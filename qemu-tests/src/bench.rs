@@ -198,6 +198,21 @@ fn main() -> ! {
         st,
         NONE,
     );
+    // Issue 19: the orientation-dependent cross terms on top (what the adapter applies).
+    let mut cal_x = cal_fx;
+    cal_x.effects.cross_quadratic = wiical_qemu_tests::cases::CROSS_QUADRATIC;
+    cal_x.effects.cross_cubic = wiical_qemu_tests::cases::CROSS_CUBIC;
+    let op = rt::time_reps(R_CORR, |i| {
+        black_box(&cal_x).correct(SAMPLES[i as usize & 7], black_box(&cond))
+    });
+    let st = stack_of(|| black_box(&cal_x).correct(black_box(SAMPLES[0]), black_box(&cond)));
+    all_ok &= row(
+        "Calibration::correct (all terms + cross terms)",
+        "sample",
+        sc.per_op(op, base, R_CORR),
+        st,
+        NONE,
+    );
 
     // --- six-position solve
     const R_SIX: u32 = 200;

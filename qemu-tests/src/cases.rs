@@ -99,6 +99,11 @@ pub const CASES: &[Case] = &[
         run: correct_with_effects,
     },
     Case {
+        name: "correct_with_cross_terms",
+        max_ulps: 0,
+        run: correct_with_cross_terms,
+    },
+    Case {
         name: "multipos_30_poses",
         max_ulps: 4,
         run: multipos_30,
@@ -157,6 +162,11 @@ pub const CASES: &[Case] = &[
         name: "adapter_corrector_calibrated",
         max_ulps: 0,
         run: adapter_corrector_calibrated,
+    },
+    Case {
+        name: "adapter_corrector_cross_terms",
+        max_ulps: 0,
+        run: adapter_corrector_cross_terms,
     },
     Case {
         name: "adapter_corrector_pass_through",
@@ -343,6 +353,51 @@ fn correct_with_effects(o: &mut Out) -> Result<(), Error> {
     let mut cal = wiimote_calibration()?;
     cal.effects.quadratic = [0.01, -0.02, 0.005];
     cal.effects.cubic = [-0.003, 0.002, 0.001];
+    cal.effects.bias_drift = [0.01, -0.02, 0.0];
+    cal.effects.temp_ref_c = 25.0;
+    cal.effects.bias_temp = [0.1, 0.0, -0.05];
+    cal.effects.scale_temp = [1e-4, -2e-4, 0.0];
+    for (i, s) in SAMPLES.iter().enumerate() {
+        let cond = Conditions {
+            time_s: 3.5 * i as f32,
+            temperature_c: Some(20.0 + 2.0 * i as f32),
+        };
+        o.extend(&cal.correct(*s, &cond))?;
+    }
+    Ok(())
+}
+
+/// Orientation-dependent cross terms (issue 19): every coefficient distinct and non-zero,
+/// of the sizes a real sensor could have (≤ 2 %/g²).
+pub const CROSS_QUADRATIC: [[f32; 5]; 3] = [
+    [0.004, -0.003, 0.002, -0.0015, 0.001],
+    [-0.0025, 0.0035, -0.001, 0.0005, -0.002],
+    [0.003, 0.0012, -0.004, 0.0022, -0.0008],
+];
+
+/// See [`CROSS_QUADRATIC`].
+pub const CROSS_CUBIC: [[f32; 9]; 3] = [
+    [
+        0.002, -0.001, 0.0015, -0.0005, 0.0007, -0.0012, 0.0009, -0.0003, 0.0011,
+    ],
+    [
+        -0.0014, 0.0006, -0.0009, 0.0013, -0.0002, 0.0008, -0.0016, 0.0004, -0.0007,
+    ],
+    [
+        0.0005, -0.0018, 0.0012, -0.0006, 0.001, -0.0004, 0.0017, -0.0011, 0.0003,
+    ],
+];
+
+fn correct_with_cross_terms(o: &mut Out) -> Result<(), Error> {
+    let mut cal = wiimote_calibration()?;
+    cal.effects.quadratic = [0.01, -0.02, 0.005];
+    cal.effects.cubic = [-0.003, 0.002, 0.001];
+    cal.effects.cross_quadratic = CROSS_QUADRATIC;
+    cal.effects.cross_cubic = CROSS_CUBIC;
+    // Acceleration-only (as the adapter corrects), then with time and temperature terms.
+    for s in SAMPLES {
+        o.extend(&cal.correct(s, &Conditions::default()))?;
+    }
     cal.effects.bias_drift = [0.01, -0.02, 0.0];
     cal.effects.temp_ref_c = 25.0;
     cal.effects.bias_temp = [0.1, 0.0, -0.05];
@@ -747,6 +802,8 @@ pub const NUNCHUK_CAL: Calibration = Calibration {
         temp_ref_c: 0.0,
         bias_temp: [0.0; 3],
         scale_temp: [0.0; 3],
+        cross_quadratic: [[0.0; 5]; 3],
+        cross_cubic: [[0.0; 9]; 3],
     },
 };
 
@@ -807,6 +864,28 @@ fn adapter_corrector_calibrated(o: &mut Out) -> Result<(), Error> {
         o.push(f32::from(b))?;
     }
     Ok(())
+}
+
+/// The adapter with orientation-dependent cross terms (issue 19): the corrected g and the
+/// counts the Wii Remote reads, after the calibration went through a flash record (version 2)
+/// and back, as a committed one does at boot.
+fn adapter_corrector_cross_terms(o: &mut Out) -> Result<(), Error> {
+    let mut fx = NUNCHUK_CAL;
+    fx.effects.quadratic = [0.01, -0.02, 0.005];
+    fx.effects.cross_quadratic = CROSS_QUADRATIC;
+    fx.effects.cross_cubic = CROSS_CUBIC;
+    fx.effects.bias_drift = [0.5, 0.0, 0.0]; // stored, not applied by the adapter
+    let record = wiical_adapter::store::encode_record(&fx);
+    let stored = wiical_adapter::store::decode_record(&record).map_err(|_| Error::NonFinite)?;
+    let mut c = Corrector::new(IdealScale::default());
+    c.set_factory(&factory_info()?);
+    c.set_user_calibration(Some(stored))?;
+    for raw in NUNCHUK_RAWS {
+        let r = c.correct(raw);
+        o.extend(&r.g)?;
+        o.extend(&r.counts.map(f32::from))?;
+    }
+    o.push(record.len() as f32)
 }
 
 fn adapter_corrector_pass_through(o: &mut Out) -> Result<(), Error> {

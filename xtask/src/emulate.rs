@@ -21,7 +21,8 @@ const IDEAL_COUNTS_PER_G: f64 = 200.0;
 
 /// Reads a calibration (the JSON `wiical fit --out` writes) and, for each stdin line of three
 /// raw counts, prints the counts a Wii Remote must read from a calibrated adapter: the core's
-/// correction `K·(m − b)` (g), re-encoded on the ideal scale in f64 (round half away from zero,
+/// correction `K·(m − b)` plus its per-axis and orientation-dependent cross terms (g),
+/// re-encoded on the ideal scale in f64 (round half away from zero,
 /// clamp to 0..=1023). Uses the core only, not the adapter crate the firmware runs.
 pub fn correct(args: &[String]) -> Result<bool> {
     let [path] = args else {
@@ -44,7 +45,13 @@ pub fn correct(args: &[String]) -> Result<bool> {
         let [x, y, z] = raw[..] else {
             return Err(format!("expected three raw counts, got `{line}`"));
         };
-        let g = cal.correct_linear([x, y, z]);
+        // As the adapter does: the terms that depend on the acceleration alone (time and
+        // temperature terms are not applied: no clock origin, no thermometer).
+        let g = if cal.effects.is_none() {
+            cal.correct_linear([x, y, z])
+        } else {
+            cal.correct([x, y, z], &wiical_core::Conditions::default())
+        };
         let counts = g.map(|a| {
             let c = (IDEAL_ZERO + f64::from(a) * IDEAL_COUNTS_PER_G).round();
             c.clamp(0.0, 1023.0) as u16

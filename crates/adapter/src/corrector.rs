@@ -136,11 +136,21 @@ pub fn factory_calibration(block: &CalibrationBlock) -> Option<Calibration> {
     cal.validate().ok().map(|_| cal)
 }
 
+/// Which terms the user calibration has, found once when it is installed.
+#[derive(Debug, Clone, Copy, Default)]
+struct UserTerms {
+    /// Every effect term zero: `correct_linear`.
+    linear_only: bool,
+    /// Some orientation-dependent cross term non-zero.
+    cross: bool,
+}
+
 /// Applies the live calibration; see the module docs.
 #[derive(Debug, Clone)]
 pub struct Corrector {
     scale: IdealScale,
     user: Option<Calibration>,
+    user_terms: UserTerms,
     /// Calibration equivalent to the Nunchuk's own block (or nominal).
     factory: Calibration,
     factory_bytes: Option<[u8; 16]>,
@@ -166,6 +176,7 @@ impl Corrector {
         let mut c = Self {
             scale,
             user: None,
+            user_terms: UserTerms::default(),
             factory: nominal_calibration(),
             factory_bytes: None,
             stick: (DEFAULT_STICK, DEFAULT_STICK),
@@ -200,6 +211,11 @@ impl Corrector {
             c.validate()?;
         }
         self.user = cal;
+        // Checked once here rather than per sample (57 comparisons).
+        self.user_terms = cal.map_or(UserTerms::default(), |c| UserTerms {
+            linear_only: c.effects.is_none(),
+            cross: c.effects.has_cross_terms(),
+        });
         Ok(())
     }
 
@@ -252,18 +268,20 @@ impl Corrector {
     /// Correct one raw sample (10-bit counts).
     ///
     /// With a user calibration whose effect terms are all zero, `g` is exactly
-    /// [`Calibration::correct_linear`]; otherwise the static nonlinearity terms are applied
-    /// too (time drift and temperature terms are not: the adapter has neither the
+    /// [`Calibration::correct_linear`]; otherwise the terms that depend on the acceleration
+    /// alone are applied too — the per-axis nonlinearity and the orientation-dependent cross
+    /// terms — (time drift and temperature terms are not: the adapter has neither the
     /// recording's time origin nor a temperature sensor).
     #[inline]
     pub fn correct(&self, raw: [u16; 3]) -> Corrected {
         let m = raw.map(f32::from);
         match &self.user {
             Some(cal) => {
-                let g = if cal.effects.is_none() {
+                let t = self.user_terms;
+                let g = if t.linear_only {
                     cal.correct_linear(m)
                 } else {
-                    cal.correct(m, &wiical_core::Conditions::default())
+                    cal.correct_terms(m, &wiical_core::Conditions::default(), t.cross)
                 };
                 Corrected {
                     g,

@@ -10,14 +10,21 @@
 //!   again after reading together with [`Calibration::validate`], so that even a bug or an
 //!   undetected flash error yields "no calibration" (pass-through), not a corrupt one.
 //!
-//! ## Record layout (version 1, little-endian, [`RECORD_LEN`] bytes)
+//! ## Record layout (version 2, little-endian, [`RECORD_LEN`] bytes)
 //! | offset | content |
 //! |---|---|
 //! | 0 | magic `"WCAL"` |
 //! | 4 | version `u16` = [`RECORD_VERSION`] |
-//! | 6 | payload length `u16` = 112 |
-//! | 8 | 28 × `f32`: bias\[3\], matrix row-major\[9\], quadratic\[3\], cubic\[3\], bias_drift\[3\], temp_ref_c, bias_temp\[3\], scale_temp\[3\] |
-//! | 120 | CRC-32/ISO-HDLC of bytes 0..120 |
+//! | 6 | payload length `u16` = 280 |
+//! | 8 | 70 × `f32`: bias\[3\], matrix row-major\[9\], quadratic\[3\], cubic\[3\], bias_drift\[3\], temp_ref_c, bias_temp\[3\], scale_temp\[3\], cross_quadratic row-major\[3\]\[5\], cross_cubic row-major\[3\]\[9\] |
+//! | 288 | CRC-32/ISO-HDLC of bytes 0..288 |
+//!
+//! Version 1 (written by firmware before the orientation-dependent cross terms) is the same
+//! up to `scale_temp`: 28 floats, payload length 112, CRC at offset 120, [`RECORD_LEN_V1`]
+//! bytes. It is still read, with every cross term zero, so that a calibration committed
+//! before a firmware update stays live after it. This firmware writes version 2 only; an
+//! older firmware finds a version-2 record unsupported and runs uncalibrated (pass-through),
+//! as it does for any record it refuses.
 
 use core::ops::Range;
 
@@ -32,13 +39,19 @@ use crate::{RecordError, StoreError};
 /// Map key of the calibration record.
 pub const RECORD_KEY: u8 = 0x01;
 /// Version written by this firmware.
-pub const RECORD_VERSION: u16 = 1;
+pub const RECORD_VERSION: u16 = 2;
+/// The previous version, still read (no cross terms).
+pub const RECORD_VERSION_V1: u16 = 1;
 /// Magic bytes at the start of a record.
 pub const RECORD_MAGIC: [u8; 4] = *b"WCAL";
 /// Number of `f32` in a version-1 payload.
-const PAYLOAD_FLOATS: usize = 28;
-/// Length of a version-1 record, bytes.
+const PAYLOAD_FLOATS_V1: usize = 28;
+/// Number of `f32` in a version-2 payload: version 1's, then 15 + 27 cross coefficients.
+const PAYLOAD_FLOATS: usize = PAYLOAD_FLOATS_V1 + 15 + 27;
+/// Length of a version-2 record, bytes.
 pub const RECORD_LEN: usize = 8 + 4 * PAYLOAD_FLOATS + 4;
+/// Length of a version-1 record, bytes.
+pub const RECORD_LEN_V1: usize = 8 + 4 * PAYLOAD_FLOATS_V1 + 4;
 
 static CRC32: Crc<u32> = Crc::<u32>::new(&CRC_32_ISO_HDLC);
 
@@ -52,41 +65,37 @@ struct WorkBuffer([u8; WORK_BUFFER_LEN]);
 
 fn floats(cal: &Calibration) -> [f32; PAYLOAD_FLOATS] {
     let e = &cal.effects;
-    let m = &cal.matrix;
-    [
-        cal.bias[0],
-        cal.bias[1],
-        cal.bias[2],
-        m[0][0],
-        m[0][1],
-        m[0][2],
-        m[1][0],
-        m[1][1],
-        m[1][2],
-        m[2][0],
-        m[2][1],
-        m[2][2],
-        e.quadratic[0],
-        e.quadratic[1],
-        e.quadratic[2],
-        e.cubic[0],
-        e.cubic[1],
-        e.cubic[2],
-        e.bias_drift[0],
-        e.bias_drift[1],
-        e.bias_drift[2],
-        e.temp_ref_c,
-        e.bias_temp[0],
-        e.bias_temp[1],
-        e.bias_temp[2],
-        e.scale_temp[0],
-        e.scale_temp[1],
-        e.scale_temp[2],
-    ]
+    let threes = [
+        cal.bias,
+        cal.matrix[0],
+        cal.matrix[1],
+        cal.matrix[2],
+        e.quadratic,
+        e.cubic,
+        e.bias_drift,
+    ];
+    let mut out = [0f32; PAYLOAD_FLOATS];
+    let temp_ref = [e.temp_ref_c];
+    let values = threes
+        .iter()
+        .flatten()
+        .chain(temp_ref.iter())
+        .chain(e.bias_temp.iter())
+        .chain(e.scale_temp.iter())
+        .chain(e.cross_quadratic.iter().flatten())
+        .chain(e.cross_cubic.iter().flatten());
+    for (slot, v) in out.iter_mut().zip(values) {
+        *slot = *v;
+    }
+    out
 }
 
-fn from_floats(f: &[f32; PAYLOAD_FLOATS]) -> Calibration {
-    let v3 = |i: usize| [f[i], f[i + 1], f[i + 2]];
+/// The calibration from a payload's floats: `f` holds 28 (version 1, cross terms zero) or
+/// 70 (version 2) values.
+fn from_floats(f: &[f32]) -> Calibration {
+    let at = |i: usize| f.get(i).copied().unwrap_or(0.0);
+    let v3 = |i: usize| [at(i), at(i + 1), at(i + 2)];
+    let base = PAYLOAD_FLOATS_V1;
     Calibration {
         bias: v3(0),
         matrix: [v3(3), v3(6), v3(9)],
@@ -94,14 +103,20 @@ fn from_floats(f: &[f32; PAYLOAD_FLOATS]) -> Calibration {
             quadratic: v3(12),
             cubic: v3(15),
             bias_drift: v3(18),
-            temp_ref_c: f[21],
+            temp_ref_c: at(21),
             bias_temp: v3(22),
             scale_temp: v3(25),
+            cross_quadratic: core::array::from_fn(|r| {
+                core::array::from_fn(|c| at(base + 5 * r + c))
+            }),
+            cross_cubic: core::array::from_fn(|r| {
+                core::array::from_fn(|c| at(base + 15 + 9 * r + c))
+            }),
         },
     }
 }
 
-/// Serialize a calibration as a version-1 record (see the module docs). Bit-exact: every
+/// Serialize a calibration as a version-2 record (see the module docs). Bit-exact: every
 /// `f32` is stored as its IEEE bits.
 pub fn encode_record(cal: &Calibration) -> [u8; RECORD_LEN] {
     let mut out = [0u8; RECORD_LEN];
@@ -128,14 +143,17 @@ pub fn decode_record(bytes: &[u8]) -> Result<Calibration, RecordError> {
         return Err(RecordError::BadMagic);
     }
     let version = u16::from_le_bytes([bytes[4], bytes[5]]);
-    if version != RECORD_VERSION {
-        return Err(RecordError::UnsupportedVersion(version));
-    }
+    let floats = match version {
+        RECORD_VERSION => PAYLOAD_FLOATS,
+        RECORD_VERSION_V1 => PAYLOAD_FLOATS_V1,
+        _ => return Err(RecordError::UnsupportedVersion(version)),
+    };
+    let len = 8 + 4 * floats + 4;
     let payload_len = usize::from(u16::from_le_bytes([bytes[6], bytes[7]]));
-    if bytes.len() != RECORD_LEN || payload_len != 4 * PAYLOAD_FLOATS {
+    if bytes.len() != len || payload_len != 4 * floats {
         return Err(RecordError::WrongLength(bytes.len()));
     }
-    let (body, crc) = bytes.split_at(RECORD_LEN - 4);
+    let (body, crc) = bytes.split_at(len - 4);
     if CRC32.checksum(body).to_le_bytes() != [crc[0], crc[1], crc[2], crc[3]] {
         return Err(RecordError::BadCrc);
     }
@@ -143,12 +161,14 @@ pub fn decode_record(bytes: &[u8]) -> Result<Calibration, RecordError> {
     for (x, chunk) in f.iter_mut().zip(body[8..].chunks_exact(4)) {
         *x = f32::from_le_bytes([chunk[0], chunk[1], chunk[2], chunk[3]]);
     }
-    let cal = from_floats(&f);
+    let cal = from_floats(&f[..floats]);
     cal.validate().map_err(RecordError::Invalid)?;
     Ok(cal)
 }
 
 /// What [`CalibrationStore::load`] found.
+// no_std without an allocator: the calibration cannot be boxed; a `Loaded` is short-lived.
+#[allow(clippy::large_enum_variant)]
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Loaded {
     /// Nothing stored yet (or the storage was erased).
@@ -169,8 +189,8 @@ pub struct CalibrationStore<F: NorFlash> {
 
 impl<F: NorFlash> CalibrationStore<F> {
     /// Use `range` of `flash` for the calibration: page aligned, and either ≥ 3 erase pages
-    /// each holding a record (≥ 256-byte pages), or 2 pages each holding two records
-    /// (≥ 512-byte pages). A 4 KiB-sector QSPI flash needs 2 sectors.
+    /// each holding a record (≥ 512-byte pages since record version 2), or 2 pages each
+    /// holding two records (≥ 1 KiB pages). A 4 KiB-sector QSPI flash needs 2 sectors.
     pub fn new(flash: F, range: Range<u32>) -> Result<Self, StoreError<F::Error>> {
         let pages = (range.end.saturating_sub(range.start)) / (F::ERASE_SIZE.max(1) as u32);
         let config = MapConfig::<F>::try_new(range).map_err(StoreError::Config)?;

@@ -815,11 +815,15 @@ fn implausible_uploads_are_refused_and_the_old_calibration_kept() {
         ("cubic", 3e38),
         ("bias", 1e30),
         ("temp_ref", 1e38),
+        ("cross_quadratic", 1e30),
+        ("cross_cubic", -3e38),
     ] {
         let mut c = good;
         match field {
             "quadratic" => c.effects.quadratic[0] = value,
             "cubic" => c.effects.cubic[1] = value,
+            "cross_quadratic" => c.effects.cross_quadratic[2][3] = value,
+            "cross_cubic" => c.effects.cross_cubic[0][8] = value,
             "bias" => c.bias[2] = value,
             _ => c.effects.temp_ref_c = value,
         }
@@ -880,16 +884,74 @@ fn a_staged_calibration_does_not_survive_its_session() {
     assert!(rig.get().stored);
 }
 
-/// An old host (protocol 1) gets the frozen Hello answer, from which it can tell that the
-/// adapter speaks a newer protocol, and every other request is refused with
-/// `SchemaMismatch` rather than misread.
+/// Orientation-dependent cross terms are applied on the device (issue 19): the streamed
+/// value is the linear correction plus the cross monomials, computed here in f64 from the
+/// linear part; the committed record (version 2) brings them back after a reboot. The drift
+/// term in the same calibration is not applied (the adapter has no clock origin): the output
+/// of one raw reading does not change with time.
+#[test]
+fn orientation_terms_are_applied_on_the_device_and_survive_a_reboot() {
+    let mut flash = Flash::new(24);
+    let mut cal = true_calibration();
+    // a_z += 0.02·xy (1/g), a_x += −0.01·xyz (1/g²), a_y += 0.005·z² (1/g).
+    let e = &mut cal.effects;
+    e.cross_quadratic[2][2] = 0.02; // CROSS2[2][2] = DEGREE2[3] = xy
+    e.cross_cubic[0][8] = -0.01; // CROSS3[0][8] = DEGREE3[9] = xyz
+    e.cross_quadratic[1][1] = 0.005; // CROSS2[1][1] = DEGREE2[2] = z²
+    e.bias_drift = [0.5, 0.0, 0.0];
+    assert_eq!(Acceptance::nunchuk().check(&cal, None), Ok(()));
+    let raws = [[700u16, 300, 650], [512, 512, 712], [900, 850, 200]];
+    let expect = |raw: [u16; 3]| -> [f64; 3] {
+        let u = cal.correct_linear(raw.map(f32::from)).map(f64::from);
+        [
+            u[0] - 0.01 * u[0] * u[1] * u[2],
+            u[1] + 0.005 * u[2] * u[2],
+            u[2] + 0.02 * u[0] * u[1],
+        ]
+    };
+    for boot in 0..2 {
+        let mut rig = Rig::boot(&mut flash);
+        rig.settle();
+        rig.hello();
+        if boot == 0 {
+            rig.commit(&cal);
+        }
+        let live = Calibration::from(rig.get().live);
+        assert!(bits_equal(&live, &cal), "boot {boot}: {live:?}");
+        rig.req(Request::StartStream { rate_divider: 1 });
+        for raw in raws.iter().chain(raws.iter()) {
+            rig.bus.nunchuk.set_report(&report(*raw));
+            let s = rig.step().expect("a streamed sample");
+            let want = expect(*raw);
+            for i in 0..3 {
+                let err = (f64::from(s.corrected[i]) - want[i]).abs();
+                assert!(
+                    err < 2e-6,
+                    "boot {boot} raw {raw:?} axis {i}: {:?} vs {want:?}",
+                    s.corrected
+                );
+            }
+            let core = cal.correct(raw.map(f32::from), &wiical_core::Conditions::default());
+            assert_eq!(s.corrected.map(f32::to_bits), core.map(f32::to_bits));
+        }
+    }
+}
+
+/// Old hosts (protocols 1 and 2) get the frozen Hello answer, from which they can tell that
+/// the adapter speaks a newer protocol, and every other request is refused with
+/// `SchemaMismatch` rather than misread (a protocol-2 calibration is shorter than a
+/// protocol-3 one).
 #[test]
 fn an_old_host_gets_a_clear_schema_mismatch() {
+    for (old_version, old_key) in wiical_wire::PREVIOUS_SCHEMA_KEYS {
+        an_old_host_of_protocol(old_version, old_key);
+    }
+}
+
+fn an_old_host_of_protocol(old_version: u16, old_key: u32) {
     let mut flash = Flash::new(23);
     let mut rig = Rig::boot(&mut flash);
     rig.settle();
-    let (old_version, old_key) = wiical_wire::PREVIOUS_SCHEMA_KEYS[0];
-    assert_eq!(old_version, 1);
     let resp = rig.req(Request::Hello(Hello {
         protocol_version: old_version,
         schema_key: old_key,
@@ -902,13 +964,13 @@ fn an_old_host_gets_a_clear_schema_mismatch() {
     let Response::Hello(h) = resp else {
         panic!("{resp:?}")
     };
-    assert_eq!(h.protocol_version, 2);
+    assert_eq!(h.protocol_version, 3);
     assert_eq!(h.check(), Ok(()));
     assert_eq!(
         wiical_wire::check_schema_key(old_key),
         Err(ErrorCode::SchemaMismatch)
     );
-    assert_eq!(wiical_wire::protocol_of_key(old_key), Some(1));
+    assert_eq!(wiical_wire::protocol_of_key(old_key), Some(old_version));
     for req in [
         Request::GetCalibration,
         Request::GetStatus,

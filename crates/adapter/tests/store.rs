@@ -10,7 +10,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use sequential_storage::cache::Cache;
 use sequential_storage::map::{MapConfig, MapStorage};
-use wiical_adapter::store::{decode_record, encode_record, RECORD_KEY, RECORD_LEN};
+use wiical_adapter::store::{decode_record, encode_record, RECORD_KEY, RECORD_LEN, RECORD_LEN_V1};
 use wiical_adapter::{CalibrationStore, Loaded, RecordError};
 use wiical_core::{Calibration, Effects};
 
@@ -33,6 +33,16 @@ fn cal(i: u32) -> Calibration {
             temp_ref_c: 25.0 + f,
             bias_temp: [0.1, -0.1, 0.0],
             scale_temp: [0.0, 1e-4, 0.0],
+            cross_quadratic: [
+                [1e-4 * f, 0.0, 0.0, 2e-4, 0.0],
+                [0.0; 5],
+                [0.0, 0.0, 0.0, 0.0, -3e-4],
+            ],
+            cross_cubic: [
+                [0.0; 9],
+                [5e-5 * f, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1e-4],
+                [0.0; 9],
+            ],
         },
     }
 }
@@ -50,7 +60,8 @@ fn record_round_trip_is_bit_exact() {
     let rec = encode_record(&c);
     assert_eq!(rec.len(), RECORD_LEN);
     assert_eq!(&rec[..4], b"WCAL");
-    assert_eq!(u16::from_le_bytes([rec[4], rec[5]]), 1);
+    assert_eq!(u16::from_le_bytes([rec[4], rec[5]]), 2);
+    assert_eq!(u16::from_le_bytes([rec[6], rec[7]]), 280);
     let back = decode_record(&rec).unwrap();
     assert!(same(&back, &c));
     assert_eq!(back.bias[1].to_bits(), (-0.0f32).to_bits());
@@ -61,6 +72,100 @@ fn record_round_trip_is_bit_exact() {
         &rec[8 + 4 * 21..8 + 4 * 22],
         &c.effects.temp_ref_c.to_le_bytes()
     );
+    // The cross terms follow version 1's 28 floats, row by row.
+    assert_eq!(
+        &rec[8 + 4 * 28..8 + 4 * 29],
+        &c.effects.cross_quadratic[0][0].to_le_bytes()
+    );
+    assert_eq!(
+        &rec[8 + 4 * 31..8 + 4 * 32],
+        &c.effects.cross_quadratic[0][3].to_le_bytes()
+    );
+    assert_eq!(
+        &rec[8 + 4 * 43..8 + 4 * 44],
+        &c.effects.cross_cubic[0][0].to_le_bytes()
+    );
+    assert_eq!(
+        &rec[8 + 4 * 52..8 + 4 * 53],
+        &c.effects.cross_cubic[1][0].to_le_bytes()
+    );
+    assert_eq!(
+        &rec[8 + 4 * 60..8 + 4 * 61],
+        &c.effects.cross_cubic[1][8].to_le_bytes()
+    );
+}
+
+/// A version-1 record, built byte by byte as the firmware before the cross terms wrote it
+/// (28 floats, CRC-32/ISO-HDLC over the rest).
+fn record_v1(c: &Calibration) -> Vec<u8> {
+    let e = &c.effects;
+    let mut floats: Vec<f32> = c.bias.to_vec();
+    c.matrix.iter().for_each(|r| floats.extend(r));
+    for v in [e.quadratic, e.cubic, e.bias_drift] {
+        floats.extend(v);
+    }
+    floats.push(e.temp_ref_c);
+    floats.extend(e.bias_temp);
+    floats.extend(e.scale_temp);
+    let mut rec = b"WCAL".to_vec();
+    rec.extend(1u16.to_le_bytes());
+    rec.extend(112u16.to_le_bytes());
+    floats.iter().for_each(|x| rec.extend(x.to_le_bytes()));
+    let crc = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC).checksum(&rec);
+    rec.extend(crc.to_le_bytes());
+    rec
+}
+
+/// A calibration committed by the old firmware (record version 1) still loads after the
+/// update, with zero cross terms; damage to it is still refused.
+#[test]
+fn a_version_1_record_from_the_old_firmware_still_loads() {
+    let mut old = cal(4);
+    old.effects.cross_quadratic = [[0.0; 5]; 3];
+    old.effects.cross_cubic = [[0.0; 9]; 3];
+    let rec = record_v1(&old);
+    assert_eq!(rec.len(), RECORD_LEN_V1);
+    let back = decode_record(&rec).unwrap();
+    assert!(same(&back, &old));
+    assert!(!back.effects.has_cross_terms());
+    let mut bad = rec.clone();
+    bad[30] ^= 4;
+    assert_eq!(decode_record(&bad), Err(RecordError::BadCrc));
+    // A version-1 header on a version-2 length, and the reverse, are refused.
+    let mut long = encode_record(&cal(4));
+    long[4] = 1;
+    assert_eq!(
+        decode_record(&long),
+        Err(RecordError::WrongLength(RECORD_LEN))
+    );
+    let mut short = rec.clone();
+    short[4] = 2;
+    assert_eq!(
+        decode_record(&short),
+        Err(RecordError::WrongLength(RECORD_LEN_V1))
+    );
+    // In flash, through the map, as the old firmware stored it.
+    let mut flash = Flash::new(6);
+    {
+        let mut map = MapStorage::<u8, _, _>::new(
+            &mut flash,
+            MapConfig::new(0..Flash::SIZE),
+            Cache::new_uncached(),
+        );
+        let mut buf = [0u8; 512];
+        block_on(map.store_item(&mut buf, &RECORD_KEY, &&rec[..])).unwrap();
+    }
+    let mut s = store(&mut flash, Flash::SIZE);
+    let Loaded::Calibration(c) = block_on(s.load()).unwrap() else {
+        panic!("the version-1 record was not loaded")
+    };
+    assert!(same(&c, &old));
+    // The next commit writes version 2 over it, and that one wins.
+    block_on(s.save(&cal(9))).unwrap();
+    let Loaded::Calibration(c) = block_on(s.load()).unwrap() else {
+        panic!()
+    };
+    assert!(same(&c, &cal(9)));
 }
 
 #[test]
@@ -81,8 +186,8 @@ fn every_single_bit_flip_of_a_record_is_rejected() {
     r[0] = b'X';
     assert_eq!(decode_record(&r), Err(RecordError::BadMagic));
     let mut r = rec;
-    r[4] = 2;
-    assert_eq!(decode_record(&r), Err(RecordError::UnsupportedVersion(2)));
+    r[4] = 3;
+    assert_eq!(decode_record(&r), Err(RecordError::UnsupportedVersion(3)));
     assert_eq!(decode_record(&rec[..50]), Err(RecordError::WrongLength(50)));
     assert_eq!(decode_record(&[]), Err(RecordError::WrongLength(0)));
     let mut r = rec;
@@ -103,7 +208,7 @@ fn every_single_bit_flip_of_a_record_is_rejected() {
     );
 }
 
-type Flash = CutFlash<4, 512, 4>;
+type Flash = CutFlash<4, 1024, 4>;
 
 fn store<F: NorFlash>(flash: F, size: u32) -> CalibrationStore<F> {
     CalibrationStore::new(flash, 0..size).unwrap()
@@ -139,18 +244,21 @@ fn empty_then_latest_wins_over_many_page_rotations() {
 fn bad_flash_ranges_are_refused() {
     let mut flash = Flash::new(1);
     // One page only, unaligned.
-    assert!(CalibrationStore::new(&mut flash, 0..512).is_err());
-    assert!(CalibrationStore::new(&mut flash, 4..1028).is_err());
-    // Pages too small for a record.
+    assert!(CalibrationStore::new(&mut flash, 0..1024).is_err());
+    assert!(CalibrationStore::new(&mut flash, 4..2052).is_err());
+    // Pages too small for a record (256-byte pages held a version-1 record, not a
+    // version-2 one).
     let mut tiny = CutFlash::<4, 64, 8>::new(1);
     assert!(CalibrationStore::new(&mut tiny, 0..512).is_err());
+    let mut small = CutFlash::<1, 256, 4>::new(1);
+    assert!(CalibrationStore::new(&mut small, 0..1024).is_err());
     // Two pages holding one record each: the map could never move on to a new record
     // (it keeps one page free for migration), so this is refused up front…
-    let mut two = CutFlash::<1, 256, 2>::new(1);
-    assert!(CalibrationStore::new(&mut two, 0..512).is_err());
+    let mut two = CutFlash::<1, 512, 2>::new(1);
+    assert!(CalibrationStore::new(&mut two, 0..1024).is_err());
     // …while the same pages with a third one work.
-    let mut three = CutFlash::<1, 256, 3>::new(1);
-    assert!(CalibrationStore::new(&mut three, 0..768).is_ok());
+    let mut three = CutFlash::<1, 512, 3>::new(1);
+    assert!(CalibrationStore::new(&mut three, 0..1536).is_ok());
 }
 
 /// Saves `cal(0..n)` in order with the power cut after `cut` word operations (or never).
@@ -205,27 +313,27 @@ fn power_cut_everywhere<const W: usize, const P: usize, const NP: usize>(n: u32)
 #[test]
 fn power_cut_at_every_word_operation_4_byte_words() {
     // 3 records per page, 4 pages: 24 commits rotate through every page twice, with erases.
-    let total = power_cut_everywhere::<4, 512, 4>(24);
-    // 24 records of 34 words plus at least two page erases of 128 words.
-    assert!(total > 24 * 34 + 2 * 128, "sequence too short: {total} ops");
+    let total = power_cut_everywhere::<4, 1024, 4>(24);
+    // 24 records of 76 words plus at least two page erases of 256 words.
+    assert!(total > 24 * 76 + 2 * 256, "sequence too short: {total} ops");
 }
 
 #[test]
 fn power_cut_at_every_word_operation_1_byte_words_small_pages() {
     // Byte-programmable flash with one record per page and 3 pages, the tightest
     // configuration the store accepts (every commit moves to the next page and erases one).
-    power_cut_everywhere::<1, 256, 3>(7);
+    power_cut_everywhere::<1, 512, 3>(7);
 }
 
 #[test]
 fn power_cut_at_every_word_operation_two_pages() {
     // The other tight case: only 2 pages, each holding 3 records.
-    power_cut_everywhere::<4, 512, 2>(10);
+    power_cut_everywhere::<4, 1024, 2>(10);
 }
 
 #[test]
 fn power_cut_at_every_word_operation_16_byte_words() {
-    power_cut_everywhere::<16, 1024, 3>(10);
+    power_cut_everywhere::<16, 2048, 3>(10);
 }
 
 #[test]
@@ -267,7 +375,7 @@ fn record_of_unknown_version_is_rejected() {
             MapConfig::new(0..Flash::SIZE),
             Cache::new_uncached(),
         );
-        let mut buf = [0u8; 256];
+        let mut buf = [0u8; 512];
         block_on(map.store_item(&mut buf, &RECORD_KEY, &&rec[..])).unwrap();
     }
     let mut s = store(&mut flash, Flash::SIZE);

@@ -14,18 +14,32 @@
 //!
 //! Real sensors also have effects the linear model lacks. [`Effects`] carries optional extra
 //! terms (time drift and temperature dependence of the bias, temperature dependence of the
-//! scale, per-axis even and odd nonlinearity). They are all zero by default, in which case
-//! the correction is exactly the linear one. Their correction-side definition is:
+//! scale, per-axis even and odd nonlinearity, and an orientation-dependent error: a general
+//! polynomial of degree 3 in the linearly corrected reading, i.e. in the gravity direction
+//! when the sensor is still). They are all zero by default, in which case the correction is
+//! exactly the linear one. Their correction-side definition is:
 //!
 //! ```text
 //! b_eff = b + drift·t + bias_temp·(θ − θ₀)             (raw units)
 //! u     = K·(m − b_eff)                                 (reference units)
 //! u_i  ← u_i · (1 + scale_temp_i·(θ − θ₀))
 //! a_i   = u_i + k2_i·u_i² + k3_i·u_i³
+//!           + Σ_j cross_quadratic[i][j]·DEGREE2[CROSS2[i][j]](u)
+//!           + Σ_j cross_cubic[i][j]·DEGREE3[CROSS3[i][j]](u)
 //! ```
 //!
 //! where `t` is the time since the start of the recording (s) and `θ` the sensor temperature
-//! (°C) given in [`Conditions`].
+//! (°C) given in [`Conditions`]. The cross sums run over every monomial of degree 2 and 3 of
+//! `u` except the output axis's own power (`u_i²`, `u_i³`), which `k2_i`, `k3_i` already
+//! carry: [`DEGREE2`] and [`DEGREE3`] list the monomials in a fixed order, [`CROSS2`] and
+//! [`CROSS3`] which of them each output axis uses, in the order of its coefficients. They are
+//! evaluated left to right in `f32`, after the per-axis polynomial, so that a host and a
+//! device get the same bits; when every cross coefficient is zero they are skipped and the
+//! result is bit for bit the per-axis correction.
+//!
+//! What depends on the acceleration alone (the per-axis and the cross terms) is applied by
+//! any user of the calibration, the adapter included; the time and temperature terms only by
+//! a user that has a clock origin and a thermometer.
 
 use crate::{Error, Mat3, Vec3};
 
@@ -37,6 +51,66 @@ pub struct Conditions {
     pub time_s: f32,
     /// Sensor temperature in °C, if known. `None` disables temperature terms.
     pub temperature_c: Option<f32>,
+}
+
+/// The degree-2 monomials of `u = (x, y, z)`, as exponents of `(x, y, z)`, in the fixed order
+/// the cross coefficients refer to: `x², y², z², xy, xz, yz`.
+pub const DEGREE2: [[u8; 3]; 6] = [
+    [2, 0, 0],
+    [0, 2, 0],
+    [0, 0, 2],
+    [1, 1, 0],
+    [1, 0, 1],
+    [0, 1, 1],
+];
+
+/// The degree-3 monomials of `u = (x, y, z)`, as exponents, in the fixed order the cross
+/// coefficients refer to: `x³, y³, z³, x²y, x²z, xy², y²z, xz², yz², xyz`.
+pub const DEGREE3: [[u8; 3]; 10] = [
+    [3, 0, 0],
+    [0, 3, 0],
+    [0, 0, 3],
+    [2, 1, 0],
+    [2, 0, 1],
+    [1, 2, 0],
+    [0, 2, 1],
+    [1, 0, 2],
+    [0, 1, 2],
+    [1, 1, 1],
+];
+
+/// For output axis `i`, the indices into [`DEGREE2`] of its five cross coefficients
+/// `Effects::cross_quadratic[i]`: every degree-2 monomial but `u_i²` (index `i`), in order.
+pub const CROSS2: [[usize; 5]; 3] = [[1, 2, 3, 4, 5], [0, 2, 3, 4, 5], [0, 1, 3, 4, 5]];
+
+/// For output axis `i`, the indices into [`DEGREE3`] of its nine cross coefficients
+/// `Effects::cross_cubic[i]`: every degree-3 monomial but `u_i³` (index `i`), in order.
+pub const CROSS3: [[usize; 9]; 3] = [
+    [1, 2, 3, 4, 5, 6, 7, 8, 9],
+    [0, 2, 3, 4, 5, 6, 7, 8, 9],
+    [0, 1, 3, 4, 5, 6, 7, 8, 9],
+];
+
+/// The monomials of [`DEGREE2`] and [`DEGREE3`] at `u`, in `f32`, in their table order.
+#[inline]
+pub fn monomials(u: &[f32; 3]) -> ([f32; 6], [f32; 10]) {
+    let [x, y, z] = *u;
+    let (xx, yy, zz) = (x * x, y * y, z * z);
+    (
+        [xx, yy, zz, x * y, x * z, y * z],
+        [
+            xx * x,
+            yy * y,
+            zz * z,
+            xx * y,
+            xx * z,
+            x * yy,
+            yy * z,
+            x * zz,
+            y * zz,
+            x * y * z,
+        ],
+    )
 }
 
 /// Optional effect terms beyond the linear model. All zero means "linear model only".
@@ -56,6 +130,24 @@ pub struct Effects {
     pub bias_temp: [f32; 3],
     /// Relative scale temperature coefficient, 1/°C.
     pub scale_temp: [f32; 3],
+    /// Orientation-dependent degree-2 cross terms (1/reference unit, i.e. 1/g): row `i`
+    /// holds the coefficients of output axis `i` for the monomials [`DEGREE2`]`[`[`CROSS2`]`[i][j]]`
+    /// (every square and product but `u_i²`). Applied by the adapter. Left out of serde
+    /// output when all zero, so that JSON without cross terms is what it was before them.
+    #[cfg_attr(feature = "serde", serde(skip_serializing_if = "rows_are_zero"))]
+    pub cross_quadratic: [[f32; 5]; 3],
+    /// Orientation-dependent degree-3 cross terms (1/reference unit², i.e. 1/g²): row `i`
+    /// holds the coefficients of output axis `i` for the monomials [`DEGREE3`]`[`[`CROSS3`]`[i][j]]`
+    /// (every cubic monomial but `u_i³`, `xyz` included). Applied by the adapter. Left out of
+    /// serde output when all zero.
+    #[cfg_attr(feature = "serde", serde(skip_serializing_if = "rows_are_zero"))]
+    pub cross_cubic: [[f32; 9]; 3],
+}
+
+/// True when every coefficient is zero (serde: cross terms left out of the output).
+#[cfg(feature = "serde")]
+fn rows_are_zero<const N: usize>(rows: &[[f32; N]; 3]) -> bool {
+    rows.iter().flatten().all(|x| *x == 0.0)
 }
 
 impl Effects {
@@ -67,6 +159,44 @@ impl Effects {
             && z(&self.bias_drift)
             && z(&self.bias_temp)
             && z(&self.scale_temp)
+            && !self.has_cross_terms()
+    }
+
+    /// True when some orientation-dependent cross coefficient is non-zero.
+    pub fn has_cross_terms(&self) -> bool {
+        // Branch-free OR of the bits without the sign (±0 count as zero, as `!= 0.0` does):
+        // on a Cortex-M this is a few integer instructions per coefficient.
+        let or = |v: &[f32]| v.iter().fold(0u32, |a, c| a | c.to_bits());
+        let acc = or(self.cross_quadratic.as_flattened()) | or(self.cross_cubic.as_flattened());
+        acc << 1 != 0
+    }
+
+    /// True when some term that needs a clock or a thermometer (bias drift, bias or scale
+    /// temperature coefficient) is non-zero: the terms a user without them cannot apply.
+    pub fn has_time_or_temperature_terms(&self) -> bool {
+        [self.bias_drift, self.bias_temp, self.scale_temp]
+            .iter()
+            .flatten()
+            .any(|c| *c != 0.0)
+    }
+
+    /// The cross terms' contribution to each output axis at `u` (see the module docs for the
+    /// order of evaluation), in reference units.
+    #[inline]
+    pub fn cross_terms(&self, u: &[f32; 3]) -> [f32; 3] {
+        let (m2, m3) = monomials(u);
+        let mut out = [0.0f32; 3];
+        for (i, o) in out.iter_mut().enumerate() {
+            let mut s = 0.0f32;
+            for (c, k) in self.cross_quadratic[i].iter().zip(CROSS2[i]) {
+                s += c * m2[k];
+            }
+            for (c, k) in self.cross_cubic[i].iter().zip(CROSS3[i]) {
+                s += c * m3[k];
+            }
+            *o = s;
+        }
+        out
     }
 
     fn all_finite(&self) -> bool {
@@ -80,6 +210,8 @@ impl Effects {
         .iter()
         .all(|v| crate::all_finite(v))
             && self.temp_ref_c.is_finite()
+            && self.cross_quadratic.iter().all(|r| crate::all_finite(r))
+            && self.cross_cubic.iter().all(|r| crate::all_finite(r))
     }
 }
 
@@ -118,6 +250,8 @@ impl Calibration {
                 temp_ref_c: 0.0,
                 bias_temp: [0.0; 3],
                 scale_temp: [0.0; 3],
+                cross_quadratic: [[0.0; 5]; 3],
+                cross_cubic: [[0.0; 9]; 3],
             },
         }
     }
@@ -172,11 +306,14 @@ impl Calibration {
     /// multiply–adds on a Cortex-M.
     #[inline]
     pub fn correct_linear(&self, m: [f32; 3]) -> [f32; 3] {
-        let d = [
-            m[0] - self.bias[0],
-            m[1] - self.bias[1],
-            m[2] - self.bias[2],
-        ];
+        self.linear_with_bias(m, &self.bias)
+    }
+
+    /// `K·(m − b)` for a given bias `b` (the calibration's, or the drift- and
+    /// temperature-shifted one), without copying the calibration.
+    #[inline]
+    fn linear_with_bias(&self, m: [f32; 3], b: &[f32; 3]) -> [f32; 3] {
+        let d = [m[0] - b[0], m[1] - b[1], m[2] - b[2]];
         let k = &self.matrix;
         [
             k[0][0] * d[0] + k[0][1] * d[1] + k[0][2] * d[2],
@@ -186,7 +323,19 @@ impl Calibration {
     }
 
     /// Full correction including the effect terms (see the module docs for their definition).
+    ///
+    /// Checks for cross terms on every call (42 comparisons when there are none); a hot path
+    /// that corrects many samples with one calibration checks once and calls
+    /// [`Self::correct_terms`].
     pub fn correct(&self, m: [f32; 3], cond: &Conditions) -> [f32; 3] {
+        self.correct_terms(m, cond, self.effects.has_cross_terms())
+    }
+
+    /// [`Self::correct`] with the cross-term check done by the caller: `cross` must be
+    /// `self.effects.has_cross_terms()` (computed once when the calibration is installed);
+    /// `false` skips the cross terms.
+    #[inline]
+    pub fn correct_terms(&self, m: [f32; 3], cond: &Conditions, cross: bool) -> [f32; 3] {
         let e = &self.effects;
         let dtheta = cond.temperature_c.map(|t| t - e.temp_ref_c);
         let mut b = self.bias;
@@ -196,14 +345,19 @@ impl Calibration {
                 *bi += temp * dt;
             }
         }
-        let shifted = Self { bias: b, ..*self };
-        let mut u = shifted.correct_linear(m);
+        let mut u = self.linear_with_bias(m, &b);
         for (i, ui) in u.iter_mut().enumerate() {
             if let Some(dt) = dtheta {
                 *ui *= 1.0 + e.scale_temp[i] * dt;
             }
+        }
+        let cross = cross.then(|| e.cross_terms(&u));
+        for (i, ui) in u.iter_mut().enumerate() {
             let x = *ui;
             *ui = x + e.quadratic[i] * x * x + e.cubic[i] * x * x * x;
+            if let Some(c) = cross {
+                *ui += c[i];
+            }
         }
         u
     }

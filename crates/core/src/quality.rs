@@ -25,8 +25,15 @@
 //! exactly from finitely many points, and the output `a_i = u + k2·u² + k3·u³` is a cubic in
 //! `u` whose extremes on `[lo, hi]` are at the ends or at the roots of its derivative.
 //! No sampling, so a narrow spike cannot slip between grid points.
+//!
+//! The orientation-dependent cross terms (`Effects::cross_quadratic`, `cross_cubic`) couple
+//! the axes, so for them the bound is an upper bound instead: with `U_j` the largest `|u_j|`
+//! over the ranges above, each cross monomial is at most its value at `U`, and
+//! `Σ |c|·monomial(U)` is added to the per-axis extreme (triangle inequality). This may refuse
+//! a calibration whose true extreme is a little below the bound, never accept one above it;
+//! the cross terms of a real sensor are mg/g² to a few %/g², far from the ±16 g bound.
 
-use crate::model::invert3;
+use crate::model::{invert3, monomials, CROSS2, CROSS3};
 use crate::{Calibration, Error};
 
 /// Operating conditions over which a calibration's effect terms are evaluated.
@@ -175,8 +182,41 @@ impl Acceptance {
     }
 
     /// Largest `|a_axis|` over the input box and the condition range (NaN or ∞ if the
-    /// correction overflows, which then fails the bound).
+    /// correction overflows, which then fails the bound): exact without cross terms, an
+    /// upper bound with them (see the module docs).
     pub fn output_extreme(&self, cal: &Calibration, axis: usize) -> f32 {
+        let own = self.own_output_extreme(cal, axis);
+        if !cal.effects.has_cross_terms() {
+            return own;
+        }
+        own + self.cross_bound(cal, axis)
+    }
+
+    /// Upper bound of `|Σ cross terms|` of output `axis`: the coefficients' magnitudes times
+    /// the monomials at the largest `|u_j|` of each axis. NaN when a range is not finite.
+    fn cross_bound(&self, cal: &Calibration, axis: usize) -> f32 {
+        let mut umax = [0.0f32; 3];
+        for (j, m) in umax.iter_mut().enumerate() {
+            let (lo, hi) = self.linear_output_range(cal, j);
+            if !(lo.is_finite() && hi.is_finite()) {
+                return f32::NAN;
+            }
+            *m = libm::fabsf(lo).max(libm::fabsf(hi));
+        }
+        let (m2, m3) = monomials(&umax);
+        let e = &cal.effects;
+        let mut s = 0.0f32;
+        for (c, k) in e.cross_quadratic[axis].iter().zip(CROSS2[axis]) {
+            s += libm::fabsf(*c) * m2[k];
+        }
+        for (c, k) in e.cross_cubic[axis].iter().zip(CROSS3[axis]) {
+            s += libm::fabsf(*c) * m3[k];
+        }
+        s
+    }
+
+    /// Exact largest `|u + k2·u² + k3·u³|` of output `axis` (the per-axis polynomial alone).
+    fn own_output_extreme(&self, cal: &Calibration, axis: usize) -> f32 {
         let (lo, hi) = self.linear_output_range(cal, axis);
         let e = &cal.effects;
         let (k2, k3) = (e.quadratic[axis], e.cubic[axis]);
@@ -708,6 +748,90 @@ mod tests {
                 assert!(exact >= sampled * (1.0 - 1e-5), "{exact} < {sampled}");
                 assert!(exact <= sampled * 1.05 + 1e-3, "{exact} ≫ {sampled}");
             }
+        }
+    }
+
+    /// Brute force in f64 over a dense input grid (no time or temperature terms): the full
+    /// correction with the cross terms, written from the monomial tables' exponents.
+    fn sampled_extreme_with_cross(acc: &Acceptance, cal: &Calibration, axis: usize) -> f64 {
+        use crate::model::{CROSS2, CROSS3, DEGREE2, DEGREE3};
+        let e = &cal.effects;
+        let (i0, i1) = (acc.input_range.0 as f64, acc.input_range.1 as f64);
+        let mono =
+            |u: &[f64; 3], ex: &[u8; 3]| (0..3).map(|j| u[j].powi(ex[j].into())).product::<f64>();
+        let n = 16;
+        let mut worst = 0.0f64;
+        for a in 0..=n {
+            for b in 0..=n {
+                for c in 0..=n {
+                    let m = [a, b, c].map(|k| i0 + (i1 - i0) * k as f64 / n as f64);
+                    let u: [f64; 3] = core::array::from_fn(|i| {
+                        (0..3)
+                            .map(|j| cal.matrix[i][j] as f64 * (m[j] - cal.bias[j] as f64))
+                            .sum()
+                    });
+                    let x = u[axis];
+                    let mut out =
+                        x + e.quadratic[axis] as f64 * x * x + e.cubic[axis] as f64 * x * x * x;
+                    for (cf, k) in e.cross_quadratic[axis].iter().zip(CROSS2[axis]) {
+                        out += *cf as f64 * mono(&u, &DEGREE2[k]);
+                    }
+                    for (cf, k) in e.cross_cubic[axis].iter().zip(CROSS3[axis]) {
+                        out += *cf as f64 * mono(&u, &DEGREE3[k]);
+                    }
+                    worst = worst.max(out.abs());
+                }
+            }
+        }
+        worst
+    }
+
+    #[test]
+    fn the_cross_term_bound_is_above_a_dense_f64_sampling_and_refuses_absurd_terms() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(19);
+        let mut acc = Acceptance::nunchuk();
+        acc.conditions = ConditionRange {
+            max_time_s: 0.0,
+            temperature_c: None,
+        };
+        for _ in 0..20 {
+            let mut c = nunchuk_like();
+            let e = &mut c.effects;
+            for a in 0..3 {
+                e.quadratic[a] = rng.random_range(-0.05..0.05);
+                e.cubic[a] = rng.random_range(-0.02..0.02);
+                e.cross_quadratic[a] = core::array::from_fn(|_| rng.random_range(-0.05..0.05));
+                e.cross_cubic[a] = core::array::from_fn(|_| rng.random_range(-0.02..0.02));
+            }
+            for axis in 0..3 {
+                let bound = acc.output_extreme(&c, axis) as f64;
+                let sampled = sampled_extreme_with_cross(&acc, &c, axis);
+                assert!(bound >= sampled * (1.0 - 1e-5), "{bound} < {sampled}");
+                assert!(bound < 16.0, "a realistic calibration must pass: {bound}");
+            }
+            assert_eq!(acc.check(&c, None), Ok(()));
+        }
+        // One absurd cross coefficient per family and axis is refused on that axis.
+        for axis in 0..3 {
+            let mut c = nunchuk_like();
+            c.effects.cross_quadratic[axis][4] = 1e30;
+            assert!(matches!(
+                acc.check(&c, None),
+                Err(Rejection::OutputBound { axis: a, .. }) if a == axis
+            ));
+            let mut c = nunchuk_like();
+            c.effects.cross_cubic[axis][8] = -3e38;
+            assert!(matches!(
+                acc.check(&c, None),
+                Err(Rejection::OutputBound { axis: a, .. }) if a == axis
+            ));
+            let mut c = nunchuk_like();
+            c.effects.cross_cubic[axis][0] = f32::INFINITY;
+            assert_eq!(
+                acc.check(&c, None),
+                Err(Rejection::Unusable(Error::NonFinite))
+            );
         }
     }
 

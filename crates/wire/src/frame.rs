@@ -25,7 +25,7 @@ pub static CRC16: Crc<u16> = Crc::<u16>::new(&CRC_16_IBM_3740);
 
 /// Size of the encode buffer and of [`DefaultFrameDecoder`]'s buffer. Every message of this
 /// crate fits in a frame of this length (checked by the test `largest_messages_fit`).
-pub const MAX_FRAME_LEN: usize = 320;
+pub const MAX_FRAME_LEN: usize = 640;
 
 /// A [`FrameDecoder`] sized for every message of this crate.
 pub type DefaultFrameDecoder = FrameDecoder<MAX_FRAME_LEN>;

@@ -15,6 +15,9 @@ pub const FIRMWARE_VERSION_CAP: usize = 32;
 ///
 /// Variant 0 (`Hello`) and the layout of [`Hello`] are frozen forever so that any two
 /// versions can at least agree that they disagree. New variants go at the end only.
+// No allocator here (no_std), so the calibration cannot be boxed: a message is handled one
+// at a time, and its size (≈ 0.3 KiB per calibration since protocol 3) is bounded.
+#[allow(clippy::large_enum_variant)]
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub enum Request {
     /// Open a session: the host's version and schema key. The adapter always answers with
@@ -80,6 +83,9 @@ pub fn check_schema_key(peer_key: u32) -> Result<(), ErrorCode> {
 ///
 /// Variants 0 (`Hello`) and 1 (`Error`), the layout of [`HelloResponse`] and the numeric
 /// values of [`ErrorCode`] are frozen forever. New variants go at the end only.
+// No allocator here (no_std), so the calibration cannot be boxed: a message is handled one
+// at a time, and its size (≈ 0.3 KiB per calibration since protocol 3) is bounded.
+#[allow(clippy::large_enum_variant)]
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub enum Response {
     /// Answer to [`Request::Hello`], whatever the host's key.
@@ -268,6 +274,12 @@ pub struct WireEffects {
     pub bias_temp: [f32; 3],
     /// Relative scale temperature coefficient, 1/°C.
     pub scale_temp: [f32; 3],
+    /// (Protocol 3.) Orientation-dependent degree-2 cross terms, 1/reference unit: row `i`,
+    /// output axis `i`, in the monomial order of `wiical_core::model::CROSS2`.
+    pub cross_quadratic: [[f32; 5]; 3],
+    /// (Protocol 3.) Orientation-dependent degree-3 cross terms, 1/reference unit²: row `i`,
+    /// output axis `i`, in the monomial order of `wiical_core::model::CROSS3`.
+    pub cross_cubic: [[f32; 9]; 3],
 }
 
 impl From<Effects> for WireEffects {
@@ -279,6 +291,8 @@ impl From<Effects> for WireEffects {
             temp_ref_c: e.temp_ref_c,
             bias_temp: e.bias_temp,
             scale_temp: e.scale_temp,
+            cross_quadratic: e.cross_quadratic,
+            cross_cubic: e.cross_cubic,
         }
     }
 }
@@ -292,6 +306,8 @@ impl From<WireEffects> for Effects {
             temp_ref_c: e.temp_ref_c,
             bias_temp: e.bias_temp,
             scale_temp: e.scale_temp,
+            cross_quadratic: e.cross_quadratic,
+            cross_cubic: e.cross_cubic,
         }
     }
 }

@@ -14,16 +14,34 @@ fn v3() -> impl Strategy<Value = [f32; 3]> {
 }
 
 fn effects() -> impl Strategy<Value = WireEffects> {
-    (v3(), v3(), v3(), f(), v3(), v3()).prop_map(
-        |(quadratic, cubic, bias_drift, temp_ref_c, bias_temp, scale_temp)| WireEffects {
-            quadratic,
-            cubic,
-            bias_drift,
-            temp_ref_c,
-            bias_temp,
-            scale_temp,
-        },
+    (
+        v3(),
+        v3(),
+        v3(),
+        f(),
+        v3(),
+        v3(),
+        [
+            [f(), f(), f(), f(), f()],
+            [f(), f(), f(), f(), f()],
+            [f(), f(), f(), f(), f()],
+        ],
+        prop::array::uniform3(prop::array::uniform9(f())),
     )
+        .prop_map(
+            |(quadratic, cubic, bias_drift, temp_ref_c, bias_temp, scale_temp, cq, cc)| {
+                WireEffects {
+                    quadratic,
+                    cubic,
+                    bias_drift,
+                    temp_ref_c,
+                    bias_temp,
+                    scale_temp,
+                    cross_quadratic: cq,
+                    cross_cubic: cc,
+                }
+            },
+        )
 }
 
 fn calibration() -> impl Strategy<Value = WireCalibration> {
@@ -245,10 +263,14 @@ fn calibration_conversions_are_lossless() {
             temp_ref_c: 21.5,
             bias_temp: [1.1, 1.2, 1.3],
             scale_temp: [1.4, 1.5, 1.6],
+            cross_quadratic: std::array::from_fn(|i| std::array::from_fn(|j| (10 * i + j) as f32)),
+            cross_cubic: std::array::from_fn(|i| std::array::from_fn(|j| -((10 * i + j) as f32))),
         },
     };
     let wire: WireCalibration = core.into();
     assert_eq!(wire.effects.scale_temp, [1.4, 1.5, 1.6]);
+    assert_eq!(wire.effects.cross_quadratic[2][4], 24.0);
+    assert_eq!(wire.effects.cross_cubic[1][8], -18.0);
     assert_eq!(Calibration::from(wire), core);
 }
 
@@ -281,10 +303,22 @@ fn golden_encodings() {
         matrix: [[0.0; 3]; 3],
         effects: WireEffects::default(),
     };
-    let cal_hex = format!("0000803f{}", "00".repeat(4 * (2 + 9 + 16)));
+    // Protocol 3: 28 floats as in protocol 2, then the 15 + 27 cross coefficients.
+    let cal_hex = format!("0000803f{}", "00".repeat(4 * (2 + 9 + 16 + 42)));
     assert_eq!(
         hex(&enc(&Request::PutCalibration(cal))),
         format!("02{cal_hex}")
+    );
+    let mut cross = cal;
+    cross.effects.cross_quadratic[0][0] = 1.0;
+    cross.effects.cross_cubic[2][8] = 2.0;
+    assert_eq!(
+        hex(&enc(&Request::PutCalibration(cross))),
+        format!(
+            "020000803f{}0000803f{}00000040",
+            "00".repeat(4 * (2 + 9 + 16)),
+            "00".repeat(4 * 40)
+        )
     );
     let hr = HelloResponse {
         protocol_version: 1,
@@ -404,6 +438,8 @@ fn largest_messages_fit() {
             temp_ref_c: 1.0,
             bias_temp: [1.0; 3],
             scale_temp: [1.0; 3],
+            cross_quadratic: [[1.0; 5]; 3],
+            cross_cubic: [[1.0; 9]; 3],
         },
     };
     let big = [
@@ -665,4 +701,34 @@ proptest! {
         let n = dec.feed::<Response>(&bytes).count();
         prop_assert!(n <= bytes.len());
     }
+}
+
+/// A protocol-2 `PutCalibration` (28 floats, no cross terms) is not half-read as protocol 3:
+/// its frame is too short for the new layout and decodes as an error (the adapter answers
+/// `BadFrame`), never as a calibration with zero cross terms. Sessions never get that far:
+/// the Hello exchange already refuses the protocol-2 key (`SchemaMismatch`).
+#[test]
+fn a_protocol_2_calibration_frame_is_refused() {
+    let mut body = vec![2u8];
+    for x in [
+        1.0f32, 2.0, 3.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0,
+    ] {
+        body.extend(x.to_le_bytes());
+    }
+    body.extend([0u8; 4 * 16]);
+    let crc = frame::CRC16.checksum(&body);
+    body.extend(crc.to_le_bytes());
+    let mut enc = vec![0u8; body.len() + body.len() / 254 + 2];
+    let n = cobs::encode(&body, &mut enc);
+    enc.truncate(n);
+    enc.push(0);
+    let mut dec = DefaultFrameDecoder::new();
+    let got: Vec<Result<Request, _>> = dec.feed(&enc).collect();
+    assert_eq!(got.len(), 1);
+    assert!(got[0].is_err(), "{got:?}");
+    assert_eq!(protocol_of_key(PREVIOUS_SCHEMA_KEYS[0].1), Some(2));
+    assert_eq!(
+        check_schema_key(PREVIOUS_SCHEMA_KEYS[0].1),
+        Err(ErrorCode::SchemaMismatch)
+    );
 }

@@ -31,6 +31,20 @@ pub fn fmt_cal(o: &mut String, title: &str, c: &Calibration) -> Result<()> {
     Ok(())
 }
 
+/// Which terms the adapter applies (`device put` / `commit`, issue 19): one line for the
+/// terms applied on the device, one for those kept in the file for hosts (if any).
+pub fn fmt_terms(o: &mut String, t: &crate::cmd::device::AdapterTerms) -> Result<()> {
+    writeln!(o, "  applied by the adapter: {}", t.applied.join(", "))?;
+    if !t.host_only.is_empty() {
+        writeln!(
+            o,
+            "  kept in the file for hosts with a clock and a thermometer, not applied by the adapter: {}",
+            t.host_only.join(", ")
+        )?;
+    }
+    Ok(())
+}
+
 fn phase_text(p: SelfCalPhase) -> &'static str {
     match p {
         SelfCalPhase::Off => "not running",

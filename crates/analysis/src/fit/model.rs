@@ -629,6 +629,7 @@ impl Normalisation {
                 temp_ref_c: r.temp_ref_c as f32,
                 bias_temp: f(r.bias_temp),
                 scale_temp: f(r.scale_temp),
+                ..Effects::default()
             },
         }
     }

@@ -2,10 +2,12 @@
 //! `magfit --out` write and `wiical device put` reads. Pretty-printed JSON:
 //!
 //! ```json
-//! { "schema": "wiical-calibration/1",
+//! { "schema": "wiical-calibration/2",
 //!   "bias": [..3], "matrix": [[..3], [..3], [..3]],
 //!   "effects": { "quadratic": [..3], "cubic": [..3], "bias_drift": [..3],
-//!                "temp_ref_c": 0.0, "bias_temp": [..3], "scale_temp": [..3] },
+//!                "temp_ref_c": 0.0, "bias_temp": [..3], "scale_temp": [..3],
+//!                "cross_quadratic": [[..5], [..5], [..5]],
+//!                "cross_cubic": [[..9], [..9], [..9]] },
 //!   "quality": { "verdict": "good", "fit_rms_mg": .., "max_fit_rms_mg": 30.0,
 //!                "poses": 14, "coverage_gap": null } }
 //! ```
@@ -15,9 +17,18 @@
 //! a calibration). `effects` and each of its keys may be left out (zero); `quality` may be
 //! left out (a calibration not from a fit: six-position, magfit, hand-written).
 //!
-//! **Files without `schema`** (written before it existed) are still read, as version 1: the
-//! keys were the same and are now checked strictly. A different `schema` value is refused
-//! (a file from a newer wiical must not be half-understood).
+//! **Versions.** Version 2 added the orientation-dependent cross terms `cross_quadratic`
+//! (1/g, per output axis the monomials of `wiical_core::model::CROSS2`) and `cross_cubic`
+//! (1/g², `CROSS3`); each may be left out (zero). A file is written with the lowest version
+//! that holds its terms: `wiical-calibration/1` (exactly the version-1 layout) when every
+//! cross term is zero, so that an older wiical still reads it, and `wiical-calibration/2`
+//! otherwise, which an older wiical refuses by its schema instead of dropping the terms.
+//! Reading accepts both; a file labelled version 1 with a non-zero cross term is refused
+//! (version 1 has none: the label or the terms are wrong).
+//! **Files without `schema`** (written before it existed, or the core's plain serde JSON as
+//! `device get --json` prints it) are read with the same strict keys, cross terms included.
+//! Any other `schema` value is refused (a file from a newer wiical must not be
+//! half-understood).
 
 use crate::error::{Error, Result};
 use crate::input::bounded::{read_text, MAX_CALIBRATION_BYTES};
@@ -27,8 +38,11 @@ use serde::{Deserialize, Serialize};
 use std::path::Path;
 use wiical_core::{Calibration, Effects};
 
-/// The `schema` value this version writes and reads.
-pub const SCHEMA: &str = "wiical-calibration/1";
+/// The newest `schema` value, written when the calibration has cross terms.
+pub const SCHEMA: &str = "wiical-calibration/2";
+
+/// The version-1 `schema` value: still read, and written when every cross term is zero.
+pub const SCHEMA_V1: &str = "wiical-calibration/1";
 
 /// The file's layout (see the module docs).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -54,6 +68,25 @@ struct EffectsV1 {
     temp_ref_c: f32,
     bias_temp: [f32; 3],
     scale_temp: [f32; 3],
+    /// Version 2: absent (zero) in version-1 files; written only when non-zero.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    cross_quadratic: Option<[[f32; 5]; 3]>,
+    /// Version 2: absent (zero) in version-1 files; written only when non-zero.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    cross_cubic: Option<[[f32; 9]; 3]>,
+}
+
+/// `Some(rows)` unless every coefficient is zero.
+fn nonzero<const N: usize>(rows: [[f32; N]; 3]) -> Option<[[f32; N]; 3]> {
+    rows.iter().flatten().any(|x| *x != 0.0).then_some(rows)
+}
+
+impl EffectsV1 {
+    /// True when the file carries a non-zero cross term (version 2 only).
+    fn has_cross_terms(&self) -> bool {
+        self.cross_quadratic.and_then(nonzero).is_some()
+            || self.cross_cubic.and_then(nonzero).is_some()
+    }
 }
 
 impl From<Effects> for EffectsV1 {
@@ -65,6 +98,8 @@ impl From<Effects> for EffectsV1 {
             temp_ref_c: e.temp_ref_c,
             bias_temp: e.bias_temp,
             scale_temp: e.scale_temp,
+            cross_quadratic: nonzero(e.cross_quadratic),
+            cross_cubic: nonzero(e.cross_cubic),
         }
     }
 }
@@ -78,6 +113,8 @@ impl From<EffectsV1> for Effects {
             temp_ref_c: e.temp_ref_c,
             bias_temp: e.bias_temp,
             scale_temp: e.scale_temp,
+            cross_quadratic: e.cross_quadratic.unwrap_or_default(),
+            cross_cubic: e.cross_cubic.unwrap_or_default(),
         }
     }
 }
@@ -94,8 +131,13 @@ pub struct CalibrationFile {
 
 /// The JSON text of a calibration file (pretty-printed, with a final newline).
 pub fn to_json_with(cal: &Calibration, quality: Option<&Quality>) -> Result<String> {
+    let schema = if cal.effects.has_cross_terms() {
+        SCHEMA
+    } else {
+        SCHEMA_V1
+    };
     let file = FileV1 {
-        schema: Some(SCHEMA.into()),
+        schema: Some(schema.into()),
         bias: cal.bias,
         matrix: cal.matrix,
         effects: cal.effects.into(),
@@ -112,10 +154,18 @@ pub fn to_json(cal: &Calibration) -> Result<String> {
 /// Parses calibration-file text strictly (see the module docs); does not validate.
 pub fn parse(text: &str) -> std::result::Result<CalibrationFile, serde_json::Error> {
     let file: FileV1 = serde_json::from_str(text)?;
-    if let Some(schema) = &file.schema {
-        if schema != SCHEMA {
+    match file.schema.as_deref() {
+        None | Some(SCHEMA) => {}
+        Some(SCHEMA_V1) => {
+            if file.effects.has_cross_terms() {
+                return Err(serde::de::Error::custom(format!(
+                    "the file says schema '{SCHEMA_V1}' but has cross_quadratic / cross_cubic terms, which version 1 does not have: set \"schema\": \"{SCHEMA}\""
+                )));
+            }
+        }
+        Some(schema) => {
             return Err(serde::de::Error::custom(format!(
-                "schema '{}' is not '{SCHEMA}' (written by another version of wiical?)",
+                "schema '{}' is neither '{SCHEMA}' nor '{SCHEMA_V1}' (written by another version of wiical?)",
                 crate::input::bounded::quote(schema)
             )));
         }
@@ -220,10 +270,75 @@ mod tests {
             text.starts_with("{\n  \"schema\": \"wiical-calibration/1\","),
             "{text}"
         );
+        assert!(
+            !text.contains("cross_"),
+            "a version-1 file has no cross keys: {text}"
+        );
         assert_eq!(parse(&text).unwrap().calibration, sample());
-        let other = text.replace("wiical-calibration/1", "wiical-calibration/2");
+        let other = text.replace("wiical-calibration/1", "wiical-calibration/3");
         let e = parse(&other).unwrap_err().to_string();
-        assert!(e.contains("schema 'wiical-calibration/2'"), "{e}");
+        assert!(e.contains("schema 'wiical-calibration/3'"), "{e}");
+    }
+
+    fn with_cross() -> Calibration {
+        let mut cal = sample();
+        cal.effects.cross_quadratic[1] = [1e-3, 0.0, -2e-3, 0.0, 5e-4];
+        cal.effects.cross_cubic[2][8] = -7.5e-4;
+        cal
+    }
+
+    #[test]
+    fn cross_terms_are_written_as_version_2_and_read_back() {
+        let cal = with_cross();
+        let text = to_json(&cal).unwrap();
+        assert!(
+            text.starts_with("{\n  \"schema\": \"wiical-calibration/2\","),
+            "{text}"
+        );
+        assert_eq!(parse(&text).unwrap().calibration, cal);
+        // Only one family non-zero: the other key is left out and reads as zero.
+        let mut only_cubic = sample();
+        only_cubic.effects.cross_cubic[0][0] = 1e-3;
+        let text = to_json(&only_cubic).unwrap();
+        assert!(
+            text.contains("cross_cubic") && !text.contains("cross_quadratic"),
+            "{text}"
+        );
+        assert_eq!(parse(&text).unwrap().calibration, only_cubic);
+        // A hand-written version-2 file without cross keys is fine too.
+        let plain = to_json(&sample())
+            .unwrap()
+            .replace("calibration/1", "calibration/2");
+        assert_eq!(parse(&plain).unwrap().calibration, sample());
+    }
+
+    #[test]
+    fn version_1_files_with_cross_terms_and_bad_cross_shapes_are_refused() {
+        let v2 = to_json(&with_cross()).unwrap();
+        let e = parse(&v2.replace("calibration/2", "calibration/1"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("version 1 does not have") && e.contains("wiical-calibration/2"),
+            "{e}"
+        );
+        // Zero cross keys under the version-1 label are harmless.
+        let zeros = r#"{"schema":"wiical-calibration/1","bias":[1,2,3],"matrix":[[1,0,0],[0,1,0],[0,0,1]],"effects":{"cross_cubic":[[0,0,0,0,0,0,0,0,0],[0,0,0,0,0,0,0,0,0],[0,0,0,0,0,0,0,0,0]]}}"#;
+        assert!(!parse(zeros).unwrap().calibration.effects.has_cross_terms());
+        // Unlabelled (the core's plain serde JSON): read with the cross terms.
+        let unlabelled = v2.replacen("\"schema\": \"wiical-calibration/2\",", "", 1);
+        assert_ne!(unlabelled, v2);
+        assert_eq!(parse(&unlabelled).unwrap().calibration, with_cross());
+        let plain = serde_json::to_string(&with_cross()).unwrap();
+        assert_eq!(parse(&plain).unwrap().calibration, with_cross());
+        // Four coefficients where an axis has five monomials.
+        let short = r#"{"schema":"wiical-calibration/2","bias":[1,2,3],"matrix":[[1,0,0],[0,1,0],[0,0,1]],"effects":{"cross_quadratic":[[0,0,0,0],[0,0,0,0,0],[0,0,0,0,0]]}}"#;
+        assert!(parse(short).is_err());
+        let misspelt = v2.replace("cross_cubic", "cross_cubics");
+        assert!(parse(&misspelt)
+            .unwrap_err()
+            .to_string()
+            .contains("unknown field"));
     }
 
     #[test]

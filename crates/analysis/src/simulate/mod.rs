@@ -863,6 +863,7 @@ impl Scene {
             bias_drift: e[2].map(|v| (v * u) as f32),
             bias_temp: e[3].map(|v| (v * u) as f32),
             scale_temp: e[4].map(|v| v as f32),
+            ..Effects::default()
         };
         Ok(calibration)
     }
