@@ -32,7 +32,8 @@ use crate::report::{
 use crate::select::{check_rule, cv_over, select, Choice, OutlierScore, TermScore};
 use crate::stats as st;
 use crate::trial::{
-    base_mask, drop_tests, mask_for, term_note, testable, try_term, CandSpec, State, TermTrial,
+    base_mask, block_weight, bonferroni_weights, drop_tests, mask_for, term_note, try_term,
+    CandSpec, State, TermTrial,
 };
 use crate::windows::{detect_windows, Windows};
 use wiical_core::multipos::MultiPosModel;
@@ -356,6 +357,7 @@ impl Search {
             .iter()
             .map(|t| TermScore {
                 p_value: t.p,
+                weight: t.weight,
                 cv: t.cv,
                 cv_on_kept: tr
                     .outliers
@@ -383,15 +385,13 @@ impl Search {
         let room = ctx.opts.max_effects.saturating_sub(self.effects.len());
         let specs = ctx.candidate_specs(&self.state, room);
         let try_outliers = !self.outliers_done && ctx.opts.allows(Candidate::Outliers);
-        // Bonferroni over the hypotheses tested at this step: each effect once as a block, each
-        // of its axes alone, the diagnostic, the outliers — those the windows are enough to
-        // test (an untestable candidate makes no test). A combination is no new hypothesis:
-        // every member must pass its own drop test at the same level.
-        let singles = specs
-            .iter()
-            .filter(|s| !s.is_combination() && testable(s, &self.state, ctx.model))
-            .count();
-        let m = singles + usize::from(try_outliers);
+        // Bonferroni over the hypotheses tested at this step, weighted
+        // (`bonferroni_weights`): α/m per family (an effect with its single axes, the
+        // diagnostic, the outliers) that the windows are enough to test, shared within a
+        // nonlinearity's family by the block and its axes. A combination is no new
+        // hypothesis: every member must pass its own drop test at its block's level.
+        let (families, weights) = bonferroni_weights(&specs, &self.state, ctx.model);
+        let m = families + usize::from(try_outliers);
         if m == 0 {
             return None;
         }
@@ -409,13 +409,16 @@ impl Search {
             let (rep, trial) = try_term(spec, &self.state, ctx.model, &ctx.wins, cur_cv);
             if let Some(mut t) = trial {
                 t.report = reports.len();
+                t.weight = weights[done];
                 terms.push(t);
             }
             reports.push(rep);
         }
         for i in 0..terms.len() {
             if terms[i].is_combination() {
-                let drops = drop_tests(&terms[i], &terms, &self.state, level, ctx.opts.cv_factor);
+                let level_of = |t| level * block_weight(t, &specs, &weights, &self.state);
+                let drops =
+                    drop_tests(&terms[i], &terms, &self.state, level_of, ctx.opts.cv_factor);
                 terms[i].drops = drops;
             }
         }

@@ -165,6 +165,9 @@ pub struct TermTrial {
     pub parts: Vec<Part>,
     /// One axis of a block also tried whole ([`is_axis_member`]).
     pub axis_member: bool,
+    /// Its share of the step's level ([`bonferroni_weights`]): its F-test passes at
+    /// `level × weight`.
+    pub weight: f64,
     /// Parameters it adds.
     pub dp: usize,
     /// The fit with it.
@@ -214,7 +217,7 @@ pub fn drop_tests(
     c: &TermTrial,
     trials: &[TermTrial],
     state: &State,
-    level: f64,
+    level_of: impl Fn(Term) -> f64,
     cv_factor: f64,
 ) -> Vec<DropTest> {
     let dof = c.fit.n.saturating_sub(c.fit.k).max(1) as f64;
@@ -248,7 +251,7 @@ pub fn drop_tests(
                 f,
                 p,
                 cv_without,
-                passes: p < level && c.cv * cv_factor <= cv_without,
+                passes: p < level_of(part.term) && c.cv * cv_factor <= cv_without,
             }
         })
         .collect()
@@ -265,6 +268,87 @@ pub fn params_with(spec: &CandSpec, state: &State, model: MultiPosModel) -> usiz
 /// parameters): the candidates the step's Bonferroni level counts.
 pub fn testable(spec: &CandSpec, state: &State, model: MultiPosModel) -> bool {
     state.n_used() >= params_with(spec, state, model) + MIN_DOF_TERM
+}
+
+/// The step's Bonferroni split (weighted): the number of hypothesis families the level α/m
+/// is divided by, and each candidate's share of α/m. A family is an effect (its block and,
+/// for a nonlinearity, its single axes), the curved-drift diagnostic, or the outliers,
+/// counted when the windows are enough to test any of it. Within a nonlinearity's family the
+/// block takes half and its single axes share the other half (all of it when the block cannot
+/// be tested), so adding the single axes leaves every other effect's level where it was; a
+/// combination is tested at the smallest share of its members (each member's drop test at its
+/// own). Sum of the levels ≤ α, so the family-wise false-positive rate per step stays ≤ α.
+pub fn bonferroni_weights(
+    specs: &[CandSpec],
+    state: &State,
+    model: MultiPosModel,
+) -> (usize, Vec<f64>) {
+    let ok: Vec<bool> = specs.iter().map(|s| testable(s, state, model)).collect();
+    let single = |s: &CandSpec| !s.is_combination() && s.candidate != Candidate::BiasDriftCurved;
+    let member = |s: &CandSpec| single(s) && is_axis_member(s.candidate, &s.parts, state);
+    // Per block: is it testable, how many of its single axes are.
+    let family = |t: Term| {
+        let mut block_ok = false;
+        let mut axes_ok = 0usize;
+        for (s, &k) in specs.iter().zip(&ok) {
+            if single(s) && s.parts[0].term == t && k {
+                if member(s) {
+                    axes_ok += 1;
+                } else {
+                    block_ok = true;
+                }
+            }
+        }
+        (block_ok, axes_ok)
+    };
+    let block_weight = |t: Term| match family(t) {
+        (true, a) if a > 0 => 0.5,
+        _ => 1.0,
+    };
+    let weights = specs
+        .iter()
+        .map(|s| {
+            if s.candidate == Candidate::BiasDriftCurved {
+                1.0
+            } else if s.is_combination() {
+                s.parts
+                    .iter()
+                    .map(|p| block_weight(p.term))
+                    .fold(1.0, f64::min)
+            } else if member(s) {
+                let (block_ok, a) = family(s.parts[0].term);
+                (if block_ok { 0.5 } else { 1.0 }) / a.max(1) as f64
+            } else {
+                block_weight(s.parts[0].term)
+            }
+        })
+        .collect();
+    let mut families = 0;
+    for t in Term::ALL {
+        let (b, a) = family(t);
+        families += usize::from(b || a > 0);
+    }
+    families += specs
+        .iter()
+        .zip(&ok)
+        .filter(|(s, k)| **k && s.candidate == Candidate::BiasDriftCurved)
+        .count();
+    (families, weights)
+}
+
+/// The share of the level of block `t` in a step's [`bonferroni_weights`] (1 when it is not
+/// among the candidates).
+pub fn block_weight(t: Term, specs: &[CandSpec], weights: &[f64], state: &State) -> f64 {
+    specs
+        .iter()
+        .zip(weights)
+        .find(|(s, _)| {
+            !s.is_combination()
+                && s.candidate != Candidate::BiasDriftCurved
+                && s.parts[0].term == t
+                && !is_axis_member(s.candidate, &s.parts, state)
+        })
+        .map_or(1.0, |(_, w)| *w)
 }
 
 /// Fits one candidate on top of `state`. Returns its report row (without the verdict, which
@@ -321,6 +405,7 @@ pub fn try_term(
         candidate: spec.candidate,
         parts: spec.parts.clone(),
         axis_member: is_axis_member(spec.candidate, &spec.parts, state),
+        weight: 1.0,
         dp,
         fit: f,
         loo,
@@ -363,7 +448,7 @@ pub fn term_note(
         (true, true) => {
             "passes, but diagnostic only: the calibration cannot store a curved drift".into()
         }
-        (false, true) => format!("F-test not significant at {level:.1e}"),
+        (false, true) => format!("F-test not significant at {:.1e}", level * t.weight),
         (true, false) => format!("CV not improved by the factor {cv_factor:.2}"),
         (false, false) => "neither significant nor better under CV".into(),
     }
