@@ -137,8 +137,8 @@ impl State {
     pub fn axes_of(&self, t: Term) -> [bool; 3] {
         let mut have = [false; 3];
         for p in self.parts.iter().filter(|p| p.term == t) {
-            for a in 0..3 {
-                have[a] |= p.axes[a];
+            for (h, a) in have.iter_mut().zip(p.axes) {
+                *h |= a;
             }
         }
         have

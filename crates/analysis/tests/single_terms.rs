@@ -28,7 +28,7 @@ fn run(
 }
 
 fn device(seed: u64) -> Device {
-    if seed % 2 == 0 {
+    if seed.is_multiple_of(2) {
         Device::Wiimote
     } else {
         Device::Nunchuk
@@ -41,8 +41,8 @@ fn names(r: &AnalyzeReport) -> Vec<String> {
 
 const AXES: [&str; 3] = ["x", "y", "z"];
 
-/// The case: 14 windows are too few for a whole quadratic block (9 + 3 parameters
-/// + 3 degrees of freedom), but one axis of it is tested, found, named with its axis and stored
+/// The case: 14 windows are too few for a whole quadratic block (9 + 3 parameters and
+/// 3 degrees of freedom), but one axis of it is tested, found, named with its axis and stored
 /// in `effects.quadratic` with the other two axes zero; the value is the simulated one within
 /// 4 standard errors. The verdict still lists the whole blocks it could not test.
 #[test]
@@ -52,7 +52,12 @@ fn a_one_axis_quadratic_is_found_in_fourteen_windows() {
         let (r, sim) = run(SimEffect::Quadratic, 40.0, axis, 14, seed);
         assert_eq!(r.static_windows, 14, "seed {seed}");
         let want = format!("quadratic ({})", AXES[axis]);
-        assert_eq!(names(&r), [want.clone()], "seed {seed}:\n{}", r.verdict);
+        assert_eq!(
+            names(&r),
+            std::slice::from_ref(&want),
+            "seed {seed}:\n{}",
+            r.verdict
+        );
         let e = &r.effects[0];
         assert_eq!(e.params, 1);
         assert!(e.evidence.contains("mg/g²"), "{}", e.evidence);
