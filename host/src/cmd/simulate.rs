@@ -41,6 +41,18 @@ pub struct Args {
     /// Leave out the temperature column.
     #[arg(long)]
     pub no_temp: bool,
+    /// Put the effect(s) on one sensor axis only (x, y or z): the whole magnitude there, the
+    /// other axes zero (`analyze` names it e.g. `quadratic (z)`); not for `outliers`.
+    #[arg(long, value_parser = parse_axis)]
+    pub axis: Option<usize>,
+}
+
+/// `--axis`: x, y or z.
+fn parse_axis(s: &str) -> Result<usize, String> {
+    wiical_analysis::report::effect_names::AXES
+        .iter()
+        .position(|a| *a == s)
+        .ok_or_else(|| format!("'{s}': expected x, y or z"))
 }
 
 fn parse_effect(s: &str) -> Result<SimEffect, String> {
@@ -68,7 +80,11 @@ fn parse_profile(s: &str) -> Result<Profile, String> {
 }
 
 /// Pairs `--effect` with `--magnitude` (none, one for all, or one per effect).
-fn effect_specs(effects: &[SimEffect], mags: &[f64]) -> Result<Vec<EffectSpec>> {
+fn effect_specs(
+    effects: &[SimEffect],
+    mags: &[f64],
+    axis: Option<usize>,
+) -> Result<Vec<EffectSpec>> {
     if mags.len() > 1 && mags.len() != effects.len() {
         anyhow::bail!(
             "--magnitude: {} values for {} effects (give one for all or one per effect)",
@@ -79,7 +95,10 @@ fn effect_specs(effects: &[SimEffect], mags: &[f64]) -> Result<Vec<EffectSpec>> 
     Ok(effects
         .iter()
         .enumerate()
-        .map(|(i, e)| EffectSpec::new(*e, mags.get(i).or(mags.first()).copied()))
+        .map(|(i, e)| EffectSpec {
+            axis,
+            ..EffectSpec::new(*e, mags.get(i).or(mags.first()).copied())
+        })
         .collect())
 }
 
@@ -101,7 +120,7 @@ pub const MAX_POSES: usize = 5000;
 
 /// Runs `wiical simulate`; returns what to print.
 pub fn run(a: &Args) -> Result<String> {
-    let effects = effect_specs(&a.effect, &a.magnitude)?;
+    let effects = effect_specs(&a.effect, &a.magnitude, a.axis)?;
     let cfg = SimConfig {
         effects,
         seed: a.seed,

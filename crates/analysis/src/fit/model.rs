@@ -179,10 +179,81 @@ impl Term {
         }
     }
 
+    /// True for the terms whose single axes are candidates too ([`Part::axis`]): the per-axis
+    /// nonlinearities, a property of each axis's transfer curve, which one axis can have
+    /// alone. The bias terms (drift, temperature) move the bias along one direction the three
+    /// axes fix together, and the temperature scale follows the temperature as they do: split
+    /// into axes they would add six one-parameter tests on time or temperature per step, and
+    /// a first version that did named `temperature (z)` for a 2 mg bias drift (time and
+    /// temperature correlate in these recordings) where the block search names nothing.
+    pub fn splits_by_axis(self) -> bool {
+        matches!(self, Term::Quadratic | Term::Cubic)
+    }
+
     /// True for terms needing a temperature column.
     pub fn needs_temperature(self) -> bool {
         matches!(self, Term::BiasTemp | Term::ScaleTemp)
     }
+}
+
+/// An effect block restricted to some of its axes: the whole block, or a single axis (a
+/// quadratic on z alone: one parameter instead of three, so a recording with few poses can
+/// still test it). The parameters of the other axes stay fixed at zero, so the calibration
+/// stores a single-axis effect in the same `Effects` field with the other axes zero.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct Part {
+    /// The block.
+    pub term: Term,
+    /// Which of its axes are free (x, y, z of the fitted frame).
+    pub axes: [bool; 3],
+}
+
+impl Part {
+    /// The whole block.
+    pub fn block(term: Term) -> Self {
+        Self {
+            term,
+            axes: [true; 3],
+        }
+    }
+
+    /// Axis `axis` (0, 1, 2 = x, y, z) of the block alone.
+    pub fn axis(term: Term, axis: usize) -> Self {
+        let mut axes = [false; 3];
+        axes[axis] = true;
+        Self { term, axes }
+    }
+
+    /// Number of parameters (free axes).
+    pub fn count(self) -> usize {
+        self.axes.iter().filter(|a| **a).count()
+    }
+
+    /// The report name: the block's (`quadratic`) when every axis is free, else the block's
+    /// with its axes (`quadratic (z)`, `quadratic (x, y)`).
+    pub fn name(self) -> String {
+        if self.axes == [true; 3] {
+            return self.term.name().to_string();
+        }
+        let axes: Vec<&str> = (0..3)
+            .filter(|a| self.axes[*a])
+            .map(|a| names::AXES[a])
+            .collect();
+        format!("{} ({})", self.term.name(), axes.join(", "))
+    }
+}
+
+/// Mask of the 9 base parameters plus the given parts (each block only on its free axes).
+pub fn mask_of_parts(parts: &[Part]) -> Mask {
+    let mut m = mask_of(&[]);
+    for p in parts {
+        for a in 0..3 {
+            if p.axes[a] {
+                m[p.term.offset() + a] = true;
+            }
+        }
+    }
+    m
 }
 
 /// A static window reduced to what the model needs (normalised units).
@@ -365,18 +436,33 @@ impl<const K: usize> Problem<f64, K> for Reduced<'_, K> {
     }
 }
 
-/// Calls `$f::<K>(args…)` with `K` the number of free parameters (`$k`): base 6 or 9 plus 3
-/// per effect block, so a multiple of 3 from 6 to 27 (`None` otherwise).
+/// Calls `$f::<K>(args…)` with `K` the number of free parameters (`$k`): base 6 or 9 plus 1
+/// to 3 per effect block ([`Part`]: single axes too), so anything from 6 to 27 (`None`
+/// otherwise).
 macro_rules! with_free_count {
     ($k:expr, $f:ident($($arg:expr),*)) => {
         match $k {
             6 => $f::<6>($($arg),*),
+            7 => $f::<7>($($arg),*),
+            8 => $f::<8>($($arg),*),
             9 => $f::<9>($($arg),*),
+            10 => $f::<10>($($arg),*),
+            11 => $f::<11>($($arg),*),
             12 => $f::<12>($($arg),*),
+            13 => $f::<13>($($arg),*),
+            14 => $f::<14>($($arg),*),
             15 => $f::<15>($($arg),*),
+            16 => $f::<16>($($arg),*),
+            17 => $f::<17>($($arg),*),
             18 => $f::<18>($($arg),*),
+            19 => $f::<19>($($arg),*),
+            20 => $f::<20>($($arg),*),
             21 => $f::<21>($($arg),*),
+            22 => $f::<22>($($arg),*),
+            23 => $f::<23>($($arg),*),
             24 => $f::<24>($($arg),*),
+            25 => $f::<25>($($arg),*),
+            26 => $f::<26>($($arg),*),
             27 => $f::<27>($($arg),*),
             _ => None,
         }

@@ -20,3 +20,6 @@ pub const OUTLIERS: &str = "outliers";
 pub const BIAS_DRIFT_CURVED: &str = "bias-drift-curved";
 /// The simulator's "no effect".
 pub const NONE: &str = "none";
+/// The sensor axes a single-axis effect is named by (`quadratic (z)`): x, y, z of the fitted
+/// frame (x kept, y in the x–y plane), the frame the simulator's truth uses too.
+pub const AXES: [&str; 3] = ["x", "y", "z"];

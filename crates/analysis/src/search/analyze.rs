@@ -19,7 +19,7 @@
 use crate::detect::windows::{detect_windows, Windows};
 use crate::error::{Error, Result};
 use crate::fit::base::fit_means_named;
-use crate::fit::model::{self as am, Fit, Normalisation, Term, Win};
+use crate::fit::model::{self as am, Fit, Normalisation, Part, Term, Win};
 use crate::input::recording::Recording;
 use crate::report::contract::{
     AnalyzeReport, CandidateReport, EffectReport, ModelSummary, StepReport, WindowInfo,
@@ -32,7 +32,8 @@ use crate::search::options::AnalyzeOptions;
 use crate::search::outliers::{find_outliers, OutlierTrial};
 use crate::search::select::{check_rule, cv_over, select, Choice, OutlierScore, TermScore};
 use crate::search::trial::{
-    base_mask, drop_tests, mask_for, term_note, try_term, CandSpec, State, TermTrial,
+    base_mask, block_weight, bonferroni_weights, drop_tests, mask_for, term_note, try_term,
+    CandSpec, State, TermTrial,
 };
 use crate::stats as st;
 use wiical_core::multipos::MultiPosModel;
@@ -161,15 +162,20 @@ impl<'a> Context<'a> {
         })
     }
 
-    /// The parametric candidates to try on top of `state`: each effect alone, every
-    /// combination of up to `room` of them (several effects at once: with one of two effects
-    /// unmodelled, the other's F-test divides by a residual variance the first inflates, so
-    /// neither passes alone), and the curved-drift diagnostic.
+    /// The parametric candidates to try on top of `state`: each effect alone (the axes of its
+    /// block the model lacks), for the nonlinearities each of those axes alone when there are
+    /// several ([`Term::splits_by_axis`]: a one-axis nonlinearity costs one parameter, not
+    /// three, so a recording too short for the block can still test it), every combination of up to `room` whole effects (several effects at
+    /// once: with one of two effects unmodelled, the other's F-test divides by a residual
+    /// variance the first inflates, so neither passes alone), and the curved-drift
+    /// diagnostic. Single axes enter no combination, so the candidates grow linearly with the
+    /// axes, not with their subsets.
     fn candidate_specs(&self, state: &State, room: usize) -> Vec<CandSpec> {
-        let mut singles = Vec::new();
+        let mut blocks = Vec::new();
         for t in Term::ALL {
             let candidate = Candidate::of_term(t);
-            if state.terms.contains(&t) || !self.opts.allows(candidate) {
+            let have = state.axes_of(t);
+            if have == [true; 3] || !self.opts.allows(candidate) {
                 continue;
             }
             if t.needs_temperature() && !(self.temp_range > 0.05) {
@@ -178,27 +184,43 @@ impl<'a> Context<'a> {
             if t == Term::Drift && !(self.duration > 0.0) {
                 continue;
             }
-            singles.push(t);
+            blocks.push(Part {
+                term: t,
+                axes: have.map(|h| !h),
+            });
         }
-        let mut specs: Vec<CandSpec> = singles
+        let mut specs: Vec<CandSpec> = blocks
             .iter()
-            .map(|&t| CandSpec::single(Candidate::of_term(t), vec![t]))
+            .map(|&p| CandSpec::single(Candidate::of_term(p.term), vec![p]))
             .collect();
-        for size in 2..=room.min(singles.len()) {
-            for combo in subsets(&singles, size) {
+        for p in blocks
+            .iter()
+            .filter(|p| p.count() > 1 && p.term.splits_by_axis())
+        {
+            for a in (0..3).filter(|a| p.axes[*a]) {
+                let one = Part::axis(p.term, a);
+                specs.push(CandSpec::single(Candidate::of_term(p.term), vec![one]));
+            }
+        }
+        for size in 2..=room.min(blocks.len()) {
+            for combo in subsets(&blocks, size) {
                 specs.push(CandSpec::combination(combo));
             }
         }
         if self.duration > 0.0
             && self.opts.allows(Candidate::BiasDriftCurved)
-            && !state.terms.contains(&Term::Drift2)
+            && state.axes_of(Term::Drift2) != [true; 3]
         {
-            let terms = if state.terms.contains(&Term::Drift) {
-                vec![Term::Drift2]
-            } else {
-                vec![Term::Drift, Term::Drift2]
-            };
-            specs.push(CandSpec::single(Candidate::BiasDriftCurved, terms));
+            let mut parts = Vec::new();
+            let drift = state.axes_of(Term::Drift);
+            if drift != [true; 3] {
+                parts.push(Part {
+                    term: Term::Drift,
+                    axes: drift.map(|h| !h),
+                });
+            }
+            parts.push(Part::block(Term::Drift2));
+            specs.push(CandSpec::single(Candidate::BiasDriftCurved, parts));
         }
         specs
     }
@@ -253,7 +275,7 @@ impl Search {
         let n = ctx.n();
         Search {
             state: State {
-                terms: Vec::new(),
+                parts: Vec::new(),
                 used: vec![true; n],
                 fit: base.fit.clone(),
                 loo: base.loo.clone().unwrap_or_else(|| vec![None; n]),
@@ -335,6 +357,7 @@ impl Search {
             .iter()
             .map(|t| TermScore {
                 p_value: t.p,
+                weight: t.weight,
                 cv: t.cv,
                 cv_on_kept: tr
                     .outliers
@@ -362,14 +385,13 @@ impl Search {
         let room = ctx.opts.max_effects.saturating_sub(self.effects.len());
         let specs = ctx.candidate_specs(&self.state, room);
         let try_outliers = !self.outliers_done && ctx.opts.allows(Candidate::Outliers);
-        // Bonferroni over the candidates of the library (each effect once, the diagnostic,
-        // the outliers): a combination is no new hypothesis, every member must pass its own
-        // drop test at the same level.
-        let singles = specs
-            .iter()
-            .filter(|s| !s.terms.is_empty() && s.name() == s.candidate.name())
-            .count();
-        let m = singles + usize::from(try_outliers);
+        // Bonferroni over the hypotheses tested at this step, weighted
+        // (`bonferroni_weights`): α/m per family (an effect with its single axes, the
+        // diagnostic, the outliers) that the windows are enough to test, shared within a
+        // nonlinearity's family by the block and its axes. A combination is no new
+        // hypothesis: every member must pass its own drop test at its block's level.
+        let (families, weights) = bonferroni_weights(&specs, &self.state, ctx.model);
+        let m = families + usize::from(try_outliers);
         if m == 0 {
             return None;
         }
@@ -387,13 +409,16 @@ impl Search {
             let (rep, trial) = try_term(spec, &self.state, ctx.model, &ctx.wins, cur_cv);
             if let Some(mut t) = trial {
                 t.report = reports.len();
+                t.weight = weights[done];
                 terms.push(t);
             }
             reports.push(rep);
         }
         for i in 0..terms.len() {
             if terms[i].is_combination() {
-                let drops = drop_tests(&terms[i], &terms, &self.state, level, ctx.opts.cv_factor);
+                let level_of = |t| level * block_weight(t, &specs, &weights, &self.state);
+                let drops =
+                    drop_tests(&terms[i], &terms, &self.state, level_of, ctx.opts.cv_factor);
                 terms[i].drops = drops;
             }
         }
@@ -430,7 +455,7 @@ impl Search {
     ) -> (CandidateReport, Option<OutlierTrial>) {
         let n_used = self.state.n_used();
         let max_reject = ((ctx.opts.max_outlier_fraction * n_used as f64).floor() as usize).max(1);
-        let cur_mask = mask_for(ctx.model, &self.state.terms);
+        let cur_mask = mask_for(ctx.model, &self.state.parts);
         let screen = |fit: &am::Fit, mask: &am::Mask, level: f64| {
             find_outliers(
                 fit,
@@ -446,18 +471,16 @@ impl Search {
         if tr.is_none() {
             // Every extra model screened is one more chance of a false rejection: Bonferroni
             // over the models.
-            let models = 1 + terms
-                .iter()
-                .filter(|t| !t.is_combination() && t.candidate.storable())
-                .count();
+            // Whole blocks only: screening under every single axis too would multiply the
+            // models (and divide the level) without a new kind of effect.
+            let screened =
+                |t: &&TermTrial| !t.is_combination() && !t.axis_member && t.candidate.storable();
+            let models = 1 + terms.iter().filter(screened).count();
             let level = level / models as f64;
             let mut best: Option<(f64, OutlierTrial, String)> = None;
-            for t in terms
-                .iter()
-                .filter(|t| !t.is_combination() && t.candidate.storable())
-            {
-                let mut with = self.state.terms.clone();
-                with.extend(t.terms.iter().copied());
+            for t in terms.iter().filter(screened) {
+                let mut with = self.state.parts.clone();
+                with.extend(t.parts.iter().copied());
                 let Some(o) = screen(&t.fit, &mask_for(ctx.model, &with), level) else {
                     continue;
                 };
@@ -571,9 +594,9 @@ impl Search {
 
     fn accept_term(&mut self, ctx: &Context<'_>, b: usize, tr: &StepTrials) {
         let bt = &tr.terms[b];
-        let mut new_terms = self.state.terms.clone();
-        new_terms.extend(bt.terms.iter().copied());
-        let mask = mask_for(ctx.model, &new_terms);
+        let mut new_parts = self.state.parts.clone();
+        new_parts.extend(bt.parts.iter().copied());
+        let mask = mask_for(ctx.model, &new_parts);
         let se = am::standard_errors(&bt.fit, &mask, &ctx.wins, &self.state.used);
         if self.first_signature.is_none() {
             let sig = (0..ctx.n())
@@ -589,7 +612,7 @@ impl Search {
             self.accept_combination(ctx, bt, tr, &se);
         } else {
             let (vals, ses, unit) =
-                ev::term_values(bt.terms[0], &ctx.nrm, &bt.fit.p, &se, ctx.duration);
+                ev::term_values(bt.parts[0], &ctx.nrm, &bt.fit.p, &se, ctx.duration);
             let tctx = TermContext {
                 current: &self.state.fit,
                 used: &self.state.used,
@@ -599,7 +622,7 @@ impl Search {
             };
             let evidence = ev::term_evidence(&tctx, bt, &tr.terms, (&vals, &ses, &unit));
             self.effects.push(EffectReport {
-                name: bt.candidate.to_string(),
+                name: bt.name(),
                 params: bt.dp,
                 rms_mg: bt.fit.rms() * 1e3,
                 cv_rms_mg: Some(bt.cv * 1e3),
@@ -613,7 +636,7 @@ impl Search {
                 rejected_windows: None,
             });
         }
-        self.state.terms = new_terms;
+        self.state.parts = new_parts;
         self.state.fit = bt.fit.clone();
         self.state.loo = bt.loo.clone();
     }
@@ -631,13 +654,13 @@ impl Search {
         let mut drops = bt.drops.clone();
         drops.sort_by(|a, b| b.cv_without.total_cmp(&a.cv_without));
         for d in &drops {
-            let rest: Vec<Term> = bt.terms.iter().copied().filter(|t| *t != d.term).collect();
+            let rest: Vec<Part> = bt.parts.iter().copied().filter(|t| *t != d.part).collect();
             let without = tr
                 .terms
                 .iter()
                 .find(|t| t.adds(&rest) && t.candidate != Candidate::BiasDriftCurved)
                 .map(|t| &t.fit);
-            let (vals, ses, unit) = ev::term_values(d.term, &ctx.nrm, &bt.fit.p, se, ctx.duration);
+            let (vals, ses, unit) = ev::term_values(d.part, &ctx.nrm, &bt.fit.p, se, ctx.duration);
             let mctx = ev::MemberContext {
                 without: without.unwrap_or(&self.state.fit),
                 used: &self.state.used,
@@ -646,8 +669,8 @@ impl Search {
             };
             let evidence = ev::member_evidence(&mctx, bt, d, &tr.terms, (&vals, &ses, &unit));
             self.effects.push(EffectReport {
-                name: d.term.name().to_string(),
-                params: 3,
+                name: d.part.name(),
+                params: d.part.count(),
                 rms_mg: bt.fit.rms() * 1e3,
                 cv_rms_mg: Some(bt.cv * 1e3),
                 cv_rms_before_mg: Some(d.cv_without * 1e3),
@@ -669,7 +692,7 @@ impl Context<'_> {
         let n = self.n();
         let all = vec![true; n];
         let k_base = base_mask(self.model).iter().filter(|x| **x).count();
-        let k_terms = mask_for(self.model, &state.terms)
+        let k_terms = mask_for(self.model, &state.parts)
             .iter()
             .filter(|x| **x)
             .count();

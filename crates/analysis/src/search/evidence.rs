@@ -2,7 +2,7 @@
 //! tests, the runner-up and whether the two are separable) and the verdict paragraph. Numbers
 //! are formatted here once, so the report and the text output agree.
 
-use crate::fit::model::{self as am, Blocks, Fit, Normalisation, Params, Term, Win};
+use crate::fit::model::{self as am, Blocks, Fit, Normalisation, Params, Part, Term, Win};
 use crate::report::contract::{EffectReport, ModelSummary};
 use crate::search::outliers::OutlierTrial;
 use crate::search::select::{cv_over, paired_p};
@@ -17,8 +17,22 @@ pub fn fmt_vec(v: &[f64; 3], prec: usize) -> String {
 
 pub use crate::stats::fmt_p;
 
-/// Per-axis values of a term in reporting units: (values, std errors, unit).
+/// Per-axis values of a part in reporting units: (values, std errors, unit); the axes the
+/// part does not free are 0 (a single-axis part reports its one axis).
 pub fn term_values(
+    part: Part,
+    nrm: &Normalisation,
+    p: &Params,
+    se: &Params,
+    duration: f64,
+) -> ([f64; 3], [f64; 3], String) {
+    let (vals, ses, unit) = block_values(part.term, nrm, p, se, duration);
+    let keep = |v: [f64; 3]| std::array::from_fn(|a| if part.axes[a] { v[a] } else { 0.0 });
+    (keep(vals), keep(ses), unit)
+}
+
+/// Per-axis values of a whole block in reporting units: (values, std errors, unit).
+fn block_values(
     t: Term,
     nrm: &Normalisation,
     p: &Params,
@@ -202,13 +216,14 @@ fn pattern(term: Term) -> &'static str {
     }
 }
 
-fn time_like(t: &[Term]) -> bool {
-    t.iter().any(|x| matches!(x, Term::Drift | Term::Drift2))
+fn time_like(t: &[Part]) -> bool {
+    t.iter()
+        .any(|x| matches!(x.term, Term::Drift | Term::Drift2))
 }
 
-fn temp_like(t: &[Term]) -> bool {
+fn temp_like(t: &[Part]) -> bool {
     t.iter()
-        .any(|x| matches!(x, Term::BiasTemp | Term::ScaleTemp))
+        .any(|x| matches!(x.term, Term::BiasTemp | Term::ScaleTemp))
 }
 
 /// What the current model and the step know, for the evidence of an accepted term.
@@ -246,7 +261,7 @@ pub fn term_evidence(
     let explained = 1.0 - bt.fit.rss / ctx.current.rss.max(1e-300);
     let mut evidence = format!(
         "{}: r = {r_sig:.2}, explains {:.0}% of the residual variance; CV {:.3} → {:.3} mg, F({},{}) = {:.1}, p {}; fitted {} ± {} {unit}",
-        pattern(bt.terms[0]),
+        pattern(bt.parts[0].term),
         100.0 * explained,
         ctx.cur_cv.unwrap_or(f64::NAN) * 1e3,
         bt.cv * 1e3,
@@ -278,16 +293,27 @@ fn compare_with_others(
         .filter(|t| t.passes_rules && t.candidate.storable())
         .min_by(|a, b| a.cv.total_cmp(&b.cv))
         .or_else(|| others().min_by(|a, b| a.cv.total_cmp(&b.cv)));
-    let counterpart = if time_like(&bt.terms) {
-        others().find(|t| t.terms == [Term::BiasTemp])
-    } else if temp_like(&bt.terms) {
-        others().find(|t| t.terms == [Term::Drift])
+    // The whole block of a term (the effect as one candidate, not one of its axes).
+    let block_of = |term: Term| {
+        trials.iter().find(|t| {
+            !t.is_combination()
+                && !t.axis_member
+                && t.candidate.storable()
+                && t.parts[0].term == term
+        })
+    };
+    let counterpart = if time_like(&bt.parts) {
+        block_of(Term::BiasTemp)
+    } else if temp_like(&bt.parts) {
+        block_of(Term::Drift)
     } else {
         None
     };
+    // A single axis is also compared with its whole block: is the effect on the other axes too?
+    let whole = bt.axis_member.then(|| block_of(bt.parts[0].term)).flatten();
     let mut compared: Vec<&TermTrial> = runner.into_iter().collect();
-    if let Some(c) = counterpart {
-        if !compared.iter().any(|t| t.candidate == c.candidate) {
+    for c in counterpart.into_iter().chain(whole) {
+        if !compared.iter().any(|t| t.name() == c.name()) {
             compared.push(c);
         }
     }
@@ -298,12 +324,12 @@ fn compare_with_others(
             evidence,
             "; {} {}: CV {:.3} mg (paired test on held-out errors p {})",
             if k == 0 { "runner-up" } else { "against" },
-            ru.candidate,
+            ru.name(),
             ru.cv * 1e3,
             pp.map_or("n/a".into(), fmt_p)
         );
-        let related = (time_like(&bt.terms) && temp_like(&ru.terms))
-            || (temp_like(&bt.terms) && time_like(&ru.terms));
+        let related = (time_like(&bt.parts) && temp_like(&ru.parts))
+            || (temp_like(&bt.parts) && time_like(&ru.parts));
         if related && !said_corr {
             if let Some(r) = ctx.time_temp_r {
                 let _ = write!(
@@ -317,7 +343,9 @@ fn compare_with_others(
             let _ = write!(
                 evidence,
                 "; {} and {} are NOT separable by these data (both pass; their held-out errors do not differ significantly): chose {} by its lower CV",
-                bt.candidate, ru.candidate, bt.candidate
+                bt.name(),
+                ru.name(),
+                bt.name()
             );
         }
     }
@@ -355,36 +383,46 @@ pub fn member_evidence(
     let sig: Vec<f64> = r_rest.iter().zip(&r_all).map(|(a, b)| a - b).collect();
     let r_sig = st::correlation(&r_rest, &sig);
     let explained = 1.0 - combo.fit.rss / ctx.without.rss.max(1e-300);
-    let others: Vec<&str> = combo
-        .terms
+    let others: Vec<String> = combo
+        .parts
         .iter()
-        .filter(|t| **t != d.term)
+        .filter(|t| **t != d.part)
         .map(|t| t.name())
         .collect();
     let mut evidence = format!(
-        "found together with {} ({} at once): {}: the others leave CV {:.3} mg, with it {:.3} mg; it explains {:.0}% of the residual variance they leave (r = {r_sig:.2}); without it F(3,{}) = {:.1}, p {}; fitted {} ± {} {unit}",
+        "found together with {} ({} at once): {}: the others leave CV {:.3} mg, with it {:.3} mg; it explains {:.0}% of the residual variance they leave (r = {r_sig:.2}); without it F({},{}) = {:.1}, p {}; fitted {} ± {} {unit}",
         others.join(" + "),
         combo.name(),
-        pattern(d.term),
+        pattern(d.part.term),
         d.cv_without * 1e3,
         combo.cv * 1e3,
         100.0 * explained,
+        d.part.count(),
         combo.fit.n - combo.fit.k,
         d.f,
         fmt_p(d.p),
         fmt_vec(vals, 3),
         fmt_vec(ses, 3),
     );
-    let counterpart = match d.term {
+    let counterpart = match d.part.term {
         Term::Drift => Some(Term::BiasTemp),
         Term::BiasTemp => Some(Term::Drift),
         _ => None,
     };
-    if let Some(c) = counterpart.filter(|c| !combo.terms.contains(c)) {
-        let swapped: Vec<Term> = combo
-            .terms
+    if let Some(c) = counterpart.filter(|c| !combo.parts.iter().any(|p| p.term == *c)) {
+        let swapped: Vec<Part> = combo
+            .parts
             .iter()
-            .map(|t| if *t == d.term { c } else { *t })
+            .map(|t| {
+                if *t == d.part {
+                    Part {
+                        term: c,
+                        axes: t.axes,
+                    }
+                } else {
+                    *t
+                }
+            })
             .collect();
         if let Some(alt) = trials.iter().find(|t| t.adds(&swapped)) {
             let pp = paired_p(&combo.loo, &alt.loo, ctx.used);
@@ -405,9 +443,9 @@ pub fn member_evidence(
                 let _ = write!(
                     evidence,
                     "; {} and {} are NOT separable by these data (both pass; their held-out errors do not differ significantly): chose {} by its lower CV",
-                    d.term.name(),
+                    d.part.name(),
                     c.name(),
-                    d.term.name()
+                    d.part.name()
                 );
             }
         }
@@ -447,7 +485,7 @@ pub fn outlier_evidence(
         .map(|bt| {
             format!(
                 "; the best smooth effect ({}) leaves CV {:.3} mg on the other windows against {:.3} mg with rejection",
-                bt.candidate,
+                bt.name(),
                 cv_over(&bt.loo, &ot.used).unwrap_or(f64::NAN) * 1e3,
                 cv_after.unwrap_or(f64::NAN) * 1e3
             )
@@ -478,7 +516,7 @@ pub fn outlier_evidence(
 pub fn diagnostic_text(d: &TermTrial, cur_cv: Option<f64>) -> String {
     format!(
         "{} would pass (CV {:.3} → {:.3} mg, F({},{}) = {:.1}, p {}) but the core's Effects cannot store it",
-        d.candidate,
+        d.name(),
         cur_cv.unwrap_or(f64::NAN) * 1e3,
         d.cv * 1e3,
         d.dp,

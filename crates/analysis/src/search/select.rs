@@ -13,12 +13,14 @@
 use crate::error::{Error, Result};
 use crate::stats as st;
 
-/// Default family-wise significance level per greedy step, split over the candidates tried
-/// (Bonferroni). 10⁻³ rather than the usual 0.05 because a recording has tens of windows and
-/// the analysis tries up to seven candidates per step for up to [`MAX_EFFECTS`] steps: at 0.05
-/// a clean recording would gain a spurious effect in roughly one run of five, at 10⁻³ in about
-/// one of a thousand (the false-positive rates measured in docs/residuals.md: 0 of 800 clean
-/// recordings with the floor-bounded reference variance).
+/// Default family-wise significance level per greedy step, split over the hypotheses tested
+/// at the step (Bonferroni: each effect as a block, each single axis of a nonlinearity, the
+/// curved-drift diagnostic and the outliers — up to 13 with a temperature column — counting
+/// only those the windows are enough to test). 10⁻³ rather than the usual 0.05 because a
+/// recording has tens of windows and the analysis tests about a dozen hypotheses per step for
+/// up to [`MAX_EFFECTS`] steps: at 0.05 a clean recording would gain a spurious effect in
+/// roughly one run of five, at 10⁻³ in about one of a thousand (the false-positive rates
+/// measured in docs/residuals.md: 0 of 800 clean recordings, with the single axes too).
 pub const ALPHA: f64 = 1e-3;
 
 /// Default factor by which a candidate must divide the leave-one-window-out RMS. The F-test
@@ -65,6 +67,10 @@ pub fn check_rule(alpha: f64, cv_factor: f64) -> Result<()> {
 pub struct TermScore {
     /// p-value of its F-test (before the Bonferroni factor over candidates).
     pub p_value: f64,
+    /// Its share of the step's level (weighted Bonferroni: 1, or less for a nonlinearity
+    /// whose block and single axes share one family's level): significant when
+    /// `p_value < level × weight`.
+    pub weight: f64,
     /// Its leave-one-window-out RMS over the windows in use, g.
     pub cv: f64,
     /// The same over the windows the outlier candidate keeps (when there is one), g.
@@ -115,8 +121,9 @@ pub enum Choice {
     Outliers,
 }
 
-/// The rule. A term candidate passes when its F-test p-value is below `level` (= α divided by
-/// the candidates tried at this step) **and** its CV times `cv_factor` is at most the current
+/// The rule. A term candidate passes when its F-test p-value is below `level × weight`
+/// (`level` = α divided by the hypothesis families tested at this step, `weight` its share of
+/// its family: weighted Bonferroni) **and** its CV times `cv_factor` is at most the current
 /// CV **and**, for several effects at once, every member passes its drop test; the passing
 /// storable candidate with the lowest CV wins (so a combination wins over its parts only when
 /// each part is needed). The outlier candidate passes when
@@ -130,7 +137,7 @@ pub fn select(
     level: f64,
     cv_factor: f64,
 ) -> Selection {
-    let significant: Vec<bool> = terms.iter().map(|t| t.p_value < level).collect();
+    let significant: Vec<bool> = terms.iter().map(|t| t.p_value < level * t.weight).collect();
     let cv_improved: Vec<bool> = terms
         .iter()
         .map(|t| current_cv.is_some_and(|c0| t.cv * cv_factor <= c0))
@@ -210,6 +217,7 @@ mod tests {
     fn term(p_value: f64, cv: f64) -> TermScore {
         TermScore {
             p_value,
+            weight: 1.0,
             cv,
             cv_on_kept: None,
             storable: true,

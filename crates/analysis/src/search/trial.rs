@@ -2,7 +2,7 @@
 //! F-test against the current model and its leave-one-window-out errors.
 
 #![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x > 0.0)` is deliberately true for NaN.
-use crate::fit::model::{self as am, Fit, Mask, Term, Win};
+use crate::fit::model::{self as am, Fit, Mask, Part, Term, Win};
 use crate::report::contract::CandidateReport;
 use crate::search::candidate::Candidate;
 use crate::search::select::{cv_over, MIN_DOF_TERM};
@@ -21,55 +21,78 @@ pub fn base_mask(model: MultiPosModel) -> Mask {
     m
 }
 
-/// Mask of the base model plus effect terms.
-pub fn mask_for(model: MultiPosModel, terms: &[Term]) -> Mask {
-    let mut m = am::mask_of(terms);
+/// Mask of the base model plus effect parts (whole blocks or single axes).
+pub fn mask_for(model: MultiPosModel, parts: &[Part]) -> Mask {
+    let mut m = am::mask_of_parts(parts);
     m[..9].copy_from_slice(&base_mask(model)[..9]);
     m
 }
 
-/// A parametric candidate: one or more effect blocks added together.
+/// A parametric candidate: one or more effect parts (whole blocks or single axes) added
+/// together.
 #[derive(Debug, Clone)]
 pub struct CandSpec {
     /// Which candidate (for a combination of several effects: its first).
     pub candidate: Candidate,
-    /// The blocks it adds to the current model.
-    pub terms: Vec<Term>,
+    /// The parts it adds to the current model.
+    pub parts: Vec<Part>,
 }
 
 impl CandSpec {
-    /// A single effect (or the curved-drift diagnostic, which is one candidate of two blocks).
-    pub fn single(candidate: Candidate, terms: Vec<Term>) -> Self {
-        Self { candidate, terms }
+    /// A single effect: a block, one axis of it, or the curved-drift diagnostic (one candidate
+    /// of two blocks).
+    pub fn single(candidate: Candidate, parts: Vec<Part>) -> Self {
+        Self { candidate, parts }
     }
 
-    /// Several effects added at once (`terms` in the order of [`Term::ALL`]).
-    pub fn combination(terms: Vec<Term>) -> Self {
+    /// Several effects added at once (`parts` in the order of [`Term::ALL`]).
+    pub fn combination(parts: Vec<Part>) -> Self {
         Self {
-            candidate: Candidate::of_term(terms[0]),
-            terms,
+            candidate: Candidate::of_term(parts[0].term),
+            parts,
         }
     }
 
-    /// The report name: the candidate's, or the effects joined by `+`.
+    /// The report name: the part's (`quadratic`, `quadratic (z)`), the diagnostic's, or the
+    /// effects joined by `+`.
     pub fn name(&self) -> String {
-        combination_name(self.candidate, &self.terms)
+        combination_name(self.candidate, &self.parts)
+    }
+
+    /// True for several effects added at once.
+    pub fn is_combination(&self) -> bool {
+        is_combination(self.candidate, &self.parts)
+    }
+
+    /// Parameters it adds.
+    pub fn params(&self) -> usize {
+        self.parts.iter().map(|p| p.count()).sum()
     }
 }
 
-/// The report name of a candidate adding `terms`: `quadratic`, `quadratic+temperature`, …
-fn combination_name(candidate: Candidate, terms: &[Term]) -> String {
-    if is_combination(candidate, terms) {
-        terms.iter().map(|t| t.name()).collect::<Vec<_>>().join("+")
-    } else {
+/// The report name of a candidate adding `parts`: `quadratic`, `quadratic (z)`,
+/// `quadratic+temperature`, …
+fn combination_name(candidate: Candidate, parts: &[Part]) -> String {
+    if candidate == Candidate::BiasDriftCurved {
         candidate.to_string()
+    } else {
+        parts.iter().map(|p| p.name()).collect::<Vec<_>>().join("+")
     }
 }
 
 /// True when the candidate adds several effects (not the curved drift, which is one
 /// candidate of two blocks).
-fn is_combination(candidate: Candidate, terms: &[Term]) -> bool {
-    candidate != Candidate::BiasDriftCurved && terms.len() > 1
+fn is_combination(candidate: Candidate, parts: &[Part]) -> bool {
+    candidate != Candidate::BiasDriftCurved && parts.len() > 1
+}
+
+/// True when the candidate adds a single axis of a block whose other missing axes are tried
+/// as the block too (`quadratic (z)` next to `quadratic`).
+pub fn is_axis_member(candidate: Candidate, parts: &[Part], state: &State) -> bool {
+    !is_combination(candidate, parts)
+        && candidate != Candidate::BiasDriftCurved
+        && parts[0].count() == 1
+        && state.missing_axes(parts[0].term) > 1
 }
 
 /// The test that one member of a combination is needed: the combination against the same
@@ -77,7 +100,7 @@ fn is_combination(candidate: Candidate, terms: &[Term]) -> bool {
 #[derive(Debug, Clone, PartialEq)]
 pub struct DropTest {
     /// The member.
-    pub term: Term,
+    pub part: Part,
     /// F statistic of removing it (denominator: the combination's residual variance).
     pub f: f64,
     /// Its p-value.
@@ -91,8 +114,8 @@ pub struct DropTest {
 /// The current model of the greedy search.
 #[derive(Debug, Clone)]
 pub struct State {
-    /// Effect terms in the model.
-    pub terms: Vec<Term>,
+    /// Effect parts in the model (whole blocks or single axes).
+    pub parts: Vec<Part>,
     /// Windows in use (false: rejected as outliers).
     pub used: Vec<bool>,
     /// The fit.
@@ -110,6 +133,22 @@ impl State {
         self.used.iter().filter(|u| **u).count()
     }
 
+    /// The axes of block `t` the model has (from every part of it added so far).
+    pub fn axes_of(&self, t: Term) -> [bool; 3] {
+        let mut have = [false; 3];
+        for p in self.parts.iter().filter(|p| p.term == t) {
+            for (h, a) in have.iter_mut().zip(p.axes) {
+                *h |= a;
+            }
+        }
+        have
+    }
+
+    /// How many axes of block `t` the model does not have yet.
+    pub fn missing_axes(&self, t: Term) -> usize {
+        self.axes_of(t).iter().filter(|a| !**a).count()
+    }
+
     /// The variance the tests refer residuals to ([`crate::search::floor::reference_variance`] over
     /// the windows in use), g².
     pub fn reference_variance(&self, rss: f64, dof: f64) -> f64 {
@@ -122,8 +161,13 @@ impl State {
 pub struct TermTrial {
     /// Which candidate.
     pub candidate: Candidate,
-    /// The blocks it adds.
-    pub terms: Vec<Term>,
+    /// The parts it adds.
+    pub parts: Vec<Part>,
+    /// One axis of a block also tried whole ([`is_axis_member`]).
+    pub axis_member: bool,
+    /// Its share of the step's level ([`bonferroni_weights`]): its F-test passes at
+    /// `level × weight`.
+    pub weight: f64,
     /// Parameters it adds.
     pub dp: usize,
     /// The fit with it.
@@ -147,17 +191,17 @@ pub struct TermTrial {
 impl TermTrial {
     /// The report name (see [`CandSpec::name`]).
     pub fn name(&self) -> String {
-        combination_name(self.candidate, &self.terms)
+        combination_name(self.candidate, &self.parts)
     }
 
     /// True for several effects added at once.
     pub fn is_combination(&self) -> bool {
-        is_combination(self.candidate, &self.terms)
+        is_combination(self.candidate, &self.parts)
     }
 
-    /// True when the trial adds exactly the blocks `terms` (in any order).
-    pub fn adds(&self, terms: &[Term]) -> bool {
-        self.terms.len() == terms.len() && terms.iter().all(|t| self.terms.contains(t))
+    /// True when the trial adds exactly the parts `parts` (in any order).
+    pub fn adds(&self, parts: &[Part]) -> bool {
+        self.parts.len() == parts.len() && parts.iter().all(|t| self.parts.contains(t))
     }
 
     /// Every member of a combination passes its drop test (true for a single effect).
@@ -173,15 +217,15 @@ pub fn drop_tests(
     c: &TermTrial,
     trials: &[TermTrial],
     state: &State,
-    level: f64,
+    level_of: impl Fn(Term) -> f64,
     cv_factor: f64,
 ) -> Vec<DropTest> {
     let dof = c.fit.n.saturating_sub(c.fit.k).max(1) as f64;
     let s2 = state.reference_variance(c.fit.rss, dof);
-    c.terms
+    c.parts
         .iter()
-        .map(|&term| {
-            let rest: Vec<Term> = c.terms.iter().copied().filter(|t| *t != term).collect();
+        .map(|&part| {
+            let rest: Vec<Part> = c.parts.iter().copied().filter(|t| *t != part).collect();
             let reduced = if rest.is_empty() {
                 Some((state.fit.rss, cv_over(&state.loo, &state.used)))
             } else {
@@ -192,24 +236,119 @@ pub fn drop_tests(
             };
             let Some((rss_without, Some(cv_without))) = reduced else {
                 return DropTest {
-                    term,
+                    part,
                     f: f64::NAN,
                     p: 1.0,
                     cv_without: f64::NAN,
                     passes: false,
                 };
             };
-            let f = ((rss_without - c.fit.rss).max(0.0) / 3.0) / s2;
-            let p = st::f_sf(f, 3.0, dof);
+            let q = part.count() as f64;
+            let f = ((rss_without - c.fit.rss).max(0.0) / q) / s2;
+            let p = st::f_sf(f, q, dof);
             DropTest {
-                term,
+                part,
                 f,
                 p,
                 cv_without,
-                passes: p < level && c.cv * cv_factor <= cv_without,
+                passes: p < level_of(part.term) && c.cv * cv_factor <= cv_without,
             }
         })
         .collect()
+}
+
+/// Free parameters of the current model plus candidate `spec`.
+pub fn params_with(spec: &CandSpec, state: &State, model: MultiPosModel) -> usize {
+    let mut parts = state.parts.clone();
+    parts.extend(spec.parts.iter().copied());
+    mask_for(model, &parts).iter().filter(|x| **x).count()
+}
+
+/// True when the windows in use are enough to test `spec` ([`MIN_DOF_TERM`] beyond its
+/// parameters): the candidates the step's Bonferroni level counts.
+pub fn testable(spec: &CandSpec, state: &State, model: MultiPosModel) -> bool {
+    state.n_used() >= params_with(spec, state, model) + MIN_DOF_TERM
+}
+
+/// The step's Bonferroni split (weighted): the number of hypothesis families the level α/m
+/// is divided by, and each candidate's share of α/m. A family is an effect (its block and,
+/// for a nonlinearity, its single axes), the curved-drift diagnostic, or the outliers,
+/// counted when the windows are enough to test any of it. Within a nonlinearity's family the
+/// block takes half and its single axes share the other half (all of it when the block cannot
+/// be tested), so adding the single axes leaves every other effect's level where it was; a
+/// combination is tested at the smallest share of its members (each member's drop test at its
+/// own). Sum of the levels ≤ α, so the family-wise false-positive rate per step stays ≤ α.
+pub fn bonferroni_weights(
+    specs: &[CandSpec],
+    state: &State,
+    model: MultiPosModel,
+) -> (usize, Vec<f64>) {
+    let ok: Vec<bool> = specs.iter().map(|s| testable(s, state, model)).collect();
+    let single = |s: &CandSpec| !s.is_combination() && s.candidate != Candidate::BiasDriftCurved;
+    let member = |s: &CandSpec| single(s) && is_axis_member(s.candidate, &s.parts, state);
+    // Per block: is it testable, how many of its single axes are.
+    let family = |t: Term| {
+        let mut block_ok = false;
+        let mut axes_ok = 0usize;
+        for (s, &k) in specs.iter().zip(&ok) {
+            if single(s) && s.parts[0].term == t && k {
+                if member(s) {
+                    axes_ok += 1;
+                } else {
+                    block_ok = true;
+                }
+            }
+        }
+        (block_ok, axes_ok)
+    };
+    let block_weight = |t: Term| match family(t) {
+        (true, a) if a > 0 => 0.5,
+        _ => 1.0,
+    };
+    let weights = specs
+        .iter()
+        .map(|s| {
+            if s.candidate == Candidate::BiasDriftCurved {
+                1.0
+            } else if s.is_combination() {
+                s.parts
+                    .iter()
+                    .map(|p| block_weight(p.term))
+                    .fold(1.0, f64::min)
+            } else if member(s) {
+                let (block_ok, a) = family(s.parts[0].term);
+                (if block_ok { 0.5 } else { 1.0 }) / a.max(1) as f64
+            } else {
+                block_weight(s.parts[0].term)
+            }
+        })
+        .collect();
+    let mut families = 0;
+    for t in Term::ALL {
+        let (b, a) = family(t);
+        families += usize::from(b || a > 0);
+    }
+    families += specs
+        .iter()
+        .zip(&ok)
+        .filter(|(s, k)| **k && s.candidate == Candidate::BiasDriftCurved)
+        .count();
+    (families, weights)
+}
+
+/// The share of the level of block `t` in a step's [`bonferroni_weights`] (1 when it is not
+/// among the candidates).
+pub fn block_weight(t: Term, specs: &[CandSpec], weights: &[f64], state: &State) -> f64 {
+    specs
+        .iter()
+        .zip(weights)
+        .find(|(s, _)| {
+            !s.is_combination()
+                && s.candidate != Candidate::BiasDriftCurved
+                && s.parts[0].term == t
+                && !is_axis_member(s.candidate, &s.parts, state)
+        })
+        .map_or(1.0, |(_, w)| *w)
 }
 
 /// Fits one candidate on top of `state`. Returns its report row (without the verdict, which
@@ -221,12 +360,9 @@ pub fn try_term(
     wins: &[Win],
     cur_cv: Option<f64>,
 ) -> (CandidateReport, Option<TermTrial>) {
-    let dp = 3 * spec.terms.len();
+    let dp = spec.params();
     let n_used = state.n_used();
-    let mut terms = state.terms.clone();
-    terms.extend(spec.terms.iter().copied());
-    let mask = mask_for(model, &terms);
-    let k_new = mask.iter().filter(|x| **x).count();
+    let k_new = params_with(spec, state, model);
     let mut rep = CandidateReport {
         name: spec.name(),
         params: dp,
@@ -244,6 +380,9 @@ pub fn try_term(
         rep.windows_short = Some(k_new + MIN_DOF_TERM - n_used);
         return (rep, None);
     }
+    let mut parts = state.parts.clone();
+    parts.extend(spec.parts.iter().copied());
+    let mask = mask_for(model, &parts);
     let Some(f) = am::fit(&state.fit.p, &mask, wins, &state.used) else {
         rep.note = "not identifiable from these windows (singular fit)".into();
         return (rep, None);
@@ -264,7 +403,9 @@ pub fn try_term(
     rep.cv_rms_mg = Some(cv * 1e3);
     let trial = TermTrial {
         candidate: spec.candidate,
-        terms: spec.terms.clone(),
+        parts: spec.parts.clone(),
+        axis_member: is_axis_member(spec.candidate, &spec.parts, state),
+        weight: 1.0,
         dp,
         fit: f,
         loo,
@@ -292,7 +433,7 @@ pub fn term_note(
         .map(|d| {
             format!(
                 "{} is not needed (without it F = {:.1}, p {}, CV {:.3} mg)",
-                d.term.name(),
+                d.part.name(),
                 d.f,
                 crate::stats::fmt_p(d.p),
                 d.cv_without * 1e3
@@ -307,7 +448,7 @@ pub fn term_note(
         (true, true) => {
             "passes, but diagnostic only: the calibration cannot store a curved drift".into()
         }
-        (false, true) => format!("F-test not significant at {level:.1e}"),
+        (false, true) => format!("F-test not significant at {:.1e}", level * t.weight),
         (true, false) => format!("CV not improved by the factor {cv_factor:.2}"),
         (false, false) => "neither significant nor better under CV".into(),
     }

@@ -125,6 +125,9 @@ pub struct EffectSpec {
     pub effect: SimEffect,
     /// Its size in milli-g (see the module docs); `None`: [`SimEffect::default_magnitude_mg`].
     pub magnitude_mg: Option<f64>,
+    /// On one sensor axis only (0, 1, 2 = x, y, z), with the whole magnitude there and the
+    /// other axes zero; `None`: on every axis as drawn. Not for `outliers` (no axis).
+    pub axis: Option<usize>,
 }
 
 impl EffectSpec {
@@ -133,6 +136,15 @@ impl EffectSpec {
         Self {
             effect,
             magnitude_mg,
+            axis: None,
+        }
+    }
+
+    /// `effect` at `magnitude_mg` on sensor axis `axis` alone (0, 1, 2 = x, y, z).
+    pub fn on_axis(effect: SimEffect, magnitude_mg: Option<f64>, axis: usize) -> Self {
+        Self {
+            axis: Some(axis),
+            ..Self::new(effect, magnitude_mg)
         }
     }
 
@@ -332,6 +344,10 @@ pub struct Truth {
     pub magnitude_mg: f64,
     /// Every effect's magnitude, milli-g, in the order of `effect`.
     pub magnitudes_mg: Vec<f64>,
+    /// The effects put on one axis only, as `effect: axis` (`quadratic: z`); absent when
+    /// every effect is on every axis.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub single_axis: Vec<String>,
     /// Seed.
     pub seed: u64,
     /// Sample rate, Hz.
@@ -473,7 +489,7 @@ fn axis_coefficients(rng: &mut ChaCha8Rng, x: f64) -> [f64; 3] {
 
 /// Checks the settings; returns the effects in use (without `none`) with their magnitudes (mg)
 /// and the noise (counts).
-fn check_config(cfg: &SimConfig) -> Result<(Vec<(SimEffect, f64)>, f64)> {
+fn check_config(cfg: &SimConfig) -> Result<(Vec<SimDraw>, f64)> {
     if !(cfg.rate_hz.is_finite() && cfg.rate_hz >= 20.0 && cfg.rate_hz <= 2000.0) {
         return Err(Error::InvalidSetting("rate must be between 20 and 2000 Hz"));
     }
@@ -482,7 +498,7 @@ fn check_config(cfg: &SimConfig) -> Result<(Vec<(SimEffect, f64)>, f64)> {
             "poses must be between 9 and 20000 (the full model needs at least 9)",
         ));
     }
-    let mut effects: Vec<(SimEffect, f64)> = Vec::new();
+    let mut effects: Vec<SimDraw> = Vec::new();
     for spec in &cfg.effects {
         let magnitude = spec.magnitude();
         if !(magnitude.is_finite() && (0.0..=200.0).contains(&magnitude)) {
@@ -493,10 +509,18 @@ fn check_config(cfg: &SimConfig) -> Result<(Vec<(SimEffect, f64)>, f64)> {
         if spec.effect == SimEffect::None {
             continue;
         }
-        if effects.iter().any(|(e, _)| *e == spec.effect) {
+        if effects.iter().any(|(e, _, _)| *e == spec.effect) {
             return Err(Error::InvalidSetting("effect: each effect may appear once"));
         }
-        effects.push((spec.effect, magnitude));
+        if spec
+            .axis
+            .is_some_and(|a| a > 2 || spec.effect == SimEffect::Outliers)
+        {
+            return Err(Error::InvalidSetting(
+                "axis: x, y or z, and not for outliers (they have no axis)",
+            ));
+        }
+        effects.push((spec.effect, magnitude, spec.axis));
     }
     if !(cfg.init_s.is_finite() && cfg.init_s >= 3.0) {
         return Err(Error::InvalidSetting(
@@ -667,12 +691,25 @@ struct Scene {
     unit: f64,
 }
 
+/// One effect to draw: which, its size (mg), and the one axis it is on (`None`: every axis).
+type SimDraw = (SimEffect, f64, Option<usize>);
+
+/// The effect's draw moved onto axis `axis` alone: the whole magnitude `x` there, with the
+/// sign it was drawn with, the other axes zero (the random draw is made as usual, so the rest
+/// of the scene is the one the same seed gives without an axis).
+fn onto_axis(v: [f64; 3], axis: Option<usize>, x: f64) -> [f64; 3] {
+    match axis {
+        None => v,
+        Some(a) => std::array::from_fn(|j| if j == a { x.copysign(v[a]) } else { 0.0 }),
+    }
+}
+
 /// The effect terms (and the outlier poses) for `effects` (each with its size in mg), drawn
 /// in the order given, each as if it were alone (so a single effect draws exactly what it
 /// always did).
 fn effect_terms(
     rng: &mut ChaCha8Rng,
-    effects: &[(SimEffect, f64)],
+    effects: &[SimDraw],
     s: &[f64; 3],
     scene: &Scene,
     duration: f64,
@@ -686,22 +723,22 @@ fn effect_terms(
     let t_range = (tmax - tmin).max(0.5);
     let mut eff64 = [[0.0f64; 3]; 5];
     let mut outliers = Vec::new();
-    for &(effect, magnitude) in effects {
+    for &(effect, magnitude, axis) in effects {
         let x = magnitude / 1000.0;
         match effect {
             SimEffect::None => {}
-            SimEffect::Quadratic => eff64[0] = axis_coefficients(rng, x),
-            SimEffect::Cubic => eff64[1] = axis_coefficients(rng, x),
+            SimEffect::Quadratic => eff64[0] = onto_axis(axis_coefficients(rng, x), axis, x),
+            SimEffect::Cubic => eff64[1] = onto_axis(axis_coefficients(rng, x), axis, x),
             SimEffect::BiasDrift => {
-                let v = random_unit(rng);
+                let v = onto_axis(random_unit(rng), axis, 1.0);
                 eff64[2] = std::array::from_fn(|j| v[j] * x * s[j] / duration);
             }
             SimEffect::Temperature => {
-                let v = random_unit(rng);
+                let v = onto_axis(random_unit(rng), axis, 1.0);
                 eff64[3] = std::array::from_fn(|j| v[j] * x * s[j] / t_range);
             }
             SimEffect::TemperatureScale => {
-                eff64[4] = axis_coefficients(rng, x).map(|k| k / t_range);
+                eff64[4] = onto_axis(axis_coefficients(rng, x), axis, x).map(|k| k / t_range);
             }
             SimEffect::Outliers => outliers = outlier_poses(rng, magnitude, scene)?,
         }
@@ -1014,9 +1051,9 @@ pub fn simulate(cfg: &SimConfig) -> Result<SimOutput> {
     (scene.eff64, scene.outliers) = effect_terms(&mut rng, &effects, &s, &scene, duration)?;
     let rec = scene.record(
         &mut rng,
-        cfg.temp_column || effects.iter().any(|(e, _)| e.needs_temperature()),
+        cfg.temp_column || effects.iter().any(|(e, _, _)| e.needs_temperature()),
     );
-    let names: Vec<&str> = effects.iter().map(|(e, _)| e.name()).collect();
+    let names: Vec<&str> = effects.iter().map(|(e, _, _)| e.name()).collect();
     let truth = Truth {
         device: cfg.device.name(),
         effect: if names.is_empty() {
@@ -1026,6 +1063,10 @@ pub fn simulate(cfg: &SimConfig) -> Result<SimOutput> {
         },
         magnitude_mg: effects.first().map_or(0.0, |e| e.1),
         magnitudes_mg: effects.iter().map(|e| e.1).collect(),
+        single_axis: effects
+            .iter()
+            .filter_map(|(e, _, a)| Some(format!("{}: {}", e.name(), names::AXES[(*a)?])))
+            .collect(),
         seed: cfg.seed,
         rate_hz: fs,
         samples: n,
