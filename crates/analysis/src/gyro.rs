@@ -30,8 +30,8 @@ use crate::windows::{detect_windows, DetectOptions};
 use serde::Serialize;
 use wiical_core::gyro::{GyroCalibration, MotionResidual};
 use wiical_core::gyro_fit::{
-    self, fit_keeping, leave_one_out, leave_one_out_one_step, motion_angle, GyroFitConfig,
-    GyroModel, Motion,
+    self, fit_keeping_from_nominal, leave_one_out, leave_one_out_one_step, motion_angle,
+    nominal_pass, GyroFitConfig, GyroModel, Motion, NominalPass,
 };
 use wiical_core::multipos::MultiPosModel;
 use wiical_core::static_detect::StaticInterval;
@@ -601,15 +601,16 @@ type Best = (
 /// in-sample angles per motion (rad).
 type Outcome = (gyro_fit::GyroFit<f64>, f64, Vec<f64>, Vec<f64>);
 
-/// One candidate: its fit on every motion and its held-out angle per motion (one
-/// Gauss–Newton step from the fit, or exact refits with [`GyroOptions::exact_held_out`]).
+/// One candidate: its fit on every motion (from the shared nominal pass: `pass` and the
+/// motions it kept, `shared`) and its held-out angle per motion (one Gauss–Newton step from the
+/// fit, or exact refits with [`GyroOptions::exact_held_out`]).
 fn evaluate_one(
     motions: &[Motion<'_, f64>],
     nominal: &GyroCalibration<f64>,
     dt: f64,
+    (pass, shared): (&NominalPass<f64>, &[MotionResidual<f64>]),
     opts: &GyroOptions,
-    model: GyroModel,
-    fit_bias: bool,
+    (model, fit_bias): (GyroModel, bool),
 ) -> core::result::Result<Outcome, wiical_core::Error> {
     let cfg = GyroFitConfig {
         model,
@@ -617,15 +618,8 @@ fn evaluate_one(
         dt,
         max_iterations: opts.max_iterations,
     };
-    let start = wiical_core::gyro::Adjustment::identity();
-    let blank = MotionResidual {
-        residual: nalgebra::Vector3::zeros(),
-        jacobian: nalgebra::SMatrix::zeros(),
-        angle: 0.0,
-        rotation: nalgebra::Vector4::zeros(),
-    };
-    let mut kept = vec![blank; motions.len()];
-    let f = fit_keeping(motions, nominal, &start, &cfg, &mut kept)?;
+    let mut kept = shared.to_vec();
+    let f = fit_keeping_from_nominal(motions, &cfg, pass, &mut kept)?;
     let mut held = vec![0.0; motions.len()];
     let record = |i: usize, a: f64| held[i] = a;
     let cv = if opts.exact_held_out {
@@ -645,12 +639,24 @@ fn evaluate_candidates(
     let mut rows = Vec::new();
     let mut best: Option<Best> = None;
     let mut before = Vec::new();
+    // Every candidate starts at the nominal: one pass with all sensitivities serves them all.
+    let blank = MotionResidual {
+        residual: nalgebra::Vector3::zeros(),
+        jacobian: nalgebra::SMatrix::zeros(),
+        angle: 0.0,
+        rotation: nalgebra::Vector4::zeros(),
+    };
+    let mut shared = vec![blank; motions.len()];
+    let pass = nominal_pass(motions, nominal, dt, &mut shared).map_err(Error::GyroFitFailed)?;
+    let start = (&pass, shared.as_slice());
     // The candidates are independent: one thread each (the machine's cores share them).
     let outcomes: Vec<_> = std::thread::scope(|scope| {
         let handles: Vec<_> = CANDIDATES
             .iter()
             .map(|&(_, model, fit_bias)| {
-                scope.spawn(move || evaluate_one(motions, nominal, dt, opts, model, fit_bias))
+                scope.spawn(move || {
+                    evaluate_one(motions, nominal, dt, start, opts, (model, fit_bias))
+                })
             })
             .collect();
         handles

@@ -35,14 +35,17 @@
 //! Parameter order in vectors and Jacobians: `P` row-major (0–8), then `δ` (9–11).
 //!
 //! ## Exact derivatives
-//! The Jacobian is the derivative of the *discrete* RK4 solution: the forward sensitivities
-//! `S = ∂q/∂p` obey the linear ODE `Ṡ = ½ S ⊗ ω + ½ q ⊗ ∂ω/∂p`, and integrating it with the
-//! same RK4 stages as `q` gives exactly the derivative of the RK4 map (explicit Runge–Kutta
-//! methods commute with differentiation). Tests compare it with central differences.
+//! The Jacobian is the derivative of the *discrete* RK4 solution. One RK4 step is a right
+//! multiplication `q_{n+1} = q_n ⊗ m_n` (`m_n` a polynomial in the step's rates), so
+//! `∂q_N/∂p = G ⊗ q_N` with `G` a sum over the steps of each step's derivative rotated into the
+//! start frame ([`MotionIntegrator`] has the formulas). This equals integrating the forward
+//! sensitivities `Ṡ = ½ S ⊗ ω + ½ q ⊗ ∂ω/∂p` with the same RK4 stages as `q` (explicit
+//! Runge–Kutta methods commute with differentiation), at about a quarter of the work. Tests
+//! compare it with central differences.
 //!
 //! ## Memory
-//! [`MotionIntegrator`] takes one sample at a time and keeps only the quaternion and its
-//! sensitivities (4 + 4×12 numbers), so a motion of any length costs constant memory; the
+//! [`MotionIntegrator`] takes one sample at a time and keeps only the quaternion and the
+//! sensitivity sums (4 + 27 + 9 numbers), so a motion of any length costs constant memory; the
 //! fit in [`crate::gyro_fit`] accumulates the normal equations motion by motion.
 //!
 //! Generic over the float type (`f32` on the adapter, `f64` on a desktop) through

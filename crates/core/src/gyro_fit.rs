@@ -6,10 +6,14 @@
 //! nothing but the 12×12 normal equations is kept between motions, so memory does not grow
 //! with the recording (the samples stay wherever the caller keeps them).
 //!
-//! The solver is the crate's generic [`crate::lm`]: each motion contributes three scalar
-//! observations (the components of `ĝ₁ − g₁`); [`GyroProblem`] integrates a motion once for
-//! its three components (a one-motion cache), and integrates the sensitivities only when the
-//! solver asks for gradients.
+//! The solver takes the steps of the crate's generic [`crate::lm`] with the multi-position
+//! schedule, on [`GyroProblem`] (each motion contributes three scalar observations, the
+//! components of `ĝ₁ − g₁`), but integrates every trial point with its sensitivities in one
+//! pass: an accepted trial's Jacobian is the next iteration's, so an iteration costs one pass
+//! over the motions instead of a pass with sensitivities and a pass without, and the last pass
+//! is at the fit ([`fit_keeping`] keeps each motion's residual and Jacobian there for
+//! [`leave_one_out_one_step`]). [`GyroProblem`] still serves the generic solver (a test
+//! checks both take the same steps).
 
 use crate::gyro::{Adjustment, GyroCalibration, MotionIntegrator, MotionResidual, NPARAM};
 use crate::lm::{self, LmSettings, Problem};
@@ -339,7 +343,7 @@ pub fn fit_from<T: RealField + Copy>(
     cfg: &GyroFitConfig<T>,
     exclude: Option<usize>,
 ) -> Result<GyroFit<T>, Error> {
-    fit_inner(motions, nominal, start, cfg, exclude, None)
+    fit_inner(motions, nominal, start, cfg, exclude, None, None)
 }
 
 /// [`fit_from`] on every motion that also leaves each motion's residual, Jacobian and angle at
@@ -355,10 +359,88 @@ pub fn fit_keeping<T: RealField + Copy>(
     if kept.len() != motions.len() {
         return Err(Error::InvalidParameter);
     }
-    fit_inner(motions, nominal, start, cfg, None, Some(kept))
+    fit_inner(motions, nominal, start, cfg, None, Some(kept), None)
+}
+
+/// The motions integrated once at the nominal calibration (identity adjustment) with all 12
+/// sensitivities. Every model's fit from the nominal starts with this evaluation restricted to
+/// its free parameters, bit for bit (a parameter's sensitivity sums do not depend on which
+/// others are tracked), so candidate models can share one pass
+/// ([`fit_keeping_from_nominal`]) instead of integrating the same start once each.
+#[derive(Debug, Clone, Copy)]
+pub struct NominalPass<T: RealField + Copy> {
+    nominal: GyroCalibration<T>,
+    dt: T,
+    ev: Evaluation<T>,
+}
+
+/// [`NominalPass`] of `motions`, each motion's residual and Jacobian (all 12 columns) left in
+/// `kept` (`kept.len() == motions.len()`).
+pub fn nominal_pass<T: RealField + Copy>(
+    motions: &[Motion<'_, T>],
+    nominal: &GyroCalibration<T>,
+    dt: T,
+    kept: &mut [MotionResidual<T>],
+) -> Result<NominalPass<T>, Error> {
+    if kept.len() != motions.len() {
+        return Err(Error::InvalidParameter);
+    }
+    let problem = GyroProblem::new(motions, *nominal, dt, [true; NPARAM], None)?;
+    let ev = evaluate(&problem, &Adjustment::identity().to_params(), Some(kept));
+    if !ev.cost.is_finite() {
+        return Err(Error::NonFinite);
+    }
+    Ok(NominalPass {
+        nominal: *nominal,
+        dt,
+        ev,
+    })
+}
+
+/// [`fit_keeping`] from the nominal calibration, its first evaluation taken from `pass`:
+/// `kept` must hold what [`nominal_pass`] left (a copy per model); the result is identical to
+/// [`fit_keeping`] from [`Adjustment::identity`]. [`Error::InvalidParameter`] when `pass` was
+/// made with another nominal or sample period.
+pub fn fit_keeping_from_nominal<T: RealField + Copy>(
+    motions: &[Motion<'_, T>],
+    cfg: &GyroFitConfig<T>,
+    pass: &NominalPass<T>,
+    kept: &mut [MotionResidual<T>],
+) -> Result<GyroFit<T>, Error> {
+    if kept.len() != motions.len() || pass.dt != cfg.dt {
+        return Err(Error::InvalidParameter);
+    }
+    let free = cfg.model.mask(cfg.fit_bias);
+    for k in kept.iter_mut() {
+        for c in (0..NPARAM).filter(|c| !free[*c]) {
+            k.jacobian.column_mut(c).fill(T::zero());
+        }
+    }
+    let mut first = pass.ev;
+    for a in 0..NPARAM {
+        for b in 0..NPARAM {
+            if !(free[a] && free[b]) {
+                first.jtj[(a, b)] = T::zero();
+            }
+        }
+        if !free[a] {
+            first.jtr[a] = T::zero();
+        }
+    }
+    let start = Adjustment::identity();
+    fit_inner(
+        motions,
+        &pass.nominal,
+        &start,
+        cfg,
+        None,
+        Some(kept),
+        Some(first),
+    )
 }
 
 /// All motions (but `exclude`) integrated at `p` with the sensitivities of `tracked`.
+#[derive(Debug, Clone, Copy)]
 struct Evaluation<T: RealField + Copy> {
     jtj: M12<T>,
     jtr: V12<T>,
@@ -408,6 +490,7 @@ fn fit_inner<T: RealField + Copy>(
     cfg: &GyroFitConfig<T>,
     exclude: Option<usize>,
     mut kept: Option<&mut [MotionResidual<T>]>,
+    shared_first: Option<Evaluation<T>>,
 ) -> Result<GyroFit<T>, Error> {
     nominal.validate()?;
     let free = cfg.model.mask(cfg.fit_bias);
@@ -429,7 +512,10 @@ fn fit_inner<T: RealField + Copy>(
         x[k] = identity[k];
     }
     let problem = GyroProblem::new(motions, *nominal, cfg.dt, free, exclude)?;
-    let first = evaluate(&problem, &x, kept.as_deref_mut());
+    let first = match shared_first {
+        Some(ev) => ev,
+        None => evaluate(&problem, &x, kept.as_deref_mut()),
+    };
     if !first.cost.is_finite() {
         return Err(Error::NonFinite);
     }

@@ -800,3 +800,50 @@ fn fit_keeping_matches_the_generic_solver_and_keeps_the_motions_at_the_fit() {
         assert!((f.gradient - jtr).amax() <= 1e-12 * jtj.amax());
     }
 }
+
+/// Candidate models sharing one nominal pass (all 12 sensitivities, masked per model) get
+/// exactly the fits and kept motions of their own passes.
+#[test]
+fn a_shared_nominal_pass_gives_the_same_fits_bit_for_bit() {
+    use wiical_core::gyro::MotionResidual;
+    use wiical_core::gyro_fit::{fit_keeping, fit_keeping_from_nominal, nominal_pass};
+    let mut rng = ChaCha8Rng::seed_from_u64(34);
+    let truth = random_truth(&mut rng);
+    let recording = simulate(&mut rng, &truth, 12, 1.0, 1e-4);
+    let motions = motions_f64(&recording);
+    let blank = MotionResidual {
+        residual: Vector3::zeros(),
+        jacobian: SMatrix::zeros(),
+        angle: 0.0,
+        rotation: nalgebra::Vector4::zeros(),
+    };
+    let mut shared = vec![blank; motions.len()];
+    let pass = nominal_pass(&motions, &truth.nominal, DT, &mut shared).unwrap();
+    for model in [GyroModel::BiasOnly, GyroModel::Scale, GyroModel::Full] {
+        for fit_bias in [false, true] {
+            let c = cfg::<f64>(model, fit_bias);
+            let mut own = vec![blank; motions.len()];
+            let alone = fit_keeping(
+                &motions,
+                &truth.nominal,
+                &Adjustment::identity(),
+                &c,
+                &mut own,
+            );
+            let mut from_pass = shared.clone();
+            let shared_fit = fit_keeping_from_nominal(&motions, &c, &pass, &mut from_pass);
+            assert_eq!(alone.unwrap(), shared_fit.unwrap(), "{model:?} {fit_bias}");
+            assert_eq!(own, from_pass, "{model:?} {fit_bias}");
+        }
+    }
+    let other_dt = cfg::<f64>(GyroModel::Full, true);
+    let other_dt = GyroFitConfig {
+        dt: 2.0 * DT,
+        ..other_dt
+    };
+    let mut k = shared.clone();
+    assert_eq!(
+        fit_keeping_from_nominal(&motions, &other_dt, &pass, &mut k).unwrap_err(),
+        Error::InvalidParameter
+    );
+}
