@@ -28,10 +28,10 @@ use crate::fit::base::{run_windows, FitOptions};
 use crate::input::recording::Recording;
 use crate::input::timecheck::TimeSteps;
 use serde::Serialize;
-use wiical_core::gyro::GyroCalibration;
+use wiical_core::gyro::{GyroCalibration, MotionResidual};
 use wiical_core::gyro_fit::{
-    self, fit_from, leave_one_out, leave_one_out_one_step, motion_angle, GyroFitConfig, GyroModel,
-    Motion,
+    self, fit_keeping_from_nominal, leave_one_out, leave_one_out_one_step, motion_angle,
+    nominal_pass, GyroFitConfig, GyroModel, Motion, NominalPass,
 };
 use wiical_core::multipos::MultiPosModel;
 use wiical_core::static_detect::StaticInterval;
@@ -507,12 +507,12 @@ pub fn run(acc: &Recording, gyro: &Recording, opts: &GyroOptions) -> Result<Gyro
         check_nominal_plausible(&motions, bias_from_rest, nominal_scale, dt, &nominal_source)?;
     }
     let nominal = GyroCalibration::nominal(bias_from_rest, nominal_scale);
-    let (rows, best) = evaluate_candidates(&motions, &nominal, dt, opts)?;
-    let (name, fit, cv, held) = best;
+    let (rows, best, before) = evaluate_candidates(&motions, &nominal, dt, opts)?;
+    let (name, fit, cv, held, after) = best;
     let cal = fit.calibration;
     let mut notes = choice_notes(&rows, name);
     notes.extend(flipped_axes(&cal, &nominal_scale));
-    let motion_table = motion_table(&seg, &motions, &held, (&nominal, &cal), dt)?;
+    let motion_table = motion_table(&seg, &motions, &held, (&before, &after));
     let k = cal.matrix;
     Ok(GyroReport {
         static_windows: seg.intervals.len(),
@@ -560,63 +560,74 @@ fn choice_notes(rows: &[GyroModelRow], name: &str) -> Vec<String> {
     notes
 }
 
-/// Per motion: its times, tilt, error before (`cals.0`, the nominal) and after (`cals.1`),
-/// and held out.
+/// Per motion: its times, tilt, angle error before (`angles.0`, the nominal) and after
+/// (`angles.1`, the chosen calibration), rad, and held out.
 fn motion_table(
     seg: &Segmentation,
     motions: &[Motion<'_, f64>],
     held: &[f64],
-    cals: (&GyroCalibration<f64>, &GyroCalibration<f64>),
-    dt: f64,
-) -> Result<Vec<MotionRow>> {
+    angles: (&[f64], &[f64]),
+) -> Vec<MotionRow> {
     seg.spans
         .iter()
         .zip(motions)
         .zip(held)
-        .map(|((s, m), h)| {
+        .zip(angles.0.iter().zip(angles.1))
+        .map(|(((s, m), h), (before, after))| {
             let t = |i: u32| seg.times.get(i as usize).copied().unwrap_or(f64::NAN);
-            Ok(MotionRow {
+            MotionRow {
                 t_start: t(s.start),
                 t_end: t(s.end.saturating_sub(1)),
                 tilt_deg: deg(m.g_start.angle(&m.g_end)),
-                error_before_deg: deg(motion_angle(m, cals.0, dt).map_err(Error::GyroFitFailed)?),
-                error_after_deg: deg(motion_angle(m, cals.1, dt).map_err(Error::GyroFitFailed)?),
+                error_before_deg: deg(*before),
+                error_after_deg: deg(*after),
                 held_out_deg: deg(*h),
-            })
+            }
         })
         .collect()
 }
 
-/// The chosen candidate: name, fit, held-out RMS (degrees), held-out angle per motion (rad).
-type Best = (&'static str, gyro_fit::GyroFit<f64>, f64, Vec<f64>);
+/// The chosen candidate: name, fit, held-out RMS (degrees), held-out angle per motion (rad),
+/// in-sample angle per motion (rad).
+type Best = (
+    &'static str,
+    gyro_fit::GyroFit<f64>,
+    f64,
+    Vec<f64>,
+    Vec<f64>,
+);
 
-/// Fits every candidate model, measures its held-out error, and picks the smallest.
-/// One candidate: its fit on every motion and its held-out angle per motion (one
-/// Gauss–Newton step from the fit, or exact refits with [`GyroOptions::exact_held_out`]).
+/// One candidate's outcome: its fit on every motion, its held-out RMS (rad), its held-out and
+/// in-sample angles per motion (rad).
+type Outcome = (gyro_fit::GyroFit<f64>, f64, Vec<f64>, Vec<f64>);
+
+/// One candidate: its fit on every motion (from the shared nominal pass: `pass` and the
+/// motions it kept, `shared`) and its held-out angle per motion (one Gauss–Newton step from the
+/// fit, or exact refits with [`GyroOptions::exact_held_out`]).
 fn evaluate_one(
     motions: &[Motion<'_, f64>],
     nominal: &GyroCalibration<f64>,
     dt: f64,
+    (pass, shared): (&NominalPass<f64>, &[MotionResidual<f64>]),
     opts: &GyroOptions,
-    model: GyroModel,
-    fit_bias: bool,
-) -> core::result::Result<(gyro_fit::GyroFit<f64>, f64, Vec<f64>), wiical_core::Error> {
+    (model, fit_bias): (GyroModel, bool),
+) -> core::result::Result<Outcome, wiical_core::Error> {
     let cfg = GyroFitConfig {
         model,
         fit_bias,
         dt,
         max_iterations: opts.max_iterations,
     };
-    let start = wiical_core::gyro::Adjustment::identity();
-    let f = fit_from(motions, nominal, &start, &cfg, None)?;
+    let mut kept = shared.to_vec();
+    let f = fit_keeping_from_nominal(motions, &cfg, pass, &mut kept)?;
     let mut held = vec![0.0; motions.len()];
     let record = |i: usize, a: f64| held[i] = a;
     let cv = if opts.exact_held_out {
         leave_one_out(motions, nominal, &f.adjustment, &cfg, record)?
     } else {
-        leave_one_out_one_step(motions, nominal, &f.adjustment, &cfg, record)?
+        leave_one_out_one_step(motions, nominal, &f, &cfg, &kept, record)?
     };
-    Ok((f, cv, held))
+    Ok((f, cv, held, kept.iter().map(|k| k.angle).collect()))
 }
 
 fn evaluate_candidates(
@@ -624,15 +635,28 @@ fn evaluate_candidates(
     nominal: &GyroCalibration<f64>,
     dt: f64,
     opts: &GyroOptions,
-) -> Result<(Vec<GyroModelRow>, Best)> {
+) -> Result<(Vec<GyroModelRow>, Best, Vec<f64>)> {
     let mut rows = Vec::new();
     let mut best: Option<Best> = None;
+    let mut before = Vec::new();
+    // Every candidate starts at the nominal: one pass with all sensitivities serves them all.
+    let blank = MotionResidual {
+        residual: nalgebra::Vector3::zeros(),
+        jacobian: nalgebra::SMatrix::zeros(),
+        angle: 0.0,
+        rotation: nalgebra::Vector4::zeros(),
+    };
+    let mut shared = vec![blank; motions.len()];
+    let pass = nominal_pass(motions, nominal, dt, &mut shared).map_err(Error::GyroFitFailed)?;
+    let start = (&pass, shared.as_slice());
     // The candidates are independent: one thread each (the machine's cores share them).
     let outcomes: Vec<_> = std::thread::scope(|scope| {
         let handles: Vec<_> = CANDIDATES
             .iter()
             .map(|&(_, model, fit_bias)| {
-                scope.spawn(move || evaluate_one(motions, nominal, dt, opts, model, fit_bias))
+                scope.spawn(move || {
+                    evaluate_one(motions, nominal, dt, start, opts, (model, fit_bias))
+                })
             })
             .collect();
         handles
@@ -643,7 +667,7 @@ fn evaluate_candidates(
     for ((name, model, fit_bias), outcome) in CANDIDATES.into_iter().zip(outcomes) {
         let parameters = model.mask(fit_bias).iter().filter(|f| **f).count();
         match outcome {
-            Ok((f, cv, held)) => {
+            Ok((f, cv, held, angles)) => {
                 rows.push(GyroModelRow {
                     name,
                     parameters,
@@ -652,8 +676,11 @@ fn evaluate_candidates(
                     identifiability: Some(f.identifiability),
                     error: None,
                 });
+                if parameters == 0 {
+                    before.clone_from(&angles);
+                }
                 if best.as_ref().is_none_or(|b| deg(cv) < b.2) {
-                    best = Some((name, f, deg(cv), held));
+                    best = Some((name, f, deg(cv), held, angles));
                 }
             }
             // The uncalibrated candidate fits nothing: its failure is a data error.
@@ -669,5 +696,5 @@ fn evaluate_candidates(
         }
     }
     let best = best.ok_or(Error::GyroFitFailed(wiical_core::Error::NotConverged))?;
-    Ok((rows, best))
+    Ok((rows, best, before))
 }

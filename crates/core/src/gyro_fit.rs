@@ -6,10 +6,14 @@
 //! nothing but the 12×12 normal equations is kept between motions, so memory does not grow
 //! with the recording (the samples stay wherever the caller keeps them).
 //!
-//! The solver is the crate's generic [`crate::lm`]: each motion contributes three scalar
-//! observations (the components of `ĝ₁ − g₁`); [`GyroProblem`] integrates a motion once for
-//! its three components (a one-motion cache), and integrates the sensitivities only when the
-//! solver asks for gradients.
+//! The solver takes the steps of the crate's generic [`crate::lm`] with the multi-position
+//! schedule, on [`GyroProblem`] (each motion contributes three scalar observations, the
+//! components of `ĝ₁ − g₁`), but integrates every trial point with its sensitivities in one
+//! pass: an accepted trial's Jacobian is the next iteration's, so an iteration costs one pass
+//! over the motions instead of a pass with sensitivities and a pass without, and the last pass
+//! is at the fit ([`fit_keeping`] keeps each motion's residual and Jacobian there for
+//! [`leave_one_out_one_step`]). [`GyroProblem`] still serves the generic solver (a test
+//! checks both take the same steps).
 
 use crate::gyro::{Adjustment, GyroCalibration, MotionIntegrator, MotionResidual, NPARAM};
 use crate::lm::{self, LmSettings, Problem};
@@ -135,6 +139,11 @@ pub struct GyroFit<T: RealField + Copy> {
     /// independent parameters, near 0 when the motions barely determine some combination);
     /// 1 when nothing is fitted.
     pub identifiability: T,
+    /// `JᵀJ` of the motions used, at the fit (all 12 parameters; rows and columns of the fixed
+    /// ones are zero): with [`GyroFit::gradient`] what [`leave_one_out_one_step`] starts from.
+    pub normal: M12<T>,
+    /// `Jᵀr` at the fit (zero for the fixed parameters).
+    pub gradient: V12<T>,
 }
 
 /// The gyro fit as an [`lm::Problem`]: observation `3k + c` is component `c` of the gravity
@@ -334,6 +343,155 @@ pub fn fit_from<T: RealField + Copy>(
     cfg: &GyroFitConfig<T>,
     exclude: Option<usize>,
 ) -> Result<GyroFit<T>, Error> {
+    fit_inner(motions, nominal, start, cfg, exclude, None, None)
+}
+
+/// [`fit_from`] on every motion that also leaves each motion's residual, Jacobian and angle at
+/// the fit in `kept` (one entry per motion, `kept.len() == motions.len()`), as
+/// [`leave_one_out_one_step`] needs them.
+pub fn fit_keeping<T: RealField + Copy>(
+    motions: &[Motion<'_, T>],
+    nominal: &GyroCalibration<T>,
+    start: &Adjustment<T>,
+    cfg: &GyroFitConfig<T>,
+    kept: &mut [MotionResidual<T>],
+) -> Result<GyroFit<T>, Error> {
+    if kept.len() != motions.len() {
+        return Err(Error::InvalidParameter);
+    }
+    fit_inner(motions, nominal, start, cfg, None, Some(kept), None)
+}
+
+/// The motions integrated once at the nominal calibration (identity adjustment) with all 12
+/// sensitivities. Every model's fit from the nominal starts with this evaluation restricted to
+/// its free parameters, bit for bit (a parameter's sensitivity sums do not depend on which
+/// others are tracked), so candidate models can share one pass
+/// ([`fit_keeping_from_nominal`]) instead of integrating the same start once each.
+#[derive(Debug, Clone, Copy)]
+pub struct NominalPass<T: RealField + Copy> {
+    nominal: GyroCalibration<T>,
+    dt: T,
+    ev: Evaluation<T>,
+}
+
+/// [`NominalPass`] of `motions`, each motion's residual and Jacobian (all 12 columns) left in
+/// `kept` (`kept.len() == motions.len()`).
+pub fn nominal_pass<T: RealField + Copy>(
+    motions: &[Motion<'_, T>],
+    nominal: &GyroCalibration<T>,
+    dt: T,
+    kept: &mut [MotionResidual<T>],
+) -> Result<NominalPass<T>, Error> {
+    if kept.len() != motions.len() {
+        return Err(Error::InvalidParameter);
+    }
+    let problem = GyroProblem::new(motions, *nominal, dt, [true; NPARAM], None)?;
+    let ev = evaluate(&problem, &Adjustment::identity().to_params(), Some(kept));
+    if !ev.cost.is_finite() {
+        return Err(Error::NonFinite);
+    }
+    Ok(NominalPass {
+        nominal: *nominal,
+        dt,
+        ev,
+    })
+}
+
+/// [`fit_keeping`] from the nominal calibration, its first evaluation taken from `pass`:
+/// `kept` must hold what [`nominal_pass`] left (a copy per model); the result is identical to
+/// [`fit_keeping`] from [`Adjustment::identity`]. [`Error::InvalidParameter`] when `pass` was
+/// made with another nominal or sample period.
+pub fn fit_keeping_from_nominal<T: RealField + Copy>(
+    motions: &[Motion<'_, T>],
+    cfg: &GyroFitConfig<T>,
+    pass: &NominalPass<T>,
+    kept: &mut [MotionResidual<T>],
+) -> Result<GyroFit<T>, Error> {
+    if kept.len() != motions.len() || pass.dt != cfg.dt {
+        return Err(Error::InvalidParameter);
+    }
+    let free = cfg.model.mask(cfg.fit_bias);
+    for k in kept.iter_mut() {
+        for c in (0..NPARAM).filter(|c| !free[*c]) {
+            k.jacobian.column_mut(c).fill(T::zero());
+        }
+    }
+    let mut first = pass.ev;
+    for a in 0..NPARAM {
+        for b in 0..NPARAM {
+            if !(free[a] && free[b]) {
+                first.jtj[(a, b)] = T::zero();
+            }
+        }
+        if !free[a] {
+            first.jtr[a] = T::zero();
+        }
+    }
+    let start = Adjustment::identity();
+    fit_inner(
+        motions,
+        &pass.nominal,
+        &start,
+        cfg,
+        None,
+        Some(kept),
+        Some(first),
+    )
+}
+
+/// All motions (but `exclude`) integrated at `p` with the sensitivities of `tracked`.
+#[derive(Debug, Clone, Copy)]
+struct Evaluation<T: RealField + Copy> {
+    jtj: M12<T>,
+    jtr: V12<T>,
+    /// `Σ‖r‖²` (NaN when an integration failed: only for non-finite parameters).
+    cost: T,
+    /// `Σ angle²`, rad².
+    angle_sq: T,
+}
+
+fn evaluate<T: RealField + Copy>(
+    problem: &GyroProblem<'_, '_, T>,
+    p: &V12<T>,
+    mut kept: Option<&mut [MotionResidual<T>]>,
+) -> Evaluation<T> {
+    let mut ev = Evaluation {
+        jtj: M12::zeros(),
+        jtr: V12::zeros(),
+        cost: T::zero(),
+        angle_sq: T::zero(),
+    };
+    for i in (0..problem.motions.len()).filter(|i| Some(*i) != problem.exclude) {
+        let Ok(out) = problem.integrate(i, p, problem.tracked) else {
+            ev.cost = T::zero() / T::zero();
+            return ev;
+        };
+        let jt = out.jacobian.transpose();
+        ev.jtj += jt * out.jacobian;
+        ev.jtr += jt * out.residual;
+        ev.cost += out.residual.norm_squared();
+        ev.angle_sq += out.angle * out.angle;
+        if let Some(k) = kept.as_deref_mut() {
+            k[i] = out;
+        }
+    }
+    ev
+}
+
+/// Levenberg–Marquardt with the multi-position schedule ([`LmSettings::multipos`]; the same
+/// steps as [`lm::minimize`] on [`GyroProblem`]), except that every trial point is integrated
+/// with its sensitivities at once: an accepted trial's Jacobian is the next iteration's, so
+/// each iteration costs one pass over the motions instead of a pass with sensitivities and a
+/// pass without, and the last pass is at the fit (for the identifiability and `kept`).
+fn fit_inner<T: RealField + Copy>(
+    motions: &[Motion<'_, T>],
+    nominal: &GyroCalibration<T>,
+    start: &Adjustment<T>,
+    cfg: &GyroFitConfig<T>,
+    exclude: Option<usize>,
+    mut kept: Option<&mut [MotionResidual<T>]>,
+    shared_first: Option<Evaluation<T>>,
+) -> Result<GyroFit<T>, Error> {
     nominal.validate()?;
     let free = cfg.model.mask(cfg.fit_bias);
     let nfree = free.iter().filter(|f| **f).count() as u32;
@@ -348,54 +506,142 @@ pub fn fit_from<T: RealField + Copy>(
             got: used,
         });
     }
-    let dt = cfg.dt;
-    let rms_before = rms_angle(motions, nominal, dt, exclude)?;
-    let mut x0 = start.to_params();
+    let identity = Adjustment::<T>::identity().to_params();
+    let mut x = start.to_params();
     for k in (0..NPARAM).filter(|k| !free[*k]) {
-        x0[k] = Adjustment::<T>::identity().to_params()[k];
+        x[k] = identity[k];
     }
-    let problem = GyroProblem::new(motions, *nominal, dt, free, exclude)?;
-    let (x, iterations) = if nfree == 0 {
-        (x0, 0)
+    let problem = GyroProblem::new(motions, *nominal, cfg.dt, free, exclude)?;
+    let first = match shared_first {
+        Some(ev) => ev,
+        None => evaluate(&problem, &x, kept.as_deref_mut()),
+    };
+    if !first.cost.is_finite() {
+        return Err(Error::NonFinite);
+    }
+    let n: T = nalgebra::convert(f64::from(used));
+    let rms_before = if x == identity {
+        (first.angle_sq / n).sqrt()
     } else {
-        let settings = LmSettings::multipos(cfg.max_iterations);
-        let f = lm::minimize(&problem, x0, &free, None, &settings)?;
-        (f.params, f.iterations)
+        rms_angle(motions, nominal, cfg.dt, exclude)?
+    };
+    let settings = LmSettings::multipos(cfg.max_iterations);
+    let (x, ev, iterations) = if nfree == 0 {
+        (x, first, 0)
+    } else {
+        let (x, ev, iterations, stale) =
+            levenberg_marquardt(&problem, x, first, &settings, &mut kept)?;
+        if stale {
+            // A rejected trial overwrote the kept residuals: once more at the fit.
+            evaluate(&problem, &x, kept);
+        }
+        (x, ev, iterations)
     };
     let adjustment = Adjustment::from_params(&x);
     let identifiability = if nfree == 0 {
         T::one()
     } else {
-        identifiability(&lm::normal_equations(&problem, &x, None).0, &free)
+        identifiability(&ev.jtj, &free)
     };
-    let calibration = adjustment.apply(nominal)?;
-    let rms_after = rms_angle(motions, &calibration, dt, exclude)?;
     Ok(GyroFit {
-        calibration,
+        calibration: adjustment.apply(nominal)?,
         adjustment,
         rms_before,
-        rms_after,
+        rms_after: (ev.angle_sq / n).sqrt(),
         motions: used,
         iterations,
         identifiability,
+        normal: ev.jtj,
+        gradient: ev.jtr,
+    })
+}
+
+/// The iterations of [`fit_inner`]: returns the parameters, their evaluation, the number of
+/// iterations, and whether `kept` holds a rejected trial instead of the fit.
+fn levenberg_marquardt<T: RealField + Copy>(
+    problem: &GyroProblem<'_, '_, T>,
+    mut x: V12<T>,
+    mut ev: Evaluation<T>,
+    s: &LmSettings<T>,
+    kept: &mut Option<&mut [MotionResidual<T>]>,
+) -> Result<(V12<T>, Evaluation<T>, u32, bool), Error> {
+    let free = problem.tracked;
+    let mut lambda = s.initial_damping;
+    let mut stale = false;
+    for iteration in 1..=s.max_iterations {
+        let (mut jtj, mut jtr) = (ev.jtj, ev.jtr);
+        lm::pin_fixed(&mut jtj, &mut jtr, &free);
+        if s.gradient_tol.is_some_and(|tol| jtr.amax() <= tol) {
+            return Ok((x, ev, iteration, stale));
+        }
+        let mut accepted = false;
+        for _ in 0..s.max_inner {
+            let mut a = jtj;
+            for i in 0..NPARAM {
+                a[(i, i)] += lambda * jtj[(i, i)].max(s.diagonal_floor);
+            }
+            let Some(chol) = nalgebra::Cholesky::new(a) else {
+                lambda *= s.damping_up_singular;
+                continue;
+            };
+            let step = chol.solve(&(-jtr));
+            let candidate = x + step;
+            let trial = evaluate(problem, &candidate, kept.as_deref_mut());
+            if trial.cost.is_finite() && trial.cost <= ev.cost {
+                let lm::StepTest::MaxNorm { rel } = s.step_test else {
+                    return Err(Error::InvalidParameter);
+                };
+                let small_step = step.amax() <= rel * (x.amax() + rel);
+                let small_gain = ev.cost - trial.cost <= s.gain_tol * ev.cost + s.gain_abs;
+                (x, ev, stale) = (candidate, trial, false);
+                lambda = (lambda * s.damping_down).max(s.min_damping);
+                accepted = true;
+                if s.param_bound
+                    .is_some_and(|b| (0..NPARAM).any(|j| free[j] && x[j].abs() > b))
+                {
+                    return Err(Error::Diverged);
+                }
+                if small_step || small_gain {
+                    return Ok((x, ev, iteration, stale));
+                }
+                break;
+            }
+            stale = kept.is_some();
+            lambda *= s.damping_up;
+        }
+        if !accepted {
+            // No trial lowers the cost: at the minimum within the float resolution.
+            return Ok((x, ev, iteration, stale));
+        }
+    }
+    let far = s.param_bound.is_some_and(|bound| {
+        let limit = bound / nalgebra::convert(10.0);
+        (0..NPARAM).any(|j| free[j] && x[j].abs() > limit)
+    });
+    Err(if far {
+        Error::Diverged
+    } else {
+        Error::NotConverged
     })
 }
 
 /// Leave-one-motion-out by one Gauss–Newton step from the all-motion fit instead of a refit
-/// per motion: with `H = JᵀJ` and `g = Jᵀr` of all motions at the fit `fitted`, motion `i`'s
-/// held-out parameters are `p − (H − JᵢᵀJᵢ)⁻¹(g − Jᵢᵀrᵢ)`, and its held-out angle is then
-/// integrated exactly at those parameters. The refit's objective differs from the full one by
-/// one motion of 3 observations, so its minimum lies close to the full fit's and one step
-/// lands on it to second order; the cost is two passes over the motions with sensitivities
-/// plus one without, against one full Levenberg–Marquardt fit per motion for
-/// [`leave_one_out`]. A motion without which the normal matrix is singular (it alone
-/// determines a parameter) falls back to the exact refit. Returns the RMS of the held-out
-/// angles, rad; `per_motion(i, angle)` sees each.
+/// per motion: with `H = JᵀJ` and `g = Jᵀr` of all motions at the fit (`fit.normal`,
+/// `fit.gradient`), motion `i`'s held-out parameters are `p − (H − JᵢᵀJᵢ)⁻¹(g − Jᵢᵀrᵢ)`, and
+/// its held-out angle is then integrated exactly at those parameters. The refit's objective
+/// differs from the full one by one motion of 3 observations, so its minimum lies close to the
+/// full fit's and one step lands on it to second order. `kept` are the motions' residuals and
+/// Jacobians at the fit ([`fit_keeping`]), so the cost is one pass over the motions without
+/// sensitivities, against one full Levenberg–Marquardt fit per motion for [`leave_one_out`]
+/// (with nothing fitted, the held-out angles are the kept ones). A motion without which the
+/// normal matrix is singular (it alone determines a parameter) falls back to the exact refit.
+/// Returns the RMS of the held-out angles, rad; `per_motion(i, angle)` sees each.
 pub fn leave_one_out_one_step<T: RealField + Copy>(
     motions: &[Motion<'_, T>],
     nominal: &GyroCalibration<T>,
-    fitted: &Adjustment<T>,
+    fit: &GyroFit<T>,
     cfg: &GyroFitConfig<T>,
+    kept: &[MotionResidual<T>],
     mut per_motion: impl FnMut(usize, T),
 ) -> Result<T, Error> {
     if motions.len() < 2 {
@@ -404,29 +650,30 @@ pub fn leave_one_out_one_step<T: RealField + Copy>(
             got: motions.len() as u32,
         });
     }
+    if kept.len() != motions.len() {
+        return Err(Error::InvalidParameter);
+    }
     let free = cfg.model.mask(cfg.fit_bias);
-    let p = fitted.to_params();
-    let problem = GyroProblem::new(motions, *nominal, cfg.dt, free, None)?;
-    let (jtj, jtr) = lm::normal_equations(&problem, &p, None);
+    let p = fit.adjustment.to_params();
     let mut sum = T::zero();
-    for (i, motion) in motions.iter().enumerate() {
-        let own = problem.motion(i, &p, true);
-        let jt = own.jacobian.transpose();
-        let h = jtj - jt * own.jacobian;
-        let mut g = jtr - jt * own.residual;
-        for k in (0..NPARAM).filter(|k| !free[*k]) {
-            g[k] = T::zero();
-        }
-        // A pivot that loses all but ~3 digits: the motion alone determined a parameter.
-        let rel_pivot = T::default_epsilon() * nalgebra::convert(1000.0);
-        let cal = match lm::factor_normal(&h, &free, rel_pivot) {
-            Some(chol) if free.iter().any(|f| *f) => {
-                Adjustment::from_params(&(p - chol.solve(&g))).apply(nominal)?
+    for (i, (motion, own)) in motions.iter().zip(kept).enumerate() {
+        let a = if free.iter().any(|f| *f) {
+            let jt = own.jacobian.transpose();
+            let h = fit.normal - jt * own.jacobian;
+            let mut g = fit.gradient - jt * own.residual;
+            for k in (0..NPARAM).filter(|k| !free[*k]) {
+                g[k] = T::zero();
             }
-            Some(_) => fitted.apply(nominal)?,
-            None => fit_from(motions, nominal, fitted, cfg, Some(i))?.calibration,
+            // A pivot that loses all but ~3 digits: the motion alone determined a parameter.
+            let rel_pivot = T::default_epsilon() * nalgebra::convert(1000.0);
+            let cal = match lm::factor_normal(&h, &free, rel_pivot) {
+                Some(chol) => Adjustment::from_params(&(p - chol.solve(&g))).apply(nominal)?,
+                None => fit_from(motions, nominal, &fit.adjustment, cfg, Some(i))?.calibration,
+            };
+            motion_angle(motion, &cal, cfg.dt)?
+        } else {
+            own.angle
         };
-        let a = motion_angle(motion, &cal, cfg.dt)?;
         per_motion(i, a);
         sum += a * a;
     }

@@ -315,8 +315,9 @@ fn normal_skipping<T: RealField + Copy, const N: usize, P: Problem<T, N>>(
     (jtj, jtr)
 }
 
-/// Pins the fixed parameters: zero row and column, unit diagonal, zero gradient.
-fn pin_fixed<T: RealField + Copy, const N: usize>(
+/// Pins the fixed parameters: zero row and column, unit diagonal, zero gradient (what
+/// [`minimize`] does to the normal equations before solving).
+pub fn pin_fixed<T: RealField + Copy, const N: usize>(
     jtj: &mut SMatrix<T, N, N>,
     jtr: &mut SVector<T, N>,
     mask: &[bool; N],

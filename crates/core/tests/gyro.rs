@@ -726,3 +726,124 @@ fn excluding_a_motion_equals_removing_it() {
         assert!((excluded.rms_after - removed.rms_after).abs() < 1e-12);
     }
 }
+
+/// The fit's own Levenberg–Marquardt loop (every trial integrated with its sensitivities)
+/// takes the steps of the crate's generic solver on [`GyroProblem`], and `fit_keeping` leaves
+/// each motion's residual, Jacobian and angle at the fit, even when the fit starts far away
+/// (where trials get rejected and overwrite them), with `normal`/`gradient` their sums.
+#[test]
+fn fit_keeping_matches_the_generic_solver_and_keeps_the_motions_at_the_fit() {
+    use wiical_core::gyro::MotionResidual;
+    use wiical_core::gyro_fit::{fit_from, fit_keeping, GyroProblem};
+    use wiical_core::lm::{self, LmSettings};
+    let mut rng = ChaCha8Rng::seed_from_u64(33);
+    let truth = random_truth(&mut rng);
+    let recording = simulate(&mut rng, &truth, 15, 1.0, 1e-4);
+    let motions = motions_f64(&recording);
+    // Both solvers run off (Diverged) from the second start.
+    let starts = [
+        Matrix3::new(1.4, 0.1, -0.1, 0.05, 0.7, 0.1, -0.1, 0.1, 1.3),
+        Matrix3::new(3.0, 0.5, -0.4, 0.3, 2.5, 0.6, -0.5, 0.2, 0.4),
+        // The full fit from here rejects a trial before it converges (checked by hand).
+        Matrix3::new(0.3, 0.0, 0.0, 0.0, 0.3, 0.0, 0.0, 0.0, 0.3),
+    ];
+    let cases = [(GyroModel::Scale, false), (GyroModel::Full, true)];
+    for (start, (model, fit_bias)) in starts.iter().flat_map(|s| cases.map(|c| (s, c))) {
+        let far = Adjustment {
+            p: *start,
+            delta: Vector3::new(0.05, -0.03, 0.02),
+        };
+        let c = cfg::<f64>(model, fit_bias);
+        let free = model.mask(fit_bias);
+        let problem = GyroProblem::new(&motions, truth.nominal, DT, free, None).unwrap();
+        let mut x0 = far.to_params();
+        for k in (0..NPARAM).filter(|k| !free[*k]) {
+            x0[k] = Adjustment::<f64>::identity().to_params()[k];
+        }
+        let generic = lm::minimize(&problem, x0, &free, None, &LmSettings::multipos(100));
+        let blank = MotionResidual {
+            residual: Vector3::zeros(),
+            jacobian: SMatrix::zeros(),
+            angle: 0.0,
+            rotation: nalgebra::Vector4::zeros(),
+        };
+        let mut kept = vec![blank; motions.len()];
+        let f = fit_keeping(&motions, &truth.nominal, &far, &c, &mut kept);
+        let (generic, f) = match (generic, f) {
+            (Ok(g), Ok(f)) => (g, f),
+            (Err(a), Err(b)) => {
+                assert_eq!(a, b, "{model:?}");
+                continue;
+            }
+            (g, f) => panic!("{model:?}: generic {g:?}, fit {f:?}"),
+        };
+        let plain = fit_from(&motions, &truth.nominal, &far, &c, None).unwrap();
+        assert_eq!(f.adjustment, plain.adjustment);
+        assert_eq!(f.iterations, generic.iterations, "{model:?}");
+        let d = (f.adjustment.to_params() - generic.params).amax();
+        assert!(d < 1e-12, "{model:?}: {d:e} from the generic solver");
+        let (mut jtj, mut jtr) = (SMatrix::<f64, 12, 12>::zeros(), SVector::<f64, 12>::zeros());
+        for (m, k) in motions.iter().zip(&kept) {
+            let mut integ = MotionIntegrator::new(truth.nominal, f.adjustment, DT, free).unwrap();
+            for s in m.samples {
+                integ.push(s).unwrap();
+            }
+            let fresh = integ.finish(&m.g_start, &m.g_end).unwrap();
+            assert_eq!(
+                fresh, *k,
+                "{model:?}: a kept motion is not the one at the fit"
+            );
+            jtj += fresh.jacobian.transpose() * fresh.jacobian;
+            jtr += fresh.jacobian.transpose() * fresh.residual;
+        }
+        assert!((f.normal - jtj).amax() <= 1e-12 * jtj.amax());
+        assert!((f.gradient - jtr).amax() <= 1e-12 * jtj.amax());
+    }
+}
+
+/// Candidate models sharing one nominal pass (all 12 sensitivities, masked per model) get
+/// exactly the fits and kept motions of their own passes.
+#[test]
+fn a_shared_nominal_pass_gives_the_same_fits_bit_for_bit() {
+    use wiical_core::gyro::MotionResidual;
+    use wiical_core::gyro_fit::{fit_keeping, fit_keeping_from_nominal, nominal_pass};
+    let mut rng = ChaCha8Rng::seed_from_u64(34);
+    let truth = random_truth(&mut rng);
+    let recording = simulate(&mut rng, &truth, 12, 1.0, 1e-4);
+    let motions = motions_f64(&recording);
+    let blank = MotionResidual {
+        residual: Vector3::zeros(),
+        jacobian: SMatrix::zeros(),
+        angle: 0.0,
+        rotation: nalgebra::Vector4::zeros(),
+    };
+    let mut shared = vec![blank; motions.len()];
+    let pass = nominal_pass(&motions, &truth.nominal, DT, &mut shared).unwrap();
+    for model in [GyroModel::BiasOnly, GyroModel::Scale, GyroModel::Full] {
+        for fit_bias in [false, true] {
+            let c = cfg::<f64>(model, fit_bias);
+            let mut own = vec![blank; motions.len()];
+            let alone = fit_keeping(
+                &motions,
+                &truth.nominal,
+                &Adjustment::identity(),
+                &c,
+                &mut own,
+            );
+            let mut from_pass = shared.clone();
+            let shared_fit = fit_keeping_from_nominal(&motions, &c, &pass, &mut from_pass);
+            assert_eq!(alone.unwrap(), shared_fit.unwrap(), "{model:?} {fit_bias}");
+            assert_eq!(own, from_pass, "{model:?} {fit_bias}");
+        }
+    }
+    let other_dt = cfg::<f64>(GyroModel::Full, true);
+    let other_dt = GyroFitConfig {
+        dt: 2.0 * DT,
+        ..other_dt
+    };
+    let mut k = shared.clone();
+    assert_eq!(
+        fit_keeping_from_nominal(&motions, &other_dt, &pass, &mut k).unwrap_err(),
+        Error::InvalidParameter
+    );
+}

@@ -99,10 +99,23 @@ pub fn run(a: &Args) -> Result<String> {
     inputs.extend(a.gyro_file.as_deref());
     check_outputs(&inputs, &[a.out.as_deref()])?;
     let (acc, gyro) = match &a.gyro_file {
-        Some(g) => (
-            load(&a.file, &a.detect.load_options()?)?,
-            load(g, &load_options(None)?)?,
-        ),
+        Some(g) => {
+            // Two files: the gyro's is parsed on a second thread while the accelerometer's is
+            // read here (parsing is a good part of what is left outside the fit); its notes
+            // are printed after the accelerometer's, as when read one after the other.
+            let (acc_opts, gyro_opts) = (a.detect.load_options()?, load_options(None)?);
+            let (acc, gyro) = std::thread::scope(|s| {
+                let gyro = s.spawn(|| wiical_analysis::load(g, &gyro_opts));
+                let acc = load(&a.file, &acc_opts);
+                (acc, gyro.join())
+            });
+            let acc = acc?;
+            let gyro = gyro
+                .map_err(|_| anyhow::anyhow!("reading {} failed", g.display()))?
+                .map_err(cli_error)?;
+            super::print_notes(g, &gyro);
+            (acc, gyro)
+        }
         None => {
             let acc_opts = a.detect.load_options()?;
             let (acc, gyro) = super::with_spinner(&format!("reading {}", a.file.display()), || {
