@@ -8,10 +8,11 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use embassy_futures::block_on;
-use wiical::cmd::device::{adapter_terms, judge_for_put};
+use wiical::cmd::device::judge_for_put;
 use wiical::device_sim::{SimFlash, FLASH_SIZE};
 use wiical_adapter::store::Loaded;
 use wiical_adapter::CalibrationStore;
+use wiical_analysis::output::calfile::adapter_terms;
 use wiical_analysis::output::calfile::{self, CalibrationFile};
 use wiical_analysis::report::verdict::{Quality, Verdict};
 use wiical_core::Calibration;

@@ -10,7 +10,7 @@ use crate::cmd::to_json;
 use crate::render::device as render;
 use anyhow::{anyhow, bail, Result};
 use serde::Serialize;
-use wiical_analysis::output::calfile::{self, CalibrationFile};
+use wiical_analysis::output::calfile::{self, adapter_terms, CalibrationFile};
 use wiical_analysis::report::verdict::Verdict;
 use wiical_core::quality::Acceptance;
 use wiical_core::Calibration;
@@ -202,51 +202,6 @@ pub fn judge_for_put(file: &CalibrationFile) -> PutCheck {
         }
     }
     check
-}
-
-/// Which of a calibration's non-zero terms the adapter applies to every sample, and which
-/// stay in the file for hosts (issue 19): the adapter corrects with what depends on the
-/// acceleration alone (bias and `K`, the per-axis and the orientation-dependent cross
-/// terms); it has no clock origin and no thermometer, so the time and temperature terms are
-/// stored with the calibration but not applied.
-#[derive(Debug, Default, PartialEq, Serialize)]
-pub struct AdapterTerms {
-    /// Applied on the device.
-    pub applied: Vec<&'static str>,
-    /// Kept in the file (and stored) for hosts with a clock and a thermometer.
-    pub host_only: Vec<&'static str>,
-}
-
-/// Sorts the calibration's non-zero terms into [`AdapterTerms`].
-pub fn adapter_terms(cal: &Calibration) -> AdapterTerms {
-    let e = &cal.effects;
-    let nz = |v: &[f32]| v.iter().any(|x| *x != 0.0);
-    let mut t = AdapterTerms {
-        applied: vec!["bias and K"],
-        host_only: Vec::new(),
-    };
-    let on_device: [(&'static str, bool); 4] = [
-        ("quadratic", nz(&e.quadratic)),
-        ("cubic", nz(&e.cubic)),
-        (
-            "cross_quadratic (orientation)",
-            nz(e.cross_quadratic.as_flattened()),
-        ),
-        (
-            "cross_cubic (orientation)",
-            nz(e.cross_cubic.as_flattened()),
-        ),
-    ];
-    let for_hosts = [
-        ("bias_drift (time)", nz(&e.bias_drift)),
-        ("bias_temp (temperature)", nz(&e.bias_temp)),
-        ("scale_temp (temperature)", nz(&e.scale_temp)),
-    ];
-    t.applied
-        .extend(on_device.iter().filter(|(_, on)| *on).map(|(n, _)| *n));
-    t.host_only
-        .extend(for_hosts.iter().filter(|(_, on)| *on).map(|(n, _)| *n));
-    t
 }
 
 /// Reads a calibration file for `device put`, prints the warnings, and refuses (without

@@ -33,7 +33,7 @@ pub fn fmt_cal(o: &mut String, title: &str, c: &Calibration) -> Result<()> {
 
 /// Which terms the adapter applies (`device put` / `commit`, issue 19): one line for the
 /// terms applied on the device, one for those kept in the file for hosts (if any).
-pub fn fmt_terms(o: &mut String, t: &crate::cmd::device::AdapterTerms) -> Result<()> {
+pub fn fmt_terms(o: &mut String, t: &wiical_analysis::output::calfile::AdapterTerms) -> Result<()> {
     writeln!(o, "  applied by the adapter: {}", t.applied.join(", "))?;
     if !t.host_only.is_empty() {
         writeln!(
