@@ -17,6 +17,7 @@
 
 use crate::error::{Error, Result};
 use crate::input::window_table::{load_input, WindowInputOptions};
+use crate::output::error::OutputError;
 use crate::pipeline;
 use crate::{AnalyzeOptions, FitOptions};
 use serde::{Deserialize, Serialize};
@@ -130,9 +131,11 @@ fn walk(dir: &Path, out: &mut Vec<PathBuf>) -> Result<()> {
 /// The files a results file already holds, after removing a last line cut short (a run
 /// killed while writing it). A missing file holds none.
 pub fn resume(out: &Path) -> Result<HashSet<String>> {
-    let io = |source| Error::Write {
-        path: out.into(),
-        source,
+    let io = |source| {
+        Error::from(OutputError::Write {
+            path: out.into(),
+            source,
+        })
     };
     let file = match std::fs::OpenOptions::new().read(true).write(true).open(out) {
         Ok(f) => f,
@@ -205,9 +208,11 @@ pub fn run(
         skipped: files.len() - todo.len(),
         ..Default::default()
     };
-    let io = |source| Error::Write {
-        path: out.into(),
-        source,
+    let io = |source| {
+        Error::from(OutputError::Write {
+            path: out.into(),
+            source,
+        })
     };
     let mut journal = std::fs::OpenOptions::new()
         .create(true)

@@ -21,43 +21,10 @@ pub enum Error {
         #[source]
         source: std::io::Error,
     },
-    /// A file could not be written.
-    #[error("cannot write {}", path.display())]
-    Write {
-        /// The file.
-        path: PathBuf,
-        /// Why.
-        #[source]
-        source: std::io::Error,
-    },
-    /// An output named `-`.
-    #[error("{}: standard output carries the report; give a file name for this output", output.display())]
-    OutputIsStdout {
-        /// The output as given.
-        output: PathBuf,
-    },
-    /// An output in a directory that does not exist.
-    #[error("cannot write {}: its directory does not exist (nothing was written)", output.display())]
-    OutputDirMissing {
-        /// The output as given.
-        output: PathBuf,
-    },
-    /// An output would replace one of the command's inputs.
-    #[error("refusing to write {}: it is the input {} (choose another output file)", output.display(), input.display())]
-    OutputIsInput {
-        /// The output asked for.
-        output: PathBuf,
-        /// The input it is the same file as.
-        input: PathBuf,
-    },
-    /// Two outputs of one command are the same file (one would overwrite the other).
-    #[error("refusing to write {} twice: it is also given as {} (choose different output files)", first.display(), second.display())]
-    OutputsCollide {
-        /// One output.
-        first: PathBuf,
-        /// Another output naming the same file.
-        second: PathBuf,
-    },
+    /// An output could not be written, or is refused before writing
+    /// ([`crate::output::error::OutputError`]).
+    #[error(transparent)]
+    Output(#[from] crate::output::error::OutputError),
     /// An input or output path names something other than a regular file (a device, a
     /// directory, a pipe): `/dev/zero` would never end.
     #[error("{} is not a regular file (give a file, or - for standard input)", path.display())]
@@ -722,10 +689,15 @@ pub enum Error {
     #[error(transparent)]
     Factory(#[from] crate::factory::FactoryError),
 
-    // ---- internal consistency ----
-    /// A self-check failed: a bug, not bad input.
-    #[error("internal: {0}")]
-    Internal(String),
+    // ---- internal consistency (bugs, not bad input) ----
+    /// The simulator's self-checks ([`crate::simulate::error::SimulateError`]).
+    #[cfg(feature = "simulate")]
+    #[error(transparent)]
+    Simulate(#[from] crate::simulate::error::SimulateError),
+    /// The six-position calibration written to the report does not map the pose means back
+    /// to ±1 g (a self-check after the fit).
+    #[error("internal: six-position calibration does not reproduce the poses")]
+    SixPositionNotReproduced,
     /// JSON (de)serialisation.
     #[error(transparent)]
     Json(#[from] serde_json::Error),

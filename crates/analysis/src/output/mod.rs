@@ -1,6 +1,8 @@
 //! Output files: a [`wiical_core::Calibration`] and its verdict ↔ the calibration file
 //! ([`calfile`]), and the atomic writer every output goes through ([`mod@write`]: no
-//! half-written file, no input overwritten).
+//! half-written file, no input overwritten); [`error::OutputError`] says why one was not
+//! written.
 
 pub mod calfile;
+pub mod error;
 pub mod write;

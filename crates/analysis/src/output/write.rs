@@ -16,6 +16,7 @@
 //! name where it does not yet).
 
 use crate::error::{Error, Result};
+use crate::output::error::OutputError;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
@@ -68,10 +69,12 @@ impl PendingFile {
         let mut builder = tempfile::Builder::new();
         builder.prefix(&prefix).suffix(".tmp");
         set_permissions(&mut builder, &target);
-        let tmp = builder.tempfile_in(&dir).map_err(|source| Error::Write {
-            path: path.into(),
-            source,
-        })?;
+        let tmp = builder
+            .tempfile_in(&dir)
+            .map_err(|source| OutputError::Write {
+                path: path.into(),
+                source,
+            })?;
         Ok(Self {
             tmp,
             target,
@@ -97,10 +100,11 @@ impl PendingFile {
 
     /// An I/O error as a write error of the target.
     pub fn error(&self, source: std::io::Error) -> Error {
-        Error::Write {
+        OutputError::Write {
             path: self.given.clone(),
             source,
         }
+        .into()
     }
 
     /// `fsync`s the data and renames the temporary file over the target (then `fsync`s the
@@ -109,17 +113,22 @@ impl PendingFile {
         self.tmp.as_file().sync_all().map_err(|e| self.error(e))?;
         let given = self.given.clone();
         let dir = self.target.parent().map(Path::to_path_buf);
-        self.tmp.persist(&self.target).map_err(|e| Error::Write {
-            path: given.clone(),
-            source: e.error,
-        })?;
+        self.tmp
+            .persist(&self.target)
+            .map_err(|e| OutputError::Write {
+                path: given.clone(),
+                source: e.error,
+            })?;
         match dir {
             Some(d) if !d.as_os_str().is_empty() => sync_dir(&d),
             _ => sync_dir(Path::new(".")),
         }
-        .map_err(|source| Error::Write {
-            path: given,
-            source,
+        .map_err(|source| {
+            OutputError::Write {
+                path: given,
+                source,
+            }
+            .into()
         })
     }
 
@@ -128,7 +137,7 @@ impl PendingFile {
     pub fn keep_aside(self) -> Result<PathBuf> {
         self.tmp.as_file().sync_all().map_err(|e| self.error(e))?;
         let given = self.given.clone();
-        let (_, path) = self.tmp.keep().map_err(|e| Error::Write {
+        let (_, path) = self.tmp.keep().map_err(|e| OutputError::Write {
             path: given,
             source: e.error,
         })?;
@@ -140,9 +149,12 @@ impl PendingFile {
 /// regular file.
 fn resolve_target(path: &Path) -> Result<PathBuf> {
     match std::fs::metadata(path) {
-        Ok(meta) if meta.is_file() => std::fs::canonicalize(path).map_err(|source| Error::Write {
-            path: path.into(),
-            source,
+        Ok(meta) if meta.is_file() => std::fs::canonicalize(path).map_err(|source| {
+            OutputError::Write {
+                path: path.into(),
+                source,
+            }
+            .into()
         }),
         Ok(_) => Err(Error::NotRegularFile { path: path.into() }),
         Err(_) => Ok(path.to_path_buf()),
@@ -218,31 +230,35 @@ pub fn check_outputs(inputs: &[&Path], outputs: &[&Path]) -> Result<()> {
         // Every output's place is checked before any is written, so that a command with two
         // outputs writes both or neither.
         if out.as_os_str() == "-" {
-            return Err(Error::OutputIsStdout {
+            return Err(OutputError::OutputIsStdout {
                 output: out.to_path_buf(),
-            });
+            }
+            .into());
         }
         let dir = match out.parent() {
             Some(d) if !d.as_os_str().is_empty() => d,
             _ => Path::new("."),
         };
         if !dir.is_dir() {
-            return Err(Error::OutputDirMissing {
+            return Err(OutputError::OutputDirMissing {
                 output: out.to_path_buf(),
-            });
+            }
+            .into());
         }
         let Some(key) = file_key(out) else { continue };
         if let Some((input, _)) = input_keys.iter().find(|(_, k)| *k == key) {
-            return Err(Error::OutputIsInput {
+            return Err(OutputError::OutputIsInput {
                 output: out.to_path_buf(),
                 input: input.to_path_buf(),
-            });
+            }
+            .into());
         }
         if let Some((first, _)) = seen.iter().find(|(_, k)| *k == key) {
-            return Err(Error::OutputsCollide {
+            return Err(OutputError::OutputsCollide {
                 first: first.to_path_buf(),
                 second: out.to_path_buf(),
-            });
+            }
+            .into());
         }
         seen.push((out, key));
     }
@@ -360,12 +376,18 @@ mod tests {
         // Same file under another spelling.
         let respelled = dir.join(".").join("victim.csv");
         let e = check_outputs(&[&rec], &[&other, &respelled]).unwrap_err();
-        assert!(matches!(e, Error::OutputIsInput { .. }), "{e}");
+        assert!(
+            matches!(e, Error::Output(OutputError::OutputIsInput { .. })),
+            "{e}"
+        );
         // Two outputs, neither existing yet, one file.
         let plot = dir.join("sub/../out.json");
         std::fs::create_dir_all(dir.join("sub")).unwrap();
         let e = check_outputs(&[&rec], &[&other, &plot]).unwrap_err();
-        assert!(matches!(e, Error::OutputsCollide { .. }), "{e}");
+        assert!(
+            matches!(e, Error::Output(OutputError::OutputsCollide { .. })),
+            "{e}"
+        );
         assert!(check_outputs(&[&rec, Path::new("-")], &[&other, &dir.join("p.svg")]).is_ok());
         #[cfg(unix)]
         {

@@ -387,9 +387,7 @@ fn check_reproduces_poses(cal: &Calibration, means32: &[[f32; 3]]) -> Result<()>
         let dir = Pose::ALL[p].direction();
         let err = (0..3).map(|j| (a[j] - dir[j]).abs()).fold(0.0f32, f32::max);
         if !(err < 0.2) {
-            return Err(Error::Internal(
-                "six-position calibration does not reproduce the poses".into(),
-            ));
+            return Err(Error::SixPositionNotReproduced);
         }
     }
     Ok(())

@@ -37,12 +37,14 @@
 //! The truth is written next to the recording as `FILE.truth.json` ([`Truth`]).
 
 #![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x > 0.0)` is deliberately true for NaN.
+pub mod error;
 pub mod kalman;
 
 use crate::error::{Error, Result};
 use crate::input::recording::Recording;
 use crate::output::write::write_file;
 use crate::report::effect_names as names;
+use error::SimulateError;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
@@ -763,7 +765,7 @@ fn outlier_poses(rng: &mut ChaCha8Rng, magnitude: f64, scene: &Scene) -> Result<
             .segs
             .iter()
             .find(|s| matches!(s.kind, SegKind::Hold(p) if p == k))
-            .ok_or_else(|| Error::Internal("hold segment".into()))?;
+            .ok_or(SimulateError::NoHoldSegment)?;
         let sign = if rng.random::<bool>() { 1.0 } else { -1.0 };
         outliers.push(TrueOutlier {
             pose: k,
@@ -883,7 +885,7 @@ impl Scene {
         let d = &self.d.map(|r| r.map(|v| v * u));
         let k_true =
             wiical_core::model::invert3(&wiical_core::Mat3::from_fn(|r, c| d[r][c] as f32))
-                .map_err(|e| Error::Internal(format!("forward matrix not invertible: {e}")))?;
+                .map_err(SimulateError::ForwardNotInvertible)?;
         let mut calibration = Calibration::from_inverse(
             &k_true,
             &wiical_core::Vec3::new(
@@ -948,9 +950,7 @@ impl Scene {
             .map(|j| (a[j] as f64 - p.direction[j]).abs())
             .fold(0.0, f64::max);
         if err > 1e-4 {
-            return Err(Error::Internal(format!(
-                "truth calibration does not invert the simulation ({err} g)"
-            )));
+            return Err(SimulateError::TruthNotInverse { err_g: err }.into());
         }
         Ok(())
     }

@@ -1,0 +1,49 @@
+//! The output stage's error: why a file was not written. Apart from [`mod@crate::error`] (which
+//! joins it as `Error::Output`) so that the stage's modules and the top-level error need not
+//! import each other.
+
+use std::path::PathBuf;
+
+/// Why an output was not written: the write failed (nothing half-written is left), or the
+/// output was refused before anything was written (standard output, a missing directory, an
+/// input, two outputs naming one file). Joined into [`crate::Error::Output`].
+#[derive(Debug, thiserror::Error)]
+pub enum OutputError {
+    /// A file could not be written.
+    #[error("cannot write {}", path.display())]
+    Write {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        #[source]
+        source: std::io::Error,
+    },
+    /// An output named `-`.
+    #[error("{}: standard output carries the report; give a file name for this output", output.display())]
+    OutputIsStdout {
+        /// The output as given.
+        output: PathBuf,
+    },
+    /// An output in a directory that does not exist.
+    #[error("cannot write {}: its directory does not exist (nothing was written)", output.display())]
+    OutputDirMissing {
+        /// The output as given.
+        output: PathBuf,
+    },
+    /// An output would replace one of the command's inputs.
+    #[error("refusing to write {}: it is the input {} (choose another output file)", output.display(), input.display())]
+    OutputIsInput {
+        /// The output asked for.
+        output: PathBuf,
+        /// The input it is the same file as.
+        input: PathBuf,
+    },
+    /// Two outputs of one command are the same file (one would overwrite the other).
+    #[error("refusing to write {} twice: it is also given as {} (choose different output files)", first.display(), second.display())]
+    OutputsCollide {
+        /// One output.
+        first: PathBuf,
+        /// Another output naming the same file.
+        second: PathBuf,
+    },
+}
