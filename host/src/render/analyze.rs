@@ -110,6 +110,13 @@ pub fn render_text(rep: &AnalyzeReport, file: &str) -> String {
         }
     }
     let _ = writeln!(o, "\n{}", rep.verdict);
+    if let Some(line) = rep
+        .residual_correlates
+        .as_deref()
+        .and_then(|c| wiical_analysis::search::correlates::sentence(c, rep.time_temp_correlation))
+    {
+        let _ = writeln!(o, "{line}");
+    }
     if let Some(ac) = &rep.autocalibration {
         o.push_str(&autocal_text(rep, ac));
     }

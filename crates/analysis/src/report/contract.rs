@@ -166,6 +166,11 @@ pub struct AnalyzeReport {
     pub windows: Vec<WindowInfo>,
     /// Six-position mode only.
     pub six_position: Option<SixPositionDetails>,
+    /// What the final residual (‖a‖ − 1 per window) correlates with, strongest first
+    /// ([`crate::search::correlates`]); absent when the residual agrees with the noise floor
+    /// (the verdict's test) and in six-position mode.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub residual_correlates: Option<Vec<crate::search::correlates::ResidualCorrelate>>,
     /// Window-mean input only: how the table was read (absent for recordings of samples).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub window_input: Option<WindowInputInfo>,

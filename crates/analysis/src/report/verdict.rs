@@ -33,6 +33,12 @@ pub const UNEXPLAINED_CV_FACTOR: f64 = 3.0;
 /// The residual test's χ² p-value.
 pub const UNEXPLAINED_P: f64 = 1e-3;
 
+/// The residual test: held-out RMS `cv_mg` more than [`UNEXPLAINED_CV_FACTOR`] × the noise
+/// floor `floor_mg` with χ² p-value `chi2_p` below [`UNEXPLAINED_P`] (false for NaN).
+pub fn residual_unexplained(cv_mg: f64, floor_mg: f64, chi2_p: f64) -> bool {
+    cv_mg > UNEXPLAINED_CV_FACTOR * floor_mg && chi2_p < UNEXPLAINED_P
+}
+
 /// The residual test of a final model (`analyze`): its held-out error against the noise floor.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -120,7 +126,7 @@ impl Quality {
         if !(cv.is_finite() && floor.is_finite() && floor > 0.0 && p.is_finite()) {
             return self;
         }
-        let unexplained = cv > UNEXPLAINED_CV_FACTOR * floor && p < UNEXPLAINED_P;
+        let unexplained = residual_unexplained(cv, floor, p);
         if unexplained && self.verdict == Verdict::Good {
             self.verdict = Verdict::UnexplainedResidual;
         }

@@ -26,6 +26,7 @@ use crate::report::contract::{
 };
 use crate::report::progress::{Progress, Stage};
 use crate::search::candidate::Candidate;
+use crate::search::correlates::{residual_correlates, WindowPoint};
 use crate::search::evidence::{self as ev, TermContext};
 use crate::search::floor::{chi2_summary, floors, reference_variance};
 use crate::search::options::AnalyzeOptions;
@@ -229,6 +230,39 @@ impl<'a> Context<'a> {
     fn spans(&self) -> Vec<(usize, usize)> {
         self.ws.stats.iter().map(|w| (w.start, w.end)).collect()
     }
+}
+
+/// What each free parameter (`mask`) changes in a window's residual to first order, at the
+/// fitted gravity direction `g` (where the residual is zero): a bias `g_a`, a matrix entry
+/// `g_j·g_k`, a drift `τ·g_a`, a curved drift `τ²·g_a`, a temperature bias `ϑ·g_a`, a
+/// temperature scale `ϑ·g_a²`, a quadratic `g_a³`, a cubic `g_a⁴`. The model's Jacobian at
+/// the fit itself is not used: the norm is homogeneous in the matrix, so its columns span
+/// `1 + r` and would take the residual itself out.
+fn span_of(mask: &am::Mask, g: [f64; 3], tau: f64, theta: f64) -> Vec<f64> {
+    const K_ENTRIES: [(usize, usize); 6] = [(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)];
+    let mut out = Vec::new();
+    for (j, free) in mask.iter().enumerate() {
+        if !*free {
+            continue;
+        }
+        let (block, a) = (j / 3 * 3, j % 3);
+        let ga = g[a];
+        out.push(match block {
+            am::BIAS => ga,
+            am::DRIFT => tau * ga,
+            am::DRIFT2 => tau * tau * ga,
+            am::BTEMP => theta * ga,
+            am::STEMP => theta * ga * ga,
+            am::QUAD => ga.powi(3),
+            am::CUBIC => ga.powi(4),
+            _ if (am::KMAT..am::KMAT + 6).contains(&j) => {
+                let (r, c) = K_ENTRIES[j - am::KMAT];
+                g[r] * g[c]
+            }
+            _ => continue,
+        });
+    }
+    out
 }
 
 /// Every `size`-element subset of `items`, in lexicographic order of positions.
@@ -754,7 +788,45 @@ impl Context<'_> {
             .collect()
     }
 
-    /// Assembles the report.
+    /// What the final residual correlates with ([`crate::search::correlates`]), over the
+    /// windows in use, when the final model fails the verdict's residual test (held-out RMS
+    /// over the floor and χ²); `None` when it passes or a number is unknown.
+    fn correlates(
+        &self,
+        base: &Base,
+        state: &State,
+        final_model: &ModelSummary,
+    ) -> Option<Vec<crate::search::correlates::ResidualCorrelate>> {
+        let floor_mg = Some(base.noise_floor * 1e3).filter(|x| x.is_finite() && *x > 0.0)?;
+        let (cv, p) = (final_model.cv_rms_mg?, final_model.chi2_p?);
+        if !crate::report::verdict::residual_unexplained(cv, floor_mg, p) {
+            return None;
+        }
+        let cal = self.nrm.to_calibration(&state.fit.p);
+        let mask = mask_for(self.model, &state.parts);
+        let points: Vec<WindowPoint> = self
+            .ws
+            .stats
+            .iter()
+            .zip(&self.wins)
+            .zip(&state.used)
+            .filter(|(_, u)| **u)
+            .map(|((w, win), _)| {
+                let a = cal.correct_linear(w.mean.map(|x| x as f32)).map(f64::from);
+                let n = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt().max(1e-300);
+                let g = a.map(|x| x / n);
+                WindowPoint {
+                    residual_mg: am::residual(&state.fit.p, win) * 1e3,
+                    span: span_of(&mask, g, win.tau, win.theta),
+                    t_s: w.t_centre,
+                    temp_c: w.temp,
+                    g,
+                }
+            })
+            .collect();
+        Some(residual_correlates(&points, self.opts.alpha))
+    }
+
     /// The [`crate::detect::motion`] check on the base fit: are the windows really still?
     fn motion_diagnostic(&self, base: &Base) -> Option<String> {
         let k = self
@@ -777,6 +849,7 @@ impl Context<'_> {
         let calibration = self.nrm.to_calibration(&search.state.fit.p);
         calibration.validate().map_err(Error::InvalidCalibration)?;
         let windows = self.window_infos(base, &search);
+        let residual_correlates = self.correlates(base, &search.state, &final_model);
         // Candidates the last step could not test at all (too few windows for them).
         let untested: Vec<(String, usize)> = search
             .steps
@@ -824,6 +897,7 @@ impl Context<'_> {
             calibration,
             windows,
             six_position: None,
+            residual_correlates,
             window_input: None,
             autocalibration: None,
             autocalibration_converged: None,

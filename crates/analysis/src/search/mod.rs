@@ -8,6 +8,7 @@
 
 pub mod analyze;
 pub mod candidate;
+pub mod correlates;
 pub mod evidence;
 pub mod floor;
 pub mod options;

@@ -456,6 +456,7 @@ pub fn analyze_six(rec: &Recording, opts: &AnalyzeOptions) -> Result<AnalyzeRepo
             .and_then(|t| t.first().copied())
             .unwrap_or(0.0),
         time_temp_correlation: None,
+        residual_correlates: None,
         diagnostics: Vec::new(),
         calibration: cal,
         windows: Vec::new(),
