@@ -214,69 +214,13 @@ pub enum Error {
     #[error("D is singular")]
     SingularD,
 
-    // ---- magnetometer ----
-    /// No points.
-    #[error("magfit: no samples to fit")]
-    NoMagSamples,
-    /// A point that is not a finite f32.
-    #[error("sample {index} ({x}, {y}, {z}) is not a finite f32 value")]
-    MagSampleNotF32 {
-        /// 1-based sample.
-        index: usize,
-        /// x.
-        x: f64,
-        /// y.
-        y: f64,
-        /// z.
-        z: f64,
-    },
-    /// The core's ellipsoid fit failed.
-    #[error("{context}")]
-    MagFit {
-        /// What was being done.
-        context: String,
-        /// The core's error.
-        #[source]
-        source: wiical_core::Error,
-    },
-
-    // ---- gyroscope ----
-    /// The accelerometer and gyro recordings cannot be paired row by row.
-    #[error("the accelerometer has {accel} samples and the gyro {gyro}: they must be the same samples (same length, or time columns whose gyro times are all accelerometer times)")]
-    GyroRowsMismatch {
-        /// Accelerometer samples.
-        accel: usize,
-        /// Gyro samples.
-        gyro: usize,
-    },
-    /// Too few motions between static windows for a gyro fit.
-    #[error(
-        "found {found} motions between static windows, need at least {needed}: record more poses"
-    )]
-    TooFewMotions {
-        /// Motions found.
-        found: usize,
-        /// Needed.
-        needed: usize,
-    },
-    /// The nominal gyro sensitivity is missing, zero or not finite.
-    #[error(
-        "the nominal gyro sensitivity (rad/s per count) must be finite and non-zero on every axis"
-    )]
-    GyroNominalScale,
-    /// The nominal turns the motions by absurd angles: a wrong unit or a typo.
-    #[error("the gyro nominal from {source_name} turns the motions by {} the tilt the accelerometer sees between their poses (median of {motions} motions; a right nominal gives about 1 to 5 times): check the value and its unit", if ratio.is_finite() { format!("{ratio:.3e} times") } else { "infinitely more than".to_string() })]
-    GyroNominalImplausible {
-        /// Where the nominal came from (`--scale`, `--counts-per-dps`, the columns' unit).
-        source_name: String,
-        /// Median of integrated rotation angle / tilt.
-        ratio: f64,
-        /// Motions that tilted enough to compare.
-        motions: usize,
-    },
-    /// The core's gyro fit failed on the data.
-    #[error("gyro fit failed: {0}")]
-    GyroFitFailed(wiical_core::Error),
+    // ---- magnetometer and gyroscope ----
+    /// A magnetometer fit failed ([`crate::magnetometer_error::MagnetometerError`]).
+    #[error(transparent)]
+    Magnetometer(#[from] crate::magnetometer_error::MagnetometerError),
+    /// A gyro calibration failed ([`crate::gyro_error::GyroError`]).
+    #[error(transparent)]
+    Gyro(#[from] crate::gyro_error::GyroError),
 
     // ---- calibration files ----
     /// Not a calibration JSON.
@@ -295,13 +239,6 @@ pub enum Error {
         path: PathBuf,
         /// Why.
         cause: wiical_core::Error,
-    },
-
-    /// A single-file gyro calibration whose header names no gyroscope columns.
-    #[error("the header names no gyroscope columns (the nearest triplet is {taken}, not a gyroscope): name them gx,gy,gz or gyro_x_dps,… (deg/s), gyro_x_rads,… (rad/s)")]
-    NoGyroColumns {
-        /// The triplet the loader would have taken.
-        taken: String,
     },
 
     /// A recording too short for an Allan deviation.
@@ -339,31 +276,6 @@ pub enum Error {
         difference: f64,
         /// Its standard error.
         standard_error: f64,
-    },
-
-    /// The gyro's clock does not match the accelerometer's row for row.
-    #[error("the accelerometer's and the gyro's times differ by up to {offset_s:.4} s on the same row: the two files are not the same samples (shifted or from another recording)")]
-    GyroClocksDiffer {
-        /// Largest difference, s.
-        offset_s: f64,
-    },
-    /// A gyro file that covers only part of the accelerometer's recording.
-    #[error("the gyro covers t = {:.2}…{:.2} s but the accelerometer {:.2}…{:.2} s: the gyro file is cut short (or from another recording)", gyro.0, gyro.1, accel.0, accel.1)]
-    GyroSpanShort {
-        /// The gyro's first and last time, s.
-        gyro: (f64, f64),
-        /// The accelerometer's first and last time, s.
-        accel: (f64, f64),
-    },
-    /// "Gyro" data that turn with the pose like gravity.
-    #[error("the gyro columns ({columns}) change between the still poses like gravity (spread {spread:.3} against {motion_rms:.3} RMS during the motions): they are an accelerometer's, not a gyro's; give the gyro's columns (--gyro-columns) or its file")]
-    GyroLooksLikeGravity {
-        /// The columns taken as the gyro.
-        columns: String,
-        /// RMS spread of the gyro's window means.
-        spread: f64,
-        /// RMS of the gyro during the motions.
-        motion_rms: f64,
     },
 
     // ---- batch ----

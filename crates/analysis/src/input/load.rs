@@ -14,6 +14,7 @@
 //! Every value must be finite; the first bad line is reported with its number.
 
 use crate::error::{Error, Result};
+use crate::gyro_error::GyroError;
 use crate::input::bounded::{
     check_reading_scale, parse_number, parse_reading, quote, quote_header, read_bounded, text_of,
     MAX_RATE_HZ, MAX_RECORDING_BYTES,
@@ -80,9 +81,9 @@ pub fn load_imu(
             .is_some_and(|(_, s, _)| s == Sensor::Gyroscope)
     };
     if named && !gyro.axis_columns.iter().all(is_gyro) {
-        return Err(Error::NoGyroColumns {
+        return Err(Error::from(GyroError::NoGyroColumns {
             taken: gyro.axis_columns.join(","),
-        }
+        })
         .in_file(path));
     }
     Ok((accel, gyro))
