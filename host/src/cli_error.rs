@@ -3,6 +3,7 @@
 
 use anyhow::anyhow;
 use wiical_analysis::error::Setting;
+use wiical_analysis::input::error::InputError;
 use wiical_analysis::Error;
 
 /// Converts an engine error into the CLI's error, naming flags where a setting is concerned.
@@ -12,10 +13,10 @@ pub fn cli_error(e: Error) -> anyhow::Error {
         Error::InFile { path, source } => {
             cli_error(*source).context(format!("in {}", path.display()))
         }
-        Error::ColumnsNeedHeader => {
+        Error::Input(InputError::ColumnsNeedHeader) => {
             anyhow!("--columns needs a CSV file with a header; this file has no header")
         }
-        Error::NoAxisColumns { header } => anyhow!(
+        Error::Input(InputError::NoAxisColumns { header }) => anyhow!(
             "no x/y/z columns recognised in the header ({header}); name them x,y,z (or ax,ay,az / mx,my,mz / gx,gy,gz), or choose them with --columns"
         ),
         Error::ColumnsNotThree(names) => anyhow!(
@@ -53,7 +54,7 @@ pub fn cli_error(e: Error) -> anyhow::Error {
             };
             anyhow!("{flag} ({setting}) is too short or invalid: {why}")
         }
-        Error::AxisIsNotAnAxis { name } => anyhow!(
+        Error::Input(InputError::AxisIsNotAnAxis { name }) => anyhow!(
             "--columns: column '{name}' is not a sensor axis (it is the time, temperature or pose column); give three axis columns"
         ),
         e @ Error::RateTooLow { .. } => {
@@ -72,7 +73,7 @@ mod tests {
 
     #[test]
     fn flags_are_named_and_the_file_is_kept() {
-        let e = Error::ColumnsNeedHeader.in_file("rec.txt");
+        let e = Error::from(InputError::ColumnsNeedHeader).in_file("rec.txt");
         assert_eq!(
             format!("{:#}", cli_error(e)),
             "in rec.txt: --columns needs a CSV file with a header; this file has no header"
@@ -106,10 +107,10 @@ mod tests {
         assert!(text.contains("wiical six-position FILE"), "{text}");
         // Others keep the engine's message and its causes.
         let io = std::io::Error::new(std::io::ErrorKind::NotFound, "gone");
-        let e = Error::Read {
+        let e = Error::from(InputError::Read {
             path: "x.csv".into(),
             source: io,
-        };
+        });
         assert_eq!(format!("{:#}", cli_error(e)), "cannot read x.csv: gone");
     }
 }

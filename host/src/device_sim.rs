@@ -117,7 +117,9 @@ impl SimFlash {
             let data = match wiical_analysis::input::bounded::read_bounded(path, FLASH_SIZE as u64)
             {
                 Ok(d) => d,
-                Err(wiical_analysis::Error::TooLarge { .. }) => bail!(
+                Err(wiical_analysis::Error::Input(
+                    wiical_analysis::input::error::InputError::TooLarge { .. },
+                )) => bail!(
                     "{} is not a device-sim flash image (larger than {FLASH_SIZE} bytes)",
                     path.display()
                 ),

@@ -12,15 +12,9 @@ use wiical_core::six_position::Pose;
 #[non_exhaustive]
 pub enum Error {
     // ---- reading files ----
-    /// The file could not be read.
-    #[error("cannot read {}", path.display())]
-    Read {
-        /// The file.
-        path: PathBuf,
-        /// Why.
-        #[source]
-        source: std::io::Error,
-    },
+    /// A file could not be read or parsed ([`crate::input::error::InputError`]).
+    #[error(transparent)]
+    Input(#[from] crate::input::error::InputError),
     /// An output could not be written, or is refused before writing
     /// ([`crate::output::error::OutputError`]).
     #[error(transparent)]
@@ -30,46 +24,6 @@ pub enum Error {
     #[error("{} is not a regular file (give a file, or - for standard input)", path.display())]
     NotRegularFile {
         /// The path.
-        path: PathBuf,
-    },
-    /// An input larger than the cap for its kind.
-    #[error("{} is larger than {limit_mib} MiB, the limit for this kind of file", path.display())]
-    TooLarge {
-        /// The file (`-` for standard input).
-        path: PathBuf,
-        /// The cap, MiB.
-        limit_mib: u64,
-    },
-    /// A text line too long to be part of a recording.
-    #[error("line {line} is {bytes} bytes long (the limit is {max}): not a recording's line (a file without line breaks?)")]
-    LineTooLong {
-        /// 1-based line.
-        line: usize,
-        /// Its length.
-        bytes: usize,
-        /// The limit.
-        max: usize,
-    },
-    /// A gzip file that cannot be decompressed (corrupt or cut short).
-    #[error("cannot decompress {} (gzip): {cause}", path.display())]
-    Gzip {
-        /// The file.
-        path: PathBuf,
-        /// Why.
-        cause: std::io::Error,
-    },
-    /// A gzip file whose content is larger than the cap.
-    #[error("{} decompresses to more than {limit_mib} MiB: split the recording or decompress only the part to analyse", path.display())]
-    GzipTooLarge {
-        /// The file.
-        path: PathBuf,
-        /// The cap, MiB.
-        limit_mib: u64,
-    },
-    /// The file is not UTF-8 text.
-    #[error("{} is not UTF-8 text", path.display())]
-    NotUtf8 {
-        /// The file.
         path: PathBuf,
     },
     /// An error inside a file's contents.
@@ -82,274 +36,13 @@ pub enum Error {
         source: Box<Error>,
     },
 
-    // ---- raw accelerometer files (Axivity .cwa, GENEActiv .bin) ----
-    /// A file named or shaped like a raw format that is not one (wrong magic, bad header).
-    #[error("not a readable {format} file: {why}")]
-    RawHeader {
-        /// `Axivity .cwa` or `GENEActiv .bin`.
-        format: &'static str,
-        /// What is wrong, one clause.
-        why: String,
-    },
-    /// A raw file without one readable data block.
-    #[error("none of its {blocks} data blocks is readable ({skipped} skipped: {why})")]
-    RawNoData {
-        /// Data blocks (pages) in the file.
-        blocks: usize,
-        /// Blocks skipped.
-        skipped: usize,
-        /// Why they were skipped.
-        why: String,
-    },
-    /// A channel asked for (`--columns`, the gyroscope) that the raw file does not record.
-    #[error("the file records {have}; {wanted} was asked for")]
-    RawNoChannel {
-        /// The channels of the file.
-        have: String,
-        /// What was asked for.
-        wanted: String,
-    },
-    /// GGIRread's block selection: every block of the requested range fails its checksum.
-    #[error("blocks {start}..{end}: all requested blocks are corrupt")]
-    AllBlocksCorrupt {
-        /// First block asked for.
-        start: usize,
-        /// End block (exclusive) asked for.
-        end: usize,
-    },
-    /// GGIRread's block selection: more consecutive corrupt blocks than it accepts.
-    #[error("more than {max} consecutive corrupt blocks from block #{block}")]
-    TooManyCorruptBlocks {
-        /// The first of them.
-        block: usize,
-        /// The most accepted.
-        max: usize,
-    },
-    /// GGIRread's grid would be far longer than the blocks' samples (timestamps years apart).
-    #[error("blocks {start}..{end} span {rows} grid rows at the file's rate, far more than their samples: their timestamps are inconsistent")]
-    GridTooLong {
-        /// First block asked for.
-        start: usize,
-        /// End block asked for.
-        end: usize,
-        /// Rows the grid would have.
-        rows: f64,
-    },
-    /// Too few still 10-s epochs in a raw recording for the autocalibration.
-    #[error("found {found} still 10-s epochs (SD < 13 mg on every axis, |mean| < 2 g) among {examined} complete epochs in {span_s:.0} s of data, but the autocalibration needs at least {needed}: a longer recording (days of wear) is needed")]
-    TooFewStillEpochs {
-        /// Epochs found.
-        found: usize,
-        /// Complete 10-s epochs examined.
-        examined: usize,
-        /// Epochs needed.
-        needed: usize,
-        /// Seconds of data searched.
-        span_s: f64,
-    },
-
-    // ---- parsing recordings ----
-    /// No data lines at all.
-    #[error("file is empty (no data lines)")]
-    Empty,
-    /// Explicit axis columns were asked for, but the file has no header to name them.
-    #[error("choosing the axis columns needs a CSV file with a header; this file has no header")]
-    ColumnsNeedHeader,
-    /// A field is not a number.
-    #[error("line {line}: column '{column}': '{text}' is not a number")]
-    NotANumber {
-        /// 1-based line.
-        line: usize,
-        /// Column name.
-        column: String,
-        /// The field.
-        text: String,
-    },
-    /// A field is NaN or infinite.
-    #[error("line {line}: column '{column}': value '{text}' is not finite")]
-    NotFinite {
-        /// 1-based line.
-        line: usize,
-        /// Column name.
-        column: String,
-        /// The field.
-        text: String,
-    },
-    /// A header-less line has a different number of columns from the first one.
-    #[error("line {line}: expected {expected} columns like the first data line, found {found}")]
-    RaggedLine {
-        /// 1-based line.
-        line: usize,
-        /// Columns of the first data line.
-        expected: usize,
-        /// Columns of this one.
-        found: usize,
-    },
+    // ---- fitting a recording ----
     /// `fit` was given a six-position table (a `pose` column): its rows are labelled poses for
     /// the six-position method, not samples in which to look for static windows.
     #[error("the file has a pose column: its {rows} rows are labelled poses for the six-position method, not samples to search for static windows")]
     PoseTable {
         /// Rows in the file.
         rows: usize,
-    },
-    /// A GRT file whose samples are not 3-dimensional.
-    #[error("line {line}: GRT file with NumDimensions {text}; only 3-axis data can be calibrated")]
-    GrtDimensions {
-        /// 1-based line.
-        line: usize,
-        /// The value given.
-        text: String,
-    },
-    /// A GRT file without the `NumDimensions:` line before its data.
-    #[error("GRT file without a NumDimensions line before LabelledTrainingData")]
-    GrtNoDimensions,
-    /// A header-less file with a column count that has no meaning.
-    #[error("line {line}: {found} columns without a header; expected 3 (x y z), 4 (t x y z) or 5 (t x y z temp)")]
-    HeaderlessColumns {
-        /// 1-based line.
-        line: usize,
-        /// Columns found.
-        found: usize,
-    },
-    /// Only comments.
-    #[error("file has no data rows")]
-    NoDataRows,
-    /// The CSV reader failed.
-    #[error("malformed CSV")]
-    MalformedCsv(#[source] csv::Error),
-    /// Numbers before any header in a CSV file.
-    #[error("line {line}: data before any header; a CSV file needs a header naming its columns (e.g. t,x,y,z)")]
-    DataBeforeHeader {
-        /// 1-based line.
-        line: usize,
-    },
-    /// `Fs,0`, negative, not a number or above 1 MHz.
-    #[error("line {line}: the sample rate '{text}' must be a number above 0 and at most 1 MHz")]
-    BadSampleRate {
-        /// 1-based line.
-        line: usize,
-        /// The rate as written.
-        text: String,
-    },
-    /// A sensor value beyond ±10¹²: a corrupt cell (no sensor reports such numbers).
-    #[error("line {line}, column {column}: the reading {text} is beyond ±1e12, which no sensor reports; the cell is corrupt or in the wrong column")]
-    ReadingOutOfRange {
-        /// 1-based line.
-        line: usize,
-        /// Column name.
-        column: String,
-        /// The text of the cell.
-        text: String,
-    },
-    /// Every reading is numerically zero.
-    #[error("every reading is smaller than 1e-9 in magnitude (largest {largest:.2e}): the recording carries no measurable signal; check its unit or scale")]
-    ReadingsTooSmall {
-        /// The largest |value| seen.
-        largest: f64,
-    },
-    /// A CSV row with a different number of fields from the header.
-    #[error("line {line}: expected {expected} fields like the header, found {found}")]
-    RaggedRow {
-        /// 1-based line.
-        line: usize,
-        /// Header fields.
-        expected: usize,
-        /// Fields of this row.
-        found: usize,
-    },
-    /// Metadata only.
-    #[error("no header line found")]
-    NoHeader,
-    /// A header and nothing else.
-    #[error("file has a header but no data rows")]
-    HeaderOnly,
-    /// A window-mean table's standard deviation is negative, NaN or infinite.
-    #[error("line {line}: column '{column}': window standard deviation '{text}' must be a finite number ≥ 0")]
-    WindowSdInvalid {
-        /// 1-based line.
-        line: usize,
-        /// Column name.
-        column: String,
-        /// The field.
-        text: String,
-    },
-    /// A window-mean table's sample count is not an integer ≥ 2.
-    #[error("line {line}: column '{column}': sample count '{text}' must be an integer ≥ 2 (a window averages at least two samples)")]
-    WindowCountInvalid {
-        /// 1-based line.
-        line: usize,
-        /// Column name.
-        column: String,
-        /// The field.
-        text: String,
-    },
-    /// A window-mean table names standard-deviation columns for some axes but not all.
-    #[error("window-mean table: standard-deviation column(s) {found} found but none for axis {axis} (e.g. sd{axis}); give all three or none")]
-    WindowSdColumnMissing {
-        /// The SD columns found.
-        found: String,
-        /// The axis without one.
-        axis: &'static str,
-    },
-    /// The SD/count columns were read for a different number of rows than the means.
-    #[error("window-mean table: {values} rows of SD/count values for {rows} rows of means")]
-    WindowRowsMismatch {
-        /// Rows of means.
-        rows: usize,
-        /// Rows of SD/count values.
-        values: usize,
-    },
-    /// A window-mean table with more rows than the analysis accepts.
-    #[error("window-mean table with {rows} rows: at most {max} windows are analysed")]
-    TooManyWindowRows {
-        /// Rows in the file.
-        rows: usize,
-        /// The cap.
-        max: usize,
-    },
-    /// The same column name twice.
-    #[error("column '{name}' appears twice in the header")]
-    DuplicateColumn {
-        /// The name.
-        name: String,
-    },
-    /// A requested column is not in the header.
-    #[error("column '{name}' not found; the header has: {header}")]
-    ColumnNotFound {
-        /// The requested name.
-        name: String,
-        /// The header, comma-separated.
-        header: String,
-    },
-    /// The time column goes back.
-    #[error("line {line}: column '{column}': time goes from {previous} back to {value}; rows must be in time order")]
-    TimeNotIncreasing {
-        /// 1-based line.
-        line: usize,
-        /// The time column's name.
-        column: String,
-        /// Time on the previous row.
-        previous: f64,
-        /// Time on this row.
-        value: f64,
-    },
-    /// An axis column chosen is the time, temperature or label column.
-    #[error("column '{name}' is not a sensor axis (it is the time, temperature or pose column); choose three axis columns")]
-    AxisIsNotAnAxis {
-        /// The column.
-        name: String,
-    },
-    /// The same column chosen for two axes.
-    #[error("the axis columns {columns} name one column twice; choose three different columns")]
-    AxisTwice {
-        /// The chosen columns, comma-separated.
-        columns: String,
-    },
-    /// No recognisable axis columns.
-    #[error("no x/y/z columns recognised in the header ({header}); name them x,y,z (or ax,ay,az / mx,my,mz / gx,gy,gz), or choose the axis columns explicitly")]
-    NoAxisColumns {
-        /// The header, comma-separated.
-        header: String,
     },
 
     // ---- settings ----
@@ -521,69 +214,13 @@ pub enum Error {
     #[error("D is singular")]
     SingularD,
 
-    // ---- magnetometer ----
-    /// No points.
-    #[error("magfit: no samples to fit")]
-    NoMagSamples,
-    /// A point that is not a finite f32.
-    #[error("sample {index} ({x}, {y}, {z}) is not a finite f32 value")]
-    MagSampleNotF32 {
-        /// 1-based sample.
-        index: usize,
-        /// x.
-        x: f64,
-        /// y.
-        y: f64,
-        /// z.
-        z: f64,
-    },
-    /// The core's ellipsoid fit failed.
-    #[error("{context}")]
-    MagFit {
-        /// What was being done.
-        context: String,
-        /// The core's error.
-        #[source]
-        source: wiical_core::Error,
-    },
-
-    // ---- gyroscope ----
-    /// The accelerometer and gyro recordings cannot be paired row by row.
-    #[error("the accelerometer has {accel} samples and the gyro {gyro}: they must be the same samples (same length, or time columns whose gyro times are all accelerometer times)")]
-    GyroRowsMismatch {
-        /// Accelerometer samples.
-        accel: usize,
-        /// Gyro samples.
-        gyro: usize,
-    },
-    /// Too few motions between static windows for a gyro fit.
-    #[error(
-        "found {found} motions between static windows, need at least {needed}: record more poses"
-    )]
-    TooFewMotions {
-        /// Motions found.
-        found: usize,
-        /// Needed.
-        needed: usize,
-    },
-    /// The nominal gyro sensitivity is missing, zero or not finite.
-    #[error(
-        "the nominal gyro sensitivity (rad/s per count) must be finite and non-zero on every axis"
-    )]
-    GyroNominalScale,
-    /// The nominal turns the motions by absurd angles: a wrong unit or a typo.
-    #[error("the gyro nominal from {source_name} turns the motions by {} the tilt the accelerometer sees between their poses (median of {motions} motions; a right nominal gives about 1 to 5 times): check the value and its unit", if ratio.is_finite() { format!("{ratio:.3e} times") } else { "infinitely more than".to_string() })]
-    GyroNominalImplausible {
-        /// Where the nominal came from (`--scale`, `--counts-per-dps`, the columns' unit).
-        source_name: String,
-        /// Median of integrated rotation angle / tilt.
-        ratio: f64,
-        /// Motions that tilted enough to compare.
-        motions: usize,
-    },
-    /// The core's gyro fit failed on the data.
-    #[error("gyro fit failed: {0}")]
-    GyroFitFailed(wiical_core::Error),
+    // ---- magnetometer and gyroscope ----
+    /// A magnetometer fit failed ([`crate::magnetometer_error::MagnetometerError`]).
+    #[error(transparent)]
+    Magnetometer(#[from] crate::magnetometer_error::MagnetometerError),
+    /// A gyro calibration failed ([`crate::gyro_error::GyroError`]).
+    #[error(transparent)]
+    Gyro(#[from] crate::gyro_error::GyroError),
 
     // ---- calibration files ----
     /// Not a calibration JSON.
@@ -602,13 +239,6 @@ pub enum Error {
         path: PathBuf,
         /// Why.
         cause: wiical_core::Error,
-    },
-
-    /// A single-file gyro calibration whose header names no gyroscope columns.
-    #[error("the header names no gyroscope columns (the nearest triplet is {taken}, not a gyroscope): name them gx,gy,gz or gyro_x_dps,… (deg/s), gyro_x_rads,… (rad/s)")]
-    NoGyroColumns {
-        /// The triplet the loader would have taken.
-        taken: String,
     },
 
     /// A recording too short for an Allan deviation.
@@ -646,31 +276,6 @@ pub enum Error {
         difference: f64,
         /// Its standard error.
         standard_error: f64,
-    },
-
-    /// The gyro's clock does not match the accelerometer's row for row.
-    #[error("the accelerometer's and the gyro's times differ by up to {offset_s:.4} s on the same row: the two files are not the same samples (shifted or from another recording)")]
-    GyroClocksDiffer {
-        /// Largest difference, s.
-        offset_s: f64,
-    },
-    /// A gyro file that covers only part of the accelerometer's recording.
-    #[error("the gyro covers t = {:.2}…{:.2} s but the accelerometer {:.2}…{:.2} s: the gyro file is cut short (or from another recording)", gyro.0, gyro.1, accel.0, accel.1)]
-    GyroSpanShort {
-        /// The gyro's first and last time, s.
-        gyro: (f64, f64),
-        /// The accelerometer's first and last time, s.
-        accel: (f64, f64),
-    },
-    /// "Gyro" data that turn with the pose like gravity.
-    #[error("the gyro columns ({columns}) change between the still poses like gravity (spread {spread:.3} against {motion_rms:.3} RMS during the motions): they are an accelerometer's, not a gyro's; give the gyro's columns (--gyro-columns) or its file")]
-    GyroLooksLikeGravity {
-        /// The columns taken as the gyro.
-        columns: String,
-        /// RMS spread of the gyro's window means.
-        spread: f64,
-        /// RMS of the gyro during the motions.
-        motion_rms: f64,
     },
 
     // ---- batch ----

@@ -23,8 +23,9 @@
 //! report says so.
 
 use crate::detect::windows::{detect_windows, DetectOptions};
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::fit::base::{run_windows, FitOptions};
+use crate::gyro_error::GyroError;
 use crate::input::recording::Recording;
 use crate::input::timecheck::TimeSteps;
 use serde::Serialize;
@@ -173,7 +174,7 @@ const CANDIDATES: [(&str, GyroModel, bool); 6] = [
 type Aligned = (Vec<[f64; 3]>, Option<Vec<f64>>);
 
 fn align(acc: &Recording, gyro: &Recording) -> Result<Aligned> {
-    let mismatch = || Error::GyroRowsMismatch {
+    let mismatch = || GyroError::GyroRowsMismatch {
         accel: acc.len(),
         gyro: gyro.len(),
     };
@@ -188,19 +189,19 @@ fn align(acc: &Recording, gyro: &Recording) -> Result<Aligned> {
                 .fold(0.0, f64::max);
             let step = TimeSteps::of(ta).map_or(f64::INFINITY, |s| s.median_s);
             if worst > 0.5 * step {
-                return Err(Error::GyroClocksDiffer { offset_s: worst });
+                return Err(GyroError::GyroClocksDiffer { offset_s: worst }.into());
             }
         }
         return Ok((acc.xyz.clone(), None));
     }
     let (Some(ta), Some(tg)) = (&acc.t, &gyro.t) else {
-        return Err(mismatch());
+        return Err(mismatch().into());
     };
     // A subset of the rows (a capture whose rows alternate): it must span the recording, not
     // stop early (a cut-off gyro file would silently drop the rest of the accelerometer).
     let span = |t: &[f64]| t.last().copied().unwrap_or(0.0) - t.first().copied().unwrap_or(0.0);
     if span(tg) < 0.95 * span(ta) {
-        return Err(Error::GyroSpanShort {
+        return Err(GyroError::GyroSpanShort {
             gyro: (
                 tg.first().copied().unwrap_or(0.0),
                 tg.last().copied().unwrap_or(0.0),
@@ -209,7 +210,8 @@ fn align(acc: &Recording, gyro: &Recording) -> Result<Aligned> {
                 ta.first().copied().unwrap_or(0.0),
                 ta.last().copied().unwrap_or(0.0),
             ),
-        });
+        }
+        .into());
     }
     let mut out = Vec::with_capacity(tg.len());
     let mut i = 0;
@@ -218,7 +220,7 @@ fn align(acc: &Recording, gyro: &Recording) -> Result<Aligned> {
             i += 1;
         }
         if i >= ta.len() || ta[i] != *t {
-            return Err(mismatch());
+            return Err(mismatch().into());
         }
         out.push(acc.xyz[i]);
     }
@@ -247,7 +249,7 @@ pub fn estimate_nominal(motions: &[Motion<'_, f64>], bias: [f64; 3], dt: f64) ->
         .clone()
         .map(|l| (l, cost(at(l, signs))))
         .min_by(|a, b| a.1.total_cmp(&b.1))
-        .ok_or(Error::GyroFitFailed(wiical_core::Error::NotConverged))?;
+        .ok_or(GyroError::GyroFitFailed(wiical_core::Error::NotConverged))?;
     // The sign of each axis, then the scale again with those signs.
     signs = (0..8)
         .map(|k| std::array::from_fn(|a| if k >> a & 1 == 1 { -1.0 } else { 1.0 }))
@@ -272,7 +274,7 @@ pub fn estimate_nominal(motions: &[Motion<'_, f64>], bias: [f64; 3], dt: f64) ->
     }
     let s = at((lo + hi) / 2.0, signs);
     if !cost(s).is_finite() {
-        return Err(Error::GyroFitFailed(wiical_core::Error::NotConverged));
+        return Err(GyroError::GyroFitFailed(wiical_core::Error::NotConverged).into());
     }
     Ok(s)
 }
@@ -318,11 +320,12 @@ fn check_nominal_plausible(
     if (0.2..=50.0).contains(&median) {
         return Ok(());
     }
-    Err(Error::GyroNominalImplausible {
+    Err(GyroError::GyroNominalImplausible {
         source_name: source.chars().take(60).collect(),
         ratio: median,
         motions: ratios.len(),
-    })
+    }
+    .into())
 }
 
 /// A note per axis whose fitted sensitivity has the opposite sign of the nominal: the gyro
@@ -412,12 +415,13 @@ fn segment(acc_rec: &Recording, opts: &GyroOptions) -> Result<Segmentation> {
         .collect();
     let spans: Vec<gyro_fit::MotionSpan> = gyro_fit::motion_spans(&intervals, &accel)
         .collect::<std::result::Result<_, _>>()
-        .map_err(Error::GyroFitFailed)?;
+        .map_err(GyroError::GyroFitFailed)?;
     if spans.len() < 2 {
-        return Err(Error::TooFewMotions {
+        return Err(GyroError::TooFewMotions {
             found: spans.len(),
             needed: 2,
-        });
+        }
+        .into());
     }
     Ok(Segmentation {
         intervals,
@@ -449,11 +453,12 @@ fn check_not_gravity(gyro: &Recording, seg: &Segmentation) -> Result<()> {
     }
     let motion_rms = (acc / count.max(1) as f64).sqrt();
     if spread > 0.5 * motion_rms {
-        return Err(Error::GyroLooksLikeGravity {
+        return Err(GyroError::GyroLooksLikeGravity {
             columns: gyro.axis_columns.join(","),
             spread,
             motion_rms,
-        });
+        }
+        .into());
     }
     Ok(())
 }
@@ -474,7 +479,7 @@ pub fn run(acc: &Recording, gyro: &Recording, opts: &GyroOptions) -> Result<Gyro
             .iter()
             .all(|s| s.is_finite() && *s != 0.0)
     {
-        return Err(Error::GyroNominalScale);
+        return Err(GyroError::GyroNominalScale.into());
     }
     let acc_rec = paired_accelerometer(acc, gyro)?;
     let rate = acc_rec
@@ -647,7 +652,7 @@ fn evaluate_candidates(
         rotation: nalgebra::Vector4::zeros(),
     };
     let mut shared = vec![blank; motions.len()];
-    let pass = nominal_pass(motions, nominal, dt, &mut shared).map_err(Error::GyroFitFailed)?;
+    let pass = nominal_pass(motions, nominal, dt, &mut shared).map_err(GyroError::GyroFitFailed)?;
     let start = (&pass, shared.as_slice());
     // The candidates are independent: one thread each (the machine's cores share them).
     let outcomes: Vec<_> = std::thread::scope(|scope| {
@@ -684,7 +689,7 @@ fn evaluate_candidates(
                 }
             }
             // The uncalibrated candidate fits nothing: its failure is a data error.
-            Err(e) if parameters == 0 => return Err(Error::GyroFitFailed(e)),
+            Err(e) if parameters == 0 => return Err(GyroError::GyroFitFailed(e).into()),
             Err(e) => rows.push(GyroModelRow {
                 name,
                 parameters,
@@ -695,6 +700,6 @@ fn evaluate_candidates(
             }),
         }
     }
-    let best = best.ok_or(Error::GyroFitFailed(wiical_core::Error::NotConverged))?;
+    let best = best.ok_or(GyroError::GyroFitFailed(wiical_core::Error::NotConverged))?;
     Ok((rows, best, before))
 }

@@ -9,7 +9,8 @@
 use std::fmt;
 use std::str::FromStr;
 
-use crate::error::{Error, Result};
+use crate::error::Result;
+use crate::magnetometer_error::MagnetometerError;
 use wiical_core::magfit::{
     AxisEllipsoidFit, EllipsoidFit, MagFit, ResidualAccumulator, SphereFit, StreamingMagFit,
 };
@@ -114,7 +115,7 @@ impl MagFitReport {
 /// is not an ellipsoid.
 pub fn fit_points(points: &[[f64; 3]], model: MagModel) -> Result<MagFitReport> {
     if points.is_empty() {
-        return Err(Error::NoMagSamples);
+        return Err(MagnetometerError::NoMagSamples.into());
     }
     let pts32 = to_f32(points)?;
     let fit = match model {
@@ -122,7 +123,7 @@ pub fn fit_points(points: &[[f64; 3]], model: MagModel) -> Result<MagFitReport> 
         MagModel::Axis => run::<AxisEllipsoidFit>(&pts32),
         MagModel::Ellipsoid => run::<EllipsoidFit>(&pts32),
     }
-    .map_err(|source| Error::MagFit {
+    .map_err(|source| MagnetometerError::MagFit {
         context: format!(
             "{model} fit of {} samples failed{}",
             points.len(),
@@ -132,15 +133,19 @@ pub fn fit_points(points: &[[f64; 3]], model: MagModel) -> Result<MagFitReport> 
     })?;
     let mut quality = ResidualAccumulator::new(fit);
     for (i, p) in pts32.iter().enumerate() {
-        quality.push(*p).map_err(|source| Error::MagFit {
-            context: format!("fit quality: sample {}", i + 1),
+        quality
+            .push(*p)
+            .map_err(|source| MagnetometerError::MagFit {
+                context: format!("fit quality: sample {}", i + 1),
+                source,
+            })?;
+    }
+    let q = quality
+        .finish()
+        .map_err(|source| MagnetometerError::MagFit {
+            context: "fit quality".into(),
             source,
         })?;
-    }
-    let q = quality.finish().map_err(|source| Error::MagFit {
-        context: "fit quality".into(),
-        source,
-    })?;
     Ok(MagFitReport::new(
         model,
         points.len(),
@@ -161,12 +166,13 @@ fn to_f32(points: &[[f64; 3]]) -> Result<Vec<[f32; 3]>> {
             if q.iter().all(|v| v.is_finite()) {
                 Ok(q)
             } else {
-                Err(Error::MagSampleNotF32 {
+                Err(MagnetometerError::MagSampleNotF32 {
                     index: i + 1,
                     x: p[0],
                     y: p[1],
                     z: p[2],
-                })
+                }
+                .into())
             }
         })
         .collect()

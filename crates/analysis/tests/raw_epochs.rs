@@ -8,6 +8,7 @@ mod common;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
+use wiical_analysis::input::error::InputError;
 use wiical_analysis::input::raw::epochs::{epoch_table, still_epochs, EpochOptions};
 use wiical_analysis::input::window_table::{load_input, Input, WindowInputOptions};
 use wiical_analysis::{Error, Recording};
@@ -133,12 +134,12 @@ fn short_raw_files_say_too_few_epochs() {
             panic!("{err}")
         };
         match **source {
-            Error::TooFewStillEpochs {
+            Error::Input(InputError::TooFewStillEpochs {
                 found,
                 needed,
                 examined,
                 ..
-            } => {
+            }) => {
                 assert!(found < needed && needed == 10, "{name}: {found}/{needed}");
                 assert!(examined >= 5, "{name}: {examined} epochs examined");
             }
@@ -162,11 +163,11 @@ fn too_few_epochs_in_a_simulation_are_counted() {
     assert!(
         matches!(
             err,
-            Error::TooFewStillEpochs {
+            Error::Input(InputError::TooFewStillEpochs {
                 found: 6,
                 needed: 10,
                 ..
-            }
+            })
         ),
         "{err}"
     );

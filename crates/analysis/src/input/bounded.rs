@@ -4,6 +4,7 @@
 //! line and column (shared by every file format's reader).
 
 use crate::error::{Error, Result};
+use crate::input::error::InputError;
 use std::io::Read;
 use std::path::Path;
 
@@ -35,11 +36,12 @@ pub fn check_line_lengths(text: &str) -> Result<()> {
     }
     let len = text[start..].find('\n').unwrap_or(text.len() - start);
     if len > MAX_LINE_BYTES {
-        return Err(Error::LineTooLong {
+        return Err(InputError::LineTooLong {
             line,
             bytes: len,
             max: MAX_LINE_BYTES,
-        });
+        }
+        .into());
     }
     Ok(())
 }
@@ -51,7 +53,7 @@ pub const MAX_QUOTED_CHARS: usize = 40;
 /// `limit` bytes. A gzip file (recognised by its first bytes, whatever its name) is
 /// decompressed, its content held to the same limit.
 pub fn read_bounded(path: &Path, limit: u64) -> Result<Vec<u8>> {
-    let read_err = |source| Error::Read {
+    let read_err = |source| InputError::Read {
         path: path.into(),
         source,
     };
@@ -68,7 +70,7 @@ pub fn read_bounded(path: &Path, limit: u64) -> Result<Vec<u8>> {
             return Err(Error::NotRegularFile { path: path.into() });
         }
         if meta.len() > limit {
-            return Err(too_large(path, limit));
+            return Err(too_large(path, limit).into());
         }
         std::fs::File::open(path)
             .map_err(read_err)?
@@ -77,7 +79,7 @@ pub fn read_bounded(path: &Path, limit: u64) -> Result<Vec<u8>> {
             .map_err(read_err)?;
     }
     if bytes.len() as u64 > limit {
-        return Err(too_large(path, limit));
+        return Err(too_large(path, limit).into());
     }
     if bytes.starts_with(&GZIP_MAGIC) {
         return gunzip(path, &bytes, limit);
@@ -102,21 +104,22 @@ fn gunzip(path: &Path, compressed: &[u8], limit: u64) -> Result<Vec<u8>> {
     flate2::read::MultiGzDecoder::new(compressed)
         .take(limit + 1)
         .read_to_end(&mut out)
-        .map_err(|cause| Error::Gzip {
+        .map_err(|cause| InputError::Gzip {
             path: path.into(),
             cause,
         })?;
     if out.len() as u64 > limit {
-        return Err(Error::GzipTooLarge {
+        return Err(InputError::GzipTooLarge {
             path: path.into(),
             limit_mib: limit.div_ceil(1 << 20),
-        });
+        }
+        .into());
     }
     Ok(out)
 }
 
-fn too_large(path: &Path, limit: u64) -> Error {
-    Error::TooLarge {
+fn too_large(path: &Path, limit: u64) -> InputError {
+    InputError::TooLarge {
         path: path.into(),
         limit_mib: limit.div_ceil(1 << 20),
     }
@@ -133,7 +136,7 @@ pub fn text_of(path: &Path, mut bytes: Vec<u8>) -> Result<String> {
     if bytes.starts_with(b"\xEF\xBB\xBF") {
         bytes.drain(..3);
     }
-    String::from_utf8(bytes).map_err(|_| Error::NotUtf8 { path: path.into() })
+    String::from_utf8(bytes).map_err(|_| InputError::NotUtf8 { path: path.into() }.into())
 }
 
 /// `text` as quoted in an error message: at most [`MAX_QUOTED_CHARS`] characters, control
@@ -182,17 +185,18 @@ pub(crate) fn parse_number(s: &str, line_no: usize, col: &str, decimal_comma: bo
     } else {
         parse_f64(s.as_bytes()).ok_or(())
     };
-    let v = parsed.map_err(|_| Error::NotANumber {
+    let v = parsed.map_err(|_| InputError::NotANumber {
         line: line_no,
         column: quote(col),
         text: quote(s),
     })?;
     if !v.is_finite() {
-        return Err(Error::NotFinite {
+        return Err(InputError::NotFinite {
             line: line_no,
             column: quote(col),
             text: quote(s),
-        });
+        }
+        .into());
     }
     Ok(v)
 }
@@ -220,11 +224,12 @@ pub(crate) fn parse_reading(
 ) -> Result<f64> {
     let v = parse_number(s, line_no, col, decimal_comma)?;
     if v.abs() > MAX_READING {
-        return Err(Error::ReadingOutOfRange {
+        return Err(InputError::ReadingOutOfRange {
             line: line_no,
             column: quote(col),
             text: quote(s),
-        });
+        }
+        .into());
     }
     Ok(v)
 }
@@ -237,7 +242,7 @@ pub(crate) fn check_reading_scale(xyz: &[[f64; 3]]) -> Result<()> {
         .flat_map(|r| r.iter())
         .fold(0.0f64, |m, v| m.max(v.abs()));
     if !xyz.is_empty() && largest < MIN_FULL_SCALE {
-        return Err(Error::ReadingsTooSmall { largest });
+        return Err(InputError::ReadingsTooSmall { largest }.into());
     }
     Ok(())
 }
@@ -275,7 +280,10 @@ mod tests {
         std::fs::write(&p, &bomb).unwrap();
         let e = read_bounded(&p, 8 << 20).unwrap_err();
         assert!(
-            matches!(e, Error::GzipTooLarge { limit_mib: 8, .. }),
+            matches!(
+                e,
+                crate::Error::Input(InputError::GzipTooLarge { limit_mib: 8, .. })
+            ),
             "{e:?}"
         );
         assert!(
@@ -375,7 +383,7 @@ mod tests {
         std::fs::write(&p, b"1 \xFF 3\n").unwrap();
         assert!(matches!(
             read_text(&p, 100).unwrap_err(),
-            Error::NotUtf8 { .. }
+            crate::Error::Input(InputError::NotUtf8 { .. })
         ));
     }
 }

@@ -4,7 +4,8 @@
 //! are read, as a recording without time (GRT does not store one); the class labels are
 //! gesture classes, not calibration poses, so they are counted for the note and dropped.
 
-use crate::error::{Error, Result};
+use crate::error::Result;
+use crate::input::error::InputError;
 use crate::input::recording::Recording;
 
 /// The first line of a GRT labelled-classification file.
@@ -27,16 +28,17 @@ pub fn parse(text: &str) -> Result<Recording> {
         if let Some(v) = line.strip_prefix("NumDimensions:") {
             let d = v.trim().parse::<usize>().ok();
             if d != Some(3) {
-                return Err(Error::GrtDimensions {
+                return Err(InputError::GrtDimensions {
                     line: i + 1,
                     text: crate::input::bounded::quote(v.trim()),
-                });
+                }
+                .into());
             }
             dims = d;
         }
     }
     if dims.is_none() {
-        return Err(Error::GrtNoDimensions);
+        return Err(InputError::GrtNoDimensions.into());
     }
     let mut rec = Recording::default();
     let mut classes = std::collections::BTreeSet::new();
@@ -46,11 +48,12 @@ pub fn parse(text: &str) -> Result<Recording> {
             continue;
         }
         if fields.len() != 4 {
-            return Err(Error::RaggedLine {
+            return Err(InputError::RaggedLine {
                 line: i + 1,
                 expected: 4,
                 found: fields.len(),
-            });
+            }
+            .into());
         }
         classes.insert(fields[0].to_string());
         let mut xyz = [0.0; 3];
@@ -60,7 +63,7 @@ pub fn parse(text: &str) -> Result<Recording> {
         rec.xyz.push(xyz);
     }
     if rec.xyz.is_empty() {
-        return Err(Error::NoDataRows);
+        return Err(InputError::NoDataRows.into());
     }
     rec.axis_columns = ["x".into(), "y".into(), "z".into()];
     rec.info.push(format!(
@@ -88,15 +91,30 @@ mod tests {
     #[test]
     fn bad_files_name_the_line() {
         let e = parse(&HEAD.replace("NumDimensions: 3", "NumDimensions: 6")).unwrap_err();
-        assert!(matches!(e, Error::GrtDimensions { line: 3, .. }), "{e}");
+        assert!(
+            matches!(
+                e,
+                crate::Error::Input(InputError::GrtDimensions { line: 3, .. })
+            ),
+            "{e}"
+        );
         let e = parse(&format!("{HEAD}1 0.5 0.25\n")).unwrap_err();
-        assert!(matches!(e, Error::RaggedLine { line: 5, .. }), "{e}");
+        assert!(
+            matches!(
+                e,
+                crate::Error::Input(InputError::RaggedLine { line: 5, .. })
+            ),
+            "{e}"
+        );
         let e = parse(&format!("{HEAD}1 0.5 nan 1\n")).unwrap_err();
         assert!(e.to_string().contains("line 5"), "{e}");
-        assert!(matches!(parse(HEAD), Err(Error::NoDataRows)));
+        assert!(matches!(
+            parse(HEAD),
+            Err(crate::Error::Input(InputError::NoDataRows))
+        ));
         assert!(matches!(
             parse("GRT_LABELLED_CLASSIFICATION_DATA_FILE_V1.0\n1 2 3 4\n"),
-            Err(Error::GrtNoDimensions)
+            Err(crate::Error::Input(InputError::GrtNoDimensions))
         ));
     }
 }

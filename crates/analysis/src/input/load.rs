@@ -14,11 +14,13 @@
 //! Every value must be finite; the first bad line is reported with its number.
 
 use crate::error::{Error, Result};
+use crate::gyro_error::GyroError;
 use crate::input::bounded::{
     check_reading_scale, parse_number, parse_reading, quote, quote_header, read_bounded, text_of,
     MAX_RATE_HZ, MAX_RECORDING_BYTES,
 };
 use crate::input::columns::Sensor;
+use crate::input::error::InputError;
 use crate::input::recording::Recording;
 use crate::input::timecheck::{time_notes, TimeCheck};
 use std::path::Path;
@@ -79,9 +81,9 @@ pub fn load_imu(
             .is_some_and(|(_, s, _)| s == Sensor::Gyroscope)
     };
     if named && !gyro.axis_columns.iter().all(is_gyro) {
-        return Err(Error::NoGyroColumns {
+        return Err(Error::from(GyroError::NoGyroColumns {
             taken: gyro.axis_columns.join(","),
-        }
+        })
         .in_file(path));
     }
     Ok((accel, gyro))
@@ -99,7 +101,7 @@ pub fn parse(text: &str, opts: &LoadOptions) -> Result<Recording> {
     let first = text
         .lines()
         .find(|l| !is_comment_or_blank(l))
-        .ok_or(Error::Empty)?;
+        .ok_or(InputError::Empty)?;
     if crate::input::grt::is_grt(first) {
         return crate::input::grt::parse(text);
     }
@@ -107,7 +109,7 @@ pub fn parse(text: &str, opts: &LoadOptions) -> Result<Recording> {
         Some(delim) => parse_csv(&blank_comments(text), opts, delim)?,
         None => {
             if opts.columns.is_some() {
-                return Err(Error::ColumnsNeedHeader);
+                return Err(InputError::ColumnsNeedHeader.into());
             }
             parse_whitespace(text)?
         }
@@ -185,14 +187,15 @@ fn check_axis_columns(rec: &Recording) -> Result<()> {
             || TEMP_NAMES.contains(&lower.as_str())
             || LABEL_NAMES.contains(&lower.as_str())
         {
-            return Err(Error::AxisIsNotAnAxis { name: name.clone() });
+            return Err(InputError::AxisIsNotAnAxis { name: name.clone() }.into());
         }
     }
     let [a, b, c] = &rec.axis_columns;
     if a == b || a == c || b == c {
-        return Err(Error::AxisTwice {
+        return Err(InputError::AxisTwice {
             columns: rec.axis_columns.join(","),
-        });
+        }
+        .into());
     }
     Ok(())
 }
@@ -219,21 +222,23 @@ fn parse_whitespace(text: &str) -> Result<Recording> {
         }
         let n = *ncols.get_or_insert(count);
         if count != n {
-            return Err(Error::RaggedLine {
+            return Err(InputError::RaggedLine {
                 line: line_no,
                 expected: n,
                 found: count,
-            });
+            }
+            .into());
         }
         let names: &[&str] = match n {
             3 => &["x", "y", "z"],
             4 => &["t", "x", "y", "z"],
             5 => &["t", "x", "y", "z", "temp"],
             _ => {
-                return Err(Error::HeaderlessColumns {
+                return Err(InputError::HeaderlessColumns {
                     line: line_no,
                     found: n,
-                })
+                }
+                .into())
             }
         };
         let mut vals = [0.0f64; 5];
@@ -255,7 +260,7 @@ fn parse_whitespace(text: &str) -> Result<Recording> {
         rec.xyz.push([vals[off], vals[off + 1], vals[off + 2]]);
     }
     if rec.xyz.is_empty() {
-        return Err(Error::NoDataRows);
+        return Err(InputError::NoDataRows.into());
     }
     if !t.is_empty() {
         rec.notes = time_notes("t", &t);
@@ -356,7 +361,7 @@ fn parse_csv_by(
         let mut record = csv::StringRecord::new();
         while reader
             .read_record(&mut record)
-            .map_err(Error::MalformedCsv)?
+            .map_err(InputError::MalformedCsv)?
         {
             let line_no = record.position().map(|p| p.line() as usize).unwrap_or(0);
             st.row(&record, line_no)?;
@@ -409,11 +414,12 @@ impl<'o> CsvState<'o> {
             return self.before_header(record, line_no);
         };
         if n != cols.len() {
-            return Err(Error::RaggedRow {
+            return Err(InputError::RaggedRow {
                 line: line_no,
                 expected: cols.len(),
                 found: n,
-            });
+            }
+            .into());
         }
         let field = |i: usize| record.get(i).trim_ascii();
         let idx = self.idx;
@@ -467,7 +473,7 @@ impl<'o> CsvState<'o> {
         };
         let numeric = fields.iter().filter(|f| is_number(f)).count();
         if numeric == fields.len() {
-            return Err(Error::DataBeforeHeader { line: line_no });
+            return Err(InputError::DataBeforeHeader { line: line_no }.into());
         }
         let rate_key = ["fs", "sample_rate", "rate_hz"].contains(&fields[0].as_str());
         if fields.len() == 2 && (rate_key || (numeric == 1 && is_number(&fields[1]))) {
@@ -475,10 +481,11 @@ impl<'o> CsvState<'o> {
                 let fs = parse_number(&fields[1], line_no, &fields[0], decimal_comma)
                     .unwrap_or(f64::NAN);
                 if !(fs.is_finite() && fs > 0.0 && fs <= MAX_RATE_HZ) {
-                    return Err(Error::BadSampleRate {
+                    return Err(InputError::BadSampleRate {
                         line: line_no,
                         text: record.get(1).trim_ascii().chars().take(40).collect(),
-                    });
+                    }
+                    .into());
                 }
                 self.rec.sample_rate_hz = Some(fs);
             }
@@ -498,10 +505,10 @@ impl<'o> CsvState<'o> {
     fn finish(self) -> Result<Recording> {
         let (mut rec, idx) = (self.rec, self.idx);
         if self.header.is_none() {
-            return Err(Error::NoHeader);
+            return Err(InputError::NoHeader.into());
         }
         if rec.xyz.is_empty() {
-            return Err(Error::HeaderOnly);
+            return Err(InputError::HeaderOnly.into());
         }
         if idx.0 != usize::MAX {
             rec.notes = time_notes(&rec_time_name(&self.header, idx.0), &self.t);
@@ -537,32 +544,32 @@ fn map_header(
     let mut seen = std::collections::HashSet::new();
     for f in fields {
         if !seen.insert(f) {
-            return Err(Error::DuplicateColumn { name: quote(f) });
+            return Err(InputError::DuplicateColumn { name: quote(f) }.into());
         }
     }
-    let xyz = if let Some(cols) = &opts.columns {
-        let mut out = [0usize; 3];
-        for (k, c) in cols.iter().enumerate() {
-            let c = c.to_ascii_lowercase();
-            out[k] = fields
-                .iter()
-                .position(|f| *f == c)
-                .ok_or_else(|| Error::ColumnNotFound {
-                    name: quote(&c),
-                    header: quote_header(&fields.join(", ")),
+    let xyz =
+        if let Some(cols) = &opts.columns {
+            let mut out = [0usize; 3];
+            for (k, c) in cols.iter().enumerate() {
+                let c = c.to_ascii_lowercase();
+                out[k] = fields.iter().position(|f| *f == c).ok_or_else(|| {
+                    InputError::ColumnNotFound {
+                        name: quote(&c),
+                        header: quote_header(&fields.join(", ")),
+                    }
                 })?;
-        }
-        out
-    } else {
-        let want = opts.sensor.unwrap_or(Sensor::Accelerometer);
-        let t = crate::input::columns::find_triplet(fields, want).ok_or_else(|| {
-            Error::NoAxisColumns {
-                header: quote_header(&fields.join(", ")),
             }
-        })?;
-        *choice = crate::input::columns::choice_note(fields, &t, want);
-        t.columns
-    };
+            out
+        } else {
+            let want = opts.sensor.unwrap_or(Sensor::Accelerometer);
+            let t = crate::input::columns::find_triplet(fields, want).ok_or_else(|| {
+                InputError::NoAxisColumns {
+                    header: quote_header(&fields.join(", ")),
+                }
+            })?;
+            *choice = crate::input::columns::choice_note(fields, &t, want);
+            t.columns
+        };
     Ok((
         find(TIME_NAMES).unwrap_or(usize::MAX),
         xyz,
@@ -694,7 +701,13 @@ mod tests {
             true,
         )
         .unwrap_err();
-        assert!(matches!(e, Error::TimeNotIncreasing { line: 4, .. }), "{e}");
+        assert!(
+            matches!(
+                e,
+                crate::Error::Input(InputError::TimeNotIncreasing { line: 4, .. })
+            ),
+            "{e}"
+        );
         assert!(plain_csv("x,y\r\n1,2\n"));
         assert!(!plain_csv("x,y\r1,2\n"));
         assert!(!plain_csv("\"x\",y\n"));
@@ -742,25 +755,49 @@ mod tests {
         let text = "t,x,y,z,temp\n0,1,2,3,20\n0.01,1,2,3,20\n";
         let e = parse(text, &cols(["t", "x", "y"])).unwrap_err();
         assert!(
-            matches!(e, Error::AxisIsNotAnAxis { ref name } if name == "t"),
+            matches!(e, crate::Error::Input(InputError::AxisIsNotAnAxis { ref name }) if name == "t"),
             "{e}"
         );
         let e = parse(text, &cols(["x", "y", "temp"])).unwrap_err();
-        assert!(matches!(e, Error::AxisIsNotAnAxis { .. }), "{e}");
+        assert!(
+            matches!(e, crate::Error::Input(InputError::AxisIsNotAnAxis { .. })),
+            "{e}"
+        );
         let e = parse(text, &cols(["x", "x", "y"])).unwrap_err();
-        assert!(matches!(e, Error::AxisTwice { .. }), "{e}");
+        assert!(
+            matches!(e, crate::Error::Input(InputError::AxisTwice { .. })),
+            "{e}"
+        );
     }
 
     #[test]
     fn time_must_increase() {
         let e = p("t,x,y,z\n0,1,2,3\n0.02,1,2,3\n0.01,1,2,3\n").unwrap_err();
-        assert!(matches!(e, Error::TimeNotIncreasing { line: 4, .. }), "{e}");
+        assert!(
+            matches!(
+                e,
+                crate::Error::Input(InputError::TimeNotIncreasing { line: 4, .. })
+            ),
+            "{e}"
+        );
         // A repeated time is read (coarse timestamps), a time that goes back is not.
         assert!(p("t,x,y,z\n0,1,2,3\n0,1,2,3\n0.01,1,2,3\n").is_ok());
         let e = p("t,x,y,z\n0,1,2,3\n0,1,2,3\n-0.01,1,2,3\n").unwrap_err();
-        assert!(matches!(e, Error::TimeNotIncreasing { line: 4, .. }), "{e}");
+        assert!(
+            matches!(
+                e,
+                crate::Error::Input(InputError::TimeNotIncreasing { line: 4, .. })
+            ),
+            "{e}"
+        );
         let e = p("0 1 2 3\n0.01 1 2 3\n# c\n0.005 1 2 3\n").unwrap_err();
-        assert!(matches!(e, Error::TimeNotIncreasing { line: 4, .. }), "{e}");
+        assert!(
+            matches!(
+                e,
+                crate::Error::Input(InputError::TimeNotIncreasing { line: 4, .. })
+            ),
+            "{e}"
+        );
         // A gap is a note, not an error.
         let mut text = String::from("t,x,y,z\n");
         for i in 0..20 {

@@ -9,6 +9,7 @@
 
 pub mod bounded;
 pub mod columns;
+pub mod error;
 pub mod grt;
 pub mod load;
 pub mod raw;

@@ -7,7 +7,10 @@
 //! for static poses, but the user should know). A rate that suggests millisecond times is named where it makes a setting fail
 //! (`windows::detect`).
 
-use crate::error::{Error, Result};
+use crate::input::error::InputError;
+
+/// This module's errors are all the input stage's.
+type Result<T, E = InputError> = std::result::Result<T, E>;
 use crate::input::bounded::quote;
 
 /// A gap is a step longer than this many median steps.
@@ -37,7 +40,7 @@ impl TimeCheck {
     pub fn push(&mut self, t: f64, line: usize) -> Result<()> {
         if let Some(prev) = self.prev {
             if t < prev {
-                return Err(Error::TimeNotIncreasing {
+                return Err(InputError::TimeNotIncreasing {
                     line,
                     column: self.column.clone(),
                     previous: prev,
@@ -211,7 +214,10 @@ mod tests {
         let mut back = TimeCheck::new("t");
         back.push(0.02, 2).unwrap();
         let e = back.push(0.01, 3).unwrap_err();
-        assert!(matches!(e, Error::TimeNotIncreasing { line: 3, .. }), "{e}");
+        assert!(
+            matches!(e, InputError::TimeNotIncreasing { line: 3, .. }),
+            "{e}"
+        );
     }
 
     #[test]

@@ -16,8 +16,9 @@
 //! (F-tests on the residuals and cross-validation), so effects are still chosen.
 
 #![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x >= 0.0)` is deliberately true for NaN.
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::input::bounded::{parse_number, quote, read_text, MAX_RECORDING_BYTES};
+use crate::input::error::InputError;
 use crate::input::load::{self, blank_comments, is_comment_or_blank, Delimiter};
 use crate::input::recording::Recording;
 pub use crate::input::table::WindowTable;
@@ -113,18 +114,20 @@ pub fn parse_window_table(text: &str, opts: &WindowInputOptions) -> Result<Optio
     // the sample loader's notes about its time column do not apply to windows.
     recording.notes.clear();
     if recording.len() > MAX_WINDOW_ROWS {
-        return Err(Error::TooManyWindowRows {
+        return Err(InputError::TooManyWindowRows {
             rows: recording.len(),
             max: MAX_WINDOW_ROWS,
-        });
+        }
+        .into());
     }
     let extra = extra.unwrap_or_default();
     if extra.rows != recording.len() && (extra.sd.is_some() || extra.count.is_some()) {
         // Both passes skip the same rows; a difference would be a bug here, never silent.
-        return Err(Error::WindowRowsMismatch {
+        return Err(InputError::WindowRowsMismatch {
             rows: recording.len(),
             values: extra.rows,
-        });
+        }
+        .into());
     }
     let info = WindowInputInfo {
         rows: recording.len(),
@@ -206,7 +209,7 @@ fn read_extra_columns(text: &str, opts: &WindowInputOptions) -> Result<Option<Ex
     let mut extra = Extra::default();
     let decimal_comma = delim == Delimiter::Semicolon;
     for result in reader.records() {
-        let record = result.map_err(Error::MalformedCsv)?;
+        let record = result.map_err(InputError::MalformedCsv)?;
         let line = record.position().map(|p| p.line() as usize).unwrap_or(0);
         if record.iter().all(|f| f.is_empty()) {
             continue;
@@ -239,10 +242,11 @@ fn read_extra_columns(text: &str, opts: &WindowInputOptions) -> Result<Option<Ex
         }
         extra.rows += 1;
         if extra.rows > MAX_WINDOW_ROWS {
-            return Err(Error::TooManyWindowRows {
+            return Err(InputError::TooManyWindowRows {
                 rows: extra.rows,
                 max: MAX_WINDOW_ROWS,
-            });
+            }
+            .into());
         }
         if let (Some(sd_cols), Some(sd)) = (cols.sd, extra.sd.as_mut()) {
             let mut row = [0.0; 3];
@@ -320,10 +324,11 @@ fn find_columns(fields: &[String], opts: &WindowInputOptions) -> Result<Columns>
                 .map(|&k| fields[k].as_str())
                 .collect();
             let axis = ["x", "y", "z"][found.iter().position(Option::is_none).unwrap_or(0)];
-            return Err(Error::WindowSdColumnMissing {
+            return Err(InputError::WindowSdColumnMissing {
                 found: names.join(","),
                 axis,
-            });
+            }
+            .into());
         }
     };
     let count = fields
@@ -333,8 +338,13 @@ fn find_columns(fields: &[String], opts: &WindowInputOptions) -> Result<Columns>
 }
 
 /// A standard deviation: finite and ≥ 0.
-fn read_sd(text: &str, line: usize, column: &str, decimal_comma: bool) -> Result<f64> {
-    let bad = || Error::WindowSdInvalid {
+fn read_sd(
+    text: &str,
+    line: usize,
+    column: &str,
+    decimal_comma: bool,
+) -> std::result::Result<f64, InputError> {
+    let bad = || InputError::WindowSdInvalid {
         line,
         column: quote(column),
         text: quote(text),
@@ -347,8 +357,8 @@ fn read_sd(text: &str, line: usize, column: &str, decimal_comma: bool) -> Result
 }
 
 /// A sample count: an integer ≥ 2 (at most 2⁴⁰, far beyond any recording).
-fn read_count(text: &str, line: usize, column: &str) -> Result<usize> {
-    let bad = || Error::WindowCountInvalid {
+fn read_count(text: &str, line: usize, column: &str) -> std::result::Result<usize, InputError> {
+    let bad = || InputError::WindowCountInvalid {
         line,
         column: quote(column),
         text: quote(text),

@@ -24,7 +24,10 @@
 
 #![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x > 0.0)` is deliberately true for NaN.
 use super::{civil_seconds, valid_civil, Block, GoodBlock, RawFile, RawFormat};
-use crate::error::{Error, Result};
+use crate::input::error::InputError;
+
+/// This module's errors are all the input stage's.
+type Result<T, E = InputError> = std::result::Result<T, E>;
 
 /// Bytes of the header block.
 pub const HEADER_BYTES: usize = 1024;
@@ -48,7 +51,7 @@ pub fn rate_of_code(code: u8) -> f64 {
 
 /// Reads a whole `.cwa` file.
 pub fn parse(bytes: &[u8]) -> Result<RawFile> {
-    let header_err = |why: String| Error::RawHeader {
+    let header_err = |why: String| InputError::RawHeader {
         format: "Axivity .cwa",
         why,
     };

@@ -13,7 +13,8 @@
 //! rather than judged on a fraction of its samples).
 
 use crate::autocal::MIN_EPOCHS;
-use crate::error::{Error, Result};
+use crate::error::Result;
+use crate::input::error::InputError;
 use crate::input::recording::Recording;
 use crate::input::table::WindowTable;
 use crate::report::contract::WindowInputInfo;
@@ -149,19 +150,20 @@ pub fn still_epochs(
 }
 
 /// The still epochs of a raw recording (in g, with times) as a window-mean table; too few for
-/// the autocalibration is the error [`Error::TooFewStillEpochs`]. `source` describes the file
+/// the autocalibration is the error [`InputError::TooFewStillEpochs`]. `source` describes the file
 /// for the table's description (e.g. "an Axivity AX3 .cwa file").
 pub fn epoch_table(rec: &Recording, source: &str, opts: &EpochOptions) -> Result<WindowTable> {
     let t = rec.times(100.0);
     let rate = rec.estimated_rate_hz().unwrap_or(100.0);
     let found = still_epochs(&t, &rec.xyz, rec.temp.as_deref(), rate, opts);
     if found.still.len() < MIN_EPOCHS {
-        return Err(Error::TooFewStillEpochs {
+        return Err(InputError::TooFewStillEpochs {
             found: found.still.len(),
             examined: found.examined,
             needed: MIN_EPOCHS,
             span_s: found.span_s,
-        });
+        }
+        .into());
     }
     let mut means = Recording {
         t: Some(found.still.iter().map(|e| e.t_centre).collect()),

@@ -18,7 +18,10 @@
 
 #![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x > 0.0)` is deliberately true for NaN.
 use super::{civil_seconds, valid_civil, Block, GoodBlock, RawFile, RawFormat};
-use crate::error::{Error, Result};
+use crate::input::error::InputError;
+
+/// This module's errors are all the input stage's.
+type Result<T, E = InputError> = std::result::Result<T, E>;
 
 /// Samples in a page.
 pub const PAGE_SAMPLES: usize = 300;
@@ -52,7 +55,7 @@ fn number(v: &str) -> Option<f64> {
 }
 
 fn read_header(lines: &[&[u8]]) -> Result<Header> {
-    let err = |why: String| Error::RawHeader {
+    let err = |why: String| InputError::RawHeader {
         format: "GENEActiv .bin",
         why,
     };

@@ -30,7 +30,10 @@
 
 #![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x > 0.0)` is deliberately true for NaN.
 use super::{Block, GoodBlock, RawFile};
-use crate::error::{Error, Result};
+use crate::input::error::InputError;
+
+/// This module's errors are all the input stage's.
+type Result<T, E = InputError> = std::result::Result<T, E>;
 
 /// Most consecutive corrupt blocks accepted (GGIRread's `maxAllowedCorruptBlocks` default).
 pub const MAX_CORRUPT: usize = 20;
@@ -165,14 +168,16 @@ fn end_time(raw: &RawFile, start: usize, mut end: usize, grid: &mut Grid) -> Res
             end -= 1;
         }
         let Some(b) = found else {
-            return Err(Error::AllBlocksCorrupt { start, end: nb });
+            return Err(InputError::AllBlocksCorrupt { start, end: nb });
         };
         end_ts = Some(b.start_s + 3.0 * first_len as f64 * step);
     }
-    end_ts.map(|t| (t, end)).ok_or(Error::TooManyCorruptBlocks {
-        block: end,
-        max: MAX_CORRUPT,
-    })
+    end_ts
+        .map(|t| (t, end))
+        .ok_or(InputError::TooManyCorruptBlocks {
+            block: end,
+            max: MAX_CORRUPT,
+        })
 }
 
 /// GGIRread's `readAxivity(file, start, end)` on a decoded file: blocks `start..end`
@@ -189,7 +194,7 @@ pub fn grid(raw: &RawFile, start: usize, end: usize) -> Result<Grid> {
     if req_end <= req_start {
         return Ok(g);
     }
-    let all_corrupt = || Error::AllBlocksCorrupt {
+    let all_corrupt = || InputError::AllBlocksCorrupt {
         start: req_start,
         end: req_end,
     };
@@ -228,7 +233,7 @@ pub fn grid(raw: &RawFile, start: usize, end: usize) -> Result<Grid> {
     let rows = ((end_ts - first.start_s) / step).floor();
     let cap = 2.0 * ((end - start + 1) * 480) as f64 + 60.0 * raw.header_rate_hz;
     if !(rows <= cap) {
-        return Err(Error::GridTooLong {
+        return Err(InputError::GridTooLong {
             start: req_start,
             end: req_end,
             rows,
@@ -340,7 +345,7 @@ fn skip_corrupt(g: &mut Grid, ii: usize, consecutive: &mut usize) -> Result<()> 
     g.warnings.push(format!("Skipping corrupt block #{ii}"));
     *consecutive += 1;
     if *consecutive > MAX_CORRUPT {
-        return Err(Error::TooManyCorruptBlocks {
+        return Err(InputError::TooManyCorruptBlocks {
             block: ii,
             max: MAX_CORRUPT,
         });

@@ -16,6 +16,7 @@
 
 use crate::error::{Error, Result};
 use crate::input::columns::LoadOptions;
+use crate::input::error::InputError;
 use crate::input::recording::Recording;
 use std::path::Path;
 
@@ -143,15 +144,17 @@ pub fn detect(bytes: &[u8], path: &Path) -> Result<Option<RawFormat>> {
         .and_then(|e| e.to_str())
         .map(|e| e.to_ascii_lowercase());
     match ext.as_deref() {
-        Some("cwa") => Err(Error::RawHeader {
+        Some("cwa") => Err(InputError::RawHeader {
             format: "Axivity .cwa",
             why: "it does not start with the 'MD' header block of 1024 bytes".into(),
-        }),
-        Some("bin") => Err(Error::RawHeader {
+        }
+        .into()),
+        Some("bin") => Err(InputError::RawHeader {
             format: "GENEActiv .bin",
             why: "it does not start with 'Device Identity' (other .bin formats are not read)"
                 .into(),
-        }),
+        }
+        .into()),
         _ => Ok(None),
     }
 }
@@ -159,8 +162,8 @@ pub fn detect(bytes: &[u8], path: &Path) -> Result<Option<RawFormat>> {
 /// Reads `bytes` as the raw format they are in ([`detect`]); `Ok(None)` when they are not raw.
 pub fn parse_bytes(bytes: &[u8], path: &Path) -> Result<Option<RawFile>> {
     match detect(bytes, path)? {
-        Some(RawFormat::Cwa) => cwa::parse(bytes).map(Some),
-        Some(RawFormat::GeneActiv) => geneactiv::parse(bytes).map(Some),
+        Some(RawFormat::Cwa) => Ok(Some(cwa::parse(bytes)?)),
+        Some(RawFormat::GeneActiv) => Ok(Some(geneactiv::parse(bytes)?)),
         None => Ok(None),
     }
 }
@@ -172,11 +175,11 @@ pub fn read(path: &Path) -> Result<RawFile> {
         crate::input::bounded::read_bounded(path, crate::input::bounded::MAX_RECORDING_BYTES)?;
     match parse_bytes(&bytes, path) {
         Ok(Some(raw)) => Ok(raw),
-        Ok(None) => Err(Error::RawHeader {
+        Ok(None) => Err(InputError::RawHeader {
             format: "Axivity .cwa or GENEActiv .bin",
             why: "its first bytes are neither 'MD' nor 'Device Identity'".into(),
-        }
-        .in_file(path)),
+        })
+        .map_err(|e| Error::from(e).in_file(path)),
         Err(e) => Err(e.in_file(path)),
     }
 }
@@ -237,7 +240,7 @@ pub fn to_recording(raw: &RawFile, opts: &LoadOptions) -> Result<Recording> {
         }
     }
     if rec.xyz.is_empty() {
-        return Err(no_data(raw));
+        return Err(no_data(raw).into());
     }
     rec.axis_columns = cols.map(|c| raw.channels[c].clone());
     rec.notes = skip_notes(raw, times.iter().filter(|t| t.is_none()).count());
@@ -250,7 +253,7 @@ pub fn to_recording(raw: &RawFile, opts: &LoadOptions) -> Result<Recording> {
 }
 
 /// The error for a file without one decoded block.
-pub(crate) fn no_data(raw: &RawFile) -> Error {
+pub(crate) fn no_data(raw: &RawFile) -> InputError {
     let corrupt = raw.corrupt_blocks().len();
     let invalid = raw.invalid_blocks();
     let why = match (corrupt, invalid.first()) {
@@ -258,7 +261,7 @@ pub(crate) fn no_data(raw: &RawFile) -> Error {
         (0, None) => "the file ends before its first data block".to_string(),
         (c, _) => format!("{c} fail their checksum"),
     };
-    Error::RawNoData {
+    InputError::RawNoData {
         blocks: raw.blocks.len(),
         skipped: corrupt + invalid.len(),
         why,
@@ -273,14 +276,12 @@ fn choose_channels(raw: &RawFile, opts: &LoadOptions) -> Result<[usize; 3]> {
         let mut out = [0usize; 3];
         for (k, c) in cols.iter().enumerate() {
             let c = c.to_ascii_lowercase();
-            out[k] =
-                raw.channels
-                    .iter()
-                    .position(|n| *n == c)
-                    .ok_or_else(|| Error::RawNoChannel {
-                        have: have.clone(),
-                        wanted: format!("channel '{c}'"),
-                    })?;
+            out[k] = raw.channels.iter().position(|n| *n == c).ok_or_else(|| {
+                InputError::RawNoChannel {
+                    have: have.clone(),
+                    wanted: format!("channel '{c}'"),
+                }
+            })?;
         }
         return Ok(out);
     }
@@ -290,10 +291,11 @@ fn choose_channels(raw: &RawFile, opts: &LoadOptions) -> Result<[usize; 3]> {
     crate::input::columns::find_triplet(&raw.channels, want)
         .filter(|t| t.sensor == want)
         .map(|t| t.columns)
-        .ok_or_else(|| Error::RawNoChannel {
+        .ok_or_else(|| InputError::RawNoChannel {
             have,
             wanted: format!("the {}", want.name()),
         })
+        .map_err(Error::from)
 }
 
 /// Each decoded block's sample times (`None`: the block is left out because its start is not

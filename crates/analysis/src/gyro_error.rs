@@ -1,0 +1,76 @@
+//! The gyroscope fit's error (`wiical gyrofit`): why the accelerometer and gyro recordings
+//! cannot be paired or the gyro cannot be fitted. Apart from [`mod@crate::error`] (which joins it
+//! as `Error::Gyro`) and from [`crate::gyro`] so that neither imports the other.
+
+/// Why a gyro calibration failed: the two recordings are not the same samples, the columns are
+/// not a gyro's, the nominal sensitivity is missing or implausible, or the motions are too few
+/// for the core's fit. Joined into [`crate::Error::Gyro`].
+#[derive(Debug, thiserror::Error)]
+pub enum GyroError {
+    /// The accelerometer and gyro recordings cannot be paired row by row.
+    #[error("the accelerometer has {accel} samples and the gyro {gyro}: they must be the same samples (same length, or time columns whose gyro times are all accelerometer times)")]
+    GyroRowsMismatch {
+        /// Accelerometer samples.
+        accel: usize,
+        /// Gyro samples.
+        gyro: usize,
+    },
+    /// Too few motions between static windows for a gyro fit.
+    #[error(
+        "found {found} motions between static windows, need at least {needed}: record more poses"
+    )]
+    TooFewMotions {
+        /// Motions found.
+        found: usize,
+        /// Needed.
+        needed: usize,
+    },
+    /// The nominal gyro sensitivity is missing, zero or not finite.
+    #[error(
+        "the nominal gyro sensitivity (rad/s per count) must be finite and non-zero on every axis"
+    )]
+    GyroNominalScale,
+    /// The nominal turns the motions by absurd angles: a wrong unit or a typo.
+    #[error("the gyro nominal from {source_name} turns the motions by {} the tilt the accelerometer sees between their poses (median of {motions} motions; a right nominal gives about 1 to 5 times): check the value and its unit", if ratio.is_finite() { format!("{ratio:.3e} times") } else { "infinitely more than".to_string() })]
+    GyroNominalImplausible {
+        /// Where the nominal came from (`--scale`, `--counts-per-dps`, the columns' unit).
+        source_name: String,
+        /// Median of integrated rotation angle / tilt.
+        ratio: f64,
+        /// Motions that tilted enough to compare.
+        motions: usize,
+    },
+    /// The core's gyro fit failed on the data.
+    #[error("gyro fit failed: {0}")]
+    GyroFitFailed(wiical_core::Error),
+    /// A single-file gyro calibration whose header names no gyroscope columns.
+    #[error("the header names no gyroscope columns (the nearest triplet is {taken}, not a gyroscope): name them gx,gy,gz or gyro_x_dps,… (deg/s), gyro_x_rads,… (rad/s)")]
+    NoGyroColumns {
+        /// The triplet the loader would have taken.
+        taken: String,
+    },
+    /// The gyro's clock does not match the accelerometer's row for row.
+    #[error("the accelerometer's and the gyro's times differ by up to {offset_s:.4} s on the same row: the two files are not the same samples (shifted or from another recording)")]
+    GyroClocksDiffer {
+        /// Largest difference, s.
+        offset_s: f64,
+    },
+    /// A gyro file that covers only part of the accelerometer's recording.
+    #[error("the gyro covers t = {:.2}…{:.2} s but the accelerometer {:.2}…{:.2} s: the gyro file is cut short (or from another recording)", gyro.0, gyro.1, accel.0, accel.1)]
+    GyroSpanShort {
+        /// The gyro's first and last time, s.
+        gyro: (f64, f64),
+        /// The accelerometer's first and last time, s.
+        accel: (f64, f64),
+    },
+    /// "Gyro" data that turn with the pose like gravity.
+    #[error("the gyro columns ({columns}) change between the still poses like gravity (spread {spread:.3} against {motion_rms:.3} RMS during the motions): they are an accelerometer's, not a gyro's; give the gyro's columns (--gyro-columns) or its file")]
+    GyroLooksLikeGravity {
+        /// The columns taken as the gyro.
+        columns: String,
+        /// RMS spread of the gyro's window means.
+        spread: f64,
+        /// RMS of the gyro during the motions.
+        motion_rms: f64,
+    },
+}

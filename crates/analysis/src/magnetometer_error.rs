@@ -1,0 +1,32 @@
+//! The magnetometer fit's error (`wiical magfit`): no usable samples, or the core's ellipsoid
+//! fit failed. Apart from [`mod@crate::error`] (which joins it as `Error::Magnetometer`) and from
+//! [`crate::magnetometer`] so that neither imports the other.
+
+/// Why a magnetometer fit failed. Joined into [`crate::Error::Magnetometer`].
+#[derive(Debug, thiserror::Error)]
+pub enum MagnetometerError {
+    /// No points.
+    #[error("magfit: no samples to fit")]
+    NoMagSamples,
+    /// A point that is not a finite f32.
+    #[error("sample {index} ({x}, {y}, {z}) is not a finite f32 value")]
+    MagSampleNotF32 {
+        /// 1-based sample.
+        index: usize,
+        /// x.
+        x: f64,
+        /// y.
+        y: f64,
+        /// z.
+        z: f64,
+    },
+    /// The core's ellipsoid fit failed.
+    #[error("{context}")]
+    MagFit {
+        /// What was being done.
+        context: String,
+        /// The core's error.
+        #[source]
+        source: wiical_core::Error,
+    },
+}
