@@ -290,3 +290,65 @@ fn simulate_brisk_mems16_and_fit_finds_every_hold() {
     let v = json(&["fit", o, "--json"]);
     assert_eq!(v["static_windows"].as_u64().unwrap() as usize, poses);
 }
+
+/// Issue 19 item 3 through the CLI: the open-basis families are accepted by name (the names
+/// of `effect_names`), their truth states the value, unit and (thermal lag) time constant,
+/// and a cross term is held by the calibration (`cross_quadratic`, on the `--axis` row).
+#[test]
+fn simulate_puts_open_basis_families_in_with_their_truth() {
+    use wiical_analysis::report::effect_names as names;
+    let dir = tempfile::tempdir().unwrap();
+    let read = |o: &str| -> Value {
+        serde_json::from_str(&std::fs::read_to_string(format!("{o}.truth.json")).unwrap()).unwrap()
+    };
+    let lag = dir.path().join("lag.csv");
+    let o = lag.to_str().unwrap();
+    let (ok, _, err) = wiical(&[
+        "simulate",
+        "--out",
+        o,
+        "--effect",
+        names::THERMAL_LAG,
+        "--magnitude",
+        "5",
+        "--no-temp",
+    ]);
+    assert!(ok, "{err}");
+    let t = read(o);
+    let term = &t["open_basis"][0];
+    assert_eq!(term["family"], names::THERMAL_LAG);
+    assert_eq!(term["acts_on"], "bias");
+    assert_eq!(term["unit"], "counts per °C");
+    assert_eq!(term["time_constant_s"], 300.0);
+    assert_eq!(term["in_calibration"], false);
+    // The family needs the temperature: the column is written despite --no-temp.
+    let head = std::fs::read_to_string(&lag).unwrap();
+    assert!(head.starts_with("t,x,y,z,temp\n"), "{}", &head[..40]);
+
+    let cross = dir.path().join("cross.csv");
+    let o = cross.to_str().unwrap();
+    let (ok, _, err) = wiical(&[
+        "simulate",
+        "--out",
+        o,
+        "--effect",
+        names::CROSS_QUADRATIC,
+        "--axis",
+        "z",
+    ]);
+    assert!(ok, "{err}");
+    let t = read(o);
+    let term = &t["open_basis"][0];
+    assert_eq!(term["unit"], "1/g");
+    assert_eq!(term["in_calibration"], true);
+    let name = term["terms"][0].as_str().unwrap();
+    assert!(name.starts_with("cross-quadratic (z: "), "{name}");
+    let row = t["calibration"]["effects"]["cross_quadratic"][2]
+        .as_array()
+        .unwrap();
+    assert_eq!(row.iter().filter(|c| f(c) != 0.0).count(), 1, "{row:?}");
+
+    let (ok, _, err) = wiical(&["simulate", "--out", o, "--effect", "cross-quartic"]);
+    assert!(!ok);
+    assert!(err.contains(names::TEMPERATURE_RATE), "{err}");
+}

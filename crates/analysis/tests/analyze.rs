@@ -169,7 +169,8 @@ fn each_effect_is_named_and_cv_halved() {
                         );
                     }
                 }
-                SimEffect::None => unreachable!(),
+                // `ALL` holds none and the six candidate effects only.
+                _ => unreachable!(),
             }
         }
     }

@@ -13,7 +13,8 @@ pub struct Args {
     #[arg(long)]
     pub out: PathBuf,
     /// The effect(s) to put in, comma-separated (`quadratic,temperature`); `none`: the
-    /// linear model alone. An unknown name is answered with the list of names.
+    /// linear model alone; the open-basis families too (`cross-quadratic`, `scale-drift`,
+    /// `thermal-lag`, …). An unknown name is answered with the list of names.
     #[arg(long, default_value = "none", value_parser = parse_effect, value_delimiter = ',')]
     pub effect: Vec<SimEffect>,
     /// Size of the effect in milli-g (meaning per effect: see `wiical_analysis::simulate`):
@@ -42,7 +43,8 @@ pub struct Args {
     #[arg(long)]
     pub no_temp: bool,
     /// Put the effect(s) on one sensor axis only (x, y or z): the whole magnitude there, the
-    /// other axes zero (`analyze` names it e.g. `quadratic (z)`); not for `outliers`.
+    /// other axes zero (`analyze` names it e.g. `quadratic (z)`); for a cross term, its output
+    /// axis (the monomial is drawn); not for `outliers`.
     #[arg(long, value_parser = parse_axis)]
     pub axis: Option<usize>,
 }
@@ -57,7 +59,7 @@ fn parse_axis(s: &str) -> Result<usize, String> {
 
 fn parse_effect(s: &str) -> Result<SimEffect, String> {
     SimEffect::parse(s).ok_or_else(|| {
-        let names: Vec<&str> = SimEffect::ALL.iter().map(|e| e.name()).collect();
+        let names: Vec<&str> = SimEffect::every().map(|e| e.name()).collect();
         format!("'{s}': expected one of {}", names.join(", "))
     })
 }

@@ -34,11 +34,35 @@
 //! | `temperature-scale` | relative scale temperature coefficient (1/°C) per axis | the largest axis's scale moves by X mg/g over the recording's temperature range |
 //! | `outliers` | 2–3 poses that were not still | each carries an extra specific force along gravity that shifts its mean ‖a‖ by ±X mg |
 //!
+//! The open basis (issue 19 item 3, [`open_basis`]): families beyond the seven candidates.
+//! The cross terms are held by the core's `Effects`; the time and temperature families are
+//! the simulator's own terms (correction side: a bias term is added to the bias the correction
+//! subtracts, a scale term multiplies `u_i` by `1 + s_i·r`), listed with value and unit in the
+//! truth's `open_basis`. Ranges are over the samples of the holds (what the windows see);
+//! `θ_ref` is the mean of the holds' mean temperatures (the analysis' `θ̄`; for the thermal
+//! lag, of the lagged temperature), `t_ref` the mean of the holds' mid-times.
+//! | effect | truth term | magnitude X means |
+//! |---|---|---|
+//! | `cross-quadratic` | one `cross_quadratic[i][j]` (1/g): output axis `i` (drawn, or `--axis`), one of its five monomials `u_j·u_k` (drawn) | the term reaches ±X mg at its largest over the sphere of directions (coefficient X/peak, peak ½ for `u_x·u_y`, 1 for `u_x²`) |
+//! | `cross-cubic` | one `cross_cubic[i][j]` (1/g²), one of nine monomials | the same, peak `1/√27` for `u_x·u_y·u_z` |
+//! | `scale-drift` | scale `1 + s_i·t` (1/s) | the largest axis's scale moves by X mg/g over the recording |
+//! | `scale-drift-curved` | scale `1 + s_i·(t − t_ref)²` (1/s²) | the same over the range of `(t − t_ref)²` |
+//! | `temperature-squared` | bias `c·(θ − θ_ref)²` (file unit/°C²) | the bias moves by X mg (vector norm) over the range of `(θ − θ_ref)²` |
+//! | `temperature-cubed` | bias `c·(θ − θ_ref)³` (file unit/°C³) | the same over the range of `(θ − θ_ref)³` |
+//! | `temperature-scale-squared`, `-cubed` | scale `1 + s_i·(θ − θ_ref)^2 or 3` | the largest axis's scale moves by X mg/g over that range |
+//! | `thermal-lag` | bias `c·(θ_lag − θ_ref)`, `θ_lag` the true temperature through a first-order lag of τ = [`open_basis::THERMAL_LAG_TAU_S`] (300 s) | the bias moves by X mg over the range of `θ_lag` |
+//! | `temperature-rate` | bias `c·dθ/dt` (file unit per °C/s, true temperature) | the bias moves by X mg over the range of `dθ/dt` |
+//!
+//! The temperature families need the `temp` column (it is always written for them). The
+//! temperature spans what the warm-up model gives: 3–8 °C of self-heating, 2–5 °C of hand
+//! warming and a 0.3–1 °C wobble, so a few °C over the holds even in a brisk recording.
+//!
 //! The truth is written next to the recording as `FILE.truth.json` ([`Truth`]).
 
 #![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x > 0.0)` is deliberately true for NaN.
 pub mod error;
 pub mod kalman;
+pub mod open_basis;
 
 use crate::error::{Error, Result};
 use crate::input::recording::Recording;
@@ -69,10 +93,31 @@ pub enum SimEffect {
     TemperatureScale,
     /// A few poses that were not still.
     Outliers,
+    /// One orientation-dependent degree-2 cross term `a_i += c·u_j·u_k` (open basis).
+    CrossQuadratic,
+    /// One orientation-dependent degree-3 cross term `a_i += c·u_j·u_k·u_l` (open basis).
+    CrossCubic,
+    /// Scale linear in time (open basis).
+    ScaleDrift,
+    /// Scale quadratic in time (open basis).
+    ScaleDriftCurved,
+    /// Bias quadratic in temperature (open basis).
+    TemperatureSquared,
+    /// Bias cubic in temperature (open basis).
+    TemperatureCubed,
+    /// Scale quadratic in temperature (open basis).
+    TemperatureScaleSquared,
+    /// Scale cubic in temperature (open basis).
+    TemperatureScaleCubed,
+    /// Bias linear in the temperature seen through a first-order lag (open basis).
+    ThermalLag,
+    /// Bias linear in the temperature rate dθ/dt (open basis).
+    TemperatureRate,
 }
 
 impl SimEffect {
-    /// All effects, `None` first.
+    /// The effects of the seven candidates' kinds, `None` first (see [`Self::OPEN_BASIS`]
+    /// for the others and [`Self::every`] for both).
     pub const ALL: [SimEffect; 7] = [
         SimEffect::None,
         SimEffect::Quadratic,
@@ -82,6 +127,25 @@ impl SimEffect {
         SimEffect::TemperatureScale,
         SimEffect::Outliers,
     ];
+
+    /// The open-basis families (issue 19 item 3), see [`open_basis`].
+    pub const OPEN_BASIS: [SimEffect; 10] = [
+        SimEffect::CrossQuadratic,
+        SimEffect::CrossCubic,
+        SimEffect::ScaleDrift,
+        SimEffect::ScaleDriftCurved,
+        SimEffect::TemperatureSquared,
+        SimEffect::TemperatureCubed,
+        SimEffect::TemperatureScaleSquared,
+        SimEffect::TemperatureScaleCubed,
+        SimEffect::ThermalLag,
+        SimEffect::TemperatureRate,
+    ];
+
+    /// Every effect the simulator can put in: [`Self::ALL`], then [`Self::OPEN_BASIS`].
+    pub fn every() -> impl Iterator<Item = SimEffect> {
+        Self::ALL.into_iter().chain(Self::OPEN_BASIS)
+    }
 
     /// The name used on the command line and by `analyze`.
     pub fn name(self) -> &'static str {
@@ -93,12 +157,22 @@ impl SimEffect {
             SimEffect::Temperature => names::TEMPERATURE,
             SimEffect::TemperatureScale => names::TEMPERATURE_SCALE,
             SimEffect::Outliers => names::OUTLIERS,
+            SimEffect::CrossQuadratic => names::CROSS_QUADRATIC,
+            SimEffect::CrossCubic => names::CROSS_CUBIC,
+            SimEffect::ScaleDrift => names::SCALE_DRIFT,
+            SimEffect::ScaleDriftCurved => names::SCALE_DRIFT_CURVED,
+            SimEffect::TemperatureSquared => names::TEMPERATURE_SQUARED,
+            SimEffect::TemperatureCubed => names::TEMPERATURE_CUBED,
+            SimEffect::TemperatureScaleSquared => names::TEMPERATURE_SCALE_SQUARED,
+            SimEffect::TemperatureScaleCubed => names::TEMPERATURE_SCALE_CUBED,
+            SimEffect::ThermalLag => names::THERMAL_LAG,
+            SimEffect::TemperatureRate => names::TEMPERATURE_RATE,
         }
     }
 
     /// Parses a name (see [`SimEffect::name`]).
     pub fn parse(s: &str) -> Option<Self> {
-        Self::ALL.into_iter().find(|e| e.name() == s)
+        Self::every().find(|e| e.name() == s)
     }
 
     /// Default magnitude (mg): clearly detectable in a default recording.
@@ -111,12 +185,32 @@ impl SimEffect {
             SimEffect::Temperature => 10.0,
             SimEffect::TemperatureScale => 10.0,
             SimEffect::Outliers => 10.0,
+            SimEffect::CrossQuadratic => 20.0,
+            SimEffect::CrossCubic => 30.0,
+            SimEffect::ScaleDrift
+            | SimEffect::ScaleDriftCurved
+            | SimEffect::TemperatureSquared
+            | SimEffect::TemperatureCubed
+            | SimEffect::TemperatureScaleSquared
+            | SimEffect::TemperatureScaleCubed
+            | SimEffect::ThermalLag
+            | SimEffect::TemperatureRate => 10.0,
         }
     }
 
     /// True when the effect needs the temperature column (it is then always written).
     pub fn needs_temperature(self) -> bool {
-        matches!(self, SimEffect::Temperature | SimEffect::TemperatureScale)
+        matches!(
+            self,
+            SimEffect::Temperature
+                | SimEffect::TemperatureScale
+                | SimEffect::TemperatureSquared
+                | SimEffect::TemperatureCubed
+                | SimEffect::TemperatureScaleSquared
+                | SimEffect::TemperatureScaleCubed
+                | SimEffect::ThermalLag
+                | SimEffect::TemperatureRate
+        )
     }
 }
 
@@ -220,6 +314,14 @@ impl Device {
         match self {
             Device::Wiimote | Device::Nunchuk => 512.0,
             Device::Mems16 => 0.0,
+        }
+    }
+
+    /// The name of the unit a count is written in: `counts`, or `m/s²` for the MEMS.
+    pub fn unit_name(self) -> &'static str {
+        match self {
+            Device::Wiimote | Device::Nunchuk => "counts",
+            Device::Mems16 => "m/s²",
         }
     }
 
@@ -370,6 +472,62 @@ pub struct Truth {
     pub outliers: Vec<TrueOutlier>,
     /// Temperature model: room temperature, warm-up amplitude and time constant.
     pub temperature_model: TempModel,
+    /// The open-basis families put in (issue 19 item 3), each with its value and unit;
+    /// absent when there are none.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub open_basis: Vec<open_basis::OpenTerm>,
+    /// The time and temperature terms, correction side, bias coefficients in the file's unit
+    /// (what [`Truth::calibration_at`] folds in).
+    #[serde(skip)]
+    pub extra_terms: Vec<open_basis::ExtraTerm>,
+}
+
+impl Truth {
+    /// The true calibration at one sample: [`Truth::calibration`] with the time and
+    /// temperature terms the core cannot hold folded in (bias terms added to `bias`, scale
+    /// terms multiplying the rows of `matrix`), so that
+    /// `calibration_at(c).correct(m, {time_s, temperature_c})` maps the noiseless reading
+    /// back to the true specific force.
+    pub fn calibration_at(&self, c: &SampleConditions) -> Calibration {
+        let mut cal = self.calibration;
+        for t in &self.extra_terms {
+            let r = t.regressor.value(c);
+            for j in 0..3 {
+                let v = t.coefficients[j] * r;
+                match t.acts {
+                    open_basis::Acts::Bias => cal.bias[j] += v as f32,
+                    open_basis::Acts::Scale => {
+                        for k in &mut cal.matrix[j] {
+                            *k *= (1.0 + v) as f32;
+                        }
+                    }
+                }
+            }
+        }
+        cal
+    }
+
+    /// The core's [`Conditions`] of a sample (true temperature).
+    pub fn conditions(c: &SampleConditions) -> Conditions {
+        Conditions {
+            time_s: c.time_s as f32,
+            temperature_c: Some(c.temperature_c as f32),
+        }
+    }
+}
+
+/// The true conditions of one sample: what the time and temperature terms depend on.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SampleConditions {
+    /// Time since the first sample, s.
+    pub time_s: f64,
+    /// True temperature (before the thermometer's noise and rounding), °C.
+    pub temperature_c: f64,
+    /// The true temperature through the first-order lag of
+    /// [`open_basis::THERMAL_LAG_TAU_S`], °C.
+    pub lagged_c: f64,
+    /// `dθ/dt` of the true temperature (central difference), °C/s.
+    pub rate_c_per_s: f64,
 }
 
 /// Parameters of the simulated temperature.
@@ -396,6 +554,9 @@ pub struct SimOutput {
     pub recording: Recording,
     /// The truth.
     pub truth: Truth,
+    /// The true conditions of every sample (the truth's time and temperature terms depend on
+    /// them, see [`Truth::calibration_at`]).
+    pub conditions: Vec<SampleConditions>,
 }
 
 fn unit(v: [f64; 3]) -> [f64; 3] {
@@ -687,6 +848,12 @@ struct Scene {
     /// temperature coefficient (1/°C).
     eff64: [[f64; 3]; 5],
     outliers: Vec<TrueOutlier>,
+    /// Open-basis cross terms (1/g, 1/g²), as the core holds them.
+    cross: open_basis::Cross,
+    /// Open-basis time and temperature terms (bias coefficients in counts).
+    extras: Vec<open_basis::ExtraTerm>,
+    /// The true conditions of every sample.
+    conds: Vec<SampleConditions>,
     /// ADC range, counts.
     adc: (f64, f64),
     /// Written value of one count ([`Device::unit_per_count`]).
@@ -706,16 +873,26 @@ fn onto_axis(v: [f64; 3], axis: Option<usize>, x: f64) -> [f64; 3] {
     }
 }
 
+/// The effect terms drawn for a scene.
+struct Drawn {
+    /// See [`Scene::eff64`].
+    eff64: [[f64; 3]; 5],
+    outliers: Vec<TrueOutlier>,
+    cross: open_basis::Cross,
+    extras: Vec<open_basis::ExtraTerm>,
+}
+
 /// The effect terms (and the outlier poses) for `effects` (each with its size in mg), drawn
 /// in the order given, each as if it were alone (so a single effect draws exactly what it
-/// always did).
+/// always did; an open-basis family draws only when it is asked for).
 fn effect_terms(
     rng: &mut ChaCha8Rng,
     effects: &[SimDraw],
     s: &[f64; 3],
     scene: &Scene,
     duration: f64,
-) -> Result<([[f64; 3]; 5], Vec<TrueOutlier>)> {
+    holds: &open_basis::HoldStats,
+) -> Result<Drawn> {
     let (tmin, tmax) = scene
         .temps
         .iter()
@@ -725,6 +902,8 @@ fn effect_terms(
     let t_range = (tmax - tmin).max(0.5);
     let mut eff64 = [[0.0f64; 3]; 5];
     let mut outliers = Vec::new();
+    let mut cross = open_basis::Cross::default();
+    let mut extras = Vec::new();
     for &(effect, magnitude, axis) in effects {
         let x = magnitude / 1000.0;
         match effect {
@@ -743,9 +922,77 @@ fn effect_terms(
                 eff64[4] = onto_axis(axis_coefficients(rng, x), axis, x).map(|k| k / t_range);
             }
             SimEffect::Outliers => outliers = outlier_poses(rng, magnitude, scene)?,
+            SimEffect::CrossQuadratic | SimEffect::CrossCubic => {
+                open_basis::draw_cross(rng, effect, x, axis, &mut cross);
+            }
+            _ => extras.extend(open_basis::draw_extra(rng, effect, x, axis, s, holds)),
         }
     }
-    Ok((eff64, outliers))
+    Ok(Drawn {
+        eff64,
+        outliers,
+        cross,
+        extras,
+    })
+}
+
+/// The true conditions of every sample: its time, the true temperature, that temperature
+/// through the first-order lag of [`open_basis::THERMAL_LAG_TAU_S`] (starting in equilibrium
+/// with it, exact discretisation of `dθ_lag/dt = (θ − θ_lag)/τ`) and its rate (central
+/// difference, one-sided at the ends).
+fn sample_conditions(temps: &[f64], fs: f64) -> Vec<SampleConditions> {
+    let alpha = 1.0 - (-1.0 / (fs * open_basis::THERMAL_LAG_TAU_S)).exp();
+    let mut lag = temps.first().copied().unwrap_or(0.0);
+    let last = temps.len().saturating_sub(1);
+    temps
+        .iter()
+        .enumerate()
+        .map(|(i, &th)| {
+            lag += alpha * (th - lag);
+            let (a, b) = (i.saturating_sub(1), (i + 1).min(last));
+            let rate = if b > a {
+                (temps[b] - temps[a]) * fs / (b - a) as f64
+            } else {
+                0.0
+            };
+            SampleConditions {
+                time_s: i as f64 / fs,
+                temperature_c: th,
+                lagged_c: lag,
+                rate_c_per_s: rate,
+            }
+        })
+        .collect()
+}
+
+/// The holds' samples, mean mid-time and mean temperature (each hold weighted equally, as
+/// the analysis weighs its windows): what the open-basis magnitudes and references use.
+fn hold_stats<'a>(
+    segs: &[Seg],
+    conds: &'a [SampleConditions],
+    fs: f64,
+) -> open_basis::HoldStats<'a> {
+    let mut samples = Vec::new();
+    let (mut mids, mut temps, mut lagged) = (Vec::new(), Vec::new(), Vec::new());
+    for seg in segs.iter().filter(|s| matches!(s.kind, SegKind::Hold(_))) {
+        let lo = ((seg.t0 * fs).ceil() as usize).min(conds.len());
+        let hi = ((seg.t1 * fs).ceil() as usize).min(conds.len());
+        let Some(hold) = conds.get(lo..hi).filter(|h| !h.is_empty()) else {
+            continue;
+        };
+        samples.extend(hold);
+        mids.push(0.5 * (seg.t0 + seg.t1));
+        let n = hold.len() as f64;
+        temps.push(hold.iter().map(|c| c.temperature_c).sum::<f64>() / n);
+        lagged.push(hold.iter().map(|c| c.lagged_c).sum::<f64>() / n);
+    }
+    let mean = |v: &[f64]| v.iter().sum::<f64>() / (v.len().max(1) as f64);
+    open_basis::HoldStats {
+        samples,
+        t_ref: mean(&mids),
+        theta_ref: mean(&temps),
+        lagged_ref: mean(&lagged),
+    }
 }
 
 /// 2–3 distinct poses (not the rest) whose mean ‖a‖ is pushed by ±`magnitude` mg.
@@ -824,19 +1071,37 @@ impl Scene {
         }
     }
 
-    /// The noiseless reading (counts) of specific force `f` at time `ti` and temperature
-    /// `theta`: the correction-side model inverted, `a = u + q u² + c u³`,
-    /// `u = (1 + σ·Δθ)·D⁻¹(m − b_eff)` per axis.
-    fn reading(&self, f: &[f64; 3], ti: f64, theta: f64) -> [f64; 3] {
+    /// The noiseless reading (counts) of specific force `f` at the sample conditions `c`:
+    /// the correction-side model inverted, `a = u + q u² + c u³ + cross(u)`,
+    /// `u = (1 + σ·Δθ)·(1 + S)·D⁻¹(m − b_eff − B)` per axis, with `S` and `B` the open-basis
+    /// scale and bias terms (without open-basis terms, exactly the computation it always was).
+    fn reading(&self, f: &[f64; 3], c: &SampleConditions) -> [f64; 3] {
         let e = &self.eff64;
+        let (ti, theta) = (c.time_s, c.temperature_c);
         let dth = theta - self.tm.room_c;
-        let v: [f64; 3] = std::array::from_fn(|j| {
-            invert_nonlinearity(f[j], e[0][j], e[1][j]) / (1.0 + e[4][j] * dth)
-        });
+        let mut w: [f64; 3] = std::array::from_fn(|j| invert_nonlinearity(f[j], e[0][j], e[1][j]));
+        if self.cross.any() {
+            w = open_basis::invert_with_cross(f, &e[0], &e[1], &self.cross, w);
+        }
+        let mut v: [f64; 3] = std::array::from_fn(|j| w[j] / (1.0 + e[4][j] * dth));
+        let mut extra_bias = [0.0; 3];
+        for t in &self.extras {
+            let r = t.regressor.value(c);
+            for j in 0..3 {
+                match t.acts {
+                    open_basis::Acts::Bias => extra_bias[j] += t.coefficients[j] * r,
+                    open_basis::Acts::Scale => v[j] /= 1.0 + t.coefficients[j] * r,
+                }
+            }
+        }
         std::array::from_fn(|j| {
             let lin: f64 = (0..3).map(|k| self.d[j][k] * v[k]).sum();
             let b_eff = self.bias[j] + e[2][j] * ti + e[3][j] * dth;
-            lin + b_eff
+            if self.extras.is_empty() {
+                lin + b_eff
+            } else {
+                lin + (b_eff + extra_bias[j])
+            }
         })
     }
 
@@ -857,7 +1122,7 @@ impl Scene {
                 seg_i += 1;
             }
             let f = self.specific_force(&self.segs[seg_i], ti);
-            let clean = self.reading(&f, ti, theta);
+            let clean = self.reading(&f, &self.conds[i]);
             let mut m = [0.0; 3];
             for j in 0..3 {
                 let v: f64 = normal.sample(rng);
@@ -902,7 +1167,8 @@ impl Scene {
             bias_drift: e[2].map(|v| (v * u) as f32),
             bias_temp: e[3].map(|v| (v * u) as f32),
             scale_temp: e[4].map(|v| v as f32),
-            ..Effects::default()
+            cross_quadratic: self.cross.quadratic.map(|r| r.map(|v| v as f32)),
+            cross_cubic: self.cross.cubic.map(|r| r.map(|v| v as f32)),
         };
         Ok(calibration)
     }
@@ -932,20 +1198,16 @@ impl Scene {
         let Some(p) = truth.poses.get(1) else {
             return Ok(());
         };
-        let n = self.temps.len();
+        let n = self.conds.len();
         let tc = 0.5 * (p.t_start + p.t_end);
         let idx = ((tc * self.fs) as usize).min(n.saturating_sub(1));
-        let th = self.temps.get(idx).copied().unwrap_or(self.tm.room_c);
+        let Some(c) = self.conds.get(idx) else {
+            return Ok(());
+        };
         let m = self
-            .reading(&p.direction, tc, th)
+            .reading(&p.direction, c)
             .map(|v| (v * self.unit) as f32);
-        let a = truth.calibration.correct(
-            m,
-            &Conditions {
-                time_s: tc as f32,
-                temperature_c: Some(th as f32),
-            },
-        );
+        let a = truth.calibration_at(c).correct(m, &Truth::conditions(c));
         let err = (0..3)
             .map(|j| (a[j] as f64 - p.direction[j]).abs())
             .fold(0.0, f64::max);
@@ -1034,6 +1296,7 @@ pub fn simulate(cfg: &SimConfig) -> Result<SimOutput> {
     let (segs, duration) = timeline(&mut rng, cfg.init_s, dirs.len(), cfg.profile);
     let n = (duration * fs).floor() as usize;
     let (tm, temps) = temperatures(&mut rng, &segs, n, fs);
+    let conds = sample_conditions(&temps, fs);
     let mut scene = Scene {
         fs,
         noise,
@@ -1045,43 +1308,79 @@ pub fn simulate(cfg: &SimConfig) -> Result<SimOutput> {
         temps,
         eff64: [[0.0; 3]; 5],
         outliers: Vec::new(),
+        cross: open_basis::Cross::default(),
+        extras: Vec::new(),
+        conds,
         adc: cfg.device.adc_range(),
         unit: cfg.device.unit_per_count(),
     };
-    (scene.eff64, scene.outliers) = effect_terms(&mut rng, &effects, &s, &scene, duration)?;
+    let drawn = {
+        let holds = hold_stats(&scene.segs, &scene.conds, fs);
+        effect_terms(&mut rng, &effects, &s, &scene, duration, &holds)?
+    };
+    (scene.eff64, scene.outliers) = (drawn.eff64, drawn.outliers);
+    (scene.cross, scene.extras) = (drawn.cross, drawn.extras);
     let rec = scene.record(
         &mut rng,
         cfg.temp_column || effects.iter().any(|(e, _, _)| e.needs_temperature()),
     );
-    let names: Vec<&str> = effects.iter().map(|(e, _, _)| e.name()).collect();
-    let truth = Truth {
-        device: cfg.device.name(),
-        effect: if names.is_empty() {
-            "none".into()
-        } else {
-            names.join(",")
-        },
-        magnitude_mg: effects.first().map_or(0.0, |e| e.1),
-        magnitudes_mg: effects.iter().map(|e| e.1).collect(),
-        single_axis: effects
-            .iter()
-            .filter_map(|(e, _, a)| Some(format!("{}: {}", e.name(), names::AXES[(*a)?])))
-            .collect(),
-        seed: cfg.seed,
-        rate_hz: fs,
-        samples: n,
-        noise_std_counts: noise,
-        forward_matrix: d.map(|r| r.map(|v| v * cfg.device.unit_per_count())),
-        calibration: scene.calibration()?,
-        poses: scene.true_poses(),
-        outliers: scene.outliers.clone(),
-        temperature_model: scene.tm,
-    };
+    let truth = scene.truth(cfg, &effects)?;
     scene.check_truth(&truth)?;
     Ok(SimOutput {
         recording: rec,
         truth,
+        conditions: scene.conds,
     })
+}
+
+impl Scene {
+    /// The truth of this scene with `effects` drawn into it.
+    fn truth(&self, cfg: &SimConfig, effects: &[SimDraw]) -> Result<Truth> {
+        let names: Vec<&str> = effects.iter().map(|(e, _, _)| e.name()).collect();
+        let unit = self.unit;
+        let mut open = open_basis::cross_truth(&self.cross);
+        open.extend(
+            self.extras
+                .iter()
+                .map(|t| open_basis::extra_truth(t, cfg.device.unit_name(), unit)),
+        );
+        let extra_terms = self
+            .extras
+            .iter()
+            .map(|t| open_basis::ExtraTerm {
+                coefficients: match t.acts {
+                    open_basis::Acts::Bias => t.coefficients.map(|c| c * unit),
+                    open_basis::Acts::Scale => t.coefficients,
+                },
+                ..*t
+            })
+            .collect();
+        Ok(Truth {
+            device: cfg.device.name(),
+            effect: if names.is_empty() {
+                "none".into()
+            } else {
+                names.join(",")
+            },
+            magnitude_mg: effects.first().map_or(0.0, |e| e.1),
+            magnitudes_mg: effects.iter().map(|e| e.1).collect(),
+            single_axis: effects
+                .iter()
+                .filter_map(|(e, _, a)| Some(format!("{}: {}", e.name(), names::AXES[(*a)?])))
+                .collect(),
+            seed: cfg.seed,
+            rate_hz: self.fs,
+            samples: self.conds.len(),
+            noise_std_counts: self.noise,
+            forward_matrix: self.d.map(|r| r.map(|v| v * unit)),
+            calibration: self.calibration()?,
+            poses: self.true_poses(),
+            outliers: self.outliers.clone(),
+            temperature_model: self.tm,
+            open_basis: open,
+            extra_terms,
+        })
+    }
 }
 
 /// The recording as CSV text (`t,x,y,z[,temp]`), readable by [`crate::input::load::load`].
