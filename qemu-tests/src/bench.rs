@@ -22,7 +22,7 @@ use wiical_core::multipos::{self, MultiPosConfig};
 use wiical_core::quality::{Acceptance, CoverageRule};
 use wiical_core::six_position;
 use wiical_core::static_detect::{NoiseSurvey, StaticDetector, StaticDetectorConfig};
-use wiical_core::{Calibration, Conditions};
+use wiical_core::{Calibration, Conditions, PreparedCalibration};
 use wiical_qemu_tests::cases::{
     adapter_report_update, adapter_wiimote_read, factory_info, mag_point, poses30,
     wiimote_calibration, XorShift, NUNCHUK_CAL, NUNCHUK_RAWS, PVB_CONFIG, SAMPLES, SEED_M,
@@ -213,6 +213,33 @@ fn main() -> ! {
         st,
         NONE,
     );
+    // The per-sample path: the same two calibrations prepared once (the cross-term test done
+    // at construction, not per call).
+    for (label, prepared) in [
+        (
+            "PreparedCalibration::correct (all effect terms)",
+            cal_fx.prepare(),
+        ),
+        (
+            "PreparedCalibration::correct (all + cross terms)",
+            cal_x.prepare(),
+        ),
+    ] {
+        let base = rt::time_reps(R_CORR, |i| {
+            let p = black_box(&prepared);
+            let k = black_box(&cond);
+            (
+                p as *const PreparedCalibration,
+                k as *const Conditions,
+                SAMPLES[i as usize & 7],
+            )
+        });
+        let op = rt::time_reps(R_CORR, |i| {
+            black_box(&prepared).correct(SAMPLES[i as usize & 7], black_box(&cond))
+        });
+        let st = stack_of(|| black_box(&prepared).correct(black_box(SAMPLES[0]), black_box(&cond)));
+        all_ok &= row(label, "sample", sc.per_op(op, base, R_CORR), st, NONE);
+    }
 
     // --- six-position solve
     const R_SIX: u32 = 200;

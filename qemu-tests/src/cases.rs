@@ -357,12 +357,20 @@ fn correct_with_effects(o: &mut Out) -> Result<(), Error> {
     cal.effects.temp_ref_c = 25.0;
     cal.effects.bias_temp = [0.1, 0.0, -0.05];
     cal.effects.scale_temp = [1e-4, -2e-4, 0.0];
+    correct_both_paths(o, &cal)
+}
+
+/// [`Calibration::correct`] and [`wiical_core::PreparedCalibration::correct`] of every sample,
+/// with time and temperature conditions: both on the target, compared with the host's.
+fn correct_both_paths(o: &mut Out, cal: &Calibration) -> Result<(), Error> {
+    let prepared = cal.prepare();
     for (i, s) in SAMPLES.iter().enumerate() {
         let cond = Conditions {
             time_s: 3.5 * i as f32,
             temperature_c: Some(20.0 + 2.0 * i as f32),
         };
         o.extend(&cal.correct(*s, &cond))?;
+        o.extend(&prepared.correct(*s, &cond))?;
     }
     Ok(())
 }
@@ -395,21 +403,16 @@ fn correct_with_cross_terms(o: &mut Out) -> Result<(), Error> {
     cal.effects.cross_quadratic = CROSS_QUADRATIC;
     cal.effects.cross_cubic = CROSS_CUBIC;
     // Acceleration-only (as the adapter corrects), then with time and temperature terms.
+    let prepared = cal.prepare();
     for s in SAMPLES {
         o.extend(&cal.correct(s, &Conditions::default()))?;
+        o.extend(&prepared.correct(s, &Conditions::default()))?;
     }
     cal.effects.bias_drift = [0.01, -0.02, 0.0];
     cal.effects.temp_ref_c = 25.0;
     cal.effects.bias_temp = [0.1, 0.0, -0.05];
     cal.effects.scale_temp = [1e-4, -2e-4, 0.0];
-    for (i, s) in SAMPLES.iter().enumerate() {
-        let cond = Conditions {
-            time_s: 3.5 * i as f32,
-            temperature_c: Some(20.0 + 2.0 * i as f32),
-        };
-        o.extend(&cal.correct(*s, &cond))?;
-    }
-    Ok(())
+    correct_both_paths(o, &cal)
 }
 
 fn push_multipos(o: &mut Out, fit: &multipos::MultiPosFit) -> Result<(), Error> {

@@ -642,6 +642,41 @@ pub fn leave_one_out_one_step<T: RealField + Copy>(
     fit: &GyroFit<T>,
     cfg: &GyroFitConfig<T>,
     kept: &[MotionResidual<T>],
+    per_motion: impl FnMut(usize, T),
+) -> Result<T, Error> {
+    let free = cfg.model.mask(cfg.fit_bias);
+    let p = fit.adjustment.to_params();
+    let held_out = |i: usize, motion: &Motion<'_, T>| {
+        // One residual per motion, checked before the first one is held out.
+        let own = kept
+            .get(i)
+            .filter(|_| kept.len() == motions.len())
+            .ok_or(Error::InvalidParameter)?;
+        if !free.iter().any(|f| *f) {
+            return Ok(own.angle);
+        }
+        let jt = own.jacobian.transpose();
+        let h = fit.normal - jt * own.jacobian;
+        let mut g = fit.gradient - jt * own.residual;
+        for k in (0..NPARAM).filter(|k| !free[*k]) {
+            g[k] = T::zero();
+        }
+        // A pivot that loses all but ~3 digits: the motion alone determined a parameter.
+        let rel_pivot = T::default_epsilon() * nalgebra::convert(1000.0);
+        let cal = match lm::factor_normal(&h, &free, rel_pivot) {
+            Some(chol) => Adjustment::from_params(&(p - chol.solve(&g))).apply(nominal)?,
+            None => fit_from(motions, nominal, &fit.adjustment, cfg, Some(i))?.calibration,
+        };
+        motion_angle(motion, &cal, cfg.dt)
+    };
+    held_out_rms(motions, held_out, per_motion)
+}
+
+/// What both leave-one-out variants share: at least two motions; each motion's held-out angle
+/// (`held_out(i, motion)`, rad) goes to `per_motion(i, angle)` and into the returned RMS, rad.
+fn held_out_rms<T: RealField + Copy>(
+    motions: &[Motion<'_, T>],
+    mut held_out: impl FnMut(usize, &Motion<'_, T>) -> Result<T, Error>,
     mut per_motion: impl FnMut(usize, T),
 ) -> Result<T, Error> {
     if motions.len() < 2 {
@@ -650,30 +685,9 @@ pub fn leave_one_out_one_step<T: RealField + Copy>(
             got: motions.len() as u32,
         });
     }
-    if kept.len() != motions.len() {
-        return Err(Error::InvalidParameter);
-    }
-    let free = cfg.model.mask(cfg.fit_bias);
-    let p = fit.adjustment.to_params();
     let mut sum = T::zero();
-    for (i, (motion, own)) in motions.iter().zip(kept).enumerate() {
-        let a = if free.iter().any(|f| *f) {
-            let jt = own.jacobian.transpose();
-            let h = fit.normal - jt * own.jacobian;
-            let mut g = fit.gradient - jt * own.residual;
-            for k in (0..NPARAM).filter(|k| !free[*k]) {
-                g[k] = T::zero();
-            }
-            // A pivot that loses all but ~3 digits: the motion alone determined a parameter.
-            let rel_pivot = T::default_epsilon() * nalgebra::convert(1000.0);
-            let cal = match lm::factor_normal(&h, &free, rel_pivot) {
-                Some(chol) => Adjustment::from_params(&(p - chol.solve(&g))).apply(nominal)?,
-                None => fit_from(motions, nominal, &fit.adjustment, cfg, Some(i))?.calibration,
-            };
-            motion_angle(motion, &cal, cfg.dt)?
-        } else {
-            own.angle
-        };
+    for (i, motion) in motions.iter().enumerate() {
+        let a = held_out(i, motion)?;
         per_motion(i, a);
         sum += a * a;
     }
@@ -688,20 +702,11 @@ pub fn leave_one_out<T: RealField + Copy>(
     nominal: &GyroCalibration<T>,
     start: &Adjustment<T>,
     cfg: &GyroFitConfig<T>,
-    mut per_motion: impl FnMut(usize, T),
+    per_motion: impl FnMut(usize, T),
 ) -> Result<T, Error> {
-    if motions.len() < 2 {
-        return Err(Error::TooFewPoses {
-            needed: 2,
-            got: motions.len() as u32,
-        });
-    }
-    let mut sum = T::zero();
-    for (i, motion) in motions.iter().enumerate() {
-        let held_out = fit_from(motions, nominal, start, cfg, Some(i))?;
-        let a = motion_angle(motion, &held_out.calibration, cfg.dt)?;
-        per_motion(i, a);
-        sum += a * a;
-    }
-    Ok((sum / nalgebra::convert(motions.len() as f64)).sqrt())
+    let held_out = |i: usize, motion: &Motion<'_, T>| {
+        let refit = fit_from(motions, nominal, start, cfg, Some(i))?;
+        motion_angle(motion, &refit.calibration, cfg.dt)
+    };
+    held_out_rms(motions, held_out, per_motion)
 }

@@ -23,7 +23,7 @@
 //! ## Modules
 //! | module | what |
 //! |---|---|
-//! | [`model`] | calibration type, correction `a = D⁻¹(m − b)` plus optional effect terms |
+//! | [`model`] | calibration type, correction `a = D⁻¹(m − b)` plus optional effect terms; [`PreparedCalibration`] for per-sample correction |
 //! | [`six_position`] | the six-position test with the constant right pseudo-inverse |
 //! | [`stats`] | Welford mean/variance and the Kalman observer for a constant (scalar, 3-vector) |
 //! | [`offset`] | offset-only accelerometer and gyro calibration |
@@ -58,7 +58,7 @@ pub mod static_detect;
 pub mod stats;
 
 pub use error::Error;
-pub use model::{Calibration, Conditions, Effects};
+pub use model::{Calibration, Conditions, Effects, PreparedCalibration, Terms};
 
 /// Column 3-vector of `f32`.
 pub type Vec3 = nalgebra::Vector3<f32>;

@@ -4,7 +4,7 @@
 
 use proptest::prelude::*;
 use wiical_core::model::{monomials, CROSS2, CROSS3, DEGREE2, DEGREE3};
-use wiical_core::{Calibration, Conditions, Effects};
+use wiical_core::{Calibration, Conditions, Effects, PreparedCalibration, Terms};
 
 /// A monomial given by its exponents, in f64.
 fn mono(u: &[f64; 3], ex: &[u8; 3]) -> f64 {
@@ -171,6 +171,48 @@ fn coeff(limit: f32) -> impl Strategy<Value = f32> {
     -limit..limit
 }
 
+/// Any f32 bit pattern (NaN, ±∞, ±0, subnormals included) a quarter of the time, else ±0,
+/// so that every combination of present and absent term families is drawn.
+fn sparse() -> impl Strategy<Value = f32> {
+    prop_oneof![
+        2 => Just(0.0f32),
+        1 => Just(-0.0f32),
+        1 => any::<u32>().prop_map(f32::from_bits),
+    ]
+}
+
+/// A family of `N` coefficients: all (signed) zeros, or some of them arbitrary.
+fn family<const N: usize>() -> impl Strategy<Value = [f32; N]> {
+    prop_oneof![
+        Just([0.0f32; N]),
+        Just([-0.0f32; N]),
+        prop::collection::vec(sparse(), N).prop_map(|v| std::array::from_fn(|i| v[i])),
+    ]
+}
+
+/// Every parameter of `cal` as bits (`==` on floats would fail on NaN).
+fn bits(cal: &Calibration) -> Vec<u32> {
+    let e = &cal.effects;
+    cal.bias
+        .iter()
+        .chain(cal.matrix.as_flattened())
+        .chain(&e.quadratic)
+        .chain(&e.cubic)
+        .chain(&e.bias_drift)
+        .chain([&e.temp_ref_c])
+        .chain(&e.bias_temp)
+        .chain(&e.scale_temp)
+        .chain(e.cross_quadratic.as_flattened())
+        .chain(e.cross_cubic.as_flattened())
+        .map(|x| x.to_bits())
+        .collect()
+}
+
+/// An `f32` of any bit pattern.
+fn any_f32() -> impl Strategy<Value = f32> {
+    prop_oneof![any::<u32>().prop_map(f32::from_bits), -2000.0f32..2000.0]
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(512))]
 
@@ -201,6 +243,9 @@ proptest! {
         };
         let cond = Conditions { time_s, temperature_c: temp };
         let got = cal.correct(m, &cond);
+        // The per-sample path gives the same bits, hence the same agreement with the reference.
+        let prepared = cal.prepare().correct(m, &cond);
+        prop_assert_eq!(prepared.map(f32::to_bits), got.map(f32::to_bits));
         let want = reference(&cal, m, &cond);
         // Scale of the terms summed: f32 rounding is relative to the largest of them.
         let u = reference(&Calibration { effects: Effects::default(), ..cal }, m, &cond);
@@ -210,6 +255,57 @@ proptest! {
             let err = (f64::from(got[i]) - want[i]).abs();
             prop_assert!(err <= 2e-5 * scale, "axis {i}: {} vs {} (err {err:e})", got[i], want[i]);
         }
+    }
+
+    /// `PreparedCalibration::correct` is `Calibration::correct` bit for bit, whatever the
+    /// terms present and whatever the bits (NaN payloads, ±∞, ±0 and subnormals included), and
+    /// its flags are the `Effects` predicates.
+    #[test]
+    fn prepared_correction_is_the_convenience_path_bit_for_bit(
+        m in prop::array::uniform3(any_f32()),
+        bias in prop::array::uniform3(any_f32()),
+        row in prop::array::uniform3(any_f32()),
+        quad in family::<3>(),
+        cubic in family::<3>(),
+        drift in family::<3>(),
+        btemp in family::<3>(),
+        stemp in family::<3>(),
+        temp_ref in any_f32(),
+        cq in prop::array::uniform3(family::<5>()),
+        cc in prop::array::uniform3(family::<9>()),
+        time_s in any_f32(),
+        temp in prop::option::of(any_f32()),
+    ) {
+        let mut cal = nunchuk();
+        cal.bias = bias;
+        cal.matrix[1] = row;
+        cal.effects = Effects {
+            quadratic: quad,
+            cubic,
+            bias_drift: drift,
+            temp_ref_c: temp_ref,
+            bias_temp: btemp,
+            scale_temp: stemp,
+            cross_quadratic: cq,
+            cross_cubic: cc,
+        };
+        let cond = Conditions { time_s, temperature_c: temp };
+        let p = PreparedCalibration::new(cal);
+        prop_assert_eq!(bits(p.calibration()), bits(&cal));
+        let e = &cal.effects;
+        prop_assert_eq!(p.terms(), Terms {
+            linear_only: e.is_none(),
+            cross: e.has_cross_terms(),
+            time_or_temperature: e.has_time_or_temperature_terms(),
+        });
+        prop_assert_eq!(
+            p.correct(m, &cond).map(f32::to_bits),
+            cal.correct(m, &cond).map(f32::to_bits)
+        );
+        prop_assert_eq!(
+            p.correct_linear(m).map(f32::to_bits),
+            cal.correct_linear(m).map(f32::to_bits)
+        );
     }
 
     /// The core's f32 monomials are the tables' exponents evaluated in f32.
