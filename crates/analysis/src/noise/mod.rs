@@ -3,6 +3,7 @@
 //! ([`report`]); [`sim`] (feature `simulate`) makes still noise with known terms.
 
 pub mod allan;
+pub mod error;
 pub mod report;
 #[cfg(feature = "simulate")]
 pub mod sim;

@@ -9,6 +9,7 @@
 pub mod analyze;
 pub mod candidate;
 pub mod correlates;
+pub mod error;
 pub mod evidence;
 pub mod floor;
 pub mod options;
