@@ -299,7 +299,7 @@ fn six_position(py: Python<'_>, path: PathBuf, estimator: &str) -> PyResult<Stri
     let rep = py
         .detach(|| {
             let rec = wiical_analysis::load(&path, &LoadOptions::default())?;
-            wiical_analysis::fit::six_position::run(&rec, est)
+            Ok::<_, wiical_analysis::Error>(wiical_analysis::fit::six_position::run(&rec, est)?)
         })
         .map_err(py_err)?;
     to_json(&rep)
