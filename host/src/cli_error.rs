@@ -2,9 +2,9 @@
 //! setting, it names the flag that changes it (the engine's own messages name no flags).
 
 use anyhow::anyhow;
-use wiical_analysis::detect::error::{DetectError, Setting};
-use wiical_analysis::fit::error::FitError;
-use wiical_analysis::input::error::InputError;
+use wiical_analysis::detect::{DetectError, Setting};
+use wiical_analysis::fit::FitError;
+use wiical_analysis::input::InputError;
 use wiical_analysis::Error;
 
 /// Converts an engine error into the CLI's error, naming flags where a setting is concerned.

@@ -23,8 +23,8 @@
 //! report says so.
 
 use crate::detect::windows::{detect_windows, DetectOptions};
+pub use crate::error::gyro::GyroError;
 use crate::fit::base::{run_windows, FitOptions};
-use crate::gyro_error::GyroError;
 use crate::input::recording::Recording;
 use crate::input::timecheck::TimeSteps;
 use serde::Serialize;

@@ -9,7 +9,7 @@
 use std::fmt;
 use std::str::FromStr;
 
-use crate::magnetometer_error::MagnetometerError;
+pub use crate::error::magnetometer::MagnetometerError;
 use wiical_core::magfit::{
     AxisEllipsoidFit, EllipsoidFit, MagFit, ResidualAccumulator, SphereFit, StreamingMagFit,
 };

@@ -7,7 +7,7 @@ mod common;
 
 use common::data_dir;
 use wiical_analysis::fit::base as fit;
-use wiical_analysis::fit::error::FitError;
+use wiical_analysis::fit::FitError;
 use wiical_analysis::{analyze, load, AnalyzeOptions, Error, LoadOptions, Recording};
 
 fn load_file(rel: &str) -> Recording {

@@ -3,7 +3,8 @@
 //! statistics per window) out; [`table`], the rows of a window-mean table as windows in place of
 //! the detection; and [`motion`], the check that those windows were still.
 
-pub mod error;
 pub mod motion;
 pub mod table;
 pub mod windows;
+
+pub use crate::error::detect::{DetectError, Setting};

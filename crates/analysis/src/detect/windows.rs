@@ -4,7 +4,7 @@
 //! works from.
 
 #![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x > 0.0)` is deliberately true for NaN.
-use crate::detect::error::{DetectError, Setting};
+use crate::error::detect::{DetectError, Setting};
 use crate::input::recording::{infer_units, Recording};
 use crate::stats as st;
 use wiical_core::multipos::MultiPosConfig;

@@ -2,8 +2,8 @@
 //! core's `f32` code (the same code the adapter firmware runs).
 
 use crate::detect::windows::{detect_windows, DetectOptions, Windows};
+use crate::error::fit::FitError;
 use crate::error::Result;
-use crate::fit::error::FitError;
 use crate::input::recording::Recording;
 use serde::Serialize;
 use wiical_core::multipos::{self, MultiPosConfig, MultiPosFit, MultiPosModel};

@@ -4,8 +4,9 @@
 //! six-position test `T̂ = M·Â⁺` on labelled poses.
 
 pub mod base;
-pub mod error;
 pub mod model;
 pub mod press;
 pub mod six_position;
-pub mod six_position_error;
+
+pub use crate::error::fit::FitError;
+pub use crate::error::six_position::SixPositionError;

@@ -5,7 +5,7 @@
 //! consecutive raw samples, averaged here with the core's Welford mean or its Kalman observer
 //! for a constant. A label that appears in two separate blocks is a duplicate pose.
 
-use crate::fit::six_position_error::SixPositionError;
+use crate::error::six_position::SixPositionError;
 use crate::input::recording::Recording;
 use serde::Serialize;
 use wiical_core::six_position::{self, Pose, SixPositionFit};

@@ -16,9 +16,9 @@
 //! (F-tests on the residuals and cross-validation), so effects are still chosen.
 
 #![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x >= 0.0)` is deliberately true for NaN.
+use crate::error::input::InputError;
 use crate::error::Result;
 use crate::input::bounded::{parse_number, quote, read_text, MAX_RECORDING_BYTES};
-use crate::input::error::InputError;
 use crate::input::load::{self, blank_comments, is_comment_or_blank, Delimiter};
 use crate::input::recording::Recording;
 pub use crate::input::table::WindowTable;

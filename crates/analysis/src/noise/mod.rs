@@ -3,7 +3,8 @@
 //! ([`report`]); [`sim`] (feature `simulate`) makes still noise with known terms.
 
 pub mod allan;
-pub mod error;
 pub mod report;
 #[cfg(feature = "simulate")]
 pub mod sim;
+
+pub use crate::error::noise::NoiseError;

@@ -3,13 +3,13 @@
 //! `axes` = one object per column with `column`, `unit`, `n`, `b`, `b_tau_s`, `k`, `q`, `r`
 //! (null where the term's slope is not seen), `tau_s`, `adev`, `adev_rel_err`.
 
+use crate::error::noise::NoiseError;
 use crate::error::Result;
 use crate::input::bounded::{read_bounded, text_of, MAX_RECORDING_BYTES};
 use crate::input::columns::{classify, unit_of, Sensor};
 use crate::input::load::{parse, LoadOptions};
 use crate::input::recording::Recording;
 use crate::noise::allan::{fit_terms, overlapping_adev, AllanCurve, NoiseTerms};
-use crate::noise::error::NoiseError;
 use serde::Serialize;
 use std::path::Path;
 

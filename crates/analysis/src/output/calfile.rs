@@ -30,9 +30,9 @@
 //! Any other `schema` value is refused (a file from a newer wiical must not be
 //! half-understood).
 
+use crate::error::output::OutputError;
 use crate::error::Result;
 use crate::input::bounded::{read_text, MAX_CALIBRATION_BYTES};
-use crate::output::error::OutputError;
 use crate::output::write::write_file;
 use crate::report::verdict::Quality;
 use serde::{Deserialize, Serialize};

@@ -17,6 +17,7 @@
 
 #![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x > 0.0)` is deliberately true for NaN.
 use crate::detect::windows::{detect_windows, Windows};
+use crate::error::search::SearchError;
 use crate::error::Result;
 use crate::fit::base::fit_means_named;
 use crate::fit::model::{self as am, Fit, Normalisation, Part, Term, Win};
@@ -27,7 +28,6 @@ use crate::report::contract::{
 use crate::report::progress::{Progress, Stage};
 use crate::search::candidate::Candidate;
 use crate::search::correlates::{residual_correlates, WindowPoint};
-use crate::search::error::SearchError;
 use crate::search::evidence::{self as ev, TermContext};
 use crate::search::floor::{chi2_summary, floors, reference_variance};
 use crate::search::options::AnalyzeOptions;

@@ -4,9 +4,9 @@
 //! block, residual and derivatives) and, if the device should apply it, in the core's
 //! `Effects`.
 
+use crate::error::search::SearchError;
 use crate::fit::model::Term;
 use crate::report::effect_names as names;
-use crate::search::error::SearchError;
 use std::fmt;
 use std::str::FromStr;
 

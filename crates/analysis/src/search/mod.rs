@@ -9,7 +9,6 @@
 pub mod analyze;
 pub mod candidate;
 pub mod correlates;
-pub mod error;
 pub mod evidence;
 pub mod floor;
 pub mod options;
@@ -17,3 +16,5 @@ pub mod outliers;
 pub mod select;
 pub mod six_contrasts;
 pub mod trial;
+
+pub use crate::error::search::SearchError;

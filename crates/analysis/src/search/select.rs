@@ -10,7 +10,7 @@
 //! every statistic, and clean recordings gained an effect or lost a window about once in 150
 //! at these same levels (docs/residuals.md).
 
-use crate::search::error::SearchError;
+use crate::error::search::SearchError;
 use crate::stats as st;
 
 /// Default family-wise significance level per greedy step, split over the hypotheses tested

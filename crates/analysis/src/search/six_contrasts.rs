@@ -31,8 +31,8 @@
 //! worked example) there is no noise estimate and nothing can be tested.
 
 #![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x > 0.0)` is deliberately true for NaN.
+use crate::error::six_position::SixPositionError;
 use crate::fit::six_position::{pose_means, solve_poses, PoseEstimator};
-use crate::fit::six_position_error::SixPositionError;
 use crate::input::recording::Recording;
 use crate::report::contract::{AnalyzeReport, EffectReport, ModelSummary, SixPositionDetails};
 use crate::search::candidate::Candidate;

@@ -1,9 +1,9 @@
 //! The noise stage's error (`wiical noise`, and the noise file `kalman-demo` reads): a
 //! recording without a rate or too short for an Allan deviation, or a noise file that cannot
-//! give the filter its σ's. Apart from [`mod@crate::error`] (which joins it as `Error::Noise`)
-//! so that the stage's modules and the top-level error need not import each other.
+//! give the filter its σ's. Joined into [`super::Error`] as `Error::Noise`;
+//! re-exported as `noise::NoiseError`.
 
-/// Why a noise report could not be made or read. Joined into [`crate::Error::Noise`].
+/// Why a noise report could not be made or read. Joined into [`super::Error::Noise`].
 #[derive(Debug, thiserror::Error)]
 pub enum NoiseError {
     /// Neither a time column, metadata nor a default rate.

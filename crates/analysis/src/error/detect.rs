@@ -1,9 +1,8 @@
 //! The detection stage's error: why a recording's static windows could not be found (no
 //! sample rate, a setting the detector cannot use, a recording too short, a saturated window).
-//! Apart from [`mod@crate::error`] (which joins it as `Error::Detect`) so that the stage's
-//! modules and the top-level error need not import each other.
+//! Joined into [`super::Error`] as `Error::Detect`; re-exported as `detect::DetectError`.
 
-/// Why static windows could not be detected. Joined into [`crate::Error::Detect`]; the CLI
+/// Why static windows could not be detected. Joined into [`super::Error::Detect`]; the CLI
 /// names its flag for the variants that concern a setting.
 #[derive(Debug, thiserror::Error)]
 pub enum DetectError {

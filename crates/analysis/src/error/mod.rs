@@ -1,8 +1,25 @@
-//! The analysis engine's error type.
+//! The analysis engine's error type, and each stage's own type beside it.
 //!
 //! Messages describe the data and the settings by meaning ("the shortest static duration"),
 //! never by a command-line flag: a program using this crate has no flags. The `wiical` CLI
 //! matches the variants that concern a setting and names its own flag instead.
+//!
+//! The stage types live here rather than in their stages so that this room is imported by
+//! the stages and imports none of them: each file below names nothing of the crate but its
+//! neighbours here ([`gyro::GyroError`] holds a [`detect::DetectError`] and a
+//! [`fit::FitError`]), and every stage re-exports its own type from its module.
+
+pub mod detect;
+pub mod fit;
+pub mod gyro;
+pub mod input;
+pub mod magnetometer;
+pub mod noise;
+pub mod output;
+pub mod search;
+#[cfg(feature = "simulate")]
+pub mod simulate;
+pub mod six_position;
 
 use std::path::PathBuf;
 
@@ -11,13 +28,13 @@ use std::path::PathBuf;
 #[non_exhaustive]
 pub enum Error {
     // ---- reading files ----
-    /// A file could not be read or parsed ([`crate::input::error::InputError`]).
+    /// A file could not be read or parsed ([`crate::error::input::InputError`]).
     #[error(transparent)]
-    Input(#[from] crate::input::error::InputError),
+    Input(#[from] crate::error::input::InputError),
     /// An output could not be written, or is refused before writing
-    /// ([`crate::output::error::OutputError`]).
+    /// ([`crate::error::output::OutputError`]).
     #[error(transparent)]
-    Output(#[from] crate::output::error::OutputError),
+    Output(#[from] crate::error::output::OutputError),
     /// An input or output path names something other than a regular file (a device, a
     /// directory, a pipe): `/dev/zero` would never end.
     #[error("{} is not a regular file (give a file, or - for standard input)", path.display())]
@@ -44,35 +61,35 @@ pub enum Error {
     ColumnsNotThree(Vec<String>),
 
     // ---- the stages of a fit ----
-    /// Static windows could not be detected ([`crate::detect::error::DetectError`]).
+    /// Static windows could not be detected ([`crate::error::detect::DetectError`]).
     #[error(transparent)]
-    Detect(#[from] crate::detect::error::DetectError),
-    /// The multi-position fit failed ([`crate::fit::error::FitError`]).
+    Detect(#[from] crate::error::detect::DetectError),
+    /// The multi-position fit failed ([`crate::error::fit::FitError`]).
     #[error(transparent)]
-    Fit(#[from] crate::fit::error::FitError),
+    Fit(#[from] crate::error::fit::FitError),
     /// The search refused its settings or could not finish
-    /// ([`crate::search::error::SearchError`]).
+    /// ([`crate::error::search::SearchError`]).
     #[error(transparent)]
-    Search(#[from] crate::search::error::SearchError),
+    Search(#[from] crate::error::search::SearchError),
     /// A six-position table could not be solved
-    /// ([`crate::fit::six_position_error::SixPositionError`]).
+    /// ([`crate::error::six_position::SixPositionError`]).
     #[error(transparent)]
-    SixPosition(#[from] crate::fit::six_position_error::SixPositionError),
+    SixPosition(#[from] crate::error::six_position::SixPositionError),
 
     // ---- magnetometer and gyroscope ----
-    /// A magnetometer fit failed ([`crate::magnetometer_error::MagnetometerError`]).
+    /// A magnetometer fit failed ([`crate::error::magnetometer::MagnetometerError`]).
     #[error(transparent)]
-    Magnetometer(#[from] crate::magnetometer_error::MagnetometerError),
-    /// A gyro calibration failed ([`crate::gyro_error::GyroError`]; its accelerometer
+    Magnetometer(#[from] crate::error::magnetometer::MagnetometerError),
+    /// A gyro calibration failed ([`crate::error::gyro::GyroError`]; its accelerometer
     /// detection and fit errors are joined as [`Error::Detect`] and [`Error::Fit`] instead).
     #[error(transparent)]
-    Gyro(crate::gyro_error::GyroError),
+    Gyro(crate::error::gyro::GyroError),
 
     // ---- noise ----
     /// A noise report could not be made or a noise file read
-    /// ([`crate::noise::error::NoiseError`]).
+    /// ([`crate::error::noise::NoiseError`]).
     #[error(transparent)]
-    Noise(#[from] crate::noise::error::NoiseError),
+    Noise(#[from] crate::error::noise::NoiseError),
 
     // ---- batch ----
     /// An input of `wiical batch` that is neither a file, a directory nor a pattern that
@@ -91,20 +108,20 @@ pub enum Error {
     Factory(#[from] crate::factory::FactoryError),
 
     // ---- internal consistency (bugs, not bad input) ----
-    /// The simulator's self-checks ([`crate::simulate::error::SimulateError`]).
+    /// The simulator's self-checks ([`crate::error::simulate::SimulateError`]).
     #[cfg(feature = "simulate")]
     #[error(transparent)]
-    Simulate(#[from] crate::simulate::error::SimulateError),
+    Simulate(#[from] crate::error::simulate::SimulateError),
     /// JSON (de)serialisation.
     #[error(transparent)]
     Json(#[from] serde_json::Error),
 }
 
-impl From<crate::gyro_error::GyroError> for Error {
+impl From<crate::error::gyro::GyroError> for Error {
     /// The gyro fit's own errors as `Error::Gyro`; the accelerometer's detection and fit,
     /// which it runs first, as the same variants `fit` gives for them.
-    fn from(e: crate::gyro_error::GyroError) -> Self {
-        use crate::gyro_error::GyroError;
+    fn from(e: crate::error::gyro::GyroError) -> Self {
+        use crate::error::gyro::GyroError;
         match e {
             GyroError::Detect(e) => Error::Detect(e),
             GyroError::Fit(e) => Error::Fit(e),

@@ -1,10 +1,9 @@
 //! The search's error (`wiical analyze`): a rule setting out of range, an unknown candidate
-//! name, or a fit of the search that failed. Apart from [`mod@crate::error`] (which joins it as
-//! `Error::Search`) so that the stage's modules and the top-level error need not import each
-//! other.
+//! name, or a fit of the search that failed. Joined into [`super::Error`] as
+//! `Error::Search`; re-exported as `search::SearchError`.
 
 /// Why the search refused its settings or could not finish. Joined into
-/// [`crate::Error::Search`].
+/// [`super::Error::Search`].
 #[derive(Debug, thiserror::Error)]
 pub enum SearchError {
     /// A setting of the selection rule out of its range.

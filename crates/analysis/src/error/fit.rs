@@ -1,9 +1,8 @@
 //! The multi-position fit's error: why window means gave no calibration (too few windows, poses
-//! in a plane, the core's fit refusing them) or why a file is not for this fit. Apart from
-//! [`mod@crate::error`] (which joins it as `Error::Fit`) so that the stage's modules and the
-//! top-level error need not import each other.
+//! in a plane, the core's fit refusing them) or why a file is not for this fit. Joined into
+//! [`super::Error`] as `Error::Fit`; re-exported as `fit::FitError`.
 
-/// Why the multi-position fit failed. Joined into [`crate::Error::Fit`].
+/// Why the multi-position fit failed. Joined into [`super::Error::Fit`].
 #[derive(Debug, thiserror::Error)]
 pub enum FitError {
     /// `fit` was given a six-position table (a `pose` column): its rows are labelled poses for

@@ -1,14 +1,13 @@
 //! The six-position method's error (`wiical six-position`, and `analyze` on a file with a
 //! `pose` column): why the labelled pose blocks give no calibration. Shared by the fit
-//! ([`crate::fit::six_position`]) and the search's contrasts ([`crate::search::six_contrasts`]);
-//! apart from [`mod@crate::error`] (which joins it as `Error::SixPosition`) so that neither
-//! imports the other.
+//! (`fit::six_position`) and the search's contrasts (`search::six_contrasts`). Joined into
+//! [`super::Error`] as `Error::SixPosition`; re-exported as `fit::SixPositionError`.
 
 use wiical_core::six_position::Pose;
 
 /// Why a six-position table could not be solved: the labels (missing, unknown, a pose twice
 /// or not at all), the blocks (swapped ±, not turned, refused by the core) or the solve.
-/// Joined into [`crate::Error::SixPosition`].
+/// Joined into [`super::Error::SixPosition`].
 #[derive(Debug, thiserror::Error)]
 pub enum SixPositionError {
     /// No `pose` column.

@@ -1,14 +1,13 @@
 //! The output stage's error: why a file was not written, or a calibration file (the format the
-//! output stage writes) not read back. Apart from [`mod@crate::error`] (which
-//! joins it as `Error::Output`) so that the stage's modules and the top-level error need not
-//! import each other.
+//! output stage writes) not read back. Joined into [`super::Error`] as
+//! `Error::Output`; re-exported as `output::OutputError`.
 
 use std::path::PathBuf;
 
 /// Why an output was not written: the write failed (nothing half-written is left), or the
 /// output was refused before anything was written (standard output, a missing directory, an
 /// input, two outputs naming one file, a calibration that does not validate); or a calibration
-/// file read back is not one. Joined into [`crate::Error::Output`].
+/// file read back is not one. Joined into [`super::Error::Output`].
 #[derive(Debug, thiserror::Error)]
 pub enum OutputError {
     /// A file could not be written.
