@@ -77,5 +77,10 @@ fn check_window_table(text: &str, opts: &LoadOptions, force: bool) {
         assert_eq!(count.len(), n);
         assert!(count.iter().all(|c| *c >= 2));
     }
-    assert_eq!(table.to_windows().stats.len(), n);
+    assert_eq!(
+        wiical_analysis::detect::windows::Windows::of_table(&table)
+            .stats
+            .len(),
+        n
+    );
 }

@@ -2,14 +2,16 @@
 //! setting, it names the flag that changes it (the engine's own messages name no flags).
 
 use anyhow::anyhow;
-use wiical_analysis::error::Setting;
-use wiical_analysis::input::error::InputError;
+use wiical_analysis::detect::{DetectError, Setting};
+use wiical_analysis::fit::FitError;
+use wiical_analysis::input::InputError;
 use wiical_analysis::Error;
 
 /// Converts an engine error into the CLI's error, naming flags where a setting is concerned.
-/// Causes are kept as a chain, printed `outer: inner` by `main`.
-pub fn cli_error(e: Error) -> anyhow::Error {
-    match e {
+/// Causes are kept as a chain, printed `outer: inner` by `main`. Takes a stage's own error
+/// (`DetectError`, `FitError`, …) as well as the engine's [`Error`] that joins them.
+pub fn cli_error(e: impl Into<Error>) -> anyhow::Error {
+    match e.into() {
         Error::InFile { path, source } => {
             cli_error(*source).context(format!("in {}", path.display()))
         }
@@ -24,29 +26,29 @@ pub fn cli_error(e: Error) -> anyhow::Error {
             names.len(),
             names.join(",")
         ),
-        Error::WindowTooLong { samples, max } => anyhow!(
+        Error::Detect(DetectError::WindowTooLong { samples, max }) => anyhow!(
             "window of {samples} samples exceeds the maximum {max}; use a shorter --window-s"
         ),
-        Error::Saturated {
+        Error::Detect(DetectError::Saturated {
             window,
             start,
             end,
             axis,
             value,
             sample,
-        } => anyhow!(
+        }) => anyhow!(
             "{}: static window {window} (samples {start}..{end}) has axis {axis} at the ADC limit ({value}) in sample {sample}: that pose is saturated and cannot be used; re-record it or pass --adc-range",
             wiical_core::Error::Saturated
         ),
-        Error::TooFewWindows {
+        Error::Fit(FitError::TooFewWindows {
             found,
             needed,
             model,
             adaptive: false,
-        } => anyhow!(
+        }) => anyhow!(
             "found {found} static windows but the {model} needs at least {needed}: hold the sensor still in more orientations (or lower --min-static-s / raise --threshold)"
         ),
-        Error::DetectorSetting { setting, why } => {
+        Error::Detect(DetectError::DetectorSetting { setting, why }) => {
             let flag = match setting {
                 Setting::InitialRest => "--init-s",
                 Setting::MinStatic => "--min-static-s",
@@ -57,10 +59,10 @@ pub fn cli_error(e: Error) -> anyhow::Error {
         Error::Input(InputError::AxisIsNotAnAxis { name }) => anyhow!(
             "--columns: column '{name}' is not a sensor axis (it is the time, temperature or pose column); give three axis columns"
         ),
-        e @ Error::RateTooLow { .. } => {
+        e @ Error::Detect(DetectError::RateTooLow { .. }) => {
             anyhow!("{e} (a table of window means is read with --windows)")
         }
-        e @ Error::PoseTable { .. } => {
+        e @ Error::Fit(FitError::PoseTable { .. }) => {
             anyhow!("{e}: use `wiical six-position FILE` or `wiical analyze FILE`")
         }
         other => anyhow::Error::new(other),
@@ -78,7 +80,7 @@ mod tests {
             format!("{:#}", cli_error(e)),
             "in rec.txt: --columns needs a CSV file with a header; this file has no header"
         );
-        let e = Error::TooFewWindows {
+        let e = FitError::TooFewWindows {
             found: 4,
             needed: 9,
             model: "9-parameter model",
@@ -86,7 +88,7 @@ mod tests {
         };
         assert!(format!("{:#}", cli_error(e)).contains("--min-static-s"));
         // The adaptive detector already tried its shortest holds: no flag to suggest.
-        let e = Error::TooFewWindows {
+        let e = FitError::TooFewWindows {
             found: 4,
             needed: 9,
             model: "9-parameter model",
@@ -96,14 +98,14 @@ mod tests {
         assert!(!text.contains("--"), "{text}");
         assert!(text.contains("record again"), "{text}");
         // Millisecond times: the engine's question, plus the flag for window-mean tables.
-        let text = format!("{:#}", cli_error(Error::RateTooLow { rate_hz: 0.1 }));
+        let text = format!("{:#}", cli_error(DetectError::RateTooLow { rate_hz: 0.1 }));
         assert!(text.contains("milliseconds"), "{text}");
         assert!(
             text.ends_with("(a table of window means is read with --windows)"),
             "{text}"
         );
         // A pose table given to `fit`: the commands that take it.
-        let text = format!("{:#}", cli_error(Error::PoseTable { rows: 6 }));
+        let text = format!("{:#}", cli_error(FitError::PoseTable { rows: 6 }));
         assert!(text.contains("wiical six-position FILE"), "{text}");
         // Others keep the engine's message and its causes.
         let io = std::io::Error::new(std::io::ErrorKind::NotFound, "gone");

@@ -118,7 +118,7 @@ impl SimFlash {
             {
                 Ok(d) => d,
                 Err(wiical_analysis::Error::Input(
-                    wiical_analysis::input::error::InputError::TooLarge { .. },
+                    wiical_analysis::input::InputError::TooLarge { .. },
                 )) => bail!(
                     "{} is not a device-sim flash image (larger than {FLASH_SIZE} bytes)",
                     path.display()

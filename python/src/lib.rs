@@ -28,9 +28,10 @@ create_exception!(
     "An input wiical cannot use, with the sentence the command line prints."
 );
 
-/// The engine's error as a Python exception (its message with its causes).
-fn py_err(e: wiical_analysis::Error) -> PyErr {
-    WiicalError::new_err(e.full_message())
+/// The engine's error, or one of its stages' (joined into it), as a Python exception (its
+/// message with its causes).
+fn py_err(e: impl Into<wiical_analysis::Error>) -> PyErr {
+    WiicalError::new_err(e.into().full_message())
 }
 
 /// A Python-side argument error (`ValueError`, not a [`WiicalError`]: the call was wrong,
@@ -298,7 +299,7 @@ fn six_position(py: Python<'_>, path: PathBuf, estimator: &str) -> PyResult<Stri
     let rep = py
         .detach(|| {
             let rec = wiical_analysis::load(&path, &LoadOptions::default())?;
-            wiical_analysis::fit::six_position::run(&rec, est)
+            Ok::<_, wiical_analysis::Error>(wiical_analysis::fit::six_position::run(&rec, est)?)
         })
         .map_err(py_err)?;
     to_json(&rep)
@@ -309,7 +310,7 @@ fn six_position(py: Python<'_>, path: PathBuf, estimator: &str) -> PyResult<Stri
 #[pyfunction]
 fn decode_cal(device: &str, hex: &str) -> PyResult<(String, bool)> {
     use wiical_analysis::factory::{self, Device};
-    let err = |e: factory::FactoryError| py_err(e.into());
+    let err = |e: factory::FactoryError| py_err(e);
     match device.parse::<Device>().map_err(err)? {
         Device::MotionPlus => {
             let bytes = factory::parse_hex(hex).map_err(err)?;

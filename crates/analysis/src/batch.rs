@@ -15,9 +15,9 @@
 //! Cost: each file costs what its command costs (linear in its samples, see BENCHMARKS.md);
 //! memory is that of `jobs` files at a time plus the set of names already done.
 
+use crate::error::output::OutputError;
 use crate::error::{Error, Result};
 use crate::input::window_table::{load_input, WindowInputOptions};
-use crate::output::error::OutputError;
 use crate::pipeline;
 use crate::{AnalyzeOptions, FitOptions};
 use serde::{Deserialize, Serialize};

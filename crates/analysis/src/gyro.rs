@@ -23,9 +23,8 @@
 //! report says so.
 
 use crate::detect::windows::{detect_windows, DetectOptions};
-use crate::error::Result;
+pub use crate::error::gyro::GyroError;
 use crate::fit::base::{run_windows, FitOptions};
-use crate::gyro_error::GyroError;
 use crate::input::recording::Recording;
 use crate::input::timecheck::TimeSteps;
 use serde::Serialize;
@@ -36,6 +35,8 @@ use wiical_core::gyro_fit::{
 };
 use wiical_core::multipos::MultiPosModel;
 use wiical_core::static_detect::StaticInterval;
+
+type Result<T, E = GyroError> = std::result::Result<T, E>;
 
 /// Settings of [`run`].
 #[derive(Debug, Clone)]
@@ -189,13 +190,13 @@ fn align(acc: &Recording, gyro: &Recording) -> Result<Aligned> {
                 .fold(0.0, f64::max);
             let step = TimeSteps::of(ta).map_or(f64::INFINITY, |s| s.median_s);
             if worst > 0.5 * step {
-                return Err(GyroError::GyroClocksDiffer { offset_s: worst }.into());
+                return Err(GyroError::GyroClocksDiffer { offset_s: worst });
             }
         }
         return Ok((acc.xyz.clone(), None));
     }
     let (Some(ta), Some(tg)) = (&acc.t, &gyro.t) else {
-        return Err(mismatch().into());
+        return Err(mismatch());
     };
     // A subset of the rows (a capture whose rows alternate): it must span the recording, not
     // stop early (a cut-off gyro file would silently drop the rest of the accelerometer).
@@ -210,8 +211,7 @@ fn align(acc: &Recording, gyro: &Recording) -> Result<Aligned> {
                 ta.first().copied().unwrap_or(0.0),
                 ta.last().copied().unwrap_or(0.0),
             ),
-        }
-        .into());
+        });
     }
     let mut out = Vec::with_capacity(tg.len());
     let mut i = 0;
@@ -220,7 +220,7 @@ fn align(acc: &Recording, gyro: &Recording) -> Result<Aligned> {
             i += 1;
         }
         if i >= ta.len() || ta[i] != *t {
-            return Err(mismatch().into());
+            return Err(mismatch());
         }
         out.push(acc.xyz[i]);
     }
@@ -274,7 +274,7 @@ pub fn estimate_nominal(motions: &[Motion<'_, f64>], bias: [f64; 3], dt: f64) ->
     }
     let s = at((lo + hi) / 2.0, signs);
     if !cost(s).is_finite() {
-        return Err(GyroError::GyroFitFailed(wiical_core::Error::NotConverged).into());
+        return Err(GyroError::GyroFitFailed(wiical_core::Error::NotConverged));
     }
     Ok(s)
 }
@@ -324,8 +324,7 @@ fn check_nominal_plausible(
         source_name: source.chars().take(60).collect(),
         ratio: median,
         motions: ratios.len(),
-    }
-    .into())
+    })
 }
 
 /// A note per axis whose fitted sensitivity has the opposite sign of the nominal: the gyro
@@ -420,8 +419,7 @@ fn segment(acc_rec: &Recording, opts: &GyroOptions) -> Result<Segmentation> {
         return Err(GyroError::TooFewMotions {
             found: spans.len(),
             needed: 2,
-        }
-        .into());
+        });
     }
     Ok(Segmentation {
         intervals,
@@ -457,8 +455,7 @@ fn check_not_gravity(gyro: &Recording, seg: &Segmentation) -> Result<()> {
             columns: gyro.axis_columns.join(","),
             spread,
             motion_rms,
-        }
-        .into());
+        });
     }
     Ok(())
 }
@@ -479,7 +476,7 @@ pub fn run(acc: &Recording, gyro: &Recording, opts: &GyroOptions) -> Result<Gyro
             .iter()
             .all(|s| s.is_finite() && *s != 0.0)
     {
-        return Err(GyroError::GyroNominalScale.into());
+        return Err(GyroError::GyroNominalScale);
     }
     let acc_rec = paired_accelerometer(acc, gyro)?;
     let rate = acc_rec
@@ -689,7 +686,7 @@ fn evaluate_candidates(
                 }
             }
             // The uncalibrated candidate fits nothing: its failure is a data error.
-            Err(e) if parameters == 0 => return Err(GyroError::GyroFitFailed(e).into()),
+            Err(e) if parameters == 0 => return Err(GyroError::GyroFitFailed(e)),
             Err(e) => rows.push(GyroModelRow {
                 name,
                 parameters,

@@ -9,11 +9,12 @@
 use std::fmt;
 use std::str::FromStr;
 
-use crate::error::Result;
-use crate::magnetometer_error::MagnetometerError;
+pub use crate::error::magnetometer::MagnetometerError;
 use wiical_core::magfit::{
     AxisEllipsoidFit, EllipsoidFit, MagFit, ResidualAccumulator, SphereFit, StreamingMagFit,
 };
+
+type Result<T, E = MagnetometerError> = std::result::Result<T, E>;
 
 /// Which surface to fit to the raw magnetometer samples.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -115,7 +116,7 @@ impl MagFitReport {
 /// is not an ellipsoid.
 pub fn fit_points(points: &[[f64; 3]], model: MagModel) -> Result<MagFitReport> {
     if points.is_empty() {
-        return Err(MagnetometerError::NoMagSamples.into());
+        return Err(MagnetometerError::NoMagSamples);
     }
     let pts32 = to_f32(points)?;
     let fit = match model {
@@ -171,8 +172,7 @@ fn to_f32(points: &[[f64; 3]]) -> Result<Vec<[f32; 3]>> {
                     x: p[0],
                     y: p[1],
                     z: p[2],
-                }
-                .into())
+                })
             }
         })
         .collect()
@@ -305,7 +305,9 @@ mod tests {
 
     #[test]
     fn errors_are_readable() {
-        let msg = |pts: &[[f64; 3]], m| fit_points(pts, m).unwrap_err().full_message();
+        let msg = |pts: &[[f64; 3]], m| {
+            crate::Error::from(fit_points(pts, m).unwrap_err()).full_message()
+        };
         assert!(msg(&[], MagModel::Sphere).contains("no samples"));
 
         let mut pts = ellipsoid_points(50).pts;

@@ -7,6 +7,7 @@
 //! `device put` checks ([`Judged`]: the report's own keys, then `quality`).
 
 use crate::autocal;
+use crate::detect::windows::Windows;
 use crate::error::Result;
 use crate::input::window_table::{Input, WindowTable};
 use crate::report::verdict::Quality;
@@ -70,7 +71,7 @@ pub fn analyze(input: &Input, opts: &AnalyzeOptions) -> Result<Judged<AnalyzeRep
 
 /// `fit` on a window-mean table: the rows are the windows ([`crate::fit::base::run_windows`]).
 fn fit_table(table: &WindowTable, opts: &crate::fit::base::FitOptions) -> Result<crate::FitReport> {
-    let mut rep = crate::fit::base::run_windows(&table.to_windows(), opts)?;
+    let mut rep = crate::fit::base::run_windows(&Windows::of_table(table), opts)?;
     rep.window_input = Some(table.info.clone());
     Ok(rep)
 }
@@ -83,7 +84,7 @@ fn analyze_table(
     table: &WindowTable,
     opts: &crate::AnalyzeOptions,
 ) -> Result<crate::AnalyzeReport> {
-    let ws = table.to_windows();
+    let ws = Windows::of_table(table);
     let units = ws.units;
     let mut rep = crate::search::analyze::analyze_windows(&table.recording, ws, opts)?;
     rep.window_input = Some(table.info.clone());

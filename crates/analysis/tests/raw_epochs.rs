@@ -8,9 +8,9 @@ mod common;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
-use wiical_analysis::input::error::InputError;
 use wiical_analysis::input::raw::epochs::{epoch_table, still_epochs, EpochOptions};
 use wiical_analysis::input::window_table::{load_input, Input, WindowInputOptions};
+use wiical_analysis::input::InputError;
 use wiical_analysis::{Error, Recording};
 
 /// Truth of the simulated sensor: `x = (a − k·(T − T̄))/s − o` for gravity `a` (GGIR's model

@@ -7,6 +7,7 @@ mod common;
 
 use common::data_dir;
 use wiical_analysis::fit::base as fit;
+use wiical_analysis::fit::FitError;
 use wiical_analysis::{analyze, load, AnalyzeOptions, Error, LoadOptions, Recording};
 
 fn load_file(rel: &str) -> Recording {
@@ -80,11 +81,11 @@ fn sunsided_single_poses_and_sweeps_are_refused_with_a_reason() {
         ] {
             match e {
                 Some(
-                    ref e @ Error::TooFewWindows {
+                    ref e @ Error::Fit(FitError::TooFewWindows {
                         found,
                         adaptive: true,
                         ..
-                    },
+                    }),
                 ) => {
                     assert!(found <= most, "{rel}: {found}");
                     assert!(e.to_string().contains("record again"), "{e}");
@@ -108,7 +109,10 @@ fn grt_wiimote_files_are_read_and_refused_for_too_few_poses() {
         assert!(rec.t.is_none());
         let e = analyze(&rec, &AnalyzeOptions::default()).unwrap_err();
         assert!(
-            matches!(e, Error::TooFewWindows { adaptive: true, .. }),
+            matches!(
+                e,
+                Error::Fit(FitError::TooFewWindows { adaptive: true, .. })
+            ),
             "{rel}: {e:?}"
         );
     }
@@ -120,7 +124,10 @@ fn grt_wiimote_files_are_read_and_refused_for_too_few_poses() {
 fn six_position_table_is_named_by_fit() {
     let rec = load_file("seed_six_position/wiimote_M.csv");
     let e = fit::run(&rec, &Default::default()).unwrap_err();
-    assert!(matches!(e, Error::PoseTable { rows: 6 }), "{e:?}");
+    assert!(
+        matches!(e, Error::Fit(FitError::PoseTable { rows: 6 })),
+        "{e:?}"
+    );
     let a = analyze(&rec, &AnalyzeOptions::default()).unwrap();
     assert_eq!(a.mode, "six-position");
 }

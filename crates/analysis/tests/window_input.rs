@@ -5,6 +5,7 @@
 mod common;
 
 use wiical_analysis::autocal::{autocalibrate, AutocalOptions};
+use wiical_analysis::detect::windows::Windows;
 use wiical_analysis::input::window_table::{load_window_table, WindowInputOptions, WindowTable};
 
 fn ggir_table() -> WindowTable {
@@ -22,7 +23,7 @@ fn ggir_file_is_read_as_windows() {
         t.info.description,
         "read as 10,958 window means (columns sdx,sdy,sdz): no static detection"
     );
-    let ws = t.to_windows();
+    let ws = Windows::of_table(&t);
     assert_eq!(ws.stats.len(), 10_958);
     assert_eq!(ws.units, "g");
     assert!(ws.stats.iter().all(|w| w.n().is_none() && w.temp.is_some()));

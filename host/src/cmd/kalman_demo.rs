@@ -51,7 +51,7 @@ pub fn run(a: &Args) -> Result<String> {
         let text = wiical_analysis::input::bounded::read_text(path, 1 << 24).map_err(cli_error)?;
         let n =
             wiical_analysis::noise::report::accel_noise_from_json(&text, a.noise_axis.as_deref())
-                .map_err(|e| cli_error(e.in_file(path)))?;
+                .map_err(|e| cli_error(wiical_analysis::Error::from(e).in_file(path)))?;
         // The core's constructor does the conversion (σ_a = N/√dt, σ_bw = K).
         let pvb = wiical_core::kalman::PvbConfig::from_allan(
             cfg.dt as f32,

@@ -1,6 +1,10 @@
 //! Detection: a [`crate::input::recording::Recording`] in → its static windows
 //! ([`windows::Windows`]: the core's detector, the `f32` code the firmware runs, then `f64`
-//! statistics per window) out; and [`motion`], the check that those windows were still.
+//! statistics per window) out; [`table`], the rows of a window-mean table as windows in place of
+//! the detection; and [`motion`], the check that those windows were still.
 
 pub mod motion;
+pub mod table;
 pub mod windows;
+
+pub use crate::error::detect::{DetectError, Setting};

@@ -4,12 +4,14 @@
 //! works from.
 
 #![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x > 0.0)` is deliberately true for NaN.
-use crate::error::{Error, Result, Setting};
+use crate::error::detect::{DetectError, Setting};
 use crate::input::recording::{infer_units, Recording};
 use crate::stats as st;
 use wiical_core::multipos::MultiPosConfig;
 use wiical_core::static_detect::adaptive;
 use wiical_core::static_detect::{StaticDetector, StaticDetectorConfig, StaticInterval};
+
+type Result<T, E = DetectError> = std::result::Result<T, E>;
 
 /// Settings of the static-window detection.
 #[derive(Debug, Clone)]
@@ -108,10 +110,10 @@ const ADAPTIVE_SCRATCH: usize = 4096;
 pub fn detect_adaptive(rec: &Recording, opts: &DetectOptions) -> Result<Detection> {
     let rate = rec.estimated_rate_hz().unwrap_or(opts.default_rate_hz);
     if !(rate.is_finite() && rate > 0.0) {
-        return Err(Error::NoSampleRate);
+        return Err(DetectError::NoSampleRate);
     }
     if rate < MIN_SAMPLE_RATE_HZ {
-        return Err(Error::RateTooLow {
+        return Err(DetectError::RateTooLow {
             rate_hz: (rate * 1e6).round() / 1e6,
         });
     }
@@ -131,13 +133,13 @@ pub fn detect_adaptive(rec: &Recording, opts: &DetectOptions) -> Result<Detectio
         |setting, iv| per_setting[setting].push(iv),
     )
     .map_err(|e| match e {
-        wiical_core::Error::TooFewSamples { needed, .. } => Error::TooShortForSurvey {
+        wiical_core::Error::TooFewSamples { needed, .. } => DetectError::TooShortForSurvey {
             samples: rec.len(),
             needed,
             survey_s: f64::from(adaptive::SURVEY_BLOCK_S) * f64::from(adaptive::MIN_SURVEY_BLOCKS),
             rate_hz: rate,
         },
-        other => Error::DetectorSettings(other),
+        other => DetectError::DetectorSettings(other),
     })?;
     let mut intervals = std::mem::take(&mut per_setting[chosen]);
     if chosen < FILL_SETTING {
@@ -150,7 +152,7 @@ pub fn detect_adaptive(rec: &Recording, opts: &DetectOptions) -> Result<Detectio
         adaptive::run::<MAX_WINDOW, _>(samples, cfg, det.thresholds.reference_variance, |iv| {
             short.push(iv)
         })
-        .map_err(Error::DetectorSettings)?;
+        .map_err(DetectError::DetectorSettings)?;
         intervals = fill_holds(intervals, &short);
     }
     Ok(Detection {
@@ -249,7 +251,7 @@ fn lattice_view(xyz: &[[f64; 3]]) -> Option<Vec<[f64; 3]>> {
 pub fn detect(rec: &Recording, opts: &DetectOptions) -> Result<Detection> {
     let rate = rec.estimated_rate_hz().unwrap_or(opts.default_rate_hz);
     if !(rate.is_finite() && rate > 0.0) {
-        return Err(Error::NoSampleRate);
+        return Err(DetectError::NoSampleRate);
     }
     let mut cfg = StaticDetectorConfig::for_rate(
         rate as f32,
@@ -259,13 +261,13 @@ pub fn detect(rec: &Recording, opts: &DetectOptions) -> Result<Detection> {
     );
     cfg.threshold_factor = opts.threshold_factor as f32;
     if cfg.window as usize > MAX_WINDOW {
-        return Err(Error::WindowTooLong {
+        return Err(DetectError::WindowTooLong {
             samples: cfg.window as usize,
             max: MAX_WINDOW,
         });
     }
     if (rec.len() as u32) < cfg.init_samples.max(cfg.window as u32) {
-        return Err(Error::TooShort {
+        return Err(DetectError::TooShort {
             samples: rec.len(),
             needed: cfg.init_samples,
             init_s: opts.init_s,
@@ -274,11 +276,11 @@ pub fn detect(rec: &Recording, opts: &DetectOptions) -> Result<Detection> {
     }
     check_detector_settings(&cfg, rate)?;
     let mut det: StaticDetector<MAX_WINDOW> =
-        StaticDetector::new(cfg).map_err(Error::DetectorSettings)?;
+        StaticDetector::new(cfg).map_err(DetectError::DetectorSettings)?;
     let mut intervals = Vec::new();
     for (i, s) in rec.xyz.iter().enumerate() {
         let m = [s[0] as f32, s[1] as f32, s[2] as f32];
-        if let Some(iv) = det.push(m).map_err(|cause| Error::Sample {
+        if let Some(iv) = det.push(m).map_err(|cause| DetectError::Sample {
             index: i + 1,
             cause,
         })? {
@@ -338,7 +340,7 @@ pub fn check_saturation(
             for a in 0..3 {
                 let v = rec.xyz[i][a];
                 if v <= lo || v >= hi {
-                    return Err(Error::Saturated {
+                    return Err(DetectError::Saturated {
                         window: k + 1,
                         start: iv.start,
                         end: iv.end,
@@ -449,7 +451,7 @@ fn check_detector_settings(cfg: &StaticDetectorConfig, rate: f64) -> Result<()> 
         String::new()
     };
     if cfg.init_samples < u32::from(cfg.window) {
-        return Err(Error::DetectorSetting {
+        return Err(DetectError::DetectorSetting {
             setting: Setting::InitialRest,
             why: format!(
                 "{} samples at {rate_hz} Hz, fewer than the {}-sample variance window{hint}",
@@ -458,13 +460,13 @@ fn check_detector_settings(cfg: &StaticDetectorConfig, rate: f64) -> Result<()> 
         });
     }
     if cfg.min_static_samples < 1 {
-        return Err(Error::DetectorSetting {
+        return Err(DetectError::DetectorSetting {
             setting: Setting::MinStatic,
             why: format!("less than one sample at {rate_hz} Hz{hint}"),
         });
     }
     if !(cfg.threshold_factor.is_finite() && cfg.threshold_factor > 0.0) {
-        return Err(Error::DetectorSetting {
+        return Err(DetectError::DetectorSetting {
             setting: Setting::Threshold,
             why: format!("{} is not a positive number", cfg.threshold_factor),
         });
@@ -657,7 +659,7 @@ mod tests {
             .err()
             .expect("refused");
         assert!(
-            matches!(e, Error::RateTooLow { rate_hz } if rate_hz == 0.1),
+            matches!(e, DetectError::RateTooLow { rate_hz } if rate_hz == 0.1),
             "{e:?}"
         );
         assert!(e.to_string().contains("milliseconds"), "{e}");
@@ -676,7 +678,7 @@ mod tests {
             .err()
             .expect("refused");
         assert!(
-            matches!(e, Error::TooShortForSurvey { samples: 10, .. }),
+            matches!(e, DetectError::TooShortForSurvey { samples: 10, .. }),
             "{e:?}"
         );
         assert!(e.to_string().contains("noise survey"), "{e}");

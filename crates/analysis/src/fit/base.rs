@@ -2,7 +2,8 @@
 //! core's `f32` code (the same code the adapter firmware runs).
 
 use crate::detect::windows::{detect_windows, DetectOptions, Windows};
-use crate::error::{Error, Result};
+use crate::error::fit::FitError;
+use crate::error::Result;
 use crate::input::recording::Recording;
 use serde::Serialize;
 use wiical_core::multipos::{self, MultiPosConfig, MultiPosFit, MultiPosModel};
@@ -80,14 +81,14 @@ pub struct FitReport {
 /// means fitted by the core's `f32` solver.
 pub fn run(rec: &Recording, opts: &FitOptions) -> Result<FitReport> {
     if rec.labels.is_some() {
-        return Err(Error::PoseTable { rows: rec.len() });
+        return Err(FitError::PoseTable { rows: rec.len() }.into());
     }
-    run_windows(&detect_windows(rec, &opts.detect)?, opts)
+    Ok(run_windows(&detect_windows(rec, &opts.detect)?, opts)?)
 }
 
 /// The fit of windows already found: detected by [`run`], or read from a window-mean table
 /// ([`crate::input::window_table`]) — the same windows `analyze` uses for the same file.
-pub fn run_windows(ws: &Windows, opts: &FitOptions) -> Result<FitReport> {
+pub fn run_windows(ws: &Windows, opts: &FitOptions) -> Result<FitReport, FitError> {
     let means: Vec<[f32; 3]> = ws.stats.iter().map(|w| w.mean.map(|x| x as f32)).collect();
     let fit = fit_means(&means, opts.model).map_err(|e| e.found_by(opts.detect.adaptive))?;
     let cal = fit.calibration;
@@ -120,7 +121,7 @@ pub fn run_windows(ws: &Windows, opts: &FitOptions) -> Result<FitReport> {
 }
 
 /// The core's `f32` multi-position fit of window means, its errors told in terms of windows.
-pub fn fit_means(means: &[[f32; 3]], model: MultiPosModel) -> Result<MultiPosFit> {
+pub fn fit_means(means: &[[f32; 3]], model: MultiPosModel) -> Result<MultiPosFit, FitError> {
     fit_means_named(means, model, model_name(model))
 }
 
@@ -129,20 +130,20 @@ pub(crate) fn fit_means_named(
     means: &[[f32; 3]],
     model: MultiPosModel,
     name: &'static str,
-) -> Result<MultiPosFit> {
+) -> Result<MultiPosFit, FitError> {
     let cfg = MultiPosConfig {
         model,
         ..Default::default()
     };
     multipos::fit(means, &cfg).map_err(|e| match e {
-        wiical_core::Error::TooFewPoses { needed, got } => Error::TooFewWindows {
+        wiical_core::Error::TooFewPoses { needed, got } => FitError::TooFewWindows {
             found: got,
             needed,
             model: name,
             adaptive: false,
         },
-        wiical_core::Error::DegenerateGeometry => Error::DegeneratePoses { poses: means.len() },
-        other => Error::FitFailed(other),
+        wiical_core::Error::DegenerateGeometry => FitError::DegeneratePoses { poses: means.len() },
+        other => FitError::FitFailed(other),
     })
 }
 

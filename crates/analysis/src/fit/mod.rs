@@ -7,3 +7,6 @@ pub mod base;
 pub mod model;
 pub mod press;
 pub mod six_position;
+
+pub use crate::error::fit::FitError;
+pub use crate::error::six_position::SixPositionError;

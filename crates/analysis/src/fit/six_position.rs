@@ -5,11 +5,13 @@
 //! consecutive raw samples, averaged here with the core's Welford mean or its Kalman observer
 //! for a constant. A label that appears in two separate blocks is a duplicate pose.
 
-use crate::error::{Error, Result};
+use crate::error::six_position::SixPositionError;
 use crate::input::recording::Recording;
 use serde::Serialize;
 use wiical_core::six_position::{self, Pose, SixPositionFit};
 use wiical_core::stats::{ConstantKalman3, Welford3};
+
+type Result<T, E = SixPositionError> = std::result::Result<T, E>;
 
 /// How a block of samples of one pose is reduced to its mean.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -57,10 +59,10 @@ impl SixPositionReport {
 
 /// Groups the labelled rows into pose blocks and returns the six means.
 pub fn pose_means(rec: &Recording, est: PoseEstimator) -> Result<([[f32; 3]; 6], [u32; 6])> {
-    let labels = rec.labels.as_ref().ok_or(Error::NoPoseColumn)?;
+    let labels = rec.labels.as_ref().ok_or(SixPositionError::NoPoseColumn)?;
     let mut blocks: Vec<(Pose, usize, usize)> = Vec::new();
     for (i, l) in labels.iter().enumerate() {
-        let pose = Pose::from_label(l).ok_or_else(|| Error::UnknownPose {
+        let pose = Pose::from_label(l).ok_or_else(|| SixPositionError::UnknownPose {
             row: i + 1,
             label: l.clone(),
         })?;
@@ -68,7 +70,7 @@ pub fn pose_means(rec: &Recording, est: PoseEstimator) -> Result<([[f32; 3]; 6],
             Some((p, _, end)) if *p == pose => *end = i + 1,
             _ => {
                 if let Some((_, s, _)) = blocks.iter().find(|(p, _, _)| *p == pose) {
-                    return Err(Error::DuplicatePose {
+                    return Err(SixPositionError::DuplicatePose {
                         pose,
                         row: i + 1,
                         first: s + 1,
@@ -84,7 +86,7 @@ pub fn pose_means(rec: &Recording, est: PoseEstimator) -> Result<([[f32; 3]; 6],
         let (_, s, e) = blocks
             .iter()
             .find(|(p, _, _)| *p == pose)
-            .ok_or(Error::MissingPose(pose))?;
+            .ok_or(SixPositionError::MissingPose(pose))?;
         let samples: Vec<[f32; 3]> = rec.xyz[*s..*e]
             .iter()
             .map(|v| [v[0] as f32, v[1] as f32, v[2] as f32])
@@ -101,7 +103,7 @@ pub fn pose_means(rec: &Recording, est: PoseEstimator) -> Result<([[f32; 3]; 6],
 /// no noise to compare with), and it must read higher up than down (else the ± labels are
 /// swapped, which would give a negative scale).
 pub(crate) fn check_poses(rec: &Recording, means: &[[f32; 3]; 6]) -> Result<()> {
-    let labels = rec.labels.as_ref().ok_or(Error::NoPoseColumn)?;
+    let labels = rec.labels.as_ref().ok_or(SixPositionError::NoPoseColumn)?;
     // Per pose and axis: n, Σx, Σx².
     let mut acc = [[(0.0f64, 0.0f64, 0.0f64); 3]; 6];
     for (l, v) in labels.iter().zip(&rec.xyz) {
@@ -124,14 +126,14 @@ pub(crate) fn check_poses(rec: &Recording, means: &[[f32; 3]; 6]) -> Result<()> 
         let se = (var_of_mean(acc[2 * a][a]) + var_of_mean(acc[2 * a + 1][a])).sqrt();
         let same = (up - down).abs() <= 16.0 * f64::EPSILON * up.abs().max(1.0);
         if same || (se.is_finite() && (up - down).abs() < 10.0 * se.max(f64::MIN_POSITIVE)) {
-            return Err(Error::SixPoseNotSeparated {
+            return Err(SixPositionError::SixPoseNotSeparated {
                 axis: a,
                 difference: up - down,
                 standard_error: if se.is_finite() { se } else { 0.0 },
             });
         }
         if up - down <= 0.0 {
-            return Err(Error::SixPoseSwapped { axis: a, up, down });
+            return Err(SixPositionError::SixPoseSwapped { axis: a, up, down });
         }
     }
     Ok(())
@@ -140,19 +142,20 @@ pub(crate) fn check_poses(rec: &Recording, means: &[[f32; 3]; 6]) -> Result<()> 
 fn reduce(samples: &[[f32; 3]], est: PoseEstimator) -> Result<[f32; 3]> {
     let mut w = Welford3::new();
     for s in samples {
-        w.push(*s).map_err(Error::PoseBlock)?;
+        w.push(*s).map_err(SixPositionError::PoseBlock)?;
     }
-    let mean = w.mean().map_err(Error::PoseBlock)?;
+    let mean = w.mean().map_err(SixPositionError::PoseBlock)?;
     if est == PoseEstimator::Mean || samples.len() < 2 {
         return Ok([mean.x, mean.y, mean.z]);
     }
     // Kalman observer: x₀ = first sample, P₀ large, R = sample variance (floored at the
     // quantisation variance 1/12 so that a constant block still has a positive R).
-    let var = w.variance().map_err(Error::PoseBlock)?;
+    let var = w.variance().map_err(SixPositionError::PoseBlock)?;
     let r = [var.x, var.y, var.z].map(|v| v.max(1.0 / 12.0));
-    let mut k = ConstantKalman3::new(samples[0], [1e6; 3], r).map_err(Error::PoseBlock)?;
+    let mut k =
+        ConstantKalman3::new(samples[0], [1e6; 3], r).map_err(SixPositionError::PoseBlock)?;
     for s in samples {
-        k.update(*s).map_err(Error::PoseBlock)?;
+        k.update(*s).map_err(SixPositionError::PoseBlock)?;
     }
     let x = k.estimate();
     Ok([x.x, x.y, x.z])
@@ -169,8 +172,8 @@ pub fn run(rec: &Recording, est: PoseEstimator) -> Result<SixPositionReport> {
 /// The core's six-position solve, its errors told in terms of poses.
 pub fn solve_poses(means: &[[f32; 3]; 6]) -> Result<SixPositionFit> {
     six_position::solve(means).map_err(|e| match e {
-        wiical_core::Error::DegenerateGeometry => Error::PosesNotTurned,
-        other => Error::SixPositionFailed(other),
+        wiical_core::Error::DegenerateGeometry => SixPositionError::PosesNotTurned,
+        other => SixPositionError::SixPositionFailed(other),
     })
 }
 
@@ -194,7 +197,10 @@ mod plausibility {
             .replace("X,", "x-,");
         let rec = crate::parse(&swapped, &Default::default()).unwrap();
         let e = run(&rec, PoseEstimator::Mean).unwrap_err();
-        assert!(matches!(e, Error::SixPoseSwapped { axis: 0, .. }), "{e:?}");
+        assert!(
+            matches!(e, SixPositionError::SixPoseSwapped { axis: 0, .. }),
+            "{e:?}"
+        );
         assert!(e.to_string().contains("labels are swapped"), "{e}");
     }
 
@@ -210,7 +216,10 @@ mod plausibility {
         }
         let rec = crate::parse(&text, &Default::default()).unwrap();
         let e = run(&rec, PoseEstimator::Mean).unwrap_err();
-        assert!(matches!(e, Error::SixPoseNotSeparated { .. }), "{e:?}");
+        assert!(
+            matches!(e, SixPositionError::SixPoseNotSeparated { .. }),
+            "{e:?}"
+        );
         assert!(e.to_string().contains("not opposite orientations"), "{e}");
     }
 }

@@ -3,8 +3,8 @@
 //! error instead of filling the memory; and reading one numeric field, its errors naming the
 //! line and column (shared by every file format's reader).
 
+use crate::error::input::InputError;
 use crate::error::{Error, Result};
-use crate::input::error::InputError;
 use std::io::Read;
 use std::path::Path;
 

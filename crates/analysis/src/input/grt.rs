@@ -4,8 +4,8 @@
 //! are read, as a recording without time (GRT does not store one); the class labels are
 //! gesture classes, not calibration poses, so they are counted for the note and dropped.
 
+use crate::error::input::InputError;
 use crate::error::Result;
-use crate::input::error::InputError;
 use crate::input::recording::Recording;
 
 /// The first line of a GRT labelled-classification file.

@@ -13,14 +13,14 @@
 //!
 //! Every value must be finite; the first bad line is reported with its number.
 
+use crate::error::gyro::GyroError;
+use crate::error::input::InputError;
 use crate::error::{Error, Result};
-use crate::gyro_error::GyroError;
 use crate::input::bounded::{
     check_reading_scale, parse_number, parse_reading, quote, quote_header, read_bounded, text_of,
     MAX_RATE_HZ, MAX_RECORDING_BYTES,
 };
 use crate::input::columns::Sensor;
-use crate::input::error::InputError;
 use crate::input::recording::Recording;
 use crate::input::timecheck::{time_notes, TimeCheck};
 use std::path::Path;

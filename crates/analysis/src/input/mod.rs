@@ -9,7 +9,6 @@
 
 pub mod bounded;
 pub mod columns;
-pub mod error;
 pub mod grt;
 pub mod load;
 pub mod raw;
@@ -17,3 +16,5 @@ pub mod recording;
 pub mod table;
 pub mod timecheck;
 pub mod window_table;
+
+pub use crate::error::input::InputError;

@@ -7,7 +7,7 @@
 //! for static poses, but the user should know). A rate that suggests millisecond times is named where it makes a setting fail
 //! (`windows::detect`).
 
-use crate::input::error::InputError;
+use crate::error::input::InputError;
 
 /// This module's errors are all the input stage's.
 type Result<T, E = InputError> = std::result::Result<T, E>;

@@ -16,9 +16,9 @@
 //! (F-tests on the residuals and cross-validation), so effects are still chosen.
 
 #![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x >= 0.0)` is deliberately true for NaN.
+use crate::error::input::InputError;
 use crate::error::Result;
 use crate::input::bounded::{parse_number, quote, read_text, MAX_RECORDING_BYTES};
-use crate::input::error::InputError;
 use crate::input::load::{self, blank_comments, is_comment_or_blank, Delimiter};
 use crate::input::recording::Recording;
 pub use crate::input::table::WindowTable;
@@ -408,9 +408,8 @@ mod tests {
                 .unwrap_or_else(|| panic!("{header}"));
             assert_eq!(t.info.rows, 3, "{header}");
             assert!(!t.info.forced);
-            let ws = t.to_windows();
-            assert_eq!(ws.stats.len(), 3);
-            assert_eq!(ws.stats[2].t_centre, 20.0);
+            assert_eq!(t.recording.len(), 3);
+            assert_eq!(t.recording.t.as_ref().unwrap()[2], 20.0);
         }
         let t = read("t,x,y,z,sdx,sdy,sdz\n0,0.01,0,1,0.01,0.02,0.03\n", false)
             .unwrap()
@@ -419,10 +418,8 @@ mod tests {
             t.info.description,
             "read as 1 window means (columns sdx,sdy,sdz): no static detection"
         );
-        let ws = t.to_windows();
-        assert!((ws.stats[0].var[2] - 9e-4).abs() < 1e-15);
-        assert_eq!(ws.stats[0].n(), None);
-        assert_eq!(ws.units, "g");
+        assert_eq!(t.sd.as_deref(), Some(&[[0.01, 0.02, 0.03]][..]));
+        assert_eq!(t.count, None);
     }
 
     #[test]
@@ -436,11 +433,10 @@ mod tests {
             "{}",
             t.info.description
         );
-        let ws = t.to_windows();
-        assert!(ws.stats[0].var[0].is_nan());
-        // Header-less numbers, forced: rows 1 s apart.
+        assert!(t.sd.is_none());
+        // Header-less numbers, forced: two rows without time.
         let t = read("0 0 1\n0 1 0\n", true).unwrap().unwrap();
-        assert_eq!(t.to_windows().stats[1].t_centre, 1.0);
+        assert_eq!((t.recording.len(), t.recording.t.is_none()), (2, true));
     }
 
     #[test]
@@ -498,12 +494,13 @@ mod tests {
                 text += &format!("0.01,0.02,1,{sd},0.001,0.002,{n}\n");
             }
             if let Ok(Some(t)) = read(&text, force) {
-                let ws = t.to_windows();
-                proptest::prop_assert_eq!(ws.stats.len(), fields.len());
-                for w in &ws.stats {
-                    proptest::prop_assert!(w.var.iter().all(|v| v.is_finite() && *v >= 0.0));
-                    proptest::prop_assert!(w.n().is_some_and(|n| n >= 2));
-                }
+                proptest::prop_assert_eq!(t.recording.len(), fields.len());
+                let sd = t.sd.as_deref().unwrap_or_default();
+                proptest::prop_assert_eq!(sd.len(), fields.len());
+                proptest::prop_assert!(sd.iter().flatten().all(|v| v.is_finite() && *v >= 0.0));
+                let count = t.count.as_deref().unwrap_or_default();
+                proptest::prop_assert_eq!(count.len(), fields.len());
+                proptest::prop_assert!(count.iter().all(|n| *n >= 2));
             }
         }
     }

@@ -6,3 +6,5 @@ pub mod allan;
 pub mod report;
 #[cfg(feature = "simulate")]
 pub mod sim;
+
+pub use crate::error::noise::NoiseError;

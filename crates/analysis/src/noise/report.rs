@@ -3,7 +3,8 @@
 //! `axes` = one object per column with `column`, `unit`, `n`, `b`, `b_tau_s`, `k`, `q`, `r`
 //! (null where the term's slope is not seen), `tau_s`, `adev`, `adev_rel_err`.
 
-use crate::error::{Error, Result};
+use crate::error::noise::NoiseError;
+use crate::error::Result;
 use crate::input::bounded::{read_bounded, text_of, MAX_RECORDING_BYTES};
 use crate::input::columns::{classify, unit_of, Sensor};
 use crate::input::load::{parse, LoadOptions};
@@ -128,15 +129,15 @@ fn sensor_of(column: &str) -> Sensor {
 
 /// Each axis's Allan deviation and terms. `default_rate_hz` is used when the recording has no
 /// time column or `Fs`. Refused when a recording is too short for any τ.
-pub fn noise(recs: &[Recording], default_rate_hz: f64) -> Result<NoiseReport> {
-    let first = recs.first().ok_or(Error::NoSampleRate)?;
+pub fn noise(recs: &[Recording], default_rate_hz: f64) -> Result<NoiseReport, NoiseError> {
+    let first = recs.first().ok_or(NoiseError::NoSampleRate)?;
     let rate = first.estimated_rate_hz().unwrap_or(default_rate_hz);
     if !(rate.is_finite() && rate > 0.0) {
-        return Err(Error::NoSampleRate);
+        return Err(NoiseError::NoSampleRate);
     }
     let samples = first.len();
     if samples < 2 * crate::noise::allan::MIN_CLUSTERS {
-        return Err(Error::NoiseTooShort {
+        return Err(NoiseError::NoiseTooShort {
             samples,
             needed: 2 * crate::noise::allan::MIN_CLUSTERS,
         });
@@ -227,8 +228,8 @@ struct AxisIn {
 /// noisiest accelerometer axis (largest N: the filter's σ must cover every axis it is used
 /// on). Refused, in one sentence, when the file has no such axis, its unit is not g or m/s², or
 /// its N was not seen.
-pub fn accel_noise_from_json(text: &str, axis: Option<&str>) -> Result<AccelNoise> {
-    let why = |w: String| Error::NoiseFileUnusable { why: w };
+pub fn accel_noise_from_json(text: &str, axis: Option<&str>) -> Result<AccelNoise, NoiseError> {
+    let why = |w: String| NoiseError::NoiseFileUnusable { why: w };
     let file: NoiseFile = serde_json::from_str(text)
         .map_err(|e| why(format!("not a `wiical noise --json` file: {e}")))?;
     let accel = |a: &&AxisIn| a.sensor == "accelerometer" || a.sensor == "unnamed";

@@ -30,7 +30,8 @@
 //! Any other `schema` value is refused (a file from a newer wiical must not be
 //! half-understood).
 
-use crate::error::{Error, Result};
+use crate::error::output::OutputError;
+use crate::error::Result;
 use crate::input::bounded::{read_text, MAX_CALIBRATION_BYTES};
 use crate::output::write::write_file;
 use crate::report::verdict::Quality;
@@ -187,7 +188,8 @@ pub fn write_calibration_with(
     cal: &Calibration,
     quality: Option<&Quality>,
 ) -> Result<()> {
-    cal.validate().map_err(Error::RefuseInvalidCalibration)?;
+    cal.validate()
+        .map_err(OutputError::RefuseInvalidCalibration)?;
     write_file(path, to_json_with(cal, quality)?.as_bytes())
 }
 
@@ -206,13 +208,13 @@ pub fn write_calibration_unchecked(path: &Path, cal: &Calibration) -> Result<()>
 /// strictly, and checks the calibration is valid.
 pub fn read_calibration_file(path: &Path) -> Result<CalibrationFile> {
     let text = read_text(path, MAX_CALIBRATION_BYTES)?;
-    let file = parse(&text).map_err(|source| Error::NotCalibrationJson {
+    let file = parse(&text).map_err(|source| OutputError::NotCalibrationJson {
         path: path.into(),
         source,
     })?;
     file.calibration
         .validate()
-        .map_err(|cause| Error::InvalidCalibrationFile {
+        .map_err(|cause| OutputError::InvalidCalibrationFile {
             path: path.into(),
             cause,
         })?;

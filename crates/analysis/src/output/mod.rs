@@ -1,8 +1,9 @@
 //! Output files: a [`wiical_core::Calibration`] and its verdict ↔ the calibration file
 //! ([`calfile`]), and the atomic writer every output goes through ([`mod@write`]: no
-//! half-written file, no input overwritten); [`error::OutputError`] says why one was not
+//! half-written file, no input overwritten); [`OutputError`] says why one was not
 //! written.
 
 pub mod calfile;
-pub mod error;
 pub mod write;
+
+pub use crate::error::output::OutputError;

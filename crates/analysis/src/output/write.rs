@@ -15,8 +15,8 @@
 //! or each other (same file by device and inode where it exists, by canonical directory and
 //! name where it does not yet).
 
+use crate::error::output::OutputError;
 use crate::error::{Error, Result};
-use crate::output::error::OutputError;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 

@@ -17,7 +17,8 @@
 
 #![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x > 0.0)` is deliberately true for NaN.
 use crate::detect::windows::{detect_windows, Windows};
-use crate::error::{Error, Result};
+use crate::error::search::SearchError;
+use crate::error::Result;
 use crate::fit::base::fit_means_named;
 use crate::fit::model::{self as am, Fit, Normalisation, Part, Term, Win};
 use crate::input::recording::Recording;
@@ -45,7 +46,7 @@ use wiical_core::Calibration;
 pub fn analyze(rec: &Recording, opts: &AnalyzeOptions) -> Result<AnalyzeReport> {
     check_rule(opts.alpha, opts.cv_factor)?;
     if rec.labels.is_some() {
-        return crate::search::six_contrasts::analyze_six(rec, opts);
+        return Ok(crate::search::six_contrasts::analyze_six(rec, opts)?);
     }
     let report = |stage, done, total| opts.progress.report(Progress { stage, done, total });
     report(Stage::Windows, 0, 0);
@@ -145,7 +146,7 @@ impl<'a> Context<'a> {
         let p0 = self.nrm.params_from(&self.core_cal);
         let bmask = base_mask(self.model);
         let all = vec![true; self.n()];
-        let fit = am::fit(&p0, &bmask, &self.wins, &all).ok_or(Error::RefinementFailed)?;
+        let fit = am::fit(&p0, &bmask, &self.wins, &all).ok_or(SearchError::RefinementFailed)?;
         let loo = crate::fit::press::loo(&fit, &bmask, &self.wins, &all);
         let floor = floors(&fit.p, &self.wins, &self.ws.stats, self.nrm.scale, false);
         let floor_batch = floors(&fit.p, &self.wins, &self.ws.stats, self.nrm.scale, true);
@@ -847,7 +848,9 @@ impl Context<'_> {
     fn report(&self, rec: &Recording, base: &Base, search: Search) -> Result<AnalyzeReport> {
         let (base_summary, final_model) = self.summaries(base, &search.state);
         let calibration = self.nrm.to_calibration(&search.state.fit.p);
-        calibration.validate().map_err(Error::InvalidCalibration)?;
+        calibration
+            .validate()
+            .map_err(SearchError::InvalidCalibration)?;
         let windows = self.window_infos(base, &search);
         let residual_correlates = self.correlates(base, &search.state, &final_model);
         // Candidates the last step could not test at all (too few windows for them).

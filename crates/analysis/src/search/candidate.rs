@@ -4,7 +4,7 @@
 //! block, residual and derivatives) and, if the device should apply it, in the core's
 //! `Effects`.
 
-use crate::error::Error;
+use crate::error::search::SearchError;
 use crate::fit::model::Term;
 use crate::report::effect_names as names;
 use std::fmt;
@@ -85,13 +85,13 @@ impl fmt::Display for Candidate {
 }
 
 impl FromStr for Candidate {
-    type Err = Error;
+    type Err = SearchError;
 
-    fn from_str(s: &str) -> Result<Self, Error> {
+    fn from_str(s: &str) -> Result<Self, SearchError> {
         Candidate::ALL
             .into_iter()
             .find(|c| c.name() == s)
-            .ok_or_else(|| Error::UnknownCandidate {
+            .ok_or_else(|| SearchError::UnknownCandidate {
                 name: s.into(),
                 known: Candidate::all_names(),
             })

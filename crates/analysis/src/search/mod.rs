@@ -16,3 +16,5 @@ pub mod outliers;
 pub mod select;
 pub mod six_contrasts;
 pub mod trial;
+
+pub use crate::error::search::SearchError;

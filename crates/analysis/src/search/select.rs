@@ -10,7 +10,7 @@
 //! every statistic, and clean recordings gained an effect or lost a window about once in 150
 //! at these same levels (docs/residuals.md).
 
-use crate::error::{Error, Result};
+use crate::error::search::SearchError;
 use crate::stats as st;
 
 /// Default family-wise significance level per greedy step, split over the hypotheses tested
@@ -51,11 +51,11 @@ pub const MIN_SPARE_OUTLIER: usize = 4;
 pub const MIN_DOF_OUTLIER: usize = 3;
 
 /// Checks the two settings of the rule: α in (0, 1), CV factor at least 1.
-pub fn check_rule(alpha: f64, cv_factor: f64) -> Result<()> {
+pub fn check_rule(alpha: f64, cv_factor: f64) -> Result<(), SearchError> {
     if alpha > 0.0 && alpha < 1.0 && cv_factor >= 1.0 {
         Ok(())
     } else {
-        Err(Error::InvalidSetting(
+        Err(SearchError::InvalidSetting(
             "alpha must be in (0, 1) and the CV factor at least 1",
         ))
     }

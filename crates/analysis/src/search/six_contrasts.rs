@@ -31,13 +31,15 @@
 //! worked example) there is no noise estimate and nothing can be tested.
 
 #![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x > 0.0)` is deliberately true for NaN.
-use crate::error::{Error, Result};
+use crate::error::six_position::SixPositionError;
 use crate::fit::six_position::{pose_means, solve_poses, PoseEstimator};
 use crate::input::recording::Recording;
 use crate::report::contract::{AnalyzeReport, EffectReport, ModelSummary, SixPositionDetails};
 use crate::search::candidate::Candidate;
 use crate::search::options::AnalyzeOptions;
 use crate::stats as st;
+
+type Result<T, E = SixPositionError> = std::result::Result<T, E>;
 use nalgebra::{Matrix3, SMatrix};
 use std::fmt::Write as _;
 use wiical_core::six_position::{Pose, SixPositionFit};
@@ -194,9 +196,9 @@ fn structure(rec: &Recording) -> Result<Structure> {
     // Recompute in f64 from the f32 means (the solve is linear; f64 keeps the residual exact).
     let means: [[f64; 3]; 6] = means32.map(|m| m.map(|x| x as f64));
     let u0: [[f64; 3]; 6] = std::array::from_fn(|p| Pose::ALL[p].direction().map(|x| x as f64));
-    let (t, res) = solve_targets(&means, &u0).ok_or(Error::SixPositionSingular)?;
+    let (t, res) = solve_targets(&means, &u0).ok_or(SixPositionError::SixPositionSingular)?;
     let d: [[f64; 3]; 3] = std::array::from_fn(|r| [t[r][0], t[r][1], t[r][2]]);
-    let k = inv3(d).ok_or(Error::SingularD)?;
+    let k = inv3(d).ok_or(SixPositionError::SingularD)?;
     let rg = residual_g(&k, &res);
     let pr = pairs(&rg);
     let bias = [t[0][3], t[1][3], t[2][3]];
@@ -387,7 +389,7 @@ fn check_reproduces_poses(cal: &Calibration, means32: &[[f32; 3]]) -> Result<()>
         let dir = Pose::ALL[p].direction();
         let err = (0..3).map(|j| (a[j] - dir[j]).abs()).fold(0.0f32, f32::max);
         if !(err < 0.2) {
-            return Err(Error::SixPositionNotReproduced);
+            return Err(SixPositionError::SixPositionNotReproduced);
         }
     }
     Ok(())

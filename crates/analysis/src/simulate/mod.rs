@@ -60,15 +60,14 @@
 //! The truth is written next to the recording as `FILE.truth.json` ([`Truth`]).
 
 #![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x > 0.0)` is deliberately true for NaN.
-pub mod error;
 pub mod kalman;
 pub mod open_basis;
 
+pub use crate::error::simulate::SimulateError;
 use crate::error::{Error, Result};
 use crate::input::recording::Recording;
 use crate::output::write::write_file;
 use crate::report::effect_names as names;
-use error::SimulateError;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};

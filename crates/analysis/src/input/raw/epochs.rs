@@ -13,8 +13,8 @@
 //! rather than judged on a fraction of its samples).
 
 use crate::autocal::MIN_EPOCHS;
+use crate::error::input::InputError;
 use crate::error::Result;
-use crate::input::error::InputError;
 use crate::input::recording::Recording;
 use crate::input::table::WindowTable;
 use crate::report::contract::WindowInputInfo;

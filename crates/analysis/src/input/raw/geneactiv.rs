@@ -18,7 +18,7 @@
 
 #![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x > 0.0)` is deliberately true for NaN.
 use super::{civil_seconds, valid_civil, Block, GoodBlock, RawFile, RawFormat};
-use crate::input::error::InputError;
+use crate::error::input::InputError;
 
 /// This module's errors are all the input stage's.
 type Result<T, E = InputError> = std::result::Result<T, E>;

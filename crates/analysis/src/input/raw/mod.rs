@@ -14,9 +14,9 @@
 //! Times are the device clock's date and time counted in seconds since 1970-01-01 **as if it
 //! were UTC**: neither format stores the time zone of its clock, so none is applied.
 
+use crate::error::input::InputError;
 use crate::error::{Error, Result};
 use crate::input::columns::LoadOptions;
-use crate::input::error::InputError;
 use crate::input::recording::Recording;
 use std::path::Path;
 

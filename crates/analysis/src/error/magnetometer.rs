@@ -1,8 +1,8 @@
 //! The magnetometer fit's error (`wiical magfit`): no usable samples, or the core's ellipsoid
-//! fit failed. Apart from [`mod@crate::error`] (which joins it as `Error::Magnetometer`) and from
-//! [`crate::magnetometer`] so that neither imports the other.
+//! fit failed. Joined into [`super::Error`] as `Error::Magnetometer`;
+//! re-exported as `magnetometer::MagnetometerError`.
 
-/// Why a magnetometer fit failed. Joined into [`crate::Error::Magnetometer`].
+/// Why a magnetometer fit failed. Joined into [`super::Error::Magnetometer`].
 #[derive(Debug, thiserror::Error)]
 pub enum MagnetometerError {
     /// No points.

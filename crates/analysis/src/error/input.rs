@@ -1,13 +1,12 @@
 //! The input stage's error: why a file could not be read or parsed into a recording (the file,
-//! line and column named in each sentence). Apart from [`mod@crate::error`] (which joins it as
-//! `Error::Input`) so that the stage's modules and the top-level error need not import each
-//! other.
+//! line and column named in each sentence). Joined into [`super::Error`] as
+//! `Error::Input`; re-exported as `input::InputError`.
 
 use std::path::PathBuf;
 
 /// Why an input could not be loaded: reading it (size caps, gzip, UTF-8), a raw accelerometer
 /// file's blocks, or a field, line or header of a text/CSV/GRT/window-mean file. Joined into
-/// [`crate::Error::Input`]; the file itself is named by the `Error::InFile` around it.
+/// [`super::Error::Input`]; the file itself is named by the `Error::InFile` around it.
 #[derive(Debug, thiserror::Error)]
 pub enum InputError {
     /// The file could not be read.

@@ -1,8 +1,8 @@
-//! The simulator's self-check errors, apart from [`mod@crate::error`] (which joins them as
-//! `Error::Simulate`) so that neither imports the other.
+//! The simulator's self-check errors. Joined into [`super::Error`] as `Error::Simulate`;
+//! re-exported as `simulate::SimulateError`.
 
 /// A self-check of the simulator failed: a bug, not a bad setting (settings are refused with
-/// the engine's [`crate::Error`] sentences before anything is drawn).
+/// the engine's [`super::Error`] sentences before anything is drawn).
 #[derive(Debug, thiserror::Error)]
 pub enum SimulateError {
     /// An outlier was to be placed in a hold the scene does not have.

@@ -1,12 +1,20 @@
 //! The gyroscope fit's error (`wiical gyrofit`): why the accelerometer and gyro recordings
-//! cannot be paired or the gyro cannot be fitted. Apart from [`mod@crate::error`] (which joins it
-//! as `Error::Gyro`) and from [`crate::gyro`] so that neither imports the other.
+//! cannot be paired or the gyro cannot be fitted. Joined into [`super::Error`] as
+//! `Error::Gyro` and re-exported as `gyro::GyroError`; it holds the accelerometer's detection and fit errors whole (the gyro fit runs those stages first).
 
 /// Why a gyro calibration failed: the two recordings are not the same samples, the columns are
 /// not a gyro's, the nominal sensitivity is missing or implausible, or the motions are too few
-/// for the core's fit. Joined into [`crate::Error::Gyro`].
+/// for the core's fit; or the accelerometer's windows or fit, which come first. Joined into
+/// [`super::Error::Gyro`], except that the accelerometer's errors become `Error::Detect` and
+/// `Error::Fit` there, as from `wiical fit` (the CLI names the same flags for them).
 #[derive(Debug, thiserror::Error)]
 pub enum GyroError {
+    /// The accelerometer's static windows could not be detected.
+    #[error(transparent)]
+    Detect(#[from] crate::error::detect::DetectError),
+    /// The accelerometer's multi-position fit failed.
+    #[error(transparent)]
+    Fit(#[from] crate::error::fit::FitError),
     /// The accelerometer and gyro recordings cannot be paired row by row.
     #[error("the accelerometer has {accel} samples and the gyro {gyro}: they must be the same samples (same length, or time columns whose gyro times are all accelerometer times)")]
     GyroRowsMismatch {

@@ -1,12 +1,13 @@
-//! The output stage's error: why a file was not written. Apart from [`mod@crate::error`] (which
-//! joins it as `Error::Output`) so that the stage's modules and the top-level error need not
-//! import each other.
+//! The output stage's error: why a file was not written, or a calibration file (the format the
+//! output stage writes) not read back. Joined into [`super::Error`] as
+//! `Error::Output`; re-exported as `output::OutputError`.
 
 use std::path::PathBuf;
 
 /// Why an output was not written: the write failed (nothing half-written is left), or the
 /// output was refused before anything was written (standard output, a missing directory, an
-/// input, two outputs naming one file). Joined into [`crate::Error::Output`].
+/// input, two outputs naming one file, a calibration that does not validate); or a calibration
+/// file read back is not one. Joined into [`super::Error::Output`].
 #[derive(Debug, thiserror::Error)]
 pub enum OutputError {
     /// A file could not be written.
@@ -45,5 +46,25 @@ pub enum OutputError {
         first: PathBuf,
         /// Another output naming the same file.
         second: PathBuf,
+    },
+    /// Refusing to write a calibration that does not validate.
+    #[error("refusing to write an invalid calibration: {0}")]
+    RefuseInvalidCalibration(wiical_core::Error),
+    /// Not a calibration JSON.
+    #[error("{} is not a calibration JSON", path.display())]
+    NotCalibrationJson {
+        /// The file.
+        path: PathBuf,
+        /// The parser's complaint.
+        #[source]
+        source: serde_json::Error,
+    },
+    /// A calibration file that does not validate.
+    #[error("{}: invalid calibration: {cause}", path.display())]
+    InvalidCalibrationFile {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        cause: wiical_core::Error,
     },
 }

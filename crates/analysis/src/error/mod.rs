@@ -1,0 +1,156 @@
+//! The analysis engine's error type, and each stage's own type beside it.
+//!
+//! Messages describe the data and the settings by meaning ("the shortest static duration"),
+//! never by a command-line flag: a program using this crate has no flags. The `wiical` CLI
+//! matches the variants that concern a setting and names its own flag instead.
+//!
+//! The stage types live here rather than in their stages so that this room is imported by
+//! the stages and imports none of them: each file below names nothing of the crate but its
+//! neighbours here ([`gyro::GyroError`] holds a [`detect::DetectError`] and a
+//! [`fit::FitError`]), and every stage re-exports its own type from its module.
+
+pub mod detect;
+pub mod fit;
+pub mod gyro;
+pub mod input;
+pub mod magnetometer;
+pub mod noise;
+pub mod output;
+pub mod search;
+#[cfg(feature = "simulate")]
+pub mod simulate;
+pub mod six_position;
+
+use std::path::PathBuf;
+
+/// Everything that can go wrong between a file and a report.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum Error {
+    // ---- reading files ----
+    /// A file could not be read or parsed ([`crate::error::input::InputError`]).
+    #[error(transparent)]
+    Input(#[from] crate::error::input::InputError),
+    /// An output could not be written, or is refused before writing
+    /// ([`crate::error::output::OutputError`]).
+    #[error(transparent)]
+    Output(#[from] crate::error::output::OutputError),
+    /// An input or output path names something other than a regular file (a device, a
+    /// directory, a pipe): `/dev/zero` would never end.
+    #[error("{} is not a regular file (give a file, or - for standard input)", path.display())]
+    NotRegularFile {
+        /// The path.
+        path: PathBuf,
+    },
+    /// An error inside a file's contents.
+    #[error("in {}", path.display())]
+    InFile {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong in it.
+        #[source]
+        source: Box<Error>,
+    },
+
+    // ---- settings ----
+    /// A setting out of its range.
+    #[error("{0}")]
+    InvalidSetting(&'static str),
+    /// Explicit axis columns must be exactly three.
+    #[error("exactly three axis column names are needed (x,y,z), got {}: {}", .0.len(), .0.join(","))]
+    ColumnsNotThree(Vec<String>),
+
+    // ---- the stages of a fit ----
+    /// Static windows could not be detected ([`crate::error::detect::DetectError`]).
+    #[error(transparent)]
+    Detect(#[from] crate::error::detect::DetectError),
+    /// The multi-position fit failed ([`crate::error::fit::FitError`]).
+    #[error(transparent)]
+    Fit(#[from] crate::error::fit::FitError),
+    /// The search refused its settings or could not finish
+    /// ([`crate::error::search::SearchError`]).
+    #[error(transparent)]
+    Search(#[from] crate::error::search::SearchError),
+    /// A six-position table could not be solved
+    /// ([`crate::error::six_position::SixPositionError`]).
+    #[error(transparent)]
+    SixPosition(#[from] crate::error::six_position::SixPositionError),
+
+    // ---- magnetometer and gyroscope ----
+    /// A magnetometer fit failed ([`crate::error::magnetometer::MagnetometerError`]).
+    #[error(transparent)]
+    Magnetometer(#[from] crate::error::magnetometer::MagnetometerError),
+    /// A gyro calibration failed ([`crate::error::gyro::GyroError`]; its accelerometer
+    /// detection and fit errors are joined as [`Error::Detect`] and [`Error::Fit`] instead).
+    #[error(transparent)]
+    Gyro(crate::error::gyro::GyroError),
+
+    // ---- noise ----
+    /// A noise report could not be made or a noise file read
+    /// ([`crate::error::noise::NoiseError`]).
+    #[error(transparent)]
+    Noise(#[from] crate::error::noise::NoiseError),
+
+    // ---- batch ----
+    /// An input of `wiical batch` that is neither a file, a directory nor a pattern that
+    /// can be expanded.
+    #[error("batch input {}: {why}", input.display())]
+    BatchInput {
+        /// The input as given.
+        input: PathBuf,
+        /// Why it cannot be used.
+        why: String,
+    },
+
+    // ---- factory calibration blocks ----
+    /// A factory calibration block (hex text, length, device name) that cannot be decoded.
+    #[error(transparent)]
+    Factory(#[from] crate::factory::FactoryError),
+
+    // ---- internal consistency (bugs, not bad input) ----
+    /// The simulator's self-checks ([`crate::error::simulate::SimulateError`]).
+    #[cfg(feature = "simulate")]
+    #[error(transparent)]
+    Simulate(#[from] crate::error::simulate::SimulateError),
+    /// JSON (de)serialisation.
+    #[error(transparent)]
+    Json(#[from] serde_json::Error),
+}
+
+impl From<crate::error::gyro::GyroError> for Error {
+    /// The gyro fit's own errors as `Error::Gyro`; the accelerometer's detection and fit,
+    /// which it runs first, as the same variants `fit` gives for them.
+    fn from(e: crate::error::gyro::GyroError) -> Self {
+        use crate::error::gyro::GyroError;
+        match e {
+            GyroError::Detect(e) => Error::Detect(e),
+            GyroError::Fit(e) => Error::Fit(e),
+            e => Error::Gyro(e),
+        }
+    }
+}
+
+/// Result with the analysis [`enum@Error`].
+pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+impl Error {
+    /// The message with its causes, `outer: inner: …` (as the CLI prints it).
+    pub fn full_message(&self) -> String {
+        let mut s = self.to_string();
+        let mut cur: Option<&(dyn std::error::Error + 'static)> = std::error::Error::source(self);
+        while let Some(e) = cur {
+            s.push_str(": ");
+            s.push_str(&e.to_string());
+            cur = e.source();
+        }
+        s
+    }
+
+    /// Attaches the file the error was found in.
+    pub fn in_file(self, path: impl Into<PathBuf>) -> Self {
+        Error::InFile {
+            path: path.into(),
+            source: Box::new(self),
+        }
+    }
+}

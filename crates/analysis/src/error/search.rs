@@ -1,0 +1,26 @@
+//! The search's error (`wiical analyze`): a rule setting out of range, an unknown candidate
+//! name, or a fit of the search that failed. Joined into [`super::Error`] as
+//! `Error::Search`; re-exported as `search::SearchError`.
+
+/// Why the search refused its settings or could not finish. Joined into
+/// [`super::Error::Search`].
+#[derive(Debug, thiserror::Error)]
+pub enum SearchError {
+    /// A setting of the selection rule out of its range.
+    #[error("{0}")]
+    InvalidSetting(&'static str),
+    /// An unknown candidate effect name.
+    #[error("unknown candidate effect '{name}'; known: {known}")]
+    UnknownCandidate {
+        /// The name given.
+        name: String,
+        /// The known names, comma-separated.
+        known: String,
+    },
+    /// The f64 refinement could not be solved.
+    #[error("the f64 refinement of the base fit failed (degenerate poses)")]
+    RefinementFailed,
+    /// The final calibration does not validate.
+    #[error("the final calibration is not valid: {0}")]
+    InvalidCalibration(wiical_core::Error),
+}
