@@ -18,8 +18,9 @@
 //! cubes (the residual of a per-axis even nonlinearity `q·u²` is `q·g_a³`), their fourth
 //! powers (of an odd one, `c·u³`: `c·g_a⁴`) and the product `g_x·g_y·g_z` (a cross-axis
 //! term), and time and temperature times each axis of `g` (the residual of a bias that
-//! drifts on axis a, with time or with temperature, is `d·t·g_a`). Squares are not tried:
-//! the matrix spans them.
+//! drifts on axis a, with time or with temperature, is `d·t·g_a`), and temperature times
+//! each axis's square (of a scale that follows the temperature on axis a: `σ·ϑ·g_a²`).
+//! Squares alone are not tried: the matrix spans them.
 
 use crate::fit::model;
 use crate::stats as st;
@@ -46,7 +47,7 @@ pub struct WindowPoint {
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct ResidualCorrelate {
     /// `time`, `temperature`, `g_x` … `g_z`, `g_x^3` …, `g_x^4` …, `g_x*g_y*g_z`, `time*g_x` …,
-    /// `temperature*g_x` ….
+    /// `temperature*g_x` …, `temperature*g_x^2` ….
     pub regressor: String,
     /// Pearson correlation of the final per-window residual (‖a‖ − 1) with the regressor.
     pub r: f64,
@@ -60,7 +61,8 @@ pub struct ResidualCorrelate {
     pub significant: bool,
     /// Least-squares slope of the residual on the regressor, in `slope_unit`.
     pub slope: f64,
-    /// `mg/min`, `mg/°C`, `mg/g`, `mg/g^3`, `mg/g^4`, `mg/(g·min)` or `mg/(g·°C)`.
+    /// `mg/min`, `mg/°C`, `mg/g`, `mg/g^3`, `mg/g^4`, `mg/(g·min)`, `mg/(g·°C)` or
+    /// `mg/(g²·°C)`.
     pub slope_unit: &'static str,
     /// Windows the correlation is over.
     pub windows: usize,
@@ -90,6 +92,9 @@ fn regressors(w: &WindowPoint) -> Vec<(&'static str, &'static str, Option<f64>)>
         ("temperature*g_x", "mg/(g·°C)", w.temp_c.map(|c| c * x)),
         ("temperature*g_y", "mg/(g·°C)", w.temp_c.map(|c| c * y)),
         ("temperature*g_z", "mg/(g·°C)", w.temp_c.map(|c| c * z)),
+        ("temperature*g_x^2", "mg/(g²·°C)", w.temp_c.map(|c| c * x * x)),
+        ("temperature*g_y^2", "mg/(g²·°C)", w.temp_c.map(|c| c * y * y)),
+        ("temperature*g_z^2", "mg/(g²·°C)", w.temp_c.map(|c| c * z * z)),
     ]
 }
 
@@ -274,6 +279,9 @@ pub fn sentence(list: &[ResidualCorrelate], time_temp_r: Option<f64>) -> Option<
         "temperature" => "a temperature dependence the accepted effects do not describe",
         x if x.starts_with("time*") => {
             "a bias change over time on that axis the accepted effects do not describe"
+        }
+        x if x.starts_with("temperature*") && x.ends_with("^2") => {
+            "a scale change with temperature on that axis the accepted effects do not describe"
         }
         x if x.starts_with("temperature*") => {
             "a bias change with temperature on that axis the accepted effects do not describe"
