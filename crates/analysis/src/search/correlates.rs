@@ -92,9 +92,21 @@ fn regressors(w: &WindowPoint) -> Vec<(&'static str, &'static str, Option<f64>)>
         ("temperature*g_x", "mg/(g·°C)", w.temp_c.map(|c| c * x)),
         ("temperature*g_y", "mg/(g·°C)", w.temp_c.map(|c| c * y)),
         ("temperature*g_z", "mg/(g·°C)", w.temp_c.map(|c| c * z)),
-        ("temperature*g_x^2", "mg/(g²·°C)", w.temp_c.map(|c| c * x * x)),
-        ("temperature*g_y^2", "mg/(g²·°C)", w.temp_c.map(|c| c * y * y)),
-        ("temperature*g_z^2", "mg/(g²·°C)", w.temp_c.map(|c| c * z * z)),
+        (
+            "temperature*g_x^2",
+            "mg/(g²·°C)",
+            w.temp_c.map(|c| c * x * x),
+        ),
+        (
+            "temperature*g_y^2",
+            "mg/(g²·°C)",
+            w.temp_c.map(|c| c * y * y),
+        ),
+        (
+            "temperature*g_z^2",
+            "mg/(g²·°C)",
+            w.temp_c.map(|c| c * z * z),
+        ),
     ]
 }
 
