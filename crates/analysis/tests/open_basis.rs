@@ -18,9 +18,29 @@ const SD_COUNTS: f64 = 3.0;
 /// Samples per window (the per-window mean noise is SD/√N = 0.3 counts ≈ 0.3 mg).
 const N: usize = 100;
 
+/// The cross term of the truth: `c·u_x·u_y` on z, or `c·u_x·u_y·u_z` on z.
+#[derive(Clone, Copy)]
+enum Cross {
+    ZXy,
+    ZXyz,
+}
+
+/// What the cross term adds to `a` at `u`.
+fn delta(kind: Cross, c: f64, u: [f64; 3]) -> [f64; 3] {
+    match kind {
+        Cross::ZXy => [0.0, 0.0, c * u[0] * u[1]],
+        Cross::ZXyz => [0.0, 0.0, c * u[0] * u[1] * u[2]],
+    }
+}
+
 /// The window table: 40 directions (a Fibonacci sphere), the cross term `c` (1/g) of
 /// `u_x·u_y` on z.
 fn table(c: f64, seed: u64) -> String {
+    table_of(Cross::ZXy, c, seed)
+}
+
+/// The window table with cross term `kind` of coefficient `c`.
+fn table_of(kind: Cross, c: f64, seed: u64) -> String {
     let b = [512.0, -300.0, 250.0];
     let d = [[1000.0, 5.0, -3.0], [0.0, 990.0, 4.0], [0.0, 0.0, 1010.0]];
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
@@ -32,10 +52,11 @@ fn table(c: f64, seed: u64) -> String {
         let r = (1.0 - zc * zc).sqrt();
         let phi = i as f64 * 2.399_963_229_728_653;
         let g = [r * phi.cos(), r * phi.sin(), zc];
-        // Solve u + c·u_x·u_y·e_z = g by fixed-point iteration (|c| ≪ 1).
+        // Solve u + Δ(u) = g by fixed-point iteration (|c| ≪ 1).
         let mut u = g;
         for _ in 0..50 {
-            u[2] = g[2] - c * u[0] * u[1];
+            let dl = delta(kind, c, u);
+            u = [0, 1, 2].map(|a| g[a] - dl[a]);
         }
         let mut row = vec![format!("{}", 10.0 * i as f64)];
         for a in 0..3 {
@@ -98,5 +119,30 @@ fn a_clean_recording_names_nothing() {
         let r = analyze(&table(0.0, seed));
         assert!(r.effects.is_empty(), "seed {seed}: {}", r.verdict);
         assert_eq!(r.calibration.effects.cross_quadratic, [[0.0; 5]; 3]);
+    }
+}
+
+/// 20 mg of `u_x·u_y·u_z` on z (degree 3): named `cross-cubic (z: x·y·z)`, within 3 standard
+/// errors, stored in `cross_cubic[2][8]` (DEGREE3[9] = xyz, the ninth of CROSS3[2]). (A term
+/// like `u_x²·u_y` on y is not an open-basis test: its pattern `g_x²·g_y²` lies in the span of
+/// the matrix and the cubic block on the sphere, and the cubic candidate takes it.)
+#[test]
+fn a_cross_cubic_is_named_and_stored() {
+    let truth = 0.020;
+    for seed in 1..=2u64 {
+        let r = analyze(&table_of(Cross::ZXyz, truth, seed));
+        let names: Vec<&str> = r.effects.iter().map(|e| e.name.as_str()).collect();
+        assert_eq!(
+            names,
+            ["cross-cubic (z: x·y·z)"],
+            "seed {seed}: {}",
+            r.verdict
+        );
+        let e = &r.effects[0];
+        assert_eq!(e.unit.as_deref(), Some("1/g²"));
+        let (v, se) = (e.values.unwrap()[2], e.std_errors.unwrap()[2]);
+        assert!(se > 0.0 && (v - truth).abs() < 3.0 * se, "{v} ± {se}");
+        let stored = r.calibration.effects.cross_cubic[2][8] as f64;
+        assert!((stored - v).abs() < 1e-6, "{stored} vs {v}");
     }
 }
