@@ -41,6 +41,15 @@ fn table(c: f64, seed: u64) -> String {
 
 /// The window table with cross term `kind` of coefficient `c`.
 fn table_of(kind: Cross, c: f64, seed: u64) -> String {
+    table_with(kind, c, 0.0, seed)
+}
+
+/// Mean window time of the tables, s (40 windows 10 s apart).
+const T_MEAN: f64 = 195.0;
+
+/// The window table with cross term `kind` of coefficient `c` and a scale on x changing by
+/// `drift` per second about [`T_MEAN`] (`u_x·(1 + drift·(t − T_MEAN)) = g_x`).
+fn table_with(kind: Cross, c: f64, drift: f64, seed: u64) -> String {
     let b = [512.0, -300.0, 250.0];
     let d = [[1000.0, 5.0, -3.0], [0.0, 990.0, 4.0], [0.0, 0.0, 1010.0]];
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
@@ -48,9 +57,13 @@ fn table_of(kind: Cross, c: f64, seed: u64) -> String {
     let mut text = String::from("t,x,y,z,sdx,sdy,sdz,n\n");
     let poses = 40;
     for i in 0..poses {
-        let zc = 1.0 - 2.0 * (i as f64 + 0.5) / poses as f64;
+        // Row i (time 10·i s) visits direction k of the spiral: a shuffled order (13 is prime
+        // to 40), so that time is not a function of the direction (in the spiral's own order
+        // it would be −g_z, and a bias drift could not be told from the bias).
+        let k = (13 * i) % poses;
+        let zc = 1.0 - 2.0 * (k as f64 + 0.5) / poses as f64;
         let r = (1.0 - zc * zc).sqrt();
-        let phi = i as f64 * 2.399_963_229_728_653;
+        let phi = k as f64 * 2.399_963_229_728_653;
         let g = [r * phi.cos(), r * phi.sin(), zc];
         // Solve u + Δ(u) = g by fixed-point iteration (|c| ≪ 1).
         let mut u = g;
@@ -58,7 +71,9 @@ fn table_of(kind: Cross, c: f64, seed: u64) -> String {
             let dl = delta(kind, c, u);
             u = [0, 1, 2].map(|a| g[a] - dl[a]);
         }
-        let mut row = vec![format!("{}", 10.0 * i as f64)];
+        let t = 10.0 * i as f64;
+        u[0] /= 1.0 + drift * (t - T_MEAN);
+        let mut row = vec![format!("{t}")];
         for a in 0..3 {
             let m = b[a] + (0..3).map(|k| d[a][k] * u[k]).sum::<f64>() + noise.sample(&mut rng);
             row.push(format!("{m:.4}"));
@@ -144,5 +159,24 @@ fn a_cross_cubic_is_named_and_stored() {
         assert!(se > 0.0 && (v - truth).abs() < 3.0 * se, "{v} ± {se}");
         let stored = r.calibration.effects.cross_cubic[2][8] as f64;
         assert!((stored - v).abs() < 1e-6, "{stored} vs {v}");
+    }
+}
+
+/// A sensitivity on x that changes by 1 % over the recording (5·10⁻⁵ per s, ±10 mg at the
+/// ends): named `scale-drift (x)` (a host term), its value within 3 standard errors, in 1/s;
+/// the calibration file keeps no trace of it (no cross terms).
+#[test]
+fn a_scale_drift_is_named_as_a_host_term() {
+    let truth = 5e-5;
+    for seed in 1..=2u64 {
+        let r = analyze(&table_with(Cross::ZXy, 0.0, truth, seed));
+        let names: Vec<&str> = r.effects.iter().map(|e| e.name.as_str()).collect();
+        assert_eq!(names, ["scale-drift (x)"], "seed {seed}: {}", r.verdict);
+        let e = &r.effects[0];
+        assert_eq!(e.unit.as_deref(), Some("1/s"));
+        let (v, se) = (e.values.unwrap()[0], e.std_errors.unwrap()[0]);
+        assert!(se > 0.0 && (v - truth).abs() < 3.0 * se, "{v} ± {se}");
+        assert!(e.evidence.contains("host term"), "{}", e.evidence);
+        assert_eq!(r.calibration.effects.cross_quadratic, [[0.0; 5]; 3]);
     }
 }

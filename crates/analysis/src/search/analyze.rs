@@ -74,7 +74,13 @@ pub fn analyze_windows(
         // A restricted candidate list is the user's choice of effects: the open basis, which
         // could stand in for a withheld candidate, runs only when every candidate is allowed.
         if opts.candidates.is_none() {
-            let open = open_basis::extend(&mut search.state, &mut ctx.wins, ctx.model, opts);
+            let hc = open_basis::HostContext {
+                nrm: &ctx.nrm,
+                has_time: ctx.duration > 0.0,
+                has_temp: ctx.temp_range > 0.05,
+                units: ctx.ws.units,
+            };
+            let open = open_basis::extend(&mut search.state, &mut ctx.wins, ctx.model, opts, &hc);
             search.effects.extend(open);
         }
     }

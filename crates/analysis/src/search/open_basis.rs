@@ -45,9 +45,14 @@ pub struct BasisTerm {
     /// The slot it takes (for a cross term: the same in every window).
     pub slot: Slot,
     /// Unit of its coefficient.
-    pub unit: &'static str,
+    pub unit: String,
     /// The other terms with the same first-order pattern, e.g. `x: y·z, y: x·z`.
     pub same_pattern: Vec<String>,
+    /// For a bias or scale term: its regressor per window (normalised time or temperature
+    /// powers, [`Win::tau`], [`Win::theta`]); `None` for a cross term.
+    pub xs: Option<Vec<f64>>,
+    /// Factor from the model's coefficient to the reported value in `unit`.
+    pub factor: f64,
 }
 
 impl BasisTerm {
@@ -57,8 +62,13 @@ impl BasisTerm {
     }
 
     /// The slot in window `i`.
-    fn slot_at(&self, _i: usize) -> Slot {
-        self.slot
+    fn slot_at(&self, i: usize) -> Slot {
+        let x = self.xs.as_ref().map_or(0.0, |xs| xs[i]);
+        match self.slot {
+            Slot::Bias { axis, .. } => Slot::Bias { axis, x },
+            Slot::Scale { axis, .. } => Slot::Scale { axis, x },
+            s => s,
+        }
     }
 
     /// Output axis.
@@ -124,10 +134,105 @@ pub fn orientation_terms() -> Vec<BasisTerm> {
                         axis: i as u8,
                         exps,
                     },
-                    unit,
+                    unit: unit.to_string(),
                     same_pattern,
+                    xs: None,
+                    factor: 1.0,
                 });
             }
+        }
+    }
+    out
+}
+
+/// What the recording allows of the time and temperature families.
+#[derive(Debug, Clone, Copy)]
+pub struct HostContext<'a> {
+    /// The normalisation (time and temperature scales, raw scale).
+    pub nrm: &'a am::Normalisation,
+    /// The windows span a time (the recording lasts).
+    pub has_time: bool,
+    /// The recording has a temperature column with a range worth testing.
+    pub has_temp: bool,
+    /// Units of the window means (`raw`, `g`, …).
+    pub units: &'static str,
+}
+
+/// The time and temperature families, per axis: scale linear and quadratic in time
+/// (`scale-drift`, `scale-drift-curved`, about the mean window time) and, with a temperature
+/// column, bias and scale quadratic and cubic in temperature about the mean window
+/// temperature (the calibration's `temp_ref_c`). Host terms: the core's `Effects` has no
+/// field for them.
+pub fn host_terms(wins: &[Win], hc: &HostContext<'_>) -> Vec<BasisTerm> {
+    let (t, th, s) = (hc.nrm.t_scale, hc.nrm.temp_scale, hc.nrm.scale);
+    let u = hc.units;
+    // (family, scale term?, power, on temperature?, factor to the unit, unit)
+    let mut families: Vec<(&'static str, bool, i32, bool, f64, String)> = Vec::new();
+    if hc.has_time {
+        families.push((names::SCALE_DRIFT, true, 1, false, 1.0 / t, "1/s".into()));
+        families.push((
+            names::SCALE_DRIFT_CURVED,
+            true,
+            2,
+            false,
+            1.0 / (t * t),
+            "1/s²".into(),
+        ));
+    }
+    if hc.has_temp {
+        families.push((
+            names::TEMPERATURE_SQUARED,
+            false,
+            2,
+            true,
+            s / th.powi(2),
+            format!("{u}/°C²"),
+        ));
+        families.push((
+            names::TEMPERATURE_CUBED,
+            false,
+            3,
+            true,
+            s / th.powi(3),
+            format!("{u}/°C³"),
+        ));
+        families.push((
+            names::TEMPERATURE_SCALE_SQUARED,
+            true,
+            2,
+            true,
+            1.0 / th.powi(2),
+            "1/°C²".into(),
+        ));
+        families.push((
+            names::TEMPERATURE_SCALE_CUBED,
+            true,
+            3,
+            true,
+            1.0 / th.powi(3),
+            "1/°C³".into(),
+        ));
+    }
+    let mut out = Vec::new();
+    for (family, scale, power, temp, factor, unit) in families {
+        let xs: Vec<f64> = wins
+            .iter()
+            .map(|w| if temp { w.theta } else { w.tau }.powi(power))
+            .collect();
+        for axis in 0..3u8 {
+            out.push(BasisTerm {
+                family,
+                target: names::AXES[axis as usize].to_string(),
+                slot: if scale {
+                    Slot::Scale { axis, x: 0.0 }
+                } else {
+                    Slot::Bias { axis, x: 0.0 }
+                },
+                unit: unit.clone(),
+                same_pattern: Vec::new(),
+                xs: Some(xs.clone()),
+                factor,
+            });
         }
     }
     out
@@ -244,8 +349,10 @@ pub fn extend(
     wins: &mut Vec<Win>,
     model: MultiPosModel,
     opts: &AnalyzeOptions,
+    hc: &HostContext<'_>,
 ) -> Vec<EffectReport> {
-    let terms = orientation_terms();
+    let mut terms = orientation_terms();
+    terms.extend(host_terms(wins, hc));
     let mut effects = Vec::new();
     let mut taken = vec![false; terms.len()];
     while effects.len() < am::OPEN_SLOTS {
@@ -291,7 +398,10 @@ fn effect_row(
     (level, screened, r, cur_cv): (f64, usize, f64, Option<f64>),
 ) -> EffectReport {
     let se = am::standard_errors(&tr.fit, &tr.mask, &tr.wins, &state.used);
-    let (value, err) = (tr.fit.p[am::OPEN + tr.slot], se[am::OPEN + tr.slot]);
+    let (value, err) = (
+        tr.fit.p[am::OPEN + tr.slot] * term.factor,
+        se[am::OPEN + tr.slot] * term.factor.abs(),
+    );
     let mut values = [0.0; 3];
     let mut errs = [0.0; 3];
     values[term.axis()] = value;
@@ -306,6 +416,12 @@ fn effect_row(
         st::fmt_p(tr.p),
         tr.cv * 1e3
     );
+    if term.xs.is_some() {
+        evidence.push_str(
+            "; a host term (time or temperature): not stored in the calibration file, which \
+             holds the model at the mean window time and temperature",
+        );
+    }
     if !term.same_pattern.is_empty() {
         evidence.push_str(&format!(
             "; ‖a‖ cannot tell it from {} (same first-order pattern)",
@@ -323,7 +439,7 @@ fn effect_row(
         p_value: Some(tr.p),
         values: Some(values),
         std_errors: Some(errs),
-        unit: Some(term.unit.to_string()),
+        unit: Some(term.unit.clone()),
         rejected_windows: None,
     }
 }
