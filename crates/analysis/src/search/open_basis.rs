@@ -18,6 +18,10 @@
 //!    basis: the screening looked at all of them) and its held-out RMS
 //!    ([`crate::fit::press::loo`], the candidates' own) is at least `cv_factor` lower.
 //!
+//! Families: orientation ([`orientation_terms`], stored in the core's `Effects` cross terms)
+//! and time and temperature ([`host_terms`]: reported, not stored in the calibration, whose
+//! model is the one at the mean window time and temperature where they vanish).
+//!
 //! Rounds repeat until a term fails or the slots ([`am::OPEN_SLOTS`]) or the residual degrees
 //! of freedom run out. The orientation family cannot tell output axes apart to first order:
 //! `‖a‖` sees a correction only through `g·Δa`, so `z: x·y`, `x: y·z` and `y: x·z` all give
