@@ -55,6 +55,34 @@ fn a_withheld_quadratic_is_traced_to_its_axis() {
     }
 }
 
+/// A temperature scale on one axis with the temperature candidates withheld: the strongest
+/// correlate is temperature times that axis's square (what `σ·ϑ·u_a` leaves in ‖a‖ − 1),
+/// significant after Bonferroni.
+#[test]
+fn a_withheld_temperature_scale_is_traced_to_its_axis() {
+    let others = [
+        Candidate::Quadratic,
+        Candidate::Cubic,
+        Candidate::BiasDrift,
+        Candidate::Outliers,
+    ];
+    for seed in 1..=2u64 {
+        let axis = seed as usize % 3;
+        let spec = EffectSpec::on_axis(SimEffect::TemperatureScale, Some(20.0), axis);
+        let r = run(vec![spec], seed, true, &others);
+        let c = r
+            .residual_correlates
+            .as_ref()
+            .expect("residual above the floor");
+        assert_eq!(
+            c[0].regressor,
+            format!("temperature*g_{}^2", AXES[axis]),
+            "seed {seed}: {c:?}"
+        );
+        assert!(c[0].significant, "seed {seed}: {:?}", c[0]);
+    }
+}
+
 /// A bias drift with the drift candidates withheld (no temperature column, so nothing else
 /// can stand in for time): the strongest correlate is time times an axis of g, significant.
 #[test]

@@ -32,8 +32,11 @@ use nalgebra::SVector;
 use wiical_core::lm::{self, LmFit, LmSettings, Problem};
 use wiical_core::{Calibration, Effects};
 
-/// Total number of parameters (9 base + 6 effect blocks of 3).
-pub const NP: usize = 27;
+/// Number of open slots: single terms of the open basis ([`Slot`]), appended to the 27
+/// parameters of the fixed blocks; the open-basis stage fills at most this many.
+pub const OPEN_SLOTS: usize = 4;
+/// Total number of parameters (9 base + 6 effect blocks of 3 + [`OPEN_SLOTS`] open slots).
+pub const NP: usize = 27 + OPEN_SLOTS;
 /// A full parameter vector.
 pub type Params = [f64; NP];
 
@@ -53,6 +56,69 @@ pub const QUAD: usize = 18;
 pub const CUBIC: usize = 21;
 /// Curvature of the bias drift in time `d₂` (diagnostic only: `Effects` has no such term).
 pub const DRIFT2: usize = 24;
+/// First open slot's coefficient ([`Slot`]: which term it is lives in the windows).
+pub const OPEN: usize = 27;
+
+/// What an open slot of the parameter vector stands for (the open basis of
+/// [`crate::search::open_basis`]): one coefficient `p`, acting on one output axis. The slot's
+/// identity is held by every window ([`Win::slots`]) so that the forward model stays one
+/// function: an empty slot costs a branch and changes nothing.
+///
+/// - `Bias { axis, x }`: `e_axis −= p·x`, with `x` this window's regressor (normalised units
+///   per unit of `x`; e.g. `ϑ²`, a lagged temperature);
+/// - `Scale { axis, x }`: `u_axis ×= 1 + p·x`;
+/// - `Cross { axis, exps }`: `a_axis += p·u_x^ex·u_y^ey·u_z^ez` (`u` in g, so `p` in 1/g for a
+///   monomial of degree 2, 1/g² for degree 3: the core's `Effects::cross_*`).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub enum Slot {
+    /// Unused: the coefficient is fixed at zero and does nothing.
+    #[default]
+    Empty,
+    /// Bias on `axis` proportional to the window regressor `x`.
+    Bias {
+        /// Output axis (0, 1, 2).
+        axis: u8,
+        /// The window's regressor.
+        x: f64,
+    },
+    /// Relative scale on `axis` proportional to the window regressor `x`.
+    Scale {
+        /// Output axis (0, 1, 2).
+        axis: u8,
+        /// The window's regressor.
+        x: f64,
+    },
+    /// Monomial of `u` added to output axis `axis`.
+    Cross {
+        /// Output axis (0, 1, 2).
+        axis: u8,
+        /// Exponents of `(u_x, u_y, u_z)`.
+        exps: [u8; 3],
+    },
+}
+
+/// `u_x^ex·u_y^ey·u_z^ez` and its gradient in `u`.
+#[inline]
+pub fn monomial(u: &[f64; 3], exps: [u8; 3]) -> (f64, [f64; 3]) {
+    let pw = |x: f64, e: u8| match e {
+        0 => 1.0,
+        1 => x,
+        2 => x * x,
+        _ => x * x * x,
+    };
+    let dpw = |x: f64, e: u8| match e {
+        0 => 0.0,
+        1 => 1.0,
+        2 => 2.0 * x,
+        _ => 3.0 * x * x,
+    };
+    let f = [0, 1, 2].map(|j| pw(u[j], exps[j]));
+    let d = [0, 1, 2].map(|j| dpw(u[j], exps[j]));
+    (
+        f[0] * f[1] * f[2],
+        [d[0] * f[1] * f[2], f[0] * d[1] * f[2], f[0] * f[1] * d[2]],
+    )
+}
 
 /// Entries of the flat vector fixed in the diagonal model: the off-diagonal `k01 k02 k12`.
 pub const K_OFF_DIAGONAL: [usize; 3] = [KMAT + 1, KMAT + 2, KMAT + 4];
@@ -78,6 +144,8 @@ pub struct Blocks {
     pub cubic: [f64; 3],
     /// Drift curvature `d₂` (diagnostic only).
     pub drift2: [f64; 3],
+    /// Coefficients of the open slots ([`Slot`]).
+    pub open: [f64; OPEN_SLOTS],
 }
 
 impl Blocks {
@@ -93,6 +161,7 @@ impl Blocks {
             quadratic: b3(QUAD),
             cubic: b3(CUBIC),
             drift2: b3(DRIFT2),
+            open: std::array::from_fn(|i| p[OPEN + i]),
         }
     }
 
@@ -111,6 +180,7 @@ impl Blocks {
         ] {
             p[t.offset()..t.offset() + 3].copy_from_slice(&self.term(t));
         }
+        p[OPEN..OPEN + OPEN_SLOTS].copy_from_slice(&self.open);
         p
     }
 
@@ -257,7 +327,7 @@ pub fn mask_of_parts(parts: &[Part]) -> Mask {
 }
 
 /// A static window reduced to what the model needs (normalised units).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct Win {
     /// Normalised mean `y = (m − c)/s`.
     pub y: [f64; 3],
@@ -265,6 +335,9 @@ pub struct Win {
     pub tau: f64,
     /// Normalised temperature `ϑ = (θ − θ̄)/Θ` (0 without a temperature column).
     pub theta: f64,
+    /// What the open slots stand for in this window (the same identity in every window,
+    /// with this window's regressor for a bias or scale slot).
+    pub slots: [Slot; OPEN_SLOTS],
 }
 
 /// Which parameters are free.
@@ -284,16 +357,37 @@ pub fn mask_of(terms: &[Term]) -> Mask {
     m
 }
 
-/// The forward model of one window (module docs): the bias-corrected mean `e`, `v = K·e`, the
-/// temperature-scaled `u` and the corrected `a`, all per axis. One function for
-/// [`residual`] and [`residual_and_grad`], so both compute `r` with the same operations.
+/// One window through the forward model (module docs): the bias-corrected mean `e`, `v = K·e`,
+/// the temperature-scaled `u`, the corrected `a`, the temperature scale factor `1 + σ_j·ϑ` and
+/// the open slots' scale factor `1 + Σ p·x` per axis.
+struct Fwd {
+    e: [f64; 3],
+    v: [f64; 3],
+    u: [f64; 3],
+    a: [f64; 3],
+    st: [f64; 3],
+    extra: [f64; 3],
+}
+
+/// The forward model of one window (module docs), open slots included ([`Slot`]). One
+/// function for [`residual`] and [`residual_and_grad`], so both compute `r` with the same
+/// operations; with every slot empty it performs exactly the operations of the 27-parameter
+/// model (a factor 1.0 is exact), so the fixed blocks' numbers do not move.
 #[inline(always)]
-fn forward(b: &Blocks, w: &Win) -> ([f64; 3], [f64; 3], [f64; 3], [f64; 3]) {
+fn forward(b: &Blocks, w: &Win) -> Fwd {
     let (tau, th) = (w.tau, w.theta);
     let tau2 = tau * tau;
-    let e: [f64; 3] = std::array::from_fn(|j| {
+    let mut e: [f64; 3] = std::array::from_fn(|j| {
         w.y[j] - b.bias[j] - b.drift[j] * tau - b.drift2[j] * tau2 - b.bias_temp[j] * th
     });
+    let mut extra = [1.0; 3];
+    for (s, c) in w.slots.iter().zip(&b.open) {
+        match *s {
+            Slot::Bias { axis, x } => e[axis as usize] -= c * x,
+            Slot::Scale { axis, x } => extra[axis as usize] += c * x,
+            _ => {}
+        }
+    }
     let k = &b.k;
     let v = [
         k[0] * e[0] + k[1] * e[1] + k[2] * e[2],
@@ -302,14 +396,27 @@ fn forward(b: &Blocks, w: &Win) -> ([f64; 3], [f64; 3], [f64; 3], [f64; 3]) {
     ];
     let mut u = [0.0; 3];
     let mut a = [0.0; 3];
+    let mut st = [0.0; 3];
     for j in 0..3 {
-        let sf = 1.0 + b.scale_temp[j] * th;
-        let uj = v[j] * sf;
+        st[j] = 1.0 + b.scale_temp[j] * th;
+        let uj = v[j] * (st[j] * extra[j]);
         let (q, c) = (b.quadratic[j], b.cubic[j]);
         u[j] = uj;
         a[j] = uj + q * uj * uj + c * uj * uj * uj;
     }
-    (e, v, u, a)
+    for (s, c) in w.slots.iter().zip(&b.open) {
+        if let Slot::Cross { axis, exps } = *s {
+            a[axis as usize] += c * monomial(&u, exps).0;
+        }
+    }
+    Fwd {
+        e,
+        v,
+        u,
+        a,
+        st,
+        extra,
+    }
 }
 
 /// `‖a‖` of the corrected window.
@@ -324,22 +431,39 @@ pub fn residual_and_grad(p: &Params, w: &Win) -> (f64, Params) {
     let b = Blocks::of(p);
     let (tau, th) = (w.tau, w.theta);
     let tau2 = tau * tau;
-    let (e, v, u, a) = forward(&b, w);
+    let Fwd {
+        e,
+        v,
+        u,
+        a,
+        st,
+        extra,
+    } = forward(&b, w);
     let k = &b.k;
-    let h: [f64; 3] = std::array::from_fn(|j| {
-        let (q, c) = (b.quadratic[j], b.cubic[j]);
-        1.0 + 2.0 * q * u[j] + 3.0 * c * u[j] * u[j]
-    });
     let n = norm(&a);
     let inv = if n > 0.0 { 1.0 / n } else { 0.0 };
     let g = [a[0] * inv, a[1] * inv, a[2] * inv];
     let mut grad = [0.0; NP];
-    // ∂r/∂v_j = g_j·h_j·(1 + σ_j ϑ) =: z_j.
+    // ∂r/∂u_j: the per-axis polynomial's g_j·h_j plus what the cross slots add.
+    let mut du: [f64; 3] = std::array::from_fn(|j| {
+        let (q, c) = (b.quadratic[j], b.cubic[j]);
+        g[j] * (1.0 + 2.0 * q * u[j] + 3.0 * c * u[j] * u[j])
+    });
+    for (s, (slot, c)) in w.slots.iter().zip(&b.open).enumerate() {
+        if let Slot::Cross { axis, exps } = *slot {
+            let (m, dm) = monomial(&u, exps);
+            let gi = g[axis as usize];
+            grad[OPEN + s] = gi * m;
+            for j in 0..3 {
+                du[j] += gi * c * dm[j];
+            }
+        }
+    }
+    // ∂r/∂v_j = ∂r/∂u_j·(1 + σ_j ϑ)·(1 + Σ p·x) =: z_j.
     let mut z = [0.0; 3];
     for j in 0..3 {
-        let w_j = g[j] * h[j];
-        z[j] = w_j * (1.0 + b.scale_temp[j] * th);
-        grad[STEMP + j] = w_j * v[j] * th;
+        z[j] = du[j] * (st[j] * extra[j]);
+        grad[STEMP + j] = du[j] * v[j] * th * extra[j];
         grad[QUAD + j] = g[j] * u[j] * u[j];
         grad[CUBIC + j] = g[j] * u[j] * u[j] * u[j];
     }
@@ -362,6 +486,16 @@ pub fn residual_and_grad(p: &Params, w: &Win) -> (f64, Params) {
         grad[DRIFT2 + j] = -kt[j] * tau2;
         grad[BTEMP + j] = -kt[j] * th;
     }
+    for (s, slot) in w.slots.iter().enumerate() {
+        match *slot {
+            Slot::Bias { axis, x } => grad[OPEN + s] = -kt[axis as usize] * x,
+            Slot::Scale { axis, x } => {
+                let j = axis as usize;
+                grad[OPEN + s] = du[j] * v[j] * st[j] * x;
+            }
+            _ => {}
+        }
+    }
     (n - 1.0, grad)
 }
 
@@ -369,8 +503,24 @@ pub fn residual_and_grad(p: &Params, w: &Win) -> (f64, Params) {
 /// solver's cost evaluations, two thirds of the model evaluations of an analysis).
 #[inline]
 pub fn residual(p: &Params, w: &Win) -> f64 {
-    let (_, _, _, a) = forward(&Blocks::of(p), w);
-    norm(&a) - 1.0
+    norm(&forward(&Blocks::of(p), w).a) - 1.0
+}
+
+/// The corrected acceleration `a` of one window (g), the direction the first-order patterns
+/// of the open basis are evaluated at.
+pub fn corrected(p: &Params, w: &Win) -> [f64; 3] {
+    forward(&Blocks::of(p), w).a
+}
+
+/// `mask` with the open slots the windows use set free (a slot is used when the first window
+/// names a term for it: every window holds the same identities).
+pub fn with_open(mut mask: Mask, wins: &[Win]) -> Mask {
+    if let Some(w) = wins.first() {
+        for (s, slot) in w.slots.iter().enumerate() {
+            mask[OPEN + s] = *slot != Slot::Empty;
+        }
+    }
+    mask
 }
 
 /// Result of a least-squares fit.
@@ -464,6 +614,10 @@ macro_rules! with_free_count {
             25 => $f::<25>($($arg),*),
             26 => $f::<26>($($arg),*),
             27 => $f::<27>($($arg),*),
+            28 => $f::<28>($($arg),*),
+            29 => $f::<29>($($arg),*),
+            30 => $f::<30>($($arg),*),
+            31 => $f::<31>($($arg),*),
             _ => None,
         }
     };
@@ -659,6 +813,7 @@ impl Normalisation {
             ],
             tau: (time - self.t_mean) / self.t_scale,
             theta: temp.map_or(0.0, |t| (t - self.temp_mean) / self.temp_scale),
+            slots: [Slot::Empty; OPEN_SLOTS],
         }
     }
 
@@ -721,6 +876,34 @@ impl Normalisation {
     }
 }
 
+impl Normalisation {
+    /// [`Normalisation::to_calibration`] with the open slots' cross terms stored in
+    /// `Effects::cross_quadratic` / `cross_cubic` (the model's `u` is in g, so the slot's
+    /// coefficient is already in 1/g or 1/g²). Bias and scale slots (time and temperature
+    /// terms) are host terms the core's `Effects` has no field for: they are not stored here.
+    pub fn to_calibration_open(self, p: &Params, slots: &[Slot; OPEN_SLOTS]) -> Calibration {
+        use wiical_core::model::{CROSS2, CROSS3, DEGREE2, DEGREE3};
+        let mut cal = self.to_calibration(p);
+        for (s, c) in slots.iter().zip(&p[OPEN..]) {
+            let Slot::Cross { axis, exps } = *s else {
+                continue;
+            };
+            let i = axis as usize;
+            let c = *c as f32;
+            if let Some(k) = DEGREE2.iter().position(|m| *m == exps) {
+                if let Some(j) = CROSS2[i].iter().position(|x| *x == k) {
+                    cal.effects.cross_quadratic[i][j] += c;
+                }
+            } else if let Some(k) = DEGREE3.iter().position(|m| *m == exps) {
+                if let Some(j) = CROSS3[i].iter().position(|x| *x == k) {
+                    cal.effects.cross_cubic[i][j] += c;
+                }
+            }
+        }
+        cal
+    }
+}
+
 /// Model parameters in raw units (see [`Normalisation::raw`]).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct RawParams {
@@ -755,6 +938,20 @@ mod tests {
         p
     }
 
+    /// Open slots of every kind (the gradient and residual tests run with them filled).
+    const SLOTS: [Slot; OPEN_SLOTS] = [
+        Slot::Bias { axis: 0, x: 0.7 },
+        Slot::Scale { axis: 2, x: -0.4 },
+        Slot::Cross {
+            axis: 2,
+            exps: [1, 1, 0],
+        },
+        Slot::Cross {
+            axis: 0,
+            exps: [0, 1, 2],
+        },
+    ];
+
     /// The named blocks and the flat vector are two views of the same numbers.
     #[test]
     fn blocks_round_trip_and_name_the_offsets() {
@@ -782,6 +979,7 @@ mod tests {
                 y: [x.sin(), (1.3 * x).cos(), (0.7 * x).sin() - 0.2],
                 tau: (0.3 * x).cos(),
                 theta: (0.11 * x).sin() * 2.0,
+                slots: SLOTS,
             };
             assert_eq!(
                 residual(&p, &w).to_bits(),
@@ -798,6 +996,7 @@ mod tests {
             y: [0.3, -0.7, 0.6],
             tau: 0.8,
             theta: -1.2,
+            slots: SLOTS,
         };
         let (_, g) = residual_and_grad(&p, &w);
         for i in 0..NP {
@@ -834,6 +1033,40 @@ mod tests {
                     time_s: times[i] as f32,
                     temperature_c: Some(temps[i] as f32),
                 },
+            );
+            let got = (a.iter().map(|x| (*x as f64).powi(2)).sum::<f64>()).sqrt() - 1.0;
+            assert!((got - want).abs() < 2e-5, "{got} vs {want}");
+        }
+    }
+
+    /// The open slots' cross terms land in the core's `Effects::cross_*` at the index its
+    /// tables give, so `Calibration::correct` reproduces the model with them.
+    #[test]
+    fn calibration_carries_the_cross_slots() {
+        let means = [
+            [520.0, 500.0, 610.0],
+            [410.0, 505.0, 515.0],
+            [515.0, 400.0, 505.0],
+            [600.0, 590.0, 420.0],
+        ];
+        let times = [10.0, 50.0, 90.0, 120.0];
+        let nrm = Normalisation::of(&means, &times, None);
+        let mut p = [0.0; NP];
+        p[..9].copy_from_slice(&[0.0, 0.0, 0.0, 0.9, 0.01, 0.0, 0.95, -0.01, 0.97]);
+        p[OPEN + 2] = 0.015;
+        p[OPEN + 3] = -0.02;
+        let slots = [Slot::Empty, Slot::Empty, SLOTS[2], SLOTS[3]];
+        let cal = nrm.to_calibration_open(&p, &slots);
+        // z: x·y is DEGREE2[3] = CROSS2[2][2]; x: y·z² is DEGREE3[8] = CROSS3[0][7].
+        assert_eq!(cal.effects.cross_quadratic[2][2], 0.015);
+        assert_eq!(cal.effects.cross_cubic[0][7], -0.02);
+        for i in 0..means.len() {
+            let mut w = nrm.window(&means[i], times[i], None);
+            w.slots = slots;
+            let want = residual(&p, &w);
+            let a = cal.correct(
+                means[i].map(|x| x as f32),
+                &wiical_core::Conditions::default(),
             );
             let got = (a.iter().map(|x| (*x as f64).powi(2)).sum::<f64>()).sqrt() - 1.0;
             assert!((got - want).abs() < 2e-5, "{got} vs {want}");

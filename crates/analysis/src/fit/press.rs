@@ -96,6 +96,7 @@ mod tests {
                     // a scale error on z).
                     tau: 2.0 * ((i * 37) % n) as f64 / n as f64 - 1.0,
                     theta: 0.0,
+                    slots: Default::default(),
                 }
             })
             .collect()

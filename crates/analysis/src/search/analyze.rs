@@ -27,9 +27,10 @@ use crate::report::contract::{
 };
 use crate::report::progress::{Progress, Stage};
 use crate::search::candidate::Candidate;
-use crate::search::correlates::{residual_correlates, WindowPoint};
+use crate::search::correlates::{residual_correlates, span_of, WindowPoint};
 use crate::search::evidence::{self as ev, TermContext};
 use crate::search::floor::{chi2_summary, floors, reference_variance};
+use crate::search::open_basis;
 use crate::search::options::AnalyzeOptions;
 use crate::search::outliers::{find_outliers, OutlierTrial};
 use crate::search::select::{check_rule, cv_over, select, Choice, OutlierScore, TermScore};
@@ -64,13 +65,25 @@ pub fn analyze_windows(
 ) -> Result<AnalyzeReport> {
     check_rule(opts.alpha, opts.cv_factor)?;
     let report = |stage, done, total| opts.progress.report(Progress { stage, done, total });
-    let ctx = Context::new(ws, opts)?;
+    let mut ctx = Context::new(ws, opts)?;
     report(Stage::BaseFit, 0, 1);
     let base = ctx.base_fit()?;
     report(Stage::BaseFit, 1, 1);
     let mut search = Search::new(&ctx, &base);
     if base.loo.is_some() {
         while search.effects.len() < opts.max_effects && search.step(&ctx) {}
+        // A restricted candidate list is the user's choice of effects: the open basis, which
+        // could stand in for a withheld candidate, runs only when every candidate is allowed.
+        if opts.candidates.is_none() {
+            let hc = open_basis::HostContext {
+                nrm: &ctx.nrm,
+                has_time: ctx.duration > 0.0,
+                has_temp: ctx.temp_range > 0.05,
+                units: ctx.ws.units,
+            };
+            let open = open_basis::extend(&mut search.state, &mut ctx.wins, ctx.model, opts, &hc);
+            search.effects.extend(open);
+        }
     }
     ctx.report(rec, &base, search)
 }
@@ -231,39 +244,6 @@ impl<'a> Context<'a> {
     fn spans(&self) -> Vec<(usize, usize)> {
         self.ws.stats.iter().map(|w| (w.start, w.end)).collect()
     }
-}
-
-/// What each free parameter (`mask`) changes in a window's residual to first order, at the
-/// fitted gravity direction `g` (where the residual is zero): a bias `g_a`, a matrix entry
-/// `g_j·g_k`, a drift `τ·g_a`, a curved drift `τ²·g_a`, a temperature bias `ϑ·g_a`, a
-/// temperature scale `ϑ·g_a²`, a quadratic `g_a³`, a cubic `g_a⁴`. The model's Jacobian at
-/// the fit itself is not used: the norm is homogeneous in the matrix, so its columns span
-/// `1 + r` and would take the residual itself out.
-fn span_of(mask: &am::Mask, g: [f64; 3], tau: f64, theta: f64) -> Vec<f64> {
-    const K_ENTRIES: [(usize, usize); 6] = [(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)];
-    let mut out = Vec::new();
-    for (j, free) in mask.iter().enumerate() {
-        if !*free {
-            continue;
-        }
-        let (block, a) = (j / 3 * 3, j % 3);
-        let ga = g[a];
-        out.push(match block {
-            am::BIAS => ga,
-            am::DRIFT => tau * ga,
-            am::DRIFT2 => tau * tau * ga,
-            am::BTEMP => theta * ga,
-            am::STEMP => theta * ga * ga,
-            am::QUAD => ga.powi(3),
-            am::CUBIC => ga.powi(4),
-            _ if (am::KMAT..am::KMAT + 6).contains(&j) => {
-                let (r, c) = K_ENTRIES[j - am::KMAT];
-                g[r] * g[c]
-            }
-            _ => continue,
-        });
-    }
-    out
 }
 
 /// Every `size`-element subset of `items`, in lexicographic order of positions.
@@ -727,7 +707,7 @@ impl Context<'_> {
         let n = self.n();
         let all = vec![true; n];
         let k_base = base_mask(self.model).iter().filter(|x| **x).count();
-        let k_terms = mask_for(self.model, &state.parts)
+        let k_terms = am::with_open(mask_for(self.model, &state.parts), &self.wins)
             .iter()
             .filter(|x| **x)
             .count();
@@ -804,7 +784,7 @@ impl Context<'_> {
             return None;
         }
         let cal = self.nrm.to_calibration(&state.fit.p);
-        let mask = mask_for(self.model, &state.parts);
+        let mask = am::with_open(mask_for(self.model, &state.parts), &self.wins);
         let points: Vec<WindowPoint> = self
             .ws
             .stats
@@ -818,7 +798,7 @@ impl Context<'_> {
                 let g = a.map(|x| x / n);
                 WindowPoint {
                     residual_mg: am::residual(&state.fit.p, win) * 1e3,
-                    span: span_of(&mask, g, win.tau, win.theta),
+                    span: span_of(&mask, g, win),
                     t_s: w.t_centre,
                     temp_c: w.temp,
                     g,
@@ -847,10 +827,11 @@ impl Context<'_> {
 
     fn report(&self, rec: &Recording, base: &Base, search: Search) -> Result<AnalyzeReport> {
         let (base_summary, final_model) = self.summaries(base, &search.state);
-        let calibration = self.nrm.to_calibration(&search.state.fit.p);
-        calibration
-            .validate()
-            .map_err(SearchError::InvalidCalibration)?;
+        let calibration = match self.wins.first() {
+            Some(w) => self.nrm.to_calibration_open(&search.state.fit.p, &w.slots),
+            None => self.nrm.to_calibration(&search.state.fit.p),
+        };
+        calibration.validate().map_err(SearchError::InvalidCalibration)?;
         let windows = self.window_infos(base, &search);
         let residual_correlates = self.correlates(base, &search.state, &final_model);
         // Candidates the last step could not test at all (too few windows for them).

@@ -18,9 +18,11 @@
 //! cubes (the residual of a per-axis even nonlinearity `q·u²` is `q·g_a³`), their fourth
 //! powers (of an odd one, `c·u³`: `c·g_a⁴`) and the product `g_x·g_y·g_z` (a cross-axis
 //! term), and time and temperature times each axis of `g` (the residual of a bias that
-//! drifts on axis a, with time or with temperature, is `d·t·g_a`). Squares are not tried:
-//! the matrix spans them.
+//! drifts on axis a, with time or with temperature, is `d·t·g_a`), and temperature times
+//! each axis's square (of a scale that follows the temperature on axis a: `σ·ϑ·g_a²`).
+//! Squares alone are not tried: the matrix spans them.
 
+use crate::fit::model;
 use crate::stats as st;
 use nalgebra::{DMatrix, DVector};
 use serde::Serialize;
@@ -45,7 +47,7 @@ pub struct WindowPoint {
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct ResidualCorrelate {
     /// `time`, `temperature`, `g_x` … `g_z`, `g_x^3` …, `g_x^4` …, `g_x*g_y*g_z`, `time*g_x` …,
-    /// `temperature*g_x` ….
+    /// `temperature*g_x` …, `temperature*g_x^2` ….
     pub regressor: String,
     /// Pearson correlation of the final per-window residual (‖a‖ − 1) with the regressor.
     pub r: f64,
@@ -59,7 +61,8 @@ pub struct ResidualCorrelate {
     pub significant: bool,
     /// Least-squares slope of the residual on the regressor, in `slope_unit`.
     pub slope: f64,
-    /// `mg/min`, `mg/°C`, `mg/g`, `mg/g^3`, `mg/g^4`, `mg/(g·min)` or `mg/(g·°C)`.
+    /// `mg/min`, `mg/°C`, `mg/g`, `mg/g^3`, `mg/g^4`, `mg/(g·min)`, `mg/(g·°C)` or
+    /// `mg/(g²·°C)`.
     pub slope_unit: &'static str,
     /// Windows the correlation is over.
     pub windows: usize,
@@ -89,6 +92,21 @@ fn regressors(w: &WindowPoint) -> Vec<(&'static str, &'static str, Option<f64>)>
         ("temperature*g_x", "mg/(g·°C)", w.temp_c.map(|c| c * x)),
         ("temperature*g_y", "mg/(g·°C)", w.temp_c.map(|c| c * y)),
         ("temperature*g_z", "mg/(g·°C)", w.temp_c.map(|c| c * z)),
+        (
+            "temperature*g_x^2",
+            "mg/(g²·°C)",
+            w.temp_c.map(|c| c * x * x),
+        ),
+        (
+            "temperature*g_y^2",
+            "mg/(g²·°C)",
+            w.temp_c.map(|c| c * y * y),
+        ),
+        (
+            "temperature*g_z^2",
+            "mg/(g²·°C)",
+            w.temp_c.map(|c| c * z * z),
+        ),
     ]
 }
 
@@ -97,17 +115,15 @@ fn regressors(w: &WindowPoint) -> Vec<(&'static str, &'static str, Option<f64>)>
 /// those regressors. Empty when fewer than 3 degrees of freedom remain.
 pub fn residual_correlates(points: &[WindowPoint], alpha: f64) -> Vec<ResidualCorrelate> {
     let n = points.len();
-    let Some((basis, rank)) = span_basis(points) else {
+    let spans: Vec<&[f64]> = points.iter().map(|p| p.span.as_slice()).collect();
+    let Some(proj) = Projector::new(&spans) else {
         return Vec::new();
     };
+    let rank = proj.rank;
     if n < rank + 4 {
         return Vec::new();
     }
-    let project = |v: Vec<f64>| -> Vec<f64> {
-        let x = DVector::from_vec(v);
-        let perp = &x - &basis * (basis.transpose() * &x);
-        perp.iter().copied().collect()
-    };
+    let project = |v: Vec<f64>| proj.project(v);
     let res = project(points.iter().map(|p| p.residual_mg).collect());
     let ss_res: f64 = res.iter().map(|x| x * x).sum();
     let rows: Vec<_> = points.iter().map(regressors).collect();
@@ -149,24 +165,94 @@ pub fn residual_correlates(points: &[WindowPoint], alpha: f64) -> Vec<ResidualCo
     out
 }
 
-/// Orthonormal basis (columns) of the span of a constant and the points' `span` columns, and
-/// its rank (singular values above 1e-9 of the largest).
-fn span_basis(points: &[WindowPoint]) -> Option<(DMatrix<f64>, usize)> {
-    let n = points.len();
-    let k = points.first()?.span.len() + 1;
-    let j = DMatrix::from_fn(
-        n,
-        k,
-        |i, c| if c == 0 { 1.0 } else { points[i].span[c - 1] },
-    );
-    let svd = j.svd(true, false);
-    let u = svd.u?;
-    let smax = svd.singular_values.max();
-    let keep: Vec<usize> = (0..svd.singular_values.len())
-        .filter(|&i| svd.singular_values[i] > 1e-9 * smax)
-        .collect();
-    let basis = DMatrix::from_fn(n, keep.len(), |i, c| u[(i, keep[c])]);
-    Some((basis, keep.len()))
+/// The projection off the span of a constant and per-window span columns (the model's
+/// first-order patterns, [`WindowPoint::span`]): what of a per-window series the model cannot
+/// describe. Shared by the correlates and the open basis's screening
+/// ([`crate::search::open_basis`]).
+pub(crate) struct Projector {
+    /// Orthonormal basis (columns) of the span.
+    basis: DMatrix<f64>,
+    /// Its rank (singular values above 1e-9 of the largest).
+    pub rank: usize,
+}
+
+impl Projector {
+    /// From each window's span columns (all of the same length); `None` without windows or
+    /// when the decomposition fails.
+    pub(crate) fn new(spans: &[&[f64]]) -> Option<Self> {
+        let n = spans.len();
+        let k = spans.first()?.len() + 1;
+        let j = DMatrix::from_fn(n, k, |i, c| if c == 0 { 1.0 } else { spans[i][c - 1] });
+        let svd = j.svd(true, false);
+        let u = svd.u?;
+        let smax = svd.singular_values.max();
+        let keep: Vec<usize> = (0..svd.singular_values.len())
+            .filter(|&i| svd.singular_values[i] > 1e-9 * smax)
+            .collect();
+        let basis = DMatrix::from_fn(n, keep.len(), |i, c| u[(i, keep[c])]);
+        Some(Self {
+            rank: keep.len(),
+            basis,
+        })
+    }
+
+    /// `v` minus its projection on the span: O(windows × rank).
+    pub(crate) fn project(&self, v: Vec<f64>) -> Vec<f64> {
+        let x = DVector::from_vec(v);
+        let perp = &x - &self.basis * (self.basis.transpose() * &x);
+        perp.iter().copied().collect()
+    }
+}
+
+/// What each free parameter (`mask`) changes in a window's residual to first order, at the
+/// fitted gravity direction `g` (where the residual is zero): a bias `g_a`, a matrix entry
+/// `g_j·g_k`, a drift `τ·g_a`, a curved drift `τ²·g_a`, a temperature bias `ϑ·g_a`, a
+/// temperature scale `ϑ·g_a²`, a quadratic `g_a³`, a cubic `g_a⁴`, an open slot
+/// [`slot_pattern`]. The model's Jacobian at the fit itself is not used: the norm is
+/// homogeneous in the matrix, so its columns span `1 + r` and would take the residual itself
+/// out.
+pub(crate) fn span_of(mask: &model::Mask, g: [f64; 3], w: &model::Win) -> Vec<f64> {
+    const K_ENTRIES: [(usize, usize); 6] = [(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)];
+    let (tau, theta) = (w.tau, w.theta);
+    let mut out = Vec::new();
+    for (j, free) in mask.iter().enumerate() {
+        if !*free {
+            continue;
+        }
+        if j >= model::OPEN {
+            out.push(slot_pattern(&w.slots[j - model::OPEN], g));
+            continue;
+        }
+        let (block, a) = (j / 3 * 3, j % 3);
+        let ga = g[a];
+        out.push(match block {
+            model::BIAS => ga,
+            model::DRIFT => tau * ga,
+            model::DRIFT2 => tau * tau * ga,
+            model::BTEMP => theta * ga,
+            model::STEMP => theta * ga * ga,
+            model::QUAD => ga.powi(3),
+            model::CUBIC => ga.powi(4),
+            _ if (model::KMAT..model::KMAT + 6).contains(&j) => {
+                let (r, c) = K_ENTRIES[j - model::KMAT];
+                g[r] * g[c]
+            }
+            _ => continue,
+        });
+    }
+    out
+}
+
+/// First-order pattern of an open slot in the residual at direction `g` (up to its sign
+/// convention): a bias `x·g_a`, a scale `x·g_a²`, a cross term on axis `i` with monomial
+/// `u^e` `g_i·g^e`.
+pub(crate) fn slot_pattern(slot: &model::Slot, g: [f64; 3]) -> f64 {
+    match *slot {
+        model::Slot::Empty => 0.0,
+        model::Slot::Bias { axis, x } => x * g[axis as usize],
+        model::Slot::Scale { axis, x } => x * g[axis as usize].powi(2),
+        model::Slot::Cross { axis, exps } => g[axis as usize] * model::monomial(&g, exps).0,
+    }
 }
 
 /// Standard deviation (population) of a series.
@@ -205,6 +291,9 @@ pub fn sentence(list: &[ResidualCorrelate], time_temp_r: Option<f64>) -> Option<
         "temperature" => "a temperature dependence the accepted effects do not describe",
         x if x.starts_with("time*") => {
             "a bias change over time on that axis the accepted effects do not describe"
+        }
+        x if x.starts_with("temperature*") && x.ends_with("^2") => {
+            "a scale change with temperature on that axis the accepted effects do not describe"
         }
         x if x.starts_with("temperature*") => {
             "a bias change with temperature on that axis the accepted effects do not describe"

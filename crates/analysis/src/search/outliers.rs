@@ -273,6 +273,7 @@ mod tests {
                     y: d.map(|x| x * k),
                     tau: 0.0,
                     theta: 0.0,
+                    slots: Default::default(),
                 }
             })
             .collect();

@@ -1,0 +1,477 @@
+//! The open basis (issue 19 item 3): after the greedy search over the candidates
+//! ([`crate::search::analyze`]), single terms of physically motivated families are added one
+//! at a time, each by the same rule as a candidate (an F-test at a Bonferroni level and the
+//! leave-one-window-out RMS at least `cv_factor` lower).
+//!
+//! A round has two parts.
+//!
+//! 1. **Screening**, linear in windows × terms: every basis term's first-order pattern in the
+//!    window residual at the fitted gravity direction `g` ([`slot_pattern`]: a cross term on
+//!    output axis `i` with monomial `u_j·u_k` gives `g_i·g_j·g_k`) is projected off the
+//!    current model's span (the projection of the correlates,
+//!    [`crate::search::correlates::Projector`], over the columns of [`span_of`]) and scored by
+//!    its partial correlation with the residual. Terms inside the span (the projection leaves
+//!    less than 10⁻⁶ of the pattern) are not counted.
+//! 2. **Refit**: the best-scoring term only is put into a free open slot of the f64 model
+//!    ([`crate::fit::model::Slot`]) and refitted with everything else; it is accepted when its
+//!    F-test has p below α divided by the number of terms screened (Bonferroni over the
+//!    basis: the screening looked at all of them) and its held-out RMS
+//!    ([`crate::fit::press::loo`], the candidates' own) is at least `cv_factor` lower.
+//!
+//! Families: orientation ([`orientation_terms`], stored in the core's `Effects` cross terms)
+//! and time and temperature ([`host_terms`]: reported, not stored in the calibration, whose
+//! model is the one at the mean window time and temperature where they vanish).
+//!
+//! Rounds repeat until a term fails or the slots ([`am::OPEN_SLOTS`]) or the residual degrees
+//! of freedom run out. The orientation family cannot tell output axes apart to first order:
+//! `‖a‖` sees a correction only through `g·Δa`, so `z: x·y`, `x: y·z` and `y: x·z` all give
+//! `g_x·g_y·g_z`. The basis holds one representative per pattern, on the highest output axis
+//! the pattern contains, and the evidence names the terms it stands for.
+
+#![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x > 0.0)` is deliberately true for NaN.
+use crate::fit::model::{self as am, Fit, Slot, Win};
+use crate::report::contract::EffectReport;
+use crate::report::effect_names as names;
+use crate::search::correlates::{slot_pattern, span_of, Projector};
+use crate::search::options::AnalyzeOptions;
+use crate::search::select::{cv_over, MIN_DOF_TERM};
+use crate::search::trial::{mask_for, State};
+use crate::stats as st;
+use wiical_core::multipos::MultiPosModel;
+
+/// One term of the open basis.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BasisTerm {
+    /// Family name ([`crate::report::effect_names`]).
+    pub family: &'static str,
+    /// What it acts on, e.g. `z: x·y`.
+    pub target: String,
+    /// The slot it takes (for a cross term: the same in every window).
+    pub slot: Slot,
+    /// Unit of its coefficient.
+    pub unit: String,
+    /// The other terms with the same first-order pattern, e.g. `x: y·z, y: x·z`.
+    pub same_pattern: Vec<String>,
+    /// For a bias or scale term: its regressor per window (normalised time or temperature
+    /// powers, [`Win::tau`], [`Win::theta`]); `None` for a cross term.
+    pub xs: Option<Vec<f64>>,
+    /// Factor from the model's coefficient to the reported value in `unit`.
+    pub factor: f64,
+}
+
+impl BasisTerm {
+    /// The report name, `<family> (<target>)`.
+    pub fn name(&self) -> String {
+        format!("{} ({})", self.family, self.target)
+    }
+
+    /// The slot in window `i`.
+    fn slot_at(&self, i: usize) -> Slot {
+        let x = self.xs.as_ref().map_or(0.0, |xs| xs[i]);
+        match self.slot {
+            Slot::Bias { axis, .. } => Slot::Bias { axis, x },
+            Slot::Scale { axis, .. } => Slot::Scale { axis, x },
+            s => s,
+        }
+    }
+
+    /// Output axis.
+    fn axis(&self) -> usize {
+        match self.slot {
+            Slot::Bias { axis, .. } | Slot::Scale { axis, .. } | Slot::Cross { axis, .. } => {
+                axis as usize
+            }
+            Slot::Empty => 0,
+        }
+    }
+}
+
+/// `u_x^ex·u_y^ey·u_z^ez` as text: `x·y`, `x²·z`.
+fn monomial_name(exps: [u8; 3]) -> String {
+    let mut parts = Vec::new();
+    for (a, &e) in exps.iter().enumerate() {
+        let ax = names::AXES[a];
+        match e {
+            0 => {}
+            1 => parts.push(ax.to_string()),
+            2 => parts.push(format!("{ax}²")),
+            _ => parts.push(format!("{ax}³")),
+        }
+    }
+    parts.join("·")
+}
+
+/// The orientation family: one representative per first-order pattern `g^G` of degree 3
+/// (cross-quadratic) and 4 (cross-cubic) that is not a single axis's power (the candidates'
+/// quadratic and cubic): output axis `i` the highest axis in `G`, monomial `G − e_i`.
+pub fn orientation_terms() -> Vec<BasisTerm> {
+    let mut out = Vec::new();
+    for (degree, family, unit) in [
+        (3u8, names::CROSS_QUADRATIC, "1/g"),
+        (4u8, names::CROSS_CUBIC, "1/g²"),
+    ] {
+        for gx in (0..=degree).rev() {
+            for gy in (0..=degree - gx).rev() {
+                let g = [gx, gy, degree - gx - gy];
+                if g.contains(&degree) {
+                    continue;
+                }
+                let label = |i: usize| {
+                    let mut m = g;
+                    m[i] -= 1;
+                    (m, format!("{}: {}", names::AXES[i], monomial_name(m)))
+                };
+                let Some(i) = (0..3).rev().find(|&i| g[i] > 0) else {
+                    continue;
+                };
+                let (exps, target) = label(i);
+                // Other output axes in the pattern whose monomial is a cross term (not the
+                // axis's own power).
+                let same_pattern = (0..3)
+                    .filter(|&j| j != i && g[j] > 0 && g[j] < degree)
+                    .map(|j| label(j).1)
+                    .collect();
+                out.push(BasisTerm {
+                    family,
+                    target,
+                    slot: Slot::Cross {
+                        axis: i as u8,
+                        exps,
+                    },
+                    unit: unit.to_string(),
+                    same_pattern,
+                    xs: None,
+                    factor: 1.0,
+                });
+            }
+        }
+    }
+    out
+}
+
+/// What the recording allows of the time and temperature families.
+#[derive(Debug, Clone, Copy)]
+pub struct HostContext<'a> {
+    /// The normalisation (time and temperature scales, raw scale).
+    pub nrm: &'a am::Normalisation,
+    /// The windows span a time (the recording lasts).
+    pub has_time: bool,
+    /// The recording has a temperature column with a range worth testing.
+    pub has_temp: bool,
+    /// Units of the window means (`raw`, `g`, …).
+    pub units: &'static str,
+}
+
+/// The time and temperature families, per axis: scale linear and quadratic in time
+/// (`scale-drift`, `scale-drift-curved`, about the mean window time) and, with a temperature
+/// column, bias and scale quadratic and cubic in temperature about the mean window
+/// temperature (the calibration's `temp_ref_c`). Host terms: the core's `Effects` has no
+/// field for them.
+pub fn host_terms(wins: &[Win], hc: &HostContext<'_>) -> Vec<BasisTerm> {
+    let (t, th, s) = (hc.nrm.t_scale, hc.nrm.temp_scale, hc.nrm.scale);
+    let u = hc.units;
+    // (family, scale term?, power, on temperature?, factor to the unit, unit)
+    let mut families: Vec<(&'static str, bool, i32, bool, f64, String)> = Vec::new();
+    if hc.has_time {
+        families.push((names::SCALE_DRIFT, true, 1, false, 1.0 / t, "1/s".into()));
+        families.push((
+            names::SCALE_DRIFT_CURVED,
+            true,
+            2,
+            false,
+            1.0 / (t * t),
+            "1/s²".into(),
+        ));
+    }
+    if hc.has_temp {
+        families.push((
+            names::TEMPERATURE_SQUARED,
+            false,
+            2,
+            true,
+            s / th.powi(2),
+            format!("{u}/°C²"),
+        ));
+        families.push((
+            names::TEMPERATURE_CUBED,
+            false,
+            3,
+            true,
+            s / th.powi(3),
+            format!("{u}/°C³"),
+        ));
+        families.push((
+            names::TEMPERATURE_SCALE_SQUARED,
+            true,
+            2,
+            true,
+            1.0 / th.powi(2),
+            "1/°C²".into(),
+        ));
+        families.push((
+            names::TEMPERATURE_SCALE_CUBED,
+            true,
+            3,
+            true,
+            1.0 / th.powi(3),
+            "1/°C³".into(),
+        ));
+    }
+    let mut out = Vec::new();
+    for (family, scale, power, temp, factor, unit) in families {
+        let xs: Vec<f64> = wins
+            .iter()
+            .map(|w| if temp { w.theta } else { w.tau }.powi(power))
+            .collect();
+        for axis in 0..3u8 {
+            out.push(BasisTerm {
+                family,
+                target: names::AXES[axis as usize].to_string(),
+                slot: if scale {
+                    Slot::Scale { axis, x: 0.0 }
+                } else {
+                    Slot::Bias { axis, x: 0.0 }
+                },
+                unit: unit.clone(),
+                same_pattern: Vec::new(),
+                xs: Some(xs.clone()),
+                factor,
+            });
+        }
+    }
+    out
+}
+
+/// The terms' screening scores against the current model: each term's partial correlation
+/// with the residual (0 for a term inside the model's span), and how many were screened.
+fn screen(
+    terms: &[BasisTerm],
+    state: &State,
+    mask: &am::Mask,
+    wins: &[Win],
+) -> Option<(Vec<f64>, usize)> {
+    let used: Vec<usize> = (0..wins.len()).filter(|&i| state.used[i]).collect();
+    let dirs: Vec<[f64; 3]> = used
+        .iter()
+        .map(|&i| {
+            let a = am::corrected(&state.fit.p, &wins[i]);
+            let n = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt().max(1e-300);
+            a.map(|x| x / n)
+        })
+        .collect();
+    let spans: Vec<Vec<f64>> = used
+        .iter()
+        .zip(&dirs)
+        .map(|(&i, g)| span_of(mask, *g, &wins[i]))
+        .collect();
+    let refs: Vec<&[f64]> = spans.iter().map(|s| s.as_slice()).collect();
+    let proj = Projector::new(&refs)?;
+    let res = proj.project(
+        used.iter()
+            .map(|&i| am::residual(&state.fit.p, &wins[i]))
+            .collect(),
+    );
+    let ss_res: f64 = res.iter().map(|x| x * x).sum();
+    let mut screened = 0;
+    let scores = terms
+        .iter()
+        .map(|t| {
+            let xs: Vec<f64> = used
+                .iter()
+                .zip(&dirs)
+                .map(|(&i, g)| slot_pattern(&t.slot_at(i), *g))
+                .collect();
+            let mean = xs.iter().sum::<f64>() / xs.len().max(1) as f64;
+            let total: f64 = xs.iter().map(|x| (x - mean).powi(2)).sum();
+            let xp = proj.project(xs);
+            let ss_x: f64 = xp.iter().map(|x| x * x).sum();
+            if !(ss_x > 1e-6 * total && ss_res > 0.0) {
+                return 0.0;
+            }
+            screened += 1;
+            let sxy: f64 = xp.iter().zip(&res).map(|(x, y)| x * y).sum();
+            (sxy / (ss_x * ss_res).sqrt()).abs()
+        })
+        .collect();
+    Some((scores, screened))
+}
+
+/// A basis term fitted into the model.
+struct OpenTrial {
+    fit: Fit,
+    loo: Vec<Option<f64>>,
+    wins: Vec<Win>,
+    mask: am::Mask,
+    slot: usize,
+    f: f64,
+    p: f64,
+    cv: f64,
+}
+
+/// Fits `term` into the first free slot on top of `state`; `None` when no slot is free, the
+/// windows are too few, or the fit or its cross-validation fails.
+fn try_open(
+    term: &BasisTerm,
+    state: &State,
+    model: MultiPosModel,
+    wins: &[Win],
+) -> Option<OpenTrial> {
+    let slot = wins.first()?.slots.iter().position(|s| *s == Slot::Empty)?;
+    let mut new_wins = wins.to_vec();
+    for (i, w) in new_wins.iter_mut().enumerate() {
+        w.slots[slot] = term.slot_at(i);
+    }
+    let mask = am::with_open(mask_for(model, &state.parts), &new_wins);
+    let k_new = mask.iter().filter(|m| **m).count();
+    let n_used = state.n_used();
+    if n_used < k_new + MIN_DOF_TERM {
+        return None;
+    }
+    let fit = am::fit(&state.fit.p, &mask, &new_wins, &state.used)?;
+    let dof = (n_used - k_new) as f64;
+    let f = (state.fit.rss - fit.rss).max(0.0) / state.reference_variance(fit.rss, dof);
+    let p = st::f_sf(f, 1.0, dof);
+    let loo = crate::fit::press::loo(&fit, &mask, &new_wins, &state.used)?;
+    let cv = cv_over(&loo, &state.used).unwrap_or(f64::INFINITY);
+    Some(OpenTrial {
+        fit,
+        loo,
+        wins: new_wins,
+        mask,
+        slot,
+        f,
+        p,
+        cv,
+    })
+}
+
+/// Runs the open-basis stage on the final model of the greedy search: adds accepted terms to
+/// `state` and their slots to `wins`, and returns one effect row per accepted term (empty,
+/// and `state` and `wins` untouched, when nothing is accepted).
+pub fn extend(
+    state: &mut State,
+    wins: &mut Vec<Win>,
+    model: MultiPosModel,
+    opts: &AnalyzeOptions,
+    hc: &HostContext<'_>,
+) -> Vec<EffectReport> {
+    let mut terms = orientation_terms();
+    terms.extend(host_terms(wins, hc));
+    let mut effects = Vec::new();
+    let mut taken = vec![false; terms.len()];
+    while effects.len() < am::OPEN_SLOTS {
+        let mask = am::with_open(mask_for(model, &state.parts), wins);
+        let Some((scores, screened)) = screen(&terms, state, &mask, wins) else {
+            break;
+        };
+        let best = (0..terms.len())
+            .filter(|&t| !taken[t] && scores[t] > 0.0)
+            .max_by(|&a, &b| scores[a].total_cmp(&scores[b]));
+        let (Some(b), true) = (best, screened > 0) else {
+            break;
+        };
+        let level = opts.alpha / screened as f64;
+        let cur_cv = cv_over(&state.loo, &state.used);
+        let Some(tr) = try_open(&terms[b], state, model, wins) else {
+            break;
+        };
+        let cv_ok = cur_cv.is_some_and(|c| tr.cv * opts.cv_factor <= c);
+        if !(tr.p < level && cv_ok) {
+            break;
+        }
+        taken[b] = true;
+        effects.push(effect_row(
+            &terms[b],
+            &tr,
+            state,
+            (level, screened, scores[b], cur_cv),
+        ));
+        state.fit = tr.fit;
+        state.loo = tr.loo;
+        *wins = tr.wins;
+    }
+    effects
+}
+
+/// The report row of an accepted term: value (on its output axis) with its standard error
+/// and unit, and the evidence line.
+fn effect_row(
+    term: &BasisTerm,
+    tr: &OpenTrial,
+    state: &State,
+    (level, screened, r, cur_cv): (f64, usize, f64, Option<f64>),
+) -> EffectReport {
+    let se = am::standard_errors(&tr.fit, &tr.mask, &tr.wins, &state.used);
+    let (value, err) = (
+        tr.fit.p[am::OPEN + tr.slot] * term.factor,
+        se[am::OPEN + tr.slot] * term.factor.abs(),
+    );
+    let mut values = [0.0; 3];
+    let mut errs = [0.0; 3];
+    values[term.axis()] = value;
+    errs[term.axis()] = err;
+    let before = cur_cv.map_or("?".to_string(), |c| format!("{:.3}", c * 1e3));
+    let mut evidence = format!(
+        "open basis: strongest of {screened} terms screened (partial r = {r:.2} with the \
+         residual); coefficient {value:.4e} ± {err:.1e} {}; F = {:.1}, p {} < {level:.1e} \
+         (α/{screened}); CV {before} → {:.3} mg",
+        term.unit,
+        tr.f,
+        st::fmt_p(tr.p),
+        tr.cv * 1e3
+    );
+    if term.xs.is_some() {
+        evidence.push_str(
+            "; a host term (time or temperature): not stored in the calibration file, which \
+             holds the model at the mean window time and temperature",
+        );
+    }
+    if !term.same_pattern.is_empty() {
+        evidence.push_str(&format!(
+            "; ‖a‖ cannot tell it from {} (same first-order pattern)",
+            term.same_pattern.join(", ")
+        ));
+    }
+    EffectReport {
+        name: term.name(),
+        params: 1,
+        rms_mg: tr.fit.rms() * 1e3,
+        cv_rms_mg: Some(tr.cv * 1e3),
+        cv_rms_before_mg: cur_cv.map(|x| x * 1e3),
+        evidence,
+        f_stat: Some(tr.f),
+        p_value: Some(tr.p),
+        values: Some(values),
+        std_errors: Some(errs),
+        unit: Some(term.unit.clone()),
+        rejected_windows: None,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// 7 patterns of degree 3 and 12 of degree 4 that are not a single axis's power; the
+    /// triple product is represented on z by x·y and stands for the other two axes.
+    #[test]
+    fn the_orientation_basis_has_one_term_per_pattern() {
+        let t = orientation_terms();
+        let count = |f: &str| t.iter().filter(|x| x.family == f).count();
+        assert_eq!(count(names::CROSS_QUADRATIC), 7);
+        assert_eq!(count(names::CROSS_CUBIC), 12);
+        let xyz = t
+            .iter()
+            .find(|x| x.name() == "cross-quadratic (z: x·y)")
+            .expect("the triple product");
+        assert_eq!(xyz.same_pattern, vec!["x: y·z", "y: x·z"]);
+        // Every representative is a cross term the core can store (not the axis's own power).
+        for x in &t {
+            let Slot::Cross { axis, exps } = x.slot else {
+                panic!("{x:?}")
+            };
+            let deg: u8 = exps.iter().sum();
+            assert!(exps[axis as usize] < deg, "{x:?}");
+        }
+    }
+}
