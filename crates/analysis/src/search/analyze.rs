@@ -831,7 +831,9 @@ impl Context<'_> {
             Some(w) => self.nrm.to_calibration_open(&search.state.fit.p, &w.slots),
             None => self.nrm.to_calibration(&search.state.fit.p),
         };
-        calibration.validate().map_err(SearchError::InvalidCalibration)?;
+        calibration
+            .validate()
+            .map_err(SearchError::InvalidCalibration)?;
         let windows = self.window_infos(base, &search);
         let residual_correlates = self.correlates(base, &search.state, &final_model);
         // Candidates the last step could not test at all (too few windows for them).
