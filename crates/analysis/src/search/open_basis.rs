@@ -6,10 +6,10 @@
 //! A round has two parts.
 //!
 //! 1. **Screening**, linear in windows × terms: every basis term's first-order pattern in the
-//!    window residual at the fitted gravity direction `g` ([`slot_pattern`]: a cross term on
+//!    window residual at the fitted gravity direction `g` (`correlates::slot_pattern`: a cross term on
 //!    output axis `i` with monomial `u_j·u_k` gives `g_i·g_j·g_k`) is projected off the
 //!    current model's span (the projection of the correlates,
-//!    [`crate::search::correlates::Projector`], over the columns of [`span_of`]) and scored by
+//!    `correlates::Projector`, over the columns of `correlates::span_of`) and scored by
 //!    its partial correlation with the residual. Terms inside the span (the projection leaves
 //!    less than 10⁻⁶ of the pattern) are not counted.
 //! 2. **Refit**: the best-scoring term only is put into a free open slot of the f64 model
