@@ -94,7 +94,7 @@ fn slope(x: &[f64], y: &[f64]) -> Option<f64> {
 /// The time constants tried, s: [`LAG_GRID_LEN`] log-spaced values from [`LAG_MIN_S`] to
 /// `max_s` (empty when `max_s` is shorter than the first).
 pub fn lag_grid(max_s: f64) -> Vec<f64> {
-    if !(max_s > LAG_MIN_S) {
+    if max_s.is_nan() || max_s <= LAG_MIN_S {
         return Vec::new();
     }
     let step = (max_s / LAG_MIN_S).ln() / (LAG_GRID_LEN - 1) as f64;
