@@ -2,25 +2,11 @@
 //! recording whose bias follows the temperature through a first-order lag (τ = 300 s, the
 //! simulator's [`THERMAL_LAG_TAU_S`]) or its rate of change is analysed blind.
 
-use wiical_analysis::simulate::{
-    self, open_basis::THERMAL_LAG_TAU_S, Device, EffectSpec, SimConfig, SimEffect, SimOutput,
-};
-use wiical_analysis::{analyze, AnalyzeOptions, AnalyzeReport};
+mod common;
 
-/// A recording of `device` at its usual rate with `effects` (effect, mg).
-fn sim(effects: &[(SimEffect, f64)], seed: u64, device: Device) -> SimOutput {
-    simulate::simulate(&SimConfig {
-        effects: effects
-            .iter()
-            .map(|(e, m)| EffectSpec::new(*e, Some(*m)))
-            .collect(),
-        seed,
-        device,
-        rate_hz: device.typical_rate_hz(),
-        ..Default::default()
-    })
-    .unwrap()
-}
+use common::sim::sim;
+use wiical_analysis::simulate::{open_basis::THERMAL_LAG_TAU_S, Device, SimEffect, SimOutput};
+use wiical_analysis::{analyze, AnalyzeOptions, AnalyzeReport};
 
 fn run(effects: &[(SimEffect, f64)], seed: u64) -> (SimOutput, AnalyzeReport) {
     let s = sim(effects, seed, Device::Mems16);

@@ -3,27 +3,11 @@
 //! the pattern that effect leaves (truth known); on clean recordings the residual agrees with
 //! the floor and nothing is reported.
 
-use wiical_analysis::search::candidate::Candidate;
-use wiical_analysis::simulate::{self, Device, EffectSpec, SimConfig, SimEffect};
-use wiical_analysis::{analyze, AnalyzeOptions, AnalyzeReport};
+mod common;
 
-fn run(effects: Vec<EffectSpec>, seed: u64, temp: bool, allowed: &[Candidate]) -> AnalyzeReport {
-    let sim = simulate::simulate(&SimConfig {
-        effects,
-        seed,
-        device: Device::Mems16,
-        poses: 40,
-        rate_hz: 400.0,
-        temp_column: temp,
-        ..Default::default()
-    })
-    .unwrap();
-    let opts = AnalyzeOptions {
-        candidates: (!allowed.is_empty()).then(|| allowed.to_vec()),
-        ..Default::default()
-    };
-    analyze(&sim.recording, &opts).unwrap()
-}
+use common::correlates::{correlates_run, strongest};
+use wiical_analysis::search::candidate::Candidate;
+use wiical_analysis::simulate::{EffectSpec, SimEffect};
 
 const AXES: [&str; 3] = ["x", "y", "z"];
 
@@ -36,21 +20,12 @@ fn a_withheld_quadratic_is_traced_to_its_axis() {
     for seed in 1..=2u64 {
         let axis = seed as usize % 3;
         let spec = EffectSpec::on_axis(SimEffect::Quadratic, Some(30.0), axis);
-        let r = run(vec![spec], seed, false, &others);
-        let c = r
-            .residual_correlates
-            .as_ref()
-            .expect("residual above the floor");
-        assert_eq!(
-            c[0].regressor,
-            format!("g_{}^3", AXES[axis]),
-            "seed {seed}: {c:?}"
-        );
-        assert!(c[0].significant, "seed {seed}: {:?}", c[0]);
+        let (_, r) = correlates_run(vec![spec], seed, false, &others);
+        let c = strongest(&r, seed, &format!("g_{}^3", AXES[axis]));
         assert!(
-            (c[0].slope.abs() - 30.0).abs() < 4.5,
+            (c.slope.abs() - 30.0).abs() < 4.5,
             "seed {seed}: {}",
-            c[0].slope
+            c.slope
         );
     }
 }
@@ -69,17 +44,8 @@ fn a_withheld_temperature_scale_is_traced_to_its_axis() {
     for seed in 1..=2u64 {
         let axis = seed as usize % 3;
         let spec = EffectSpec::on_axis(SimEffect::TemperatureScale, Some(20.0), axis);
-        let r = run(vec![spec], seed, true, &others);
-        let c = r
-            .residual_correlates
-            .as_ref()
-            .expect("residual above the floor");
-        assert_eq!(
-            c[0].regressor,
-            format!("temperature*g_{}^2", AXES[axis]),
-            "seed {seed}: {c:?}"
-        );
-        assert!(c[0].significant, "seed {seed}: {:?}", c[0]);
+        let (_, r) = correlates_run(vec![spec], seed, true, &others);
+        strongest(&r, seed, &format!("temperature*g_{}^2", AXES[axis]));
     }
 }
 
@@ -90,7 +56,7 @@ fn a_withheld_drift_is_traced_to_time() {
     let others = [Candidate::Quadratic, Candidate::Cubic, Candidate::Outliers];
     for seed in 1..=2u64 {
         let spec = EffectSpec::new(SimEffect::BiasDrift, Some(10.0));
-        let r = run(vec![spec], seed, false, &others);
+        let (_, r) = correlates_run(vec![spec], seed, false, &others);
         let c = r
             .residual_correlates
             .as_ref()
@@ -105,7 +71,7 @@ fn a_withheld_drift_is_traced_to_time() {
 #[test]
 fn nothing_is_reported_when_the_residual_agrees_with_the_floor() {
     for seed in 1..=3u64 {
-        let r = run(Vec::new(), seed, true, &[]);
+        let (_, r) = correlates_run(Vec::new(), seed, true, &[]);
         assert!(
             r.residual_correlates.is_none(),
             "seed {seed}: {:?}",
@@ -113,7 +79,7 @@ fn nothing_is_reported_when_the_residual_agrees_with_the_floor() {
         );
     }
     let spec = EffectSpec::on_axis(SimEffect::Quadratic, Some(30.0), 1);
-    let r = run(vec![spec], 4, false, &[]);
+    let (_, r) = correlates_run(vec![spec], 4, false, &[]);
     assert!(
         r.residual_correlates.is_none(),
         "{:?}\n{}",

@@ -170,7 +170,7 @@ pub struct AnalyzeReport {
     /// ([`crate::search::correlates`]); absent when the residual agrees with the noise floor
     /// (the verdict's test) and in six-position mode.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub residual_correlates: Option<Vec<crate::search::correlates::ResidualCorrelate>>,
+    pub residual_correlates: Option<Vec<crate::report::correlate::ResidualCorrelate>>,
     /// Window-mean input only: how the table was read (absent for recordings of samples).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub window_input: Option<WindowInputInfo>,

@@ -784,7 +784,7 @@ impl Context<'_> {
         base: &Base,
         state: &State,
         final_model: &ModelSummary,
-    ) -> Option<Vec<crate::search::correlates::ResidualCorrelate>> {
+    ) -> Option<Vec<crate::report::correlate::ResidualCorrelate>> {
         let floor_mg = Some(base.noise_floor * 1e3).filter(|x| x.is_finite() && *x > 0.0)?;
         let (cv, p) = (final_model.cv_rms_mg?, final_model.chi2_p?);
         if !crate::report::verdict::residual_unexplained(cv, floor_mg, p) {

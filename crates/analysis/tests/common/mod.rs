@@ -1,4 +1,11 @@
-//! Test support: where the real recordings are.
+//! Test support: where the real recordings are ([`data_dir`]), simulated recordings
+//! ([`sim`]) and the residual correlates' recording and check ([`correlates`]).
+
+// Each test binary includes this module with `mod common;` and uses a part of it.
+#![allow(dead_code)]
+
+pub mod correlates;
+pub mod sim;
 
 use std::path::{Path, PathBuf};
 
