@@ -5,6 +5,8 @@
 mod common;
 
 use common::sim::sim;
+use wiical_analysis::report::contract::EffectReport;
+use wiical_analysis::search::thermal::LAG_GRID_LEN;
 use wiical_analysis::simulate::{open_basis::THERMAL_LAG_TAU_S, Device, SimEffect, SimOutput};
 use wiical_analysis::{analyze, AnalyzeOptions, AnalyzeReport};
 
@@ -41,7 +43,8 @@ fn rows<'a>(r: &'a AnalyzeReport, family: &str) -> Vec<(&'a str, f64, f64, &'a s
 /// bias-drift first (over a 250-s warm-up the lagged temperature is nearly linear in time),
 /// and the open basis then names `thermal-lag (axis, τ = N s)` in at least half the runs
 /// (4 of 6 when written), every τ named within a factor 2 of the truth, the held-out RMS
-/// lower with the term than without, and the evidence gives the CV over the τ grid.
+/// lower with the term than without, and the evidence and the JSON give the CV over the τ
+/// grid ([`check_cv_profile`]).
 #[test]
 fn a_thermal_lag_is_named_with_its_time_constant() {
     let mut named = 0;
@@ -58,8 +61,71 @@ fn a_thermal_lag_is_named_with_its_time_constant() {
             assert!(after < before, "seed {seed}: {name} CV {before} → {after}");
             assert!(ev.contains("CV (mg) over τ: 10 s "), "{ev}");
         }
+        for e in r.effects.iter() {
+            check_cv_profile(e, seed);
+        }
     }
     assert!(named >= 3, "thermal lag named in {named} of 6");
+}
+
+/// The JSON's CV profile over τ of an accepted effect: present exactly for a thermal-lag
+/// term, one point per time constant of the grid in increasing order, each point a number
+/// or `null` (never NaN), its minimum at the accepted τ or a neighbour, and the accepted
+/// τ's point the row's own CV (both are the same trial: the term refitted on the model
+/// before it).
+fn check_cv_profile(e: &EffectReport, seed: u64) {
+    let json = serde_json::to_value(e).unwrap();
+    let Some(tau) = tau_of(&e.name) else {
+        assert!(
+            e.cv_profile.is_none(),
+            "seed {seed}: {} has a profile",
+            e.name
+        );
+        assert!(json.get("cv_profile").is_none(), "seed {seed}: {json}");
+        return;
+    };
+    let points = json["cv_profile"]
+        .as_array()
+        .expect("cv_profile in the JSON");
+    assert_eq!(points.len(), LAG_GRID_LEN, "seed {seed}: {json}");
+    let taus: Vec<f64> = points
+        .iter()
+        .map(|p| p["time_constant_s"].as_f64().unwrap())
+        .collect();
+    assert!(
+        taus.windows(2).all(|w| w[0] < w[1]),
+        "seed {seed}: {taus:?}"
+    );
+    let cvs: Vec<Option<f64>> = points
+        .iter()
+        .map(|p| match &p["cv_rms_mg"] {
+            serde_json::Value::Null => None,
+            v => Some(v.as_f64().expect("a number or null")),
+        })
+        .collect();
+    // The name gives τ to two significant digits: the grid point nearest to it.
+    let at = (0..taus.len())
+        .min_by(|&a, &b| (taus[a] - tau).abs().total_cmp(&(taus[b] - tau).abs()))
+        .unwrap();
+    assert!(
+        (taus[at] - tau).abs() <= 0.05 * tau,
+        "seed {seed}: {tau} not on the grid {taus:?}"
+    );
+    let min = (0..cvs.len())
+        .filter(|&i| cvs[i].is_some())
+        .min_by(|&a, &b| cvs[a].unwrap().total_cmp(&cvs[b].unwrap()))
+        .unwrap();
+    assert!(
+        min.abs_diff(at) <= 1,
+        "seed {seed}: CV minimum at τ = {} s, accepted {tau} s: {cvs:?}",
+        taus[min]
+    );
+    let own = cvs[at].expect("the accepted τ's CV");
+    let row = e.cv_rms_mg.unwrap();
+    assert!(
+        (own - row).abs() <= 1e-9 * row,
+        "seed {seed}: profile {own} mg at the accepted τ, row {row} mg"
+    );
 }
 
 /// 20 mg of bias ∝ dT/dt: `temperature-rate (axis)` named in at least half of six runs (4

@@ -52,6 +52,21 @@ pub struct EffectReport {
     pub unit: Option<String>,
     /// Rejected windows (1-based, as in the window table), for `outliers`.
     pub rejected_windows: Option<Vec<usize>>,
+    /// For a `thermal-lag` term: the held-out RMS with its axis's lag term at every time
+    /// constant of the grid instead (each refitted on the model before it), ordered by τ;
+    /// absent from the JSON for every other effect.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cv_profile: Option<Vec<CvPoint>>,
+}
+
+/// One point of a thermal-lag term's cross-validation profile over its time constant.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct CvPoint {
+    /// First-order lag time constant τ, s.
+    pub time_constant_s: f64,
+    /// Leave-one-window-out RMS of ‖a‖ − 1 g with the lag term at this τ, milli-g (`null`
+    /// when the fit or its cross-validation failed).
+    pub cv_rms_mg: Option<f64>,
 }
 
 /// One candidate tried at one greedy step.

@@ -607,6 +607,7 @@ impl Search {
             std_errors: None,
             unit: None,
             rejected_windows: Some(ot.rejected.iter().map(|i| i + 1).collect()),
+            cv_profile: None,
         });
         self.state.used = ot.used;
         self.state.fit = ot.fit;
@@ -656,6 +657,7 @@ impl Search {
                 std_errors: Some(ses),
                 unit: Some(unit),
                 rejected_windows: None,
+                cv_profile: None,
             });
         }
         self.state.parts = new_parts;
@@ -703,6 +705,7 @@ impl Search {
                 std_errors: Some(ses),
                 unit: Some(unit),
                 rejected_windows: None,
+                cv_profile: None,
             });
         }
     }

@@ -30,7 +30,7 @@
 
 #![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x > 0.0)` is deliberately true for NaN.
 use crate::fit::model::{self as am, Fit, Slot, Win};
-use crate::report::contract::EffectReport;
+use crate::report::contract::{CvPoint, EffectReport};
 use crate::report::effect_names as names;
 use crate::search::correlates::{slot_pattern, span_of, Projector};
 use crate::search::options::AnalyzeOptions;
@@ -458,7 +458,8 @@ pub fn extend(
         taken[b] = true;
         let mut row = effect_row(&terms[b], &tr, state, (level, screened, scores[b], cur_cv));
         if let Some(profile) = lag_profile(&terms, b, state, model, wins) {
-            row.evidence.push_str(&profile);
+            row.evidence.push_str(&lag_profile_text(&profile));
+            row.cv_profile = Some(profile);
         }
         effects.push(row);
         state.fit = tr.fit;
@@ -469,25 +470,43 @@ pub fn extend(
 }
 
 /// For an accepted thermal-lag term: the held-out RMS with its axis's term at every time
-/// constant of the grid instead (each refitted on the model before it), as evidence text.
+/// constant of the grid instead (each refitted on the model before it, so the accepted τ's
+/// point is the row's own CV), in the grid's order (increasing τ); `None` for other terms.
 fn lag_profile(
     terms: &[BasisTerm],
     b: usize,
     state: &State,
     model: MultiPosModel,
     wins: &[Win],
-) -> Option<String> {
+) -> Option<Vec<CvPoint>> {
     terms[b].time_constant_s?;
-    let cells: Vec<String> = terms
+    let points = terms
         .iter()
         .filter(|t| t.family == terms[b].family && t.axis() == terms[b].axis())
         .filter_map(|t| {
-            let tau = t.time_constant_s?;
-            let cv = try_open(t, state, model, wins).map_or(f64::NAN, |tr| tr.cv * 1e3);
-            Some(format!("{} s {cv:.3}", fmt_tau(tau)))
+            let time_constant_s = t.time_constant_s?;
+            let cv_rms_mg = try_open(t, state, model, wins)
+                .map(|tr| tr.cv * 1e3)
+                .filter(|cv| cv.is_finite());
+            Some(CvPoint {
+                time_constant_s,
+                cv_rms_mg,
+            })
         })
         .collect();
-    Some(format!("; CV (mg) over τ: {}", cells.join(", ")))
+    Some(points)
+}
+
+/// The profile as evidence text (`NaN` where the fit failed).
+fn lag_profile_text(points: &[CvPoint]) -> String {
+    let cells: Vec<String> = points
+        .iter()
+        .map(|p| {
+            let cv = p.cv_rms_mg.unwrap_or(f64::NAN);
+            format!("{} s {cv:.3}", fmt_tau(p.time_constant_s))
+        })
+        .collect();
+    format!("; CV (mg) over τ: {}", cells.join(", "))
 }
 
 /// The report row of an accepted term: value (on its output axis) with its standard error
@@ -542,6 +561,7 @@ fn effect_row(
         std_errors: Some(errs),
         unit: Some(term.unit.clone()),
         rejected_windows: None,
+        cv_profile: None,
     }
 }
 

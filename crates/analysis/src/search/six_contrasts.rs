@@ -335,6 +335,7 @@ fn six_effects(
                 std_errors: None,
                 unit: Some("mg/g² (k2)".into()),
                 rejected_windows: None,
+                cv_profile: None,
             });
         }
     }
@@ -358,6 +359,7 @@ fn six_effects(
             std_errors: None,
             unit: Some("mg (other-pairs contrast per axis row)".into()),
             rejected_windows: None,
+            cv_profile: None,
         });
     }
     (effects, cal, final_rms, final_params)
