@@ -212,6 +212,7 @@ fn device_put_refuses_absurd_or_poor_calibrations_and_names_ignored_terms() {
     let file = |cal: Calibration, quality: Option<Quality>| CalibrationFile {
         calibration: cal,
         quality,
+        host_terms: Vec::new(),
     };
     let ok = judge_for_put(&file(nunchuk_cal(), Some(good_quality())));
     assert!(ok.refusals.is_empty() && ok.warnings.is_empty(), "{ok:?}");
@@ -443,6 +444,7 @@ fn device_put_names_the_terms_the_adapter_applies() {
     let file = |cal: Calibration| CalibrationFile {
         calibration: cal,
         quality: Some(good_quality()),
+        host_terms: Vec::new(),
     };
     let mut ok = nunchuk_cal();
     ok.effects.cross_quadratic[0] = [1e-3, -2e-3, 5e-4, 0.0, 0.0];
