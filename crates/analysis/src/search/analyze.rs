@@ -34,6 +34,7 @@ use crate::search::open_basis;
 use crate::search::options::AnalyzeOptions;
 use crate::search::outliers::{find_outliers, OutlierTrial};
 use crate::search::select::{check_rule, cv_over, select, Choice, OutlierScore, TermScore};
+use crate::search::thermal;
 use crate::search::trial::{
     base_mask, block_weight, bonferroni_weights, drop_tests, mask_for, term_note, try_term,
     CandSpec, State, TermTrial,
@@ -75,11 +76,17 @@ pub fn analyze_windows(
         // A restricted candidate list is the user's choice of effects: the open basis, which
         // could stand in for a withheld candidate, runs only when every candidate is allowed.
         if opts.candidates.is_none() {
+            let spans = ctx.spans();
             let hc = open_basis::HostContext {
                 nrm: &ctx.nrm,
                 has_time: ctx.duration > 0.0,
                 has_temp: ctx.temp_range > 0.05,
                 units: ctx.ws.units,
+                samples: rec.temp.as_deref().map(|temp| thermal::SampleTemps {
+                    times: &ctx.ws.times,
+                    temp,
+                    spans: &spans,
+                }),
             };
             let open = open_basis::extend(&mut search.state, &mut ctx.wins, ctx.model, opts, &hc);
             search.effects.extend(open);

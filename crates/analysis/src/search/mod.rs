@@ -16,6 +16,7 @@ pub mod options;
 pub mod outliers;
 pub mod select;
 pub mod six_contrasts;
+pub mod thermal;
 pub mod trial;
 
 pub use crate::error::search::SearchError;

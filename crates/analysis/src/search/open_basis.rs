@@ -6,10 +6,10 @@
 //! A round has two parts.
 //!
 //! 1. **Screening**, linear in windows × terms: every basis term's first-order pattern in the
-//!    window residual at the fitted gravity direction `g` ([`slot_pattern`]: a cross term on
+//!    window residual at the fitted gravity direction `g` (`correlates::slot_pattern`: a cross term on
 //!    output axis `i` with monomial `u_j·u_k` gives `g_i·g_j·g_k`) is projected off the
 //!    current model's span (the projection of the correlates,
-//!    [`crate::search::correlates::Projector`], over the columns of [`span_of`]) and scored by
+//!    `correlates::Projector`, over the columns of `correlates::span_of`) and scored by
 //!    its partial correlation with the residual. Terms inside the span (the projection leaves
 //!    less than 10⁻⁶ of the pattern) are not counted.
 //! 2. **Refit**: the best-scoring term only is put into a free open slot of the f64 model
@@ -35,6 +35,7 @@ use crate::report::effect_names as names;
 use crate::search::correlates::{slot_pattern, span_of, Projector};
 use crate::search::options::AnalyzeOptions;
 use crate::search::select::{cv_over, MIN_DOF_TERM};
+use crate::search::thermal;
 use crate::search::trial::{mask_for, State};
 use crate::stats as st;
 use wiical_core::multipos::MultiPosModel;
@@ -57,6 +58,8 @@ pub struct BasisTerm {
     pub xs: Option<Vec<f64>>,
     /// Factor from the model's coefficient to the reported value in `unit`.
     pub factor: f64,
+    /// For a thermal-lag term: its time constant, s.
+    pub time_constant_s: Option<f64>,
 }
 
 impl BasisTerm {
@@ -142,6 +145,7 @@ pub fn orientation_terms() -> Vec<BasisTerm> {
                     same_pattern,
                     xs: None,
                     factor: 1.0,
+                    time_constant_s: None,
                 });
             }
         }
@@ -160,6 +164,9 @@ pub struct HostContext<'a> {
     pub has_temp: bool,
     /// Units of the window means (`raw`, `g`, …).
     pub units: &'static str,
+    /// The per-sample temperature for the thermal-lag and temperature-rate terms (`None`, or
+    /// not [`thermal::SampleTemps::usable`], leaves them out).
+    pub samples: Option<thermal::SampleTemps<'a>>,
 }
 
 /// The time and temperature families, per axis: scale linear and quadratic in time
@@ -236,10 +243,79 @@ pub fn host_terms(wins: &[Win], hc: &HostContext<'_>) -> Vec<BasisTerm> {
                 same_pattern: Vec::new(),
                 xs: Some(xs.clone()),
                 factor,
+                time_constant_s: None,
             });
         }
     }
+    if hc.has_temp {
+        if let Some(st) = hc.samples.filter(|s| s.usable()) {
+            out.extend(thermal_terms(&st, hc));
+        }
+    }
     out
+}
+
+/// The thermal-lag terms (per axis, per time constant of [`thermal::lag_grid`] up to
+/// [`LAG_MAX_FRACTION`] times the duration) and the temperature-rate terms (per axis), from the
+/// per-sample temperature. The lagged window temperature is centred and scaled like ϑ (the
+/// value is in raw units/°C like `temperature`); the rate is centred and scaled by its RMS
+/// spread over the windows.
+fn thermal_terms(st: &thermal::SampleTemps<'_>, hc: &HostContext<'_>) -> Vec<BasisTerm> {
+    let (th, s, u) = (hc.nrm.temp_scale, hc.nrm.scale, hc.units);
+    let bias = |family, target: String, xs: Vec<f64>, factor, unit: String, tau| {
+        (0..3u8).map(move |axis| BasisTerm {
+            family,
+            target: format!("{}{target}", names::AXES[axis as usize]),
+            slot: Slot::Bias { axis, x: 0.0 },
+            unit: unit.clone(),
+            same_pattern: Vec::new(),
+            xs: Some(xs.clone()),
+            factor,
+            time_constant_s: tau,
+        })
+    };
+    let mut out = Vec::new();
+    for tau in thermal::lag_grid(LAG_MAX_FRACTION * st.duration()) {
+        if let Some(xs) = thermal::centred(&st.lagged_means(tau), th) {
+            let target = format!(", τ = {} s", fmt_tau(tau));
+            out.extend(bias(
+                names::THERMAL_LAG,
+                target,
+                xs,
+                s / th,
+                format!("{u}/°C"),
+                Some(tau),
+            ));
+        }
+    }
+    if let Some(rates) = st.rates() {
+        let r = thermal::rms_spread(&rates);
+        if let Some(xs) = thermal::centred(&rates, r) {
+            let unit = format!("{u}/(°C/s)");
+            out.extend(bias(
+                names::TEMPERATURE_RATE,
+                String::new(),
+                xs,
+                s / r,
+                unit,
+                None,
+            ));
+        }
+    }
+    out
+}
+
+/// Longest thermal-lag time constant tried, as a multiple of the recording's duration. Twice
+/// the duration, not half: a sensor that lags by about a recording's length (the simulator's
+/// 300 s in a 250-s recording) is the case the term is for, and its lagged temperature is
+/// still told apart from time and temperature (the CV over τ has its minimum near the truth,
+/// `tests/open_basis_lag.rs`); with the grid stopped at half the duration it is never named.
+pub const LAG_MAX_FRACTION: f64 = 2.0;
+
+/// A time constant as text, to two significant digits (`10`, `46`, `210`).
+fn fmt_tau(tau: f64) -> String {
+    let mag = 10f64.powi(tau.log10().floor() as i32 - 1).max(1.0);
+    format!("{:.0}", (tau / mag).round() * mag)
 }
 
 /// The terms' screening scores against the current model: each term's partial correlation
@@ -380,17 +456,38 @@ pub fn extend(
             break;
         }
         taken[b] = true;
-        effects.push(effect_row(
-            &terms[b],
-            &tr,
-            state,
-            (level, screened, scores[b], cur_cv),
-        ));
+        let mut row = effect_row(&terms[b], &tr, state, (level, screened, scores[b], cur_cv));
+        if let Some(profile) = lag_profile(&terms, b, state, model, wins) {
+            row.evidence.push_str(&profile);
+        }
+        effects.push(row);
         state.fit = tr.fit;
         state.loo = tr.loo;
         *wins = tr.wins;
     }
     effects
+}
+
+/// For an accepted thermal-lag term: the held-out RMS with its axis's term at every time
+/// constant of the grid instead (each refitted on the model before it), as evidence text.
+fn lag_profile(
+    terms: &[BasisTerm],
+    b: usize,
+    state: &State,
+    model: MultiPosModel,
+    wins: &[Win],
+) -> Option<String> {
+    terms[b].time_constant_s?;
+    let cells: Vec<String> = terms
+        .iter()
+        .filter(|t| t.family == terms[b].family && t.axis() == terms[b].axis())
+        .filter_map(|t| {
+            let tau = t.time_constant_s?;
+            let cv = try_open(t, state, model, wins).map_or(f64::NAN, |tr| tr.cv * 1e3);
+            Some(format!("{} s {cv:.3}", fmt_tau(tau)))
+        })
+        .collect();
+    Some(format!("; CV (mg) over τ: {}", cells.join(", ")))
 }
 
 /// The report row of an accepted term: value (on its output axis) with its standard error

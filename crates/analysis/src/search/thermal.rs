@@ -1,0 +1,172 @@
+//! The open basis's thermal-lag and temperature-rate regressors (issue 19 item 3): per-window
+//! values computed from the recording's per-sample temperature, for
+//! [`crate::search::open_basis::host_terms`].
+//!
+//! * **Thermal lag**: the sensing element follows the measured (case) temperature through a
+//!   first-order lag of time constant τ; the regressor is the window mean of
+//!   `T_lag += (1 − e^{−Δt/τ})·(T − T_lag)` (the exact discretisation for uneven sample
+//!   times, started at the first sample's temperature), for every τ of [`lag_grid`].
+//! * **Temperature rate**: dT/dt in °C/s, the least-squares slope of the temperature over the
+//!   window widened to at least [`RATE_SPAN_S`] about its centre (clamped to the recording).
+
+/// Number of time constants tried.
+pub const LAG_GRID_LEN: usize = 10;
+/// Shortest time constant tried, s.
+pub const LAG_MIN_S: f64 = 10.0;
+/// Shortest span over which dT/dt is fitted, s.
+pub const RATE_SPAN_S: f64 = 30.0;
+
+/// The recording's per-sample time and temperature and the windows' sample spans.
+#[derive(Debug, Clone, Copy)]
+pub struct SampleTemps<'a> {
+    /// Sample times, s.
+    pub times: &'a [f64],
+    /// Sample temperatures, °C (same length as `times`).
+    pub temp: &'a [f64],
+    /// Windows' sample spans (first, one past the last).
+    pub spans: &'a [(usize, usize)],
+}
+
+impl SampleTemps<'_> {
+    /// Whether the spans lie in the samples, each holds at least two (windows read from a
+    /// window-mean table are single rows: no per-sample temperature history) and every value
+    /// is finite.
+    pub fn usable(&self) -> bool {
+        self.times.len() == self.temp.len()
+            && !self.spans.is_empty()
+            && self
+                .spans
+                .iter()
+                .all(|&(s, e)| e >= s + 2 && e <= self.times.len())
+            && self.times.iter().chain(self.temp).all(|x| x.is_finite())
+    }
+
+    /// Recording duration, s.
+    pub fn duration(&self) -> f64 {
+        match (self.times.first(), self.times.last()) {
+            (Some(a), Some(b)) => b - a,
+            _ => 0.0,
+        }
+    }
+
+    /// Window means of the temperature through a first-order lag of `tau_s`.
+    pub fn lagged_means(&self, tau_s: f64) -> Vec<f64> {
+        let mut lagged = Vec::with_capacity(self.temp.len());
+        let mut y = self.temp.first().copied().unwrap_or(0.0);
+        let mut prev_t = self.times.first().copied().unwrap_or(0.0);
+        for (&t, &x) in self.times.iter().zip(self.temp) {
+            let dt = (t - prev_t).max(0.0);
+            y += (1.0 - (-dt / tau_s).exp()) * (x - y);
+            lagged.push(y);
+            prev_t = t;
+        }
+        self.spans
+            .iter()
+            .map(|&(s, e)| lagged[s..e].iter().sum::<f64>() / (e - s) as f64)
+            .collect()
+    }
+
+    /// dT/dt per window, °C/s (`None` where the widened span has no time spread).
+    pub fn rates(&self) -> Option<Vec<f64>> {
+        self.spans
+            .iter()
+            .map(|&(s, e)| {
+                let centre = 0.5 * (self.times[s] + self.times[e - 1]);
+                let half = (0.5 * (self.times[e - 1] - self.times[s])).max(0.5 * RATE_SPAN_S);
+                // Sample times ascend in a recording; the partition points bound the span.
+                let lo = self.times.partition_point(|&t| t < centre - half).min(s);
+                let hi = self.times.partition_point(|&t| t <= centre + half).max(e);
+                slope(&self.times[lo..hi], &self.temp[lo..hi])
+            })
+            .collect()
+    }
+}
+
+/// Least-squares slope of `y` on `x`; `None` without spread in `x`.
+fn slope(x: &[f64], y: &[f64]) -> Option<f64> {
+    let n = x.len() as f64;
+    let (mx, my) = (x.iter().sum::<f64>() / n, y.iter().sum::<f64>() / n);
+    let sxx: f64 = x.iter().map(|a| (a - mx).powi(2)).sum();
+    let sxy: f64 = x.iter().zip(y).map(|(a, b)| (a - mx) * (b - my)).sum();
+    (sxx > 0.0).then(|| sxy / sxx)
+}
+
+/// The time constants tried, s: [`LAG_GRID_LEN`] log-spaced values from [`LAG_MIN_S`] to
+/// `max_s` (empty when `max_s` is shorter than the first).
+pub fn lag_grid(max_s: f64) -> Vec<f64> {
+    if max_s.is_nan() || max_s <= LAG_MIN_S {
+        return Vec::new();
+    }
+    let step = (max_s / LAG_MIN_S).ln() / (LAG_GRID_LEN - 1) as f64;
+    (0..LAG_GRID_LEN)
+        .map(|k| LAG_MIN_S * (step * k as f64).exp())
+        .collect()
+}
+
+/// `v` centred on its mean and divided by `scale` (the normalised window temperature's
+/// `(θ − θ̄)/Θ`); `None` when `v` has no spread.
+pub fn centred(v: &[f64], scale: f64) -> Option<Vec<f64>> {
+    let m = v.iter().sum::<f64>() / v.len().max(1) as f64;
+    let spread = v.iter().map(|x| (x - m).abs()).fold(0.0, f64::max);
+    (spread > 0.0 && scale > 0.0).then(|| v.iter().map(|x| (x - m) / scale).collect())
+}
+
+/// RMS spread of `v` about its mean.
+pub fn rms_spread(v: &[f64]) -> f64 {
+    let m = v.iter().sum::<f64>() / v.len().max(1) as f64;
+    (v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / v.len().max(1) as f64).sqrt()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A step of 1 °C at t = 0 through the lag: at t = τ the lagged value is 1 − 1/e,
+    /// whatever the (uneven) sample times.
+    #[test]
+    fn the_lag_follows_a_step_exactly_on_uneven_times() {
+        let mut times = vec![-1.0];
+        let mut t = 0.0;
+        while t < 100.0 {
+            times.push(t);
+            t += if times.len() % 2 == 0 { 0.7 } else { 1.3 };
+        }
+        times.push(100.0);
+        let temp: Vec<f64> = times
+            .iter()
+            .map(|&t| if t < 0.0 { 0.0 } else { 1.0 })
+            .collect();
+        let n = times.len();
+        let spans = [(n - 1, n), (0, 2)];
+        let s = SampleTemps {
+            times: &times,
+            temp: &temp,
+            spans: &spans,
+        };
+        let m = s.lagged_means(100.0);
+        // The step reaches the filter at the first sample after it (t = 0, Δt = 1 s).
+        let expect = 1.0 - (-101.0f64 / 100.0).exp();
+        assert!((m[0] - expect).abs() < 1e-12, "{} vs {expect}", m[0]);
+    }
+
+    /// A temperature ramp of 0.01 °C/s with a 2 s window: the rate is the ramp's slope, fitted
+    /// over the 30 s about the window.
+    #[test]
+    fn the_rate_of_a_ramp_is_its_slope() {
+        let times: Vec<f64> = (0..1000).map(|i| i as f64 * 0.1).collect();
+        let temp: Vec<f64> = times.iter().map(|t| 20.0 + 0.01 * t).collect();
+        let spans = [(500, 520), (0, 20)];
+        let s = SampleTemps {
+            times: &times,
+            temp: &temp,
+            spans: &spans,
+        };
+        for r in s.rates().unwrap() {
+            assert!((r - 0.01).abs() < 1e-12, "{r}");
+        }
+        let g = lag_grid(200.0);
+        assert_eq!(g.len(), LAG_GRID_LEN);
+        assert!((g[0] - 10.0).abs() < 1e-9 && (g[9] - 200.0).abs() < 1e-9);
+        assert!(lag_grid(5.0).is_empty());
+    }
+}
