@@ -427,11 +427,11 @@ mod tests {
         };
         let t = HostReference {
             time_s: Some(312.5),
-            temperature_c: None,
+            ..Default::default()
         };
         let c = HostReference {
-            time_s: None,
             temperature_c: Some(27.25),
+            ..Default::default()
         };
         CalibrationFile {
             calibration: sample(),
@@ -439,6 +439,19 @@ mod tests {
             host_terms: vec![
                 term("scale-drift", 2, 3.25e-6, t),
                 term("temperature-squared", 0, -0.0125, c),
+                HostTerm {
+                    time_constant_s: Some(215.5),
+                    ..term("thermal-lag", 1, 0.75, c)
+                },
+                term(
+                    "temperature-rate",
+                    2,
+                    -40.5,
+                    HostReference {
+                        rate_c_per_s: Some(0.0125),
+                        ..Default::default()
+                    },
+                ),
             ],
         }
     }
