@@ -237,6 +237,16 @@ pub fn write_calibration_with(
     write_file(path, to_json_with(cal, quality)?.as_bytes())
 }
 
+/// Writes a calibration file (core calibration, quality, host terms) after checking the
+/// calibration is valid (finite, invertible) and the host terms are, atomically.
+pub fn write_calibration_file(path: &Path, f: &CalibrationFile) -> Result<()> {
+    f.calibration
+        .validate()
+        .map_err(OutputError::RefuseInvalidCalibration)?;
+    host_terms::validate(&f.host_terms).map_err(OutputError::RefuseInvalidHostTerms)?;
+    write_file(path, to_json_file(f)?.as_bytes())
+}
+
 /// Writes a calibration after checking it is valid (finite, invertible: what the adapter
 /// accepts).
 pub fn write_calibration(path: &Path, cal: &Calibration) -> Result<()> {

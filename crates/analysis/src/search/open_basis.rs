@@ -177,16 +177,15 @@ pub struct HostContext<'a> {
     pub samples: Option<thermal::SampleTemps<'a>>,
 }
 
-/// The time and temperature families, per axis: scale linear and quadratic in time
-/// (`scale-drift`, `scale-drift-curved`, about the mean window time) and, with a temperature
-/// column, bias and scale quadratic and cubic in temperature about the mean window
-/// temperature (the calibration's `temp_ref_c`). Host terms: the core's `Effects` has no
-/// field for them.
-pub fn host_terms(wins: &[Win], hc: &HostContext<'_>) -> Vec<BasisTerm> {
+/// A polynomial host family: (family, scale term?, power, on temperature?, factor to the
+/// unit, unit).
+type PolyFamily = (&'static str, bool, i32, bool, f64, String);
+
+/// The polynomial time and temperature families the recording allows ([`host_terms`]).
+fn poly_families(hc: &HostContext<'_>) -> Vec<PolyFamily> {
     let (t, th, s) = (hc.nrm.t_scale, hc.nrm.temp_scale, hc.nrm.scale);
     let u = hc.units;
-    // (family, scale term?, power, on temperature?, factor to the unit, unit)
-    let mut families: Vec<(&'static str, bool, i32, bool, f64, String)> = Vec::new();
+    let mut families: Vec<PolyFamily> = Vec::new();
     if hc.has_time {
         families.push((names::SCALE_DRIFT, true, 1, false, 1.0 / t, "1/s".into()));
         families.push((
@@ -232,6 +231,16 @@ pub fn host_terms(wins: &[Win], hc: &HostContext<'_>) -> Vec<BasisTerm> {
             "1/°C³".into(),
         ));
     }
+    families
+}
+
+/// The time and temperature families, per axis: scale linear and quadratic in time
+/// (`scale-drift`, `scale-drift-curved`, about the mean window time) and, with a temperature
+/// column, bias and scale quadratic and cubic in temperature about the mean window
+/// temperature (the calibration's `temp_ref_c`), then the thermal-lag and rate terms. Host
+/// terms: the core's `Effects` has no field for them; each carries its origin.
+pub fn host_terms(wins: &[Win], hc: &HostContext<'_>) -> Vec<BasisTerm> {
+    let families = poly_families(hc);
     let time_ref = HostReference {
         time_s: Some(hc.nrm.t_mean),
         ..Default::default()
