@@ -258,6 +258,30 @@ fn device_put_refuses_absurd_or_poor_calibrations_and_names_ignored_terms() {
     assert!(check.refusals.is_empty(), "{check:?}");
     assert_eq!(check.warnings.len(), 2, "{check:?}");
     assert!(check.warnings[0].contains("does not apply the bias_drift terms"));
+    // Host terms (schema 3): named in a warning, with where they are applied.
+    let host = CalibrationFile {
+        host_terms: vec![wiical_analysis::output::host_terms::HostTerm {
+            name: "scale-drift (z)".into(),
+            family: "scale-drift".into(),
+            axis: 2,
+            value: 1e-6,
+            unit: "1/s".into(),
+            reference: wiical_analysis::output::host_terms::HostReference {
+                time_s: Some(100.0),
+                ..Default::default()
+            },
+            time_constant_s: None,
+        }],
+        ..file(nunchuk_cal(), Some(good_quality()))
+    };
+    let check = judge_for_put(&host);
+    assert!(check.refusals.is_empty(), "{check:?}");
+    assert_eq!(check.warnings.len(), 1, "{check:?}");
+    assert!(
+        check.warnings[0].contains("host terms scale-drift (z)")
+            && check.warnings[0].contains("wiical correct"),
+        "{check:?}"
+    );
 }
 
 #[test]

@@ -137,14 +137,18 @@ pub fn correct_recording(
     let t0 = *times.first().ok_or(CorrectError::Empty)?;
     let since: Vec<f64> = times.iter().map(|t| t - t0).collect();
     let temp = rec.temp.as_deref();
+    let e = &file.calibration.effects;
+    for (name, c) in [
+        ("bias_temp (temperature)", e.bias_temp),
+        ("scale_temp (temperature)", e.scale_temp),
+    ] {
+        if temp.is_none() && c.iter().any(|x| *x != 0.0) {
+            return Err(CorrectError::NeedsTemperature { term: name.into() });
+        }
+    }
     let core = adapter_terms(&file.calibration);
     let mut applied: Vec<String> = core.applied.iter().map(|s| s.to_string()).collect();
-    for name in core.host_only {
-        if temp.is_none() && name.contains("temperature") {
-            return Err(CorrectError::NeedsTemperature { term: name });
-        }
-        applied.push(name);
-    }
+    applied.extend(core.host_only);
     let cols = regressors(&file.host_terms, &since, temp)?;
     applied.extend(file.host_terms.iter().map(|t| {
         let what = t.shape().map_or("nothing", |s| needs(s.0));

@@ -201,6 +201,13 @@ pub fn judge_for_put(file: &CalibrationFile) -> PutCheck {
             ));
         }
     }
+    if !file.host_terms.is_empty() {
+        let names: Vec<&str> = file.host_terms.iter().map(|t| t.name.as_str()).collect();
+        check.warnings.push(format!(
+            "the adapter does not apply the host terms {} (time and temperature); they stay in the file for `wiical correct` and are not uploaded",
+            names.join(", ")
+        ));
+    }
     check
 }
 

@@ -132,7 +132,7 @@ pub struct HostTerm {
     pub value: f64,
     /// Its unit (`1/s`, `raw/°C²`, …).
     pub unit: String,
-    /// The time or temperature origin.
+    /// The regressor's origin `x₀` (time, temperature or rate; module docs).
     pub reference: HostReference,
     /// The lag's time constant, s (`thermal-lag` only).
     #[serde(default, skip_serializing_if = "Option::is_none")]
