@@ -31,6 +31,10 @@ pub enum Cmd {
     /// effect (quadratic, cubic, bias-drift, temperature, temperature-scale, outliers), add it
     /// and report the error before and after (in-sample and leave-one-window-out CV).
     Analyze(cmd::analyze::Args),
+    /// Correct a recording with a calibration file: the core calibration and its host-only
+    /// time and temperature terms (`host_terms`, which the adapter does not apply), per
+    /// sample; writes t,a_x,a_y,a_z (g) as CSV.
+    Correct(cmd::correct::Args),
     /// Many recordings through `analyze` (or `fit`): one JSON line per file in a resumable
     /// results file (files already in it are skipped), `--jobs N` at once.
     Batch(cmd::batch::Args),
@@ -79,6 +83,7 @@ pub fn run(cli: Cli) -> Result<String> {
         Cmd::SixPosition(a) => cmd::six_position::run(&a),
         Cmd::Fit(a) => cmd::fit::run(&a),
         Cmd::Analyze(a) => cmd::analyze::run(&a),
+        Cmd::Correct(a) => cmd::correct::run(&a),
         Cmd::Gyrofit(a) => cmd::gyrofit::run(&a),
         Cmd::Batch(a) => cmd::batch::run(&a),
         Cmd::Simulate(a) => cmd::simulate::run(&a),

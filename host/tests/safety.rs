@@ -212,6 +212,7 @@ fn device_put_refuses_absurd_or_poor_calibrations_and_names_ignored_terms() {
     let file = |cal: Calibration, quality: Option<Quality>| CalibrationFile {
         calibration: cal,
         quality,
+        host_terms: Vec::new(),
     };
     let ok = judge_for_put(&file(nunchuk_cal(), Some(good_quality())));
     assert!(ok.refusals.is_empty() && ok.warnings.is_empty(), "{ok:?}");
@@ -257,6 +258,30 @@ fn device_put_refuses_absurd_or_poor_calibrations_and_names_ignored_terms() {
     assert!(check.refusals.is_empty(), "{check:?}");
     assert_eq!(check.warnings.len(), 2, "{check:?}");
     assert!(check.warnings[0].contains("does not apply the bias_drift terms"));
+    // Host terms (schema 3): named in a warning, with where they are applied.
+    let host = CalibrationFile {
+        host_terms: vec![wiical_analysis::output::host_terms::HostTerm {
+            name: "scale-drift (z)".into(),
+            family: "scale-drift".into(),
+            axis: 2,
+            value: 1e-6,
+            unit: "1/s".into(),
+            reference: wiical_analysis::output::host_terms::HostReference {
+                time_s: Some(100.0),
+                ..Default::default()
+            },
+            time_constant_s: None,
+        }],
+        ..file(nunchuk_cal(), Some(good_quality()))
+    };
+    let check = judge_for_put(&host);
+    assert!(check.refusals.is_empty(), "{check:?}");
+    assert_eq!(check.warnings.len(), 1, "{check:?}");
+    assert!(
+        check.warnings[0].contains("host terms scale-drift (z)")
+            && check.warnings[0].contains("wiical correct"),
+        "{check:?}"
+    );
 }
 
 #[test]
@@ -443,6 +468,7 @@ fn device_put_names_the_terms_the_adapter_applies() {
     let file = |cal: Calibration| CalibrationFile {
         calibration: cal,
         quality: Some(good_quality()),
+        host_terms: Vec::new(),
     };
     let mut ok = nunchuk_cal();
     ok.effects.cross_quadratic[0] = [1e-3, -2e-3, 5e-4, 0.0, 0.0];

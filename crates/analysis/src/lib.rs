@@ -20,6 +20,7 @@
 //! | search | [`search`] | base fit → candidate effects tried, tested, selected one per step, with evidence ([`analyze()`]) |
 //! | report | [`report`] | → [`AnalyzeReport`] (the JSON contract), effect names, quality verdict, progress |
 //! | output | [`output`] | [`Calibration`] ↔ calibration file; atomic writes |
+//! | correction | [`correct`] | calibration file (core + host terms) + recording → corrected samples, g (`wiical correct`) |
 //! | entries | [`pipeline`] | input (samples or window table) → report + quality verdict: what `fit`/`analyze --json` print |
 //! | many files | [`batch`] | files → one JSON line each (through [`pipeline`]), resumable results file |
 //!
@@ -76,6 +77,7 @@
 
 pub mod autocal;
 pub mod batch;
+pub mod correct;
 pub mod detect;
 pub mod error;
 pub mod factory;

@@ -1,6 +1,6 @@
 //! `wiical analyze`: the residual analysis.
 
-use super::{check_outputs, to_json, write_calibration_with, DetectArgs};
+use super::{check_outputs, to_json, DetectArgs};
 use crate::cli_error::cli_error;
 use crate::render;
 use anyhow::Result;
@@ -64,7 +64,7 @@ pub fn run(a: &Args) -> Result<String> {
     .map_err(cli_error)?;
     let (rep, quality) = (&judged.report, &judged.quality);
     if let Some(path) = &a.out {
-        write_calibration_with(path, &rep.calibration, quality)?;
+        write_calibration_file(path, rep, quality)?;
     }
     if let Some(path) = &a.plot {
         render::plot::write_plot(rep, path)?;
@@ -76,4 +76,20 @@ pub fn run(a: &Args) -> Result<String> {
     text.push_str(&quality.line());
     text.push('\n');
     Ok(text)
+}
+
+/// Writes the report's calibration with the fit's quality and the open basis's host terms
+/// (schema `wiical-calibration/3` only when there are some), after validating it, atomically.
+fn write_calibration_file(
+    path: &std::path::Path,
+    rep: &wiical_analysis::AnalyzeReport,
+    quality: &wiical_analysis::report::verdict::Quality,
+) -> Result<()> {
+    use wiical_analysis::output::calfile::{write_calibration_file as write, CalibrationFile};
+    let file = CalibrationFile {
+        calibration: rep.calibration,
+        quality: Some(quality.clone()),
+        host_terms: rep.host_terms.clone(),
+    };
+    write(path, &file).map_err(cli_error)
 }

@@ -10,7 +10,7 @@ use crate::cmd::to_json;
 use crate::render::device as render;
 use anyhow::{anyhow, bail, Result};
 use serde::Serialize;
-use wiical_analysis::output::calfile::{self, adapter_terms, CalibrationFile};
+use wiical_analysis::output::calfile::{self, adapter_terms, adapter_terms_file, CalibrationFile};
 use wiical_analysis::report::verdict::Verdict;
 use wiical_core::quality::Acceptance;
 use wiical_core::Calibration;
@@ -201,12 +201,19 @@ pub fn judge_for_put(file: &CalibrationFile) -> PutCheck {
             ));
         }
     }
+    if !file.host_terms.is_empty() {
+        let names: Vec<&str> = file.host_terms.iter().map(|t| t.name.as_str()).collect();
+        check.warnings.push(format!(
+            "the adapter does not apply the host terms {} (time and temperature); they stay in the file for `wiical correct` and are not uploaded",
+            names.join(", ")
+        ));
+    }
     check
 }
 
 /// Reads a calibration file for `device put`, prints the warnings, and refuses (without
 /// `force`) a poor or implausible one.
-fn checked_for_put(path: &std::path::Path, force: bool) -> Result<Calibration> {
+fn checked_for_put(path: &std::path::Path, force: bool) -> Result<CalibrationFile> {
     let file = calfile::read_calibration_file(path).map_err(cli_error)?;
     let check = judge_for_put(&file);
     for w in &check.warnings {
@@ -227,7 +234,7 @@ fn checked_for_put(path: &std::path::Path, force: bool) -> Result<Calibration> {
             );
         }
     }
-    Ok(file.calibration)
+    Ok(file)
 }
 
 /// Run `wiical device …`. Streamed samples are written to `out` as they arrive; the
@@ -258,8 +265,9 @@ pub fn run(args: &DeviceArgs, out: &mut dyn Write) -> Result<String> {
             commit: false,
             ..
         } => {
-            let cal = put_verified(&mut dev, to_put)?;
-            let terms = adapter_terms(&cal);
+            let terms = to_put.as_ref().map(adapter_terms_file);
+            let cal = put_verified(&mut dev, to_put.map(|f| f.calibration))?;
+            let terms = terms.unwrap_or_else(|| adapter_terms(&cal));
             if json {
                 return to_json(&serde_json::json!({
                     "port": port, "staged": true, "verified": true, "calibration": cal,
@@ -271,8 +279,9 @@ pub fn run(args: &DeviceArgs, out: &mut dyn Write) -> Result<String> {
             Ok(o)
         }
         DeviceAction::Put { commit: true, .. } | DeviceAction::Commit { .. } => {
-            let cal = put_verified(&mut dev, to_put)?;
-            let terms = adapter_terms(&cal);
+            let terms = to_put.as_ref().map(adapter_terms_file);
+            let cal = put_verified(&mut dev, to_put.map(|f| f.calibration))?;
+            let terms = terms.unwrap_or_else(|| adapter_terms(&cal));
             dev.commit()?;
             let s = dev.get_calibration()?;
             if json {

@@ -4,6 +4,7 @@
 pub mod analyze;
 pub mod batch;
 pub mod capture;
+pub mod correct;
 pub mod decode_cal;
 pub mod device;
 pub mod device_sim;

@@ -38,7 +38,7 @@ pub fn fmt_terms(o: &mut String, t: &wiical_analysis::output::calfile::AdapterTe
     if !t.host_only.is_empty() {
         writeln!(
             o,
-            "  kept in the file for hosts with a clock and a thermometer, not applied by the adapter: {}",
+            "  stays in the file for hosts with a clock and a thermometer, not applied by the adapter: {}",
             t.host_only.join(", ")
         )?;
     }

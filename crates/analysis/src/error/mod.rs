@@ -9,6 +9,7 @@
 //! neighbours here ([`gyro::GyroError`] holds a [`detect::DetectError`] and a
 //! [`fit::FitError`]), and every stage re-exports its own type from its module.
 
+pub mod correct;
 pub mod detect;
 pub mod fit;
 pub mod gyro;
@@ -75,6 +76,12 @@ pub enum Error {
     /// ([`crate::error::six_position::SixPositionError`]).
     #[error(transparent)]
     SixPosition(#[from] crate::error::six_position::SixPositionError),
+
+    // ---- host-side correction ----
+    /// A recording could not be corrected with a calibration file
+    /// ([`crate::error::correct::CorrectError`]).
+    #[error(transparent)]
+    Correct(#[from] crate::error::correct::CorrectError),
 
     // ---- magnetometer and gyroscope ----
     /// A magnetometer fit failed ([`crate::error::magnetometer::MagnetometerError`]).

@@ -50,6 +50,9 @@ pub enum OutputError {
     /// Refusing to write a calibration that does not validate.
     #[error("refusing to write an invalid calibration: {0}")]
     RefuseInvalidCalibration(wiical_core::Error),
+    /// Refusing to write host terms that do not validate (the sentence names the entry).
+    #[error("refusing to write invalid host terms: {0}")]
+    RefuseInvalidHostTerms(String),
     /// Not a calibration JSON.
     #[error("{} is not a calibration JSON", path.display())]
     NotCalibrationJson {

@@ -33,6 +33,7 @@
 use crate::error::output::OutputError;
 use crate::error::Result;
 use crate::input::bounded::{read_text, MAX_CALIBRATION_BYTES};
+use crate::output::host_terms::{self, HostTerm};
 use crate::output::write::write_file;
 use crate::report::verdict::Quality;
 use serde::{Deserialize, Serialize};
@@ -41,6 +42,11 @@ use wiical_core::{Calibration, Effects};
 
 /// The newest `schema` value, written when the calibration has cross terms.
 pub const SCHEMA: &str = "wiical-calibration/2";
+
+/// The version-3 `schema` value: written only when the file carries host-only terms
+/// (`host_terms`), so that a version-2 reader refuses the file by its schema instead of
+/// failing on (or, were it lenient, dropping) the unknown key.
+pub const SCHEMA_V3: &str = "wiical-calibration/3";
 
 /// The version-1 `schema` value: still read, and written when every cross term is zero.
 pub const SCHEMA_V1: &str = "wiical-calibration/1";
@@ -57,6 +63,9 @@ struct FileV1 {
     effects: EffectsV1,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     quality: Option<Quality>,
+    /// Version 3: the host-only time and temperature terms; absent when there are none.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    host_terms: Option<Vec<HostTerm>>,
 }
 
 /// The effect terms, strict (the core's serde derive is lenient, for its other users).
@@ -128,11 +137,17 @@ pub struct CalibrationFile {
     pub calibration: Calibration,
     /// The fit's quality (absent for calibrations not from a multi-position fit).
     pub quality: Option<Quality>,
+    /// Host-only terms (time, temperature) the adapter does not apply; empty for most files.
+    pub host_terms: Vec<HostTerm>,
 }
 
-/// The JSON text of a calibration file (pretty-printed, with a final newline).
-pub fn to_json_with(cal: &Calibration, quality: Option<&Quality>) -> Result<String> {
-    let schema = if cal.effects.has_cross_terms() {
+/// The JSON text of a calibration file (pretty-printed, with a final newline), with the
+/// lowest schema version that holds its terms.
+pub fn to_json_file(f: &CalibrationFile) -> Result<String> {
+    let cal = &f.calibration;
+    let schema = if !f.host_terms.is_empty() {
+        SCHEMA_V3
+    } else if cal.effects.has_cross_terms() {
         SCHEMA
     } else {
         SCHEMA_V1
@@ -142,9 +157,19 @@ pub fn to_json_with(cal: &Calibration, quality: Option<&Quality>) -> Result<Stri
         bias: cal.bias,
         matrix: cal.matrix,
         effects: cal.effects.into(),
-        quality: quality.cloned(),
+        quality: f.quality.clone(),
+        host_terms: (!f.host_terms.is_empty()).then(|| f.host_terms.clone()),
     };
     Ok(serde_json::to_string_pretty(&file)? + "\n")
+}
+
+/// The JSON text of a calibration file without host terms.
+pub fn to_json_with(cal: &Calibration, quality: Option<&Quality>) -> Result<String> {
+    to_json_file(&CalibrationFile {
+        calibration: *cal,
+        quality: quality.cloned(),
+        host_terms: Vec::new(),
+    })
 }
 
 /// The JSON text of a calibration without a quality section.
@@ -155,22 +180,9 @@ pub fn to_json(cal: &Calibration) -> Result<String> {
 /// Parses calibration-file text strictly (see the module docs); does not validate.
 pub fn parse(text: &str) -> std::result::Result<CalibrationFile, serde_json::Error> {
     let file: FileV1 = serde_json::from_str(text)?;
-    match file.schema.as_deref() {
-        None | Some(SCHEMA) => {}
-        Some(SCHEMA_V1) => {
-            if file.effects.has_cross_terms() {
-                return Err(serde::de::Error::custom(format!(
-                    "the file says schema '{SCHEMA_V1}' but has cross_quadratic / cross_cubic terms, which version 1 does not have: set \"schema\": \"{SCHEMA}\""
-                )));
-            }
-        }
-        Some(schema) => {
-            return Err(serde::de::Error::custom(format!(
-                "schema '{}' is neither '{SCHEMA}' nor '{SCHEMA_V1}' (written by another version of wiical?)",
-                crate::input::bounded::quote(schema)
-            )));
-        }
-    }
+    let hosts = file.host_terms.unwrap_or_default();
+    check_schema(file.schema.as_deref(), &file.effects, &hosts)?;
+    host_terms::validate(&hosts).map_err(serde::de::Error::custom)?;
     Ok(CalibrationFile {
         calibration: Calibration {
             bias: file.bias,
@@ -178,7 +190,39 @@ pub fn parse(text: &str) -> std::result::Result<CalibrationFile, serde_json::Err
             effects: file.effects.into(),
         },
         quality: file.quality,
+        host_terms: hosts,
     })
+}
+
+/// Refuses a `schema` label that does not hold the file's terms, or is unknown.
+fn check_schema(
+    schema: Option<&str>,
+    effects: &EffectsV1,
+    hosts: &[HostTerm],
+) -> std::result::Result<(), serde_json::Error> {
+    if !hosts.is_empty() && matches!(schema, Some(SCHEMA) | Some(SCHEMA_V1)) {
+        return Err(serde::de::Error::custom(format!(
+            "the file says schema '{}' but has host_terms, which only version 3 has: set \"schema\": \"{SCHEMA_V3}\"",
+            schema.unwrap_or_default()
+        )));
+    }
+    match schema {
+        None | Some(SCHEMA) | Some(SCHEMA_V3) => {}
+        Some(SCHEMA_V1) => {
+            if effects.has_cross_terms() {
+                return Err(serde::de::Error::custom(format!(
+                    "the file says schema '{SCHEMA_V1}' but has cross_quadratic / cross_cubic terms, which version 1 does not have: set \"schema\": \"{SCHEMA}\""
+                )));
+            }
+        }
+        Some(schema) => {
+            return Err(serde::de::Error::custom(format!(
+                "schema '{}' is not '{SCHEMA_V3}', '{SCHEMA}' or '{SCHEMA_V1}' (written by another version of wiical?)",
+                crate::input::bounded::quote(schema)
+            )));
+        }
+    }
+    Ok(())
 }
 
 /// Writes a calibration (with the fit's quality, if any) after checking it is valid (finite,
@@ -191,6 +235,16 @@ pub fn write_calibration_with(
     cal.validate()
         .map_err(OutputError::RefuseInvalidCalibration)?;
     write_file(path, to_json_with(cal, quality)?.as_bytes())
+}
+
+/// Writes a calibration file (core calibration, quality, host terms) after checking the
+/// calibration is valid (finite, invertible) and the host terms are, atomically.
+pub fn write_calibration_file(path: &Path, f: &CalibrationFile) -> Result<()> {
+    f.calibration
+        .validate()
+        .map_err(OutputError::RefuseInvalidCalibration)?;
+    host_terms::validate(&f.host_terms).map_err(OutputError::RefuseInvalidHostTerms)?;
+    write_file(path, to_json_file(f)?.as_bytes())
 }
 
 /// Writes a calibration after checking it is valid (finite, invertible: what the adapter
@@ -277,9 +331,9 @@ mod tests {
             "a version-1 file has no cross keys: {text}"
         );
         assert_eq!(parse(&text).unwrap().calibration, sample());
-        let other = text.replace("wiical-calibration/1", "wiical-calibration/3");
+        let other = text.replace("wiical-calibration/1", "wiical-calibration/9");
         let e = parse(&other).unwrap_err().to_string();
-        assert!(e.contains("schema 'wiical-calibration/3'"), "{e}");
+        assert!(e.contains("schema 'wiical-calibration/9'"), "{e}");
     }
 
     fn with_cross() -> Calibration {
@@ -370,6 +424,87 @@ mod tests {
         }
     }
 
+    fn with_hosts() -> CalibrationFile {
+        use crate::output::host_terms::HostReference;
+        let term = |family: &str, axis: u8, value: f64, r: HostReference| HostTerm {
+            name: format!("{family} ({})", ["x", "y", "z"][axis as usize]),
+            family: family.into(),
+            axis,
+            value,
+            unit: "1/s".into(),
+            reference: r,
+            time_constant_s: None,
+        };
+        let t = HostReference {
+            time_s: Some(312.5),
+            ..Default::default()
+        };
+        let c = HostReference {
+            temperature_c: Some(27.25),
+            ..Default::default()
+        };
+        CalibrationFile {
+            calibration: sample(),
+            quality: None,
+            host_terms: vec![
+                term("scale-drift", 2, 3.25e-6, t),
+                term("temperature-squared", 0, -0.0125, c),
+                HostTerm {
+                    time_constant_s: Some(215.5),
+                    ..term("thermal-lag", 1, 0.75, c)
+                },
+                term(
+                    "temperature-rate",
+                    2,
+                    -40.5,
+                    HostReference {
+                        rate_c_per_s: Some(0.0125),
+                        ..Default::default()
+                    },
+                ),
+            ],
+        }
+    }
+
+    #[test]
+    fn host_terms_are_written_as_version_3_and_read_back() {
+        let f = with_hosts();
+        let text = to_json_file(&f).unwrap();
+        assert!(
+            text.contains(&format!("\"schema\": \"{SCHEMA_V3}\"")),
+            "{text}"
+        );
+        assert_eq!(parse(&text).unwrap(), f);
+        // Without host terms the same calibration is written exactly as before.
+        let plain = CalibrationFile {
+            host_terms: Vec::new(),
+            ..f.clone()
+        };
+        assert_eq!(to_json_file(&plain).unwrap(), to_json(&sample()).unwrap());
+        assert!(!to_json(&sample()).unwrap().contains("host_terms"));
+        // Labelled version 1 or 2, the host terms are refused, naming the fix.
+        for old in [SCHEMA, SCHEMA_V1] {
+            let relabelled = text.replace(SCHEMA_V3, old);
+            let e = parse(&relabelled).unwrap_err().to_string();
+            assert!(e.contains("host_terms") && e.contains(SCHEMA_V3), "{e}");
+        }
+        // A version-2 reader (strict keys, schemas 1 and 2 only) refuses the file by its
+        // schema; its schema check is the same as ours without version 3.
+        let e = check_schema(Some(SCHEMA_V3), &EffectsV1::default(), &[]);
+        assert!(e.is_ok());
+        let e = check_schema(Some("wiical-calibration/4"), &EffectsV1::default(), &[]);
+        assert!(e.unwrap_err().to_string().contains("another version"));
+        // Bad terms are refused on read, naming the entry and field.
+        let bad = text.replacen("\"axis\": 2", "\"axis\": 7", 1);
+        let e = parse(&bad).unwrap_err().to_string();
+        assert!(e.contains("host_terms[0]: axis is 7"), "{e}");
+        let bad = text.replacen("\"family\": \"scale-drift\"", "\"family\": \"warp\"", 1);
+        assert!(parse(&bad)
+            .unwrap_err()
+            .to_string()
+            .contains("family 'warp'"));
+    }
+
     #[test]
     fn quality_round_trips() {
         let q = Quality {
@@ -397,7 +532,7 @@ pub struct AdapterTerms {
     /// Applied on the device.
     pub applied: Vec<&'static str>,
     /// Kept in the file (and stored) for hosts with a clock and a thermometer.
-    pub host_only: Vec<&'static str>,
+    pub host_only: Vec<String>,
 }
 
 /// Sorts the calibration's non-zero terms into [`AdapterTerms`].
@@ -427,7 +562,23 @@ pub fn adapter_terms(cal: &Calibration) -> AdapterTerms {
     ];
     t.applied
         .extend(on_device.iter().filter(|(_, on)| *on).map(|(n, _)| *n));
-    t.host_only
-        .extend(for_hosts.iter().filter(|(_, on)| *on).map(|(n, _)| *n));
+    t.host_only.extend(
+        for_hosts
+            .iter()
+            .filter(|(_, on)| *on)
+            .map(|(n, _)| n.to_string()),
+    );
+    t
+}
+
+/// [`adapter_terms`] of a file, its host-only terms (`host_terms`, kept in the file only:
+/// the device stores the core calibration) added to the host list.
+pub fn adapter_terms_file(f: &CalibrationFile) -> AdapterTerms {
+    let mut t = adapter_terms(&f.calibration);
+    t.host_only.extend(
+        f.host_terms
+            .iter()
+            .map(|h| format!("{} (host_terms)", h.name)),
+    );
     t
 }

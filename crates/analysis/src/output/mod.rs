@@ -4,6 +4,7 @@
 //! written.
 
 pub mod calfile;
+pub mod host_terms;
 pub mod write;
 
 pub use crate::error::output::OutputError;

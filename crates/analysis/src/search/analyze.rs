@@ -89,7 +89,8 @@ pub fn analyze_windows(
                 }),
             };
             let open = open_basis::extend(&mut search.state, &mut ctx.wins, ctx.model, opts, &hc);
-            search.effects.extend(open);
+            search.effects.extend(open.effects);
+            search.host_terms = open.host_terms;
         }
     }
     ctx.report(rec, &base, search)
@@ -281,6 +282,8 @@ struct Search {
     first_signature: Option<Vec<f64>>,
     outliers_done: bool,
     diagnostics: Vec<String>,
+    /// The open basis's accepted time and temperature terms ([`open_basis::Extension`]).
+    host_terms: Vec<crate::report::host_term::HostTerm>,
 }
 
 /// The candidates tried at one step.
@@ -308,6 +311,7 @@ impl Search {
             first_signature: None,
             outliers_done: false,
             diagnostics: Vec::new(),
+            host_terms: Vec::new(),
         }
     }
 
@@ -891,6 +895,7 @@ impl Context<'_> {
             time_temp_correlation: self.time_temp_r,
             diagnostics,
             calibration,
+            host_terms: search.host_terms,
             windows,
             six_position: None,
             residual_correlates,

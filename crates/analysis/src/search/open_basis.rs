@@ -19,8 +19,10 @@
 //!    ([`crate::fit::press::loo`], the candidates' own) is at least `cv_factor` lower.
 //!
 //! Families: orientation ([`orientation_terms`], stored in the core's `Effects` cross terms)
-//! and time and temperature ([`host_terms`]: reported, not stored in the calibration, whose
-//! model is the one at the mean window time and temperature where they vanish).
+//! and time and temperature ([`host_terms`]: the core's `Effects` has no field for them, so
+//! they travel in the calibration file's `host_terms` ([`crate::output::host_terms`]), each
+//! about its regressor's origin, where it vanishes; the core calibration alone is the model
+//! at those origins).
 //!
 //! Rounds repeat until a term fails or the slots ([`am::OPEN_SLOTS`]) or the residual degrees
 //! of freedom run out. The orientation family cannot tell output axes apart to first order:
@@ -32,6 +34,7 @@
 use crate::fit::model::{self as am, Fit, Slot, Win};
 use crate::report::contract::{CvPoint, EffectReport};
 use crate::report::effect_names as names;
+use crate::report::host_term::{HostReference, HostTerm};
 use crate::search::correlates::{slot_pattern, span_of, Projector};
 use crate::search::options::AnalyzeOptions;
 use crate::search::select::{cv_over, MIN_DOF_TERM};
@@ -60,6 +63,10 @@ pub struct BasisTerm {
     pub factor: f64,
     /// For a thermal-lag term: its time constant, s.
     pub time_constant_s: Option<f64>,
+    /// For a host term (time or temperature): the raw regressor's origin, where the term
+    /// vanishes (the mean window time, temperature, lagged temperature or rate;
+    /// [`crate::output::host_terms`]); `None` for a cross term.
+    pub reference: Option<HostReference>,
 }
 
 impl BasisTerm {
@@ -146,6 +153,7 @@ pub fn orientation_terms() -> Vec<BasisTerm> {
                     xs: None,
                     factor: 1.0,
                     time_constant_s: None,
+                    reference: None,
                 });
             }
         }
@@ -169,16 +177,15 @@ pub struct HostContext<'a> {
     pub samples: Option<thermal::SampleTemps<'a>>,
 }
 
-/// The time and temperature families, per axis: scale linear and quadratic in time
-/// (`scale-drift`, `scale-drift-curved`, about the mean window time) and, with a temperature
-/// column, bias and scale quadratic and cubic in temperature about the mean window
-/// temperature (the calibration's `temp_ref_c`). Host terms: the core's `Effects` has no
-/// field for them.
-pub fn host_terms(wins: &[Win], hc: &HostContext<'_>) -> Vec<BasisTerm> {
+/// A polynomial host family: (family, scale term?, power, on temperature?, factor to the
+/// unit, unit).
+type PolyFamily = (&'static str, bool, i32, bool, f64, String);
+
+/// The polynomial time and temperature families the recording allows ([`host_terms`]).
+fn poly_families(hc: &HostContext<'_>) -> Vec<PolyFamily> {
     let (t, th, s) = (hc.nrm.t_scale, hc.nrm.temp_scale, hc.nrm.scale);
     let u = hc.units;
-    // (family, scale term?, power, on temperature?, factor to the unit, unit)
-    let mut families: Vec<(&'static str, bool, i32, bool, f64, String)> = Vec::new();
+    let mut families: Vec<PolyFamily> = Vec::new();
     if hc.has_time {
         families.push((names::SCALE_DRIFT, true, 1, false, 1.0 / t, "1/s".into()));
         families.push((
@@ -224,6 +231,24 @@ pub fn host_terms(wins: &[Win], hc: &HostContext<'_>) -> Vec<BasisTerm> {
             "1/°C³".into(),
         ));
     }
+    families
+}
+
+/// The time and temperature families, per axis: scale linear and quadratic in time
+/// (`scale-drift`, `scale-drift-curved`, about the mean window time) and, with a temperature
+/// column, bias and scale quadratic and cubic in temperature about the mean window
+/// temperature (the calibration's `temp_ref_c`), then the thermal-lag and rate terms. Host
+/// terms: the core's `Effects` has no field for them; each carries its origin.
+pub fn host_terms(wins: &[Win], hc: &HostContext<'_>) -> Vec<BasisTerm> {
+    let families = poly_families(hc);
+    let time_ref = HostReference {
+        time_s: Some(hc.nrm.t_mean),
+        ..Default::default()
+    };
+    let temp_ref = HostReference {
+        temperature_c: Some(hc.nrm.temp_mean),
+        ..Default::default()
+    };
     let mut out = Vec::new();
     for (family, scale, power, temp, factor, unit) in families {
         let xs: Vec<f64> = wins
@@ -244,6 +269,7 @@ pub fn host_terms(wins: &[Win], hc: &HostContext<'_>) -> Vec<BasisTerm> {
                 xs: Some(xs.clone()),
                 factor,
                 time_constant_s: None,
+                reference: Some(if temp { temp_ref } else { time_ref }),
             });
         }
     }
@@ -262,26 +288,33 @@ pub fn host_terms(wins: &[Win], hc: &HostContext<'_>) -> Vec<BasisTerm> {
 /// spread over the windows.
 fn thermal_terms(st: &thermal::SampleTemps<'_>, hc: &HostContext<'_>) -> Vec<BasisTerm> {
     let (th, s, u) = (hc.nrm.temp_scale, hc.nrm.scale, hc.units);
-    let bias = |family, target: String, xs: Vec<f64>, factor, unit: String, tau| {
-        (0..3u8).map(move |axis| BasisTerm {
-            family,
-            target: format!("{}{target}", names::AXES[axis as usize]),
-            slot: Slot::Bias { axis, x: 0.0 },
-            unit: unit.clone(),
-            same_pattern: Vec::new(),
-            xs: Some(xs.clone()),
-            factor,
-            time_constant_s: tau,
-        })
-    };
+    let bias =
+        |family, target: String, (xs, r): (Vec<f64>, HostReference), factor, unit: String, tau| {
+            (0..3u8).map(move |axis| BasisTerm {
+                family,
+                target: format!("{}{target}", names::AXES[axis as usize]),
+                slot: Slot::Bias { axis, x: 0.0 },
+                unit: unit.clone(),
+                same_pattern: Vec::new(),
+                xs: Some(xs.clone()),
+                factor,
+                time_constant_s: tau,
+                reference: Some(r),
+            })
+        };
     let mut out = Vec::new();
     for tau in thermal::lag_grid(LAG_MAX_FRACTION * st.duration()) {
-        if let Some(xs) = thermal::centred(&st.lagged_means(tau), th) {
+        let lagged = st.lagged_means(tau);
+        if let Some(xs) = thermal::centred(&lagged, th) {
             let target = format!(", τ = {} s", fmt_tau(tau));
+            let r = HostReference {
+                temperature_c: Some(thermal::mean(&lagged)),
+                ..Default::default()
+            };
             out.extend(bias(
                 names::THERMAL_LAG,
                 target,
-                xs,
+                (xs, r),
                 s / th,
                 format!("{u}/°C"),
                 Some(tau),
@@ -292,10 +325,14 @@ fn thermal_terms(st: &thermal::SampleTemps<'_>, hc: &HostContext<'_>) -> Vec<Bas
         let r = thermal::rms_spread(&rates);
         if let Some(xs) = thermal::centred(&rates, r) {
             let unit = format!("{u}/(°C/s)");
+            let origin = HostReference {
+                rate_c_per_s: Some(thermal::mean(&rates)),
+                ..Default::default()
+            };
             out.extend(bias(
                 names::TEMPERATURE_RATE,
                 String::new(),
-                xs,
+                (xs, origin),
                 s / r,
                 unit,
                 None,
@@ -421,8 +458,18 @@ fn try_open(
     })
 }
 
+/// What the open-basis stage accepted.
+#[derive(Debug, Default)]
+pub struct Extension {
+    /// One effect row per accepted term, in the order accepted.
+    pub effects: Vec<EffectReport>,
+    /// The accepted time and temperature terms as the calibration file stores them (raw
+    /// units, about their origins; [`crate::output::host_terms`]).
+    pub host_terms: Vec<HostTerm>,
+}
+
 /// Runs the open-basis stage on the final model of the greedy search: adds accepted terms to
-/// `state` and their slots to `wins`, and returns one effect row per accepted term (empty,
+/// `state` and their slots to `wins`, and returns their effect rows and host terms (empty,
 /// and `state` and `wins` untouched, when nothing is accepted).
 pub fn extend(
     state: &mut State,
@@ -430,10 +477,11 @@ pub fn extend(
     model: MultiPosModel,
     opts: &AnalyzeOptions,
     hc: &HostContext<'_>,
-) -> Vec<EffectReport> {
+) -> Extension {
     let mut terms = orientation_terms();
     terms.extend(host_terms(wins, hc));
-    let mut effects = Vec::new();
+    let mut out = Extension::default();
+    let effects = &mut out.effects;
     let mut taken = vec![false; terms.len()];
     while effects.len() < am::OPEN_SLOTS {
         let mask = am::with_open(mask_for(model, &state.parts), wins);
@@ -461,12 +509,30 @@ pub fn extend(
             row.evidence.push_str(&lag_profile_text(&profile));
             row.cv_profile = Some(profile);
         }
+        out.host_terms.extend(host_term(&terms[b], &row));
         effects.push(row);
         state.fit = tr.fit;
         state.loo = tr.loo;
         *wins = tr.wins;
     }
-    effects
+    out
+}
+
+/// An accepted time or temperature term as the calibration file stores it: the effect row's
+/// value (already in `unit` per raw regressor) about the term's origin; `None` for a cross
+/// term.
+fn host_term(term: &BasisTerm, row: &EffectReport) -> Option<HostTerm> {
+    let reference = term.reference?;
+    let axis = term.axis();
+    Some(HostTerm {
+        name: term.name(),
+        family: term.family.to_string(),
+        axis: axis as u8,
+        value: row.values?[axis],
+        unit: term.unit.clone(),
+        reference,
+        time_constant_s: term.time_constant_s,
+    })
 }
 
 /// For an accepted thermal-lag term: the held-out RMS with its axis's term at every time
@@ -538,8 +604,9 @@ fn effect_row(
     );
     if term.xs.is_some() {
         evidence.push_str(
-            "; a host term (time or temperature): not stored in the calibration file, which \
-             holds the model at the mean window time and temperature",
+            "; a host term (time or temperature): stored in the calibration file's host_terms \
+             (schema wiical-calibration/3) about its origin, applied by `wiical correct`, not \
+             by the adapter",
         );
     }
     if !term.same_pattern.is_empty() {

@@ -463,6 +463,7 @@ pub fn analyze_six(rec: &Recording, opts: &AnalyzeOptions) -> Result<AnalyzeRepo
         residual_correlates: None,
         diagnostics: Vec::new(),
         calibration: cal,
+        host_terms: Vec::new(),
         windows: Vec::new(),
         six_position: Some(details),
         window_input: None,

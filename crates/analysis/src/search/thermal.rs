@@ -49,17 +49,9 @@ impl SampleTemps<'_> {
         }
     }
 
-    /// Window means of the temperature through a first-order lag of `tau_s`.
+    /// Window means of the temperature through a first-order lag of `tau_s` ([`lagged`]).
     pub fn lagged_means(&self, tau_s: f64) -> Vec<f64> {
-        let mut lagged = Vec::with_capacity(self.temp.len());
-        let mut y = self.temp.first().copied().unwrap_or(0.0);
-        let mut prev_t = self.times.first().copied().unwrap_or(0.0);
-        for (&t, &x) in self.times.iter().zip(self.temp) {
-            let dt = (t - prev_t).max(0.0);
-            y += (1.0 - (-dt / tau_s).exp()) * (x - y);
-            lagged.push(y);
-            prev_t = t;
-        }
+        let lagged = lagged(self.times, self.temp, tau_s);
         self.spans
             .iter()
             .map(|&(s, e)| lagged[s..e].iter().sum::<f64>() / (e - s) as f64)
@@ -80,6 +72,54 @@ impl SampleTemps<'_> {
             })
             .collect()
     }
+}
+
+/// The temperature `temp` (°C, at `times`, s) through a first-order lag of `tau_s`, per
+/// sample: `T_lag += (1 − e^{−Δt/τ})·(T − T_lag)`, started at the first sample's temperature
+/// (module docs).
+pub fn lagged(times: &[f64], temp: &[f64], tau_s: f64) -> Vec<f64> {
+    let mut lagged = Vec::with_capacity(temp.len());
+    let mut y = temp.first().copied().unwrap_or(0.0);
+    let mut prev_t = times.first().copied().unwrap_or(0.0);
+    for (&t, &x) in times.iter().zip(temp) {
+        let dt = (t - prev_t).max(0.0);
+        y += (1.0 - (-dt / tau_s).exp()) * (x - y);
+        lagged.push(y);
+        prev_t = t;
+    }
+    lagged
+}
+
+/// dT/dt per sample, °C/s: the least-squares slope of the temperature over the samples
+/// within ±[`RATE_SPAN_S`]/2 of each (clamped to the recording), what [`SampleTemps::rates`]
+/// fits for a one-sample window; `None` where that span has no time spread. From running
+/// sums (about the first sample, so that they stay small), not one fit per sample: a
+/// 400-Hz recording has 12 000 samples in a span. The sums' rounding leaves ~1e-8 relative
+/// on a 5-minute recording (tested), far below the `f32` correction it feeds.
+pub fn sample_rates(times: &[f64], temp: &[f64]) -> Vec<Option<f64>> {
+    let (t0, y0) = (
+        times.first().copied().unwrap_or(0.0),
+        temp.first().copied().unwrap_or(0.0),
+    );
+    // Prefix sums of 1, t, y, t², t·y (t and y about the first sample).
+    let mut pre = vec![[0.0f64; 5]; times.len() + 1];
+    for (i, (&t, &y)) in times.iter().zip(temp).enumerate() {
+        let (t, y) = (t - t0, y - y0);
+        let add = [1.0, t, y, t * t, t * y];
+        pre[i + 1] = std::array::from_fn(|k| pre[i][k] + add[k]);
+    }
+    let half = 0.5 * RATE_SPAN_S;
+    times
+        .iter()
+        .map(|&c| {
+            let lo = times.partition_point(|&t| t < c - half);
+            let hi = times.partition_point(|&t| t <= c + half);
+            let [n, st, sy, stt, sty]: [f64; 5] = std::array::from_fn(|k| pre[hi][k] - pre[lo][k]);
+            let sxx = stt - st * st / n;
+            let sxy = sty - st * sy / n;
+            (n > 0.0 && sxx > 1e-12 * stt.max(1e-300)).then(|| sxy / sxx)
+        })
+        .collect()
 }
 
 /// Least-squares slope of `y` on `x`; `None` without spread in `x`.
@@ -103,10 +143,15 @@ pub fn lag_grid(max_s: f64) -> Vec<f64> {
         .collect()
 }
 
+/// The mean of `v` (0 when empty): the origin [`centred`] takes `v` about.
+pub fn mean(v: &[f64]) -> f64 {
+    v.iter().sum::<f64>() / v.len().max(1) as f64
+}
+
 /// `v` centred on its mean and divided by `scale` (the normalised window temperature's
 /// `(θ − θ̄)/Θ`); `None` when `v` has no spread.
 pub fn centred(v: &[f64], scale: f64) -> Option<Vec<f64>> {
-    let m = v.iter().sum::<f64>() / v.len().max(1) as f64;
+    let m = mean(v);
     let spread = v.iter().map(|x| (x - m).abs()).fold(0.0, f64::max);
     (spread > 0.0 && scale > 0.0).then(|| v.iter().map(|x| (x - m) / scale).collect())
 }
@@ -168,5 +213,42 @@ mod tests {
         assert_eq!(g.len(), LAG_GRID_LEN);
         assert!((g[0] - 10.0).abs() < 1e-9 && (g[9] - 200.0).abs() < 1e-9);
         assert!(lag_grid(5.0).is_empty());
+    }
+
+    /// The per-sample rate from running sums is the direct least-squares slope over the
+    /// same ±15 s (a warm-up curve at 50 Hz, 300 s from t = 1000 s), to 1e-7 relative (the
+    /// running sums' rounding; the correction is `f32`, 6e-8); at
+    /// the ends the span is clamped to the recording.
+    #[test]
+    fn per_sample_rates_are_the_slope_over_the_span() {
+        let times: Vec<f64> = (0..15_000).map(|i| 1000.0 + i as f64 * 0.02).collect();
+        let temp: Vec<f64> = times
+            .iter()
+            .map(|t| 25.0 + 8.0 * (1.0 - (-(t - 1000.0) / 90.0).exp()) + 0.01 * (t * 7.0).sin())
+            .collect();
+        let rates = sample_rates(&times, &temp);
+        for i in [0, 1, 700, 7_500, 14_999] {
+            let c = times[i];
+            let lo = times.partition_point(|&t| t < c - 15.0);
+            let hi = times.partition_point(|&t| t <= c + 15.0);
+            let want = slope(&times[lo..hi], &temp[lo..hi]).unwrap();
+            let got = rates[i].unwrap();
+            assert!(
+                (got - want).abs() <= 1e-7 * want.abs().max(1e-3),
+                "{i}: {got} vs {want}"
+            );
+        }
+        // One sample: no spread in time.
+        assert_eq!(sample_rates(&[0.0], &[20.0]), vec![None]);
+        // The per-sample lag is the one the window means are taken of.
+        let spans = [(0, 15_000)];
+        let s = SampleTemps {
+            times: &times,
+            temp: &temp,
+            spans: &spans,
+        };
+        let l = lagged(&times, &temp, 60.0);
+        let m = l.iter().sum::<f64>() / l.len() as f64;
+        assert_eq!(s.lagged_means(60.0), vec![m]);
     }
 }

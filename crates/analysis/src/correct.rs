@@ -1,0 +1,250 @@
+//! Host-side correction (`wiical correct`, issue 19): a calibration file's core calibration
+//! and its host-only time and temperature terms ([`crate::output::host_terms`]) applied to
+//! readings, for a host that has a clock and a thermometer.
+//!
+//! There is no second copy of the model: per sample, the host terms are folded into a copy
+//! of the core [`Calibration`] ([`adjusted`]) and the core's own `Calibration::correct`
+//! does the rest. A bias term's `value·X` (raw units) is added to `bias` on its axis; a scale
+//! term's factor `1 + Σ value·X` multiplies row `j` of `matrix`, which scales
+//! `u_j = (K·(m − b))_j` before the temperature scale and the nonlinearities, exactly as the
+//! analysis model's scale slots scale `v_j` (`fit::model`). The regressors per sample
+//! ([`regressors`]): the time since the first sample; the temperature; the temperature
+//! through the first-order lag of the analysis ([`thermal::lagged`], started at the first
+//! sample); and dT/dt, the least-squares slope over ±15 s about the sample
+//! ([`thermal::sample_rates`]).
+
+pub use crate::error::correct::CorrectError;
+use crate::input::recording::Recording;
+use crate::output::calfile::{adapter_terms, CalibrationFile};
+use crate::output::host_terms::{HostTerm, Regressor};
+use crate::search::thermal;
+use std::borrow::Cow;
+use wiical_core::{Calibration, Conditions};
+
+/// The core calibration with the host terms folded in for one sample whose regressor values
+/// (raw: s, °C, °C/s; one per term, in order) are `xs` (module docs). Terms of an unknown
+/// family (refused when a file is read) change nothing.
+pub fn adjusted(cal: &Calibration, terms: &[HostTerm], xs: &[f64]) -> Calibration {
+    let mut bias = cal.bias.map(f64::from);
+    let mut scale = [1.0f64; 3];
+    for (t, &x) in terms.iter().zip(xs) {
+        let (Some(c), Some(j)) = (t.contribution(x), Some(t.axis as usize).filter(|j| *j < 3))
+        else {
+            continue;
+        };
+        if t.is_scale() {
+            scale[j] += c;
+        } else {
+            bias[j] += c;
+        }
+    }
+    let mut out = *cal;
+    for j in 0..3 {
+        out.bias[j] = bias[j] as f32;
+        for k in out.matrix[j].iter_mut() {
+            *k = (f64::from(*k) * scale[j]) as f32;
+        }
+    }
+    out
+}
+
+/// One reading `m` (raw) corrected to g at `time_s` (s since the first sample) and
+/// `temperature_c`, the host terms' regressors being `xs` ([`adjusted`]).
+pub fn correct_at(
+    file: &CalibrationFile,
+    m: [f32; 3],
+    time_s: f64,
+    temperature_c: Option<f64>,
+    xs: &[f64],
+) -> [f32; 3] {
+    let cond = Conditions {
+        time_s: time_s as f32,
+        temperature_c: temperature_c.map(|t| t as f32),
+    };
+    adjusted(&file.calibration, &file.host_terms, xs).correct(m, &cond)
+}
+
+/// What a term's regressor is, as text (`wiical correct`'s summary).
+pub fn needs(r: Regressor) -> &'static str {
+    match r {
+        Regressor::Time => "time",
+        Regressor::Temperature => "temperature",
+        Regressor::LaggedTemperature(_) => "lagged temperature",
+        Regressor::TemperatureRate => "temperature rate",
+    }
+}
+
+/// The host terms' regressors per sample, one column per term (module docs), from the
+/// sample times (s since the first sample) and temperatures.
+pub fn regressors<'a>(
+    terms: &[HostTerm],
+    times: &'a [f64],
+    temp: Option<&'a [f64]>,
+) -> Result<Vec<Cow<'a, [f64]>>, CorrectError> {
+    let mut rates: Option<Vec<Option<f64>>> = None;
+    let mut out = Vec::with_capacity(terms.len());
+    for t in terms {
+        let needs_temp = || CorrectError::NeedsTemperature {
+            term: t.name.clone(),
+        };
+        let Some((regressor, _, _)) = t.shape() else {
+            out.push(Cow::Owned(vec![0.0; times.len()]));
+            continue;
+        };
+        out.push(match regressor {
+            Regressor::Time => Cow::Borrowed(times),
+            Regressor::Temperature => Cow::Borrowed(temp.ok_or_else(needs_temp)?),
+            Regressor::LaggedTemperature(tau) => {
+                Cow::Owned(thermal::lagged(times, temp.ok_or_else(needs_temp)?, tau))
+            }
+            Regressor::TemperatureRate => {
+                let temp = temp.ok_or_else(needs_temp)?;
+                let r = rates.get_or_insert_with(|| thermal::sample_rates(times, temp));
+                let col: Option<Vec<f64>> = r.iter().copied().collect();
+                Cow::Owned(col.ok_or_else(|| CorrectError::RateUndefined {
+                    term: t.name.clone(),
+                    sample: r.iter().position(Option::is_none).unwrap_or(0),
+                })?)
+            }
+        });
+    }
+    Ok(out)
+}
+
+/// A recording corrected by [`correct_recording`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct Corrected {
+    /// Sample times as the recording gives them, s.
+    pub times: Vec<f64>,
+    /// Corrected acceleration per sample, g.
+    pub accel: Vec<[f32; 3]>,
+    /// The terms applied: the core's (`bias and K`, `cubic`, `bias_drift (time)`, …), then
+    /// each host term as `<name> [<regressor>]`.
+    pub applied: Vec<String>,
+}
+
+/// Corrects every sample of `rec` with the file's core calibration and host terms. Sample
+/// times are the time column, else `i / rate` (the file's rate, else `default_rate_hz`,
+/// as the analysis takes them); `Conditions::time_s` counts from the first sample. A term
+/// that needs a temperature the recording lacks, the core's `bias_temp` / `scale_temp`
+/// included, is refused, naming the term (the core would silently skip it).
+pub fn correct_recording(
+    file: &CalibrationFile,
+    rec: &Recording,
+    default_rate_hz: f64,
+) -> Result<Corrected, CorrectError> {
+    let times = rec.times(default_rate_hz);
+    let t0 = *times.first().ok_or(CorrectError::Empty)?;
+    let since: Vec<f64> = times.iter().map(|t| t - t0).collect();
+    let temp = rec.temp.as_deref();
+    let e = &file.calibration.effects;
+    for (name, c) in [
+        ("bias_temp (temperature)", e.bias_temp),
+        ("scale_temp (temperature)", e.scale_temp),
+    ] {
+        if temp.is_none() && c.iter().any(|x| *x != 0.0) {
+            return Err(CorrectError::NeedsTemperature { term: name.into() });
+        }
+    }
+    let core = adapter_terms(&file.calibration);
+    let mut applied: Vec<String> = core.applied.iter().map(|s| s.to_string()).collect();
+    applied.extend(core.host_only);
+    let cols = regressors(&file.host_terms, &since, temp)?;
+    applied.extend(file.host_terms.iter().map(|t| {
+        let what = t.shape().map_or("nothing", |s| needs(s.0));
+        format!("{} [{what}]", t.name)
+    }));
+    let mut xs = vec![0.0; cols.len()];
+    let accel = rec
+        .xyz
+        .iter()
+        .enumerate()
+        .map(|(i, m)| {
+            for (x, c) in xs.iter_mut().zip(&cols) {
+                *x = c[i];
+            }
+            let theta = temp.map(|t| t[i]);
+            correct_at(file, m.map(|v| v as f32), since[i], theta, &xs)
+        })
+        .collect();
+    Ok(Corrected {
+        times,
+        accel,
+        applied,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::output::host_terms::HostReference;
+    use crate::report::effect_names as names;
+
+    fn term(family: &str, axis: u8, value: f64, reference: HostReference) -> HostTerm {
+        HostTerm {
+            name: format!("{family} ({axis})"),
+            family: family.into(),
+            axis,
+            value,
+            unit: String::new(),
+            reference,
+            time_constant_s: None,
+        }
+    }
+
+    /// A bias term moves the bias by `value·X` and a scale term multiplies its axis's
+    /// reading by `1 + value·X`, checked against the linear model by hand.
+    #[test]
+    fn bias_and_scale_terms_act_where_the_model_puts_them() {
+        let cal = Calibration {
+            bias: [100.0, 200.0, 300.0],
+            matrix: [[0.01, 0.001, 0.0], [0.0, 0.02, 0.0], [0.0, 0.0, 0.005]],
+            ..Default::default()
+        };
+        let at_t = HostReference {
+            time_s: Some(10.0),
+            ..Default::default()
+        };
+        let at_c = HostReference {
+            temperature_c: Some(20.0),
+            ..Default::default()
+        };
+        let file = CalibrationFile {
+            calibration: cal,
+            quality: None,
+            host_terms: vec![
+                term(names::SCALE_DRIFT, 0, 1e-3, at_t),
+                term(names::TEMPERATURE_SQUARED, 1, 0.5, at_c),
+            ],
+        };
+        // t = 110 s: scale x by 1 + 1e-3·100 = 1.1; θ = 22 °C: bias y += 0.5·4 = 2.
+        let m = [150.0, 260.0, 500.0];
+        let a = correct_at(&file, m, 110.0, Some(22.0), &[110.0, 22.0]);
+        let want = [
+            1.1 * (0.01 * 50.0 + 0.001 * 58.0),
+            0.02 * 58.0,
+            0.005 * 200.0,
+        ];
+        for j in 0..3 {
+            assert!(
+                (f64::from(a[j]) - want[j]).abs() < 1e-6,
+                "{a:?} vs {want:?}"
+            );
+        }
+        // At the origins the terms vanish: the core calibration alone.
+        let a0 = correct_at(&file, m, 10.0, Some(20.0), &[10.0, 20.0]);
+        assert_eq!(
+            a0,
+            cal.correct(
+                m,
+                &Conditions {
+                    time_s: 10.0,
+                    temperature_c: Some(20.0)
+                }
+            )
+        );
+        // Without a temperature a temperature term is refused, naming it.
+        let e = regressors(&file.host_terms, &[0.0, 1.0], None).unwrap_err();
+        assert!(e.to_string().contains("temperature-squared (1)"), "{e}");
+    }
+}
