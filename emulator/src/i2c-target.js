@@ -98,6 +98,10 @@ export class I2CTarget extends BasePeripheral {
     this.addressed = false; // inside a transaction addressed to us
     this.reading = false;
     this.firstByte = false;
+    /** Reads addressed while a write before them was still unread in the RX FIFO and bytes
+     * of the read before that still in the TX FIFO: the target's software was late (see
+     * firmware/src/wiimote.rs `ReadEnd::Overtaken`). A measurement, for the scenarios to report. */
+    this.lateReads = 0;
     /** Hook: (event, detail) for measurements (e.g. first TX byte after a read address). */
     this.onEvent = null;
   }
@@ -142,6 +146,7 @@ export class I2CTarget extends BasePeripheral {
     this.firstByte = true;
     if (read) {
       if (this.tx.length) {
+        if (this.rx.length) this.lateReads += 1;
         this.abortSource = ABRT_SLVFLUSH_TXFIFO | (this.tx.length << TX_FLUSH_CNT_SHIFT);
         this.tx = [];
         this.txFlushed = true;

@@ -24,12 +24,50 @@ pub async fn wiimote_task(mut dev: I2cSlave<'static, I2C1>, adapter: &'static Ad
             Ok(Command::WriteRead(n)) => {
                 // A repeated start (a real Nunchuk needs a stop, but tolerate it).
                 adapter.lock().await.emulated().on_write(&rx[..n]);
-                respond(&mut dev, adapter).await;
+                serve_reads(&mut dev, adapter).await;
             }
-            Ok(Command::Read) => respond(&mut dev, adapter).await,
+            Ok(Command::Read) => serve_reads(&mut dev, adapter).await,
             Ok(Command::GeneralCall(_)) => {}
             Err(e) => warn!("Wii Remote bus: {}", e),
         }
+    }
+}
+
+/// How a read of the Wii Remote ended.
+#[derive(PartialEq, Eq)]
+enum ReadEnd {
+    /// The Wii Remote stopped clocking; the next transaction is for `listen`.
+    Finished,
+    /// The read ended inside a piece and this task saw its end only once the Wii Remote had
+    /// addressed the next read (the I²C block flushed the piece's rest then, `LeftoverBytes`
+    /// after bytes were sent). That read waits now, the clock held; a write between the two
+    /// (the register pointer) is still in the RX FIFO, its STOP_DET and the new read's RD_REQ
+    /// cleared by the driver (`IC_CLR_INTR`).
+    Overtaken,
+}
+
+/// Serves one read of the Wii Remote, and the next ones as long as each was overtaken by
+/// the next (see [`ReadEnd::Overtaken`]).
+///
+/// An overtaken read happens when this task runs late (the poll task's correction, the
+/// adapter's mutex): the Wii Remote reads the 16-byte calibration block (6 + 6 + 4 of 6),
+/// writes the pointer 0x00 and addresses the first report read before this task sees the
+/// block read's end. `listen` would then see the new read's RD_REQ without the write's
+/// STOP_DET and drop the pointer byte, and the report would be served from 0x32 (bytes 2..7
+/// of the block; found by the emulator, `cargo xtask emulate commit-analyzed-cal`). So the
+/// pending write is applied from the RX FIFO first, then the waiting read is served.
+async fn serve_reads(dev: &mut I2cSlave<'static, I2C1>, adapter: &'static Adapter) {
+    while respond(dev, adapter).await == ReadEnd::Overtaken {
+        let i2c = embassy_rp::pac::I2C1;
+        let mut guard = adapter.lock().await;
+        // The bus is held for the waiting read: nothing more arrives while this drains.
+        let received = core::iter::from_fn(|| {
+            i2c.ic_status().read().rfne().then(|| {
+                let entry = i2c.ic_data_cmd().read();
+                (entry.dat(), entry.first_data_byte())
+            })
+        });
+        guard.emulated().on_received(received);
     }
 }
 
@@ -37,11 +75,12 @@ pub async fn wiimote_task(mut dev: I2cSlave<'static, I2C1>, adapter: &'static Ad
 ///
 /// A read that ends inside a piece (the 16-byte calibration block is 6 + 6 + 4 of 6) leaves
 /// bytes in the TX FIFO; the I²C block flushes them when the next read is addressed and
-/// reports it as an abort (`LeftoverBytes`) before anything of the new read was sent. The
-/// piece taken for the new read is then sent again rather than dropped: dropping it would
-/// advance the register pointer by a report the Wii Remote never got and serve it bytes
-/// 6..12 (zeros) as the report (found by the emulator, `cargo xtask emulate`).
-async fn respond(dev: &mut I2cSlave<'static, I2C1>, adapter: &'static Adapter) {
+/// reports it as an abort (`LeftoverBytes`). Before anything of this read was sent, that is
+/// the previous read's rest: the piece taken for this read is then sent again rather than
+/// dropped: dropping it would advance the register pointer by a report the Wii Remote never
+/// got and serve it bytes 6..12 (zeros) as the report (found by the emulator, `cargo xtask
+/// emulate`). After bytes were sent, it is this read's rest: [`ReadEnd::Overtaken`].
+async fn respond(dev: &mut I2cSlave<'static, I2C1>, adapter: &'static Adapter) -> ReadEnd {
     let mut chunk = [0u8; READ_CHUNK];
     adapter.lock().await.emulated().on_read(&mut chunk);
     let mut sent_any = false;
@@ -55,10 +94,11 @@ async fn respond(dev: &mut I2cSlave<'static, I2C1>, adapter: &'static Adapter) {
                 // Stale bytes of the previous read were flushed; send this piece again.
                 sent_any = true;
             }
-            Ok(ReadStatus::Done | ReadStatus::LeftoverBytes(_)) => break,
+            Ok(ReadStatus::LeftoverBytes(_)) => return ReadEnd::Overtaken,
+            Ok(ReadStatus::Done) => return ReadEnd::Finished,
             Err(e) => {
                 warn!("Wii Remote read: {}", e);
-                break;
+                return ReadEnd::Finished;
             }
         }
     }
