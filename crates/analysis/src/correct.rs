@@ -247,4 +247,37 @@ mod tests {
         let e = regressors(&file.host_terms, &[0.0, 1.0], None).unwrap_err();
         assert!(e.to_string().contains("temperature-squared (1)"), "{e}");
     }
+
+    /// A temperature-rate term at a sample with no neighbour within ±15 s is refused naming
+    /// the term and the sample (the slope is undefined there), and an empty recording is
+    /// refused rather than corrected to nothing.
+    #[test]
+    fn an_undefined_rate_and_an_empty_recording_are_refused() {
+        let rate = term(
+            names::TEMPERATURE_RATE,
+            2,
+            0.1,
+            HostReference {
+                rate_c_per_s: Some(0.0),
+                ..Default::default()
+            },
+        );
+        // Samples 0 and 1 are 1 s apart (a slope), sample 2 is alone 100 s later.
+        let (times, temp) = ([0.0, 1.0, 101.0], [20.0, 20.5, 21.0]);
+        let e = regressors(std::slice::from_ref(&rate), &times, Some(&temp)).unwrap_err();
+        assert!(
+            matches!(&e, CorrectError::RateUndefined { sample: 2, term } if term == &rate.name),
+            "{e:?}"
+        );
+        assert!(e.to_string().contains("sample 2"), "{e}");
+        let ok = regressors(std::slice::from_ref(&rate), &times[..2], Some(&temp[..2])).unwrap();
+        assert!((ok[0][0] - 0.5).abs() < 1e-12, "{:?}", ok[0]);
+        let file = CalibrationFile {
+            calibration: Calibration::default(),
+            quality: None,
+            host_terms: vec![rate],
+        };
+        let e = correct_recording(&file, &Recording::default(), 100.0).unwrap_err();
+        assert!(matches!(e, CorrectError::Empty), "{e:?}");
+    }
 }
