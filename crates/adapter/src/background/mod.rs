@@ -129,7 +129,7 @@ impl BackgroundSettings {
             damping: 1e-3,
             bins_per_slice: 6,
             fit_interval_s: 60,
-            margin_g: 0.003,
+            margin_g: 0.0015,
             improvement_ratio: 0.7,
             acceptance: Acceptance::nunchuk(),
             min_commit_interval_s: 1800,
