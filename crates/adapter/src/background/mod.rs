@@ -102,7 +102,7 @@ pub struct BackgroundSettings {
 
 impl BackgroundSettings {
     /// Settings for a Nunchuk polled at `rate_hz`: the self-calibration's detector and
-    /// stillness limit; bins forget with weight ½ and age out after 30 min; the default
+    /// stillness limit; bins forget with weight ½ and age out after 4 h; the default
     /// coverage rule for bias + scale, 18 bins spread ≥ 0.2 for the full model; the slope from
     /// a 4 °C span; every 4th bin held out, at least 4; 4 Gauss–Newton steps, 6 bins per slice;
     /// a fit every minute; adopt when 3 mg and 30 % better; the Nunchuk acceptance limits; at
@@ -114,7 +114,7 @@ impl BackgroundSettings {
             detector: sc.detector,
             max_still_variance: sc.max_pose_variance,
             newest_weight: 0.5,
-            max_bin_age_s: 1800,
+            max_bin_age_s: 14_400,
             coverage: CoverageRule::default(),
             full_coverage: CoverageRule {
                 min_poses: 18,
@@ -317,21 +317,50 @@ impl Background {
     pub fn on_report(&mut self, raw: [u16; 3], temperature_c: Option<f32>, live: &Calibration) {
         self.tick();
         if let Some(moment) = self.feed.push(raw) {
-            if self.job.is_some() {
-                // The grid is frozen while a fit runs: keep the latest moment for after.
-                self.deferred = Some((moment.mean, temperature_c));
-            } else {
-                self.bin(moment.mean, temperature_c, live);
-            }
+            self.on_still_moment(moment.mean, temperature_c, live);
         }
         if self.job.is_none() && self.pending.is_none() && self.due() {
-            self.rotation = self.rotation.wrapping_add(1);
-            self.moments_at_attempt = self.grid.moments();
-            self.next_attempt_s = self.play_s.saturating_add(self.s.fit_interval_s.max(1));
-            self.job = Some(Job::new(self.rotation));
+            self.start_job();
             return;
         }
         self.run_slice(live);
+    }
+
+    /// A still moment found by another detector (mean raw counts, its temperature): binned
+    /// like the ones [`Background::on_report`] finds (the caller's detector must apply the
+    /// same absolute stillness limit). While a fit runs the grid is frozen, so the latest such
+    /// moment waits until the fit ends.
+    pub fn on_still_moment(
+        &mut self,
+        mean: [f32; 3],
+        temperature_c: Option<f32>,
+        live: &Calibration,
+    ) {
+        if self.job.is_some() {
+            self.deferred = Some((mean, temperature_c));
+        } else {
+            self.bin(mean, temperature_c, live);
+        }
+    }
+
+    /// Play time passed without reports (a replay of still windows recorded elsewhere, e.g.
+    /// on the host): the clock moves on by `seconds`, and a fit that falls due runs to its end
+    /// at once, all its slices in this call (no poll deadline to keep here).
+    pub fn advance(&mut self, seconds: u32, live: &Calibration) {
+        self.play_s = self.play_s.saturating_add(seconds);
+        if self.job.is_none() && self.pending.is_none() && self.due() {
+            self.start_job();
+        }
+        while self.job.is_some() {
+            self.run_slice(live);
+        }
+    }
+
+    fn start_job(&mut self) {
+        self.rotation = self.rotation.wrapping_add(1);
+        self.moments_at_attempt = self.grid.moments();
+        self.next_attempt_s = self.play_s.saturating_add(self.s.fit_interval_s.max(1));
+        self.job = Some(Job::new(self.rotation));
     }
 
     fn tick(&mut self) {
