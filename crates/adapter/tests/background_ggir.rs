@@ -74,7 +74,7 @@ fn replay(epochs: &[Epoch], settings: BackgroundSettings) -> (f64, usize) {
     let mut prev_t = 0.0;
     let mut adoptions = Vec::new();
     // Causal error: each epoch under the calibration live when it happened, per 12 h.
-    let mut blocks = vec![(0.0f64, 0u32); 8];
+    let mut blocks = [(0.0f64, 0u32); 8];
     for e in epochs {
         bg.advance((e.t - prev_t).max(0.0) as u32, &live);
         prev_t = e.t;
