@@ -40,7 +40,7 @@ impl Arm {
         };
         let t = temperature.then_some(s.temperature_c as f32);
         bg.on_report(s.raw, t, &self.live);
-        if let Some(cal) = bg.take_pending() {
+        if let Some(cal) = bg.pending_calibration() {
             let before = truth_error(truth, &self.prepared, s.t);
             self.live = cal;
             self.prepared = cal.prepare();
@@ -376,7 +376,7 @@ fn a_session_ending_mid_fit_leaves_the_calibration() {
                 break;
             }
         }
-        if probe.take_pending().is_some() {
+        if probe.pending_calibration().is_some() {
             found = Some(bg.clone());
             return true;
         }
@@ -385,7 +385,7 @@ fn a_session_ending_mid_fit_leaves_the_calibration() {
     let mut bg = found.expect("a fit that would adopt within two hours");
     assert!(arms[0].adoptions.is_empty());
     bg.on_unplug();
-    assert_eq!(bg.take_pending(), None);
+    assert_eq!(bg.pending_calibration(), None);
     assert_eq!(bg.status().last_refusal, Some(Refusal::Interrupted));
     assert_eq!(bg.status().phase, BackgroundPhase::Collecting);
     assert_eq!(arms[0].live, start);

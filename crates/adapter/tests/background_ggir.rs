@@ -78,7 +78,7 @@ fn replay(epochs: &[Epoch], settings: BackgroundSettings) -> (f64, usize) {
     for e in epochs {
         bg.advance((e.t - prev_t).max(0.0) as u32, &live);
         prev_t = e.t;
-        if let Some(cal) = bg.take_pending() {
+        if let Some(cal) = bg.pending_calibration() {
             live = cal;
             bg.committed(Ok(()));
             adoptions.push((e.t / 3600.0, bg.status().last_adoption));

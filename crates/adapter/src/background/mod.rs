@@ -20,7 +20,7 @@
 //!    calibration is not a protected host upload, and the flash-write budget allows.
 //!
 //! The caller (the protocol's report loop) hands over each report with
-//! [`Background::on_report`], stores what [`Background::take_pending`] returns through the
+//! [`Background::on_report`], stores what [`Background::pending_calibration`] returns through the
 //! power-loss-safe store and answers with [`Background::committed`], and tells the machine
 //! when the live calibration changed for another reason ([`Background::calibration_changed`])
 //! or the Nunchuk went away ([`Background::on_unplug`]). Nothing changes the live calibration
@@ -423,9 +423,10 @@ impl Background {
         self.status.last_refusal = Some(why);
     }
 
-    /// The adopted calibration to store, if one waits. The caller stores it and answers with
-    /// [`Background::committed`]; until then the live calibration is the old one.
-    pub fn take_pending(&self) -> Option<Calibration> {
+    /// The adopted calibration to store, if one waits (it keeps waiting, and this keeps
+    /// returning it, until [`Background::committed`] answers or an interruption drops it).
+    /// Until the caller has stored it the live calibration is the old one.
+    pub fn pending_calibration(&self) -> Option<Calibration> {
         self.pending.map(|c| c.calibration)
     }
 
