@@ -559,6 +559,7 @@ fn main() -> ! {
     }
 
     all_ok &= selfcal_rows(sc);
+    all_ok &= wiical_qemu_tests::background_bench::rows(ratio);
 
     hprintln!();
     hprintln!(

@@ -11,6 +11,7 @@
 //! qemu-bench` from the workspace root.
 #![no_std]
 
+pub mod background_bench;
 pub mod cases;
 pub mod rt;
 
