@@ -536,12 +536,12 @@ fn a_bare_commit_from_another_opener_cannot_make_an_upload_live() {
     use wiical_wire::{encode_frame, DefaultFrameDecoder, ErrorCode, Request, Response};
     let (path, sim) = spawn(SimOptions::default()).unwrap();
     let p = port(&path);
-    // The other process: holds the port open, not exclusively, and reads nothing yet.
-    let mut holder = serialport::new(&p, 115_200)
-        .timeout(Duration::from_millis(300))
-        .open_native()
+    // The other process: holds the port open (without a lock) and reads nothing yet.
+    let holding = std::fs::OpenOptions::new()
+        .read(true)
+        .write(true)
+        .open(&path)
         .unwrap();
-    holder.set_exclusive(false).unwrap();
     let file = temp_path("bare-commit.json");
     wiical_analysis::output::calfile::write_calibration(&file, &true_calibration()).unwrap();
     let args = device_args(&["device", "put", file.to_str().unwrap(), "--port", &p]);
@@ -552,6 +552,11 @@ fn a_bare_commit_from_another_opener_cannot_make_an_upload_live() {
         0,
         "the port stayed open"
     );
+    // That process now speaks on the port it held: one bare frame, no Hello.
+    let mut holder = serialport::new(&p, 115_200)
+        .timeout(Duration::from_millis(300))
+        .open()
+        .unwrap();
     let mut buf = [0u8; wiical_wire::MAX_FRAME_LEN];
     let frame = encode_frame(&Request::CommitCalibration, &mut buf)
         .unwrap()
@@ -579,6 +584,7 @@ fn a_bare_commit_from_another_opener_cannot_make_an_upload_live() {
         "{answers:?}"
     );
     drop(holder);
+    drop(holding);
     let (mut dev, _) = Device::connect(&p, opts(2000)).unwrap();
     let s = dev.get_calibration().unwrap();
     assert!(!s.stored && s.staged.is_none(), "{s:?}");

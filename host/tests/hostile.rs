@@ -306,8 +306,9 @@ fn counts_cal(tag: &str, name: &str, effects: &str, hosts: &str) -> std::path::P
 
 fn correct(cal: &std::path::Path, rec: &std::path::Path) -> (bool, String, std::path::PathBuf) {
     let out = rec.with_file_name(format!(
-        "corrected-{}.csv",
-        cal.file_stem().unwrap().to_string_lossy()
+        "corrected-{}-{}.csv",
+        cal.file_stem().unwrap().to_string_lossy(),
+        rec.file_stem().unwrap().to_string_lossy()
     ));
     let (ok, _, err) = wiical(&[
         "correct",
@@ -454,7 +455,7 @@ fn calibration_shape_errors_name_the_field() {
         (
             "huge",
             format!(r#"{{"bias": [1e39, 512, 512], "matrix": {unit}}}"#),
-            "bias[0] is 1e39, beyond the largest value",
+            "bias[0] is 1e+39, beyond the largest value",
         ),
         (
             "nomatrix",

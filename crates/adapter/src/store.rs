@@ -276,11 +276,7 @@ impl<F: NorFlash> CalibrationStore<F> {
 
     /// True when the bytes at `rec` (which start with the magic) do not decode for a reason
     /// other than an unknown version: a CRC mismatch or a record cut short by the range end.
-    async fn record_at_is_damaged(
-        &mut self,
-        rec: u32,
-        end: u32,
-    ) -> Result<bool, F::Error> {
+    async fn record_at_is_damaged(&mut self, rec: u32, end: u32) -> Result<bool, F::Error> {
         let align = F::READ_SIZE.max(1) as u32;
         let from = rec - rec % align;
         let skip = (rec - from) as usize;

@@ -236,7 +236,7 @@ fn check_number(name: &str, v: &serde_json::Value) -> std::result::Result<(), St
     };
     if x.abs() > f64::from(f32::MAX) {
         return Err(format!(
-            "{name} is {x}, beyond the largest value a calibration holds (about 3.4e38)"
+            "{name} is {v}, beyond the largest value a calibration holds (about 3.4e38)"
         ));
     }
     Ok(())
