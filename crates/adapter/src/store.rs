@@ -242,7 +242,7 @@ impl<F: NorFlash> CalibrationStore<F> {
     pub async fn damaged_records(&mut self) -> Result<u16, F::Error> {
         const CHUNK: usize = 256;
         let align = F::READ_SIZE.max(1);
-        if CHUNK % align != 0 || align > WORK_BUFFER_LEN - RECORD_LEN {
+        if !CHUNK.is_multiple_of(align) || align > WORK_BUFFER_LEN - RECORD_LEN {
             return Ok(0);
         }
         let Range { start, end } = self.range.clone();
