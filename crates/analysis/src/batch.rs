@@ -256,7 +256,7 @@ fn keyed(path: &Path, ok: bool) -> BatchLine {
     }
 }
 
-/// The files (canonical paths, [`line_key`]) a results file already holds, after removing a
+/// The files (canonical paths, as `line_key` reads them) a results file already holds, after removing a
 /// last line cut short (a run killed while writing it). A missing file holds none; a file
 /// that is not a results file is refused ([`check_results_file`]) before it is opened for
 /// writing.
