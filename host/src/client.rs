@@ -202,7 +202,8 @@ pub struct LinkStats {
     pub discarded: u64,
 }
 
-/// A connection to an adapter. Open with [`Device::open`], then [`Device::hello`].
+/// A connection to an adapter. Open with [`Device::open`], then [`Device::hello`]; the
+/// session ends when it is dropped ([`Device::end_session`]).
 pub struct Device {
     port: Box<dyn SerialPort>,
     name: String,
@@ -211,6 +212,9 @@ pub struct Device {
     stats: LinkStats,
     /// Whole messages decoded but not consumed yet (a chunk can complete several frames).
     queue: std::collections::VecDeque<Result<Response, FrameError>>,
+    /// A Hello was answered with a matching key: the session is this host's, and is ended
+    /// ([`Request::EndSession`]) when the device is dropped.
+    session_open: bool,
 }
 
 fn unexpected(req: &Request, resp: &Response) -> ClientError {
@@ -249,6 +253,7 @@ impl Device {
             opts,
             stats: LinkStats::default(),
             queue: Default::default(),
+            session_open: false,
         };
         // Bytes that were waiting in the port (e.g. samples of a previous session) are stale.
         let _ = d.port.clear(serialport::ClearBuffer::Input);
@@ -406,7 +411,20 @@ impl Device {
                 schema: h.schema_key,
             });
         }
+        self.session_open = true;
         Ok(h)
+    }
+
+    /// Ends this host's session: the adapter discards what this session staged and refuses
+    /// further requests until a new Hello, so that another process holding the same port
+    /// cannot commit this host's upload. Also done, without waiting for the answer, when the
+    /// device is dropped.
+    pub fn end_session(&mut self) -> Result<()> {
+        if !self.session_open {
+            return Ok(());
+        }
+        self.session_open = false;
+        self.call(endpoints::EndSession)
     }
 
     /// Send an endpoint's request, wait for its answer and take its typed reply: an
@@ -519,6 +537,18 @@ impl Device {
     /// Stop streaming.
     pub fn stop_stream(&mut self) -> Result<()> {
         self.call(endpoints::StopStream)
+    }
+}
+
+impl Drop for Device {
+    /// Ends the session before the port closes (the adapter may not see the close while
+    /// another process holds the port): the frame is written, its answer not awaited.
+    fn drop(&mut self) {
+        if self.session_open {
+            self.session_open = false;
+            let _ = self.send(&endpoints::EndSession.request());
+            let _ = self.port.flush();
+        }
     }
 }
 

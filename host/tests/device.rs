@@ -525,3 +525,70 @@ fn cli_commands_over_the_pty() {
     let _ = std::fs::remove_file(&out_file);
     sim.stop().unwrap();
 }
+
+/// The session is the host's, not the port's: while another process keeps the port open
+/// (so the adapter sees no hang-up), `device put` without `--commit` exits, and that process
+/// then sends one bare `CommitCalibration` frame without a Hello: it is refused and nothing
+/// becomes live or stored.
+#[test]
+fn a_bare_commit_from_another_opener_cannot_make_an_upload_live() {
+    use std::io::Write as _;
+    use wiical_wire::{encode_frame, DefaultFrameDecoder, ErrorCode, Request, Response};
+    let (path, sim) = spawn(SimOptions::default()).unwrap();
+    let p = port(&path);
+    // The other process: holds the port open (without a lock) and reads nothing yet.
+    let holding = std::fs::OpenOptions::new()
+        .read(true)
+        .write(true)
+        .open(&path)
+        .unwrap();
+    let file = temp_path("bare-commit.json");
+    wiical_analysis::output::calfile::write_calibration(&file, &true_calibration()).unwrap();
+    let args = device_args(&["device", "put", file.to_str().unwrap(), "--port", &p]);
+    let text = device::run(&args, &mut Vec::new()).unwrap();
+    assert!(text.contains("for this session only"), "{text}");
+    assert_eq!(
+        sim.counters().hangups.load(Ordering::Relaxed),
+        0,
+        "the port stayed open"
+    );
+    // That process now speaks on the port it held: one bare frame, no Hello.
+    let mut holder = serialport::new(&p, 115_200)
+        .timeout(Duration::from_millis(300))
+        .open()
+        .unwrap();
+    let mut buf = [0u8; wiical_wire::MAX_FRAME_LEN];
+    let frame = encode_frame(&Request::CommitCalibration, &mut buf)
+        .unwrap()
+        .to_vec();
+    holder.write_all(&frame).unwrap();
+    holder.flush().unwrap();
+    // Answers the holder sees: the Ack of `device put`'s EndSession (written as it closed,
+    // not read), then the answer to the bare commit.
+    let mut dec = DefaultFrameDecoder::new();
+    let mut answers: Vec<Response> = Vec::new();
+    let t0 = Instant::now();
+    while !answers.iter().any(|r| matches!(r, Response::Error(_))) {
+        assert!(
+            t0.elapsed() < Duration::from_secs(10),
+            "no answer: {answers:?}"
+        );
+        let mut chunk = [0u8; 256];
+        if let Ok(n) = std::io::Read::read(&mut holder, &mut chunk) {
+            answers.extend(dec.feed::<Response>(&chunk[..n]).filter_map(Result::ok));
+        }
+    }
+    assert_eq!(
+        answers.last(),
+        Some(&Response::Error(ErrorCode::SchemaMismatch)),
+        "{answers:?}"
+    );
+    drop(holder);
+    drop(holding);
+    let (mut dev, _) = Device::connect(&p, opts(2000)).unwrap();
+    let s = dev.get_calibration().unwrap();
+    assert!(!s.stored && s.staged.is_none(), "{s:?}");
+    drop(dev);
+    sim.stop().unwrap();
+    let _ = std::fs::remove_file(&file);
+}

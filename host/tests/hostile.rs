@@ -273,3 +273,396 @@ fn absurd_gyro_nominals_are_named_and_right_ones_pass() {
     }
     assert!(wiical(&["gyrofit", u, "--counts-per-dps", "16.384"]).0);
 }
+
+// ---- issue 35's doors: `correct`, calibration files, `batch` ----
+
+/// A still recording in Nunchuk counts (z up: 512, 512, 712 ± 2; x offset to 600 so a scale
+/// term on x shows), `n` samples 0.1 s apart, with a temperature column.
+fn counts_recording(tag: &str, n: usize) -> std::path::PathBuf {
+    let mut text = String::from("t,x,y,z,temp\n");
+    for i in 0..n {
+        let wobble = (i % 5) as f64 - 2.0;
+        let t = 0.1 * i as f64;
+        text.push_str(&format!(
+            "{t},{},{},{},25\n",
+            600.0 + wobble,
+            512.0,
+            712.0 + wobble
+        ));
+    }
+    common::temp_file(tag, "counts.csv", &text)
+}
+
+/// A counts calibration (bias 512, 200 counts/g) with `effects` and `hosts` JSON spliced in.
+fn counts_cal(tag: &str, name: &str, effects: &str, hosts: &str) -> std::path::PathBuf {
+    let schema = if hosts.is_empty() { "1" } else { "3" };
+    let text = format!(
+        r#"{{"schema": "wiical-calibration/{schema}", "bias": [512, 512, 512],
+           "matrix": [[0.005, 0, 0], [0, 0.005, 0], [0, 0, 0.005]],
+           "effects": {{{effects}}}{hosts}}}"#
+    );
+    common::temp_file(tag, name, &text)
+}
+
+fn correct(cal: &std::path::Path, rec: &std::path::Path) -> (bool, String, std::path::PathBuf) {
+    let out = rec.with_file_name(format!(
+        "corrected-{}-{}.csv",
+        cal.file_stem().unwrap().to_string_lossy(),
+        rec.file_stem().unwrap().to_string_lossy()
+    ));
+    let (ok, _, err) = wiical(&[
+        "correct",
+        cal.to_str().unwrap(),
+        rec.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    (ok, err, out)
+}
+
+/// `correct` refuses what `device put` refuses (the acceptance predicate: a cubic of 1e20 is
+/// named by the output it reaches), a host term that pushes one sample beyond ±16 g (named
+/// by sample and time), and a calibration in other units than the recording (counts on g,
+/// g on counts); the good calibration corrects to 1 g. Nothing is written when refused.
+#[test]
+fn correct_refuses_implausible_and_wrong_unit_calibrations() {
+    let tag = "hostile-correct";
+    let rec = counts_recording(tag, 40);
+    let good = counts_cal(tag, "good.json", "", "");
+    let (ok, err, out) = correct(&good, &rec);
+    assert!(ok, "{err}");
+    let text = std::fs::read_to_string(&out).unwrap();
+    let row: Vec<f64> = text
+        .lines()
+        .nth(1)
+        .unwrap()
+        .split(',')
+        .map(|v| v.parse().unwrap())
+        .collect();
+    // Sample 0: (600 − 2 − 512)/200, 0, (712 − 2 − 512)/200 g.
+    assert!(
+        (row[1] - 0.43).abs() < 1e-6 && row[2].abs() < 1e-9 && (row[3] - 0.99).abs() < 1e-6,
+        "{row:?}"
+    );
+
+    let cubic = counts_cal(tag, "cubic.json", r#""cubic": [0, 0, 1e20]"#, "");
+    let (ok, err, out) = correct(&cubic, &rec);
+    assert!(!ok && !out.exists(), "{err}");
+    assert!(
+        err.contains("implausible calibration") && err.contains("corrected z output reaches"),
+        "{err}"
+    );
+    // The same file is refused by `device put` for the same reason (before any port is opened).
+    let (ok, _, put) = wiical(&[
+        "device",
+        "put",
+        cubic.to_str().unwrap(),
+        "--port",
+        "/dev/does-not-exist",
+    ]);
+    assert!(!ok && put.contains("corrected z output reaches"), "{put}");
+
+    // Scale drift of 1000/s on x from t = 0: sample 2 (t = 0.1 s, x = 599) has
+    // x = (599 − 512)/200 · (1 + 1000·0.1) = 43.935 g.
+    let drift = r#", "host_terms": [{"name": "scale-drift (x)", "family": "scale-drift", "axis": 0,
+        "value": 1000.0, "unit": "1/s", "reference": {"time_s": 0.0}}]"#;
+    let drifting = counts_cal(tag, "drift.json", "", drift);
+    let (ok, err, out) = correct(&drifting, &rec);
+    assert!(!ok && !out.exists(), "{err}");
+    assert!(
+        err.contains("corrected sample 2 (t = 0.1 s) has x = 43.93")
+            && err.contains("beyond ±16 g"),
+        "{err}"
+    );
+
+    // A calibration in g (bias 0, unit matrix) on counts: ≈ 940 g median.
+    let in_g = common::temp_file(
+        tag,
+        "in_g.json",
+        r#"{"bias": [0, 0, 0], "matrix": [[1, 0, 0], [0, 1, 0], [0, 0, 1]]}"#,
+    );
+    let (ok, err, out) = correct(&in_g, &rec);
+    assert!(!ok && !out.exists(), "{err}");
+    assert!(
+        err.contains("different units")
+            && err.contains("expects readings near 0 with about 1 units per g"),
+        "{err}"
+    );
+    // The counts calibration on a recording in g: (−512)/200 on each axis, 4.4 g median.
+    let g_rec = common::temp_file(
+        tag,
+        "g.csv",
+        "t,x,y,z\n0,0.01,0,1\n0.1,0,0.02,0.99\n0.2,0,0,1.01\n",
+    );
+    let (ok, err, out) = correct(&good, &g_rec);
+    assert!(!ok && !out.exists(), "{err}");
+    assert!(
+        err.contains("different units") && err.contains("median magnitude is 4.4"),
+        "{err}"
+    );
+}
+
+/// A temperature far outside anything real with a temperature-squared term makes the bias
+/// infinite: the first such sample is named, and nothing is written.
+#[test]
+fn correct_refuses_non_finite_output_naming_the_sample() {
+    let tag = "hostile-nonfinite";
+    let text = "t,x,y,z,temp\n0,600,512,712,25\n0.1,600,512,712,25\n0.2,600,512,712,1e30\n0.3,600,512,712,25\n";
+    let rec = common::temp_file(tag, "hot.csv", text);
+    let hosts = r#", "host_terms": [{"name": "temperature-squared (z)", "family": "temperature-squared",
+        "axis": 2, "value": 0.01, "unit": "raw/°C²", "reference": {"temperature_c": 25.0}}]"#;
+    let cal = counts_cal(tag, "tsq.json", "", hosts);
+    let (ok, err, out) = correct(&cal, &rec);
+    assert!(!ok && !out.exists(), "{err}");
+    // If the loader refuses the temperature itself, that names the line instead.
+    assert!(
+        err.contains("corrected sample 3 (t = 0.2 s) has z") && err.contains("not a finite number")
+            || err.contains("line 4"),
+        "{err}"
+    );
+}
+
+/// Calibration files with the wrong shape are told in the file's own terms, naming the
+/// field and row, by `correct` and `device put` alike.
+#[test]
+fn calibration_shape_errors_name_the_field() {
+    let tag = "hostile-shape";
+    let rec = counts_recording(tag, 5);
+    let unit = r#"[[0.005, 0, 0], [0, 0.005, 0], [0, 0, 0.005]]"#;
+    for (name, text, want) in [
+        (
+            "bias4",
+            format!(r#"{{"bias": [1, 2, 3, 4], "matrix": {unit}}}"#),
+            "bias has 4 values, expected 3",
+        ),
+        (
+            "biasobj",
+            format!(r#"{{"bias": {{"x": 1}}, "matrix": {unit}}}"#),
+            "bias is an object, expected a list of 3 numbers",
+        ),
+        (
+            "row2",
+            r#"{"bias": [1, 2, 3], "matrix": [[1, 0, 0], [0, 1], [0, 0, 1]]}"#.to_string(),
+            "matrix row 2 has 2 values, expected 3",
+        ),
+        (
+            "text",
+            format!(
+                r#"{{"bias": [512, 512, 512], "matrix": {unit}, "effects": {{"cubic": ["a", 0, 0]}}}}"#
+            ),
+            "effects.cubic[0] is the text \"a\", expected a number",
+        ),
+        (
+            "huge",
+            format!(r#"{{"bias": [1e39, 512, 512], "matrix": {unit}}}"#),
+            "bias[0] is 1e+39, beyond the largest value",
+        ),
+        (
+            "nomatrix",
+            r#"{"bias": [1, 2, 3]}"#.to_string(),
+            "the file has no \"matrix\"",
+        ),
+        (
+            "list",
+            "[1, 2, 3]".to_string(),
+            "the file holds a list of 3 values, expected an object",
+        ),
+        (
+            "cross",
+            format!(
+                r#"{{"schema": "wiical-calibration/2", "bias": [512, 512, 512], "matrix": {unit}, "effects": {{"cross_quadratic": [[0, 0, 0, 0], [0, 0, 0, 0, 0], [0, 0, 0, 0, 0]]}}}}"#
+            ),
+            "effects.cross_quadratic row 1 has 4 values, expected 5",
+        ),
+    ] {
+        let cal = common::temp_file(tag, &format!("{name}.json"), &text);
+        let (ok, err, _) = correct(&cal, &rec);
+        assert!(!ok && err.contains(want), "{name}: {err}");
+        assert!(
+            !err.contains("invalid type") && !err.contains("expected a tuple"),
+            "{name}: {err}"
+        );
+        let (ok, _, put) = wiical(&[
+            "device",
+            "put",
+            cal.to_str().unwrap(),
+            "--port",
+            "/dev/does-not-exist",
+        ]);
+        assert!(!ok && put.contains(want), "{name}: {put}");
+    }
+}
+
+/// An output that is a directory or a device is refused as an output, not with the input
+/// sentence about standard input.
+#[test]
+fn a_refused_out_is_told_as_an_output() {
+    let tag = "hostile-out";
+    let rec = counts_recording(tag, 5);
+    let cal = counts_cal(tag, "good.json", "", "");
+    let dir = rec.parent().unwrap().to_str().unwrap().to_string();
+    for out in ["/dev/null", dir.as_str()] {
+        let (ok, _, err) = wiical(&[
+            "correct",
+            cal.to_str().unwrap(),
+            rec.to_str().unwrap(),
+            "--out",
+            out,
+        ]);
+        assert!(!ok, "{out}");
+        assert!(
+            err.contains(&format!(
+                "refusing to write {out}: it is not a regular file"
+            )),
+            "{err}"
+        );
+        assert!(!err.contains("standard input"), "{err}");
+    }
+}
+
+/// Runs `wiical batch INPUTS --out OUT` with a time limit (a FIFO must not block it).
+fn batch(inputs: &[&std::path::Path], out: &std::path::Path) -> (bool, String, String) {
+    let mut c = std::process::Command::new(env!("CARGO_BIN_EXE_wiical"));
+    c.arg("batch").args(inputs).arg("--out").arg(out);
+    c.stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped());
+    let mut child = c.spawn().unwrap();
+    let start = std::time::Instant::now();
+    while child.try_wait().unwrap().is_none() {
+        if start.elapsed() > std::time::Duration::from_secs(60) {
+            child.kill().unwrap();
+            panic!("batch --out {} did not finish within 60 s", out.display());
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    let o = child.wait_with_output().unwrap();
+    (
+        o.status.success(),
+        String::from_utf8_lossy(&o.stdout).into_owned(),
+        String::from_utf8_lossy(&o.stderr).into_owned(),
+    )
+}
+
+fn batch_lines(out: &std::path::Path) -> Vec<serde_json::Value> {
+    std::fs::read_to_string(out)
+        .unwrap()
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect()
+}
+
+/// `batch --out` never writes over a file it did not create: an input, an unrelated file, a
+/// FIFO (refused at once, not blocking) and a directory are refused with their bytes
+/// unchanged; its own results file is appended to.
+#[test]
+fn batch_never_writes_over_what_it_did_not_create() {
+    let dir = tempfile::tempdir().unwrap();
+    let rec = dir.path().join("notes.csv");
+    std::fs::write(&rec, "not a recording\n").unwrap();
+    let other = dir.path().join("thesis.txt");
+    std::fs::write(&other, "chapter 1\n").unwrap();
+    for out in [&rec, &other] {
+        let (ok, _, err) = batch(&[&rec], out);
+        assert!(!ok && err.contains("is not a batch results file"), "{err}");
+    }
+    assert_eq!(std::fs::read_to_string(&rec).unwrap(), "not a recording\n");
+    assert_eq!(std::fs::read_to_string(&other).unwrap(), "chapter 1\n");
+    let fifo = dir.path().join("pipe");
+    let made = std::process::Command::new("mkfifo")
+        .arg(&fifo)
+        .status()
+        .unwrap();
+    assert!(made.success());
+    for out in [fifo.as_path(), dir.path()] {
+        let (ok, _, err) = batch(&[&rec], out);
+        assert!(!ok && err.contains("it is not a regular file"), "{err}");
+    }
+    // Its own results file: created, then appended to on a new input.
+    let results = dir.path().join("results.jsonl");
+    assert!(batch(&[&rec], &results).0);
+    let second = dir.path().join("more.csv");
+    std::fs::write(&second, "x\n").unwrap();
+    assert!(batch(&[&rec, &second], &results).0);
+    assert_eq!(batch_lines(&results).len(), 2);
+}
+
+/// Resume is keyed by the file, not its spelling: the same file under another spelling or
+/// through a link is skipped, two non-UTF-8 names that print alike are two files.
+#[cfg(unix)]
+#[test]
+fn batch_resume_is_keyed_by_the_file() {
+    use std::os::unix::ffi::OsStrExt;
+    let dir = tempfile::tempdir().unwrap();
+    let a = dir.path().join("a.csv");
+    std::fs::write(&a, "not a recording\n").unwrap();
+    let results = dir.path().join("results.jsonl");
+    assert!(batch(&[&a], &results).0);
+    let respelt = dir.path().join(".").join("a.csv");
+    let link = dir.path().join("link.csv");
+    std::os::unix::fs::symlink(&a, &link).unwrap();
+    let (ok, out, err) = batch(&[&respelt, &link], &results);
+    assert!(ok, "{err}");
+    assert!(out.contains("1 already in"), "{out}");
+    assert_eq!(batch_lines(&results).len(), 1);
+    // Two names that are not UTF-8 and print alike (a\u{FFFD}.csv).
+    let names = [b"u\xff.csv".as_slice(), b"u\xfe.csv".as_slice()];
+    let paths: Vec<std::path::PathBuf> = names
+        .iter()
+        .map(|n| dir.path().join(std::ffi::OsStr::from_bytes(n)))
+        .collect();
+    for p in &paths {
+        std::fs::write(p, "not a recording\n").unwrap();
+    }
+    let refs: Vec<&std::path::Path> = paths.iter().map(|p| p.as_path()).collect();
+    assert!(batch(&refs, &results).0);
+    assert_eq!(batch_lines(&results).len(), 3);
+    let (ok, out, _) = batch(&refs, &results);
+    assert!(ok && out.contains("2 already in"), "{out}");
+    assert_eq!(batch_lines(&results).len(), 3);
+}
+
+/// Walking a directory follows links to files (as a pattern does) without looping on a link
+/// to an ancestor, and an unreadable subdirectory is a line of its own, not a stop.
+#[cfg(unix)]
+#[test]
+fn batch_walks_links_and_survives_an_unreadable_directory() {
+    use std::os::unix::fs::PermissionsExt;
+    let dir = tempfile::tempdir().unwrap();
+    let data = dir.path().join("data");
+    std::fs::create_dir(&data).unwrap();
+    let elsewhere = dir.path().join("elsewhere.csv");
+    std::fs::write(&elsewhere, "not a recording\n").unwrap();
+    std::fs::write(data.join("own.csv"), "not a recording\n").unwrap();
+    std::os::unix::fs::symlink(&elsewhere, data.join("linked.csv")).unwrap();
+    std::os::unix::fs::symlink(&data, data.join("loop")).unwrap();
+    let locked = data.join("locked");
+    std::fs::create_dir(&locked).unwrap();
+    std::fs::write(locked.join("hidden-from-us.csv"), "x\n").unwrap();
+    std::fs::set_permissions(&locked, std::fs::Permissions::from_mode(0o000)).unwrap();
+    // Root reads any directory: then only the link cases can be checked.
+    let can_lock = std::fs::read_dir(&locked).is_err();
+    let results = dir.path().join("results.jsonl");
+    let (ok, out, err) = batch(&[&data], &results);
+    std::fs::set_permissions(&locked, std::fs::Permissions::from_mode(0o755)).unwrap();
+    assert!(ok, "{err}");
+    let lines = batch_lines(&results);
+    let files: Vec<&str> = lines.iter().map(|l| l["file"].as_str().unwrap()).collect();
+    assert!(files.iter().any(|f| f.ends_with("linked.csv")), "{files:?}");
+    assert!(files.iter().any(|f| f.ends_with("own.csv")), "{files:?}");
+    let looped = lines
+        .iter()
+        .find(|l| l["file"].as_str().unwrap().ends_with("loop"));
+    let why = looped.map(|l| l["error"].as_str().unwrap().to_string());
+    assert!(
+        why.as_deref().is_some_and(|w| w.contains("link loop")),
+        "{lines:?}"
+    );
+    if can_lock {
+        let locked_line = lines
+            .iter()
+            .find(|l| l["file"].as_str().unwrap().ends_with("locked"))
+            .unwrap_or_else(|| panic!("no line for the locked directory: {lines:?}"));
+        assert_eq!(locked_line["ok"], false);
+        assert!(out.contains("could not be listed"), "{out}");
+    }
+}

@@ -19,8 +19,11 @@
 //! self-calibration ([`crate::selfcal`]) and the stale-calibration estimate.
 //!
 //! ## Sessions
-//! A session lasts from a `Hello` to the next `Hello` or to [`Protocol::reset_session`]
-//! (port closed). **A staged calibration belongs to the session that staged it**: a new
+//! A session lasts from a `Hello` to the next `Hello`, to `EndSession` (the host ends it
+//! before closing the port: the session belongs to the host that said Hello, not to the
+//! port, which other processes may hold open) or to [`Protocol::reset_session`] (port
+//! closed). Outside a session every request but `Hello` is refused (`SchemaMismatch`), so
+//! each opener needs its own Hello. **A staged calibration belongs to the session that staged it**: a new
 //! `Hello` or the end of the session discards it, so a later client's `CommitCalibration`
 //! can never commit someone else's upload (it gets `NothingStaged`); a host uploads and
 //! commits within one session. **A `Hello` does not stop a running stream**: the stream is
@@ -36,8 +39,9 @@ use wiical_core::quality::{Acceptance, Rejection};
 use wiical_core::Calibration;
 use wiical_extbus::NunchukReport;
 use wiical_wire::{
-    AdapterStatus, CalibrationState, ErrorCode, FrameError, HelloResponse, Request, Response,
-    Sample, SelfCalOutcome, SelfCalPhase, FIRMWARE_VERSION_CAP, PROTOCOL_VERSION, SCHEMA_KEY,
+    AdapterStatus, BootRecord, CalibrationState, ErrorCode, FrameError, HelloResponse,
+    RecordProblem, Request, Response, Sample, SelfCalOutcome, SelfCalPhase, FIRMWARE_VERSION_CAP,
+    PROTOCOL_VERSION, SCHEMA_KEY,
 };
 
 use crate::corrector::{CorrectionMode, Corrector, IdealScale};
@@ -88,6 +92,25 @@ pub enum BootLoad {
     StorageError,
 }
 
+impl BootLoad {
+    /// The wire form reported in `GetCalibration`, so that a host can tell a refused record
+    /// from an empty store.
+    pub fn to_wire(self) -> BootRecord {
+        match self {
+            BootLoad::Empty => BootRecord::Empty,
+            BootLoad::Loaded => BootRecord::Loaded,
+            BootLoad::StorageError => BootRecord::StorageError,
+            BootLoad::Rejected(e) => BootRecord::Rejected(match e {
+                RecordError::WrongLength(_) => RecordProblem::WrongLength,
+                RecordError::BadMagic => RecordProblem::BadMagic,
+                RecordError::UnsupportedVersion(v) => RecordProblem::UnsupportedVersion(v),
+                RecordError::BadCrc => RecordProblem::BadCrc,
+                RecordError::Invalid(_) => RecordProblem::Invalid,
+            }),
+        }
+    }
+}
+
 /// A snapshot of the adapter's state, for a status LED or log.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Status {
@@ -103,6 +126,8 @@ pub struct Status {
     pub streaming: bool,
     /// A calibration is staged, awaiting commit.
     pub staged: bool,
+    /// Damaged or interrupted records found in storage at boot (and skipped).
+    pub damaged_records: u16,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -124,6 +149,7 @@ pub struct Protocol<F: NorFlash> {
     corrector: Corrector,
     emulated: EmulatedNunchuk,
     boot: BootLoad,
+    damaged_records: u16,
     block_generation: u32,
     acceptance: Acceptance,
     selfcal: SelfCal,
@@ -143,6 +169,9 @@ impl<F: NorFlash> Protocol<F> {
             Ok(Loaded::Rejected(e)) => BootLoad::Rejected(e),
             Err(_) => BootLoad::StorageError,
         };
+        // Told to the host: a damaged newest record is skipped by the storage layer
+        // without a word, and the previous one loaded as if it were the newest.
+        let damaged_records = store.damaged_records().await.unwrap_or(0);
         let emulated = EmulatedNunchuk::new(&corrector.calibration_block_bytes());
         let rate_hz = info.base_rate_mhz / 1000;
         Self {
@@ -157,6 +186,7 @@ impl<F: NorFlash> Protocol<F> {
             corrector,
             emulated,
             boot,
+            damaged_records,
             block_generation: 0,
             acceptance: Acceptance::nunchuk(),
             selfcal: SelfCal::new(SelfCalConfig::nunchuk(rate_hz)),
@@ -194,10 +224,19 @@ impl<F: NorFlash> Protocol<F> {
                 })
             }
             _ if !self.session_open => Response::Error(ErrorCode::SchemaMismatch),
+            Request::EndSession => {
+                // The host is leaving: its upload and session go with it (the stream is
+                // the port's and keeps running).
+                self.session_open = false;
+                self.staged = None;
+                Response::Ack
+            }
             Request::GetCalibration => Response::Calibration(CalibrationState {
                 live: self.corrector.live_calibration().into(),
                 staged: self.staged.map(Into::into),
                 stored: self.corrector.mode() == CorrectionMode::Calibrated,
+                boot: self.boot.to_wire(),
+                damaged_records: self.damaged_records,
             }),
             Request::PutCalibration(_) | Request::CommitCalibration if self.selfcal.active() => {
                 Response::Error(ErrorCode::Busy)
@@ -456,6 +495,7 @@ impl<F: NorFlash> Protocol<F> {
             session_open: self.session_open,
             streaming: self.stream.is_some(),
             staged: self.staged.is_some(),
+            damaged_records: self.damaged_records,
         }
     }
 }

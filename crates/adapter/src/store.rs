@@ -185,6 +185,7 @@ type MapCache = Cache<Uncached, Uncached, Uncached, u8>;
 pub struct CalibrationStore<F: NorFlash> {
     map: MapStorage<u8, F, MapCache>,
     buf: WorkBuffer,
+    range: Range<u32>,
 }
 
 impl<F: NorFlash> CalibrationStore<F> {
@@ -193,7 +194,7 @@ impl<F: NorFlash> CalibrationStore<F> {
     /// holding two records (≥ 1 KiB pages). A 4 KiB-sector QSPI flash needs 2 sectors.
     pub fn new(flash: F, range: Range<u32>) -> Result<Self, StoreError<F::Error>> {
         let pages = (range.end.saturating_sub(range.start)) / (F::ERASE_SIZE.max(1) as u32);
-        let config = MapConfig::<F>::try_new(range).map_err(StoreError::Config)?;
+        let config = MapConfig::<F>::try_new(range.clone()).map_err(StoreError::Config)?;
         // Room in a page: everything but the two page-state words.
         let usable = (F::ERASE_SIZE as u32).saturating_sub(2 * F::WRITE_SIZE as u32);
         let item = MapStorage::<u8, F, MapCache>::item_overhead_size()
@@ -209,6 +210,7 @@ impl<F: NorFlash> CalibrationStore<F> {
         Ok(Self {
             map: MapStorage::new(flash, config, MapCache::new_uncached()),
             buf: WorkBuffer([0; WORK_BUFFER_LEN]),
+            range,
         })
     }
 
@@ -227,6 +229,78 @@ impl<F: NorFlash> CalibrationStore<F> {
                 Ok(cal) => Loaded::Calibration(cal),
                 Err(e) => Loaded::Rejected(e),
             },
+        })
+    }
+
+    /// Records in the range that start with the record magic and fail their own checks (a
+    /// CRC mismatch, a length cut short): damaged or interrupted writes. `sequential-storage`
+    /// skips an item whose bytes are damaged and returns the previous one without a word, so
+    /// [`Self::load`] alone cannot tell "the newest record was damaged, this is the one
+    /// before" from "this is the newest"; this scan of the raw flash can. Intact superseded
+    /// records are not counted. Reads the range once, 256 bytes at a time; `Err` is the flash
+    /// driver's read error.
+    pub async fn damaged_records(&mut self) -> Result<u16, F::Error> {
+        const CHUNK: usize = 256;
+        let align = F::READ_SIZE.max(1);
+        if !CHUNK.is_multiple_of(align) || align > WORK_BUFFER_LEN - RECORD_LEN {
+            return Ok(0);
+        }
+        let Range { start, end } = self.range.clone();
+        let mut chunk = [0u8; CHUNK];
+        let mut damaged = 0u16;
+        let mut carry = [0u8; 3];
+        let mut addr = start;
+        while addr < end {
+            let n = CHUNK.min((end - addr) as usize);
+            let flash = self.map.flash();
+            flash.read(addr, &mut chunk[..n]).await?;
+            for i in 0..n {
+                // The magic may straddle two chunks: the last three bytes are carried over.
+                let at = |k: usize| if k < 3 { carry[k] } else { chunk[k - 3] };
+                let word = [at(i), at(i + 1), at(i + 2), at(i + 3)];
+                let pos = addr as usize + i;
+                if word == RECORD_MAGIC && pos >= start as usize + 3 {
+                    let rec = (pos - 3) as u32;
+                    if self.record_at_is_damaged(rec, end).await? {
+                        damaged = damaged.saturating_add(1);
+                    }
+                }
+            }
+            if n >= 3 {
+                carry.copy_from_slice(&chunk[n - 3..n]);
+            }
+            addr += n as u32;
+        }
+        Ok(damaged)
+    }
+
+    /// True when the bytes at `rec` (which start with the magic) do not decode for a reason
+    /// other than an unknown version: a CRC mismatch or a record cut short by the range end.
+    async fn record_at_is_damaged(&mut self, rec: u32, end: u32) -> Result<bool, F::Error> {
+        let align = F::READ_SIZE.max(1) as u32;
+        let from = rec - rec % align;
+        let skip = (rec - from) as usize;
+        let want = (skip + RECORD_LEN).next_multiple_of(align as usize);
+        let avail = (end - from) as usize;
+        let len = want.min(avail - avail % align as usize);
+        let buf = &mut self.buf.0[..len];
+        self.map.flash().read(from, buf).await?;
+        let bytes = &buf[skip..];
+        if bytes.len() < 8 {
+            return Ok(true);
+        }
+        let version = u16::from_le_bytes([bytes[4], bytes[5]]);
+        let rec_len = match version {
+            RECORD_VERSION => RECORD_LEN,
+            RECORD_VERSION_V1 => RECORD_LEN_V1,
+            _ => return Ok(false),
+        };
+        Ok(match bytes.get(..rec_len) {
+            None => true,
+            Some(r) => matches!(
+                decode_record(r),
+                Err(RecordError::BadCrc | RecordError::WrongLength(_))
+            ),
         })
     }
 

@@ -18,8 +18,8 @@ use wiical_core::quality::Acceptance;
 use wiical_core::Calibration;
 use wiical_extbus::{CalibrationBlock, Encryption, NunchukRegisters, NunchukReport};
 use wiical_wire::{
-    encode_frame, CalibrationState, DefaultFrameDecoder, ErrorCode, Hello, Request, Response,
-    Sample, SelfCalPhase, WireCalibration, MAX_FRAME_LEN, PROTOCOL_VERSION, SCHEMA_KEY,
+    encode_frame, BootRecord, CalibrationState, DefaultFrameDecoder, ErrorCode, Hello, Request,
+    Response, Sample, SelfCalPhase, WireCalibration, MAX_FRAME_LEN, PROTOCOL_VERSION, SCHEMA_KEY,
 };
 
 type Flash = CutFlash<4, 512, 4>;
@@ -551,7 +551,102 @@ fn damaged_storage_boots_in_pass_through() {
     assert_eq!(rig.proto.corrector().mode(), CorrectionMode::PassThrough);
     rig.settle();
     rig.hello();
-    assert!(!rig.get().stored);
+    let state = rig.get();
+    assert!(!state.stored);
+    // The damage is told to the host, not passed off as "none committed".
+    assert!(
+        state.damaged_records >= 1 || matches!(state.boot, BootRecord::Rejected(_)),
+        "{:?} / {}",
+        state.boot,
+        state.damaged_records
+    );
+}
+
+/// The newest record damaged behind the storage layer's back, an older intact one before it:
+/// the adapter boots with the older one (the storage layer skips the damaged item) and says
+/// that it found a damaged record, so the host does not show the old calibration as simply
+/// "committed, stored".
+#[test]
+fn a_damaged_newest_record_is_reported_with_the_previous_one_live() {
+    let mut flash = Flash::new(8);
+    let old = true_calibration();
+    let mut new = old;
+    new.bias[0] += 3.0;
+    {
+        let mut rig = Rig::boot(&mut flash);
+        rig.hello();
+        rig.commit(&old);
+        rig.commit(&new);
+        assert_eq!(rig.get().damaged_records, 0);
+    }
+    let last = flash
+        .data
+        .windows(4)
+        .rposition(|w| w == b"WCAL")
+        .expect("a record");
+    flash.data[last + 20] ^= 0x40;
+    let mut rig = Rig::boot(&mut flash);
+    rig.settle();
+    rig.hello();
+    let state = rig.get();
+    assert!(state.stored, "{state:?}");
+    assert!(bits_equal(&Calibration::from(state.live), &old));
+    assert_eq!(state.boot, BootRecord::Loaded);
+    assert_eq!(state.damaged_records, 1);
+    // An intact store reports none.
+    let mut clean = Flash::new(8);
+    let mut rig = Rig::boot(&mut clean);
+    rig.hello();
+    rig.commit(&old);
+    rig.commit(&new);
+    drop(rig);
+    let mut rig = Rig::boot(&mut clean);
+    rig.hello();
+    assert_eq!(rig.get().damaged_records, 0);
+}
+
+/// The session belongs to the host that said Hello: once it ends its session (before closing
+/// the port, which another process may hold open), a bare Commit or Put without a Hello of
+/// its own is refused and the upload is gone; a new Hello discards a previous host's upload.
+#[test]
+fn a_bare_commit_after_the_uploading_host_left_is_refused() {
+    let mut flash = Flash::new(23);
+    let mut rig = Rig::boot(&mut flash);
+    rig.settle();
+    let cal = true_calibration();
+    // `device put` without --commit: Hello, Put, EndSession (the port stays open).
+    rig.hello();
+    assert_eq!(rig.req(Request::PutCalibration(cal.into())), Response::Ack);
+    assert_eq!(rig.req(Request::EndSession), Response::Ack);
+    assert!(!rig.proto.status().session_open && rig.proto.staged().is_none());
+    // The other process: one bare CommitCalibration frame, no Hello.
+    assert_eq!(
+        rig.req(Request::CommitCalibration),
+        Response::Error(ErrorCode::SchemaMismatch)
+    );
+    // A bare Put + Commit after `device get` ended its session: refused too.
+    rig.hello();
+    let _ = rig.get();
+    assert_eq!(rig.req(Request::EndSession), Response::Ack);
+    for req in [
+        Request::PutCalibration(cal.into()),
+        Request::CommitCalibration,
+        Request::GetCalibration,
+        Request::EndSession,
+    ] {
+        assert_eq!(rig.req(req), Response::Error(ErrorCode::SchemaMismatch));
+    }
+    rig.hello();
+    let state = rig.get();
+    assert!(!state.stored && state.staged.is_none(), "{state:?}");
+    assert_eq!(rig.proto.corrector().mode(), CorrectionMode::PassThrough);
+    // A stream started in a session keeps running when that session ends (the port's).
+    assert!(matches!(
+        rig.req(Request::StartStream { rate_divider: 1 }),
+        Response::StreamStarted { .. }
+    ));
+    assert_eq!(rig.req(Request::EndSession), Response::Ack);
+    assert!(rig.step().is_some());
 }
 
 fn arb_f32() -> impl Strategy<Value = f32> {
@@ -619,6 +714,7 @@ fn arb_request() -> impl Strategy<Value = Request> {
         1 => Just(Request::GetStatus),
         2 => any::<u16>().prop_map(|d| Request::StartStream { rate_divider: d % 5 }),
         1 => Just(Request::StopStream),
+        1 => Just(Request::EndSession),
     ]
 }
 
@@ -671,6 +767,11 @@ proptest! {
                     prop_assert_eq!(*sample_rate_mhz, BASE_MHZ / u32::from(*rate_divider));
                 }
                 (Request::StopStream, Response::Ack) => {}
+                (Request::EndSession, Response::Ack) => {
+                    prop_assert!(open);
+                    open = false;
+                    prop_assert!(rig.proto.staged().is_none());
+                }
                 _ => prop_assert!(false, "{:?} answered with {:?}", req, resp),
             }
             if is_start || matches!(req, Request::StopStream) {
@@ -964,7 +1065,7 @@ fn an_old_host_of_protocol(old_version: u16, old_key: u32) {
     let Response::Hello(h) = resp else {
         panic!("{resp:?}")
     };
-    assert_eq!(h.protocol_version, 3);
+    assert_eq!(h.protocol_version, 4);
     assert_eq!(h.check(), Ok(()));
     assert_eq!(
         wiical_wire::check_schema_key(old_key),
@@ -975,6 +1076,7 @@ fn an_old_host_of_protocol(old_version: u16, old_key: u32) {
         Request::GetCalibration,
         Request::GetStatus,
         Request::CommitCalibration,
+        Request::EndSession,
     ] {
         assert_eq!(rig.req(req), Response::Error(ErrorCode::SchemaMismatch));
     }

@@ -11,6 +11,16 @@
 //!   file appears exactly once.
 //! * **Parallel**: `jobs` worker threads take files in order; a single writer appends the
 //!   lines as they finish (so the order of lines is the order of completion).
+//! * **Keyed by the file, not its spelling**: each line carries the file's canonical path
+//!   (`canonical`, or `canonical_bytes` when the name is not UTF-8), and a resumed run skips
+//!   by it, so `data/a.csv`, `./data/a.csv` and a link to it are one file, and two non-UTF-8
+//!   names that print alike stay two.
+//! * **Never over someone else's file** ([`check_results_file`]): the results file is
+//!   created, or appended to only when it already is a results file (empty, or its first
+//!   line is a batch line); an input, any other file, a directory, a pipe or a device is
+//!   refused before anything is opened for writing.
+//! * **Walking a directory** follows links to files and directories (as a pattern does), a
+//!   link loop or an unreadable directory being an error line of its own, not a stop.
 //!
 //! Cost: each file costs what its command costs (linear in its samples, see BENCHMARKS.md);
 //! memory is that of `jobs` files at a time plus the set of names already done.
@@ -52,8 +62,14 @@ pub struct BatchOptions {
 /// One line of the results file.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct BatchLine {
-    /// The file, as found (the key a resumed run skips by).
+    /// The file, as found.
     pub file: String,
+    /// The file's canonical path (the key a resumed run skips by), when it is UTF-8.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub canonical: Option<String>,
+    /// The canonical path's bytes, when it is not UTF-8 (Unix).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub canonical_bytes: Option<Vec<u8>>,
     /// Whether the pipeline produced a result.
     pub ok: bool,
     /// The command's `--json` object.
@@ -75,28 +91,41 @@ pub struct BatchSummary {
     pub ok: usize,
     /// Analysed with an error line.
     pub failed: usize,
+    /// Places below a directory that could not be walked (an error line each).
+    pub unlisted: usize,
+}
+
+/// What [`expand_inputs`] found: the files to run, and the places below a directory that
+/// could not be walked (an unreadable directory, a link loop), each to become an error line.
+#[derive(Debug, Default)]
+pub struct Expanded {
+    /// The files, in order, without duplicates (by canonical path) or the results file.
+    pub files: Vec<PathBuf>,
+    /// Places that could not be listed, with the reason.
+    pub problems: Vec<(PathBuf, String)>,
 }
 
 /// The files of `inputs`: a directory gives every regular, non-hidden file below it
-/// (sorted, recursively); a file is taken as is; a pattern with `*`, `?` or `[` is expanded
-/// (sorted). `exclude` (the results file) is never taken. Duplicates are dropped.
-pub fn expand_inputs(inputs: &[PathBuf], exclude: &Path) -> Result<Vec<PathBuf>> {
-    let mut files = Vec::new();
+/// (sorted, recursively, links followed); a file is taken as is; a pattern with `*`, `?` or
+/// `[` is expanded (sorted). `exclude` (the results file) is never taken. Duplicates (by
+/// canonical path) are dropped.
+pub fn expand_inputs(inputs: &[PathBuf], exclude: &Path) -> Result<Expanded> {
+    let mut found = Expanded::default();
     for input in inputs {
         let s = input.to_string_lossy();
         if input.is_dir() {
-            walk(input, &mut files)?;
+            walk(input, &mut found);
         } else if s.contains(['*', '?', '[']) {
             let paths = glob::glob(&s).map_err(|e| Error::BatchInput {
                 input: input.clone(),
                 why: e.msg.to_string(),
             })?;
-            let mut found: Vec<PathBuf> = paths.filter_map(|p| p.ok()).collect();
-            found.retain(|p| p.is_file());
-            found.sort();
-            files.extend(found);
+            let mut matched: Vec<PathBuf> = paths.filter_map(|p| p.ok()).collect();
+            matched.retain(|p| p.is_file());
+            matched.sort();
+            found.files.extend(matched);
         } else if input.is_file() {
-            files.push(input.clone());
+            found.files.push(input.clone());
         } else {
             return Err(Error::BatchInput {
                 input: input.clone(),
@@ -106,31 +135,133 @@ pub fn expand_inputs(inputs: &[PathBuf], exclude: &Path) -> Result<Vec<PathBuf>>
     }
     let exclude = std::fs::canonicalize(exclude).ok();
     let mut seen = HashSet::new();
-    files.retain(|f| {
+    found.files.retain(|f| {
         let c = std::fs::canonicalize(f).unwrap_or_else(|_| f.clone());
         Some(&c) != exclude.as_ref() && seen.insert(c)
     });
-    Ok(files)
+    Ok(found)
 }
 
-/// Regular non-hidden files below `dir`, sorted by path.
-fn walk(dir: &Path, out: &mut Vec<PathBuf>) -> Result<()> {
-    for entry in walkdir::WalkDir::new(dir).sort_by_file_name() {
-        let entry = entry.map_err(|e| Error::BatchInput {
-            input: dir.to_path_buf(),
-            why: e.to_string(),
-        })?;
+/// Regular non-hidden files below `dir`, sorted by path, links followed (walkdir stops at a
+/// link back to an ancestor and reports the loop). An entry that cannot be read is a
+/// problem, not a stop.
+fn walk(dir: &Path, out: &mut Expanded) {
+    let walker = walkdir::WalkDir::new(dir)
+        .follow_links(true)
+        .sort_by_file_name();
+    for entry in walker {
+        let entry = match entry {
+            Ok(e) => e,
+            Err(e) => {
+                let place = e.path().unwrap_or(dir).to_path_buf();
+                let dangling = std::fs::symlink_metadata(&place).is_ok_and(|m| m.is_symlink())
+                    && std::fs::metadata(&place).is_err();
+                let why = match (e.loop_ancestor(), e.io_error()) {
+                    (Some(a), _) => format!("a link loop back to {}", a.display()),
+                    _ if dangling => "a link to nothing (dangling)".to_string(),
+                    (None, Some(io)) => format!("cannot be listed: {io}"),
+                    _ => e.to_string(),
+                };
+                out.problems.push((place, why));
+                continue;
+            }
+        };
         let hidden = entry.file_name().to_string_lossy().starts_with('.');
         if entry.file_type().is_file() && !hidden {
-            out.push(entry.into_path());
+            out.files.push(entry.into_path());
         }
     }
-    Ok(())
 }
 
-/// The files a results file already holds, after removing a last line cut short (a run
-/// killed while writing it). A missing file holds none.
-pub fn resume(out: &Path) -> Result<HashSet<String>> {
+/// Refuses a results file batch did not create: anything that is not a regular file (a
+/// directory, a FIFO, a device, which could also block forever), and a regular file that is
+/// not empty and does not start with a batch line (an input, a recording, any other file:
+/// appending to it would spoil it). A missing file is fine (it is created).
+pub fn check_results_file(out: &Path) -> Result<()> {
+    let meta = match std::fs::metadata(out) {
+        Ok(m) => m,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(()),
+        Err(source) => {
+            return Err(OutputError::Write {
+                path: out.into(),
+                source,
+            }
+            .into())
+        }
+    };
+    if !meta.is_file() {
+        return Err(OutputError::OutputNotRegular { output: out.into() }.into());
+    }
+    let mut head = Vec::new();
+    let file = std::fs::File::open(out).map_err(|source| OutputError::Write {
+        path: out.into(),
+        source,
+    })?;
+    // The first line, bounded: a batch line holds one file's result (kilobytes).
+    let mut reader = std::io::BufReader::new(std::io::Read::take(file, 1 << 20));
+    reader
+        .read_until(b'\n', &mut head)
+        .map_err(|source| OutputError::Write {
+            path: out.into(),
+            source,
+        })?;
+    let ours = head.is_empty()
+        || serde_json::from_slice::<BatchLine>(&head).is_ok()
+        || (!head.ends_with(b"\n") && head.starts_with(b"{\"file\":"));
+    if ours {
+        Ok(())
+    } else {
+        Err(OutputError::NotBatchResults { out: out.into() }.into())
+    }
+}
+
+/// The canonical path of `path` (or `path` itself when it cannot be resolved): the key of a
+/// file in the results file.
+fn key_of(path: &Path) -> PathBuf {
+    std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf())
+}
+
+/// The key a line was written for: its canonical path (bytes or text), else its `file`
+/// resolved now (lines written before the key was kept).
+fn line_key(l: &BatchLine) -> PathBuf {
+    if let Some(b) = &l.canonical_bytes {
+        #[cfg(unix)]
+        {
+            use std::os::unix::ffi::OsStrExt;
+            return PathBuf::from(std::ffi::OsStr::from_bytes(b));
+        }
+        #[cfg(not(unix))]
+        return PathBuf::from(String::from_utf8_lossy(b).into_owned());
+    }
+    match &l.canonical {
+        Some(c) => PathBuf::from(c),
+        None => key_of(Path::new(&l.file)),
+    }
+}
+
+/// A line for `path` with its key filled in (see [`BatchLine::canonical`]).
+fn keyed(path: &Path, ok: bool) -> BatchLine {
+    let key = key_of(path);
+    let (canonical, canonical_bytes) = match key.to_str() {
+        Some(s) => (Some(s.to_string()), None),
+        None => (None, Some(key.as_os_str().as_encoded_bytes().to_vec())),
+    };
+    BatchLine {
+        file: path.to_string_lossy().into_owned(),
+        canonical,
+        canonical_bytes,
+        ok,
+        result: None,
+        error: None,
+    }
+}
+
+/// The files (canonical paths, as `line_key` reads them) a results file already holds, after removing a
+/// last line cut short (a run killed while writing it). A missing file holds none; a file
+/// that is not a results file is refused ([`check_results_file`]) before it is opened for
+/// writing.
+pub fn resume(out: &Path) -> Result<HashSet<PathBuf>> {
+    check_results_file(out)?;
     let io = |source| {
         Error::from(OutputError::Write {
             path: out.into(),
@@ -154,7 +285,7 @@ pub fn resume(out: &Path) -> Result<HashSet<String>> {
         }
         complete_len += n as u64;
         if let Ok(l) = serde_json::from_slice::<BatchLine>(&line) {
-            done.insert(l.file);
+            done.insert(line_key(&l));
         }
     }
     file.set_len(complete_len).map_err(io)?;
@@ -172,36 +303,48 @@ fn run_one(path: &Path, opts: &BatchOptions) -> BatchLine {
             serde_json::to_value(pipeline::analyze(&input, &opts.analyze)?).map_err(Error::from)
         }
     });
-    let file = path.to_string_lossy().into_owned();
     match result {
         Ok(v) => BatchLine {
-            file,
-            ok: true,
             result: Some(v),
-            error: None,
+            ..keyed(path, true)
         },
         Err(e) => BatchLine {
-            file,
-            ok: false,
-            result: None,
             error: Some(e.full_message()),
+            ..keyed(path, false)
         },
     }
 }
 
-/// Runs `files` not yet in `out` through the pipeline with `opts.jobs` workers, appending a
-/// line per file to `out` (created if missing). `on_line` sees each line as it is written
-/// (a progress display). Fails only when the results file cannot be read or written.
+/// The error line of a place below a directory that could not be walked.
+fn problem_line(place: &Path, why: &str) -> BatchLine {
+    BatchLine {
+        error: Some(format!("{}: {why}", place.display())),
+        ..keyed(place, false)
+    }
+}
+
+/// Runs the files of `found` not yet in `out` through the pipeline with `opts.jobs`
+/// workers, appending a line per file to `out` (created if missing; appended to only when it
+/// is a results file), and a line per place that could not be walked. `on_line` sees each
+/// line as it is written (a progress display). Fails only when the results file is refused
+/// or cannot be read or written.
 pub fn run(
-    files: &[PathBuf],
+    found: &Expanded,
     out: &Path,
     opts: &BatchOptions,
     on_line: &(dyn Fn(&BatchLine) + Sync),
 ) -> Result<BatchSummary> {
+    let files = &found.files;
     let done = resume(out)?;
     let todo: Vec<&PathBuf> = files
         .iter()
-        .filter(|f| !done.contains(f.to_string_lossy().as_ref()))
+        .filter(|f| !done.contains(&key_of(f)))
+        .collect();
+    let problems: Vec<BatchLine> = found
+        .problems
+        .iter()
+        .filter(|(p, _)| !done.contains(&key_of(p)))
+        .map(|(p, why)| problem_line(p, why))
         .collect();
     let mut summary = BatchSummary {
         files: files.len(),
@@ -221,6 +364,10 @@ pub fn run(
         .map_err(io)?;
     let next = AtomicUsize::new(0);
     let (tx, rx) = mpsc::channel::<BatchLine>();
+    let unlisted = problems.len();
+    for p in problems {
+        let _ = tx.send(p);
+    }
     std::thread::scope(|s| -> Result<()> {
         for _ in 0..opts.jobs.max(1) {
             let tx = tx.clone();
@@ -253,6 +400,8 @@ pub fn run(
         Ok(())
     })?;
     journal.sync_all().map_err(io)?;
+    summary.failed -= unlisted;
+    summary.unlisted = unlisted;
     Ok(summary)
 }
 
@@ -291,6 +440,13 @@ mod tests {
         }
     }
 
+    fn all(files: &[PathBuf]) -> Expanded {
+        Expanded {
+            files: files.to_vec(),
+            problems: Vec::new(),
+        }
+    }
+
     fn lines(out: &Path) -> Vec<BatchLine> {
         std::fs::read_to_string(out)
             .unwrap()
@@ -303,7 +459,7 @@ mod tests {
     fn every_file_is_one_line_and_a_bad_file_is_an_error_line() {
         let (dir, files) = inputs(4);
         let out = dir.path().join("results.jsonl");
-        let s = run(&files, &out, &opts(2), &|_| {}).unwrap();
+        let s = run(&all(&files), &out, &opts(2), &|_| {}).unwrap();
         assert_eq!((s.files, s.ok, s.failed, s.skipped), (5, 4, 1, 0));
         let got = lines(&out);
         assert_eq!(got.len(), 5);
@@ -315,6 +471,13 @@ mod tests {
         let alone = pipeline::analyze(&input, &Default::default()).unwrap();
         let want = serde_json::to_string(&BatchLine {
             file: files[1].to_string_lossy().into_owned(),
+            canonical: Some(
+                std::fs::canonicalize(&files[1])
+                    .unwrap()
+                    .to_string_lossy()
+                    .into_owned(),
+            ),
+            canonical_bytes: None,
             ok: true,
             result: Some(serde_json::to_value(&alone).unwrap()),
             error: None,
@@ -323,7 +486,7 @@ mod tests {
         let text = std::fs::read_to_string(&out).unwrap();
         assert!(text.lines().any(|l| l == want));
         // A second run finds them all done.
-        let again = run(&files, &out, &opts(1), &|_| {}).unwrap();
+        let again = run(&all(&files), &out, &opts(1), &|_| {}).unwrap();
         assert_eq!((again.skipped, again.ok + again.failed), (5, 0));
         assert_eq!(lines(&out).len(), 5);
     }
@@ -332,13 +495,13 @@ mod tests {
     fn a_line_cut_short_by_a_kill_is_dropped_and_its_file_redone() {
         let (dir, files) = inputs(3);
         let out = dir.path().join("results.jsonl");
-        run(&files[..2], &out, &opts(1), &|_| {}).unwrap();
+        run(&all(&files[..2]), &out, &opts(1), &|_| {}).unwrap();
         // A kill in the middle of the third line's write.
         let mut f = std::fs::OpenOptions::new().append(true).open(&out).unwrap();
         f.write_all(br#"{"file":"rec02.csv","ok":tr"#).unwrap();
         drop(f);
         assert_eq!(resume(&out).unwrap().len(), 2);
-        let s = run(&files, &out, &opts(2), &|_| {}).unwrap();
+        let s = run(&all(&files), &out, &opts(2), &|_| {}).unwrap();
         assert_eq!((s.skipped, s.ok + s.failed), (2, 2));
         let got = lines(&out);
         let mut names: Vec<&str> = got.iter().map(|l| l.file.as_str()).collect();
@@ -357,14 +520,15 @@ mod tests {
         let out = dir.path().join("results.jsonl");
         std::fs::write(&out, "").unwrap();
         std::fs::write(dir.path().join(".hidden.csv"), "x").unwrap();
-        let all = expand_inputs(&[dir.path().to_path_buf()], &out).unwrap();
-        let names: Vec<String> = all
+        let found = expand_inputs(&[dir.path().to_path_buf()], &out).unwrap();
+        let names: Vec<String> = found
+            .files
             .iter()
             .map(|p| p.file_name().unwrap().to_string_lossy().into_owned())
             .collect();
         assert_eq!(names, ["notes.csv", "rec00.csv", "rec01.csv"]);
         let pattern = dir.path().join("rec*.csv");
-        assert_eq!(expand_inputs(&[pattern], &out).unwrap().len(), 2);
+        assert_eq!(expand_inputs(&[pattern], &out).unwrap().files.len(), 2);
         let missing = expand_inputs(&[dir.path().join("nope.csv")], &out).unwrap_err();
         assert!(missing.to_string().contains("no such file"), "{missing}");
     }

@@ -51,6 +51,10 @@ pub struct StopStream;
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct GetStatus;
 
+/// [`Request::EndSession`] → `()` ([`Response::Ack`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct EndSession;
+
 impl Endpoint for Hello {
     const NAME: &'static str = "Hello";
     type Reply = HelloResponse;
@@ -150,6 +154,17 @@ impl Endpoint for GetStatus {
     }
 }
 
+impl Endpoint for EndSession {
+    const NAME: &'static str = "EndSession";
+    type Reply = ();
+    fn request(&self) -> Request {
+        Request::EndSession
+    }
+    fn reply(response: &Response) -> Option<()> {
+        ack(response)
+    }
+}
+
 impl Request {
     /// The request's name (its [`Endpoint::NAME`]), for messages.
     pub const fn name(&self) -> &'static str {
@@ -161,6 +176,7 @@ impl Request {
             Request::StartStream { .. } => StartStream::NAME,
             Request::StopStream => StopStream::NAME,
             Request::GetStatus => GetStatus::NAME,
+            Request::EndSession => EndSession::NAME,
         }
     }
 
@@ -181,6 +197,7 @@ impl Request {
             Request::StartStream { .. } => StartStream::reply(r).is_some(),
             Request::StopStream => StopStream::reply(r).is_some(),
             Request::GetStatus => GetStatus::reply(r).is_some(),
+            Request::EndSession => EndSession::reply(r).is_some(),
         }
     }
 }
@@ -210,6 +227,8 @@ mod tests {
                 live: wire_identity(),
                 staged: None,
                 stored: false,
+                boot: crate::messages::BootRecord::Empty,
+                damaged_records: 0,
             }),
             Response::StreamStarted {
                 sample_rate_mhz: 100_000,
@@ -236,7 +255,7 @@ mod tests {
     /// independently: (request, index of its success answer in `responses()`).
     #[test]
     fn each_request_is_answered_by_its_documented_reply_and_errors_only() {
-        let cases: [(Request, usize); 7] = [
+        let cases: [(Request, usize); 8] = [
             (Request::Hello(Hello::CURRENT), 0),
             (Request::GetCalibration, 3),
             (Request::PutCalibration(wire_identity()), 2),
@@ -244,6 +263,7 @@ mod tests {
             (Request::StartStream { rate_divider: 1 }, 4),
             (Request::StopStream, 2),
             (Request::GetStatus, 6),
+            (Request::EndSession, 2),
         ];
         for (req, ok) in cases {
             for (i, resp) in responses().iter().enumerate() {

@@ -32,6 +32,9 @@
 //!    `Response::Error(ErrorCode::SchemaMismatch)`.
 //! 4. Then any request; one response each; `Sample`s arrive between responses while
 //!    streaming.
+//! 5. (Protocol 4.) Before closing the port the host sends `Request::EndSession`: its staged
+//!    upload is discarded and the session closed, so a process that shares the port and
+//!    never said Hello cannot commit it. Every opener says its own Hello.
 //!
 //! ## Versioning rules
 //! * [`SCHEMA`] describes every message; [`SCHEMA_KEY`] is its FNV-1a hash computed in a
@@ -62,9 +65,9 @@ pub use frame::{
     encode_frame, DefaultFrameDecoder, FrameDecoder, FrameError, Frames, MAX_FRAME_LEN,
 };
 pub use messages::{
-    check_schema_key, AdapterStatus, CalibrationState, ErrorCode, Hello, HelloResponse, Request,
-    Response, Sample, SelfCalOutcome, SelfCalPhase, WireCalibration, WireEffects,
-    FIRMWARE_VERSION_CAP, SELFCAL_MESSAGE_CAP,
+    check_schema_key, AdapterStatus, BootRecord, CalibrationState, ErrorCode, Hello, HelloResponse,
+    RecordProblem, Request, Response, Sample, SelfCalOutcome, SelfCalPhase, WireCalibration,
+    WireEffects, FIRMWARE_VERSION_CAP, SELFCAL_MESSAGE_CAP,
 };
 pub use schema::{
     fnv1a_32, protocol_of_key, PREVIOUS_SCHEMA_KEYS, PROTOCOL_VERSION, SCHEMA, SCHEMA_KEY,

@@ -45,6 +45,11 @@ pub enum Request {
     /// (Protocol 2.) Ask for the self-calibration progress and result and the
     /// stale-calibration estimate: answered by [`Response::Status`].
     GetStatus,
+    /// (Protocol 4.) End this host's session before it closes the port: the adapter
+    /// discards the staged calibration and refuses every request but `Hello` until the next
+    /// `Hello`, so that another process sharing the port cannot commit this host's upload.
+    /// A running stream keeps running (it is the port's). Answered by [`Response::Ack`].
+    EndSession,
 }
 
 /// The host's half of the handshake.
@@ -241,6 +246,54 @@ pub struct CalibrationState {
     /// True when `live` was loaded from / committed to persistent storage; false when it is
     /// the firmware's built-in default.
     pub stored: bool,
+    /// (Protocol 4.) What the adapter found in storage at boot, so that a record it refused
+    /// (and runs without) is told to the host instead of passing for "none committed".
+    pub boot: BootRecord,
+    /// (Protocol 4.) Damaged or interrupted records the adapter found in storage at boot
+    /// and skipped: when non-zero, `live` is the newest intact record (or none), which may
+    /// be older than the last commit.
+    pub damaged_records: u16,
+}
+
+/// (Protocol 4.) The stored calibration record as the adapter found it at boot.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum BootRecord {
+    /// Nothing stored.
+    Empty,
+    /// A valid record was loaded and is live.
+    Loaded,
+    /// A record was found and refused; the adapter runs uncalibrated (pass-through).
+    Rejected(RecordProblem),
+    /// The storage could not be read; the adapter runs uncalibrated.
+    StorageError,
+}
+
+/// (Protocol 4.) Why a stored record was refused at boot.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum RecordProblem {
+    /// The record's length is not that of any known version.
+    WrongLength,
+    /// The record does not start with the record magic.
+    BadMagic,
+    /// A record version this firmware does not read.
+    UnsupportedVersion(u16),
+    /// The record's CRC-32 does not match its bytes (damaged).
+    BadCrc,
+    /// The record decodes to a calibration that is not usable (non-finite, singular).
+    Invalid,
+}
+
+impl RecordProblem {
+    /// Short English description, for the host's messages.
+    pub const fn description(self) -> &'static str {
+        match self {
+            RecordProblem::WrongLength => "wrong length",
+            RecordProblem::BadMagic => "not a calibration record",
+            RecordProblem::UnsupportedVersion(_) => "unsupported record version",
+            RecordProblem::BadCrc => "CRC mismatch: the record is damaged",
+            RecordProblem::Invalid => "the calibration in it is unusable",
+        }
+    }
 }
 
 /// Wire mirror of [`wiical_core::Calibration`].

@@ -10,18 +10,20 @@
 
 /// Human-facing protocol version, shown by the host. Compatibility is decided by
 /// [`SCHEMA_KEY`], not by this number.
-pub const PROTOCOL_VERSION: u16 = 3;
+pub const PROTOCOL_VERSION: u16 = 4;
 
 /// Description of the wire format. Changing any message means changing this text.
 pub const SCHEMA: &str = "\
-wiical-wire schema v3
+wiical-wire schema v4
 frame: cobs(postcard(msg) ++ le16(crc16_ibm_3740(postcard(msg)))) ++ 0x00
-Request: 0 Hello(Hello) | 1 GetCalibration | 2 PutCalibration(WireCalibration) | 3 CommitCalibration | 4 StartStream{rate_divider:u16} | 5 StopStream | 6 GetStatus
+Request: 0 Hello(Hello) | 1 GetCalibration | 2 PutCalibration(WireCalibration) | 3 CommitCalibration | 4 StartStream{rate_divider:u16} | 5 StopStream | 6 GetStatus | 7 EndSession
 Hello: protocol_version:u16, schema_key:u32
 Response: 0 Hello(HelloResponse) | 1 Error(ErrorCode) | 2 Ack | 3 Calibration(CalibrationState) | 4 StreamStarted{sample_rate_mhz:u32} | 5 Sample(Sample) | 6 Status(AdapterStatus)
 HelloResponse: protocol_version:u16, schema_key:u32, firmware_version:String<32>, device_id:[u8;8]
 ErrorCode(u8): 1 SchemaMismatch | 2 BadFrame | 3 UnsupportedRequest | 4 InvalidCalibration | 5 NothingStaged | 6 StorageFailure | 7 Busy | 8 InvalidParameter | 9 NoSensor | 10 Internal | 11 ImplausibleCalibration
-CalibrationState: live:WireCalibration, staged:Option<WireCalibration>, stored:bool
+CalibrationState: live:WireCalibration, staged:Option<WireCalibration>, stored:bool, boot:BootRecord, damaged_records:u16
+BootRecord: 0 Empty | 1 Loaded | 2 Rejected(RecordProblem) | 3 StorageError
+RecordProblem: 0 WrongLength | 1 BadMagic | 2 UnsupportedVersion(u16) | 3 BadCrc | 4 Invalid
 WireCalibration: bias:[f32;3], matrix:[[f32;3];3], effects:WireEffects
 WireEffects: quadratic:[f32;3], cubic:[f32;3], bias_drift:[f32;3], temp_ref_c:f32, bias_temp:[f32;3], scale_temp:[f32;3], cross_quadratic:[[f32;5];3], cross_cubic:[[f32;9];3]
 Sample: seq:u32, raw:[u16;3], corrected:[f32;3], buttons:u16, stick:[u8;2]
@@ -33,7 +35,8 @@ SelfCalOutcome: 0 Done{rms_mg:f32, poses:u8} | 1 Failed{message:String<96>}
 /// Schema keys of earlier protocol versions, newest first, so that either side can say
 /// *which* older build it is talking to ("host speaks protocol 1, adapter 2: update the
 /// host") instead of only "mismatch". Frozen: append when [`PROTOCOL_VERSION`] is bumped.
-pub const PREVIOUS_SCHEMA_KEYS: [(u16, u32); 2] = [(2, 0x4E19_BCC6), (1, 0x1A6C_EBDC)];
+pub const PREVIOUS_SCHEMA_KEYS: [(u16, u32); 3] =
+    [(3, 0x815C_88B5), (2, 0x4E19_BCC6), (1, 0x1A6C_EBDC)];
 
 /// The protocol version a schema key belongs to, if it is this build's or a known older one.
 pub const fn protocol_of_key(key: u32) -> Option<u16> {
@@ -113,12 +116,33 @@ SelfCalPhase: 0 Off | 1 Arming | 2 WaitingForStillness | 3 PoseTaken | 4 MoveToN
 SelfCalOutcome: 0 Done{rms_mg:f32, poses:u8} | 1 Failed{message:String<96>}
 ";
 
+    /// The text of protocol 3's schema, verbatim from its release (before the host's
+    /// `EndSession` and the boot record report).
+    const SCHEMA_V3: &str = "\
+wiical-wire schema v3
+frame: cobs(postcard(msg) ++ le16(crc16_ibm_3740(postcard(msg)))) ++ 0x00
+Request: 0 Hello(Hello) | 1 GetCalibration | 2 PutCalibration(WireCalibration) | 3 CommitCalibration | 4 StartStream{rate_divider:u16} | 5 StopStream | 6 GetStatus
+Hello: protocol_version:u16, schema_key:u32
+Response: 0 Hello(HelloResponse) | 1 Error(ErrorCode) | 2 Ack | 3 Calibration(CalibrationState) | 4 StreamStarted{sample_rate_mhz:u32} | 5 Sample(Sample) | 6 Status(AdapterStatus)
+HelloResponse: protocol_version:u16, schema_key:u32, firmware_version:String<32>, device_id:[u8;8]
+ErrorCode(u8): 1 SchemaMismatch | 2 BadFrame | 3 UnsupportedRequest | 4 InvalidCalibration | 5 NothingStaged | 6 StorageFailure | 7 Busy | 8 InvalidParameter | 9 NoSensor | 10 Internal | 11 ImplausibleCalibration
+CalibrationState: live:WireCalibration, staged:Option<WireCalibration>, stored:bool
+WireCalibration: bias:[f32;3], matrix:[[f32;3];3], effects:WireEffects
+WireEffects: quadratic:[f32;3], cubic:[f32;3], bias_drift:[f32;3], temp_ref_c:f32, bias_temp:[f32;3], scale_temp:[f32;3], cross_quadratic:[[f32;5];3], cross_cubic:[[f32;9];3]
+Sample: seq:u32, raw:[u16;3], corrected:[f32;3], buttons:u16, stick:[u8;2]
+AdapterStatus: phase:SelfCalPhase, poses:u8, last_result:Option<SelfCalOutcome>, stale_moments:u32, stale_rms_mg:f32, recalibration_suggested:bool
+SelfCalPhase: 0 Off | 1 Arming | 2 WaitingForStillness | 3 PoseTaken | 4 MoveToNewOrientation | 5 Committing | 6 Done | 7 Failed
+SelfCalOutcome: 0 Done{rms_mg:f32, poses:u8} | 1 Failed{message:String<96>}
+";
+
     #[test]
     fn previous_keys_are_the_hashes_of_the_previous_schemas() {
-        assert_eq!(PREVIOUS_SCHEMA_KEYS[1], (1, fnv1a_32(SCHEMA_V1.as_bytes())));
-        assert_eq!(PREVIOUS_SCHEMA_KEYS[0], (2, fnv1a_32(SCHEMA_V2.as_bytes())));
-        assert_eq!(protocol_of_key(PREVIOUS_SCHEMA_KEYS[1].1), Some(1));
-        assert_eq!(protocol_of_key(PREVIOUS_SCHEMA_KEYS[0].1), Some(2));
+        assert_eq!(PREVIOUS_SCHEMA_KEYS[2], (1, fnv1a_32(SCHEMA_V1.as_bytes())));
+        assert_eq!(PREVIOUS_SCHEMA_KEYS[1], (2, fnv1a_32(SCHEMA_V2.as_bytes())));
+        assert_eq!(PREVIOUS_SCHEMA_KEYS[0], (3, fnv1a_32(SCHEMA_V3.as_bytes())));
+        assert_eq!(protocol_of_key(PREVIOUS_SCHEMA_KEYS[2].1), Some(1));
+        assert_eq!(protocol_of_key(PREVIOUS_SCHEMA_KEYS[1].1), Some(2));
+        assert_eq!(protocol_of_key(PREVIOUS_SCHEMA_KEYS[0].1), Some(3));
         assert_eq!(protocol_of_key(SCHEMA_KEY), Some(PROTOCOL_VERSION));
         assert_eq!(protocol_of_key(0xDEAD_BEEF), None);
         assert!(PREVIOUS_SCHEMA_KEYS.iter().all(|(_, k)| *k != SCHEMA_KEY));

@@ -83,6 +83,7 @@ fn request() -> impl Strategy<Value = Request> {
         any::<u16>().prop_map(|rate_divider| Request::StartStream { rate_divider }),
         Just(Request::StopStream),
         Just(Request::GetStatus),
+        Just(Request::EndSession),
     ]
 }
 
@@ -139,15 +140,26 @@ fn response() -> impl Strategy<Value = Response> {
         (
             calibration(),
             proptest::option::of(calibration()),
-            any::<bool>()
+            any::<bool>(),
+            prop_oneof![
+                Just(BootRecord::Empty),
+                Just(BootRecord::Loaded),
+                Just(BootRecord::StorageError),
+                Just(BootRecord::Rejected(RecordProblem::BadCrc)),
+                any::<u16>()
+                    .prop_map(|v| BootRecord::Rejected(RecordProblem::UnsupportedVersion(v))),
+            ],
+            any::<u16>()
         )
-            .prop_map(
-                |(live, staged, stored)| Response::Calibration(CalibrationState {
+            .prop_map(|(live, staged, stored, boot, damaged_records)| {
+                Response::Calibration(CalibrationState {
                     live,
                     staged,
-                    stored
+                    stored,
+                    boot,
+                    damaged_records,
                 })
-            ),
+            }),
         any::<u32>().prop_map(|sample_rate_mhz| Response::StreamStarted { sample_rate_mhz }),
         sample().prop_map(Response::Sample),
         status().prop_map(Response::Status),
@@ -208,6 +220,7 @@ fn every_message_round_trips() {
         Request::CommitCalibration,
         Request::StartStream { rate_divider: 4 },
         Request::StopStream,
+        Request::EndSession,
     ];
     let mut stream = Vec::new();
     for r in &reqs {
@@ -228,6 +241,8 @@ fn every_message_round_trips() {
             live: example_calibration(),
             staged: None,
             stored: true,
+            boot: BootRecord::Rejected(RecordProblem::BadCrc),
+            damaged_records: 2,
         }),
         Response::StreamStarted {
             sample_rate_mhz: 100_000,
@@ -298,6 +313,7 @@ fn golden_encodings() {
         "04ac02"
     );
     assert_eq!(hex(&enc(&Request::StopStream)), "05");
+    assert_eq!(hex(&enc(&Request::EndSession)), "07");
     let cal = WireCalibration {
         bias: [1.0, 0.0, 0.0],
         matrix: [[0.0; 3]; 3],
@@ -340,9 +356,12 @@ fn golden_encodings() {
         hex(&enc(&Response::Calibration(CalibrationState {
             live: cal,
             staged: None,
-            stored: true
+            stored: true,
+            boot: BootRecord::Rejected(RecordProblem::UnsupportedVersion(3)),
+            damaged_records: 1,
         }))),
-        format!("03{cal_hex}0001")
+        // Option None, true, Rejected (2) of UnsupportedVersion (2) 3, then 1 (varint).
+        format!("03{cal_hex}000102020301")
     );
     assert_eq!(
         hex(&enc(&Response::StreamStarted { sample_rate_mhz: 1 })),
@@ -447,6 +466,8 @@ fn largest_messages_fit() {
             live: cal,
             staged: Some(cal),
             stored: true,
+            boot: BootRecord::Rejected(RecordProblem::UnsupportedVersion(u16::MAX)),
+            damaged_records: u16::MAX,
         }),
         Response::Hello(HelloResponse {
             protocol_version: u16::MAX,
@@ -726,7 +747,7 @@ fn a_protocol_2_calibration_frame_is_refused() {
     let got: Vec<Result<Request, _>> = dec.feed(&enc).collect();
     assert_eq!(got.len(), 1);
     assert!(got[0].is_err(), "{got:?}");
-    assert_eq!(protocol_of_key(PREVIOUS_SCHEMA_KEYS[0].1), Some(2));
+    assert_eq!(protocol_of_key(PREVIOUS_SCHEMA_KEYS[0].1), Some(3));
     assert_eq!(
         check_schema_key(PREVIOUS_SCHEMA_KEYS[0].1),
         Err(ErrorCode::SchemaMismatch)

@@ -42,8 +42,10 @@ fn parse_command(s: &str) -> Result<BatchCommand, String> {
 
 /// Runs `wiical batch`; returns the summary line.
 pub fn run(a: &Args) -> Result<String> {
-    let files = batch::expand_inputs(&a.inputs, &a.out).map_err(cli_error)?;
-    if files.is_empty() {
+    // Refused before anything is walked or read: a results file batch did not create.
+    batch::check_results_file(&a.out).map_err(cli_error)?;
+    let found = batch::expand_inputs(&a.inputs, &a.out).map_err(cli_error)?;
+    if found.files.is_empty() && found.problems.is_empty() {
         bail!("no files found in the inputs given");
     }
     let opts = BatchOptions {
@@ -59,11 +61,11 @@ pub fn run(a: &Args) -> Result<String> {
         },
     };
     let bar = indicatif::ProgressBar::with_draw_target(
-        Some(files.len() as u64),
+        Some((found.files.len() + found.problems.len()) as u64),
         indicatif::ProgressDrawTarget::stderr(),
     );
     let started = Instant::now();
-    let s = batch::run(&files, &a.out, &opts, &|line| {
+    let s = batch::run(&found, &a.out, &opts, &|line| {
         bar.inc(1);
         bar.set_message(line.file.clone());
     })
@@ -71,8 +73,15 @@ pub fn run(a: &Args) -> Result<String> {
     bar.finish_and_clear();
     let secs = started.elapsed().as_secs_f64();
     let done = s.ok + s.failed;
+    let unlisted = match s.unlisted {
+        0 => String::new(),
+        n => format!(
+            "; {n} place{} below a directory could not be listed (a line each)",
+            if n == 1 { "" } else { "s" }
+        ),
+    };
     Ok(format!(
-        "batch: {} files: {} with a result, {} with an error, {} already in {} (skipped); {done} in {secs:.1} s ({:.2} files/s, {} jobs)\n",
+        "batch: {} files: {} with a result, {} with an error, {} already in {} (skipped); {done} in {secs:.1} s ({:.2} files/s, {} jobs){unlisted}\n",
         s.files,
         s.ok,
         s.failed,

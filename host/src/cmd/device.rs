@@ -15,7 +15,8 @@ use wiical_analysis::report::verdict::Verdict;
 use wiical_core::quality::Acceptance;
 use wiical_core::Calibration;
 use wiical_wire::{
-    AdapterStatus, HelloResponse, Sample, SelfCalOutcome, PROTOCOL_VERSION, SCHEMA_KEY,
+    AdapterStatus, BootRecord, CalibrationState, HelloResponse, RecordProblem, Sample,
+    SelfCalOutcome, PROTOCOL_VERSION, SCHEMA_KEY,
 };
 
 /// Arguments of `wiical device`.
@@ -105,6 +106,58 @@ struct StateJson {
     /// True when `live` is a committed (stored) calibration; false: pass-through with the
     /// Nunchuk's factory calibration.
     stored: bool,
+    /// What the adapter found in storage at boot (`loaded`, `empty`, `rejected: …`,
+    /// `storage error`).
+    boot: String,
+    /// Damaged or interrupted records the adapter skipped at boot.
+    damaged_records: u16,
+}
+
+/// What the adapter found in storage at boot, as JSON text.
+fn boot_word(b: &BootRecord) -> String {
+    match b {
+        BootRecord::Empty => "empty".into(),
+        BootRecord::Loaded => "loaded".into(),
+        BootRecord::Rejected(p) => format!("rejected: {}", p.description()),
+        BootRecord::StorageError => "storage error".into(),
+    }
+}
+
+/// The sentence to add when the adapter refused its stored record at boot, skipped damaged
+/// records, or could not read its storage (alone, "committed, stored" or "none committed"
+/// would hide it).
+fn boot_note(s: &CalibrationState) -> Option<String> {
+    if s.damaged_records > 0 && !matches!(s.boot, BootRecord::Rejected(_)) {
+        let n = s.damaged_records;
+        let (what, shown) = match s.boot {
+            BootRecord::Loaded => (
+                "the live calibration shown is the newest intact record",
+                "it may be older than your last commit",
+            ),
+            _ => ("no intact record is left", "the adapter runs uncalibrated"),
+        };
+        return Some(format!(
+            "warning: the adapter rejected {n} damaged or interrupted calibration record{} in its storage at boot (CRC mismatch); {what}, and {shown}: commit the calibration again (`wiical device commit FILE`)\n",
+            if n == 1 { "" } else { "s" }
+        ));
+    }
+    match &s.boot {
+        BootRecord::Rejected(p) => {
+            let version = match p {
+                RecordProblem::UnsupportedVersion(v) => format!(" (version {v})"),
+                _ => String::new(),
+            };
+            Some(format!(
+                "warning: the adapter rejected its stored calibration record at boot ({}{version}) and runs uncalibrated: commit a calibration again (`wiical device commit FILE`)\n",
+                p.description()
+            ))
+        }
+        BootRecord::StorageError => Some(
+            "warning: the adapter could not read its calibration storage at boot and runs uncalibrated: commit a calibration again, or check the flash\n"
+                .into(),
+        ),
+        BootRecord::Empty | BootRecord::Loaded => None,
+    }
 }
 
 #[derive(Serialize)]
@@ -338,6 +391,7 @@ fn info(dev: &mut Device, hello: &HelloResponse, port: &str, json: bool) -> Resu
         },
     )?;
     render::fmt_stale(&mut o, &dev.status()?)?;
+    o.extend(boot_note(&dev.get_calibration()?));
     Ok(o)
 }
 
@@ -353,11 +407,15 @@ fn get(dev: &mut Device, port: &str, file: Option<&std::path::Path>, json: bool)
         live,
         staged: s.staged.map(Calibration::from),
         stored: s.stored,
+        boot: boot_word(&s.boot),
+        damaged_records: s.damaged_records,
     };
     if json {
         return to_json(&j);
     }
-    render::state_text(&j.live, j.staged.as_ref(), j.stored)
+    let mut o = render::state_text(&j.live, j.staged.as_ref(), j.stored)?;
+    o.extend(boot_note(&s));
+    Ok(o)
 }
 
 /// Stream samples to `out` (CSV with header, or JSON lines). Ends after `count` samples, or

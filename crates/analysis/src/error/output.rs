@@ -31,6 +31,20 @@ pub enum OutputError {
         /// The output as given.
         output: PathBuf,
     },
+    /// An output names something that is not a regular file (a directory, a device, a
+    /// pipe): it is never replaced nor written into.
+    #[error("refusing to write {}: it is not a regular file (a directory, device or pipe); give the name of a file to create or replace", output.display())]
+    OutputNotRegular {
+        /// The output as given.
+        output: PathBuf,
+    },
+    /// A batch results file that exists and is not one (its first line is not a batch
+    /// line): batch appends only to its own results.
+    #[error("refusing to append to {}: it exists and is not a batch results file (its first line is not a batch line); give a new file name, or the results file of an earlier batch run to resume it", out.display())]
+    NotBatchResults {
+        /// The results file as given.
+        out: PathBuf,
+    },
     /// An output would replace one of the command's inputs.
     #[error("refusing to write {}: it is the input {} (choose another output file)", output.display(), input.display())]
     OutputIsInput {

@@ -177,8 +177,12 @@ pub fn to_json(cal: &Calibration) -> Result<String> {
     to_json_with(cal, None)
 }
 
-/// Parses calibration-file text strictly (see the module docs); does not validate.
+/// Parses calibration-file text strictly (see the module docs); does not validate. The
+/// numeric fields' shapes are checked first ([`check_shapes`]) so that a wrong count or type
+/// is told as "bias has 4 values, expected 3" rather than in the deserializer's words.
 pub fn parse(text: &str) -> std::result::Result<CalibrationFile, serde_json::Error> {
+    let value: serde_json::Value = serde_json::from_str(text)?;
+    check_shapes(&value).map_err(serde::de::Error::custom)?;
     let file: FileV1 = serde_json::from_str(text)?;
     let hosts = file.host_terms.unwrap_or_default();
     check_schema(file.schema.as_deref(), &file.effects, &hosts)?;
@@ -192,6 +196,115 @@ pub fn parse(text: &str) -> std::result::Result<CalibrationFile, serde_json::Err
         quality: file.quality,
         host_terms: hosts,
     })
+}
+
+/// The numeric fields of a calibration file and their shapes: `(path, rows, columns)`, one
+/// row meaning a flat list and zero columns a single number. Read by [`check_shapes`] before
+/// the deserializer, which would describe a mismatch in its own terms ("invalid type: map,
+/// expected a tuple struct").
+const SHAPES: [(&str, usize, usize); 10] = [
+    ("bias", 1, 3),
+    ("matrix", 3, 3),
+    ("effects.quadratic", 1, 3),
+    ("effects.cubic", 1, 3),
+    ("effects.bias_drift", 1, 3),
+    ("effects.temp_ref_c", 1, 0),
+    ("effects.bias_temp", 1, 3),
+    ("effects.scale_temp", 1, 3),
+    ("effects.cross_quadratic", 3, 5),
+    ("effects.cross_cubic", 3, 9),
+];
+
+/// What a JSON value is, in words ("an object", "the text \"abc\"").
+fn json_kind(v: &serde_json::Value) -> String {
+    use serde_json::Value;
+    match v {
+        Value::Null => "null".into(),
+        Value::Bool(b) => format!("{b}"),
+        Value::Number(n) => format!("the number {n}"),
+        Value::String(t) => format!("the text \"{}\"", crate::input::bounded::quote(t)),
+        Value::Array(a) => format!("a list of {} values", a.len()),
+        Value::Object(_) => "an object".into(),
+    }
+}
+
+/// One number of the file: present, a JSON number, and within the f32 range the calibration
+/// is stored in (a larger one would silently become infinite).
+fn check_number(name: &str, v: &serde_json::Value) -> std::result::Result<(), String> {
+    let Some(x) = v.as_f64() else {
+        return Err(format!("{name} is {}, expected a number", json_kind(v)));
+    };
+    if x.abs() > f64::from(f32::MAX) {
+        return Err(format!(
+            "{name} is {v}, beyond the largest value a calibration holds (about 3.4e38)"
+        ));
+    }
+    Ok(())
+}
+
+/// A flat list of `n` numbers named `name`.
+fn check_list(name: &str, v: &serde_json::Value, n: usize) -> std::result::Result<(), String> {
+    let Some(items) = v.as_array() else {
+        return Err(format!(
+            "{name} is {}, expected a list of {n} numbers",
+            json_kind(v)
+        ));
+    };
+    if items.len() != n {
+        return Err(format!("{name} has {} values, expected {n}", items.len()));
+    }
+    for (i, x) in items.iter().enumerate() {
+        check_number(&format!("{name}[{i}]"), x)?;
+    }
+    Ok(())
+}
+
+/// Checks the numeric fields of a calibration file against `SHAPES` (the table above), naming the field,
+/// the row and what was found. Keys it does not know are left to the strict deserializer
+/// (which names them as unknown fields); `bias` and `matrix` must be present.
+pub fn check_shapes(value: &serde_json::Value) -> std::result::Result<(), String> {
+    let Some(top) = value.as_object() else {
+        return Err(format!(
+            "the file holds {}, expected an object with \"bias\" and \"matrix\"",
+            json_kind(value)
+        ));
+    };
+    for key in ["bias", "matrix"] {
+        if !top.contains_key(key) {
+            return Err(format!(
+                "the file has no \"{key}\" (a calibration has \"bias\": 3 numbers and \"matrix\": 3 rows of 3)"
+            ));
+        }
+    }
+    if let Some(e) = top.get("effects").filter(|e| !e.is_object()) {
+        return Err(format!("effects is {}, expected an object", json_kind(e)));
+    }
+    for (path, rows, cols) in SHAPES {
+        let v = match path.split_once('.') {
+            Some((section, key)) => top.get(section).and_then(|s| s.get(key)),
+            None => top.get(path),
+        };
+        // The optional cross sections may be written as null (absent).
+        let Some(v) = v.filter(|v| !(v.is_null() && rows == 3 && cols > 3)) else {
+            continue;
+        };
+        match (rows, cols) {
+            (_, 0) => check_number(path, v)?,
+            (1, n) => check_list(path, v, n)?,
+            (r, n) => {
+                let Some(items) = v.as_array().filter(|a| a.len() == r) else {
+                    return Err(format!(
+                        "{path} is {}, expected {r} rows of {n} numbers",
+                        json_kind(v)
+                    ));
+                };
+                for (i, row) in items.iter().enumerate() {
+                    check_list(&format!("{path} row {}", i + 1), row, n)?;
+                }
+            }
+        }
+    }
+    Ok(())
 }
 
 /// Refuses a `schema` label that does not hold the file's terms, or is unknown.

@@ -156,7 +156,10 @@ fn resolve_target(path: &Path) -> Result<PathBuf> {
             }
             .into()
         }),
-        Ok(_) => Err(Error::NotRegularFile { path: path.into() }),
+        Ok(_) => Err(OutputError::OutputNotRegular {
+            output: path.into(),
+        }
+        .into()),
         Err(_) => Ok(path.to_path_buf()),
     }
 }
@@ -241,6 +244,12 @@ pub fn check_outputs(inputs: &[&Path], outputs: &[&Path]) -> Result<()> {
         };
         if !dir.is_dir() {
             return Err(OutputError::OutputDirMissing {
+                output: out.to_path_buf(),
+            }
+            .into());
+        }
+        if std::fs::metadata(out).is_ok_and(|m| !m.is_file()) {
+            return Err(OutputError::OutputNotRegular {
                 output: out.to_path_buf(),
             }
             .into());
@@ -338,7 +347,11 @@ mod tests {
     #[test]
     fn devices_are_refused_and_links_followed() {
         let e = write_file(Path::new("/dev/null"), b"x").unwrap_err();
-        assert!(matches!(e, Error::NotRegularFile { .. }), "{e}");
+        assert!(
+            matches!(e, Error::Output(OutputError::OutputNotRegular { .. })),
+            "{e}"
+        );
+        assert!(!e.to_string().contains("standard input"), "{e}");
         let (_guard, dir) = scratch("link");
         let real = dir.join("real.json");
         std::fs::write(&real, b"old").unwrap();
