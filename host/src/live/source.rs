@@ -35,7 +35,9 @@ pub fn replay(
     let mut last_publish = Instant::now();
     shared.publish(&session.snapshot());
     for (t, xyz) in times.iter().zip(&rec.xyz) {
-        let due = Duration::from_secs_f64(((t - t0) / speed).max(0.0));
+        // Saturates: a time so far ahead (a tiny speed, a huge time stamp) waits "forever"
+        // rather than panicking in the conversion.
+        let due = Duration::try_from_secs_f64(((t - t0) / speed).max(0.0)).unwrap_or(Duration::MAX);
         let now = start.elapsed();
         if due > now + MIN_SLEEP {
             std::thread::sleep(due - now);
