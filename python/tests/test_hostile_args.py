@@ -46,7 +46,7 @@ def test_a_nan_row_is_refused_as_the_cli_refuses_it_in_a_file() -> None:
     # The CLI on the same values in a file: the same refusal, by line.
     path = _csv([f"{i * 0.01},{r[0]},{r[1]},{r[2]}" for i, r in enumerate(xyz)])
     try:
-        assert "column 'y': value 'NaN' is not finite" in cli_error("fit", path)
+        assert "column 'y': value 'nan' is not finite" in cli_error("fit", path)
     finally:
         os.unlink(path)
 

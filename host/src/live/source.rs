@@ -32,7 +32,9 @@ pub fn replay(
 ) -> Snapshot {
     let start = Instant::now();
     let t0 = times.first().copied().unwrap_or(0.0);
-    let mut last_publish = Instant::now();
+    // As if published a period ago: the first sample is shown at once (a viewer that comes
+    // within the first period sees the replay running, not the empty session).
+    let mut last_publish = start.checked_sub(PUBLISH_EVERY).unwrap_or(start);
     shared.publish(&session.snapshot());
     for (t, xyz) in times.iter().zip(&rec.xyz) {
         // Saturates: a time so far ahead (a tiny speed, a huge time stamp) waits "forever"
