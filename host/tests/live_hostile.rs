@@ -46,7 +46,14 @@ fn start() -> Live {
         .and_then(|r| r.split('/').next())
         .and_then(|p| p.parse().ok())
         .unwrap_or_else(|| panic!("no address in {line:?}"));
-    Live { child, port }
+    let live = Live { child, port };
+    // The replay's first snapshot (published just after the address is printed).
+    let t0 = Instant::now();
+    while get(port, "/snapshot.json").1.is_empty() {
+        assert!(t0.elapsed() < Duration::from_secs(5), "no first snapshot");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    live
 }
 
 fn connect(port: u16) -> TcpStream {
