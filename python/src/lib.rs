@@ -1,19 +1,27 @@
 //! `wiical._wiical`: the compiled half of the Python package. Every function returns the
 //! JSON text that the matching `wiical … --json` command prints, built by the same library
 //! calls from the same report types (`wiical_analysis::pipeline`, `magnetometer`,
-//! `six_position`, `factory`); `wiical/__init__.py` turns it into dictionaries and numpy
-//! arrays. Samples cross the boundary as little-endian `f64` bytes (numpy's `tobytes()` /
-//! `frombuffer`), so the package needs no numpy headers at build time and one abi3 wheel
-//! serves every CPython from 3.9 on.
+//! `six_position`, `factory`, `noise`, `tempcal`, `correct`); `wiical/__init__.py` turns it
+//! into dictionaries. Samples cross the boundary as numpy arrays (the `numpy` crate: numpy's C
+//! API looked up at run time, so no headers at build time and one abi3 wheel serves every
+//! CPython from 3.9 on): an array given is read in place and copied once, into the
+//! [`Recording`]; an array returned takes over the Rust vector without a copy.
+//!
+//! Arrays go through the loader's checks ([`wiical_analysis::arrays`]) and settings through
+//! the CLI flags' ranges ([`DetectOptions::checked_settings`]), so that no door accepts what
+//! another refuses.
 //!
 //! The analysis runs with the GIL released (`Python::detach`), so other Python threads (a
 //! Dask worker's, a GUI's) keep running.
 
+use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray1, PyReadonlyArrayDyn};
 use pyo3::create_exception;
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
-use pyo3::types::PyBytes;
 use std::path::PathBuf;
+use std::sync::{Arc, Mutex};
+use wiical_analysis::arrays::ArrayError;
+use wiical_analysis::{Progress, ProgressHook};
 use wiical_analysis::input::window_table::{load_input, Input, WindowInputOptions};
 use wiical_analysis::{
     input::columns::Sensor, AnalyzeOptions, Candidate, DetectOptions, FitOptions, LoadOptions,
@@ -47,63 +55,36 @@ fn to_json<T: serde::Serialize>(v: &T) -> PyResult<String> {
         .map_err(|e| arg_err(format!("internal: JSON: {e}")))
 }
 
-/// `f64` values from little-endian bytes (numpy `float64` `tobytes()`).
-fn f64s(bytes: &[u8], what: &str) -> PyResult<Vec<f64>> {
-    if !bytes.len().is_multiple_of(8) {
-        return Err(arg_err(format!(
-            "{what}: {} bytes is not a whole number of float64 values",
-            bytes.len()
-        )));
-    }
-    Ok(bytes
-        .chunks_exact(8)
-        .map(|c| f64::from_le_bytes([c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7]]))
-        .collect())
+/// An array refused by the loader's checks, as a [`WiicalError`] (the data is wrong, not
+/// the call).
+fn array_err(e: ArrayError) -> PyErr {
+    WiicalError::new_err(e.to_string())
 }
 
-/// Samples given as arrays: `xyz` (n × 3, row-major), optional times (s) and temperatures
-/// (°C) of the same length.
-fn recording_from_arrays(xyz: &[u8], t: Option<&[u8]>, temp: Option<&[u8]>) -> PyResult<Recording> {
-    let flat = f64s(xyz, "samples")?;
-    if !flat.len().is_multiple_of(3) {
-        return Err(arg_err(format!(
-            "samples: {} values is not n rows of 3 (x, y, z)",
-            flat.len()
-        )));
-    }
-    let xyz: Vec<[f64; 3]> = flat.chunks_exact(3).map(|r| [r[0], r[1], r[2]]).collect();
-    let column = |b: Option<&[u8]>, what: &str| -> PyResult<Option<Vec<f64>>> {
-        let Some(b) = b else { return Ok(None) };
-        let v = f64s(b, what)?;
-        if v.len() != xyz.len() {
-            return Err(arg_err(format!(
-                "{what} has {} values but there are {} samples",
-                v.len(),
-                xyz.len()
-            )));
-        }
-        Ok(Some(v))
-    };
-    Ok(Recording {
-        t: column(t, "t")?,
-        temp: column(temp, "temp")?,
-        xyz,
-        axis_columns: ["x".into(), "y".into(), "z".into()],
-        ..Default::default()
-    })
-}
-
-/// [`recording_from_arrays`] on the bytes objects Python passed.
-fn arrays(
-    xyz: &Bound<'_, PyBytes>,
-    t: &Option<Bound<'_, PyBytes>>,
-    temp: &Option<Bound<'_, PyBytes>>,
+/// Samples given as arrays: `xyz` (n × 3, any strides: read in place), optional times (s) and
+/// temperatures (°C) of length n, checked as the loader checks a file's rows.
+fn recording_from_arrays(
+    xyz: &PyReadonlyArrayDyn<'_, f64>,
+    t: Option<&PyReadonlyArray1<'_, f64>>,
+    temp: Option<&PyReadonlyArray1<'_, f64>>,
 ) -> PyResult<Recording> {
-    recording_from_arrays(
-        xyz.as_bytes(),
-        t.as_ref().map(|b| b.as_bytes()),
-        temp.as_ref().map(|b| b.as_bytes()),
-    )
+    let view = xyz.as_array();
+    let shape = view.shape();
+    if shape.len() != 2 || shape[1] != 3 {
+        let dims: Vec<String> = shape.iter().map(usize::to_string).collect();
+        return Err(array_err(ArrayError::Shape {
+            arg: "data",
+            shape: format!("({})", dims.join(", ")),
+        }));
+    }
+    // The one copy: into the rows the engine works on.
+    let rows: Vec<[f64; 3]> = view
+        .rows()
+        .into_iter()
+        .map(|r| [r[0], r[1], r[2]])
+        .collect();
+    let column = |a: Option<&PyReadonlyArray1<'_, f64>>| a.map(|a| a.as_array().to_vec());
+    wiical_analysis::arrays::recording(rows, column(t), column(temp)).map_err(array_err)
 }
 
 /// Where the samples come from: a file the CLI reads (path), or arrays.
@@ -112,11 +93,12 @@ enum Source<'py> {
     /// A path (`str` or `os.PathLike`).
     #[pyo3(transparent)]
     Path(PathBuf),
-    /// `(xyz bytes, t bytes or None, temp bytes or None)`.
+    /// `(xyz, t or None, temp or None)`: float64 arrays, `xyz` of any shape (checked here so
+    /// that a wrong one gets the package's sentence, not a conversion error).
     Arrays(
-        Bound<'py, PyBytes>,
-        Option<Bound<'py, PyBytes>>,
-        Option<Bound<'py, PyBytes>>,
+        PyReadonlyArrayDyn<'py, f64>,
+        Option<PyReadonlyArray1<'py, f64>>,
+        Option<PyReadonlyArray1<'py, f64>>,
     ),
 }
 
@@ -140,6 +122,7 @@ fn input_of(
     source: Source<'_>,
     columns: Option<Vec<String>>,
     windows: bool,
+    progress: &Reporter,
 ) -> PyResult<Input> {
     match source {
         Source::Path(path) => {
@@ -147,9 +130,61 @@ fn input_of(
                 load: load_options(columns, None)?,
                 force: windows,
             };
-            py.detach(|| load_input(&path, &opts)).map_err(py_err)
+            progress.report("reading", 0, 0);
+            let input = py.detach(|| load_input(&path, &opts)).map_err(py_err)?;
+            let rows = match &input {
+                Input::Samples(rec) => rec.len(),
+                Input::Table(table) => table.recording.len(),
+            };
+            progress.report("reading", rows, rows);
+            Ok(input)
         }
-        Source::Arrays(xyz, t, temp) => Ok(Input::Samples(arrays(&xyz, &t, &temp)?)),
+        Source::Arrays(xyz, t, temp) => Ok(Input::Samples(recording_from_arrays(
+            &xyz,
+            t.as_ref(),
+            temp.as_ref(),
+        )?)),
+    }
+}
+
+/// A Python progress callback `progress(stage: str, done: int, total: int)` (`total` 0: not
+/// known), called from the thread doing the work (the GIL taken for the call). The first
+/// exception it raises is kept and raised when the work returns.
+#[derive(Clone, Default)]
+struct Reporter {
+    cb: Option<Arc<Py<PyAny>>>,
+    failed: Arc<Mutex<Option<PyErr>>>,
+}
+
+impl Reporter {
+    fn new(cb: Option<Py<PyAny>>) -> Self {
+        Self {
+            cb: cb.map(Arc::new),
+            failed: Arc::default(),
+        }
+    }
+
+    /// Reports `stage`, `done` of `total`; callable with or without the GIL.
+    fn report(&self, stage: &str, done: usize, total: usize) {
+        let Some(cb) = &self.cb else { return };
+        Python::attach(|py| {
+            if let Err(e) = cb.call1(py, (stage, done, total)) {
+                let mut failed = self.failed.lock().unwrap_or_else(|p| p.into_inner());
+                failed.get_or_insert(e);
+            }
+        });
+    }
+
+    /// The engine's progress hook that passes reports on (stage in words).
+    fn hook(&self) -> ProgressHook {
+        let me = self.clone();
+        ProgressHook::new(move |p: Progress| me.report(&p.to_string(), p.done, p.total))
+    }
+
+    /// `Err` with the callback's first exception, if it raised one.
+    fn finish(&self) -> PyResult<()> {
+        let mut failed = self.failed.lock().unwrap_or_else(|p| p.into_inner());
+        failed.take().map_or(Ok(()), Err)
     }
 }
 
@@ -166,8 +201,10 @@ struct Detect {
 }
 
 impl Detect {
-    fn options(&self) -> DetectOptions {
-        DetectOptions::from_settings(
+    /// The detector's options after the CLI flags' range checks (the error names the
+    /// keyword argument and its range).
+    fn options(&self) -> PyResult<DetectOptions> {
+        DetectOptions::checked_settings(
             self.window_s,
             self.init_s,
             self.min_static_s,
@@ -175,7 +212,13 @@ impl Detect {
             self.rate_hz,
             self.adc_range,
         )
+        .map_err(|e| arg_err(e.to_string()))
     }
+}
+
+/// A sample rate given as `name` (Hz), through the CLI's `--rate-hz` range.
+fn rate(name: &str, v: f64) -> PyResult<f64> {
+    wiical_analysis::detect::windows::check_rate_hz(v).map_err(|e| arg_err(format!("{name} = {v:?}: {e}")))
 }
 
 fn model_of(name: &str) -> PyResult<MultiPosModel> {
@@ -190,7 +233,7 @@ fn model_of(name: &str) -> PyResult<MultiPosModel> {
 
 /// `wiical fit --json`: static windows and the multi-position fit, with the quality verdict.
 #[pyfunction]
-#[pyo3(signature = (source, detect, columns=None, windows=false, model="full"))]
+#[pyo3(signature = (source, detect, columns=None, windows=false, model="full", progress=None))]
 fn fit(
     py: Python<'_>,
     source: Source<'_>,
@@ -198,21 +241,27 @@ fn fit(
     columns: Option<Vec<String>>,
     windows: bool,
     model: &str,
+    progress: Option<Py<PyAny>>,
 ) -> PyResult<String> {
     let opts = FitOptions {
-        detect: detect.options(),
+        detect: detect.options()?,
         model: model_of(model)?,
     };
-    let input = input_of(py, source, columns, windows)?;
+    let progress = Reporter::new(progress);
+    let input = input_of(py, source, columns, windows, &progress)?;
+    progress.finish()?;
+    progress.report("fitting", 0, 0);
     let judged = py
         .detach(|| wiical_analysis::pipeline::fit(&input, &opts))
         .map_err(py_err)?;
+    progress.report("fitting", 1, 1);
+    progress.finish()?;
     to_json(&judged)
 }
 
 /// `wiical analyze --json`: the residual analysis, with the quality verdict.
 #[pyfunction]
-#[pyo3(signature = (source, detect, columns=None, windows=false, alpha=None, cv_factor=None, candidates=None))]
+#[pyo3(signature = (source, detect, columns=None, windows=false, alpha=None, cv_factor=None, candidates=None, progress=None))]
 #[allow(clippy::too_many_arguments)]
 fn analyze(
     py: Python<'_>,
@@ -223,7 +272,9 @@ fn analyze(
     alpha: Option<f64>,
     cv_factor: Option<f64>,
     candidates: Option<Vec<String>>,
+    progress: Option<Py<PyAny>>,
 ) -> PyResult<String> {
+    let progress = Reporter::new(progress);
     let d = AnalyzeOptions::default();
     let (alpha, cv_factor) = (alpha.unwrap_or(d.alpha), cv_factor.unwrap_or(d.cv_factor));
     wiical_analysis::search::select::check_rule(alpha, cv_factor).map_err(py_err)?;
@@ -233,18 +284,21 @@ fn analyze(
         .map_err(py_err)?;
     let opts = AnalyzeOptions {
         fit: FitOptions {
-            detect: detect.options(),
+            detect: detect.options()?,
             model: MultiPosModel::Full,
         },
         alpha,
         cv_factor,
         candidates,
+        progress: progress.hook(),
         ..d
     };
-    let input = input_of(py, source, columns, windows)?;
+    let input = input_of(py, source, columns, windows, &progress)?;
+    progress.finish()?;
     let judged = py
         .detach(|| wiical_analysis::pipeline::analyze(&input, &opts))
         .map_err(py_err)?;
+    progress.finish()?;
     to_json(&judged)
 }
 
@@ -261,7 +315,7 @@ fn samples_of(
             py.detach(|| wiical_analysis::load(&path, &opts))
                 .map_err(py_err)
         }
-        Source::Arrays(xyz, t, temp) => arrays(&xyz, &t, &temp),
+        Source::Arrays(xyz, t, temp) => recording_from_arrays(&xyz, t.as_ref(), temp.as_ref()),
     }
 }
 
@@ -381,6 +435,14 @@ fn gyrofit(
         (Some(_), Some(_)) => return Err(arg_err("give scale or counts_per_dps, not both".into())),
         (None, None) => nominal_from_columns(&gyro),
     };
+    if given
+        .as_ref()
+        .is_some_and(|(s, _)| !wiical_analysis::gyro::nominal_given_usable(s))
+    {
+        return Err(arg_err(
+            "the nominal sensitivity must be finite and non-zero on every axis".into(),
+        ));
+    }
     let mut opts = match given {
         Some((s, source)) => GyroOptions {
             nominal_source: source,
@@ -388,52 +450,54 @@ fn gyrofit(
         },
         None => GyroOptions::estimated(),
     };
-    opts.detect = detect.options();
+    opts.detect = detect.options()?;
     let rep = py
         .detach(|| wiical_analysis::gyro::run(&acc, &gyro, &opts))
         .map_err(py_err)?;
     to_json(&rep)
 }
 
-/// What `read` returns: samples as bytes plus the loader's metadata (JSON).
+/// What `read` returns: the samples (n × 3), times and temperatures (n, or `None`) as numpy
+/// arrays, and the loader's metadata (JSON).
 type ReadResult<'py> = (
-    Bound<'py, PyBytes>,
-    Option<Bound<'py, PyBytes>>,
-    Option<Bound<'py, PyBytes>>,
+    Bound<'py, PyAny>,
+    Option<Bound<'py, PyArray1<f64>>>,
+    Option<Bound<'py, PyArray1<f64>>>,
     String,
 );
 
-/// Reads any recording the CLI reads: `(xyz bytes, t bytes or None, temp bytes or None,
-/// metadata JSON)`; `wiical.read` makes numpy arrays of them.
+fn sensor_of(sensor: Option<&str>) -> PyResult<Option<Sensor>> {
+    match sensor {
+        None => Ok(None),
+        Some("accelerometer") => Ok(Some(Sensor::Accelerometer)),
+        Some("gyroscope") => Ok(Some(Sensor::Gyroscope)),
+        Some("magnetometer") => Ok(Some(Sensor::Magnetometer)),
+        Some(s) => Err(arg_err(format!(
+            "sensor '{s}': expected accelerometer, gyroscope or magnetometer"
+        ))),
+    }
+}
+
+/// Reads any recording the CLI reads: `(xyz, t or None, temp or None, metadata JSON)`. The
+/// arrays take over the loader's vectors (no copy): the rows of `[f64; 3]` are reinterpreted
+/// as 3n values (`bytemuck`: same alignment, same bytes) and shaped n × 3 in place.
 #[pyfunction]
-#[pyo3(signature = (path, columns=None, sensor=None))]
+#[pyo3(signature = (path, columns=None, sensor=None, progress=None))]
 fn read<'py>(
     py: Python<'py>,
     path: PathBuf,
     columns: Option<Vec<String>>,
     sensor: Option<&str>,
+    progress: Option<Py<PyAny>>,
 ) -> PyResult<ReadResult<'py>> {
-    let sensor = match sensor {
-        None => None,
-        Some("accelerometer") => Some(Sensor::Accelerometer),
-        Some("gyroscope") => Some(Sensor::Gyroscope),
-        Some("magnetometer") => Some(Sensor::Magnetometer),
-        Some(s) => {
-            return Err(arg_err(format!(
-                "sensor '{s}': expected accelerometer, gyroscope or magnetometer"
-            )))
-        }
-    };
-    let opts = load_options(columns, sensor)?;
+    let opts = load_options(columns, sensor_of(sensor)?)?;
+    let progress = Reporter::new(progress);
+    progress.report("reading", 0, 0);
     let rec = py
         .detach(|| wiical_analysis::load(&path, &opts))
         .map_err(py_err)?;
-    let bytes = |v: &mut dyn Iterator<Item = f64>| -> Vec<u8> {
-        v.flat_map(f64::to_le_bytes).collect::<Vec<u8>>()
-    };
-    let xyz = bytes(&mut rec.xyz.iter().flatten().copied());
-    let t = rec.t.as_ref().map(|t| bytes(&mut t.iter().copied()));
-    let temp = rec.temp.as_ref().map(|t| bytes(&mut t.iter().copied()));
+    progress.report("reading", rec.len(), rec.len());
+    progress.finish()?;
     let meta = serde_json::json!({
         "columns": rec.axis_columns,
         "sample_rate_hz": rec.sample_rate_hz.or_else(|| rec.estimated_rate_hz()),
@@ -442,12 +506,109 @@ fn read<'py>(
         "info": rec.info,
         "skipped_empty_rows": rec.skipped_empty_rows,
     });
+    let n = rec.xyz.len();
+    let flat: Vec<f64> = bytemuck::allocation::cast_vec(rec.xyz);
+    let xyz = PyArray1::from_vec(py, flat).reshape([n, 3])?.into_any();
     Ok((
-        PyBytes::new(py, &xyz),
-        t.map(|b| PyBytes::new(py, &b)),
-        temp.map(|b| PyBytes::new(py, &b)),
+        xyz,
+        rec.t.map(|t| PyArray1::from_vec(py, t)),
+        rec.temp.map(|t| PyArray1::from_vec(py, t)),
         meta.to_string(),
     ))
+}
+
+/// `wiical noise --json`: the Allan deviation of a still recording and the IEEE 952 terms.
+/// A file's every sensor (as the CLI reads it), or arrays as one sensor.
+#[pyfunction]
+#[pyo3(signature = (source, rate_hz=100.0, columns=None))]
+fn noise(
+    py: Python<'_>,
+    source: Source<'_>,
+    rate_hz: f64,
+    columns: Option<Vec<String>>,
+) -> PyResult<String> {
+    let rate_hz = rate("rate_hz", rate_hz)?;
+    let recs = match source {
+        Source::Path(path) => {
+            let columns = load_options(columns, None)?.columns;
+            py.detach(|| wiical_analysis::noise::report::load_sensors(&path, columns))
+                .map_err(py_err)?
+        }
+        Source::Arrays(xyz, t, temp) => {
+            vec![recording_from_arrays(&xyz, t.as_ref(), temp.as_ref())?]
+        }
+    };
+    let rep = py
+        .detach(|| wiical_analysis::noise::report::noise(&recs, rate_hz))
+        .map_err(py_err)?;
+    to_json(&rep)
+}
+
+/// `wiical tempcal --json`: the bias of a still warm-up against temperature, per axis. The
+/// settings' ranges are the engine's (the CLI's flags name the same ones).
+#[pyfunction]
+#[pyo3(signature = (source, tref, segments, block_s, pose_deg, rate_hz=100.0, columns=None))]
+#[allow(clippy::too_many_arguments)]
+fn tempcal(
+    py: Python<'_>,
+    source: Source<'_>,
+    tref: f64,
+    segments: usize,
+    block_s: f64,
+    pose_deg: f64,
+    rate_hz: f64,
+    columns: Option<Vec<String>>,
+) -> PyResult<String> {
+    use wiical_analysis::tempcal::{TempcalError, TempcalOptions};
+    let opts = TempcalOptions {
+        t_ref_c: tref,
+        segments,
+        block_s,
+        pose_deg,
+        default_rate_hz: rate("rate_hz", rate_hz)?,
+    };
+    let rec = samples_of(py, source, columns, None)?;
+    let rep = py
+        .detach(|| wiical_analysis::tempcal::tempcal(&rec, &opts))
+        .map_err(|e| match e {
+            TempcalError::Setting { what } => {
+                arg_err(format!("{what} (tref, segments, block_s, pose_deg)"))
+            }
+            other => WiicalError::new_err(other.to_string()),
+        })?;
+    to_json(&rep)
+}
+
+/// What `correct` returns: times (s), corrected acceleration (n × 3, g) and the terms applied.
+type Corrected<'py> = (
+    Bound<'py, PyArray1<f64>>,
+    Bound<'py, PyAny>,
+    Vec<String>,
+);
+
+/// `wiical correct`: every sample corrected with a calibration file, host terms included.
+#[pyfunction]
+#[pyo3(signature = (calibration, source, rate_hz=100.0, columns=None))]
+fn correct<'py>(
+    py: Python<'py>,
+    calibration: PathBuf,
+    source: Source<'py>,
+    rate_hz: f64,
+    columns: Option<Vec<String>>,
+) -> PyResult<Corrected<'py>> {
+    use wiical_analysis::output::calfile::read_calibration_file;
+    let rate_hz = rate("rate_hz", rate_hz)?;
+    let file = py
+        .detach(|| read_calibration_file(&calibration))
+        .map_err(py_err)?;
+    let rec = samples_of(py, source, columns, None)?;
+    let c = py
+        .detach(|| wiical_analysis::correct::correct_recording(&file, &rec, rate_hz))
+        .map_err(py_err)?;
+    let n = c.accel.len();
+    let flat: Vec<f64> = c.accel.iter().flatten().map(|v| f64::from(*v)).collect();
+    let accel = PyArray1::from_vec(py, flat).reshape([n, 3])?.into_any();
+    Ok((PyArray1::from_vec(py, c.times), accel, c.applied))
 }
 
 /// The compiled module.
@@ -462,5 +623,8 @@ fn _wiical(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(six_position, m)?)?;
     m.add_function(wrap_pyfunction!(decode_cal, m)?)?;
     m.add_function(wrap_pyfunction!(read, m)?)?;
+    m.add_function(wrap_pyfunction!(noise, m)?)?;
+    m.add_function(wrap_pyfunction!(tempcal, m)?)?;
+    m.add_function(wrap_pyfunction!(correct, m)?)?;
     Ok(())
 }

@@ -16,13 +16,11 @@ runs with the GIL released.
 'good'
 """
 
-from __future__ import annotations
+import json as _json
+import os as _os
+import typing as _t
 
-import json
-import os
-from typing import Any, Dict, Optional, Sequence, Tuple, Union
-
-import numpy as np
+import numpy as _np
 
 from . import _wiical
 from ._wiical import WiicalError
@@ -36,168 +34,307 @@ __all__ = [
     "gyrofit",
     "six_position",
     "decode_cal",
+    "noise",
+    "tempcal",
+    "correct",
     "read",
     "Recording",
 ]
 
-PathLike = Union[str, "os.PathLike[str]"]
-Samples = Union[PathLike, np.ndarray, Sequence[Sequence[float]]]
+_PathLike = _t.Union[str, bytes, "_os.PathLike[str]"]
+_Samples = _t.Union[_PathLike, _np.ndarray, _t.Sequence[_t.Sequence[float]]]
+_Progress = _t.Optional[_t.Callable[[str, int, int], None]]
 
 
-def _column(values: Any, name: str) -> Optional[bytes]:
+def __dir__() -> _t.List[str]:
+    """Only the package's own names (not the modules it imports)."""
+    return sorted(__all__ + ["__version__"])
+
+
+def _path(p: _t.Any, name: str) -> str:
+    """A path as str: ``str``, ``os.PathLike`` or ``bytes`` (decoded as the file system
+    does, so a non-UTF-8 name still names its file); anything else is a TypeError naming
+    the argument."""
+    if isinstance(p, (str, bytes, _os.PathLike)):
+        return _os.fsdecode(p)
+    raise TypeError(f"{name} must be a path (str, bytes or os.PathLike), got {type(p).__name__}")
+
+
+def _names(v: _t.Any, name: str, example: str) -> _t.Optional[_t.List[str]]:
+    """A list of names; a single string is refused (``list("ax")`` would be its letters)."""
+    if v is None:
+        return None
+    if isinstance(v, (str, bytes)):
+        raise TypeError(f"{name} takes a list of names, e.g. {example}, not the string {v!r}")
+    try:
+        names = list(v)
+    except TypeError:
+        raise TypeError(
+            f"{name} takes a list of names, e.g. {example}, got {type(v).__name__}"
+        ) from None
+    bad = [x for x in names if not isinstance(x, str)]
+    if bad:
+        raise TypeError(f"{name} takes names (str), got {bad[0]!r}")
+    return names
+
+
+def _number(v: _t.Any, name: str) -> float:
+    """A real number (int, float, numpy scalar); a bool or a string is a TypeError naming the
+    argument. Its range is checked by the engine, as the CLI's flag is."""
+    if isinstance(v, (bool, str, bytes)) or not isinstance(v, (int, float, _np.number)):
+        raise TypeError(f"{name} must be a number, got {type(v).__name__} {v!r}")
+    return float(v)
+
+
+def _opt_number(v: _t.Any, name: str) -> _t.Optional[float]:
+    return None if v is None else _number(v, name)
+
+
+def _column(values: _t.Any, name: str) -> _t.Optional[_np.ndarray]:
+    """A 1-D float64 array (no copy when it is one already)."""
     if values is None:
         return None
-    a = np.ascontiguousarray(values, dtype="<f8")
+    a = _np.asarray(values, dtype=_np.float64)
     if a.ndim != 1:
         raise ValueError(f"{name} must be one-dimensional, got shape {a.shape}")
-    return a.tobytes()
+    return a
 
 
-def _source(data: Samples, t: Any = None, temp: Any = None) -> Any:
-    """A path, or the arrays as little-endian float64 bytes (what the Rust side reads)."""
-    if isinstance(data, (str, os.PathLike)):
+def _source(data: _Samples, t: _t.Any = None, temp: _t.Any = None) -> _t.Any:
+    """A path, or float64 arrays (no copy when ``data`` is a float64 array already: the
+    engine reads it in place and checks it as the loader checks a file)."""
+    if isinstance(data, (str, bytes, _os.PathLike)):
         if t is not None or temp is not None:
             raise ValueError("t and temp are given with arrays; a file brings its own columns")
-        return os.fspath(data)
-    a = np.ascontiguousarray(data, dtype="<f8")
-    if a.ndim != 2 or a.shape[1] != 3:
-        raise ValueError(f"samples must have shape (n, 3), got {a.shape}")
-    return (a.tobytes(), _column(t, "t"), _column(temp, "temp"))
+        return _path(data, "data")
+    try:
+        a = _np.asarray(data, dtype=_np.float64)
+    except (TypeError, ValueError) as e:
+        raise TypeError(
+            f"data must be a path or an array of shape (n, 3) of numbers: {e}"
+        ) from None
+    return (a, _column(t, "t"), _column(temp, "temp"))
 
 
 def _detect(
-    rate_hz: float,
-    window_s: Optional[float],
-    init_s: Optional[float],
-    min_static_s: Optional[float],
-    threshold: Optional[float],
-    adc_range: Optional[Tuple[float, float]],
-) -> Dict[str, Any]:
+    rate_hz: _t.Any,
+    window_s: _t.Any,
+    init_s: _t.Any,
+    min_static_s: _t.Any,
+    threshold: _t.Any,
+    adc_range: _t.Any,
+) -> _t.Dict[str, _t.Any]:
+    if adc_range is not None:
+        if isinstance(adc_range, (str, bytes)) or len(adc_range) != 2:
+            raise TypeError(f"adc_range takes two numbers (lo, hi), got {adc_range!r}")
+        adc_range = (_number(adc_range[0], "adc_range"), _number(adc_range[1], "adc_range"))
     return {
-        "rate_hz": float(rate_hz),
-        "window_s": window_s,
-        "init_s": init_s,
-        "min_static_s": min_static_s,
-        "threshold": threshold,
-        "adc_range": None if adc_range is None else (float(adc_range[0]), float(adc_range[1])),
+        "rate_hz": _number(rate_hz, "rate_hz"),
+        "window_s": _opt_number(window_s, "window_s"),
+        "init_s": _opt_number(init_s, "init_s"),
+        "min_static_s": _opt_number(min_static_s, "min_static_s"),
+        "threshold": _opt_number(threshold, "threshold"),
+        "adc_range": adc_range,
     }
 
 
+def _progress(progress: _Progress) -> _Progress:
+    if progress is not None and not callable(progress):
+        raise TypeError(f"progress must be callable(stage, done, total), got {progress!r}")
+    return progress
+
+_COLUMNS = "['ax', 'ay', 'az']"
+
+
 def fit(
-    data: Samples,
+    data: _Samples,
     *,
-    t: Any = None,
-    temp: Any = None,
-    columns: Optional[Sequence[str]] = None,
+    t: _t.Any = None,
+    temp: _t.Any = None,
+    columns: _t.Optional[_t.Sequence[str]] = None,
     windows: bool = False,
     model: str = "full",
     rate_hz: float = 100.0,
-    window_s: Optional[float] = None,
-    init_s: Optional[float] = None,
-    min_static_s: Optional[float] = None,
-    threshold: Optional[float] = None,
-    adc_range: Optional[Tuple[float, float]] = None,
-) -> Dict[str, Any]:
+    window_s: _t.Optional[float] = None,
+    init_s: _t.Optional[float] = None,
+    min_static_s: _t.Optional[float] = None,
+    threshold: _t.Optional[float] = None,
+    adc_range: _t.Optional[_t.Tuple[float, float]] = None,
+    progress: _Progress = None,
+) -> _t.Dict[str, _t.Any]:
     """Static windows and the multi-position fit (bias, scale, non-orthogonality), with the
     quality verdict: ``wiical fit --json``. Any of window_s, init_s, min_static_s, threshold
-    switches from the adaptive detector to IMU-TK's, as the flags do."""
+    switches from the adaptive detector to IMU-TK's, as the flags do; each is refused outside
+    its flag's range. ``progress(stage, done, total)`` is called as the work goes on."""
     out = _wiical.fit(
         _source(data, t, temp),
         _detect(rate_hz, window_s, init_s, min_static_s, threshold, adc_range),
-        list(columns) if columns is not None else None,
-        windows,
+        _names(columns, "columns", _COLUMNS),
+        bool(windows),
         model,
+        _progress(progress),
     )
-    return json.loads(out)
+    return _json.loads(out)
 
 
 def analyze(
-    data: Samples,
+    data: _Samples,
     *,
-    t: Any = None,
-    temp: Any = None,
-    columns: Optional[Sequence[str]] = None,
+    t: _t.Any = None,
+    temp: _t.Any = None,
+    columns: _t.Optional[_t.Sequence[str]] = None,
     windows: bool = False,
-    alpha: Optional[float] = None,
-    cv_factor: Optional[float] = None,
-    candidates: Optional[Sequence[str]] = None,
+    alpha: _t.Optional[float] = None,
+    cv_factor: _t.Optional[float] = None,
+    candidates: _t.Optional[_t.Sequence[str]] = None,
     rate_hz: float = 100.0,
-    window_s: Optional[float] = None,
-    init_s: Optional[float] = None,
-    min_static_s: Optional[float] = None,
-    threshold: Optional[float] = None,
-    adc_range: Optional[Tuple[float, float]] = None,
-) -> Dict[str, Any]:
+    window_s: _t.Optional[float] = None,
+    init_s: _t.Optional[float] = None,
+    min_static_s: _t.Optional[float] = None,
+    threshold: _t.Optional[float] = None,
+    adc_range: _t.Optional[_t.Tuple[float, float]] = None,
+    progress: _Progress = None,
+) -> _t.Dict[str, _t.Any]:
     """The residual analysis: what the linear model leaves, which effects explain it, the
-    error before and after: ``wiical analyze --json``."""
+    error before and after: ``wiical analyze --json``. ``progress(stage, done, total)`` is
+    called on reading, on detection, and once per candidate fitted."""
     out = _wiical.analyze(
         _source(data, t, temp),
         _detect(rate_hz, window_s, init_s, min_static_s, threshold, adc_range),
-        list(columns) if columns is not None else None,
-        windows,
-        alpha,
-        cv_factor,
-        list(candidates) if candidates is not None else None,
+        _names(columns, "columns", _COLUMNS),
+        bool(windows),
+        _opt_number(alpha, "alpha"),
+        _opt_number(cv_factor, "cv_factor"),
+        _names(candidates, "candidates", "['bias_drift', 'cubic']"),
+        _progress(progress),
     )
-    return json.loads(out)
+    return _json.loads(out)
 
 
 def magfit(
-    data: Samples, *, model: str = "ellipsoid", columns: Optional[Sequence[str]] = None
-) -> Dict[str, Any]:
+    data: _Samples, *, model: str = "ellipsoid", columns: _t.Optional[_t.Sequence[str]] = None
+) -> _t.Dict[str, _t.Any]:
     """Magnetometer hard/soft-iron fit (sphere, axis or ellipsoid): ``wiical magfit --json``."""
-    out = _wiical.magfit(
-        _source(data), model, list(columns) if columns is not None else None
-    )
-    return json.loads(out)
+    out = _wiical.magfit(_source(data), model, _names(columns, "columns", "['mx', 'my', 'mz']"))
+    return _json.loads(out)
+
+
+def _many(v: _t.Any, name: str) -> _t.Optional[_t.List[float]]:
+    """One number or three (per axis)."""
+    if v is None:
+        return None
+    if isinstance(v, (str, bytes)):
+        raise TypeError(f"{name} takes one number or three, not the string {v!r}")
+    if isinstance(v, (list, tuple, _np.ndarray)):
+        return [_number(x, name) for x in v]
+    return [_number(v, name)]
 
 
 def gyrofit(
-    path: PathLike,
-    gyro_path: Optional[PathLike] = None,
+    path: _PathLike,
+    gyro_path: _t.Optional[_PathLike] = None,
     *,
-    gyro_columns: Optional[Sequence[str]] = None,
-    scale: Optional[Union[float, Sequence[float]]] = None,
-    counts_per_dps: Optional[Union[float, Sequence[float]]] = None,
+    gyro_columns: _t.Optional[_t.Sequence[str]] = None,
+    scale: _t.Optional[_t.Union[float, _t.Sequence[float]]] = None,
+    counts_per_dps: _t.Optional[_t.Union[float, _t.Sequence[float]]] = None,
     rate_hz: float = 100.0,
-    window_s: Optional[float] = None,
-    init_s: Optional[float] = None,
-    min_static_s: Optional[float] = None,
-    threshold: Optional[float] = None,
-    adc_range: Optional[Tuple[float, float]] = None,
-) -> Dict[str, Any]:
+    window_s: _t.Optional[float] = None,
+    init_s: _t.Optional[float] = None,
+    min_static_s: _t.Optional[float] = None,
+    threshold: _t.Optional[float] = None,
+    adc_range: _t.Optional[_t.Tuple[float, float]] = None,
+) -> _t.Dict[str, _t.Any]:
     """Gyro scale, misalignment and bias from the motions between fit's static windows:
     ``wiical gyrofit --json``. The nominal: ``scale`` (rad/s per count) or ``counts_per_dps``,
     else the gyro columns' unit, else estimated from the motions."""
-
-    def many(v: Any) -> Optional[list]:
-        if v is None:
-            return None
-        return [float(x) for x in (v if isinstance(v, (list, tuple)) else [v])]
-
     out = _wiical.gyrofit(
-        os.fspath(path),
+        _path(path, "path"),
         _detect(rate_hz, window_s, init_s, min_static_s, threshold, adc_range),
-        None if gyro_path is None else os.fspath(gyro_path),
-        list(gyro_columns) if gyro_columns is not None else None,
-        many(scale),
-        many(counts_per_dps),
+        None if gyro_path is None else _path(gyro_path, "gyro_path"),
+        _names(gyro_columns, "gyro_columns", "['gx', 'gy', 'gz']"),
+        _many(scale, "scale"),
+        _many(counts_per_dps, "counts_per_dps"),
     )
-    return json.loads(out)
+    return _json.loads(out)
 
 
-def six_position(path: PathLike, *, estimator: str = "mean") -> Dict[str, Any]:
+def six_position(path: _PathLike, *, estimator: str = "mean") -> _t.Dict[str, _t.Any]:
     """The seed's six-position test on a file with a pose column (estimator "mean" or
     "kalman"): ``wiical six-position --json``."""
-    return json.loads(_wiical.six_position(os.fspath(path), estimator))
+    return _json.loads(_wiical.six_position(_path(path, "path"), estimator))
 
 
-def decode_cal(device: str, hex: str) -> Dict[str, Any]:
+def decode_cal(device: str, hex: str) -> _t.Dict[str, _t.Any]:
     """A factory calibration block ("wiimote", "nunchuk" or "motionplus") given as hex text:
     ``wiical decode-cal --json``. The dictionary's ``checksum_ok`` says whether the block can
     be trusted (the command line exits 1 when it cannot)."""
     out, _ok = _wiical.decode_cal(device, hex)
-    return json.loads(out)
+    return _json.loads(out)
+
+
+def noise(
+    data: _Samples,
+    *,
+    t: _t.Any = None,
+    columns: _t.Optional[_t.Sequence[str]] = None,
+    rate_hz: float = 100.0,
+) -> _t.Dict[str, _t.Any]:
+    """The Allan deviation of a still recording per axis and the IEEE 952 noise terms:
+    ``wiical noise --json``. A file gives every sensor it holds; arrays are one sensor."""
+    out = _wiical.noise(
+        _source(data, t), _number(rate_hz, "rate_hz"), _names(columns, "columns", _COLUMNS)
+    )
+    return _json.loads(out)
+
+
+def tempcal(
+    data: _Samples,
+    *,
+    t: _t.Any = None,
+    temp: _t.Any = None,
+    columns: _t.Optional[_t.Sequence[str]] = None,
+    tref: float = 35.0,
+    segments: int = 8,
+    block_s: float = 1.0,
+    pose_deg: float = 10.0,
+    rate_hz: float = 100.0,
+) -> _t.Dict[str, _t.Any]:
+    """The bias of a still warm-up against temperature, per axis: ``wiical tempcal --json``.
+    Arrays need ``temp`` (°C per sample)."""
+    if isinstance(segments, bool) or not isinstance(segments, (int, _np.integer)):
+        raise TypeError(f"segments must be an integer, got {segments!r}")
+    if segments < 0:
+        raise ValueError(f"segments = {segments}: the number of segments must be from 2 to 50")
+    out = _wiical.tempcal(
+        _source(data, t, temp),
+        _number(tref, "tref"),
+        int(segments),
+        _number(block_s, "block_s"),
+        _number(pose_deg, "pose_deg"),
+        _number(rate_hz, "rate_hz"),
+        _names(columns, "columns", _COLUMNS),
+    )
+    return _json.loads(out)
+
+
+def correct(
+    calibration: _PathLike,
+    data: _Samples,
+    *,
+    t: _t.Any = None,
+    temp: _t.Any = None,
+    columns: _t.Optional[_t.Sequence[str]] = None,
+    rate_hz: float = 100.0,
+) -> _t.Dict[str, _t.Any]:
+    """Every sample corrected with a calibration file (host terms included): what ``wiical
+    correct`` writes, as ``{"t": (n,), "accel": (n, 3) in g, "applied": [terms]}``."""
+    times, accel, applied = _wiical.correct(
+        _path(calibration, "calibration"),
+        _source(data, t, temp),
+        _number(rate_hz, "rate_hz"),
+        _names(columns, "columns", _COLUMNS),
+    )
+    return {"t": times, "accel": accel, "applied": applied}
 
 
 class Recording(dict):
@@ -205,7 +342,7 @@ class Recording(dict):
     and the loader's metadata (``columns``, ``sample_rate_hz``, ``labels``, ``notes``,
     ``info``, ``skipped_empty_rows``). A dict, so ``rec["xyz"]`` and ``rec.xyz`` both work."""
 
-    def __getattr__(self, name: str) -> Any:
+    def __getattr__(self, name: str) -> _t.Any:
         try:
             return self[name]
         except KeyError as e:
@@ -213,15 +350,20 @@ class Recording(dict):
 
 
 def read(
-    path: PathLike, *, columns: Optional[Sequence[str]] = None, sensor: Optional[str] = None
+    path: _PathLike,
+    *,
+    columns: _t.Optional[_t.Sequence[str]] = None,
+    sensor: _t.Optional[str] = None,
+    progress: _Progress = None,
 ) -> Recording:
-    """Reads any recording the command line reads, as numpy arrays. ``sensor`` picks the
-    triplet from a header naming several ("accelerometer", "gyroscope", "magnetometer")."""
+    """Reads any recording the command line reads, as numpy arrays (made from the engine's
+    own buffers, not copied). ``sensor`` picks the triplet from a header naming several
+    ("accelerometer", "gyroscope", "magnetometer")."""
     xyz, t, temp, meta = _wiical.read(
-        os.fspath(path), list(columns) if columns is not None else None, sensor
+        _path(path, "path"), _names(columns, "columns", _COLUMNS), sensor, _progress(progress)
     )
-    rec = Recording(json.loads(meta))
-    rec["xyz"] = np.frombuffer(xyz, dtype="<f8").reshape(-1, 3)
-    rec["t"] = None if t is None else np.frombuffer(t, dtype="<f8")
-    rec["temp"] = None if temp is None else np.frombuffer(temp, dtype="<f8")
+    rec = Recording(_json.loads(meta))
+    rec["xyz"] = xyz
+    rec["t"] = t
+    rec["temp"] = temp
     return rec

@@ -1,14 +1,18 @@
 """Type stubs of the compiled module (python/src/lib.rs). Use the functions of the `wiical`
-package: these take the samples as float64 bytes and return JSON text."""
+package: these take the samples as float64 numpy arrays (read in place) and return JSON text
+or numpy arrays."""
 
-from typing import Any, Dict, List, Optional, Tuple, Union
+from typing import Any, Callable, Dict, List, Optional, Tuple, Union
+
+import numpy as np
 
 __version__: str
 
 class WiicalError(ValueError):
     """An input wiical cannot use, with the sentence the command line prints."""
 
-_Source = Union[str, Tuple[bytes, Optional[bytes], Optional[bytes]]]
+_Source = Union[str, Tuple[np.ndarray, Optional[np.ndarray], Optional[np.ndarray]]]
+_Progress = Optional[Callable[[str, int, int], None]]
 
 def fit(
     source: _Source,
@@ -16,6 +20,7 @@ def fit(
     columns: Optional[List[str]] = None,
     windows: bool = False,
     model: str = "full",
+    progress: _Progress = None,
 ) -> str: ...
 def analyze(
     source: _Source,
@@ -25,6 +30,7 @@ def analyze(
     alpha: Optional[float] = None,
     cv_factor: Optional[float] = None,
     candidates: Optional[List[str]] = None,
+    progress: _Progress = None,
 ) -> str: ...
 def magfit(source: _Source, model: str = "ellipsoid", columns: Optional[List[str]] = None) -> str: ...
 def gyrofit(
@@ -37,6 +43,25 @@ def gyrofit(
 ) -> str: ...
 def six_position(path: str, estimator: str = "mean") -> str: ...
 def decode_cal(device: str, hex: str) -> Tuple[str, bool]: ...
+def noise(source: _Source, rate_hz: float = 100.0, columns: Optional[List[str]] = None) -> str: ...
+def tempcal(
+    source: _Source,
+    tref: float,
+    segments: int,
+    block_s: float,
+    pose_deg: float,
+    rate_hz: float = 100.0,
+    columns: Optional[List[str]] = None,
+) -> str: ...
+def correct(
+    calibration: str,
+    source: _Source,
+    rate_hz: float = 100.0,
+    columns: Optional[List[str]] = None,
+) -> Tuple[np.ndarray, np.ndarray, List[str]]: ...
 def read(
-    path: str, columns: Optional[List[str]] = None, sensor: Optional[str] = None
-) -> Tuple[bytes, Optional[bytes], Optional[bytes], str]: ...
+    path: str,
+    columns: Optional[List[str]] = None,
+    sensor: Optional[str] = None,
+    progress: _Progress = None,
+) -> Tuple[np.ndarray, Optional[np.ndarray], Optional[np.ndarray], str]: ...

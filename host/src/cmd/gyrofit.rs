@@ -65,7 +65,7 @@ fn nominal(a: &Args, gyro: &Recording) -> Result<Option<([f64; 3], String)>> {
         (Some(_), Some(_)) => bail!("give either --scale or --counts-per-dps, not both"),
         (None, None) => return Ok(nominal_from_columns(gyro)),
     };
-    if !s.iter().all(|x| x.is_finite() && *x != 0.0) {
+    if !wiical_analysis::gyro::nominal_given_usable(&s) {
         bail!("the nominal sensitivity must be finite and non-zero on every axis");
     }
     Ok(Some((s, source)))

@@ -13,6 +13,10 @@ use wiical_analysis::live::{LiveSensor, LiveSession, Snapshot};
 /// Fastest replay (`--speed`).
 const MAX_SPEED: f64 = 10_000.0;
 
+/// Slowest replay (`--speed`): a thousandth of the recorded pace already turns a second of
+/// recording into a quarter of an hour; slower would overflow the replay clock.
+const MIN_SPEED: f64 = 0.001;
+
 /// Arguments of `wiical live`.
 #[derive(clap::Args, Debug)]
 pub struct Args {
@@ -24,7 +28,7 @@ pub struct Args {
     /// prints) until it stops answering.
     #[arg(long)]
     pub device: Option<String>,
-    /// Replay this many times faster than recorded (0 < X ≤ 10000).
+    /// Replay this many times faster than recorded (0.001 ≤ X ≤ 10000).
     #[arg(long, default_value_t = 1.0, value_parser = speed)]
     pub speed: f64,
     /// HTTP port (0: any free port; the one chosen is printed), or ADDR:PORT.
@@ -48,8 +52,10 @@ pub struct Args {
 
 fn speed(s: &str) -> Result<f64, String> {
     let v = positive_finite(s)?;
-    if v > MAX_SPEED {
-        return Err(format!("at most {MAX_SPEED}"));
+    if !(MIN_SPEED..=MAX_SPEED).contains(&v) {
+        return Err(format!(
+            "'{s}': give a speed from {MIN_SPEED} to {MAX_SPEED}"
+        ));
     }
     Ok(v)
 }
@@ -180,6 +186,8 @@ pub fn run(a: &Args) -> Result<String> {
             println!("{}", summary(&name, &snap));
         }
     });
-    server.serve(&shared);
+    server
+        .serve(&shared)
+        .map_err(|e| anyhow::anyhow!("the live view's server could not start: {e}"))?;
     Ok(String::new())
 }

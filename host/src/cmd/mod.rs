@@ -21,6 +21,7 @@ pub mod tempcal;
 use crate::cli_error::cli_error;
 use anyhow::Result;
 use std::path::Path;
+use wiical_analysis::detect::windows;
 use wiical_analysis::input::window_table::{load_input, Input, WindowInputOptions};
 use wiical_analysis::report::verdict::Quality;
 use wiical_analysis::{DetectOptions, Error, FitOptions, LoadOptions};
@@ -146,41 +147,23 @@ pub fn positive_finite(s: &str) -> Result<f64, String> {
     }
 }
 
-/// A duration in seconds, 1 ms to 10⁶ s (a window of 1e-300 s would silently become the
-/// detector's 3-sample minimum).
+/// A duration in seconds, 1 ms to 10⁶ s (the analysis crate's range, shared with the Python
+/// package).
 pub fn duration_s(s: &str) -> Result<f64, String> {
     let v = positive_finite(s)?;
-    if (1e-3..=1e6).contains(&v) {
-        Ok(v)
-    } else {
-        Err(format!("'{s}': give a duration from 0.001 to 1000000 s"))
-    }
+    windows::check_duration_s(v).map_err(|e| format!("'{s}': {e}"))
 }
 
-/// A sample rate in Hz: above 0, at most 1 MHz (inertial sensors stop at a few kHz; 1e300 Hz
-/// would make every window one sample).
+/// A sample rate in Hz: above 0, at most 1 MHz (the analysis crate's range).
 pub fn rate_hz(s: &str) -> Result<f64, String> {
     let v = positive_finite(s)?;
-    if v <= wiical_analysis::input::bounded::MAX_RATE_HZ {
-        Ok(v)
-    } else {
-        Err(format!(
-            "'{s}': give a sample rate from above 0 to 1000000 Hz"
-        ))
-    }
+    windows::check_rate_hz(v).map_err(|e| format!("'{s}': {e}"))
 }
 
-/// A variance-ratio threshold: above 1 (at or below the rest variance nothing is ever still),
-/// at most 10⁶.
+/// A variance-ratio threshold: above 1, at most 10⁶ (the analysis crate's range).
 pub fn threshold(s: &str) -> Result<f64, String> {
     let v = positive_finite(s)?;
-    if v > 1.0 && v <= 1e6 {
-        Ok(v)
-    } else {
-        Err(format!(
-            "'{s}': give a threshold above 1 and at most 1000000 (times the rest variance)"
-        ))
-    }
+    windows::check_threshold(v).map_err(|e| format!("'{s}': {e}"))
 }
 
 /// A noise standard deviation: above 0, at most `max` in `unit`.
@@ -208,10 +191,7 @@ pub fn parse_range(s: &str) -> Result<(f64, f64), String> {
         .trim()
         .parse()
         .map_err(|_| format!("'{b}' is not a number"))?;
-    if !(lo.is_finite() && hi.is_finite() && lo < hi) {
-        return Err(format!("'{s}': need finite LO < HI"));
-    }
-    Ok((lo, hi))
+    windows::check_adc_range((lo, hi)).map_err(|e| format!("'{s}': {e}"))
 }
 
 /// Pretty JSON with a final newline (every `--json`).

@@ -2,20 +2,20 @@
 //! file, nothing fetched from the internet), the session's [`Snapshot`] as JSON, and a stream
 //! of snapshots as server-sent events.
 //!
-//! Why tiny_http and threads rather than an async stack: one producer (the source) and at most
-//! [`MAX_STREAMS`] viewers on localhost need no runtime; a blocked or vanished viewer costs one
-//! thread that ends at its next write (a keep-alive comment every [`KEEPALIVE`]).
+//! Why hyper on a small single-threaded tokio runtime: every connection is a task of its own
+//! with bounded reads and writes (see [`http`]), so one client that never reads, sends slowly,
+//! pipelines behind `/events` or declares a huge body cannot stop the others or the server.
 //!
 //! [`Snapshot`]: wiical_analysis::live::Snapshot
 
 pub mod capture;
+pub mod http;
 pub mod source;
 
-use std::io::Write;
-use std::net::{IpAddr, SocketAddr};
-use std::sync::atomic::{AtomicUsize, Ordering};
-use std::sync::{Arc, Condvar, Mutex};
+use std::net::{IpAddr, SocketAddr, TcpListener};
+use std::sync::Arc;
 use std::time::Duration;
+use tokio::sync::watch;
 use wiical_analysis::live::Snapshot;
 
 /// The page, embedded in the binary.
@@ -50,17 +50,26 @@ pub enum ServeError {
     },
 }
 
-/// The latest snapshot, shared between the source and the viewers.
-#[derive(Default)]
+/// The latest snapshot, shared between the source (a plain thread) and the viewers (tasks):
+/// a watch channel keeps only the newest, so a slow viewer skips pictures rather than queueing
+/// them.
 pub struct Shared {
-    state: Mutex<Published>,
-    changed: Condvar,
+    tx: watch::Sender<Published>,
 }
 
-#[derive(Default)]
-struct Published {
-    json: Arc<String>,
-    version: u64,
+impl Default for Shared {
+    fn default() -> Self {
+        Self {
+            tx: watch::channel(Published::default()).0,
+        }
+    }
+}
+
+/// One published snapshot: its JSON and its number (0: none yet).
+#[derive(Clone, Default)]
+pub(crate) struct Published {
+    pub(crate) json: Arc<String>,
+    pub(crate) version: u64,
 }
 
 impl Shared {
@@ -73,26 +82,21 @@ impl Shared {
                 json.len()
             ));
         }
-        let mut st = self.state.lock().unwrap_or_else(|p| p.into_inner());
-        st.json = Arc::new(json);
-        st.version += 1;
-        self.changed.notify_all();
+        // send_modify stores the value even while no viewer is subscribed.
+        self.tx.send_modify(|p| {
+            p.json = Arc::new(json);
+            p.version += 1;
+        });
     }
 
     /// The latest snapshot and its version (0: none yet).
-    fn latest(&self) -> (Arc<String>, u64) {
-        let st = self.state.lock().unwrap_or_else(|p| p.into_inner());
-        (st.json.clone(), st.version)
+    pub(crate) fn latest(&self) -> Published {
+        self.tx.borrow().clone()
     }
 
-    /// Waits up to `timeout` for a version newer than `seen`.
-    fn wait_newer(&self, seen: u64, timeout: Duration) -> Option<(Arc<String>, u64)> {
-        let st = self.state.lock().unwrap_or_else(|p| p.into_inner());
-        let (st, _) = self
-            .changed
-            .wait_timeout_while(st, timeout, |s| s.version <= seen)
-            .unwrap_or_else(|p| p.into_inner());
-        (st.version > seen).then(|| (st.json.clone(), st.version))
+    /// A receiver that wakes on every newer snapshot.
+    pub(crate) fn subscribe(&self) -> watch::Receiver<Published> {
+        self.tx.subscribe()
     }
 }
 
@@ -114,9 +118,8 @@ fn error_json(msg: &str) -> String {
 
 /// A bound server: its address is known before it serves (the CLI prints the port).
 pub struct LiveServer {
-    server: tiny_http::Server,
+    listener: TcpListener,
     addr: SocketAddr,
-    streams: Arc<AtomicUsize>,
 }
 
 impl LiveServer {
@@ -127,16 +130,14 @@ impl LiveServer {
             return Err(ServeError::NotLocal { addr: ip });
         }
         let want = SocketAddr::new(ip, port);
-        let server = tiny_http::Server::http(want).map_err(|e| ServeError::Bind {
+        let bind_err = |e: std::io::Error| ServeError::Bind {
             addr: want,
             reason: e.to_string(),
-        })?;
-        let addr = server.server_addr().to_ip().unwrap_or(want);
-        Ok(Self {
-            server,
-            addr,
-            streams: Arc::new(AtomicUsize::new(0)),
-        })
+        };
+        let listener = TcpListener::bind(want).map_err(bind_err)?;
+        listener.set_nonblocking(true).map_err(bind_err)?;
+        let addr = listener.local_addr().unwrap_or(want);
+        Ok(Self { listener, addr })
     }
 
     /// The address it listens on (with the port chosen for port 0).
@@ -144,97 +145,9 @@ impl LiveServer {
         self.addr
     }
 
-    /// Serves until the process ends: the page, `/snapshot.json`, `/events`.
-    pub fn serve(&self, shared: &Arc<Shared>) {
-        for req in self.server.incoming_requests() {
-            self.handle(req, shared);
-        }
+    /// Serves until the process ends: the page, `/snapshot.json`, `/events`. Returns only if
+    /// the runtime cannot be started (the system refuses a timer or a socket poller).
+    pub fn serve(self, shared: &Arc<Shared>) -> std::io::Result<()> {
+        http::serve(self.listener, shared.clone(), http::Limits::default())
     }
-
-    fn handle(&self, req: tiny_http::Request, shared: &Arc<Shared>) {
-        use tiny_http::{Method, Response};
-        if *req.method() != Method::Get {
-            let _ = req.respond(Response::from_string("only GET").with_status_code(405));
-            return;
-        }
-        let path = req.url().split('?').next().unwrap_or("").to_string();
-        let result = match path.as_str() {
-            "/" | "/index.html" => req.respond(
-                Response::from_string(page(&shared.latest().0))
-                    .with_header(header("Content-Type", "text/html; charset=utf-8"))
-                    .with_chunked_threshold(usize::MAX),
-            ),
-            "/snapshot.json" => {
-                let (json, _) = shared.latest();
-                req.respond(
-                    Response::from_string(json.as_str())
-                        .with_header(header("Content-Type", "application/json"))
-                        .with_chunked_threshold(usize::MAX),
-                )
-            }
-            "/events" => {
-                self.start_stream(req, shared);
-                Ok(())
-            }
-            _ => req.respond(Response::from_string("not found").with_status_code(404)),
-        };
-        // A viewer that went away before its answer was written: nothing to do.
-        drop(result);
-    }
-
-    /// Hands the connection to a thread of its own, or answers 503 beyond [`MAX_STREAMS`].
-    fn start_stream(&self, req: tiny_http::Request, shared: &Arc<Shared>) {
-        let taken = self
-            .streams
-            .fetch_update(Ordering::SeqCst, Ordering::SeqCst, |n| {
-                (n < MAX_STREAMS).then_some(n + 1)
-            });
-        if taken.is_err() {
-            let msg = format!("at most {MAX_STREAMS} live views at once");
-            let _ = req.respond(tiny_http::Response::from_string(msg).with_status_code(503));
-            return;
-        }
-        let streams = self.streams.clone();
-        let shared = shared.clone();
-        std::thread::spawn(move || {
-            let _guard = StreamGuard(streams);
-            let _ = stream_events(req.into_writer(), &shared);
-        });
-    }
-}
-
-/// Frees a stream slot when its thread ends, however it ends.
-struct StreamGuard(Arc<AtomicUsize>);
-
-impl Drop for StreamGuard {
-    fn drop(&mut self) {
-        self.0.fetch_sub(1, Ordering::SeqCst);
-    }
-}
-
-/// Writes the event stream until the viewer goes away (a write fails).
-fn stream_events(mut w: Box<dyn Write + Send>, shared: &Shared) -> std::io::Result<()> {
-    w.write_all(
-        b"HTTP/1.1 200 OK\r\nContent-Type: text/event-stream\r\nCache-Control: no-cache\r\nConnection: close\r\n\r\n",
-    )?;
-    let (json, mut seen) = shared.latest();
-    if seen > 0 {
-        write!(w, "data: {json}\n\n")?;
-    }
-    w.flush()?;
-    loop {
-        match shared.wait_newer(seen, KEEPALIVE) {
-            Some((json, v)) => {
-                seen = v;
-                write!(w, "data: {json}\n\n")?;
-            }
-            None => w.write_all(b": keep-alive\n\n")?,
-        }
-        w.flush()?;
-    }
-}
-
-fn header(name: &str, value: &str) -> tiny_http::Header {
-    tiny_http::Header::from_bytes(name.as_bytes(), value.as_bytes())
-        .unwrap_or_else(|()| unreachable!("static header"))
 }

@@ -32,10 +32,14 @@ pub fn replay(
 ) -> Snapshot {
     let start = Instant::now();
     let t0 = times.first().copied().unwrap_or(0.0);
-    let mut last_publish = Instant::now();
+    // As if published a period ago: the first sample is shown at once (a viewer that comes
+    // within the first period sees the replay running, not the empty session).
+    let mut last_publish = start.checked_sub(PUBLISH_EVERY).unwrap_or(start);
     shared.publish(&session.snapshot());
     for (t, xyz) in times.iter().zip(&rec.xyz) {
-        let due = Duration::from_secs_f64(((t - t0) / speed).max(0.0));
+        // Saturates: a time so far ahead (a tiny speed, a huge time stamp) waits "forever"
+        // rather than panicking in the conversion.
+        let due = Duration::try_from_secs_f64(((t - t0) / speed).max(0.0)).unwrap_or(Duration::MAX);
         let now = start.elapsed();
         if due > now + MIN_SLEEP {
             std::thread::sleep(due - now);

@@ -77,6 +77,134 @@ impl Default for DetectOptions {
     }
 }
 
+/// Why a user's setting (a CLI flag, a Python keyword argument) is refused: one range per
+/// kind of setting, shared by every door so that none accepts what another refuses.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+pub enum RangeError {
+    /// Zero, negative, NaN or infinite.
+    #[error("must be a finite number above 0")]
+    NotPositive,
+    /// A duration outside [`DURATION_RANGE_S`].
+    #[error("give a duration from 0.001 to 1000000 s")]
+    Duration,
+    /// A sample rate above [`crate::input::bounded::MAX_RATE_HZ`].
+    #[error("give a sample rate from above 0 to 1000000 Hz")]
+    Rate,
+    /// A threshold outside (1, 10⁶].
+    #[error("give a threshold above 1 and at most 1000000 (times the rest variance)")]
+    Threshold,
+    /// An ADC range whose ends are not finite with LO < HI.
+    #[error("need finite LO < HI")]
+    AdcRange,
+}
+
+/// Durations a setting may take, s: a window of 1e-300 s would silently become the detector's
+/// 3-sample minimum, one of 1e300 s never ends.
+pub const DURATION_RANGE_S: (f64, f64) = (1e-3, 1e6);
+
+fn positive(v: f64) -> Result<f64, RangeError> {
+    if v.is_finite() && v > 0.0 {
+        Ok(v)
+    } else {
+        Err(RangeError::NotPositive)
+    }
+}
+
+/// A duration setting (window, rest, hold), s: within [`DURATION_RANGE_S`].
+pub fn check_duration_s(v: f64) -> Result<f64, RangeError> {
+    let v = positive(v)?;
+    let (lo, hi) = DURATION_RANGE_S;
+    if (lo..=hi).contains(&v) {
+        Ok(v)
+    } else {
+        Err(RangeError::Duration)
+    }
+}
+
+/// A sample rate, Hz: above 0, at most 1 MHz (inertial sensors stop at a few kHz; 1e300 Hz
+/// would make every window one sample).
+pub fn check_rate_hz(v: f64) -> Result<f64, RangeError> {
+    if positive(v)? <= crate::input::bounded::MAX_RATE_HZ {
+        Ok(v)
+    } else {
+        Err(RangeError::Rate)
+    }
+}
+
+/// A variance-ratio threshold: above 1 (at or below the rest variance nothing is ever still),
+/// at most 10⁶.
+pub fn check_threshold(v: f64) -> Result<f64, RangeError> {
+    if positive(v)? > 1.0 && v <= 1e6 {
+        Ok(v)
+    } else {
+        Err(RangeError::Threshold)
+    }
+}
+
+/// An ADC range `(lo, hi)` in counts: finite, lo < hi.
+pub fn check_adc_range((lo, hi): (f64, f64)) -> Result<(f64, f64), RangeError> {
+    if lo.is_finite() && hi.is_finite() && lo < hi {
+        Ok((lo, hi))
+    } else {
+        Err(RangeError::AdcRange)
+    }
+}
+
+/// A setting refused by its range check, named as the caller named it.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{name} = {value}: {why}")]
+pub struct SettingError {
+    /// The setting's name (`window_s`, `rate_hz`, …).
+    pub name: &'static str,
+    /// The value given, as text.
+    pub value: String,
+    /// Its range.
+    pub why: RangeError,
+}
+
+impl DetectOptions {
+    /// [`DetectOptions::from_settings`] after every given setting passed its range check
+    /// (the checks the CLI's flag parsers make); the error names the setting by its keyword
+    /// (`window_s`, `init_s`, `min_static_s`, `threshold`, `rate_hz`, `adc_range`).
+    pub fn checked_settings(
+        window_s: Option<f64>,
+        init_s: Option<f64>,
+        min_static_s: Option<f64>,
+        threshold_factor: Option<f64>,
+        default_rate_hz: f64,
+        adc_range: Option<(f64, f64)>,
+    ) -> std::result::Result<Self, SettingError> {
+        fn check<T: Copy + std::fmt::Debug>(
+            name: &'static str,
+            v: Option<T>,
+            f: fn(T) -> Result<T, RangeError>,
+        ) -> std::result::Result<(), SettingError> {
+            if let Some(x) = v {
+                f(x).map_err(|why| SettingError {
+                    name,
+                    value: format!("{x:?}"),
+                    why,
+                })?;
+            }
+            Ok(())
+        }
+        check("window_s", window_s, check_duration_s)?;
+        check("init_s", init_s, check_duration_s)?;
+        check("min_static_s", min_static_s, check_duration_s)?;
+        check("threshold", threshold_factor, check_threshold)?;
+        check("rate_hz", Some(default_rate_hz), check_rate_hz)?;
+        check("adc_range", adc_range, check_adc_range)?;
+        Ok(Self::from_settings(
+            window_s,
+            init_s,
+            min_static_s,
+            threshold_factor,
+            default_rate_hz,
+            adc_range,
+        ))
+    }
+}
+
 /// Capacity of the detector's window ring (samples). At 100 Hz this allows windows up to 5 s.
 pub const MAX_WINDOW: usize = 511;
 
