@@ -205,7 +205,7 @@ fn fit(
     };
     let input = input_of(py, source, columns, windows)?;
     let judged = py
-        .detach(|| wiical_analysis::pipeline::fit(&input, &opts))
+        .detach(|| wiical_analysis::pipeline::fit_judged(&input, &opts))
         .map_err(py_err)?;
     to_json(&judged)
 }
@@ -243,7 +243,7 @@ fn analyze(
     };
     let input = input_of(py, source, columns, windows)?;
     let judged = py
-        .detach(|| wiical_analysis::pipeline::analyze(&input, &opts))
+        .detach(|| wiical_analysis::pipeline::analyze_judged(&input, &opts))
         .map_err(py_err)?;
     to_json(&judged)
 }
