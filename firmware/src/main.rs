@@ -10,6 +10,8 @@
 //! (COBS frames, `wiical-wire`). All decisions are made by the hardware-independent
 //! `wiical-adapter` crate; this firmware only wires embassy's drivers to it.
 //!
+//! `main` only builds the drivers and spawns the tasks; what the tasks share is in [`board`]
+//! (interrupts, poll rate, flash) and [`shared`] (the adapter state, the sample channel).
 //! Tasks, one concern each (see `firmware/README.md` for the pin map and wiring):
 //!
 //! | task | concern |
@@ -29,8 +31,10 @@
 #![no_std]
 #![no_main]
 
+mod board;
 mod nunchuk;
 mod serial;
+mod shared;
 mod status;
 mod storage;
 mod wiimote;
@@ -38,28 +42,13 @@ mod wiimote;
 use defmt::{info, unwrap};
 use embassy_executor::Spawner;
 use embassy_rp::gpio::{Level, Output};
-use embassy_rp::peripherals::{DMA_CH0, I2C0, I2C1, USB};
-use embassy_rp::{bind_interrupts, dma, i2c, i2c_slave, usb};
-use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
+use embassy_rp::{i2c, i2c_slave, usb};
 use embassy_sync::mutex::Mutex;
 use static_cell::StaticCell;
-use wiical_adapter::Protocol;
 use {defmt_rtt as _, panic_probe as _};
 
-bind_interrupts!(struct Irqs {
-    I2C0_IRQ => i2c::InterruptHandler<I2C0>;
-    I2C1_IRQ => i2c::InterruptHandler<I2C1>;
-    USBCTRL_IRQ => usb::InterruptHandler<USB>;
-    DMA_IRQ_0 => dma::InterruptHandler<DMA_CH0>;
-});
-
-/// The adapter state shared by the tasks: protocol handler, corrector, emulated register
-/// map and calibration store. Held only for short, non-blocking sections except during a
-/// calibration commit (flash write).
-pub type Adapter = Mutex<CriticalSectionRawMutex, Protocol<storage::StoreFlash>>;
-
-/// Nunchuk poll rate, Hz (the Wii Remote reads extensions at up to 200 Hz).
-pub const POLL_HZ: u32 = wiical_adapter::DEFAULT_POLL_HZ;
+use board::Irqs;
+use shared::Adapter;
 
 #[embassy_executor::main(
     executor = "embassy_rp::executor::Executor",

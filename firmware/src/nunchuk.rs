@@ -1,4 +1,4 @@
-//! The Nunchuk side: I²C0 controller polling at [`crate::POLL_HZ`].
+//! The Nunchuk side: I²C0 controller polling at [`POLL_HZ`].
 
 use defmt::{info, warn};
 use embassy_rp::i2c::{Async, I2c};
@@ -6,7 +6,9 @@ use embassy_rp::peripherals::I2C0;
 use embassy_time::{Delay, Duration, Instant, Ticker};
 use wiical_adapter::{CorrectionMode, NunchukPoller, PollEvent};
 
-use crate::{serial, status, Adapter};
+use crate::board::POLL_HZ;
+use crate::shared::{Adapter, SAMPLES};
+use crate::status;
 
 /// Polls the Nunchuk (the poller re-initialises it after an unplug, with back-off), feeds
 /// every result to the adapter logic (correction → emulated register map, stream sample,
@@ -17,7 +19,7 @@ use crate::{serial, status, Adapter};
 pub async fn nunchuk_task(mut bus: I2c<'static, I2C0, Async>, adapter: &'static Adapter) -> ! {
     let mut poller = NunchukPoller::default();
     let mut delay = Delay;
-    let mut ticker = Ticker::every(Duration::from_hz(u64::from(crate::POLL_HZ)));
+    let mut ticker = Ticker::every(Duration::from_hz(u64::from(POLL_HZ)));
     let mut was_connected = false;
     let mut dropped: u32 = 0;
     loop {
@@ -42,7 +44,7 @@ pub async fn nunchuk_task(mut bus: I2c<'static, I2C0, Async>, adapter: &'static 
         status::publish(&st, generation);
         status::publish_selfcal(&selfcal, stale.recalibration_suggested);
         if let Some(s) = sample {
-            if serial::SAMPLES.try_send(s).is_err() {
+            if SAMPLES.try_send(s).is_err() {
                 dropped = dropped.wrapping_add(1);
                 if dropped.is_power_of_two() {
                     warn!("host too slow: {} samples dropped", dropped);

@@ -4,22 +4,16 @@ use defmt::{info, warn};
 use embassy_futures::select::{select, Either};
 use embassy_rp::peripherals::USB;
 use embassy_rp::usb::Driver;
-use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
-use embassy_sync::channel::Channel;
 use embassy_usb::class::cdc_acm::{CdcAcmClass, Sender, State};
 use embassy_usb::driver::EndpointError;
 use embassy_usb::{Builder, UsbDevice};
 use static_cell::StaticCell;
-use wiical_wire::{encode_frame, FrameDecoder, Request, Response, Sample, MAX_FRAME_LEN};
+use wiical_wire::{encode_frame, FrameDecoder, Request, Response, MAX_FRAME_LEN};
 
-use crate::Adapter;
+use crate::shared::{Adapter, SAMPLES};
 
 /// The USB driver type.
 pub type UsbDriver = Driver<'static, USB>;
-
-/// Samples on their way from the Nunchuk task to the host (dropped when full: the host sees
-/// a gap in `seq`).
-pub static SAMPLES: Channel<CriticalSectionRawMutex, Sample, 16> = Channel::new();
 
 /// USB IDs: pid.codes' open-source test VID/PID (to be replaced by an allocated PID).
 const VID: u16 = 0x1209;

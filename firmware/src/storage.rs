@@ -4,22 +4,17 @@
 use core::ops::Range;
 
 use defmt::{info, warn};
-use embassy_rp::flash::{Async, Flash};
 use embassy_rp::peripherals::{DMA_CH0, FLASH};
 use embassy_rp::Peri;
 use wiical_adapter::{
     BootLoad, CalibrationStore, CorrectionMode, DeviceInfo, IdealScale, Protocol,
 };
 
-/// Flash size the driver addresses (a Pico has 2 MiB, a Pico 2 has 4 MiB; the store sits
-/// inside the first 2).
-pub const FLASH_SIZE: usize = 2 * 1024 * 1024;
+use crate::board::{Irqs, StoreFlash, POLL_HZ};
+
 /// Offsets (from the start of flash) of the store: four 4 KiB erase sectors, excluded from
 /// the program's FLASH region in memory.x.
 pub const STORE_RANGE: Range<u32> = 0x1F_C000..0x20_0000;
-
-/// The flash driver type behind the store (async, DMA reads).
-pub type StoreFlash = Flash<'static, FLASH, Async, FLASH_SIZE>;
 
 /// Opens the store, loads the calibration and builds the adapter logic. Logs what it found:
 /// without a usable stored calibration the adapter passes the Nunchuk through (factory
@@ -27,14 +22,14 @@ pub type StoreFlash = Flash<'static, FLASH, Async, FLASH_SIZE>;
 pub async fn open(
     flash: Peri<'static, FLASH>,
     dma: Peri<'static, DMA_CH0>,
-    irqs: crate::Irqs,
+    irqs: Irqs,
 ) -> Protocol<StoreFlash> {
     let mut flash = StoreFlash::new(flash, dma, irqs);
     let device_id = device_id(&mut flash);
     let Ok(store) = CalibrationStore::new(flash, STORE_RANGE) else {
         defmt::panic!("calibration store: STORE_RANGE does not fit the flash geometry");
     };
-    let info = DeviceInfo::new(env!("CARGO_PKG_VERSION"), device_id, crate::POLL_HZ * 1000);
+    let info = DeviceInfo::new(env!("CARGO_PKG_VERSION"), device_id, POLL_HZ * 1000);
     let protocol = Protocol::boot(store, info, IdealScale::default()).await;
     let status = protocol.status();
     match status.boot {

@@ -7,7 +7,8 @@ use embassy_rp::i2c_slave::{Command, I2cSlave, ReadStatus};
 use embassy_rp::peripherals::I2C1;
 use embassy_time::Timer;
 
-use crate::{status, Adapter};
+use crate::shared::Adapter;
+use crate::status;
 
 /// Bytes handed to the I²C FIFO per lock of the adapter: one whole report, so that the Wii
 /// Remote never reads half of an old and half of a new report.

@@ -13,7 +13,7 @@ use embedded_storage_async::nor_flash::{
 use libfuzzer_sys::fuzz_target;
 use wiical_adapter::{CalibrationStore, DeviceInfo, IdealScale, Protocol};
 use wiical_analysis::output::calfile;
-use wiical_core::quality::Acceptance;
+use wiical_core::acceptance::Acceptance;
 use wiical_core::Calibration;
 use wiical_wire::{Hello, Request, Response, WireCalibration};
 

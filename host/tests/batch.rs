@@ -1,5 +1,5 @@
 //! `wiical batch` killed halfway and run again: every file appears exactly once in the
-//! results file (issue 22's acceptance), and a file that is not a recording is a line.
+//! results file, and a file that is not a recording is a line.
 
 use std::collections::HashMap;
 use std::path::Path;

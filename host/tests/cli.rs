@@ -264,7 +264,7 @@ fn columns_option_selects_a_triplet() {
     assert!(!ok && err.contains("exactly three"), "{err}");
 }
 
-/// Issue 19 item 1 through the CLI: a brisk 16-bit MEMS recording at 400 Hz (m/s²) gets a
+/// Every hold a window, through the CLI: a brisk 16-bit MEMS recording at 400 Hz (m/s²) gets a
 /// window for every hold of its truth (31: the rest and 30 poses of 2–4 s).
 #[test]
 fn simulate_brisk_mems16_and_fit_finds_every_hold() {
@@ -291,7 +291,7 @@ fn simulate_brisk_mems16_and_fit_finds_every_hold() {
     assert_eq!(v["static_windows"].as_u64().unwrap() as usize, poses);
 }
 
-/// Issue 19 item 3 through the CLI: the open-basis families are accepted by name (the names
+/// The open basis through the CLI: the open-basis families are accepted by name (the names
 /// of `effect_names`), their truth states the value, unit and (thermal lag) time constant,
 /// and a cross term is held by the calibration (`cross_quadratic`, on the `--axis` row).
 #[test]

@@ -1,5 +1,5 @@
 //! `wiical correct`: a recording corrected with a calibration file's core calibration and its
-//! host terms (issue 19); `analyze --out` writes the host terms it accepts.
+//! host terms; `analyze --out` writes the host terms it accepts.
 
 mod common;
 use common::{temp_file, wiical};

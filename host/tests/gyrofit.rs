@@ -98,7 +98,7 @@ fn fit_windows(args: &[&str]) -> Vec<(f64, f64)> {
 }
 
 /// gyrofit's windows are fit's: as many, and every motion runs from the last sample of one of
-/// fit's windows to the first of the next (issue 24).
+/// fit's windows to the first of the next.
 fn assert_same_windows(gyro: &Value, fit: &[(f64, f64)], what: &str) {
     assert_eq!(
         gyro["static_windows"].as_u64().unwrap() as usize,

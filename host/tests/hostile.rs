@@ -1,4 +1,4 @@
-//! Issue 25's hostile inputs, one test per item that has a CLI face: each gives one sentence
+//! Hostile inputs (docs/bad-inputs.md), one test per item that has a CLI face: each gives one sentence
 //! naming the flag, file or line and a non-zero exit, or is accepted correctly.
 
 mod common;

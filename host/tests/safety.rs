@@ -1,4 +1,4 @@
-//! Issue 11, "nothing lost, nothing absurd": every case a hostile user tried, through the
+//! "Nothing lost, nothing absurd": every case a hostile user tried, through the
 //! command line (or the library where a failure must be injected). Data-loss cases check that
 //! the old file's bytes are intact after the failure.
 mod common;
@@ -239,7 +239,7 @@ fn device_put_refuses_absurd_or_poor_calibrations_and_names_ignored_terms() {
     poor.coverage_gap = Some("no pose with the −z axis pointing up".into());
     let check = judge_for_put(&file(nunchuk_cal(), Some(poor)));
     assert!(check.refusals[0].contains("quality: POOR"), "{check:?}");
-    // An unexplained residual (issue 19): refused like a poor fit, uploadable with --force.
+    // An unexplained residual: refused like a poor fit, uploadable with --force.
     let unexplained = good_quality().with_residual(Some(13.6), Some(0.31), Some(1e-20));
     assert_eq!(unexplained.verdict, Verdict::UnexplainedResidual);
     let check = judge_for_put(&file(nunchuk_cal(), Some(unexplained)));
@@ -260,13 +260,13 @@ fn device_put_refuses_absurd_or_poor_calibrations_and_names_ignored_terms() {
     assert!(check.warnings[0].contains("does not apply the bias_drift terms"));
     // Host terms (schema 3): named in a warning, with where they are applied.
     let host = CalibrationFile {
-        host_terms: vec![wiical_analysis::output::host_terms::HostTerm {
+        host_terms: vec![wiical_analysis::output::host_term_checks::HostTerm {
             name: "scale-drift (z)".into(),
             family: "scale-drift".into(),
             axis: 2,
             value: 1e-6,
             unit: "1/s".into(),
-            reference: wiical_analysis::output::host_terms::HostReference {
+            reference: wiical_analysis::output::host_term_checks::HostReference {
                 time_s: Some(100.0),
                 ..Default::default()
             },
@@ -433,7 +433,7 @@ fn standard_input_is_read_when_asked_for_with_a_dash() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
-/// Issue 19: `device put` names the terms the adapter applies (bias and K, per-axis and
+/// `device put` names the terms the adapter applies (bias and K, per-axis and
 /// orientation cross terms) and those it leaves to hosts (time and temperature).
 #[test]
 fn device_put_names_the_terms_the_adapter_applies() {

@@ -252,7 +252,7 @@ fn fit(
     progress.finish()?;
     progress.report("fitting", 0, 0);
     let judged = py
-        .detach(|| wiical_analysis::pipeline::fit(&input, &opts))
+        .detach(|| wiical_analysis::pipeline::fit_judged(&input, &opts))
         .map_err(py_err)?;
     progress.report("fitting", 1, 1);
     progress.finish()?;
@@ -296,7 +296,7 @@ fn analyze(
     let input = input_of(py, source, columns, windows, &progress)?;
     progress.finish()?;
     let judged = py
-        .detach(|| wiical_analysis::pipeline::analyze(&input, &opts))
+        .detach(|| wiical_analysis::pipeline::analyze_judged(&input, &opts))
         .map_err(py_err)?;
     progress.finish()?;
     to_json(&judged)

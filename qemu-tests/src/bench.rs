@@ -14,12 +14,12 @@ use core::hint::black_box;
 use cortex_m_rt::{entry, exception};
 use cortex_m_semihosting::hprintln;
 use wiical_adapter::{Corrector, EmulatedNunchuk, IdealScale, SelfCal, SelfCalConfig};
+use wiical_core::acceptance::{Acceptance, CoverageRule};
 use wiical_core::gyro::{Adjustment, GyroCalibration, MotionIntegrator, NPARAM};
 use wiical_core::gyro_zero::{ZeroRateConfig, ZeroRateTracker};
 use wiical_core::kalman::PvbFilter;
 use wiical_core::magfit::{AxisEllipsoidFit, EllipsoidFit, SphereFit};
 use wiical_core::multipos::{self, MultiPosConfig};
-use wiical_core::quality::{Acceptance, CoverageRule};
 use wiical_core::six_position;
 use wiical_core::static_detect::{NoiseSurvey, StaticDetector, StaticDetectorConfig};
 use wiical_core::{Calibration, Conditions, PreparedCalibration};
@@ -142,13 +142,42 @@ fn main() -> ! {
     );
     hprintln!("|{:-<60}|{:-<12}|{:->14}|{:->12}|---|", "", "", "", "");
 
-    let mut all_ok = true;
     let Ok(cal) = wiimote_calibration() else {
         rt::exit(false)
     };
 
+    let mut all_ok = correction_rows(sc, cal);
+    all_ok &= six_position_rows(sc);
+    let (ok, iters) = multipos_rows(sc);
+    all_ok &= ok;
+    all_ok &= magnetometer_rows(sc);
+    all_ok &= kalman_rows(sc);
+    all_ok &= static_detection_rows(sc);
+    all_ok &= gyro_rows(sc);
+    all_ok &= noise_survey_rows(sc);
+    all_ok &= adapter_rows(sc);
+    all_ok &= selfcal_rows(sc);
+    all_ok &= wiical_qemu_tests::background_bench::rows(sc.0);
+
+    hprintln!();
+    hprintln!(
+        "multipos::fit used {} Levenberg-Marquardt iterations on the 30 poses",
+        iters
+    );
+    hprintln!(
+        "targets: {}",
+        if all_ok { "all met" } else { "some MISSED" }
+    );
+    rt::exit(true)
+}
+
+/// Repetitions of the per-sample correction loops.
+const R_CORR: u32 = 10_000;
+
+/// `Calibration::correct_linear`, and `correct` with every effect term.
+fn correction_rows(sc: Scale, cal: Calibration) -> bool {
+    let mut all_ok = true;
     // --- correction
-    const R_CORR: u32 = 10_000;
     let base = rt::time_reps(R_CORR, |i| {
         let c = black_box(&cal);
         (c as *const Calibration, SAMPLES[i as usize & 7])
@@ -198,7 +227,15 @@ fn main() -> ! {
         st,
         NONE,
     );
-    // Issue 19: the orientation-dependent cross terms on top (what the adapter applies).
+    all_ok &= cross_and_prepared_rows(sc, cal_fx, cond, base);
+    all_ok
+}
+
+/// `correct` with the cross terms on top (against the same baseline `base` as the effect
+/// terms), and both calibrations prepared once.
+fn cross_and_prepared_rows(sc: Scale, cal_fx: Calibration, cond: Conditions, base: u64) -> bool {
+    let mut all_ok = true;
+    // The orientation-dependent cross terms on top (what the adapter applies).
     let mut cal_x = cal_fx;
     cal_x.effects.cross_quadratic = wiical_qemu_tests::cases::CROSS_QUADRATIC;
     cal_x.effects.cross_cubic = wiical_qemu_tests::cases::CROSS_CUBIC;
@@ -240,7 +277,12 @@ fn main() -> ! {
         let st = stack_of(|| black_box(&prepared).correct(black_box(SAMPLES[0]), black_box(&cond)));
         all_ok &= row(label, "sample", sc.per_op(op, base, R_CORR), st, NONE);
     }
+    all_ok
+}
 
+/// The seed's six-position solve.
+fn six_position_rows(sc: Scale) -> bool {
+    let mut all_ok = true;
     // --- six-position solve
     const R_SIX: u32 = 200;
     let base = rt::time_reps(R_SIX, |_| black_box(&SEED_M) as *const _);
@@ -253,7 +295,12 @@ fn main() -> ! {
         st,
         NONE,
     );
+    all_ok
+}
 
+/// The multi-position fit of 30 poses; also its iteration count.
+fn multipos_rows(sc: Scale) -> (bool, u32) {
+    let mut all_ok = true;
     // --- multi-position fit, 30 poses
     let poses = poses30();
     let cfg = MultiPosConfig::default();
@@ -274,7 +321,12 @@ fn main() -> ! {
             max_stack: Some(8 * 1024),
         },
     );
+    (all_ok, iters)
+}
 
+/// The magnetometer fits: per-sample sums, then the solves.
+fn magnetometer_rows(sc: Scale) -> bool {
+    let mut all_ok = true;
     // --- magnetometer: accumulate per sample, then solve
     const NPTS: usize = 300;
     let pts: [[f32; 3]; NPTS] = core::array::from_fn(|k| mag_point(k, NPTS));
@@ -346,7 +398,12 @@ fn main() -> ! {
         st,
         NONE,
     );
+    all_ok
+}
 
+/// One `[p, v, b]` Kalman step.
+fn kalman_rows(sc: Scale) -> bool {
+    let mut all_ok = true;
     // --- Kalman [p, v, b] step
     let mut rng = XorShift::new(2008);
     let inputs: [(f32, f32); 64] =
@@ -379,7 +436,12 @@ fn main() -> ! {
         st,
         NONE,
     );
+    all_ok
+}
 
+/// The static detector's per-sample push.
+fn static_detection_rows(sc: Scale) -> bool {
+    let mut all_ok = true;
     // --- static detection, 101-sample window (as the host benchmark)
     let dcfg = StaticDetectorConfig::for_rate(100.0, 1.0, 2.0, 2.0);
     const R_SD: u32 = 1_000;
@@ -402,7 +464,12 @@ fn main() -> ! {
             NONE,
         );
     }
+    all_ok
+}
 
+/// The gyro's per-sample steps.
+fn gyro_rows(sc: Scale) -> bool {
+    let mut all_ok = true;
     // --- gyro: the per-sample step of a motion's integration (RK4 on the quaternion), alone
     // (evaluating a calibration) and with the 9 scale/misalignment sensitivities the fit tracks
     let gcal = GyroCalibration::<f32>::nominal([8192.0, 8190.0, 8195.0], [1.2e-3, -1.2e-3, 1.2e-3]);
@@ -459,7 +526,14 @@ fn main() -> ! {
             NONE,
         );
     }
+    all_ok
+}
 
+/// The adaptive detector's noise survey.
+fn noise_survey_rows(sc: Scale) -> bool {
+    let mut all_ok = true;
+    const R_SD: u32 = 1_000;
+    let stream = |i: u32| [33000.0 + (i % 7) as f32, 33300.0 - (i % 5) as f32, 36400.0];
     // --- the adaptive detector's noise survey (pass 1 of static_detect::adaptive), 100 Hz:
     // 25-sample blocks, so the per-block histogram update is amortised over 25 pushes.
     if let Ok(mut survey) = NoiseSurvey::for_rate(100.0) {
@@ -480,7 +554,12 @@ fn main() -> ! {
             NONE,
         );
     }
+    all_ok
+}
 
+/// The adapter's per-report update and the Wii Remote's read path.
+fn adapter_rows(sc: Scale) -> bool {
+    let mut all_ok = true;
     // --- the adapter (wiical-adapter): per-report update and the Wii Remote's read
     let Ok(info) = factory_info() else {
         rt::exit(false)
@@ -557,20 +636,7 @@ fn main() -> ! {
             },
         );
     }
-
-    all_ok &= selfcal_rows(sc);
-    all_ok &= wiical_qemu_tests::background_bench::rows(ratio);
-
-    hprintln!();
-    hprintln!(
-        "multipos::fit used {} Levenberg-Marquardt iterations on the 30 poses",
-        iters
-    );
-    hprintln!(
-        "targets: {}",
-        if all_ok { "all met" } else { "some MISSED" }
-    );
-    rt::exit(true)
+    all_ok
 }
 
 /// Report `k` of a synthetic self-calibration session at 200 Hz (the one of
@@ -651,8 +717,19 @@ fn run_session(live: &Calibration) -> Option<usize> {
 /// The adapter's self-calibration: per report while collecting, the checks, and the whole
 /// session (detector on every report, pose bookkeeping, coverage, fit, acceptance).
 fn selfcal_rows(sc_scale: Scale) -> bool {
-    let mut ok = true;
     let live = wiical_adapter::corrector::nominal_calibration();
+    let Some(collecting) = selfcal_collecting_row(sc_scale, live) else {
+        return false;
+    };
+    let Some(checks) = selfcal_check_rows(sc_scale, live) else {
+        return false;
+    };
+    collecting & checks & selfcal_session_row(sc_scale, live)
+}
+
+/// `SelfCal::on_report` while collecting; `None` when the session did not start.
+fn selfcal_collecting_row(sc_scale: Scale, live: Calibration) -> Option<bool> {
+    let mut ok = true;
     // Per report, collecting, on a still stream with small noise (the common case).
     let mut sc = SelfCal::new(SelfCalConfig::nunchuk(200));
     sc.on_plug_in();
@@ -661,7 +738,7 @@ fn selfcal_rows(sc_scale: Scale) -> bool {
     }
     if !sc.active() {
         hprintln!("self-calibration did not start");
-        return false;
+        return None;
     }
     let still = |i: u32| [512 + (i % 3) as u16, 511 + (i % 2) as u16, 712];
     const R: u32 = 4_000;
@@ -680,6 +757,13 @@ fn selfcal_rows(sc_scale: Scale) -> bool {
         st,
         NONE,
     );
+    Some(ok)
+}
+
+/// The checks at the end of a session: the 12-pose fit, acceptance, coverage; `None` when
+/// the fit fails.
+fn selfcal_check_rows(sc_scale: Scale, live: Calibration) -> Option<bool> {
+    let mut ok = true;
     // The checks at the end of a session, on a 12-pose set.
     let poses: [[f32; 3]; 12] = core::array::from_fn(|i| {
         let mut rng = XorShift::new(14);
@@ -704,7 +788,7 @@ fn selfcal_rows(sc_scale: Scale) -> bool {
     );
     let Ok(fit) = multipos::fit(&poses, &cfg) else {
         hprintln!("12-pose fit failed");
-        return false;
+        return None;
     };
     let acc = Acceptance::nunchuk();
     const R_CHK: u32 = 50;
@@ -732,7 +816,12 @@ fn selfcal_rows(sc_scale: Scale) -> bool {
         st,
         NONE,
     );
-    // The whole session, once.
+    Some(ok)
+}
+
+/// The whole session, once.
+fn selfcal_session_row(sc_scale: Scale, live: Calibration) -> bool {
+    let mut ok = true;
     let mut done = None;
     let op = rt::time_reps(1, |_| done = run_session(&live));
     let base = rt::time_reps(1, |_| black_box(&live) as *const _);

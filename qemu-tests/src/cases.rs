@@ -16,11 +16,11 @@
 
 use crate::real_data;
 use wiical_adapter::{Corrector, EmulatedNunchuk, IdealScale, NunchukInfo};
+use wiical_core::estimators::{ConstantKalman, ConstantKalman3, Welford, Welford3};
 use wiical_core::kalman::{PvbConfig, PvbFilter};
 use wiical_core::magfit::{AxisEllipsoidFit, EllipsoidFit, MagFit, SphereFit};
 use wiical_core::multipos::{self, MultiPosConfig, MultiPosModel};
 use wiical_core::static_detect::{adaptive, StaticDetector, StaticDetectorConfig};
-use wiical_core::stats::{ConstantKalman, ConstantKalman3, Welford, Welford3};
 use wiical_core::{six_position, Calibration, Conditions, Error, Mat3, Vec3};
 use wiical_extbus::nunchuk::StickAxisCalibration;
 use wiical_extbus::{
@@ -375,7 +375,7 @@ fn correct_both_paths(o: &mut Out, cal: &Calibration) -> Result<(), Error> {
     Ok(())
 }
 
-/// Orientation-dependent cross terms (issue 19): every coefficient distinct and non-zero,
+/// Orientation-dependent cross terms: every coefficient distinct and non-zero,
 /// of the sizes a real sensor could have (≤ 2 %/g²).
 pub const CROSS_QUADRATIC: [[f32; 5]; 3] = [
     [0.004, -0.003, 0.002, -0.0015, 0.001],
@@ -869,7 +869,7 @@ fn adapter_corrector_calibrated(o: &mut Out) -> Result<(), Error> {
     Ok(())
 }
 
-/// The adapter with orientation-dependent cross terms (issue 19): the corrected g and the
+/// The adapter with orientation-dependent cross terms: the corrected g and the
 /// counts the Wii Remote reads, after the calibration went through a flash record (version 2)
 /// and back, as a committed one does at boot.
 fn adapter_corrector_cross_terms(o: &mut Out) -> Result<(), Error> {

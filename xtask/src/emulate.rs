@@ -12,7 +12,8 @@ use std::process::Command;
 
 use wiical_core::Calibration;
 
-use crate::{cargo, root, run, Chip, Result};
+use crate::firmware::{self, Chip};
+use crate::tools::{cargo, root, run, Result};
 
 /// Ideal scale the adapter re-encodes corrected samples on (firmware/README.md, crates/adapter
 /// `IdealScale::default`): 0 g = 512 counts, 200 counts per g, saturated to 10 bits.
@@ -86,7 +87,7 @@ pub fn emulate(args: &[String]) -> Result<bool> {
             .current_dir(&emulator)
             .args(["ci", "--no-audit", "--no-fund"]))?;
     }
-    if !crate::firmware(Chip::Rp2040)? {
+    if !firmware::firmware(Chip::Rp2040)? {
         return Err("the RP2040 firmware is over its budget".into());
     }
     run(Command::new(cargo())

@@ -15,6 +15,8 @@
 
 mod elfsize;
 mod emulate;
+mod firmware;
+mod tools;
 mod uf2;
 
 use std::io::{BufRead, BufReader};
@@ -23,15 +25,11 @@ use std::process::{Command, ExitCode, Stdio};
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
-/// The embedded target of the RP2350 (Cortex-M33 with FPU), also QEMU's `mps2-an505` core.
-const TARGET: &str = "thumbv8m.main-none-eabihf";
+use firmware::{parse_chip, TARGET};
+use tools::{cargo, ensure_target, have, root, run, Result};
+
 /// How long one QEMU run may take before it is killed.
 const QEMU_TIMEOUT: Duration = Duration::from_secs(300);
-/// The embedded target of the RP2040 (Cortex-M0+), for `firmware --chip rp2040`.
-const TARGET_RP2040: &str = "thumbv6m-none-eabi";
-/// Firmware budgets from the project brief (the same for both chips).
-const FLASH_BUDGET: u64 = 128 * 1024;
-const RAM_BUDGET: u64 = 32 * 1024;
 
 const USAGE: &str = "\
 usage: cargo xtask <command>
@@ -53,7 +51,7 @@ fn main() -> ExitCode {
         Some("qemu") => qemu_tests(),
         Some("qemu-bench") => qemu_bench(),
         Some("firmware") => match parse_chip(&args[1..]) {
-            Ok(chip) => firmware(chip),
+            Ok(chip) => firmware::firmware(chip),
             Err(e) => {
                 eprintln!("xtask: {e}");
                 eprint!("{USAGE}");
@@ -79,50 +77,6 @@ fn main() -> ExitCode {
             ExitCode::FAILURE
         }
     }
-}
-
-pub(crate) type Result<T> = std::result::Result<T, String>;
-
-/// The workspace root (this crate lives in `<root>/xtask`).
-pub(crate) fn root() -> PathBuf {
-    let manifest = Path::new(env!("CARGO_MANIFEST_DIR"));
-    manifest.parent().unwrap_or(manifest).to_path_buf()
-}
-
-/// Runs a command to completion, inheriting stdio; error if it cannot start or fails.
-pub(crate) fn run(cmd: &mut Command) -> Result<()> {
-    let shown = format!("{cmd:?}");
-    let status = cmd
-        .status()
-        .map_err(|e| format!("cannot run {shown}: {e}"))?;
-    if status.success() {
-        Ok(())
-    } else {
-        Err(format!("{shown} failed ({status})"))
-    }
-}
-
-/// Adds the rustup target if it is not installed.
-fn ensure_target(target: &str) -> Result<()> {
-    let out = Command::new("rustup")
-        .args(["target", "list", "--installed"])
-        .output()
-        .map_err(|e| format!("cannot run rustup: {e}"))?;
-    let installed = String::from_utf8_lossy(&out.stdout);
-    if installed.lines().any(|l| l.trim() == target) {
-        return Ok(());
-    }
-    eprintln!("xtask: installing the rustup target {target}");
-    run(Command::new("rustup").args(["target", "add", target]))
-}
-
-fn have(program: &str, arg: &str) -> bool {
-    Command::new(program)
-        .arg(arg)
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .status()
-        .is_ok_and(|s| s.success())
 }
 
 /// Installs Debian's `qemu-system-arm` if the program is missing.
@@ -163,11 +117,6 @@ fn build_qemu_bin(bin: &str) -> Result<PathBuf> {
         .current_dir(&dir)
         .args(["build", "--release", "--bin", bin]))?;
     Ok(dir.join("target").join(TARGET).join("release").join(bin))
-}
-
-/// The cargo that runs us (so that the same toolchain builds the embedded crates).
-pub(crate) fn cargo() -> String {
-    std::env::var("CARGO").unwrap_or_else(|_| "cargo".into())
 }
 
 /// Result of one QEMU run.
@@ -302,141 +251,6 @@ fn qemu_bench() -> Result<bool> {
     Ok(run.success)
 }
 
-/// The chip the firmware is built for: a cargo feature of `firmware/` and its target.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(crate) enum Chip {
-    /// Raspberry Pi Pico 2: feature `rp2350` (the firmware's default), [`TARGET`].
-    Rp2350,
-    /// Raspberry Pi Pico: feature `rp2040`, [`TARGET_RP2040`].
-    Rp2040,
-}
-
-impl Chip {
-    fn name(self) -> &'static str {
-        match self {
-            Chip::Rp2350 => "rp2350",
-            Chip::Rp2040 => "rp2040",
-        }
-    }
-
-    pub(crate) fn target(self) -> &'static str {
-        match self {
-            Chip::Rp2350 => TARGET,
-            Chip::Rp2040 => TARGET_RP2040,
-        }
-    }
-
-    /// What this chip's boot ROM expects of a UF2 file.
-    fn uf2_target(self) -> uf2::Target {
-        match self {
-            Chip::Rp2350 => uf2::Target::RP2350,
-            Chip::Rp2040 => uf2::Target::RP2040,
-        }
-    }
-
-    /// The drag-and-drop image `cargo xtask firmware` writes (the emulator boots the RP2040's).
-    pub(crate) fn uf2_path(self) -> PathBuf {
-        root()
-            .join("target/uf2")
-            .join(format!("wiical-adapter-{}.uf2", self.name()))
-    }
-}
-
-/// Parses the options of `firmware`: nothing, or `--chip rp2350|rp2040` (also `--chip=…`).
-fn parse_chip(args: &[String]) -> Result<Chip> {
-    let value = match args {
-        [] => return Ok(Chip::Rp2350),
-        [flag, value] if flag == "--chip" => value.as_str(),
-        [flag] if flag.starts_with("--chip=") => &flag["--chip=".len()..],
-        _ => return Err(format!("firmware: unexpected arguments {args:?}")),
-    };
-    match value {
-        "rp2350" => Ok(Chip::Rp2350),
-        "rp2040" => Ok(Chip::Rp2040),
-        other => Err(format!(
-            "firmware: unknown chip `{other}` (expected rp2350 or rp2040)"
-        )),
-    }
-}
-
-pub(crate) fn firmware(chip: Chip) -> Result<bool> {
-    let target = chip.target();
-    ensure_target(target)?;
-    let dir = root().join("firmware");
-    // The chip feature and the target are given explicitly, so the result does not depend on
-    // `.cargo/config.toml`'s build target. The RP2350 keeps the default features (it is the
-    // default chip), so this build shares its artifacts with a plain `cargo build --release`.
-    let mut build = Command::new(cargo());
-    build.current_dir(&dir).args(["build", "--release"]);
-    if chip != Chip::Rp2350 {
-        build.arg("--no-default-features");
-    }
-    build.args(["--features", chip.name(), "--target", target]);
-    run(&mut build)?;
-    let elf = dir
-        .join("target")
-        .join(target)
-        .join("release")
-        .join("wiical-firmware");
-    let data = std::fs::read(&elf).map_err(|e| format!("cannot read {}: {e}", elf.display()))?;
-    let sizes = elfsize::measure(&data)?;
-    println!("{} ({})", elf.display(), chip.name());
-    println!("{sizes}");
-    let flash_ok = sizes.flash() <= FLASH_BUDGET;
-    let ram_ok = sizes.ram() <= RAM_BUDGET;
-    let verdict = |ok: bool| if ok { "met" } else { "MISSED" };
-    println!(
-        "flash {} B = {:.1} KiB (budget 128 KiB: {}), static RAM {} B = {:.1} KiB (budget 32 KiB: {})",
-        sizes.flash(),
-        sizes.flash() as f64 / 1024.0,
-        verdict(flash_ok),
-        sizes.ram(),
-        sizes.ram() as f64 / 1024.0,
-        verdict(ram_ok)
-    );
-    write_uf2(chip, &data)?;
-    Ok(flash_ok && ram_ok)
-}
-
-/// Writes the chip's UF2 image of the firmware ELF `elf` (atomically: a temporary file renamed
-/// over the old image), reads it back to check the round trip, and prints what it holds.
-fn write_uf2(chip: Chip, elf: &[u8]) -> Result<()> {
-    let target = chip.uf2_target();
-    let pages = uf2::pages_from_elf(elf, target).map_err(|e| format!("UF2: {e}"))?;
-    let bytes = uf2::encode(&pages, target);
-    let back = uf2::decode(&bytes, target.family_id).map_err(|e| format!("UF2 read-back: {e}"))?;
-    if back.pages != pages {
-        return Err("UF2 read-back: the pages differ from the ELF's".into());
-    }
-    let path = chip.uf2_path();
-    let dir = path.parent().ok_or("UF2 path has no directory")?;
-    std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
-    let tmp = path.with_extension("uf2.tmp");
-    std::fs::write(&tmp, &bytes).map_err(|e| format!("cannot write {}: {e}", tmp.display()))?;
-    std::fs::rename(&tmp, &path)
-        .map_err(|e| format!("cannot rename {} to {}: {e}", tmp.display(), path.display()))?;
-    let (first, last) = match (pages.keys().next(), pages.keys().next_back()) {
-        (Some(&f), Some(&l)) => (f, l + uf2::PAGE),
-        _ => return Err("UF2: no pages".into()),
-    };
-    let e10 = match back.e10_block {
-        Some(addr) => format!(
-            " + 1 RP2350-E10 block (family {:#010x} absolute, at {addr:#010x})",
-            uf2::ABSOLUTE_FAMILY_ID
-        ),
-        None => String::new(),
-    };
-    println!(
-        "{}: {} B = {:.1} KiB, {} blocks of 256 B at {first:#010x}..{last:#010x}{e10}, family {:#010x}",
-        path.display(),
-        bytes.len(),
-        bytes.len() as f64 / 1024.0,
-        pages.len(),
-        target.family_id
-    );
-    Ok(())
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -448,24 +262,5 @@ mod tests {
         assert_eq!(parse_summary("13 passed"), None);
         assert_eq!(parse_summary("x passed, 0 failed"), None);
         assert_eq!(parse_summary("test a ... ok (3 passed, 0 failed)"), None);
-    }
-
-    fn args(a: &[&str]) -> Vec<String> {
-        a.iter().map(|s| s.to_string()).collect()
-    }
-
-    #[test]
-    fn chip_option_is_parsed_exactly() {
-        assert_eq!(parse_chip(&args(&[])), Ok(Chip::Rp2350));
-        assert_eq!(parse_chip(&args(&["--chip", "rp2040"])), Ok(Chip::Rp2040));
-        assert_eq!(parse_chip(&args(&["--chip", "rp2350"])), Ok(Chip::Rp2350));
-        assert_eq!(parse_chip(&args(&["--chip=rp2040"])), Ok(Chip::Rp2040));
-        assert!(parse_chip(&args(&["--chip"])).is_err());
-        assert!(parse_chip(&args(&["--chip", "rp2040x"])).is_err());
-        assert!(parse_chip(&args(&["--chip", "RP2040"])).is_err());
-        assert!(parse_chip(&args(&["rp2040"])).is_err());
-        assert!(parse_chip(&args(&["--chip", "rp2040", "--chip", "rp2350"])).is_err());
-        assert_eq!(Chip::Rp2040.target(), "thumbv6m-none-eabi");
-        assert_eq!(Chip::Rp2350.target(), "thumbv8m.main-none-eabihf");
     }
 }

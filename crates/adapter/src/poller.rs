@@ -26,7 +26,7 @@ use wiical_extbus::nunchuk::{
 };
 use wiical_extbus::{CalibrationBlock, CalibrationCopy, Encryption, NunchukReport};
 
-use crate::Error;
+use crate::error::Error;
 
 /// Recommended report poll rate, Hz (the Wii Remote itself reads extensions at up to 200 Hz).
 pub const DEFAULT_POLL_HZ: u32 = 200;

@@ -11,7 +11,7 @@
 //! Requests ([`Protocol::handle`]): `Hello` opens the session only when the schema keys
 //! match (every other request is refused with `SchemaMismatch` until then); `PutCalibration`
 //! stages a calibration that is usable (`InvalidCalibration` otherwise) and plausible by the
-//! core's acceptance predicate ([`wiical_core::quality::Acceptance`], Nunchuk limits;
+//! core's acceptance predicate ([`wiical_core::acceptance::Acceptance`], Nunchuk limits;
 //! `ImplausibleCalibration` otherwise — in both cases the staged and live calibrations are
 //! unchanged); `CommitCalibration` stores it (power-loss safe), reads it back, and only then
 //! makes it live; `StartStream`/`StopStream` control the sample stream (rate = poll rate /
@@ -35,7 +35,7 @@
 use core::fmt::Write as _;
 use embedded_storage_async::nor_flash::NorFlash;
 
-use wiical_core::quality::{Acceptance, Rejection};
+use wiical_core::acceptance::{Acceptance, Rejection};
 use wiical_core::Calibration;
 use wiical_extbus::NunchukReport;
 use wiical_wire::{
@@ -46,10 +46,10 @@ use wiical_wire::{
 
 use crate::corrector::{CorrectionMode, Corrector, IdealScale};
 use crate::emulated::EmulatedNunchuk;
+use crate::error::{Error, RecordError};
 use crate::poller::{NunchukInfo, PollEvent};
 use crate::selfcal::{SelfCal, SelfCalConfig, SelfCalResult, SelfCalStatus};
 use crate::store::{CalibrationStore, Loaded};
-use crate::{Error, RecordError};
 
 /// Identity and timing of the adapter, reported in the Hello exchange.
 #[derive(Debug, Clone, PartialEq, Eq)]

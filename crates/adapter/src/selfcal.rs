@@ -38,8 +38,8 @@
 //! Time is counted in reports (the poll rate is fixed), so the logic needs no clock.
 
 use heapless::Vec;
+use wiical_core::acceptance::{angle_between, Acceptance, CoverageGap, CoverageRule, Rejection};
 use wiical_core::multipos::{self, MultiPosConfig};
-use wiical_core::quality::{angle_between, Acceptance, CoverageGap, CoverageRule, Rejection};
 use wiical_core::static_detect::{StaticDetector, StaticDetectorConfig, StaticInterval};
 use wiical_core::Calibration;
 

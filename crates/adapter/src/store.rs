@@ -34,7 +34,7 @@ use sequential_storage::cache::{Cache, Uncached};
 use sequential_storage::map::{MapConfig, MapStorage};
 use wiical_core::{Calibration, Effects};
 
-use crate::{RecordError, StoreError};
+use crate::error::{RecordError, StoreError};
 
 /// Map key of the calibration record.
 pub const RECORD_KEY: u8 = 0x01;

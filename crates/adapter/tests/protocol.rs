@@ -14,7 +14,7 @@ use wiical_adapter::protocol::bits_equal;
 use wiical_adapter::{
     BootLoad, CalibrationStore, CorrectionMode, DeviceInfo, IdealScale, NunchukPoller, Protocol,
 };
-use wiical_core::quality::Acceptance;
+use wiical_core::acceptance::Acceptance;
 use wiical_core::Calibration;
 use wiical_extbus::{CalibrationBlock, Encryption, NunchukRegisters, NunchukReport};
 use wiical_wire::{
@@ -898,7 +898,7 @@ fn encoded_state_round_trips_through_frames() {
     assert_eq!(back, vec![Ok(resp)]);
 }
 
-/// Issue 11: the absurd uploads that were once "verified bit for bit" are refused with a
+/// The absurd uploads that were once "verified bit for bit" are refused with a
 /// typed error; neither the staged nor the live calibration changes.
 #[test]
 fn implausible_uploads_are_refused_and_the_old_calibration_kept() {
@@ -953,7 +953,7 @@ fn implausible_uploads_are_refused_and_the_old_calibration_kept() {
     );
 }
 
-/// Issue 11: a staged calibration belongs to its session; a later client's commit gets
+/// A staged calibration belongs to its session; a later client's commit gets
 /// `NothingStaged` instead of committing someone else's upload.
 #[test]
 fn a_staged_calibration_does_not_survive_its_session() {
@@ -985,7 +985,7 @@ fn a_staged_calibration_does_not_survive_its_session() {
     assert!(rig.get().stored);
 }
 
-/// Orientation-dependent cross terms are applied on the device (issue 19): the streamed
+/// Orientation-dependent cross terms are applied on the device: the streamed
 /// value is the linear correction plus the cross monomials, computed here in f64 from the
 /// linear part; the committed record (version 2) brings them back after a reboot. The drift
 /// term in the same calibration is not applied (the adapter has no clock origin): the output

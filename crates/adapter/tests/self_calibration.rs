@@ -34,8 +34,8 @@ use wiical_adapter::{
     BootLoad, CalibrationStore, DeviceInfo, IdealScale, Protocol, SelfCalConfig, SelfCalFailure,
     SelfCalResult, SelfCalStatus,
 };
+use wiical_core::acceptance::{CoverageGap, Rejection};
 use wiical_core::multipos::{self, MultiPosConfig};
-use wiical_core::quality::{CoverageGap, Rejection};
 use wiical_core::Calibration;
 use wiical_extbus::{CalibrationCopy, Encryption, NunchukReport};
 use wiical_wire::{Hello, Request, Response, SelfCalOutcome, SelfCalPhase};

@@ -297,10 +297,11 @@ fn run_one(path: &Path, opts: &BatchOptions) -> BatchLine {
     let result = load_input(path, &opts.input).and_then(|input| match opts.command {
         BatchCommand::Fit => {
             let fit: &FitOptions = &opts.analyze.fit;
-            serde_json::to_value(pipeline::fit(&input, fit)?).map_err(Error::from)
+            serde_json::to_value(pipeline::fit_judged(&input, fit)?).map_err(Error::from)
         }
         BatchCommand::Analyze => {
-            serde_json::to_value(pipeline::analyze(&input, &opts.analyze)?).map_err(Error::from)
+            serde_json::to_value(pipeline::analyze_judged(&input, &opts.analyze)?)
+                .map_err(Error::from)
         }
     });
     match result {
@@ -468,7 +469,7 @@ mod tests {
         // Each result is what `analyze --json` gives for that file on its own (compared as
         // text: parsing JSON floats back is not exact, their shortest printed form is).
         let input = load_input(&files[1], &Default::default()).unwrap();
-        let alone = pipeline::analyze(&input, &Default::default()).unwrap();
+        let alone = pipeline::analyze_judged(&input, &Default::default()).unwrap();
         let want = serde_json::to_string(&BatchLine {
             file: files[1].to_string_lossy().into_owned(),
             canonical: Some(

@@ -1,5 +1,5 @@
-//! Host-side correction (`wiical correct`, issue 19): a calibration file's core calibration
-//! and its host-only time and temperature terms ([`crate::output::host_terms`]) applied to
+//! Host-side correction (`wiical correct`): a calibration file's core calibration
+//! and its host-only time and temperature terms ([`crate::output::host_term_checks`]) applied to
 //! readings, for a host that has a clock and a thermometer.
 //!
 //! There is no second copy of the model: per sample, the host terms are folded into a copy
@@ -27,7 +27,7 @@
 pub use crate::error::correct::CorrectError;
 use crate::input::recording::Recording;
 use crate::output::calfile::{adapter_terms, CalibrationFile};
-use crate::output::host_terms::{HostTerm, Regressor};
+use crate::output::host_term_checks::{HostTerm, Regressor};
 use crate::search::thermal;
 use std::borrow::Cow;
 use wiical_core::quality::{Acceptance, ConditionRange};
@@ -328,7 +328,7 @@ fn round3(x: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::output::host_terms::HostReference;
+    use crate::output::host_term_checks::HostReference;
     use crate::report::effect_names as names;
 
     fn term(family: &str, axis: u8, value: f64, reference: HostReference) -> HostTerm {

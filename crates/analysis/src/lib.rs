@@ -39,7 +39,7 @@
 //!
 //! Shared below them all: [`error`] (the error type) and [`stats`] (distribution functions).
 //!
-//! [`pipeline::fit`] and [`pipeline::analyze`] are the entries of `wiical fit` and `wiical
+//! [`pipeline::fit_judged`] and [`pipeline::analyze_judged`] are the entries of `wiical fit` and `wiical
 //! analyze`; [`analyze()`] runs the analysis on a [`Recording`] you hold.
 //!
 //! # Example: analysing samples from your own program

@@ -17,8 +17,8 @@ use crate::fit::base::fit_means;
 use crate::magnetometer::{fit_points, MagModel};
 use crate::report::verdict::{Quality, Verdict};
 use serde::Serialize;
+use wiical_core::acceptance::CoverageRule;
 use wiical_core::multipos::{norm_residual, MultiPosModel};
-use wiical_core::quality::CoverageRule;
 use wiical_core::static_detect::{StaticDetector, StaticDetectorConfig, StaticInterval};
 use wiical_core::Calibration;
 

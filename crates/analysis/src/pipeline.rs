@@ -13,7 +13,7 @@ use crate::input::window_table::{Input, WindowTable};
 use crate::report::verdict::Quality;
 use crate::{AnalyzeOptions, AnalyzeReport, FitOptions, FitReport};
 use serde::Serialize;
-use wiical_core::quality::CoverageRule;
+use wiical_core::acceptance::CoverageRule;
 
 /// A report and its quality verdict; serialises as the report's keys followed by
 /// `quality` (the `--json` contract of `fit` and `analyze`).
@@ -28,7 +28,7 @@ pub struct Judged<R> {
 
 /// `wiical fit`: static windows (or the table's rows) → the 9- or 6-parameter calibration,
 /// judged on its poses.
-pub fn fit(input: &Input, opts: &FitOptions) -> Result<Judged<FitReport>> {
+pub fn fit_judged(input: &Input, opts: &FitOptions) -> Result<Judged<FitReport>> {
     let report = match input {
         Input::Table(table) => fit_table(table, opts)?,
         Input::Samples(rec) => crate::fit::base::run(rec, opts)?,
@@ -44,7 +44,7 @@ pub fn fit(input: &Input, opts: &FitOptions) -> Result<Judged<FitReport>> {
 
 /// `wiical analyze`: the residual analysis, judged on its poses (a six-position table on its
 /// six poses, by the six-position coverage rule).
-pub fn analyze(input: &Input, opts: &AnalyzeOptions) -> Result<Judged<AnalyzeReport>> {
+pub fn analyze_judged(input: &Input, opts: &AnalyzeOptions) -> Result<Judged<AnalyzeReport>> {
     let report = match input {
         Input::Table(t) => analyze_table(t, opts)?,
         Input::Samples(rec) => crate::analyze(rec, opts)?,

@@ -679,7 +679,7 @@ mod no_panic {
     }
 }
 
-/// Issue 19, item 5: a 200 Hz recording whose times are printed to 10 ms (each time twice)
+/// Coarse time: a 200 Hz recording whose times are printed to 10 ms (each time twice)
 /// is read and analysed like the same recording with exact times: the rate comes from the
 /// span, one note says how many rows repeat, the windows are the same.
 #[test]
@@ -711,7 +711,7 @@ fn coarse_timestamps_are_read_and_analysed_like_exact_ones() {
     assert!((a.final_model.rms_mg - b.final_model.rms_mg).abs() < 0.05 * a.final_model.rms_mg);
 }
 
-/// Issue 19, item 4: with 14 poses every 3-parameter candidate is too big to test. The verdict
+/// Honest limits: with 14 poses every 3-parameter candidate is too big to test. The verdict
 /// names the untested candidates and how many more windows each needs instead of saying that
 /// nothing is missing, and a final model whose held-out error is far above the floor is not
 /// "good" but an unexplained residual (uploadable only with --force).
@@ -729,7 +729,8 @@ fn untested_candidates_are_named_and_an_unexplained_residual_is_not_good() {
     .unwrap()
     .recording;
     let judged =
-        wiical_analysis::pipeline::analyze(&Input::Samples(rec), &Default::default()).unwrap();
+        wiical_analysis::pipeline::analyze_judged(&Input::Samples(rec), &Default::default())
+            .unwrap();
     let rep = &judged.report;
     assert_eq!(rep.static_windows, 14, "rest + 13 poses");
     assert!(rep.effects.is_empty());
@@ -762,7 +763,8 @@ fn untested_candidates_are_named_and_an_unexplained_residual_is_not_good() {
     .unwrap()
     .recording;
     let judged =
-        wiical_analysis::pipeline::analyze(&Input::Samples(clean), &Default::default()).unwrap();
+        wiical_analysis::pipeline::analyze_judged(&Input::Samples(clean), &Default::default())
+            .unwrap();
     assert_eq!(
         judged.quality.verdict,
         Verdict::Good,

@@ -390,7 +390,7 @@ fn alternating_gyro_rows_are_paired_by_time() {
     assert!(dk < 3e-3, "K error {dk:e}");
 }
 
-/// Issue 20, item 1: without a datasheet the nominal comes from the motions — on Xsens within
+/// Without a datasheet the nominal comes from the motions — on Xsens within
 /// 3 % of the fitted scale (and the final fit equal to the run with IMU-TK's nominal), on the
 /// five MPU-9150 units within 3 % of the datasheet's 16.384 LSB/(°/s).
 #[test]

@@ -1,4 +1,4 @@
-//! Issue 19 item 1, "every hold a window": on brisk simulated recordings (hand-placed holds of
+//! "Every hold a window": on brisk simulated recordings (hand-placed holds of
 //! 2–4 s, moves of 1–2 s with hand bumps) the default detector finds at least 95 % of the holds
 //! with ≥ 1.5 s of still samples, for a Nunchuk (10-bit, ~200 counts/g, 100 Hz), a Wii Remote
 //! (~105 counts/g, 200 Hz) and a 16-bit MEMS written in m/s² at 400 Hz. The truth is the
@@ -112,7 +112,7 @@ fn score_holds_counts_inside_and_long_enough() {
     assert_eq!((s.found, s.stray), (0, 1));
 }
 
-/// Issue 19 item 5, end to end: the brisk Wii Remote log at 200 Hz with its times printed to
+/// Coarse time, end to end: the brisk Wii Remote log at 200 Hz with its times printed to
 /// 10 ms (each time twice, as many loggers write them) is read through the CSV loader, the rate
 /// comes from the span (one note naming the repeats), and every hold still gets a window.
 #[test]

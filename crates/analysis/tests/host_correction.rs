@@ -1,4 +1,4 @@
-//! Host terms end to end (issue 19): a simulated recording with a time or temperature effect
+//! Host terms end to end: a simulated recording with a time or temperature effect
 //! the core calibration has no field for is analysed; the accepted host terms travel in the
 //! calibration file (schema `wiical-calibration/3`, written and read back), and the host
 //! correction (`wiical_analysis::correct`: the core's `f32` `Calibration::correct` with the
@@ -9,7 +9,7 @@
 use wiical_analysis::correct::{correct_at, correct_recording};
 use wiical_analysis::detect::windows::detect_windows;
 use wiical_analysis::output::calfile::{parse, to_json_file, CalibrationFile, SCHEMA_V3};
-use wiical_analysis::output::host_terms::{HostTerm, Regressor};
+use wiical_analysis::output::host_term_checks::{HostTerm, Regressor};
 use wiical_analysis::search::thermal::SampleTemps;
 use wiical_analysis::simulate::{self, Device, EffectSpec, SimConfig, SimEffect, SimOutput};
 use wiical_analysis::{analyze, AnalyzeOptions, AnalyzeReport};

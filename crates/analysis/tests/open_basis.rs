@@ -1,4 +1,4 @@
-//! The open basis (issue 19 item 3), the simulator's side: every family beyond the seven
+//! The open basis, the simulator's side: every family beyond the seven
 //! candidates is put into a recording with its truth, the truth reproduces the recording (the
 //! holds' means with the family removed by the truth leave only noise, without it they do
 //! not), the magnitude means what the simulator's docs say, and what `analyze` makes of each
@@ -351,7 +351,7 @@ fn cell(set: &[(SimEffect, f64)], device: Device, base: u64, runs: u64) -> Cell 
 
 const SINGLE_HEADER: &str = "| family | magnitude (mg) | device | runs | named (family) | named something else | nothing named, correlate reported | nothing | median CV base → final (mg) | median floor (mg) | other names | strongest correlate (* significant) |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n";
 
-/// The single-family table (issue 19 item 3 acceptance: each new family named, or its
+/// The single-family table (each new family named, or its
 /// strongest correlate reported, with CV before → after): every family at three magnitudes,
 /// 10 runs on each device profile, blind `analyze` at default settings:
 /// `cargo test -p wiical-analysis --release --test open_basis -- --ignored --nocapture open_basis_sweep`

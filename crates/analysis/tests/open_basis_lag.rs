@@ -1,4 +1,4 @@
-//! The open basis's thermal-lag and temperature-rate terms (issue 19 item 3): a simulated
+//! The open basis's thermal-lag and temperature-rate terms: a simulated
 //! recording whose bias follows the temperature through a first-order lag (τ = 300 s, the
 //! simulator's [`THERMAL_LAG_TAU_S`]) or its rate of change is analysed blind.
 

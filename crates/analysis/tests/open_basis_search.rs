@@ -1,4 +1,4 @@
-//! The open basis (issue 19 item 3): a term outside the seven candidates is found by the
+//! The open basis: a term outside the seven candidates is found by the
 //! open-basis stage after the greedy search, named by its family and target, stored in the
 //! calibration, and nothing is named on a clean recording.
 //!
@@ -93,7 +93,7 @@ fn analyze(text: &str) -> wiical_analysis::AnalyzeReport {
         .unwrap()
         .expect("a window table");
     let input = wiical_analysis::input::window_table::Input::Table(t);
-    pipeline::analyze(&input, &AnalyzeOptions::default())
+    pipeline::analyze_judged(&input, &AnalyzeOptions::default())
         .unwrap()
         .report
 }

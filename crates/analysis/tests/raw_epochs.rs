@@ -113,7 +113,7 @@ fn autocalibration_from_simulated_raw_recovers_the_truth() {
         );
     }
     // And the whole `analyze` pipeline runs on the table.
-    let rep = wiical_analysis::pipeline::analyze(&Input::Table(table), &Default::default())
+    let rep = wiical_analysis::pipeline::analyze_judged(&Input::Table(table), &Default::default())
         .unwrap()
         .report;
     assert!(rep.autocalibration.is_some());
@@ -264,9 +264,12 @@ fn simulated_cwa_file_runs_the_autocalibration() {
         "{:?}",
         table.recording.notes
     );
-    let rep = wiical_analysis::pipeline::analyze(&Input::Table(table.clone()), &Default::default())
-        .unwrap()
-        .report;
+    let rep = wiical_analysis::pipeline::analyze_judged(
+        &Input::Table(table.clone()),
+        &Default::default(),
+    )
+    .unwrap()
+    .report;
     assert!(rep.autocalibration_converged.is_some());
     let fit = wiical_analysis::autocal::autocalibrate(
         &table.recording.xyz,

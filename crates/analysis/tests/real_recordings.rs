@@ -186,7 +186,7 @@ fn continuous_tumbling_is_diagnosed_as_not_still() {
     }
 }
 
-/// Issue 19 item 1: filling the gaps of the long-hold setting with the 0.5 s setting's holds
+/// Every hold a window: filling the gaps of the long-hold setting with the 0.5 s setting's holds
 /// never loses a window on a real recording. The counts are those of the detector before the
 /// change (release binary of 89be00d, `scripts/windows-table`), the floor each must keep.
 #[test]
@@ -222,7 +222,7 @@ fn real_recordings_keep_their_windows() {
     }
 }
 
-/// Issue 19 item 2: with single-axis nonlinearities among the candidates (and the Bonferroni
+/// Single terms: with single-axis nonlinearities among the candidates (and the Bonferroni
 /// level over every hypothesis tested), every real recording keeps the quality verdict and the
 /// named effects it had before (release binary of d3e0ac6, `scripts/windows-table`; the
 /// recordings' SOURCE.md: CK-Explorer's stepwise `acc_log.csv` is a hobby MEMS whose quadratic
@@ -264,7 +264,7 @@ fn real_recordings_keep_their_verdicts_and_effects() {
     ] {
         let input = load_input(&data_dir().join(rel), &WindowInputOptions::default())
             .unwrap_or_else(|e| panic!("{rel}: {e}"));
-        let j = wiical_analysis::pipeline::analyze(&input, &AnalyzeOptions::default())
+        let j = wiical_analysis::pipeline::analyze_judged(&input, &AnalyzeOptions::default())
             .unwrap_or_else(|e| panic!("{rel}: {e}"));
         let got = serde_json::to_value(j.quality.verdict).unwrap();
         assert_eq!(got, verdict, "{rel}: {}", j.report.verdict);

@@ -1,4 +1,4 @@
-//! What the final residual correlates with (issue 19 item 3): with a simulated effect left
+//! What the final residual correlates with: with a simulated effect left
 //! out of the candidates the residual stays above the floor and its strongest correlate is
 //! the pattern that effect leaves (truth known); on clean recordings the residual agrees with
 //! the floor and nothing is reported.

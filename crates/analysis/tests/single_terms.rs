@@ -1,4 +1,4 @@
-//! Single-axis effects (issue 19 item 2): a recording too short for a whole 3-parameter block
+//! Single-axis effects: a recording too short for a whole 3-parameter block
 //! can still test one axis of it, and `analyze` names the axis (`quadratic (z)`), stores the
 //! term in the same `Effects` field with the other axes zero, and invents nothing on clean
 //! recordings. The sweep behind the table of docs/residuals.md is the ignored test at the end.

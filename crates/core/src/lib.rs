@@ -41,7 +41,9 @@
 #![deny(unsafe_code)]
 #![warn(missing_docs)]
 
+pub mod acceptance;
 pub mod error;
+pub mod estimators;
 pub mod gyro;
 pub mod gyro_fit;
 pub mod gyro_zero;
@@ -52,10 +54,8 @@ pub mod magfit;
 pub mod model;
 pub mod multipos;
 pub mod offset;
-pub mod quality;
 pub mod six_position;
 pub mod static_detect;
-pub mod stats;
 
 pub use error::Error;
 pub use model::{Calibration, Conditions, Effects, PreparedCalibration, Terms};

@@ -22,7 +22,7 @@
 //! (0 for signed sensors such as the MPU-9250 of the seed). It is used only to find the
 //! vertical axis; the returned offset is the measured one.
 
-use crate::stats::Welford3;
+use crate::estimators::Welford3;
 use crate::{Calibration, Error};
 
 /// Inclusive raw range of the ADC. A sample on (or beyond) a rail is saturated: it does

@@ -20,7 +20,7 @@
 //! small static variance), and whenever the window mean has moved so far from the shift that
 //! `s2 − s1²/n` would cancel a thousandfold. Amortised cost: O(1) per sample.
 
-use crate::stats::Welford3;
+use crate::estimators::Welford3;
 use crate::Error;
 use heapless::HistoryBuf;
 

@@ -11,10 +11,10 @@ use proptest::prelude::*;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
+use wiical_core::estimators::{ConstantKalman, ConstantKalman3, Welford, Welford3};
 use wiical_core::offset::{
     accel_offset, gyro_offset, AccelOffsetConfig, GyroOffsetConfig, OffsetAccumulator, RawRange,
 };
-use wiical_core::stats::{ConstantKalman, ConstantKalman3, Welford, Welford3};
 use wiical_core::Error;
 
 // ---------------------------------------------------------------- f64 references

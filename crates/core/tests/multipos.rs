@@ -497,7 +497,7 @@ fn real_window_subsets() -> Vec<(&'static str, Vec<[f64; 3]>)> {
     out
 }
 
-/// Solver robustness (issue 10, item 4) on real data: the sets of [`real_window_subsets`],
+/// Solver robustness on real data: the sets of [`real_window_subsets`],
 /// fitted by the core in f32 and by the independent f64 reference. Wherever the reference
 /// converges to a finite, well-determined minimum the core must converge to the same RMS;
 /// wherever the core refuses (diverged / not converged / degenerate) the reference must have

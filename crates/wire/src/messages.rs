@@ -162,7 +162,7 @@ pub enum ErrorCode {
     Internal = 10,
     /// (Protocol 2.) The calibration is usable but implausible for the sensor (offsets,
     /// sensitivity, cross-axis terms or the output over the sensor's input range beyond the
-    /// core's acceptance limits, `wiical_core::quality`); the old calibration is kept.
+    /// core's acceptance limits, `wiical_core::acceptance`); the old calibration is kept.
     ImplausibleCalibration = 11,
 }
 

@@ -59,7 +59,7 @@ pub fn run(a: &Args) -> Result<String> {
             progress,
             ..Default::default()
         };
-        wiical_analysis::pipeline::analyze(&input, &opts)
+        wiical_analysis::pipeline::analyze_judged(&input, &opts)
     })
     .map_err(cli_error)?;
     let (rep, quality) = (&judged.report, &judged.quality);

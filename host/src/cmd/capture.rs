@@ -1,10 +1,6 @@
 //! `wiical capture`: its arguments and run. The capture itself (start-up sequence, recording,
-//! pose guide) is [`crate::capture`]; the summary's text is [`crate::render::capture`].
+//! pose guide) is [`wiical_capture`]; the summary's text is [`crate::render::capture`].
 
-use crate::capture::guided::GuidedConfig;
-use crate::capture::io::{self, WiimoteIo};
-use crate::capture::output::cal_path;
-use crate::capture::{capture, CaptureMode, CaptureOptions, CaptureSummary, CaptureUi, TerminalUi};
 use crate::cli_error::cli_error;
 use crate::live::capture::LiveCaptureUi;
 use crate::live::{LiveServer, ServeError, Shared};
@@ -14,6 +10,10 @@ use std::io::Write;
 use std::path::PathBuf;
 use std::sync::Arc;
 use wiical_analysis::output::write::PendingFile;
+use wiical_capture::guided::GuidedConfig;
+use wiical_capture::io::{self, WiimoteIo};
+use wiical_capture::output::cal_path;
+use wiical_capture::{capture, CaptureMode, CaptureOptions, CaptureSummary, CaptureUi, TerminalUi};
 
 /// Arguments of `wiical capture`.
 #[derive(clap::Args, Debug, Clone)]

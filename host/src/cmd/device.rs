@@ -12,7 +12,7 @@ use anyhow::{anyhow, bail, Result};
 use serde::Serialize;
 use wiical_analysis::output::calfile::{self, adapter_terms, adapter_terms_file, CalibrationFile};
 use wiical_analysis::report::verdict::Verdict;
-use wiical_core::quality::Acceptance;
+use wiical_core::acceptance::Acceptance;
 use wiical_core::Calibration;
 use wiical_wire::{
     AdapterStatus, BootRecord, CalibrationState, HelloResponse, RecordProblem, Sample,

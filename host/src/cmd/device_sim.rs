@@ -1,12 +1,12 @@
 //! `wiical device-sim`: its arguments and run. The simulated adapter itself is
-//! [`crate::device_sim`].
+//! [`wiical_device_sim`].
 
-use crate::device_sim::{spawn, SimFlash, SimMotion, SimOptions};
 use anyhow::{bail, Result};
 use std::io::{self, Write};
 use std::path::PathBuf;
 use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
+use wiical_device_sim::{spawn, SimFlash, SimMotion, SimOptions};
 
 /// Arguments of `wiical device-sim`.
 #[derive(clap::Args, Debug, Clone)]

@@ -45,7 +45,7 @@ pub fn run(a: &Args) -> Result<String> {
     let opts = a.detect.fit_options(a.model);
     let input = a.detect.input(&a.file)?;
     let judged = super::with_spinner("detecting static windows and fitting", || {
-        wiical_analysis::pipeline::fit(&input, &opts)
+        wiical_analysis::pipeline::fit_judged(&input, &opts)
     })
     .map_err(cli_error)?;
     let (rep, quality) = (&judged.report, &judged.quality);

@@ -1,8 +1,8 @@
 //! The text (or JSON) `wiical capture` prints after a capture.
 
-use crate::capture::CaptureSummary;
 use anyhow::{anyhow, Result};
 use std::fmt::Write as _;
+use wiical_capture::CaptureSummary;
 
 /// The text (or JSON) printed after a capture.
 pub fn render(summary: &CaptureSummary, json: bool) -> Result<String> {

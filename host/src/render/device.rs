@@ -31,7 +31,7 @@ pub fn fmt_cal(o: &mut String, title: &str, c: &Calibration) -> Result<()> {
     Ok(())
 }
 
-/// Which terms the adapter applies (`device put` / `commit`, issue 19): one line for the
+/// Which terms the adapter applies (`device put` / `commit`): one line for the
 /// terms applied on the device, one for those kept in the file for hosts (if any).
 pub fn fmt_terms(o: &mut String, t: &wiical_analysis::output::calfile::AdapterTerms) -> Result<()> {
     writeln!(o, "  applied by the adapter: {}", t.applied.join(", "))?;

@@ -8,8 +8,8 @@
 use crate::error::six_position::SixPositionError;
 use crate::input::recording::Recording;
 use serde::Serialize;
+use wiical_core::estimators::{ConstantKalman3, Welford3};
 use wiical_core::six_position::{self, Pose, SixPositionFit};
-use wiical_core::stats::{ConstantKalman3, Welford3};
 
 type Result<T, E = SixPositionError> = std::result::Result<T, E>;
 
@@ -97,7 +97,7 @@ pub fn pose_means(rec: &Recording, est: PoseEstimator) -> Result<([[f32; 3]; 6],
     Ok((means, counts))
 }
 
-/// Plausibility of the six poses before they are solved (issue 25): each axis's blocks with it
+/// Plausibility of the six poses before they are solved: each axis's blocks with it
 /// up and down must differ by much more than their noise (else they are not the opposite
 /// orientations they are labelled as: 10 standard errors; poses given as one averaged row have
 /// no noise to compare with), and it must read higher up than down (else the ± labels are

@@ -189,7 +189,7 @@ pub fn time_notes(column: &str, t: &[f64]) -> Vec<String> {
 mod tests {
     use super::*;
 
-    /// A 200 Hz log with times printed to 10 ms (each time twice, issue 19): read, the rate
+    /// A 200 Hz log with times printed to 10 ms (each time twice): read, the rate
     /// from the span, one note naming how many rows repeat; time that goes back stays an error.
     #[test]
     fn coarse_times_are_read_with_the_rate_from_the_span() {

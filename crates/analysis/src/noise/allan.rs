@@ -306,7 +306,7 @@ mod simulated {
 
     /// White + flicker + rate random walk with known coefficients, 2²² samples at 10 Hz
     /// (116 h, so that the +½ slope spans several octaves): N, B and K come back within 10 %
-    /// on three seeds (issue 20's acceptance), and nothing else is reported.
+    /// on three seeds, and nothing else is reported.
     #[test]
     fn simulated_noise_gives_its_coefficients_back() {
         let truth = NoiseTruth {

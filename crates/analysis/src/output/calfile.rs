@@ -33,7 +33,7 @@
 use crate::error::output::OutputError;
 use crate::error::Result;
 use crate::input::bounded::{read_text, MAX_CALIBRATION_BYTES};
-use crate::output::host_terms::{self, HostTerm};
+use crate::output::host_term_checks::{self as host_terms, HostTerm};
 use crate::output::write::write_file;
 use crate::report::verdict::Quality;
 use serde::{Deserialize, Serialize};
@@ -538,7 +538,7 @@ mod tests {
     }
 
     fn with_hosts() -> CalibrationFile {
-        use crate::output::host_terms::HostReference;
+        use crate::output::host_term_checks::HostReference;
         let term = |family: &str, axis: u8, value: f64, r: HostReference| HostTerm {
             name: format!("{family} ({})", ["x", "y", "z"][axis as usize]),
             family: family.into(),

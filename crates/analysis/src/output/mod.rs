@@ -4,7 +4,7 @@
 //! written.
 
 pub mod calfile;
-pub mod host_terms;
+pub mod host_term_checks;
 pub mod write;
 
 pub use crate::error::output::OutputError;

@@ -24,7 +24,7 @@ pub const NONE: &str = "none";
 /// frame (x kept, y in the x–y plane), the frame the simulator's truth uses too.
 pub const AXES: [&str; 3] = ["x", "y", "z"];
 
-// The open basis (issue 19 item 3): families selected term by term after the candidates, each
+// The open basis: families selected term by term after the candidates, each
 // term named by its family and what it acts on, e.g. `cross-quadratic (z: x·y)` (output axis z,
 // monomial u_x·u_y), `scale-drift (x)`, `thermal-lag (y)`. The simulator's effect of the same
 // family carries the same name.

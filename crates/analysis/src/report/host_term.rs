@@ -1,8 +1,8 @@
-//! The calibration file's host-only terms (issue 19): terms the open basis
+//! The calibration file's host-only terms: terms the open basis
 //! (`search::open_basis::host_terms`) selects that depend on the time since the start of the
 //! recording or on the temperature. The core's `Effects` has no field for them and the
 //! adapter has no clock origin or thermometer, so they are kept in the file for hosts that
-//! have both (`crate::correct` applies them; `crate::output::host_terms` checks them when a file is read).
+//! have both (`crate::correct` applies them; `crate::output::host_term_checks` checks them when a file is read).
 //!
 //! Each term is one coefficient `value` on output axis `j` times a power of one raw
 //! regressor `x` taken about its origin `x₀` (the term's `reference`):
@@ -72,7 +72,7 @@ pub enum Regressor {
 
 impl HostTerm {
     /// The regressor, power and kind (`true`: scale) of the term's family; `None` for a
-    /// family that is not one of [`HOST_FAMILIES`] (refused by `crate::output::host_terms::validate`).
+    /// family that is not one of [`HOST_FAMILIES`] (refused by `crate::output::host_term_checks::validate`).
     pub fn shape(&self) -> Option<(Regressor, i32, bool)> {
         let lag = Regressor::LaggedTemperature(self.time_constant_s.unwrap_or(f64::NAN));
         Some(match self.family.as_str() {

@@ -1,14 +1,14 @@
 //! The quality verdict of a fitted calibration, printed by `fit` / `analyze` and stored in
 //! the calibration file so that `device put` can refuse a poor one.
 //!
-//! It applies the core's one definition ([`wiical_core::quality`]): the fit RMS of `‖a‖ − 1`
+//! It applies the core's one definition ([`wiical_core::acceptance`]): the fit RMS of `‖a‖ − 1`
 //! against [`Acceptance::max_fit_rms`] and the poses' directions against
 //! [`CoverageRule::default`]. The sensor-specific plausibility limits (offsets, sensitivity,
 //! output bound) need to know the sensor; `device put` applies the Nunchuk's
 //! ([`Acceptance::nunchuk`]) because the adapter is a Nunchuk adapter.
 
 use serde::{Deserialize, Serialize};
-use wiical_core::quality::{Acceptance, CoverageRule};
+use wiical_core::acceptance::{Acceptance, CoverageRule};
 use wiical_core::Calibration;
 
 /// Good or poor.
@@ -27,7 +27,7 @@ pub enum Verdict {
     UnexplainedResidual,
 }
 
-/// The residual test's factor: held-out RMS over the noise floor (issue 19).
+/// The residual test's factor: held-out RMS over the noise floor.
 pub const UNEXPLAINED_CV_FACTOR: f64 = 3.0;
 
 /// The residual test's χ² p-value.

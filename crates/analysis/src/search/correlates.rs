@@ -1,4 +1,4 @@
-//! What the final residual correlates with (issue 19 item 3), computed only when the residual
+//! What the final residual correlates with, computed only when the residual
 //! stays above the noise floor (the verdict's test, [`crate::report::verdict::residual_unexplained`]).
 //!
 //! The multi-position model has one residual per window, `‖a‖ − 1 g` (there is no reference

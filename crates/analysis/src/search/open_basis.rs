@@ -1,4 +1,4 @@
-//! The open basis (issue 19 item 3): after the greedy search over the candidates
+//! The open basis: after the greedy search over the candidates
 //! ([`crate::search::analyze`]), single terms of physically motivated families are added one
 //! at a time, each by the same rule as a candidate (an F-test at a Bonferroni level and the
 //! leave-one-window-out RMS at least `cv_factor` lower).
@@ -20,7 +20,7 @@
 //!
 //! Families: orientation ([`orientation_terms`], stored in the core's `Effects` cross terms)
 //! and time and temperature ([`host_terms`]: the core's `Effects` has no field for them, so
-//! they travel in the calibration file's `host_terms` ([`crate::output::host_terms`]), each
+//! they travel in the calibration file's `host_terms` ([`crate::output::host_term_checks`]), each
 //! about its regressor's origin, where it vanishes; the core calibration alone is the model
 //! at those origins).
 //!
@@ -65,7 +65,7 @@ pub struct BasisTerm {
     pub time_constant_s: Option<f64>,
     /// For a host term (time or temperature): the raw regressor's origin, where the term
     /// vanishes (the mean window time, temperature, lagged temperature or rate;
-    /// [`crate::output::host_terms`]); `None` for a cross term.
+    /// [`crate::output::host_term_checks`]); `None` for a cross term.
     pub reference: Option<HostReference>,
 }
 
@@ -464,7 +464,7 @@ pub struct Extension {
     /// One effect row per accepted term, in the order accepted.
     pub effects: Vec<EffectReport>,
     /// The accepted time and temperature terms as the calibration file stores them (raw
-    /// units, about their origins; [`crate::output::host_terms`]).
+    /// units, about their origins; [`crate::output::host_term_checks`]).
     pub host_terms: Vec<HostTerm>,
 }
 

@@ -1,4 +1,4 @@
-//! The open basis's thermal-lag and temperature-rate regressors (issue 19 item 3): per-window
+//! The open basis's thermal-lag and temperature-rate regressors: per-window
 //! values computed from the recording's per-sample temperature, for
 //! [`crate::search::open_basis::host_terms`].
 //!

@@ -1,4 +1,4 @@
-//! Test support for the residual correlates (issue 19 item 3): the 40-pose 16-bit MEMS
+//! Test support for the residual correlates: the 40-pose 16-bit MEMS
 //! recording at 400 Hz that `residual_correlates.rs` and `open_basis.rs` analyse blind, and
 //! the check of its strongest correlate.
 

@@ -34,7 +34,7 @@
 //! `docs/solver-and-detection.md`.
 
 use super::{StaticDetector, StaticDetectorConfig, StaticInterval};
-use crate::stats::Welford3;
+use crate::estimators::Welford3;
 use crate::Error;
 
 /// Histogram resolution of the survey: 4 bins per octave, so a quantile is known to ±9 %.

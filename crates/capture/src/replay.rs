@@ -8,11 +8,11 @@
 //! advances the clock by the timeout and returns 0, so timeouts are deterministic and tests
 //! never sleep.
 
-use super::io::WiimoteIo;
-use super::protocol::{
+use super::hid::{
     AddressSpace, IN_ACK, IN_READ_REPLY, IN_STATUS, OUT_READ_MEMORY, OUT_REPORT_MODE,
     OUT_STATUS_REQUEST, OUT_WRITE_MEMORY, STATUS_EXTENSION,
 };
+use super::io::WiimoteIo;
 use anyhow::{bail, Result};
 use std::collections::{BTreeMap, VecDeque};
 use wiical_extbus::{Buttons, CoreReport, NunchukReport, ReportId};

@@ -107,7 +107,7 @@ impl CalFile {
     pub fn write(&self, path: &Path) -> Result<()> {
         let text = serde_json::to_string_pretty(self)? + "\n";
         wiical_analysis::output::write::write_file(path, text.as_bytes())
-            .map_err(crate::cli_error::cli_error)
+            .map_err(anyhow::Error::new)
     }
 }
 

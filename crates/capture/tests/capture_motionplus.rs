@@ -4,78 +4,13 @@
 //! built by hand here from the documented layouts (WiiBrew, Dolphin, hid-wiimote; see
 //! docs/gyro.md), not with the decoder under test.
 
-mod common;
+mod support;
 
 use std::path::PathBuf;
-use wiical::capture::replay::{report_0x35_ext, EndOfScript, ReplayWiimote};
-use wiical::capture::{capture, CaptureMode, CaptureOptions, CollectUi};
+use support::{mp_block, real_blocks};
+use wiical_capture::replay::{report_0x35_ext, EndOfScript, ReplayWiimote};
+use wiical_capture::{capture, CaptureMode, CaptureOptions, CollectUi};
 use wiical_extbus::NunchukReport;
-
-fn parse_hex(s: &str) -> Vec<u8> {
-    s.split_whitespace()
-        .map(|h| u8::from_str_radix(h, 16).unwrap())
-        .collect()
-}
-
-/// The real Wii Remote EEPROM block and Nunchuk block, read in place.
-fn real_blocks() -> ([u8; 10], [u8; 16]) {
-    let path = common::data_dir().join("wii_calibration_bytes/calibration_blocks.csv");
-    let text = std::fs::read_to_string(&path).unwrap();
-    let (mut w, mut n) = (None, None);
-    for line in text.lines().filter(|l| !l.starts_with('#')).skip(1) {
-        let f: Vec<&str> = line.split(',').collect();
-        match (f[0], f[2]) {
-            ("wiimote", _) => w = Some(parse_hex(f[3]).try_into().unwrap()),
-            ("nunchuk", "0x20") => n = Some(parse_hex(f[3]).try_into().unwrap()),
-            _ => {}
-        }
-    }
-    (w.unwrap(), n.unwrap())
-}
-
-/// Textbook bitwise CRC-32 (reflected 0xEDB88320, init/final XOR 0xFFFFFFFF).
-fn crc32(chunks: &[&[u8]]) -> u32 {
-    let mut crc = 0xFFFF_FFFFu32;
-    for &byte in chunks.iter().flat_map(|c| c.iter()) {
-        crc ^= u32::from(byte);
-        for _ in 0..8 {
-            crc = if crc & 1 != 0 {
-                (crc >> 1) ^ 0xEDB8_8320
-            } else {
-                crc >> 1
-            };
-        }
-    }
-    !crc
-}
-
-/// A MotionPlus calibration block laid out by hand: fast half at 0x00, slow half at 0x10, each
-/// zero yaw/roll/pitch, scale yaw/roll/pitch (big-endian), degrees/6, UID; CRC-32 of
-/// 0x00–0x0D + 0x10–0x1D, high half at 0x0E, low half at 0x1E.
-fn mp_block() -> [u8; 32] {
-    let mut b = [0u8; 32];
-    let halves = [
-        (
-            [0x7F10u16, 0x8020, 0x80F0],
-            [0x3B00u16, 0xC500, 0x3C40],
-            200u8,
-            0x0Bu8,
-        ),
-        ([0x7F20, 0x8010, 0x80E0], [0x3C00, 0xC400, 0x3D00], 45, 0xE9),
-    ];
-    for (o, (zero, scale, deg6, uid)) in [0usize, 16].into_iter().zip(halves) {
-        for (i, w) in zero.iter().chain(scale.iter()).enumerate() {
-            b[o + 2 * i] = (w >> 8) as u8;
-            b[o + 2 * i + 1] = *w as u8;
-        }
-        b[o + 12] = deg6;
-        b[o + 13] = uid;
-    }
-    let crc = crc32(&[&b[0..14], &b[16..30]]);
-    b[14..16].copy_from_slice(&((crc >> 16) as u16).to_be_bytes());
-    b[30..32].copy_from_slice(&(crc as u16).to_be_bytes());
-    b
-}
 
 /// A MotionPlus gyro frame from the table: bytes 0–2 low 8 bits of yaw, roll, pitch; bytes
 /// 3–5 bits 13–8 in bits 7–2; byte 3 bit 1 yaw slow, bit 0 pitch slow; byte 4 bit 1 roll slow,
@@ -301,41 +236,4 @@ fn without_a_motionplus_nothing_changes() {
     assert!(write_position(&dev.written, [0xA6, 0x00, 0xFE], 0x04).is_none());
     let (header, _) = data_rows(&std::fs::read_to_string(&out).unwrap());
     assert_eq!(header.join(","), "t,x,y,z");
-}
-
-#[test]
-fn decode_cal_motionplus_reads_the_block_and_its_crc() {
-    use wiical::cmd::decode_cal::{run, Args};
-    let hex: Vec<String> = mp_block().iter().map(|b| format!("{b:02X}")).collect();
-    let args = |hex: Vec<String>, json| Args {
-        device: "motionplus".into(),
-        hex,
-        json,
-    };
-    let out: serde_json::Value =
-        serde_json::from_str(&run(&args(hex.clone(), true)).unwrap()).unwrap();
-    assert_eq!(out["checksum_ok"], true);
-    assert_eq!(out["fast"]["degrees"], 1200);
-    assert_eq!(out["slow"]["zero"][1], 0x8010);
-    let roll = out["slow"]["counts_per_dps"][1].as_f64().unwrap();
-    assert!((roll - (0xC400 - 0x8010) as f64 / 4.0 / 270.0).abs() < 1e-4);
-    assert!(out.get("mode").is_none());
-    let text = run(&args(hex.clone(), false)).unwrap();
-    assert!(text.contains("CRC-32:   ok"), "{text}");
-    // A bad CRC-32 is printed and the command fails (issue 25), as for the other devices;
-    // the device name is case-insensitive.
-    let mut bad = hex.clone();
-    bad[20] = "00".into();
-    let e = run(&args(bad, false)).unwrap_err().to_string();
-    assert!(e.contains("checksum is wrong"), "{e}");
-    let mixed = Args {
-        device: "MotionPlus".into(),
-        hex: hex.clone(),
-        json: true,
-    };
-    assert!(run(&mixed).is_ok());
-    let short = run(&args(hex[..31].to_vec(), false))
-        .unwrap_err()
-        .to_string();
-    assert!(short.contains("expected 32 bytes, got 31"), "{short}");
 }

@@ -43,19 +43,18 @@
 //! alongside it, but if reports stop, unload it (`modprobe -r hid_wiimote`).
 
 pub mod guided;
+pub mod hid;
 pub mod io;
 pub mod output;
-pub mod protocol;
 pub mod replay;
 pub mod session;
 
-use crate::cli_error::cli_error;
 use anyhow::{bail, Context, Result};
 use guided::{Guided, GuidedConfig, GuidedEvent, PoseRecord};
+use hid::{parse_input, InputReport, ReportError, MAX_INPUT_LEN};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use io::WiimoteIo;
 use output::{cal_path, CalFile, CaptureStats, CsvOut};
-use protocol::{parse_input, InputReport, ReportError, MAX_INPUT_LEN};
 use serde::Serialize;
 use session::{is_nunchuk_id, DeviceSetup, Session};
 use std::io::{BufWriter, IsTerminal};
@@ -215,7 +214,7 @@ pub fn capture<D: WiimoteIo + ?Sized>(
     let cal_file = cal_path(&opts.out);
     // The CSV goes to a temporary file next to OUT; OUT and its side file are only replaced
     // when the capture succeeds (see `finish_failed`).
-    let pending = PendingFile::create(&opts.out).map_err(cli_error)?;
+    let pending = PendingFile::create(&opts.out)?;
     let file = pending
         .file()
         .try_clone()
@@ -254,7 +253,7 @@ pub fn capture<D: WiimoteIo + ?Sized>(
         let kept = finish_failed(pending, &cal, &cal_file)?;
         return Err(e.context(format!("capture stopped after {n} samples; {kept}")));
     }
-    pending.commit().map_err(cli_error)?;
+    pending.commit()?;
     cal.write(&cal_file)?;
     Ok(CaptureSummary {
         csv: opts.out.clone(),
@@ -291,7 +290,7 @@ fn finish_failed(
 ) -> Result<String> {
     let out = pending.path().to_path_buf();
     if !pending.target_existed() && !cal_file.exists() {
-        pending.commit().map_err(cli_error)?;
+        pending.commit()?;
         cal.write(cal_file)?;
         return Ok(format!(
             "they are in {} (side file {})",
@@ -299,7 +298,7 @@ fn finish_failed(
             cal_file.display()
         ));
     }
-    let kept = pending.keep_aside().map_err(cli_error)?;
+    let kept = pending.keep_aside()?;
     let kept_cal = cal_path(&kept);
     cal.write(&kept_cal)?;
     Ok(format!(
@@ -327,7 +326,7 @@ fn report_setup(setup: &DeviceSetup, cal: &CalFile, ui: &mut dyn CaptureUi) {
     if let Some(mp) = &cal.motionplus {
         ui.message(&format!(
             "MotionPlus found ({}), activated in mode 0x{:02X}; its calibration block's CRC-32 is {}",
-            protocol::hex(&setup.motionplus.as_ref().map(|m| m.id).unwrap_or_default()),
+            hid::hex(&setup.motionplus.as_ref().map(|m| m.id).unwrap_or_default()),
             mp.mode.unwrap_or(0),
             if mp.checksum_ok { "correct" } else { "WRONG (bytes in the side file)" }
         ));

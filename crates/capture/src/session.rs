@@ -1,12 +1,12 @@
 //! Request/reply exchanges with a remote: status, memory reads and writes, and the start-up
 //! sequence of a capture (calibration blocks, extension init and identification).
 
-use super::io::WiimoteIo;
-use super::protocol::{
+use super::hid::{
     self, error_meaning, hex, parse_input, AddressSpace, InputReport, ReportError, Status,
     EXT_CALIBRATION, EXT_ID, EXT_INIT1, EXT_INIT2, MAX_INPUT_LEN, MP_CALIBRATION, MP_ID, MP_INIT,
     MP_MODE, OUT_WRITE_MEMORY,
 };
+use super::io::WiimoteIo;
 use anyhow::{anyhow, bail, Context, Result};
 use wiical_extbus::motionplus::PassthroughMode;
 use wiical_extbus::wiimote::EEPROM_CALIBRATION_ADDR;
@@ -149,7 +149,7 @@ impl<'a, D: WiimoteIo + ?Sized> Session<'a, D> {
 
     /// Asks for a status report and returns it.
     pub fn request_status(&mut self) -> Result<Status> {
-        self.send(&protocol::request_status())?;
+        self.send(&hid::request_status())?;
         self.wait_for("a status report (0x20)", |r| match r {
             InputReport::Status(s) => Some(Ok(*s)),
             _ => None,
@@ -158,7 +158,7 @@ impl<'a, D: WiimoteIo + ?Sized> Session<'a, D> {
 
     /// Reads `len` bytes at `address`, collecting the `0x21` replies (16 bytes each).
     pub fn read_memory(&mut self, space: AddressSpace, address: u32, len: u16) -> Result<Vec<u8>> {
-        let req = protocol::read_memory(space, address, len)?;
+        let req = hid::read_memory(space, address, len)?;
         self.send(&req)?;
         let len = usize::from(len);
         let mut out = Vec::with_capacity(len);
@@ -203,7 +203,7 @@ impl<'a, D: WiimoteIo + ?Sized> Session<'a, D> {
 
     /// Writes 1–16 bytes at `address` and waits for the acknowledgement of report `0x16`.
     pub fn write_memory(&mut self, space: AddressSpace, address: u32, data: &[u8]) -> Result<()> {
-        let req = protocol::write_memory(space, address, data)?;
+        let req = hid::write_memory(space, address, data)?;
         self.send(&req)?;
         let what = format!("the acknowledgement of the write at 0x{address:06X}");
         self.wait_for(&what, |r| match r {
@@ -224,7 +224,7 @@ impl<'a, D: WiimoteIo + ?Sized> Session<'a, D> {
     /// Puts the remote in continuous reporting mode [`CAPTURE_MODE`]. No acknowledgement is
     /// requested (the remote sends none unless asked).
     pub fn start_reporting(&mut self) -> Result<()> {
-        self.send(&protocol::set_report_mode(CAPTURE_MODE, true))
+        self.send(&hid::set_report_mode(CAPTURE_MODE, true))
     }
 
     /// Unencrypted extension init (`0x55` → `0xA400F0`, `0x00` → `0xA400FB`; WiiBrew,
@@ -289,7 +289,7 @@ impl<'a, D: WiimoteIo + ?Sized> Session<'a, D> {
     /// and finally continuous reporting in mode `0x35`. Reporting is switched on last so that
     /// the replies are not interleaved with 100 data reports a second.
     pub fn init(&mut self) -> Result<DeviceSetup> {
-        self.send(&protocol::set_leds(0b0001))?;
+        self.send(&hid::set_leds(0b0001))?;
         let status = self.request_status()?;
         let eeprom_calibration = self
             .read_memory(AddressSpace::Eeprom, u32::from(EEPROM_CALIBRATION_ADDR), 20)

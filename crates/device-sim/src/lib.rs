@@ -21,6 +21,7 @@
 //! For tests, [`spawn`] returns the pty path and a [`SimHandle`] that can unplug the
 //! Nunchuk, inject raw bytes towards the host, and stop the simulator (giving back the flash
 //! so that a new simulator can boot from it).
+#![cfg(unix)] // pseudo-terminals
 
 use std::io::{self, Read, Write};
 use std::path::{Path, PathBuf};
@@ -123,7 +124,7 @@ impl SimFlash {
                     "{} is not a device-sim flash image (larger than {FLASH_SIZE} bytes)",
                     path.display()
                 ),
-                Err(e) => return Err(crate::cli_error::cli_error(e)),
+                Err(e) => return Err(e.into()),
             };
             if data.len() != FLASH_SIZE {
                 bail!(
@@ -136,7 +137,7 @@ impl SimFlash {
         } else {
             let data = vec![0xFF; FLASH_SIZE];
             wiical_analysis::output::write::write_file(path, &data)
-                .map_err(crate::cli_error::cli_error)
+                .map_err(anyhow::Error::new)
                 .with_context(|| format!("cannot create {}", path.display()))?;
             data
         };
@@ -335,7 +336,8 @@ impl embedded_hal_async::delay::DelayNs for NoDelay {
 }
 
 /// Which motion the simulated Nunchuk makes.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum SimMotion {
     /// Gravity turns continuously (periods of 13 s and 20 s), never still; the stick circles
     /// and the buttons blink. Plugged in from the start.

@@ -4,7 +4,7 @@
 //! a raw report log written by [`RawLogger`] (`wiical capture --raw-log`), so a session with a
 //! real remote can be reproduced without it.
 
-use super::protocol::{self, PRODUCT_IDS, VENDOR_ID};
+use super::hid::{self, PRODUCT_IDS, VENDOR_ID};
 use anyhow::{anyhow, bail, Context, Result};
 use std::collections::VecDeque;
 use std::io::Write;
@@ -167,7 +167,7 @@ impl<D: WiimoteIo, W: Write> RawLogger<D, W> {
 impl<D: WiimoteIo, W: Write> WiimoteIo for RawLogger<D, W> {
     fn write(&mut self, report: &[u8]) -> Result<()> {
         let t = self.inner.now_s();
-        writeln!(self.log, "{t} out {}", protocol::hex(report))
+        writeln!(self.log, "{t} out {}", hid::hex(report))
             .context("cannot write the raw report log")?;
         self.inner.write(report)
     }
@@ -177,7 +177,7 @@ impl<D: WiimoteIo, W: Write> WiimoteIo for RawLogger<D, W> {
         if n > 0 {
             let t = self.inner.now_s();
             let bytes = buf.get(..n).unwrap_or(buf);
-            writeln!(self.log, "{t} in {}", protocol::hex(bytes))
+            writeln!(self.log, "{t} in {}", hid::hex(bytes))
                 .context("cannot write the raw report log")?;
         }
         Ok(n)
@@ -277,8 +277,7 @@ impl LogReplay {
         let text = wiical_analysis::input::bounded::read_text(
             path,
             wiical_analysis::input::bounded::MAX_RECORDING_BYTES,
-        )
-        .map_err(crate::cli_error::cli_error)?;
+        )?;
         Self::parse(&text).with_context(|| format!("in {}", path.display()))
     }
 }

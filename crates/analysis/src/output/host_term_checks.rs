@@ -1,4 +1,4 @@
-//! Checks of the calibration file's host-only terms (issue 19) when a file is read or
+//! Checks of the calibration file's host-only terms when a file is read or
 //! written: the types and their formulas are the report's ([`crate::report::host_term`]),
 //! re-exported here.
 

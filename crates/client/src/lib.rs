@@ -1,6 +1,6 @@
 //! A typed client of a wiical adapter (or `wiical device-sim`) over its serial port: open,
 //! handshake, read / stage / commit calibrations, stream corrected samples. `wiical device`
-//! ([`crate::cmd::device`]) is its command line; other programs can use [`Device`] directly.
+//! (host/src/cmd/device.rs) is its command line; other programs can use [`Device`] directly.
 //!
 //! What the CLI's actions do with it:
 //! * `info` — Hello handshake: firmware version, device ID, protocol version and schema key
@@ -130,8 +130,8 @@ pub enum ClientError {
     #[error("refusing to upload an invalid calibration: {0}")]
     InvalidCalibration(wiical_core::Error),
     /// The calibration fails the adapter's acceptance predicate (checked locally first).
-    #[error("refusing to upload an implausible calibration: {0} (the adapter applies the same limits, wiical_core::quality::Acceptance::nunchuk)")]
-    Implausible(wiical_core::quality::Rejection),
+    #[error("refusing to upload an implausible calibration: {0} (the adapter applies the same limits, wiical_core::acceptance::Acceptance::nunchuk)")]
+    Implausible(wiical_core::acceptance::Rejection),
     /// Commit without a staged calibration.
     #[error("nothing to commit on {port}: the adapter only commits a calibration uploaded in the same session; use `wiical device commit FILE` (or `put FILE --commit`)")]
     NothingStaged {
@@ -451,7 +451,7 @@ impl Device {
     /// acceptance predicate the adapter applies, so that a refusal names its reason).
     pub fn put_calibration(&mut self, cal: &Calibration) -> Result<()> {
         cal.validate().map_err(ClientError::InvalidCalibration)?;
-        wiical_core::quality::Acceptance::nunchuk()
+        wiical_core::acceptance::Acceptance::nunchuk()
             .check(cal, None)
             .map_err(ClientError::Implausible)?;
         self.call(endpoints::PutCalibration((*cal).into()))

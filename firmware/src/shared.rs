@@ -1,0 +1,20 @@
+//! What the tasks share with each other: the adapter state behind one mutex, and the channel
+//! that carries stream samples from the Nunchuk task to the serial task. Each task imports
+//! these from here rather than from another task.
+
+use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
+use embassy_sync::channel::Channel;
+use embassy_sync::mutex::Mutex;
+use wiical_adapter::Protocol;
+use wiical_wire::Sample;
+
+use crate::board::StoreFlash;
+
+/// The adapter state shared by the tasks: protocol handler, corrector, emulated register
+/// map and calibration store. Held only for short, non-blocking sections except during a
+/// calibration commit (flash write).
+pub type Adapter = Mutex<CriticalSectionRawMutex, Protocol<StoreFlash>>;
+
+/// Samples on their way from the Nunchuk task to the host (dropped when full: the host sees
+/// a gap in `seq`).
+pub static SAMPLES: Channel<CriticalSectionRawMutex, Sample, 16> = Channel::new();
