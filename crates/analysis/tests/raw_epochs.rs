@@ -381,3 +381,61 @@ fn block_by_block_reading_equals_the_whole_file_path() {
         assert_eq!(a, b, "{name}");
     }
 }
+
+/// Too few still epochs because the file is damaged is said so, not "a longer recording is
+/// needed"; blocks holding no sample are named as such; both paths say it word for word.
+#[test]
+fn a_damaged_file_names_its_damage() {
+    let rec = simulate();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("sim.cwa");
+    write_cwa(&rec, &path);
+    let clean = std::fs::read(&path).unwrap();
+    let blocks = (clean.len() - 1024) / 512;
+    let mut bytes = clean.clone();
+    for k in (0..blocks).filter(|k| k % 5 != 0) {
+        bytes[1024 + 512 * k + 40] ^= 1; // 4 in 5 fail their checksum
+    }
+    std::fs::write(&path, &bytes).unwrap();
+    let streamed = load_input(&path, &WindowInputOptions::default())
+        .unwrap_err()
+        .full_message();
+    // The same bytes gzip-compressed are read whole (`load_input`'s other path).
+    let gz = dir.path().join("sim.cwa.gz");
+    let mut enc = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::fast());
+    std::io::Write::write_all(&mut enc, &bytes).unwrap();
+    std::fs::write(&gz, enc.finish().unwrap()).unwrap();
+    let whole = load_input(&gz, &WindowInputOptions::default())
+        .unwrap_err()
+        .full_message()
+        .replace("sim.cwa.gz", "sim.cwa");
+    let lost = blocks - blocks.div_ceil(5);
+    let want = format!("{lost} of its {blocks} data blocks could not be used ({lost} fail their checksum): the file is damaged, not too short");
+    assert!(streamed.contains(&want), "{streamed}");
+    assert!(!streamed.contains("longer recording"), "{streamed}");
+    assert_eq!(streamed, whole);
+    // Every block with a sample count of 0 (checksum kept right).
+    let mut bytes = clean;
+    for k in 0..blocks {
+        let b = &mut bytes[1024 + 512 * k..1024 + 512 * (k + 1)];
+        b[28] = 0;
+        b[29] = 0;
+        b[510] = 0;
+        b[511] = 0;
+        let s = b.chunks_exact(2).fold(0u16, |s, w| {
+            s.wrapping_add(u16::from_le_bytes([w[0], w[1]]))
+        });
+        b[510..512].copy_from_slice(&0u16.wrapping_sub(s).to_le_bytes());
+    }
+    std::fs::write(&path, &bytes).unwrap();
+    let e = load_input(&path, &WindowInputOptions::default())
+        .unwrap_err()
+        .full_message();
+    assert!(
+        e.contains(&format!(
+            "none of its {blocks} data blocks is readable (0 skipped: {blocks} hold 0 samples)"
+        )),
+        "{e}"
+    );
+    assert!(!e.contains("ends before"), "{e}");
+}

@@ -98,7 +98,21 @@ pub fn load_input(path: &Path, opts: &WindowInputOptions) -> Result<Input> {
 fn raw_epochs(raw: &crate::input::raw::RawFile, opts: &load::LoadOptions) -> Result<Input> {
     let rec = crate::input::raw::to_recording(raw, opts)?;
     let source = crate::input::raw::source_of(rec.info.first().map_or("", String::as_str));
-    let table = crate::input::raw::epochs::epoch_table(&rec, &source, &Default::default())?;
+    let table = crate::input::raw::epochs::epoch_table(&rec, &source, &Default::default());
+    let table = table.map_err(|e| {
+        let tally = crate::input::raw::Tally::of(raw);
+        let times = crate::input::raw::sample_times(raw);
+        let left_out = times.iter().filter(|t| t.is_none()).count();
+        let measured = rec.estimated_rate_hz();
+        crate::input::raw::explain_too_few(
+            e,
+            raw.format,
+            &tally,
+            left_out,
+            measured,
+            raw.header_rate_hz,
+        )
+    })?;
     Ok(Input::Table(table))
 }
 

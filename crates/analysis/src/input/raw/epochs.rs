@@ -19,6 +19,9 @@ use crate::input::recording::Recording;
 use crate::input::table::WindowTable;
 use crate::report::contract::WindowInputInfo;
 
+/// What too few still epochs call for when nothing was wrong with the recording.
+pub(crate) const LONGER: &str = "a longer recording (days of wear) is needed";
+
 /// The still-epoch rule (defaults: GGIR's).
 #[derive(Debug, Clone)]
 pub struct EpochOptions {
@@ -217,6 +220,7 @@ pub(crate) fn table_of(
             examined: found.examined,
             needed: MIN_EPOCHS,
             span_s: found.span_s,
+            cause: LONGER.into(),
         }
         .into());
     }

@@ -363,6 +363,70 @@ pub(crate) fn no_data(tally: &Tally, left_out: usize) -> InputError {
     }
 }
 
+/// `e` with its cause said when it is too few still epochs and the file, not its length, is
+/// why: half or more of its blocks skipped or left out, or timestamps that do not hold the
+/// declared rate (more than 10 % off). `measured_hz` is the rate of the samples' times.
+pub(crate) fn explain_too_few(
+    e: Error,
+    format: RawFormat,
+    tally: &Tally,
+    left_out: usize,
+    measured_hz: Option<f64>,
+    header_hz: f64,
+) -> Error {
+    let Error::Input(InputError::TooFewStillEpochs {
+        found,
+        examined,
+        needed,
+        span_s,
+        cause,
+    }) = e
+    else {
+        return e;
+    };
+    let unit = match format {
+        RawFormat::Cwa => "data blocks",
+        RawFormat::GeneActiv => "pages",
+    };
+    let stepped_back = left_out.saturating_sub(tally.empty);
+    let lost = tally.corrupt + tally.invalid + stepped_back;
+    let cause = if lost > 0 && 2 * lost >= tally.blocks {
+        let mut parts = Vec::new();
+        for (k, what) in [
+            (tally.corrupt, "fail their checksum"),
+            (tally.invalid, "have an impossible field"),
+            (
+                stepped_back,
+                "start before the previous one ends (the clock steps back)",
+            ),
+        ] {
+            if k > 0 {
+                parts.push(format!("{k} {what}"));
+            }
+        }
+        format!(
+            "{lost} of its {} {unit} could not be used ({}): the file is damaged, not too short",
+            tally.blocks,
+            parts.join(", ")
+        )
+    } else if let Some(m) = measured_hz.filter(|m| (m / header_hz - 1.0).abs() > 0.1) {
+        format!(
+            "the samples' timestamps give {:.3} Hz where the header declares {header_hz} Hz: the device did not hold its declared rate",
+            m
+        )
+    } else {
+        cause
+    };
+    InputError::TooFewStillEpochs {
+        found,
+        examined,
+        needed,
+        span_s,
+        cause,
+    }
+    .into()
+}
+
 /// Which three channels the options ask for among the channel names `channels`: `--columns`
 /// names, else the wanted sensor's triplet (the accelerometer by default).
 pub(crate) fn choose_channels(channels: &[String], opts: &LoadOptions) -> Result<[usize; 3]> {

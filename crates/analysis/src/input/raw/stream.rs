@@ -15,7 +15,8 @@
 use super::cwa::{self, BlockReader};
 use super::epochs::{table_of, EpochOptions, EpochScan};
 use super::{
-    choose_channels, describe, no_data, skip_notes, Block, BlockSpan, RawFormat, Tally, TimePlan,
+    choose_channels, describe, explain_too_few, no_data, skip_notes, Block, BlockSpan, RawFormat,
+    Tally, TimePlan,
 };
 use crate::error::Result;
 use crate::input::columns::LoadOptions;
@@ -109,7 +110,8 @@ pub fn cwa_epoch_table(
         scan.header.rate_hz,
         &scan.channels,
     );
-    let rate = TimeSteps::of_times(|| scan.times()).map_or(100.0, |s| s.rate_hz());
+    let measured = TimeSteps::of_times(|| scan.times()).map(|s| s.rate_hz());
+    let rate = measured.unwrap_or(100.0);
     let found = feed(path, &scan, cols, EpochScan::new(t0, rate, epochs))?.finish(t_end, rate);
     let source = super::source_of(&info);
     let like = Recording {
@@ -119,7 +121,10 @@ pub fn cwa_epoch_table(
         info: vec![info],
         ..Recording::default()
     };
-    table_of(found, like, &source, epochs)
+    table_of(found, like, &source, epochs).map_err(|e| {
+        let (tally, header_hz) = (&scan.tally, scan.header.rate_hz);
+        explain_too_few(e, RawFormat::Cwa, tally, left_out, measured, header_hz)
+    })
 }
 
 /// Second pass: every kept sample's chosen channels, time and block temperature into `epochs`.
