@@ -191,7 +191,17 @@ pub fn time_notes(column: &str, t: &[f64]) -> Vec<String> {
 /// [`time_notes`] on times that `times` yields afresh on every call (see
 /// [`TimeSteps::of_times`]).
 pub fn time_notes_of<I: Iterator<Item = f64>>(column: &str, times: impl Fn() -> I) -> Vec<String> {
-    let Some(steps) = TimeSteps::of_times(&times) else {
+    time_notes_given(column, TimeSteps::of_times(&times), times)
+}
+
+/// [`time_notes_of`] with the steps' summary already computed (`TimeSteps::of_times` of the
+/// same times): a caller that needs the rate too regenerates the times once less.
+pub fn time_notes_given<I: Iterator<Item = f64>>(
+    column: &str,
+    steps: Option<TimeSteps>,
+    times: impl Fn() -> I,
+) -> Vec<String> {
+    let Some(steps) = steps else {
         return Vec::new();
     };
     let median_shown = shown(steps.median_s);

@@ -103,7 +103,7 @@ fn read_header(lines: &[&[u8]]) -> Result<Header> {
     }
     let volts = num("Volts")?;
     let rate_hz = num("Measurement Frequency")?;
-    if !(rate_hz > 0.0 && rate_hz <= MAX_RATE_HZ) || !(volts > 0.0) {
+    if !(rate_hz > 0.0 && rate_hz <= MAX_RATE_HZ && volts > 0.0) {
         return Err(err(format!(
             "the measurement frequency ({} Hz) must be in (0, {MAX_RATE_HZ}] Hz and Volts ({}) positive",
             shown(rate_hz),

@@ -22,7 +22,7 @@ use crate::error::Result;
 use crate::input::columns::LoadOptions;
 use crate::input::recording::Recording;
 use crate::input::table::WindowTable;
-use crate::input::timecheck::{time_notes_of, TimeSteps};
+use crate::input::timecheck::{time_notes_given, TimeSteps};
 use std::path::Path;
 
 /// True when `path` is a regular file starting with a `.cwa` header block's magic (`MD`,
@@ -102,7 +102,8 @@ pub fn cwa_epoch_table(
     };
     let t_end = t_end.time(t_end.n - 1);
     let mut notes = skip_notes(RawFormat::Cwa, &scan.notes, &scan.tally, left_out);
-    notes.extend(time_notes_of("time", || scan.times()));
+    let steps = TimeSteps::of_times(|| scan.times());
+    notes.extend(time_notes_given("time", steps, || scan.times()));
     let info = describe(
         RawFormat::Cwa,
         scan.header.device,
@@ -110,7 +111,7 @@ pub fn cwa_epoch_table(
         scan.header.rate_hz,
         &scan.channels,
     );
-    let measured = TimeSteps::of_times(|| scan.times()).map(|s| s.rate_hz());
+    let measured = steps.map(|s| s.rate_hz());
     let rate = measured.unwrap_or(100.0);
     let found = feed(path, &scan, cols, EpochScan::new(t0, rate, epochs))?.finish(t_end, rate);
     let source = super::source_of(&info);
