@@ -9,6 +9,7 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 use wiical_analysis::input::raw::epochs::{epoch_table, still_epochs, EpochOptions};
+use wiical_analysis::input::table::WindowTable;
 use wiical_analysis::input::window_table::{load_input, Input, WindowInputOptions};
 use wiical_analysis::input::InputError;
 use wiical_analysis::{Error, Recording};
@@ -286,4 +287,158 @@ fn simulated_cwa_file_runs_the_autocalibration() {
             fit.temp_coef
         );
     }
+}
+
+/// The whole-file path: every sample in memory, then the epochs.
+fn whole_file_table(path: &std::path::Path) -> wiical_analysis::Result<WindowTable> {
+    let raw = wiical_analysis::input::raw::read(path)?;
+    let rec = wiical_analysis::input::raw::to_recording(&raw, &Default::default())?;
+    let source = rec.info[0]
+        .strip_prefix("read as ")
+        .and_then(|s| s.split(':').next())
+        .unwrap()
+        .to_string();
+    epoch_table(&rec, &source, &EpochOptions::default())
+}
+
+fn assert_same_table(a: &WindowTable, b: &WindowTable) {
+    let bits =
+        |v: &[[f64; 3]]| -> Vec<[u64; 3]> { v.iter().map(|r| r.map(f64::to_bits)).collect() };
+    let bits1 = |v: &[f64]| -> Vec<u64> { v.iter().map(|x| x.to_bits()).collect() };
+    assert_eq!(bits(&a.recording.xyz), bits(&b.recording.xyz));
+    assert_eq!(bits(a.sd.as_ref().unwrap()), bits(b.sd.as_ref().unwrap()));
+    assert_eq!(a.count, b.count);
+    assert_eq!(
+        bits1(a.recording.t.as_ref().unwrap()),
+        bits1(b.recording.t.as_ref().unwrap())
+    );
+    assert_eq!(
+        bits1(a.recording.temp.as_ref().unwrap()),
+        bits1(b.recording.temp.as_ref().unwrap())
+    );
+    assert_eq!(a.recording.notes, b.recording.notes);
+    assert_eq!(a.recording.info, b.recording.info);
+    assert_eq!(a.recording.axis_columns, b.recording.axis_columns);
+    assert_eq!(a.info.description, b.info.description);
+}
+
+/// `load_input` reads a `.cwa` file block by block; its table is the whole-file path's bit for
+/// bit, also with corrupt blocks, an unreadable block, a block whose clock steps back and a
+/// cut-off end (the notes name each), and its errors are the same on the real test files.
+#[test]
+fn block_by_block_reading_equals_the_whole_file_path() {
+    let rec = simulate();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("sim.cwa");
+    write_cwa(&rec, &path);
+    let streamed = |p: &std::path::Path| match load_input(p, &WindowInputOptions::default()) {
+        Ok(Input::Table(t)) => Ok(t),
+        Ok(Input::Samples(_)) => panic!("a raw file must give the still-epoch table"),
+        Err(e) => Err(e),
+    };
+    assert_same_table(&streamed(&path).unwrap(), &whole_file_table(&path).unwrap());
+    // Damage: block 5's checksum, block 9's magic (checksum kept right), block 20's clock set
+    // back one minute, a cut-off end.
+    let mut bytes = std::fs::read(&path).unwrap();
+    let at = |k: usize| 1024 + 512 * k;
+    bytes[at(5) + 40] ^= 1;
+    let reseal = |b: &mut [u8]| {
+        b[510] = 0;
+        b[511] = 0;
+        let s = b.chunks_exact(2).fold(0u16, |s, w| {
+            s.wrapping_add(u16::from_le_bytes([w[0], w[1]]))
+        });
+        b[510..512].copy_from_slice(&0u16.wrapping_sub(s).to_le_bytes());
+    };
+    bytes[at(9)] = b'Q';
+    reseal(&mut bytes[at(9)..at(10)]);
+    let ts = u32::from_le_bytes(bytes[at(20) + 14..at(20) + 18].try_into().unwrap());
+    let minute = (ts >> 6) & 0x3f;
+    let ts = (ts & !(0x3f << 6)) | ((minute.saturating_sub(1)) << 6);
+    bytes[at(20) + 14..at(20) + 18].copy_from_slice(&ts.to_le_bytes());
+    reseal(&mut bytes[at(20)..at(21)]);
+    bytes.extend([0u8; 100]);
+    std::fs::write(&path, &bytes).unwrap();
+    let (a, b) = (streamed(&path).unwrap(), whole_file_table(&path).unwrap());
+    assert_same_table(&a, &b);
+    let notes = a.recording.notes.join("\n");
+    for want in [
+        "skipped 1 corrupt data block(s)",
+        "skipped 1 unreadable",
+        "cut short",
+    ] {
+        assert!(notes.contains(want), "{want}: {notes}");
+    }
+    // The real test files: the same refusal, word for word.
+    for name in [
+        "ax3_testfile.cwa",
+        "ax6_testfile.cwa",
+        "ax3_testfile_corrupt_blocks_0_13_14_142_143_144.cwa",
+    ] {
+        let path = common::data_dir().join("ggirread_testfiles").join(name);
+        let a = streamed(&path).unwrap_err().full_message();
+        let b = whole_file_table(&path)
+            .unwrap_err()
+            .in_file(&path)
+            .full_message();
+        assert_eq!(a, b, "{name}");
+    }
+}
+
+/// Too few still epochs because the file is damaged is said so, not "a longer recording is
+/// needed"; blocks holding no sample are named as such; both paths say it word for word.
+#[test]
+fn a_damaged_file_names_its_damage() {
+    let rec = simulate();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("sim.cwa");
+    write_cwa(&rec, &path);
+    let clean = std::fs::read(&path).unwrap();
+    let blocks = (clean.len() - 1024) / 512;
+    let mut bytes = clean.clone();
+    for k in (0..blocks).filter(|k| k % 5 != 0) {
+        bytes[1024 + 512 * k + 40] ^= 1; // 4 in 5 fail their checksum
+    }
+    std::fs::write(&path, &bytes).unwrap();
+    let streamed = load_input(&path, &WindowInputOptions::default())
+        .unwrap_err()
+        .full_message();
+    // The same bytes gzip-compressed are read whole (`load_input`'s other path).
+    let gz = dir.path().join("sim.cwa.gz");
+    let mut enc = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::fast());
+    std::io::Write::write_all(&mut enc, &bytes).unwrap();
+    std::fs::write(&gz, enc.finish().unwrap()).unwrap();
+    let whole = load_input(&gz, &WindowInputOptions::default())
+        .unwrap_err()
+        .full_message()
+        .replace("sim.cwa.gz", "sim.cwa");
+    let lost = blocks - blocks.div_ceil(5);
+    let want = format!("{lost} of its {blocks} data blocks could not be used ({lost} fail their checksum): the file is damaged, not too short");
+    assert!(streamed.contains(&want), "{streamed}");
+    assert!(!streamed.contains("longer recording"), "{streamed}");
+    assert_eq!(streamed, whole);
+    // Every block with a sample count of 0 (checksum kept right).
+    let mut bytes = clean;
+    for k in 0..blocks {
+        let b = &mut bytes[1024 + 512 * k..1024 + 512 * (k + 1)];
+        b[28] = 0;
+        b[29] = 0;
+        b[510] = 0;
+        b[511] = 0;
+        let s = b.chunks_exact(2).fold(0u16, |s, w| {
+            s.wrapping_add(u16::from_le_bytes([w[0], w[1]]))
+        });
+        b[510..512].copy_from_slice(&0u16.wrapping_sub(s).to_le_bytes());
+    }
+    std::fs::write(&path, &bytes).unwrap();
+    let e = load_input(&path, &WindowInputOptions::default())
+        .unwrap_err()
+        .full_message();
+    assert!(
+        e.contains(&format!(
+            "none of its {blocks} data blocks is readable (0 skipped: {blocks} hold 0 samples)"
+        )),
+        "{e}"
+    );
+    assert!(!e.contains("ends before"), "{e}");
 }

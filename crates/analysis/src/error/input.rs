@@ -111,7 +111,7 @@ pub enum InputError {
         rows: f64,
     },
     /// Too few still 10-s epochs in a raw recording for the autocalibration.
-    #[error("found {found} still 10-s epochs (SD < 13 mg on every axis, |mean| < 2 g) among {examined} complete epochs in {span_s:.0} s of data, but the autocalibration needs at least {needed}: a longer recording (days of wear) is needed")]
+    #[error("found {found} still 10-s epochs (SD < 13 mg on every axis, |mean| < 2 g) among {examined} complete epochs in {span_s:.0} s of data, but the autocalibration needs at least {needed}: {cause}")]
     TooFewStillEpochs {
         /// Epochs found.
         found: usize,
@@ -121,6 +121,9 @@ pub enum InputError {
         needed: usize,
         /// Seconds of data searched.
         span_s: f64,
+        /// What would give more: a longer recording, or what was wrong with this one (blocks
+        /// skipped, a rate not held).
+        cause: String,
     },
     /// No data lines at all.
     #[error("file is empty (no data lines)")]

@@ -79,33 +79,43 @@ impl TimeSteps {
     /// The summary of `t` (`None` with fewer than 3 rows or no time elapsed). With repeated
     /// times the step statistics are those of the positive steps.
     pub fn of(t: &[f64]) -> Option<Self> {
-        if t.len() < 3 {
+        Self::of_times(|| t.iter().copied())
+    }
+
+    /// [`TimeSteps::of`] on times that `times` yields afresh on every call (the times of a
+    /// file read block by block are regenerated, never held): a few passes, memory constant.
+    /// The median is selected exactly (by the bits of the positive steps, 16 at a time), so
+    /// the result is the one of a sort.
+    pub fn of_times<I: Iterator<Item = f64>>(times: impl Fn() -> I) -> Option<Self> {
+        let (mut rows, mut positive) = (0usize, 0usize);
+        let (mut first, mut last) = (f64::NAN, f64::NAN);
+        for (prev, t) in pairs(times()) {
+            if rows == 0 {
+                first = prev;
+            }
+            rows += 1;
+            last = t;
+            if t - prev > 0.0 {
+                positive += 1;
+            }
+        }
+        let all = rows;
+        if all < 2 || positive == 0 {
             return None;
         }
-        // The median by selection, not a full sort: there is a step per row of the file
-        // (millions for a long recording), and the gap count needs no order.
-        let all = t.len() - 1;
-        let mut steps: Vec<f64> = t
-            .windows(2)
-            .map(|w| w[1] - w[0])
-            .filter(|d| *d > 0.0)
-            .collect();
-        let repeats = all - steps.len();
-        if steps.is_empty() {
-            return None;
-        }
-        let mid = steps.len() / 2;
-        let median_s = *steps.select_nth_unstable_by(mid, |a, b| a.total_cmp(b)).1;
+        let median_s = kth_positive_step(&times, positive / 2);
         if !(median_s.is_finite() && median_s > 0.0) {
             return None;
         }
-        let gaps = steps.iter().filter(|d| **d > GAP_FACTOR * median_s).count();
+        let gaps = pairs(times())
+            .filter(|(a, b)| b - a > GAP_FACTOR * median_s)
+            .count();
         Some(Self {
             median_s,
-            mean_s: (t[t.len() - 1] - t[0]) / all as f64,
+            mean_s: (last - first) / all as f64,
             gaps,
             steps: all,
-            repeats,
+            repeats: all - positive,
         })
     }
 
@@ -127,6 +137,45 @@ impl TimeSteps {
     }
 }
 
+/// Consecutive pairs `(t[i], t[i+1])` of an iterator of times.
+fn pairs<I: Iterator<Item = f64>>(mut it: I) -> impl Iterator<Item = (f64, f64)> {
+    let mut prev = it.next();
+    it.map_while(move |t| {
+        let p = prev.replace(t)?;
+        Some((p, t))
+    })
+}
+
+/// The `k`-th smallest (0-based) positive step of the times `times` yields: a radix selection
+/// on the steps' bits (for positive floats their order as integers), four passes of a 2¹⁶
+/// histogram, so no step is stored.
+fn kth_positive_step<I: Iterator<Item = f64>>(times: &impl Fn() -> I, mut k: usize) -> f64 {
+    let mut prefix = 0u64;
+    for level in 0..4u32 {
+        let shift = 48 - 16 * level;
+        let mut hist = vec![0usize; 1 << 16];
+        for (a, b) in pairs(times()) {
+            let d = b - a;
+            if d > 0.0 {
+                let bits = d.to_bits();
+                if level == 0 || bits >> (shift + 16) == prefix {
+                    hist[((bits >> shift) & 0xffff) as usize] += 1;
+                }
+            }
+        }
+        let mut below = 0usize;
+        for (i, &c) in hist.iter().enumerate() {
+            if below + c > k {
+                prefix = (prefix << 16) | i as u64;
+                k -= below;
+                break;
+            }
+            below += c;
+        }
+    }
+    f64::from_bits(prefix)
+}
+
 /// Rounded for messages (a median of 0.009999999999990905 s reads as 0.01 s).
 fn shown(x: f64) -> f64 {
     (x * 1e9).round() / 1e9
@@ -136,7 +185,23 @@ fn shown(x: f64) -> f64 {
 /// step), or, when there are so many that the timestamps come in bursts, how the rate is
 /// taken instead. Empty when all is regular.
 pub fn time_notes(column: &str, t: &[f64]) -> Vec<String> {
-    let Some(steps) = TimeSteps::of(t) else {
+    time_notes_of(column, || t.iter().copied())
+}
+
+/// [`time_notes`] on times that `times` yields afresh on every call (see
+/// [`TimeSteps::of_times`]).
+pub fn time_notes_of<I: Iterator<Item = f64>>(column: &str, times: impl Fn() -> I) -> Vec<String> {
+    time_notes_given(column, TimeSteps::of_times(&times), times)
+}
+
+/// [`time_notes_of`] with the steps' summary already computed (`TimeSteps::of_times` of the
+/// same times): a caller that needs the rate too regenerates the times once less.
+pub fn time_notes_given<I: Iterator<Item = f64>>(
+    column: &str,
+    steps: Option<TimeSteps>,
+    times: impl Fn() -> I,
+) -> Vec<String> {
+    let Some(steps) = steps else {
         return Vec::new();
     };
     let median_shown = shown(steps.median_s);
@@ -158,29 +223,24 @@ pub fn time_notes(column: &str, t: &[f64]) -> Vec<String> {
             (steps.rate_hz() * 1e3).round() / 1e3,
         )];
     }
-    let gaps: Vec<usize> = t
-        .windows(2)
-        .enumerate()
-        .filter(|(_, w)| w[1] - w[0] > GAP_FACTOR * steps.median_s)
-        .map(|(i, _)| i)
-        .collect();
-    if gaps.is_empty() {
+    let mut gaps = 0usize;
+    let mut listed: Vec<String> = Vec::new();
+    for (a, b) in pairs(times()) {
+        if b - a > GAP_FACTOR * steps.median_s {
+            gaps += 1;
+            if listed.len() < MAX_LISTED_GAPS {
+                listed.push(format!("{a} s → {b} s"));
+            }
+        }
+    }
+    if gaps == 0 {
         return Vec::new();
     }
-    let listed: Vec<String> = gaps
-        .iter()
-        .take(MAX_LISTED_GAPS)
-        .map(|&i| format!("{} s → {} s", t[i], t[i + 1]))
-        .collect();
-    let more = if gaps.len() > MAX_LISTED_GAPS {
-        ", …"
-    } else {
-        ""
-    };
+    let more = if gaps > MAX_LISTED_GAPS { ", …" } else { "" };
     vec![format!(
         "column '{}': time jumps {} time(s) by more than {GAP_FACTOR}× the median step of {median_shown} s ({}{more}); samples are missing there",
         quote(column),
-        gaps.len(),
+        gaps,
         listed.join(", ")
     )]
 }

@@ -75,6 +75,12 @@ pub enum Input {
 /// 10-s epochs ([`crate::input::raw::epochs`]: GGIR's free-living autocalibration input); too few of
 /// them is an error saying how many were found and needed.
 pub fn load_input(path: &Path, opts: &WindowInputOptions) -> Result<Input> {
+    if crate::input::raw::stream::is_cwa_file(path) {
+        // Read block by block: memory is the still epochs, not the file (no size cap).
+        return crate::input::raw::stream::cwa_epoch_table(path, &opts.load, &Default::default())
+            .map(Input::Table)
+            .map_err(|e| e.in_file(path));
+    }
     let bytes = crate::input::bounded::read_bounded(path, MAX_RECORDING_BYTES)?;
     if let Some(raw) = crate::input::raw::parse_bytes(&bytes, path).map_err(|e| e.in_file(path))? {
         return raw_epochs(&raw, &opts.load).map_err(|e| e.in_file(path));
@@ -91,13 +97,22 @@ pub fn load_input(path: &Path, opts: &WindowInputOptions) -> Result<Input> {
 /// A raw file's still epochs as a table.
 fn raw_epochs(raw: &crate::input::raw::RawFile, opts: &load::LoadOptions) -> Result<Input> {
     let rec = crate::input::raw::to_recording(raw, opts)?;
-    let source = rec.info.first().cloned().unwrap_or_default();
-    let source = source
-        .strip_prefix("read as ")
-        .and_then(|s| s.split(':').next())
-        .unwrap_or("the raw file")
-        .to_string();
-    let table = crate::input::raw::epochs::epoch_table(&rec, &source, &Default::default())?;
+    let source = crate::input::raw::source_of(rec.info.first().map_or("", String::as_str));
+    let table = crate::input::raw::epochs::epoch_table(&rec, &source, &Default::default());
+    let table = table.map_err(|e| {
+        let tally = crate::input::raw::Tally::of(raw);
+        let times = crate::input::raw::sample_times(raw);
+        let left_out = times.iter().filter(|t| t.is_none()).count();
+        let measured = rec.estimated_rate_hz();
+        crate::input::raw::explain_too_few(
+            e,
+            raw.format,
+            &tally,
+            left_out,
+            measured,
+            raw.header_rate_hz,
+        )
+    })?;
     Ok(Input::Table(table))
 }
 

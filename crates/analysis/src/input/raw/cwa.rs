@@ -51,48 +51,153 @@ pub fn rate_of_code(code: u8) -> f64 {
 
 /// Reads a whole `.cwa` file.
 pub fn parse(bytes: &[u8]) -> Result<RawFile> {
-    let header_err = |why: String| InputError::RawHeader {
-        format: "Axivity .cwa",
-        why,
-    };
-    if bytes.len() < HEADER_BYTES {
-        return Err(header_err(format!(
-            "the header block is cut short ({} of {HEADER_BYTES} bytes)",
-            bytes.len()
-        )));
-    }
-    if &bytes[..2] != b"MD" || u16_at(bytes, 2) != 1020 {
-        return Err(header_err("no 'MD' header block of 1024 bytes".into()));
-    }
-    let device = if bytes[4] == 0x64 { "AX6" } else { "AX3" };
+    let header = Header::of(bytes)?;
     let body = &bytes[HEADER_BYTES..];
     let mut layout: Option<(u8, bool)> = None; // channels, packed
     let mut blocks = Vec::with_capacity(body.len() / BLOCK_BYTES);
     for (index, block) in body.chunks_exact(BLOCK_BYTES).enumerate() {
         blocks.push(decode_block(block, index, &mut layout));
     }
-    let mut notes = Vec::new();
-    let rest = body.len() % BLOCK_BYTES;
-    if rest != 0 {
-        notes.push(format!(
-            "the file is cut short: its last data block (#{}) has {rest} of {BLOCK_BYTES} bytes and is not read",
-            blocks.len()
-        ));
-    }
-    let channels = match layout.map(|l| l.0) {
-        Some(6) => &["gx", "gy", "gz", "ax", "ay", "az"][..],
-        Some(9) => &["gx", "gy", "gz", "ax", "ay", "az", "mx", "my", "mz"][..],
-        _ => &["ax", "ay", "az"][..],
-    };
+    let notes = cut_note(blocks.len(), body.len() % BLOCK_BYTES)
+        .into_iter()
+        .collect();
     Ok(RawFile {
         format: RawFormat::Cwa,
-        device: device.into(),
-        channels: channels.iter().map(|s| s.to_string()).collect(),
-        header_rate_hz: rate_of_code(bytes[36]),
+        device: header.device.into(),
+        channels: channel_names(layout),
+        header_rate_hz: header.rate_hz,
         blocks,
         declared_blocks: None,
         notes,
     })
+}
+
+/// What the header block says.
+#[derive(Debug, Clone, Copy)]
+pub struct Header {
+    /// `AX3` or `AX6` (hardware type at byte 4).
+    pub device: &'static str,
+    /// The declared sample rate, Hz.
+    pub rate_hz: f64,
+}
+
+impl Header {
+    /// The header of a file starting with `bytes` (all of it when shorter than the header
+    /// block).
+    pub fn of(bytes: &[u8]) -> Result<Self> {
+        let header_err = |why: String| InputError::RawHeader {
+            format: "Axivity .cwa",
+            why,
+        };
+        if bytes.len() < HEADER_BYTES {
+            return Err(header_err(format!(
+                "the header block is cut short ({} of {HEADER_BYTES} bytes)",
+                bytes.len()
+            )));
+        }
+        if &bytes[..2] != b"MD" || u16_at(bytes, 2) != 1020 {
+            return Err(header_err("no 'MD' header block of 1024 bytes".into()));
+        }
+        Ok(Self {
+            device: if bytes[4] == 0x64 { "AX6" } else { "AX3" },
+            rate_hz: rate_of_code(bytes[36]),
+        })
+    }
+}
+
+/// The note on a file whose last block is cut off (`rest` bytes of it after `full` blocks).
+fn cut_note(full: usize, rest: usize) -> Option<String> {
+    (rest != 0).then(|| format!(
+        "the file is cut short: its last data block (#{full}) has {rest} of {BLOCK_BYTES} bytes and is not read"
+    ))
+}
+
+/// The channel names of a layout (channels, packed) as the blocks store them.
+fn channel_names(layout: Option<(u8, bool)>) -> Vec<String> {
+    let names = match layout.map(|l| l.0) {
+        Some(6) => &["gx", "gy", "gz", "ax", "ay", "az"][..],
+        Some(9) => &["gx", "gy", "gz", "ax", "ay", "az", "mx", "my", "mz"][..],
+        _ => &["ax", "ay", "az"][..],
+    };
+    names.iter().map(|s| s.to_string()).collect()
+}
+
+/// Blocks read from the file per chunk (4 MiB): the memory of a block-by-block read.
+pub const CHUNK_BLOCKS: usize = 8192;
+
+/// A `.cwa` file read a chunk of blocks at a time ([`CHUNK_BLOCKS`]), each decoded as
+/// [`parse`] decodes it: memory is one chunk, whatever the file's length.
+pub struct BlockReader {
+    file: std::fs::File,
+    path: std::path::PathBuf,
+    /// The header block's fields.
+    pub header: Header,
+    layout: Option<(u8, bool)>,
+    index: usize,
+    rest: usize,
+    buf: Vec<u8>,
+}
+
+impl BlockReader {
+    /// Opens `path` and reads its header block.
+    pub fn open(path: &std::path::Path) -> crate::error::Result<Self> {
+        let read_err = |source| InputError::Read {
+            path: path.into(),
+            source,
+        };
+        let mut file = std::fs::File::open(path).map_err(read_err)?;
+        let mut head = vec![0u8; HEADER_BYTES];
+        let got = fill(&mut file, &mut head).map_err(read_err)?;
+        let header = Header::of(&head[..got])?;
+        Ok(Self {
+            file,
+            path: path.into(),
+            header,
+            layout: None,
+            index: 0,
+            rest: 0,
+            buf: vec![0u8; CHUNK_BLOCKS * BLOCK_BYTES],
+        })
+    }
+
+    /// The next chunk's blocks in `out` (cleared first); `false` once the file is read.
+    pub fn next_chunk(&mut self, out: &mut Vec<Block>) -> crate::error::Result<bool> {
+        out.clear();
+        let got = fill(&mut self.file, &mut self.buf).map_err(|source| InputError::Read {
+            path: self.path.clone(),
+            source,
+        })?;
+        for block in self.buf[..got].chunks_exact(BLOCK_BYTES) {
+            out.push(decode_block(block, self.index, &mut self.layout));
+            self.index += 1;
+        }
+        self.rest = got % BLOCK_BYTES;
+        Ok(got == self.buf.len())
+    }
+
+    /// The channel names (known once the first block is decoded).
+    pub fn channels(&self) -> Vec<String> {
+        channel_names(self.layout)
+    }
+
+    /// The reader's notes once the file is read (a cut-off last block).
+    pub fn notes(&self) -> Vec<String> {
+        cut_note(self.index, self.rest).into_iter().collect()
+    }
+}
+
+/// Reads into `buf` until it is full or the file ends; the bytes read.
+fn fill(file: &mut impl std::io::Read, buf: &mut [u8]) -> std::io::Result<usize> {
+    let mut got = 0;
+    while got < buf.len() {
+        match file.read(&mut buf[got..]) {
+            Ok(0) => break,
+            Ok(k) => got += k,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+            Err(e) => return Err(e),
+        }
+    }
+    Ok(got)
 }
 
 /// True when the 256 little-endian words of a block sum to 0 modulo 2¹⁶.

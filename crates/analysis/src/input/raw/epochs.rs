@@ -19,6 +19,9 @@ use crate::input::recording::Recording;
 use crate::input::table::WindowTable;
 use crate::report::contract::WindowInputInfo;
 
+/// What too few still epochs call for when nothing was wrong with the recording.
+pub(crate) const LONGER: &str = "a longer recording (days of wear) is needed";
+
 /// The still-epoch rule (defaults: GGIR's).
 #[derive(Debug, Clone)]
 pub struct EpochOptions {
@@ -102,6 +105,70 @@ impl Acc {
     }
 }
 
+/// The still-epoch search fed one sample at a time, in time order: memory is the still
+/// epochs found (a few per minute of wear), never the samples, so a week-long raw file is
+/// searched while it is read ([`crate::input::raw::stream`]).
+pub struct EpochScan {
+    t0: f64,
+    needed: usize,
+    acc: Acc,
+    k_cur: u64,
+    out: StillEpochs,
+    opts: EpochOptions,
+}
+
+impl EpochScan {
+    /// A search whose epochs start at `t0` (the first sample's time, s) for samples at
+    /// `rate_hz`: an epoch counts when it holds at least `min_fill` of the samples promised.
+    pub fn new(t0: f64, rate_hz: f64, opts: &EpochOptions) -> Self {
+        Self {
+            t0,
+            needed: (opts.min_fill * opts.epoch_s * rate_hz).ceil().max(2.0) as usize,
+            acc: Acc::default(),
+            k_cur: 0,
+            out: StillEpochs::default(),
+            opts: opts.clone(),
+        }
+    }
+
+    /// The next sample (time `t` s, not before the previous one's; `x` in g; `temp` °C or NaN).
+    pub fn push(&mut self, t: f64, x: [f64; 3], temp: f64) {
+        let k = ((t - self.t0) / self.opts.epoch_s).floor().max(0.0) as u64;
+        if k != self.k_cur {
+            self.close();
+            self.acc = Acc::default();
+            self.k_cur = k;
+        }
+        self.acc.push(x, temp);
+    }
+
+    /// Judges the epoch in progress (when it holds enough samples).
+    fn close(&mut self) {
+        if self.acc.n < self.needed {
+            return;
+        }
+        self.out.examined += 1;
+        let e = self
+            .acc
+            .epoch(self.t0 + (self.k_cur as f64 + 0.5) * self.opts.epoch_s);
+        let still = e.sd.iter().all(|&s| s < self.opts.sd_max_g)
+            && e.mean.iter().all(|&m| m.abs() < self.opts.mean_max_g);
+        if still {
+            self.out.still.push(e);
+        }
+    }
+
+    /// The search's result once the last sample (at `t_end`, s) was pushed; the last epoch
+    /// counts only when it ends inside the data.
+    pub fn finish(mut self, t_end: f64, rate_hz: f64) -> StillEpochs {
+        self.out.span_s = t_end - self.t0;
+        if t_end - self.t0 >= (self.k_cur as f64 + 1.0) * self.opts.epoch_s - 1.0 / rate_hz {
+            self.close();
+        }
+        self.out
+    }
+}
+
 /// The still epochs of samples `xyz` (g) at times `t` (s, rising) sampled at `rate_hz`, with
 /// their temperatures when given.
 pub fn still_epochs(
@@ -114,39 +181,11 @@ pub fn still_epochs(
     let (Some(&t0), Some(&t_end)) = (t.first(), t.last()) else {
         return StillEpochs::default();
     };
-    let mut out = StillEpochs {
-        span_s: t_end - t0,
-        ..StillEpochs::default()
-    };
-    let needed = (opts.min_fill * opts.epoch_s * rate_hz).ceil().max(2.0) as usize;
-    let mut acc = Acc::default();
-    let mut k_cur = 0u64;
-    let close = |acc: &Acc, k: u64, out: &mut StillEpochs| {
-        if acc.n < needed {
-            return;
-        }
-        out.examined += 1;
-        let e = acc.epoch(t0 + (k as f64 + 0.5) * opts.epoch_s);
-        let still = e.sd.iter().all(|&s| s < opts.sd_max_g)
-            && e.mean.iter().all(|&m| m.abs() < opts.mean_max_g);
-        if still {
-            out.still.push(e);
-        }
-    };
+    let mut scan = EpochScan::new(t0, rate_hz, opts);
     for (i, (&ti, &x)) in t.iter().zip(xyz).enumerate() {
-        let k = ((ti - t0) / opts.epoch_s).floor().max(0.0) as u64;
-        if k != k_cur {
-            close(&acc, k_cur, &mut out);
-            acc = Acc::default();
-            k_cur = k;
-        }
-        acc.push(x, temp.map_or(f64::NAN, |tp| tp[i]));
+        scan.push(ti, x, temp.map_or(f64::NAN, |tp| tp[i]));
     }
-    // The last epoch counts only when it ends inside the data.
-    if t_end - t0 >= (k_cur as f64 + 1.0) * opts.epoch_s - 1.0 / rate_hz {
-        close(&acc, k_cur, &mut out);
-    }
-    out
+    scan.finish(t_end, rate_hz)
 }
 
 /// The still epochs of a raw recording (in g, with times) as a window-mean table; too few for
@@ -156,29 +195,49 @@ pub fn epoch_table(rec: &Recording, source: &str, opts: &EpochOptions) -> Result
     let t = rec.times(100.0);
     let rate = rec.estimated_rate_hz().unwrap_or(100.0);
     let found = still_epochs(&t, &rec.xyz, rec.temp.as_deref(), rate, opts);
+    let like = Recording {
+        temp: rec.temp.as_ref().map(|_| Vec::new()),
+        axis_columns: rec.axis_columns.clone(),
+        notes: rec.notes.clone(),
+        info: rec.info.clone(),
+        ..Recording::default()
+    };
+    table_of(found, like, source, opts)
+}
+
+/// The window-mean table of the still epochs `found`; `like` carries what the table keeps of
+/// the recording (axis names, the reader's notes and info; `temp: Some` when it had
+/// temperatures). Too few epochs is [`InputError::TooFewStillEpochs`].
+pub(crate) fn table_of(
+    found: StillEpochs,
+    like: Recording,
+    source: &str,
+    opts: &EpochOptions,
+) -> Result<WindowTable> {
     if found.still.len() < MIN_EPOCHS {
         return Err(InputError::TooFewStillEpochs {
             found: found.still.len(),
             examined: found.examined,
             needed: MIN_EPOCHS,
             span_s: found.span_s,
+            cause: LONGER.into(),
         }
         .into());
     }
-    let mut means = Recording {
+    let means = Recording {
         t: Some(found.still.iter().map(|e| e.t_centre).collect()),
         xyz: found.still.iter().map(|e| e.mean).collect(),
-        temp: rec
+        temp: like
             .temp
             .as_ref()
             .map(|_| found.still.iter().map(|e| e.temp).collect()),
-        axis_columns: rec.axis_columns.clone(),
+        axis_columns: like.axis_columns,
         // The reader's warnings (skipped blocks, gaps) stay with the table: the CLI shows them.
-        notes: rec.notes.clone(),
-        info: rec.info.clone(),
+        notes: like.notes,
+        info: like.info,
+        sample_rate_hz: None,
         ..Recording::default()
     };
-    means.sample_rate_hz = None;
     let description = format!(
         "{} still {}-s epochs (SD < {} mg on every axis, |mean| < {} g) of {} complete epochs in {:.1} h of {source}: analysed as window means, no static detection",
         found.still.len(),

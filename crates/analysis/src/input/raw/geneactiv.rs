@@ -28,6 +28,27 @@ pub const PAGE_SAMPLES: usize = 300;
 /// Longest line accepted, bytes (a data line is 3600 hex digits).
 const MAX_LINE: usize = 8192;
 
+/// Gains a header may declare (counts·100 per g): GENEActiv's ±8 g over 12 bits is about
+/// 25 600; a gain outside this range would put the 12-bit full scale below 0.5 g or above
+/// 1000 g.
+const GAIN_RANGE: std::ops::RangeInclusive<f64> = 204.8..=409_600.0;
+/// Largest |offset| a header may declare (counts·100: the whole 12-bit range).
+const MAX_OFFSET: f64 = 204_800.0;
+/// Highest rate a header or page may declare, Hz (the devices stop at 100 Hz).
+const MAX_RATE_HZ: f64 = 10_000.0;
+/// Temperatures a page may report, °C (the sensor's operating range with margin).
+const TEMP_RANGE: std::ops::RangeInclusive<f64> = -60.0..=100.0;
+
+/// A header's number as an error quotes it: exponent notation when huge or tiny (1e300, not
+/// 301 digits).
+fn shown(v: f64) -> String {
+    if v != 0.0 && !(1e-3..1e7).contains(&v.abs()) {
+        format!("{v:e}")
+    } else {
+        format!("{v}")
+    }
+}
+
 /// The header's calibration and declarations.
 #[derive(Debug, Clone)]
 struct Header {
@@ -70,16 +91,24 @@ fn read_header(lines: &[&[u8]]) -> Result<Header> {
     for (k, a) in ["x", "y", "z"].iter().enumerate() {
         gain[k] = num(&format!("{a} gain"))?;
         offset[k] = num(&format!("{a} offset"))?;
-        if gain[k] == 0.0 {
-            return Err(err(format!("{a} gain is 0")));
+        if !(GAIN_RANGE.contains(&gain[k]) && offset[k].abs() <= MAX_OFFSET) {
+            return Err(err(format!(
+                "{a} gain {} or offset {} is impossible (a gain of {}…{} and an offset within ±{MAX_OFFSET} are)",
+                shown(gain[k]),
+                shown(offset[k]),
+                GAIN_RANGE.start(),
+                GAIN_RANGE.end()
+            )));
         }
     }
     let volts = num("Volts")?;
     let rate_hz = num("Measurement Frequency")?;
-    if !(rate_hz > 0.0) || volts == 0.0 {
-        return Err(err(
-            "the measurement frequency or Volts is not positive".into()
-        ));
+    if !(rate_hz > 0.0 && rate_hz <= MAX_RATE_HZ && volts > 0.0) {
+        return Err(err(format!(
+            "the measurement frequency ({} Hz) must be in (0, {MAX_RATE_HZ}] Hz and Volts ({}) positive",
+            shown(rate_hz),
+            shown(volts)
+        )));
     }
     Ok(Header {
         gain,
@@ -187,10 +216,24 @@ fn decode_page(
     let temp_c = get("Temperature")
         .and_then(number)
         .ok_or("no 'Temperature'")?;
+    if !TEMP_RANGE.contains(&temp_c) {
+        return Err(format!(
+            "temperature {} °C is impossible ({}…{} °C)",
+            shown(temp_c),
+            TEMP_RANGE.start(),
+            TEMP_RANGE.end()
+        ));
+    }
     let rate_hz = get("Measurement Frequency")
         .and_then(number)
         .filter(|r| *r > 0.0)
         .unwrap_or(h.rate_hz);
+    if rate_hz > MAX_RATE_HZ {
+        return Err(format!(
+            "measurement frequency {} Hz is impossible",
+            shown(rate_hz)
+        ));
+    }
     let sequence = get("Sequence Number")
         .and_then(number)
         .map_or(0, |v| v.clamp(0.0, u32::MAX as f64) as u32);
@@ -265,5 +308,56 @@ mod tests {
         assert!(raw.notes[0].contains("page #2"), "{:?}", raw.notes);
         let e = parse(b"Device Identity\r\nx gain:0\r\nx offset:1\r\n").unwrap_err();
         assert!(e.to_string().contains("x gain"), "{e}");
+    }
+}
+
+#[cfg(test)]
+mod plausibility {
+    use super::tests_support::*;
+    use super::*;
+
+    /// Header gains, offsets, rates and page temperatures beyond any device are refused by
+    /// name (a header of 1e300 must not turn into samples of 1e-296 g).
+    #[test]
+    fn impossible_header_and_page_values_are_refused() {
+        let hex = "100fff80000c".repeat(PAGE_SAMPLES);
+        let page = page_at("2013-05-30 10:12:54:500", "21.5", &hex);
+        for (from, to, want) in [
+            ("x gain:25600", "x gain:1e300", "x gain 1e300"),
+            (
+                "y offset:-256",
+                "y offset:1e300",
+                "y gain 25600 or offset 1e300",
+            ),
+            (
+                "Frequency:50 Hz",
+                "Frequency:1e300 Hz",
+                "measurement frequency",
+            ),
+            ("Volts:300", "Volts:-3", "Volts (-3)"),
+        ] {
+            let text = format!("{}{page}", HEADER.replace(from, to));
+            let e = parse(text.as_bytes()).unwrap_err().to_string();
+            assert!(e.contains(want), "{to}: {e}");
+        }
+        let text = format!(
+            "{HEADER}{}",
+            page_at("2013-05-30 10:12:54:500", "1e300", &hex)
+        );
+        let raw = parse(text.as_bytes()).unwrap();
+        let (_, why) = raw.invalid_blocks()[0];
+        assert!(why.contains("temperature 1e300 °C is impossible"), "{why}");
+        // The real device's values pass.
+        let text = format!("{HEADER}{page}");
+        assert_eq!(parse(text.as_bytes()).unwrap().good().count(), 1);
+    }
+}
+
+#[cfg(test)]
+mod tests_support {
+    pub(super) const HEADER: &str = "Device Identity\r\nDevice Model:1.1  \r\nMeasurement Frequency:50 Hz\r\nx gain:25600\r\nx offset:0\r\ny gain:25600\r\ny offset:-256\r\nz gain:25600\r\nz offset:0\r\nVolts:300\r\nLux:800\r\nNumber of Pages:9\r\n";
+
+    pub(super) fn page_at(time: &str, temp: &str, hex: &str) -> String {
+        format!("Recorded Data\r\nSequence Number:0\r\nPage Time:{time}\r\nTemperature:{temp}\r\nMeasurement Frequency:50\r\n{hex}\r\n")
     }
 }

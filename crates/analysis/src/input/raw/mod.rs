@@ -24,6 +24,7 @@ pub mod cwa;
 pub mod epochs;
 pub mod geneactiv;
 pub mod ggir;
+pub mod stream;
 
 /// Which raw format a file is.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -225,7 +226,7 @@ pub(crate) fn valid_civil(y: i64, mo: u32, d: u32, h: u32, mi: u32, s: u32) -> b
 /// The recording every command analyses: the chosen triplet of every decoded sample, its time
 /// and the block's temperature. See [`sample_times`] for the times.
 pub fn to_recording(raw: &RawFile, opts: &LoadOptions) -> Result<Recording> {
-    let cols = choose_channels(raw, opts)?;
+    let cols = choose_channels(&raw.channels, opts)?;
     let nch = raw.n_channels();
     let times = sample_times(raw);
     let mut rec = Recording::default();
@@ -239,56 +240,216 @@ pub fn to_recording(raw: &RawFile, opts: &LoadOptions) -> Result<Recording> {
             temp.push(b.temp_c);
         }
     }
+    let tally = Tally::of(raw);
+    let left_out = times.iter().filter(|t| t.is_none()).count();
     if rec.xyz.is_empty() {
-        return Err(no_data(raw).into());
+        return Err(no_data(&tally, left_out).into());
     }
     rec.axis_columns = cols.map(|c| raw.channels[c].clone());
-    rec.notes = skip_notes(raw, times.iter().filter(|t| t.is_none()).count());
+    rec.notes = skip_notes(raw.format, &raw.notes, &tally, left_out);
     rec.notes
         .extend(crate::input::timecheck::time_notes("time", &t));
-    rec.info.push(describe(raw));
+    rec.info.push(describe(
+        raw.format,
+        &raw.device,
+        raw.blocks.len(),
+        raw.header_rate_hz,
+        &raw.channels,
+    ));
     rec.t = Some(t);
     rec.temp = Some(temp);
     Ok(rec)
 }
 
-/// The error for a file without one decoded block.
-pub(crate) fn no_data(raw: &RawFile) -> InputError {
-    let corrupt = raw.corrupt_blocks().len();
-    let invalid = raw.invalid_blocks();
-    let why = match (corrupt, invalid.first()) {
-        (0, Some((i, why))) => format!("block #{i}: {why}"),
-        (0, None) => "the file ends before its first data block".to_string(),
-        (c, _) => format!("{c} fail their checksum"),
-    };
-    InputError::RawNoData {
-        blocks: raw.blocks.len(),
-        skipped: corrupt + invalid.len(),
-        why,
+/// The file as a table's description names it ("an Axivity AX3 .cwa file"), from the
+/// sentence of [`describe`].
+pub(crate) fn source_of(info: &str) -> String {
+    info.strip_prefix("read as ")
+        .and_then(|s| s.split(':').next())
+        .unwrap_or("the raw file")
+        .to_string()
+}
+
+/// Blocks listed by index in a note or an error before "…".
+const LISTED_BLOCKS: usize = 8;
+
+/// What a file's blocks were, counted as they are read (a file read block by block keeps
+/// these counts, not its blocks): the notes and the no-data error come from it.
+#[derive(Debug, Clone, Default)]
+pub struct Tally {
+    /// Data blocks (pages) in the file.
+    pub blocks: usize,
+    /// Blocks that failed their checksum.
+    pub corrupt: usize,
+    /// The first [`LISTED_BLOCKS`] of them.
+    pub corrupt_first: Vec<usize>,
+    /// Blocks skipped for an impossible field.
+    pub invalid: usize,
+    /// The first [`LISTED_BLOCKS`] of them.
+    pub invalid_first: Vec<usize>,
+    /// The first such block's reason.
+    pub first_invalid_why: Option<String>,
+    /// Decoded blocks holding no sample.
+    pub empty: usize,
+}
+
+impl Tally {
+    /// Counts block `b`, the next in file order, of a file whose samples have `channels` values.
+    pub fn push(&mut self, b: &Block, channels: usize) {
+        let index = self.blocks;
+        self.blocks += 1;
+        match b {
+            Block::Good(g) => self.empty += usize::from(g.len(channels) == 0),
+            Block::Corrupt => {
+                self.corrupt += 1;
+                if self.corrupt_first.len() < LISTED_BLOCKS {
+                    self.corrupt_first.push(index);
+                }
+            }
+            Block::Invalid(why) => {
+                self.invalid += 1;
+                if self.invalid_first.len() < LISTED_BLOCKS {
+                    self.invalid_first.push(index);
+                }
+                self.first_invalid_why.get_or_insert_with(|| why.clone());
+            }
+        }
+    }
+
+    /// The counts of a file read whole.
+    pub fn of(raw: &RawFile) -> Self {
+        let mut t = Self::default();
+        for b in &raw.blocks {
+            t.push(b, raw.n_channels());
+        }
+        t
     }
 }
 
-/// Which three channels the options ask for: `--columns` names, else the wanted sensor's
-/// triplet (the accelerometer by default) among the channel names.
-fn choose_channels(raw: &RawFile, opts: &LoadOptions) -> Result<[usize; 3]> {
-    let have = raw.channels.join(",");
+/// The error for a file without one sample to analyse, naming every reason blocks were
+/// skipped or left out (`left_out`: decoded blocks whose time steps back or that hold no
+/// sample).
+pub(crate) fn no_data(tally: &Tally, left_out: usize) -> InputError {
+    let mut why = Vec::new();
+    if tally.corrupt > 0 {
+        why.push(format!("{} fail their checksum", tally.corrupt));
+    }
+    if let (Some(i), Some(reason)) = (tally.invalid_first.first(), &tally.first_invalid_why) {
+        if tally.corrupt == 0 {
+            why.push(format!("block #{i}: {reason}"));
+        } else {
+            why.push(format!(
+                "{} have an impossible field (block #{i}: {reason})",
+                tally.invalid
+            ));
+        }
+    }
+    if tally.empty > 0 {
+        why.push(format!("{} hold 0 samples", tally.empty));
+    }
+    let stepped_back = left_out.saturating_sub(tally.empty);
+    if stepped_back > 0 {
+        why.push(format!(
+            "{stepped_back} start before the previous block's last sample (the clock steps back)"
+        ));
+    }
+    if why.is_empty() {
+        why.push("the file ends before its first data block".to_string());
+    }
+    InputError::RawNoData {
+        blocks: tally.blocks,
+        skipped: tally.corrupt + tally.invalid,
+        why: why.join("; "),
+    }
+}
+
+/// `e` with its cause said when it is too few still epochs and the file, not its length, is
+/// why: half or more of its blocks skipped or left out, or timestamps that do not hold the
+/// declared rate (more than 10 % off). `measured_hz` is the rate of the samples' times.
+pub(crate) fn explain_too_few(
+    e: Error,
+    format: RawFormat,
+    tally: &Tally,
+    left_out: usize,
+    measured_hz: Option<f64>,
+    header_hz: f64,
+) -> Error {
+    let Error::Input(InputError::TooFewStillEpochs {
+        found,
+        examined,
+        needed,
+        span_s,
+        cause,
+    }) = e
+    else {
+        return e;
+    };
+    let unit = match format {
+        RawFormat::Cwa => "data blocks",
+        RawFormat::GeneActiv => "pages",
+    };
+    let stepped_back = left_out.saturating_sub(tally.empty);
+    let lost = tally.corrupt + tally.invalid + stepped_back;
+    let cause = if lost > 0 && 2 * lost >= tally.blocks {
+        let mut parts = Vec::new();
+        for (k, what) in [
+            (tally.corrupt, "fail their checksum"),
+            (tally.invalid, "have an impossible field"),
+            (
+                stepped_back,
+                "start before the previous one ends (the clock steps back)",
+            ),
+        ] {
+            if k > 0 {
+                parts.push(format!("{k} {what}"));
+            }
+        }
+        format!(
+            "{lost} of its {} {unit} could not be used ({}): the file is damaged, not too short",
+            tally.blocks,
+            parts.join(", ")
+        )
+    } else if let Some(m) = measured_hz.filter(|m| (m / header_hz - 1.0).abs() > 0.1) {
+        format!(
+            "the samples' timestamps give {:.3} Hz where the header declares {header_hz} Hz: the device did not hold its declared rate",
+            m
+        )
+    } else {
+        cause
+    };
+    InputError::TooFewStillEpochs {
+        found,
+        examined,
+        needed,
+        span_s,
+        cause,
+    }
+    .into()
+}
+
+/// Which three channels the options ask for among the channel names `channels`: `--columns`
+/// names, else the wanted sensor's triplet (the accelerometer by default).
+pub(crate) fn choose_channels(channels: &[String], opts: &LoadOptions) -> Result<[usize; 3]> {
+    let have = channels.join(",");
     if let Some(cols) = &opts.columns {
         let mut out = [0usize; 3];
         for (k, c) in cols.iter().enumerate() {
             let c = c.to_ascii_lowercase();
-            out[k] = raw.channels.iter().position(|n| *n == c).ok_or_else(|| {
-                InputError::RawNoChannel {
-                    have: have.clone(),
-                    wanted: format!("channel '{c}'"),
-                }
-            })?;
+            out[k] =
+                channels
+                    .iter()
+                    .position(|n| *n == c)
+                    .ok_or_else(|| InputError::RawNoChannel {
+                        have: have.clone(),
+                        wanted: format!("channel '{c}'"),
+                    })?;
         }
         return Ok(out);
     }
     let want = opts
         .sensor
         .unwrap_or(crate::input::columns::Sensor::Accelerometer);
-    crate::input::columns::find_triplet(&raw.channels, want)
+    crate::input::columns::find_triplet(channels, want)
         .filter(|t| t.sensor == want)
         .map(|t| t.columns)
         .ok_or_else(|| InputError::RawNoChannel {
@@ -298,25 +459,88 @@ fn choose_channels(raw: &RawFile, opts: &LoadOptions) -> Result<[usize; 3]> {
         .map_err(Error::from)
 }
 
-/// Each decoded block's sample times (`None`: the block is left out because its start is not
-/// after the previous block's last sample, a clock step back). A block's samples are spread
-/// evenly from its start to the next block's start when the next block follows it in the file
-/// and starts within half to twice the nominal block duration later (the devices' own clocks
-/// set the rate, as GGIRread and OpenMovement's converters do); otherwise (last block, a gap of
-/// skipped blocks, a time jump) at the block's nominal rate.
-pub fn sample_times(raw: &RawFile) -> Vec<Option<Vec<f64>>> {
-    let nch = raw.n_channels();
-    let good: Vec<&GoodBlock> = raw.good().collect();
-    let mut out = Vec::with_capacity(good.len());
-    let mut last_t = f64::NEG_INFINITY;
-    for (k, b) in good.iter().enumerate() {
-        let n = b.len(nch);
-        if n == 0 || b.start_s <= last_t {
-            out.push(None);
-            continue;
+/// The sample times of one decoded block: `n` samples spread evenly over `dur` seconds from
+/// `start_s` (see [`sample_times`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BlockSpan {
+    /// Time of the first sample, s.
+    pub start_s: f64,
+    /// Time the block's samples cover, s.
+    pub dur: f64,
+    /// Samples.
+    pub n: u32,
+}
+
+impl BlockSpan {
+    /// Time of sample `i`, s.
+    pub fn time(&self, i: u32) -> f64 {
+        self.start_s + f64::from(i) * self.dur / f64::from(self.n)
+    }
+
+    /// Every sample's time in order.
+    pub fn times(self) -> impl Iterator<Item = f64> {
+        (0..self.n).map(move |i| self.time(i))
+    }
+}
+
+/// What [`TimePlan`] needs of a decoded block.
+#[derive(Debug, Clone, Copy)]
+struct Pending {
+    index: usize,
+    start_s: f64,
+    rate_hz: f64,
+    n: usize,
+}
+
+/// [`sample_times`] one block at a time: a block's span is known once the next decoded block
+/// is (its start ends the block), so each push returns the previous block's span.
+#[derive(Debug, Clone)]
+pub struct TimePlan {
+    pending: Option<Pending>,
+    last_t: f64,
+}
+
+impl Default for TimePlan {
+    fn default() -> Self {
+        Self {
+            pending: None,
+            last_t: f64::NEG_INFINITY,
         }
-        let nominal = n as f64 / b.rate_hz;
-        let dur = match good.get(k + 1) {
+    }
+}
+
+impl TimePlan {
+    /// The next decoded block (its index in the file, start time, rate and sample count);
+    /// `Some(span)` for the previous decoded block (`Some(None)`: it is left out).
+    pub fn push(
+        &mut self,
+        index: usize,
+        start_s: f64,
+        rate_hz: f64,
+        n: usize,
+    ) -> Option<Option<BlockSpan>> {
+        let next = Pending {
+            index,
+            start_s,
+            rate_hz,
+            n,
+        };
+        let prev = self.pending.replace(next)?;
+        Some(self.close(prev, Some(next)))
+    }
+
+    /// The last decoded block's span, once the file ends.
+    pub fn finish(&mut self) -> Option<Option<BlockSpan>> {
+        let prev = self.pending.take()?;
+        Some(self.close(prev, None))
+    }
+
+    fn close(&mut self, b: Pending, next: Option<Pending>) -> Option<BlockSpan> {
+        if b.n == 0 || b.start_s <= self.last_t {
+            return None;
+        }
+        let nominal = b.n as f64 / b.rate_hz;
+        let dur = match next {
             Some(next) if next.index == b.index + 1 => {
                 let d = next.start_s - b.start_s;
                 if d > 0.5 * nominal && d < 2.0 * nominal {
@@ -327,44 +551,68 @@ pub fn sample_times(raw: &RawFile) -> Vec<Option<Vec<f64>>> {
             }
             _ => nominal,
         };
-        let ts: Vec<f64> = (0..n)
-            .map(|i| b.start_s + i as f64 * dur / n as f64)
-            .collect();
-        last_t = ts[n - 1];
-        out.push(Some(ts));
+        let span = BlockSpan {
+            start_s: b.start_s,
+            dur,
+            n: b.n as u32,
+        };
+        self.last_t = span.time(span.n - 1);
+        Some(span)
     }
-    out
+}
+
+/// Each decoded block's sample times (`None`: the block is left out because it holds no
+/// sample or its start is not after the previous block's last sample, a clock step back). A
+/// block's samples are spread evenly from its start to the next block's start when the next
+/// block follows it in the file and starts within half to twice the nominal block duration
+/// later (the devices' own clocks set the rate, as GGIRread and OpenMovement's converters
+/// do); otherwise (last block, a gap of skipped blocks, a time jump) at the block's nominal
+/// rate.
+pub fn sample_times(raw: &RawFile) -> Vec<Option<Vec<f64>>> {
+    let nch = raw.n_channels();
+    let mut plan = TimePlan::default();
+    let mut spans = Vec::new();
+    for b in raw.good() {
+        spans.extend(plan.push(b.index, b.start_s, b.rate_hz, b.len(nch)));
+    }
+    spans.extend(plan.finish());
+    spans
+        .into_iter()
+        .map(|s| s.map(|s| s.times().collect()))
+        .collect()
 }
 
 /// Warnings on skipped blocks: counted, the first few named.
-fn skip_notes(raw: &RawFile, out_of_order: usize) -> Vec<String> {
-    let mut notes = raw.notes.clone();
-    let unit = match raw.format {
+pub(crate) fn skip_notes(
+    format: RawFormat,
+    reader_notes: &[String],
+    tally: &Tally,
+    out_of_order: usize,
+) -> Vec<String> {
+    let mut notes = reader_notes.to_vec();
+    let unit = match format {
         RawFormat::Cwa => "data block",
         RawFormat::GeneActiv => "page",
     };
-    let list = |idx: &[usize]| {
-        let shown: Vec<String> = idx.iter().take(8).map(|i| format!("#{i}")).collect();
-        let more = if idx.len() > 8 { ", …" } else { "" };
+    let list = |idx: &[usize], count: usize| {
+        let shown: Vec<String> = idx.iter().map(|i| format!("#{i}")).collect();
+        let more = if count > LISTED_BLOCKS { ", …" } else { "" };
         format!("{}{more}", shown.join(", "))
     };
-    let corrupt = raw.corrupt_blocks();
-    if !corrupt.is_empty() {
+    if tally.corrupt > 0 {
         notes.push(format!(
             "skipped {} corrupt {unit}(s) of {} (checksum failed): {}",
-            corrupt.len(),
-            raw.blocks.len(),
-            list(&corrupt)
+            tally.corrupt,
+            tally.blocks,
+            list(&tally.corrupt_first, tally.corrupt)
         ));
     }
-    let invalid = raw.invalid_blocks();
-    if let Some((_, why)) = invalid.first() {
-        let idx: Vec<usize> = invalid.iter().map(|(i, _)| *i).collect();
+    if let Some(why) = &tally.first_invalid_why {
         notes.push(format!(
             "skipped {} unreadable {unit}(s) of {}: {} (the first: {why})",
-            invalid.len(),
-            raw.blocks.len(),
-            list(&idx)
+            tally.invalid,
+            tally.blocks,
+            list(&tally.invalid_first, tally.invalid)
         ));
     }
     if out_of_order > 0 {
@@ -376,24 +624,25 @@ fn skip_notes(raw: &RawFile, out_of_order: usize) -> Vec<String> {
 }
 
 /// "read as an Axivity AX6 .cwa file: 285 data blocks at 100 Hz, channels gx,gy,gz,ax,ay,az".
-fn describe(raw: &RawFile) -> String {
-    let (what, unit) = match raw.format {
-        RawFormat::Cwa => (
-            format!("an Axivity {} .cwa file", raw.device),
-            "data blocks",
-        ),
-        RawFormat::GeneActiv => (format!("a {} .bin file", raw.device), "pages"),
+pub(crate) fn describe(
+    format: RawFormat,
+    device: &str,
+    blocks: usize,
+    header_rate_hz: f64,
+    channels: &[String],
+) -> String {
+    let (what, unit) = match format {
+        RawFormat::Cwa => (format!("an Axivity {device} .cwa file"), "data blocks"),
+        RawFormat::GeneActiv => (format!("a {device} .bin file"), "pages"),
     };
-    let units = if raw.channels.iter().any(|c| c.starts_with('g')) {
+    let units = if channels.iter().any(|c| c.starts_with('g')) {
         "g and °/s"
     } else {
         "g"
     };
     format!(
-        "read as {what}: {} {unit} at {} Hz, channels {} ({units}), times from the device clock",
-        raw.blocks.len(),
-        raw.header_rate_hz,
-        raw.channels.join(",")
+        "read as {what}: {blocks} {unit} at {header_rate_hz} Hz, channels {} ({units}), times from the device clock",
+        channels.join(",")
     )
 }
 
