@@ -8,9 +8,13 @@
 mod support;
 use support::*;
 
+use std::sync::atomic::Ordering;
+use std::time::{Duration, Instant};
+
 use clap::Parser;
 use wiical::cmd::device::{self, DeviceAction, DeviceArgs};
 use wiical::cmd::device_sim::SimArgs;
+use wiical_client::Device;
 use wiical_core::Calibration;
 use wiical_device_sim::{spawn, SimOptions};
 use wiical_wire::WireCalibration;

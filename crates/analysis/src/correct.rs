@@ -30,7 +30,7 @@ use crate::output::calfile::{adapter_terms, CalibrationFile};
 use crate::output::host_term_checks::{HostTerm, Regressor};
 use crate::search::thermal;
 use std::borrow::Cow;
-use wiical_core::quality::{Acceptance, ConditionRange};
+use wiical_core::acceptance::{Acceptance, ConditionRange};
 use wiical_core::{Calibration, Conditions};
 
 /// Corrected readings whose median magnitude lies outside this range (g) are taken for a

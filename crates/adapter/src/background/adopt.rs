@@ -18,7 +18,7 @@
 //! Time is play time (seconds of reports since power-up): the adapter has no clock, and a
 //! budget kept only in RAM starts again at power-up (persisting it belongs with the store).
 
-use wiical_core::quality::{CoverageGap, Rejection};
+use wiical_core::acceptance::{CoverageGap, Rejection};
 
 /// Most commit times the budget remembers (caps `max_commits_per_day`).
 pub const MAX_DAILY: usize = 16;

@@ -40,7 +40,7 @@ pub use fit::FitModel;
 pub use grid::{Grid, BINS};
 pub use schedule::Candidate;
 
-use wiical_core::quality::{Acceptance, CoverageGap, CoverageRule};
+use wiical_core::acceptance::{Acceptance, CoverageGap, CoverageRule};
 use wiical_core::static_detect::StaticDetectorConfig;
 use wiical_core::Calibration;
 

@@ -19,7 +19,7 @@
 //! nor the live calibration (the caller drops the job).
 
 use heapless::Vec;
-use wiical_core::quality::{Acceptance, CoverageRule};
+use wiical_core::acceptance::{Acceptance, CoverageRule};
 use wiical_core::{Calibration, Error};
 
 use super::adopt::Refusal;

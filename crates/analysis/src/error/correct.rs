@@ -29,12 +29,12 @@ pub enum CorrectError {
     #[error("the recording has no samples to correct")]
     Empty,
     /// The calibration fails the acceptance predicate `device put` applies
-    /// (`wiical_core::quality::Acceptance::check`), with the limits taken from the
+    /// (`wiical_core::acceptance::Acceptance::check`), with the limits taken from the
     /// recording (its input range, duration and temperatures).
     #[error("refusing to correct with an implausible calibration: {why} (over the recording's readings {lo} to {hi}); `device put` refuses it too: re-fit it, or check it is the right file")]
     Implausible {
         /// The predicate's reason.
-        why: wiical_core::quality::Rejection,
+        why: wiical_core::acceptance::Rejection,
         /// Smallest raw reading of the recording (the input range checked).
         lo: f32,
         /// Largest raw reading of the recording.
