@@ -99,7 +99,10 @@ fn loop_part(o: &mut String, r: &GyroReport) {
         );
     }
     if r.effects.is_empty() {
-        let _ = writeln!(o, "no effect passes the rule (F-test and held-out RMS down by 10 %)");
+        let _ = writeln!(
+            o,
+            "no effect passes the rule (F-test and held-out RMS down by 10 %)"
+        );
     }
     for d in &r.diagnostics {
         let _ = writeln!(o, "  {d}");

@@ -5,7 +5,6 @@ use super::{GyroError, Result};
 use crate::input::recording::Recording;
 use crate::input::timecheck::TimeSteps;
 
-
 /// Rows of `acc` and `gyro` that belong together: all of them when the lengths agree (`None`),
 /// else (a capture whose rows alternate between gyro and other data, so the loader skipped the
 /// rows without gyro values) the accelerometer rows at the gyro rows' times, with those times.

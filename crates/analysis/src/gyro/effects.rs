@@ -161,7 +161,10 @@ pub fn search(data: &WindowData, cands: &[Candidate]) -> Option<Search> {
             .collect();
         let tested = fits
             .iter()
-            .filter(|f| f.as_ref().is_some_and(|f| f.dof >= 3 * select::MIN_DOF_TERM))
+            .filter(|f| {
+                f.as_ref()
+                    .is_some_and(|f| f.dof >= 3 * select::MIN_DOF_TERM)
+            })
             .count()
             .max(1);
         let level = ALPHA / tested as f64;
@@ -276,7 +279,9 @@ fn candidate_row(
     let limit = (!passed)
         .then(|| detection_limit(ctx.data, ctx.chosen, c, ctx.sigma2, ctx.level))
         .flatten();
-    let floor_var = ctx.sigma2.min(ctx.current.rss / ctx.current.dof.max(1) as f64);
+    let floor_var = ctx
+        .sigma2
+        .min(ctx.current.rss / ctx.current.dof.max(1) as f64);
     let note = match (f, passed) {
         (None, _) => "too few windows to test it".to_string(),
         (Some(_), true) => format!("accepted: {}", c.pattern),
@@ -343,4 +348,3 @@ fn effect_report(ctx: &StepContext<'_>, c: &Candidate, f: &Fit, s: &TermScore) -
         cv_rms_dps: Some(ca),
     }
 }
-

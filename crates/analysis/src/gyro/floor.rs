@@ -61,7 +61,11 @@ pub(super) fn floors(gyro: &Recording, seg: &Segmentation, k: &[[f64; 3]; 3], dt
         .map(|w| through(k, gyro_variance(gyro, w, quantum)))
         .collect();
     let acc_k: [[f64; 3]; 3] = seg.accel.matrix.map(|r| r.map(f64::from));
-    let acc_quantum = if seg.windows.iter().all(|w| w.mean.iter().all(|m| m.fract() == 0.0)) {
+    let acc_quantum = if seg
+        .windows
+        .iter()
+        .all(|w| w.mean.iter().all(|m| m.fract() == 0.0))
+    {
         1.0 / 12.0
     } else {
         0.0

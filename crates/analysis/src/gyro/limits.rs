@@ -98,8 +98,7 @@ pub fn detection_limit(
     let crit = q * f_critical(level, q, d2);
     let beta_f = lambda_for_power(crit, q).sqrt() * se_max;
     let nn = n as f64;
-    let cv_need =
-        3.0 * nn * (CV_FACTOR.powi(2) * (1.0 + p1 as f64 / nn) - (1.0 + p0 as f64 / nn));
+    let cv_need = 3.0 * nn * (CV_FACTOR.powi(2) * (1.0 + p1 as f64 / nn) - (1.0 + p0 as f64 / nn));
     let beta_cv = se_max * cv_need.max(0.0).sqrt();
     let limit = beta_f.max(beta_cv);
     limit.is_finite().then_some(limit)

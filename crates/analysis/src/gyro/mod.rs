@@ -37,12 +37,11 @@ pub use crate::error::gyro::GyroError;
 use crate::input::recording::Recording;
 use crate::stats as st;
 use wiical_core::gyro::GyroCalibration;
-use wiical_core::gyro_fit::Motion;
 use wiical_core::multipos::MultiPosModel;
 
 pub use models::{GyroModelRow, MotionRow};
-pub use report::{GyroQuality, GyroReport};
 pub use nominal::{estimate_nominal, nominal_from_columns};
+pub use report::{GyroQuality, GyroReport};
 
 type Result<T, E = GyroError> = std::result::Result<T, E>;
 
@@ -97,7 +96,6 @@ fn deg(rad: f64) -> f64 {
     rad.to_degrees()
 }
 
-
 /// Runs the gyro calibration on an accelerometer recording and the gyro recording of the same
 /// samples.
 pub fn run(acc: &Recording, gyro: &Recording, opts: &GyroOptions) -> Result<GyroReport> {
@@ -119,15 +117,7 @@ pub fn run(acc: &Recording, gyro: &Recording, opts: &GyroOptions) -> Result<Gyro
         .map_err(|e| segment::swapped(acc, gyro, opts).unwrap_or(e))?;
     let bias_from_rest = segment::bias_at_rest(gyro, &seg.intervals[0]);
     let dt = 1.0 / rate;
-    let motions: Vec<Motion<'_, f64>> = seg
-        .spans
-        .iter()
-        .map(|s| Motion {
-            samples: &gyro.xyz[s.start as usize..s.end as usize],
-            g_start: nalgebra::Vector3::from(s.g_start).cast(),
-            g_end: nalgebra::Vector3::from(s.g_end).cast(),
-        })
-        .collect();
+    let motions = seg.motions(gyro);
     let (nominal_scale, nominal_source) = nominal::choose(&motions, bias_from_rest, dt, opts)?;
     let nominal = GyroCalibration::nominal(bias_from_rest, nominal_scale);
     let (rows, best, before) = models::evaluate_candidates(&motions, &nominal, dt, opts)?;
@@ -216,9 +206,8 @@ fn loop_part(
     let fl = floor::floors(gyro, seg, &fit.matrix, dt);
     let data = window_data(gyro, seg, fit, &fl);
     let cands = candidates(seg);
-    let search = effects::search(&data, &cands).ok_or(GyroError::GyroFitFailed(
-        wiical_core::Error::NotConverged,
-    ))?;
+    let search = effects::search(&data, &cands)
+        .ok_or(GyroError::GyroFitFailed(wiical_core::Error::NotConverged))?;
     let fits_bias = matches!(fit.name, "bias" | "scale+bias" | "full+bias");
     let fits_scale = fit.name.starts_with("scale") || fit.name.starts_with("full");
     let ev = verdict::Evidence {
@@ -238,7 +227,8 @@ fn loop_part(
         }),
     };
     let (quality, reasons, text) = verdict::judge(&ev);
-    let diagnostics = limit_sentences(&search);
+    let mut diagnostics = limit_sentences(&search);
+    diagnostics.extend(window_scatter(&search, &data));
     let window_dps = (data.mean_var.iter().flatten().sum::<f64>()
         / (3 * data.mean_var.len()).max(1) as f64)
         .sqrt();
@@ -351,4 +341,24 @@ fn sig3(x: f64) -> String {
     }
     let d = (2 - x.abs().log10().floor() as i32).max(0) as usize;
     format!("{x:.d$}")
+}
+
+/// A sentence when the window means scatter about the final window model more than their noise
+/// allows (χ² p below the residual test's level): the bias at rest moves by something no
+/// candidate names (hand tremor in windows that are not truly still, a bias that jumps).
+fn window_scatter(search: &effects::Search, data: &effects::WindowData) -> Option<String> {
+    let f = &search.final_model;
+    let p = f.chi2_p?;
+    if p >= crate::report::verdict::UNEXPLAINED_P {
+        return None;
+    }
+    let n = data.mean_var.len().max(1) as f64;
+    let noise = (data.mean_var.iter().flatten().sum::<f64>() / (3.0 * n)).sqrt();
+    Some(format!(
+        "the gyro's window means scatter {:.4} °/s RMS about the {} model, {:.1}× their own noise {noise:.4} °/s (χ² p = {}): the bias at rest moves by something no candidate names (windows not truly still, a bias that jumps)",
+        f.rms_dps,
+        if search.effects.is_empty() { "bias-only" } else { "final" },
+        f.rms_dps / noise.max(1e-300),
+        st::fmt_p(p)
+    ))
 }

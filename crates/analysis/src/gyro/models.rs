@@ -10,7 +10,6 @@ use wiical_core::gyro_fit::{
     GyroFitConfig, GyroModel, Motion, NominalPass,
 };
 
-
 /// One candidate model's numbers.
 #[derive(Debug, Clone, Serialize)]
 pub struct GyroModelRow {

@@ -6,7 +6,6 @@ use crate::input::recording::Recording;
 use wiical_core::gyro::GyroCalibration;
 use wiical_core::gyro_fit::{motion_angle, Motion};
 
-
 /// The gyro's sensitivity (rad/s per count, signed per axis) without a datasheet: the scale
 /// whose integration best turns each static window's gravity direction into the next's (the
 /// RMS of the motions' angle errors, the same error the fit minimises). A coarse search over

@@ -24,6 +24,18 @@ pub(super) struct Segmentation {
 }
 
 impl Segmentation {
+    /// The motions between the windows, with the gyro's samples.
+    pub(super) fn motions<'a>(&self, gyro: &'a Recording) -> Vec<gyro_fit::Motion<'a, f64>> {
+        self.spans
+            .iter()
+            .map(|s| gyro_fit::Motion {
+                samples: &gyro.xyz[s.start as usize..s.end as usize],
+                g_start: nalgebra::Vector3::from(s.g_start).cast(),
+                g_end: nalgebra::Vector3::from(s.g_end).cast(),
+            })
+            .collect()
+    }
+
     /// Calibrated specific force of each window, reference units (g): gravity in the
     /// sensor frame while the sensor rests.
     pub(super) fn gravity(&self) -> Vec<[f64; 3]> {
@@ -112,7 +124,6 @@ pub(super) fn bias_at_rest(gyro: &Recording, rest: &StaticInterval) -> [f64; 3] 
     std::array::from_fn(|a| rest_samples.iter().map(|s| s[a]).sum::<f64>() / n)
 }
 
-
 /// Refuses gyro columns that read nothing: an axis with one value on every row (all zeros from
 /// a gyro that was never enabled, a column the logger leaves empty) cannot be integrated, and
 /// saying so is clearer than what the fit would say later. The accelerometer's mean magnitude
@@ -166,12 +177,20 @@ pub(super) fn bias_against_rest(
     seg: &Segmentation,
     bias: [f64; 3],
 ) -> ([f64; 3], [f64; 3]) {
-    let means: Vec<[f64; 3]> = seg.intervals.iter().map(|iv| bias_at_rest(gyro, iv)).collect();
+    let means: Vec<[f64; 3]> = seg
+        .intervals
+        .iter()
+        .map(|iv| bias_at_rest(gyro, iv))
+        .collect();
     let n = means.len() as f64;
     let centre: [f64; 3] = std::array::from_fn(|a| means.iter().map(|m| m[a]).sum::<f64>() / n);
     let spread = std::array::from_fn(|a| {
-        (means.iter().map(|m| (m[a] - centre[a]).powi(2)).sum::<f64>() / (n - 1.0).max(1.0))
-            .sqrt()
+        (means
+            .iter()
+            .map(|m| (m[a] - centre[a]).powi(2))
+            .sum::<f64>()
+            / (n - 1.0).max(1.0))
+        .sqrt()
     });
     (std::array::from_fn(|a| bias[a] - centre[a]), spread)
 }

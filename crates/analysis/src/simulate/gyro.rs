@@ -53,10 +53,11 @@ pub struct GyroTruth {
     pub g_sensitivity: [[f64; 3]; 3],
     /// Bias drift, rad/s per second.
     pub drift: [f64; 3],
-    /// Temperature sensitivity of the bias, rad/s per °C (with a temperature column that ramps
-    /// by `temp_ramp` °C over the recording; no column when the ramp is 0).
+    /// Temperature sensitivity of the bias, rad/s per °C (with a temperature column that rises
+    /// by `temp_ramp` °C and comes back, half a sine over the recording, so that it is not a
+    /// linear function of time; no column when the ramp is 0).
     pub temp_coef: [f64; 3],
-    /// Temperature change over the recording, °C.
+    /// Peak temperature change over the recording, °C.
     pub temp_ramp: f64,
 }
 
@@ -174,7 +175,7 @@ pub fn simulate_gyro(o: &GyroSimOptions) -> GyroSim {
     for (i, (rot, w)) in traj.iter().enumerate() {
         let time = i as f64 / o.rate_hz;
         let a = rot.inverse() * Vector3::z();
-        let temp = t.temp_ramp * time / span;
+        let temp = t.temp_ramp * (std::f64::consts::PI * time / span).sin();
         let drift = Vector3::from(t.drift) * time + Vector3::from(t.temp_coef) * temp;
         let wn = Vector3::from_fn(|_, _| noise(o.gyro_noise));
         let w_meas = w + g_sens * a + drift + wn;
