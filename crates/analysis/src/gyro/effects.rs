@@ -180,6 +180,7 @@ pub fn search(data: &WindowData, cands: &[Candidate]) -> Option<Search> {
             current: &current,
             sigma2,
             level,
+            floors: &floors,
         };
         let rows: Vec<GyroCandidate> = open
             .iter()
@@ -226,6 +227,8 @@ struct StepContext<'a> {
     current: &'a Fit,
     sigma2: f64,
     level: f64,
+    /// Noise of each window mean and axis, °/s.
+    floors: &'a [f64],
 }
 
 /// F-test and held-out RMS of one candidate against the current model.
@@ -259,11 +262,12 @@ fn score(
     }
 }
 
-/// The F statistic back from a score's p-value is not kept by [`TermScore`]; recomputed here
-/// for the report.
-fn f_stat(c: &Candidate, f: &Fit, current: &Fit, sigma_floor: f64) -> f64 {
+/// The F statistic of `c` against the current model, referred to the same variance as
+/// [`score`]'s p-value ([`TermScore`] keeps only the p-value).
+fn f_stat(c: &Candidate, f: &Fit, current: &Fit, floors: &[f64]) -> f64 {
     let q = 3 * width(c);
-    let var = (f.rss / f.dof as f64).max(sigma_floor).max(1e-300);
+    let used = vec![true; floors.len()];
+    let var = reference_variance(f.rss, f.dof as f64, floors, &used);
     ((current.rss - f.rss) / q as f64 / var).max(0.0)
 }
 
@@ -279,14 +283,11 @@ fn candidate_row(
     let limit = (!passed)
         .then(|| detection_limit(ctx.data, ctx.chosen, c, ctx.sigma2, ctx.level))
         .flatten();
-    let floor_var = ctx
-        .sigma2
-        .min(ctx.current.rss / ctx.current.dof.max(1) as f64);
     let note = match (f, passed) {
         (None, _) => "too few windows to test it".to_string(),
         (Some(_), true) => format!("accepted: {}", c.pattern),
         (Some(_), false) if !sel.significant[i] => format!(
-            "not significant (p = {} against {:.1e})",
+            "not significant (p {} against {:.1e})",
             st::fmt_p(s.p_value),
             ctx.level
         ),
@@ -299,7 +300,7 @@ fn candidate_row(
         rms_dps: f.map(|f| (f.rss / f.loo.len() as f64).sqrt()),
         cv_rms_dps: f.map(|f| st::rms(&f.loo)),
         cv_rms_current_dps: Some(st::rms(&ctx.current.loo)),
-        f_stat: f.map(|f| f_stat(c, f, ctx.current, floor_var)),
+        f_stat: f.map(|f| f_stat(c, f, ctx.current, ctx.floors)),
         p_value: f.map(|_| s.p_value),
         passed,
         note,
@@ -326,7 +327,7 @@ fn effect_report(ctx: &StepContext<'_>, c: &Candidate, f: &Fit, s: &TermScore) -
         (f.rss / (3.0 * n)).sqrt(),
     );
     let (cb, ca) = (st::rms(&ctx.current.loo), st::rms(&f.loo));
-    let fs = f_stat(c, f, ctx.current, 0.0);
+    let fs = f_stat(c, f, ctx.current, ctx.floors);
     GyroEffect {
         name: c.name.into(),
         params: 3 * k,
@@ -334,7 +335,7 @@ fn effect_report(ctx: &StepContext<'_>, c: &Candidate, f: &Fit, s: &TermScore) -
         values,
         std_errors,
         evidence: format!(
-            "{}: F = {fs:.2} ({}, {} dof), p = {}; window RMS {rb:.4} → {ra:.4} °/s in-sample, {cb:.4} → {ca:.4} °/s held out",
+            "{}: F = {fs:.2} ({}, {} dof), p {}; window RMS {rb:.4} → {ra:.4} °/s in-sample, {cb:.4} → {ca:.4} °/s held out",
             c.pattern,
             3 * k,
             f.dof,

@@ -355,7 +355,7 @@ fn window_scatter(search: &effects::Search, data: &effects::WindowData) -> Optio
     let n = data.mean_var.len().max(1) as f64;
     let noise = (data.mean_var.iter().flatten().sum::<f64>() / (3.0 * n)).sqrt();
     Some(format!(
-        "the gyro's window means scatter {:.4} °/s RMS about the {} model, {:.1}× their own noise {noise:.4} °/s (χ² p = {}): the bias at rest moves by something no candidate names (windows not truly still, a bias that jumps)",
+        "the gyro's window means scatter {:.4} °/s RMS about the {} model, {:.1}× their own noise {noise:.4} °/s (χ² p {}): the bias at rest moves by something no candidate names (windows not truly still, a bias that jumps)",
         f.rms_dps,
         if search.effects.is_empty() { "bias-only" } else { "final" },
         f.rms_dps / noise.max(1e-300),

@@ -187,8 +187,9 @@ fn nominal_rms(motions: &[Motion<'_, f64>], bias: [f64; 3], scale: [f64; 3], dt:
 /// magnitudes with other signs. The fit starts from the nominal and a sign is the one thing a
 /// local fit cannot flip (the scale would have to pass through zero), so it ends in a
 /// calibration with held-out errors of tens of degrees. Refused when another choice of signs
-/// brings the motions' RMS angle error below a third of the given one's and the given one's is
-/// above 10°: an axis mounted the other way is then named rather than fitted around. Only for a
+/// brings the motions' RMS angle error below half the given one's and the given one's is above
+/// 10° (a right sign with a magnitude 30 % off, IMU-TK's start value for its Xsens, gives 40°
+/// where every wrong sign gives more than 100°): an axis mounted the other way is then named rather than fitted around. Only for a
 /// nominal from a flag: the columns' unit says nothing about the axes' directions (the fit's
 /// flipped-axis note covers those).
 pub(super) fn check_nominal_signs(
@@ -210,7 +211,7 @@ pub(super) fn check_nominal_signs(
         })
         .min_by(|a, b| a.0.total_cmp(&b.0))
         .unwrap_or((f64::INFINITY, [false; 3]));
-    if given > 10f64.to_radians() && best < given / 3.0 {
+    if given > 10f64.to_radians() && best < given / 2.0 {
         let suggested: Vec<String> = (0..3)
             .map(|a| {
                 let s = if flips[a] { -scale[a] } else { scale[a] };

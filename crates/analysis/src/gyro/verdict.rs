@@ -103,15 +103,15 @@ pub fn judge(e: &Evidence<'_>) -> (GyroQuality, Vec<String>, String) {
     };
     let text = match quality {
         GyroQuality::Good if p < UNEXPLAINED_P => format!(
-            "good: the held-out angle error {cv:.3}° is within {UNEXPLAINED_CV_FACTOR}× the noise floor {floor:.3}° over the motions (some motions are above their own floor: χ² p = {})",
+            "good: the held-out angle error {cv:.3}° is within {UNEXPLAINED_CV_FACTOR}× the noise floor {floor:.3}° over the motions (some motions are above their own floor: χ² p {})",
             st::fmt_p(p)
         ),
         GyroQuality::Good => format!(
-            "good: the held-out angle error {cv:.3}° agrees with the noise floor {floor:.3}° (χ² p = {})",
+            "good: the held-out angle error {cv:.3}° agrees with the noise floor {floor:.3}° (χ² p {})",
             st::fmt_p(p)
         ),
         GyroQuality::UnexplainedResidual => format!(
-            "unexplained residual: the held-out angle error {cv:.3}° is {:.1}× the noise floor {floor:.4}° (χ² p = {}): the model lacks something the motions show; usable with that error",
+            "unexplained residual: the held-out angle error {cv:.3}° is {:.1}× the noise floor {floor:.4}° (χ² p {}): the model lacks something the motions show; usable with that error",
             cv / floor,
             st::fmt_p(p)
         ),
