@@ -191,17 +191,27 @@ fn sweep_effect(name: &str, set: impl Fn(&mut GyroTruth, f64), lim: f64, unit: &
 fn sweep() {
     let mut false_pos = 0;
     let mut not_good = 0;
-    let mut limits = [0.0; 3];
+    let mut limits = [(0.0, 0usize); 2];
     let runs = 400;
     for seed in 0..runs {
         let r = run_sim(5000 + seed, GyroTruth::default());
         false_pos += usize::from(!r.effects.is_empty());
         not_good += usize::from(r.quality != GyroQuality::Good);
+        // The limits a clean recording states (first step: before anything is accepted).
         for (l, name) in limits.iter_mut().zip(["g-sensitivity", "bias-drift"]) {
-            *l += limit(&r, name) / runs as f64;
+            if let Some(v) = r.steps[0]
+                .candidates
+                .iter()
+                .find(|c| c.name == name)
+                .and_then(|c| c.detection_limit)
+            {
+                l.0 += v;
+                l.1 += 1;
+            }
         }
     }
     println!("clean: effects named in {false_pos}/{runs}, verdict not good in {not_good}/{runs}");
+    let limits = limits.map(|(sum, n)| sum / n.max(1) as f64);
     println!(
         "mean limits: g-sensitivity {:.4} °/s/g, bias drift {:.4} °/s/h",
         limits[0], limits[1]
@@ -224,7 +234,12 @@ fn sweep() {
         temp_ramp: 10.0,
         ..Default::default()
     };
-    let lim_t = limit(&run_sim(7, ramp), "temperature");
+    let lim_t = run_sim(7, ramp).steps[0]
+        .candidates
+        .iter()
+        .find(|c| c.name == "temperature")
+        .and_then(|c| c.detection_limit)
+        .expect("a temperature that changes is tested");
     sweep_effect(
         "temperature",
         |t, v| {

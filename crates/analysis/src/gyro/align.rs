@@ -63,9 +63,6 @@ pub(super) fn align(acc: &Recording, gyro: &Recording) -> Result<Aligned> {
     Ok((out, Some(tg.clone())))
 }
 
-/// The gyro's sensitivity (rad/s per count, signed per axis) without a datasheet: the scale
-/// whose integration best turns each static window's gravity direction into the next's (the
-
 /// The accelerometer rows that belong to the gyro's, as a recording with its clock.
 pub(super) fn paired_accelerometer(acc: &Recording, gyro: &Recording) -> Result<Recording> {
     let (acc_xyz, subset_times) = align(acc, gyro)?;

@@ -45,8 +45,7 @@ pub struct MotionRow {
     pub held_out_deg: f64,
 }
 
-/// The result (the JSON contract of `wiical gyrofit --json`: `static_windows`, `motions`,
-
+/// The six models: name, what the core fits, whether the bias is fitted (module docs).
 const CANDIDATES: [(&str, GyroModel, bool); 6] = [
     ("uncalibrated", GyroModel::BiasOnly, false),
     ("bias", GyroModel::BiasOnly, true),
