@@ -32,8 +32,27 @@ fn json_contract_and_out_file_on_an_mpu9150_unit() {
         "rms_deg_before",
         "rms_deg_after",
         "cv_rms_deg",
+        // The loop's keys, in `analyze`'s shape.
+        "noise_floor_deg",
+        "noise_floor_window_dps",
+        "base",
+        "effects",
+        "final",
+        "steps",
+        "quality",
+        "verdict",
+        "diagnostics",
     ] {
         assert!(v.get(key).is_some(), "missing {key}");
+    }
+    // Every candidate not accepted carries its detection limit in its unit.
+    for step in v["steps"].as_array().unwrap() {
+        for c in step["candidates"].as_array().unwrap() {
+            if !c["passed"].as_bool().unwrap() {
+                assert!(c["detection_limit"].as_f64().unwrap() > 0.0, "{c}");
+                assert!(!c["unit"].as_str().unwrap().is_empty());
+            }
+        }
     }
     assert_eq!(v["bias"].as_array().unwrap().len(), 3);
     assert!(v["matrix"]

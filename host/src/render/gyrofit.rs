@@ -63,5 +63,49 @@ pub fn text(r: &GyroReport, file: &str) -> String {
     for n in &r.notes {
         let _ = writeln!(o, "note: {n}");
     }
+    loop_part(&mut o, r);
     o
+}
+
+/// The loop: noise floor, the static windows' candidates with their limits, the verdict.
+fn loop_part(o: &mut String, r: &GyroReport) {
+    let _ = writeln!(
+        o,
+        "\nnoise floor: {:.4}° per motion (gyro noise at rest {:.4} °/s per sample, {:.5} °/s per window mean; accelerometer tilt noise at the ends)",
+        r.noise_floor_deg, r.noise_floor_rate_dps, r.noise_floor_window_dps
+    );
+    let _ = writeln!(
+        o,
+        "static windows: the gyro's window means about one bias {:.4} °/s RMS, {} held out ({} windows)",
+        r.base.rms_dps,
+        r.base
+            .cv_rms_dps
+            .map_or("—".into(), |v| format!("{v:.4} °/s")),
+        r.base.windows_used
+    );
+    for e in &r.effects {
+        let _ = writeln!(
+            o,
+            "effect {} ({}): {}\n  values: {}",
+            e.name,
+            e.unit,
+            e.evidence,
+            e.values
+                .iter()
+                .zip(&e.std_errors)
+                .map(|(v, s)| format!("{v:.4} ± {s:.4}"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+    }
+    if r.effects.is_empty() {
+        let _ = writeln!(
+            o,
+            "no effect passes the rule (F-test and held-out RMS down by 10 %)"
+        );
+    }
+    for d in &r.diagnostics {
+        let _ = writeln!(o, "  {d}");
+    }
+    let _ = writeln!(o, "\nverdict: {}", r.verdict);
 }

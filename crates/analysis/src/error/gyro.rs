@@ -81,4 +81,36 @@ pub enum GyroError {
         /// RMS of the gyro during the motions.
         motion_rms: f64,
     },
+    /// Gyro axes that read one value on every row.
+    #[error("the gyro reads nothing: {columns} hold {value} on all {rows} rows while the accelerometer reads {accel_norm:.3} on average; the gyro was off or not enabled, or these are not its columns (--gyro-columns)")]
+    GyroReadsNothing {
+        /// The constant columns.
+        columns: String,
+        /// Their value.
+        value: f64,
+        /// Rows.
+        rows: usize,
+        /// Mean magnitude of the accelerometer, its units.
+        accel_norm: f64,
+    },
+    /// The accelerometer and gyro recordings were given in swapped order.
+    #[error("the two files are in swapped order: the second one has the {windows} still poses of an accelerometer and the first turns like a gyro; give the accelerometer's file first, then the gyro's")]
+    GyroFilesSwapped {
+        /// Static windows found in the second file.
+        windows: usize,
+    },
+    /// The given nominal has the wrong sign on some axes.
+    #[error("the gyro nominal from {source_name} turns the motions the wrong way on the {axes} axis (RMS angle error {given_deg:.1}° against {flipped_deg:.1}° with that sign flipped): the sign is wrong; give {source_name} {suggested} (an axis mounted the other way has a negative sensitivity)")]
+    GyroNominalSign {
+        /// Where the nominal came from.
+        source_name: String,
+        /// The axes whose sign is wrong.
+        axes: String,
+        /// RMS angle error with the given nominal, degrees.
+        given_deg: f64,
+        /// With the signs flipped, degrees.
+        flipped_deg: f64,
+        /// The nominal with the signs flipped, rad/s per count.
+        suggested: String,
+    },
 }

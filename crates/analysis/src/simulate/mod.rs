@@ -60,6 +60,7 @@
 //! The truth is written next to the recording as `FILE.truth.json` ([`Truth`]).
 
 #![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x > 0.0)` is deliberately true for NaN.
+pub mod gyro;
 pub mod kalman;
 pub mod open_basis;
 

@@ -1,0 +1,364 @@
+//! Gyroscope calibration from a multi-position recording (the engine of `wiical gyrofit`):
+//! static windows from the accelerometer, gravity directions from the accelerometer's own
+//! multi-position fit, the motions between windows, and the core's gyro fit
+//! ([`wiical_core::gyro_fit`], here in `f64`) for each candidate model, the model chosen by its
+//! leave-one-motion-out error (method and sources: `docs/gyro.md`).
+//!
+//! Candidate models, from nothing fitted to everything:
+//!
+//! | name | fitted | parameters |
+//! |---|---|---|
+//! | `uncalibrated` | nothing: the nominal scale, bias from the first static window | 0 |
+//! | `bias` | bias | 3 |
+//! | `scale` | one scale per axis | 3 |
+//! | `scale+bias` | | 6 |
+//! | `full` | scale and misalignment (3×3) | 9 |
+//! | `full+bias` | | 12 |
+//!
+//! Each fitted model is refitted without each motion in turn and judged on the motion held out;
+//! the one with the smallest held-out RMS angle wins. `uncalibrated` is a candidate too (its
+//! held-out error is its in-sample error, nothing being fitted), so the chosen calibration never
+//! does worse on held-out motions than none. When the motions do not pin down the full model
+//! (e.g. small turns about similar axes) its held-out error exceeds the uncalibrated one and the
+//! report says so.
+
+mod align;
+pub mod effects;
+pub mod floor;
+pub mod limits;
+mod models;
+mod nominal;
+pub mod report;
+mod segment;
+mod verdict;
+
+use crate::detect::windows::DetectOptions;
+pub use crate::error::gyro::GyroError;
+use crate::input::recording::Recording;
+use crate::stats as st;
+use wiical_core::gyro::GyroCalibration;
+use wiical_core::multipos::MultiPosModel;
+
+pub use models::{GyroModelRow, MotionRow};
+pub use nominal::{estimate_nominal, nominal_from_columns};
+pub use report::{GyroQuality, GyroReport};
+
+type Result<T, E = GyroError> = std::result::Result<T, E>;
+
+/// Settings of [`run`].
+#[derive(Debug, Clone)]
+pub struct GyroOptions {
+    /// Static-window detection on the accelerometer.
+    pub detect: DetectOptions,
+    /// Nominal gyro sensitivity per axis, rad/s per count (signed: an inverted axis is
+    /// negative), from the datasheet.
+    pub nominal_rad_per_count: [f64; 3],
+    /// Accelerometer model for the gravity directions.
+    pub accel_model: MultiPosModel,
+    /// Levenberg–Marquardt iteration budget per fit.
+    pub max_iterations: u32,
+    /// Where the nominal came from, for the report (`--scale`, the columns' unit, …).
+    pub nominal_source: String,
+    /// Estimate the nominal from the motions instead ([`estimate_nominal`]): no datasheet.
+    pub estimate_nominal: bool,
+    /// Held-out errors by an exact refit per motion instead of one Gauss–Newton step from the
+    /// all-motion fit (`leave_one_out_one_step`; within 0.01° of exact on the real logs,
+    /// docs/gyro.md, ~40× faster).
+    pub exact_held_out: bool,
+}
+
+impl GyroOptions {
+    /// Defaults with the nominal estimated from the motions ([`estimate_nominal`]).
+    pub fn estimated() -> Self {
+        Self {
+            estimate_nominal: true,
+            nominal_source: "estimated from the motions".into(),
+            ..Self::new([1.0; 3])
+        }
+    }
+
+    /// Defaults for a nominal sensitivity.
+    pub fn new(nominal_rad_per_count: [f64; 3]) -> Self {
+        Self {
+            detect: DetectOptions::default(),
+            nominal_rad_per_count,
+            accel_model: MultiPosModel::Full,
+            max_iterations: 100,
+            nominal_source: "given".into(),
+            estimate_nominal: false,
+            exact_held_out: false,
+        }
+    }
+}
+
+/// Radians to degrees.
+fn deg(rad: f64) -> f64 {
+    rad.to_degrees()
+}
+
+/// Runs the gyro calibration on an accelerometer recording and the gyro recording of the same
+/// samples.
+pub fn run(acc: &Recording, gyro: &Recording, opts: &GyroOptions) -> Result<GyroReport> {
+    if !opts.estimate_nominal
+        && !opts
+            .nominal_rad_per_count
+            .iter()
+            .all(|s| s.is_finite() && *s != 0.0)
+    {
+        return Err(GyroError::GyroNominalScale);
+    }
+    let acc_rec = align::paired_accelerometer(acc, gyro)?;
+    segment::check_gyro_reads(gyro, &acc_rec)?;
+    let rate = acc_rec
+        .estimated_rate_hz()
+        .unwrap_or(opts.detect.default_rate_hz);
+    let seg = segment::segment(&acc_rec, opts)
+        .and_then(|seg| segment::check_not_gravity(gyro, &seg).map(|()| seg))
+        .map_err(|e| segment::swapped(acc, gyro, opts).unwrap_or(e))?;
+    let bias_from_rest = segment::bias_at_rest(gyro, &seg.intervals[0]);
+    let dt = 1.0 / rate;
+    let motions = seg.motions(gyro);
+    let (nominal_scale, nominal_source) = nominal::choose(&motions, bias_from_rest, dt, opts)?;
+    let nominal = GyroCalibration::nominal(bias_from_rest, nominal_scale);
+    let (rows, best, before) = models::evaluate_candidates(&motions, &nominal, dt, opts)?;
+    let (name, fit, cv, held, after) = best;
+    let cal = fit.calibration;
+    let mut notes = models::choice_notes(&rows, name);
+    notes.extend(nominal::flipped_axes(&cal, &nominal_scale));
+    let motion_table = models::motion_table(&seg, &motions, &held, (&before, &after));
+    let k = cal.matrix;
+    let fitted = Fitted {
+        name,
+        bias: cal.bias.into(),
+        matrix: std::array::from_fn(|r| std::array::from_fn(|c| k[(r, c)])),
+        held: &held,
+        identifiability: rows
+            .iter()
+            .find(|r| r.name == name)
+            .and_then(|r| r.identifiability),
+    };
+    let lp = loop_part(gyro, &acc_rec, &seg, &fitted, dt)?;
+    Ok(GyroReport {
+        static_windows: seg.intervals.len(),
+        motions: motions.len(),
+        bias: fitted.bias,
+        matrix: fitted.matrix,
+        rms_deg_before: rows[0].rms_deg.unwrap_or(f64::NAN),
+        rms_deg_after: deg(fit.rms_after),
+        cv_rms_deg: cv,
+        held_out_method: if opts.exact_held_out {
+            "exact"
+        } else {
+            "one-step"
+        },
+        model: name,
+        models: rows,
+        motion_table,
+        sample_rate_hz: rate,
+        nominal_rad_per_count: nominal_scale,
+        nominal_source,
+        bias_from_rest,
+        notes,
+        noise_floor_deg: lp.floor_deg,
+        noise_floor_rate_dps: lp.rate_dps,
+        noise_floor_window_dps: lp.window_dps,
+        base: lp.search.base,
+        effects: lp.search.effects,
+        final_model: lp.search.final_model,
+        steps: lp.search.steps,
+        quality: lp.quality,
+        reasons: lp.reasons,
+        verdict: lp.verdict,
+        diagnostics: lp.diagnostics,
+    })
+}
+
+/// The chosen calibration, as the loop needs it.
+struct Fitted<'a> {
+    name: &'static str,
+    bias: [f64; 3],
+    matrix: [[f64; 3]; 3],
+    /// Held-out angle per motion, rad.
+    held: &'a [f64],
+    identifiability: Option<f64>,
+}
+
+/// What the loop adds to the fit: floors, the window search, the verdict.
+struct LoopPart {
+    floor_deg: f64,
+    rate_dps: f64,
+    window_dps: f64,
+    search: effects::Search,
+    quality: GyroQuality,
+    reasons: Vec<String>,
+    verdict: String,
+    diagnostics: Vec<String>,
+}
+
+/// Noise floor, static-window candidates and verdict for the chosen calibration.
+fn loop_part(
+    gyro: &Recording,
+    acc_rec: &Recording,
+    seg: &segment::Segmentation,
+    fit: &Fitted<'_>,
+    dt: f64,
+) -> Result<LoopPart> {
+    let fl = floor::floors(gyro, seg, &fit.matrix, dt);
+    let data = window_data(gyro, seg, fit, &fl);
+    let cands = candidates(seg);
+    let search = effects::search(&data, &cands)
+        .ok_or(GyroError::GyroFitFailed(wiical_core::Error::NotConverged))?;
+    let fits_bias = matches!(fit.name, "bias" | "scale+bias" | "full+bias");
+    let fits_scale = fit.name.starts_with("scale") || fit.name.starts_with("full");
+    let ev = verdict::Evidence {
+        held_out: fit.held,
+        floor: &fl.motion_rad,
+        bias_offset: fits_bias.then(|| segment::bias_against_rest(gyro, seg, fit.bias)),
+        scale_and_bias: (fits_bias && fits_scale)
+            .then_some(fit.identifiability)
+            .flatten(),
+        timestamps: segment::timestamp_problem(acc_rec),
+        dps_per_count: std::array::from_fn(|a| {
+            (0..3)
+                .map(|c| fit.matrix[a][c].powi(2))
+                .sum::<f64>()
+                .sqrt()
+                .to_degrees()
+        }),
+    };
+    let (quality, reasons, text) = verdict::judge(&ev);
+    let mut diagnostics = limit_sentences(&search);
+    diagnostics.extend(window_scatter(&search, &data));
+    let window_dps = (data.mean_var.iter().flatten().sum::<f64>()
+        / (3 * data.mean_var.len()).max(1) as f64)
+        .sqrt();
+    Ok(LoopPart {
+        floor_deg: st::rms(&fl.motion_rad).to_degrees(),
+        rate_dps: fl.rate_noise.to_degrees(),
+        window_dps,
+        search,
+        quality,
+        reasons,
+        verdict: text,
+        diagnostics,
+    })
+}
+
+/// The gyro's window means through the chosen calibration and their noise, °/s.
+fn window_data(
+    gyro: &Recording,
+    seg: &segment::Segmentation,
+    fit: &Fitted<'_>,
+    fl: &floor::Floors,
+) -> effects::WindowData {
+    let rate_dps = seg
+        .intervals
+        .iter()
+        .map(|iv| {
+            let m = segment::bias_at_rest(gyro, iv);
+            std::array::from_fn(|r| {
+                (0..3)
+                    .map(|c| fit.matrix[r][c] * (m[c] - fit.bias[c]))
+                    .sum::<f64>()
+                    .to_degrees()
+            })
+        })
+        .collect();
+    let d2 = 1f64.to_degrees().powi(2);
+    let mean_var = fl
+        .window_mean_var
+        .iter()
+        .map(|v| v.map(|x| x * d2))
+        .collect();
+    effects::WindowData { rate_dps, mean_var }
+}
+
+/// The static-window candidates this recording can test: g-sensitivity and drift always,
+/// temperature when the recording has a temperature that changes.
+fn candidates(seg: &segment::Segmentation) -> Vec<effects::Candidate> {
+    let gravity = seg.gravity();
+    let t0 = seg.windows.iter().map(|w| w.t_centre).sum::<f64>() / seg.windows.len() as f64;
+    let mut out = vec![
+        effects::Candidate {
+            name: "g-sensitivity",
+            unit: "°/s/g",
+            columns: gravity.iter().map(|g| g.to_vec()).collect(),
+            pattern: "the windows' gyro means follow the gravity direction",
+        },
+        effects::Candidate {
+            name: "bias-drift",
+            unit: "°/s/h",
+            columns: seg
+                .windows
+                .iter()
+                .map(|w| vec![(w.t_centre - t0) / 3600.0])
+                .collect(),
+            pattern: "the windows' gyro means move with time",
+        },
+    ];
+    let temps: Option<Vec<f64>> = seg.windows.iter().map(|w| w.temp).collect();
+    let spread = |t: &Vec<f64>| {
+        let lo = t.iter().copied().fold(f64::INFINITY, f64::min);
+        let hi = t.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        hi - lo
+    };
+    if let Some(t) = temps.filter(|t| spread(t) > 0.0 && spread(t).is_finite()) {
+        let m = t.iter().sum::<f64>() / t.len() as f64;
+        out.push(effects::Candidate {
+            name: "temperature",
+            unit: "°/s/°C",
+            columns: t.iter().map(|x| vec![x - m]).collect(),
+            pattern: "the windows' gyro means follow the temperature",
+        });
+    }
+    out
+}
+
+/// "no g-sensitivity above 0.02 °/s/g" for every candidate of the last step not accepted.
+fn limit_sentences(search: &effects::Search) -> Vec<String> {
+    let Some(last) = search.steps.last() else {
+        return Vec::new();
+    };
+    last.candidates
+        .iter()
+        .filter(|c| !c.passed)
+        .map(|c| match c.detection_limit {
+            Some(l) => format!(
+                "no {} above {} {} (the smallest this recording would show in 80 % of cases)",
+                c.name,
+                sig3(l),
+                c.unit
+            ),
+            None => format!("{}: not tested ({})", c.name, c.note),
+        })
+        .collect()
+}
+
+/// Three significant digits.
+fn sig3(x: f64) -> String {
+    if x == 0.0 || !x.is_finite() {
+        return format!("{x}");
+    }
+    let d = (2 - x.abs().log10().floor() as i32).max(0) as usize;
+    format!("{x:.d$}")
+}
+
+/// A sentence when the window means scatter about the final window model more than their noise
+/// allows (χ² p below the residual test's level): the bias at rest moves by something no
+/// candidate names (hand tremor in windows that are not truly still, a bias that jumps).
+fn window_scatter(search: &effects::Search, data: &effects::WindowData) -> Option<String> {
+    let f = &search.final_model;
+    let p = f.chi2_p?;
+    if p >= crate::report::verdict::UNEXPLAINED_P {
+        return None;
+    }
+    let n = data.mean_var.len().max(1) as f64;
+    let noise = (data.mean_var.iter().flatten().sum::<f64>() / (3.0 * n)).sqrt();
+    Some(format!(
+        "the gyro's window means scatter {:.4} °/s RMS about the {} model, {:.1}× their own noise {noise:.4} °/s (χ² p {}): the bias at rest moves by something no candidate names (windows not truly still, a bias that jumps)",
+        f.rms_dps,
+        if search.effects.is_empty() { "bias-only" } else { "final" },
+        f.rms_dps / noise.max(1e-300),
+        st::fmt_p(p)
+    ))
+}

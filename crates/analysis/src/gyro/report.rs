@@ -1,0 +1,172 @@
+//! The JSON contract of `wiical gyrofit --json`: today's keys (`static_windows`, `motions`,
+//! `bias`, `matrix`, `rms_deg_before`, `rms_deg_after`, `cv_rms_deg`, …) and the loop's, in the
+//! shape of `analyze`'s (`noise_floor_*`, `base`, `effects`, `final`, `steps` with
+//! `candidates`, `verdict`, `diagnostics`). The window models' numbers are in °/s (the gyro's
+//! window means through the calibration), the motions' in degrees.
+
+use super::models::{GyroModelRow, MotionRow};
+use serde::Serialize;
+
+/// A window model: the bias alone (`base`) or with the accepted effects (`final`).
+#[derive(Debug, Clone, Serialize)]
+pub struct GyroSummary {
+    /// Parameters (3 for the bias, + 3 per regressor of each effect).
+    pub params: usize,
+    /// In-sample RMS of the window means about the model, °/s.
+    pub rms_dps: f64,
+    /// Leave-one-window-out RMS, °/s.
+    pub cv_rms_dps: Option<f64>,
+    /// Windows used.
+    pub windows_used: usize,
+    /// χ² of the residuals against the windows' noise floor.
+    pub chi2: Option<f64>,
+    /// Its degrees of freedom.
+    pub chi2_dof: Option<usize>,
+    /// P(χ² this large | only noise).
+    pub chi2_p: Option<f64>,
+}
+
+/// One accepted effect.
+#[derive(Debug, Clone, Serialize)]
+pub struct GyroEffect {
+    /// `g-sensitivity`, `bias-drift`, `temperature`.
+    pub name: String,
+    /// Parameters it adds.
+    pub params: usize,
+    /// Unit of `values`.
+    pub unit: String,
+    /// Fitted values, row-major per gyro axis (g-sensitivity: `G[axis][gravity component]`).
+    pub values: Vec<f64>,
+    /// Their standard errors.
+    pub std_errors: Vec<f64>,
+    /// Which pattern pointed to it, and the test results.
+    pub evidence: String,
+    /// F statistic.
+    pub f_stat: Option<f64>,
+    /// Its p-value (before the factor over candidates).
+    pub p_value: Option<f64>,
+    /// In-sample window RMS before adding it, °/s.
+    pub rms_before_dps: f64,
+    /// After, °/s.
+    pub rms_dps: f64,
+    /// Held-out window RMS before, °/s.
+    pub cv_rms_before_dps: Option<f64>,
+    /// After, °/s.
+    pub cv_rms_dps: Option<f64>,
+}
+
+/// One candidate at one step.
+#[derive(Debug, Clone, Serialize)]
+pub struct GyroCandidate {
+    /// Effect name.
+    pub name: String,
+    /// Parameters it would add.
+    pub params: usize,
+    /// Unit of its coefficients and of `detection_limit`.
+    pub unit: String,
+    /// In-sample window RMS with it, °/s.
+    pub rms_dps: Option<f64>,
+    /// Held-out window RMS with it, °/s.
+    pub cv_rms_dps: Option<f64>,
+    /// Held-out window RMS of the current model, °/s.
+    pub cv_rms_current_dps: Option<f64>,
+    /// F statistic.
+    pub f_stat: Option<f64>,
+    /// p-value (before the factor over candidates).
+    pub p_value: Option<f64>,
+    /// Passed both rules.
+    pub passed: bool,
+    /// Why not, or what it found.
+    pub note: String,
+    /// Not accepted: the smallest coefficient this recording would have shown at the step's
+    /// level (80 % power), in `unit`; `null` when accepted or untestable.
+    pub detection_limit: Option<f64>,
+}
+
+/// One greedy step.
+#[derive(Debug, Clone, Serialize)]
+pub struct GyroStep {
+    /// Candidates tried.
+    pub candidates: Vec<GyroCandidate>,
+    /// Level each candidate was held to (α / candidates).
+    pub level: f64,
+    /// The one accepted, if any.
+    pub accepted: Option<String>,
+}
+
+/// The verdict's class.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum GyroQuality {
+    /// The held-out error agrees with the noise floor.
+    Good,
+    /// Above the floor, but none of the reasons that make it unusable.
+    UnexplainedResidual,
+    /// Do not use: see `reasons`.
+    NotUsable,
+}
+
+/// The result (the JSON contract of `wiical gyrofit --json`).
+#[derive(Debug, Clone, Serialize)]
+pub struct GyroReport {
+    /// Static windows found on the accelerometer.
+    pub static_windows: usize,
+    /// Motions between consecutive windows.
+    pub motions: usize,
+    /// Gyro bias of the chosen calibration, raw counts.
+    pub bias: [f64; 3],
+    /// `K` of the chosen calibration, raw → rad/s (`ω = K·(m − b)`), row-major.
+    pub matrix: [[f64; 3]; 3],
+    /// RMS angle error of the uncalibrated gyro over the motions, degrees.
+    pub rms_deg_before: f64,
+    /// In-sample RMS angle error of the chosen model, degrees.
+    pub rms_deg_after: f64,
+    /// Leave-one-motion-out RMS angle error of the chosen model, degrees.
+    pub cv_rms_deg: f64,
+    /// How the held-out angles were found: `"one-step"` (one Gauss–Newton step from the
+    /// all-motion fit, then the held-out motion integrated exactly) or `"exact"` (a refit per
+    /// motion, `--exact-held-out`).
+    pub held_out_method: &'static str,
+    /// The chosen model.
+    pub model: &'static str,
+    /// Every candidate.
+    pub models: Vec<GyroModelRow>,
+    /// Per motion, with the chosen model.
+    pub motion_table: Vec<MotionRow>,
+    /// Sample rate used, Hz.
+    pub sample_rate_hz: f64,
+    /// Nominal sensitivity, rad/s per count.
+    pub nominal_rad_per_count: [f64; 3],
+    /// Where the nominal came from: a flag (`--scale`, `--counts-per-dps`) or the gyro
+    /// columns' unit (`deg/s` in `gyro_x_dps`: 1 count = 1 °/s).
+    pub nominal_source: String,
+    /// Bias from the first static window, raw counts.
+    pub bias_from_rest: [f64; 3],
+    /// Remarks on the choice (e.g. that the full model generalises worse than none).
+    pub notes: Vec<String>,
+    /// Noise floor of the motions' angle error: RMS over the motions of what the gyro's noise
+    /// at rest and the accelerometer's tilt noise leave under a right calibration, degrees.
+    pub noise_floor_deg: f64,
+    /// The gyro's per-sample noise at rest through the calibration, °/s RMS.
+    pub noise_floor_rate_dps: f64,
+    /// RMS over the windows of the noise of the gyro's window mean, °/s (the floor of the
+    /// window models).
+    pub noise_floor_window_dps: f64,
+    /// The window model with the bias alone.
+    pub base: GyroSummary,
+    /// Accepted effects, in the order added.
+    pub effects: Vec<GyroEffect>,
+    /// The window model with the effects.
+    #[serde(rename = "final")]
+    pub final_model: GyroSummary,
+    /// The greedy steps with every candidate.
+    pub steps: Vec<GyroStep>,
+    /// `good`, `unexplained-residual` or `not-usable`.
+    pub quality: GyroQuality,
+    /// Why not usable (empty otherwise).
+    pub reasons: Vec<String>,
+    /// One-paragraph conclusion.
+    pub verdict: String,
+    /// Findings worth a sentence that are not effects (untested candidates, limits).
+    pub diagnostics: Vec<String>,
+}

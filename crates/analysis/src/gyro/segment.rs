@@ -1,0 +1,212 @@
+//! What the accelerometer says about the recording: the static windows, the motions between
+//! them with their gravity directions, and the checks on the gyro that need them.
+
+use super::{GyroError, GyroOptions, Result};
+use crate::detect::windows::{detect_windows, WindowStats};
+use crate::fit::base::{run_windows, FitOptions};
+use crate::input::recording::Recording;
+use crate::input::timecheck::TimeSteps;
+use wiical_core::gyro_fit;
+use wiical_core::static_detect::StaticInterval;
+use wiical_core::Calibration;
+
+/// What the accelerometer says: the windows `wiical fit` finds on the same file and settings
+/// (as the core's intervals), their times, and the motions between them with `fit`'s
+/// gravity directions.
+pub(super) struct Segmentation {
+    pub(super) intervals: Vec<StaticInterval>,
+    pub(super) times: Vec<f64>,
+    pub(super) spans: Vec<gyro_fit::MotionSpan>,
+    /// The accelerometer's statistics per window (mean, variance, centre time, temperature).
+    pub(super) windows: Vec<WindowStats>,
+    /// The accelerometer calibration `fit` finds (gravity directions, tilt noise).
+    pub(super) accel: Calibration,
+}
+
+impl Segmentation {
+    /// The motions between the windows, with the gyro's samples.
+    pub(super) fn motions<'a>(&self, gyro: &'a Recording) -> Vec<gyro_fit::Motion<'a, f64>> {
+        self.spans
+            .iter()
+            .map(|s| gyro_fit::Motion {
+                samples: &gyro.xyz[s.start as usize..s.end as usize],
+                g_start: nalgebra::Vector3::from(s.g_start).cast(),
+                g_end: nalgebra::Vector3::from(s.g_end).cast(),
+            })
+            .collect()
+    }
+
+    /// Calibrated specific force of each window, reference units (g): gravity in the
+    /// sensor frame while the sensor rests.
+    pub(super) fn gravity(&self) -> Vec<[f64; 3]> {
+        self.windows
+            .iter()
+            .map(|w| {
+                self.accel
+                    .correct_linear(w.mean.map(|x| x as f32))
+                    .map(f64::from)
+            })
+            .collect()
+    }
+}
+
+pub(super) fn segment(acc_rec: &Recording, opts: &GyroOptions) -> Result<Segmentation> {
+    let ws = detect_windows(acc_rec, &opts.detect)?;
+    let fit_opts = FitOptions {
+        detect: opts.detect.clone(),
+        model: opts.accel_model,
+    };
+    let accel = run_windows(&ws, &fit_opts)?.calibration;
+    let intervals: Vec<StaticInterval> = ws
+        .stats
+        .iter()
+        .map(|w| StaticInterval {
+            start: w.start as u32,
+            end: w.end as u32,
+            mean: w.mean.map(|x| x as f32),
+            variance: w.var.map(|x| x as f32),
+        })
+        .collect();
+    let spans: Vec<gyro_fit::MotionSpan> = gyro_fit::motion_spans(&intervals, &accel)
+        .collect::<std::result::Result<_, _>>()
+        .map_err(GyroError::GyroFitFailed)?;
+    if spans.len() < 2 {
+        return Err(GyroError::TooFewMotions {
+            found: spans.len(),
+            needed: 2,
+        });
+    }
+    Ok(Segmentation {
+        intervals,
+        times: ws.times,
+        spans,
+        windows: ws.stats,
+        accel,
+    })
+}
+
+/// Refuses a "gyro" that is an accelerometer (the same file twice, or accelerometer columns
+/// given as the gyro's, issue 25): a gyro's mean over the still windows is its bias, the same
+/// in every pose, while gravity's points a different way in each. Refused when the spread of
+/// the window means is more than half the RMS of the signal during the motions.
+pub(super) fn check_not_gravity(gyro: &Recording, seg: &Segmentation) -> Result<()> {
+    let means: Vec<[f64; 3]> = seg
+        .intervals
+        .iter()
+        .map(|iv| bias_at_rest(gyro, iv))
+        .collect();
+    let n = means.len() as f64;
+    let centre: [f64; 3] = std::array::from_fn(|a| means.iter().map(|m| m[a]).sum::<f64>() / n);
+    let sq = |v: [f64; 3]| (0..3).map(|a| (v[a] - centre[a]).powi(2)).sum::<f64>();
+    let spread = (means.iter().map(|m| sq(*m)).sum::<f64>() / n).sqrt();
+    let (mut acc, mut count) = (0.0, 0usize);
+    for s in &seg.spans {
+        for v in &gyro.xyz[s.start as usize..s.end as usize] {
+            acc += sq(*v);
+            count += 1;
+        }
+    }
+    let motion_rms = (acc / count.max(1) as f64).sqrt();
+    if spread > 0.5 * motion_rms {
+        return Err(GyroError::GyroLooksLikeGravity {
+            columns: gyro.axis_columns.join(","),
+            spread,
+            motion_rms,
+        });
+    }
+    Ok(())
+}
+
+/// The gyro's mean over the first window (the uncalibrated bias), raw counts.
+pub(super) fn bias_at_rest(gyro: &Recording, rest: &StaticInterval) -> [f64; 3] {
+    let rest_samples = &gyro.xyz[rest.start as usize..rest.end as usize];
+    let n = rest_samples.len() as f64;
+    std::array::from_fn(|a| rest_samples.iter().map(|s| s[a]).sum::<f64>() / n)
+}
+
+/// Refuses gyro columns that read nothing: an axis with one value on every row (all zeros from
+/// a gyro that was never enabled, a column the logger leaves empty) cannot be integrated, and
+/// saying so is clearer than what the fit would say later. The accelerometer's mean magnitude
+/// is quoted so that the sentence shows the other sensor was working.
+pub(super) fn check_gyro_reads(gyro: &Recording, acc: &Recording) -> Result<()> {
+    let dead: Vec<usize> = (0..3)
+        .filter(|&a| {
+            let first = gyro.xyz.first().map_or(0.0, |v| v[a]);
+            gyro.xyz.iter().all(|v| v[a] == first)
+        })
+        .collect();
+    if dead.is_empty() {
+        return Ok(());
+    }
+    let n = acc.xyz.len().max(1) as f64;
+    let acc_norm = acc
+        .xyz
+        .iter()
+        .map(|v| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt())
+        .sum::<f64>()
+        / n;
+    Err(GyroError::GyroReadsNothing {
+        columns: dead
+            .iter()
+            .map(|&a| gyro.axis_columns[a].clone())
+            .collect::<Vec<_>>()
+            .join(", "),
+        value: gyro.xyz.first().map_or(0.0, |v| v[dead[0]]),
+        rows: gyro.xyz.len(),
+        accel_norm: acc_norm,
+    })
+}
+
+/// After the accelerometer's stages failed on `acc` (or the gyro turned out to move with
+/// gravity): whether the two recordings were given in swapped order, i.e. the "gyro" has the
+/// poses of an accelerometer and the "accelerometer" passes the gyro's gravity check. Returns
+/// the error that says so, or `None` (then the original error stands).
+pub(super) fn swapped(acc: &Recording, gyro: &Recording, opts: &GyroOptions) -> Option<GyroError> {
+    let as_acc = super::align::paired_accelerometer(gyro, acc).ok()?;
+    let seg = segment(&as_acc, opts).ok()?;
+    check_not_gravity(acc, &seg).ok()?;
+    Some(GyroError::GyroFilesSwapped {
+        windows: seg.intervals.len(),
+    })
+}
+
+/// The gyro's mean at rest (the mean of the window means) against the fitted bias: the
+/// difference and the window means' spread (standard deviation over the windows), raw counts.
+pub(super) fn bias_against_rest(
+    gyro: &Recording,
+    seg: &Segmentation,
+    bias: [f64; 3],
+) -> ([f64; 3], [f64; 3]) {
+    let means: Vec<[f64; 3]> = seg
+        .intervals
+        .iter()
+        .map(|iv| bias_at_rest(gyro, iv))
+        .collect();
+    let n = means.len() as f64;
+    let centre: [f64; 3] = std::array::from_fn(|a| means.iter().map(|m| m[a]).sum::<f64>() / n);
+    let spread = std::array::from_fn(|a| {
+        (means
+            .iter()
+            .map(|m| (m[a] - centre[a]).powi(2))
+            .sum::<f64>()
+            / (n - 1.0).max(1.0))
+        .sqrt()
+    });
+    (std::array::from_fn(|a| bias[a] - centre[a]), spread)
+}
+
+/// Why the recording's timestamps cannot be integrated at one rate, if they cannot: they come
+/// in bursts (the logger stamps FIFO reads, not samples, so where the samples lie in time is
+/// unknown and any lost between bursts go unnoticed) or have gaps.
+pub(super) fn timestamp_problem(rec: &Recording) -> Option<String> {
+    let steps = TimeSteps::of(rec.t.as_deref()?)?;
+    if steps.bursty() {
+        return Some(format!(
+            "the timestamps come in bursts ({} of {} steps are gaps of more than {}× the median step): the samples' times are not known, so the motions cannot be integrated at one rate (log the sensor's own sample counter or a steady rate)",
+            steps.gaps,
+            steps.steps,
+            crate::input::timecheck::GAP_FACTOR
+        ));
+    }
+    None
+}

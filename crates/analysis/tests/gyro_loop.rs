@@ -1,0 +1,293 @@
+//! `gyrofit`'s loop: noise floor, static-window candidates with detection limits, verdict, on
+//! simulations with known truth (`simulate::gyro`) and on the degenerate inputs a user can
+//! give (wrong-sign nominal, swapped files, a gyro that reads nothing).
+//!
+//! The sweep (`#[ignore]`d, minutes):
+//! `cargo test --release -p wiical-analysis --test gyro_loop sweep -- --ignored --nocapture`.
+
+mod common;
+use common::data_dir;
+
+use wiical_analysis::gyro::{run, GyroError, GyroOptions, GyroQuality, GyroReport};
+use wiical_analysis::simulate::gyro::{simulate_gyro, GyroSimOptions, GyroTruth};
+use wiical_analysis::{load, LoadOptions, Recording};
+
+/// The true nominal of the default simulated gyro (16.4 counts per °/s).
+fn nominal() -> GyroOptions {
+    GyroOptions {
+        nominal_source: "--scale".into(),
+        ..GyroOptions::new([1f64.to_radians() / 16.4; 3])
+    }
+}
+
+fn run_sim(seed: u64, truth: GyroTruth) -> GyroReport {
+    let o = GyroSimOptions {
+        seed,
+        truth,
+        ..Default::default()
+    };
+    let sim = simulate_gyro(&o);
+    run(&sim.accel, &sim.gyro, &nominal()).expect("simulated gyro fits")
+}
+
+/// Names of the accepted effects.
+fn named(r: &GyroReport) -> Vec<String> {
+    r.effects.iter().map(|e| e.name.clone()).collect()
+}
+
+/// The detection limit of `name` on the last step.
+fn limit(r: &GyroReport, name: &str) -> f64 {
+    r.steps
+        .last()
+        .and_then(|s| s.candidates.iter().find(|c| c.name == name))
+        .and_then(|c| c.detection_limit)
+        .unwrap_or_else(|| panic!("no detection limit for {name}: {:?}", r.steps))
+}
+
+#[test]
+fn clean_simulations_are_good_with_nothing_named() {
+    for seed in 1..=3 {
+        let r = run_sim(seed, GyroTruth::default());
+        assert!(r.effects.is_empty(), "seed {seed}: {:?}", named(&r));
+        assert_eq!(r.quality, GyroQuality::Good, "seed {seed}: {}", r.verdict);
+        // The floor is the noise a right calibration leaves: the held-out error is of its
+        // order, not far below (a floor too high would call anything good).
+        assert!(
+            r.cv_rms_deg > 0.3 * r.noise_floor_deg && r.cv_rms_deg < 3.0 * r.noise_floor_deg,
+            "seed {seed}: held out {} against floor {}",
+            r.cv_rms_deg,
+            r.noise_floor_deg
+        );
+        assert!(r
+            .diagnostics
+            .iter()
+            .any(|d| d.starts_with("no g-sensitivity above")));
+    }
+}
+
+/// g-sensitivity on one element at twice the limit a clean recording states: found with the
+/// true value within its standard errors, by name.
+#[test]
+fn g_sensitivity_at_twice_the_limit_is_found() {
+    let clean = run_sim(11, GyroTruth::default());
+    let lim = limit(&clean, "g-sensitivity"); // °/s/g
+    let mut truth = GyroTruth::default();
+    truth.g_sensitivity[0][2] = (2.0 * lim).to_radians();
+    let mut found = 0;
+    for seed in 11..16 {
+        let r = run_sim(seed, truth.clone());
+        if let Some(e) = r.effects.iter().find(|e| e.name == "g-sensitivity") {
+            found += 1;
+            // values row-major: G[x][z] is index 2.
+            let (v, s) = (e.values[2], e.std_errors[2]);
+            assert!(
+                (v - 2.0 * lim).abs() < 4.0 * s,
+                "G_xz {v} ± {s}, truth {}",
+                2.0 * lim
+            );
+        }
+    }
+    assert!(found >= 4, "found {found} of 5 at 2× the limit {lim} °/s/g");
+}
+
+#[test]
+fn bias_drift_at_twice_the_limit_is_found() {
+    let clean = run_sim(21, GyroTruth::default());
+    let lim = limit(&clean, "bias-drift"); // °/s/h
+    let mut truth = GyroTruth::default();
+    truth.drift[1] = (2.0 * lim).to_radians() / 3600.0;
+    let found = (21..26)
+        .filter(|&seed| named(&run_sim(seed, truth.clone())).contains(&"bias-drift".into()))
+        .count();
+    assert!(found >= 4, "found {found} of 5 at 2× the limit {lim} °/s/h");
+}
+
+fn xsens() -> (Recording, Recording) {
+    let dir = data_dir().join("imu_tk_xsens");
+    let acc = load(&dir.join("xsens_acc.mat"), &LoadOptions::default()).unwrap();
+    let gyro = load(&dir.join("xsens_gyro.mat"), &LoadOptions::default()).unwrap();
+    (acc, gyro)
+}
+
+#[test]
+fn a_wrong_sign_nominal_is_refused_naming_the_axes() {
+    let (acc, gyro) = xsens();
+    let opts = GyroOptions {
+        nominal_source: "--scale".into(),
+        ..GyroOptions::new([-1.5979546e-4; 3])
+    };
+    match run(&acc, &gyro, &opts) {
+        Err(e @ GyroError::GyroNominalSign { .. }) => {
+            let msg = e.to_string();
+            assert!(msg.contains("x, y, z axis"), "{msg}");
+            assert!(
+                msg.contains("--scale 1.5980e-4,1.5980e-4,1.5980e-4"),
+                "{msg}"
+            );
+        }
+        other => panic!("expected a sign refusal, got {other:?}"),
+    }
+    // One axis wrong: that axis alone is named.
+    let opts = GyroOptions {
+        nominal_source: "--scale".into(),
+        ..GyroOptions::new([1.5979546e-4, -1.5979546e-4, 1.5979546e-4])
+    };
+    let err = run(&acc, &gyro, &opts).unwrap_err().to_string();
+    assert!(err.contains("on the y axis"), "{err}");
+}
+
+#[test]
+fn swapped_files_are_named_as_swapped() {
+    let (acc, gyro) = xsens();
+    let err = run(&gyro, &acc, &GyroOptions::new([1.5979546e-4; 3])).unwrap_err();
+    assert!(
+        matches!(err, GyroError::GyroFilesSwapped { .. }),
+        "{err:?}: {err}"
+    );
+}
+
+#[test]
+fn an_all_zero_gyro_says_it_reads_nothing() {
+    let (acc, mut gyro) = xsens();
+    gyro.xyz.iter_mut().for_each(|v| *v = [0.0; 3]);
+    let err = run(&acc, &gyro, &GyroOptions::estimated()).unwrap_err();
+    let msg = err.to_string();
+    assert!(matches!(err, GyroError::GyroReadsNothing { .. }), "{msg}");
+    assert!(msg.contains("the gyro reads nothing"), "{msg}");
+}
+
+/// One row of the sweep: effect, magnitude (× its limit), named / named as something else /
+/// nothing, mean held-out window RMS before → after.
+fn sweep_effect(name: &str, set: impl Fn(&mut GyroTruth, f64), lim: f64, unit: &str) {
+    for factor in [1.0, 2.0, 4.0] {
+        let (mut right, mut other, mut none) = (0, 0, 0);
+        let (mut before, mut after) = (0.0, 0.0);
+        for seed in 0..10 {
+            let mut truth = GyroTruth::default();
+            set(&mut truth, factor * lim);
+            let r = run_sim(1000 + seed, truth);
+            let n = named(&r);
+            if n.iter().any(|x| x == name) {
+                right += 1;
+            } else if n.is_empty() {
+                none += 1;
+            } else {
+                other += 1;
+            }
+            before += r.base.cv_rms_dps.unwrap_or(f64::NAN) / 10.0;
+            after += r.final_model.cv_rms_dps.unwrap_or(f64::NAN) / 10.0;
+        }
+        println!(
+            "| {name} | {factor}× = {:.4} {unit} | {right}/10 | {other}/10 | {none}/10 | {before:.4} → {after:.4} |",
+            factor * lim
+        );
+    }
+}
+
+/// The sweep behind docs/gyro.md's table: clean simulations (false positives) and each
+/// effect at 1×, 2×, 4× the limit a clean recording states.
+#[test]
+#[ignore]
+fn sweep() {
+    let mut false_pos = 0;
+    let mut not_good = 0;
+    let mut limits = [(0.0, 0usize); 2];
+    let runs = 400;
+    for seed in 0..runs {
+        let r = run_sim(5000 + seed, GyroTruth::default());
+        false_pos += usize::from(!r.effects.is_empty());
+        not_good += usize::from(r.quality != GyroQuality::Good);
+        // The limits a clean recording states (first step: before anything is accepted).
+        for (l, name) in limits.iter_mut().zip(["g-sensitivity", "bias-drift"]) {
+            if let Some(v) = r.steps[0]
+                .candidates
+                .iter()
+                .find(|c| c.name == name)
+                .and_then(|c| c.detection_limit)
+            {
+                l.0 += v;
+                l.1 += 1;
+            }
+        }
+    }
+    println!("clean: effects named in {false_pos}/{runs}, verdict not good in {not_good}/{runs}");
+    let limits = limits.map(|(sum, n)| sum / n.max(1) as f64);
+    println!(
+        "mean limits: g-sensitivity {:.4} °/s/g, bias drift {:.4} °/s/h",
+        limits[0], limits[1]
+    );
+    println!("| effect | injected | named | named as something else | nothing | window CV before → after, °/s |");
+    println!("|---|---|---|---|---|---|");
+    sweep_effect(
+        "g-sensitivity",
+        |t, v| t.g_sensitivity[0][2] = v.to_radians(),
+        limits[0],
+        "°/s/g",
+    );
+    sweep_effect(
+        "bias-drift",
+        |t, v| t.drift[1] = v.to_radians() / 3600.0,
+        limits[1],
+        "°/s/h",
+    );
+    let ramp = GyroTruth {
+        temp_ramp: 10.0,
+        ..Default::default()
+    };
+    let lim_t = run_sim(7, ramp).steps[0]
+        .candidates
+        .iter()
+        .find(|c| c.name == "temperature")
+        .and_then(|c| c.detection_limit)
+        .expect("a temperature that changes is tested");
+    sweep_effect(
+        "temperature",
+        |t, v| {
+            t.temp_ramp = 10.0;
+            t.temp_coef[2] = v.to_radians();
+        },
+        lim_t,
+        "°/s/°C",
+    );
+}
+
+/// What `wiical gyrofit FILE` does at default settings: both triplets from one file, the
+/// nominal from the columns' unit or estimated.
+fn default_run(path: &std::path::Path) -> GyroReport {
+    let (acc, gyro) =
+        wiical_analysis::input::load::load_imu(path, &LoadOptions::default(), None).unwrap();
+    let opts = match wiical_analysis::gyro::nominal_from_columns(&gyro) {
+        Some((s, source)) => GyroOptions {
+            nominal_source: source,
+            ..GyroOptions::new(s)
+        },
+        None => GyroOptions::estimated(),
+    };
+    run(&acc, &gyro, &opts).unwrap()
+}
+
+/// The verdicts of the real recordings at default settings (docs/gyro.md's table): the
+/// sunsided full sphere is not usable (bursty timestamps), the Xsens pair has g-sensitivity
+/// and a residual above its floor, the MPU-9150 units agree with their floors.
+#[test]
+fn real_recordings_verdicts() {
+    let d = data_dir();
+    let sun = default_run(&d.join("mpu6050_hmc5883l_sunsided_set2/full-sphere_mpu6050.csv"));
+    assert_eq!(sun.quality, GyroQuality::NotUsable, "{}", sun.verdict);
+    assert!(
+        sun.reasons.iter().any(|r| r.contains("bursts")),
+        "{:?}",
+        sun.reasons
+    );
+    let (acc, gyro) = xsens();
+    let x = run(&acc, &gyro, &GyroOptions::estimated()).unwrap();
+    assert_eq!(x.quality, GyroQuality::UnexplainedResidual, "{}", x.verdict);
+    assert_eq!(named(&x), ["g-sensitivity"]);
+    for unit in 0..5 {
+        let r = default_run(&d.join(format!("mpu9150_mikoff_5units/imu{unit}.csv")));
+        assert_eq!(r.quality, GyroQuality::Good, "imu{unit}: {}", r.verdict);
+        assert!(r.effects.is_empty(), "imu{unit}: {:?}", named(&r));
+    }
+    let t = default_run(&d.join("mpu6050_multipos_tomisuarez/example_data_calibration.csv"));
+    assert_eq!(t.quality, GyroQuality::UnexplainedResidual, "{}", t.verdict);
+}
