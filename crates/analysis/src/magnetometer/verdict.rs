@@ -51,11 +51,17 @@ pub fn verdict(
             vec!["the held-out error could not be computed (a time block without samples)".into()],
         );
     }
-    (
-        "good".into(),
-        vec![format!(
-            "the held-out RMS {cv:.4e} {unit} is within {UNEXPLAINED_CV_FACTOR}× the noise floor \
-             {floor:.4e} {unit} (or χ² p ≥ {UNEXPLAINED_P})"
-        )],
-    )
+    let mut reasons = vec![format!(
+        "the held-out RMS {cv:.4e} {unit} is within {UNEXPLAINED_CV_FACTOR}× the noise floor \
+         {floor:.4e} {unit} (or χ² p ≥ {UNEXPLAINED_P})"
+    )];
+    if fin.rms < 0.5 * floor {
+        reasons.push(format!(
+            "the residual ({:.4e} {unit}) is below half the floor: the samples are too far apart \
+             for a smooth track, so the floor is an upper bound and a smaller effect could hide \
+             under it; record faster for a sharper test",
+            fin.rms
+        ));
+    }
+    ("good".into(), reasons)
 }
