@@ -85,7 +85,9 @@ print(json.dumps(out))
     for (ours, theirs) in gyro.iter().zip(&peer) {
         let col = &ours["column"];
         let (tau, adev) = (f(&theirs["tau_s"]), f(&theirs["adev"]));
-        assert_eq!(tau, f(&ours["tau_s"]), "{col}: τ");
+        for (a, b) in f(&ours["tau_s"]).iter().zip(&tau) {
+            assert!((a / b - 1.0).abs() < 1e-9, "{col}: τ {a} vs allantools {b}");
+        }
         for (a, b) in f(&ours["adev"]).iter().zip(&adev) {
             assert!((a / b - 1.0).abs() < 1e-5, "{col}: {a} vs allantools {b}");
         }
@@ -206,5 +208,6 @@ fn constant_and_uneven_recordings_get_no_noise_terms() {
     );
     let (ok, _, err) = wiical(&["noise", holes.to_str().unwrap()]);
     assert!(!ok && err.contains("time column is uneven"), "{err}");
-    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    let errors = err.lines().filter(|l| l.starts_with("error")).count();
+    assert_eq!(errors, 1, "{err}");
 }

@@ -23,18 +23,8 @@ pub const MAX_TURN_DEG: f64 = 5.0;
 /// rotation moves it by thousands.
 pub const MAX_GYRO_SPREAD: f64 = 1000.0;
 
-/// Refuses `rec` when its time column is uneven, an axis is constant, or it moved.
+/// Refuses `rec` when an axis is constant, it moved, or its time column is uneven.
 pub fn check_still(rec: &Recording, sensor: Sensor, rate_hz: f64) -> Result<(), NoiseError> {
-    if let Some(steps) = rec.t.as_deref().and_then(TimeSteps::of) {
-        let mismatch = steps.mean_s / steps.median_s - 1.0;
-        if steps.repeats == 0 && mismatch.abs() > MAX_STEP_MISMATCH {
-            return Err(NoiseError::UnevenTime {
-                gaps: steps.gaps,
-                median_ms: steps.median_s * 1e3,
-                mean_ms: steps.mean_s * 1e3,
-            });
-        }
-    }
     for a in 0..3 {
         let first = rec.xyz.first().map_or(0.0, |v| v[a]);
         if rec.xyz.iter().all(|v| v[a] == first) {
@@ -80,6 +70,18 @@ pub fn check_still(rec: &Recording, sensor: Sensor, rate_hz: f64) -> Result<(), 
                 )
             },
         });
+    }
+    // Motion first: a hand-held log is usually also unevenly stamped, and motion is the
+    // reason it cannot be noise.
+    if let Some(steps) = rec.t.as_deref().and_then(TimeSteps::of) {
+        let mismatch = steps.mean_s / steps.median_s - 1.0;
+        if steps.repeats == 0 && mismatch.abs() > MAX_STEP_MISMATCH {
+            return Err(NoiseError::UnevenTime {
+                gaps: steps.gaps,
+                median_ms: steps.median_s * 1e3,
+                mean_ms: steps.mean_s * 1e3,
+            });
+        }
     }
     Ok(())
 }
