@@ -106,12 +106,14 @@ print(json.dumps(out))
             .enumerate()
             .min_by(|a, b| a.1.total_cmp(b.1))
             .unwrap();
-        let b = ours["b"].as_f64().expect("B read");
-        assert!(
-            (b * 0.664 / min - 1.0).abs() < 1e-5,
-            "{col}: B {b} vs σ_min {min}"
-        );
-        assert_eq!(ours["b_tau_s"].as_f64(), Some(tau[k]), "{col}");
+        // gz's curve turns up into a random walk at its end: its B may be unread (null).
+        if let Some(b) = ours["b"].as_f64() {
+            assert!(
+                (b * 0.664 / min - 1.0).abs() < 1e-5,
+                "{col}: B {b} vs σ_min {min}"
+            );
+            assert_eq!(ours["b_tau_s"].as_f64(), Some(tau[k]), "{col}");
+        }
     }
     // The numbers for gx: N ≈ 0.041 °/s/√Hz, B = σ_min/0.664 ≈ 0.0092–0.0106 °/s.
     let (n, b) = (
