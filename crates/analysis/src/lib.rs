@@ -30,7 +30,7 @@
 //! |---|---|---|
 //! | autocalibration | [`autocal`] | still-epoch means (g) + temperature → van Hees et al. 2014 offset / scale / temperature (GGIR's method) |
 //! | gyroscope | [`gyro`] | accelerometer + gyro recordings → gyro scale / misalignment / bias by held-out error ([`gyro::run`]) |
-//! | magnetometer | [`magnetometer`] | points → sphere / ellipsoid hard/soft-iron fit |
+//! | magnetometer | [`magnetometer`] | points → sphere / ellipsoid hard/soft-iron fit, then its residual loop: noise floor, candidate effects, detection limits, verdict |
 //! | noise | [`noise`] | still recording → overlapping Allan deviation per axis and the IEEE 952 terms (`wiical noise`) |
 //! | temperature | [`tempcal`] | still warm-up + temperature → bias polynomial in T − T_ref; ArduPilot / PX4 parameter files (`wiical tempcal`) |
 //! | factory blocks | [`factory`] | Wii Remote / Nunchuk / MotionPlus block bytes → decoded report (`decode-cal`) |

@@ -1,11 +1,13 @@
-//! `wiical magfit`: magnetometer hard/soft-iron fit.
+//! `wiical magfit`: magnetometer hard/soft-iron fit, and the residual loop around it (noise
+//! floor, candidate effects, detection limits, verdict).
 
 use super::{check_outputs, load, load_options, to_json, write_calibration};
 use crate::cli_error::cli_error;
 use crate::render;
-use anyhow::Result;
-use std::path::PathBuf;
-use wiical_analysis::magnetometer::{self, MagModel};
+use anyhow::{anyhow, Result};
+use std::path::{Path, PathBuf};
+use wiical_analysis::magnetometer::{self, MagAnalysis, MagFitReport, MagInput, MagModel};
+use wiical_analysis::search::select::ALPHA;
 use wiical_core::Calibration;
 
 /// Arguments of `wiical magfit`.
@@ -19,12 +21,25 @@ pub struct Args {
     /// Header names of the x,y,z columns to use.
     #[arg(long, value_delimiter = ',')]
     pub columns: Option<Vec<String>>,
+    /// Header names of columns the hard iron may follow (current, throttle, PWM): each is
+    /// tested as an interference `offset = k × column` (ArduPilot COMPASS_MOT's model).
+    #[arg(long, value_delimiter = ',')]
+    pub follow: Option<Vec<String>>,
     /// Print JSON.
     #[arg(long)]
     pub json: bool,
     /// Write the calibration (centre as bias, W/radius as matrix: unit field) here.
     #[arg(long)]
     pub out: Option<PathBuf>,
+}
+
+/// The JSON: the fit's keys, then the loop's.
+#[derive(serde::Serialize)]
+struct Json<'a> {
+    #[serde(flatten)]
+    fit: &'a MagFitReport,
+    #[serde(flatten)]
+    analysis: &'a MagAnalysis,
 }
 
 /// Runs `wiical magfit`; returns what to print.
@@ -35,7 +50,22 @@ pub fn run(a: &Args) -> Result<String> {
         ..load_options(a.columns.as_deref())?
     };
     let rec = load(&a.file, &opts)?;
+    magnetometer::check_spans(&rec.xyz).map_err(cli_error)?;
     let rep = magnetometer::fit_points(&rec.xyz, a.model).map_err(cli_error)?;
+    let follow = follow_columns(&a.file, a.follow.as_deref().unwrap_or(&[]), rec.len())?;
+    let times = rec
+        .t
+        .clone()
+        .or_else(|| rec.sample_rate_hz.map(|_| rec.times(1.0)));
+    let unit = wiical_analysis::input::columns::triplet_unit(&rec.axis_columns).unwrap_or("raw");
+    let input = MagInput {
+        xyz: &rec.xyz,
+        t: times.as_deref(),
+        temp: rec.temp.as_deref(),
+        follow: &follow,
+        unit,
+    };
+    let analysis = magnetometer::analyze(&input, &rep, a.model, ALPHA).map_err(cli_error)?;
     if let Some(path) = &a.out {
         let k = rep.matrix.map(|r| r.map(|x| (x / rep.radius) as f32));
         let cal = Calibration {
@@ -46,7 +76,35 @@ pub fn run(a: &Args) -> Result<String> {
         write_calibration(path, &cal)?;
     }
     if a.json {
-        return to_json(&rep);
+        return to_json(&Json {
+            fit: &rep,
+            analysis: &analysis,
+        });
     }
-    Ok(render::magfit_text(&rep, &a.file.display().to_string()))
+    let mut text = render::magfit_text(&rep, &a.file.display().to_string());
+    text.push_str(&render::magfit::analysis_text(&analysis, unit));
+    Ok(text)
+}
+
+/// Each named column, read by the same loader as the field (so its rows are the field's).
+fn follow_columns(file: &Path, names: &[String], rows: usize) -> Result<Vec<(String, Vec<f64>)>> {
+    names
+        .iter()
+        .map(|name| {
+            let opts = wiical_analysis::LoadOptions {
+                columns: Some([name.clone(), name.clone(), name.clone()]),
+                sensor: None,
+            };
+            let rec = wiical_analysis::load(file, &opts).map_err(cli_error)?;
+            if rec.len() != rows {
+                return Err(anyhow!(
+                    "--follow {name}: {} rows in {} against {rows} of the field (a row where one \
+                     is empty): give a column filled on every row",
+                    rec.len(),
+                    file.display()
+                ));
+            }
+            Ok((name.clone(), rec.xyz.iter().map(|v| v[0]).collect()))
+        })
+        .collect()
 }

@@ -7,6 +7,7 @@ pub mod decode_cal;
 pub mod device;
 pub mod gyrofit;
 pub mod kalman_demo;
+pub mod magfit;
 pub mod noise;
 pub mod plot;
 pub mod tempcal;

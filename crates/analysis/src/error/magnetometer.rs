@@ -20,6 +20,14 @@ pub enum MagnetometerError {
         /// z.
         z: f64,
     },
+    /// Points that never leave a blob of their own noise.
+    #[error("the points do not span the sphere: they spread over {spread:.3e} on their widest axis, about their own noise ({noise:.3e}) — the sensor was not rotated; turn it through all orientations while recording")]
+    NotRotated {
+        /// Standard deviation of the points on their widest axis (relative to its noise).
+        spread: f64,
+        /// That axis's noise.
+        noise: f64,
+    },
     /// The core's ellipsoid fit failed.
     #[error("{context}")]
     MagFit {

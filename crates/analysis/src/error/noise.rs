@@ -17,6 +17,32 @@ pub enum NoiseError {
         /// Fewest accepted.
         needed: usize,
     },
+    /// A time column with missing samples or jumps.
+    #[error("the time column is uneven (mean step {mean_ms:.3} ms against a median of {median_ms:.3} ms, {gaps} gaps): an Allan deviation needs evenly spaced samples — record without drops, or give the part between gaps")]
+    UnevenTime {
+        /// Steps over the gap factor × the median.
+        gaps: usize,
+        /// Median step, ms.
+        median_ms: f64,
+        /// Mean step, ms.
+        mean_ms: f64,
+    },
+    /// An axis that never changes.
+    #[error("column {column} is constant (every sample reads {value}): there is no noise to measure — check the column or the sensor")]
+    ConstantAxis {
+        /// The column.
+        column: String,
+        /// Its one value.
+        value: f64,
+    },
+    /// A recording that moved.
+    #[error("columns {columns} are not still: {why}; the noise terms need the sensor at rest — record it lying still")]
+    Moving {
+        /// The triplet's columns.
+        columns: String,
+        /// What showed the motion.
+        why: String,
+    },
     /// A noise file that cannot give the Kalman filter its σ's.
     #[error("the noise file cannot give the filter's noise: {why}")]
     NoiseFileUnusable {

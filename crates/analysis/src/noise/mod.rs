@@ -3,8 +3,10 @@
 //! ([`report`]); [`sim`] (feature `simulate`) makes still noise with known terms.
 
 pub mod allan;
+pub mod reading;
 pub mod report;
 #[cfg(feature = "simulate")]
 pub mod sim;
+pub mod still;
 
 pub use crate::error::noise::NoiseError;

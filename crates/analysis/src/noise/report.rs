@@ -1,7 +1,9 @@
 //! `wiical noise`: which sensors a still recording holds, each axis's Allan deviation and its
 //! IEEE 952 terms ([`crate::noise::allan`]), as the report whose JSON is the command's contract:
 //! `axes` = one object per column with `column`, `unit`, `n`, `b`, `b_tau_s`, `k`, `q`, `r`
-//! (null where the term's slope is not seen), `tau_s`, `adev`, `adev_rel_err`.
+//! (IEEE 952's reading, [`crate::noise::reading`]; null where the term's slope is not seen),
+//! `joint_fit` (the same keys from the five-term fit to the whole curve, a cross-check), `tau_s`,
+//! `adev`, `adev_rel_err`.
 
 use crate::error::noise::NoiseError;
 use crate::error::Result;
@@ -10,6 +12,7 @@ use crate::input::columns::{classify, unit_of, Sensor};
 use crate::input::load::{parse, LoadOptions};
 use crate::input::recording::Recording;
 use crate::noise::allan::{fit_terms, overlapping_adev, AllanCurve, NoiseTerms};
+use crate::noise::reading::read_terms;
 use serde::Serialize;
 use std::path::Path;
 
@@ -24,9 +27,12 @@ pub struct NoiseAxis {
     /// The column's unit when its name states it (`gyro_x_dps` → `deg/s`) or, for an
     /// accelerometer, when its magnitude says g or m/s²; null otherwise (the file's own unit).
     pub unit: Option<String>,
-    /// The fitted terms.
+    /// The terms by IEEE 952's reading (each off its own slope).
     #[serde(flatten)]
     pub terms: NoiseTerms,
+    /// The five terms fitted jointly to the whole curve: a cross-check of the reading (the
+    /// colouring at short τ pulls its N down and its B up on real logs).
+    pub joint_fit: NoiseTerms,
     /// The curve.
     #[serde(flatten)]
     pub curve: AllanCurve,
@@ -128,7 +134,8 @@ fn sensor_of(column: &str) -> Sensor {
 }
 
 /// Each axis's Allan deviation and terms. `default_rate_hz` is used when the recording has no
-/// time column or `Fs`. Refused when a recording is too short for any τ.
+/// time column or `Fs`. Refused when a recording is too short for any τ, or is not still,
+/// varying and evenly sampled ([`crate::noise::still`]).
 pub fn noise(recs: &[Recording], default_rate_hz: f64) -> Result<NoiseReport, NoiseError> {
     let first = recs.first().ok_or(NoiseError::NoSampleRate)?;
     let rate = first.estimated_rate_hz().unwrap_or(default_rate_hz);
@@ -141,6 +148,9 @@ pub fn noise(recs: &[Recording], default_rate_hz: f64) -> Result<NoiseReport, No
             samples,
             needed: 2 * crate::noise::allan::MIN_CLUSTERS,
         });
+    }
+    for rec in recs {
+        crate::noise::still::check_still(rec, sensor_of(&rec.axis_columns[0]), rate)?;
     }
     let mut axes = Vec::new();
     for rec in recs {
@@ -159,7 +169,8 @@ pub fn noise(recs: &[Recording], default_rate_hz: f64) -> Result<NoiseReport, No
             axes.push(NoiseAxis {
                 sensor: sensor_name(sensor),
                 unit,
-                terms: fit_terms(&curve),
+                terms: read_terms(&curve),
+                joint_fit: fit_terms(&curve),
                 curve,
                 column,
             });

@@ -62,6 +62,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x > 0.0)` is deliberately true for NaN.
 pub mod gyro;
 pub mod kalman;
+pub mod magnetometer;
 pub mod open_basis;
 
 pub use crate::error::simulate::SimulateError;
