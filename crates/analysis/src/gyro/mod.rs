@@ -40,7 +40,7 @@ use wiical_core::gyro::GyroCalibration;
 use wiical_core::multipos::MultiPosModel;
 
 pub use models::{GyroModelRow, MotionRow};
-pub use nominal::{estimate_nominal, nominal_from_columns};
+pub use nominal::{estimate_nominal, nominal_from_columns, nominal_given_usable};
 pub use report::{GyroQuality, GyroReport};
 
 type Result<T, E = GyroError> = std::result::Result<T, E>;

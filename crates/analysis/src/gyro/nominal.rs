@@ -132,6 +132,14 @@ pub(super) fn flipped_axes(cal: &GyroCalibration<f64>, nominal: &[f64; 3]) -> Ve
         .collect()
 }
 
+/// Whether a nominal sensitivity a user gave (rad/s per count, per axis) can start the fit:
+/// finite and non-zero on every axis (its sign is the axis's direction). The CLI's
+/// `--scale` / `--counts-per-dps` and the Python package's `scale` / `counts_per_dps` both
+/// refuse what fails it.
+pub fn nominal_given_usable(s: &[f64; 3]) -> bool {
+    s.iter().all(|x| x.is_finite() && *x != 0.0)
+}
+
 /// The gyro's nominal sensitivity from its columns' unit, when the names state one:
 /// `deg/s` (`gyro_x_dps`) is 1 count = 1 °/s, `rad/s` 1 count = 1 rad/s. Returns the nominal
 /// (rad/s per count) and a sentence saying where it came from.

@@ -86,7 +86,7 @@ pub(super) fn segment(acc_rec: &Recording, opts: &GyroOptions) -> Result<Segment
 }
 
 /// Refuses a "gyro" that is an accelerometer (the same file twice, or accelerometer columns
-/// given as the gyro's, issue 25): a gyro's mean over the still windows is its bias, the same
+/// given as the gyro's): a gyro's mean over the still windows is its bias, the same
 /// in every pose, while gravity's points a different way in each. Refused when the spread of
 /// the window means is more than half the RMS of the signal during the motions.
 pub(super) fn check_not_gravity(gyro: &Recording, seg: &Segmentation) -> Result<()> {
