@@ -92,9 +92,12 @@ pub fn decode_record(bytes: &[u8]) -> Result<Calibration, RecordError> {
         return Err(RecordError::BadMagic);
     }
     let version = u16::from_le_bytes([bytes[4], bytes[5]]);
+    // Every version up to this firmware's is read: its payload is the canonical floats of the
+    // terms it had (the table's `since_record`), the newer ones zero.
     let floats = match version {
-        RECORD_VERSION => PAYLOAD_FLOATS,
-        RECORD_VERSION_V1 => PAYLOAD_FLOATS_V1,
+        RECORD_VERSION_V1..=RECORD_VERSION => {
+            12 + wiical_core::terms::floats_through_record(version)
+        }
         _ => return Err(RecordError::UnsupportedVersion(version)),
     };
     let len = 8 + 4 * floats + 4;

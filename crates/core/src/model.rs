@@ -169,11 +169,25 @@ pub fn monomials<T: Real>(u: &[T; 3]) -> ([T; 6], [T; 10]) {
     )
 }
 
+/// The per-axis transfer curve `x + k2·x² + k3·x³` of the correction, evaluated left to right
+/// (the device's bits in `f32`); the analysis's `f64` model evaluates the same function.
+#[inline(always)]
+pub fn axis_polynomial<T: Real>(x: T, k2: T, k3: T) -> T {
+    x + k2 * x * x + k3 * x * x * x
+}
+
 /// Optional effect terms beyond the linear model, in the float type `T`. All zero means
 /// "linear model only". The fields are the rows of [`crate::terms::TERMS`], in its order.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[cfg_attr(feature = "serde", serde(default))]
+#[cfg_attr(
+    feature = "serde",
+    serde(bound(
+        serialize = "T: serde::Serialize + PartialEq + Default",
+        deserialize = "T: serde::Deserialize<'de> + Default"
+    ))
+)]
 pub struct EffectsT<T> {
     /// Per-axis even-order nonlinearity `k2` (1/reference unit): `a = u + k2·u²`.
     pub quadratic: [T; 3],
@@ -206,8 +220,8 @@ pub type Effects = EffectsT<f32>;
 
 /// True when every coefficient is zero (serde: cross terms left out of the output).
 #[cfg(feature = "serde")]
-fn rows_are_zero<T: Real, const N: usize>(rows: &[[T; N]; 3]) -> bool {
-    !T::any_nonzero(&[rows.as_flattened()])
+fn rows_are_zero<T: PartialEq + Default, const N: usize>(rows: &[[T; N]; 3]) -> bool {
+    rows.iter().flatten().all(|x| *x == T::default())
 }
 
 impl<T: Real> EffectsT<T> {
@@ -317,11 +331,10 @@ impl<T: Real> EffectsT<T> {
         out
     }
 
-    /// The per-axis polynomial of output axis `i` at `x = u_i`: `x + k2·x² + k3·x³`, evaluated
-    /// left to right (the device's bits).
+    /// The per-axis polynomial of output axis `i` at `x = u_i` ([`axis_polynomial`]).
     #[inline]
     pub fn axis_polynomial(&self, i: usize, x: T) -> T {
-        x + self.quadratic[i] * x * x + self.cubic[i] * x * x * x
+        axis_polynomial(x, self.quadratic[i], self.cubic[i])
     }
 
     /// The effects in another float type (each coefficient converted on its own).
@@ -340,6 +353,13 @@ impl<T: Real> EffectsT<T> {
 /// `bias` is `b` in raw units. The seed's worked example prints `K` under the name "D".
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(
+    feature = "serde",
+    serde(bound(
+        serialize = "T: serde::Serialize + PartialEq + Default",
+        deserialize = "T: serde::Deserialize<'de> + Default"
+    ))
+)]
 pub struct CalibrationT<T> {
     /// Bias `b`, raw units.
     pub bias: [T; 3],
