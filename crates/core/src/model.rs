@@ -770,7 +770,8 @@ mod tests {
         assert_eq!(z, nz);
         assert!(!z.bits_equal(&nz));
         z.bias[0] = f32::NAN;
-        assert!(z.bits_equal(&z) && z != z);
+        let same = z;
+        assert!(z.bits_equal(&same) && z != same);
     }
 
     /// The flags read from the table agree with the fields: each term alone, set non-zero.
