@@ -807,7 +807,6 @@ pub const NUNCHUK_CAL: Calibration = Calibration {
         scale_temp: [0.0; 3],
         cross_quadratic: [[0.0; 5]; 3],
         cross_cubic: [[0.0; 9]; 3],
-        scale_drift: [0.0; 3],
     },
 };
 

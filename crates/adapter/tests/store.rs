@@ -43,7 +43,6 @@ fn cal(i: u32) -> Calibration {
                 [5e-5 * f, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1e-4],
                 [0.0; 9],
             ],
-            scale_drift: [0.0, 0.0, 2e-6 * f],
         },
     }
 }
@@ -61,8 +60,8 @@ fn record_round_trip_is_bit_exact() {
     let rec = encode_record(&c);
     assert_eq!(rec.len(), RECORD_LEN);
     assert_eq!(&rec[..4], b"WCAL");
-    assert_eq!(u16::from_le_bytes([rec[4], rec[5]]), 3);
-    assert_eq!(u16::from_le_bytes([rec[6], rec[7]]), 292);
+    assert_eq!(u16::from_le_bytes([rec[4], rec[5]]), 2);
+    assert_eq!(u16::from_le_bytes([rec[6], rec[7]]), 280);
     let back = decode_record(&rec).unwrap();
     assert!(same(&back, &c));
     assert_eq!(back.bias[1].to_bits(), (-0.0f32).to_bits());
@@ -124,7 +123,6 @@ fn a_version_1_record_from_the_old_firmware_still_loads() {
     let mut old = cal(4);
     old.effects.cross_quadratic = [[0.0; 5]; 3];
     old.effects.cross_cubic = [[0.0; 9]; 3];
-    old.effects.scale_drift = [0.0; 3];
     let rec = record_v1(&old);
     assert_eq!(rec.len(), RECORD_LEN_V1);
     let back = decode_record(&rec).unwrap();
@@ -188,8 +186,8 @@ fn every_single_bit_flip_of_a_record_is_rejected() {
     r[0] = b'X';
     assert_eq!(decode_record(&r), Err(RecordError::BadMagic));
     let mut r = rec;
-    r[4] = 4;
-    assert_eq!(decode_record(&r), Err(RecordError::UnsupportedVersion(4)));
+    r[4] = 3;
+    assert_eq!(decode_record(&r), Err(RecordError::UnsupportedVersion(3)));
     assert_eq!(decode_record(&rec[..50]), Err(RecordError::WrongLength(50)));
     assert_eq!(decode_record(&[]), Err(RecordError::WrongLength(0)));
     let mut r = rec;

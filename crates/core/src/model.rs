@@ -213,8 +213,6 @@ pub struct EffectsT<T> {
     /// serde output when all zero.
     #[cfg_attr(feature = "serde", serde(skip_serializing_if = "rows_are_zero"))]
     pub cross_cubic: [[T; 9]; 3],
-    /// Relative scale drift with time, 1/s: `u_i ← u_i·(1 + scale_drift_i·t)`.
-    pub scale_drift: [T; 3],
 }
 
 /// The device's effect terms, in `f32`.
@@ -239,7 +237,6 @@ impl<T: Real> EffectsT<T> {
             TermId::ScaleTemp => &self.scale_temp,
             TermId::CrossQuadratic => self.cross_quadratic.as_flattened(),
             TermId::CrossCubic => self.cross_cubic.as_flattened(),
-            TermId::ScaleDrift => &self.scale_drift,
         }
     }
 
@@ -254,7 +251,6 @@ impl<T: Real> EffectsT<T> {
             TermId::ScaleTemp => &mut self.scale_temp,
             TermId::CrossQuadratic => self.cross_quadratic.as_flattened_mut(),
             TermId::CrossCubic => self.cross_cubic.as_flattened_mut(),
-            TermId::ScaleDrift => &mut self.scale_drift,
         }
     }
 
@@ -399,7 +395,6 @@ impl Calibration {
                 scale_temp: [0.0; 3],
                 cross_quadratic: [[0.0; 5]; 3],
                 cross_cubic: [[0.0; 9]; 3],
-                scale_drift: [0.0; 3],
             },
         }
     }
@@ -574,7 +569,6 @@ impl<T: Real> CalibrationT<T> {
             if let Some(dt) = dtheta {
                 *ui *= T::one() + e.scale_temp[i] * dt;
             }
-            *ui *= T::one() + e.scale_drift[i] * cond.time_s;
         }
         // The per-axis polynomial, then (left to right, after it) the cross sum of the same u.
         let mut a = [T::zero(); 3];
@@ -865,21 +859,6 @@ mod tests {
                 "{a32:?} vs {want:?}"
             );
         }
-    }
-
-    /// The scale drift multiplies the linearly corrected reading by `1 + s·t`.
-    #[test]
-    fn scale_drift_follows_its_definition() {
-        let mut cal = Calibration::identity();
-        cal.effects.scale_drift = [0.0, 0.01, 0.0];
-        let cond = Conditions {
-            time_s: 10.0,
-            temperature_c: None,
-        };
-        let a = cal.correct([1.0, 2.0, 3.0], &cond);
-        assert_eq!((a[0], a[2]), (1.0, 3.0));
-        assert!((a[1] - 2.2).abs() < 1e-6, "{a:?}");
-        assert!(Terms::of(&cal.effects).time_or_temperature);
     }
 
     #[test]

@@ -35,8 +35,6 @@ pub enum TermId {
     CrossQuadratic,
     /// Orientation-dependent degree-3 cross terms.
     CrossCubic,
-    /// Relative scale drift with time.
-    ScaleDrift,
 }
 
 /// What a term's coefficients multiply and where the product enters the correction (see
@@ -162,7 +160,7 @@ pub const fn monomial_count(degree: u8) -> usize {
 
 /// Every effect term, in the canonical order of the flat coefficients, the wire encoding,
 /// the flash record and the calibration file.
-pub const TERMS: [TermSpec; 9] = [
+pub const TERMS: [TermSpec; 8] = [
     TermSpec {
         id: TermId::Quadratic,
         name: "quadratic",
@@ -251,17 +249,6 @@ pub const TERMS: [TermSpec; 9] = [
         since_record: 2,
         since_file: 2,
     },
-    TermSpec {
-        id: TermId::ScaleDrift,
-        name: "scale_drift",
-        shape: Shape::Scale(Regressor::Time),
-        unit: "1/s",
-        device_applies: false,
-        needs: Needs::Time,
-        bound: Bound::Output,
-        since_record: 3,
-        since_file: 3,
-    },
 ];
 
 /// Number of effect coefficients (floats) of [`crate::Effects`]: the sum of [`TERMS`]' lengths.
@@ -348,12 +335,11 @@ mod tests {
     #[test]
     fn table_counts_match_the_layout() {
         let lens = TERMS.map(|t| t.len());
-        assert_eq!(lens, [3, 3, 3, 1, 3, 3, 15, 27, 3]);
-        assert_eq!(EFFECT_FLOATS, 61);
-        assert_eq!(CALIBRATION_FLOATS, 73);
+        assert_eq!(lens, [3, 3, 3, 1, 3, 3, 15, 27]);
+        assert_eq!(EFFECT_FLOATS, 58);
+        assert_eq!(CALIBRATION_FLOATS, 70);
         assert_eq!(floats_through_record(1), 16);
-        assert_eq!(floats_through_record(2), 58);
-        assert_eq!(RECORD_VERSION, 3);
+        assert_eq!(RECORD_VERSION, 2);
         assert_eq!(offset(TermId::TempRef), 9);
         assert_eq!(offset(TermId::CrossCubic), 31);
         for (i, t) in TERMS.iter().enumerate() {

@@ -240,7 +240,6 @@ proptest! {
             scale_temp: stemp,
             cross_quadratic: cq,
             cross_cubic: cc,
-            scale_drift: [0.0; 3],
         };
         let cond = Conditions { time_s, temperature_c: temp };
         let got = cal.correct(m, &cond);
@@ -289,7 +288,6 @@ proptest! {
             scale_temp: stemp,
             cross_quadratic: cq,
             cross_cubic: cc,
-            scale_drift: [0.0; 3],
         };
         let cond = Conditions { time_s, temperature_c: temp };
         let p = PreparedCalibration::new(cal);

@@ -10,11 +10,11 @@
 
 /// Human-facing protocol version, shown by the host. Compatibility is decided by
 /// [`SCHEMA_KEY`], not by this number.
-pub const PROTOCOL_VERSION: u16 = 4;
+pub const PROTOCOL_VERSION: u16 = 3;
 
 /// The schema text before the `WireEffects` line.
 const SCHEMA_HEAD: &str = "\
-wiical-wire schema v4
+wiical-wire schema v3
 frame: cobs(postcard(msg) ++ le16(crc16_ibm_3740(postcard(msg)))) ++ 0x00
 Request: 0 Hello(Hello) | 1 GetCalibration | 2 PutCalibration(WireCalibration) | 3 CommitCalibration | 4 StartStream{rate_divider:u16} | 5 StopStream | 6 GetStatus
 Hello: protocol_version:u16, schema_key:u32
@@ -109,8 +109,7 @@ pub const SCHEMA: &str = match core::str::from_utf8(&SCHEMA_BYTES) {
 /// Schema keys of earlier protocol versions, newest first, so that either side can say
 /// *which* older build it is talking to ("host speaks protocol 1, adapter 2: update the
 /// host") instead of only "mismatch". Frozen: append when [`PROTOCOL_VERSION`] is bumped.
-pub const PREVIOUS_SCHEMA_KEYS: [(u16, u32); 3] =
-    [(3, 0x815C_88B5), (2, 0x4E19_BCC6), (1, 0x1A6C_EBDC)];
+pub const PREVIOUS_SCHEMA_KEYS: [(u16, u32); 2] = [(2, 0x4E19_BCC6), (1, 0x1A6C_EBDC)];
 
 /// The protocol version a schema key belongs to, if it is this build's or a known older one.
 pub const fn protocol_of_key(key: u32) -> Option<u16> {
@@ -210,20 +209,17 @@ SelfCalOutcome: 0 Done{rms_mg:f32, poses:u8} | 1 Failed{message:String<96>}
 ";
 
     #[test]
-    fn the_built_schema_is_protocol_3s_plus_the_scale_drift() {
-        let v4 = SCHEMA_V3
-            .replace("schema v3", "schema v4")
-            .replace("[[f32;9];3]\n", "[[f32;9];3], scale_drift:[f32;3]\n");
-        assert_eq!(SCHEMA, v4);
-        assert_eq!(PREVIOUS_SCHEMA_KEYS[0], (3, fnv1a_32(SCHEMA_V3.as_bytes())));
+    fn the_built_schema_is_protocol_3s() {
+        assert_eq!(SCHEMA, SCHEMA_V3);
+        assert_eq!(SCHEMA_KEY, fnv1a_32(SCHEMA_V3.as_bytes()));
     }
 
     #[test]
     fn previous_keys_are_the_hashes_of_the_previous_schemas() {
-        assert_eq!(PREVIOUS_SCHEMA_KEYS[2], (1, fnv1a_32(SCHEMA_V1.as_bytes())));
-        assert_eq!(PREVIOUS_SCHEMA_KEYS[1], (2, fnv1a_32(SCHEMA_V2.as_bytes())));
-        assert_eq!(protocol_of_key(PREVIOUS_SCHEMA_KEYS[2].1), Some(1));
-        assert_eq!(protocol_of_key(PREVIOUS_SCHEMA_KEYS[1].1), Some(2));
+        assert_eq!(PREVIOUS_SCHEMA_KEYS[1], (1, fnv1a_32(SCHEMA_V1.as_bytes())));
+        assert_eq!(PREVIOUS_SCHEMA_KEYS[0], (2, fnv1a_32(SCHEMA_V2.as_bytes())));
+        assert_eq!(protocol_of_key(PREVIOUS_SCHEMA_KEYS[1].1), Some(1));
+        assert_eq!(protocol_of_key(PREVIOUS_SCHEMA_KEYS[0].1), Some(2));
         assert_eq!(protocol_of_key(SCHEMA_KEY), Some(PROTOCOL_VERSION));
         assert_eq!(protocol_of_key(0xDEAD_BEEF), None);
         assert!(PREVIOUS_SCHEMA_KEYS.iter().all(|(_, k)| *k != SCHEMA_KEY));

@@ -240,7 +240,6 @@ fn calibration_conversions_are_lossless() {
             scale_temp: [1.4, 1.5, 1.6],
             cross_quadratic: std::array::from_fn(|i| std::array::from_fn(|j| (10 * i + j) as f32)),
             cross_cubic: std::array::from_fn(|i| std::array::from_fn(|j| -((10 * i + j) as f32))),
-            scale_drift: [3.0, 3.1, 3.2],
         },
     };
     let wire: WireCalibration = core.into();
@@ -281,9 +280,8 @@ fn golden_encodings() {
         matrix: [[0.0; 3]; 3],
         effects: WireEffects::default(),
     };
-    // Protocol 4: 28 floats as in protocol 2, the 15 + 27 cross coefficients of protocol 3,
-    // then the 3 scale-drift coefficients.
-    let cal_hex = format!("0000803f{}", "00".repeat(4 * (2 + 9 + 16 + 42 + 3)));
+    // Protocol 3: 28 floats as in protocol 2, then the 15 + 27 cross coefficients.
+    let cal_hex = format!("0000803f{}", "00".repeat(4 * (2 + 9 + 16 + 42)));
     assert_eq!(
         hex(&enc(&Request::PutCalibration(cal))),
         format!("02{cal_hex}")
@@ -296,10 +294,9 @@ fn golden_encodings() {
     assert_eq!(
         hex(&enc(&Request::PutCalibration(cross))),
         format!(
-            "020000803f{}0000803f{}00000040{}",
+            "020000803f{}0000803f{}00000040",
             "00".repeat(4 * (2 + 9 + 16)),
-            "00".repeat(4 * 40),
-            "00".repeat(4 * 3)
+            "00".repeat(4 * 40)
         )
     );
     let hr = HelloResponse {
@@ -699,7 +696,7 @@ fn a_protocol_2_calibration_frame_is_refused() {
     let got: Vec<Result<Request, _>> = dec.feed(&enc).collect();
     assert_eq!(got.len(), 1);
     assert!(got[0].is_err(), "{got:?}");
-    assert_eq!(protocol_of_key(PREVIOUS_SCHEMA_KEYS[0].1), Some(3));
+    assert_eq!(protocol_of_key(PREVIOUS_SCHEMA_KEYS[0].1), Some(2));
     assert_eq!(
         check_schema_key(PREVIOUS_SCHEMA_KEYS[0].1),
         Err(ErrorCode::SchemaMismatch)

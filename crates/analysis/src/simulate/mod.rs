@@ -1168,7 +1168,6 @@ impl Scene {
             scale_temp: e[4].map(|v| v as f32),
             cross_quadratic: self.cross.quadratic.map(|r| r.map(|v| v as f32)),
             cross_cubic: self.cross.cubic.map(|r| r.map(|v| v as f32)),
-            scale_drift: [0.0; 3],
         };
         Ok(calibration)
     }
