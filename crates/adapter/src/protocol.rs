@@ -500,9 +500,10 @@ impl<F: NorFlash> Protocol<F> {
     }
 }
 
-/// Bitwise equality of every parameter (so that `-0.0 ≠ 0.0` and NaN payloads count).
+/// Bitwise equality of every parameter (so that `-0.0 ≠ 0.0` and NaN payloads count): the
+/// core's canonical bit encoding ([`Calibration::bits_equal`]).
 pub fn bits_equal(a: &Calibration, b: &Calibration) -> bool {
-    crate::store::encode_record(a) == crate::store::encode_record(b)
+    a.bits_equal(b)
 }
 
 /// `fmt::Write` into a bounded string that drops what does not fit (at a char boundary).

@@ -16,7 +16,7 @@
 //! | 0 | magic `"WCAL"` |
 //! | 4 | version `u16` = [`RECORD_VERSION`] |
 //! | 6 | payload length `u16` = 280 |
-//! | 8 | 70 × `f32`: bias\[3\], matrix row-major\[9\], quadratic\[3\], cubic\[3\], bias_drift\[3\], temp_ref_c, bias_temp\[3\], scale_temp\[3\], cross_quadratic row-major\[3\]\[5\], cross_cubic row-major\[3\]\[9\] |
+//! | 8 | 70 × `f32` in the order of `Calibration::floats` (the core's table of effect terms): bias\[3\], matrix row-major\[9\], quadratic\[3\], cubic\[3\], bias_drift\[3\], temp_ref_c, bias_temp\[3\], scale_temp\[3\], cross_quadratic row-major\[3\]\[5\], cross_cubic row-major\[3\]\[9\] |
 //! | 288 | CRC-32/ISO-HDLC of bytes 0..288 |
 //!
 //! Version 1 (written by firmware before the orientation-dependent cross terms) is the same
@@ -32,22 +32,24 @@ use crc::{Crc, CRC_32_ISO_HDLC};
 use embedded_storage_async::nor_flash::NorFlash;
 use sequential_storage::cache::{Cache, Uncached};
 use sequential_storage::map::{MapConfig, MapStorage};
-use wiical_core::{Calibration, Effects};
+use wiical_core::Calibration;
 
 use crate::error::{RecordError, StoreError};
 
 /// Map key of the calibration record.
 pub const RECORD_KEY: u8 = 0x01;
-/// Version written by this firmware.
-pub const RECORD_VERSION: u16 = 2;
+/// Version written by this firmware: the newest record version a term of the core's table
+/// of effect terms needs.
+pub const RECORD_VERSION: u16 = wiical_core::terms::RECORD_VERSION;
 /// The previous version, still read (no cross terms).
 pub const RECORD_VERSION_V1: u16 = 1;
 /// Magic bytes at the start of a record.
 pub const RECORD_MAGIC: [u8; 4] = *b"WCAL";
-/// Number of `f32` in a version-1 payload.
-const PAYLOAD_FLOATS_V1: usize = 28;
-/// Number of `f32` in a version-2 payload: version 1's, then 15 + 27 cross coefficients.
-const PAYLOAD_FLOATS: usize = PAYLOAD_FLOATS_V1 + 15 + 27;
+/// Number of `f32` in a version-1 payload: bias, `K` and the terms version 1 had.
+const PAYLOAD_FLOATS_V1: usize = 12 + wiical_core::terms::floats_through_record(RECORD_VERSION_V1);
+/// Number of `f32` in a version-2 payload: the calibration's canonical floats
+/// (`Calibration::floats`), version 1's then the 15 + 27 cross coefficients.
+const PAYLOAD_FLOATS: usize = wiical_core::terms::CALIBRATION_FLOATS;
 /// Length of a version-2 record, bytes.
 pub const RECORD_LEN: usize = 8 + 4 * PAYLOAD_FLOATS + 4;
 /// Length of a version-1 record, bytes.
@@ -63,59 +65,6 @@ const WORK_BUFFER_LEN: usize = (1 + RECORD_LEN).div_ceil(32) * 32;
 #[repr(C, align(32))]
 struct WorkBuffer([u8; WORK_BUFFER_LEN]);
 
-fn floats(cal: &Calibration) -> [f32; PAYLOAD_FLOATS] {
-    let e = &cal.effects;
-    let threes = [
-        cal.bias,
-        cal.matrix[0],
-        cal.matrix[1],
-        cal.matrix[2],
-        e.quadratic,
-        e.cubic,
-        e.bias_drift,
-    ];
-    let mut out = [0f32; PAYLOAD_FLOATS];
-    let temp_ref = [e.temp_ref_c];
-    let values = threes
-        .iter()
-        .flatten()
-        .chain(temp_ref.iter())
-        .chain(e.bias_temp.iter())
-        .chain(e.scale_temp.iter())
-        .chain(e.cross_quadratic.iter().flatten())
-        .chain(e.cross_cubic.iter().flatten());
-    for (slot, v) in out.iter_mut().zip(values) {
-        *slot = *v;
-    }
-    out
-}
-
-/// The calibration from a payload's floats: `f` holds 28 (version 1, cross terms zero) or
-/// 70 (version 2) values.
-fn from_floats(f: &[f32]) -> Calibration {
-    let at = |i: usize| f.get(i).copied().unwrap_or(0.0);
-    let v3 = |i: usize| [at(i), at(i + 1), at(i + 2)];
-    let base = PAYLOAD_FLOATS_V1;
-    Calibration {
-        bias: v3(0),
-        matrix: [v3(3), v3(6), v3(9)],
-        effects: Effects {
-            quadratic: v3(12),
-            cubic: v3(15),
-            bias_drift: v3(18),
-            temp_ref_c: at(21),
-            bias_temp: v3(22),
-            scale_temp: v3(25),
-            cross_quadratic: core::array::from_fn(|r| {
-                core::array::from_fn(|c| at(base + 5 * r + c))
-            }),
-            cross_cubic: core::array::from_fn(|r| {
-                core::array::from_fn(|c| at(base + 15 + 9 * r + c))
-            }),
-        },
-    }
-}
-
 /// Serialize a calibration as a version-2 record (see the module docs). Bit-exact: every
 /// `f32` is stored as its IEEE bits.
 pub fn encode_record(cal: &Calibration) -> [u8; RECORD_LEN] {
@@ -124,7 +73,7 @@ pub fn encode_record(cal: &Calibration) -> [u8; RECORD_LEN] {
     head[..4].copy_from_slice(&RECORD_MAGIC);
     head[4..6].copy_from_slice(&RECORD_VERSION.to_le_bytes());
     head[6..8].copy_from_slice(&((4 * PAYLOAD_FLOATS) as u16).to_le_bytes());
-    for (chunk, x) in rest.chunks_exact_mut(4).zip(floats(cal)) {
+    for (chunk, x) in rest.chunks_exact_mut(4).zip(cal.floats()) {
         chunk.copy_from_slice(&x.to_le_bytes());
     }
     let crc = CRC32.checksum(&out[..RECORD_LEN - 4]);
@@ -143,9 +92,12 @@ pub fn decode_record(bytes: &[u8]) -> Result<Calibration, RecordError> {
         return Err(RecordError::BadMagic);
     }
     let version = u16::from_le_bytes([bytes[4], bytes[5]]);
+    // Every version up to this firmware's is read: its payload is the canonical floats of the
+    // terms it had (the table's `since_record`), the newer ones zero.
     let floats = match version {
-        RECORD_VERSION => PAYLOAD_FLOATS,
-        RECORD_VERSION_V1 => PAYLOAD_FLOATS_V1,
+        RECORD_VERSION_V1..=RECORD_VERSION => {
+            12 + wiical_core::terms::floats_through_record(version)
+        }
         _ => return Err(RecordError::UnsupportedVersion(version)),
     };
     let len = 8 + 4 * floats + 4;
@@ -161,7 +113,7 @@ pub fn decode_record(bytes: &[u8]) -> Result<Calibration, RecordError> {
     for (x, chunk) in f.iter_mut().zip(body[8..].chunks_exact(4)) {
         *x = f32::from_le_bytes([chunk[0], chunk[1], chunk[2], chunk[3]]);
     }
-    let cal = from_floats(&f[..floats]);
+    let cal = Calibration::from_floats(&f[..floats]);
     cal.validate().map_err(RecordError::Invalid)?;
     Ok(cal)
 }

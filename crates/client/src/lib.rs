@@ -450,10 +450,17 @@ impl Device {
     /// Stage a calibration for this session (checked locally first with the same
     /// acceptance predicate the adapter applies, so that a refusal names its reason).
     pub fn put_calibration(&mut self, cal: &Calibration) -> Result<()> {
-        cal.validate().map_err(ClientError::InvalidCalibration)?;
         wiical_core::acceptance::Acceptance::nunchuk()
             .check(cal, None)
             .map_err(ClientError::Implausible)?;
+        self.put_judged(cal)
+    }
+
+    /// Stage a calibration the caller has already judged with the acceptance predicate (as
+    /// `device put` does, to list every reason before opening the port): only its validity
+    /// is checked here, and an implausible one sent with `--force` is refused by the adapter.
+    pub fn put_judged(&mut self, cal: &Calibration) -> Result<()> {
+        cal.validate().map_err(ClientError::InvalidCalibration)?;
         self.call(endpoints::PutCalibration((*cal).into()))
     }
 
@@ -552,7 +559,7 @@ impl Drop for Device {
     }
 }
 
-/// Bitwise equality of two wire calibrations.
+/// Bitwise equality of two wire calibrations (the core's canonical bit encoding).
 pub fn same_bits(a: &wiical_wire::WireCalibration, b: &wiical_wire::WireCalibration) -> bool {
-    wiical_adapter::protocol::bits_equal(&Calibration::from(*a), &Calibration::from(*b))
+    Calibration::from(*a).bits_equal(&Calibration::from(*b))
 }

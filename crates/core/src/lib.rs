@@ -23,7 +23,8 @@
 //! ## Modules
 //! | module | what |
 //! |---|---|
-//! | [`model`] | calibration type, correction `a = D⁻¹(m − b)` plus optional effect terms; [`PreparedCalibration`] for per-sample correction |
+//! | [`model`] | calibration type (generic over the float type: `f32` device, `f64` analysis), correction `a = D⁻¹(m − b)` plus optional effect terms; [`PreparedCalibration`] for per-sample correction |
+//! | [`terms`] | the table of effect terms every format (wire, flash record, calibration file) is derived from |
 //! | [`six_position`] | the six-position test with the constant right pseudo-inverse |
 //! | [`stats`] | Welford mean/variance and the Kalman observer for a constant (scalar, 3-vector) |
 //! | [`offset`] | offset-only accelerometer and gyro calibration |
@@ -56,9 +57,13 @@ pub mod multipos;
 pub mod offset;
 pub mod six_position;
 pub mod static_detect;
+pub mod terms;
 
 pub use error::Error;
-pub use model::{Calibration, Conditions, Effects, PreparedCalibration, Terms};
+pub use model::{
+    Calibration, CalibrationT, Conditions, ConditionsT, Effects, EffectsT, PreparedCalibration,
+    Real, Terms,
+};
 
 /// Column 3-vector of `f32`.
 pub type Vec3 = nalgebra::Vector3<f32>;

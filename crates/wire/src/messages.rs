@@ -4,6 +4,7 @@
 //! unsolicited [`Response::Sample`]s while a stream is running.
 
 use serde::{Deserialize, Serialize};
+use wiical_core::terms::EFFECT_FLOATS;
 use wiical_core::{Calibration, Effects};
 
 use crate::schema::{PROTOCOL_VERSION, SCHEMA_KEY};
@@ -312,56 +313,67 @@ pub struct WireCalibration {
     pub effects: WireEffects,
 }
 
-/// Wire mirror of [`wiical_core::Effects`]; see there for units.
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
-pub struct WireEffects {
-    /// Per-axis quadratic nonlinearity (1/reference unit).
-    pub quadratic: [f32; 3],
-    /// Per-axis cubic nonlinearity (1/reference unit²).
-    pub cubic: [f32; 3],
-    /// Bias drift, raw units per second.
-    pub bias_drift: [f32; 3],
-    /// Reference temperature, °C.
-    pub temp_ref_c: f32,
-    /// Bias temperature coefficient, raw units per °C.
-    pub bias_temp: [f32; 3],
-    /// Relative scale temperature coefficient, 1/°C.
-    pub scale_temp: [f32; 3],
-    /// (Protocol 3.) Orientation-dependent degree-2 cross terms, 1/reference unit: row `i`,
-    /// output axis `i`, in the monomial order of `wiical_core::model::CROSS2`.
-    pub cross_quadratic: [[f32; 5]; 3],
-    /// (Protocol 3.) Orientation-dependent degree-3 cross terms, 1/reference unit²: row `i`,
-    /// output axis `i`, in the monomial order of `wiical_core::model::CROSS3`.
-    pub cross_cubic: [[f32; 9]; 3],
+/// Wire form of [`wiical_core::Effects`]: its coefficients in the order of the core's table
+/// of effect terms (`wiical_core::terms::TERMS`; see there for names, shapes and units), as
+/// a fixed-length tuple of `f32`. Postcard writes a tuple exactly as it wrote the struct of
+/// named arrays this replaced (fields in order, no names, no lengths), so the bytes are the
+/// same; the schema's `WireEffects` line is rendered from the same table
+/// ([`crate::SCHEMA`]), so a new term changes the key with the layout.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WireEffects(pub [f32; EFFECT_FLOATS]);
+
+impl Default for WireEffects {
+    fn default() -> Self {
+        Self([0.0; EFFECT_FLOATS])
+    }
+}
+
+impl Serialize for WireEffects {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeTuple;
+        let mut t = s.serialize_tuple(EFFECT_FLOATS)?;
+        for x in &self.0 {
+            t.serialize_element(x)?;
+        }
+        t.end()
+    }
+}
+
+impl<'de> Deserialize<'de> for WireEffects {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        /// Reads exactly [`EFFECT_FLOATS`] floats.
+        struct Floats;
+        impl<'de> serde::de::Visitor<'de> for Floats {
+            type Value = WireEffects;
+            fn expecting(&self, f: &mut core::fmt::Formatter) -> core::fmt::Result {
+                write!(f, "{EFFECT_FLOATS} effect coefficients")
+            }
+            fn visit_seq<A: serde::de::SeqAccess<'de>>(
+                self,
+                mut a: A,
+            ) -> Result<Self::Value, A::Error> {
+                let mut out = [0f32; EFFECT_FLOATS];
+                for (i, x) in out.iter_mut().enumerate() {
+                    *x = a
+                        .next_element()?
+                        .ok_or_else(|| serde::de::Error::invalid_length(i, &self))?;
+                }
+                Ok(WireEffects(out))
+            }
+        }
+        d.deserialize_tuple(EFFECT_FLOATS, Floats)
+    }
 }
 
 impl From<Effects> for WireEffects {
     fn from(e: Effects) -> Self {
-        Self {
-            quadratic: e.quadratic,
-            cubic: e.cubic,
-            bias_drift: e.bias_drift,
-            temp_ref_c: e.temp_ref_c,
-            bias_temp: e.bias_temp,
-            scale_temp: e.scale_temp,
-            cross_quadratic: e.cross_quadratic,
-            cross_cubic: e.cross_cubic,
-        }
+        Self(e.coefficients())
     }
 }
 
 impl From<WireEffects> for Effects {
     fn from(e: WireEffects) -> Self {
-        Self {
-            quadratic: e.quadratic,
-            cubic: e.cubic,
-            bias_drift: e.bias_drift,
-            temp_ref_c: e.temp_ref_c,
-            bias_temp: e.bias_temp,
-            scale_temp: e.scale_temp,
-            cross_quadratic: e.cross_quadratic,
-            cross_cubic: e.cross_cubic,
-        }
+        Effects::from_coefficients(&e.0)
     }
 }
 

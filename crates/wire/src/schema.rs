@@ -12,8 +12,8 @@
 /// [`SCHEMA_KEY`], not by this number.
 pub const PROTOCOL_VERSION: u16 = 4;
 
-/// Description of the wire format. Changing any message means changing this text.
-pub const SCHEMA: &str = "\
+/// The schema text before the `WireEffects` line.
+const SCHEMA_HEAD: &str = "\
 wiical-wire schema v4
 frame: cobs(postcard(msg) ++ le16(crc16_ibm_3740(postcard(msg)))) ++ 0x00
 Request: 0 Hello(Hello) | 1 GetCalibration | 2 PutCalibration(WireCalibration) | 3 CommitCalibration | 4 StartStream{rate_divider:u16} | 5 StopStream | 6 GetStatus | 7 EndSession
@@ -25,12 +25,88 @@ CalibrationState: live:WireCalibration, staged:Option<WireCalibration>, stored:b
 BootRecord: 0 Empty | 1 Loaded | 2 Rejected(RecordProblem) | 3 StorageError
 RecordProblem: 0 WrongLength | 1 BadMagic | 2 UnsupportedVersion(u16) | 3 BadCrc | 4 Invalid
 WireCalibration: bias:[f32;3], matrix:[[f32;3];3], effects:WireEffects
-WireEffects: quadratic:[f32;3], cubic:[f32;3], bias_drift:[f32;3], temp_ref_c:f32, bias_temp:[f32;3], scale_temp:[f32;3], cross_quadratic:[[f32;5];3], cross_cubic:[[f32;9];3]
+";
+
+/// The schema text after the `WireEffects` line.
+const SCHEMA_TAIL: &str = "\
 Sample: seq:u32, raw:[u16;3], corrected:[f32;3], buttons:u16, stick:[u8;2]
 AdapterStatus: phase:SelfCalPhase, poses:u8, last_result:Option<SelfCalOutcome>, stale_moments:u32, stale_rms_mg:f32, recalibration_suggested:bool
 SelfCalPhase: 0 Off | 1 Arming | 2 WaitingForStillness | 3 PoseTaken | 4 MoveToNewOrientation | 5 Committing | 6 Done | 7 Failed
 SelfCalOutcome: 0 Done{rms_mg:f32, poses:u8} | 1 Failed{message:String<96>}
 ";
+
+/// Appends `s` to `buf` at `at` (when `buf` is long enough: with an empty `buf` this only
+/// counts), returning the new length.
+const fn put(buf: &mut [u8], at: usize, s: &[u8]) -> usize {
+    let mut i = 0;
+    while i < s.len() {
+        if at + i < buf.len() {
+            buf[at + i] = s[i];
+        }
+        i += 1;
+    }
+    at + s.len()
+}
+
+/// Appends the decimal digits of `n` (< 100).
+const fn put_count(buf: &mut [u8], at: usize, n: usize) -> usize {
+    let at = if n >= 10 {
+        put(buf, at, &[b'0' + (n / 10) as u8])
+    } else {
+        at
+    };
+    put(buf, at, &[b'0' + (n % 10) as u8])
+}
+
+/// Writes the whole schema into `buf` (or, with an empty `buf`, only measures it): the head,
+/// then the `WireEffects` line rendered from the core's table of effect terms (each term's
+/// name and its `f32` shape: `f32` for the reference value, `[f32;3]` for one coefficient
+/// per axis, `[[f32;N];3]` for `N` per output axis), then the tail.
+const fn write_schema(buf: &mut [u8]) -> usize {
+    use wiical_core::terms::{Shape, TERMS};
+    let mut at = put(buf, 0, SCHEMA_HEAD.as_bytes());
+    at = put(buf, at, b"WireEffects: ");
+    let mut i = 0;
+    while i < TERMS.len() {
+        let t = &TERMS[i];
+        if i > 0 {
+            at = put(buf, at, b", ");
+        }
+        at = put(buf, at, t.name.as_bytes());
+        at = put(buf, at, b":");
+        at = match t.shape {
+            Shape::Reference => put(buf, at, b"f32"),
+            Shape::Cross(_) => {
+                let at = put(buf, at, b"[[f32;");
+                let at = put_count(buf, at, t.per_axis());
+                put(buf, at, b"];3]")
+            }
+            _ => put(buf, at, b"[f32;3]"),
+        };
+        i += 1;
+    }
+    at = put(buf, at, b"\n");
+    put(buf, at, SCHEMA_TAIL.as_bytes())
+}
+
+/// Length of [`SCHEMA`], bytes.
+const SCHEMA_LEN: usize = write_schema(&mut []);
+
+/// The bytes of [`SCHEMA`], built at compile time.
+const SCHEMA_BYTES: [u8; SCHEMA_LEN] = {
+    let mut buf = [0u8; SCHEMA_LEN];
+    write_schema(&mut buf);
+    buf
+};
+
+/// Description of the wire format. Changing any message means changing this text; the
+/// `WireEffects` line is rendered from `wiical_core::terms::TERMS` (the order and shape of
+/// the effect coefficients on the wire), so a new effect term changes it, and the key, by
+/// itself.
+pub const SCHEMA: &str = match core::str::from_utf8(&SCHEMA_BYTES) {
+    Ok(s) => s,
+    Err(_) => panic!("the schema is ASCII"),
+};
 
 /// Schema keys of earlier protocol versions, newest first, so that either side can say
 /// *which* older build it is talking to ("host speaks protocol 1, adapter 2: update the
@@ -134,6 +210,33 @@ AdapterStatus: phase:SelfCalPhase, poses:u8, last_result:Option<SelfCalOutcome>,
 SelfCalPhase: 0 Off | 1 Arming | 2 WaitingForStillness | 3 PoseTaken | 4 MoveToNewOrientation | 5 Committing | 6 Done | 7 Failed
 SelfCalOutcome: 0 Done{rms_mg:f32, poses:u8} | 1 Failed{message:String<96>}
 ";
+
+    /// The schema of protocol 4 as released: the text built from the table of effect terms
+    /// must be exactly this (and so its key), or the wire format changed.
+    const SCHEMA_V4: &str = "\
+wiical-wire schema v4
+frame: cobs(postcard(msg) ++ le16(crc16_ibm_3740(postcard(msg)))) ++ 0x00
+Request: 0 Hello(Hello) | 1 GetCalibration | 2 PutCalibration(WireCalibration) | 3 CommitCalibration | 4 StartStream{rate_divider:u16} | 5 StopStream | 6 GetStatus | 7 EndSession
+Hello: protocol_version:u16, schema_key:u32
+Response: 0 Hello(HelloResponse) | 1 Error(ErrorCode) | 2 Ack | 3 Calibration(CalibrationState) | 4 StreamStarted{sample_rate_mhz:u32} | 5 Sample(Sample) | 6 Status(AdapterStatus)
+HelloResponse: protocol_version:u16, schema_key:u32, firmware_version:String<32>, device_id:[u8;8]
+ErrorCode(u8): 1 SchemaMismatch | 2 BadFrame | 3 UnsupportedRequest | 4 InvalidCalibration | 5 NothingStaged | 6 StorageFailure | 7 Busy | 8 InvalidParameter | 9 NoSensor | 10 Internal | 11 ImplausibleCalibration
+CalibrationState: live:WireCalibration, staged:Option<WireCalibration>, stored:bool, boot:BootRecord, damaged_records:u16
+BootRecord: 0 Empty | 1 Loaded | 2 Rejected(RecordProblem) | 3 StorageError
+RecordProblem: 0 WrongLength | 1 BadMagic | 2 UnsupportedVersion(u16) | 3 BadCrc | 4 Invalid
+WireCalibration: bias:[f32;3], matrix:[[f32;3];3], effects:WireEffects
+WireEffects: quadratic:[f32;3], cubic:[f32;3], bias_drift:[f32;3], temp_ref_c:f32, bias_temp:[f32;3], scale_temp:[f32;3], cross_quadratic:[[f32;5];3], cross_cubic:[[f32;9];3]
+Sample: seq:u32, raw:[u16;3], corrected:[f32;3], buttons:u16, stick:[u8;2]
+AdapterStatus: phase:SelfCalPhase, poses:u8, last_result:Option<SelfCalOutcome>, stale_moments:u32, stale_rms_mg:f32, recalibration_suggested:bool
+SelfCalPhase: 0 Off | 1 Arming | 2 WaitingForStillness | 3 PoseTaken | 4 MoveToNewOrientation | 5 Committing | 6 Done | 7 Failed
+SelfCalOutcome: 0 Done{rms_mg:f32, poses:u8} | 1 Failed{message:String<96>}
+";
+
+    #[test]
+    fn the_built_schema_is_protocol_4s() {
+        assert_eq!(SCHEMA, SCHEMA_V4);
+        assert_eq!(SCHEMA_KEY, fnv1a_32(SCHEMA_V4.as_bytes()));
+    }
 
     #[test]
     fn previous_keys_are_the_hashes_of_the_previous_schemas() {

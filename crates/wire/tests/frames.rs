@@ -2,6 +2,7 @@
 //! chunk delivery, and "no panic" on arbitrary bytes with arbitrary chunking.
 
 use proptest::prelude::*;
+use wiical_core::terms::EFFECT_FLOATS;
 use wiical_core::{Calibration, Effects};
 use wiical_wire::*;
 
@@ -14,34 +15,8 @@ fn v3() -> impl Strategy<Value = [f32; 3]> {
 }
 
 fn effects() -> impl Strategy<Value = WireEffects> {
-    (
-        v3(),
-        v3(),
-        v3(),
-        f(),
-        v3(),
-        v3(),
-        [
-            [f(), f(), f(), f(), f()],
-            [f(), f(), f(), f(), f()],
-            [f(), f(), f(), f(), f()],
-        ],
-        prop::array::uniform3(prop::array::uniform9(f())),
-    )
-        .prop_map(
-            |(quadratic, cubic, bias_drift, temp_ref_c, bias_temp, scale_temp, cq, cc)| {
-                WireEffects {
-                    quadratic,
-                    cubic,
-                    bias_drift,
-                    temp_ref_c,
-                    bias_temp,
-                    scale_temp,
-                    cross_quadratic: cq,
-                    cross_cubic: cc,
-                }
-            },
-        )
+    prop::collection::vec(f(), EFFECT_FLOATS)
+        .prop_map(|v| WireEffects(std::array::from_fn(|i| v[i])))
 }
 
 fn calibration() -> impl Strategy<Value = WireCalibration> {
@@ -283,9 +258,11 @@ fn calibration_conversions_are_lossless() {
         },
     };
     let wire: WireCalibration = core.into();
-    assert_eq!(wire.effects.scale_temp, [1.4, 1.5, 1.6]);
-    assert_eq!(wire.effects.cross_quadratic[2][4], 24.0);
-    assert_eq!(wire.effects.cross_cubic[1][8], -18.0);
+    // The wire order: 3 + 3 + 3 + 1 + 3 coefficients before scale_temp, 15 cross-quadratic
+    // ones (row 2, column 4 is the last) before the cross-cubic ones.
+    assert_eq!(wire.effects.0[13..16], [1.4, 1.5, 1.6]);
+    assert_eq!(wire.effects.0[16 + 14], 24.0);
+    assert_eq!(wire.effects.0[31 + 9 + 8], -18.0);
     assert_eq!(Calibration::from(wire), core);
 }
 
@@ -326,8 +303,10 @@ fn golden_encodings() {
         format!("02{cal_hex}")
     );
     let mut cross = cal;
-    cross.effects.cross_quadratic[0][0] = 1.0;
-    cross.effects.cross_cubic[2][8] = 2.0;
+    let mut e = Effects::from(cross.effects);
+    e.cross_quadratic[0][0] = 1.0;
+    e.cross_cubic[2][8] = 2.0;
+    cross.effects = e.into();
     assert_eq!(
         hex(&enc(&Request::PutCalibration(cross))),
         format!(
@@ -450,16 +429,7 @@ fn largest_messages_fit() {
     let cal = WireCalibration {
         bias: [f32::MAX; 3],
         matrix: [[f32::MIN; 3]; 3],
-        effects: WireEffects {
-            quadratic: [1.0; 3],
-            cubic: [1.0; 3],
-            bias_drift: [1.0; 3],
-            temp_ref_c: 1.0,
-            bias_temp: [1.0; 3],
-            scale_temp: [1.0; 3],
-            cross_quadratic: [[1.0; 5]; 3],
-            cross_cubic: [[1.0; 9]; 3],
-        },
+        effects: WireEffects([1.0; EFFECT_FLOATS]),
     };
     let big = [
         Response::Calibration(CalibrationState {

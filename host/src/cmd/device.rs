@@ -13,6 +13,7 @@ use serde::Serialize;
 use wiical_analysis::output::calfile::{self, adapter_terms, adapter_terms_file, CalibrationFile};
 use wiical_analysis::report::verdict::Verdict;
 use wiical_core::acceptance::Acceptance;
+use wiical_core::terms::TERMS;
 use wiical_core::Calibration;
 use wiical_wire::{
     AdapterStatus, BootRecord, CalibrationState, HelloResponse, RecordProblem, Sample,
@@ -174,11 +175,11 @@ fn hex(bytes: &[u8]) -> String {
     bytes.iter().map(|b| format!("{b:02X}")).collect()
 }
 
-/// Upload `cal` (read and judged by [`checked_for_put`]) and read it back: the staged copy
-/// must be bit-identical.
+/// Upload `cal` (read and judged by [`checked_for_put`], so the acceptance predicate is not
+/// run again) and read it back: the staged copy must be bit-identical.
 fn put_verified(dev: &mut Device, cal: Option<Calibration>) -> Result<Calibration> {
     let cal = cal.ok_or_else(|| anyhow!("internal: calibration not read"))?;
-    dev.put_calibration(&cal)?;
+    dev.put_judged(&cal)?;
     let s = dev.get_calibration()?;
     let ok = s
         .staged
@@ -242,13 +243,10 @@ pub fn judge_for_put(file: &CalibrationFile) -> PutCheck {
         ),
     }
     let e = &file.calibration.effects;
-    let nonzero = |v: &[f32; 3]| v.iter().any(|x| *x != 0.0);
-    for (name, terms) in [
-        ("bias_drift", &e.bias_drift),
-        ("bias_temp", &e.bias_temp),
-        ("scale_temp", &e.scale_temp),
-    ] {
-        if nonzero(terms) {
+    // The terms the core's table says the adapter does not apply (the reference θ₀ is no term).
+    for t in TERMS.iter().filter(|t| t.is_term() && !t.device_applies) {
+        let name = t.name;
+        if e.field(t.id).iter().any(|x| *x != 0.0) {
             check.warnings.push(format!(
                 "the adapter does not apply the {name} terms (it has no clock origin or temperature sensor); they are stored but ignored"
             ));

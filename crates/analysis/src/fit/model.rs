@@ -16,8 +16,13 @@
 //! This is exactly the correction-side definition of [`wiical_core::Effects`] (bias drift `d`,
 //! bias temperature coefficient `β`, scale temperature coefficient `σ`, quadratic `q`, cubic
 //! `c`) in normalised units (the curvature `d₂` of the drift is a diagnostic the core cannot
-//! store); [`Normalisation::to_calibration`] maps the parameters back to raw
-//! units, seconds and °C. Only the three non-orthogonality entries above the diagonal of `K`
+//! store); [`Normalisation::to_calibration_f64`] maps the parameters back to raw
+//! units, seconds and °C as the core's calibration in `f64` (`CalibrationT<f64>`, the same
+//! generic type and correction the device runs in `f32`), whose correction reproduces this
+//! model to `f64` rounding (a test checks it). The per-axis polynomial is the core's own
+//! function ([`wiical_core::model::axis_polynomial`]); the bias is subtracted term by term in
+//! the normalised frame because the fit also carries terms the core does not store (the
+//! drift's curvature, the open slots), and the gradient below is the model's own. Only the three non-orthogonality entries above the diagonal of `K`
 //! are free, so the sensor frame is fixed by the same convention as the core's fit (x kept,
 //! y in the x–y plane): per-axis effect terms refer to the axes of that frame.
 //!
@@ -30,7 +35,8 @@
 use crate::report::effect_names as names;
 use nalgebra::SVector;
 use wiical_core::lm::{self, LmFit, LmSettings, Problem};
-use wiical_core::{Calibration, Effects};
+use wiical_core::model::axis_polynomial;
+use wiical_core::{Calibration, CalibrationT, EffectsT, Real};
 
 /// Number of open slots: single terms of the open basis ([`Slot`]), appended to the 27
 /// parameters of the fixed blocks; the open-basis stage fills at most this many.
@@ -400,9 +406,8 @@ fn forward(b: &Blocks, w: &Win) -> Fwd {
     for j in 0..3 {
         st[j] = 1.0 + b.scale_temp[j] * th;
         let uj = v[j] * (st[j] * extra[j]);
-        let (q, c) = (b.quadratic[j], b.cubic[j]);
         u[j] = uj;
-        a[j] = uj + q * uj * uj + c * uj * uj * uj;
+        a[j] = axis_polynomial(uj, b.quadratic[j], b.cubic[j]);
     }
     for (s, c) in w.slots.iter().zip(&b.open) {
         if let Slot::Cross { axis, exps } = *s {
@@ -855,24 +860,29 @@ impl Normalisation {
         r
     }
 
-    /// The core's `f32` calibration reproducing the model (the diagnostic `d₂` must be zero): `Calibration::correct(m, cond)` with
-    /// `cond.time_s` = seconds since the first sample and `cond.temperature_c` the temperature.
-    pub fn to_calibration(self, p: &Params) -> Calibration {
+    /// The core's calibration in `f64` reproducing the model (the diagnostic `d₂` must be
+    /// zero): [`CalibrationT::correct`]`(m, cond)` with `cond.time_s` = seconds since the first
+    /// sample and `cond.temperature_c` the temperature is the model's `a` in raw units.
+    pub fn to_calibration_f64(self, p: &Params) -> CalibrationT<f64> {
         let r = self.raw(p);
-        let f = |v: [f64; 3]| v.map(|x| x as f32);
-        Calibration {
-            bias: f(r.bias),
-            matrix: r.matrix.map(f),
-            effects: Effects {
-                quadratic: f(r.quadratic),
-                cubic: f(r.cubic),
-                bias_drift: f(r.drift),
-                temp_ref_c: r.temp_ref_c as f32,
-                bias_temp: f(r.bias_temp),
-                scale_temp: f(r.scale_temp),
-                ..Effects::default()
+        CalibrationT {
+            bias: r.bias,
+            matrix: r.matrix,
+            effects: EffectsT {
+                quadratic: r.quadratic,
+                cubic: r.cubic,
+                bias_drift: r.drift,
+                temp_ref_c: r.temp_ref_c,
+                bias_temp: r.bias_temp,
+                scale_temp: r.scale_temp,
+                ..EffectsT::default()
             },
         }
+    }
+
+    /// [`Self::to_calibration_f64`] rounded to the device's `f32`, parameter by parameter.
+    pub fn to_calibration(self, p: &Params) -> Calibration {
+        self.to_calibration_f64(p).cast(Real::to_f32)
     }
 }
 
@@ -1036,6 +1046,37 @@ mod tests {
             );
             let got = (a.iter().map(|x| (*x as f64).powi(2)).sum::<f64>()).sqrt() - 1.0;
             assert!((got - want).abs() < 2e-5, "{got} vs {want}");
+        }
+    }
+
+    /// The model is the core's correction in `f64`: the core's generic `correct`, instantiated
+    /// in `f64` on the model's parameters mapped to raw units, gives the model's residual to
+    /// `f64` rounding (the `f32` test above allows for the device's rounding).
+    #[test]
+    fn the_core_f64_correction_is_the_model() {
+        let means = [
+            [520.0, 500.0, 610.0],
+            [410.0, 505.0, 515.0],
+            [515.0, 400.0, 505.0],
+        ];
+        let times = [10.0, 50.0, 90.0];
+        let temps = [25.0, 28.0, 30.0];
+        let nrm = Normalisation::of(&means, &times, Some(&temps));
+        let mut p = sample_params();
+        p[..9].copy_from_slice(&[0.0, 0.0, 0.0, 0.9, 0.01, 0.0, 0.95, -0.01, 0.97]);
+        p[DRIFT2..DRIFT2 + 3].copy_from_slice(&[0.0; 3]);
+        p[OPEN..].copy_from_slice(&[0.0; OPEN_SLOTS]);
+        let cal = nrm.to_calibration_f64(&p);
+        for i in 0..3 {
+            let w = nrm.window(&means[i], times[i], Some(temps[i]));
+            let cond = wiical_core::ConditionsT {
+                time_s: times[i],
+                temperature_c: Some(temps[i]),
+            };
+            let a = cal.correct(means[i], &cond);
+            let got = norm(&a) - 1.0;
+            let want = residual(&p, &w);
+            assert!((got - want).abs() < 1e-12, "{got} vs {want}");
         }
     }
 

@@ -38,6 +38,7 @@ use crate::output::write::write_file;
 use crate::report::verdict::Quality;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
+use wiical_core::terms::{Shape, TermSpec, NAMES, TERMS};
 use wiical_core::{Calibration, Effects};
 
 /// The newest `schema` value, written when the calibration has cross terms.
@@ -68,65 +69,118 @@ struct FileV1 {
     host_terms: Option<Vec<HostTerm>>,
 }
 
-/// The effect terms, strict (the core's serde derive is lenient, for its other users).
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-struct EffectsV1 {
-    quadratic: [f32; 3],
-    cubic: [f32; 3],
-    bias_drift: [f32; 3],
-    temp_ref_c: f32,
-    bias_temp: [f32; 3],
-    scale_temp: [f32; 3],
-    /// Version 2: absent (zero) in version-1 files; written only when non-zero.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    cross_quadratic: Option<[[f32; 5]; 3]>,
-    /// Version 2: absent (zero) in version-1 files; written only when non-zero.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    cross_cubic: Option<[[f32; 9]; 3]>,
-}
-
-/// `Some(rows)` unless every coefficient is zero.
-fn nonzero<const N: usize>(rows: [[f32; N]; 3]) -> Option<[[f32; N]; 3]> {
-    rows.iter().flatten().any(|x| *x != 0.0).then_some(rows)
-}
+/// The effect terms, strict (the core's serde derive is lenient, for its other users): one
+/// key per row of the core's table of effect terms (`wiical_core::terms::TERMS`), in its
+/// order, each term's coefficients as an array (`[..3]`), an array of rows (`[[..n]; 3]`
+/// for a cross term) or a number (the reference temperature). Every key may be left out
+/// (zero); terms newer than version 1 are written only when non-zero, and may be `null`.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+struct EffectsV1(Effects);
 
 impl EffectsV1 {
-    /// True when the file carries a non-zero cross term (version 2 only).
-    fn has_cross_terms(&self) -> bool {
-        self.cross_quadratic.and_then(nonzero).is_some()
-            || self.cross_cubic.and_then(nonzero).is_some()
+    /// The lowest file version holding every non-zero term (1 or 2; 3 is for host terms).
+    fn version(&self) -> u8 {
+        TERMS
+            .iter()
+            .filter(|t| self.0.field(t.id).iter().any(|x| *x != 0.0))
+            .map(|t| t.since_file)
+            .max()
+            .unwrap_or(1)
+    }
+
+    /// The keys of the terms version 1 does not have, for messages.
+    fn newer_than_v1() -> String {
+        let names: Vec<&str> = TERMS
+            .iter()
+            .filter(|t| t.since_file > 1)
+            .map(|t| t.name)
+            .collect();
+        names.join(" / ")
     }
 }
 
-impl From<Effects> for EffectsV1 {
-    fn from(e: Effects) -> Self {
-        Self {
-            quadratic: e.quadratic,
-            cubic: e.cubic,
-            bias_drift: e.bias_drift,
-            temp_ref_c: e.temp_ref_c,
-            bias_temp: e.bias_temp,
-            scale_temp: e.scale_temp,
-            cross_quadratic: nonzero(e.cross_quadratic),
-            cross_cubic: nonzero(e.cross_cubic),
+impl Serialize for EffectsV1 {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> std::result::Result<S::Ok, S::Error> {
+        use serde::ser::SerializeStruct;
+        let e = &self.0;
+        let shown = |t: &&TermSpec| t.since_file == 1 || e.field(t.id).iter().any(|x| *x != 0.0);
+        let mut m = s.serialize_struct("EffectsV1", TERMS.iter().filter(shown).count())?;
+        for t in TERMS.iter().filter(shown) {
+            let c = e.field(t.id);
+            match t.shape {
+                Shape::Reference => m.serialize_field(t.name, &c[0])?,
+                Shape::Cross(_) => {
+                    let rows: Vec<&[f32]> = c.chunks(t.per_axis()).collect();
+                    m.serialize_field(t.name, &rows)?
+                }
+                _ => m.serialize_field(t.name, c)?,
+            }
         }
+        m.end()
     }
 }
 
-impl From<EffectsV1> for Effects {
-    fn from(e: EffectsV1) -> Self {
-        Self {
-            quadratic: e.quadratic,
-            cubic: e.cubic,
-            bias_drift: e.bias_drift,
-            temp_ref_c: e.temp_ref_c,
-            bias_temp: e.bias_temp,
-            scale_temp: e.scale_temp,
-            cross_quadratic: e.cross_quadratic.unwrap_or_default(),
-            cross_cubic: e.cross_cubic.unwrap_or_default(),
-        }
+impl<'de> Deserialize<'de> for EffectsV1 {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
+        d.deserialize_struct("EffectsV1", &NAMES, TermsVisitor)
     }
+}
+
+/// Reads the `effects` object strictly (unknown or repeated keys refused).
+struct TermsVisitor;
+
+impl<'de> serde::de::Visitor<'de> for TermsVisitor {
+    type Value = EffectsV1;
+
+    fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        f.write_str("struct EffectsV1")
+    }
+
+    fn visit_map<A: serde::de::MapAccess<'de>>(
+        self,
+        mut map: A,
+    ) -> std::result::Result<EffectsV1, A::Error> {
+        use serde::de::Error as _;
+        let mut e = Effects::default();
+        let mut seen = [false; TERMS.len()];
+        while let Some(key) = map.next_key::<std::borrow::Cow<'de, str>>()? {
+            let Some(i) = NAMES.iter().position(|n| *n == key) else {
+                return Err(A::Error::unknown_field(&key, &NAMES));
+            };
+            let t = &TERMS[i];
+            if std::mem::replace(&mut seen[i], true) {
+                return Err(A::Error::duplicate_field(t.name));
+            }
+            let values: Vec<f32> = match (t.shape, t.per_axis()) {
+                (Shape::Reference, _) => vec![map.next_value::<f32>()?],
+                (Shape::Cross(_), 5) => rows::<5, A>(&mut map, t)?,
+                (Shape::Cross(_), 9) => rows::<9, A>(&mut map, t)?,
+                (Shape::Cross(_), n) => {
+                    return Err(A::Error::custom(format!("no reader for rows of {n}")))
+                }
+                _ => map.next_value::<[f32; 3]>()?.to_vec(),
+            };
+            e.field_mut(t.id).copy_from_slice(&values);
+        }
+        Ok(EffectsV1(e))
+    }
+}
+
+/// The value of a cross term: three rows of `N`, `null` or absent (zero) for a term newer
+/// than version 1.
+fn rows<'de, const N: usize, A: serde::de::MapAccess<'de>>(
+    map: &mut A,
+    t: &TermSpec,
+) -> std::result::Result<Vec<f32>, A::Error>
+where
+    [[f32; N]; 3]: Deserialize<'de>,
+{
+    let r: Option<[[f32; N]; 3]> = if t.since_file > 1 {
+        map.next_value()?
+    } else {
+        Some(map.next_value()?)
+    };
+    Ok(r.unwrap_or([[0.0; N]; 3]).as_flattened().to_vec())
 }
 
 /// A calibration file's contents: the calibration and, when it came from a fit, the fit's
@@ -145,18 +199,14 @@ pub struct CalibrationFile {
 /// lowest schema version that holds its terms.
 pub fn to_json_file(f: &CalibrationFile) -> Result<String> {
     let cal = &f.calibration;
-    let schema = if !f.host_terms.is_empty() {
-        SCHEMA_V3
-    } else if cal.effects.has_cross_terms() {
-        SCHEMA
-    } else {
-        SCHEMA_V1
-    };
+    let effects = EffectsV1(cal.effects);
+    let hosts = if f.host_terms.is_empty() { 1 } else { 3 };
+    let schema = schema_of(effects.version().max(hosts));
     let file = FileV1 {
         schema: Some(schema.into()),
         bias: cal.bias,
         matrix: cal.matrix,
-        effects: cal.effects.into(),
+        effects,
         quality: f.quality.clone(),
         host_terms: (!f.host_terms.is_empty()).then(|| f.host_terms.clone()),
     };
@@ -191,7 +241,7 @@ pub fn parse(text: &str) -> std::result::Result<CalibrationFile, serde_json::Err
         calibration: Calibration {
             bias: file.bias,
             matrix: file.matrix,
-            effects: file.effects.into(),
+            effects: file.effects.0,
         },
         quality: file.quality,
         host_terms: hosts,
@@ -199,21 +249,22 @@ pub fn parse(text: &str) -> std::result::Result<CalibrationFile, serde_json::Err
 }
 
 /// The numeric fields of a calibration file and their shapes: `(path, rows, columns)`, one
-/// row meaning a flat list and zero columns a single number. Read by [`check_shapes`] before
-/// the deserializer, which would describe a mismatch in its own terms ("invalid type: map,
-/// expected a tuple struct").
-const SHAPES: [(&str, usize, usize); 10] = [
-    ("bias", 1, 3),
-    ("matrix", 3, 3),
-    ("effects.quadratic", 1, 3),
-    ("effects.cubic", 1, 3),
-    ("effects.bias_drift", 1, 3),
-    ("effects.temp_ref_c", 1, 0),
-    ("effects.bias_temp", 1, 3),
-    ("effects.scale_temp", 1, 3),
-    ("effects.cross_quadratic", 3, 5),
-    ("effects.cross_cubic", 3, 9),
-];
+/// row meaning a flat list and zero columns a single number; the effect sections come from
+/// the core's table of effect terms. Read by [`check_shapes`] before the deserializer, which
+/// would describe a mismatch in its own terms ("invalid type: map, expected a tuple struct").
+fn shapes() -> Vec<(String, usize, usize)> {
+    use wiical_core::terms::{Shape, TERMS};
+    let mut out = vec![("bias".to_string(), 1, 3), ("matrix".to_string(), 3, 3)];
+    out.extend(TERMS.iter().map(|t| {
+        let (rows, cols) = match t.shape {
+            Shape::Reference => (1, 0),
+            Shape::Cross(_) => (3, t.per_axis()),
+            _ => (1, 3),
+        };
+        (format!("effects.{}", t.name), rows, cols)
+    }));
+    out
+}
 
 /// What a JSON value is, in words ("an object", "the text \"abc\"").
 fn json_kind(v: &serde_json::Value) -> String {
@@ -259,7 +310,7 @@ fn check_list(name: &str, v: &serde_json::Value, n: usize) -> std::result::Resul
     Ok(())
 }
 
-/// Checks the numeric fields of a calibration file against `SHAPES` (the table above), naming the field,
+/// Checks the numeric fields of a calibration file against [`shapes`], naming the field,
 /// the row and what was found. Keys it does not know are left to the strict deserializer
 /// (which names them as unknown fields); `bias` and `matrix` must be present.
 pub fn check_shapes(value: &serde_json::Value) -> std::result::Result<(), String> {
@@ -279,7 +330,8 @@ pub fn check_shapes(value: &serde_json::Value) -> std::result::Result<(), String
     if let Some(e) = top.get("effects").filter(|e| !e.is_object()) {
         return Err(format!("effects is {}, expected an object", json_kind(e)));
     }
-    for (path, rows, cols) in SHAPES {
+    for (path, rows, cols) in shapes() {
+        let path = path.as_str();
         let v = match path.split_once('.') {
             Some((section, key)) => top.get(section).and_then(|s| s.get(key)),
             None => top.get(path),
@@ -307,6 +359,15 @@ pub fn check_shapes(value: &serde_json::Value) -> std::result::Result<(), String
     Ok(())
 }
 
+/// The `schema` value of file version `v` (1 to 3).
+fn schema_of(v: u8) -> &'static str {
+    match v {
+        0 | 1 => SCHEMA_V1,
+        2 => SCHEMA,
+        _ => SCHEMA_V3,
+    }
+}
+
 /// Refuses a `schema` label that does not hold the file's terms, or is unknown.
 fn check_schema(
     schema: Option<&str>,
@@ -322,9 +383,11 @@ fn check_schema(
     match schema {
         None | Some(SCHEMA) | Some(SCHEMA_V3) => {}
         Some(SCHEMA_V1) => {
-            if effects.has_cross_terms() {
+            if effects.version() > 1 {
                 return Err(serde::de::Error::custom(format!(
-                    "the file says schema '{SCHEMA_V1}' but has cross_quadratic / cross_cubic terms, which version 1 does not have: set \"schema\": \"{SCHEMA}\""
+                    "the file says schema '{SCHEMA_V1}' but has {} terms, which version 1 does not have: set \"schema\": \"{}\"",
+                    EffectsV1::newer_than_v1(),
+                    schema_of(effects.version())
                 )));
             }
         }
@@ -643,44 +706,34 @@ mod tests {
 #[derive(Debug, Default, PartialEq, Serialize)]
 pub struct AdapterTerms {
     /// Applied on the device.
-    pub applied: Vec<&'static str>,
+    pub applied: Vec<String>,
     /// Kept in the file (and stored) for hosts with a clock and a thermometer.
     pub host_only: Vec<String>,
 }
 
-/// Sorts the calibration's non-zero terms into [`AdapterTerms`].
+/// Sorts the calibration's non-zero terms into [`AdapterTerms`], by the core's table of
+/// effect terms (`device_applies`), each named by its key and, when it depends on more than
+/// its own axis, on what (`cross_cubic (orientation)`, `bias_drift (time)`).
 pub fn adapter_terms(cal: &Calibration) -> AdapterTerms {
     let e = &cal.effects;
-    let nz = |v: &[f32]| v.iter().any(|x| *x != 0.0);
     let mut t = AdapterTerms {
-        applied: vec!["bias and K"],
+        applied: vec!["bias and K".into()],
         host_only: Vec::new(),
     };
-    let on_device: [(&'static str, bool); 4] = [
-        ("quadratic", nz(&e.quadratic)),
-        ("cubic", nz(&e.cubic)),
-        (
-            "cross_quadratic (orientation)",
-            nz(e.cross_quadratic.as_flattened()),
-        ),
-        (
-            "cross_cubic (orientation)",
-            nz(e.cross_cubic.as_flattened()),
-        ),
-    ];
-    let for_hosts = [
-        ("bias_drift (time)", nz(&e.bias_drift)),
-        ("bias_temp (temperature)", nz(&e.bias_temp)),
-        ("scale_temp (temperature)", nz(&e.scale_temp)),
-    ];
-    t.applied
-        .extend(on_device.iter().filter(|(_, on)| *on).map(|(n, _)| *n));
-    t.host_only.extend(
-        for_hosts
-            .iter()
-            .filter(|(_, on)| *on)
-            .map(|(n, _)| n.to_string()),
-    );
+    for spec in TERMS.iter().filter(|s| s.is_term()) {
+        if !e.field(spec.id).iter().any(|x| *x != 0.0) {
+            continue;
+        }
+        let name = match spec.depends_on() {
+            Some(on) => format!("{} ({on})", spec.name),
+            None => spec.name.to_string(),
+        };
+        if spec.device_applies {
+            t.applied.push(name);
+        } else {
+            t.host_only.push(name);
+        }
+    }
     t
 }
 
