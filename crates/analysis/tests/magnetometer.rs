@@ -79,9 +79,9 @@ fn each_effect_is_named_and_lowers_the_held_out_error() {
         assert!(e.cv_rms.unwrap() * 1.1 <= e.cv_rms_before.unwrap(), "{e:?}");
         assert_eq!(a.verdict, "good", "{truth:?}: {:?}", a.reasons);
         if let MagEffectTruth::Interference(k) | MagEffectTruth::Temperature(k) = truth {
-            for ax in 0..3 {
+            for (ax, k_ax) in k.iter().enumerate() {
                 assert!(
-                    (e.values[ax] - k[ax]).abs() < 5.0 * e.std_errors[ax] + 0.02 * k[ax].abs(),
+                    (e.values[ax] - k_ax).abs() < 5.0 * e.std_errors[ax] + 0.02 * k_ax.abs(),
                     "{e:?}"
                 );
             }

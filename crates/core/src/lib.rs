@@ -26,7 +26,7 @@
 //! | [`model`] | calibration type (generic over the float type: `f32` device, `f64` analysis), correction `a = D⁻¹(m − b)` plus optional effect terms; [`PreparedCalibration`] for per-sample correction |
 //! | [`terms`] | the table of effect terms every format (wire, flash record, calibration file) is derived from |
 //! | [`six_position`] | the six-position test with the constant right pseudo-inverse |
-//! | [`stats`] | Welford mean/variance and the Kalman observer for a constant (scalar, 3-vector) |
+//! | [`estimators`] | Welford mean/variance and the Kalman observer for a constant (scalar, 3-vector) |
 //! | [`offset`] | offset-only accelerometer and gyro calibration |
 //! | [`multipos`] | multi-position fit in arbitrary orientations (Levenberg–Marquardt) |
 //! | [`magfit`] | magnetometer sphere / axis-aligned / rotated-ellipsoid fits from streaming sums |
@@ -36,7 +36,7 @@
 //! | [`gyro_zero`] | zero-rate (bias) tracker that re-zeroes whenever the sensor is still |
 //! | [`static_detect`] | static-interval detection on a stream; [`static_detect::adaptive`]: thresholds from the recording's own noise, no rest period needed |
 //! | [`lm`] | Levenberg–Marquardt generic over the float type (`f32` device, `f64` analysis), standard errors, leverage, leave-one-out |
-//! | [`quality`] | the one acceptance predicate (plausibility limits) and the pose-coverage rule |
+//! | [`acceptance`] | the one acceptance predicate (plausibility limits) and the pose-coverage rule |
 //! | [`linalg`] | small helpers (Cholesky solves of normal equations) |
 #![no_std]
 #![deny(unsafe_code)]

@@ -263,7 +263,8 @@ fn limit(c: &Cand, tot: &Normal, cur: &[usize], cf: &Fit, floor: f64, level: f64
             Kind::Centre => {
                 let s = schur(tot, cur, cols);
                 let lmin = s.symmetric_eigenvalues().min();
-                if !(lmin > 0.0) {
+                // Not positive, or NaN: the column cannot be separated.
+                if lmin.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
                     return None;
                 }
                 (need / lmin).sqrt()

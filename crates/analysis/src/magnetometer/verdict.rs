@@ -20,7 +20,11 @@ pub fn verdict(
     coverage: f64,
     unit: &str,
 ) -> (String, Vec<String>) {
-    if !(coverage >= MIN_COVERAGE) {
+    // Below the minimum, or NaN.
+    if coverage
+        .partial_cmp(&MIN_COVERAGE)
+        .is_none_or(|o| o.is_lt())
+    {
         return (
             "not-usable".into(),
             vec![format!(

@@ -310,7 +310,7 @@ fn check_list(name: &str, v: &serde_json::Value, n: usize) -> std::result::Resul
     Ok(())
 }
 
-/// Checks the numeric fields of a calibration file against [`shapes`], naming the field,
+/// Checks the numeric fields of a calibration file against `shapes()`, naming the field,
 /// the row and what was found. Keys it does not know are left to the strict deserializer
 /// (which names them as unknown fields); `bias` and `matrix` must be present.
 pub fn check_shapes(value: &serde_json::Value) -> std::result::Result<(), String> {

@@ -97,7 +97,7 @@ pub fn simulate_mag(cfg: &MagSimConfig) -> MagSim {
     );
     let mut shape2 = 0.0;
     let t_mid = 0.5 * (n - 1) as f64 / cfg.rate_hz;
-    for i in 0..n {
+    for (i, &current_i) in current.iter().enumerate().take(n) {
         let s = i as f64 / n as f64;
         let ti = i as f64 / cfg.rate_hz;
         let tc = 25.0 + 10.0 * (2.0 * std::f64::consts::PI * 1.5 * s).sin();
@@ -110,7 +110,7 @@ pub fn simulate_mag(cfg: &MagSimConfig) -> MagSim {
             MagEffectTruth::Drift(k) => (k.map(|v| v * (ti - t_mid)), 0.0),
             MagEffectTruth::Step(k, at) => (if s >= at { k } else { [0.0; 3] }, 0.0),
             MagEffectTruth::Temperature(k) => (k.map(|v| v * (tc - 25.0)), 0.0),
-            MagEffectTruth::Interference(k) => (k.map(|v| v * current[i]), 0.0),
+            MagEffectTruth::Interference(k) => (k.map(|v| v * current_i), 0.0),
             MagEffectTruth::Shape(a) => ([0.0; 3], a * u[0] * u[1] * u[2]),
         };
         shape2 += (cfg.radius * h).powi(2);

@@ -281,11 +281,11 @@ pub struct Tally {
     pub blocks: usize,
     /// Blocks that failed their checksum.
     pub corrupt: usize,
-    /// The first [`LISTED_BLOCKS`] of them.
+    /// The first `LISTED_BLOCKS` of them.
     pub corrupt_first: Vec<usize>,
     /// Blocks skipped for an impossible field.
     pub invalid: usize,
-    /// The first [`LISTED_BLOCKS`] of them.
+    /// The first `LISTED_BLOCKS` of them.
     pub invalid_first: Vec<usize>,
     /// The first such block's reason.
     pub first_invalid_why: Option<String>,
