@@ -45,7 +45,9 @@ fn noncentral_sf(c: f64, q: f64, lambda: f64) -> f64 {
     let half = 0.5 * lambda;
     let mut sum = 0.0;
     let mut log_w = -half;
-    for k in 0..2000 {
+    // The Poisson weights are negligible beyond λ/2 + 40·√(λ/2): sum at least that far.
+    let terms = (half + 40.0 * half.sqrt() + 100.0).min(1e7) as usize;
+    for k in 0..terms {
         let kf = k as f64;
         if k > 0 {
             log_w += half.ln() - kf.ln();
@@ -61,7 +63,12 @@ fn noncentral_sf(c: f64, q: f64, lambda: f64) -> f64 {
 
 /// The non-centrality at which the test with critical value `c` on `q` dof has [`POWER`].
 fn lambda_for_power(c: f64, q: f64) -> f64 {
-    let (mut lo, mut hi) = (0.0, 1e4);
+    // Bracket first (the power rises with λ), then halve the bracket.
+    let mut hi = 1.0;
+    while noncentral_sf(c, q, hi) < POWER && hi < 1e6 {
+        hi *= 2.0;
+    }
+    let mut lo = 0.0;
     for _ in 0..80 {
         let mid = 0.5 * (lo + hi);
         if noncentral_sf(c, q, mid) < POWER {
