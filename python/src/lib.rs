@@ -21,12 +21,12 @@ use pyo3::prelude::*;
 use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
 use wiical_analysis::arrays::ArrayError;
-use wiical_analysis::{Progress, ProgressHook};
 use wiical_analysis::input::window_table::{load_input, Input, WindowInputOptions};
 use wiical_analysis::{
     input::columns::Sensor, AnalyzeOptions, Candidate, DetectOptions, FitOptions, LoadOptions,
     Recording,
 };
+use wiical_analysis::{Progress, ProgressHook};
 use wiical_core::multipos::MultiPosModel;
 
 create_exception!(
@@ -218,7 +218,8 @@ impl Detect {
 
 /// A sample rate given as `name` (Hz), through the CLI's `--rate-hz` range.
 fn rate(name: &str, v: f64) -> PyResult<f64> {
-    wiical_analysis::detect::windows::check_rate_hz(v).map_err(|e| arg_err(format!("{name} = {v:?}: {e}")))
+    wiical_analysis::detect::windows::check_rate_hz(v)
+        .map_err(|e| arg_err(format!("{name} = {v:?}: {e}")))
 }
 
 fn model_of(name: &str) -> PyResult<MultiPosModel> {
@@ -580,11 +581,7 @@ fn tempcal(
 }
 
 /// What `correct` returns: times (s), corrected acceleration (n × 3, g) and the terms applied.
-type Corrected<'py> = (
-    Bound<'py, PyArray1<f64>>,
-    Bound<'py, PyAny>,
-    Vec<String>,
-);
+type Corrected<'py> = (Bound<'py, PyArray1<f64>>, Bound<'py, PyAny>, Vec<String>);
 
 /// `wiical correct`: every sample corrected with a calibration file, host terms included.
 #[pyfunction]
