@@ -8,7 +8,9 @@ Real recordings from $WIICAL_DATA; the CLI binary as in test_cli_parity.py."""
 
 import math
 import os
+import pathlib
 import subprocess
+import sys
 import tempfile
 import tracemalloc
 
@@ -18,7 +20,11 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import wiical
-from test_cli_parity import _cli, cli_error, cli_json, data
+
+# The CLI helpers of the parity tests (a sibling module: under pytest's importlib mode, which
+# scripts/test uses, the tests directory is not on the path by itself).
+sys.path.insert(0, str(pathlib.Path(__file__).parent))
+from test_cli_parity import _cli, cli_error, cli_json, data  # noqa: E402
 
 XSENS = ("imu_tk_xsens", "xsens_acc.mat")
 
