@@ -9,34 +9,14 @@
 //! [`crate::search::select::MAX_EFFECTS`] steps. Every candidate not accepted gets its
 //! detection limit ([`super::limits`]).
 
+use super::design::{design, width};
+pub use super::design::{Candidate, WindowData};
 use super::limits::detection_limit;
 use super::report::{GyroCandidate, GyroEffect, GyroStep, GyroSummary};
 use crate::search::floor::reference_variance;
 use crate::search::select::{self, Choice, TermScore, ALPHA, CV_FACTOR, MAX_EFFECTS};
 use crate::stats as st;
 use nalgebra::{DMatrix, DVector};
-
-/// One candidate: its name, the unit of its coefficients, and its regressors per window.
-#[derive(Debug, Clone)]
-pub struct Candidate {
-    /// `g-sensitivity`, `bias-drift`, `temperature`.
-    pub name: &'static str,
-    /// Unit of a coefficient (°/s per regressor unit).
-    pub unit: &'static str,
-    /// Regressors per window (one row per window, one column per regressor).
-    pub columns: Vec<Vec<f64>>,
-    /// What pattern it looks for, for the evidence line.
-    pub pattern: &'static str,
-}
-
-/// What the window regressions are fitted to.
-#[derive(Debug, Clone)]
-pub struct WindowData {
-    /// Gyro mean per window through the calibration, °/s.
-    pub rate_dps: Vec<[f64; 3]>,
-    /// Variance of each of those means from the gyro's own noise, (°/s)².
-    pub mean_var: Vec<[f64; 3]>,
-}
 
 /// A least-squares fit of the three axes on one design.
 pub(super) struct Fit {
@@ -50,33 +30,6 @@ pub(super) struct Fit {
     pub(super) inv: DMatrix<f64>,
     /// Residual degrees of freedom over all axes.
     dof: usize,
-}
-
-/// The design matrix: a constant (the bias), then the regressors of `base` and `extra`.
-pub(super) fn design(base: &[&Candidate], extra: Option<&Candidate>, n: usize) -> DMatrix<f64> {
-    let k = k_total(base, extra);
-    let cols: Vec<Vec<f64>> = (0..k).map(|j| flat_column(base, extra, j)).collect();
-    DMatrix::from_fn(n, 1 + k, |r, c| if c == 0 { 1.0 } else { cols[c - 1][r] })
-}
-
-/// Regressor columns in total.
-fn k_total(base: &[&Candidate], extra: Option<&Candidate>) -> usize {
-    base.iter()
-        .chain(extra.iter())
-        .map(|c| c.columns.first().map_or(0, Vec::len))
-        .sum()
-}
-
-/// Column `j` of the regressors (windows down), counting across the candidates in order.
-fn flat_column(base: &[&Candidate], extra: Option<&Candidate>, mut j: usize) -> Vec<f64> {
-    for c in base.iter().chain(extra.iter()) {
-        let k = c.columns.first().map_or(0, Vec::len);
-        if j < k {
-            return c.columns.iter().map(|row| row[j]).collect();
-        }
-        j -= k;
-    }
-    Vec::new()
 }
 
 pub(super) fn fit(x: &DMatrix<f64>, data: &WindowData) -> Option<Fit> {
@@ -214,10 +167,6 @@ pub fn search(data: &WindowData, cands: &[Candidate]) -> Option<Search> {
         final_model,
         steps,
     })
-}
-
-pub(super) fn width(c: &Candidate) -> usize {
-    c.columns.first().map_or(0, Vec::len)
 }
 
 /// Everything a step's rows are written from.

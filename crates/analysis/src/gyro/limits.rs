@@ -18,7 +18,7 @@
 //! The simulation in the tests injects each effect at twice its limit and finds it in at
 //! least 80 % of runs.
 
-use super::effects::{design, width, Candidate, WindowData};
+use super::design::{design, width, Candidate, WindowData};
 use crate::search::select::{CV_FACTOR, MIN_DOF_TERM};
 use crate::stats as st;
 

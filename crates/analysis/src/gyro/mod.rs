@@ -23,6 +23,7 @@
 //! report says so.
 
 mod align;
+pub mod design;
 pub mod effects;
 pub mod floor;
 pub mod limits;
