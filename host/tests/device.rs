@@ -331,5 +331,10 @@ fn a_killed_hosts_upload_dies_with_its_hang_up() {
     let s = dev.get_calibration().unwrap();
     assert!(!s.stored && s.staged.is_none(), "{s:?}");
     drop(dev);
+    // `device get --out -` is refused as every command's `--out -` is (not a file named -).
+    let args = device_args(&["device", "get", "--out", "-", "--port", &p]);
+    let err = device::run(&args, &mut Vec::new()).unwrap_err().to_string();
+    assert!(err.contains("standard output carries the report"), "{err}");
+    assert!(!std::path::Path::new("-").exists());
     sim.stop().unwrap();
 }
