@@ -18,7 +18,7 @@ import { parseUf2, Uf2Error } from './src/uf2.js';
 import { decodeReport, calibrationBlock } from './src/nunchuk.js';
 import { selfCalScenarios } from './src/selfcal-scenarios.js';
 import { mulberry32 } from './src/pose-nunchuk.js';
-import { decodeFrames, unitRequestFrame, REQUEST, RESPONSE, RawHost } from './src/wire.js';
+import { decodeFrames, unitRequestFrame, REQUEST, RESPONSE, RawHost, frame, putFrame } from './src/wire.js';
 
 const args = process.argv.slice(2);
 function option(name) {
@@ -349,6 +349,29 @@ const scenarios = [
     rig.close();
     const from = uf2Bytes ? `booted from ${rig.board.uf2Pages} UF2 pages` : 'booted from the ELF';
     return err ? fail(err) : `${from}; ${rig.remote.reports.length} reports equal the raw Nunchuk reports (pass-through)`;
+  }],
+  ['hang-up-ends-session', async () => {
+    // A host killed mid-session sends no EndSession: its driver clears DTR as the port
+    // closes, and the next opener raises it again. That opener's bare commit is refused.
+    const rig = newRig();
+    await rig.board.runUntilTrue(() => rig.usb.configured, 500);
+    const host = new RawHost(rig);
+    if (!(await host.hello())) return fail('no Hello answer');
+    const put = await host.request(putFrame(CAL_B));
+    if (put?.tag !== RESPONSE.ack) return fail('the upload was not staged');
+    for (const dtr of [false, true]) {
+      const n = rig.usb.lineStates ?? 0;
+      rig.usb.setLineState(dtr);
+      if (!(await rig.board.runUntilTrue(() => (rig.usb.lineStates ?? 0) > n, 500))) return fail(`SET_CONTROL_LINE_STATE (DTR ${dtr}) not completed`);
+      await rig.board.run(20);
+    }
+    const commit = await host.request(frame([3]), 2000);
+    if (commit?.tag !== RESPONSE.error) return fail(`the next opener's bare commit was answered with tag ${commit?.tag}, not an error`);
+    const state = await getState(rig);
+    rig.close();
+    if (state.error) return fail(state.error);
+    if (state.stored || state.staged) return fail('the killed host\'s upload is staged or stored after its hang-up');
+    return 'DTR cleared: the session and its staged upload ended; the next opener\'s bare commit refused, nothing stored';
   }],
   ['commit-live', async () => {
     const rig = newRig();

@@ -158,6 +158,21 @@ export class UsbCdcHost {
     this.flushOut();
   }
 
+  /**
+   * SET_CONTROL_LINE_STATE with DTR (and RTS) set or cleared, as a host's serial driver sends
+   * when a process opens the port or the last one holding it closes it (a hang-up).
+   * `lineStates` counts the requests completed.
+   */
+  setLineState(dtr) {
+    this.lineStates ??= 0;
+    this.steps = [{
+      setup: createSetupPacket({ dataDirection: 0, type: 1, recipient: 1, bRequest: SET_CONTROL_LINE_STATE, wValue: dtr ? 3 : 0, wIndex: 0, wLength: 0 }),
+      data: false,
+      done: () => { this.lineStates += 1; },
+    }];
+    this.nextStep();
+  }
+
   /** Unplug and replug: a bus reset, after which the host enumerates again. */
   busReset() {
     this.configured = false;

@@ -1,10 +1,10 @@
 //! The host side: USB CDC-ACM carrying `wiical-wire` frames (COBS, CRC, postcard).
 
 use defmt::{info, warn};
-use embassy_futures::select::{select, Either};
+use embassy_futures::select::{select3, Either3};
 use embassy_rp::peripherals::USB;
 use embassy_rp::usb::Driver;
-use embassy_usb::class::cdc_acm::{CdcAcmClass, Sender, State};
+use embassy_usb::class::cdc_acm::{CdcAcmClass, ControlChanged, Sender, State};
 use embassy_usb::driver::EndpointError;
 use embassy_usb::{Builder, UsbDevice};
 use static_cell::StaticCell;
@@ -57,10 +57,12 @@ pub async fn usb_task(mut device: UsbDevice<'static, UsbDriver>) -> ! {
 }
 
 /// Decodes request frames from the host, answers each through the adapter logic, and sends
-/// streamed samples in between.
+/// streamed samples in between. The host's hang-up (DTR falling: the last process that had
+/// the port open closed it, or was killed before its `EndSession`) ends the session as the
+/// USB disconnect does, so the next opener's bare `CommitCalibration` finds nothing staged.
 #[embassy_executor::task]
 pub async fn serial_task(class: CdcAcmClass<'static, UsbDriver>, adapter: &'static Adapter) -> ! {
-    let (mut tx, mut rx) = class.split();
+    let (mut tx, mut rx, line) = class.split_with_control();
     let mut decoder = FrameDecoder::<MAX_FRAME_LEN>::new();
     let mut packet = [0u8; PACKET as usize];
     let mut out = [0u8; MAX_FRAME_LEN];
@@ -68,9 +70,16 @@ pub async fn serial_task(class: CdcAcmClass<'static, UsbDriver>, adapter: &'stat
         rx.wait_connection().await;
         info!("host connected");
         decoder.reset();
+        let mut dtr = line.dtr();
         'session: loop {
-            match select(rx.read_packet(&mut packet), SAMPLES.receive()).await {
-                Either::First(Ok(n)) => {
+            match select3(
+                rx.read_packet(&mut packet),
+                SAMPLES.receive(),
+                line.control_changed(),
+            )
+            .await
+            {
+                Either3::First(Ok(n)) => {
                     for &byte in &packet[..n] {
                         let Some(frame) = decoder.push_byte::<Request>(byte) else {
                             continue;
@@ -87,13 +96,18 @@ pub async fn serial_task(class: CdcAcmClass<'static, UsbDriver>, adapter: &'stat
                         }
                     }
                 }
-                Either::First(Err(_)) => break 'session,
-                Either::Second(sample) => {
+                Either3::First(Err(_)) => break 'session,
+                Either3::Second(sample) => {
                     if send(&mut tx, &Response::Sample(sample), &mut out)
                         .await
                         .is_err()
                     {
                         break 'session;
+                    }
+                }
+                Either3::Third(()) => {
+                    if hung_up(&line, &mut dtr) {
+                        hang_up(adapter, &mut decoder).await;
                     }
                 }
             }
@@ -102,6 +116,23 @@ pub async fn serial_task(class: CdcAcmClass<'static, UsbDriver>, adapter: &'stat
         SAMPLES.clear();
         info!("host disconnected");
     }
+}
+
+/// Whether this line-state change is the host's hang-up: DTR was set and is now clear (a
+/// line-coding change also wakes the task, with DTR unchanged). The host's serial driver
+/// clears DTR when the last process holding the port closes it (HUPCL, its default).
+fn hung_up(line: &ControlChanged<'static>, dtr: &mut bool) -> bool {
+    let was = core::mem::replace(dtr, line.dtr());
+    was && !*dtr
+}
+
+/// The host hung up without `EndSession`: its session, staged upload and stream end here,
+/// and a half-received frame is dropped (the next opener starts its own).
+async fn hang_up(adapter: &'static Adapter, decoder: &mut FrameDecoder<MAX_FRAME_LEN>) {
+    adapter.lock().await.reset_session();
+    SAMPLES.clear();
+    decoder.reset();
+    info!("host hung up (DTR cleared): session ended");
 }
 
 /// Sends one message as a frame, split into bulk packets (a zero-length packet ends a frame

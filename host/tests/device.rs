@@ -262,3 +262,79 @@ fn a_bare_commit_from_another_opener_cannot_make_an_upload_live() {
     sim.stop().unwrap();
     let _ = std::fs::remove_file(&file);
 }
+
+/// Sends `req` as one frame on `port` and returns the first non-sample answer (bounded).
+fn ask(
+    port: &mut Box<dyn serialport::SerialPort>,
+    req: &wiical_wire::Request,
+) -> wiical_wire::Response {
+    use std::io::Write as _;
+    use wiical_wire::{encode_frame, DefaultFrameDecoder, Response};
+    let mut buf = [0u8; wiical_wire::MAX_FRAME_LEN];
+    port.write_all(encode_frame(req, &mut buf).unwrap())
+        .unwrap();
+    port.flush().unwrap();
+    let mut dec = DefaultFrameDecoder::new();
+    let t0 = Instant::now();
+    loop {
+        assert!(
+            t0.elapsed() < Duration::from_secs(10),
+            "no answer to {req:?}"
+        );
+        let mut chunk = [0u8; 256];
+        if let Ok(n) = std::io::Read::read(port, &mut chunk) {
+            let got = dec.feed::<Response>(&chunk[..n]).filter_map(Result::ok);
+            if let Some(r) = got.into_iter().find(|r| !matches!(r, Response::Sample(_))) {
+                return r;
+            }
+        }
+    }
+}
+
+/// A host killed mid-session sends no `EndSession`: the adapter ends the session itself when
+/// the port hangs up, so a second opener's bare `CommitCalibration` is refused and the first
+/// host's staged upload never becomes live or stored.
+#[test]
+fn a_killed_hosts_upload_dies_with_its_hang_up() {
+    use wiical_wire::{ErrorCode, Hello, Request, Response};
+    let (path, sim) = spawn(SimOptions::default()).unwrap();
+    let p = port(&path);
+    let open = || {
+        serialport::new(&p, 115_200)
+            .timeout(Duration::from_millis(300))
+            .open()
+            .unwrap()
+    };
+    let mut first = open();
+    assert!(matches!(
+        ask(&mut first, &Request::Hello(Hello::CURRENT)),
+        Response::Hello(_)
+    ));
+    let put = Request::PutCalibration(true_calibration().into());
+    assert!(
+        matches!(ask(&mut first, &put), Response::Ack),
+        "the upload is staged"
+    );
+    // Killed: the port closes with no EndSession.
+    drop(first);
+    wait_for("the hang-up", || {
+        sim.counters().hangups.load(Ordering::Relaxed) >= 1
+    });
+    let mut second = open();
+    assert_eq!(
+        ask(&mut second, &Request::CommitCalibration),
+        Response::Error(ErrorCode::SchemaMismatch),
+        "a bare commit from the next opener"
+    );
+    drop(second);
+    let (mut dev, _) = Device::connect(&p, opts(2000)).unwrap();
+    let s = dev.get_calibration().unwrap();
+    assert!(!s.stored && s.staged.is_none(), "{s:?}");
+    drop(dev);
+    // `device get --out -` is refused as every command's `--out -` is (not a file named -).
+    let args = device_args(&["device", "get", "--out", "-", "--port", &p]);
+    let err = device::run(&args, &mut Vec::new()).unwrap_err().to_string();
+    assert!(err.contains("standard output carries the report"), "{err}");
+    assert!(!std::path::Path::new("-").exists());
+    sim.stop().unwrap();
+}

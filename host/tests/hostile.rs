@@ -666,3 +666,100 @@ fn batch_walks_links_and_survives_an_unreadable_directory() {
         assert!(out.contains("could not be listed"), "{out}");
     }
 }
+
+/// `correct` holds another sensor's calibration to physics, not to the Nunchuk's limits: the
+/// Xsens calibration (offset ~33 000 counts, ~4 000 counts/g: far outside a Nunchuk's 512 ±
+/// 100 and 200 counts/g) corrects its recording to 1 g, while the same calibration with an
+/// absurd cubic is refused by the ±16 g output bound every accelerometer here shares.
+#[test]
+fn correct_judges_another_sensors_calibration_by_physics_not_nunchuk_limits() {
+    let rec = data_dir().join("imu_tk_xsens/xsens_acc.mat");
+    let dir = tempfile::tempdir().unwrap();
+    let cal = dir.path().join("xsens.json");
+    let (ok, _, err) = wiical(&["fit", rec.to_str().unwrap(), "--out", cal.to_str().unwrap()]);
+    assert!(ok, "{err}");
+    let c: serde_json::Value = serde_json::from_slice(&std::fs::read(&cal).unwrap()).unwrap();
+    let bias0 = c["bias"][0].as_f64().unwrap();
+    assert!(
+        (bias0 - 512.0).abs() > 100.0,
+        "not a Nunchuk-like offset: {bias0}"
+    );
+    let out = dir.path().join("corrected.csv");
+    let args = [
+        "correct",
+        cal.to_str().unwrap(),
+        rec.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    let (ok, _, err) = wiical(&args);
+    assert!(ok, "{err}");
+    // The corrected magnitude of the first still sample is 1 g within 1 %.
+    let text = std::fs::read_to_string(&out).unwrap();
+    let row: Vec<f64> = text
+        .lines()
+        .nth(1)
+        .unwrap()
+        .split(',')
+        .map(|v| v.parse().unwrap())
+        .collect();
+    let g = (row[1] * row[1] + row[2] * row[2] + row[3] * row[3]).sqrt();
+    assert!((g - 1.0).abs() < 0.01, "|a| = {g}");
+    let mut bad = c.clone();
+    bad["effects"]["cubic"] = serde_json::json!([0.0, 0.0, 1e20]);
+    std::fs::write(&cal, serde_json::to_string(&bad).unwrap()).unwrap();
+    let (ok, _, err) = wiical(&args);
+    assert!(!ok && err.contains("implausible calibration"), "{err}");
+}
+
+/// `live --device` with a port that is missing or not a serial port is refused before the
+/// page is served (it used to serve an empty page until Ctrl-C).
+#[test]
+fn live_refuses_a_device_that_is_not_a_port_before_serving() {
+    for port in ["/dev/null", "/dev/does-not-exist"] {
+        let mut c = std::process::Command::new(env!("CARGO_BIN_EXE_wiical"));
+        c.args(["live", "--device", port, "--port", "0"]);
+        c.stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::piped());
+        let mut child = c.spawn().unwrap();
+        let start = std::time::Instant::now();
+        while child.try_wait().unwrap().is_none() {
+            if start.elapsed() > std::time::Duration::from_secs(30) {
+                child.kill().unwrap();
+                panic!("live --device {port} kept serving");
+            }
+            std::thread::sleep(std::time::Duration::from_millis(20));
+        }
+        let o = child.wait_with_output().unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success() && err.contains("--device"), "{err}");
+        assert!(o.stdout.is_empty(), "no address printed: {:?}", o.stdout);
+    }
+}
+
+/// A pipe given to `batch` by name is refused saying what it is (it was "no such file");
+/// found in a directory it is a line, and the batch does not block on it.
+#[cfg(unix)]
+#[test]
+fn batch_names_a_pipe_and_does_not_block_on_one() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = dir.path().join("data");
+    std::fs::create_dir(&data).unwrap();
+    std::fs::write(data.join("notes.csv"), "not a recording\n").unwrap();
+    let fifo = data.join("pipe.csv");
+    let made = std::process::Command::new("mkfifo")
+        .arg(&fifo)
+        .status()
+        .unwrap();
+    assert!(made.success());
+    let results = dir.path().join("results.jsonl");
+    let (ok, _, err) = batch(&[&fifo], &results);
+    assert!(!ok && err.contains("a pipe, device or socket"), "{err}");
+    let (ok, _, err) = batch(&[&data], &results);
+    assert!(ok, "{err}");
+    let lines = batch_lines(&results);
+    let pipe = lines
+        .iter()
+        .find(|l| l["file"].as_str().unwrap().ends_with("pipe.csv"));
+    assert!(pipe.is_some_and(|l| l["ok"] == false), "{lines:?}");
+}

@@ -90,11 +90,39 @@ def _opt_number(v: _t.Any, name: str) -> _t.Optional[float]:
     return None if v is None else _number(v, name)
 
 
+def _real(values: _t.Any, name: str) -> _np.ndarray:
+    """``values`` as a float64 array (no copy when it is one already). Anything numpy would
+    turn into numbers silently — None (NaN), text ("1.5"), complex (imaginary part dropped),
+    booleans (0/1) — is a TypeError naming the argument and, for a None, its place."""
+    what = f"{name} must be {'a path or ' if name == 'data' else ''}an array of numbers"
+    if values is None or _np.isscalar(values):
+        raise TypeError(f"{what}, got {type(values).__name__} {values!r}")
+    try:
+        raw = _np.asarray(values)
+    except (TypeError, ValueError) as e:
+        raise TypeError(f"{what}: {e}") from None
+    kind = raw.dtype.kind
+    if kind == "O":
+        for place, v in _np.ndenumerate(raw):
+            if v is None or isinstance(v, (str, bytes, bool)):
+                raise TypeError(f"{name}{list(place)} is {v!r}, not a number")
+    elif kind in "USV":
+        raise TypeError(f"{name} holds text ({raw.dtype}); give numbers (parse the text first)")
+    elif kind == "c":
+        raise TypeError(f"{name} holds complex numbers; give real readings")
+    elif kind == "b":
+        raise TypeError(f"{name} holds booleans; give the readings as numbers")
+    try:
+        return _np.asarray(raw, dtype=_np.float64)
+    except (TypeError, ValueError) as e:
+        raise TypeError(f"{what}: {e}") from None
+
+
 def _column(values: _t.Any, name: str) -> _t.Optional[_np.ndarray]:
     """A 1-D float64 array (no copy when it is one already)."""
     if values is None:
         return None
-    a = _np.asarray(values, dtype=_np.float64)
+    a = _real(values, name)
     if a.ndim != 1:
         raise ValueError(f"{name} must be one-dimensional, got shape {a.shape}")
     return a
@@ -107,13 +135,20 @@ def _source(data: _Samples, t: _t.Any = None, temp: _t.Any = None) -> _t.Any:
         if t is not None or temp is not None:
             raise ValueError("t and temp are given with arrays; a file brings its own columns")
         return _path(data, "data")
-    try:
-        a = _np.asarray(data, dtype=_np.float64)
-    except (TypeError, ValueError) as e:
-        raise TypeError(
-            f"data must be a path or an array of shape (n, 3) of numbers: {e}"
-        ) from None
-    return (a, _column(t, "t"), _column(temp, "temp"))
+    return (_real(data, "data"), _column(t, "t"), _column(temp, "temp"))
+
+
+def _flag(v: _t.Any, name: str) -> bool:
+    """A switch: True or False (a string such as "no" would be true)."""
+    if not isinstance(v, (bool, _np.bool_)):
+        raise TypeError(f"{name} must be True or False, got {type(v).__name__} {v!r}")
+    return bool(v)
+
+
+def _text(v: _t.Any, name: str) -> str:
+    if not isinstance(v, str):
+        raise TypeError(f"{name} must be a str, got {type(v).__name__} {v!r}")
+    return v
 
 
 def _detect(
@@ -170,7 +205,7 @@ def fit(
         _source(data, t, temp),
         _detect(rate_hz, window_s, init_s, min_static_s, threshold, adc_range),
         _names(columns, "columns", _COLUMNS),
-        bool(windows),
+        _flag(windows, "windows"),
         model,
         _progress(progress),
     )
@@ -202,7 +237,7 @@ def analyze(
         _source(data, t, temp),
         _detect(rate_hz, window_s, init_s, min_static_s, threshold, adc_range),
         _names(columns, "columns", _COLUMNS),
-        bool(windows),
+        _flag(windows, "windows"),
         _opt_number(alpha, "alpha"),
         _opt_number(cv_factor, "cv_factor"),
         _names(candidates, "candidates", "['bias_drift', 'cubic']"),
@@ -268,7 +303,7 @@ def decode_cal(device: str, hex: str) -> _t.Dict[str, _t.Any]:
     """A factory calibration block ("wiimote", "nunchuk" or "motionplus") given as hex text:
     ``wiical decode-cal --json``. The dictionary's ``checksum_ok`` says whether the block can
     be trusted (the command line exits 1 when it cannot)."""
-    out, _ok = _wiical.decode_cal(device, hex)
+    out, _ok = _wiical.decode_cal(_text(device, "device"), _text(hex, "hex"))
     return _json.loads(out)
 
 
@@ -303,7 +338,7 @@ def tempcal(
     Arrays need ``temp`` (°C per sample)."""
     if isinstance(segments, bool) or not isinstance(segments, (int, _np.integer)):
         raise TypeError(f"segments must be an integer, got {segments!r}")
-    if segments < 0:
+    if not 0 <= segments <= 2**31:
         raise ValueError(f"segments = {segments}: the number of segments must be from 2 to 50")
     out = _wiical.tempcal(
         _source(data, t, temp),

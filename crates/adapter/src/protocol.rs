@@ -22,7 +22,8 @@
 //! A session lasts from a `Hello` to the next `Hello`, to `EndSession` (the host ends it
 //! before closing the port: the session belongs to the host that said Hello, not to the
 //! port, which other processes may hold open) or to [`Protocol::reset_session`] (port
-//! closed). Outside a session every request but `Hello` is refused (`SchemaMismatch`), so
+//! closed: the USB link went down, or the host hung up — DTR cleared when the last process
+//! holding the port closed it, also when it was killed before its `EndSession`). Outside a session every request but `Hello` is refused (`SchemaMismatch`), so
 //! each opener needs its own Hello. **A staged calibration belongs to the session that staged it**: a new
 //! `Hello` or the end of the session discards it, so a later client's `CommitCalibration`
 //! can never commit someone else's upload (it gets `NothingStaged`); a host uploads and
@@ -369,8 +370,10 @@ impl<F: NorFlash> Protocol<F> {
         Response::Error(ErrorCode::BadFrame)
     }
 
-    /// The host went away (port closed, USB suspended): close the session, stop the stream
-    /// and discard the staged calibration (it belonged to that session).
+    /// The host went away (USB link down, or a hang-up: DTR cleared, the simulator's pty
+    /// closed by its last holder): close the session, stop the stream and discard the staged
+    /// calibration (it belonged to that session; a host killed before its `EndSession` must
+    /// not leave it for the next opener).
     pub fn reset_session(&mut self) {
         self.session_open = false;
         self.stream = None;

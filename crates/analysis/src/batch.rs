@@ -121,11 +121,21 @@ pub fn expand_inputs(inputs: &[PathBuf], exclude: &Path) -> Result<Expanded> {
                 why: e.msg.to_string(),
             })?;
             let mut matched: Vec<PathBuf> = paths.filter_map(|p| p.ok()).collect();
-            matched.retain(|p| p.is_file());
             matched.sort();
-            found.files.extend(matched);
+            for p in matched {
+                match std::fs::metadata(&p) {
+                    Ok(m) if m.is_file() => found.files.push(p),
+                    Ok(m) if !m.is_dir() => found.problems.push((p, NOT_REGULAR.into())),
+                    _ => {}
+                }
+            }
         } else if input.is_file() {
             found.files.push(input.clone());
+        } else if input.exists() {
+            return Err(Error::BatchInput {
+                input: input.clone(),
+                why: NOT_REGULAR.into(),
+            });
         } else {
             return Err(Error::BatchInput {
                 input: input.clone(),
@@ -141,6 +151,11 @@ pub fn expand_inputs(inputs: &[PathBuf], exclude: &Path) -> Result<Expanded> {
     });
     Ok(found)
 }
+
+/// Why a pipe, device or socket among the inputs is a line and not a run (opening a pipe
+/// with no writer would block the whole batch).
+const NOT_REGULAR: &str =
+    "not a regular file (a pipe, device or socket): not read; give recordings as files";
 
 /// Regular non-hidden files below `dir`, sorted by path, links followed (walkdir stops at a
 /// link back to an ancestor and reports the loop). An entry that cannot be read is a
@@ -167,8 +182,15 @@ fn walk(dir: &Path, out: &mut Expanded) {
             }
         };
         let hidden = entry.file_name().to_string_lossy().starts_with('.');
-        if entry.file_type().is_file() && !hidden {
+        let kind = entry.file_type();
+        if hidden || kind.is_dir() {
+            continue;
+        }
+        if kind.is_file() {
             out.files.push(entry.into_path());
+        } else {
+            // A pipe would block the batch forever; a device or socket is no recording.
+            out.problems.push((entry.into_path(), NOT_REGULAR.into()));
         }
     }
 }
@@ -316,6 +338,31 @@ fn run_one(path: &Path, opts: &BatchOptions) -> BatchLine {
     }
 }
 
+/// Holds the results file's lock for as long as `journal` is open (the kernel drops it when
+/// the process ends, killed or not, so a resumed run never finds a stale lock). A second run
+/// on the same file is refused rather than doing every file again beside the first.
+#[cfg(unix)]
+fn lock_results(journal: &std::fs::File, out: &Path) -> Result<()> {
+    use rustix::fs::{flock, FlockOperation};
+    match flock(journal, FlockOperation::NonBlockingLockExclusive) {
+        Ok(()) => Ok(()),
+        Err(e) if e == rustix::io::Errno::WOULDBLOCK => {
+            Err(OutputError::ResultsInUse { out: out.into() }.into())
+        }
+        Err(e) => Err(OutputError::Write {
+            path: out.into(),
+            source: e.into(),
+        }
+        .into()),
+    }
+}
+
+/// Elsewhere no lock is taken: two runs on one results file each do every file.
+#[cfg(not(unix))]
+fn lock_results(_journal: &std::fs::File, _out: &Path) -> Result<()> {
+    Ok(())
+}
+
 /// The error line of a place below a directory that could not be walked.
 fn problem_line(place: &Path, why: &str) -> BatchLine {
     BatchLine {
@@ -336,6 +383,20 @@ pub fn run(
     on_line: &(dyn Fn(&BatchLine) + Sync),
 ) -> Result<BatchSummary> {
     let files = &found.files;
+    let io = |source| {
+        Error::from(OutputError::Write {
+            path: out.into(),
+            source,
+        })
+    };
+    // Refused before it is opened: opening a FIFO for writing would block.
+    check_results_file(out)?;
+    let mut journal = std::fs::OpenOptions::new()
+        .create(true)
+        .append(true)
+        .open(out)
+        .map_err(io)?;
+    lock_results(&journal, out)?;
     let done = resume(out)?;
     let todo: Vec<&PathBuf> = files
         .iter()
@@ -352,17 +413,6 @@ pub fn run(
         skipped: files.len() - todo.len(),
         ..Default::default()
     };
-    let io = |source| {
-        Error::from(OutputError::Write {
-            path: out.into(),
-            source,
-        })
-    };
-    let mut journal = std::fs::OpenOptions::new()
-        .create(true)
-        .append(true)
-        .open(out)
-        .map_err(io)?;
     let next = AtomicUsize::new(0);
     let (tx, rx) = mpsc::channel::<BatchLine>();
     let unlisted = problems.len();
@@ -532,5 +582,51 @@ mod tests {
         assert_eq!(expand_inputs(&[pattern], &out).unwrap().files.len(), 2);
         let missing = expand_inputs(&[dir.path().join("nope.csv")], &out).unwrap_err();
         assert!(missing.to_string().contains("no such file"), "{missing}");
+    }
+
+    /// A second run on a results file another run is writing is refused (not a second pass
+    /// over every file beside the first); the lock goes with the first run's file.
+    #[cfg(unix)]
+    #[test]
+    fn a_second_run_on_a_results_file_in_use_is_refused() {
+        let (dir, files) = inputs(1);
+        let out = dir.path().join("results.jsonl");
+        let first = std::fs::File::create(&out).unwrap();
+        rustix::fs::flock(&first, rustix::fs::FlockOperation::LockExclusive).unwrap();
+        let err = run(&all(&files), &out, &opts(1), &|_| {}).unwrap_err();
+        assert!(
+            err.to_string().contains("another wiical batch run"),
+            "{err}"
+        );
+        assert!(
+            lines(&out).is_empty(),
+            "nothing written beside the first run"
+        );
+        drop(first);
+        let s = run(&all(&files), &out, &opts(1), &|_| {}).unwrap();
+        assert_eq!(s.ok + s.failed, 2);
+    }
+
+    /// A pipe among the inputs is a line (not a read that blocks the batch), whether found by
+    /// walking, by a pattern, or given by name (then refused, naming what it is).
+    #[cfg(unix)]
+    #[test]
+    fn a_pipe_among_the_inputs_is_a_line_not_a_block() {
+        let (dir, _files) = inputs(1);
+        let out = dir.path().join("results.jsonl");
+        let fifo = dir.path().join("pipe.csv");
+        let made = std::process::Command::new("mkfifo").arg(&fifo).status();
+        assert!(made.unwrap().success());
+        for input in [dir.path().to_path_buf(), dir.path().join("*.csv")] {
+            let found = expand_inputs(&[input], &out).unwrap();
+            assert_eq!(found.files.len(), 2, "{found:?}");
+            assert_eq!(found.problems.len(), 1, "{found:?}");
+            assert!(found.problems[0].1.contains("not a regular file"));
+        }
+        let named = expand_inputs(&[fifo], &out).unwrap_err();
+        assert!(
+            named.to_string().contains("a pipe, device or socket"),
+            "{named}"
+        );
     }
 }

@@ -42,7 +42,9 @@ fn parse_command(s: &str) -> Result<BatchCommand, String> {
 
 /// Runs `wiical batch`; returns the summary line.
 pub fn run(a: &Args) -> Result<String> {
-    // Refused before anything is walked or read: a results file batch did not create.
+    // Refused before anything is walked or read: `-` (standard output carries the summary)
+    // and a results file batch did not create.
+    super::check_outputs(&[], &[Some(&a.out)])?;
     batch::check_results_file(&a.out).map_err(cli_error)?;
     let found = batch::expand_inputs(&a.inputs, &a.out).map_err(cli_error)?;
     if found.files.is_empty() && found.problems.is_empty() {

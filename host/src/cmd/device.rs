@@ -395,6 +395,8 @@ fn info(dev: &mut Device, hello: &HelloResponse, port: &str, json: bool) -> Resu
 
 /// `device get [--out FILE]`: the live and staged calibrations.
 fn get(dev: &mut Device, port: &str, file: Option<&std::path::Path>, json: bool) -> Result<String> {
+    // `-` and a directory are refused as every command's output is.
+    super::check_outputs(&[], &[file])?;
     let s = dev.get_calibration()?;
     let live = Calibration::from(s.live);
     if let Some(path) = file {

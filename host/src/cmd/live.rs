@@ -164,6 +164,10 @@ pub fn run(a: &Args) -> Result<String> {
             (f, what, file.display().to_string())
         }
         (None, Some(dev)) => {
+            // Refused before the page is served: a port that is missing or not a serial
+            // port would otherwise leave an empty page up until Ctrl-C.
+            let probe = wiical_client::Device::connect(dev, Default::default());
+            drop(probe.map_err(|e| anyhow::anyhow!("--device: {e}"))?);
             let dev2 = dev.clone();
             let f: SourceFn = Box::new(move |shared| source::device(&dev2, shared));
             (f, format!("streaming {dev}"), dev.clone())

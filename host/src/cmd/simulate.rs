@@ -122,6 +122,8 @@ pub const MAX_POSES: usize = 5000;
 
 /// Runs `wiical simulate`; returns what to print.
 pub fn run(a: &Args) -> Result<String> {
+    // `-` is refused as every command's --out is (it would be a file named "-").
+    super::check_outputs(&[], &[Some(&a.out)])?;
     let effects = effect_specs(&a.effect, &a.magnitude, a.axis)?;
     let cfg = SimConfig {
         effects,

@@ -41,7 +41,7 @@ pub struct Args {
     #[arg(long, value_delimiter = ',')]
     pub columns: Option<Vec<String>>,
     /// Reference temperature T_ref of the polynomial, °C (ArduPilot's TCAL uses 35).
-    #[arg(long, default_value_t = wiical_analysis::tempcal::TEMP_REF_C, allow_negative_numbers = true, value_parser = in_range(-100.0, 200.0))]
+    #[arg(long, default_value_t = wiical_analysis::tempcal::TEMP_REF_C, allow_negative_numbers = true, value_parser = engine_range(wiical_analysis::tempcal::check_tref_c))]
     pub tref: f64,
     /// Contiguous segments (by time) for the leave-one-segment-out choice of order, 2–50.
     #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u16).range(2..=50))]
@@ -51,10 +51,11 @@ pub struct Args {
     pub block_s: f64,
     /// A block more than this many degrees from its pose's first block starts a new pose
     /// (above 0, below 180).
-    #[arg(long, default_value_t = 10.0, value_parser = in_range(0.0, 180.0))]
+    #[arg(long, default_value_t = 10.0, value_parser = engine_range(wiical_analysis::tempcal::check_pose_deg))]
     pub pose_deg: f64,
-    /// Sample rate when the file has no time column or Fs metadata, Hz.
-    #[arg(long, default_value_t = 100.0, value_parser = super::positive_finite)]
+    /// Sample rate when the file has no time column or Fs metadata, Hz (above 0, at most
+    /// 1 MHz: the range every other door checks).
+    #[arg(long, default_value_t = 100.0, value_parser = super::rate_hz)]
     pub rate_hz: f64,
     /// The values' units, for the autopilot formats (m/s²), when the magnitude does not say
     /// g or m/s².
@@ -80,18 +81,16 @@ pub struct Args {
     pub out: Option<PathBuf>,
 }
 
-/// A parser of a finite number strictly between `lo` and `hi`.
-fn in_range(lo: f64, hi: f64) -> impl Fn(&str) -> Result<f64, String> + Clone {
+/// A parser through one of the engine's range checks (the Python keywords use the same).
+fn engine_range(
+    check: fn(f64) -> std::result::Result<f64, wiical_analysis::tempcal::TempcalError>,
+) -> impl Fn(&str) -> std::result::Result<f64, String> + Clone {
     move |s: &str| {
         let v: f64 = s
             .trim()
             .parse()
             .map_err(|_| format!("'{s}' is not a number"))?;
-        if v.is_finite() && v > lo && v < hi {
-            Ok(v)
-        } else {
-            Err(format!("'{s}': give a number above {lo} and below {hi}"))
-        }
+        check(v).map_err(|e| format!("'{s}': {e}"))
     }
 }
 

@@ -45,6 +45,13 @@ pub enum OutputError {
         /// The results file as given.
         out: PathBuf,
     },
+    /// A batch results file another batch run is writing (it holds the file's lock): two runs
+    /// on one results file would each do every file, and their lines would interleave.
+    #[error("refusing to write {}: another wiical batch run is writing it; wait for that run to end (then run again to resume), or give another --out", out.display())]
+    ResultsInUse {
+        /// The results file as given.
+        out: PathBuf,
+    },
     /// An output would replace one of the command's inputs.
     #[error("refusing to write {}: it is the input {} (choose another output file)", output.display(), input.display())]
     OutputIsInput {

@@ -231,7 +231,8 @@ pub fn to_json(cal: &Calibration) -> Result<String> {
 /// numeric fields' shapes are checked first ([`check_shapes`]) so that a wrong count or type
 /// is told as "bias has 4 values, expected 3" rather than in the deserializer's words.
 pub fn parse(text: &str) -> std::result::Result<CalibrationFile, serde_json::Error> {
-    let value: serde_json::Value = serde_json::from_str(text)?;
+    let value: serde_json::Value =
+        serde_json::from_str(text).map_err(|e| non_json_number(text, e))?;
     check_shapes(&value).map_err(serde::de::Error::custom)?;
     let file: FileV1 = serde_json::from_str(text)?;
     let hosts = file.host_terms.unwrap_or_default();
@@ -246,6 +247,33 @@ pub fn parse(text: &str) -> std::result::Result<CalibrationFile, serde_json::Err
         quality: file.quality,
         host_terms: hosts,
     })
+}
+
+/// A syntax error at a `NaN` or `Infinity` (which Python's `json.dump` writes and JSON does
+/// not have) told as such, with its place, instead of "expected value"; any other error as is.
+fn non_json_number(text: &str, e: serde_json::Error) -> serde_json::Error {
+    if !e.is_syntax() || e.line() == 0 {
+        return e;
+    }
+    let Some(line) = text.lines().nth(e.line() - 1) else {
+        return e;
+    };
+    let from = line
+        .char_indices()
+        .nth(e.column().saturating_sub(2))
+        .map_or(line.len(), |(i, _)| i);
+    let at = line[from..].trim_start_matches([' ', '-', '+', ',', ':', '[']);
+    let word = ["NaN", "nan", "Infinity", "infinity", "inf"]
+        .into_iter()
+        .find(|w| at.starts_with(w));
+    match word {
+        Some(w) => serde::de::Error::custom(format!(
+            "line {} column {}: {w} is not a number JSON has (no NaN or infinity): write the finite value, or re-fit",
+            e.line(),
+            e.column()
+        )),
+        None => e,
+    }
 }
 
 /// The numeric fields of a calibration file and their shapes: `(path, rows, columns)`, one
@@ -468,6 +496,28 @@ mod tests {
         cal.matrix[0][1] = 1e-4;
         cal.effects.quadratic = [0.01, 0.0, -0.02];
         cal
+    }
+
+    /// A NaN or an infinity (Python's `json.dump` writes them) is named with its place, not
+    /// told as "expected value".
+    #[test]
+    fn a_nan_or_infinity_token_is_named() {
+        let good = to_json(&sample()).unwrap();
+        for (token, word) in [
+            ("NaN", "NaN"),
+            ("-Infinity", "Infinity"),
+            ("Infinity", "Infinity"),
+        ] {
+            let text = good.replacen("512.0", token, 1);
+            let e = parse(&text).unwrap_err().to_string();
+            assert!(
+                e.contains(&format!("{word} is not a number JSON has")),
+                "{e}"
+            );
+            assert!(e.contains("line 4"), "{e}");
+        }
+        let e = parse("{\"bias\": [1, 2,").unwrap_err().to_string();
+        assert!(!e.contains("is not a number JSON has"), "{e}");
     }
 
     #[test]

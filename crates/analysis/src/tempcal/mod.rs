@@ -276,25 +276,45 @@ pub fn tempcal(
     })
 }
 
+/// Every setting through the range checks the CLI's flags and the Python keywords share.
 fn check_options(o: &TempcalOptions) -> std::result::Result<(), TempcalError> {
-    let bad = |what: &str| {
-        Err(TempcalError::Setting {
-            what: what.to_string(),
-        })
-    };
-    if !(o.t_ref_c.is_finite() && (-100.0..=200.0).contains(&o.t_ref_c)) {
-        return bad("the reference temperature must be a number from −100 to 200 °C");
-    }
+    check_tref_c(o.t_ref_c)?;
     if !(2..=50).contains(&o.segments) {
-        return bad("the number of segments must be from 2 to 50");
+        return Err(setting("the number of segments must be from 2 to 50"));
     }
-    if !(o.block_s.is_finite() && (1e-3..=1e6).contains(&o.block_s)) {
-        return bad("the block length must be from 0.001 to 1000000 s");
-    }
-    if !(o.pose_deg.is_finite() && o.pose_deg > 0.0 && o.pose_deg < 180.0) {
-        return bad("the pose angle must be above 0 and below 180°");
-    }
+    crate::detect::windows::check_duration_s(o.block_s)
+        .map_err(|e| setting(&format!("the block length: {e}")))?;
+    check_pose_deg(o.pose_deg)?;
+    crate::detect::windows::check_rate_hz(o.default_rate_hz)
+        .map_err(|e| setting(&format!("the sample rate: {e}")))?;
     Ok(())
+}
+
+fn setting(what: &str) -> TempcalError {
+    TempcalError::Setting {
+        what: what.to_string(),
+    }
+}
+
+/// The reference temperature `T_ref`, °C: from −100 to 200 (beyond any sensor's rated range,
+/// so a value outside is a typo, not a setting).
+pub fn check_tref_c(v: f64) -> std::result::Result<f64, TempcalError> {
+    if v.is_finite() && (-100.0..=200.0).contains(&v) {
+        Ok(v)
+    } else {
+        Err(setting(
+            "the reference temperature must be a number from −100 to 200 °C",
+        ))
+    }
+}
+
+/// The pose-change angle, degrees: above 0 (every block a pose) and below 180 (one pose).
+pub fn check_pose_deg(v: f64) -> std::result::Result<f64, TempcalError> {
+    if v.is_finite() && v > 0.0 && v < 180.0 {
+        Ok(v)
+    } else {
+        Err(setting("the pose angle must be above 0 and below 180°"))
+    }
 }
 
 /// One axis: the held-out RMS of every order, the chosen order's fit and the linear fit.
