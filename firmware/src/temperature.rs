@@ -18,6 +18,10 @@ pub const PERIOD: Duration = Duration::from_secs(5);
 /// quantisation and the ADC's noise).
 pub const READINGS: u32 = 16;
 
+/// The chips' rated junction range, °C: a reading outside it is a fault (an ADC that reads
+/// 0 gives 437 °C), not a temperature, and is given to the adapter as none.
+pub const PLAUSIBLE_C: core::ops::RangeInclusive<f32> = -40.0..=125.0;
+
 /// °C from a 12-bit reading of the sensor channel with a 3.3 V reference: the RP2040 and
 /// RP2350 datasheets' `T = 27 − (V − 0.706 V) / 1.721 mV/°C`. Uncalibrated per chip (the
 /// datasheets give the typical slope and offset); the background recalibration uses
@@ -28,7 +32,8 @@ pub fn celsius(raw12: f32) -> f32 {
 }
 
 /// Reads the temperature every [`PERIOD`] and gives it to the adapter (`None` while the ADC
-/// fails, so that the temperature terms are left out rather than fed a stale value).
+/// fails or reads outside [`PLAUSIBLE_C`], so that the temperature terms are left out rather
+/// than fed a stale or false value).
 #[embassy_executor::task]
 pub async fn temperature_task(
     mut adc: Adc<'static, Async>,
@@ -45,7 +50,9 @@ pub async fn temperature_task(
                 Err(_) => ok = false,
             }
         }
-        let t = ok.then(|| celsius(sum as f32 / READINGS as f32));
+        let t = ok
+            .then(|| celsius(sum as f32 / READINGS as f32))
+            .filter(|t| PLAUSIBLE_C.contains(t));
         adapter.lock().await.set_temperature(t);
         ticker.next().await;
     }
