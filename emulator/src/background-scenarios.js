@@ -52,34 +52,45 @@ function errorMg(cal, bias) {
   return 1000 * Math.sqrt(ss / n);
 }
 
+/** The play: RESTS rests, then more until an adoption reaches the flash (or PLAY_LIMIT_MS of
+ * play), or until the power is cut. Returns the number of rests. */
+async function play(rig, ctl, t0) {
+  const written = () => rig.board.flashSteps.some((s) => s.atNs > t0);
+  const stop = () => rig.board.fault || rig.board.powerCut;
+  let rests = 0;
+  for (const d of directions(RESTS, 5)) {
+    ctl.moveTo(d, MOVE_MS);
+    await rig.board.run(MOVE_MS + REST_MS);
+    rests += 1;
+    if (stop()) return rests;
+  }
+  const extra = directions(12, 6);
+  for (let i = 0; !written() && !stop() && (rig.board.nanos - t0) / 1e6 < PLAY_LIMIT_MS; i++) {
+    ctl.moveTo(extra[i % extra.length], MOVE_MS);
+    await rig.board.run(MOVE_MS + REST_MS);
+    rests += 1;
+  }
+  return rests;
+}
+
+/** The drifting Nunchuk of the play (the same seed: the same readings in every run). */
+const player = () => new PoseNunchuk({ seed: 31, drift: { counts: DRIFT, overS: DRIFT_S } });
+
 export function backgroundScenarios(h) {
   const { newRig, getState, fail, shared, work } = h;
   h.measurements ??= {};
 
   const backgroundPlay = async () => {
     if (!shared.selfCal) return fail('needs self-calibration');
-    const ctl = new PoseNunchuk({ seed: 31, drift: { counts: DRIFT, overS: DRIFT_S } });
+    const ctl = player();
     const rig = newRig(shared.selfCal.image, { nunchuk: { motion: ctl.motion } });
     ctl.clock = () => rig.board.nanos;
     const drifted = TRUTH.bias.map((b, i) => b + DRIFT[i]);
     const start = shared.selfCal.fitted;
     const before = errorMg(start, drifted);
     const t0 = rig.board.nanos;
-    const written = () => rig.board.flashSteps.filter((s) => s.atNs > t0).length;
-    let rests = 0;
-    for (const d of directions(RESTS, 5)) {
-      ctl.moveTo(d, MOVE_MS);
-      await rig.board.run(MOVE_MS + REST_MS);
-      rests += 1;
-      if (rig.board.fault) return fail(`firmware fault: ${rig.board.fault}`);
-    }
-    // Keep resting in the last orientations until an adoption reaches the flash (or give up).
-    const extra = directions(12, 6);
-    for (let i = 0; !written() && (rig.board.nanos - t0) / 1e6 < PLAY_LIMIT_MS; i++) {
-      ctl.moveTo(extra[i % extra.length], MOVE_MS);
-      await rig.board.run(MOVE_MS + REST_MS);
-      rests += 1;
-    }
+    const rests = await play(rig, ctl, t0);
+    if (rig.board.fault) return fail(`firmware fault: ${rig.board.fault}`);
     const adoptNs = rig.board.flashSteps.find((s) => s.atNs > t0)?.atNs;
     await rig.board.run(200);
     const r = await rig.wiical(['selfcal-status', '--json']);
@@ -111,11 +122,13 @@ export function backgroundScenarios(h) {
       await rig.board.run(120);
     }
     const err = h.checkReports(rig, 1, fn, 40, (rep) => rep.tNs > tourNs);
-    shared.background = { image: rig.board.flashImage(), adopted, drifted };
+    const steps = rig.board.flashSteps.filter((st) => st.atNs > t0).map((st) => st.kind);
+    shared.background = { image: rig.board.flashImage(), adopted, drifted, steps };
     rig.close();
     if (err) return fail(`after the adoption: ${err}`);
     h.measurements.background = { before, after, floor, adoptS: (adoptNs - t0) / 1e9, rests };
-    return `drift (${DRIFT.join(', ')}) counts over ${DRIFT_S} s: adopted at ${((adoptNs - t0) / 1e9).toFixed(1)} s of play (${rests} rests, held out ${bg.last_adoption.before_mg.toFixed(2)} → ${bg.last_adoption.after_mg.toFixed(2)} mg); ` +
+    return `drift (${DRIFT.join(', ')}) counts over ${DRIFT_S} s: adopted at ${((adoptNs - t0) / 1e9).toFixed(1)} s of play (${rests} rests, held out ${bg.last_adoption.before_mg.toFixed(2)} → ${bg.last_adoption.after_mg.toFixed(2)} mg, ` +
+      `${bg.candidate?.full_model ? 'full 9-parameter' : 'bias + scale'} model from ${bg.candidate?.training_bins} training and ${bg.candidate?.heldout_bins} held-out bins); ` +
       `error against the truth ${before.toFixed(2)} → ${after.toFixed(2)} mg (floor ${floor.toFixed(2)} mg); reports = core correction with the adopted calibration`;
   };
 
@@ -133,8 +146,43 @@ export function backgroundScenarios(h) {
     return 'new emulator on the same flash: the adopted calibration is live, made by the background recalibration';
   };
 
+  /** The same play, the power cut at each flash step of the adoption (before it, and half
+   * way through it), then a new emulator on what the flash holds: the self-calibration or the
+   * adopted calibration must be live and stored, never anything else. Each cut replays the
+   * minute of play (≈ 35 s of wall time), so this scenario runs only when named. */
+  const backgroundPowerCut = async () => {
+    if (!shared.background) return fail('needs background-play');
+    const { steps, adopted } = shared.background;
+    const tally = { old: 0, new: 0 };
+    const detail = [];
+    for (let k = 0; k < steps.length; k++) {
+      for (const done of [0, 0.5]) {
+        const ctl = player();
+        const rig = newRig(shared.selfCal.image, { nunchuk: { motion: ctl.motion } });
+        ctl.clock = () => rig.board.nanos;
+        const random = mulberry32(100 + k);
+        rig.board.onFlashStep = (_step, index) => index === k && (done > 0 ? { done, random } : true);
+        await play(rig, ctl, rig.board.nanos);
+        rig.close();
+        if (!rig.board.powerCut) return fail(`the play never reached flash step ${k} of the adoption`);
+        const after = newRig(rig.board.flashImage());
+        await after.board.runUntilTrue(() => after.remote.reports.length > 0, 2000);
+        const state = await getState(after);
+        after.close();
+        if (state.error) return fail(`cut ${done ? 'half way into' : 'before'} step ${k} (${steps[k]}): ${state.error}`);
+        const got = state.stored && h.sameCal(state.live, shared.selfCal.fitted) ? 'old'
+          : state.stored && h.sameCal(state.live, adopted) ? 'new' : null;
+        if (!got) return fail(`cut ${done ? 'half way into' : 'before'} step ${k} (${steps[k]}): neither the old nor the adopted calibration is live`);
+        tally[got] += 1;
+        detail.push(`${steps[k]} ${k} ${done ? 'half' : 'before'}: ${got}`);
+      }
+    }
+    return `${2 * steps.length} cuts at the adoption's ${steps.length} flash steps (${steps.join(', ')}): ${tally.old} old, ${tally.new} new, 0 corrupt [${detail.join('; ')}]`;
+  };
+
   return [
     ['background-play', backgroundPlay],
     ['background-power-cycle', backgroundPowerCycle],
+    ['background-power-cut', backgroundPowerCut, { optIn: true }],
   ];
 }

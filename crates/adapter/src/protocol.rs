@@ -31,6 +31,12 @@
 //! recording short); it stops with `StopStream` or when the port closes. While a
 //! self-calibration session runs on the adapter, `PutCalibration` and `CommitCalibration`
 //! answer `Busy`.
+//!
+//! ## Background recalibration (protocol 5)
+//! Every report outside a C + Z session also ticks the background recalibration
+//! ([`crate::background`], wired in the `recal` child module); `GetBackgroundStatus` reports
+//! it and `SetBackground` stores its settings beside the calibration
+//! ([`crate::settings`]).
 
 mod recal;
 mod recal_wire;
@@ -334,8 +340,9 @@ impl<F: NorFlash> Protocol<F> {
     }
 
     /// Finish what the report path cannot do synchronously: commit a self-calibration that
-    /// passed its checks, or a calibration the background recalibration adopted. Call after every [`Protocol::on_poll`] (cheap when idle). A
-    /// storage failure keeps the old calibration and ends the session as failed.
+    /// passed its checks, or a calibration the background recalibration adopted. Call after
+    /// every [`Protocol::on_poll`] (cheap when idle). A storage failure keeps the old
+    /// calibration (and ends a self-calibration session as failed).
     pub async fn service(&mut self) {
         if let Some((cal, rms)) = self.selfcal.take_pending() {
             let stored = self.store_and_apply(cal, LiveOrigin::SelfCal).await;
