@@ -357,3 +357,81 @@ fn bin_centres_fall_in_their_bins() {
     }
     assert_eq!(bin_centre(BINS), None);
 }
+
+/// The corrector applies a bias temperature slope at the board's temperature (the slope the
+/// background fit learns): `a = K·(m − b − s·(θ − θ₀))`, computed here in f64; without a
+/// reading the slope is left out.
+#[test]
+fn the_corrector_applies_the_temperature_slope_at_the_boards_reading() {
+    use wiical_adapter::Corrector;
+    let (truth, _) = sensor(11);
+    let mut cal = truth.calibration_at(0.0);
+    cal.effects.temp_ref_c = 25.0;
+    cal.effects.bias_temp = [0.4, -0.25, 0.3];
+    let mut c = Corrector::new(IdealScale::default());
+    c.set_user_calibration(Some(cal)).expect("valid");
+    let raw = [610u16, 480, 700];
+    let expect = |theta: Option<f64>| -> [f64; 3] {
+        let m: [f64; 3] = std::array::from_fn(|i| {
+            let shift = theta.map_or(0.0, |t| {
+                f64::from(cal.effects.bias_temp[i]) * (t - f64::from(cal.effects.temp_ref_c))
+            });
+            f64::from(raw[i]) - f64::from(cal.bias[i]) - shift
+        });
+        std::array::from_fn(|i| (0..3).map(|j| f64::from(cal.matrix[i][j]) * m[j]).sum())
+    };
+    for theta in [None, Some(25.0), Some(37.5), Some(-5.0)] {
+        c.set_temperature(theta.map(|t| t as f32));
+        let got = c.correct(raw).g;
+        let want = expect(theta);
+        for i in 0..3 {
+            assert!(
+                (f64::from(got[i]) - want[i]).abs() < 2e-6,
+                "θ {theta:?}, axis {i}: {} vs {}",
+                got[i],
+                want[i]
+            );
+        }
+    }
+    // At 37.5 °C the slope moves x by 5 counts: about 25 mg, so the test above can fail.
+    c.set_temperature(Some(37.5));
+    let hot = c.correct(raw).g;
+    c.set_temperature(None);
+    let cold = c.correct(raw).g;
+    assert!((hot[0] - cold[0]).abs() > 0.02, "{hot:?} vs {cold:?}");
+    // A non-finite reading is no reading.
+    c.set_temperature(Some(f32::NAN));
+    assert_eq!(c.temperature(), None);
+}
+
+/// The settings record round-trips, and any single flipped bit reads as "none stored" (the
+/// defaults: adoption on, a host upload kept, the calibration counted as the host's), never as
+/// other settings.
+#[test]
+fn settings_records_round_trip_and_a_flipped_bit_is_no_record() {
+    use wiical_adapter::settings::{decode_settings, encode_settings, SETTINGS_LEN};
+    let origins = [
+        LiveOrigin::Factory,
+        LiveOrigin::SelfCal,
+        LiveOrigin::Background,
+        LiveOrigin::Host,
+    ];
+    for (k, origin) in origins.into_iter().enumerate() {
+        let s = StoredSettings {
+            background_adopt: k % 2 == 0,
+            replace_uploaded: k / 2 == 1,
+            origin,
+        };
+        let bytes = encode_settings(&s);
+        assert_eq!(bytes.len(), SETTINGS_LEN);
+        assert_eq!(decode_settings(&bytes), Some(s));
+        for bit in 0..8 * SETTINGS_LEN {
+            let mut b = bytes;
+            b[bit / 8] ^= 1 << (bit % 8);
+            assert_eq!(decode_settings(&b), None, "bit {bit} of {s:?}");
+        }
+        assert_eq!(decode_settings(&bytes[..SETTINGS_LEN - 1]), None);
+    }
+    let d = StoredSettings::default();
+    assert!(d.background_adopt && !d.replace_uploaded && d.origin == LiveOrigin::Host);
+}
