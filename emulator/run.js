@@ -17,6 +17,7 @@ import { parseElf } from './src/elf.js';
 import { parseUf2, Uf2Error } from './src/uf2.js';
 import { decodeReport, calibrationBlock } from './src/nunchuk.js';
 import { selfCalScenarios } from './src/selfcal-scenarios.js';
+import { backgroundScenarios } from './src/background-scenarios.js';
 import { mulberry32 } from './src/pose-nunchuk.js';
 import { decodeFrames, unitRequestFrame, REQUEST, RESPONSE, RawHost, frame, putFrame } from './src/wire.js';
 
@@ -505,6 +506,9 @@ const scenarios = [
     newRig, getState, fail, shared, work, sameBytes, sameCal, checkReports, correctionBatch, prefill,
     expectedCounts, IDEAL_BLOCK, CAL_A, calA, measurements,
   }),
+  ...backgroundScenarios({
+    newRig, getState, fail, shared, work, sameCal, checkReports, correctionBatch, prefill, measurements,
+  }),
   ['power-cut-commit', async () => {
     if (!shared.committedA) return fail('needs commit-live');
     // Two commits to cut: B over A (page programs only), and the commit that finds the
@@ -666,8 +670,10 @@ function stats(xs) {
 let passed = 0;
 let failed = 0;
 const NS_PER_CYCLE = 8; // 125 MHz
-for (const [name, fn] of scenarios) {
+for (const [name, fn, opts] of scenarios) {
   if (only.length && !only.includes(name)) continue;
+  // Long scenarios run only when named (their command is in docs/background-calibration.md).
+  if (opts?.optIn && !only.includes(name)) continue;
   const t0 = Date.now();
   let detail;
   let ok = false;
@@ -694,6 +700,10 @@ if (measurements.selfCal) {
   const m = measurements.selfCal;
   const ms = (ns) => (ns / 1e6).toFixed(1);
   console.log(`measure self-calibration on the RP2040: longest Nunchuk poll interval while the last pose ends and the 12-pose fit + checks run ${ms(m.pollGapNs)} ms (nominal 5 ms); last pose left -> first flash step of the commit ${ms(m.fitToCommitNs)} ms; Wii Remote's longest wait for a report ${ms(m.remoteGapNs)} ms during the session, ${ms(m.commitGapNs)} ms including the commit and the 100 ms extension-detect drop that makes it re-read the block`);
+}
+if (measurements.background) {
+  const m = measurements.background;
+  console.log(`measure background recalibration on the RP2040: adopted after ${m.adoptS.toFixed(1)} s of play (${m.rests} rests); error of the correction against the truth ${m.before.toFixed(2)} mg after the drift -> ${m.after.toFixed(2)} mg after the adoption (floor: the self-calibration before the drift, ${m.floor.toFixed(2)} mg)`);
 }
 if (measurements.bootToFirstReportNs) {
   const ns = measurements.bootToFirstReportNs;

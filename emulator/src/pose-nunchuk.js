@@ -57,8 +57,11 @@ export class PoseNunchuk {
    * Starts still in direction `start`, with C and Z pressed if `held` (plugged in with the
    * buttons down). `clock()` gives the emulated time in ns (set it once the board exists).
    */
-  constructor({ truth = TRUTH, noiseCounts = 0.6, seed = 12, start = [0, 0, 1], held = false } = {}) {
+  constructor({ truth = TRUTH, noiseCounts = 0.6, seed = 12, start = [0, 0, 1], held = false, drift = null } = {}) {
     this.truth = truth;
+    /** Bias drift { counts: [x, y, z], overS }: the bias moves by `counts`, linearly over the
+     * first `overS` seconds of emulated time, then stays (a controller warming up). */
+    this.drift = drift;
     this.sensitivity = inverse3(truth.matrix);
     this.noise = noiseCounts;
     this.random = mulberry32(seed);
@@ -97,11 +100,19 @@ export class PoseNunchuk {
     return [d[0] + jolt, d[1] - 0.6 * jolt, d[2] + 0.8 * jolt];
   }
 
-  /** Raw counts for a gravity reading g (in g), with noise. */
-  counts(g) {
+  /** The true bias at time t (ns): the truth's, moved by the drift. */
+  biasAt(tNs) {
+    if (!this.drift) return this.truth.bias;
+    const f = Math.min(1, tNs / (this.drift.overS * 1e9));
+    return this.truth.bias.map((b, i) => b + f * this.drift.counts[i]);
+  }
+
+  /** Raw counts for a gravity reading g (in g) at time t (ns), with noise. */
+  counts(g, tNs = 0) {
     const s = this.sensitivity;
+    const bias = this.biasAt(tNs);
     return [0, 1, 2].map((i) => {
-      const v = this.truth.bias[i] + s[i][0] * g[0] + s[i][1] * g[1] + s[i][2] * g[2] + this.noise * this.gaussian();
+      const v = bias[i] + s[i][0] * g[0] + s[i][1] * g[1] + s[i][2] * g[2] + this.noise * this.gaussian();
       return Math.max(0, Math.min(1023, Math.round(v)));
     });
   }
@@ -112,6 +123,6 @@ export class PoseNunchuk {
       if (s.startNs <= tNs) seg = s;
       else break;
     }
-    return { accel: this.counts(this.gravity(seg, tNs)), stick: [0x80, 0x80], c: seg.c, z: seg.z, pose: seg.pose };
+    return { accel: this.counts(this.gravity(seg, tNs), tNs), stick: [0x80, 0x80], c: seg.c, z: seg.z, pose: seg.pose };
   }
 }

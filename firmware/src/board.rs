@@ -3,13 +3,14 @@
 
 use embassy_rp::flash::{Async, Flash};
 use embassy_rp::peripherals::{DMA_CH0, FLASH, I2C0, I2C1, USB};
-use embassy_rp::{bind_interrupts, dma, i2c, usb};
+use embassy_rp::{adc, bind_interrupts, dma, i2c, usb};
 
 bind_interrupts!(pub struct Irqs {
     I2C0_IRQ => i2c::InterruptHandler<I2C0>;
     I2C1_IRQ => i2c::InterruptHandler<I2C1>;
     USBCTRL_IRQ => usb::InterruptHandler<USB>;
     DMA_IRQ_0 => dma::InterruptHandler<DMA_CH0>;
+    ADC_IRQ_FIFO => adc::InterruptHandler;
 });
 
 /// Nunchuk poll rate, Hz (the Wii Remote reads extensions at up to 200 Hz).

@@ -22,6 +22,11 @@
 //! | [`serial::usb_task`] | the USB device stack |
 //! | [`serial::serial_task`] | CDC-ACM: request frames in, responses and samples out |
 //! | [`status::led_task`] | status LED pattern |
+//! | [`temperature::temperature_task`] | the on-chip temperature sensor every 5 s: the background recalibration's covariate |
+//!
+//! The background recalibration (still moments of play re-fit the calibration) runs inside the
+//! adapter logic on every report of [`nunchuk::nunchuk_task`], one bounded slice at a time; an
+//! adoption is stored by the same `service` call that stores a finished self-calibration.
 //!
 //! Storage is not a task of its own: [`storage::open`] loads the calibration at boot, and a
 //! commit (save, read back, then go live) runs inside the serial request that asks for it,
@@ -37,12 +42,13 @@ mod serial;
 mod shared;
 mod status;
 mod storage;
+mod temperature;
 mod wiimote;
 
 use defmt::{info, unwrap};
 use embassy_executor::Spawner;
 use embassy_rp::gpio::{Level, Output};
-use embassy_rp::{i2c, i2c_slave, usb};
+use embassy_rp::{adc, i2c, i2c_slave, usb};
 use embassy_sync::mutex::Mutex;
 use static_cell::StaticCell;
 use {defmt_rtt as _, panic_probe as _};
@@ -92,4 +98,9 @@ async fn main(spawner: Spawner) {
     // which hangs off the radio chip).
     let led = Output::new(p.PIN_25, Level::Low);
     spawner.spawn(unwrap!(status::led_task(led)));
+
+    // On-chip temperature sensor (ADC channel 4 on the RP2040, the last channel on the RP2350).
+    let adc = adc::Adc::new(p.ADC, Irqs, adc::Config::default());
+    let sensor = adc::Channel::new_temp_sensor(p.ADC_TEMP_SENSOR);
+    spawner.spawn(unwrap!(temperature::temperature_task(adc, sensor, adapter)));
 }

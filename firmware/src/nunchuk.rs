@@ -12,9 +12,10 @@ use crate::status;
 
 /// Polls the Nunchuk (the poller re-initialises it after an unplug, with back-off), feeds
 /// every result to the adapter logic (correction → emulated register map, stream sample,
-/// self-calibration from the Nunchuk's buttons, stale monitor), lets it commit a finished
-/// self-calibration (`service`: a flash write, during which this task holds the adapter, as a
-/// host commit does), and publishes the status.
+/// self-calibration from the Nunchuk's buttons, stale monitor, one slice of the background
+/// recalibration), lets it commit a finished self-calibration or a background adoption
+/// (`service`: a flash write, during which this task holds the adapter, as a host commit
+/// does), and publishes the status.
 #[embassy_executor::task]
 pub async fn nunchuk_task(mut bus: I2c<'static, I2C0, Async>, adapter: &'static Adapter) -> ! {
     let mut poller = NunchukPoller::default();

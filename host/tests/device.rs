@@ -95,6 +95,46 @@ fn cli_commands_over_the_pty() {
     let st: serde_json::Value = serde_json::from_str(&st).unwrap();
     assert!(st["phase"] == "Off" || st["phase"] == "Arming", "{st}");
     assert_eq!(st["recalibration_suggested"], false);
+    // The background recalibration: a fresh simulator stores nothing, adoption is on.
+    assert!(text.contains("background recalibration:"), "{text}");
+    assert!(
+        text.contains("adoption           on; a host upload is kept"),
+        "{text}"
+    );
+    assert_eq!(st["background"]["adopt"], true, "{st}");
+    assert_eq!(st["background"]["bins"], 54, "{st}");
+    assert_eq!(st["background"]["origin"], "Factory", "{st}");
+    // selfcal-set stores the settings; the status reads them back.
+    let (text, _) = run(&["selfcal-set", "--background", "off"]);
+    assert!(
+        text.contains("adoption off (monitor only), a host upload is kept"),
+        "{text}"
+    );
+    let (text, _) = run(&[
+        "selfcal-set",
+        "--background",
+        "on",
+        "--replace-uploaded",
+        "yes",
+    ]);
+    assert!(
+        text.contains("adoption on, a host upload may be replaced"),
+        "{text}"
+    );
+    let (st, _) = run(&["selfcal-status", "--json"]);
+    let st: serde_json::Value = serde_json::from_str(&st).unwrap();
+    assert_eq!(st["background"]["replace_uploaded"], true, "{st}");
+    let (text, _) = run(&[
+        "selfcal-set",
+        "--background",
+        "on",
+        "--replace-uploaded",
+        "no",
+    ]);
+    assert!(text.contains("a host upload is kept"), "{text}");
+    assert!(
+        Cli::try_parse_from(["wiical", "device", "selfcal-set", "--background", "maybe"]).is_err()
+    );
 
     // put reads what `wiical fit --out` writes (pretty serde JSON of a Calibration).
     let cal = true_calibration();

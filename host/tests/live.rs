@@ -329,6 +329,18 @@ fn live_streams_the_device_simulator_and_survives_its_disconnect() {
     let v = wait_for(live.port, |v| v["samples"].as_u64().unwrap_or(0) >= 400);
     assert!(v["ended"].is_null(), "{v}");
     assert_eq!(v["sensor"], "accelerometer");
+    // The adapter's background-recalibration grid comes with the snapshots: every bin with
+    // its centre direction (a unit vector), for the page to draw.
+    let v = wait_for(live.port, |v| v["adapter_grid"].is_object());
+    let bins = v["adapter_grid"]["bins"].as_array().expect("bins");
+    assert_eq!(bins.len(), 54, "{v}");
+    for b in bins {
+        let d: Vec<f64> = serde_json::from_value(b["direction"].clone()).unwrap();
+        let n = d.iter().map(|x| x * x).sum::<f64>().sqrt();
+        assert!((n - 1.0).abs() < 1e-5, "{b}");
+    }
+    let line = v["adapter_grid"]["line"].as_str().unwrap();
+    assert!(line.contains("of 54 bins fresh"), "{line}");
     // The simulator goes away (cable pulled): the session ends with the reason, and the
     // server keeps serving the last picture.
     sim.stop().unwrap();

@@ -12,6 +12,7 @@ use core::hint::black_box;
 use cortex_m_semihosting::hprintln;
 use wiical_adapter::background::{Background, BackgroundPhase, BackgroundSettings, LiveOrigin};
 use wiical_adapter::corrector::nominal_calibration;
+use wiical_adapter::{Corrector, IdealScale, SelfCal, SelfCalConfig};
 
 use crate::rt;
 
@@ -140,4 +141,87 @@ pub fn rows(per_tick: f64) -> bool {
         st.last_refusal.map(|r| r.summary())
     );
     ok
+}
+
+/// The adapter's whole per-report path as `Protocol::on_report` runs it, without the emulated
+/// register map and the stream: the self-calibration's report (its stillness feed, the one
+/// detector), the background machine's tick with the moment that feed found, and the
+/// correction. The grid is the one of [`filled`]; still reports are fed until the first fit
+/// has run to its end, and the worst single report is the row (the Nunchuk task's work per
+/// poll besides the I²C transfer and the emulated map's update).
+pub fn report_path_rows(per_tick: f64) -> bool {
+    let (mut bg, live) = filled();
+    let mut selfcal = SelfCal::new(SelfCalConfig::nunchuk(200));
+    let mut corrector = Corrector::new(IdealScale::default());
+    if corrector.set_user_calibration(Some(live)).is_err() {
+        return false;
+    }
+    let (mut worst, mut reports, mut fitting) = (0u64, 0u32, 0u32);
+    let mut probe = None;
+    let mut i = 0u32;
+    // Until the first fit has started and ended (60 s of play, then its slices).
+    while i < 20_000 {
+        if probe.is_none() && bg.status().phase == BackgroundPhase::Fitting {
+            probe = Some((bg.clone(), selfcal.clone(), i));
+        }
+        let t0 = rt::ticks();
+        report_path(
+            &mut selfcal,
+            black_box(&mut bg),
+            &corrector,
+            &live,
+            still(i),
+        );
+        let dt = rt::ticks() - t0;
+        worst = worst.max(dt);
+        reports += 1;
+        i += 1;
+        if bg.status().phase == BackgroundPhase::Fitting {
+            fitting += 1;
+        } else if fitting > 0 {
+            break;
+        }
+    }
+    // Peak stack over the same fit's reports, replayed from where it started.
+    rt::systick_enabled(false);
+    let st = probe.and_then(|(mut bg, mut sc, mut j)| {
+        rt::peak_stack(|| {
+            while bg.status().phase == BackgroundPhase::Fitting {
+                report_path(&mut sc, &mut bg, &corrector, &live, still(j));
+                j += 1;
+            }
+        })
+    });
+    rt::systick_enabled(true);
+    let worst_instr = worst as f64 * per_tick;
+    let ok = fitting > 0 && worst_instr <= POLL_BUDGET;
+    print_row(
+        "adapter report path (self-cal feed + background + correct), worst",
+        "report",
+        worst_instr,
+        st,
+        ok,
+    );
+    hprintln!(
+        "adapter report path: {} reports timed, {} of them fitting; moments binned {}",
+        reports,
+        fitting,
+        bg.status().moments
+    );
+    ok
+}
+
+/// One report as `Protocol::on_report` handles it (see [`report_path_rows`]).
+#[inline(never)]
+fn report_path(
+    selfcal: &mut SelfCal,
+    bg: &mut Background,
+    corrector: &Corrector,
+    live: &wiical_core::Calibration,
+    raw: [u16; 3],
+) -> [u16; 3] {
+    selfcal.on_report(raw, false, false, live);
+    let moment = selfcal.take_still_moment();
+    bg.on_tick(moment, Some(25.0), live);
+    black_box(corrector.correct(raw)).counts
 }

@@ -147,6 +147,9 @@ pub struct Corrector {
     factory_bytes: Option<[u8; 16]>,
     stick: (StickAxisCalibration, StickAxisCalibration),
     ideal_bytes: [u8; 16],
+    /// The sensor's temperature, °C, when the board measures one (the MCU's on-chip sensor,
+    /// next to the Nunchuk's cable): feeds the calibration's temperature terms.
+    temperature_c: Option<f32>,
 }
 
 impl Default for Corrector {
@@ -171,6 +174,7 @@ impl Corrector {
             factory_bytes: None,
             stick: (DEFAULT_STICK, DEFAULT_STICK),
             ideal_bytes: [0; 16],
+            temperature_c: None,
         };
         c.refresh_ideal_bytes();
         c
@@ -184,6 +188,17 @@ impl Corrector {
         if let Some(bytes) = block.and_then(|b| b.encode().ok()) {
             self.ideal_bytes = bytes;
         }
+    }
+
+    /// The temperature (°C) the calibration's temperature terms use from now on; `None` (no
+    /// reading, or a non-finite one) leaves them out.
+    pub fn set_temperature(&mut self, temperature_c: Option<f32>) {
+        self.temperature_c = temperature_c.filter(|t| t.is_finite());
+    }
+
+    /// The temperature the corrector uses, °C.
+    pub fn temperature(&self) -> Option<f32> {
+        self.temperature_c
     }
 
     /// The ideal scale.
@@ -255,8 +270,8 @@ impl Corrector {
     /// With a user calibration whose effect terms are all zero, `g` is exactly
     /// [`Calibration::correct_linear`]; otherwise the terms that depend on the acceleration
     /// alone are applied too — the per-axis nonlinearity and the orientation-dependent cross
-    /// terms — (time drift and temperature terms are not: the adapter has neither the
-    /// recording's time origin nor a temperature sensor).
+    /// terms —, and the temperature terms when [`Corrector::set_temperature`] gave a reading
+    /// (time drift terms are not: the adapter has no recording's time origin).
     #[inline]
     pub fn correct(&self, raw: [u16; 3]) -> Corrected {
         let m = raw.map(f32::from);
@@ -265,7 +280,7 @@ impl Corrector {
                 let g = if cal.terms().linear_only {
                     cal.correct_linear(m)
                 } else {
-                    correct_without_conditions(cal, raw)
+                    correct_at_temperature(cal, raw, self.temperature_c)
                 };
                 Corrected {
                     g,
@@ -280,12 +295,20 @@ impl Corrector {
     }
 }
 
-/// [`PreparedCalibration::correct`] with no clock or thermometer (the adapter's case). Out of
-/// line, taking the raw counts (passed in registers) rather than the converted sample, so
+/// [`PreparedCalibration::correct`] with no clock and the board's temperature, if any (the
+/// adapter's case). Out of line, taking the raw counts (passed in registers) rather than the converted sample, so
 /// that the linear path of [`Corrector::correct`] does not spill the sample for it (on a
 /// Cortex-M33 under QEMU, a linear calibration's report update: 205 instructions and 84 B of
 /// stack rather than 209 and 108 B).
 #[inline(never)]
-fn correct_without_conditions(cal: &PreparedCalibration, raw: [u16; 3]) -> [f32; 3] {
-    cal.correct(raw.map(f32::from), &wiical_core::Conditions::default())
+fn correct_at_temperature(
+    cal: &PreparedCalibration,
+    raw: [u16; 3],
+    temperature_c: Option<f32>,
+) -> [f32; 3] {
+    let at = wiical_core::Conditions {
+        temperature_c,
+        ..Default::default()
+    };
+    cal.correct(raw.map(f32::from), &at)
 }

@@ -16,6 +16,8 @@
 //! | [`corrector`] | [`Corrector`]: live calibration → g → counts on an ideal 10-bit scale; pass-through when uncalibrated |
 //! | [`emulated`] | [`EmulatedNunchuk`]: the register map the Wii Remote reads |
 //! | [`store`] | [`CalibrationStore`]: versioned, CRC-checked record in a power-loss-safe `sequential-storage` map |
+//! | [`settings`] | [`settings::StoredSettings`]: background adoption on/off, host uploads protected, the stored calibration's origin |
+//! | [`background`] | [`background::Background`]: recalibration from the still moments of play, adopted through the store |
 //! | [`selfcal`] | [`SelfCal`]: calibration on the adapter from the Nunchuk's buttons (no PC), and the stale-calibration monitor |
 //! | [`protocol`] | [`Protocol`]: wire requests → responses, stream of samples, and the glue between the above |
 //!
@@ -42,6 +44,7 @@ mod error;
 pub mod poller;
 pub mod protocol;
 pub mod selfcal;
+pub mod settings;
 pub mod store;
 
 pub use corrector::{Corrected, CorrectionMode, Corrector, IdealScale};

@@ -32,6 +32,15 @@
 //! recording short); it stops with `StopStream` or when the port closes. While a
 //! self-calibration session runs on the adapter, `PutCalibration` and `CommitCalibration`
 //! answer `Busy`.
+//!
+//! ## Background recalibration (protocol 5)
+//! Every report outside a C + Z session also ticks the background recalibration
+//! ([`crate::background`], wired in the `recal` child module); `GetBackgroundStatus` reports
+//! it and `SetBackground` stores its settings beside the calibration
+//! ([`crate::settings`]).
+
+mod recal;
+mod recal_wire;
 
 use core::fmt::Write as _;
 use embedded_storage_async::nor_flash::NorFlash;
@@ -45,11 +54,13 @@ use wiical_wire::{
     PROTOCOL_VERSION, SCHEMA_KEY,
 };
 
+use crate::background::{Background, LiveOrigin};
 use crate::corrector::{CorrectionMode, Corrector, IdealScale};
 use crate::emulated::EmulatedNunchuk;
 use crate::error::{Error, RecordError};
 use crate::poller::{NunchukInfo, PollEvent};
 use crate::selfcal::{SelfCal, SelfCalConfig, SelfCalResult, SelfCalStatus};
+use crate::settings::StoredSettings;
 use crate::store::{CalibrationStore, Loaded};
 
 /// Identity and timing of the adapter, reported in the Hello exchange.
@@ -154,6 +165,8 @@ pub struct Protocol<F: NorFlash> {
     block_generation: u32,
     acceptance: Acceptance,
     selfcal: SelfCal,
+    background: Background,
+    settings: StoredSettings,
 }
 
 impl<F: NorFlash> Protocol<F> {
@@ -173,6 +186,18 @@ impl<F: NorFlash> Protocol<F> {
         // Told to the host: a damaged newest record is skipped by the storage layer
         // without a word, and the previous one loaded as if it were the newest.
         let damaged_records = store.damaged_records().await.unwrap_or(0);
+        // A missing or damaged settings record: the defaults (a stored calibration of
+        // unknown origin counts as the host's, the protected case).
+        let settings = store
+            .load_settings()
+            .await
+            .ok()
+            .flatten()
+            .unwrap_or_default();
+        let origin = match boot {
+            BootLoad::Loaded => settings.origin,
+            _ => LiveOrigin::Factory,
+        };
         let emulated = EmulatedNunchuk::new(&corrector.calibration_block_bytes());
         let rate_hz = info.base_rate_mhz / 1000;
         Self {
@@ -191,6 +216,8 @@ impl<F: NorFlash> Protocol<F> {
             block_generation: 0,
             acceptance: Acceptance::nunchuk(),
             selfcal: SelfCal::new(SelfCalConfig::nunchuk(rate_hz)),
+            background: recal::background_for(rate_hz, &settings, origin),
+            settings,
         }
     }
 
@@ -272,6 +299,14 @@ impl<F: NorFlash> Protocol<F> {
                 self.stream = None;
                 Response::Ack
             }
+            Request::GetBackgroundStatus => Response::Background(self.background_report()),
+            Request::SetBackground(_) if self.selfcal.active() => Response::Error(ErrorCode::Busy),
+            Request::SetBackground(b) => {
+                match self.set_background(b.adopt, b.replace_uploaded).await {
+                    Ok(()) => Response::Ack,
+                    Err(_) => Response::Error(ErrorCode::StorageFailure),
+                }
+            }
         }
     }
 
@@ -279,7 +314,7 @@ impl<F: NorFlash> Protocol<F> {
         let Some(cal) = self.staged else {
             return Response::Error(ErrorCode::NothingStaged);
         };
-        match self.store_and_apply(cal).await {
+        match self.store_and_apply(cal, LiveOrigin::Host).await {
             Ok(()) => {
                 self.staged = None;
                 Response::Ack
@@ -288,32 +323,33 @@ impl<F: NorFlash> Protocol<F> {
         }
     }
 
-    /// Store `cal` (power-loss safe), read it back, and only then make it live.
-    async fn store_and_apply(&mut self, cal: Calibration) -> Result<(), ErrorCode> {
-        if self.store.save(&cal).await.is_err() {
-            return Err(ErrorCode::StorageFailure);
+    /// Store `cal` (power-loss safe) with its origin, read it back, and only then make it
+    /// live; the background recalibration starts over from the new calibration.
+    async fn store_and_apply(
+        &mut self,
+        cal: Calibration,
+        origin: LiveOrigin,
+    ) -> Result<(), ErrorCode> {
+        let stored = self.store_with_origin(cal, origin).await;
+        if stored.is_ok() {
+            self.background.calibration_changed(origin);
         }
-        // Read back: only a calibration that the next boot will load goes live.
-        match self.store.load().await {
-            Ok(Loaded::Calibration(back)) if bits_equal(&back, &cal) => {}
-            _ => return Err(ErrorCode::StorageFailure),
-        }
-        if self.corrector.set_user_calibration(Some(cal)).is_err() {
-            return Err(ErrorCode::Internal);
-        }
-        self.refresh_block();
-        self.selfcal.calibration_changed();
-        Ok(())
+        stored.map_err(|e| match e {
+            recal::CommitError::Storage => ErrorCode::StorageFailure,
+            recal::CommitError::Internal => ErrorCode::Internal,
+        })
     }
 
     /// Finish what the report path cannot do synchronously: commit a self-calibration that
-    /// passed its checks. Call after every [`Protocol::on_poll`] (cheap when idle). A
-    /// storage failure keeps the old calibration and ends the session as failed.
+    /// passed its checks, or a calibration the background recalibration adopted. Call after
+    /// every [`Protocol::on_poll`] (cheap when idle). A storage failure keeps the old
+    /// calibration (and ends a self-calibration session as failed).
     pub async fn service(&mut self) {
         if let Some((cal, rms)) = self.selfcal.take_pending() {
-            let stored = self.store_and_apply(cal).await;
+            let stored = self.store_and_apply(cal, LiveOrigin::SelfCal).await;
             self.selfcal.committed(stored.map(|()| rms).map_err(|_| ()));
         }
+        self.service_background().await;
     }
 
     /// The self-calibration state machine (LED status, last result, stale estimate).
@@ -416,6 +452,7 @@ impl<F: NorFlash> Protocol<F> {
     pub fn on_disconnected(&mut self) {
         self.connected = false;
         self.selfcal.on_unplug();
+        self.background.on_unplug();
     }
 
     /// Correct a report, update the emulated register map, and return the sample to send
@@ -424,6 +461,7 @@ impl<F: NorFlash> Protocol<F> {
         let live = self.corrector.live_calibration();
         self.selfcal
             .on_report(report.accel, report.c, report.z, &live);
+        self.tick_background(&live);
         let c = self.corrector.correct(report.accel);
         self.emulated.set_report(&NunchukReport {
             accel: c.counts,

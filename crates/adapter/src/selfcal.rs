@@ -23,7 +23,9 @@
 //! (the session only observes the raw samples).
 //!
 //! ## Stillness
-//! The core's [`StaticDetector`] finds still moments. Its noise reference is the variance of
+//! The core's [`StaticDetector`](wiical_core::static_detect::StaticDetector), through the
+//! stillness rule shared with the background recalibration ([`StillFeed`]), finds still
+//! moments. Its noise reference is the variance of
 //! its first window; a hand that shakes while the detector starts would inflate it, so the
 //! detector is restarted until that first window is itself still (every axis variance ≤
 //! [`SelfCalConfig::max_pose_variance`]), and every still moment must meet the same
@@ -40,8 +42,10 @@
 use heapless::Vec;
 use wiical_core::acceptance::{angle_between, Acceptance, CoverageGap, CoverageRule, Rejection};
 use wiical_core::multipos::{self, MultiPosConfig};
-use wiical_core::static_detect::{StaticDetector, StaticDetectorConfig, StaticInterval};
+use wiical_core::static_detect::{StaticDetectorConfig, StaticInterval};
 use wiical_core::Calibration;
+
+use crate::background::still::StillFeed;
 
 /// Most poses a session keeps (the coverage rule stops well before; a session that fills
 /// this without meeting it fails).
@@ -253,7 +257,7 @@ enum Mode {
 pub struct SelfCal {
     cfg: SelfCalConfig,
     mode: Mode,
-    detector: Option<StaticDetector<DETECTOR_CAPACITY>>,
+    feed: StillFeed,
     since_plug: u32,
     session_samples: u32,
     /// The buttons were released since the session began (so a hold can end it).
@@ -266,6 +270,8 @@ pub struct SelfCal {
     pending: Option<(Calibration, f32)>,
     result: Option<SelfCalResult>,
     stale: StaleEstimate,
+    /// The mean raw counts of the latest still moment of normal play, until taken.
+    moment: Option<[f32; 3]>,
 }
 
 impl SelfCal {
@@ -274,7 +280,7 @@ impl SelfCal {
         Self {
             cfg,
             mode: Mode::Normal,
-            detector: StaticDetector::new(cfg.detector).ok(),
+            feed: StillFeed::new(cfg.detector, cfg.max_pose_variance),
             since_plug: u32::MAX,
             session_samples: 0,
             released: false,
@@ -286,6 +292,7 @@ impl SelfCal {
             pending: None,
             result: None,
             stale: StaleEstimate::default(),
+            moment: None,
         }
     }
 
@@ -411,7 +418,14 @@ impl SelfCal {
     }
 
     fn restart_detector(&mut self) {
-        self.detector = StaticDetector::new(self.cfg.detector).ok();
+        self.feed.restart();
+    }
+
+    /// The mean raw counts of the still moment of normal play (outside a session) that the
+    /// latest report ended, if any: the stale monitor's moments, handed on to the background
+    /// recalibration so that one detector serves both.
+    pub fn take_still_moment(&mut self) -> Option<[f32; 3]> {
+        self.moment.take()
     }
 
     fn collect(&mut self, raw: [u16; 3], both: bool, live: &Calibration) {
@@ -441,34 +455,16 @@ impl SelfCal {
         self.consider_pose(&interval, live);
     }
 
-    /// Push a sample through the detector; a still moment that just ended, if any.
-    /// Restarts the detector when its first window (the noise reference) was not still.
+    /// Push a sample through the detector (the shared stillness rule, [`StillFeed`]); a
+    /// still moment that just ended, if any.
     fn detect(&mut self, raw: [u16; 3]) -> Option<StaticInterval> {
-        let Some(det) = self.detector.as_mut() else {
+        if !self.feed.valid() {
             if self.mode == Mode::Collecting {
                 self.fail(SelfCalFailure::Config);
             }
             return None;
-        };
-        let out = match det.push(raw.map(f32::from)) {
-            Ok(out) => out,
-            // 2³² samples (248 days at 200 Hz): start counting again.
-            Err(wiical_core::Error::CapacityExceeded) => {
-                self.restart_detector();
-                return None;
-            }
-            Err(_) => None,
-        };
-        if det.samples_seen() == self.cfg.detector.init_samples {
-            let shaky = det
-                .reference_variance()
-                .is_some_and(|v| v.iter().any(|x| *x > self.cfg.max_pose_variance));
-            if shaky {
-                self.restart_detector();
-                return None;
-            }
         }
-        out.filter(|i| i.variance.iter().all(|v| *v <= self.cfg.max_pose_variance))
+        self.feed.push(raw)
     }
 
     fn consider_pose(&mut self, interval: &StaticInterval, live: &Calibration) {
@@ -547,9 +543,11 @@ impl SelfCal {
 
     /// Stale monitor (normal mode): every still moment updates the estimate.
     fn watch(&mut self, raw: [u16; 3], live: &Calibration) {
+        self.moment = None;
         let Some(interval) = self.detect(raw) else {
             return;
         };
+        self.moment = Some(interval.mean);
         let a = live.correct_linear(interval.mean);
         let err = libm::sqrtf(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]) - 1.0;
         if !err.is_finite() {

@@ -35,6 +35,9 @@ use sequential_storage::map::{MapConfig, MapStorage};
 use wiical_core::Calibration;
 
 use crate::error::{RecordError, StoreError};
+use crate::settings::{
+    decode_settings, encode_settings, StoredSettings, SETTINGS_KEY, SETTINGS_LEN,
+};
 
 /// Map key of the calibration record.
 pub const RECORD_KEY: u8 = 0x01;
@@ -151,7 +154,10 @@ impl<F: NorFlash> CalibrationStore<F> {
         let usable = (F::ERASE_SIZE as u32).saturating_sub(2 * F::WRITE_SIZE as u32);
         let item = MapStorage::<u8, F, MapCache>::item_overhead_size()
             + (1 + RECORD_LEN as u32).next_multiple_of(F::WRITE_SIZE.max(1) as u32);
-        let per_page = usable / item.max(1);
+        // Each page must also have room for the small settings record beside a calibration.
+        let settings_item = MapStorage::<u8, F, MapCache>::item_overhead_size()
+            + (1 + SETTINGS_LEN as u32).next_multiple_of(F::WRITE_SIZE.max(1) as u32);
+        let per_page = usable.saturating_sub(settings_item) / item.max(1);
         // The map keeps one page erased for migration, so with only two pages each must
         // hold two records, or a second commit would find the storage full.
         if per_page == 0 || (pages < 3 && per_page < 2) {
@@ -264,6 +270,28 @@ impl<F: NorFlash> CalibrationStore<F> {
         let record = encode_record(cal);
         self.map
             .store_item(&mut self.buf.0, &RECORD_KEY, &&record[..])
+            .await
+            .map_err(StoreError::Flash)
+    }
+
+    /// Read the settings record ([`crate::settings`]); `Ok(None)` when none is stored or the
+    /// one stored is damaged or of an unknown version (the caller uses the defaults); `Err`
+    /// only when the flash cannot be read.
+    pub async fn load_settings(&mut self) -> Result<Option<StoredSettings>, StoreError<F::Error>> {
+        let item: Option<&[u8]> = self
+            .map
+            .fetch_item(&mut self.buf.0, &SETTINGS_KEY)
+            .await
+            .map_err(StoreError::Flash)?;
+        Ok(item.and_then(decode_settings))
+    }
+
+    /// Store the settings record, power-loss safe as [`Self::save`]: afterwards, or after an
+    /// interruption, [`Self::load_settings`] gives the previous settings or these.
+    pub async fn save_settings(&mut self, s: &StoredSettings) -> Result<(), StoreError<F::Error>> {
+        let record = encode_settings(s);
+        self.map
+            .store_item(&mut self.buf.0, &SETTINGS_KEY, &&record[..])
             .await
             .map_err(StoreError::Flash)
     }

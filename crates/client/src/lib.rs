@@ -166,6 +166,9 @@ pub enum ClientError {
 pub type Result<T, E = ClientError> = std::result::Result<T, E>;
 use serde::Serialize;
 use serialport::SerialPort;
+/// The centre direction of the adapter's background-recalibration bin `i` (bins as
+/// [`wiical_wire::BackgroundReport::bin_moments`] numbers them), for drawing the grid.
+pub use wiical_adapter::background::grid::bin_centre as background_bin_centre;
 use wiical_core::Calibration;
 use wiical_wire::endpoints::{self, Endpoint};
 use wiical_wire::{
@@ -469,6 +472,18 @@ impl Device {
         self.call(endpoints::GetStatus)
     }
 
+    /// (Protocol 5.) The background recalibration's grid, candidate, last adoption and last
+    /// refusal.
+    pub fn background_status(&mut self) -> Result<wiical_wire::BackgroundReport> {
+        self.call(endpoints::GetBackgroundStatus)
+    }
+
+    /// (Protocol 5.) Store the background recalibration's settings in the adapter's flash:
+    /// adoption on or off, and whether a calibration uploaded by the host may be replaced.
+    pub fn set_background(&mut self, settings: wiical_wire::BackgroundSettings) -> Result<()> {
+        self.call(endpoints::SetBackground(settings))
+    }
+
     /// Self-calibration status asked for while streaming: unlike [`Device::status`], which
     /// discards the samples that arrive before the answer, this keeps them (returned in
     /// order, to be used as if read by [`Device::next_sample`]). Asks once; `None` when no
@@ -477,15 +492,34 @@ impl Device {
     pub fn status_while_streaming(
         &mut self,
     ) -> Result<(Option<wiical_wire::AdapterStatus>, Vec<Sample>)> {
-        self.send(&Request::GetStatus)?;
+        self.call_while_streaming(endpoints::GetStatus)
+    }
+
+    /// (Protocol 5.) The background recalibration's state asked for while streaming, as
+    /// [`Device::status_while_streaming`].
+    pub fn background_while_streaming(
+        &mut self,
+    ) -> Result<(Option<wiical_wire::BackgroundReport>, Vec<Sample>)> {
+        self.call_while_streaming(endpoints::GetBackgroundStatus)
+    }
+
+    /// One request while streaming: its reply (`None`: refused, or none within the timeout)
+    /// and the samples that arrived before it, in order.
+    fn call_while_streaming<E: Endpoint>(
+        &mut self,
+        endpoint: E,
+    ) -> Result<(Option<E::Reply>, Vec<Sample>)> {
+        self.send(&endpoint.request())?;
         let deadline = Instant::now() + self.opts.timeout;
         let mut samples = Vec::new();
         loop {
             match self.recv(deadline)? {
                 Some(Ok(Response::Sample(s))) => samples.push(s),
-                Some(Ok(Response::Status(st))) => return Ok((Some(st), samples)),
                 Some(Ok(Response::Error(_))) | None => return Ok((None, samples)),
-                Some(Ok(_)) => self.stats.discarded += 1,
+                Some(Ok(r)) => match E::reply(&r) {
+                    Some(reply) => return Ok((Some(reply), samples)),
+                    None => self.stats.discarded += 1,
+                },
                 Some(Err(_)) => {}
             }
         }

@@ -8,7 +8,8 @@
 //! kind, is recognised by [`Request::is_answered_by`] instead of a hand-written table.
 
 use crate::messages::{
-    AdapterStatus, CalibrationState, Hello, HelloResponse, Request, Response, WireCalibration,
+    AdapterStatus, BackgroundReport, BackgroundSettings, CalibrationState, Hello, HelloResponse,
+    Request, Response, WireCalibration,
 };
 
 /// A request kind and the reply it gets.
@@ -54,6 +55,14 @@ pub struct GetStatus;
 /// [`Request::EndSession`] → `()` ([`Response::Ack`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct EndSession;
+
+/// (Protocol 5.) [`Request::GetBackgroundStatus`] → [`BackgroundReport`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct GetBackgroundStatus;
+
+/// (Protocol 5.) [`Request::SetBackground`] → `()` ([`Response::Ack`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct SetBackground(pub BackgroundSettings);
 
 impl Endpoint for Hello {
     const NAME: &'static str = "Hello";
@@ -165,6 +174,31 @@ impl Endpoint for EndSession {
     }
 }
 
+impl Endpoint for GetBackgroundStatus {
+    const NAME: &'static str = "GetBackgroundStatus";
+    type Reply = BackgroundReport;
+    fn request(&self) -> Request {
+        Request::GetBackgroundStatus
+    }
+    fn reply(response: &Response) -> Option<BackgroundReport> {
+        match response {
+            Response::Background(b) => Some(b.clone()),
+            _ => None,
+        }
+    }
+}
+
+impl Endpoint for SetBackground {
+    const NAME: &'static str = "SetBackground";
+    type Reply = ();
+    fn request(&self) -> Request {
+        Request::SetBackground(self.0)
+    }
+    fn reply(response: &Response) -> Option<()> {
+        ack(response)
+    }
+}
+
 impl Request {
     /// The request's name (its [`Endpoint::NAME`]), for messages.
     pub const fn name(&self) -> &'static str {
@@ -177,6 +211,8 @@ impl Request {
             Request::StopStream => StopStream::NAME,
             Request::GetStatus => GetStatus::NAME,
             Request::EndSession => EndSession::NAME,
+            Request::GetBackgroundStatus => GetBackgroundStatus::NAME,
+            Request::SetBackground(_) => SetBackground::NAME,
         }
     }
 
@@ -198,6 +234,8 @@ impl Request {
             Request::StopStream => StopStream::reply(r).is_some(),
             Request::GetStatus => GetStatus::reply(r).is_some(),
             Request::EndSession => EndSession::reply(r).is_some(),
+            Request::GetBackgroundStatus => GetBackgroundStatus::reply(r).is_some(),
+            Request::SetBackground(_) => SetBackground::reply(r).is_some(),
         }
     }
 }
@@ -212,7 +250,7 @@ mod tests {
     }
 
     /// One response of every kind.
-    fn responses() -> [Response; 7] {
+    fn responses() -> [Response; 8] {
         let hello = HelloResponse {
             protocol_version: 1,
             schema_key: 2,
@@ -248,6 +286,24 @@ mod tests {
                 stale_rms_mg: 0.0,
                 recalibration_suggested: false,
             }),
+            Response::Background(crate::messages::BackgroundReport {
+                phase: crate::messages::BackgroundPhase::Collecting,
+                settings: BackgroundSettings {
+                    adopt: true,
+                    replace_uploaded: false,
+                },
+                origin: crate::messages::CalibrationOrigin::Factory,
+                play_s: 0,
+                moments: 0,
+                bins_filled: 0,
+                fresh_bins: 0,
+                bin_moments: heapless::Vec::new(),
+                temperature_c: None,
+                coverage_gap: None,
+                candidate: None,
+                last_adoption: None,
+                last_refusal: None,
+            }),
         ]
     }
 
@@ -255,7 +311,7 @@ mod tests {
     /// independently: (request, index of its success answer in `responses()`).
     #[test]
     fn each_request_is_answered_by_its_documented_reply_and_errors_only() {
-        let cases: [(Request, usize); 8] = [
+        let cases: [(Request, usize); 10] = [
             (Request::Hello(Hello::CURRENT), 0),
             (Request::GetCalibration, 3),
             (Request::PutCalibration(wire_identity()), 2),
@@ -264,6 +320,14 @@ mod tests {
             (Request::StopStream, 2),
             (Request::GetStatus, 6),
             (Request::EndSession, 2),
+            (Request::GetBackgroundStatus, 7),
+            (
+                Request::SetBackground(BackgroundSettings {
+                    adopt: false,
+                    replace_uploaded: false,
+                }),
+                2,
+            ),
         ];
         for (req, ok) in cases {
             for (i, resp) in responses().iter().enumerate() {

@@ -35,6 +35,9 @@
 //! 5. (Protocol 4.) Before closing the port the host sends `Request::EndSession`: its staged
 //!    upload is discarded and the session closed, so a process that shares the port and
 //!    never said Hello cannot commit it. Every opener says its own Hello.
+//! 6. (Protocol 5.) `GetBackgroundStatus` reads the background recalibration's grid, candidate,
+//!    last adoption and last refusal; `SetBackground` stores its settings (adoption on/off,
+//!    whether a host upload may be replaced) in the adapter's flash.
 //!
 //! ## Versioning rules
 //! * [`SCHEMA`] describes every message; [`SCHEMA_KEY`] is its FNV-1a hash computed in a
@@ -65,9 +68,11 @@ pub use frame::{
     encode_frame, DefaultFrameDecoder, FrameDecoder, FrameError, Frames, MAX_FRAME_LEN,
 };
 pub use messages::{
-    check_schema_key, AdapterStatus, BootRecord, CalibrationState, ErrorCode, Hello, HelloResponse,
-    RecordProblem, Request, Response, Sample, SelfCalOutcome, SelfCalPhase, WireCalibration,
-    WireEffects, FIRMWARE_VERSION_CAP, SELFCAL_MESSAGE_CAP,
+    check_schema_key, AdapterStatus, AdoptionReport, BackgroundPhase, BackgroundReport,
+    BackgroundSettings, BootRecord, CalibrationOrigin, CalibrationState, CandidateReport,
+    CoverageGapReport, ErrorCode, Hello, HelloResponse, RecordProblem, RefusalReport, Request,
+    Response, Sample, SelfCalOutcome, SelfCalPhase, WireCalibration, WireEffects, BACKGROUND_BINS,
+    FIRMWARE_VERSION_CAP, SELFCAL_MESSAGE_CAP,
 };
 pub use schema::{
     fnv1a_32, protocol_of_key, PREVIOUS_SCHEMA_KEYS, PROTOCOL_VERSION, SCHEMA, SCHEMA_KEY,

@@ -51,6 +51,13 @@ pub enum Request {
     /// `Hello`, so that another process sharing the port cannot commit this host's upload.
     /// A running stream keeps running (it is the port's). Answered by [`Response::Ack`].
     EndSession,
+    /// (Protocol 5.) Ask for the background recalibration's state: answered by
+    /// [`Response::Background`].
+    GetBackgroundStatus,
+    /// (Protocol 5.) Store the background recalibration's settings in the adapter's flash
+    /// and put them in force: [`Response::Ack`], or [`ErrorCode::StorageFailure`] (the old
+    /// settings stay).
+    SetBackground(BackgroundSettings),
 }
 
 /// The host's half of the handshake.
@@ -112,6 +119,8 @@ pub enum Response {
     Sample(Sample),
     /// (Protocol 2.) Answer to [`Request::GetStatus`].
     Status(AdapterStatus),
+    /// (Protocol 5.) Answer to [`Request::GetBackgroundStatus`].
+    Background(BackgroundReport),
 }
 
 /// The adapter's half of the handshake.
@@ -478,4 +487,173 @@ pub enum SelfCalOutcome {
         /// Why, in English (at most [`SELFCAL_MESSAGE_CAP`] bytes).
         message: heapless::String<SELFCAL_MESSAGE_CAP>,
     },
+}
+
+/// (Protocol 5.) Bins of the background recalibration's orientation grid (6 cube faces × 3 × 3
+/// cells of ≈ 30°; `wiical_adapter::background::grid` numbers them).
+pub const BACKGROUND_BINS: usize = 54;
+
+/// (Protocol 5.) The background recalibration's settings, kept in the adapter's flash.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct BackgroundSettings {
+    /// Adopt better calibrations found during play (false: monitor only).
+    pub adopt: bool,
+    /// A calibration the host uploaded may be replaced by one found during play.
+    pub replace_uploaded: bool,
+}
+
+/// (Protocol 5.) Who made the adapter's live calibration.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum CalibrationOrigin {
+    /// No user calibration: the Nunchuk's own block (pass-through).
+    Factory,
+    /// The C + Z self-calibration on the adapter.
+    SelfCal,
+    /// Adopted by the background recalibration during play.
+    Background,
+    /// Uploaded by the host (or of unknown origin: treated as uploaded, the protected case).
+    Host,
+}
+
+/// (Protocol 5.) What the background recalibration is doing.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum BackgroundPhase {
+    /// Binning still moments.
+    Collecting,
+    /// A fit runs, one slice per report.
+    Fitting,
+    /// A calibration was adopted and is being stored.
+    Committing,
+    /// The detector refused its settings: nothing is binned.
+    Invalid,
+}
+
+/// (Protocol 5.) Why the still moments do not yet cover the sphere.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum CoverageGapReport {
+    /// Fewer fresh bins than the rule asks.
+    TooFewBins {
+        /// Needed.
+        needed: u8,
+        /// Present.
+        got: u8,
+    },
+    /// No still moment pointed far enough along `±axis` (0 = x).
+    MissingDirection {
+        /// Axis, 0 = x.
+        axis: u8,
+        /// `true`: the `+axis` side is missing.
+        positive: bool,
+    },
+    /// The directions are nearly in one plane.
+    Flat,
+    /// A direction was not finite.
+    BadDirection,
+}
+
+/// (Protocol 5.) The latest candidate that passed the fit and the acceptance limits.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct CandidateReport {
+    /// Held-out RMS of ‖a‖ − 1 g under the candidate, mg.
+    pub candidate_mg: f32,
+    /// Held-out RMS under the live calibration, mg.
+    pub live_mg: f32,
+    /// Training RMS under the candidate, mg.
+    pub fit_rms_mg: f32,
+    /// The full 9-parameter model (false: bias and scale).
+    pub full_model: bool,
+    /// A bias-against-temperature slope was fitted.
+    pub temperature: bool,
+    /// Training bins.
+    pub training_bins: u8,
+    /// Held-out bins.
+    pub heldout_bins: u8,
+}
+
+/// (Protocol 5.) The latest adoption.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct AdoptionReport {
+    /// Play time of the commit, s since power-up.
+    pub at_s: u32,
+    /// Held-out RMS before (the old live calibration), mg.
+    pub before_mg: f32,
+    /// Held-out RMS under the adopted one, mg.
+    pub after_mg: f32,
+}
+
+/// (Protocol 5.) Why the last attempt did not adopt. Numbers in mg and seconds.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub enum RefusalReport {
+    /// The fresh bins do not cover the sphere.
+    Coverage(CoverageGapReport),
+    /// Too few held-out bins to judge a candidate.
+    TooFewHeldOut {
+        /// Needed.
+        needed: u8,
+        /// Present.
+        got: u8,
+    },
+    /// The fit failed.
+    Fit,
+    /// The candidate failed the acceptance limits.
+    Implausible,
+    /// Not better than the live calibration by the margin.
+    NotBetter {
+        /// Candidate's held-out RMS, mg.
+        candidate_mg: f32,
+        /// Live calibration's held-out RMS, mg.
+        live_mg: f32,
+    },
+    /// Better, but adoption is off.
+    MonitorOnly {
+        /// Candidate's held-out RMS, mg.
+        candidate_mg: f32,
+        /// Live calibration's held-out RMS, mg.
+        live_mg: f32,
+    },
+    /// Better, but the live calibration was uploaded by the host and is protected.
+    HostCalibration,
+    /// Better, but the flash-write budget is spent for this long (s of play).
+    Budget {
+        /// Seconds of play until a commit is allowed.
+        wait_s: u32,
+    },
+    /// The live calibration has terms the background fit cannot carry over.
+    UnsupportedLive,
+    /// The fit was interrupted (new calibration, unplug, self-calibration session).
+    Interrupted,
+    /// Storing the adopted calibration failed.
+    Storage,
+}
+
+/// (Protocol 5.) The background recalibration's state: answer to
+/// [`Request::GetBackgroundStatus`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct BackgroundReport {
+    /// What it is doing.
+    pub phase: BackgroundPhase,
+    /// The stored settings in force.
+    pub settings: BackgroundSettings,
+    /// Who made the live calibration.
+    pub origin: CalibrationOrigin,
+    /// Play time since power-up, s.
+    pub play_s: u32,
+    /// Still moments binned since power-up.
+    pub moments: u32,
+    /// Fresh bins (visited recently enough to enter a fit), of [`BACKGROUND_BINS`].
+    pub bins_filled: u8,
+    /// Bit `i` set: bin `i` is fresh.
+    pub fresh_bins: u64,
+    /// Still moments per bin, saturated at 255, in bin order ([`BACKGROUND_BINS`] entries).
+    pub bin_moments: heapless::Vec<u8, BACKGROUND_BINS>,
+    /// The board's temperature, °C, when it measures one.
+    pub temperature_c: Option<f32>,
+    /// The coverage gap at the last attempt (`None`: covered, or no attempt yet).
+    pub coverage_gap: Option<CoverageGapReport>,
+    /// The last candidate that passed the fit and the acceptance limits.
+    pub candidate: Option<CandidateReport>,
+    /// The last adoption since power-up.
+    pub last_adoption: Option<AdoptionReport>,
+    /// Why the last attempt did not adopt (`None` after an adoption or before any attempt).
+    pub last_refusal: Option<RefusalReport>,
 }

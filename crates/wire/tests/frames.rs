@@ -59,7 +59,118 @@ fn request() -> impl Strategy<Value = Request> {
         Just(Request::StopStream),
         Just(Request::GetStatus),
         Just(Request::EndSession),
+        Just(Request::GetBackgroundStatus),
+        (any::<bool>(), any::<bool>()).prop_map(|(adopt, replace_uploaded)| {
+            Request::SetBackground(BackgroundSettings {
+                adopt,
+                replace_uploaded,
+            })
+        }),
     ]
+}
+
+fn refusal() -> impl Strategy<Value = RefusalReport> {
+    prop_oneof![
+        (any::<u8>(), any::<u8>()).prop_map(|(needed, got)| RefusalReport::Coverage(
+            CoverageGapReport::TooFewBins { needed, got }
+        )),
+        (0u8..3, any::<bool>()).prop_map(|(axis, positive)| RefusalReport::Coverage(
+            CoverageGapReport::MissingDirection { axis, positive }
+        )),
+        (f(), f()).prop_map(|(candidate_mg, live_mg)| RefusalReport::NotBetter {
+            candidate_mg,
+            live_mg
+        }),
+        any::<u32>().prop_map(|wait_s| RefusalReport::Budget { wait_s }),
+        Just(RefusalReport::HostCalibration),
+        Just(RefusalReport::Interrupted),
+    ]
+}
+
+fn background() -> impl Strategy<Value = BackgroundReport> {
+    let candidate = (f(), f(), f(), any::<bool>(), any::<u8>()).prop_map(|(c, l, r, full, n)| {
+        CandidateReport {
+            candidate_mg: c,
+            live_mg: l,
+            fit_rms_mg: r,
+            full_model: full,
+            temperature: !full,
+            training_bins: n,
+            heldout_bins: n / 4,
+        }
+    });
+    (
+        (any::<u32>(), any::<u32>(), any::<u64>(), any::<bool>()),
+        proptest::collection::vec(any::<u8>(), 0..=BACKGROUND_BINS),
+        proptest::option::of(f()),
+        proptest::option::of(candidate),
+        proptest::option::of((any::<u32>(), f(), f())),
+        proptest::option::of(refusal()),
+    )
+        .prop_map(
+            |((play_s, moments, fresh, adopt), bins, t, c, a, r)| BackgroundReport {
+                phase: BackgroundPhase::Fitting,
+                settings: BackgroundSettings {
+                    adopt,
+                    replace_uploaded: !adopt,
+                },
+                origin: CalibrationOrigin::Background,
+                play_s,
+                moments,
+                bins_filled: fresh.count_ones() as u8,
+                fresh_bins: fresh,
+                bin_moments: heapless::Vec::from_slice(&bins).unwrap(),
+                temperature_c: t,
+                coverage_gap: None,
+                candidate: c,
+                last_adoption: a.map(|(at_s, before_mg, after_mg)| AdoptionReport {
+                    at_s,
+                    before_mg,
+                    after_mg,
+                }),
+                last_refusal: r,
+            },
+        )
+}
+
+/// The largest background report: every option present, every varint at its longest.
+fn largest_background() -> BackgroundReport {
+    BackgroundReport {
+        phase: BackgroundPhase::Committing,
+        settings: BackgroundSettings {
+            adopt: true,
+            replace_uploaded: true,
+        },
+        origin: CalibrationOrigin::Host,
+        play_s: u32::MAX,
+        moments: u32::MAX,
+        bins_filled: u8::MAX,
+        fresh_bins: u64::MAX,
+        bin_moments: heapless::Vec::from_slice(&[255; BACKGROUND_BINS]).unwrap(),
+        temperature_c: Some(f32::MAX),
+        coverage_gap: Some(CoverageGapReport::TooFewBins {
+            needed: 255,
+            got: 255,
+        }),
+        candidate: Some(CandidateReport {
+            candidate_mg: 1.0,
+            live_mg: 1.0,
+            fit_rms_mg: 1.0,
+            full_model: true,
+            temperature: true,
+            training_bins: 255,
+            heldout_bins: 255,
+        }),
+        last_adoption: Some(AdoptionReport {
+            at_s: u32::MAX,
+            before_mg: 1.0,
+            after_mg: 1.0,
+        }),
+        last_refusal: Some(RefusalReport::MonitorOnly {
+            candidate_mg: 1.0,
+            live_mg: 1.0,
+        }),
+    }
 }
 
 fn status() -> impl Strategy<Value = AdapterStatus> {
@@ -138,6 +249,7 @@ fn response() -> impl Strategy<Value = Response> {
         any::<u32>().prop_map(|sample_rate_mhz| Response::StreamStarted { sample_rate_mhz }),
         sample().prop_map(Response::Sample),
         status().prop_map(Response::Status),
+        background().prop_map(Response::Background),
     ]
 }
 
@@ -378,6 +490,41 @@ fn golden_encodings() {
         hex(&enc(&Response::Status(st))),
         "0607050101026e6fac020000803f01"
     );
+    // Protocol 5 additions, at the end of each enum.
+    assert_eq!(hex(&enc(&Request::GetBackgroundStatus)), "08");
+    let set = Request::SetBackground(BackgroundSettings {
+        adopt: true,
+        replace_uploaded: false,
+    });
+    assert_eq!(hex(&enc(&set)), "090100");
+    let bg = BackgroundReport {
+        phase: BackgroundPhase::Fitting,
+        settings: BackgroundSettings {
+            adopt: true,
+            replace_uploaded: false,
+        },
+        origin: CalibrationOrigin::Host,
+        play_s: 300,
+        moments: 5,
+        bins_filled: 2,
+        fresh_bins: 3,
+        bin_moments: heapless::Vec::from_slice(&[1, 2]).unwrap(),
+        temperature_c: Some(1.0),
+        coverage_gap: None,
+        candidate: None,
+        last_adoption: Some(AdoptionReport {
+            at_s: 1,
+            before_mg: 1.0,
+            after_mg: 1.0,
+        }),
+        last_refusal: Some(RefusalReport::Budget { wait_s: 300 }),
+    };
+    // 07 Background, 01 Fitting, 01 00 settings, 03 Host, varint 300, 05, 02, varint 3,
+    // vec [1, 2], Some 1.0, None, None, Some {1, 1.0, 1.0}, Some Budget (07) varint 300.
+    assert_eq!(
+        hex(&enc(&Response::Background(bg))),
+        "0701010003ac02050203020102010000803f000001010000803f0000803f0107ac02"
+    );
 }
 
 /// Tiny object-safe helper so the golden test can take any message.
@@ -452,6 +599,7 @@ fn largest_messages_fit() {
             buttons: u16::MAX,
             stick: [255; 2],
         }),
+        Response::Background(largest_background()),
     ];
     for m in &big {
         let mut buf = [0u8; MAX_FRAME_LEN];
@@ -717,9 +865,13 @@ fn a_protocol_2_calibration_frame_is_refused() {
     let got: Vec<Result<Request, _>> = dec.feed(&enc).collect();
     assert_eq!(got.len(), 1);
     assert!(got[0].is_err(), "{got:?}");
-    assert_eq!(protocol_of_key(PREVIOUS_SCHEMA_KEYS[0].1), Some(3));
-    assert_eq!(
-        check_schema_key(PREVIOUS_SCHEMA_KEYS[0].1),
-        Err(ErrorCode::SchemaMismatch)
-    );
+    // The Hello exchange refuses every earlier protocol's key (3: the first with these
+    // cross terms; 4: the newest before this one).
+    for (k, v) in [(1, 3), (0, 4)] {
+        assert_eq!(protocol_of_key(PREVIOUS_SCHEMA_KEYS[k].1), Some(v));
+        assert_eq!(
+            check_schema_key(PREVIOUS_SCHEMA_KEYS[k].1),
+            Err(ErrorCode::SchemaMismatch)
+        );
+    }
 }

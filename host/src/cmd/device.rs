@@ -74,9 +74,21 @@ pub enum DeviceAction {
         #[arg(long)]
         force: bool,
     },
-    /// The adapter's self-calibration (C + Z held at plug-in): progress, last result, and
-    /// the stale-calibration estimate from still moments during play.
+    /// The adapter's self-calibration (C + Z held at plug-in): progress, last result, the
+    /// stale-calibration estimate from still moments during play, and the background
+    /// recalibration (bins, coverage, candidate vs live error, last adoption and refusal).
     SelfcalStatus,
+    /// Store the background recalibration's settings in the adapter: adoption on or off,
+    /// and whether it may replace a calibration uploaded by the host.
+    SelfcalSet {
+        /// Adopt better calibrations found during play (off: monitor only).
+        #[arg(long, value_parser = ["on", "off"])]
+        background: String,
+        /// Allow replacing a calibration the host uploaded (default: keep the adapter's
+        /// current setting).
+        #[arg(long, value_parser = ["yes", "no"])]
+        replace_uploaded: Option<String>,
+    },
     /// Stream corrected samples (CSV: seq,raw_x,raw_y,raw_z,ax,ay,az,c,z,stick_x,stick_y).
     Stream {
         /// Stop after this many samples (default: until interrupted).
@@ -345,20 +357,94 @@ pub fn run(args: &DeviceArgs, out: &mut dyn Write) -> Result<String> {
             render::fmt_terms(&mut o, &terms)?;
             Ok(o)
         }
-        DeviceAction::SelfcalStatus => {
-            let st = dev.status()?;
-            if json {
-                return to_json(&selfcal_json(port, &st));
-            }
-            let mut o = String::new();
-            render::fmt_status(&mut o, &st)?;
-            Ok(o)
-        }
+        DeviceAction::SelfcalStatus => selfcal_status(&mut dev, port, json),
+        DeviceAction::SelfcalSet {
+            background,
+            replace_uploaded,
+        } => selfcal_set(
+            &mut dev,
+            port,
+            background,
+            replace_uploaded.as_deref(),
+            json,
+        ),
         DeviceAction::Stream { count, divider } => {
             stream(&mut dev, *count, *divider, json, out)?;
             Ok(String::new())
         }
     }
+}
+
+/// `device selfcal-status`: the self-calibration and the background recalibration.
+fn selfcal_status(dev: &mut Device, port: &str, json: bool) -> Result<String> {
+    let st = dev.status()?;
+    let bg = dev.background_status()?;
+    if json {
+        let mut v = selfcal_json(port, &st);
+        v["background"] = background_json(&bg);
+        return to_json(&v);
+    }
+    let mut o = String::new();
+    render::fmt_status(&mut o, &st)?;
+    render::fmt_background(&mut o, &bg)?;
+    Ok(o)
+}
+
+/// `device selfcal-set`: stores the background settings and reads them back.
+fn selfcal_set(
+    dev: &mut Device,
+    port: &str,
+    background: &str,
+    replace_uploaded: Option<&str>,
+    json: bool,
+) -> Result<String> {
+    let now = dev.background_status()?.settings;
+    let want = wiical_wire::BackgroundSettings {
+        adopt: background == "on",
+        replace_uploaded: replace_uploaded.map_or(now.replace_uploaded, |r| r == "yes"),
+    };
+    dev.set_background(want)?;
+    let back = dev.background_status()?.settings;
+    if back != want {
+        bail!("the adapter on {port} acknowledged the background settings but reports {back:?}, not {want:?}");
+    }
+    if json {
+        return to_json(&serde_json::json!({
+            "port": port, "stored": true,
+            "adopt": back.adopt, "replace_uploaded": back.replace_uploaded
+        }));
+    }
+    Ok(format!(
+        "background recalibration on {port}: adoption {}, a host upload {} (stored in the adapter)\n",
+        if back.adopt { "on" } else { "off (monitor only)" },
+        if back.replace_uploaded { "may be replaced" } else { "is kept" }
+    ))
+}
+
+fn background_json(b: &wiical_wire::BackgroundReport) -> serde_json::Value {
+    serde_json::json!({
+        "phase": format!("{:?}", b.phase),
+        "adopt": b.settings.adopt,
+        "replace_uploaded": b.settings.replace_uploaded,
+        "origin": format!("{:?}", b.origin),
+        "play_s": b.play_s,
+        "moments": b.moments,
+        "bins_filled": b.bins_filled,
+        "bins": b.bin_moments.len(),
+        "fresh_bins": (0..b.bin_moments.len()).filter(|i| b.fresh_bins >> i & 1 == 1).collect::<Vec<_>>(),
+        "bin_moments": b.bin_moments.as_slice(),
+        "temperature_c": b.temperature_c,
+        "coverage_gap": b.coverage_gap.as_ref().map(|g| format!("{g:?}")),
+        "candidate": b.candidate.map(|c| serde_json::json!({
+            "candidate_mg": c.candidate_mg, "live_mg": c.live_mg, "fit_rms_mg": c.fit_rms_mg,
+            "full_model": c.full_model, "temperature": c.temperature,
+            "training_bins": c.training_bins, "heldout_bins": c.heldout_bins,
+        })),
+        "last_adoption": b.last_adoption.map(|a| serde_json::json!({
+            "at_s": a.at_s, "before_mg": a.before_mg, "after_mg": a.after_mg,
+        })),
+        "last_refusal": b.last_refusal.as_ref().map(render::refusal_text),
+    })
 }
 
 /// `device info`: the handshake's answer and the stale-calibration monitor.

@@ -55,12 +55,16 @@ pub enum ServeError {
 /// them.
 pub struct Shared {
     tx: watch::Sender<Published>,
+    /// An adapter's background-recalibration grid, published with every snapshot as
+    /// `adapter_grid` (set by the device source; `None` for a replay).
+    grid: std::sync::Mutex<Option<serde_json::Value>>,
 }
 
 impl Default for Shared {
     fn default() -> Self {
         Self {
             tx: watch::channel(Published::default()).0,
+            grid: std::sync::Mutex::new(None),
         }
     }
 }
@@ -75,7 +79,15 @@ pub(crate) struct Published {
 impl Shared {
     /// Publishes a snapshot (serialised once, shared by every viewer).
     pub fn publish(&self, snap: &Snapshot) {
-        let mut json = serde_json::to_string(snap).unwrap_or_else(|e| error_json(&e.to_string()));
+        let grid = self.grid.lock().map(|g| g.clone()).unwrap_or(None);
+        let mut json = match grid {
+            None => serde_json::to_string(snap),
+            Some(g) => serde_json::to_value(snap).map(|mut v| {
+                v["adapter_grid"] = g;
+                v.to_string()
+            }),
+        }
+        .unwrap_or_else(|e| error_json(&e.to_string()));
         if json.len() > MAX_MESSAGE_BYTES {
             json = error_json(&format!(
                 "snapshot of {} bytes exceeds the {MAX_MESSAGE_BYTES}-byte message limit",
@@ -87,6 +99,13 @@ impl Shared {
             p.json = Arc::new(json);
             p.version += 1;
         });
+    }
+
+    /// Sets the adapter grid published with the next snapshots (see the `grid` field).
+    pub fn set_adapter_grid(&self, grid: serde_json::Value) {
+        if let Ok(mut g) = self.grid.lock() {
+            *g = Some(grid);
+        }
     }
 
     /// The latest snapshot and its version (0: none yet).

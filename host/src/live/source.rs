@@ -3,7 +3,8 @@
 //! device-sim --pty`). The samples go through a [`LiveSession`]; a snapshot is
 //! published at most every [`PUBLISH_EVERY`] of wall time, on every new pose and at the end.
 //! An adapter's stream state and self-calibration status (the C + Z mode, protocol 2's
-//! `GetStatus`) become the page's source status line.
+//! `GetStatus`) become the page's source status line; its background recalibration's grid
+//! (protocol 5's `GetBackgroundStatus`) is drawn on the page's hemispheres.
 
 use super::Shared;
 use crate::client::{ClientOptions, Device};
@@ -115,6 +116,17 @@ pub fn device(path: &str, shared: &Arc<Shared>) -> Option<Snapshot> {
                 }
                 Err(e) => break e.to_string(),
             }
+            match dev.background_while_streaming() {
+                Ok((grid, samples)) => {
+                    if let Some(g) = &grid {
+                        shared.set_adapter_grid(grid_json(g));
+                    }
+                    if let Some(e) = samples.iter().find_map(|s| feed.push(s).err()) {
+                        break e;
+                    }
+                }
+                Err(e) => break e.to_string(),
+            }
         }
         let pushed = match dev.next_sample() {
             Ok(s) => feed.push(&s),
@@ -182,6 +194,44 @@ impl Feed {
         self.session.set_source_status(&line);
         self.publish();
     }
+}
+
+/// The adapter's background-recalibration grid for the page: each bin's centre direction,
+/// its still moments and whether it is fresh, and one line of words.
+pub fn grid_json(b: &wiical_wire::BackgroundReport) -> serde_json::Value {
+    let bins: Vec<_> = b
+        .bin_moments
+        .iter()
+        .enumerate()
+        .filter_map(|(i, m)| {
+            let c = crate::client::background_bin_centre(i)?;
+            Some(serde_json::json!({
+                "direction": c, "moments": m, "fresh": b.fresh_bins >> i & 1 == 1,
+            }))
+        })
+        .collect();
+    let mut line = format!(
+        "{} of {} bins fresh, {} still moments",
+        b.bins_filled,
+        b.bin_moments.len(),
+        b.moments
+    );
+    if let Some(c) = b.candidate {
+        line.push_str(&format!(
+            "; held out: candidate {:.2} mg vs live {:.2} mg",
+            c.candidate_mg, c.live_mg
+        ));
+    }
+    if let Some(a) = b.last_adoption {
+        line.push_str(&format!(
+            "; adopted at {} s ({:.2} → {:.2} mg)",
+            a.at_s, a.before_mg, a.after_mg
+        ));
+    }
+    if let Some(r) = &b.last_refusal {
+        line.push_str(&format!("; {}", crate::render::device::refusal_text(r)));
+    }
+    serde_json::json!({ "bins": bins, "line": line, "adopt": b.settings.adopt })
 }
 
 /// The adapter's self-calibration state in words: the phase (what its LED shows), the last

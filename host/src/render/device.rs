@@ -1,11 +1,15 @@
 //! The text `wiical device …` prints: calibrations, the adapter's identity and its
-//! self-calibration status. The numbers come from the adapter's answers.
+//! self-calibration and background recalibration status. The numbers come from the adapter's
+//! answers.
 
 use anyhow::Result;
 use std::fmt::Write as _;
 use std::path::Path;
 use wiical_core::Calibration;
-use wiical_wire::{AdapterStatus, SelfCalOutcome, SelfCalPhase};
+use wiical_wire::{
+    AdapterStatus, BackgroundPhase, BackgroundReport, CalibrationOrigin, CoverageGapReport,
+    RefusalReport, SelfCalOutcome, SelfCalPhase,
+};
 
 /// A calibration under a title: bias and `K = D⁻¹` (g per count, shown ×1e-3).
 pub fn fmt_cal(o: &mut String, title: &str, c: &Calibration) -> Result<()> {
@@ -163,4 +167,125 @@ pub fn staged_text(file: &Path, port: &str) -> String {
 /// `device commit` (or `put --commit`): the calibration is live and in flash.
 pub fn committed_text(port: &str) -> String {
     format!("committed on {port}: the calibration is live and stored in the adapter's flash\n")
+}
+
+/// One refusal of the background recalibration, in a sentence with its numbers.
+pub fn refusal_text(r: &RefusalReport) -> String {
+    match r {
+        RefusalReport::Coverage(g) => format!("the still moments do not cover the sphere: {}", gap_text(g)),
+        RefusalReport::TooFewHeldOut { needed, got } => {
+            format!("{got} held-out bins, {needed} needed to judge a candidate")
+        }
+        RefusalReport::Fit => "the fit failed (the bins do not determine the parameters)".into(),
+        RefusalReport::Implausible => "the candidate failed the acceptance limits".into(),
+        RefusalReport::NotBetter { candidate_mg, live_mg } => format!(
+            "the candidate ({candidate_mg:.2} mg held out) is not better than the live calibration ({live_mg:.2} mg) by the margin"
+        ),
+        RefusalReport::MonitorOnly { candidate_mg, live_mg } => format!(
+            "a better candidate ({candidate_mg:.2} mg held out vs {live_mg:.2} mg live) was not adopted: adoption is off"
+        ),
+        RefusalReport::HostCalibration => {
+            "a better candidate was not adopted: the live calibration was uploaded by the host (selfcal-set --replace-uploaded yes allows it)".into()
+        }
+        RefusalReport::Budget { wait_s } => {
+            format!("a better candidate waits for the flash-write budget: {wait_s} s of play")
+        }
+        RefusalReport::UnsupportedLive => {
+            "the live calibration has terms the background fit cannot keep".into()
+        }
+        RefusalReport::Interrupted => {
+            "the fit was interrupted (new calibration, unplug or self-calibration)".into()
+        }
+        RefusalReport::Storage => "storing the adopted calibration failed; the old one is live".into(),
+    }
+}
+
+fn gap_text(g: &CoverageGapReport) -> String {
+    match g {
+        CoverageGapReport::TooFewBins { needed, got } => format!("{got} of {needed} bins"),
+        CoverageGapReport::MissingDirection { axis, positive } => format!(
+            "the {}{} side was never met",
+            if *positive { "+" } else { "−" },
+            ["x", "y", "z"].get(usize::from(*axis)).unwrap_or(&"?")
+        ),
+        CoverageGapReport::Flat => "the orientations lie nearly in one plane".into(),
+        CoverageGapReport::BadDirection => "a still moment had no finite direction".into(),
+    }
+}
+
+fn origin_text(o: CalibrationOrigin) -> &'static str {
+    match o {
+        CalibrationOrigin::Factory => "the Nunchuk's own (no calibration stored)",
+        CalibrationOrigin::SelfCal => "the adapter's self-calibration (C + Z)",
+        CalibrationOrigin::Background => "the background recalibration",
+        CalibrationOrigin::Host => "uploaded by the host (or of unknown origin)",
+    }
+}
+
+/// The background recalibration (`device selfcal-status`): one row per fact.
+pub fn fmt_background(o: &mut String, b: &BackgroundReport) -> Result<()> {
+    let phase = match b.phase {
+        BackgroundPhase::Collecting => "collecting still moments",
+        BackgroundPhase::Fitting => "fitting",
+        BackgroundPhase::Committing => "storing an adopted calibration",
+        BackgroundPhase::Invalid => "off (invalid detector settings)",
+    };
+    let row = |o: &mut String, k: &str, v: &str| writeln!(o, "  {k:<18} {v}");
+    writeln!(o, "background recalibration:")?;
+    row(o, "state", phase)?;
+    let adoption = match (b.settings.adopt, b.settings.replace_uploaded) {
+        (false, _) => "off (monitor only)",
+        (true, false) => "on; a host upload is kept",
+        (true, true) => "on; may replace a host upload",
+    };
+    row(o, "adoption", adoption)?;
+    row(o, "live calibration", origin_text(b.origin))?;
+    row(o, "play time", &format!("{} s since power-up", b.play_s))?;
+    let bins = format!(
+        "{} in {} of {} bins (fresh)",
+        b.moments,
+        b.bins_filled,
+        b.bin_moments.len()
+    );
+    row(o, "still moments", &bins)?;
+    let coverage = match (&b.coverage_gap, &b.candidate) {
+        (Some(g), _) => gap_text(g),
+        (None, Some(_)) => "covered".into(),
+        (None, None) => "not judged yet (first attempt after a minute of play)".into(),
+    };
+    row(o, "coverage", &coverage)?;
+    let t = b
+        .temperature_c
+        .map_or("not measured".into(), |t| format!("{t:.1} °C"));
+    row(o, "temperature", &t)?;
+    let candidate = b.candidate.map_or("none yet".into(), |c| {
+        format!(
+            "{:.2} mg under the candidate vs {:.2} mg live ({}{}; {} + {} held-out bins)",
+            c.candidate_mg,
+            c.live_mg,
+            if c.full_model {
+                "full 9 parameters"
+            } else {
+                "bias + scale"
+            },
+            if c.temperature {
+                " + temperature slope"
+            } else {
+                ""
+            },
+            c.training_bins,
+            c.heldout_bins
+        )
+    });
+    row(o, "held-out error", &candidate)?;
+    let adoption = b.last_adoption.map_or("none since power-up".into(), |a| {
+        format!(
+            "at {} s of play: {:.2} → {:.2} mg held out",
+            a.at_s, a.before_mg, a.after_mg
+        )
+    });
+    row(o, "last adoption", &adoption)?;
+    let refusal = b.last_refusal.as_ref().map_or("none".into(), refusal_text);
+    row(o, "last refusal", &refusal)?;
+    Ok(())
 }

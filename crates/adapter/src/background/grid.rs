@@ -159,6 +159,28 @@ impl Grid {
     }
 }
 
+/// The unit direction at the centre of bin `i` (the inverse of [`bin_of`] at cell centres),
+/// for drawing the grid; `None` past the last bin.
+pub fn bin_centre(i: usize) -> Option<[f32; 3]> {
+    if i >= BINS {
+        return None;
+    }
+    let (face, cell) = (i / (CELLS * CELLS), i % (CELLS * CELLS));
+    let axis = face / 2;
+    let major = if face % 2 == 0 { 1.0 } else { -1.0 };
+    // The cell's centre in the equal-angle coordinate, back through `tan`.
+    let coord = |k: usize| -> f32 {
+        let x = (k as f32 + 0.5) / CELLS as f32 * 2.0 - 1.0;
+        libm::tanf(x * core::f32::consts::FRAC_PI_4)
+    };
+    let mut d = [0.0f32; 3];
+    d[axis] = major;
+    d[(axis + 1) % 3] = coord(cell / CELLS);
+    d[(axis + 2) % 3] = coord(cell % CELLS);
+    let n = libm::sqrtf(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    Some(d.map(|x| x / n))
+}
+
 /// The bin of a direction (any length), or `None` when it is zero or not finite.
 pub fn bin_of(direction: [f32; 3]) -> Option<usize> {
     if !direction.iter().all(|x| x.is_finite()) {

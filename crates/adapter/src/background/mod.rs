@@ -315,9 +315,23 @@ impl Background {
     /// and the live calibration (unchanged while a fit runs, else tell
     /// [`Background::calibration_changed`]). Does at most one slice of fit work.
     pub fn on_report(&mut self, raw: [u16; 3], temperature_c: Option<f32>, live: &Calibration) {
+        let moment = self.feed.push(raw).map(|m| m.mean);
+        self.on_tick(moment, temperature_c, live);
+    }
+
+    /// One report whose stillness another feed judged (the adapter's report loop, where the
+    /// self-calibration's [`StillFeed`] runs the one detector): the mean raw counts of the
+    /// still moment this report ended, if any. Otherwise as [`Background::on_report`]: the
+    /// clock moves one report and at most one slice of fit work is done.
+    pub fn on_tick(
+        &mut self,
+        moment: Option<[f32; 3]>,
+        temperature_c: Option<f32>,
+        live: &Calibration,
+    ) {
         self.tick();
-        if let Some(moment) = self.feed.push(raw) {
-            self.on_still_moment(moment.mean, temperature_c, live);
+        if let Some(mean) = moment {
+            self.on_still_moment(mean, temperature_c, live);
         }
         if self.job.is_none() && self.pending.is_none() && self.due() {
             self.start_job();
@@ -455,6 +469,17 @@ impl Background {
     /// reset): a running fit or a waiting adoption is dropped; the bins, in raw counts, stay.
     pub fn calibration_changed(&mut self, origin: LiveOrigin) {
         self.origin = origin;
+        self.interrupt();
+    }
+
+    /// Who made the live calibration, as the machine knows it.
+    pub fn origin(&self) -> LiveOrigin {
+        self.origin
+    }
+
+    /// A self-calibration session runs (call on every report it has): a running fit or a
+    /// waiting adoption is dropped, the bins stay, and nothing is binned meanwhile.
+    pub fn suspend(&mut self) {
         self.interrupt();
     }
 

@@ -1,12 +1,13 @@
-//! Still moments of normal play: the core's static detector with the self-calibration's
-//! absolute stillness limit.
+//! Still moments: the core's static detector with an absolute stillness limit — the one rule
+//! that the self-calibration session, the stale monitor and the background recalibration all
+//! apply (the adapter's report loop runs a single feed, inside [`crate::SelfCal`], and hands
+//! its moments of normal play on to the background recalibration).
 //!
 //! The detector's noise reference is the variance of its first window; a Nunchuk that is
 //! moving when the detector starts would inflate it, so the detector is restarted until that
 //! first window is itself still (every axis variance ≤ the limit), and every still moment must
-//! meet the same absolute limit to count — the rules of the self-calibration session (whose
-//! detector is private to it), so that shaking or a trembling hand yields no moments rather
-//! than bad ones.
+//! meet the same absolute limit to count, so that shaking or a trembling hand yields no
+//! moments rather than bad ones.
 
 use wiical_core::static_detect::{StaticDetector, StaticDetectorConfig, StaticInterval};
 
