@@ -33,6 +33,7 @@
 
 #![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x > 0.0)` is deliberately true for NaN.
 use crate::report::effect_names as names;
+use crate::report::effect_table::Effect;
 use nalgebra::SVector;
 use wiical_core::lm::{self, LmFit, LmSettings, Problem};
 use wiical_core::model::axis_polynomial;
@@ -66,7 +67,7 @@ pub const DRIFT2: usize = 24;
 pub const OPEN: usize = 27;
 
 /// What an open slot of the parameter vector stands for (the open basis of
-/// [`crate::search::open_basis`]): one coefficient `p`, acting on one output axis. The slot's
+/// [`crate::search::open_basis_screening`]): one coefficient `p`, acting on one output axis. The slot's
 /// identity is held by every window ([`Win::slots`]) so that the forward model stays one
 /// function: an empty slot costs a branch and changes nothing.
 ///
@@ -243,16 +244,21 @@ impl Term {
         }
     }
 
-    /// Name used in reports (the `effects[].name` of the JSON contract).
-    pub fn name(self) -> &'static str {
+    /// The candidate that adds this single parameter block.
+    pub fn effect(self) -> Effect {
         match self {
-            Term::Drift => names::BIAS_DRIFT,
-            Term::BiasTemp => names::TEMPERATURE,
-            Term::ScaleTemp => names::TEMPERATURE_SCALE,
-            Term::Quadratic => names::QUADRATIC,
-            Term::Cubic => names::CUBIC,
-            Term::Drift2 => names::BIAS_DRIFT_CURVED,
+            Term::Drift => Effect::BiasDrift,
+            Term::BiasTemp => Effect::Temperature,
+            Term::ScaleTemp => Effect::TemperatureScale,
+            Term::Quadratic => Effect::Quadratic,
+            Term::Cubic => Effect::Cubic,
+            Term::Drift2 => Effect::BiasDriftCurved,
         }
+    }
+
+    /// Name used in reports (the `effects[].name` of the JSON contract): its effect's.
+    pub fn name(self) -> &'static str {
+        self.effect().name()
     }
 
     /// True for the terms whose single axes are candidates too ([`Part::axis`]): the per-axis
@@ -266,9 +272,9 @@ impl Term {
         matches!(self, Term::Quadratic | Term::Cubic)
     }
 
-    /// True for terms needing a temperature column.
+    /// True for terms needing a temperature column (their effect's row says so).
     pub fn needs_temperature(self) -> bool {
-        matches!(self, Term::BiasTemp | Term::ScaleTemp)
+        self.effect().needs_temperature()
     }
 }
 
