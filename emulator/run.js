@@ -55,7 +55,7 @@ function writeCal(name, cal) {
 const calA = writeCal('a', CAL_A);
 const calB = writeCal('b', CAL_B);
 /**
- * A calibration with orientation-dependent cross terms (issue 19; calibration file version 2):
+ * A calibration with orientation-dependent cross terms (calibration file version 2):
  * per output axis the coefficients of the degree-2 monomials other than its own square, in the
  * order x², y², z², xy, xz, yz (1/g), and of the degree-3 ones other than its own cube, in the
  * order x³, y³, z³, x²y, x²z, xy², y²z, xz², yz², xyz (1/g²); large enough to move the
@@ -227,7 +227,7 @@ async function fillUntilErase(image, live, maxCommits = 300) {
 }
 
 /**
- * A calibration produced by the pipeline rather than written by hand (issue 19): a Nunchuk
+ * A calibration produced by the pipeline rather than written by hand: a Nunchuk
  * recording with an undeclared cross-quadratic effect from `wiical simulate` (fixed seed),
  * analysed blind by `wiical analyze --out`. Returns the calibration file's path and contents,
  * analyze's JSON report and the simulator's truth, or `{ error }`.

@@ -274,7 +274,7 @@ fn absurd_gyro_nominals_are_named_and_right_ones_pass() {
     assert!(wiical(&["gyrofit", u, "--counts-per-dps", "16.384"]).0);
 }
 
-// ---- issue 35's doors: `correct`, calibration files, `batch` ----
+// ---- the doors of `correct`, calibration files and `batch` ----
 
 /// A still recording in Nunchuk counts (z up: 512, 512, 712 ± 2; x offset to 600 so a scale
 /// term on x shows), `n` samples 0.1 s apart, with a temperature column.

@@ -1,4 +1,4 @@
-//! End-to-end `analyze` on a 50k-sample recording (issue: must finish under 2 s), and `fit`;
+//! End-to-end `analyze` on a 50k-sample recording (the target: under 2 s), and `fit`;
 //! `analyze` on the real Xsens recording (`$WIICAL_DATA` or `../shared/data`) and on a
 //! 1 M-row simulation (~1,200 windows: the PRESS identity replaces the per-window refits).
 

@@ -10,7 +10,7 @@ use common::correlates::{correlates_run, correlates_sim, strongest};
 use common::sim::sim;
 use wiical_analysis::search::candidate::Candidate;
 use wiical_analysis::simulate::{
-    open_basis::THERMAL_LAG_TAU_S, Device, EffectSpec, SimEffect, SimOutput, Truth,
+    open_basis_terms::THERMAL_LAG_TAU_S, Device, EffectSpec, SimEffect, SimOutput, Truth,
 };
 use wiical_analysis::{analyze, AnalyzeOptions, AnalyzeReport};
 
@@ -378,7 +378,7 @@ fn open_basis_sweep() {
 
 /// Each family with one of the seven (at default magnitudes), and triples of families.
 fn pair_sets() -> Vec<Vec<SimEffect>> {
-    use SimEffect::*;
+    use wiical_analysis::report::effect_table::Effect::*;
     vec![
         vec![CrossQuadratic, Quadratic],
         vec![CrossCubic, Cubic],

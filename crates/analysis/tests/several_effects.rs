@@ -150,7 +150,7 @@ fn all_pairs() -> Vec<Vec<SimEffect>> {
 /// the held-out error is cut to near what the full model reaches.
 #[test]
 fn two_effects_at_once_are_both_named() {
-    use SimEffect::*;
+    use wiical_analysis::report::effect_table::Effect::*;
     for (set, seed) in [
         (vec![Quadratic, Temperature], 1),
         (vec![Quadratic, Temperature], 2),

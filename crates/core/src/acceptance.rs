@@ -633,7 +633,7 @@ mod tests {
     }
 
     #[test]
-    fn the_absurd_uploads_of_issue_11_are_refused_with_their_reason() {
+    fn absurd_uploads_are_refused_with_their_reason() {
         let acc = Acceptance::nunchuk();
         let mut c = nunchuk_like();
         c.effects.quadratic[1] = 1e30;

@@ -176,6 +176,51 @@ pub fn axis_polynomial<T: Real>(x: T, k2: T, k3: T) -> T {
     x + k2 * x * x + k3 * x * x * x
 }
 
+/// The reading with the bias removed at a condition,
+/// `m − b − drift·t − later_in_time − bias_temp·Δθ`, subtracted term by term in this order per
+/// axis (`Δθ = θ − θ₀`; `None` without a thermometer: the temperature term is left out).
+/// `later_in_time` is a further time-dependent bias already evaluated, zero for the core's
+/// calibration (the analysis's `f64` model passes its drift curvature `d₂·τ²` there). The one
+/// formula of [`CalibrationT::correct`] (the device's `f32`) and of the analysis's model,
+/// which calls it with its normalised time and temperature.
+#[inline(always)]
+pub fn remove_bias<T: Real>(
+    m: &[T; 3],
+    bias: &[T; 3],
+    drift: &[T; 3],
+    time: T,
+    later_in_time: &[T; 3],
+    temp: &[T; 3],
+    dtheta: Option<T>,
+) -> [T; 3] {
+    core::array::from_fn(|i| {
+        let d = m[i] - bias[i] - drift[i] * time - later_in_time[i];
+        match dtheta {
+            Some(dt) => d - temp[i] * dt,
+            None => d,
+        }
+    })
+}
+
+/// `K·d`, each row summed left to right: the linear step of the correction (`d` the reading
+/// with the bias removed). Written out so that it compiles to straight-line multiply–adds on
+/// a Cortex-M.
+#[inline(always)]
+pub fn linear<T: Real>(k: &[[T; 3]; 3], d: &[T; 3]) -> [T; 3] {
+    [
+        k[0][0] * d[0] + k[0][1] * d[1] + k[0][2] * d[2],
+        k[1][0] * d[0] + k[1][1] * d[1] + k[1][2] * d[2],
+        k[2][0] * d[0] + k[2][1] * d[1] + k[2][2] * d[2],
+    ]
+}
+
+/// The relative scale `1 + scale_temp·Δθ` one axis's linearly corrected reading is multiplied
+/// by.
+#[inline(always)]
+pub fn temperature_scale<T: Real>(scale_temp: T, dtheta: T) -> T {
+    T::one() + scale_temp * dtheta
+}
+
 /// Optional effect terms beyond the linear model, in the float type `T`. All zero means
 /// "linear model only". The fields are the rows of [`crate::terms::TERMS`], in its order.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -513,13 +558,7 @@ impl<T: Real> CalibrationT<T> {
     /// temperature-shifted one), without copying the calibration.
     #[inline]
     fn linear_with_bias(&self, m: [T; 3], b: &[T; 3]) -> [T; 3] {
-        let d = [m[0] - b[0], m[1] - b[1], m[2] - b[2]];
-        let k = &self.matrix;
-        [
-            k[0][0] * d[0] + k[0][1] * d[1] + k[0][2] * d[2],
-            k[1][0] * d[0] + k[1][1] * d[1] + k[1][2] * d[2],
-            k[2][0] * d[0] + k[2][1] * d[1] + k[2][2] * d[2],
-        ]
+        linear(&self.matrix, &[m[0] - b[0], m[1] - b[1], m[2] - b[2]])
     }
 
     /// Full correction including the effect terms (see the module docs for their definition).
@@ -557,17 +596,13 @@ impl<T: Real> CalibrationT<T> {
     fn correct_terms<const CROSS: bool>(&self, m: [T; 3], cond: &ConditionsT<T>) -> [T; 3] {
         let e = &self.effects;
         let dtheta = cond.temperature_c.map(|t| t - e.temp_ref_c);
-        let mut b = self.bias;
-        for ((bi, drift), temp) in b.iter_mut().zip(e.bias_drift).zip(e.bias_temp) {
-            *bi += drift * cond.time_s;
-            if let Some(dt) = dtheta {
-                *bi += temp * dt;
-            }
-        }
-        let mut u = self.linear_with_bias(m, &b);
+        let zero = [T::zero(); 3];
+        let (drift, temp) = (&e.bias_drift, &e.bias_temp);
+        let d = remove_bias(&m, &self.bias, drift, cond.time_s, &zero, temp, dtheta);
+        let mut u = linear(&self.matrix, &d);
         for (i, ui) in u.iter_mut().enumerate() {
             if let Some(dt) = dtheta {
-                *ui *= T::one() + e.scale_temp[i] * dt;
+                *ui *= temperature_scale(e.scale_temp[i], dt);
             }
         }
         // The per-axis polynomial, then (left to right, after it) the cross sum of the same u.

@@ -58,8 +58,8 @@ fn parse_axis(s: &str) -> Result<usize, String> {
 }
 
 fn parse_effect(s: &str) -> Result<SimEffect, String> {
-    SimEffect::parse(s).ok_or_else(|| {
-        let names: Vec<&str> = SimEffect::every().map(|e| e.name()).collect();
+    SimEffect::parse_simulated(s).ok_or_else(|| {
+        let names: Vec<&str> = SimEffect::simulated().map(|e| e.name()).collect();
         format!("'{s}': expected one of {}", names.join(", "))
     })
 }

@@ -13,18 +13,23 @@
 //! r   = ‖a‖ − 1                          (g)
 //! ```
 //!
-//! This is exactly the correction-side definition of [`wiical_core::Effects`] (bias drift `d`,
-//! bias temperature coefficient `β`, scale temperature coefficient `σ`, quadratic `q`, cubic
-//! `c`) in normalised units (the curvature `d₂` of the drift is a diagnostic the core cannot
-//! store); [`Normalisation::to_calibration_f64`] maps the parameters back to raw
-//! units, seconds and °C as the core's calibration in `f64` (`CalibrationT<f64>`, the same
-//! generic type and correction the device runs in `f32`), whose correction reproduces this
-//! model to `f64` rounding (a test checks it). The per-axis polynomial is the core's own
-//! function ([`wiical_core::model::axis_polynomial`]); the bias is subtracted term by term in
-//! the normalised frame because the fit also carries terms the core does not store (the
-//! drift's curvature, the open slots), and the gradient below is the model's own. Only the three non-orthogonality entries above the diagonal of `K`
-//! are free, so the sensor frame is fixed by the same convention as the core's fit (x kept,
-//! y in the x–y plane): per-axis effect terms refer to the axes of that frame.
+//! This is the correction of [`wiical_core::Effects`] (bias drift `d`, bias temperature
+//! coefficient `β`, scale temperature coefficient `σ`, quadratic `q`, cubic `c`) in
+//! normalised units, computed by the core's own generic functions, the ones
+//! `CalibrationT::correct` runs in `f32` on the device: the bias removal
+//! ([`wiical_core::model::remove_bias`], with the drift's curvature `d₂`, a diagnostic the
+//! core's calibration cannot hold, as its further time term), `K·e`
+//! ([`wiical_core::model::linear`]), the temperature scale
+//! ([`wiical_core::model::temperature_scale`]) and the per-axis polynomial
+//! ([`wiical_core::model::axis_polynomial`]). The open slots ([`Slot`]) act around them: bias
+//! terms subtracted from `e`, scale terms multiplying `1 + σ_j·ϑ`, cross terms added to `a`. A
+//! test checks that the core's `CalibrationT<f64>::correct` with these parameters
+//! (normalised frame) gives this model's `a` bit for bit; [`Normalisation::to_calibration_f64`]
+//! maps the parameters back to raw units, seconds and °C, whose correction reproduces the
+//! model to `f64` rounding. The gradient below is the model's own. Only the three
+//! non-orthogonality entries above the diagonal of `K` are free, so the sensor frame is fixed
+//! by the same convention as the core's fit (x kept, y in the x–y plane): per-axis effect
+//! terms refer to the axes of that frame.
 //!
 //! All 27 parameters (9 base + six effect blocks of 3) always exist; a mask says which are
 //! free. The Jacobian is analytic (derivatives written out below). The fit is the core's
@@ -33,9 +38,10 @@
 
 #![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x > 0.0)` is deliberately true for NaN.
 use crate::report::effect_names as names;
+use crate::report::effect_table::Effect;
 use nalgebra::SVector;
 use wiical_core::lm::{self, LmFit, LmSettings, Problem};
-use wiical_core::model::axis_polynomial;
+use wiical_core::model::{axis_polynomial, linear, remove_bias, temperature_scale};
 use wiical_core::{Calibration, CalibrationT, EffectsT, Real};
 
 /// Number of open slots: single terms of the open basis ([`Slot`]), appended to the 27
@@ -66,7 +72,7 @@ pub const DRIFT2: usize = 24;
 pub const OPEN: usize = 27;
 
 /// What an open slot of the parameter vector stands for (the open basis of
-/// [`crate::search::open_basis`]): one coefficient `p`, acting on one output axis. The slot's
+/// [`crate::search::open_basis_screening`]): one coefficient `p`, acting on one output axis. The slot's
 /// identity is held by every window ([`Win::slots`]) so that the forward model stays one
 /// function: an empty slot costs a branch and changes nothing.
 ///
@@ -243,16 +249,21 @@ impl Term {
         }
     }
 
-    /// Name used in reports (the `effects[].name` of the JSON contract).
-    pub fn name(self) -> &'static str {
+    /// The candidate that adds this single parameter block.
+    pub fn effect(self) -> Effect {
         match self {
-            Term::Drift => names::BIAS_DRIFT,
-            Term::BiasTemp => names::TEMPERATURE,
-            Term::ScaleTemp => names::TEMPERATURE_SCALE,
-            Term::Quadratic => names::QUADRATIC,
-            Term::Cubic => names::CUBIC,
-            Term::Drift2 => names::BIAS_DRIFT_CURVED,
+            Term::Drift => Effect::BiasDrift,
+            Term::BiasTemp => Effect::Temperature,
+            Term::ScaleTemp => Effect::TemperatureScale,
+            Term::Quadratic => Effect::Quadratic,
+            Term::Cubic => Effect::Cubic,
+            Term::Drift2 => Effect::BiasDriftCurved,
         }
+    }
+
+    /// Name used in reports (the `effects[].name` of the JSON contract): its effect's.
+    pub fn name(self) -> &'static str {
+        self.effect().name()
     }
 
     /// True for the terms whose single axes are candidates too ([`Part::axis`]): the per-axis
@@ -266,9 +277,9 @@ impl Term {
         matches!(self, Term::Quadratic | Term::Cubic)
     }
 
-    /// True for terms needing a temperature column.
+    /// True for terms needing a temperature column (their effect's row says so).
     pub fn needs_temperature(self) -> bool {
-        matches!(self, Term::BiasTemp | Term::ScaleTemp)
+        self.effect().needs_temperature()
     }
 }
 
@@ -383,9 +394,19 @@ struct Fwd {
 fn forward(b: &Blocks, w: &Win) -> Fwd {
     let (tau, th) = (w.tau, w.theta);
     let tau2 = tau * tau;
-    let mut e: [f64; 3] = std::array::from_fn(|j| {
-        w.y[j] - b.bias[j] - b.drift[j] * tau - b.drift2[j] * tau2 - b.bias_temp[j] * th
-    });
+    // The core's bias removal, with the drift's curvature (a diagnostic the core's
+    // calibration cannot hold) as its further time term; the open slots' bias terms are
+    // subtracted after it, their scale terms multiply the core's temperature scale.
+    let curvature = b.drift2.map(|d2| d2 * tau2);
+    let mut e = remove_bias(
+        &w.y,
+        &b.bias,
+        &b.drift,
+        tau,
+        &curvature,
+        &b.bias_temp,
+        Some(th),
+    );
     let mut extra = [1.0; 3];
     for (s, c) in w.slots.iter().zip(&b.open) {
         match *s {
@@ -395,16 +416,15 @@ fn forward(b: &Blocks, w: &Win) -> Fwd {
         }
     }
     let k = &b.k;
-    let v = [
-        k[0] * e[0] + k[1] * e[1] + k[2] * e[2],
-        k[3] * e[1] + k[4] * e[2],
-        k[5] * e[2],
-    ];
+    let v = linear(
+        &[[k[0], k[1], k[2]], [0.0, k[3], k[4]], [0.0, 0.0, k[5]]],
+        &e,
+    );
     let mut u = [0.0; 3];
     let mut a = [0.0; 3];
     let mut st = [0.0; 3];
     for j in 0..3 {
-        st[j] = 1.0 + b.scale_temp[j] * th;
+        st[j] = temperature_scale(b.scale_temp[j], th);
         let uj = v[j] * (st[j] * extra[j]);
         u[j] = uj;
         a[j] = axis_polynomial(uj, b.quadratic[j], b.cubic[j]);
@@ -1077,6 +1097,47 @@ mod tests {
             let got = norm(&a) - 1.0;
             let want = residual(&p, &w);
             assert!((got - want).abs() < 1e-12, "{got} vs {want}");
+        }
+    }
+
+    /// The model is the core's correction: `CalibrationT<f64>::correct` with the parameters
+    /// as they are (normalised frame: `K` upper triangular, `θ₀ = 0`, the window's `τ` and
+    /// `ϑ` as time and temperature) gives the model's corrected `a` bit for bit.
+    #[test]
+    fn the_model_is_the_core_correction_bit_for_bit() {
+        let mut p = sample_params();
+        p[DRIFT2..DRIFT2 + 3].copy_from_slice(&[0.0; 3]);
+        let b = Blocks::of(&p);
+        let k = b.k;
+        let cal = CalibrationT::<f64> {
+            bias: b.bias,
+            matrix: [[k[0], k[1], k[2]], [0.0, k[3], k[4]], [0.0, 0.0, k[5]]],
+            effects: EffectsT {
+                bias_drift: b.drift,
+                bias_temp: b.bias_temp,
+                scale_temp: b.scale_temp,
+                quadratic: b.quadratic,
+                cubic: b.cubic,
+                ..EffectsT::default()
+            },
+        };
+        for (y, tau, theta) in [
+            ([0.31, -0.72, 0.55], 0.4, -0.3),
+            ([-0.9, 0.05, 0.41], -1.2, 0.8),
+            ([0.02, 0.99, -0.11], 0.0, 0.0),
+        ] {
+            let w = Win {
+                y,
+                tau,
+                theta,
+                slots: [Slot::Empty; OPEN_SLOTS],
+            };
+            let cond = wiical_core::ConditionsT {
+                time_s: tau,
+                temperature_c: Some(theta),
+            };
+            let want = cal.correct(y, &cond).map(f64::to_bits);
+            assert_eq!(corrected(&p, &w).map(f64::to_bits), want, "{y:?}");
         }
     }
 

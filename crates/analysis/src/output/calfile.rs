@@ -484,6 +484,57 @@ pub fn read_calibration(path: &Path) -> Result<Calibration> {
     Ok(read_calibration_file(path)?.calibration)
 }
 
+/// Which of a calibration's non-zero terms the adapter applies to every sample, and which
+/// stay in the file for hosts: the adapter corrects with what depends on the
+/// acceleration alone (bias and `K`, the per-axis and the orientation-dependent cross
+/// terms); it has no clock origin and no thermometer, so the time and temperature terms are
+/// stored with the calibration but not applied.
+#[derive(Debug, Default, PartialEq, Serialize)]
+pub struct AdapterTerms {
+    /// Applied on the device.
+    pub applied: Vec<String>,
+    /// Kept in the file (and stored) for hosts with a clock and a thermometer.
+    pub host_only: Vec<String>,
+}
+
+/// Sorts the calibration's non-zero terms into [`AdapterTerms`], by the core's table of
+/// effect terms (`device_applies`), each named by its key and, when it depends on more than
+/// its own axis, on what (`cross_cubic (orientation)`, `bias_drift (time)`).
+pub fn adapter_terms(cal: &Calibration) -> AdapterTerms {
+    let e = &cal.effects;
+    let mut t = AdapterTerms {
+        applied: vec!["bias and K".into()],
+        host_only: Vec::new(),
+    };
+    for spec in TERMS.iter().filter(|s| s.is_term()) {
+        if !e.field(spec.id).iter().any(|x| *x != 0.0) {
+            continue;
+        }
+        let name = match spec.depends_on() {
+            Some(on) => format!("{} ({on})", spec.name),
+            None => spec.name.to_string(),
+        };
+        if spec.device_applies {
+            t.applied.push(name);
+        } else {
+            t.host_only.push(name);
+        }
+    }
+    t
+}
+
+/// [`adapter_terms`] of a file, its host-only terms (`host_terms`, kept in the file only:
+/// the device stores the core calibration) added to the host list.
+pub fn adapter_terms_file(f: &CalibrationFile) -> AdapterTerms {
+    let mut t = adapter_terms(&f.calibration);
+    t.host_only.extend(
+        f.host_terms
+            .iter()
+            .map(|h| format!("{} (host_terms)", h.name)),
+    );
+    t
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -746,55 +797,4 @@ mod tests {
         let e = parse(&text.replace("\"poses\"", "\"pose_count\"")).unwrap_err();
         assert!(e.to_string().contains("unknown field"), "{e}");
     }
-}
-
-/// Which of a calibration's non-zero terms the adapter applies to every sample, and which
-/// stay in the file for hosts (issue 19): the adapter corrects with what depends on the
-/// acceleration alone (bias and `K`, the per-axis and the orientation-dependent cross
-/// terms); it has no clock origin and no thermometer, so the time and temperature terms are
-/// stored with the calibration but not applied.
-#[derive(Debug, Default, PartialEq, Serialize)]
-pub struct AdapterTerms {
-    /// Applied on the device.
-    pub applied: Vec<String>,
-    /// Kept in the file (and stored) for hosts with a clock and a thermometer.
-    pub host_only: Vec<String>,
-}
-
-/// Sorts the calibration's non-zero terms into [`AdapterTerms`], by the core's table of
-/// effect terms (`device_applies`), each named by its key and, when it depends on more than
-/// its own axis, on what (`cross_cubic (orientation)`, `bias_drift (time)`).
-pub fn adapter_terms(cal: &Calibration) -> AdapterTerms {
-    let e = &cal.effects;
-    let mut t = AdapterTerms {
-        applied: vec!["bias and K".into()],
-        host_only: Vec::new(),
-    };
-    for spec in TERMS.iter().filter(|s| s.is_term()) {
-        if !e.field(spec.id).iter().any(|x| *x != 0.0) {
-            continue;
-        }
-        let name = match spec.depends_on() {
-            Some(on) => format!("{} ({on})", spec.name),
-            None => spec.name.to_string(),
-        };
-        if spec.device_applies {
-            t.applied.push(name);
-        } else {
-            t.host_only.push(name);
-        }
-    }
-    t
-}
-
-/// [`adapter_terms`] of a file, its host-only terms (`host_terms`, kept in the file only:
-/// the device stores the core calibration) added to the host list.
-pub fn adapter_terms_file(f: &CalibrationFile) -> AdapterTerms {
-    let mut t = adapter_terms(&f.calibration);
-    t.host_only.extend(
-        f.host_terms
-            .iter()
-            .map(|h| format!("{} (host_terms)", h.name)),
-    );
-    t
 }

@@ -1,5 +1,5 @@
 //! The calibration file's host-only terms: terms the open basis
-//! (`search::open_basis::host_terms`) selects that depend on the time since the start of the
+//! (`search::open_basis_screening::host_terms`) selects that depend on the time since the start of the
 //! recording or on the temperature. The core's `Effects` has no field for them and the
 //! adapter has no clock origin or thermometer, so they are kept in the file for hosts that
 //! have both (`crate::correct` applies them; `crate::output::host_term_checks` checks them when a file is read).

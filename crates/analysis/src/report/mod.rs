@@ -7,6 +7,7 @@
 pub mod contract;
 pub mod correlate;
 pub mod effect_names;
+pub mod effect_table;
 pub mod host_term;
 pub mod progress;
 pub mod verdict;

@@ -30,7 +30,7 @@ use crate::search::candidate::Candidate;
 use crate::search::correlates::{residual_correlates, span_of, WindowPoint};
 use crate::search::evidence::{self as ev, TermContext};
 use crate::search::floor::{chi2_summary, floors, reference_variance};
-use crate::search::open_basis;
+use crate::search::open_basis_screening;
 use crate::search::options::AnalyzeOptions;
 use crate::search::outliers::{find_outliers, OutlierTrial};
 use crate::search::select::{check_rule, cv_over, select, Choice, OutlierScore, TermScore};
@@ -77,7 +77,7 @@ pub fn analyze_windows(
         // could stand in for a withheld candidate, runs only when every candidate is allowed.
         if opts.candidates.is_none() {
             let spans = ctx.spans();
-            let hc = open_basis::HostContext {
+            let hc = open_basis_screening::HostContext {
                 nrm: &ctx.nrm,
                 has_time: ctx.duration > 0.0,
                 has_temp: ctx.temp_range > 0.05,
@@ -88,7 +88,13 @@ pub fn analyze_windows(
                     spans: &spans,
                 }),
             };
-            let open = open_basis::extend(&mut search.state, &mut ctx.wins, ctx.model, opts, &hc);
+            let open = open_basis_screening::extend(
+                &mut search.state,
+                &mut ctx.wins,
+                ctx.model,
+                opts,
+                &hc,
+            );
             search.effects.extend(open.effects);
             search.host_terms = open.host_terms;
         }
@@ -196,7 +202,7 @@ impl<'a> Context<'a> {
     fn candidate_specs(&self, state: &State, room: usize) -> Vec<CandSpec> {
         let mut blocks = Vec::new();
         for t in Term::ALL {
-            let candidate = Candidate::of_term(t);
+            let candidate = t.effect();
             let have = state.axes_of(t);
             if have == [true; 3] || !self.opts.allows(candidate) {
                 continue;
@@ -214,7 +220,7 @@ impl<'a> Context<'a> {
         }
         let mut specs: Vec<CandSpec> = blocks
             .iter()
-            .map(|&p| CandSpec::single(Candidate::of_term(p.term), vec![p]))
+            .map(|&p| CandSpec::single(p.term.effect(), vec![p]))
             .collect();
         for p in blocks
             .iter()
@@ -222,7 +228,7 @@ impl<'a> Context<'a> {
         {
             for a in (0..3).filter(|a| p.axes[*a]) {
                 let one = Part::axis(p.term, a);
-                specs.push(CandSpec::single(Candidate::of_term(p.term), vec![one]));
+                specs.push(CandSpec::single(p.term.effect(), vec![one]));
             }
         }
         for size in 2..=room.min(blocks.len()) {
@@ -282,7 +288,7 @@ struct Search {
     first_signature: Option<Vec<f64>>,
     outliers_done: bool,
     diagnostics: Vec<String>,
-    /// The open basis's accepted time and temperature terms ([`open_basis::Extension`]).
+    /// The open basis's accepted time and temperature terms ([`open_basis_screening::Extension`]).
     host_terms: Vec<crate::report::host_term::HostTerm>,
 }
 

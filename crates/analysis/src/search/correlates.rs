@@ -141,7 +141,7 @@ pub fn residual_correlates(points: &[WindowPoint], alpha: f64) -> Vec<ResidualCo
 /// The projection off the span of a constant and per-window span columns (the model's
 /// first-order patterns, [`WindowPoint::span`]): what of a per-window series the model cannot
 /// describe. Shared by the correlates and the open basis's screening
-/// ([`crate::search::open_basis`]).
+/// ([`crate::search::open_basis_screening`]).
 pub(crate) struct Projector {
     /// Orthonormal basis (columns) of the span.
     basis: DMatrix<f64>,

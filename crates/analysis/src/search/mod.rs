@@ -11,7 +11,7 @@ pub mod candidate;
 pub mod correlates;
 pub mod evidence;
 pub mod floor;
-pub mod open_basis;
+pub mod open_basis_screening;
 pub mod options;
 pub mod outliers;
 pub mod select;

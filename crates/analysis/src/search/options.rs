@@ -20,7 +20,7 @@ pub struct AnalyzeOptions {
     /// At most this fraction of the windows may be rejected as outliers.
     pub max_outlier_fraction: f64,
     /// Restrict the candidates to these (`None`: all, and the open basis after them,
-    /// [`crate::search::open_basis`]; a restricted list turns the open basis off).
+    /// [`crate::search::open_basis_screening`]; a restricted list turns the open basis off).
     pub candidates: Option<Vec<Candidate>>,
     /// Where progress goes (a terminal bar in the CLI; nowhere by default).
     pub progress: ProgressHook,

@@ -1,6 +1,6 @@
 //! The open basis's thermal-lag and temperature-rate regressors: per-window
 //! values computed from the recording's per-sample temperature, for
-//! [`crate::search::open_basis::host_terms`].
+//! [`crate::search::open_basis_screening::host_terms`].
 //!
 //! * **Thermal lag**: the sensing element follows the measured (case) temperature through a
 //!   first-order lag of time constant τ; the regressor is the window mean of

@@ -48,7 +48,7 @@ impl CandSpec {
     /// Several effects added at once (`parts` in the order of [`Term::ALL`]).
     pub fn combination(parts: Vec<Part>) -> Self {
         Self {
-            candidate: Candidate::of_term(parts[0].term),
+            candidate: parts[0].term.effect(),
             parts,
         }
     }

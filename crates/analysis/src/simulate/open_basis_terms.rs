@@ -1,4 +1,4 @@
-//! The simulator's open-basis families (issue 19 item 3): effects beyond the seven candidates,
+//! The simulator's open-basis families: effects beyond the seven candidates,
 //! each put into a recording with its truth stated.
 //!
 //! Two kinds:
@@ -18,7 +18,10 @@
 //! Every range that sets a magnitude (the regressor's spread) is taken over the samples of
 //! the holds: what the windows see.
 
-use super::{onto_axis, random_unit, SampleConditions, SimEffect};
+#![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x > 0.0)` is deliberately true for NaN.
+use super::conditions::SampleConditions;
+use super::draw::{axis_coefficients, onto_axis, SimEffect};
+use super::motion::random_unit;
 use crate::report::effect_names as names;
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
@@ -362,7 +365,7 @@ pub fn draw_extra(
             let v = onto_axis(random_unit(rng), axis, 1.0);
             std::array::from_fn(|j| v[j] * x * s[j] / range)
         }
-        Acts::Scale => onto_axis(super::axis_coefficients(rng, x), axis, x).map(|k| k / range),
+        Acts::Scale => onto_axis(axis_coefficients(rng, x), axis, x).map(|k| k / range),
     };
     Some(ExtraTerm {
         family: effect,
