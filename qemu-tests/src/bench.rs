@@ -158,6 +158,7 @@ fn main() -> ! {
     all_ok &= adapter_rows(sc);
     all_ok &= selfcal_rows(sc);
     all_ok &= wiical_qemu_tests::background_bench::rows(sc.0);
+    all_ok &= wiical_qemu_tests::gyro_bench::rows(sc.0);
 
     hprintln!();
     hprintln!(
