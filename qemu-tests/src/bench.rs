@@ -159,6 +159,7 @@ fn main() -> ! {
     all_ok &= selfcal_rows(sc);
     all_ok &= wiical_qemu_tests::background_bench::rows(sc.0);
     all_ok &= wiical_qemu_tests::background_bench::report_path_rows(sc.0);
+    all_ok &= wiical_qemu_tests::gyro_bench::rows(sc.0);
 
     hprintln!();
     hprintln!(

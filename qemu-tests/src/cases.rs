@@ -27,6 +27,9 @@ use wiical_extbus::{
     CalibrationBlock, CalibrationCopy, Encryption, NunchukRegisters, NunchukReport,
 };
 
+#[path = "gyro_cases.rs"]
+pub mod gyro_cases;
+
 /// Capacity of one case's result list.
 pub const MAX_OUT: usize = 320;
 
@@ -197,6 +200,11 @@ pub const CASES: &[Case] = &[
         name: "xsens_multipos_fit",
         max_ulps: 4,
         run: xsens_multipos_fit,
+    },
+    Case {
+        name: "gyro_correct_g_sensitivity",
+        max_ulps: 0,
+        run: gyro_cases::gyro_correct_g_sensitivity,
     },
     Case {
         name: "mag_out_ellipsoid_fit",

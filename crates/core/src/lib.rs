@@ -24,7 +24,7 @@
 //! | module | what |
 //! |---|---|
 //! | [`model`] | calibration type (generic over the float type: `f32` device, `f64` analysis), correction `a = D⁻¹(m − b)` plus optional effect terms; [`PreparedCalibration`] for per-sample correction |
-//! | [`terms`] | the table of effect terms every format (wire, flash record, calibration file) is derived from |
+//! | [`terms`] | the tables of effect terms (accelerometer, gyro) every format (wire, flash record, calibration files) is derived from |
 //! | [`six_position`] | the six-position test with the constant right pseudo-inverse |
 //! | [`estimators`] | Welford mean/variance and the Kalman observer for a constant (scalar, 3-vector) |
 //! | [`offset`] | offset-only accelerometer and gyro calibration |
@@ -32,6 +32,7 @@
 //! | [`magfit`] | magnetometer sphere / axis-aligned / rotated-ellipsoid fits from streaming sums |
 //! | [`kalman`] | the 3-state `[position, velocity, bias]` Kalman filter |
 //! | [`gyro`] | gyro model `ω = K(m − b)`, RK4 quaternion integration of a motion with exact parameter sensitivities |
+//! | [`gyro_correct`] | the gyro's correction with its effect terms, `ω = K(m − b) − G·a` (g-sensitivity needs the accelerometer's reading), generic over the float type |
 //! | [`gyro_fit`] | multi-position gyro scale / misalignment / bias fit (Tedaldi et al. 2014), leave-one-motion-out |
 //! | [`gyro_zero`] | zero-rate (bias) tracker that re-zeroes whenever the sensor is still |
 //! | [`static_detect`] | static-interval detection on a stream; [`static_detect::adaptive`]: thresholds from the recording's own noise, no rest period needed |
@@ -46,6 +47,7 @@ pub mod acceptance;
 pub mod error;
 pub mod estimators;
 pub mod gyro;
+pub mod gyro_correct;
 pub mod gyro_fit;
 pub mod gyro_zero;
 pub mod kalman;

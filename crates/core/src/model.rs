@@ -282,6 +282,8 @@ impl<T: Real> EffectsT<T> {
             TermId::ScaleTemp => &self.scale_temp,
             TermId::CrossQuadratic => self.cross_quadratic.as_flattened(),
             TermId::CrossCubic => self.cross_cubic.as_flattened(),
+            // A gyro term (`terms::GYRO_TERMS`): no field of the accelerometer's calibration.
+            TermId::GSensitivity => &[],
         }
     }
 
@@ -296,6 +298,7 @@ impl<T: Real> EffectsT<T> {
             TermId::ScaleTemp => &mut self.scale_temp,
             TermId::CrossQuadratic => self.cross_quadratic.as_flattened_mut(),
             TermId::CrossCubic => self.cross_cubic.as_flattened_mut(),
+            TermId::GSensitivity => &mut [],
         }
     }
 

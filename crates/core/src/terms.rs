@@ -14,6 +14,14 @@
 //! The math of a term (its part of [`crate::model::CalibrationT::correct`]) is code, not
 //! data: a new term is a row here, a field of `EffectsT`, its arm in
 //! [`crate::model::EffectsT::field`] and its math in the correction.
+//!
+//! The gyroscope's calibration is another object (`ω = K·(m − b)` in rad/s, see
+//! [`crate::gyro_correct`]), so its terms have their own table, [`GYRO_TERMS`], of the same
+//! [`TermSpec`] rows: the gyro's coefficient order
+//! ([`crate::gyro_correct::GyroEffects::coefficients`]) and the gyro calibration file's keys
+//! and version are derived from it. The accelerometer's formats (wire, flash record,
+//! calibration file) read [`TERMS`] alone and do not change when a gyro term is added; the
+//! adapter holds no gyro calibration, so no gyro row has a flash record (`since_record` 0).
 
 /// Which effect term a row of [`TERMS`] describes (one per field of [`crate::Effects`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -35,6 +43,8 @@ pub enum TermId {
     CrossQuadratic,
     /// Orientation-dependent degree-3 cross terms.
     CrossCubic,
+    /// Gyro bias against the specific force (g-sensitivity), a 3×3 matrix ([`GYRO_TERMS`]).
+    GSensitivity,
 }
 
 /// What a term's coefficients multiply and where the product enters the correction (see
@@ -53,6 +63,10 @@ pub enum Shape {
     Cross(u8),
     /// One value, not a coefficient: the reference other terms are taken about.
     Reference,
+    /// Per output axis `i`, one coefficient per component `j` of a 3-vector regressor `r`: a
+    /// bias in output units, `Σ_j c[i][j]·r_j`, subtracted from output `i` after the linear
+    /// map (3×3 coefficients, row = output axis).
+    Matrix(Regressor),
 }
 
 /// The regressor of a bias or scale term.
@@ -62,6 +76,9 @@ pub enum Regressor {
     Time,
     /// Temperature about the reference, `θ − θ₀`, °C.
     Temperature,
+    /// The specific force the accelerometer beside the sensor reads, calibrated, in g, in
+    /// the accelerometer's (= the gyro calibration's) frame.
+    SpecificForce,
 }
 
 /// What a user of the calibration needs, besides the reading, to apply a term.
@@ -73,6 +90,8 @@ pub enum Needs {
     Time,
     /// A thermometer.
     Temperature,
+    /// The calibrated accelerometer reading beside the sensor, same sample.
+    SpecificForce,
 }
 
 /// Which check of [`crate::acceptance::Acceptance`] bounds a term.
@@ -84,6 +103,9 @@ pub enum Bound {
     Output,
     /// The allowed range of the reference temperature (`Acceptance::temp_ref_range_c`).
     TempRefRange,
+    /// Every coefficient's magnitude within the term's own plausibility limit (g-sensitivity:
+    /// [`crate::gyro_correct::G_SENSITIVITY_MAX`]).
+    Magnitude,
 }
 
 /// One row of [`TERMS`].
@@ -104,11 +126,13 @@ pub struct TermSpec {
     pub needs: Needs,
     /// Which acceptance check bounds it.
     pub bound: Bound,
-    /// Flash record version that added it (`wiical_adapter::store`).
+    /// Flash record version that added it (`wiical_adapter::store`); 0 for a term no flash
+    /// record holds (the gyro's: the adapter keeps no gyro calibration).
     pub since_record: u16,
-    /// Calibration file schema version that added it (`wiical-calibration/N`); a file is
-    /// written with the highest `since_file` of its non-zero terms. Terms added after version
-    /// 1 are left out of a file when zero.
+    /// Calibration file schema version that added it (`wiical-calibration/N` for [`TERMS`],
+    /// `wiical-gyro-calibration/N` for [`GYRO_TERMS`]); a file is written with the highest
+    /// `since_file` of its non-zero terms. Terms added after version 1 are left out of a file
+    /// when zero.
     pub since_file: u8,
 }
 
@@ -118,6 +142,7 @@ impl TermSpec {
     pub const fn per_axis(&self) -> usize {
         match self.shape {
             Shape::Cross(degree) => monomial_count(degree) - 1,
+            Shape::Matrix(_) => 3,
             _ => 1,
         }
     }
@@ -146,6 +171,7 @@ impl TermSpec {
         match (self.needs, self.shape) {
             (Needs::Time, _) => Some("time"),
             (Needs::Temperature, _) => Some("temperature"),
+            (Needs::SpecificForce, _) => Some("specific force"),
             (_, Shape::Cross(_)) => Some("orientation"),
             _ => None,
         }
@@ -251,6 +277,53 @@ pub const TERMS: [TermSpec; 8] = [
     },
 ];
 
+/// Every effect term of the gyroscope's calibration ([`crate::gyro_correct::GyroEffects`]),
+/// in the canonical order of its flat coefficients and of the gyro calibration file.
+pub const GYRO_TERMS: [TermSpec; 1] = [TermSpec {
+    id: TermId::GSensitivity,
+    name: "g_sensitivity",
+    shape: Shape::Matrix(Regressor::SpecificForce),
+    unit: "rad/s/g",
+    device_applies: false,
+    needs: Needs::SpecificForce,
+    bound: Bound::Magnitude,
+    since_record: 0,
+    since_file: 2,
+}];
+
+/// Number of coefficients of the terms of `table`.
+pub const fn floats_of(table: &[TermSpec]) -> usize {
+    let mut n = 0;
+    let mut i = 0;
+    while i < table.len() {
+        n += table[i].len();
+        i += 1;
+    }
+    n
+}
+
+/// Number of effect coefficients of [`crate::gyro_correct::GyroEffects`].
+pub const GYRO_EFFECT_FLOATS: usize = floats_of(&GYRO_TERMS);
+
+/// Number of floats of a whole gyro calibration: bias (3), matrix (9), then the effects.
+pub const GYRO_CALIBRATION_FLOATS: usize = 12 + GYRO_EFFECT_FLOATS;
+
+/// The names of [`GYRO_TERMS`], in order.
+pub const GYRO_NAMES: [&str; GYRO_TERMS.len()] = {
+    let mut out = [""; GYRO_TERMS.len()];
+    let mut i = 0;
+    while i < GYRO_TERMS.len() {
+        out[i] = GYRO_TERMS[i].name;
+        i += 1;
+    }
+    out
+};
+
+/// The row of `table` named `name`, if any.
+pub fn by_name_in(table: &'static [TermSpec], name: &str) -> Option<&'static TermSpec> {
+    table.iter().find(|t| t.name == name)
+}
+
 /// Number of effect coefficients (floats) of [`crate::Effects`]: the sum of [`TERMS`]' lengths.
 pub const EFFECT_FLOATS: usize = floats_through_record(u16::MAX);
 
@@ -350,5 +423,31 @@ mod tests {
             assert_eq!(t.device_applies, t.needs == Needs::Reading, "{}", t.name);
         }
         assert_eq!(by_name("bias-drift"), None);
+    }
+
+    /// The gyro's table against its layout written out by hand: one 3×3 matrix, named as
+    /// the gyro calibration file names it, in no flash record, not in the accelerometer's
+    /// table.
+    #[test]
+    fn gyro_table_counts_match_the_layout() {
+        assert_eq!(GYRO_TERMS.map(|t| t.len()), [9]);
+        assert_eq!(GYRO_TERMS[0].per_axis(), 3);
+        assert_eq!(GYRO_EFFECT_FLOATS, 9);
+        assert_eq!(GYRO_CALIBRATION_FLOATS, 21);
+        assert_eq!(GYRO_NAMES, ["g_sensitivity"]);
+        assert_eq!(
+            by_name_in(&GYRO_TERMS, "g_sensitivity").map(|t| t.id),
+            Some(TermId::GSensitivity)
+        );
+        assert_eq!(by_name("g_sensitivity"), None);
+        assert_eq!(GYRO_TERMS[0].depends_on(), Some("specific force"));
+        for t in &GYRO_TERMS {
+            assert_eq!(t.since_record, 0, "{}", t.name);
+            assert!(
+                !t.device_applies,
+                "{}: the adapter holds no gyro calibration",
+                t.name
+            );
+        }
     }
 }

@@ -4,7 +4,6 @@
 use super::{check_outputs, load, load_options, to_json, DetectArgs};
 use crate::cli_error::cli_error;
 use anyhow::{bail, Result};
-use serde::Serialize;
 use std::path::PathBuf;
 use wiical_analysis::gyro::{nominal_from_columns, GyroOptions};
 use wiical_analysis::Recording;
@@ -36,7 +35,8 @@ pub struct Args {
     /// one Gauss–Newton step from the all-motion fit (docs/gyro.md: how far apart they are).
     #[arg(long)]
     pub exact_held_out: bool,
-    /// Write the chosen gyro calibration (bias, matrix raw → rad/s, model) as JSON here.
+    /// Write the chosen gyro calibration (bias, matrix raw → rad/s, model, and the accepted
+    /// g-sensitivity in rad/s/g) as JSON here.
     #[arg(long)]
     pub out: Option<PathBuf>,
     #[command(flatten)]
@@ -69,19 +69,6 @@ fn nominal(a: &Args, gyro: &Recording) -> Result<Option<([f64; 3], String)>> {
         bail!("the nominal sensitivity must be finite and non-zero on every axis");
     }
     Ok(Some((s, source)))
-}
-
-/// What `--out` writes.
-#[derive(Serialize)]
-struct GyroCalFile<'a> {
-    format: &'static str,
-    model: &'a str,
-    /// Raw counts.
-    bias: [f64; 3],
-    /// Raw → rad/s, row-major: `ω = matrix · (m − bias)`.
-    matrix: [[f64; 3]; 3],
-    units: &'static str,
-    cv_rms_deg: f64,
 }
 
 /// Runs `wiical gyrofit`; returns what to print.
@@ -143,16 +130,7 @@ pub fn run(a: &Args) -> Result<String> {
     opts.exact_held_out = a.exact_held_out;
     let rep = wiical_analysis::gyro::run(&acc, &gyro, &opts).map_err(cli_error)?;
     if let Some(path) = &a.out {
-        let file = GyroCalFile {
-            format: "wiical-gyro-calibration/1",
-            model: rep.model,
-            bias: rep.bias,
-            matrix: rep.matrix,
-            units: "rad/s",
-            cv_rms_deg: rep.cv_rms_deg,
-        };
-        wiical_analysis::output::write::write_file(path, to_json(&file)?.as_bytes())
-            .map_err(cli_error)?;
+        save(path, &rep)?;
     }
     if a.json {
         return to_json(&rep);
@@ -161,4 +139,28 @@ pub fn run(a: &Args) -> Result<String> {
         &rep,
         &a.file.display().to_string(),
     ))
+}
+
+/// Writes `--out` (`wiical_analysis::output::gyrocal`): the chosen calibration with the
+/// accepted g-sensitivity; accepted effects the file cannot hold are named on stderr.
+fn save(path: &std::path::Path, rep: &wiical_analysis::gyro::GyroReport) -> Result<()> {
+    use wiical_analysis::output::gyrocal::{write_gyro_calibration, GyroCalFile};
+    let file = GyroCalFile {
+        model: rep.model.to_string(),
+        correction: rep.correction,
+        cv_rms_deg: rep.cv_rms_deg,
+    };
+    write_gyro_calibration(path, &file).map_err(cli_error)?;
+    for name in rep
+        .effects
+        .iter()
+        .map(|e| e.name.as_str())
+        .filter(|n| *n != wiical_analysis::gyro::device::G_SENSITIVITY)
+    {
+        eprintln!(
+            "note: {} holds no {name} term (accepted above): a gyro calibration file carries only g-sensitivity",
+            path.display()
+        );
+    }
+    Ok(())
 }

@@ -91,4 +91,12 @@ pub enum OutputError {
         /// Why.
         cause: wiical_core::Error,
     },
+    /// A gyro calibration file that cannot be read as one (the sentence names the key).
+    #[error("{}: not a usable gyro calibration: {cause}", path.display())]
+    InvalidGyroCalibrationFile {
+        /// The file.
+        path: PathBuf,
+        /// Why, in one sentence.
+        cause: String,
+    },
 }

@@ -86,6 +86,9 @@ pub struct Search {
     pub final_model: GyroSummary,
     /// Every step with every candidate.
     pub steps: Vec<GyroStep>,
+    /// The final window model's constant per gyro axis, °/s: the bias the windows leave at
+    /// the regressors' reference (gravity zero, mean window time and temperature).
+    pub intercept_dps: [f64; 3],
 }
 
 /// Runs the greedy search over `cands` on the window data.
@@ -166,6 +169,7 @@ pub fn search(data: &WindowData, cands: &[Candidate]) -> Option<Search> {
         effects,
         final_model,
         steps,
+        intercept_dps: std::array::from_fn(|a| current.beta[(0, a)]),
     })
 }
 

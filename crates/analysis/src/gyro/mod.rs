@@ -24,6 +24,7 @@
 
 mod align;
 pub mod design;
+pub mod device;
 pub mod effects;
 pub mod floor;
 pub mod limits;
@@ -139,7 +140,9 @@ pub fn run(acc: &Recording, gyro: &Recording, opts: &GyroOptions) -> Result<Gyro
             .and_then(|r| r.identifiability),
     };
     let lp = loop_part(gyro, &acc_rec, &seg, &fitted, dt)?;
+    let correction = device::correction(fitted.bias, fitted.matrix, &lp.search);
     Ok(GyroReport {
+        correction,
         static_windows: seg.intervals.len(),
         motions: motions.len(),
         bias: fitted.bias,
