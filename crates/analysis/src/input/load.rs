@@ -22,6 +22,7 @@ use crate::input::bounded::{
 };
 use crate::input::columns::Sensor;
 use crate::input::recording::Recording;
+use crate::input::text_rows::{Columns, Fields, RowLayout};
 use crate::input::timecheck::{time_notes, TimeCheck};
 use std::path::Path;
 
@@ -277,78 +278,53 @@ const TIME_NAMES: &[&str] = &["t", "time", "timestamp", "time_s", "t_s", "second
 const TEMP_NAMES: &[&str] = &["temp", "temperature", "temp_c", "temperature_c"];
 const LABEL_NAMES: &[&str] = &["pose", "label"];
 
-/// One CSV record's fields, from the `csv` reader or from the fast line splitter.
-trait Fields {
-    fn count(&self) -> usize;
-    fn get(&self, i: usize) -> &str;
-}
-
-impl Fields for csv::StringRecord {
-    fn count(&self) -> usize {
-        self.len()
-    }
-    fn get(&self, i: usize) -> &str {
-        &self[i]
-    }
-}
-
-impl Fields for [&str] {
-    fn count(&self) -> usize {
-        self.len()
-    }
-    fn get(&self, i: usize) -> &str {
-        self[i]
-    }
-}
-
 /// True when plain splitting at line ends and delimiters reads `text` exactly as the `csv`
 /// reader does: no quote character anywhere (quoting is the only thing the reader adds) and no
 /// carriage return other than in a CR LF pair (the reader ends a line at a lone CR too).
 fn plain_csv(text: &str) -> bool {
     let b = text.as_bytes();
-    if b.contains(&b'"') {
+    if memchr::memchr(b'"', b).is_some() {
         return false;
     }
-    !b.contains(&b'\r')
-        || b.iter()
-            .enumerate()
-            .all(|(i, &c)| c != b'\r' || b.get(i + 1) == Some(&b'\n'))
+    memchr::memchr_iter(b'\r', b).all(|i| b.get(i + 1) == Some(&b'\n'))
 }
 
 fn parse_csv(text: &str, opts: &LoadOptions, delim: Delimiter) -> Result<Recording> {
     parse_csv_by(text, opts, delim, plain_csv(text))
 }
 
-/// [`parse_csv`] by the fast splitter (`plain`) or the `csv` reader.
+/// [`parse_csv`] by the fast splitter (`plain`) or the `csv` reader. Metadata and the header
+/// are read line by line; the data rows after them by [`RowLayout`] (in parallel chunks on the
+/// fast path).
 fn parse_csv_by(
     text: &str,
     opts: &LoadOptions,
     delim: Delimiter,
     plain: bool,
 ) -> Result<Recording> {
-    let mut st = CsvState::new(opts, delim, text.len());
-    if plain {
-        // The fast path (most files): lines split by memchr, fields by a byte loop over the
-        // line into one reused vector of field slices; no copy of any record (reading speed:
-        // BENCHMARKS.md). The delimiter and line ends are ASCII, so every cut is a character
-        // boundary.
-        let d = delim.byte();
+    let mut st = CsvState::new(opts, delim);
+    let cols = if plain {
+        // The fast path (most files): no copy of any record (reading speed: BENCHMARKS.md).
+        // The delimiter and line ends are ASCII, so every cut is a character boundary.
+        let (mut offset, mut line_no) = (0usize, 0usize);
         let mut fields: Vec<&str> = Vec::new();
-        for (i, line) in text.split('\n').enumerate() {
+        while st.layout.is_none() && offset < text.len() {
+            let end = memchr::memchr(b'\n', &text.as_bytes()[offset..])
+                .map_or(text.len(), |p| offset + p);
+            let line = &text[offset..end];
+            line_no += 1;
+            offset = (end + 1).min(text.len());
             let line = line.strip_suffix('\r').unwrap_or(line);
             if line.is_empty() {
                 continue; // the csv reader skips empty lines too
             }
             fields.clear();
-            let mut start = 0;
-            for (j, &c) in line.as_bytes().iter().enumerate() {
-                if c == d {
-                    fields.push(&line[start..j]);
-                    start = j + 1;
-                }
-            }
-            fields.push(&line[start..]);
-            st.row(&fields[..], i + 1)?;
+            fields.extend(line.split(char::from(delim.byte())));
+            st.before_header(&fields[..], line_no)?;
+        }
+        match &st.layout {
+            Some(layout) => Some(layout.read_plain(&text[offset..], line_no + 1, delim.byte())?),
+            None => None,
         }
     } else {
         let mut reader = csv::ReaderBuilder::new()
@@ -359,110 +335,49 @@ fn parse_csv_by(
             .from_reader(text.as_bytes());
         // One record reused for every row: no allocation per line.
         let mut record = csv::StringRecord::new();
-        while reader
-            .read_record(&mut record)
-            .map_err(InputError::MalformedCsv)?
+        while st.layout.is_none()
+            && reader
+                .read_record(&mut record)
+                .map_err(InputError::MalformedCsv)?
         {
             let line_no = record.position().map(|p| p.line() as usize).unwrap_or(0);
-            st.row(&record, line_no)?;
+            st.before_header(&record, line_no)?;
         }
-    }
-    st.finish()
+        // A record ends at a line end or a lone CR: the records left are at most these plus one.
+        let bytes = text.as_bytes();
+        let max_rows = memchr::memchr2_iter(b'\n', b'\r', bytes).count() + 1;
+        match &st.layout {
+            Some(layout) => Some(layout.read_records(&mut reader, max_rows)?),
+            None => None,
+        }
+    };
+    st.finish(cols)
 }
 
-/// What [`parse_csv`] has read so far.
+/// What [`parse_csv`] has read before the data rows: metadata, then the header.
 struct CsvState<'o> {
     opts: &'o LoadOptions,
     decimal_comma: bool,
-    text_len: usize,
-    clock: Option<TimeCheck>,
     rec: Recording,
-    header: Option<Vec<String>>,
-    /// Column indices of time, x/y/z, temperature and label (`usize::MAX`: absent).
-    idx: (usize, [usize; 3], usize, usize),
-    t: Vec<f64>,
-    temp: Vec<f64>,
-    labels: Vec<String>,
+    layout: Option<RowLayout>,
 }
 
 impl<'o> CsvState<'o> {
-    fn new(opts: &'o LoadOptions, delim: Delimiter, text_len: usize) -> Self {
+    fn new(opts: &'o LoadOptions, delim: Delimiter) -> Self {
         Self {
             opts,
             decimal_comma: delim == Delimiter::Semicolon,
-            text_len,
-            clock: None,
             rec: Recording::default(),
-            header: None,
-            idx: (usize::MAX, [0usize; 3], usize::MAX, usize::MAX),
-            t: Vec::new(),
-            temp: Vec::new(),
-            labels: Vec::new(),
+            layout: None,
         }
     }
 
-    /// One record (line `line_no`): metadata or the header before the header, else a row.
-    fn row<F: Fields + ?Sized>(&mut self, record: &F, line_no: usize) -> Result<()> {
-        let n = record.count();
-        if (0..n).all(|i| record.get(i).trim_ascii().is_empty()) {
-            return Ok(());
-        }
-        if self.header.is_some() && self.rec.xyz.is_empty() {
-            self.reserve(record);
-        }
-        let Some(cols) = &self.header else {
-            return self.before_header(record, line_no);
-        };
-        if n != cols.len() {
-            return Err(InputError::RaggedRow {
-                line: line_no,
-                expected: cols.len(),
-                found: n,
-            }
-            .into());
-        }
-        let field = |i: usize| record.get(i).trim_ascii();
-        let idx = self.idx;
-        if idx.1.iter().all(|&i| field(i).is_empty()) {
-            self.rec.skipped_empty_rows += 1;
-            return Ok(());
-        }
-        let dc = self.decimal_comma;
-        let get = |i: usize| parse_reading(field(i), line_no, &cols[i], dc);
-        self.rec
-            .xyz
-            .push([get(idx.1[0])?, get(idx.1[1])?, get(idx.1[2])?]);
-        if let Some(clock) = self.clock.as_mut() {
-            let time = parse_number(field(idx.0), line_no, &cols[idx.0], dc)?;
-            clock.push(time, line_no)?;
-            self.t.push(time);
-        }
-        if idx.2 != usize::MAX {
-            self.temp.push(get(idx.2)?);
-        }
-        if idx.3 != usize::MAX {
-            self.labels.push(field(idx.3).to_string());
-        }
-        Ok(())
-    }
-
-    /// Room for the rows the file's size suggests (from the first row's length; at most 20 M):
-    /// no reallocation and copy of the growing columns on a long file.
-    fn reserve<F: Fields + ?Sized>(&mut self, record: &F) {
-        let n = record.count();
-        let line = (0..n).map(|i| record.get(i).len()).sum::<usize>() + n;
-        let rows = (self.text_len / line.max(1)).min(20_000_000);
-        self.rec.xyz.reserve(rows);
-        if self.clock.is_some() {
-            self.t.reserve(rows);
-        }
-        if self.idx.2 != usize::MAX {
-            self.temp.reserve(rows);
-        }
-    }
-
-    /// Before the header: metadata `key,value` lines, or the header itself.
+    /// Before the header: metadata `key,value` lines, or the header itself (a blank record
+    /// is skipped).
     fn before_header<F: Fields + ?Sized>(&mut self, record: &F, line_no: usize) -> Result<()> {
+        if (0..record.count()).all(|i| record.get(i).trim_ascii().is_empty()) {
+            return Ok(());
+        }
         let decimal_comma = self.decimal_comma;
         let fields: Vec<String> = (0..record.count())
             .map(|i| record.get(i).trim_ascii().to_ascii_lowercase())
@@ -492,45 +407,44 @@ impl<'o> CsvState<'o> {
             return Ok(());
         }
         let mut choice = None;
-        self.idx = map_header(&fields, self.opts, &mut choice)?;
+        let idx = map_header(&fields, self.opts, &mut choice)?;
         self.rec.info.extend(choice);
-        self.rec.axis_columns = self.idx.1.map(|i| fields[i].clone());
-        if self.idx.0 != usize::MAX {
-            self.clock = Some(TimeCheck::new(&fields[self.idx.0]));
-        }
-        self.header = Some(fields);
+        self.rec.axis_columns = idx.1.map(|i| fields[i].clone());
+        let some = |i: usize| (i != usize::MAX).then_some(i);
+        self.layout = Some(RowLayout {
+            names: fields,
+            time: some(idx.0),
+            xyz: idx.1,
+            temp: some(idx.2),
+            label: some(idx.3),
+            decimal_comma,
+        });
         Ok(())
     }
 
-    fn finish(self) -> Result<Recording> {
-        let (mut rec, idx) = (self.rec, self.idx);
-        if self.header.is_none() {
+    /// The recording from the metadata, the header and the rows read after it.
+    fn finish(self, cols: Option<Columns>) -> Result<Recording> {
+        let mut rec = self.rec;
+        let (Some(layout), Some(cols)) = (self.layout, cols) else {
             return Err(InputError::NoHeader.into());
-        }
-        if rec.xyz.is_empty() {
+        };
+        if cols.xyz.is_empty() {
             return Err(InputError::HeaderOnly.into());
         }
-        if idx.0 != usize::MAX {
-            rec.notes = time_notes(&rec_time_name(&self.header, idx.0), &self.t);
-            rec.t = Some(self.t);
+        rec.xyz = cols.xyz;
+        rec.skipped_empty_rows = cols.skipped;
+        if let Some(i) = layout.time {
+            rec.notes = time_notes(&layout.names[i], &cols.t);
+            rec.t = Some(cols.t);
         }
-        if idx.2 != usize::MAX {
-            rec.temp = Some(self.temp);
+        if layout.temp.is_some() {
+            rec.temp = Some(cols.temp);
         }
-        if idx.3 != usize::MAX {
-            rec.labels = Some(self.labels);
+        if layout.label.is_some() {
+            rec.labels = Some(cols.labels);
         }
         Ok(rec)
     }
-}
-
-/// The time column's header name (for notes).
-fn rec_time_name(header: &Option<Vec<String>>, idx: usize) -> String {
-    header
-        .as_ref()
-        .and_then(|h| h.get(idx))
-        .cloned()
-        .unwrap_or_default()
 }
 
 /// Column indices of time, x/y/z, temperature and label (`usize::MAX`: absent); `choice`

@@ -35,6 +35,15 @@ impl TimeCheck {
         }
     }
 
+    /// A check that goes on from `prev`, the last time read before (the chunk before, when
+    /// the rows are read in chunks): its first [`TimeCheck::push`] is checked against it.
+    pub fn after(column: &str, prev: f64) -> Self {
+        Self {
+            column: quote(column),
+            prev: Some(prev),
+        }
+    }
+
     /// The next row's time `t` (seconds by contract), read on 1-based `line`: an error when it
     /// is earlier than the previous row's (equal is accepted: coarse timestamps).
     pub fn push(&mut self, t: f64, line: usize) -> Result<()> {
