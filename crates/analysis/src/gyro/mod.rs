@@ -28,6 +28,8 @@ pub mod effects;
 pub mod floor;
 pub mod limits;
 mod models;
+pub mod motion;
+pub mod motion_search;
 mod nominal;
 pub mod report;
 mod segment;
@@ -171,6 +173,7 @@ pub fn run(acc: &Recording, gyro: &Recording, opts: &GyroOptions) -> Result<Gyro
         reasons: lp.reasons,
         verdict: lp.verdict,
         diagnostics: lp.diagnostics,
+        motion_loop: lp.motion_loop,
     })
 }
 
@@ -194,6 +197,7 @@ struct LoopPart {
     reasons: Vec<String>,
     verdict: String,
     diagnostics: Vec<String>,
+    motion_loop: Option<report::MotionLoop>,
 }
 
 /// Noise floor, static-window candidates and verdict for the chosen calibration.
@@ -230,6 +234,11 @@ fn loop_part(
     let (quality, reasons, text) = verdict::judge(&ev);
     let mut diagnostics = limit_sentences(&search);
     diagnostics.extend(window_scatter(&search, &data));
+    let motions = motion_set(gyro, acc_rec, seg, fit, &fl, dt, (&search, &cands, &data));
+    let motion_loop = motion_search::search(&motions.0, motions.1);
+    if let Some(ml) = &motion_loop {
+        diagnostics.extend(motion_limit_sentences(ml));
+    }
     let window_dps = (data.mean_var.iter().flatten().sum::<f64>()
         / (3 * data.mean_var.len()).max(1) as f64)
         .sqrt();
@@ -242,6 +251,7 @@ fn loop_part(
         reasons,
         verdict: text,
         diagnostics,
+        motion_loop,
     })
 }
 
@@ -362,4 +372,135 @@ fn window_scatter(search: &effects::Search, data: &effects::WindowData) -> Optio
         f.rms_dps / noise.max(1e-300),
         st::fmt_p(p)
     ))
+}
+
+/// Seconds of rate kept either side of a motion: room for the time-offset candidate to shift
+/// the gyro's samples against the accelerometer's windows.
+const MOTION_MARGIN_S: f64 = 1.0;
+
+/// The motions with the chosen calibration and the accepted window effects applied to every
+/// sample (their deviation from their mean over the windows, °/s → rad/s), the chosen
+/// model's free parameters and each motion's floor; and the names of the effects applied.
+fn motion_set(
+    gyro: &Recording,
+    acc_rec: &Recording,
+    seg: &segment::Segmentation,
+    fit: &Fitted<'_>,
+    fl: &floor::Floors,
+    dt: f64,
+    (search, cands, data): (
+        &effects::Search,
+        &[effects::Candidate],
+        &effects::WindowData,
+    ),
+) -> (motion::MotionSet, Vec<String>) {
+    let corr = window_correction(acc_rec, seg, search, cands, data.rate_dps.len());
+    let margin = (MOTION_MARGIN_S / dt).ceil() as usize;
+    let k = nalgebra::Matrix3::from_fn(|r, c| fit.matrix[r][c]);
+    let b = nalgebra::Vector3::from(fit.bias);
+    let n = gyro.xyz.len();
+    let (mut rates, mut span, mut gravity) = (Vec::new(), Vec::new(), Vec::new());
+    for s in &seg.spans {
+        let (start, end) = (s.start as usize, s.end as usize);
+        let lo = start.saturating_sub(margin);
+        let hi = (end + margin).min(n);
+        rates.push(
+            (lo..hi)
+                .map(|j| {
+                    let w = k * (nalgebra::Vector3::from(gyro.xyz[j]) - b);
+                    w - nalgebra::Vector3::from(corr(j)).map(f64::to_radians)
+                })
+                .collect(),
+        );
+        span.push((start - lo, end - start));
+        gravity.push((
+            nalgebra::Vector3::from(s.g_start).cast(),
+            nalgebra::Vector3::from(s.g_end).cast(),
+        ));
+    }
+    let set = motion::MotionSet {
+        rates,
+        span,
+        gravity,
+        // One floor for every motion (their RMS): the fit then minimises what the model choice
+        // minimised, so the base is the chosen calibration itself.
+        sigma: vec![st::rms(&fl.motion_rad) / 2f64.sqrt(); seg.spans.len()],
+        dt,
+        mask: models::mask_of(fit.name),
+    };
+    let applied = search.effects.iter().map(|e| e.name.clone()).collect();
+    (set, applied)
+}
+
+/// The accepted window effects at sample `j`, °/s: each regressor's deviation from its mean
+/// over the windows times the fitted coefficients (so the constant stays the calibration's
+/// bias). The regressors per sample are the windows': the calibrated specific force (g), the
+/// time from the windows' mean centre (h), the temperature from the windows' mean (°C).
+fn window_correction<'a>(
+    acc_rec: &'a Recording,
+    seg: &'a segment::Segmentation,
+    search: &'a effects::Search,
+    cands: &'a [effects::Candidate],
+    windows: usize,
+) -> impl Fn(usize) -> [f64; 3] + 'a {
+    let t0 = seg.windows.iter().map(|w| w.t_centre).sum::<f64>() / seg.windows.len() as f64;
+    let terms: Vec<(&'a str, Vec<f64>, Vec<f64>)> = search
+        .effects
+        .iter()
+        .filter_map(|e| {
+            let c = cands.iter().find(|c| c.name == e.name)?;
+            let k = design::width(c);
+            let mean = (0..k)
+                .map(|j| c.columns.iter().map(|r| r[j]).sum::<f64>() / windows.max(1) as f64)
+                .collect();
+            Some((c.name, mean, e.values.clone()))
+        })
+        .collect();
+    let temp_mean =
+        seg.windows.iter().filter_map(|w| w.temp).sum::<f64>() / seg.windows.len().max(1) as f64;
+    move |j: usize| {
+        let mut out = [0.0; 3];
+        for (name, mean, values) in &terms {
+            let x: Vec<f64> = match *name {
+                "g-sensitivity" => seg
+                    .accel
+                    .correct_linear(acc_rec.xyz[j].map(|x| x as f32))
+                    .map(f64::from)
+                    .to_vec(),
+                "bias-drift" => vec![(seg.times.get(j).copied().unwrap_or(t0) - t0) / 3600.0],
+                _ => vec![acc_rec
+                    .temp
+                    .as_ref()
+                    .and_then(|t| t.get(j).copied())
+                    .map_or(0.0, |t| t - temp_mean)],
+            };
+            let k = mean.len();
+            for (a, o) in out.iter_mut().enumerate() {
+                *o += (0..k)
+                    .map(|i| values[a * k + i] * (x[i] - mean[i]))
+                    .sum::<f64>();
+            }
+        }
+        out
+    }
+}
+
+/// "no scale-asymmetry above 0.5 %" for every motion candidate of the last step not accepted.
+fn motion_limit_sentences(ml: &report::MotionLoop) -> Vec<String> {
+    let Some(last) = ml.steps.last() else {
+        return Vec::new();
+    };
+    last.candidates
+        .iter()
+        .filter(|c| !c.passed)
+        .map(|c| match c.detection_limit {
+            Some(l) => format!(
+                "no {} above {} {} (the smallest these motions would show in 80 % of cases)",
+                c.name,
+                sig3(l),
+                c.unit
+            ),
+            None => format!("{}: not tested ({})", c.name, c.note),
+        })
+        .collect()
 }
