@@ -114,7 +114,7 @@ fn loop_part(o: &mut String, r: &GyroReport) {
 /// The motions' candidates: the base with the window effects, each effect, the final model.
 fn motion_part(o: &mut String, r: &GyroReport) {
     let Some(m) = &r.motion_loop else {
-        let _ = writeln!(o, "motions: the motion candidates could not be fitted");
+        let _ = writeln!(o, "motions: no motion candidate tried (see below)");
         return;
     };
     let applied = if m.window_effects_applied.is_empty() {

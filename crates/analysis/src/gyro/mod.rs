@@ -117,7 +117,11 @@ pub fn run(acc: &Recording, gyro: &Recording, opts: &GyroOptions) -> Result<Gyro
         .unwrap_or(opts.detect.default_rate_hz);
     let seg = segment::segment(&acc_rec, opts)
         .and_then(|seg| segment::check_not_gravity(gyro, &seg).map(|()| seg))
-        .map_err(|e| segment::swapped(acc, gyro, opts).unwrap_or(e))?;
+        .map_err(|e| {
+            segment::static_only(&acc_rec, rate)
+                .or_else(|| segment::swapped(acc, gyro, opts))
+                .unwrap_or(e)
+        })?;
     let bias_from_rest = segment::bias_at_rest(gyro, &seg.intervals[0]);
     let dt = 1.0 / rate;
     let motions = seg.motions(gyro);
@@ -209,8 +213,8 @@ fn loop_part(
     dt: f64,
 ) -> Result<LoopPart> {
     let fl = floor::floors(gyro, seg, &fit.matrix, dt);
-    let data = window_data(gyro, seg, fit, &fl);
-    let cands = candidates(seg);
+    let kept = still_windows(seg, &fl);
+    let (data, cands) = keep_windows(window_data(gyro, seg, fit, &fl), candidates(seg), &kept);
     let search = effects::search(&data, &cands)
         .ok_or(GyroError::GyroFitFailed(wiical_core::Error::NotConverged))?;
     let fits_bias = matches!(fit.name, "bias" | "scale+bias" | "full+bias");
@@ -233,11 +237,32 @@ fn loop_part(
     };
     let (quality, reasons, text) = verdict::judge(&ev);
     let mut diagnostics = limit_sentences(&search);
+    let dropped = kept.iter().filter(|k| !**k).count();
+    if dropped > 0 {
+        diagnostics.push(format!(
+            "{dropped} of {} static windows left out of the window candidates: the gyro's noise in them is more than {TURNING_VARIANCE_FACTOR}× the median window's, so it turns while the accelerometer rests (a turn about gravity, which the accelerometer cannot see)",
+            kept.len()
+        ));
+    }
     diagnostics.extend(window_scatter(&search, &data));
-    let motions = motion_set(gyro, acc_rec, seg, fit, &fl, dt, (&search, &cands, &data));
-    let motion_loop = motion_search::search(&motions.0, motions.1);
+    // The motion candidates' fit is linearised about the chosen calibration: it assumes angle
+    // errors within the not-usable factor of the floor and samples at one rate.
+    let far = st::rms(fit.held) > verdict::NOT_USABLE_FLOOR_FACTOR * st::rms(&fl.motion_rad);
+    let motion_loop = if far || ev.timestamps.is_some() {
+        diagnostics.push(format!("the motion candidates (scale asymmetry, nonlinearity, time offset) were not tried: their fit is linearised about the chosen calibration and needs {}", if far { "held-out angle errors within 30× the floor" } else { "samples at one rate" }));
+        None
+    } else {
+        let motions = motion_set(gyro, acc_rec, seg, fit, &fl, dt, (&search, &cands, &data));
+        motion_search::search(&motions.0, motions.1)
+    };
+    let mut text = text;
     if let Some(ml) = &motion_loop {
         diagnostics.extend(motion_limit_sentences(ml));
+        text.push_str(&with_effects(
+            ml,
+            st::rms(fit.held),
+            st::rms(&fl.motion_rad),
+        ));
     }
     let window_dps = (data.mean_var.iter().flatten().sum::<f64>()
         / (3 * data.mean_var.len()).max(1) as f64)
@@ -503,4 +528,81 @@ fn motion_limit_sentences(ml: &report::MotionLoop) -> Vec<String> {
             None => format!("{}: not tested ({})", c.name, c.note),
         })
         .collect()
+}
+
+/// A window whose gyro per-sample variance is this many times the median window's is not
+/// still for the gyro (the variance of 50 or more samples of noise is within ±40 % of its
+/// expectation at 3 standard deviations, so 4× is no noise).
+const TURNING_VARIANCE_FACTOR: f64 = 4.0;
+
+/// Which static windows the gyro agrees are still: per-sample variance (the window mean's
+/// variance × its samples, mean over the axes) at most [`TURNING_VARIANCE_FACTOR`] × the
+/// median window's.
+fn still_windows(seg: &segment::Segmentation, fl: &floor::Floors) -> Vec<bool> {
+    let var: Vec<f64> = seg
+        .windows
+        .iter()
+        .zip(&fl.window_mean_var)
+        .map(|(w, v)| v.iter().sum::<f64>() / 3.0 * (w.end - w.start).max(1) as f64)
+        .collect();
+    let mut sorted = var.clone();
+    sorted.sort_by(f64::total_cmp);
+    let median = sorted.get(sorted.len() / 2).copied().unwrap_or(0.0);
+    var.iter()
+        .map(|v| *v <= TURNING_VARIANCE_FACTOR * median)
+        .collect()
+}
+
+/// The window data and the candidates' regressors on the windows `kept` only.
+fn keep_windows(
+    data: effects::WindowData,
+    cands: Vec<effects::Candidate>,
+    kept: &[bool],
+) -> (effects::WindowData, Vec<effects::Candidate>) {
+    let data = effects::WindowData {
+        rate_dps: pick(data.rate_dps, kept),
+        mean_var: pick(data.mean_var, kept),
+    };
+    let cands = cands
+        .into_iter()
+        .map(|c| effects::Candidate {
+            columns: pick(c.columns, kept),
+            ..c
+        })
+        .collect();
+    (data, cands)
+}
+
+/// The rows of `v` where `kept` is true.
+fn pick<T>(v: Vec<T>, kept: &[bool]) -> Vec<T> {
+    v.into_iter()
+        .zip(kept)
+        .filter(|(_, k)| **k)
+        .map(|(x, _)| x)
+        .collect()
+}
+
+/// The verdict's last sentence when the named effects bring the motions' held-out error down
+/// by the CV factor: how far, against the floor (`held`, `floor` in rad).
+fn with_effects(ml: &report::MotionLoop, held: f64, floor: f64) -> String {
+    let names: Vec<&str> = ml
+        .window_effects_applied
+        .iter()
+        .map(String::as_str)
+        .chain(ml.effects.iter().map(|e| e.name.as_str()))
+        .collect();
+    let after = ml.final_model.cv_rms_deg;
+    if names.is_empty() || after * crate::search::select::CV_FACTOR > held.to_degrees() {
+        return String::new();
+    }
+    let ratio = after / floor.to_degrees().max(1e-300);
+    format!(
+        ". With {} applied to the motions the held-out angle error is {after:.3}° ({ratio:.1}× the floor): {}; the calibration written carries no such terms",
+        names.join(" and "),
+        if ratio <= crate::report::verdict::UNEXPLAINED_CV_FACTOR {
+            "they account for the residual"
+        } else {
+            "they explain part of it"
+        }
+    )
 }

@@ -283,7 +283,6 @@ pub struct Fit {
 /// Fits the free calibration parameters and the effects `kinds` from the chosen calibration.
 pub fn fit(set: &MotionSet, kinds: &[Kind]) -> Option<Fit> {
     let mut p = Point::start(kinds);
-    start_offset(set, kinds, &mut p);
     let free = set.mask.iter().filter(|m| **m).count();
     let idx: Vec<usize> = (0..NPARAM).filter(|k| set.mask[*k]).collect();
     let mut lin = linearize(set, &p, kinds)?;
@@ -312,47 +311,6 @@ pub fn fit(set: &MotionSet, kinds: &[Kind]) -> Option<Fit> {
         }
     }
     finish(set, p, lin, free)
-}
-
-/// Offsets tried before Gauss–Newton, each side of zero.
-const OFFSET_GRID: usize = 10;
-
-/// Starts the time offset at the best of a grid over the margin kept around the motions: the
-/// residual is flat in `τ` while the shifted rotation stays inside the motion (a lag shows
-/// only where it carries rotation past the next window's start), so Gauss–Newton from zero
-/// would not find a large one.
-fn start_offset(set: &MotionSet, kinds: &[Kind], p: &mut Point) {
-    let mut at = 0;
-    for k in kinds {
-        if *k == Kind::TimeOffset {
-            break;
-        }
-        at += k.width();
-    }
-    if !kinds.contains(&Kind::TimeOffset) {
-        return;
-    }
-    let reach = set
-        .span
-        .iter()
-        .zip(&set.rates)
-        .map(|((s0, n), r)| (*s0).min(r.len().saturating_sub(s0 + n)))
-        .min()
-        .unwrap_or(0) as f64
-        * set.dt;
-    let rss = |tau: f64| -> f64 {
-        let mut q = p.clone();
-        q.eff[at] = tau;
-        (0..set.span.len())
-            .map(|i| {
-                integrate(set, i, &q, kinds, false).map_or(f64::INFINITY, |o| o.0.norm_squared())
-            })
-            .sum()
-    };
-    let grid =
-        (-(OFFSET_GRID as i64)..=OFFSET_GRID as i64).map(|j| reach * j as f64 / OFFSET_GRID as f64);
-    let best = grid.min_by(|a, b| rss(*a).total_cmp(&rss(*b)));
-    p.eff[at] = best.unwrap_or(0.0);
 }
 
 /// The fit's statistics at its last linearisation.

@@ -104,8 +104,14 @@ pub fn search(set: &MotionSet, applied: Vec<String>) -> Option<MotionLoop> {
 
 /// The rule's inputs for one candidate.
 fn score(cur: &Fit, f: Option<&Fit>, q: usize) -> TermScore {
+    // The in-sample angles are integrated exactly: a candidate that does not lower them is
+    // outside the linearisation's reach and is not taken, whatever its linear statistics say.
     let (p_value, cv, ok) = match f {
-        Some(f) => (f_test(cur, f, q).1, st::rms(&f.held), true),
+        Some(f) => (
+            f_test(cur, f, q).1,
+            st::rms(&f.held),
+            st::rms(&f.angles) <= st::rms(&cur.angles),
+        ),
         None => (1.0, f64::INFINITY, false),
     };
     TermScore {
