@@ -104,8 +104,54 @@ fn loop_part(o: &mut String, r: &GyroReport) {
             "no effect passes the rule (F-test and held-out RMS down by 10 %)"
         );
     }
+    motion_part(o, r);
     for d in &r.diagnostics {
         let _ = writeln!(o, "  {d}");
     }
     let _ = writeln!(o, "\nverdict: {}", r.verdict);
+}
+
+/// The motions' candidates: the base with the window effects, each effect, the final model.
+fn motion_part(o: &mut String, r: &GyroReport) {
+    let Some(m) = &r.motion_loop else {
+        let _ = writeln!(o, "motions: no motion candidate tried (see below)");
+        return;
+    };
+    let applied = if m.window_effects_applied.is_empty() {
+        String::new()
+    } else {
+        format!(" with {} applied", m.window_effects_applied.join(", "))
+    };
+    let _ = writeln!(
+        o,
+        "motions{applied}: {:.4}° RMS, {:.4}° held out (χ² {:.1} on {} dof against the floor)",
+        m.base.rms_deg, m.base.cv_rms_deg, m.base.chi2, m.base.chi2_dof
+    );
+    for e in &m.effects {
+        let _ = writeln!(
+            o,
+            "effect {} ({}): {}\n  values: {}",
+            e.name,
+            e.unit,
+            e.evidence,
+            e.values
+                .iter()
+                .zip(&e.std_errors)
+                .map(|(v, s)| format!("{v:.4} ± {s:.4}"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+    }
+    if m.effects.is_empty() {
+        let _ = writeln!(
+            o,
+            "no motion effect passes the rule (F-test and held-out RMS down by 10 %)"
+        );
+    } else {
+        let _ = writeln!(
+            o,
+            "motions with the effects: {:.4}° RMS, {:.4}° held out",
+            m.final_model.rms_deg, m.final_model.cv_rms_deg
+        );
+    }
 }

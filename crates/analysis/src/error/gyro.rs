@@ -93,6 +93,12 @@ pub enum GyroError {
         /// Mean magnitude of the accelerometer, its units.
         accel_norm: f64,
     },
+    /// The recording never turns: nothing to fit a gyro's scale to.
+    #[error("the recording is static: the accelerometer's direction moves at most {max_tilt_deg:.1}° over it (1-s means), so the gyro never turns and a static log carries no scale or misalignment, only the gyro's noise and bias; run `wiical noise` on it for its noise terms, or record turns between still poses for `gyrofit`")]
+    GyroStaticOnly {
+        /// Largest angle between a 1-s mean of the accelerometer and their overall mean, degrees.
+        max_tilt_deg: f64,
+    },
     /// The accelerometer and gyro recordings were given in swapped order.
     #[error("the two files are in swapped order: the second one has the {windows} still poses of an accelerometer and the first turns like a gyro; give the accelerometer's file first, then the gyro's")]
     GyroFilesSwapped {

@@ -102,10 +102,18 @@ pub fn detection_limit(
         .fold(0.0, f64::max);
     let q = (3 * width(c)) as f64;
     let d2 = (3 * (n - p1)) as f64;
-    let crit = q * f_critical(level, q, d2);
-    let beta_f = lambda_for_power(crit, q).sqrt() * se_max;
     let nn = n as f64;
     let cv_need = 3.0 * nn * (CV_FACTOR.powi(2) * (1.0 + p1 as f64 / nn) - (1.0 + p0 as f64 / nn));
+    limit_from(se_max, q, d2, level, cv_need)
+}
+
+/// The limit from the candidate's largest standard error `se_max`, its `q` coefficients (all
+/// axes), the residual dof `d2` with it, the step's `level`, and `cv_need`: the squared
+/// coefficient, in units of `se_max²`, at which the held-out RMS falls by the CV factor (module
+/// docs; `rows·(c²(1 + p₁/m) − (1 + p₀/m))` with `m` the rows per parameter set).
+pub fn limit_from(se_max: f64, q: f64, d2: f64, level: f64, cv_need: f64) -> Option<f64> {
+    let crit = q * f_critical(level, q, d2);
+    let beta_f = lambda_for_power(crit, q).sqrt() * se_max;
     let beta_cv = se_max * cv_need.max(0.0).sqrt();
     let limit = beta_f.max(beta_cv);
     limit.is_finite().then_some(limit)

@@ -29,6 +29,8 @@ pub mod effects;
 pub mod floor;
 pub mod limits;
 mod models;
+pub mod motion;
+pub mod motion_search;
 mod nominal;
 pub mod report;
 mod segment;
@@ -116,7 +118,11 @@ pub fn run(acc: &Recording, gyro: &Recording, opts: &GyroOptions) -> Result<Gyro
         .unwrap_or(opts.detect.default_rate_hz);
     let seg = segment::segment(&acc_rec, opts)
         .and_then(|seg| segment::check_not_gravity(gyro, &seg).map(|()| seg))
-        .map_err(|e| segment::swapped(acc, gyro, opts).unwrap_or(e))?;
+        .map_err(|e| {
+            segment::static_only(&acc_rec, rate)
+                .or_else(|| segment::swapped(acc, gyro, opts))
+                .unwrap_or(e)
+        })?;
     let bias_from_rest = segment::bias_at_rest(gyro, &seg.intervals[0]);
     let dt = 1.0 / rate;
     let motions = seg.motions(gyro);
@@ -174,6 +180,7 @@ pub fn run(acc: &Recording, gyro: &Recording, opts: &GyroOptions) -> Result<Gyro
         reasons: lp.reasons,
         verdict: lp.verdict,
         diagnostics: lp.diagnostics,
+        motion_loop: lp.motion_loop,
     })
 }
 
@@ -197,6 +204,7 @@ struct LoopPart {
     reasons: Vec<String>,
     verdict: String,
     diagnostics: Vec<String>,
+    motion_loop: Option<report::MotionLoop>,
 }
 
 /// Noise floor, static-window candidates and verdict for the chosen calibration.
@@ -208,8 +216,8 @@ fn loop_part(
     dt: f64,
 ) -> Result<LoopPart> {
     let fl = floor::floors(gyro, seg, &fit.matrix, dt);
-    let data = window_data(gyro, seg, fit, &fl);
-    let cands = candidates(seg);
+    let kept = still_windows(seg, &fl);
+    let (data, cands) = keep_windows(window_data(gyro, seg, fit, &fl), candidates(seg), &kept);
     let search = effects::search(&data, &cands)
         .ok_or(GyroError::GyroFitFailed(wiical_core::Error::NotConverged))?;
     let fits_bias = matches!(fit.name, "bias" | "scale+bias" | "full+bias");
@@ -232,7 +240,33 @@ fn loop_part(
     };
     let (quality, reasons, text) = verdict::judge(&ev);
     let mut diagnostics = limit_sentences(&search);
+    let dropped = kept.iter().filter(|k| !**k).count();
+    if dropped > 0 {
+        diagnostics.push(format!(
+            "{dropped} of {} static windows left out of the window candidates: the gyro's noise in them is more than {TURNING_VARIANCE_FACTOR}× the median window's, so it turns while the accelerometer rests (a turn about gravity, which the accelerometer cannot see)",
+            kept.len()
+        ));
+    }
     diagnostics.extend(window_scatter(&search, &data));
+    // The motion candidates' fit is linearised about the chosen calibration: it assumes angle
+    // errors within the not-usable factor of the floor and samples at one rate.
+    let far = st::rms(fit.held) > verdict::NOT_USABLE_FLOOR_FACTOR * st::rms(&fl.motion_rad);
+    let motion_loop = if far || ev.timestamps.is_some() {
+        diagnostics.push(format!("the motion candidates (scale asymmetry, nonlinearity, time offset) were not tried: their fit is linearised about the chosen calibration and needs {}", if far { "held-out angle errors within 30× the floor" } else { "samples at one rate" }));
+        None
+    } else {
+        let motions = motion_set(gyro, acc_rec, seg, fit, &fl, dt, (&search, &cands, &data));
+        motion_search::search(&motions.0, motions.1)
+    };
+    let mut text = text;
+    if let Some(ml) = &motion_loop {
+        diagnostics.extend(motion_limit_sentences(ml));
+        text.push_str(&with_effects(
+            ml,
+            st::rms(fit.held),
+            st::rms(&fl.motion_rad),
+        ));
+    }
     let window_dps = (data.mean_var.iter().flatten().sum::<f64>()
         / (3 * data.mean_var.len()).max(1) as f64)
         .sqrt();
@@ -245,6 +279,7 @@ fn loop_part(
         reasons,
         verdict: text,
         diagnostics,
+        motion_loop,
     })
 }
 
@@ -365,4 +400,212 @@ fn window_scatter(search: &effects::Search, data: &effects::WindowData) -> Optio
         f.rms_dps / noise.max(1e-300),
         st::fmt_p(p)
     ))
+}
+
+/// Seconds of rate kept either side of a motion: room for the time-offset candidate to shift
+/// the gyro's samples against the accelerometer's windows.
+const MOTION_MARGIN_S: f64 = 1.0;
+
+/// The motions with the chosen calibration and the accepted window effects applied to every
+/// sample (their deviation from their mean over the windows, °/s → rad/s), the chosen
+/// model's free parameters and each motion's floor; and the names of the effects applied.
+fn motion_set(
+    gyro: &Recording,
+    acc_rec: &Recording,
+    seg: &segment::Segmentation,
+    fit: &Fitted<'_>,
+    fl: &floor::Floors,
+    dt: f64,
+    (search, cands, data): (
+        &effects::Search,
+        &[effects::Candidate],
+        &effects::WindowData,
+    ),
+) -> (motion::MotionSet, Vec<String>) {
+    let corr = window_correction(acc_rec, seg, search, cands, data.rate_dps.len());
+    let margin = (MOTION_MARGIN_S / dt).ceil() as usize;
+    let k = nalgebra::Matrix3::from_fn(|r, c| fit.matrix[r][c]);
+    let b = nalgebra::Vector3::from(fit.bias);
+    let n = gyro.xyz.len();
+    let (mut rates, mut span, mut gravity) = (Vec::new(), Vec::new(), Vec::new());
+    for s in &seg.spans {
+        let (start, end) = (s.start as usize, s.end as usize);
+        let lo = start.saturating_sub(margin);
+        let hi = (end + margin).min(n);
+        rates.push(
+            (lo..hi)
+                .map(|j| {
+                    let w = k * (nalgebra::Vector3::from(gyro.xyz[j]) - b);
+                    w - nalgebra::Vector3::from(corr(j)).map(f64::to_radians)
+                })
+                .collect(),
+        );
+        span.push((start - lo, end - start));
+        gravity.push((
+            nalgebra::Vector3::from(s.g_start).cast(),
+            nalgebra::Vector3::from(s.g_end).cast(),
+        ));
+    }
+    let set = motion::MotionSet {
+        rates,
+        span,
+        gravity,
+        // One floor for every motion (their RMS): the fit then minimises what the model choice
+        // minimised, so the base is the chosen calibration itself.
+        sigma: vec![st::rms(&fl.motion_rad) / 2f64.sqrt(); seg.spans.len()],
+        dt,
+        mask: models::mask_of(fit.name),
+    };
+    let applied = search.effects.iter().map(|e| e.name.clone()).collect();
+    (set, applied)
+}
+
+/// The accepted window effects at sample `j`, °/s: each regressor's deviation from its mean
+/// over the windows times the fitted coefficients (so the constant stays the calibration's
+/// bias). The regressors per sample are the windows': the calibrated specific force (g), the
+/// time from the windows' mean centre (h), the temperature from the windows' mean (°C).
+fn window_correction<'a>(
+    acc_rec: &'a Recording,
+    seg: &'a segment::Segmentation,
+    search: &'a effects::Search,
+    cands: &'a [effects::Candidate],
+    windows: usize,
+) -> impl Fn(usize) -> [f64; 3] + 'a {
+    let t0 = seg.windows.iter().map(|w| w.t_centre).sum::<f64>() / seg.windows.len() as f64;
+    let terms: Vec<(&'a str, Vec<f64>, Vec<f64>)> = search
+        .effects
+        .iter()
+        .filter_map(|e| {
+            let c = cands.iter().find(|c| c.name == e.name)?;
+            let k = design::width(c);
+            let mean = (0..k)
+                .map(|j| c.columns.iter().map(|r| r[j]).sum::<f64>() / windows.max(1) as f64)
+                .collect();
+            Some((c.name, mean, e.values.clone()))
+        })
+        .collect();
+    let temp_mean =
+        seg.windows.iter().filter_map(|w| w.temp).sum::<f64>() / seg.windows.len().max(1) as f64;
+    move |j: usize| {
+        let mut out = [0.0; 3];
+        for (name, mean, values) in &terms {
+            let x: Vec<f64> = match *name {
+                "g-sensitivity" => seg
+                    .accel
+                    .correct_linear(acc_rec.xyz[j].map(|x| x as f32))
+                    .map(f64::from)
+                    .to_vec(),
+                "bias-drift" => vec![(seg.times.get(j).copied().unwrap_or(t0) - t0) / 3600.0],
+                _ => vec![acc_rec
+                    .temp
+                    .as_ref()
+                    .and_then(|t| t.get(j).copied())
+                    .map_or(0.0, |t| t - temp_mean)],
+            };
+            let k = mean.len();
+            for (a, o) in out.iter_mut().enumerate() {
+                *o += (0..k)
+                    .map(|i| values[a * k + i] * (x[i] - mean[i]))
+                    .sum::<f64>();
+            }
+        }
+        out
+    }
+}
+
+/// "no scale-asymmetry above 0.5 %" for every motion candidate of the last step not accepted.
+fn motion_limit_sentences(ml: &report::MotionLoop) -> Vec<String> {
+    let Some(last) = ml.steps.last() else {
+        return Vec::new();
+    };
+    last.candidates
+        .iter()
+        .filter(|c| !c.passed)
+        .map(|c| match c.detection_limit {
+            Some(l) => format!(
+                "no {} above {} {} (the smallest these motions would show in 80 % of cases)",
+                c.name,
+                sig3(l),
+                c.unit
+            ),
+            None => format!("{}: not tested ({})", c.name, c.note),
+        })
+        .collect()
+}
+
+/// A window whose gyro per-sample variance is this many times the median window's is not
+/// still for the gyro (the variance of 50 or more samples of noise is within ±40 % of its
+/// expectation at 3 standard deviations, so 4× is no noise).
+const TURNING_VARIANCE_FACTOR: f64 = 4.0;
+
+/// Which static windows the gyro agrees are still: per-sample variance (the window mean's
+/// variance × its samples, mean over the axes) at most [`TURNING_VARIANCE_FACTOR`] × the
+/// median window's.
+fn still_windows(seg: &segment::Segmentation, fl: &floor::Floors) -> Vec<bool> {
+    let var: Vec<f64> = seg
+        .windows
+        .iter()
+        .zip(&fl.window_mean_var)
+        .map(|(w, v)| v.iter().sum::<f64>() / 3.0 * (w.end - w.start).max(1) as f64)
+        .collect();
+    let mut sorted = var.clone();
+    sorted.sort_by(f64::total_cmp);
+    let median = sorted.get(sorted.len() / 2).copied().unwrap_or(0.0);
+    var.iter()
+        .map(|v| *v <= TURNING_VARIANCE_FACTOR * median)
+        .collect()
+}
+
+/// The window data and the candidates' regressors on the windows `kept` only.
+fn keep_windows(
+    data: effects::WindowData,
+    cands: Vec<effects::Candidate>,
+    kept: &[bool],
+) -> (effects::WindowData, Vec<effects::Candidate>) {
+    let data = effects::WindowData {
+        rate_dps: pick(data.rate_dps, kept),
+        mean_var: pick(data.mean_var, kept),
+    };
+    let cands = cands
+        .into_iter()
+        .map(|c| effects::Candidate {
+            columns: pick(c.columns, kept),
+            ..c
+        })
+        .collect();
+    (data, cands)
+}
+
+/// The rows of `v` where `kept` is true.
+fn pick<T>(v: Vec<T>, kept: &[bool]) -> Vec<T> {
+    v.into_iter()
+        .zip(kept)
+        .filter(|(_, k)| **k)
+        .map(|(x, _)| x)
+        .collect()
+}
+
+/// The verdict's last sentence when the named effects bring the motions' held-out error down
+/// by the CV factor: how far, against the floor (`held`, `floor` in rad).
+fn with_effects(ml: &report::MotionLoop, held: f64, floor: f64) -> String {
+    let names: Vec<&str> = ml
+        .window_effects_applied
+        .iter()
+        .map(String::as_str)
+        .chain(ml.effects.iter().map(|e| e.name.as_str()))
+        .collect();
+    let after = ml.final_model.cv_rms_deg;
+    if names.is_empty() || after * crate::search::select::CV_FACTOR > held.to_degrees() {
+        return String::new();
+    }
+    let ratio = after / floor.to_degrees().max(1e-300);
+    format!(
+        ". With {} applied to the motions the held-out angle error is {after:.3}° ({ratio:.1}× the floor): {}; the calibration written carries no such terms",
+        names.join(" and "),
+        if ratio <= crate::report::verdict::UNEXPLAINED_CV_FACTOR {
+            "they account for the residual"
+        } else {
+            "they explain part of it"
+        }
+    )
 }

@@ -54,6 +54,14 @@ const CANDIDATES: [(&str, GyroModel, bool); 6] = [
     ("full", GyroModel::Full, false),
     ("full+bias", GyroModel::Full, true),
 ];
+/// The core's free parameters of the model named `name` (none for an unknown name).
+pub(super) fn mask_of(name: &str) -> [bool; wiical_core::gyro::NPARAM] {
+    CANDIDATES
+        .iter()
+        .find(|c| c.0 == name)
+        .map_or([false; wiical_core::gyro::NPARAM], |c| c.1.mask(c.2))
+}
+
 /// Remarks on the choice: a full model that generalises worse than none, or no fitted model
 /// at all.
 pub(super) fn choice_notes(rows: &[GyroModelRow], name: &str) -> Vec<String> {

@@ -94,6 +94,111 @@ pub struct GyroStep {
     pub accepted: Option<String>,
 }
 
+/// A motion model: the chosen calibration (refitted) with the motion effects so far.
+#[derive(Debug, Clone, Serialize)]
+pub struct MotionSummary {
+    /// Parameters (the chosen model's free ones + the effects').
+    pub params: usize,
+    /// In-sample RMS angle error over the motions, degrees.
+    pub rms_deg: f64,
+    /// Leave-one-motion-out RMS angle error, degrees.
+    pub cv_rms_deg: f64,
+    /// Motions used.
+    pub motions_used: usize,
+    /// χ² of the residuals against the motions' noise floor (two axes per motion).
+    pub chi2: f64,
+    /// Its degrees of freedom.
+    pub chi2_dof: usize,
+    /// P(χ² this large | only noise).
+    pub chi2_p: f64,
+}
+
+/// One accepted motion effect.
+#[derive(Debug, Clone, Serialize)]
+pub struct MotionEffect {
+    /// `scale-asymmetry`, `scale-nonlinearity`, `time-offset`.
+    pub name: String,
+    /// Coefficients it adds.
+    pub params: usize,
+    /// Unit of `values` (`%`, `% at 100 °/s`, `s`).
+    pub unit: String,
+    /// Fitted values (per gyro axis x, y, z; one for the time offset).
+    pub values: Vec<f64>,
+    /// Their standard errors.
+    pub std_errors: Vec<f64>,
+    /// Which pattern pointed to it, and the test results.
+    pub evidence: String,
+    /// F statistic.
+    pub f_stat: f64,
+    /// Its p-value (before the factor over candidates).
+    pub p_value: f64,
+    /// In-sample RMS angle error before adding it, degrees.
+    pub rms_before_deg: f64,
+    /// After, degrees.
+    pub rms_deg: f64,
+    /// Held-out RMS angle error before, degrees.
+    pub cv_rms_before_deg: f64,
+    /// After, degrees.
+    pub cv_rms_deg: f64,
+}
+
+/// One motion candidate at one step.
+#[derive(Debug, Clone, Serialize)]
+pub struct MotionCandidate {
+    /// Effect name.
+    pub name: String,
+    /// Coefficients it would add.
+    pub params: usize,
+    /// Unit of its coefficients and of `detection_limit`.
+    pub unit: String,
+    /// In-sample RMS angle error with it, degrees.
+    pub rms_deg: Option<f64>,
+    /// Held-out RMS angle error with it, degrees.
+    pub cv_rms_deg: Option<f64>,
+    /// Held-out RMS angle error of the current model, degrees.
+    pub cv_rms_current_deg: f64,
+    /// F statistic.
+    pub f_stat: Option<f64>,
+    /// p-value (before the factor over candidates).
+    pub p_value: Option<f64>,
+    /// Passed both rules.
+    pub passed: bool,
+    /// Why not, or what it found.
+    pub note: String,
+    /// Not accepted: the smallest coefficient this recording would have shown at the step's
+    /// level (80 % power), in `unit`; `null` when accepted or untestable.
+    pub detection_limit: Option<f64>,
+}
+
+/// One greedy step over the motion candidates.
+#[derive(Debug, Clone, Serialize)]
+pub struct MotionStep {
+    /// Candidates tried.
+    pub candidates: Vec<MotionCandidate>,
+    /// Level each candidate was held to (α / candidates).
+    pub level: f64,
+    /// The one accepted, if any.
+    pub accepted: Option<String>,
+}
+
+/// The motions' part of the loop: the accepted window effects applied to the rates, then the
+/// motion candidates by the same F + CV rule.
+#[derive(Debug, Clone, Serialize)]
+pub struct MotionLoop {
+    /// The window effects applied to the motions' rates before the search (their deviations
+    /// from their mean over the windows: the constant stays the calibration's bias).
+    pub window_effects_applied: Vec<String>,
+    /// The chosen calibration refitted on the rates with them.
+    pub base: MotionSummary,
+    /// Accepted motion effects, in the order added.
+    pub effects: Vec<MotionEffect>,
+    /// The motion model with them.
+    #[serde(rename = "final")]
+    pub final_model: MotionSummary,
+    /// The greedy steps with every candidate.
+    pub steps: Vec<MotionStep>,
+}
+
 /// The verdict's class.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "kebab-case")]
@@ -174,4 +279,7 @@ pub struct GyroReport {
     /// (`bias`, `matrix` and `effects` are).
     #[serde(skip)]
     pub correction: wiical_core::gyro_correct::GyroCorrection<f64>,
+    /// The motions' candidates (scale asymmetry, nonlinearity, time offset) after the window
+    /// effects; `null` when the motions' model could not be fitted.
+    pub motion_loop: Option<MotionLoop>,
 }

@@ -170,6 +170,33 @@ pub(super) fn swapped(acc: &Recording, gyro: &Recording, opts: &GyroOptions) -> 
     })
 }
 
+/// A recording whose accelerometer direction moves less than this (degrees, 1-s means) never
+/// turns: a still log, refused as static.
+pub(super) const STATIC_TILT_DEG: f64 = 5.0;
+
+/// The static-only refusal, when the accelerometer's 1-s means (at `rate` Hz) all point within
+/// [`STATIC_TILT_DEG`] of their overall mean direction.
+pub(super) fn static_only(acc: &Recording, rate: f64) -> Option<GyroError> {
+    let block = (rate.max(1.0).round() as usize).max(1);
+    let means: Vec<nalgebra::Vector3<f64>> = acc
+        .xyz
+        .chunks(block)
+        .filter_map(|c| {
+            let s: nalgebra::Vector3<f64> = c.iter().map(|v| nalgebra::Vector3::from(*v)).sum();
+            s.try_normalize(0.0)
+        })
+        .collect();
+    let all = means
+        .iter()
+        .sum::<nalgebra::Vector3<f64>>()
+        .try_normalize(0.0)?;
+    let max_tilt_deg = means
+        .iter()
+        .map(|m| m.angle(&all).to_degrees())
+        .fold(0.0, f64::max);
+    (max_tilt_deg < STATIC_TILT_DEG).then_some(GyroError::GyroStaticOnly { max_tilt_deg })
+}
+
 /// The gyro's mean at rest (the mean of the window means) against the fitted bias: the
 /// difference and the window means' spread (standard deviation over the windows), raw counts.
 pub(super) fn bias_against_rest(

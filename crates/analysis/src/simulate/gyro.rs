@@ -11,6 +11,11 @@
 //! `m = K⁻¹·ω_meas + b`, with `ω_meas = ω + G·a + d·t + k_T·(T − T₀) + noise` (rad/s; `G` the
 //! g-sensitivity in rad/s per g, `d` a bias drift in rad/s per s, `k_T` per °C), `K` the true
 //! raw → rad/s matrix.
+//!
+//! The motion effects act on `ω_meas` per axis of the calibrated frame, as the inverse of the
+//! corrections `gyrofit` looks for (`gyro::motion`): scale asymmetry `a` (the sensor reads
+//! `ω/(1 + a·sign ω)`), a cubic `c` (it reads the `x` with `x + c·x·(x/ω_ref)² = ω`), and a
+//! time offset `τ` (the gyro reads at `t` the rate of `t − τ`, linear between samples).
 
 use nalgebra::{Matrix3, Rotation3, Unit, Vector3};
 use rand::{Rng, SeedableRng};
@@ -59,6 +64,12 @@ pub struct GyroTruth {
     pub temp_coef: [f64; 3],
     /// Peak temperature change over the recording, °C.
     pub temp_ramp: f64,
+    /// Scale asymmetry per axis (fraction; `gyro::motion`'s coefficient).
+    pub asymmetry: [f64; 3],
+    /// Cubic scale nonlinearity per axis (fraction at ±100 °/s).
+    pub nonlinearity: [f64; 3],
+    /// Gyro lag behind the accelerometer, s.
+    pub time_offset: f64,
 }
 
 impl Default for GyroTruth {
@@ -77,6 +88,9 @@ impl Default for GyroTruth {
             drift: [0.0; 3],
             temp_coef: [0.0; 3],
             temp_ramp: 0.0,
+            asymmetry: [0.0; 3],
+            nonlinearity: [0.0; 3],
+            time_offset: 0.0,
         }
     }
 }
@@ -172,12 +186,14 @@ pub fn simulate_gyro(o: &GyroSimOptions) -> GyroSim {
         s * z
     };
     let (mut acc, mut gyr, mut times, mut temps) = (vec![], vec![], vec![], vec![]);
-    for (i, (rot, w)) in traj.iter().enumerate() {
+    let rates: Vec<Vector3<f64>> = traj.iter().map(|(_, w)| *w).collect();
+    for (i, (rot, _)) in traj.iter().enumerate() {
         let time = i as f64 / o.rate_hz;
         let a = rot.inverse() * Vector3::z();
         let temp = t.temp_ramp * (std::f64::consts::PI * time / span).sin();
         let drift = Vector3::from(t.drift) * time + Vector3::from(t.temp_coef) * temp;
         let wn = Vector3::from_fn(|_, _| noise(o.gyro_noise));
+        let w = motion_effects(t, &rates, i as f64 - t.time_offset * o.rate_hz);
         let w_meas = w + g_sens * a + drift + wn;
         let m = k_inv * w_meas + Vector3::from(t.bias);
         let an = Vector3::from_fn(|_, _| noise(o.accel_noise_g));
@@ -199,4 +215,25 @@ pub fn simulate_gyro(o: &GyroSimOptions) -> GyroSim {
         accel: rec(acc, ["ax", "ay", "az"]),
         gyro: rec(gyr, ["gx", "gy", "gz"]),
     }
+}
+
+/// The true rate at fractional sample `x` (linear between samples, clamped), as the gyro
+/// reads it through the asymmetry and the cubic of `t` (module docs).
+fn motion_effects(t: &GyroTruth, rates: &[Vector3<f64>], x: f64) -> Vector3<f64> {
+    let last = rates.len().saturating_sub(1);
+    let x = x.clamp(0.0, last as f64);
+    let i = (x.floor() as usize).min(last);
+    let f = x - i as f64;
+    let w = rates[i] * (1.0 - f) + rates[(i + 1).min(last)] * f;
+    let r = crate::gyro::motion::RATE_REF;
+    Vector3::from_fn(|k, _| {
+        let (a, c, target) = (t.asymmetry[k], t.nonlinearity[k], w[k]);
+        // Newton on m + a·|m| + c·m³/r² = target (monotone for small a, c).
+        let mut m = target / (1.0 + a * target.signum());
+        for _ in 0..4 {
+            let g = m + a * m.abs() + c * m.powi(3) / (r * r) - target;
+            m -= g / (1.0 + a * m.signum() + 3.0 * c * m * m / (r * r));
+        }
+        m
+    })
 }
