@@ -11,7 +11,8 @@
 
 use wiical_core::static_detect::{StaticDetector, StaticDetectorConfig, StaticInterval};
 
-use crate::selfcal::DETECTOR_CAPACITY;
+/// Capacity of the static detector's sample ring (the window must fit).
+pub const DETECTOR_CAPACITY: usize = 64;
 
 /// The detector and its absolute limit; see the module docs.
 #[derive(Debug, Clone)]

@@ -100,17 +100,24 @@ fn deg(rad: f64) -> f64 {
     rad.to_degrees()
 }
 
+/// A datasheet scale given by the caller must be finite and non-zero on every axis (without
+/// one, the nominal scale is estimated from the motions).
+fn check_nominal_scale(opts: &GyroOptions) -> Result<()> {
+    let usable = opts
+        .nominal_rad_per_count
+        .iter()
+        .all(|s| s.is_finite() && *s != 0.0);
+    if opts.estimate_nominal || usable {
+        Ok(())
+    } else {
+        Err(GyroError::GyroNominalScale)
+    }
+}
+
 /// Runs the gyro calibration on an accelerometer recording and the gyro recording of the same
 /// samples.
 pub fn run(acc: &Recording, gyro: &Recording, opts: &GyroOptions) -> Result<GyroReport> {
-    if !opts.estimate_nominal
-        && !opts
-            .nominal_rad_per_count
-            .iter()
-            .all(|s| s.is_finite() && *s != 0.0)
-    {
-        return Err(GyroError::GyroNominalScale);
-    }
+    check_nominal_scale(opts)?;
     let acc_rec = align::paired_accelerometer(acc, gyro)?;
     segment::check_gyro_reads(gyro, &acc_rec)?;
     let rate = acc_rec
