@@ -53,10 +53,12 @@ pub enum InputError {
         limit_mib: u64,
     },
     /// The file is not UTF-8 text.
-    #[error("{} is not UTF-8 text", path.display())]
+    #[error("{} is not UTF-8 text: {why}", path.display())]
     NotUtf8 {
         /// The file.
         path: PathBuf,
+        /// Where it stops being UTF-8, or which other encoding it is, and what to do.
+        why: String,
     },
     /// A file named or shaped like a raw format that is not one (wrong magic, bad header).
     #[error("not a readable {format} file: {why}")]
@@ -134,6 +136,16 @@ pub enum InputError {
     /// A field is not a number.
     #[error("line {line}: column '{column}': '{text}' is not a number")]
     NotANumber {
+        /// 1-based line.
+        line: usize,
+        /// Column name.
+        column: String,
+        /// The field.
+        text: String,
+    },
+    /// A field is a number too large for a double (it would read as infinite).
+    #[error("line {line}: column '{column}': value '{text}' is beyond the range of a double (±1.8e308): no reading is that large; check the column or the number's exponent")]
+    BeyondDouble {
         /// 1-based line.
         line: usize,
         /// Column name.

@@ -135,7 +135,34 @@ pub fn text_of(path: &Path, mut bytes: Vec<u8>) -> Result<String> {
     if bytes.starts_with(b"\xEF\xBB\xBF") {
         bytes.drain(..3);
     }
-    String::from_utf8(bytes).map_err(|_| InputError::NotUtf8 { path: path.into() }.into())
+    String::from_utf8(bytes).map_err(|e| {
+        let why = not_utf8_why(e.as_bytes(), e.utf8_error().valid_up_to());
+        InputError::NotUtf8 {
+            path: path.into(),
+            why,
+        }
+        .into()
+    })
+}
+
+/// Why `bytes` is not UTF-8, in words a user can act on: UTF-16 (recognised by its
+/// byte-order mark, as spreadsheet programs write "Unicode text") is named with the
+/// conversion to make; otherwise the line and column (1-based, bytes) of the first byte that
+/// is not UTF-8 are given, since a binary file given a text name fails there too.
+fn not_utf8_why(bytes: &[u8], valid_up_to: usize) -> String {
+    if bytes.starts_with(b"\xFF\xFE") || bytes.starts_with(b"\xFE\xFF") {
+        return "it is UTF-16 text (it starts with a UTF-16 byte-order mark): save it as UTF-8, \
+                e.g. `iconv -f UTF-16 -t UTF-8 FILE > FILE.csv`"
+            .into();
+    }
+    let before = &bytes[..valid_up_to];
+    let line = 1 + memchr::memchr_iter(b'\n', before).count();
+    let column = 1 + before.len() - memchr::memrchr(b'\n', before).map_or(0, |i| i + 1);
+    format!(
+        "line {line}, column {column} holds a byte that is not UTF-8 (a binary file, or text in \
+         another encoding): save it as UTF-8 text, or give a raw .cwa/.bin recording its own \
+         extension"
+    )
 }
 
 /// `text` as quoted in an error message: at most [`MAX_QUOTED_CHARS`] characters, control
@@ -189,6 +216,14 @@ pub(crate) fn parse_number(s: &str, line_no: usize, col: &str, decimal_comma: bo
         column: quote(col),
         text: quote(s),
     })?;
+    if v.is_infinite() && written_as_digits(s) {
+        return Err(InputError::BeyondDouble {
+            line: line_no,
+            column: quote(col),
+            text: quote(s),
+        }
+        .into());
+    }
     if !v.is_finite() {
         return Err(InputError::NotFinite {
             line: line_no,
@@ -198,6 +233,15 @@ pub(crate) fn parse_number(s: &str, line_no: usize, col: &str, decimal_comma: bo
         .into());
     }
     Ok(v)
+}
+
+/// True when `s` spells a number with digits (as `1e309` does), not `inf`/`Infinity`/`NaN`:
+/// such a field that reads as infinite overflowed a double.
+fn written_as_digits(s: &str) -> bool {
+    s.bytes().any(|b| b.is_ascii_digit())
+        && !s
+            .bytes()
+            .any(|b| b.is_ascii_alphabetic() && !matches!(b, b'e' | b'E'))
 }
 
 /// Largest magnitude a sensor reading may have. No sensor in any unit reports 10¹² (a 32-bit
@@ -379,10 +423,18 @@ mod tests {
         assert_eq!(read_bounded(&p, 2000).unwrap().len(), 2000);
         std::fs::write(&p, b"\xEF\xBB\xBF1 2 3\n").unwrap();
         assert_eq!(read_text(&p, 100).unwrap(), "1 2 3\n");
-        std::fs::write(&p, b"1 \xFF 3\n").unwrap();
-        assert!(matches!(
-            read_text(&p, 100).unwrap_err(),
-            crate::Error::Input(InputError::NotUtf8 { .. })
-        ));
+        std::fs::write(&p, b"t,x\n1 \xFF 3\n").unwrap();
+        let e = read_text(&p, 100).unwrap_err();
+        assert!(matches!(e, crate::Error::Input(InputError::NotUtf8 { .. })));
+        assert!(
+            e.to_string().contains("line 2, column 3 holds a byte"),
+            "{e}"
+        );
+        std::fs::write(&p, b"\xFF\xFEt\0,\0x\0").unwrap();
+        let e = read_text(&p, 100).unwrap_err().to_string();
+        assert!(
+            e.contains("it is UTF-16 text") && e.contains("save it as UTF-8"),
+            "{e}"
+        );
     }
 }

@@ -738,6 +738,7 @@ mod tests {
         assert!(e("1 2 3\n1 2\n").contains("expected 3 columns"));
         assert!(e("1 2\n").contains("without a header"));
         assert!(e("1 inf 3\n").contains("not finite"));
+        assert!(e("x,y,z\n1,-1e309,3\n").contains("'-1e309' is beyond the range of a double"));
         assert!(e("x,x,y,z\n1,2,3,4\n").contains("twice"));
         assert!(e("x,y,z\n1,abc,3\n").contains("not a number"));
         assert!(e("1,2,3\n").contains("before any header"));
