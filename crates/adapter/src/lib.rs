@@ -45,6 +45,7 @@ pub mod poller;
 pub mod protocol;
 pub mod selfcal;
 pub mod settings;
+pub mod still;
 pub mod store;
 
 pub use corrector::{Corrected, CorrectionMode, Corrector, IdealScale};

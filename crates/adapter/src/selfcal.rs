@@ -45,14 +45,14 @@ use wiical_core::multipos::{self, MultiPosConfig};
 use wiical_core::static_detect::{StaticDetectorConfig, StaticInterval};
 use wiical_core::Calibration;
 
-use crate::background::still::StillFeed;
+use crate::still::StillFeed;
 
 /// Most poses a session keeps (the coverage rule stops well before; a session that fills
 /// this without meeting it fails).
 pub const MAX_POSES: usize = 32;
 /// Capacity of the static detector's sample ring (the window must fit); defined by the
 /// stillness feed both sessions share.
-pub use crate::background::still::DETECTOR_CAPACITY;
+pub use crate::still::DETECTOR_CAPACITY;
 
 /// Settings of the self-calibration and the stale monitor. Counts of reports, raw counts²
 /// for variances, radians for angles, g for accelerations.

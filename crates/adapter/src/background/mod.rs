@@ -6,7 +6,7 @@
 //! so still moments in enough orientations re-determine bias and scale. Here it runs on the
 //! adapter itself, in real time, in fixed memory:
 //!
-//! 1. [`still`]: every report goes through the core's static detector with the
+//! 1. [`crate::still`]: every report goes through the core's static detector with the
 //!    self-calibration's absolute stillness limit; each still moment that ends is one sample.
 //! 2. [`grid`]: the moment is binned by orientation into a fixed grid over the sphere; a bin
 //!    keeps exponentially weighted statistics (newest moments weigh more, so the grid
@@ -33,7 +33,6 @@ pub mod adopt;
 pub mod fit;
 pub mod grid;
 pub mod schedule;
-pub mod still;
 
 pub use adopt::{LiveOrigin, Refusal};
 pub use fit::FitModel;
@@ -44,9 +43,9 @@ use wiical_core::acceptance::{Acceptance, CoverageGap, CoverageRule};
 use wiical_core::static_detect::StaticDetectorConfig;
 use wiical_core::Calibration;
 
+use crate::still::StillFeed;
 use adopt::{Budget, Policy};
 use schedule::{Job, JobSettings, Outcome};
-use still::StillFeed;
 
 use crate::selfcal::SelfCalConfig;
 
@@ -56,7 +55,7 @@ use crate::selfcal::SelfCalConfig;
 pub struct BackgroundSettings {
     /// Reports per second (the clock).
     pub rate_hz: u32,
-    /// Static detector settings (window ≤ [`crate::selfcal::DETECTOR_CAPACITY`]).
+    /// Static detector settings (window ≤ [`crate::still::DETECTOR_CAPACITY`]).
     pub detector: StaticDetectorConfig,
     /// Largest per-axis variance of a still moment (the absolute stillness limit).
     pub max_still_variance: f32,
