@@ -123,13 +123,16 @@ pub fn run(acc: &Recording, gyro: &Recording, opts: &GyroOptions) -> Result<Gyro
     let rate = acc_rec
         .estimated_rate_hz()
         .unwrap_or(opts.detect.default_rate_hz);
-    let seg = segment::segment(&acc_rec, opts)
-        .and_then(|seg| segment::check_not_gravity(gyro, &seg).map(|()| seg))
-        .map_err(|e| {
-            segment::static_only(&acc_rec, rate)
-                .or_else(|| segment::swapped(acc, gyro, opts))
-                .unwrap_or(e)
-        })?;
+    // A static log is recognised only when no segmentation is found: the test reads the raw
+    // vector's direction, which a large offset (raw ADC counts) can hold nearly still even
+    // while the sensor turns, so it must not override a segmentation that worked.
+    let seg = segment::segment(&acc_rec, opts).map_err(|e| {
+        segment::static_only(&acc_rec, rate)
+            .or_else(|| segment::swapped(acc, gyro, opts))
+            .unwrap_or(e)
+    })?;
+    segment::check_not_gravity(gyro, &seg)
+        .map_err(|e| segment::swapped(acc, gyro, opts).unwrap_or(e))?;
     let bias_from_rest = segment::bias_at_rest(gyro, &seg.intervals[0]);
     let dt = 1.0 / rate;
     let motions = seg.motions(gyro);
