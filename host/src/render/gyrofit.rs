@@ -84,19 +84,7 @@ fn loop_part(o: &mut String, r: &GyroReport) {
         r.base.windows_used
     );
     for e in &r.effects {
-        let _ = writeln!(
-            o,
-            "effect {} ({}): {}\n  values: {}",
-            e.name,
-            e.unit,
-            e.evidence,
-            e.values
-                .iter()
-                .zip(&e.std_errors)
-                .map(|(v, s)| format!("{v:.4} ± {s:.4}"))
-                .collect::<Vec<_>>()
-                .join(", ")
-        );
+        effect_lines(o, &e.name, &e.unit, &e.evidence, &e.values, &e.std_errors);
     }
     if r.effects.is_empty() {
         let _ = writeln!(
@@ -128,19 +116,7 @@ fn motion_part(o: &mut String, r: &GyroReport) {
         m.base.rms_deg, m.base.cv_rms_deg, m.base.chi2, m.base.chi2_dof
     );
     for e in &m.effects {
-        let _ = writeln!(
-            o,
-            "effect {} ({}): {}\n  values: {}",
-            e.name,
-            e.unit,
-            e.evidence,
-            e.values
-                .iter()
-                .zip(&e.std_errors)
-                .map(|(v, s)| format!("{v:.4} ± {s:.4}"))
-                .collect::<Vec<_>>()
-                .join(", ")
-        );
+        effect_lines(o, &e.name, &e.unit, &e.evidence, &e.values, &e.std_errors);
     }
     if m.effects.is_empty() {
         let _ = writeln!(
@@ -154,4 +130,26 @@ fn motion_part(o: &mut String, r: &GyroReport) {
             m.final_model.rms_deg, m.final_model.cv_rms_deg
         );
     }
+}
+
+/// An accepted effect (window or motion): its name, unit and evidence, then its values with
+/// their standard errors.
+fn effect_lines(
+    o: &mut String,
+    name: &str,
+    unit: &str,
+    evidence: &str,
+    values: &[f64],
+    se: &[f64],
+) {
+    let shown: Vec<String> = values
+        .iter()
+        .zip(se)
+        .map(|(v, s)| format!("{v:.4} ± {s:.4}"))
+        .collect();
+    let _ = writeln!(
+        o,
+        "effect {name} ({unit}): {evidence}\n  values: {}",
+        shown.join(", ")
+    );
 }

@@ -365,22 +365,31 @@ fn candidates(seg: &segment::Segmentation) -> Vec<effects::Candidate> {
 
 /// "no g-sensitivity above 0.02 °/s/g" for every candidate of the last step not accepted.
 fn limit_sentences(search: &effects::Search) -> Vec<String> {
-    let Some(last) = search.steps.last() else {
-        return Vec::new();
-    };
-    last.candidates
-        .iter()
-        .filter(|c| !c.passed)
-        .map(|c| match c.detection_limit {
-            Some(l) => format!(
-                "no {} above {} {} (the smallest this recording would show in 80 % of cases)",
-                c.name,
-                sig3(l),
-                c.unit
-            ),
-            None => format!("{}: not tested ({})", c.name, c.note),
+    let last = search.steps.last().map_or(&[][..], |s| &s.candidates[..]);
+    let rejected = last.iter().filter(|c| !c.passed);
+    rejected
+        .map(|c| {
+            limit_sentence(
+                &c.name,
+                &c.unit,
+                c.detection_limit,
+                &c.note,
+                "this recording",
+            )
         })
         .collect()
+}
+
+/// One candidate not accepted, in words: the smallest value `source` would have shown, or
+/// why it was not tested.
+fn limit_sentence(name: &str, unit: &str, limit: Option<f64>, note: &str, source: &str) -> String {
+    match limit {
+        Some(l) => format!(
+            "no {name} above {} {unit} (the smallest {source} would show in 80 % of cases)",
+            sig3(l)
+        ),
+        None => format!("{name}: not tested ({note})"),
+    }
 }
 
 /// Three significant digits.
@@ -525,20 +534,17 @@ fn window_correction<'a>(
 
 /// "no scale-asymmetry above 0.5 %" for every motion candidate of the last step not accepted.
 fn motion_limit_sentences(ml: &report::MotionLoop) -> Vec<String> {
-    let Some(last) = ml.steps.last() else {
-        return Vec::new();
-    };
-    last.candidates
-        .iter()
-        .filter(|c| !c.passed)
-        .map(|c| match c.detection_limit {
-            Some(l) => format!(
-                "no {} above {} {} (the smallest these motions would show in 80 % of cases)",
-                c.name,
-                sig3(l),
-                c.unit
-            ),
-            None => format!("{}: not tested ({})", c.name, c.note),
+    let last = ml.steps.last().map_or(&[][..], |s| &s.candidates[..]);
+    let rejected = last.iter().filter(|c| !c.passed);
+    rejected
+        .map(|c| {
+            limit_sentence(
+                &c.name,
+                &c.unit,
+                c.detection_limit,
+                &c.note,
+                "these motions",
+            )
         })
         .collect()
 }
