@@ -309,15 +309,7 @@ pub const GYRO_EFFECT_FLOATS: usize = floats_of(&GYRO_TERMS);
 pub const GYRO_CALIBRATION_FLOATS: usize = 12 + GYRO_EFFECT_FLOATS;
 
 /// The names of [`GYRO_TERMS`], in order.
-pub const GYRO_NAMES: [&str; GYRO_TERMS.len()] = {
-    let mut out = [""; GYRO_TERMS.len()];
-    let mut i = 0;
-    while i < GYRO_TERMS.len() {
-        out[i] = GYRO_TERMS[i].name;
-        i += 1;
-    }
-    out
-};
+pub const GYRO_NAMES: [&str; GYRO_TERMS.len()] = names_of(&GYRO_TERMS);
 
 /// The row of `table` named `name`, if any.
 pub fn by_name_in(table: &'static [TermSpec], name: &str) -> Option<&'static TermSpec> {
@@ -358,15 +350,19 @@ pub const RECORD_VERSION: u16 = {
 };
 
 /// The names of [`TERMS`], in order (e.g. the keys a strict reader accepts).
-pub const NAMES: [&str; TERMS.len()] = {
-    let mut out = [""; TERMS.len()];
+pub const NAMES: [&str; TERMS.len()] = names_of(&TERMS);
+
+/// The names of a table's rows, in order (evaluated at compile time for [`NAMES`] and
+/// [`GYRO_NAMES`]).
+pub const fn names_of<const N: usize>(table: &[TermSpec; N]) -> [&'static str; N] {
+    let mut out = [""; N];
     let mut i = 0;
-    while i < TERMS.len() {
-        out[i] = TERMS[i].name;
+    while i < N {
+        out[i] = table[i].name;
         i += 1;
     }
     out
-};
+}
 
 /// The row of `id`.
 pub const fn spec(id: TermId) -> &'static TermSpec {
