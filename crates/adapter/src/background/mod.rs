@@ -106,7 +106,8 @@ impl BackgroundSettings {
     /// Settings for a Nunchuk polled at `rate_hz`: the self-calibration's detector and
     /// stillness limit; bins forget with weight ½ and age out after 4 h; the default
     /// coverage rule for bias + scale, 18 bins spread ≥ 0.2 for the full model; the slope from
-    /// a 4 °C span; every 4th bin held out, at least 4; 4 Gauss–Newton steps, 6 bins per slice;
+    /// a 4 °C span; every 4th bin held out, at least 4; 4 Gauss–Newton steps, 3 bins per slice
+    /// (the RP2040's soft float: a slice of 6 bins took most of a 5 ms poll period);
     /// a fit every minute; adopt when 3 mg and 30 % better; the Nunchuk acceptance limits; at
     /// most one commit per 30 min and 8 per day; adoption on, host uploads kept.
     pub fn nunchuk(rate_hz: u32) -> Self {
@@ -129,7 +130,7 @@ impl BackgroundSettings {
             min_heldout: 4,
             fit_iterations: 4,
             damping: 1e-3,
-            bins_per_slice: 6,
+            bins_per_slice: 3,
             fit_interval_s: 60,
             margin_g: 0.0015,
             improvement_ratio: 0.7,
