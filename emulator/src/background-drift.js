@@ -120,13 +120,13 @@ function restErrors(rig, rests, fixed) {
 const rms = (xs) => (xs.length ? Math.sqrt(xs.reduce((a, b) => a + b * b, 0) / xs.length) : NaN);
 
 /** An SVG plot of the per-window errors (mg) over the session (min). */
-function svgPlot(table, adoptionsMin, title) {
+export function svgPlot(table, adoptionsMin, title) {
   const W = 760;
-  const H = 420;
+  const H = 470;
   const L = 64;
   const R = 20;
   const T = 40;
-  const B = 56;
+  const B = 106;
   const ymax = Math.max(5, ...table.flatMap((r) => [r.withoutTruth, r.withTruth, r.withoutStill, r.withStill].filter(Number.isFinite))) * 1.1;
   const x = (min) => L + ((W - L - R) * min) / (SESSION_S / 60);
   const y = (mg) => H - B - ((H - T - B) * mg) / ymax;
@@ -149,7 +149,7 @@ function svgPlot(table, adoptionsMin, title) {
   parts.push(
     `<line x1="${L}" x2="${W - R}" y1="${H - B}" y2="${H - B}" stroke="black"/>`,
     `<line x1="${L}" x2="${L}" y1="${T}" y2="${H - B}" stroke="black"/>`,
-    `<text x="${(L + W - R) / 2}" y="${H - 14}" text-anchor="middle">minutes of the session (window ends)</text>`,
+    `<text x="${(L + W - R) / 2}" y="${H - B + 38}" text-anchor="middle">minutes of the session (each 10-min window at its middle)</text>`,
     `<text transform="translate(18,${(T + H - B) / 2}) rotate(-90)" text-anchor="middle">RMS error per 10 min (mg)</text>`,
   );
   for (const m of adoptionsMin) {
@@ -163,13 +163,14 @@ function svgPlot(table, adoptionsMin, title) {
   );
   const legend = [
     ['#c33', false, 'without background recalibration: against the truth'],
-    ['#c33', true, 'without: ‖a‖ − 1 g at rests'],
+    ['#c33', true, 'without: ‖a‖ − 1 g at the rests'],
     ['#35c', false, 'with background recalibration: against the truth'],
     ['#35c', true, 'with: ‖a‖ − 1 g at rests'],
   ];
   legend.forEach(([c, dash, text], i) => {
-    const ly = T + 8 + 18 * i;
-    parts.push(`<line x1="${W - R - 370}" x2="${W - R - 340}" y1="${ly}" y2="${ly}" stroke="${c}" stroke-width="2.5"${dash ? ' stroke-dasharray="7,5"' : ''}/>`, `<text x="${W - R - 334}" y="${ly + 4}">${text}</text>`);
+    const lx = L - 40 + (i % 2) * 400;
+    const ly = H - B + 60 + 20 * Math.floor(i / 2);
+    parts.push(`<line x1="${lx}" x2="${lx + 30}" y1="${ly}" y2="${ly}" stroke="${c}" stroke-width="2.5"${dash ? ' stroke-dasharray="7,5"' : ''}/>`, `<text x="${lx + 36}" y="${ly + 4}">${text}</text>`);
   });
   parts.push('</svg>');
   return parts.join('\n');
