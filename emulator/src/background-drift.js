@@ -286,7 +286,7 @@ export function driftScenario(h, { scale, name, floorMg }) {
     const c = bg.candidate;
     return `${SESSION_S / scale} s of play (2 h of drift at ${scale}×, ${rests.length} rests, ${playWallS.toFixed(0)} s wall): ` +
       `adopted at minute ${adoptionsMin.map((m) => m.toFixed(1)).join(', ')} of the session (held out ${bg.last_adoption.before_mg.toFixed(2)} → ${bg.last_adoption.after_mg.toFixed(2)} mg, ` +
-      `${c?.full_model ? '9 parameters' : 'bias + scale'}${c?.temperature ? ' + temperature slope' : ''}); ` +
+      `last candidate ${c?.full_model ? '9 parameters' : 'bias + scale'}${c?.temperature ? ' + temperature slope' : ''}); ` +
       `error against the truth, floor ${floor.toFixed(2)} mg: at the end ${fmt(table.at(-1).withTruth)} mg with, ${fmt(table.at(-1).withoutTruth)} mg without; ` +
       `firmware reads ${bg.temperature_c.toFixed(1)} °C (session ${tEnd.toFixed(1)} °C); ` +
       `busy cycles per 5-ms poll period: median ${cycles.median}, worst ${cycles.worst} (${((100 * cycles.worst) / PERIOD_CYCLES).toFixed(1)} %), commit periods worst ${cycles.commitWorst}`;
