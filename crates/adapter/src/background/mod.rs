@@ -107,7 +107,8 @@ impl BackgroundSettings {
     /// stillness limit; bins forget with weight ½ and age out after 4 h; the default
     /// coverage rule for bias + scale, 18 bins spread ≥ 0.2 for the full model; the slope from
     /// a 4 °C span; every 4th bin held out, at least 4; 4 Gauss–Newton steps, 3 bins per slice
-    /// (the RP2040's soft float: a slice of 6 bins took most of a 5 ms poll period);
+    /// (on the RP2040's soft float the worst poll period of a fit took 113 % of the 5 ms
+    /// period with 6, 74 % with 3 and the model choice in its own slice);
     /// a fit every minute; adopt when 3 mg and 30 % better; the Nunchuk acceptance limits; at
     /// most one commit per 30 min and 8 per day; adoption on, host uploads kept.
     pub fn nunchuk(rate_hz: u32) -> Self {
