@@ -705,6 +705,12 @@ if (measurements.background) {
   const m = measurements.background;
   console.log(`measure background recalibration on the RP2040: adopted after ${m.adoptS.toFixed(1)} s of play (${m.rests} rests); error of the correction against the truth ${m.before.toFixed(2)} mg after the drift -> ${m.after.toFixed(2)} mg after the adoption (floor: the self-calibration before the drift, ${m.floor.toFixed(2)} mg)`);
 }
+for (const key of ['background-drift', 'background-drift-2h']) {
+  const m = measurements[key];
+  if (!m) continue;
+  const c = m.cycles;
+  console.log(`measure ${key} on the RP2040 (Cortex-M0+ at 125 MHz, rp2040js's cycle counts): ${m.emulatedS.toFixed(0)} s emulated in ${m.playWallS.toFixed(0)} s wall; busy cycles per 5-ms poll period (625000 cycles) over ${c.periods} periods: median ${c.median}, 99.9 % ${c.p999}, worst ${c.worst} at ${(c.worstAtNs / 1e9).toFixed(2)} s; the ${c.commitPeriods} periods holding an adoption's flash writes: worst ${c.commitWorst}`);
+}
 if (measurements.bootToFirstReportNs) {
   const ns = measurements.bootToFirstReportNs;
   console.log(`measure boot to first report served to the Wii Remote: ${(ns / 1e6).toFixed(2)} ms = ${(ns / NS_PER_CYCLE).toFixed(0)} cycles (includes the Wii Remote's 20 ms detect debounce)`);

@@ -229,6 +229,8 @@ export class Board {
     this.onFlashStep = null;
     this.bootedAtNs = null;
     this.stopped = false;
+    /** Cycles the core executed (not waiting in WFI/WFE) since power-on: the CPU's load. */
+    this.busyCycles = 0;
     rp2040.onBreak = (code) => this.trap(code);
     rp2040.core.reset();
   }
@@ -401,6 +403,7 @@ export class Board {
         clock.tick(next > 0 && next < room ? next : room);
       } else {
         const cycles = core.executeInstruction();
+        this.busyCycles += cycles;
         clock.tick(cycles * NS_PER_CYCLE);
       }
     }

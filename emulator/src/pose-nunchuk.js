@@ -62,6 +62,9 @@ export class PoseNunchuk {
     /** Bias drift { counts: [x, y, z], overS }: the bias moves by `counts`, linearly over the
      * first `overS` seconds of emulated time, then stays (a controller warming up). */
     this.drift = drift;
+    /** Optional `(tNs) => { s, bias }`: the sensitivity (counts per g, 3×3) and bias at time t,
+     * for a sensor whose scale drifts too (replaces `drift`). */
+    this.sensorAt = null;
     this.sensitivity = inverse3(truth.matrix);
     this.noise = noiseCounts;
     this.random = mulberry32(seed);
@@ -109,8 +112,7 @@ export class PoseNunchuk {
 
   /** Raw counts for a gravity reading g (in g) at time t (ns), with noise. */
   counts(g, tNs = 0) {
-    const s = this.sensitivity;
-    const bias = this.biasAt(tNs);
+    const { s, bias } = this.sensorAt ? this.sensorAt(tNs) : { s: this.sensitivity, bias: this.biasAt(tNs) };
     return [0, 1, 2].map((i) => {
       const v = bias[i] + s[i][0] * g[0] + s[i][1] * g[1] + s[i][2] * g[2] + this.noise * this.gaussian();
       return Math.max(0, Math.min(1023, Math.round(v)));

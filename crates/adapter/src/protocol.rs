@@ -443,6 +443,7 @@ impl<F: NorFlash> Protocol<F> {
     pub fn on_connected(&mut self, info: &NunchukInfo) {
         self.connected = true;
         self.selfcal.on_plug_in();
+        self.background.on_plug_in(info.calibration_bytes);
         self.corrector.set_factory(info);
         self.refresh_block();
     }

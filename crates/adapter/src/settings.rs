@@ -6,14 +6,23 @@
 //! ([`crate::CalibrationStore::save_settings`]), with its own magic, version and CRC: a damaged
 //! or unknown settings record reads as "none stored" and the defaults apply.
 //!
-//! ## Record layout (version 1, little-endian, [`SETTINGS_LEN`] bytes)
+//! ## Record layout (version 2, little-endian, [`SETTINGS_LEN`] bytes)
 //! | offset | content |
 //! |---|---|
 //! | 0 | magic `"WSET"` |
 //! | 4 | version `u16` = [`SETTINGS_VERSION`] |
 //! | 6 | flags `u8`: bit 0 background adoption on, bit 1 replacing a host upload allowed |
 //! | 7 | origin `u8` of the stored calibration: 0 factory, 1 self-calibration, 2 background, 3 host |
-//! | 8 | CRC-32/ISO-HDLC of bytes 0..8 |
+//! | 8 | the play clock when written, `u32` seconds ([`BudgetRecord::clock_s`]) |
+//! | 12 | commits listed `u8` (≤ [`MAX_DAILY`]), then 3 zero bytes |
+//! | 16 | [`MAX_DAILY`] commit times `u32` (play seconds, oldest first; unused ones zero) |
+//! | 80 | CRC-32/ISO-HDLC of bytes 0..80 |
+//!
+//! Version 1 (12 bytes: bytes 0..8 as above, then the CRC of bytes 0..8, written before the
+//! budget was stored) is still read, with an empty budget.
+//!
+//! The flash-write budget of the background recalibration lives here so that a power cycle
+//! does not reset it (see [`crate::background::adopt`]).
 //!
 //! ## Order of the two writes
 //! The calibration and its origin are two items, so a power cut can fall between them. The
@@ -24,16 +33,21 @@
 
 use crc::{Crc, CRC_32_ISO_HDLC};
 
-use crate::background::LiveOrigin;
+use crate::background::adopt::MAX_DAILY;
+use crate::background::{BudgetRecord, LiveOrigin};
 
 /// Map key of the settings record (the calibration's is [`crate::store::RECORD_KEY`]).
 pub const SETTINGS_KEY: u8 = 0x02;
 /// Magic bytes at the start of a settings record.
 pub const SETTINGS_MAGIC: [u8; 4] = *b"WSET";
 /// Version written by this firmware.
-pub const SETTINGS_VERSION: u16 = 1;
+pub const SETTINGS_VERSION: u16 = 2;
 /// Length of a settings record, bytes.
-pub const SETTINGS_LEN: usize = 12;
+pub const SETTINGS_LEN: usize = 16 + 4 * MAX_DAILY + 4;
+/// Version 1 (no budget), still read.
+const SETTINGS_VERSION_V1: u16 = 1;
+/// Length of a version-1 record.
+const SETTINGS_LEN_V1: usize = 12;
 
 static CRC32: Crc<u32> = Crc::<u32>::new(&CRC_32_ISO_HDLC);
 
@@ -46,6 +60,8 @@ pub struct StoredSettings {
     pub replace_uploaded: bool,
     /// Who made the stored calibration.
     pub origin: LiveOrigin,
+    /// The background recalibration's flash-write budget and play clock.
+    pub budget: BudgetRecord,
 }
 
 impl Default for StoredSettings {
@@ -56,6 +72,7 @@ impl Default for StoredSettings {
             background_adopt: true,
             replace_uploaded: false,
             origin: LiveOrigin::Host,
+            budget: BudgetRecord::default(),
         }
     }
 }
@@ -69,30 +86,45 @@ const fn origin_code(o: LiveOrigin) -> u8 {
     }
 }
 
-/// Serialize settings as a version-1 record (see the module docs).
+/// Serialize settings as a version-2 record (see the module docs).
 pub fn encode_settings(s: &StoredSettings) -> [u8; SETTINGS_LEN] {
     let mut out = [0u8; SETTINGS_LEN];
     out[..4].copy_from_slice(&SETTINGS_MAGIC);
     out[4..6].copy_from_slice(&SETTINGS_VERSION.to_le_bytes());
     out[6] = u8::from(s.background_adopt) | (u8::from(s.replace_uploaded) << 1);
     out[7] = origin_code(s.origin);
-    let crc = CRC32.checksum(&out[..8]);
-    out[8..].copy_from_slice(&crc.to_le_bytes());
+    out[8..12].copy_from_slice(&s.budget.clock_s.to_le_bytes());
+    let commits = s.budget.commits();
+    out[12] = commits.len() as u8;
+    for (chunk, t) in out[16..16 + 4 * MAX_DAILY].chunks_exact_mut(4).zip(commits) {
+        chunk.copy_from_slice(&t.to_le_bytes());
+    }
+    let end = SETTINGS_LEN - 4;
+    let crc = CRC32.checksum(&out[..end]);
+    out[end..].copy_from_slice(&crc.to_le_bytes());
     out
 }
 
-/// Parse and check a settings record; `None` for anything but an intact version-1 record
-/// with known flags and origin (the caller then uses the defaults).
+/// Parse and check a settings record; `None` for anything but an intact version-2 (or
+/// version-1) record with known flags and origin and a budget of at most [`MAX_DAILY`]
+/// commits (the caller then uses the defaults).
 pub fn decode_settings(bytes: &[u8]) -> Option<StoredSettings> {
-    if bytes.len() != SETTINGS_LEN || bytes[..4] != SETTINGS_MAGIC {
+    let len = match u16::from_le_bytes([*bytes.get(4)?, *bytes.get(5)?]) {
+        SETTINGS_VERSION => SETTINGS_LEN,
+        SETTINGS_VERSION_V1 => SETTINGS_LEN_V1,
+        _ => return None,
+    };
+    if bytes.len() != len || bytes[..4] != SETTINGS_MAGIC {
         return None;
     }
-    if u16::from_le_bytes([bytes[4], bytes[5]]) != SETTINGS_VERSION {
+    if CRC32.checksum(&bytes[..len - 4]).to_le_bytes() != bytes[len - 4..] {
         return None;
     }
-    if CRC32.checksum(&bytes[..8]).to_le_bytes() != bytes[8..12] {
-        return None;
-    }
+    let budget = if len == SETTINGS_LEN {
+        decode_budget(bytes)?
+    } else {
+        BudgetRecord::default()
+    };
     let flags = bytes[6];
     if flags & !0b11 != 0 {
         return None;
@@ -108,5 +140,30 @@ pub fn decode_settings(bytes: &[u8]) -> Option<StoredSettings> {
         background_adopt: flags & 1 != 0,
         replace_uploaded: flags & 2 != 0,
         origin,
+        budget,
     })
+}
+
+/// The budget of a version-2 record whose CRC matched; `None` for a count beyond
+/// [`MAX_DAILY`], nonzero padding or unused slots, or a commit after the record's clock.
+fn decode_budget(bytes: &[u8]) -> Option<BudgetRecord> {
+    let word =
+        |at: usize| u32::from_le_bytes([bytes[at], bytes[at + 1], bytes[at + 2], bytes[at + 3]]);
+    let count = bytes[12];
+    if usize::from(count) > MAX_DAILY || bytes[13..16] != [0, 0, 0] {
+        return None;
+    }
+    let mut r = BudgetRecord {
+        clock_s: word(8),
+        count,
+        ..BudgetRecord::default()
+    };
+    for (i, slot) in r.commits.iter_mut().enumerate() {
+        *slot = word(16 + 4 * i);
+        let valid = i < usize::from(count);
+        if (!valid && *slot != 0) || (valid && *slot > r.clock_s) {
+            return None;
+        }
+    }
+    Some(r)
 }

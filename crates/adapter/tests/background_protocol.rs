@@ -21,8 +21,9 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 use wiical_adapter::background::LiveOrigin;
 use wiical_adapter::settings::StoredSettings;
-use wiical_adapter::{BootLoad, CalibrationStore, DeviceInfo, IdealScale, Protocol};
+use wiical_adapter::{BootLoad, CalibrationStore, DeviceInfo, IdealScale, NunchukInfo, Protocol};
 use wiical_core::Calibration;
+use wiical_extbus::Encryption;
 use wiical_extbus::NunchukReport;
 use wiical_wire::{BackgroundSettings, CalibrationOrigin, Hello, RefusalReport, Request, Response};
 
@@ -332,6 +333,12 @@ fn a_power_cut_at_any_flash_operation_of_an_adoption_leaves_old_or_new() {
         } else {
             assert!(got.bits_equal(&new), "cut {cut}: neither old nor new");
             news += 1;
+            // The budget was stored before the calibration: a new calibration is counted.
+            assert_eq!(
+                p.stored_settings().budget.count,
+                1,
+                "cut {cut}: commit not counted"
+            );
             assert!(
                 matches!(
                     origin,
@@ -409,6 +416,8 @@ fn the_corrector_applies_the_temperature_slope_at_the_boards_reading() {
 /// other settings.
 #[test]
 fn settings_records_round_trip_and_a_flipped_bit_is_no_record() {
+    use wiical_adapter::background::adopt::MAX_DAILY;
+    use wiical_adapter::background::BudgetRecord;
     use wiical_adapter::settings::{decode_settings, encode_settings, SETTINGS_LEN};
     let origins = [
         LiveOrigin::Factory,
@@ -417,10 +426,19 @@ fn settings_records_round_trip_and_a_flipped_bit_is_no_record() {
         LiveOrigin::Host,
     ];
     for (k, origin) in origins.into_iter().enumerate() {
+        let mut budget = BudgetRecord {
+            clock_s: 90_000 * k as u32 + 7,
+            ..BudgetRecord::default()
+        };
+        for i in 0..(5 * k).min(MAX_DAILY) {
+            budget.commits[i] = 1_000 * i as u32 + k as u32;
+            budget.count += 1;
+        }
         let s = StoredSettings {
             background_adopt: k % 2 == 0,
             replace_uploaded: k / 2 == 1,
             origin,
+            budget,
         };
         let bytes = encode_settings(&s);
         assert_eq!(bytes.len(), SETTINGS_LEN);
@@ -434,4 +452,125 @@ fn settings_records_round_trip_and_a_flipped_bit_is_no_record() {
     }
     let d = StoredSettings::default();
     assert!(d.background_adopt && !d.replace_uploaded && d.origin == LiveOrigin::Host);
+    assert_eq!(d.budget, BudgetRecord::default());
+    // A version-1 record (written before the budget was stored, bytes as that firmware
+    // wrote them: adoption on, background origin, CRC-32 of the first 8 bytes) still reads,
+    // with an empty budget.
+    let mut v1 = *b"WSET\x01\x00\x01\x02\0\0\0\0";
+    let crc = crc32_iso_hdlc(&v1[..8]);
+    v1[8..].copy_from_slice(&crc.to_le_bytes());
+    let want = StoredSettings {
+        background_adopt: true,
+        replace_uploaded: false,
+        origin: LiveOrigin::Background,
+        budget: BudgetRecord::default(),
+    };
+    assert_eq!(decode_settings(&v1), Some(want));
+}
+
+/// CRC-32/ISO-HDLC written out (reflected, polynomial 0xEDB88320, initial and final XOR
+/// 0xFFFFFFFF): an expectation independent of the `crc` crate the adapter uses.
+fn crc32_iso_hdlc(bytes: &[u8]) -> u32 {
+    let mut c = !0u32;
+    for &b in bytes {
+        c ^= u32::from(b);
+        for _ in 0..8 {
+            c = if c & 1 != 0 {
+                (c >> 1) ^ 0xEDB8_8320
+            } else {
+                c >> 1
+            };
+        }
+    }
+    !c
+}
+
+/// The Nunchuk's factory block as the poller hands it over (the bytes identify the device).
+fn nunchuk_info(block: [u8; 16]) -> NunchukInfo {
+    NunchukInfo {
+        encryption: Encryption::None,
+        calibration_bytes: block,
+        calibration: None,
+    }
+}
+
+/// The flash-write budget is stored with the settings: after an adoption and a power cycle, a
+/// better candidate waits for the rest of the commit interval (the play before the power-off
+/// not counted), where a board whose flash holds the same calibration without the budget
+/// adopts it at once.
+#[test]
+fn a_power_cycle_does_not_reset_the_write_budget() {
+    let (truth, start) = sensor(3);
+    let flash = flash_with(&start, LiveOrigin::SelfCal);
+    let mut p = boot(&flash);
+    play(&mut p, &rests(&truth, 40, 3), |_| false);
+    let first = p
+        .background_report()
+        .last_adoption
+        .expect("a first adoption");
+    let adopted = live(&p);
+    let interval = p.background().settings().min_commit_interval_s;
+    drop(p);
+    // The sensor moves on (a few counts of bias): worth another adoption.
+    let mut moved = truth.clone();
+    moved.b0 += Vector3::new(3.0, -4.0, 3.0);
+    let again = rests(&moved, 40, 4);
+    let mut p = boot(&flash);
+    assert!(live(&p).bits_equal(&adopted));
+    play(&mut p, &again, |_| false);
+    let r = p.background_report();
+    let played = r.play_s;
+    assert!(
+        live(&p).bits_equal(&adopted),
+        "adopted again after a power cycle"
+    );
+    assert!(r.last_adoption.is_none());
+    match r.last_refusal {
+        // The interval runs from the first commit's clock, and the refusal came after the
+        // first fit interval (60 s) of this boot's play and before its end.
+        Some(RefusalReport::Budget { wait_s }) => assert!(
+            (interval - played..=interval - 60).contains(&wait_s),
+            "{wait_s} s ({played} s played)"
+        ),
+        other => panic!("refused for {other:?}, not the budget (first adoption {first:?})"),
+    }
+    // The control: the same calibration and origin without a stored budget adopts.
+    let mut p = boot(&flash_with(&adopted, LiveOrigin::Background));
+    play(&mut p, &again, |_| false);
+    assert!(
+        p.background_report().last_adoption.is_some(),
+        "the control did not adopt"
+    );
+}
+
+/// A different Nunchuk (another factory block) clears the bins; the same one plugged back
+/// keeps them.
+#[test]
+fn a_swapped_nunchuk_starts_with_empty_bins() {
+    let (truth, start) = sensor(5);
+    let flash = flash_with(&start, LiveOrigin::SelfCal);
+    let mut p = boot(&flash);
+    let (a, mut b) = ([0x80; 16], [0x80; 16]);
+    b[3] = 0x7F;
+    p.on_connected(&nunchuk_info(a));
+    play(&mut p, &rests(&truth, 10, 5), |_| false);
+    let filled = p.background_report().bins_filled;
+    let moments = p.background_report().moments;
+    assert!(
+        filled >= 5 && moments >= 8,
+        "{filled} bins, {moments} moments"
+    );
+    p.on_disconnected();
+    p.on_connected(&nunchuk_info(a));
+    assert_eq!(p.background_report().bins_filled, filled, "same Nunchuk");
+    assert_eq!(p.background_report().moments, moments);
+    p.on_disconnected();
+    p.on_connected(&nunchuk_info(b));
+    let r = p.background_report();
+    assert_eq!(
+        (r.bins_filled, r.moments, r.fresh_bins),
+        (0, 0, 0),
+        "another Nunchuk"
+    );
+    assert!(r.bin_moments.iter().all(|m| *m == 0));
 }

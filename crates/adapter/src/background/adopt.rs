@@ -15,8 +15,11 @@
 //!    [`super::BackgroundSettings::min_commit_interval_s`] of play and at most
 //!    [`super::BackgroundSettings::max_commits_per_day`] per 24 h of play.
 //!
-//! Time is play time (seconds of reports since power-up): the adapter has no clock, and a
-//! budget kept only in RAM starts again at power-up (persisting it belongs with the store).
+//! Time is play time (seconds of reports): the adapter has no clock. The budget's commit
+//! times and the play clock are stored with the settings record ([`BudgetRecord`]), and the
+//! clock resumes at power-up from the value stored last: play between that write and the
+//! power-off is not counted, so a power cycle can only make the budget stricter, never reset
+//! it.
 
 use wiical_core::acceptance::{CoverageGap, Rejection};
 
@@ -130,7 +133,48 @@ pub struct Budget {
     times: heapless::HistoryBuf<u32, MAX_DAILY>,
 }
 
+/// The budget as stored with the settings record: the play clock when the record was written
+/// and the commit times on that clock (the last [`MAX_DAILY`], oldest first).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct BudgetRecord {
+    /// Play seconds when the record was written; the clock resumes here at power-up.
+    pub clock_s: u32,
+    /// Commit times, play seconds; the first `count` are valid, oldest first.
+    pub commits: [u32; MAX_DAILY],
+    /// Valid entries of `commits`.
+    pub count: u8,
+}
+
+impl BudgetRecord {
+    /// The valid commit times, oldest first.
+    pub fn commits(&self) -> &[u32] {
+        &self.commits[..usize::from(self.count).min(MAX_DAILY)]
+    }
+}
+
 impl Budget {
+    /// The budget a [`BudgetRecord`] describes.
+    pub fn from_record(record: &BudgetRecord) -> Self {
+        let mut b = Self::default();
+        for &t in record.commits() {
+            b.record(t);
+        }
+        b
+    }
+
+    /// This budget as a record written at play time `clock_s`.
+    pub fn to_record(&self, clock_s: u32) -> BudgetRecord {
+        let mut r = BudgetRecord {
+            clock_s,
+            ..BudgetRecord::default()
+        };
+        for (slot, &t) in r.commits.iter_mut().zip(self.times.oldest_ordered()) {
+            *slot = t;
+            r.count += 1;
+        }
+        r
+    }
+
     /// Records a commit at `now_s`.
     pub fn record(&mut self, now_s: u32) {
         self.times.write(now_s);

@@ -4,16 +4,18 @@
 //! A job runs through these phases, one slice each unless said otherwise:
 //! 1. **prepare**: the fresh bins are split into training bins and held-out bins (every
 //!    `heldout_every`-th fresh bin, the choice rotating from one job to the next); the
-//!    training bins' directions must satisfy the coverage rule; the model is the full one when
-//!    they also satisfy the stricter full-coverage rule, else bias + scale; the temperature
-//!    slope is freed when every training bin has a temperature and they span enough degrees;
-//! 2. **pass** (several slices of at most `bins_per_slice` bins): the normal equations at the
+//!    training bins' directions must satisfy the coverage rule;
+//! 2. **model** (its own slice: a coverage check on the RP2040's soft float costs as much as
+//!    a few bins of a pass): the model is the full one when the training directions also
+//!    satisfy the stricter full-coverage rule, else bias + scale; the temperature slope is
+//!    freed when every training bin has a temperature and they span enough degrees;
+//! 3. **pass** (several slices of at most `bins_per_slice` bins): the normal equations at the
 //!    current parameters;
-//! 3. **solve**: a damped Gauss–Newton step (12×12 Cholesky), then back to 2, for
+//! 4. **solve**: a damped Gauss–Newton step (12×12 Cholesky), then back to 3, for
 //!    `fit_iterations` steps or until a step raises the cost (it is then undone);
-//! 4. **held out** (slices of at most `bins_per_slice` bins): the RMS residual of the
+//! 5. **held out** (slices of at most `bins_per_slice` bins): the RMS residual of the
 //!    candidate and of the live calibration on the held-out bins;
-//! 5. **check**: the candidate calibration and the acceptance predicate.
+//! 6. **check**: the candidate calibration and the acceptance predicate.
 //!
 //! The grid must not change while a job runs (the caller defers moments that end meanwhile),
 //! nor the live calibration (the caller drops the job).
@@ -75,6 +77,7 @@ pub struct Candidate {
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Phase {
     Prepare,
+    Model,
     Pass { next: u8 },
     Solve,
     HeldOut { next: u8 },
@@ -148,6 +151,7 @@ impl Job {
         self.last_slice_bins = 0;
         let r = match self.phase {
             Phase::Prepare => self.prepare(grid, live, s, now_s),
+            Phase::Model => self.choose_model(grid, live, s),
             Phase::Pass { next } => self.pass(grid, s, next),
             Phase::Solve => self.solve(s),
             Phase::HeldOut { next } => self.held_out(grid, s, next),
@@ -168,9 +172,6 @@ impl Job {
     ) -> Result<(), Refusal> {
         let model = LiveModel::of(live).ok_or(Refusal::UnsupportedLive)?;
         let every = s.heldout_every.max(2);
-        let mut dirs: Vec<[f32; 3], BINS> = Vec::new();
-        let (mut tmin, mut tmax, mut tsum) = (f32::INFINITY, f32::NEG_INFINITY, 0.0f32);
-        let mut all_temps = true;
         let mut rank = self.rotation;
         for (i, bin) in grid.bins().iter().enumerate() {
             if !bin.fresh(now_s, s.max_bin_age_s) {
@@ -179,24 +180,54 @@ impl Job {
             rank = rank.wrapping_add(1);
             if rank.is_multiple_of(every) {
                 self.held |= 1 << i;
-                continue;
+            } else {
+                self.train |= 1 << i;
             }
-            self.train |= 1 << i;
-            // Capacity is BINS: cannot fail.
-            let _ = dirs.push(live.correct_linear(bin.mean));
-            let t = bin.temperature_c;
-            all_temps &= t.is_finite();
-            tmin = tmin.min(t);
-            tmax = tmax.max(t);
-            tsum += t;
         }
-        s.coverage.check(&dirs).map_err(Refusal::Coverage)?;
+        s.coverage
+            .check(&self.train_dirs(grid, live))
+            .map_err(Refusal::Coverage)?;
         let held = self.held.count_ones() as u8;
         if held < s.min_heldout {
             return Err(Refusal::TooFewHeldOut {
                 needed: s.min_heldout,
                 got: held,
             });
+        }
+        self.live = Some(model);
+        self.phase = Phase::Model;
+        Ok(())
+    }
+
+    /// The training bins' directions under the live calibration.
+    fn train_dirs(&self, grid: &Grid, live: &Calibration) -> Vec<[f32; 3], BINS> {
+        let mut dirs = Vec::new();
+        for (i, bin) in grid.bins().iter().enumerate() {
+            if self.train & (1 << i) != 0 {
+                // Capacity is BINS: cannot fail.
+                let _ = dirs.push(live.correct_linear(bin.mean));
+            }
+        }
+        dirs
+    }
+
+    fn choose_model(
+        &mut self,
+        grid: &Grid,
+        live: &Calibration,
+        s: &JobSettings,
+    ) -> Result<(), Refusal> {
+        let dirs = self.train_dirs(grid, live);
+        let (mut tmin, mut tmax, mut tsum) = (f32::INFINITY, f32::NEG_INFINITY, 0.0f32);
+        let mut all_temps = true;
+        for (i, bin) in grid.bins().iter().enumerate() {
+            if self.train & (1 << i) != 0 {
+                let t = bin.temperature_c;
+                all_temps &= t.is_finite();
+                tmin = tmin.min(t);
+                tmax = tmax.max(t);
+                tsum += t;
+            }
         }
         self.model = match s.full_coverage.check(&dirs) {
             Ok(()) => FitModel::Full,
@@ -209,7 +240,6 @@ impl Job {
             0.0
         };
         self.mask = fit::mask(self.model, temperature);
-        self.live = Some(model);
         self.phase = Phase::Pass { next: 0 };
         Ok(())
     }

@@ -31,7 +31,9 @@ pub(super) fn background_for(
     let mut s = BackgroundSettings::nunchuk(rate_hz);
     s.adopt = stored.background_adopt;
     s.replace_host = stored.replace_uploaded;
-    Background::new(s, origin)
+    let mut bg = Background::new(s, origin);
+    bg.resume(&stored.budget);
+    bg
 }
 
 impl<F: NorFlash> Protocol<F> {
@@ -92,11 +94,21 @@ impl<F: NorFlash> Protocol<F> {
         Ok(())
     }
 
-    /// Commits the background recalibration's adopted calibration, if one waits.
+    /// Commits the background recalibration's adopted calibration, if one waits. The commit
+    /// is counted in the stored budget first, then the calibration and its origin follow: a
+    /// power cut at any point leaves a budget that counts at least the commits that happened.
     pub(super) async fn service_background(&mut self) {
         let Some(cal) = self.background.pending_calibration() else {
             return;
         };
+        let counted = StoredSettings {
+            budget: self.background.budget_record_committing(),
+            ..self.settings
+        };
+        if self.save_settings(counted).await.is_err() {
+            self.background.committed(Err(()));
+            return;
+        }
         let stored = self.store_with_origin(cal, LiveOrigin::Background).await;
         self.background.committed(stored.map_err(|_| ()));
     }

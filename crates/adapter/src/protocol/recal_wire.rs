@@ -99,7 +99,8 @@ impl<F: NorFlash> Protocol<F> {
                 replace_uploaded: s.replace_host,
             },
             origin: origin(bg.origin()),
-            play_s: st.play_s,
+            // Since power-up (the clock itself resumes across power cycles).
+            play_s: st.play_s.saturating_sub(st.power_up_s),
             moments: st.moments,
             bins_filled: st.bins_filled,
             fresh_bins,
@@ -116,7 +117,7 @@ impl<F: NorFlash> Protocol<F> {
                 heldout_bins: c.bins.1,
             }),
             last_adoption: st.last_adoption.map(|a| AdoptionReport {
-                at_s: a.at_s,
+                at_s: a.at_s.saturating_sub(st.power_up_s),
                 before_mg: mg(a.before_g),
                 after_mg: mg(a.after_g),
             }),
