@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """SciPy's trust-region solver against wiical-core's multi-position fit on the same window sets.
 
-Issue 10, item 4: the core's solver must converge wherever an f64 trust-region solver
+The core's solver must converge wherever an f64 trust-region solver
 (SciPy ``least_squares``, method ``trf``) converges on the same windows, and say why when it
 cannot. The sets (random subsets of the static windows of five real recordings, with the
 core's outcome) come from the core's test suite:

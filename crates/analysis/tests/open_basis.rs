@@ -10,7 +10,7 @@ use common::correlates::{correlates_run, correlates_sim, strongest};
 use common::sim::sim;
 use wiical_analysis::search::candidate::Candidate;
 use wiical_analysis::simulate::{
-    open_basis_terms::THERMAL_LAG_TAU_S, Device, EffectSpec, SimEffect, SimOutput, Truth,
+    Device, EffectSpec, SimEffect, SimOutput, Truth, THERMAL_LAG_TAU_S,
 };
 use wiical_analysis::{analyze, AnalyzeOptions, AnalyzeReport};
 

@@ -7,9 +7,7 @@ mod common;
 use common::sim::sim;
 use wiical_analysis::report::contract::EffectReport;
 use wiical_analysis::search::thermal::LAG_GRID_LEN;
-use wiical_analysis::simulate::{
-    open_basis_terms::THERMAL_LAG_TAU_S, Device, SimEffect, SimOutput,
-};
+use wiical_analysis::simulate::{Device, SimEffect, SimOutput, THERMAL_LAG_TAU_S};
 use wiical_analysis::{analyze, AnalyzeOptions, AnalyzeReport};
 
 fn run(effects: &[(SimEffect, f64)], seed: u64) -> (SimOutput, AnalyzeReport) {

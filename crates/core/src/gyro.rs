@@ -46,7 +46,7 @@
 //! ## Memory
 //! [`MotionIntegrator`] takes one sample at a time and keeps only the quaternion and the
 //! sensitivity sums (4 + 27 + 9 numbers), so a motion of any length costs constant memory; the
-//! fit in [`crate::gyro_fit`] accumulates the normal equations motion by motion.
+//! fit (`gyro_fit`) accumulates the normal equations motion by motion.
 //!
 //! Generic over the float type (`f32` on the adapter, `f64` on a desktop) through
 //! [`nalgebra::RealField`].

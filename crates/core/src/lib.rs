@@ -62,21 +62,11 @@ pub mod static_detect;
 pub mod terms;
 
 pub use error::Error;
+pub use linalg::{all_finite, Mat3, Vec3};
 pub use model::{
     Calibration, CalibrationT, Conditions, ConditionsT, Effects, EffectsT, PreparedCalibration,
     Real, Terms,
 };
 
-/// Column 3-vector of `f32`.
-pub type Vec3 = nalgebra::Vector3<f32>;
-/// 3×3 matrix of `f32`.
-pub type Mat3 = nalgebra::Matrix3<f32>;
-
 /// Standard gravity in m/s², used only where a result is reported in SI units.
 pub const STANDARD_GRAVITY: f32 = 9.806_65;
-
-/// True when every component is finite (not NaN, not ±inf).
-#[inline]
-pub fn all_finite(v: &[f32]) -> bool {
-    v.iter().all(|x| x.is_finite())
-}

@@ -24,7 +24,18 @@
 
 use nalgebra::{Cholesky, Const, Matrix3, RealField, SMatrix, SVector, SymmetricEigen};
 
-use crate::{Error, Mat3, Vec3};
+use crate::error::Error;
+
+/// Column 3-vector of `f32`.
+pub type Vec3 = nalgebra::Vector3<f32>;
+/// 3×3 matrix of `f32`.
+pub type Mat3 = nalgebra::Matrix3<f32>;
+
+/// True when every component is finite (not NaN, not ±inf).
+#[inline]
+pub fn all_finite(v: &[f32]) -> bool {
+    v.iter().all(|x| x.is_finite())
+}
 
 /// Default relative pivot threshold of [`solve_spd`].
 ///
@@ -68,7 +79,7 @@ pub fn solve_spd_with_tol<const N: usize>(
     b: &SVector<f32, N>,
     tol: f32,
 ) -> Result<SVector<f32, N>, Error> {
-    if !crate::all_finite(a.as_slice()) || !crate::all_finite(b.as_slice()) || !tol.is_finite() {
+    if !all_finite(a.as_slice()) || !all_finite(b.as_slice()) || !tol.is_finite() {
         return Err(Error::NonFinite);
     }
     let mut s = SVector::<f32, N>::zeros();
@@ -89,7 +100,7 @@ pub fn solve_spd_with_tol<const N: usize>(
             eq[(i, j)] *= s[i] * s[j];
         }
     }
-    if !crate::all_finite(eq.as_slice()) {
+    if !all_finite(eq.as_slice()) {
         return Err(Error::Singular);
     }
     let chol = Cholesky::new(eq).ok_or(Error::Singular)?;
@@ -104,7 +115,7 @@ pub fn solve_spd_with_tol<const N: usize>(
     let mut x = b.component_mul(&s);
     chol.solve_mut(&mut x);
     let x = x.component_mul(&s);
-    if !crate::all_finite(x.as_slice()) {
+    if !all_finite(x.as_slice()) {
         return Err(Error::NonFinite);
     }
     Ok(x)
@@ -118,7 +129,7 @@ fn finite<T: RealField + Copy>(v: &[T]) -> bool {
 /// (`None`) when a squared pivot `L_jj²` is not above `rel_pivot · |A_jj|` (or is NaN): a
 /// normal matrix `JᵀJ` whose parameters the data do not all determine. Unlike
 /// [`solve_spd_with_tol`] there is no equilibration, so `rel_pivot` is relative to each
-/// diagonal entry; `1e-13` suits `f64` ([`crate::lm::REL_PIVOT_F64`]).
+/// diagonal entry; `1e-13` suits `f64` (the least-squares solver's `REL_PIVOT_F64`).
 pub fn cholesky_checked<T: RealField + Copy, const N: usize>(
     a: &SMatrix<T, N, N>,
     rel_pivot: T,
@@ -137,7 +148,7 @@ pub fn cholesky_checked<T: RealField + Copy, const N: usize>(
 
 /// Inverse of a 3×3 matrix in any float type, refusing ([`Error::Singular`]) a matrix whose
 /// determinant is at most `rel_det` times the product of its row norms (for `f32` the core
-/// uses `1e-6`, see [`crate::model::invert3`]); [`Error::NonFinite`] on NaN/inf input.
+/// uses `1e-6`, the model's `invert3`); [`Error::NonFinite`] on NaN/inf input.
 pub fn invert3_checked<T: RealField + Copy>(
     m: &Matrix3<T>,
     rel_det: T,
@@ -161,7 +172,7 @@ pub fn invert3_checked<T: RealField + Copy>(
 /// 3×3 works on the stack without `alloc`; the iteration count is bounded, so a failure to
 /// converge is reported as [`Error::NotConverged`] rather than looping or panicking.
 pub fn sym3_eigen(m: &Mat3) -> Result<(Vec3, Mat3), Error> {
-    if !crate::all_finite(m.as_slice()) {
+    if !all_finite(m.as_slice()) {
         return Err(Error::NonFinite);
     }
     let eig = SymmetricEigen::try_new(*m, f32::EPSILON, 200).ok_or(Error::NotConverged)?;
@@ -184,7 +195,7 @@ pub fn sym3_eigen(m: &Mat3) -> Result<(Vec3, Mat3), Error> {
         let col = eig.eigenvectors.column(src);
         vecs.set_column(dst, &col.normalize());
     }
-    if !crate::all_finite(vals.as_slice()) || !crate::all_finite(vecs.as_slice()) {
+    if !all_finite(vals.as_slice()) || !all_finite(vecs.as_slice()) {
         return Err(Error::NonFinite);
     }
     Ok((vals, vecs))
@@ -210,7 +221,7 @@ pub fn sym3_sqrt(m: &Mat3) -> Result<Mat3, Error> {
     let r = vecs * Mat3::from_diagonal(&roots) * vecs.transpose();
     // Symmetrise away rounding so that callers can rely on `Rᵀ = R` exactly.
     let r = (r + r.transpose()) * 0.5;
-    if !crate::all_finite(r.as_slice()) {
+    if !all_finite(r.as_slice()) {
         return Err(Error::NonFinite);
     }
     Ok(r)

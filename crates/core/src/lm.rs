@@ -1,7 +1,7 @@
 //! Levenberg–Marquardt for small fixed-size least-squares problems, generic over the float
 //! type: `f32` on the device, `f64` in the host's analysis.
 //!
-//! The same solver serves the 9-parameter multi-position fit ([`crate::multipos`], `f32`,
+//! The same solver serves the 9-parameter multi-position fit (`multipos`, `f32`,
 //! bit-identical to the hand-written loop it replaced) and any larger model built on it, e.g.
 //! the residual analysis's 27-parameter effect model in `f64`. Like ahrs-rs's
 //! `Madgwick<N: RealField>`, everything is generic over nalgebra's [`RealField`] (`+ Copy`);

@@ -41,8 +41,9 @@
 //! any user of the calibration, the adapter included; the time and temperature terms only by
 //! a user that has a clock origin and a thermometer.
 
+use crate::error::Error;
+use crate::linalg::{all_finite, Mat3, Vec3};
 use crate::terms::{self, TermId, CALIBRATION_FLOATS, EFFECT_FLOATS, TERMS};
-use crate::{Error, Mat3, Vec3};
 use nalgebra::RealField;
 
 /// The float types a calibration is held in: `f32` on the device, `f64` in the analysis.
@@ -449,7 +450,7 @@ impl Calibration {
 
     /// Build a calibration from the forward model `m = D·a + b` by inverting `D`.
     pub fn from_forward(d: &Mat3, b: &Vec3) -> Result<Self, Error> {
-        if !crate::all_finite(d.as_slice()) || !crate::all_finite(b.as_slice()) {
+        if !all_finite(d.as_slice()) || !all_finite(b.as_slice()) {
             return Err(Error::NonFinite);
         }
         let k = invert3(d)?;
@@ -483,8 +484,8 @@ impl Calibration {
     /// Checks that every parameter is finite and `K` is invertible, so that a calibration read
     /// from untrusted storage can be used safely.
     pub fn validate(&self) -> Result<(), Error> {
-        let flat_ok = crate::all_finite(&self.bias)
-            && self.matrix.iter().all(|r| crate::all_finite(r))
+        let flat_ok = all_finite(&self.bias)
+            && self.matrix.iter().all(|r| all_finite(r))
             && self.effects.all_finite();
         if !flat_ok {
             return Err(Error::NonFinite);

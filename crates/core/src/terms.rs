@@ -1,29 +1,29 @@
 //! The effect terms of a calibration, declared once.
 //!
-//! [`TERMS`] lists every field of [`crate::Effects`] in its canonical order with what the rest
+//! [`TERMS`] lists every field of `Effects` in its canonical order with what the rest
 //! of the project needs to know about it: its name (the serde key, the wire schema's field
 //! name and the calibration file's key), its shape (how many coefficients, acting how, on
 //! which axis), its unit, whether the adapter applies it, whether it needs a clock or a
 //! thermometer, which acceptance check bounds it, and the format versions that added it.
 //! Every format is derived from this table rather than restated: the flat coefficient order
-//! ([`crate::model::EffectsT::coefficients`], the flash record's floats and the canonical bit
-//! encoding [`crate::model::CalibrationT::bits`]), the wire schema's `WireEffects` line and
+//! (`model::EffectsT::coefficients`, the flash record's floats and the canonical bit
+//! encoding `model::CalibrationT::bits`), the wire schema's `WireEffects` line and
 //! key, the calibration file's keys and the lowest schema version holding a calibration, the
-//! list of terms the adapter applies or leaves to hosts, and the term flags ([`crate::Terms`]).
+//! list of terms the adapter applies or leaves to hosts, and the term flags (`Terms`).
 //!
-//! The math of a term (its part of [`crate::model::CalibrationT::correct`]) is code, not
+//! The math of a term (its part of `model::CalibrationT::correct`) is code, not
 //! data: a new term is a row here, a field of `EffectsT`, its arm in
-//! [`crate::model::EffectsT::field`] and its math in the correction.
+//! `model::EffectsT::field` and its math in the correction.
 //!
 //! The gyroscope's calibration is another object (`ω = K·(m − b)` in rad/s, see
-//! [`crate::gyro_correct`]), so its terms have their own table, [`GYRO_TERMS`], of the same
+//! `gyro_correct`), so its terms have their own table, [`GYRO_TERMS`], of the same
 //! [`TermSpec`] rows: the gyro's coefficient order
-//! ([`crate::gyro_correct::GyroEffects::coefficients`]) and the gyro calibration file's keys
+//! (`gyro_correct::GyroEffects::coefficients`) and the gyro calibration file's keys
 //! and version are derived from it. The accelerometer's formats (wire, flash record,
 //! calibration file) read [`TERMS`] alone and do not change when a gyro term is added; the
 //! adapter holds no gyro calibration, so no gyro row has a flash record (`since_record` 0).
 
-/// Which effect term a row of [`TERMS`] describes (one per field of [`crate::Effects`]).
+/// Which effect term a row of [`TERMS`] describes (one per field of `Effects`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum TermId {
@@ -48,7 +48,7 @@ pub enum TermId {
 }
 
 /// What a term's coefficients multiply and where the product enters the correction (see
-/// [`crate::model`] for the formula).
+/// `model` for the formula).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Shape {
     /// One coefficient per axis, added to that axis's bias (raw units) times the regressor.
@@ -59,7 +59,7 @@ pub enum Shape {
     /// One coefficient per axis, adding `c·u_i^power` to output axis `i`.
     AxisPower(u8),
     /// Per output axis `i`, one coefficient per monomial of this degree in `u` except `u_i`'s
-    /// own power ([`crate::model::CROSS2`], [`crate::model::CROSS3`]), added to output `i`.
+    /// own power (`model::CROSS2`, `model::CROSS3`), added to output `i`.
     Cross(u8),
     /// One value, not a coefficient: the reference other terms are taken about.
     Reference,
@@ -94,7 +94,7 @@ pub enum Needs {
     SpecificForce,
 }
 
-/// Which check of [`crate::acceptance::Acceptance`] bounds a term.
+/// Which check of `acceptance::Acceptance` bounds a term.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Bound {
     /// The output bound: the corrected output stays within `±output_bound` over the input
@@ -104,7 +104,7 @@ pub enum Bound {
     /// The allowed range of the reference temperature (`Acceptance::temp_ref_range_c`).
     TempRefRange,
     /// Every coefficient's magnitude within the term's own plausibility limit (g-sensitivity:
-    /// [`crate::gyro_correct::G_SENSITIVITY_MAX`]).
+    /// `gyro_correct::G_SENSITIVITY_MAX`).
     Magnitude,
 }
 
@@ -113,7 +113,7 @@ pub enum Bound {
 pub struct TermSpec {
     /// Which term.
     pub id: TermId,
-    /// Its name: the field of [`crate::Effects`], the serde and calibration-file key, the
+    /// Its name: the field of `Effects`, the serde and calibration-file key, the
     /// wire schema's field name.
     pub name: &'static str,
     /// What its coefficients act on.
@@ -277,7 +277,7 @@ pub const TERMS: [TermSpec; 8] = [
     },
 ];
 
-/// Every effect term of the gyroscope's calibration ([`crate::gyro_correct::GyroEffects`]),
+/// Every effect term of the gyroscope's calibration (`gyro_correct::GyroEffects`),
 /// in the canonical order of its flat coefficients and of the gyro calibration file.
 pub const GYRO_TERMS: [TermSpec; 1] = [TermSpec {
     id: TermId::GSensitivity,
@@ -302,7 +302,7 @@ pub const fn floats_of(table: &[TermSpec]) -> usize {
     n
 }
 
-/// Number of effect coefficients of [`crate::gyro_correct::GyroEffects`].
+/// Number of effect coefficients of `gyro_correct::GyroEffects`.
 pub const GYRO_EFFECT_FLOATS: usize = floats_of(&GYRO_TERMS);
 
 /// Number of floats of a whole gyro calibration: bias (3), matrix (9), then the effects.
@@ -316,7 +316,7 @@ pub fn by_name_in(table: &'static [TermSpec], name: &str) -> Option<&'static Ter
     table.iter().find(|t| t.name == name)
 }
 
-/// Number of effect coefficients (floats) of [`crate::Effects`]: the sum of [`TERMS`]' lengths.
+/// Number of effect coefficients (floats) of `Effects`: the sum of [`TERMS`]' lengths.
 pub const EFFECT_FLOATS: usize = floats_through_record(u16::MAX);
 
 /// Number of floats of a whole calibration: bias (3), matrix (9), then the effects.

@@ -34,10 +34,9 @@
 //! In a pass-through mode the MotionPlus alternates its own report with one from the
 //! extension, told apart by byte 5 bit 1 (0 = extension data), see [`Frame`].
 
-use crate::error::Checked;
+use crate::error::{Checked, Error};
 use crate::nunchuk::{NunchukReport, RegisterWrite};
 use crate::packing::exact;
-use crate::Error;
 
 /// I²C address of an inactive MotionPlus (`0xA6xxxx` in the Wii Remote's address space).
 pub const INACTIVE_I2C_ADDRESS: u8 = 0x53;

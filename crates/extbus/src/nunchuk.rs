@@ -14,9 +14,8 @@
 //! | `0xF0`, `0xFB` | unencrypted init (`0x55` → `0xF0`, then `0x00` → `0xFB`) |
 //! | `0xFA`–`0xFF` | identification [`ID`] = `00 00 A4 20 00 00` |
 
-use crate::error::{pick_copy, Checked, FromCopies};
+use crate::error::{pick_copy, Checked, Error, FromCopies};
 use crate::packing::{self, exact, pack_xxyyzz, unpack_xxyyzz, MAX_10BIT};
-use crate::Error;
 
 /// 7-bit I²C address of every Wii extension controller.
 pub const I2C_ADDRESS: u8 = 0x52;

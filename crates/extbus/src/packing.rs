@@ -1,6 +1,6 @@
 //! 10-bit values split into a high byte and 2 low bits packed elsewhere.
 
-use crate::Error;
+use crate::error::Error;
 
 /// Largest 10-bit value.
 pub(crate) const MAX_10BIT: u16 = 0x3FF;

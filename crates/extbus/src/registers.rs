@@ -19,11 +19,11 @@
 //! gets zero-key-encrypted bytes. Hosts that use either documented init (as homebrew
 //! libraries and this project's adapter do) are served correctly.
 
+use crate::error::Error;
 use crate::nunchuk::{
     CalibrationBlock, Encryption, NunchukReport, CALIBRATION_BACKUP_REGISTER, CALIBRATION_REGISTER,
     ID, ID_REGISTER, KEY_REGISTER,
 };
-use crate::Error;
 
 /// Register space of a Nunchuk with a pointer and init/encryption state.
 #[derive(Debug, Clone, PartialEq, Eq)]

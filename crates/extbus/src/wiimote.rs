@@ -24,10 +24,9 @@
 //! (9 significant bits). (Dolphin instead fills Y/Z bit 0 with a copy of the top bit to
 //! stretch 0..=1022 to 0..=1023; the difference is at most 1 count.)
 
-use crate::error::{pick_copy, Checked, FromCopies};
+use crate::error::{pick_copy, Checked, Error, FromCopies};
 use crate::nunchuk::NunchukReport;
 use crate::packing::{self, exact, pack_xxyyzz, unpack_xxyyzz, MAX_10BIT};
-use crate::Error;
 
 bitflags::bitflags! {
     /// The core buttons, as the two button bytes read big-endian

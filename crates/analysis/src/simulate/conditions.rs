@@ -3,10 +3,13 @@
 //! statistics the open-basis magnitudes and references use.
 
 use super::motion::{Seg, SegKind};
-use super::open_basis_terms;
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
+
+/// Time constant of the simulated thermal lag, s: the sensing element follows the measured
+/// (case) temperature through a first-order lag this slow, about the length of a recording.
+pub const THERMAL_LAG_TAU_S: f64 = 300.0;
 
 /// The true conditions of one sample: what the time and temperature terms depend on.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -16,7 +19,7 @@ pub struct SampleConditions {
     /// True temperature (before the thermometer's noise and rounding), °C.
     pub temperature_c: f64,
     /// The true temperature through the first-order lag of
-    /// [`open_basis_terms::THERMAL_LAG_TAU_S`], °C.
+    /// [`THERMAL_LAG_TAU_S`], °C.
     pub lagged_c: f64,
     /// `dθ/dt` of the true temperature (central difference), °C/s.
     pub rate_c_per_s: f64,
@@ -78,11 +81,11 @@ pub(super) fn temperatures(
 }
 
 /// The true conditions of every sample: its time, the true temperature, that temperature
-/// through the first-order lag of [`open_basis_terms::THERMAL_LAG_TAU_S`] (starting in equilibrium
+/// through the first-order lag of [`THERMAL_LAG_TAU_S`] (starting in equilibrium
 /// with it, exact discretisation of `dθ_lag/dt = (θ − θ_lag)/τ`) and its rate (central
 /// difference, one-sided at the ends).
 pub(super) fn sample_conditions(temps: &[f64], fs: f64) -> Vec<SampleConditions> {
-    let alpha = 1.0 - (-1.0 / (fs * open_basis_terms::THERMAL_LAG_TAU_S)).exp();
+    let alpha = 1.0 - (-1.0 / (fs * THERMAL_LAG_TAU_S)).exp();
     let mut lag = temps.first().copied().unwrap_or(0.0);
     let last = temps.len().saturating_sub(1);
     temps
@@ -106,13 +109,42 @@ pub(super) fn sample_conditions(temps: &[f64], fs: f64) -> Vec<SampleConditions>
         .collect()
 }
 
+/// What the time and temperature families are drawn against: the conditions of the holds'
+/// samples, the holds' mean times and mean temperatures.
+pub struct HoldStats<'a> {
+    /// Conditions of every sample that lies in a hold.
+    pub samples: Vec<&'a SampleConditions>,
+    /// Mean over holds of each hold's mid-time, s.
+    pub t_ref: f64,
+    /// Mean over holds of each hold's mean temperature, °C (the analysis' θ̄).
+    pub theta_ref: f64,
+    /// The same of the lagged temperature, °C (the thermal lag's reference, so that the
+    /// truth's bias is the bias at the holds' mean lagged temperature).
+    pub lagged_ref: f64,
+}
+
+impl HoldStats<'_> {
+    /// Spread (max − min) of `value` (a regressor of the sample conditions) over the holds'
+    /// samples, at least `floor`.
+    pub(super) fn range(&self, value: impl Fn(&SampleConditions) -> f64, floor: f64) -> f64 {
+        let (lo, hi) = self
+            .samples
+            .iter()
+            .map(|c| value(c))
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| {
+                (a.min(x), b.max(x))
+            });
+        (hi - lo).max(floor)
+    }
+}
+
 /// The holds' samples, mean mid-time and mean temperature (each hold weighted equally, as
 /// the analysis weighs its windows): what the open-basis magnitudes and references use.
 pub(super) fn hold_stats<'a>(
     segs: &[Seg],
     conds: &'a [SampleConditions],
     fs: f64,
-) -> open_basis_terms::HoldStats<'a> {
+) -> HoldStats<'a> {
     let mut samples = Vec::new();
     let (mut mids, mut temps, mut lagged) = (Vec::new(), Vec::new(), Vec::new());
     for seg in segs.iter().filter(|s| matches!(s.kind, SegKind::Hold(_))) {
@@ -128,7 +160,7 @@ pub(super) fn hold_stats<'a>(
         lagged.push(hold.iter().map(|c| c.lagged_c).sum::<f64>() / n);
     }
     let mean = |v: &[f64]| v.iter().sum::<f64>() / (v.len().max(1) as f64);
-    open_basis_terms::HoldStats {
+    HoldStats {
         samples,
         t_ref: mean(&mids),
         theta_ref: mean(&temps),

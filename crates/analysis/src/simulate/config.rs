@@ -1,10 +1,56 @@
-//! The simulator's settings: the recording's profile (how poses are held and changed), the
-//! settings and their checks.
+//! The simulator's settings: the effects to put in (which effect, one enum with the
+//! analysis's candidates, [`crate::report::effect_table::Effect`]; its size and axis), the
+//! recording's profile (how poses are held and changed), the settings and their checks.
 
 #![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x > 0.0)` is deliberately true for NaN.
 use super::device::Device;
-use super::draw::{EffectSpec, SimDraw, SimEffect};
 use crate::error::{Error, Result};
+use crate::report::effect_table::Effect;
+
+/// The effect put into a simulated recording: an [`Effect`] the simulator can put in
+/// ([`Effect::simulated`]: [`Effect::SIMULATED_CANDIDATES`], `none` first, then
+/// [`Effect::OPEN_BASIS`]), named and parsed by the same table as the analysis's candidates.
+pub type SimEffect = Effect;
+
+/// One effect put into a simulation and its size.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EffectSpec {
+    /// Which effect.
+    pub effect: SimEffect,
+    /// Its size in milli-g (see the module docs); `None`: [`SimEffect::default_magnitude_mg`].
+    pub magnitude_mg: Option<f64>,
+    /// On one sensor axis only (0, 1, 2 = x, y, z), with the whole magnitude there and the
+    /// other axes zero; `None`: on every axis as drawn. Not for `outliers` (no axis).
+    pub axis: Option<usize>,
+}
+
+impl EffectSpec {
+    /// `effect` at `magnitude_mg` (`None`: its default).
+    pub fn new(effect: SimEffect, magnitude_mg: Option<f64>) -> Self {
+        Self {
+            effect,
+            magnitude_mg,
+            axis: None,
+        }
+    }
+
+    /// `effect` at `magnitude_mg` on sensor axis `axis` alone (0, 1, 2 = x, y, z).
+    pub fn on_axis(effect: SimEffect, magnitude_mg: Option<f64>, axis: usize) -> Self {
+        Self {
+            axis: Some(axis),
+            ..Self::new(effect, magnitude_mg)
+        }
+    }
+
+    /// The magnitude in use, mg.
+    pub fn magnitude(&self) -> f64 {
+        self.magnitude_mg
+            .unwrap_or_else(|| self.effect.default_magnitude_mg())
+    }
+}
+
+/// One effect to draw: which, its size (mg), and the one axis it is on (`None`: every axis).
+pub(super) type SimDraw = (SimEffect, f64, Option<usize>);
 
 /// How the poses are held and changed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]

@@ -1,79 +1,69 @@
-//! The effects put into a simulated recording and their draw: which effect (one enum with
-//! the analysis's candidates, [`crate::report::effect_table::Effect`]), its size and axis,
-//! and the coefficients drawn for it (the outlier poses for `outliers`).
+//! The effect terms drawn into a simulated recording: for every effect asked for (in the
+//! order given, each as if it were alone), its coefficients, the outlier poses for
+//! `outliers`, the open-basis cross, time and temperature terms.
 
-use super::motion::{random_unit, SegKind};
-use super::open_basis_terms;
-use super::sensor::Scene;
-use super::truth::TrueOutlier;
-use super::SimulateError;
+use super::conditions::HoldStats;
+use super::config::{SimDraw, SimEffect};
+use super::geometry::random_unit;
+use super::motion::{Seg, SegKind};
+use super::open_basis_terms::{self, Acts, Cross, ExtraTerm};
+use crate::error::simulate::SimulateError;
 use crate::error::Result;
-pub use crate::report::effect_table::Effect;
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
+use serde::Serialize;
+use wiical_core::model::{CROSS2, CROSS3, DEGREE2, DEGREE3};
 
-/// The effect put into a simulated recording: an [`Effect`] the simulator can put in
-/// ([`Effect::simulated`]: [`Effect::SIMULATED_CANDIDATES`], `none` first, then
-/// [`Effect::OPEN_BASIS`]), named and parsed by the same table as the analysis's candidates.
-pub type SimEffect = Effect;
-
-/// One effect put into a simulation and its size.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct EffectSpec {
-    /// Which effect.
-    pub effect: SimEffect,
-    /// Its size in milli-g (see the module docs); `None`: [`SimEffect::default_magnitude_mg`].
-    pub magnitude_mg: Option<f64>,
-    /// On one sensor axis only (0, 1, 2 = x, y, z), with the whole magnitude there and the
-    /// other axes zero; `None`: on every axis as drawn. Not for `outliers` (no axis).
-    pub axis: Option<usize>,
+/// A pose that was not still (`outliers` effect).
+#[derive(Debug, Clone, Serialize)]
+pub struct TrueOutlier {
+    /// Index into `poses`.
+    pub pose: usize,
+    /// Start of the hold, s.
+    pub t_start: f64,
+    /// End of the hold, s.
+    pub t_end: f64,
+    /// Shift of the hold's mean ‖a‖, milli-g.
+    pub shift_mg: f64,
 }
 
-impl EffectSpec {
-    /// `effect` at `magnitude_mg` (`None`: its default).
-    pub fn new(effect: SimEffect, magnitude_mg: Option<f64>) -> Self {
-        Self {
-            effect,
-            magnitude_mg,
-            axis: None,
-        }
-    }
-
-    /// `effect` at `magnitude_mg` on sensor axis `axis` alone (0, 1, 2 = x, y, z).
-    pub fn on_axis(effect: SimEffect, magnitude_mg: Option<f64>, axis: usize) -> Self {
-        Self {
-            axis: Some(axis),
-            ..Self::new(effect, magnitude_mg)
-        }
-    }
-
-    /// The magnitude in use, mg.
-    pub fn magnitude(&self) -> f64 {
-        self.magnitude_mg
-            .unwrap_or_else(|| self.effect.default_magnitude_mg())
+impl TrueOutlier {
+    /// The extra specific force along gravity (g) at time `ti` of its hold: a 2 s half-sine
+    /// push in the middle of the hold whose average over the hold is the outlier's shift;
+    /// `None` outside the push.
+    pub(super) fn push(&self, ti: f64) -> Option<f64> {
+        let len = self.t_end - self.t_start;
+        let tb = 2.0f64.min(len * 0.5);
+        let start = self.t_start + 0.5 * (len - tb);
+        (start..start + tb).contains(&ti).then(|| {
+            let amp = self.shift_mg / 1000.0 * std::f64::consts::PI * len / (2.0 * tb);
+            amp * (std::f64::consts::PI * (ti - start) / tb).sin()
+        })
     }
 }
 
-/// One effect to draw: which, its size (mg), and the one axis it is on (`None`: every axis).
-pub(super) type SimDraw = (SimEffect, f64, Option<usize>);
+/// The effect terms drawn for a scene (correction side, see `wiical_core::model`).
+#[derive(Debug, Clone, Default)]
+pub(super) struct EffectTerms {
+    /// Quadratic, cubic, drift (counts/s), bias temperature coefficient (counts/°C), scale
+    /// temperature coefficient (1/°C), per axis.
+    pub(super) eff64: [[f64; 3]; 5],
+    /// The poses that were not still.
+    pub(super) outliers: Vec<TrueOutlier>,
+    /// Open-basis cross terms (1/g, 1/g²), as the core holds them.
+    pub(super) cross: Cross,
+    /// Open-basis time and temperature terms (bias coefficients in counts).
+    pub(super) extras: Vec<ExtraTerm>,
+}
 
 /// The effect's draw moved onto axis `axis` alone: the whole magnitude `x` there, with the
 /// sign it was drawn with, the other axes zero (the random draw is made as usual, so the rest
 /// of the scene is the one the same seed gives without an axis).
-pub(super) fn onto_axis(v: [f64; 3], axis: Option<usize>, x: f64) -> [f64; 3] {
+fn onto_axis(v: [f64; 3], axis: Option<usize>, x: f64) -> [f64; 3] {
     match axis {
         None => v,
         Some(a) => std::array::from_fn(|j| if j == a { x.copysign(v[a]) } else { 0.0 }),
     }
-}
-
-/// The effect terms drawn for a scene.
-pub(super) struct Drawn {
-    /// See [`Scene::eff64`].
-    pub(super) eff64: [[f64; 3]; 5],
-    pub(super) outliers: Vec<TrueOutlier>,
-    pub(super) cross: open_basis_terms::Cross,
-    pub(super) extras: Vec<open_basis_terms::ExtraTerm>,
 }
 
 /// The effect terms (and the outlier poses) for `effects` (each with its size in mg), drawn
@@ -83,12 +73,12 @@ pub(super) fn effect_terms(
     rng: &mut ChaCha8Rng,
     effects: &[SimDraw],
     s: &[f64; 3],
-    scene: &Scene,
+    segs: &[Seg],
+    temps: &[f64],
     duration: f64,
-    holds: &open_basis_terms::HoldStats,
-) -> Result<Drawn> {
-    let (tmin, tmax) = scene
-        .temps
+    holds: &HoldStats,
+) -> Result<EffectTerms> {
+    let (tmin, tmax) = temps
         .iter()
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| {
             (a.min(*x), b.max(*x))
@@ -96,7 +86,7 @@ pub(super) fn effect_terms(
     let t_range = (tmax - tmin).max(0.5);
     let mut eff64 = [[0.0f64; 3]; 5];
     let mut outliers = Vec::new();
-    let mut cross = open_basis_terms::Cross::default();
+    let mut cross = Cross::default();
     let mut extras = Vec::new();
     for &(effect, magnitude, axis) in effects {
         let x = magnitude / 1000.0;
@@ -115,14 +105,14 @@ pub(super) fn effect_terms(
             SimEffect::TemperatureScale => {
                 eff64[4] = onto_axis(axis_coefficients(rng, x), axis, x).map(|k| k / t_range);
             }
-            SimEffect::Outliers => outliers = outlier_poses(rng, magnitude, scene)?,
+            SimEffect::Outliers => outliers = outlier_poses(rng, magnitude, segs)?,
             SimEffect::CrossQuadratic | SimEffect::CrossCubic => {
-                open_basis_terms::draw_cross(rng, effect, x, axis, &mut cross);
+                draw_cross(rng, effect, x, axis, &mut cross);
             }
-            _ => extras.extend(open_basis_terms::draw_extra(rng, effect, x, axis, s, holds)),
+            _ => extras.extend(draw_extra(rng, effect, x, axis, s, holds)),
         }
     }
-    Ok(Drawn {
+    Ok(EffectTerms {
         eff64,
         outliers,
         cross,
@@ -131,7 +121,7 @@ pub(super) fn effect_terms(
 }
 
 /// Per-axis coefficients for a nonlinearity of size `x` (largest axis exactly `x`).
-pub(super) fn axis_coefficients(rng: &mut ChaCha8Rng, x: f64) -> [f64; 3] {
+fn axis_coefficients(rng: &mut ChaCha8Rng, x: f64) -> [f64; 3] {
     let mut k = [0.0; 3];
     let big = rng.random_range(0..3usize);
     for (j, kj) in k.iter_mut().enumerate() {
@@ -146,16 +136,18 @@ pub(super) fn axis_coefficients(rng: &mut ChaCha8Rng, x: f64) -> [f64; 3] {
     k
 }
 
-/// 2–3 distinct poses (not the rest) whose mean ‖a‖ is pushed by ±`magnitude` mg.
-pub(super) fn outlier_poses(
-    rng: &mut ChaCha8Rng,
-    magnitude: f64,
-    scene: &Scene,
-) -> Result<Vec<TrueOutlier>> {
+/// 2–3 distinct poses (not the rest) of the timeline `segs` whose mean ‖a‖ is pushed by
+/// ±`magnitude` mg.
+fn outlier_poses(rng: &mut ChaCha8Rng, magnitude: f64, segs: &[Seg]) -> Result<Vec<TrueOutlier>> {
     let count = rng.random_range(2..=3usize);
+    // One hold per pose, the rest included.
+    let poses = segs
+        .iter()
+        .filter(|s| matches!(s.kind, SegKind::Hold(_)))
+        .count();
     let mut chosen: Vec<usize> = Vec::new();
     while chosen.len() < count {
-        let k = rng.random_range(1..scene.dirs.len());
+        let k = rng.random_range(1..poses);
         if !chosen.contains(&k) {
             chosen.push(k);
         }
@@ -163,8 +155,7 @@ pub(super) fn outlier_poses(
     chosen.sort_unstable();
     let mut outliers = Vec::new();
     for k in chosen {
-        let seg = scene
-            .segs
+        let seg = segs
             .iter()
             .find(|s| matches!(s.kind, SegKind::Hold(p) if p == k))
             .ok_or(SimulateError::NoHoldSegment)?;
@@ -177,4 +168,53 @@ pub(super) fn outlier_poses(
         });
     }
     Ok(outliers)
+}
+
+/// Draws a time or temperature family of size `x` (g): a bias moves by `x` (vector norm, in
+/// counts through the scales `s`) over the regressor's range on the holds, a scale by `x` on
+/// its largest axis. `None` for the other families.
+fn draw_extra(
+    rng: &mut ChaCha8Rng,
+    effect: SimEffect,
+    x: f64,
+    axis: Option<usize>,
+    s: &[f64; 3],
+    h: &HoldStats,
+) -> Option<ExtraTerm> {
+    let (acts, regressor) = open_basis_terms::family_regressor(effect, h)?;
+    let range = h.range(|c| regressor.value(c), 1e-9);
+    let coefficients = match acts {
+        Acts::Bias => {
+            let v = onto_axis(random_unit(rng), axis, 1.0);
+            std::array::from_fn(|j| v[j] * x * s[j] / range)
+        }
+        Acts::Scale => onto_axis(axis_coefficients(rng, x), axis, x).map(|k| k / range),
+    };
+    Some(ExtraTerm {
+        family: effect,
+        acts,
+        regressor,
+        coefficients,
+    })
+}
+
+/// Draws a cross term of size `x` (g) into `cross`: output axis `axis` (drawn when `None`),
+/// one monomial drawn among that axis's cross monomials, the coefficient such that the term
+/// reaches `±x` at its largest over the sphere of directions.
+fn draw_cross(
+    rng: &mut ChaCha8Rng,
+    effect: SimEffect,
+    x: f64,
+    axis: Option<usize>,
+    cross: &mut Cross,
+) {
+    let i = axis.unwrap_or_else(|| rng.random_range(0..3usize));
+    let sign = if rng.random::<bool>() { 1.0 } else { -1.0 };
+    if effect == SimEffect::CrossQuadratic {
+        let j = rng.random_range(0..5usize);
+        cross.quadratic[i][j] = sign * x / open_basis_terms::sphere_peak(&DEGREE2[CROSS2[i][j]]);
+    } else {
+        let j = rng.random_range(0..9usize);
+        cross.cubic[i][j] = sign * x / open_basis_terms::sphere_peak(&DEGREE3[CROSS3[i][j]]);
+    }
 }

@@ -1,10 +1,24 @@
-//! The simulated recording as CSV text and its truth as JSON, written next to it.
+//! The simulation's output: the recording, its truth and every sample's true conditions; the
+//! recording as CSV text and its truth as JSON, written next to it.
 
-use super::SimOutput;
+use super::conditions::SampleConditions;
+use super::truth::Truth;
 use crate::error::Result;
 use crate::input::recording::Recording;
 use crate::output::write::write_file;
 use std::path::{Path, PathBuf};
+
+/// A simulated recording and its truth.
+#[derive(Debug, Clone)]
+pub struct SimOutput {
+    /// The recording, as `input::load` would return it.
+    pub recording: Recording,
+    /// The truth.
+    pub truth: Truth,
+    /// The true conditions of every sample (the truth's time and temperature terms depend on
+    /// them, see [`Truth::calibration_at`]).
+    pub conditions: Vec<SampleConditions>,
+}
 
 /// The recording as CSV text (`t,x,y,z[,temp]`), readable by [`crate::input::load::load`].
 pub fn to_csv(rec: &Recording) -> String {

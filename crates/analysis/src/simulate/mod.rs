@@ -50,7 +50,7 @@
 //! | `temperature-squared` | bias `c·(θ − θ_ref)²` (file unit/°C²) | the bias moves by X mg (vector norm) over the range of `(θ − θ_ref)²` |
 //! | `temperature-cubed` | bias `c·(θ − θ_ref)³` (file unit/°C³) | the same over the range of `(θ − θ_ref)³` |
 //! | `temperature-scale-squared`, `-cubed` | scale `1 + s_i·(θ − θ_ref)^2 or 3` | the largest axis's scale moves by X mg/g over that range |
-//! | `thermal-lag` | bias `c·(θ_lag − θ_ref)`, `θ_lag` the true temperature through a first-order lag of τ = [`open_basis_terms::THERMAL_LAG_TAU_S`] (300 s) | the bias moves by X mg over the range of `θ_lag` |
+//! | `thermal-lag` | bias `c·(θ_lag − θ_ref)`, `θ_lag` the true temperature through a first-order lag of τ = [`THERMAL_LAG_TAU_S`] (300 s) | the bias moves by X mg over the range of `θ_lag` |
 //! | `temperature-rate` | bias `c·dθ/dt` (file unit per °C/s, true temperature) | the bias moves by X mg over the range of `dθ/dt` |
 //!
 //! The temperature families need the `temp` column (it is always written for them). The
@@ -59,13 +59,22 @@
 //!
 //! The truth is written next to the recording as `FILE.truth.json` ([`Truth`]).
 //!
-//! One concern a file: `config` (the settings and their checks, the [`Profile`]), `device`
-//! (the sensors imitated), `motion` (poses, the timeline of holds and moves, the specific
-//! force), `conditions` (the temperature model, every sample's time and temperature, the
-//! holds' statistics), `draw` (the effects and their coefficients), [`open_basis_terms`]
-//! (the open-basis families), `sensor` (the noiseless reading and the recorded counts),
-//! `truth` (what the simulation knows and its self-check), `hold_score` (a detection against
-//! the true holds), `files` (CSV and JSON out); [`gyro`], [`magnetometer`] and [`kalman`]
+//! One concern a file, each importing only the ones listed before it:
+//! * the plain parts: `device` (the sensors imitated), `geometry` (directions on the unit
+//!   sphere), `config` (the settings and their checks, the effects asked for, the
+//!   [`Profile`]);
+//! * the scene: `motion` (poses, the timeline of holds and moves, the motion's specific
+//!   force), `conditions` (the temperature model, every sample's time and temperature, the
+//!   holds' statistics);
+//! * the effects: [`open_basis_terms`] (the open-basis families: their terms, their
+//!   forward model, their truth rows), `draw` (every effect's coefficients drawn, the
+//!   outlier poses);
+//! * the recording and what is known of it: `sensor` (the scene, the specific force with
+//!   the outliers' push, the noiseless reading and the recorded counts), `truth` (what the
+//!   simulation knows and its self-check), `hold_score` (a detection against the true
+//!   holds), `files` (the output, CSV and JSON);
+//!
+//! and this module runs them in that order. [`gyro`], [`magnetometer`] and [`kalman`]
 //! simulate the other sensors and the Kalman demo.
 
 mod conditions;
@@ -73,6 +82,7 @@ mod config;
 mod device;
 mod draw;
 mod files;
+mod geometry;
 pub mod gyro;
 mod hold_score;
 pub mod kalman;
@@ -83,16 +93,15 @@ mod sensor;
 mod truth;
 
 pub use crate::error::simulate::SimulateError;
-pub use conditions::{SampleConditions, TempModel};
-pub use config::{Profile, SimConfig};
+pub use conditions::{SampleConditions, TempModel, THERMAL_LAG_TAU_S};
+pub use config::{EffectSpec, Profile, SimConfig, SimEffect};
 pub use device::Device;
-pub use draw::{EffectSpec, SimEffect};
-pub use files::{to_csv, truth_path, write};
+pub use draw::TrueOutlier;
+pub use files::{to_csv, truth_path, write, SimOutput};
 pub use hold_score::{score_holds, HoldScore, FOUND_EDGE_S, FOUND_MIN_S, HOLD_MIN_STILL_S};
-pub use truth::{TrueOutlier, TruePose, Truth};
+pub use truth::{TruePose, Truth};
 
 use crate::error::Result;
-use crate::input::recording::Recording;
 use conditions::{hold_stats, sample_conditions, temperatures};
 use config::check_config;
 use draw::effect_terms;
@@ -100,18 +109,7 @@ use motion::{pose_directions, timeline};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use sensor::Scene;
-
-/// A simulated recording and its truth.
-#[derive(Debug, Clone)]
-pub struct SimOutput {
-    /// The recording, as `input::load` would return it.
-    pub recording: Recording,
-    /// The truth.
-    pub truth: Truth,
-    /// The true conditions of every sample (the truth's time and temperature terms depend on
-    /// them, see [`Truth::calibration_at`]).
-    pub conditions: Vec<SampleConditions>,
-}
+use truth::{check_truth, truth};
 
 /// Simulates a recording (see the module docs).
 pub fn simulate(cfg: &SimConfig) -> Result<SimOutput> {
@@ -133,7 +131,11 @@ pub fn simulate(cfg: &SimConfig) -> Result<SimOutput> {
     let n = (duration * fs).floor() as usize;
     let (tm, temps) = temperatures(&mut rng, &segs, n, fs);
     let conds = sample_conditions(&temps, fs);
-    let mut scene = Scene {
+    let terms = {
+        let holds = hold_stats(&segs, &conds, fs);
+        effect_terms(&mut rng, &effects, &s, &segs, &temps, duration, &holds)?
+    };
+    let scene = Scene {
         fs,
         noise,
         d,
@@ -142,26 +144,17 @@ pub fn simulate(cfg: &SimConfig) -> Result<SimOutput> {
         segs,
         tm,
         temps,
-        eff64: [[0.0; 3]; 5],
-        outliers: Vec::new(),
-        cross: open_basis_terms::Cross::default(),
-        extras: Vec::new(),
+        terms,
         conds,
         adc: cfg.device.adc_range(),
         unit: cfg.device.unit_per_count(),
     };
-    let drawn = {
-        let holds = hold_stats(&scene.segs, &scene.conds, fs);
-        effect_terms(&mut rng, &effects, &s, &scene, duration, &holds)?
-    };
-    (scene.eff64, scene.outliers) = (drawn.eff64, drawn.outliers);
-    (scene.cross, scene.extras) = (drawn.cross, drawn.extras);
     let rec = scene.record(
         &mut rng,
         cfg.temp_column || effects.iter().any(|(e, _, _)| e.needs_temperature()),
     );
-    let truth = scene.truth(cfg, &effects)?;
-    scene.check_truth(&truth)?;
+    let truth = truth(&scene, cfg, &effects)?;
+    check_truth(&scene, &truth)?;
     Ok(SimOutput {
         recording: rec,
         truth,

@@ -2,67 +2,9 @@
 //! profile's durations, hand wobble and bumps) and the specific force at any time.
 
 use super::config::Profile;
-use super::sensor::Scene;
+use super::geometry::{random_unit, slerp, tilt};
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
-use rand_distr::StandardNormal;
-
-pub(super) fn unit(v: [f64; 3]) -> [f64; 3] {
-    let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-    [v[0] / n, v[1] / n, v[2] / n]
-}
-
-pub(super) fn random_unit(rng: &mut ChaCha8Rng) -> [f64; 3] {
-    loop {
-        let v: [f64; 3] = [
-            rng.sample(StandardNormal),
-            rng.sample(StandardNormal),
-            rng.sample(StandardNormal),
-        ];
-        let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-        if n > 1e-6 {
-            return [v[0] / n, v[1] / n, v[2] / n];
-        }
-    }
-}
-
-/// `d` tilted by a random angle up to `max_rad`.
-pub(super) fn tilt(rng: &mut ChaCha8Rng, d: [f64; 3], max_rad: f64) -> [f64; 3] {
-    let r = random_unit(rng);
-    let ang = rng.random_range(0.0..max_rad);
-    unit([d[0] + ang * r[0], d[1] + ang * r[1], d[2] + ang * r[2]])
-}
-
-/// Spherical interpolation between unit vectors.
-pub(super) fn slerp(a: [f64; 3], b: [f64; 3], s: f64) -> [f64; 3] {
-    let dot = (a[0] * b[0] + a[1] * b[1] + a[2] * b[2]).clamp(-1.0, 1.0);
-    let om = dot.acos();
-    if om < 1e-6 {
-        return a;
-    }
-    if (std::f64::consts::PI - om).abs() < 1e-3 {
-        // Antipodal: go through any perpendicular direction.
-        let p = if a[0].abs() < 0.9 {
-            [1.0, 0.0, 0.0]
-        } else {
-            [0.0, 1.0, 0.0]
-        };
-        let d = a[0] * p[0] + a[1] * p[1] + a[2] * p[2];
-        let q = unit([p[0] - d * a[0], p[1] - d * a[1], p[2] - d * a[2]]);
-        let th = s * std::f64::consts::PI;
-        return unit([
-            a[0] * th.cos() + q[0] * th.sin(),
-            a[1] * th.cos() + q[1] * th.sin(),
-            a[2] * th.cos() + q[2] * th.sin(),
-        ]);
-    }
-    let (wa, wb) = (((1.0 - s) * om).sin() / om.sin(), (s * om).sin() / om.sin());
-    unit([
-        wa * a[0] + wb * b[0],
-        wa * a[1] + wb * b[1],
-        wa * a[2] + wb * b[2],
-    ])
-}
 
 /// One stretch of the timeline.
 pub(super) struct Seg {
@@ -165,50 +107,32 @@ pub(super) fn timeline(
     (segs, t)
 }
 
-impl Scene {
-    /// Specific force in sensor axes at time `ti` in segment `seg`, g.
-    pub(super) fn specific_force(&self, seg: &Seg, ti: f64) -> [f64; 3] {
-        match seg.kind {
-            SegKind::Hold(k) => {
-                let mut f = self.dirs[k];
-                if let Some(o) = self.outliers.iter().find(|o| o.pose == k) {
-                    // A 2 s half-sine push along gravity in the middle of the hold whose
-                    // average over the hold is the outlier's shift.
-                    let len = seg.t1 - seg.t0;
-                    let tb = 2.0f64.min(len * 0.5);
-                    let start = seg.t0 + 0.5 * (len - tb);
-                    if ti >= start && ti < start + tb {
-                        let amp = o.shift_mg / 1000.0 * std::f64::consts::PI * len / (2.0 * tb);
-                        let bump = amp * (std::f64::consts::PI * (ti - start) / tb).sin();
-                        for (fj, dj) in f.iter_mut().zip(self.dirs[k]) {
-                            *fj += bump * dj;
-                        }
-                    }
-                }
-                f
-            }
-            SegKind::Move {
-                from,
-                to,
-                amp,
-                freq,
-                bumps,
-            } => {
-                let tau = (ti - seg.t0) / (seg.t1 - seg.t0);
-                let prof = 0.5 * (1.0 - (std::f64::consts::PI * tau).cos());
-                let g = slerp(self.dirs[from], self.dirs[to], prof);
-                let env = (std::f64::consts::PI * tau).sin();
-                let w = (std::f64::consts::TAU * freq * (ti - seg.t0)).sin() * env;
-                let bump = |j: usize| {
-                    bumps
-                        .iter()
-                        .map(|(at, width, peak)| {
-                            peak[j] * (-0.5 * ((ti - at) / width).powi(2)).exp()
-                        })
-                        .sum::<f64>()
-                };
-                std::array::from_fn(|j| g[j] + amp[j] * w + bump(j))
-            }
+/// The specific force of the motion alone in sensor axes at time `ti` in segment `seg`, g:
+/// gravity's direction of the pose held, or, while moving, the turn between two poses with
+/// the hand's wobble and bumps (the push of a pose that was not still is added on top, by
+/// the sensor).
+pub(super) fn specific_force(dirs: &[[f64; 3]], seg: &Seg, ti: f64) -> [f64; 3] {
+    match seg.kind {
+        SegKind::Hold(k) => dirs[k],
+        SegKind::Move {
+            from,
+            to,
+            amp,
+            freq,
+            bumps,
+        } => {
+            let tau = (ti - seg.t0) / (seg.t1 - seg.t0);
+            let prof = 0.5 * (1.0 - (std::f64::consts::PI * tau).cos());
+            let g = slerp(dirs[from], dirs[to], prof);
+            let env = (std::f64::consts::PI * tau).sin();
+            let w = (std::f64::consts::TAU * freq * (ti - seg.t0)).sin() * env;
+            let bump = |j: usize| {
+                bumps
+                    .iter()
+                    .map(|(at, width, peak)| peak[j] * (-0.5 * ((ti - at) / width).powi(2)).exp())
+                    .sum::<f64>()
+            };
+            std::array::from_fn(|j| g[j] + amp[j] * w + bump(j))
         }
     }
 }

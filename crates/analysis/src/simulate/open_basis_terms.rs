@@ -19,18 +19,11 @@
 //! the holds: what the windows see.
 
 #![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x > 0.0)` is deliberately true for NaN.
-use super::conditions::SampleConditions;
-use super::draw::{axis_coefficients, onto_axis, SimEffect};
-use super::motion::random_unit;
+use super::conditions::{HoldStats, SampleConditions, THERMAL_LAG_TAU_S};
+use super::config::SimEffect;
 use crate::report::effect_names as names;
-use rand::Rng;
-use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 use wiical_core::model::{CROSS2, CROSS3, DEGREE2, DEGREE3};
-
-/// Time constant of the simulated thermal lag, s: the sensing element follows the measured
-/// (case) temperature through a first-order lag this slow, about the length of a recording.
-pub const THERMAL_LAG_TAU_S: f64 = 300.0;
 
 /// What a time or temperature term multiplies (see the module docs).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -191,7 +184,7 @@ fn monomial(u: &[f64; 3], e: &[u8; 3]) -> f64 {
 
 /// Largest `|monomial|` over the unit sphere: `√(Π e_k^e_k / n^n)` (Lagrange), so that a
 /// coefficient of `x / peak` makes the term reach `x` at its largest.
-fn sphere_peak(e: &[u8; 3]) -> f64 {
+pub(super) fn sphere_peak(e: &[u8; 3]) -> f64 {
     let n: u8 = e.iter().sum();
     let num: f64 = e.iter().map(|&k| pow(f64::from(k), k)).product();
     (num / pow(f64::from(n), n)).sqrt()
@@ -295,36 +288,8 @@ fn solve3(j: &[[f64; 3]; 3], f: &[f64; 3]) -> Option<[f64; 3]> {
     }))
 }
 
-/// What the time and temperature families are drawn against: the conditions of the holds'
-/// samples, the holds' mean times and mean temperatures.
-pub struct HoldStats<'a> {
-    /// Conditions of every sample that lies in a hold.
-    pub samples: Vec<&'a SampleConditions>,
-    /// Mean over holds of each hold's mid-time, s.
-    pub t_ref: f64,
-    /// Mean over holds of each hold's mean temperature, °C (the analysis' θ̄).
-    pub theta_ref: f64,
-    /// The same of the lagged temperature, °C (the thermal lag's reference, so that the
-    /// truth's bias is the bias at the holds' mean lagged temperature).
-    pub lagged_ref: f64,
-}
-
-impl HoldStats<'_> {
-    /// Spread (max − min) of `r` over the holds' samples, at least `floor`.
-    fn range(&self, r: &Regressor, floor: f64) -> f64 {
-        let (lo, hi) = self
-            .samples
-            .iter()
-            .map(|c| r.value(c))
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| {
-                (a.min(x), b.max(x))
-            });
-        (hi - lo).max(floor)
-    }
-}
-
 /// The regressor and kind of a time or temperature family (`None` for the others).
-fn family_regressor(effect: SimEffect, h: &HoldStats) -> Option<(Acts, Regressor)> {
+pub(super) fn family_regressor(effect: SimEffect, h: &HoldStats) -> Option<(Acts, Regressor)> {
     let temp = |power| Regressor::Temperature {
         power,
         theta_ref: h.theta_ref,
@@ -345,55 +310,6 @@ fn family_regressor(effect: SimEffect, h: &HoldStats) -> Option<(Acts, Regressor
         SimEffect::TemperatureRate => (Acts::Bias, Regressor::Rate),
         _ => return None,
     })
-}
-
-/// Draws a time or temperature family of size `x` (g): a bias moves by `x` (vector norm, in
-/// counts through the scales `s`) over the regressor's range on the holds, a scale by `x` on
-/// its largest axis. `None` for the other families.
-pub fn draw_extra(
-    rng: &mut ChaCha8Rng,
-    effect: SimEffect,
-    x: f64,
-    axis: Option<usize>,
-    s: &[f64; 3],
-    h: &HoldStats,
-) -> Option<ExtraTerm> {
-    let (acts, regressor) = family_regressor(effect, h)?;
-    let range = h.range(&regressor, 1e-9);
-    let coefficients = match acts {
-        Acts::Bias => {
-            let v = onto_axis(random_unit(rng), axis, 1.0);
-            std::array::from_fn(|j| v[j] * x * s[j] / range)
-        }
-        Acts::Scale => onto_axis(axis_coefficients(rng, x), axis, x).map(|k| k / range),
-    };
-    Some(ExtraTerm {
-        family: effect,
-        acts,
-        regressor,
-        coefficients,
-    })
-}
-
-/// Draws a cross term of size `x` (g) into `cross`: output axis `axis` (drawn when `None`),
-/// one monomial drawn among that axis's cross monomials, the coefficient such that the term
-/// reaches `±x` at its largest over the sphere of directions.
-pub fn draw_cross(
-    rng: &mut ChaCha8Rng,
-    effect: SimEffect,
-    x: f64,
-    axis: Option<usize>,
-    cross: &mut Cross,
-) {
-    let i = axis.unwrap_or_else(|| rng.random_range(0..3usize));
-    let sign = if rng.random::<bool>() { 1.0 } else { -1.0 };
-    if effect == SimEffect::CrossQuadratic {
-        let j = rng.random_range(0..5usize);
-        cross.quadratic[i][j] = sign * x / sphere_peak(&DEGREE2[CROSS2[i][j]]);
-    } else {
-        let j = rng.random_range(0..9usize);
-        cross.cubic[i][j] = sign * x / sphere_peak(&DEGREE3[CROSS3[i][j]]);
-    }
 }
 
 /// The truth's entries for the cross terms (one per non-zero coefficient).

@@ -1,10 +1,11 @@
-//! The sensor: the scene a sample depends on, the noiseless reading of a specific force
-//! (the correction-side model inverted) and the recorded counts (noise, rounding, ADC range).
+//! The sensor: the scene a sample depends on, the specific force it feels (the motion and
+//! the push of a pose that was not still), its noiseless reading (the correction-side model
+//! inverted) and the recorded counts (noise, rounding, ADC range).
 
 use super::conditions::{SampleConditions, TempModel};
-use super::motion::Seg;
-use super::open_basis_terms;
-use super::truth::TrueOutlier;
+use super::draw::EffectTerms;
+use super::motion::{self, Seg, SegKind};
+use super::open_basis_terms::{self, Acts};
 use crate::input::recording::Recording;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
@@ -21,14 +22,8 @@ pub(super) struct Scene {
     pub(super) segs: Vec<Seg>,
     pub(super) tm: TempModel,
     pub(super) temps: Vec<f64>,
-    /// Quadratic, cubic, drift (counts/s), bias temperature coefficient (counts/°C), scale
-    /// temperature coefficient (1/°C).
-    pub(super) eff64: [[f64; 3]; 5],
-    pub(super) outliers: Vec<TrueOutlier>,
-    /// Open-basis cross terms (1/g, 1/g²), as the core holds them.
-    pub(super) cross: open_basis_terms::Cross,
-    /// Open-basis time and temperature terms (bias coefficients in counts).
-    pub(super) extras: Vec<open_basis_terms::ExtraTerm>,
+    /// The effect terms drawn.
+    pub(super) terms: EffectTerms,
     /// The true conditions of every sample.
     pub(super) conds: Vec<SampleConditions>,
     /// ADC range, counts.
@@ -56,33 +51,48 @@ pub(super) fn invert_nonlinearity(a: f64, q: f64, c: f64) -> f64 {
 }
 
 impl Scene {
+    /// Specific force in sensor axes at time `ti` in segment `seg`, g: the motion's, and
+    /// within the hold of a pose that was not still, its push along gravity.
+    fn specific_force(&self, seg: &Seg, ti: f64) -> [f64; 3] {
+        let mut f = motion::specific_force(&self.dirs, seg, ti);
+        if let SegKind::Hold(k) = seg.kind {
+            let outlier = self.terms.outliers.iter().find(|o| o.pose == k);
+            if let Some(push) = outlier.and_then(|o| o.push(ti)) {
+                for (fj, dj) in f.iter_mut().zip(self.dirs[k]) {
+                    *fj += push * dj;
+                }
+            }
+        }
+        f
+    }
+
     /// The noiseless reading (counts) of specific force `f` at the sample conditions `c`:
     /// the correction-side model inverted, `a = u + q u² + c u³ + cross(u)`,
     /// `u = (1 + σ·Δθ)·(1 + S)·D⁻¹(m − b_eff − B)` per axis, with `S` and `B` the open-basis
     /// scale and bias terms (without open-basis terms, exactly the computation it always was).
     pub(super) fn reading(&self, f: &[f64; 3], c: &SampleConditions) -> [f64; 3] {
-        let e = &self.eff64;
+        let e = &self.terms.eff64;
         let (ti, theta) = (c.time_s, c.temperature_c);
         let dth = theta - self.tm.room_c;
         let mut w: [f64; 3] = std::array::from_fn(|j| invert_nonlinearity(f[j], e[0][j], e[1][j]));
-        if self.cross.any() {
-            w = open_basis_terms::invert_with_cross(f, &e[0], &e[1], &self.cross, w);
+        if self.terms.cross.any() {
+            w = open_basis_terms::invert_with_cross(f, &e[0], &e[1], &self.terms.cross, w);
         }
         let mut v: [f64; 3] = std::array::from_fn(|j| w[j] / (1.0 + e[4][j] * dth));
         let mut extra_bias = [0.0; 3];
-        for t in &self.extras {
+        for t in &self.terms.extras {
             let r = t.regressor.value(c);
             for j in 0..3 {
                 match t.acts {
-                    open_basis_terms::Acts::Bias => extra_bias[j] += t.coefficients[j] * r,
-                    open_basis_terms::Acts::Scale => v[j] /= 1.0 + t.coefficients[j] * r,
+                    Acts::Bias => extra_bias[j] += t.coefficients[j] * r,
+                    Acts::Scale => v[j] /= 1.0 + t.coefficients[j] * r,
                 }
             }
         }
         std::array::from_fn(|j| {
             let lin: f64 = (0..3).map(|k| self.d[j][k] * v[k]).sum();
             let b_eff = self.bias[j] + e[2][j] * ti + e[3][j] * dth;
-            if self.extras.is_empty() {
+            if self.terms.extras.is_empty() {
                 lin + b_eff
             } else {
                 lin + (b_eff + extra_bias[j])

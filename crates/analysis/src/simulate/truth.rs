@@ -2,12 +2,12 @@
 //! time and temperature terms the core cannot hold folded in per sample), and its self-check.
 
 use super::conditions::{SampleConditions, TempModel};
-use super::config::SimConfig;
-use super::draw::SimDraw;
+use super::config::{SimConfig, SimDraw};
+use super::draw::TrueOutlier;
 use super::motion::SegKind;
-use super::open_basis_terms;
+use super::open_basis_terms::{self, Acts, ExtraTerm, OpenTerm};
 use super::sensor::Scene;
-use super::SimulateError;
+use crate::error::simulate::SimulateError;
 use crate::error::Result;
 use crate::report::effect_names as names;
 use serde::Serialize;
@@ -22,19 +22,6 @@ pub struct TruePose {
     pub t_end: f64,
     /// Unit specific-force direction in sensor axes (the "up" direction).
     pub direction: [f64; 3],
-}
-
-/// A pose that was not still (`outliers` effect).
-#[derive(Debug, Clone, Serialize)]
-pub struct TrueOutlier {
-    /// Index into `poses`.
-    pub pose: usize,
-    /// Start of the hold, s.
-    pub t_start: f64,
-    /// End of the hold, s.
-    pub t_end: f64,
-    /// Shift of the hold's mean ‖a‖, milli-g.
-    pub shift_mg: f64,
 }
 
 /// Everything the simulation knows (written to `FILE.truth.json`).
@@ -76,11 +63,11 @@ pub struct Truth {
     /// The open-basis families put in, each with its value and unit;
     /// absent when there are none.
     #[serde(skip_serializing_if = "Vec::is_empty")]
-    pub open_basis: Vec<open_basis_terms::OpenTerm>,
+    pub open_basis: Vec<OpenTerm>,
     /// The time and temperature terms, correction side, bias coefficients in the file's unit
     /// (what [`Truth::calibration_at`] folds in).
     #[serde(skip)]
-    pub extra_terms: Vec<open_basis_terms::ExtraTerm>,
+    pub extra_terms: Vec<ExtraTerm>,
 }
 
 impl Truth {
@@ -96,8 +83,8 @@ impl Truth {
             for j in 0..3 {
                 let v = t.coefficients[j] * r;
                 match t.acts {
-                    open_basis_terms::Acts::Bias => cal.bias[j] += v as f32,
-                    open_basis_terms::Acts::Scale => {
+                    Acts::Bias => cal.bias[j] += v as f32,
+                    Acts::Scale => {
                         for k in &mut cal.matrix[j] {
                             *k *= (1.0 + v) as f32;
                         }
@@ -117,126 +104,128 @@ impl Truth {
     }
 }
 
-impl Scene {
-    /// The true calibration: the inverse of the forward model with the effect terms.
-    pub(super) fn calibration(&self) -> Result<Calibration> {
-        // In the file's unit: every count-valued term scaled by the unit of a count.
-        let u = self.unit;
-        let d = &self.d.map(|r| r.map(|v| v * u));
-        let k_true =
-            wiical_core::model::invert3(&wiical_core::Mat3::from_fn(|r, c| d[r][c] as f32))
-                .map_err(SimulateError::ForwardNotInvertible)?;
-        let mut calibration = Calibration::from_inverse(
-            &k_true,
-            &wiical_core::Vec3::new(
-                (self.bias[0] * u) as f32,
-                (self.bias[1] * u) as f32,
-                (self.bias[2] * u) as f32,
-            ),
-        );
-        let e = &self.eff64;
-        calibration.effects = Effects {
-            temp_ref_c: self.tm.room_c as f32,
-            quadratic: e[0].map(|v| v as f32),
-            cubic: e[1].map(|v| v as f32),
-            bias_drift: e[2].map(|v| (v * u) as f32),
-            bias_temp: e[3].map(|v| (v * u) as f32),
-            scale_temp: e[4].map(|v| v as f32),
-            cross_quadratic: self.cross.quadratic.map(|r| r.map(|v| v as f32)),
-            cross_cubic: self.cross.cubic.map(|r| r.map(|v| v as f32)),
-        };
-        Ok(calibration)
-    }
+/// The true calibration of `scene`: the inverse of its forward model with the effect terms.
+fn true_calibration(scene: &Scene) -> Result<Calibration> {
+    // In the file's unit: every count-valued term scaled by the unit of a count.
+    let u = scene.unit;
+    let d = &scene.d.map(|r| r.map(|v| v * u));
+    let k_true = wiical_core::model::invert3(&wiical_core::Mat3::from_fn(|r, c| d[r][c] as f32))
+        .map_err(SimulateError::ForwardNotInvertible)?;
+    let mut calibration = Calibration::from_inverse(
+        &k_true,
+        &wiical_core::Vec3::new(
+            (scene.bias[0] * u) as f32,
+            (scene.bias[1] * u) as f32,
+            (scene.bias[2] * u) as f32,
+        ),
+    );
+    let e = &scene.terms.eff64;
+    calibration.effects = Effects {
+        temp_ref_c: scene.tm.room_c as f32,
+        quadratic: e[0].map(|v| v as f32),
+        cubic: e[1].map(|v| v as f32),
+        bias_drift: e[2].map(|v| (v * u) as f32),
+        bias_temp: e[3].map(|v| (v * u) as f32),
+        scale_temp: e[4].map(|v| v as f32),
+        cross_quadratic: scene.terms.cross.quadratic.map(|r| r.map(|v| v as f32)),
+        cross_cubic: scene.terms.cross.cubic.map(|r| r.map(|v| v as f32)),
+    };
+    Ok(calibration)
+}
 
-    /// The poses with their hold times.
-    pub(super) fn true_poses(&self) -> Vec<TruePose> {
-        self.dirs
-            .iter()
-            .enumerate()
-            .map(|(k, dir)| {
-                let seg = self
-                    .segs
-                    .iter()
-                    .find(|s| matches!(s.kind, SegKind::Hold(p) if p == k))
-                    .map_or((0.0, 0.0), |s| (s.t0, s.t1));
-                TruePose {
-                    t_start: seg.0,
-                    t_end: seg.1,
-                    direction: *dir,
-                }
-            })
-            .collect()
-    }
-
-    /// Self-check: the truth calibration maps a noiseless hold reading back to its direction.
-    pub(super) fn check_truth(&self, truth: &Truth) -> Result<()> {
-        let Some(p) = truth.poses.get(1) else {
-            return Ok(());
-        };
-        let n = self.conds.len();
-        let tc = 0.5 * (p.t_start + p.t_end);
-        let idx = ((tc * self.fs) as usize).min(n.saturating_sub(1));
-        let Some(c) = self.conds.get(idx) else {
-            return Ok(());
-        };
-        let m = self
-            .reading(&p.direction, c)
-            .map(|v| (v * self.unit) as f32);
-        let a = truth.calibration_at(c).correct(m, &Truth::conditions(c));
-        let err = (0..3)
-            .map(|j| (a[j] as f64 - p.direction[j]).abs())
-            .fold(0.0, f64::max);
-        if err > 1e-4 {
-            return Err(SimulateError::TruthNotInverse { err_g: err }.into());
-        }
-        Ok(())
-    }
-
-    /// The truth of this scene with `effects` drawn into it.
-    pub(super) fn truth(&self, cfg: &SimConfig, effects: &[SimDraw]) -> Result<Truth> {
-        let names: Vec<&str> = effects.iter().map(|(e, _, _)| e.name()).collect();
-        let unit = self.unit;
-        let mut open = open_basis_terms::cross_truth(&self.cross);
-        open.extend(
-            self.extras
+/// The poses of `scene` with their hold times.
+fn true_poses(scene: &Scene) -> Vec<TruePose> {
+    scene
+        .dirs
+        .iter()
+        .enumerate()
+        .map(|(k, dir)| {
+            let seg = scene
+                .segs
                 .iter()
-                .map(|t| open_basis_terms::extra_truth(t, cfg.device.unit_name(), unit)),
-        );
-        let extra_terms = self
+                .find(|s| matches!(s.kind, SegKind::Hold(p) if p == k))
+                .map_or((0.0, 0.0), |s| (s.t0, s.t1));
+            TruePose {
+                t_start: seg.0,
+                t_end: seg.1,
+                direction: *dir,
+            }
+        })
+        .collect()
+}
+
+/// Self-check: the truth calibration maps a noiseless hold reading of `scene` back to its
+/// direction.
+pub(super) fn check_truth(scene: &Scene, truth: &Truth) -> Result<()> {
+    let Some(p) = truth.poses.get(1) else {
+        return Ok(());
+    };
+    let n = scene.conds.len();
+    let tc = 0.5 * (p.t_start + p.t_end);
+    let idx = ((tc * scene.fs) as usize).min(n.saturating_sub(1));
+    let Some(c) = scene.conds.get(idx) else {
+        return Ok(());
+    };
+    let m = scene
+        .reading(&p.direction, c)
+        .map(|v| (v * scene.unit) as f32);
+    let a = truth.calibration_at(c).correct(m, &Truth::conditions(c));
+    let err = (0..3)
+        .map(|j| (a[j] as f64 - p.direction[j]).abs())
+        .fold(0.0, f64::max);
+    if err > 1e-4 {
+        return Err(SimulateError::TruthNotInverse { err_g: err }.into());
+    }
+    Ok(())
+}
+
+/// The truth of `scene` with `effects` drawn into it.
+pub(super) fn truth(scene: &Scene, cfg: &SimConfig, effects: &[SimDraw]) -> Result<Truth> {
+    let names: Vec<&str> = effects.iter().map(|(e, _, _)| e.name()).collect();
+    let unit = scene.unit;
+    let mut open = open_basis_terms::cross_truth(&scene.terms.cross);
+    open.extend(
+        scene
+            .terms
             .extras
             .iter()
-            .map(|t| open_basis_terms::ExtraTerm {
-                coefficients: match t.acts {
-                    open_basis_terms::Acts::Bias => t.coefficients.map(|c| c * unit),
-                    open_basis_terms::Acts::Scale => t.coefficients,
-                },
-                ..*t
-            })
-            .collect();
-        Ok(Truth {
-            device: cfg.device.name(),
-            effect: if names.is_empty() {
-                "none".into()
-            } else {
-                names.join(",")
+            .map(|t| open_basis_terms::extra_truth(t, cfg.device.unit_name(), unit)),
+    );
+    let extra_terms = scene
+        .terms
+        .extras
+        .iter()
+        .map(|t| ExtraTerm {
+            coefficients: match t.acts {
+                Acts::Bias => t.coefficients.map(|c| c * unit),
+                Acts::Scale => t.coefficients,
             },
-            magnitude_mg: effects.first().map_or(0.0, |e| e.1),
-            magnitudes_mg: effects.iter().map(|e| e.1).collect(),
-            single_axis: effects
-                .iter()
-                .filter_map(|(e, _, a)| Some(format!("{}: {}", e.name(), names::AXES[(*a)?])))
-                .collect(),
-            seed: cfg.seed,
-            rate_hz: self.fs,
-            samples: self.conds.len(),
-            noise_std_counts: self.noise,
-            forward_matrix: self.d.map(|r| r.map(|v| v * unit)),
-            calibration: self.calibration()?,
-            poses: self.true_poses(),
-            outliers: self.outliers.clone(),
-            temperature_model: self.tm,
-            open_basis: open,
-            extra_terms,
+            ..*t
         })
-    }
+        .collect();
+    Ok(Truth {
+        device: cfg.device.name(),
+        effect: if names.is_empty() {
+            "none".into()
+        } else {
+            names.join(",")
+        },
+        magnitude_mg: effects.first().map_or(0.0, |e| e.1),
+        magnitudes_mg: effects.iter().map(|e| e.1).collect(),
+        single_axis: effects
+            .iter()
+            .filter_map(|(e, _, a)| Some(format!("{}: {}", e.name(), names::AXES[(*a)?])))
+            .collect(),
+        seed: cfg.seed,
+        rate_hz: scene.fs,
+        samples: scene.conds.len(),
+        noise_std_counts: scene.noise,
+        forward_matrix: scene.d.map(|r| r.map(|v| v * unit)),
+        calibration: true_calibration(scene)?,
+        poses: true_poses(scene),
+        outliers: scene.terms.outliers.clone(),
+        temperature_model: scene.tm,
+        open_basis: open,
+        extra_terms,
+    })
 }
