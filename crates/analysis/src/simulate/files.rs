@@ -6,7 +6,7 @@ use crate::input::recording::Recording;
 use crate::output::write::write_file;
 use std::path::{Path, PathBuf};
 
-/// The recording as CSV text (`t,x,y,z[,temp]`), readable by [`crate::input::load::load`].
+/// The recording as CSV text (`t,x,y,z[,temp]`), readable by [`crate::input::front_door::load`].
 pub fn to_csv(rec: &Recording) -> String {
     let mut s = String::with_capacity(rec.len() * 24 + 32);
     s.push_str(if rec.temp.is_some() {
