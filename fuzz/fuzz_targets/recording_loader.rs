@@ -8,7 +8,7 @@
 
 use libfuzzer_sys::fuzz_target;
 use wiical_analysis::input::columns::Sensor;
-use wiical_analysis::input::window_table::{parse_window_table, WindowInputOptions};
+use wiical_analysis::input::window_means::{parse_window_table, WindowInputOptions};
 use wiical_analysis::{parse, LoadOptions};
 
 const CHOICES: [Option<[&str; 3]>; 4] = [

@@ -21,7 +21,8 @@ use pyo3::prelude::*;
 use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
 use wiical_analysis::arrays::ArrayError;
-use wiical_analysis::input::window_table::{load_input, Input, WindowInputOptions};
+use wiical_analysis::input::front_door::{load_input, Input};
+use wiical_analysis::input::window_means::WindowInputOptions;
 use wiical_analysis::{
     input::columns::Sensor, AnalyzeOptions, Candidate, DetectOptions, FitOptions, LoadOptions,
     Recording,
@@ -423,7 +424,7 @@ fn gyrofit(
                 wiical_analysis::load(g, &LoadOptions::default())?,
             )),
             None => {
-                wiical_analysis::input::load::load_imu(&path, &LoadOptions::default(), gyro_columns)
+                wiical_analysis::input::front_door::load_imu(&path, &LoadOptions::default(), gyro_columns)
             }
         })
         .map_err(py_err)?;

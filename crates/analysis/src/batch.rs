@@ -27,7 +27,8 @@
 
 use crate::error::output::OutputError;
 use crate::error::{Error, Result};
-use crate::input::window_table::{load_input, WindowInputOptions};
+use crate::input::front_door::load_input;
+use crate::input::window_means::WindowInputOptions;
 use crate::pipeline;
 use crate::{AnalyzeOptions, FitOptions};
 use serde::{Deserialize, Serialize};

@@ -9,7 +9,8 @@
 use crate::autocal;
 use crate::detect::windows::Windows;
 use crate::error::Result;
-use crate::input::window_table::{Input, WindowTable};
+use crate::input::front_door::Input;
+use crate::input::table::WindowTable;
 use crate::report::verdict::Quality;
 use crate::{AnalyzeOptions, AnalyzeReport, FitOptions, FitReport};
 use serde::Serialize;

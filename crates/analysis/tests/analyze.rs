@@ -5,7 +5,7 @@ mod common;
 use common::data_dir;
 
 use wiical_analysis::fit::base as fit;
-use wiical_analysis::input::load;
+use wiical_analysis::input::{front_door as load, text};
 use wiical_analysis::simulate;
 use wiical_analysis::Recording;
 
@@ -499,7 +499,7 @@ fn six_position_blocks_test_the_pair_contrasts() {
                 text += &format!("{lab},{},{},{}\n", m[0], m[1], m[2]);
             }
         }
-        load::parse(&text, &Default::default()).unwrap()
+        text::parse(&text, &Default::default()).unwrap()
     };
     let clean = run_analyze(&make([0.0; 3], 0.0, 1), &AnalyzeOptions::default()).unwrap();
     assert!(clean.effects.is_empty(), "{:?}", names(&clean));
@@ -717,7 +717,7 @@ fn coarse_timestamps_are_read_and_analysed_like_exact_ones() {
 /// "good" but an unexplained residual (uploadable only with --force).
 #[test]
 fn untested_candidates_are_named_and_an_unexplained_residual_is_not_good() {
-    use wiical_analysis::input::window_table::Input;
+    use wiical_analysis::input::front_door::Input;
     use wiical_analysis::report::verdict::Verdict;
     use wiical_analysis::simulate::{simulate, EffectSpec, SimConfig, SimEffect};
     let rec = simulate(&SimConfig {

@@ -413,7 +413,7 @@ fn default_run(path: &std::path::Path) -> GyroReport {
 /// [`default_run`], keeping the refusal.
 fn default_try(path: &std::path::Path) -> Result<GyroReport, GyroError> {
     let (acc, gyro) =
-        wiical_analysis::input::load::load_imu(path, &LoadOptions::default(), None).unwrap();
+        wiical_analysis::input::front_door::load_imu(path, &LoadOptions::default(), None).unwrap();
     let opts = match wiical_analysis::gyro::nominal_from_columns(&gyro) {
         Some((s, source)) => GyroOptions {
             nominal_source: source,

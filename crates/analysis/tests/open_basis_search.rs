@@ -9,7 +9,7 @@
 
 use rand::SeedableRng;
 use rand_distr::{Distribution, Normal};
-use wiical_analysis::input::window_table::{parse_window_table, WindowInputOptions};
+use wiical_analysis::input::window_means::{parse_window_table, WindowInputOptions};
 use wiical_analysis::pipeline;
 use wiical_analysis::AnalyzeOptions;
 
@@ -92,7 +92,7 @@ fn analyze(text: &str) -> wiical_analysis::AnalyzeReport {
     let t = parse_window_table(text, &WindowInputOptions::default())
         .unwrap()
         .expect("a window table");
-    let input = wiical_analysis::input::window_table::Input::Table(t);
+    let input = wiical_analysis::input::front_door::Input::Table(t);
     pipeline::analyze_judged(&input, &AnalyzeOptions::default())
         .unwrap()
         .report

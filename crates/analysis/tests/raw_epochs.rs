@@ -8,9 +8,10 @@ mod common;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
+use wiical_analysis::input::front_door::{load_input, Input};
 use wiical_analysis::input::raw::epochs::{epoch_table, still_epochs, EpochOptions};
 use wiical_analysis::input::table::WindowTable;
-use wiical_analysis::input::window_table::{load_input, Input, WindowInputOptions};
+use wiical_analysis::input::window_means::WindowInputOptions;
 use wiical_analysis::input::InputError;
 use wiical_analysis::{Error, Recording};
 

@@ -230,7 +230,8 @@ fn real_recordings_keep_their_windows() {
 /// the library describes or too few poses to say).
 #[test]
 fn real_recordings_keep_their_verdicts_and_effects() {
-    use wiical_analysis::input::window_table::{load_input, WindowInputOptions};
+    use wiical_analysis::input::front_door::load_input;
+    use wiical_analysis::input::window_means::WindowInputOptions;
     for (rel, verdict, named) in [
         ("imu_tk_xsens/xsens_acc.mat", "unexplained-residual", ""),
         ("acc_mag_ck_explorer/acc_log.csv", "good", "quadratic"),

@@ -6,7 +6,7 @@ mod common;
 
 use wiical_analysis::autocal::{autocalibrate, AutocalOptions};
 use wiical_analysis::detect::windows::Windows;
-use wiical_analysis::input::window_table::{load_window_table, WindowInputOptions, WindowTable};
+use wiical_analysis::input::window_means::{load_window_table, WindowInputOptions, WindowTable};
 
 fn ggir_table() -> WindowTable {
     let path = common::data_dir().join("ggir_wrist_sphere_temp/spheredata.csv");

@@ -7,7 +7,7 @@ use anyhow::{bail, Result};
 use std::path::PathBuf;
 use std::time::Instant;
 use wiical_analysis::batch::{self, BatchCommand, BatchOptions};
-use wiical_analysis::input::window_table::WindowInputOptions;
+use wiical_analysis::input::window_means::WindowInputOptions;
 use wiical_analysis::AnalyzeOptions;
 use wiical_core::multipos::MultiPosModel;
 

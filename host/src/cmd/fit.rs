@@ -8,7 +8,7 @@ use crate::cli_error::cli_error;
 use crate::render;
 use anyhow::Result;
 use std::path::PathBuf;
-use wiical_analysis::input::window_table::Input;
+use wiical_analysis::input::front_door::Input;
 use wiical_core::multipos::MultiPosModel;
 
 /// Arguments of `wiical fit`.

@@ -106,7 +106,7 @@ pub fn run(a: &Args) -> Result<String> {
         None => {
             let acc_opts = a.detect.load_options()?;
             let (acc, gyro) = super::with_spinner(&format!("reading {}", a.file.display()), || {
-                wiical_analysis::input::load::load_imu(&a.file, &acc_opts, gyro_columns)
+                wiical_analysis::input::front_door::load_imu(&a.file, &acc_opts, gyro_columns)
             })
             .map_err(cli_error)?;
             super::print_notes(&a.file, &acc);

@@ -56,7 +56,7 @@ impl Windows {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::input::window_table::{parse_window_table, WindowInputOptions};
+    use crate::input::window_means::{parse_window_table, WindowInputOptions};
 
     fn windows(text: &str, force: bool) -> Windows {
         let opts = WindowInputOptions {

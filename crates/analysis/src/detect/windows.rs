@@ -501,7 +501,7 @@ pub struct WindowStats {
     /// Mean temperature.
     pub temp: Option<f64>,
     /// Samples averaged: the span for detected windows; for windows read from a window-mean
-    /// table ([`crate::input::window_table`]) the file's count column, `None` when it has none (the
+    /// table ([`crate::input::window_means`]) the file's count column, `None` when it has none (the
     /// noise floor var/n is then unknown, not guessed).
     pub count: Option<usize>,
 }

@@ -87,7 +87,7 @@ pub fn run(rec: &Recording, opts: &FitOptions) -> Result<FitReport> {
 }
 
 /// The fit of windows already found: detected by [`run`], or read from a window-mean table
-/// ([`crate::input::window_table`]) — the same windows `analyze` uses for the same file.
+/// ([`crate::input::window_means`]) — the same windows `analyze` uses for the same file.
 pub fn run_windows(ws: &Windows, opts: &FitOptions) -> Result<FitReport, FitError> {
     let means: Vec<[f32; 3]> = ws.stats.iter().map(|w| w.mean.map(|x| x as f32)).collect();
     let fit = fit_means(&means, opts.model).map_err(|e| e.found_by(opts.detect.adaptive))?;

@@ -1,22 +1,25 @@
 //! Input: a file (or text) in → a [`recording::Recording`] (samples, time, temperature,
 //! labels, rate) or, for files whose rows are still windows already, a
-//! [`table::WindowTable`]; [`window_table::load_input`] decides which.
+//! [`table::WindowTable`]. Every file comes in through [`front_door`]: sniffed once (gzip, raw
+//! `.cwa` / `.bin` magic, else text), then one reader per kind.
 //!
 //! Every reader goes through [`bounded`] (caps on size and line length, one sentence per bad
 //! field); the time column is checked by [`timecheck`], axis triplets are found by
-//! [`columns`], and the formats are text/CSV ([`mod@load`], its data rows parsed in parallel
+//! [`columns`], and the formats are text/CSV ([`text`], its data rows parsed in parallel
 //! chunks by `text_rows`), GRT ([`grt`]), raw Axivity /
-//! GENEActiv files ([`raw`]) and window-mean tables ([`window_table`]).
+//! GENEActiv files ([`raw`]) and window-mean text tables ([`window_means`]).
 
 pub mod bounded;
 pub mod columns;
+pub mod front_door;
 pub mod grt;
-pub mod load;
 pub mod raw;
 pub mod recording;
 pub mod table;
+pub mod text;
+pub mod text_file;
 pub(crate) mod text_rows;
 pub mod timecheck;
-pub mod window_table;
+pub mod window_means;
 
 pub use crate::error::input::InputError;

@@ -1,5 +1,5 @@
 //! A table whose rows are still windows already (GGIR's sphere data, the still epochs of a raw
-//! file). Read from text by [`crate::input::window_table`], built from raw files by
+//! file). Read from text by [`crate::input::window_means`], built from raw files by
 //! [`crate::input::raw::epochs`]; its rows become the analysis's windows in
 //! `detect::table`, in place of the detection.
 

@@ -201,16 +201,29 @@ impl RowLayout {
     /// The rows of `text` (plain delimited text: no quotes, no lone CR), whose first line is
     /// line `first_line` of the file, parsed in chunks on all cores (see the module docs).
     pub(crate) fn read_plain(&self, text: &str, first_line: usize, delim: u8) -> Result<Columns> {
-        self.read_plain_in(text, first_line, delim, CHUNK_BYTES)
+        self.read_plain_in(text, first_line, delim, CHUNK_BYTES, None)
     }
 
-    /// [`RowLayout::read_plain`] in chunks of about `chunk_bytes`.
+    /// [`RowLayout::read_plain`] on a piece of a file that continues rows read before, whose
+    /// last time was `prev_time`: the time check is joined to it as between two chunks.
+    pub(crate) fn read_plain_after(
+        &self,
+        text: &str,
+        first_line: usize,
+        delim: u8,
+        prev_time: Option<f64>,
+    ) -> Result<Columns> {
+        self.read_plain_in(text, first_line, delim, CHUNK_BYTES, prev_time)
+    }
+
+    /// [`RowLayout::read_plain_after`] in chunks of about `chunk_bytes`.
     fn read_plain_in(
         &self,
         text: &str,
         first_line: usize,
         delim: u8,
         chunk_bytes: usize,
+        prev_time: Option<f64>,
     ) -> Result<Columns> {
         let bounds = chunk_bounds(text.as_bytes(), chunk_bytes);
         let newlines: Vec<usize> = bounds
@@ -250,13 +263,19 @@ impl RowLayout {
                 }
             })
             .collect();
-        self.join(cols, &caps, outs)
+        self.join(cols, &caps, outs, prev_time)
     }
 
     /// The chunks' results in file order: the time joined at each boundary, the first error
     /// returned, the rows moved together (each chunk filled only the front of its share).
-    fn join(&self, mut cols: Columns, caps: &[usize], outs: Vec<ChunkOut>) -> Result<Columns> {
-        let (mut at, mut offset, mut prev_time) = (0usize, 0usize, None);
+    fn join(
+        &self,
+        mut cols: Columns,
+        caps: &[usize],
+        outs: Vec<ChunkOut>,
+        mut prev_time: Option<f64>,
+    ) -> Result<Columns> {
+        let (mut at, mut offset) = (0usize, 0usize);
         for (out, cap) in outs.into_iter().zip(caps) {
             if let (Some(prev), Some((t0, line)), Some(i)) = (prev_time, out.first_time, self.time)
             {
@@ -344,6 +363,15 @@ fn share<'a>(s: &mut &'a mut [f64], n: usize) -> &'a mut [f64] {
 }
 
 impl Columns {
+    /// `more` (the rows after these) appended.
+    pub(crate) fn append(&mut self, more: Columns) {
+        self.xyz.extend_from_slice(&more.xyz);
+        self.t.extend_from_slice(&more.t);
+        self.temp.extend_from_slice(&more.temp);
+        self.labels.extend(more.labels);
+        self.skipped += more.skipped;
+    }
+
     fn truncate(&mut self, rows: usize) {
         self.xyz.truncate(rows);
         self.t.truncate(rows);
@@ -441,7 +469,7 @@ mod tests {
             rows(300, None) + "9,1,2,3,25,p",
         ];
         for text in &texts {
-            let whole = outcome(l.read_plain_in(text, 2, b',', usize::MAX));
+            let whole = outcome(l.read_plain_in(text, 2, b',', usize::MAX, None));
             let mut reader = csv::ReaderBuilder::new()
                 .has_headers(false)
                 .flexible(true)
@@ -457,19 +485,19 @@ mod tests {
                 (a, b) => panic!("{a:?} vs {b:?}"),
             }
             for size in [1, 7, 64, 500, 4096] {
-                let chunked = outcome(l.read_plain_in(text, 2, b',', size));
+                let chunked = outcome(l.read_plain_in(text, 2, b',', size, None));
                 assert_eq!(chunked, whole, "chunks of {size}");
             }
         }
         // Row i is line i + 2.
-        let e = outcome(l.read_plain_in(&texts[3], 2, b',', 7)).unwrap_err();
+        let e = outcome(l.read_plain_in(&texts[3], 2, b',', 7, None)).unwrap_err();
         assert_eq!(e, "line 9: column 'y': 'zz' is not a number");
-        let e = outcome(l.read_plain_in(&texts[2], 2, b',', 1)).unwrap_err();
+        let e = outcome(l.read_plain_in(&texts[2], 2, b',', 1, None)).unwrap_err();
         assert!(
             e.starts_with("line 153: column 't': time goes from 1.5 back"),
             "{e}"
         );
-        let e = outcome(l.read_plain_in(&texts[5], 2, b',', 64)).unwrap_err();
+        let e = outcome(l.read_plain_in(&texts[5], 2, b',', 64, None)).unwrap_err();
         assert!(
             e.starts_with("line 262, column temp: the reading 1e300"),
             "{e}"

@@ -7,10 +7,10 @@
 
 use crate::error::noise::NoiseError;
 use crate::error::Result;
-use crate::input::bounded::{read_bounded, text_of, MAX_RECORDING_BYTES};
 use crate::input::columns::{classify, unit_of, Sensor};
-use crate::input::load::{parse, LoadOptions};
+use crate::input::front_door::open_whole;
 use crate::input::recording::Recording;
+use crate::input::text::{parse, LoadOptions};
 use crate::noise::allan::{fit_terms, overlapping_adev, AllanCurve, NoiseTerms};
 use crate::noise::reading::read_terms;
 use serde::Serialize;
@@ -54,28 +54,10 @@ pub struct NoiseReport {
 /// The sensors of a still recording, read once: every triplet the header names (accelerometer,
 /// gyroscope, magnetometer; plain `x,y,z` when it names none), or `columns` alone.
 pub fn load_sensors(path: &Path, columns: Option<[String; 3]>) -> Result<Vec<Recording>> {
-    let bytes = read_bounded(path, MAX_RECORDING_BYTES)?;
-    if let Some(raw) = crate::input::raw::parse_bytes(&bytes, path).map_err(|e| e.in_file(path))? {
-        let mut out = vec![crate::input::raw::to_recording(
-            &raw,
-            &LoadOptions {
-                columns,
-                sensor: None,
-            },
-        )
-        .map_err(|e| e.in_file(path))?];
-        let gyro = LoadOptions {
-            columns: Some(["gx".into(), "gy".into(), "gz".into()]),
-            sensor: None,
-        };
-        if let (Ok(g), None) = (crate::input::raw::to_recording(&raw, &gyro), &out[0].labels) {
-            if g.axis_columns != out[0].axis_columns {
-                out.push(g);
-            }
-        }
-        return Ok(out);
-    }
-    let text = text_of(path, bytes)?;
+    let text = match open_whole(path)? {
+        Ok(raw) => return raw_sensors(&raw, columns, path),
+        Err(text) => text,
+    };
     if columns.is_some() {
         let opts = LoadOptions {
             columns,
@@ -117,6 +99,32 @@ pub fn load_sensors(path: &Path, columns: Option<[String; 3]>) -> Result<Vec<Rec
     if out.is_empty() {
         // No sensor named at all: the loader's own choice.
         out.push(parse(&text, &LoadOptions::default()).map_err(|e| e.in_file(path))?);
+    }
+    Ok(out)
+}
+
+/// [`load_sensors`] of a raw file: the accelerometer (or `columns`), and an AX6's gyroscope.
+fn raw_sensors(
+    raw: &crate::input::raw::RawFile,
+    columns: Option<[String; 3]>,
+    path: &Path,
+) -> Result<Vec<Recording>> {
+    let mut out = vec![crate::input::raw::to_recording(
+        raw,
+        &LoadOptions {
+            columns,
+            sensor: None,
+        },
+    )
+    .map_err(|e| e.in_file(path))?];
+    let gyro = LoadOptions {
+        columns: Some(["gx".into(), "gy".into(), "gz".into()]),
+        sensor: None,
+    };
+    if let (Ok(g), None) = (crate::input::raw::to_recording(raw, &gyro), &out[0].labels) {
+        if g.axis_columns != out[0].axis_columns {
+            out.push(g);
+        }
     }
     Ok(out)
 }

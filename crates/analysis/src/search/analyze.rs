@@ -57,7 +57,7 @@ pub fn analyze(rec: &Recording, opts: &AnalyzeOptions) -> Result<AnalyzeReport> 
 }
 
 /// The multi-position analysis of windows already found: detected by [`analyze`], or read
-/// from a window-mean table ([`crate::input::window_table`]); everything after the detection is the
+/// from a window-mean table ([`crate::input::window_means`]); everything after the detection is the
 /// same pipeline.
 pub fn analyze_windows(
     rec: &Recording,

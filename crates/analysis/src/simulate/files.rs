@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 /// A simulated recording and its truth.
 #[derive(Debug, Clone)]
 pub struct SimOutput {
-    /// The recording, as `input::load` would return it.
+    /// The recording, as `input::front_door::load` would return it.
     pub recording: Recording,
     /// The truth.
     pub truth: Truth,
@@ -20,7 +20,7 @@ pub struct SimOutput {
     pub conditions: Vec<SampleConditions>,
 }
 
-/// The recording as CSV text (`t,x,y,z[,temp]`), readable by [`crate::input::load::load`].
+/// The recording as CSV text (`t,x,y,z[,temp]`), readable by [`crate::input::front_door::load`].
 pub fn to_csv(rec: &Recording) -> String {
     let mut s = String::with_capacity(rec.len() * 24 + 32);
     s.push_str(if rec.temp.is_some() {

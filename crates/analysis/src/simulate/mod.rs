@@ -177,7 +177,7 @@ mod tests {
         let b = simulate(&cfg).unwrap();
         assert_eq!(a.recording.xyz, b.recording.xyz);
         let text = to_csv(&a.recording);
-        let back = crate::input::load::parse(&text, &Default::default()).unwrap();
+        let back = crate::input::text::parse(&text, &Default::default()).unwrap();
         assert_eq!(back.xyz, a.recording.xyz);
         assert_eq!(back.temp.as_ref().unwrap().len(), a.recording.len());
         assert!(a.recording.xyz.iter().flatten().all(|v| v.fract() == 0.0));
@@ -209,7 +209,7 @@ mod tests {
             .flatten()
             .all(|v| ((v / q) - (v / q).round()).abs() < 1e-6));
         let text = to_csv(&a.recording);
-        let back = crate::input::load::parse(&text, &Default::default()).unwrap();
+        let back = crate::input::text::parse(&text, &Default::default()).unwrap();
         assert!((back.estimated_rate_hz().unwrap() - 400.0).abs() < 1e-6);
         // Brisk: holds of 2–4 s after the rest.
         for p in &a.truth.poses[1..] {

@@ -4,7 +4,7 @@
 //! absolute mean of every axis below 2 g (a mean beyond the range is a clipped or broken
 //! sample stream, not gravity). The still epochs' means, SDs, sample counts, mean temperatures
 //! and centre times become a window-mean table ([`WindowTable`]), analysed exactly as a GGIR
-//! sphere-data file ([`crate::input::window_table`]: the autocalibration report and the residual
+//! sphere-data file ([`crate::input::window_means`]: the autocalibration report and the residual
 //! analysis with temperature).
 //!
 //! GGIR cuts epochs on its resampled grid by sample count; here the samples keep their own

@@ -1,5 +1,6 @@
-//! Loading recordings: CSV with a header naming the columns, or header-less
-//! whitespace-separated numeric text (`t x y z`, as in IMU-TK's test data).
+//! Text recordings: CSV with a header naming the columns, or header-less
+//! whitespace-separated numeric text (`t x y z`, as in IMU-TK's test data); files reach it
+//! through [`crate::input::front_door`].
 //!
 //! Accepted shapes:
 //! * CSV (comma or semicolon) with a header line. Column names map by meaning, case-insensitive:
@@ -13,89 +14,24 @@
 //!
 //! Every value must be finite; the first bad line is reported with its number.
 
-use crate::error::gyro::GyroError;
 use crate::error::input::InputError;
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::input::bounded::{
-    check_reading_scale, parse_number, parse_reading, quote, quote_header, read_bounded, text_of,
-    MAX_RATE_HZ, MAX_RECORDING_BYTES,
+    check_reading_scale, parse_number, parse_reading, quote, quote_header, MAX_RATE_HZ,
 };
 use crate::input::columns::Sensor;
 use crate::input::recording::Recording;
 use crate::input::text_rows::{Columns, Fields, RowLayout};
 use crate::input::timecheck::{time_notes, TimeCheck};
-use std::path::Path;
 
 pub use crate::input::columns::LoadOptions;
-
-/// Loads a recording from a file; see the module docs for the accepted formats.
-/// `path` may be `-` for standard input; only regular files are read, at most
-/// [`MAX_RECORDING_BYTES`].
-/// Raw accelerometer files (Axivity `.cwa`, GENEActiv `.bin`, recognised by their first bytes)
-/// are read by [`crate::input::raw`]: every decoded sample with its time and temperature.
-pub fn load(path: &Path, opts: &LoadOptions) -> Result<Recording> {
-    let bytes = read_bounded(path, MAX_RECORDING_BYTES)?;
-    let raw = crate::input::raw::parse_bytes(&bytes, path).map_err(|e| e.in_file(path))?;
-    if let Some(raw) = raw {
-        return crate::input::raw::to_recording(&raw, opts).map_err(|e| e.in_file(path));
-    }
-    let text = text_of(path, bytes)?;
-    parse(&text, opts).map_err(|e| e.in_file(path))
-}
-
-/// An accelerometer and a gyroscope from one file, read once (`wiical gyrofit FILE`, so each
-/// note on the file is made once): the accelerometer's triplet by `acc`, the gyroscope's by
-/// `gyro_columns` when given, else by the header's names — a gyroscope triplet must be named
-/// (`gx,gy,gz`, `gyro_x_dps`, …): the loader's fallback to another sensor's triplet would
-/// take gravity for rotation.
-pub fn load_imu(
-    path: &Path,
-    acc: &LoadOptions,
-    gyro_columns: Option<[String; 3]>,
-) -> Result<(Recording, Recording)> {
-    let bytes = read_bounded(path, MAX_RECORDING_BYTES)?;
-    let named = gyro_columns.is_none();
-    let gyro_opts = LoadOptions {
-        columns: gyro_columns,
-        sensor: Some(Sensor::Gyroscope),
-    };
-    if let Some(raw) = crate::input::raw::parse_bytes(&bytes, path).map_err(|e| e.in_file(path))? {
-        // An AX6 file: its gyro is `gx,gy,gz` (crate::input::raw); the other formats have none.
-        let gyro_opts = LoadOptions {
-            columns: Some(
-                gyro_opts
-                    .columns
-                    .unwrap_or_else(|| ["gx".into(), "gy".into(), "gz".into()]),
-            ),
-            ..gyro_opts
-        };
-        let accel = crate::input::raw::to_recording(&raw, acc).map_err(|e| e.in_file(path))?;
-        let gyro =
-            crate::input::raw::to_recording(&raw, &gyro_opts).map_err(|e| e.in_file(path))?;
-        return Ok((accel, gyro));
-    }
-    let text = text_of(path, bytes)?;
-    let accel = parse(&text, acc).map_err(|e| e.in_file(path))?;
-    let gyro = parse(&text, &gyro_opts).map_err(|e| e.in_file(path))?;
-    let is_gyro = |n: &String| {
-        crate::input::columns::classify(&n.to_ascii_lowercase())
-            .is_some_and(|(_, s, _)| s == Sensor::Gyroscope)
-    };
-    if named && !gyro.axis_columns.iter().all(is_gyro) {
-        return Err(Error::from(GyroError::NoGyroColumns {
-            taken: gyro.axis_columns.join(","),
-        })
-        .in_file(path));
-    }
-    Ok((accel, gyro))
-}
 
 pub(crate) fn is_comment_or_blank(line: &str) -> bool {
     let l = line.trim();
     l.is_empty() || l.starts_with('#') || l.starts_with('%')
 }
 
-/// Parses recording text (see [`load`]). A leading byte-order mark is ignored.
+/// Parses recording text (see the module docs). A leading byte-order mark is ignored.
 pub fn parse(text: &str, opts: &LoadOptions) -> Result<Recording> {
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     crate::input::bounded::check_line_lengths(text)?;
@@ -181,7 +117,7 @@ pub(crate) fn blank_comments(text: &str) -> std::borrow::Cow<'_, str> {
 
 /// The axes must be three different columns, none of them the time, temperature or label
 /// column (`--columns t,x,y` would calibrate time as an axis).
-fn check_axis_columns(rec: &Recording) -> Result<()> {
+pub(crate) fn check_axis_columns(rec: &Recording) -> Result<()> {
     for name in &rec.axis_columns {
         let lower = name.to_ascii_lowercase();
         if TIME_NAMES.contains(&lower.as_str())
@@ -281,7 +217,7 @@ const LABEL_NAMES: &[&str] = &["pose", "label"];
 /// True when plain splitting at line ends and delimiters reads `text` exactly as the `csv`
 /// reader does: no quote character anywhere (quoting is the only thing the reader adds) and no
 /// carriage return other than in a CR LF pair (the reader ends a line at a lone CR too).
-fn plain_csv(text: &str) -> bool {
+pub(crate) fn plain_csv(text: &str) -> bool {
     let b = text.as_bytes();
     if memchr::memchr(b'"', b).is_some() {
         return false;
@@ -305,23 +241,7 @@ fn parse_csv_by(
     let mut st = CsvState::new(opts, delim);
     let cols = if plain {
         // The fast path (most files): no copy of any record (reading speed: BENCHMARKS.md).
-        // The delimiter and line ends are ASCII, so every cut is a character boundary.
-        let (mut offset, mut line_no) = (0usize, 0usize);
-        let mut fields: Vec<&str> = Vec::new();
-        while st.layout.is_none() && offset < text.len() {
-            let end = memchr::memchr(b'\n', &text.as_bytes()[offset..])
-                .map_or(text.len(), |p| offset + p);
-            let line = &text[offset..end];
-            line_no += 1;
-            offset = (end + 1).min(text.len());
-            let line = line.strip_suffix('\r').unwrap_or(line);
-            if line.is_empty() {
-                continue; // the csv reader skips empty lines too
-            }
-            fields.clear();
-            fields.extend(line.split(char::from(delim.byte())));
-            st.before_header(&fields[..], line_no)?;
-        }
+        let (offset, line_no) = st.read_head(text, delim)?;
         match &st.layout {
             Some(layout) => Some(layout.read_plain(&text[offset..], line_no + 1, delim.byte())?),
             None => None,
@@ -355,21 +275,46 @@ fn parse_csv_by(
 }
 
 /// What [`parse_csv`] has read before the data rows: metadata, then the header.
-struct CsvState<'o> {
+pub(crate) struct CsvState<'o> {
     opts: &'o LoadOptions,
     decimal_comma: bool,
     rec: Recording,
-    layout: Option<RowLayout>,
+    /// The header's layout, once the header is read.
+    pub(crate) layout: Option<RowLayout>,
 }
 
 impl<'o> CsvState<'o> {
-    fn new(opts: &'o LoadOptions, delim: Delimiter) -> Self {
+    pub(crate) fn new(opts: &'o LoadOptions, delim: Delimiter) -> Self {
         Self {
             opts,
             decimal_comma: delim == Delimiter::Semicolon,
             rec: Recording::default(),
             layout: None,
         }
+    }
+
+    /// Plain text's lines up to and including the header (metadata before it): the byte
+    /// offset and line number (1-based) where the header ended, or the text's end and its
+    /// line count when it holds no header. The delimiter and line ends are ASCII, so every
+    /// cut is a character boundary.
+    pub(crate) fn read_head(&mut self, text: &str, delim: Delimiter) -> Result<(usize, usize)> {
+        let (mut offset, mut line_no) = (0usize, 0usize);
+        let mut fields: Vec<&str> = Vec::new();
+        while self.layout.is_none() && offset < text.len() {
+            let end = memchr::memchr(b'\n', &text.as_bytes()[offset..])
+                .map_or(text.len(), |p| offset + p);
+            let line = &text[offset..end];
+            line_no += 1;
+            offset = (end + 1).min(text.len());
+            let line = line.strip_suffix('\r').unwrap_or(line);
+            if line.is_empty() {
+                continue; // the csv reader skips empty lines too
+            }
+            fields.clear();
+            fields.extend(line.split(char::from(delim.byte())));
+            self.before_header(&fields[..], line_no)?;
+        }
+        Ok((offset, line_no))
     }
 
     /// Before the header: metadata `key,value` lines, or the header itself (a blank record
@@ -423,7 +368,7 @@ impl<'o> CsvState<'o> {
     }
 
     /// The recording from the metadata, the header and the rows read after it.
-    fn finish(self, cols: Option<Columns>) -> Result<Recording> {
+    pub(crate) fn finish(self, cols: Option<Columns>) -> Result<Recording> {
         let mut rec = self.rec;
         let (Some(layout), Some(cols)) = (self.layout, cols) else {
             return Err(InputError::NoHeader.into());

@@ -19,9 +19,8 @@
 use crate::error::input::InputError;
 use crate::error::Result;
 use crate::input::bounded::{parse_number, quote, read_text, MAX_RECORDING_BYTES};
-use crate::input::load::{self, blank_comments, is_comment_or_blank, Delimiter};
-use crate::input::recording::Recording;
 pub use crate::input::table::WindowTable;
+use crate::input::text::{self, blank_comments, is_comment_or_blank, Delimiter};
 pub use crate::report::contract::WindowInputInfo;
 use std::path::Path;
 
@@ -47,73 +46,17 @@ const SD_WORDS: &[&str] = &["sd", "std", "stdev", "stddev", "sigma"];
 #[derive(Debug, Clone, Default)]
 pub struct WindowInputOptions {
     /// The loader's options (axis columns, sensor).
-    pub load: load::LoadOptions,
+    pub load: text::LoadOptions,
     /// Take the rows as windows even without SD or count columns (`--windows`).
     pub force: bool,
 }
 
 /// Loads `path` as a window-mean table when its header says so or `opts.force`; `Ok(None)`
-/// for an ordinary recording (read it with [`crate::load()`]).
+/// for an ordinary recording (read it with [`crate::load()`]; [`crate::input::front_door::load_input`]
+/// reads either).
 pub fn load_window_table(path: &Path, opts: &WindowInputOptions) -> Result<Option<WindowTable>> {
     let text = read_text(path, MAX_RECORDING_BYTES)?;
     parse_window_table(&text, opts).map_err(|e| e.in_file(path))
-}
-
-/// What a file holds: samples for the detector, or a window-mean table.
-#[derive(Debug, Clone)]
-pub enum Input {
-    /// An ordinary recording.
-    Samples(Recording),
-    /// Rows that are windows already.
-    Table(WindowTable),
-}
-
-/// Reads `path` once (standard input can be read only once) as a window-mean table when its
-/// header says so or `opts.force`, else as an ordinary recording ([`crate::load()`]).
-///
-/// A raw accelerometer file (Axivity `.cwa`, GENEActiv `.bin`) becomes the table of its still
-/// 10-s epochs ([`crate::input::raw::epochs`]: GGIR's free-living autocalibration input); too few of
-/// them is an error saying how many were found and needed.
-pub fn load_input(path: &Path, opts: &WindowInputOptions) -> Result<Input> {
-    if crate::input::raw::stream::is_cwa_file(path) {
-        // Read block by block: memory is the still epochs, not the file (no size cap).
-        return crate::input::raw::stream::cwa_epoch_table(path, &opts.load, &Default::default())
-            .map(Input::Table)
-            .map_err(|e| e.in_file(path));
-    }
-    let bytes = crate::input::bounded::read_bounded(path, MAX_RECORDING_BYTES)?;
-    if let Some(raw) = crate::input::raw::parse_bytes(&bytes, path).map_err(|e| e.in_file(path))? {
-        return raw_epochs(&raw, &opts.load).map_err(|e| e.in_file(path));
-    }
-    let text = crate::input::bounded::text_of(path, bytes)?;
-    let parsed = match parse_window_table(&text, opts) {
-        Ok(Some(table)) => Ok(Input::Table(table)),
-        Ok(None) => load::parse(&text, &opts.load).map(Input::Samples),
-        Err(e) => Err(e),
-    };
-    parsed.map_err(|e| e.in_file(path))
-}
-
-/// A raw file's still epochs as a table.
-fn raw_epochs(raw: &crate::input::raw::RawFile, opts: &load::LoadOptions) -> Result<Input> {
-    let rec = crate::input::raw::to_recording(raw, opts)?;
-    let source = crate::input::raw::source_of(rec.info.first().map_or("", String::as_str));
-    let table = crate::input::raw::epochs::epoch_table(&rec, &source, &Default::default());
-    let table = table.map_err(|e| {
-        let tally = crate::input::raw::Tally::of(raw);
-        let times = crate::input::raw::sample_times(raw);
-        let left_out = times.iter().filter(|t| t.is_none()).count();
-        let measured = rec.estimated_rate_hz();
-        crate::input::raw::explain_too_few(
-            e,
-            raw.format,
-            &tally,
-            left_out,
-            measured,
-            raw.header_rate_hz,
-        )
-    })?;
-    Ok(Input::Table(table))
 }
 
 /// [`load_window_table`] on text.
@@ -124,7 +67,7 @@ pub fn parse_window_table(text: &str, opts: &WindowInputOptions) -> Result<Optio
     if extra.is_none() && !opts.force {
         return Ok(None);
     }
-    let mut recording = load::parse(text, &opts.load)?;
+    let mut recording = text::parse(text, &opts.load)?;
     // Jumps between window times are expected (still epochs are scattered over the days):
     // the sample loader's notes about its time column do not apply to windows.
     recording.notes.clear();

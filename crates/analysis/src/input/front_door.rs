@@ -1,0 +1,251 @@
+//! The one front door for every input file: a file is sniffed once ([`open`]: a regular `.cwa`
+//! file by its header block's magic, gzip by its magic — decompressed and sniffed again —, a raw
+//! Axivity / GENEActiv file by its first bytes, else UTF-8 text) into an [`Opened`] kind, and
+//! each kind has one reader: [`load`] (every sample), [`load_imu`] (an accelerometer and a
+//! gyroscope from one read), [`load_input`] (what `fit`, `analyze` and `batch` need: samples,
+//! or a table whose rows are windows already — a window-mean text table or a raw file's still
+//! epochs).
+//!
+//! Why one door: the kind decides the reader, and each door used to decide it again (and
+//! standard input can be read only once). Errors are the readers' own, with the file named.
+
+use crate::error::gyro::GyroError;
+use crate::error::{Error, Result};
+use crate::input::bounded::{read_bounded, text_of, MAX_RECORDING_BYTES};
+use crate::input::columns::{LoadOptions, Sensor};
+use crate::input::raw::{self, RawFile};
+use crate::input::recording::Recording;
+use crate::input::table::WindowTable;
+use crate::input::text::parse;
+use crate::input::text_file::{self, PIECES_FROM_BYTES};
+use crate::input::window_means::{parse_window_table, WindowInputOptions};
+use std::path::Path;
+
+/// What a file is, decided from its first bytes.
+#[derive(Debug)]
+pub enum Opened {
+    /// A regular file starting with a `.cwa` header block: read block by block where only its
+    /// still epochs are wanted ([`raw::stream`]), never held whole there.
+    CwaFile,
+    /// A raw file decoded whole (GENEActiv `.bin`; a `.cwa` from gzip or standard input).
+    Raw(Box<RawFile>),
+    /// UTF-8 text (byte-order mark removed): CSV, whitespace-separated numbers, GRT, or a
+    /// window-mean table; the text reader tells them apart by the first lines.
+    Text(String),
+    /// A regular uncompressed file of at least [`PIECES_FROM_BYTES`] that is not raw: read in
+    /// pieces by [`crate::input::text_file`] when it is plain delimited text, else whole.
+    TextFile,
+}
+
+/// Sniffs `path` (`-`: standard input, read once) and reads what its kind needs up front: a
+/// regular `.cwa` file only its first bytes, anything else whole, at most
+/// [`MAX_RECORDING_BYTES`] (gzip decompressed to the same limit).
+pub fn open(path: &Path) -> Result<Opened> {
+    if raw::stream::is_cwa_file(path) {
+        return Ok(Opened::CwaFile);
+    }
+    if is_large_text_file(path) {
+        return Ok(Opened::TextFile);
+    }
+    Ok(match read_whole(path)? {
+        Ok(raw) => Opened::Raw(Box::new(raw)),
+        Err(text) => Opened::Text(text),
+    })
+}
+
+/// A file read whole: `Ok(raw file)` or `Err(text)`.
+type Whole = std::result::Result<RawFile, String>;
+
+/// The file read whole (capped) and sniffed: gzip decompressed, a raw format by its magic,
+/// else UTF-8 text.
+fn read_whole(path: &Path) -> Result<Whole> {
+    let bytes = read_bounded(path, MAX_RECORDING_BYTES)?;
+    if let Some(raw) = raw::parse_bytes(&bytes, path).map_err(|e| e.in_file(path))? {
+        return Ok(Ok(raw));
+    }
+    Ok(Err(text_of(path, bytes)?))
+}
+
+/// True when `path` is a regular file of at least [`PIECES_FROM_BYTES`] whose first bytes are
+/// neither gzip's nor a raw format's magic.
+fn is_large_text_file(path: &Path) -> bool {
+    use std::io::Read;
+    if path.as_os_str() == "-"
+        || !std::fs::metadata(path).is_ok_and(|m| m.is_file() && m.len() >= PIECES_FROM_BYTES)
+    {
+        return false;
+    }
+    let mut head = [0u8; 64];
+    let Ok(n) = std::fs::File::open(path).and_then(|mut f| f.read(&mut head)) else {
+        return false;
+    };
+    let head = &head[..n];
+    !head.starts_with(&[0x1f, 0x8b]) && raw::detect(head, Path::new("")).is_ok_and(|f| f.is_none())
+}
+
+/// The file whole, for readers that need every sample: `Ok(raw file)` (a [`Opened::CwaFile`]
+/// decoded now, as any other raw file) or `Err(text)`.
+pub fn open_whole(path: &Path) -> Result<Whole> {
+    Ok(match open(path)? {
+        Opened::CwaFile => Ok(raw::read(path)?),
+        Opened::Raw(raw) => Ok(*raw),
+        Opened::Text(text) => Err(text),
+        Opened::TextFile => read_whole(path)?,
+    })
+}
+
+/// Loads a recording from a file: every sample, with its time and temperature. Text is read
+/// by [`crate::input::text`] (its module docs list the accepted shapes); raw accelerometer
+/// files (Axivity `.cwa`, GENEActiv `.bin`, recognised by their first bytes) by
+/// [`crate::input::raw`]. `path` may be `-` for standard input; only regular files are read,
+/// at most [`MAX_RECORDING_BYTES`].
+pub fn load(path: &Path, opts: &LoadOptions) -> Result<Recording> {
+    if let Some(rec) = load_in_pieces(path, opts, |_| true)? {
+        return Ok(rec);
+    }
+    match open_whole(path)? {
+        Ok(raw) => raw::to_recording(&raw, opts).map_err(|e| e.in_file(path)),
+        Err(text) => parse(&text, opts).map_err(|e| e.in_file(path)),
+    }
+}
+
+/// A large plain text file's recording read in pieces (`head_ok` asked about its first
+/// piece), `None` when the file is to be read whole.
+fn load_in_pieces(
+    path: &Path,
+    opts: &LoadOptions,
+    head_ok: impl Fn(&str) -> bool,
+) -> Result<Option<Recording>> {
+    if !is_large_text_file(path) {
+        return Ok(None);
+    }
+    text_file::load_pieces(path, opts, head_ok).map_err(|e| e.in_file(path))
+}
+
+/// An accelerometer and a gyroscope from one file, read once (`wiical gyrofit FILE`, so each
+/// note on the file is made once): the accelerometer's triplet by `acc`, the gyroscope's by
+/// `gyro_columns` when given, else by the header's names — a gyroscope triplet must be named
+/// (`gx,gy,gz`, `gyro_x_dps`, …): the loader's fallback to another sensor's triplet would
+/// take gravity for rotation.
+pub fn load_imu(
+    path: &Path,
+    acc: &LoadOptions,
+    gyro_columns: Option<[String; 3]>,
+) -> Result<(Recording, Recording)> {
+    let named = gyro_columns.is_none();
+    let gyro_opts = LoadOptions {
+        columns: gyro_columns,
+        sensor: Some(Sensor::Gyroscope),
+    };
+    if let Some(accel) = load_in_pieces(path, acc, |_| true)? {
+        if let Some(gyro) = load_in_pieces(path, &gyro_opts, |_| true)? {
+            return check_gyro_named(named, accel, gyro, path);
+        }
+    }
+    let text = match open_whole(path)? {
+        Ok(raw) => {
+            // An AX6 file: its gyro is `gx,gy,gz` (crate::input::raw); the other formats have
+            // none.
+            let gyro_opts = LoadOptions {
+                columns: Some(
+                    gyro_opts
+                        .columns
+                        .unwrap_or_else(|| ["gx".into(), "gy".into(), "gz".into()]),
+                ),
+                ..gyro_opts
+            };
+            let accel = raw::to_recording(&raw, acc).map_err(|e| e.in_file(path))?;
+            let gyro = raw::to_recording(&raw, &gyro_opts).map_err(|e| e.in_file(path))?;
+            return Ok((accel, gyro));
+        }
+        Err(text) => text,
+    };
+    let accel = parse(&text, acc).map_err(|e| e.in_file(path))?;
+    let gyro = parse(&text, &gyro_opts).map_err(|e| e.in_file(path))?;
+    check_gyro_named(named, accel, gyro, path)
+}
+
+/// The pair, unless the gyroscope's triplet was the loader's fallback (`named`: none was
+/// asked for) and its columns are not named as a gyroscope's.
+fn check_gyro_named(
+    named: bool,
+    accel: Recording,
+    gyro: Recording,
+    path: &Path,
+) -> Result<(Recording, Recording)> {
+    let is_gyro = |n: &String| {
+        crate::input::columns::classify(&n.to_ascii_lowercase())
+            .is_some_and(|(_, s, _)| s == Sensor::Gyroscope)
+    };
+    if named && !gyro.axis_columns.iter().all(is_gyro) {
+        return Err(Error::from(GyroError::NoGyroColumns {
+            taken: gyro.axis_columns.join(","),
+        })
+        .in_file(path));
+    }
+    Ok((accel, gyro))
+}
+
+/// What a file holds: samples for the detector, or a window-mean table.
+#[derive(Debug, Clone)]
+pub enum Input {
+    /// An ordinary recording.
+    Samples(Recording),
+    /// Rows that are windows already.
+    Table(WindowTable),
+}
+
+/// Reads `path` once (standard input can be read only once) as a window-mean table when its
+/// header says so or `opts.force`, else as an ordinary recording ([`load`]).
+///
+/// A raw accelerometer file (Axivity `.cwa`, GENEActiv `.bin`) becomes the table of its still
+/// 10-s epochs ([`crate::input::raw::epochs`]: GGIR's free-living autocalibration input); too
+/// few of them is an error saying how many were found and needed. A regular `.cwa` file is
+/// read block by block: memory is the still epochs, not the file (no size cap).
+pub fn load_input(path: &Path, opts: &WindowInputOptions) -> Result<Input> {
+    // A window-mean table is small: only samples are read in pieces.
+    let samples = |head: &str| !opts.force && matches!(parse_window_table(head, opts), Ok(None));
+    if let Some(rec) = load_in_pieces(path, &opts.load, samples)? {
+        return Ok(Input::Samples(rec));
+    }
+    let whole = match open(path)? {
+        Opened::CwaFile => {
+            let table = raw::stream::cwa_epoch_table(path, &opts.load, &Default::default());
+            return table.map(Input::Table).map_err(|e| e.in_file(path));
+        }
+        Opened::Raw(raw) => Ok(*raw),
+        Opened::Text(text) => Err(text),
+        Opened::TextFile => read_whole(path)?,
+    };
+    let parsed = match whole {
+        Ok(raw) => raw_epochs(&raw, &opts.load),
+        Err(text) => match parse_window_table(&text, opts) {
+            Ok(Some(table)) => Ok(Input::Table(table)),
+            Ok(None) => parse(&text, &opts.load).map(Input::Samples),
+            Err(e) => Err(e),
+        },
+    };
+    parsed.map_err(|e| e.in_file(path))
+}
+
+/// A raw file's still epochs as a table.
+fn raw_epochs(raw: &RawFile, opts: &LoadOptions) -> Result<Input> {
+    let rec = raw::to_recording(raw, opts)?;
+    let source = raw::source_of(rec.info.first().map_or("", String::as_str));
+    let table = raw::epochs::epoch_table(&rec, &source, &Default::default());
+    let table = table.map_err(|e| {
+        let tally = raw::Tally::of(raw);
+        let times = raw::sample_times(raw);
+        let left_out = times.iter().filter(|t| t.is_none()).count();
+        let measured = rec.estimated_rate_hz();
+        raw::explain_too_few(
+            e,
+            raw.format,
+            &tally,
+            left_out,
+            measured,
+            raw.header_rate_hz,
+        )
+    })?;
+    Ok(Input::Table(table))
+}

@@ -1,0 +1,260 @@
+//! A large regular delimited text file read in line-aligned pieces of [`PIECE_BYTES`], never
+//! held whole: memory is the rows read (and one piece), not the text beside them, and the
+//! size cap for files read whole ([`crate::input::bounded::MAX_RECORDING_BYTES`]) does not
+//! apply; the limits are per piece and per line ([`crate::input::bounded::MAX_LINE_BYTES`]).
+//!
+//! Each piece's rows are parsed by the same functions as a text held whole
+//! (`text_rows`: in parallel chunks, the time check joined to the piece
+//! before), so the recording is the whole-text path's, bit for bit. Only text that path
+//! reads by its fast splitter is read this way: a file with a quote, a lone carriage return,
+//! a `#` or `%` comment, a byte that is not UTF-8, a line over the limit, no header in its
+//! first piece (or a GRT or header-less whitespace file) is handed back
+//! and read whole as before, so every such file keeps its sentence. A bad row is reported
+//! once the rest of the file has been checked for those (which the whole-text path would
+//! report first).
+
+use crate::error::{Error, Result};
+use crate::input::bounded::{check_line_lengths, MAX_LINE_BYTES};
+use crate::input::columns::LoadOptions;
+use crate::input::recording::Recording;
+use crate::input::text::{check_axis_columns, is_comment_or_blank, CsvState, Delimiter};
+use crate::input::text_rows::Columns;
+use std::io::Read;
+use std::path::Path;
+
+/// Bytes read per piece (plus the unfinished line carried over from the piece before): the
+/// parse splits a piece again into chunks for every core.
+pub const PIECE_BYTES: usize = 16 << 20;
+
+/// Regular files at least this large are read in pieces; smaller ones whole (one read is
+/// simplest where the text is no burden).
+pub const PIECES_FROM_BYTES: u64 = 64 << 20;
+
+/// The file's pieces, each ending at a line end (the last at the end of the file).
+struct Pieces {
+    file: std::fs::File,
+    /// The piece handed out last, then the start of the next (its unfinished line).
+    buf: Vec<u8>,
+    /// Bytes of `buf` that are the piece handed out last.
+    given: usize,
+    eof: bool,
+    piece_bytes: usize,
+}
+
+impl Pieces {
+    fn open(path: &Path, piece_bytes: usize) -> Result<Self> {
+        let file = std::fs::File::open(path).map_err(|source| {
+            Error::from(crate::error::input::InputError::Read {
+                path: path.into(),
+                source,
+            })
+        })?;
+        Ok(Self {
+            file,
+            buf: Vec::new(),
+            given: 0,
+            eof: false,
+            piece_bytes,
+        })
+    }
+
+    /// The next piece (`None` at the end), or `Err(())` when a line is longer than the limit
+    /// allows a piece to carry (the whole-text path names it). I/O errors end the pieces too:
+    /// the whole-text path reads the file again and names the error.
+    fn next_piece(&mut self) -> std::result::Result<Option<&[u8]>, ()> {
+        self.buf.drain(..self.given);
+        self.given = 0;
+        // A piece is at least `piece_bytes` and holds a whole line: a line of up to
+        // MAX_LINE_BYTES longer than the piece is carried whole.
+        let most = self.piece_bytes + MAX_LINE_BYTES + 1;
+        while !self.eof
+            && (self.buf.len() < self.piece_bytes
+                || (self.buf.len() <= most && memchr::memrchr(b'\n', &self.buf).is_none()))
+        {
+            let at = self.buf.len();
+            self.buf.resize(at + self.piece_bytes.min(most), 0);
+            let n = self.file.read(&mut self.buf[at..]).map_err(|_| ())?;
+            self.buf.truncate(at + n);
+            self.eof = n == 0;
+        }
+        if self.buf.is_empty() {
+            return Ok(None);
+        }
+        let end = if self.eof {
+            self.buf.len()
+        } else {
+            match memchr::memrchr(b'\n', &self.buf) {
+                Some(i) => i + 1,
+                None => return Err(()),
+            }
+        };
+        self.given = end;
+        Ok(Some(&self.buf[..end]))
+    }
+}
+
+/// The piece as text the fast splitter reads as the `csv` reader does, with no comment line
+/// and no line over the limit; `None` for anything else.
+fn plain_piece(piece: &[u8]) -> Option<&str> {
+    let text = std::str::from_utf8(piece).ok()?;
+    let marked = memchr::memchr3(b'"', b'#', b'%', piece).is_some();
+    let lone_cr = memchr::memchr_iter(b'\r', piece).any(|i| piece.get(i + 1) != Some(&b'\n'));
+    if marked || lone_cr || check_line_lengths(text).is_err() {
+        return None;
+    }
+    Some(text)
+}
+
+/// Reads the regular text file `path` in pieces of [`PIECE_BYTES`] as
+/// [`crate::input::text::parse`] reads its whole text; `head_ok` is asked about the first
+/// piece's text (cut at a line end) before any row is read (a window-mean table is read
+/// whole). `Ok(None)`: the file is to be read whole (see the module docs). Errors carry no
+/// file name (the caller adds it).
+pub fn load_pieces(
+    path: &Path,
+    opts: &LoadOptions,
+    head_ok: impl Fn(&str) -> bool,
+) -> Result<Option<Recording>> {
+    read_pieces(path, opts, PIECE_BYTES, head_ok)
+}
+
+/// [`load_pieces`] with pieces of `piece_bytes`: `Ok(None)` to read the file whole.
+fn read_pieces(
+    path: &Path,
+    opts: &LoadOptions,
+    piece_bytes: usize,
+    head_ok: impl Fn(&str) -> bool,
+) -> Result<Option<Recording>> {
+    let Ok(mut pieces) = Pieces::open(path, piece_bytes) else {
+        return Ok(None);
+    };
+    let Ok(Some(first)) = pieces.next_piece() else {
+        return Ok(None);
+    };
+    let first = first.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(first);
+    let Some(head) = plain_piece(first).filter(|h| !h.starts_with('\u{feff}')) else {
+        return Ok(None);
+    };
+    let Some(first_line) = head.lines().find(|l| !is_comment_or_blank(l)) else {
+        return Ok(None);
+    };
+    let delim = match Delimiter::of_first_line(first_line) {
+        Some(d) if !crate::input::grt::is_grt(first_line) && head_ok(head) => d,
+        _ => return Ok(None),
+    };
+    let mut st = CsvState::new(opts, delim);
+    let (offset, header_line) = match st.read_head(head, delim) {
+        Ok(at) => at,
+        Err(e) => return finish_checks(&mut pieces, Err(e)),
+    };
+    let Some(layout) = st.layout.clone() else {
+        return Ok(None); // no header in the first piece: the whole-text path says what is wrong
+    };
+    let mut line = header_line + 1;
+    let mut cols = Columns::default();
+    let mut piece = &head[offset..];
+    loop {
+        let prev = cols.t.last().copied();
+        match layout.read_plain_after(piece, line, delim.byte(), prev) {
+            Ok(more) => cols.append(more),
+            Err(e) => return finish_checks(&mut pieces, Err(e)),
+        }
+        line += memchr::memchr_iter(b'\n', piece.as_bytes()).count();
+        piece = match pieces.next_piece() {
+            Ok(Some(p)) => match plain_piece(p) {
+                Some(text) => text,
+                None => return Ok(None),
+            },
+            Ok(None) => break,
+            Err(()) => return Ok(None),
+        };
+    }
+    let rec = st.finish(Some(cols)).and_then(|rec| {
+        check_axis_columns(&rec)?;
+        crate::input::bounded::check_reading_scale(&rec.xyz)?;
+        Ok(rec)
+    });
+    rec.map(Some)
+}
+
+/// `result` (an error in the rows) once the rest of the file is known to be plain text (else
+/// `Ok(None)`: the whole-text path reports what it finds first).
+fn finish_checks(pieces: &mut Pieces, result: Result<Recording>) -> Result<Option<Recording>> {
+    loop {
+        match pieces.next_piece() {
+            Ok(Some(p)) if plain_piece(p).is_some() => {}
+            Ok(None) => return result.map(Some),
+            _ => return Ok(None),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every text, read in pieces of every size, gives what the whole-text parse gives: the
+    /// values bit for bit or the same sentence — or is handed back to be read whole.
+    #[test]
+    fn pieces_read_as_the_whole_text() {
+        let mut rows = String::from("Fs,100\nt,x,y,z,temp\n");
+        for i in 0..400 {
+            let t = i as f64 * 0.01;
+            rows += &format!(
+                "{t},{},{}.{},-{}e-{},2{}.5\n",
+                i % 97,
+                i % 13,
+                i * 31 % 1000,
+                i % 7,
+                i % 3,
+                i % 9
+            );
+        }
+        let bad_time = rows.replace("\n2.5,", "\n1.5,");
+        let bad_cell = rows.replace("\n3.01,", "\n3.01,x");
+        let ragged = rows.clone() + "1,2\n";
+        let semicolon = "t;x;y;z\n0;1,5;2;3\n0,01;4;5;6\n".to_string();
+        let no_header = "1,2,3\n4,5,6\n".to_string();
+        let texts = [
+            rows.clone(),
+            rows.trim_end().to_string(),
+            rows.replace('\n', "\r\n"),
+            bad_time,
+            bad_cell,
+            ragged,
+            semicolon,
+            no_header,
+            "x,y,z\n".to_string(),
+            format!("\u{feff}{rows}"),
+            rows.clone() + "# a comment\n",
+            rows.replace("2.5,", "\"2.5\","),
+        ];
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("r.csv");
+        let opts = LoadOptions::default();
+        for text in &texts {
+            std::fs::write(&path, text).unwrap();
+            let whole = crate::input::text::parse(text.trim_start_matches('\u{feff}'), &opts);
+            let whole = whole.map(|r| format!("{:?} {:?} {:?} {:?}", r.xyz, r.t, r.temp, r.notes));
+            let whole = whole.map_err(|e| e.to_string());
+            for size in [1, 7, 64, 300, 4096, 1 << 20] {
+                let got = match read_pieces(&path, &opts, size, |_| true) {
+                    Ok(None) => continue, // read whole by the caller
+                    Ok(Some(r)) => Ok(format!("{:?} {:?} {:?} {:?}", r.xyz, r.t, r.temp, r.notes)),
+                    Err(e) => Err(e.to_string()),
+                };
+                assert_eq!(got, whole, "{text:?} in pieces of {size}");
+            }
+        }
+        // The plain file is read in pieces, not handed back.
+        std::fs::write(&path, &texts[0]).unwrap();
+        assert!(matches!(
+            read_pieces(&path, &opts, 64, |_| true),
+            Ok(Some(_))
+        ));
+        assert!(matches!(read_pieces(&path, &opts, 64, |_| false), Ok(None)));
+        // A comment, a quote: read whole.
+        std::fs::write(&path, &texts[10]).unwrap();
+        assert!(matches!(read_pieces(&path, &opts, 64, |_| true), Ok(None)));
+    }
+}
