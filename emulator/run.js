@@ -414,7 +414,7 @@ const scenarios = [
     return err ? fail(err) : 'new emulator on the same flash: calibration still live, reports corrected';
   }],
   ['commit-cross-terms', async () => {
-    // Issue 19: a calibration with orientation-dependent cross terms, committed through the
+    // A calibration with orientation-dependent cross terms, committed through the
     // CLI, corrects the Wii Remote's reports on the device (expected counts: the core's
     // correction with the acceleration-only terms, xtask emulate-correct), survives a power
     // cycle (flash record version 2), and `device put` says which terms the adapter applies.
@@ -459,7 +459,7 @@ const scenarios = [
     return `put names the applied terms; ${moved} of ${rig.nunchuk.served.length} served readings move with the cross terms; reports equal the core's correction before and after a power cycle; ${overtaken(rig)}`;
   }],
   ['commit-analyzed-cal', async () => {
-    // Issue 19: a calibration the pipeline produced (simulate → analyze --out, with a cross
+    // A calibration the pipeline produced (simulate → analyze --out, with a cross
     // term analyze found) put and committed through the CLI; the Wii Remote's reports must
     // equal the core's correction with that file (xtask emulate-correct).
     const a = analyzedCalibration();

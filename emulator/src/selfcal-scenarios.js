@@ -1,4 +1,4 @@
-// Issue 14 end to end: the adapter calibrates the Nunchuk by itself, driven only by the
+// End to end: the adapter calibrates the Nunchuk by itself, driven only by the
 // simulated Nunchuk's buttons and poses, while the harness watches the status LED as a user
 // would (led.js). The Nunchuk has a known truth (pose-nunchuk.js), so the calibration the
 // adapter fits, stores and applies can be compared with it.
