@@ -171,6 +171,100 @@ pub fn t_two_sided(t: f64, nu: f64) -> f64 {
     beta_inc(nu / 2.0, 0.5, nu / (nu + t * t))
 }
 
+/// Upper critical value of the F distribution on (`d1`, `d2`) at `level`: the smallest `f`
+/// with `P(F > f) ≤ level`. The bracket grows until it holds the value (a critical value at a
+/// Bonferroni level on few degrees of freedom can exceed 10⁶), then 100 halvings of the
+/// monotone survival function reach full `f64` precision.
+pub fn f_critical(level: f64, d1: f64, d2: f64) -> f64 {
+    let (mut lo, mut hi) = (0.0, 1.0);
+    while f_sf(hi, d1, d2) > level && hi < 1e12 {
+        hi *= 2.0;
+    }
+    for _ in 0..100 {
+        let mid = 0.5 * (lo + hi);
+        if f_sf(mid, d1, d2) > level {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    0.5 * (lo + hi)
+}
+
+/// The power detection limits are stated at: an effect at its limit passes the test in 80 %
+/// of recordings like the one measured.
+pub const POWER: f64 = 0.8;
+
+/// `P(χ²_q(λ) > c)`: the non-central χ² as a Poisson(λ/2) mixture of central χ²'s.
+pub fn noncentral_chi2_sf(c: f64, q: f64, lambda: f64) -> f64 {
+    let half = 0.5 * lambda;
+    let mut sum = 0.0;
+    let mut log_w = -half;
+    // The Poisson weights are negligible beyond λ/2 + 40·√(λ/2): sum at least that far.
+    let terms = (half + 40.0 * half.sqrt() + 100.0).min(1e7) as usize;
+    for k in 0..terms {
+        let kf = k as f64;
+        if k > 0 {
+            log_w += half.ln() - kf.ln();
+        }
+        let w = log_w.exp();
+        sum += w * chi2_sf(c, q + 2.0 * kf);
+        if kf > half && w < 1e-14 {
+            break;
+        }
+    }
+    sum.min(1.0)
+}
+
+/// The non-centrality at which the χ² test with critical value `c` on `q` dof has [`POWER`].
+pub fn lambda_for_power(c: f64, q: f64) -> f64 {
+    // Bracket first (the power rises with λ), then halve the bracket.
+    let mut hi = 1.0;
+    while noncentral_chi2_sf(c, q, hi) < POWER && hi < 1e6 {
+        hi *= 2.0;
+    }
+    let mut lo = 0.0;
+    for _ in 0..80 {
+        let mid = 0.5 * (lo + hi);
+        if noncentral_chi2_sf(c, q, mid) < POWER {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    0.5 * (lo + hi)
+}
+
+/// The detection limit of an effect whose acceptance needs an F-test at `level` **and** a
+/// held-out RMS lowered by the CV factor: the larger of the two sizes, in the unit of
+/// `se_max` (the gyro's, the accelerometer's and any other least-squares search's rule).
+///
+/// * **F-test, [`POWER`].** A coefficient `β` of standard error `SE` (from the step's design
+///   and reference variance σ²) adds the non-centrality `λ = (β/SE)²` to the block's F-test
+///   on `q` coefficients and `d2` residual dof. The limit is `√λ₈₀·se_max`, with `λ₈₀` the
+///   non-centrality at which `P(χ²_q(λ) > q·F_crit) = 0.8` (the denominator taken as known:
+///   a slight underestimate of the limit on few dof) and `se_max` the largest standard error
+///   among the effect's coefficients, so the limit holds for every one of them.
+/// * **Held-out RMS.** Leave-one-out residuals of a least-squares fit with `p` parameters on
+///   `m` rows have mean square ≈ `σ²(1 + p/m)`; a coefficient `β` left out adds
+///   `σ²β²/(m·SE²)` to it per row. `cv_need` is the squared size, in units of `se_max²`, at
+///   which the held-out RMS falls by the factor `c`: `rows·(c²(1 + p₁/m) − (1 + p₀/m))`.
+///
+/// `None` when the limit is not finite (no residual dof, a zero level).
+pub fn limit_from(se_max: f64, q: f64, d2: f64, level: f64, cv_need: f64) -> Option<f64> {
+    let crit = q * f_critical(level, q, d2);
+    let beta_f = lambda_for_power(crit, q).sqrt() * se_max;
+    let beta_cv = se_max * cv_need.max(0.0).sqrt();
+    let limit = beta_f.max(beta_cv);
+    limit.is_finite().then_some(limit)
+}
+
+/// The held-out requirement of [`limit_from`] for `rows` rows with `p1` parameters with the
+/// effect and `p0` without it, at CV factor `cv_factor`.
+pub fn cv_need(rows: f64, p1: f64, p0: f64, cv_factor: f64) -> f64 {
+    rows * (cv_factor.powi(2) * (1.0 + p1 / rows) - (1.0 + p0 / rows))
+}
+
 /// Pearson correlation of two equally long series (0 when either is constant).
 pub fn correlation(a: &[f64], b: &[f64]) -> f64 {
     let n = a.len().min(b.len());
@@ -252,6 +346,24 @@ mod tests {
         assert!((t_two_sided(2.750, 30.0) - 0.01).abs() < 1e-4);
         // F(1, ν) = t²_ν.
         assert!((f_sf(2.5f64.powi(2), 1.0, 12.0) - t_two_sided(2.5, 12.0)).abs() < 1e-12);
+    }
+
+    /// The central case (λ = 0) is the test's level; a known value of the non-central χ²
+    /// (R: `pchisq(3.84, 1, ncp = 7.85, lower = FALSE)` = 0.800); F critical values from
+    /// printed tables, and one beyond 10⁶ (F(1, 1) at 10⁻⁷: `tan²(π/2·(1 − 10⁻⁷))`).
+    #[test]
+    fn power_and_critical_values_against_known_values() {
+        assert!((noncentral_chi2_sf(3.841_458_8, 1.0, 0.0) - 0.05).abs() < 1e-6);
+        assert!((noncentral_chi2_sf(3.841_458_8, 1.0, 7.848_861) - 0.8).abs() < 1e-4);
+        assert!((lambda_for_power(3.841_458_8, 1.0) - 7.848_861).abs() < 1e-3);
+        assert!((f_critical(0.05, 3.0, 20.0) - 3.098_391).abs() < 1e-5);
+        assert!((f_critical(0.001, 5.0, 30.0) - 5.533_636).abs() < 1e-4);
+        let big = (std::f64::consts::FRAC_PI_2 * (1.0 - 1e-7)).tan().powi(2);
+        assert!((f_critical(1e-7, 1.0, 1.0) / big - 1.0).abs() < 1e-6);
+        // The held-out need: c = 1 and p₁ = p₀ need nothing; the F part then decides.
+        assert_eq!(cv_need(30.0, 9.0, 9.0, 1.0), 0.0);
+        let l = limit_from(2.0, 1.0, 1e6, 0.05, 0.0).unwrap();
+        assert!((l - 2.0 * 7.848_861f64.sqrt()).abs() < 1e-2, "{l}");
     }
 
     #[test]

@@ -7,6 +7,7 @@ use wiical_analysis::report::contract::{
     AnalyzeReport, ModelSummary, SixPositionDetails, StepReport, WindowInfo,
 };
 use wiical_analysis::search::evidence::{fmt_p, fmt_vec};
+use wiical_analysis::search::limits;
 
 /// One model's line: parameters, RMS, CV, windows, χ²/dof.
 fn model_line(name: &str, m: &ModelSummary) -> String {
@@ -55,6 +56,34 @@ fn steps_text(steps: &[StepReport]) -> String {
                 c.note
             );
         }
+        if k + 1 == steps.len() {
+            o.push_str(&limit_lines(s));
+        }
+    }
+    o
+}
+
+/// The last step's candidates that did not pass, each as "no X above L unit": what a
+/// search that found nothing (more) can say instead of "nothing is missing".
+fn limit_lines(s: &StepReport) -> String {
+    let mut o = String::new();
+    let rows: Vec<String> = s
+        .candidates
+        .iter()
+        .filter_map(|c| {
+            let unit = c.detection_unit.as_deref()?;
+            Some(limits::phrase(&c.name, c.detection_limit?, unit))
+        })
+        .collect();
+    if rows.is_empty() {
+        return o;
+    }
+    let _ = writeln!(
+        o,
+        "  detection limits (the smallest each would have shown at this step's level in 80 % of recordings like this one):"
+    );
+    for r in rows {
+        let _ = writeln!(o, "    {r}");
     }
     o
 }

@@ -225,24 +225,6 @@ fn effect(c: &Cand, t: &Tried, before: &Fit, cur: &[usize], floor: f64, n: usize
     }
 }
 
-/// The smallest F that passes at `level` with `q` and `d` degrees of freedom (bisection on
-/// the survival function: monotone, and 60 halvings reach f64's resolution).
-fn f_crit(level: f64, q: f64, d: f64) -> f64 {
-    let (mut lo, mut hi) = (0.0, 1.0);
-    while stats::f_sf(hi, q, d) > level && hi < 1e12 {
-        hi *= 2.0;
-    }
-    for _ in 0..60 {
-        let mid = 0.5 * (lo + hi);
-        if stats::f_sf(mid, q, d) > level {
-            lo = mid;
-        } else {
-            hi = mid;
-        }
-    }
-    hi
-}
-
 /// The detection limit of a candidate against the current model (module docs of
 /// [`super`]): the magnitude at which, in its worst direction and at its worst scanned
 /// position, both the F-test at `level` and the held-out rule would pass.
@@ -256,7 +238,7 @@ fn limit(c: &Cand, tot: &Normal, cur: &[usize], cf: &Fit, floor: f64, level: f64
         let d = n.checked_sub(cf.rank + cols.len())?.max(1) as f64;
         // Δrss an effect must add: enough for the F-test, and for the held-out RMS to
         // rise by the CV factor.
-        let need = (q * f_crit(level / c.alts.len() as f64, q, d) * s2)
+        let need = (q * stats::f_critical(level / c.alts.len() as f64, q, d) * s2)
             .max((CV_FACTOR * CV_FACTOR - 1.0) * cv * cv * n as f64);
         let lim = match c.kind {
             Kind::Shape => (need / n as f64).sqrt(),

@@ -94,6 +94,15 @@ pub struct CandidateReport {
     /// tested). Not in the JSON (the note says it); the verdict lists the untested.
     #[serde(skip)]
     pub windows_short: Option<usize>,
+    /// For a candidate that did not pass: the smallest size this recording would have shown
+    /// at the step's level in 80 % of cases, in `detection_unit` ([`crate::search::limits`]);
+    /// `null` when it passed, could not be tested, or (outliers) some window stood out.
+    pub detection_limit: Option<f64>,
+    /// What `detection_limit` measures: the effect's coefficient unit (`mg/g² (k2)`,
+    /// `mg/°C`, …; worst axis), `mg RMS added to ‖a‖ − 1 beyond the current model` for
+    /// several effects at once, one window's `‖a‖ − 1` offset in mg for outliers; `null`
+    /// without a limit.
+    pub detection_unit: Option<String>,
 }
 
 /// One greedy step.

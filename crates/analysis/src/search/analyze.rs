@@ -30,6 +30,7 @@ use crate::search::candidate::Candidate;
 use crate::search::correlates::{residual_correlates, span_of, WindowPoint};
 use crate::search::evidence::{self as ev, TermContext};
 use crate::search::floor::{chi2_summary, floors, reference_variance};
+use crate::search::limits;
 use crate::search::open_basis_screening;
 use crate::search::options::AnalyzeOptions;
 use crate::search::outliers::{find_outliers, OutlierTrial};
@@ -254,10 +255,40 @@ impl<'a> Context<'a> {
         specs
     }
 
+    /// What the detection limits need ([`crate::search::limits`]).
+    fn limit_context(&self) -> limits::LimitContext<'_> {
+        limits::LimitContext {
+            model: self.model,
+            wins: &self.wins,
+            nrm: &self.nrm,
+            duration: self.duration,
+            cv_factor: self.opts.cv_factor,
+        }
+    }
+
     /// Sample spans (first, one past the last) of the windows.
     fn spans(&self) -> Vec<(usize, usize)> {
         self.ws.stats.iter().map(|w| (w.start, w.end)).collect()
     }
+}
+
+/// The last step's whole effects that did not pass (each candidate by itself: no single
+/// axis, no combination), as "no X above L unit" ([`limits::phrase`]).
+fn whole_effect_limits(steps: &[StepReport]) -> Vec<String> {
+    let Some(last) = steps.last() else {
+        return Vec::new();
+    };
+    last.candidates
+        .iter()
+        .filter(|c| Candidate::CANDIDATES.iter().any(|k| k.name() == c.name))
+        .filter_map(|c| {
+            Some(limits::phrase(
+                &c.name,
+                c.detection_limit?,
+                c.detection_unit.as_deref()?,
+            ))
+        })
+        .collect()
 }
 
 /// Every `size`-element subset of `items`, in lexicographic order of positions.
@@ -346,6 +377,7 @@ impl Search {
             tr.reports[*idx].note =
                 ev::outlier_note(&o.rejected, sel.outliers_pass, ctx.opts.cv_factor);
         }
+        self.fill_limits(ctx, &mut tr, sel.outliers_pass);
         if let Some(d) = sel.diagnostic {
             self.diagnostics
                 .push(ev::diagnostic_text(&tr.terms[d], tr.cur_cv));
@@ -378,6 +410,29 @@ impl Search {
                 self.steps.push(step);
                 self.accept_term(ctx, b, &tr);
                 true
+            }
+        }
+    }
+
+    /// The detection limit of every candidate of the step that did not pass
+    /// ([`crate::search::limits`]): a term that passed the rule (accepted, or beaten by a
+    /// better one) has none, nor the outlier candidate once some window stood out.
+    fn fill_limits(&self, ctx: &Context<'_>, tr: &mut StepTrials, outliers_pass: bool) {
+        let lc = ctx.limit_context();
+        for t in tr.terms.iter().filter(|t| !t.passes_rules) {
+            if let Some((l, unit)) = limits::term_limit(&lc, &self.state, t, tr.level * t.weight) {
+                tr.reports[t.report].detection_limit = Some(l);
+                tr.reports[t.report].detection_unit = Some(unit);
+            }
+        }
+        let idx = tr
+            .reports
+            .iter()
+            .position(|r| r.name == Candidate::Outliers.to_string());
+        if let (Some(i), None, false) = (idx, &tr.outliers, outliers_pass) {
+            if let Some(l) = limits::outlier_limit(&lc, &self.state, tr.level) {
+                tr.reports[i].detection_limit = Some(l);
+                tr.reports[i].detection_unit = Some(limits::OUTLIER_UNIT.to_string());
             }
         }
     }
@@ -563,6 +618,8 @@ impl Search {
             passed: false,
             note: "no window stands out (robust screen + Bonferroni prediction-error test)".into(),
             windows_short: None,
+            detection_limit: None,
+            detection_unit: None,
         };
         if let Some(tr) = &tr {
             let cv_kept = cv_over(&tr.loo, &tr.used).unwrap_or(f64::INFINITY);
@@ -877,7 +934,10 @@ impl Context<'_> {
             },
             self.opts.alpha,
             base.loo.is_some(),
-            &untested,
+            &ev::NotFound {
+                untested: &untested,
+                limits: &whole_effect_limits(&search.steps),
+            },
         );
         let mut diagnostics = search.diagnostics;
         diagnostics.extend(self.motion_diagnostic(base));

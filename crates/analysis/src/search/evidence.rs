@@ -39,31 +39,39 @@ fn block_values(
     se: &Params,
     duration: f64,
 ) -> ([f64; 3], [f64; 3], String) {
-    let raw = nrm.raw(p);
-    // Standard errors scale like the values (each is a fixed multiple of its parameter).
-    let ratio = |v: f64, q: f64, s: f64| if q != 0.0 { (v / q * s).abs() } else { 0.0 };
     let (pt, set) = (Blocks::of(p).term(t), Blocks::of(se).term(t));
-    let k = raw.matrix;
-    // Raw-unit bias terms are reported in mg via the diagonal of K (g per raw unit).
-    let (vals, unit) = match t {
-        Term::Quadratic => (raw.quadratic.map(|x| x * 1e3), "mg/g² (k2)".to_string()),
-        Term::Cubic => (raw.cubic.map(|x| x * 1e3), "mg/g³ (k3)".to_string()),
+    let (factor, unit) = unit_factors(t, nrm, p, duration);
+    // Standard errors scale like the values (each is a fixed multiple of its parameter).
+    let vals = std::array::from_fn(|a| factor[a] * pt[a]);
+    let ses = std::array::from_fn(|a| (factor[a] * set[a]).abs());
+    (vals, ses, unit)
+}
+
+/// Per axis, the factor from block `t`'s normalised parameter to its reporting unit, and the
+/// unit (linear in the parameter: the fitted value's and its standard error's, and a
+/// detection limit's, [`crate::search::limits`]). Raw-unit bias terms are reported in mg via
+/// the diagonal of K at `p` (g per raw unit).
+pub fn unit_factors(t: Term, nrm: &Normalisation, p: &Params, duration: f64) -> ([f64; 3], String) {
+    let k = nrm.raw(p).matrix;
+    let s = nrm.scale;
+    let kd: [f64; 3] = std::array::from_fn(|a| k[a][a]);
+    match t {
+        Term::Quadratic => ([1e3; 3], "mg/g² (k2)".to_string()),
+        Term::Cubic => ([1e3; 3], "mg/g³ (k3)".to_string()),
         Term::Drift => (
-            std::array::from_fn(|a| raw.drift[a] * k[a][a] * 1e3 * duration),
+            kd.map(|x| s / nrm.t_scale * x * 1e3 * duration),
             format!("mg of bias change over {duration:.0} s"),
         ),
         Term::BiasTemp => (
-            std::array::from_fn(|a| raw.bias_temp[a] * k[a][a] * 1e3),
+            kd.map(|x| s / nrm.temp_scale * x * 1e3),
             "mg/°C".to_string(),
         ),
-        Term::ScaleTemp => (raw.scale_temp.map(|x| x * 1e6), "ppm/°C".to_string()),
+        Term::ScaleTemp => ([1e6 / nrm.temp_scale; 3], "ppm/°C".to_string()),
         Term::Drift2 => (
-            std::array::from_fn(|a| pt[a] * nrm.scale * k[a][a] * 1e3),
+            kd.map(|x| s * x * 1e3),
             "mg of curvature (bias at the ends minus the middle, normalised time)".to_string(),
         ),
-    };
-    let ses = std::array::from_fn(|a| ratio(vals[a], pt[a], set[a]));
-    (vals, ses, unit)
+    }
 }
 
 /// The noise floor a verdict compares with, milli-g (NaN: unknown).
@@ -74,9 +82,17 @@ pub struct Floor {
     pub batch_mg: Option<f64>,
 }
 
-/// The one-paragraph conclusion of a multi-position analysis. `untested`: candidates the
-/// windows were too few to test at all, with how many more windows each needs — the verdict
-/// then never says that nothing is missing.
+/// What the last step leaves unknown or bounds, for the verdict.
+pub struct NotFound<'a> {
+    /// Candidates the windows were too few to test at all, with how many more windows each
+    /// needs — the verdict then never says that nothing is missing.
+    pub untested: &'a [(String, usize)],
+    /// The whole effects' detection limits in words ([`crate::search::limits::phrase`]):
+    /// what a search that found nothing can say instead of "nothing is missing".
+    pub limits: &'a [String],
+}
+
+/// The one-paragraph conclusion of a multi-position analysis.
 pub fn verdict_text(
     base: &ModelSummary,
     fin: &ModelSummary,
@@ -84,8 +100,9 @@ pub fn verdict_text(
     floor: &Floor,
     alpha: f64,
     cv_possible: bool,
-    untested: &[(String, usize)],
+    not_found: &NotFound<'_>,
 ) -> String {
+    let untested = not_found.untested;
     let above = base.chi2_p.is_some_and(|p| p < alpha);
     let mut s = base_sentence(base, floor, above);
     if !cv_possible {
@@ -93,7 +110,7 @@ pub fn verdict_text(
         return s;
     }
     if effects.is_empty() {
-        s.push_str(&nothing_found(untested));
+        s.push_str(&nothing_found(untested, not_found.limits));
         if above {
             s.push_str(" The excess over the floor is not explained by any candidate (slow noise, imperfect stillness, or an effect outside the library).");
         }
@@ -175,12 +192,20 @@ fn base_sentence(base: &ModelSummary, floor: &Floor, above: bool) -> String {
     s
 }
 
-/// The sentence when no candidate was added: "nothing missing" only when every candidate
-/// could be tested.
-fn nothing_found(untested: &[(String, usize)]) -> String {
+/// The sentence when no candidate was added: how large each could still be (its detection
+/// limit), and which could not be tested at all.
+fn nothing_found(untested: &[(String, usize)], limits: &[String]) -> String {
+    let bounds = if limits.is_empty() {
+        String::new()
+    } else {
+        format!(
+            ": {} (detection limits: the smallest each would have shown in 80 % of recordings like this one)",
+            limits.join(", ")
+        )
+    };
     match untested_sentence(untested) {
-        None => "No candidate effect passes both the F-test and the cross-validation rule: nothing the candidates describe is missing.".into(),
-        Some(u) => format!("No candidate effect that could be tested passes both the F-test and the cross-validation rule. {u}"),
+        None => format!("No candidate effect passes both the F-test and the cross-validation rule{bounds}."),
+        Some(u) => format!("No candidate effect that could be tested passes both the F-test and the cross-validation rule{bounds}. {u}"),
     }
 }
 

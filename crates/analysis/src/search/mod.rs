@@ -3,7 +3,7 @@
 //!
 //! [`floor`] gives the noise floor the residual is compared with; [`candidate`] lists the
 //! effects, [`trial`] and [`outliers`] fit and test each one, [`select`] holds the rule that
-//! picks one, [`evidence`] says why; [`six_contrasts`] is the residual analysis of a
+//! picks one, [`evidence`] says why, [`limits`] how large what was not found could be; [`six_contrasts`] is the residual analysis of a
 //! six-position file; [`options`] the settings.
 
 pub mod analyze;
@@ -11,6 +11,7 @@ pub mod candidate;
 pub mod correlates;
 pub mod evidence;
 pub mod floor;
+pub mod limits;
 pub mod open_basis_screening;
 pub mod options;
 pub mod outliers;

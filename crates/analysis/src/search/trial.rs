@@ -374,6 +374,8 @@ pub fn try_term(
         passed: false,
         note: String::new(),
         windows_short: None,
+        detection_limit: None,
+        detection_unit: None,
     };
     if n_used < k_new + MIN_DOF_TERM {
         rep.note = format!("too few windows ({n_used}) for {k_new} parameters");
