@@ -34,6 +34,11 @@ pub use crate::input::columns::LoadOptions;
 /// Raw accelerometer files (Axivity `.cwa`, GENEActiv `.bin`, recognised by their first bytes)
 /// are read by [`crate::input::raw`]: every decoded sample with its time and temperature.
 pub fn load(path: &Path, opts: &LoadOptions) -> Result<Recording> {
+    if let Some(format) = crate::input::raw::stream::raw_file_format(path) {
+        // Read block by block into a recording allocated once (no size cap).
+        return crate::input::raw::stream::load_raw(path, format, opts)
+            .map_err(|e| e.in_file(path));
+    }
     let bytes = read_bounded(path, MAX_RECORDING_BYTES)?;
     let raw = crate::input::raw::parse_bytes(&bytes, path).map_err(|e| e.in_file(path))?;
     if let Some(raw) = raw {

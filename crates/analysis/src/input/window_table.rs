@@ -75,11 +75,16 @@ pub enum Input {
 /// 10-s epochs ([`crate::input::raw::epochs`]: GGIR's free-living autocalibration input); too few of
 /// them is an error saying how many were found and needed.
 pub fn load_input(path: &Path, opts: &WindowInputOptions) -> Result<Input> {
-    if crate::input::raw::stream::is_cwa_file(path) {
+    if let Some(format) = crate::input::raw::stream::raw_file_format(path) {
         // Read block by block: memory is the still epochs, not the file (no size cap).
-        return crate::input::raw::stream::cwa_epoch_table(path, &opts.load, &Default::default())
-            .map(Input::Table)
-            .map_err(|e| e.in_file(path));
+        return crate::input::raw::stream::raw_epoch_table(
+            path,
+            format,
+            &opts.load,
+            &Default::default(),
+        )
+        .map(Input::Table)
+        .map_err(|e| e.in_file(path));
     }
     let bytes = crate::input::bounded::read_bounded(path, MAX_RECORDING_BYTES)?;
     if let Some(raw) = crate::input::raw::parse_bytes(&bytes, path).map_err(|e| e.in_file(path))? {
