@@ -236,3 +236,24 @@ fn raw_file_format_reads_the_first_bytes() {
     assert_eq!(stream::raw_file_format(&csv), None);
     assert_eq!(stream::raw_file_format(Path::new("-")), None);
 }
+
+/// Hostile `.bin` text: a data line of 20 000 digits skips its page by name (only its first
+/// 8 KiB are held), a header without pages says so, both paths alike.
+#[test]
+fn overlong_lines_and_missing_pages_are_named() {
+    let text = String::from_utf8(bin_file()).unwrap();
+    let key = "Measurement Frequency:50\r\n";
+    let long = text.replacen(key, &format!("{key}{}\r\n", "1".repeat(20_000)), 2);
+    let path = scratch("long.bin", long.as_bytes());
+    let (_, table) = streamed(&path, &LoadOptions::default());
+    assert!(table.contains("a data line of 20"), "{table}");
+    assert_same(&path, &LoadOptions::default());
+    let header = &text[..text.find("Recorded Data").unwrap()];
+    let path = scratch("nopages.bin", header.as_bytes());
+    let format = stream::raw_file_format(&path).unwrap();
+    let e = stream::load_raw(&path, format, &LoadOptions::default()).unwrap_err();
+    assert!(
+        e.to_string().contains("ends before its first data block"),
+        "{e}"
+    );
+}

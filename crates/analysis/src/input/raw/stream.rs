@@ -66,14 +66,14 @@ pub fn is_cwa_file(path: &Path) -> bool {
 /// A raw file's blocks a chunk at a time, whatever its format.
 enum Reader {
     Cwa(BlockReader),
-    Bin(PageReader<std::io::BufReader<std::fs::File>>),
+    Bin(Box<PageReader<std::io::BufReader<std::fs::File>>>),
 }
 
 impl Reader {
     fn open(path: &Path, format: RawFormat) -> Result<Self> {
         Ok(match format {
             RawFormat::Cwa => Self::Cwa(BlockReader::open(path)?),
-            RawFormat::GeneActiv => Self::Bin(PageReader::open(path)?),
+            RawFormat::GeneActiv => Self::Bin(Box::new(PageReader::open(path)?)),
         })
     }
 
