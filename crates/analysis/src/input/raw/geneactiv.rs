@@ -19,7 +19,7 @@
 //! The file is read line by line ([`PageReader`]), a chunk of pages at a time decoded on all
 //! cores, whether it comes from disk or from memory ([`parse`]): a week of wear (hundreds of
 //! MB) is read in the memory of one chunk, and both paths decode every page the same way. Of
-//! each line only its first [`MAX_LINE`] bytes are kept (with its length and whether it holds
+//! each line only its first 8 KiB are kept (with its length and whether it holds
 //! a `:`): a data line is at most 3600 bytes, and a key's value beyond 8 KiB is not read.
 
 #![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x > 0.0)` is deliberately true for NaN.
