@@ -257,3 +257,19 @@ fn overlong_lines_and_missing_pages_are_named() {
         "{e}"
     );
 }
+
+/// A bad last page of a file that ends with its line feed is an unreadable page, not a
+/// cut-off one (only a file ending inside its last line is cut short).
+#[test]
+fn a_bad_last_page_is_not_a_cut_one() {
+    let text = String::from_utf8(bin_file()).unwrap();
+    let whole = &text[..text.rfind("Recorded Data").unwrap()];
+    let bad = format!(
+        "{whole}Recorded Data\r\nPage Time:2013-05-30 11:00:00:000\r\nTemperature:1e300\r\n100\r\n"
+    );
+    let path = scratch("badlast.bin", bad.as_bytes());
+    let raw = raw::read(&path).unwrap();
+    assert_eq!(raw.invalid_blocks().len(), 2, "{:?}", raw.notes);
+    assert!(raw.notes.is_empty(), "{:?}", raw.notes);
+    assert_same(&path, &LoadOptions::default());
+}

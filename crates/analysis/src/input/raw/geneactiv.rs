@@ -184,6 +184,8 @@ impl PageText {
 struct Lines<R> {
     inner: R,
     line: Line,
+    /// The last line returned ended with a line feed (the stream's last byte, once it ends).
+    last_terminated: bool,
 }
 
 impl<R: BufRead> Lines<R> {
@@ -222,6 +224,7 @@ impl<R: BufRead> Lines<R> {
         if l.len == 0 && !l.terminated {
             return Ok(false);
         }
+        self.last_terminated = l.terminated;
         if last == b'\r' && l.len > 0 {
             if l.kept.len() == l.len {
                 l.kept.pop();
@@ -321,6 +324,7 @@ impl<R: BufRead> PageReader<R> {
         let mut lines = Lines {
             inner,
             line: Line::default(),
+            last_terminated: false,
         };
         let read_err = |source| InputError::Read {
             path: path.into(),
@@ -375,7 +379,7 @@ impl<R: BufRead> PageReader<R> {
             if !more {
                 self.done = true;
                 texts.extend(self.page.take());
-                let cut = !self.lines.line.terminated;
+                let cut = !self.lines.last_terminated;
                 return Ok((texts, cut));
             }
             let line = &self.lines.line;
