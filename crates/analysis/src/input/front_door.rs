@@ -1,5 +1,5 @@
-//! The one front door for every input file: a file is sniffed once ([`open`]: a regular `.cwa`
-//! file by its header block's magic, gzip by its magic — decompressed and sniffed again —, a raw
+//! The one front door for every input file: a file is sniffed once ([`open`]: a regular raw
+//! file (`.cwa`, `.bin`) by its magic, gzip by its magic — decompressed and sniffed again —, a raw
 //! Axivity / GENEActiv file by its first bytes, else UTF-8 text) into an [`Opened`] kind, and
 //! each kind has one reader: [`load`] (every sample), [`load_imu`] (an accelerometer and a
 //! gyroscope from one read), [`load_input`] (what `fit`, `analyze` and `batch` need: samples,
@@ -13,7 +13,7 @@ use crate::error::gyro::GyroError;
 use crate::error::{Error, Result};
 use crate::input::bounded::{read_bounded, text_of, MAX_RECORDING_BYTES};
 use crate::input::columns::{LoadOptions, Sensor};
-use crate::input::raw::{self, RawFile};
+use crate::input::raw::{self, RawFile, RawFormat};
 use crate::input::recording::Recording;
 use crate::input::table::WindowTable;
 use crate::input::text::parse;
@@ -24,10 +24,11 @@ use std::path::Path;
 /// What a file is, decided from its first bytes.
 #[derive(Debug)]
 pub enum Opened {
-    /// A regular file starting with a `.cwa` header block: read block by block where only its
-    /// still epochs are wanted ([`raw::stream`]), never held whole there.
-    CwaFile,
-    /// A raw file decoded whole (GENEActiv `.bin`; a `.cwa` from gzip or standard input).
+    /// A regular file starting with a raw format's magic (Axivity `.cwa`, GENEActiv `.bin`):
+    /// read block by block ([`raw::stream`]), never held whole: its still epochs, or every
+    /// sample into arrays allocated once.
+    RawFile(RawFormat),
+    /// A raw file decoded whole (a `.cwa` or `.bin` from gzip or standard input).
     Raw(Box<RawFile>),
     /// UTF-8 text (byte-order mark removed): CSV, whitespace-separated numbers, GRT, or a
     /// window-mean table; the text reader tells them apart by the first lines.
@@ -38,11 +39,11 @@ pub enum Opened {
 }
 
 /// Sniffs `path` (`-`: standard input, read once) and reads what its kind needs up front: a
-/// regular `.cwa` file only its first bytes, anything else whole, at most
+/// regular raw file only its first bytes, anything else whole, at most
 /// [`MAX_RECORDING_BYTES`] (gzip decompressed to the same limit).
 pub fn open(path: &Path) -> Result<Opened> {
-    if raw::stream::is_cwa_file(path) {
-        return Ok(Opened::CwaFile);
+    if let Some(format) = raw::stream::raw_file_format(path) {
+        return Ok(Opened::RawFile(format));
     }
     if is_large_text_file(path) {
         return Ok(Opened::TextFile);
@@ -83,11 +84,11 @@ fn is_large_text_file(path: &Path) -> bool {
     !head.starts_with(&[0x1f, 0x8b]) && raw::detect(head, Path::new("")).is_ok_and(|f| f.is_none())
 }
 
-/// The file whole, for readers that need every sample: `Ok(raw file)` (a [`Opened::CwaFile`]
-/// decoded now, as any other raw file) or `Err(text)`.
+/// The file whole, for readers that need every sample: `Ok(raw file)` (a [`Opened::RawFile`]
+/// decoded now, as any other raw file, within the size limit) or `Err(text)`.
 pub fn open_whole(path: &Path) -> Result<Whole> {
     Ok(match open(path)? {
-        Opened::CwaFile => Ok(raw::read(path)?),
+        Opened::RawFile(_) => Ok(raw::read(path)?),
         Opened::Raw(raw) => Ok(*raw),
         Opened::Text(text) => Err(text),
         Opened::TextFile => read_whole(path)?,
@@ -97,11 +98,16 @@ pub fn open_whole(path: &Path) -> Result<Whole> {
 /// Loads a recording from a file: every sample, with its time and temperature. Text is read
 /// by [`crate::input::text`] (its module docs list the accepted shapes); raw accelerometer
 /// files (Axivity `.cwa`, GENEActiv `.bin`, recognised by their first bytes) by
-/// [`crate::input::raw`]. `path` may be `-` for standard input; only regular files are read,
-/// at most [`MAX_RECORDING_BYTES`].
+/// [`crate::input::raw`]. `path` may be `-` for standard input; only regular files are read:
+/// a raw file block by block and a large plain text file in pieces, with no size cap; anything
+/// else whole, at most [`MAX_RECORDING_BYTES`].
 pub fn load(path: &Path, opts: &LoadOptions) -> Result<Recording> {
     if let Some(rec) = load_in_pieces(path, opts, |_| true)? {
         return Ok(rec);
+    }
+    if let Some(format) = raw::stream::raw_file_format(path) {
+        // Read block by block into a recording allocated once (no size cap).
+        return raw::stream::load_raw(path, format, opts).map_err(|e| e.in_file(path));
     }
     match open_whole(path)? {
         Ok(raw) => raw::to_recording(&raw, opts).map_err(|e| e.in_file(path)),
@@ -200,7 +206,7 @@ pub enum Input {
 ///
 /// A raw accelerometer file (Axivity `.cwa`, GENEActiv `.bin`) becomes the table of its still
 /// 10-s epochs ([`crate::input::raw::epochs`]: GGIR's free-living autocalibration input); too
-/// few of them is an error saying how many were found and needed. A regular `.cwa` file is
+/// few of them is an error saying how many were found and needed. A regular raw file is
 /// read block by block: memory is the still epochs, not the file (no size cap).
 pub fn load_input(path: &Path, opts: &WindowInputOptions) -> Result<Input> {
     // A window-mean table is small: only samples are read in pieces.
@@ -209,8 +215,8 @@ pub fn load_input(path: &Path, opts: &WindowInputOptions) -> Result<Input> {
         return Ok(Input::Samples(rec));
     }
     let whole = match open(path)? {
-        Opened::CwaFile => {
-            let table = raw::stream::cwa_epoch_table(path, &opts.load, &Default::default());
+        Opened::RawFile(format) => {
+            let table = raw::stream::raw_epoch_table(path, format, &opts.load, &Default::default());
             return table.map(Input::Table).map_err(|e| e.in_file(path));
         }
         Opened::Raw(raw) => Ok(*raw),

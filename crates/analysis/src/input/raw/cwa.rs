@@ -55,9 +55,7 @@ pub fn parse(bytes: &[u8]) -> Result<RawFile> {
     let body = &bytes[HEADER_BYTES..];
     let mut layout: Option<(u8, bool)> = None; // channels, packed
     let mut blocks = Vec::with_capacity(body.len() / BLOCK_BYTES);
-    for (index, block) in body.chunks_exact(BLOCK_BYTES).enumerate() {
-        blocks.push(decode_block(block, index, &mut layout));
-    }
+    decode_blocks(body, 0, &mut layout, &mut blocks);
     let notes = cut_note(blocks.len(), body.len() % BLOCK_BYTES)
         .into_iter()
         .collect();
@@ -167,10 +165,8 @@ impl BlockReader {
             path: self.path.clone(),
             source,
         })?;
-        for block in self.buf[..got].chunks_exact(BLOCK_BYTES) {
-            out.push(decode_block(block, self.index, &mut self.layout));
-            self.index += 1;
-        }
+        decode_blocks(&self.buf[..got], self.index, &mut self.layout, out);
+        self.index += got / BLOCK_BYTES;
         self.rest = got % BLOCK_BYTES;
         Ok(got == self.buf.len())
     }
@@ -198,6 +194,33 @@ fn fill(file: &mut impl std::io::Read, buf: &mut [u8]) -> std::io::Result<usize>
         }
     }
     Ok(got)
+}
+
+/// Decodes the whole blocks of `bytes` (the first at position `first` in the file) onto `out`
+/// as [`decode_block`] one after the other would, on all cores: the blocks up to the one
+/// that fixes `layout` (the first good block) one by one, the rest in parallel (each then
+/// only compares its layout with the fixed one).
+fn decode_blocks(
+    bytes: &[u8],
+    first: usize,
+    layout: &mut Option<(u8, bool)>,
+    out: &mut Vec<Block>,
+) {
+    use rayon::prelude::*;
+    let n = bytes.len() / BLOCK_BYTES;
+    let mut k = 0;
+    while layout.is_none() && k < n {
+        let block = &bytes[k * BLOCK_BYTES..(k + 1) * BLOCK_BYTES];
+        out.push(decode_block(block, first + k, layout));
+        k += 1;
+    }
+    let fixed = *layout;
+    out.par_extend(
+        bytes[k * BLOCK_BYTES..n * BLOCK_BYTES]
+            .par_chunks_exact(BLOCK_BYTES)
+            .enumerate()
+            .map(|(j, block)| decode_block(block, first + k + j, &mut { fixed })),
+    );
 }
 
 /// True when the 256 little-endian words of a block sum to 0 modulo 2¹⁶.

@@ -15,18 +15,31 @@
 //! ([`Block::Invalid`]; the format has no checksum); a last page cut off by the end of the file
 //! is a note (GENEActiv files copied in part end mid-page). Header lines may hold NUL padding:
 //! everything is read as bytes.
+//!
+//! The file is read line by line ([`PageReader`]), a chunk of pages at a time decoded on all
+//! cores, whether it comes from disk or from memory ([`parse`]): a week of wear (hundreds of
+//! MB) is read in the memory of one chunk, and both paths decode every page the same way. Of
+//! each line only its first 8 KiB are kept (with its length and whether it holds
+//! a `:`): a data line is at most 3600 bytes, and a key's value beyond 8 KiB is not read.
 
 #![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x > 0.0)` is deliberately true for NaN.
 use super::{civil_seconds, valid_civil, Block, GoodBlock, RawFile, RawFormat};
 use crate::error::input::InputError;
+use rayon::prelude::*;
+use std::io::BufRead;
 
 /// This module's errors are all the input stage's.
 type Result<T, E = InputError> = std::result::Result<T, E>;
 
 /// Samples in a page.
 pub const PAGE_SAMPLES: usize = 300;
-/// Longest line accepted, bytes (a data line is 3600 hex digits).
+/// Longest line accepted, bytes (a data line is 3600 hex digits); longer lines keep this
+/// many of their first bytes.
 const MAX_LINE: usize = 8192;
+/// The channels of every sample (the accelerometer's, in g).
+pub const CHANNELS: [&str; 3] = ["ax", "ay", "az"];
+/// Pages decoded together (about 4 MB of text): the memory of a page-by-page read.
+pub const CHUNK_PAGES: usize = 1024;
 
 /// Gains a header may declare (counts·100 per g): GENEActiv's ±8 g over 12 bits is about
 /// 25 600; a gain outside this range would put the 12-bit full scale below 0.5 g or above
@@ -60,10 +73,170 @@ struct Header {
     model: String,
 }
 
-fn field<'a>(line: &'a [u8], key: &str) -> Option<&'a str> {
-    let line = std::str::from_utf8(line).ok()?;
-    let (k, v) = line.split_once(':')?;
-    (k.trim() == key).then(|| v.trim_matches(|c: char| c.is_whitespace() || c == '\0'))
+/// One line as read: its first [`MAX_LINE`] bytes (a trailing CR removed), its whole length
+/// and whether it holds a `:` anywhere.
+#[derive(Debug, Default)]
+struct Line {
+    kept: Vec<u8>,
+    len: usize,
+    colon: bool,
+    /// Ended by a line feed (false only for the file's last line).
+    terminated: bool,
+}
+
+impl Line {
+    /// `Key:Value` with the key trimmed and the value trimmed of white space and NUL padding.
+    fn key_value(&self) -> Option<(&str, &str)> {
+        let line = std::str::from_utf8(&self.kept).ok()?;
+        let (k, v) = line.split_once(':')?;
+        Some((
+            k.trim(),
+            v.trim_matches(|c: char| c.is_whitespace() || c == '\0'),
+        ))
+    }
+}
+
+/// The first value of each of a fixed set of keys among `Key:Value` lines (a key given twice
+/// counts by its first line, as a reader looking it up from the top would take it).
+#[derive(Debug, Clone)]
+struct Fields {
+    keys: &'static [&'static str],
+    values: Vec<Option<String>>,
+}
+
+impl Fields {
+    fn new(keys: &'static [&'static str]) -> Self {
+        Self {
+            keys,
+            values: vec![None; keys.len()],
+        }
+    }
+
+    fn feed(&mut self, line: &Line) {
+        if let Some((k, v)) = line.key_value() {
+            if let Some(i) = self.keys.iter().position(|key| *key == k) {
+                self.values[i].get_or_insert_with(|| v.to_string());
+            }
+        }
+    }
+
+    fn get(&self, key: &str) -> Option<&str> {
+        let i = self.keys.iter().position(|k| *k == key)?;
+        self.values[i].as_deref()
+    }
+}
+
+/// The header keys read.
+const HEADER_KEYS: &[&str] = &[
+    "x gain",
+    "x offset",
+    "y gain",
+    "y offset",
+    "z gain",
+    "z offset",
+    "Volts",
+    "Measurement Frequency",
+    "Lux",
+    "Number of Pages",
+    "Device Model",
+];
+
+/// A page's keys read.
+const PAGE_KEYS: &[&str] = &[
+    "Page Time",
+    "Temperature",
+    "Measurement Frequency",
+    "Sequence Number",
+    "Battery voltage",
+];
+
+/// A page's text as read: its fields and its first data line (a non-empty line without `:`),
+/// or that line's length when it is longer than [`MAX_LINE`].
+#[derive(Debug, Clone)]
+struct PageText {
+    fields: Fields,
+    hex: Option<std::result::Result<Vec<u8>, usize>>,
+}
+
+impl PageText {
+    fn new() -> Self {
+        Self {
+            fields: Fields::new(PAGE_KEYS),
+            hex: None,
+        }
+    }
+
+    fn feed(&mut self, line: &Line) {
+        if line.colon {
+            self.fields.feed(line);
+        } else if self.hex.is_none() && line.len > 0 {
+            self.hex = Some(if line.len > MAX_LINE {
+                Err(line.len)
+            } else {
+                Ok(line.kept.clone())
+            });
+        }
+    }
+}
+
+/// Lines of a byte stream, split at LF, each kept up to [`MAX_LINE`] bytes: memory is one
+/// line whatever the stream holds.
+struct Lines<R> {
+    inner: R,
+    line: Line,
+    /// The last line returned ended with a line feed (the stream's last byte, once it ends).
+    last_terminated: bool,
+}
+
+impl<R: BufRead> Lines<R> {
+    /// The next line; `Ok(false)` at the end of the stream.
+    fn next(&mut self) -> std::io::Result<bool> {
+        let l = &mut self.line;
+        l.kept.clear();
+        (l.len, l.colon, l.terminated) = (0, false, false);
+        let mut last = 0u8;
+        loop {
+            let buf = match self.inner.fill_buf() {
+                Ok(b) => b,
+                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+                Err(e) => return Err(e),
+            };
+            if buf.is_empty() {
+                break;
+            }
+            let (piece, used, end) = match memchr::memchr(b'\n', buf) {
+                Some(i) => (&buf[..i], i + 1, true),
+                None => (buf, buf.len(), false),
+            };
+            if let Some(&b) = piece.last() {
+                last = b;
+            }
+            l.colon |= memchr::memchr(b':', piece).is_some();
+            let room = MAX_LINE.saturating_sub(l.kept.len());
+            l.kept.extend_from_slice(&piece[..piece.len().min(room)]);
+            l.len += piece.len();
+            self.inner.consume(used);
+            if end {
+                l.terminated = true;
+                break;
+            }
+        }
+        if l.len == 0 && !l.terminated {
+            return Ok(false);
+        }
+        self.last_terminated = l.terminated;
+        if last == b'\r' && l.len > 0 {
+            if l.kept.len() == l.len {
+                l.kept.pop();
+            }
+            l.len -= 1;
+        }
+        Ok(true)
+    }
+}
+
+fn number_of(v: Option<&str>) -> Option<f64> {
+    number(v?)
 }
 
 /// First number in `v` (`85.7 Hz` → 85.7).
@@ -75,15 +248,13 @@ fn number(v: &str) -> Option<f64> {
         .filter(|x| x.is_finite())
 }
 
-fn read_header(lines: &[&[u8]]) -> Result<Header> {
+fn read_header(fields: &Fields) -> Result<Header> {
     let err = |why: String| InputError::RawHeader {
         format: "GENEActiv .bin",
         why,
     };
-    let find = |key: &str| lines.iter().find_map(|l| field(l, key));
     let num = |key: &str| {
-        find(key)
-            .and_then(number)
+        number_of(fields.get(key))
             .ok_or_else(|| err(format!("no number in its header line '{key}'")))
     };
     let mut gain = [0.0; 3];
@@ -115,54 +286,164 @@ fn read_header(lines: &[&[u8]]) -> Result<Header> {
         offset,
         lux_per_volt: num("Lux")? / volts,
         rate_hz,
-        pages: find("Number of Pages")
-            .and_then(number)
-            .map(|p| p.max(0.0) as usize),
-        model: find("Device Model").unwrap_or("").to_string(),
+        pages: number_of(fields.get("Number of Pages")).map(|p| p.max(0.0) as usize),
+        model: fields.get("Device Model").unwrap_or("").to_string(),
     })
 }
 
-/// Reads a whole GENEActiv `.bin` file.
+/// A `.bin` file read a chunk of pages at a time ([`CHUNK_PAGES`]), each page decoded as
+/// [`parse`] decodes it: memory is one chunk, whatever the file's length.
+pub struct PageReader<R> {
+    lines: Lines<R>,
+    path: std::path::PathBuf,
+    header: Header,
+    /// The page being read (its `Recorded Data` line seen); `None` before the first.
+    page: Option<PageText>,
+    /// Pages passed on (decoded or skipped).
+    index: usize,
+    notes: Vec<String>,
+    done: bool,
+}
+
+impl PageReader<std::io::BufReader<std::fs::File>> {
+    /// Opens `path` and reads its header.
+    pub fn open(path: &std::path::Path) -> crate::error::Result<Self> {
+        let file = std::fs::File::open(path).map_err(|source| InputError::Read {
+            path: path.into(),
+            source,
+        })?;
+        let inner = std::io::BufReader::with_capacity(1 << 16, file);
+        Ok(Self::new(inner, path)?)
+    }
+}
+
+impl<R: BufRead> PageReader<R> {
+    /// Reads the header from `inner` (up to the first `Recorded Data` line); `path` names the
+    /// source in read errors.
+    fn new(inner: R, path: &std::path::Path) -> Result<Self> {
+        let mut lines = Lines {
+            inner,
+            line: Line::default(),
+            last_terminated: false,
+        };
+        let read_err = |source| InputError::Read {
+            path: path.into(),
+            source,
+        };
+        let mut fields = Fields::new(HEADER_KEYS);
+        let mut page = None;
+        while lines.next().map_err(read_err)? {
+            if lines.line.kept == b"Recorded Data" && lines.line.len == 13 {
+                page = Some(PageText::new());
+                break;
+            }
+            fields.feed(&lines.line);
+        }
+        Ok(Self {
+            header: read_header(&fields)?,
+            lines,
+            path: path.into(),
+            page,
+            index: 0,
+            notes: Vec::new(),
+            done: false,
+        })
+    }
+
+    /// The device as the header names it (`GENEActiv 1.1`).
+    pub fn device(&self) -> String {
+        format!("GENEActiv {}", self.header.model)
+            .trim()
+            .to_string()
+    }
+
+    /// The rate the header declares, Hz.
+    pub fn header_rate_hz(&self) -> f64 {
+        self.header.rate_hz
+    }
+
+    /// The reader's notes once the file is read (a cut-off last page).
+    pub fn notes(&self) -> Vec<String> {
+        self.notes.clone()
+    }
+
+    /// Up to [`CHUNK_PAGES`] complete pages' texts; the flag is true when the last of them is
+    /// the file's last page and the file does not end with a line feed.
+    fn next_texts(&mut self) -> Result<(Vec<PageText>, bool)> {
+        let mut texts = Vec::new();
+        while texts.len() < CHUNK_PAGES && !self.done {
+            let more = self.lines.next().map_err(|source| InputError::Read {
+                path: self.path.clone(),
+                source,
+            })?;
+            if !more {
+                self.done = true;
+                texts.extend(self.page.take());
+                let cut = !self.lines.last_terminated;
+                return Ok((texts, cut));
+            }
+            let line = &self.lines.line;
+            if line.kept == b"Recorded Data" && line.len == 13 {
+                texts.extend(self.page.replace(PageText::new()));
+            } else if let Some(p) = &mut self.page {
+                p.feed(line);
+            }
+        }
+        Ok((texts, false))
+    }
+
+    /// The next chunk's pages in `out` (cleared first); `false` once the file is read.
+    pub fn next_chunk(&mut self, out: &mut Vec<Block>) -> crate::error::Result<bool> {
+        Ok(self.fill(out)?)
+    }
+
+    /// [`Self::next_chunk`] with the input stage's error.
+    fn fill(&mut self, out: &mut Vec<Block>) -> Result<bool> {
+        out.clear();
+        let (texts, last_cut) = self.next_texts()?;
+        let first = self.index;
+        let header = &self.header;
+        let decoded: Vec<_> = texts
+            .par_iter()
+            .enumerate()
+            .map(|(k, p)| decode_page(p, first + k, header))
+            .collect();
+        let n = decoded.len();
+        for (k, page) in decoded.into_iter().enumerate() {
+            let index = self.index;
+            let cut = last_cut && self.done && k + 1 == n;
+            match page {
+                Ok(p) if p.len(3) == PAGE_SAMPLES || !cut => out.push(Block::Good(p)),
+                Ok(p) => self.notes.push(cut_note(index, p.len(3))),
+                Err(_) if cut => self.notes.push(cut_note(index, 0)),
+                Err(why) => out.push(Block::Invalid(why)),
+            }
+            self.index += usize::from(!cut);
+        }
+        Ok(!self.done)
+    }
+}
+
+/// Reads a whole GENEActiv `.bin` file (held in memory) as [`PageReader`] reads one from disk.
 pub fn parse(bytes: &[u8]) -> Result<RawFile> {
-    let lines: Vec<&[u8]> = bytes
-        .split(|&c| c == b'\n')
-        .map(|l| l.strip_suffix(b"\r").unwrap_or(l))
-        .collect();
-    let first_page = lines
-        .iter()
-        .position(|l| *l == b"Recorded Data")
-        .unwrap_or(lines.len());
-    let header = read_header(&lines[..first_page])?;
-    let ends_cut = !bytes.ends_with(b"\n");
+    let mut reader = PageReader::new(bytes, std::path::Path::new(""))?;
     let mut blocks = Vec::new();
-    let mut notes = Vec::new();
-    let mut i = first_page;
-    while i < lines.len() {
-        if lines[i] != b"Recorded Data" {
-            i += 1;
-            continue;
+    let mut chunk = Vec::new();
+    loop {
+        let more = reader.fill(&mut chunk)?;
+        blocks.append(&mut chunk);
+        if !more {
+            break;
         }
-        let next = (i + 1..lines.len())
-            .find(|&j| lines[j] == b"Recorded Data")
-            .unwrap_or(lines.len());
-        let index = blocks.len();
-        let last_and_cut = next == lines.len() && ends_cut;
-        match decode_page(&lines[i + 1..next], index, &header) {
-            Ok(p) if p.len(3) == PAGE_SAMPLES || !last_and_cut => blocks.push(Block::Good(p)),
-            Ok(p) => notes.push(cut_note(index, p.len(3))),
-            Err(_) if last_and_cut => notes.push(cut_note(index, 0)),
-            Err(why) => blocks.push(Block::Invalid(why)),
-        }
-        i = next;
     }
     Ok(RawFile {
         format: RawFormat::GeneActiv,
-        device: format!("GENEActiv {}", header.model).trim().to_string(),
-        channels: ["ax", "ay", "az"].iter().map(|s| s.to_string()).collect(),
-        header_rate_hz: header.rate_hz,
+        device: reader.device(),
+        channels: CHANNELS.iter().map(|s| s.to_string()).collect(),
+        header_rate_hz: reader.header.rate_hz,
         blocks,
-        declared_blocks: header.pages,
-        notes,
+        declared_blocks: reader.header.pages,
+        notes: reader.notes(),
     })
 }
 
@@ -172,7 +453,6 @@ fn cut_note(index: usize, samples: usize) -> String {
     )
 }
 
-/// `Page Time:2013-05-30 10:12:54:500` → device-clock seconds.
 fn page_time(v: &str) -> Option<f64> {
     let (date, time) = v.trim().split_once(' ')?;
     let d: Vec<u32> = date
@@ -205,11 +485,11 @@ fn hex3(d: &[u8]) -> Option<i32> {
 }
 
 fn decode_page(
-    lines: &[&[u8]],
+    page: &PageText,
     index: usize,
     h: &Header,
 ) -> std::result::Result<GoodBlock, String> {
-    let get = |key: &str| lines.iter().find_map(|l| field(l, key));
+    let get = |key: &str| page.fields.get(key);
     let start_s = get("Page Time")
         .and_then(page_time)
         .ok_or("no valid 'Page Time'")?;
@@ -237,13 +517,11 @@ fn decode_page(
     let sequence = get("Sequence Number")
         .and_then(number)
         .map_or(0, |v| v.clamp(0.0, u32::MAX as f64) as u32);
-    let hex = lines
-        .iter()
-        .find(|l| !l.is_empty() && !l.contains(&b':'))
-        .ok_or("no data line")?;
-    if hex.len() > MAX_LINE {
-        return Err(format!("a data line of {} bytes", hex.len()));
-    }
+    let hex = match &page.hex {
+        None => return Err("no data line".into()),
+        Some(Err(len)) => return Err(format!("a data line of {len} bytes")),
+        Some(Ok(hex)) => hex,
+    };
     let mut data = Vec::with_capacity(3 * PAGE_SAMPLES);
     let mut lux = Vec::with_capacity(PAGE_SAMPLES);
     for s in hex.chunks_exact(12) {

@@ -262,8 +262,8 @@ pub fn to_recording(raw: &RawFile, opts: &LoadOptions) -> Result<Recording> {
 }
 
 /// The file as a table's description names it ("an Axivity AX3 .cwa file"), from the
-/// sentence of [`describe`].
-pub(crate) fn source_of(info: &str) -> String {
+/// sentence the reader describes the file with ("read as …: …").
+pub fn source_of(info: &str) -> String {
     info.strip_prefix("read as ")
         .and_then(|s| s.split(':').next())
         .unwrap_or("the raw file")

@@ -1,19 +1,23 @@
-//! A raw `.cwa` file's still epochs read block by block, never whole: what `fit`, `analyze` and
-//! `batch` need of a raw file is its still 10-s epochs ([`crate::input::raw::epochs`]), and a
-//! week of wear is hundreds of MB of blocks and tens of millions of samples.
+//! A raw file (`.cwa` or `.bin`) read block by block, never whole: what `fit`, `analyze` and
+//! `batch` need of a raw file is its still 10-s epochs ([`crate::input::raw::epochs`]), what
+//! `read` needs is every sample once, and a week of wear is hundreds of MB of blocks and tens
+//! of millions of samples.
 //!
-//! Two passes over the file, one chunk of blocks in memory at a time
-//! ([`cwa::BlockReader`]): the first decodes every block and keeps, per decoded block, only
-//! its time span ([`BlockSpan`], 24 bytes for a block of up to 120 samples) and the counts of
-//! skipped blocks ([`Tally`]); the times' statistics (median step, gaps: the rate and the
-//! notes) are then computed from the spans by regenerating the times; the second pass decodes
-//! the blocks again and feeds each sample to the epoch search ([`EpochScan`]). Every number is
+//! Two passes over the file, one chunk of blocks in memory at a time ([`BlockReader`],
+//! [`geneactiv::PageReader`]; each chunk decoded on all cores): the first decodes every block
+//! and keeps, per decoded block, only its time span ([`BlockSpan`], 24 bytes for a block of up
+//! to 300 samples) and the counts of skipped blocks ([`Tally`]); the times' statistics (median
+//! step, gaps: the rate and the notes) are then computed from the spans by regenerating the
+//! times; the second pass decodes the blocks again and feeds each sample to the epoch search
+//! ([`EpochScan`]) or into a recording allocated once at its final length. Every number is
 //! computed as the whole-file path computes it (same functions, same order), so the table is
-//! the one [`crate::input::raw::to_recording`] + [`epoch_table`](crate::input::raw::epochs::epoch_table)
-//! give, bit for bit.
+//! the one [`crate::input::raw::to_recording`] +
+//! [`epoch_table`](crate::input::raw::epochs::epoch_table) give, bit for bit, and the
+//! recording is [`crate::input::raw::to_recording`]'s.
 
-use super::cwa::{self, BlockReader};
+use super::cwa::BlockReader;
 use super::epochs::{table_of, EpochOptions, EpochScan};
+use super::geneactiv::{self, PageReader};
 use super::{
     choose_channels, describe, explain_too_few, no_data, skip_notes, Block, BlockSpan, RawFormat,
     Tally, TimePlan,
@@ -25,23 +29,103 @@ use crate::input::table::WindowTable;
 use crate::input::timecheck::{time_notes_given, TimeSteps};
 use std::path::Path;
 
-/// True when `path` is a regular file starting with a `.cwa` header block's magic (`MD`,
-/// length 1020): such a file is read block by block. Standard input, gzip and anything else
-/// are read whole by the other readers.
-pub fn is_cwa_file(path: &Path) -> bool {
+/// The raw format of the regular file at `path` by its first bytes (`.cwa`: `MD`, length
+/// 1020; `.bin`: `Device Identity`): such a file is read block by block. Standard input, gzip
+/// and anything else are `None`, read whole by the other readers.
+pub fn raw_file_format(path: &Path) -> Option<RawFormat> {
     use std::io::Read;
     if path.as_os_str() == "-" || !std::fs::metadata(path).is_ok_and(|m| m.is_file()) {
-        return false;
+        return None;
     }
-    let mut head = [0u8; 4];
-    std::fs::File::open(path)
-        .and_then(|mut f| f.read_exact(&mut head))
-        .is_ok_and(|()| &head[..2] == b"MD" && u16::from_le_bytes([head[2], head[3]]) == 1020)
+    let mut head = [0u8; 15];
+    let mut file = std::fs::File::open(path).ok()?;
+    let mut got = 0;
+    while got < head.len() {
+        match file.read(&mut head[got..]) {
+            Ok(0) => break,
+            Ok(k) => got += k,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+            Err(_) => return None,
+        }
+    }
+    let head = &head[..got];
+    if head.len() >= 4 && &head[..2] == b"MD" && u16::from_le_bytes([head[2], head[3]]) == 1020 {
+        Some(RawFormat::Cwa)
+    } else if head == b"Device Identity" {
+        Some(RawFormat::GeneActiv)
+    } else {
+        None
+    }
+}
+
+/// A raw file's blocks a chunk at a time, whatever its format.
+enum Reader {
+    Cwa(BlockReader),
+    Bin(Box<PageReader<std::io::BufReader<std::fs::File>>>),
+}
+
+impl Reader {
+    fn open(path: &Path, format: RawFormat) -> Result<Self> {
+        Ok(match format {
+            RawFormat::Cwa => Self::Cwa(BlockReader::open(path)?),
+            RawFormat::GeneActiv => Self::Bin(Box::new(PageReader::open(path)?)),
+        })
+    }
+
+    fn next_chunk(&mut self, out: &mut Vec<Block>) -> Result<bool> {
+        match self {
+            Self::Cwa(r) => r.next_chunk(out),
+            Self::Bin(r) => r.next_chunk(out),
+        }
+    }
+
+    /// The channel names (a `.cwa` file's are known once its first block is decoded).
+    fn channels(&self) -> Vec<String> {
+        match self {
+            Self::Cwa(r) => r.channels(),
+            Self::Bin(_) => geneactiv::CHANNELS.iter().map(|s| s.to_string()).collect(),
+        }
+    }
+
+    fn notes(&self) -> Vec<String> {
+        match self {
+            Self::Cwa(r) => r.notes(),
+            Self::Bin(r) => r.notes(),
+        }
+    }
+
+    fn device(&self) -> String {
+        match self {
+            Self::Cwa(r) => r.header.device.to_string(),
+            Self::Bin(r) => r.device(),
+        }
+    }
+
+    fn header_rate_hz(&self) -> f64 {
+        match self {
+            Self::Cwa(r) => r.header.rate_hz,
+            Self::Bin(r) => r.header_rate_hz(),
+        }
+    }
+
+    /// Every chunk of blocks in file order through `each`.
+    fn for_each_chunk(&mut self, mut each: impl FnMut(&Self, &[Block])) -> Result<()> {
+        let mut chunk = Vec::new();
+        loop {
+            let more = self.next_chunk(&mut chunk)?;
+            each(self, &chunk);
+            if !more {
+                return Ok(());
+            }
+        }
+    }
 }
 
 /// What the first pass learnt.
 struct Scan {
-    header: cwa::Header,
+    format: RawFormat,
+    device: String,
+    header_rate_hz: f64,
     channels: Vec<String>,
     tally: Tally,
     notes: Vec<String>,
@@ -54,32 +138,45 @@ impl Scan {
     fn times(&self) -> impl Iterator<Item = f64> + '_ {
         self.spans.iter().flatten().flat_map(|s| s.times())
     }
+
+    /// Decoded blocks left out (no sample, or a clock step back).
+    fn left_out(&self) -> usize {
+        self.spans.iter().filter(|s| s.is_none()).count()
+    }
+
+    /// The reader's sentence on the file ([`describe`]).
+    fn describe(&self) -> String {
+        describe(
+            self.format,
+            &self.device,
+            self.tally.blocks,
+            self.header_rate_hz,
+            &self.channels,
+        )
+    }
 }
 
 /// First pass: every block decoded and counted, the decoded blocks' spans kept.
-fn scan(path: &Path) -> Result<Scan> {
-    let mut reader = BlockReader::open(path)?;
+fn scan(path: &Path, format: RawFormat) -> Result<Scan> {
+    let mut reader = Reader::open(path, format)?;
     let mut tally = Tally::default();
     let mut plan = TimePlan::default();
     let mut spans = Vec::new();
-    let mut chunk = Vec::new();
-    loop {
-        let more = reader.next_chunk(&mut chunk)?;
+    reader.for_each_chunk(|reader, chunk| {
         // The channel count is the first good block's, as the whole-file reader's.
         let nch = reader.channels().len();
-        for b in &chunk {
+        for b in chunk {
             tally.push(b, nch);
             if let Block::Good(g) = b {
                 spans.extend(plan.push(g.index, g.start_s, g.rate_hz, g.len(nch)));
             }
         }
-        if !more {
-            break;
-        }
-    }
+    })?;
     spans.extend(plan.finish());
     Ok(Scan {
-        header: reader.header,
+        format,
+        device: reader.device(),
+        header_rate_hz: reader.header_rate_hz(),
         channels: reader.channels(),
         tally,
         notes: reader.notes(),
@@ -87,33 +184,33 @@ fn scan(path: &Path) -> Result<Scan> {
     })
 }
 
-/// The still-epoch table of the `.cwa` file at `path` ([`is_cwa_file`]), read block by block;
-/// errors as the whole-file path's (without the file's name: the caller adds it).
-pub fn cwa_epoch_table(
+/// The still-epoch table of the raw file at `path` (in `format`, [`raw_file_format`]), read
+/// block by block; errors as the whole-file path's (without the file's name: the caller adds
+/// it).
+pub fn raw_epoch_table(
     path: &Path,
+    format: RawFormat,
     opts: &LoadOptions,
     epochs: &EpochOptions,
 ) -> Result<WindowTable> {
-    let scan = scan(path)?;
+    let scan = scan(path, format)?;
     let cols = choose_channels(&scan.channels, opts)?;
-    let left_out = scan.spans.iter().filter(|s| s.is_none()).count();
+    let left_out = scan.left_out();
     let (Some(t0), Some(t_end)) = (scan.times().next(), scan.spans.iter().flatten().last()) else {
         return Err(no_data(&scan.tally, left_out).into());
     };
     let t_end = t_end.time(t_end.n - 1);
-    let mut notes = skip_notes(RawFormat::Cwa, &scan.notes, &scan.tally, left_out);
+    let mut notes = skip_notes(format, &scan.notes, &scan.tally, left_out);
     let steps = TimeSteps::of_times(|| scan.times());
     notes.extend(time_notes_given("time", steps, || scan.times()));
-    let info = describe(
-        RawFormat::Cwa,
-        scan.header.device,
-        scan.tally.blocks,
-        scan.header.rate_hz,
-        &scan.channels,
-    );
+    let info = scan.describe();
     let measured = steps.map(|s| s.rate_hz());
     let rate = measured.unwrap_or(100.0);
-    let found = feed(path, &scan, cols, EpochScan::new(t0, rate, epochs))?.finish(t_end, rate);
+    let mut found = EpochScan::new(t0, rate, epochs);
+    feed(path, &scan, |t, row, temp| {
+        found.push(t, cols.map(|c| row[c]), temp)
+    })?;
+    let found = found.finish(t_end, rate);
     let source = super::source_of(&info);
     let like = Recording {
         temp: Some(Vec::new()),
@@ -123,32 +220,58 @@ pub fn cwa_epoch_table(
         ..Recording::default()
     };
     table_of(found, like, &source, epochs).map_err(|e| {
-        let (tally, header_hz) = (&scan.tally, scan.header.rate_hz);
-        explain_too_few(e, RawFormat::Cwa, tally, left_out, measured, header_hz)
+        let (tally, header_hz) = (&scan.tally, scan.header_rate_hz);
+        explain_too_few(e, format, tally, left_out, measured, header_hz)
     })
 }
 
-/// Second pass: every kept sample's chosen channels, time and block temperature into `epochs`.
-fn feed(path: &Path, scan: &Scan, cols: [usize; 3], mut epochs: EpochScan) -> Result<EpochScan> {
-    let mut reader = BlockReader::open(path)?;
+/// Every sample of the raw file at `path` (in `format`, [`raw_file_format`]), read block by
+/// block: the recording [`crate::input::raw::to_recording`] gives for the whole file, its
+/// vectors allocated once at their final length (no size cap: memory is the recording itself
+/// and one chunk of blocks).
+pub fn load_raw(path: &Path, format: RawFormat, opts: &LoadOptions) -> Result<Recording> {
+    let scan = scan(path, format)?;
+    let cols = choose_channels(&scan.channels, opts)?;
+    let left_out = scan.left_out();
+    let n: usize = scan.spans.iter().flatten().map(|s| s.n as usize).sum();
+    if n == 0 {
+        return Err(no_data(&scan.tally, left_out).into());
+    }
+    let mut rec = Recording {
+        xyz: Vec::with_capacity(n),
+        ..Recording::default()
+    };
+    let (mut t, mut temp) = (Vec::with_capacity(n), Vec::with_capacity(n));
+    feed(path, &scan, |ti, row, tc| {
+        rec.xyz.push(cols.map(|c| row[c]));
+        t.push(ti);
+        temp.push(tc);
+    })?;
+    rec.axis_columns = cols.map(|c| scan.channels[c].clone());
+    rec.notes = skip_notes(format, &scan.notes, &scan.tally, left_out);
+    rec.notes
+        .extend(crate::input::timecheck::time_notes("time", &t));
+    rec.info.push(scan.describe());
+    rec.t = Some(t);
+    rec.temp = Some(temp);
+    Ok(rec)
+}
+
+/// Second pass: every kept sample's time, values (all channels) and block temperature into
+/// `each`, in file order.
+fn feed(path: &Path, scan: &Scan, mut each: impl FnMut(f64, &[f64], f64)) -> Result<()> {
+    let mut reader = Reader::open(path, scan.format)?;
     let nch = scan.channels.len();
     let mut spans = scan.spans.iter();
-    let mut chunk = Vec::new();
-    loop {
-        let more = reader.next_chunk(&mut chunk)?;
-        for b in &chunk {
+    reader.for_each_chunk(|_, chunk| {
+        for b in chunk {
             let Block::Good(g) = b else { continue };
             let Some(Some(span)) = spans.next() else {
                 continue;
             };
             for (i, t) in span.times().enumerate() {
-                let row = &g.data[i * nch..(i + 1) * nch];
-                epochs.push(t, cols.map(|c| row[c]), g.temp_c);
+                each(t, &g.data[i * nch..(i + 1) * nch], g.temp_c);
             }
         }
-        if !more {
-            break;
-        }
-    }
-    Ok(epochs)
+    })
 }

@@ -1,0 +1,275 @@
+//! The block-by-block raw readers (`input::raw::stream`) against the whole-file path they
+//! replace for long files: the recording `load_raw` gives and the still-epoch table
+//! `raw_epoch_table` gives must be bit for bit what `raw::read` + `to_recording` (+
+//! `epoch_table`) give, on every raw file of the shared data and on files written here with
+//! enough still epochs to be fitted (GENEActiv `.bin` with a bad and a cut-off page, AX3 and
+//! AX6 `.cwa` with a corrupt block). Values are compared through their `Debug` text, which
+//! prints every `f64` exactly (shortest round-trip form).
+
+mod common;
+
+use std::path::{Path, PathBuf};
+use wiical_analysis::input::columns::LoadOptions;
+use wiical_analysis::input::raw::{self, epochs, stream, RawFormat};
+
+/// The whole-file path's recording and still-epoch table (or its error) of `path`.
+fn whole(path: &Path, opts: &LoadOptions) -> (String, String) {
+    let raw = raw::read(path).unwrap();
+    let rec = raw::to_recording(&raw, opts);
+    let table = rec.as_ref().map_err(|e| e.to_string()).and_then(|rec| {
+        let source = raw::source_of(rec.info.first().map_or("", String::as_str));
+        epochs::epoch_table(rec, &source, &Default::default()).map_err(|e| e.to_string())
+    });
+    (
+        format!("{:?}", rec.map_err(|e| e.to_string())),
+        format!("{table:?}"),
+    )
+}
+
+/// The streaming path's recording and still-epoch table (or its error) of `path`.
+fn streamed(path: &Path, opts: &LoadOptions) -> (String, String) {
+    let format = stream::raw_file_format(path).expect("a raw file");
+    let rec = stream::load_raw(path, format, opts).map_err(|e| e.to_string());
+    let table =
+        stream::raw_epoch_table(path, format, opts, &Default::default()).map_err(|e| e.to_string());
+    (format!("{rec:?}"), format!("{table:?}"))
+}
+
+fn assert_same(path: &Path, opts: &LoadOptions) {
+    let (rec_w, table_w) = whole(path, opts);
+    let (rec_s, table_s) = streamed(path, opts);
+    assert!(rec_w == rec_s, "{}: recordings differ", path.display());
+    assert!(
+        table_w == table_s,
+        "{}: tables differ:\n{table_w}\n{table_s}",
+        path.display()
+    );
+}
+
+fn gyro() -> LoadOptions {
+    LoadOptions {
+        columns: Some(["gx", "gy", "gz"].map(String::from)),
+        ..Default::default()
+    }
+}
+
+/// Every raw file of GGIRread's test set, accelerometer and (AX6) gyroscope.
+#[test]
+fn real_raw_files_stream_as_they_read_whole() {
+    let dir = common::data_dir().join("ggirread_testfiles");
+    let mut seen = 0;
+    for entry in std::fs::read_dir(&dir).unwrap() {
+        let path = entry.unwrap().path();
+        if stream::raw_file_format(&path).is_none() {
+            continue;
+        }
+        assert_same(&path, &LoadOptions::default());
+        if path.to_string_lossy().contains("ax6") {
+            assert_same(&path, &gyro());
+        }
+        seen += 1;
+    }
+    assert_eq!(
+        seen,
+        4,
+        "GGIRread's 3 .cwa and 1 .bin files in {}",
+        dir.display()
+    );
+}
+
+/// Still holds at 12 directions (30 s each) with ±1 count of jitter: enough still epochs
+/// for the table.
+fn holds(rate_hz: f64, counts_per_g: f64) -> Vec<[i32; 3]> {
+    let mut out = Vec::new();
+    let mut seed = 7u32;
+    for k in 0..12 {
+        let z = 1.0 - 2.0 * ((k as f64 * 0.618034) % 1.0);
+        let (r, phi) = ((1.0 - z * z).sqrt(), k as f64 * 2.399963);
+        let g = [r * phi.cos(), r * phi.sin(), z];
+        for _ in 0..(30.0 * rate_hz) as usize {
+            out.push(g.map(|v| {
+                seed = seed.wrapping_mul(1_103_515_245).wrapping_add(12_345);
+                (v * counts_per_g).round() as i32 + (seed >> 16) as i32 % 3 - 1
+            }));
+        }
+    }
+    out
+}
+
+fn scratch(name: &str, bytes: &[u8]) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("wiical-raw-stream-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join(name);
+    std::fs::write(&path, bytes).unwrap();
+    path
+}
+
+/// A GENEActiv file at 50 Hz: the holds in pages of 300 samples, page 3 with a non-hex
+/// digit, the file cut inside its last page.
+fn bin_file() -> Vec<u8> {
+    let mut text = String::from(
+        "Device Identity\r\nDevice Model:1.1\r\nMeasurement Frequency:50 Hz\r\nx gain:25600\r\nx offset:0\r\ny gain:25600\r\ny offset:-256\r\nz gain:25600\r\nz offset:0\r\nVolts:300\r\nLux:800\r\nNumber of Pages:99\r\n\r\n",
+    );
+    for (p, page) in holds(50.0, 256.0).chunks_exact(300).enumerate() {
+        let ms = 1_000 + p * 6_000;
+        let mut hex: String = page
+            .iter()
+            .map(|s| {
+                format!(
+                    "{:03X}{:03X}{:03X}00C",
+                    s[0] & 0xfff,
+                    s[1] & 0xfff,
+                    s[2] & 0xfff
+                )
+            })
+            .collect();
+        if p == 3 {
+            hex.replace_range(40..41, "G");
+        }
+        text.push_str(&format!(
+            "Recorded Data\r\nSequence Number:{p}\r\nPage Time:2013-05-30 10:{:02}:{:02}:{:03}\r\nTemperature:{}\r\nMeasurement Frequency:50\r\n{hex}\r\n",
+            ms / 60_000,
+            ms / 1000 % 60,
+            ms % 1000,
+            20.0 + p as f64 / 10.0
+        ));
+    }
+    text.push_str("Recorded Data\r\nPage Time:2013-05-30 11:00:00:000\r\n1000FF");
+    text.into_bytes()
+}
+
+/// A block with its checksum word set so that the 256 words sum to 0.
+fn seal(mut b: Vec<u8>) -> Vec<u8> {
+    b[510..512].fill(0);
+    let s = b.chunks_exact(2).fold(0u16, |s, w| {
+        s.wrapping_add(u16::from_le_bytes([w[0], w[1]]))
+    });
+    b[510..512].copy_from_slice(&0u16.wrapping_sub(s).to_le_bytes());
+    b
+}
+
+/// A `.cwa` file at 100 Hz (unpacked int16, 256 counts/g): AX3 (80 samples a block) or AX6
+/// (40 samples of gyro and accelerometer; the gyro reads a constant turn); block 5 corrupt.
+fn cwa_file(ax6: bool) -> Vec<u8> {
+    let mut f = vec![0u8; 1024];
+    f[..2].copy_from_slice(b"MD");
+    f[2..4].copy_from_slice(&1020u16.to_le_bytes());
+    f[4] = if ax6 { 0x64 } else { 0x17 };
+    f[36] = 0x4a;
+    let per_block = if ax6 { 40 } else { 80 };
+    for (i, samples) in holds(100.0, 256.0).chunks_exact(per_block).enumerate() {
+        let mut b = vec![0u8; 512];
+        b[..2].copy_from_slice(b"AX");
+        b[2..4].copy_from_slice(&508u16.to_le_bytes());
+        b[10..14].copy_from_slice(&(i as u32).to_le_bytes());
+        let secs = (i * per_block / 100) as u32;
+        let ts: u32 = (24 << 26)
+            | (1 << 22)
+            | (2 << 17)
+            | ((3 + secs / 3600) << 12)
+            | ((secs / 60 % 60) << 6)
+            | (secs % 60);
+        b[14..18].copy_from_slice(&ts.to_le_bytes());
+        b[20..22].copy_from_slice(&(256 + i as u16 % 50).to_le_bytes());
+        b[24] = 0x4a;
+        b[25] = if ax6 { 0x62 } else { 0x32 };
+        // The sample index of the whole-second timestamp: the samples before it this second.
+        let before = (i * per_block % 100) as i16;
+        b[26..28].copy_from_slice(&(-before).to_le_bytes());
+        b[28..30].copy_from_slice(&(per_block as u16).to_le_bytes());
+        let mut at = 30;
+        for s in samples {
+            let row: Vec<i16> = if ax6 {
+                vec![100, -50, 25, s[0] as i16, s[1] as i16, s[2] as i16]
+            } else {
+                s.iter().map(|&v| v as i16).collect()
+            };
+            for v in row {
+                b[at..at + 2].copy_from_slice(&v.to_le_bytes());
+                at += 2;
+            }
+        }
+        let mut b = seal(b);
+        if i == 5 {
+            b[100] ^= 1;
+        }
+        f.extend(b);
+    }
+    f
+}
+
+#[test]
+fn written_bin_streams_as_it_reads_whole() {
+    let path = scratch("holds.bin", &bin_file());
+    let (_, table) = streamed(&path, &LoadOptions::default());
+    assert!(table.starts_with("Ok("), "{table}");
+    assert!(table.contains("skipped 1 unreadable page(s)"), "{table}");
+    assert!(table.contains("cut short in page #"), "{table}");
+    assert_same(&path, &LoadOptions::default());
+}
+
+#[test]
+fn written_cwa_streams_as_it_reads_whole() {
+    for ax6 in [false, true] {
+        let path = scratch(
+            if ax6 { "holds6.cwa" } else { "holds3.cwa" },
+            &cwa_file(ax6),
+        );
+        let (_, table) = streamed(&path, &LoadOptions::default());
+        assert!(table.starts_with("Ok("), "{table}");
+        assert!(table.contains("skipped 1 corrupt data block(s)"), "{table}");
+        assert_same(&path, &LoadOptions::default());
+        if ax6 {
+            assert_same(&path, &gyro());
+        }
+    }
+}
+
+/// The reader's own classification is the format the streaming path picks.
+#[test]
+fn raw_file_format_reads_the_first_bytes() {
+    let bin = scratch("f.bin", &bin_file());
+    let cwa = scratch("f.cwa", &cwa_file(false));
+    let csv = scratch("f.csv", b"t,x,y,z\n0,0,0,1\n");
+    assert_eq!(stream::raw_file_format(&bin), Some(RawFormat::GeneActiv));
+    assert_eq!(stream::raw_file_format(&cwa), Some(RawFormat::Cwa));
+    assert_eq!(stream::raw_file_format(&csv), None);
+    assert_eq!(stream::raw_file_format(Path::new("-")), None);
+}
+
+/// Hostile `.bin` text: a data line of 20 000 digits skips its page by name (only its first
+/// 8 KiB are held), a header without pages says so, both paths alike.
+#[test]
+fn overlong_lines_and_missing_pages_are_named() {
+    let text = String::from_utf8(bin_file()).unwrap();
+    let key = "Measurement Frequency:50\r\n";
+    let long = text.replacen(key, &format!("{key}{}\r\n", "1".repeat(20_000)), 2);
+    let path = scratch("long.bin", long.as_bytes());
+    let (_, table) = streamed(&path, &LoadOptions::default());
+    assert!(table.contains("a data line of 20"), "{table}");
+    assert_same(&path, &LoadOptions::default());
+    let header = &text[..text.find("Recorded Data").unwrap()];
+    let path = scratch("nopages.bin", header.as_bytes());
+    let format = stream::raw_file_format(&path).unwrap();
+    let e = stream::load_raw(&path, format, &LoadOptions::default()).unwrap_err();
+    assert!(
+        e.to_string().contains("ends before its first data block"),
+        "{e}"
+    );
+}
+
+/// A bad last page of a file that ends with its line feed is an unreadable page, not a
+/// cut-off one (only a file ending inside its last line is cut short).
+#[test]
+fn a_bad_last_page_is_not_a_cut_one() {
+    let text = String::from_utf8(bin_file()).unwrap();
+    let whole = &text[..text.rfind("Recorded Data").unwrap()];
+    let bad = format!(
+        "{whole}Recorded Data\r\nPage Time:2013-05-30 11:00:00:000\r\nTemperature:1e300\r\n100\r\n"
+    );
+    let path = scratch("badlast.bin", bad.as_bytes());
+    let raw = raw::read(&path).unwrap();
+    assert_eq!(raw.invalid_blocks().len(), 2, "{:?}", raw.notes);
+    assert!(raw.notes.is_empty(), "{:?}", raw.notes);
+    assert_same(&path, &LoadOptions::default());
+}
