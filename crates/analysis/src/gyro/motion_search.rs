@@ -93,12 +93,14 @@ pub fn search(set: &MotionSet, applied: Vec<String>) -> Option<MotionLoop> {
         chosen.push(open[i]);
         current = new;
     }
+    let final_model = summary(&current);
     Some(MotionLoop {
         window_effects_applied: applied,
         base,
         effects,
-        final_model: summary(&current),
+        final_model,
         steps,
+        open_basis: super::motion_basis::search(set, &chosen, current),
     })
 }
 
