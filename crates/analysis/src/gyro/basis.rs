@@ -211,7 +211,7 @@ pub fn search(data: &WindowData, chosen: &[&Candidate], terms: &[Term]) -> Optio
         }
         let level = ALPHA / tried.len() as f64;
         let cv0 = st::rms(&s.loo_with(0, None));
-        let scores: Vec<TermScore> = tried.iter().map(|t| term_score(t)).collect();
+        let scores: Vec<TermScore> = tried.iter().map(term_score).collect();
         let sel = select::select(&scores, None, Some(cv0), level, CV_FACTOR);
         let accepted = match sel.choice {
             Choice::Term(i) => Some(i),
