@@ -330,12 +330,42 @@ fn magfit(
     model: &str,
     columns: Option<Vec<String>>,
 ) -> PyResult<String> {
-    let model: wiical_analysis::magnetometer::MagModel = model.parse().map_err(arg_err)?;
+    use wiical_analysis::magnetometer::{self as mag, MagInput};
+    let model: mag::MagModel = model.parse().map_err(arg_err)?;
     let rec = samples_of(py, source, columns, Some(Sensor::Magnetometer))?;
-    let rep = py
-        .detach(|| wiical_analysis::magnetometer::fit_points(&rec.xyz, model))
+    let times = rec
+        .t
+        .clone()
+        .or_else(|| rec.sample_rate_hz.map(|_| rec.times(1.0)));
+    let unit = wiical_analysis::input::columns::triplet_unit(&rec.axis_columns).unwrap_or("raw");
+    let (rep, analysis) = py
+        .detach(|| {
+            mag::check_spans(&rec.xyz)?;
+            let rep = mag::fit_points(&rec.xyz, model)?;
+            let input = MagInput {
+                xyz: &rec.xyz,
+                t: times.as_deref(),
+                temp: rec.temp.as_deref(),
+                follow: &[],
+                unit,
+            };
+            let analysis =
+                mag::analyze(&input, &rep, model, wiical_analysis::search::select::ALPHA)?;
+            Ok::<_, wiical_analysis::Error>((rep, analysis))
+        })
         .map_err(py_err)?;
-    to_json(&rep)
+    // The CLI's `--json`: the fit's keys, then the loop's.
+    #[derive(serde::Serialize)]
+    struct Json<'a> {
+        #[serde(flatten)]
+        fit: &'a mag::MagFitReport,
+        #[serde(flatten)]
+        analysis: &'a mag::MagAnalysis,
+    }
+    to_json(&Json {
+        fit: &rep,
+        analysis: &analysis,
+    })
 }
 
 /// `wiical six-position --json`: the seed's six-position test on a file with a pose column.

@@ -92,6 +92,9 @@ fn loop_part(o: &mut String, r: &GyroReport) {
             "no effect passes the rule (F-test and held-out RMS down by 10 %)"
         );
     }
+    if let Some(b) = &r.open_basis {
+        let _ = writeln!(o, "static windows' {}", b.summary);
+    }
     motion_part(o, r);
     for d in &r.diagnostics {
         let _ = writeln!(o, "  {d}");
@@ -129,6 +132,9 @@ fn motion_part(o: &mut String, r: &GyroReport) {
             "motions with the effects: {:.4}° RMS, {:.4}° held out",
             m.final_model.rms_deg, m.final_model.cv_rms_deg
         );
+    }
+    if let Some(b) = &m.open_basis {
+        let _ = writeln!(o, "motions' {}", b.summary);
     }
 }
 

@@ -23,6 +23,7 @@
 //! report says so.
 
 mod align;
+pub mod basis;
 pub mod design;
 pub mod device;
 pub mod effects;
@@ -30,6 +31,7 @@ pub mod floor;
 pub mod limits;
 mod models;
 pub mod motion;
+pub mod motion_basis;
 pub mod motion_search;
 mod nominal;
 pub mod report;
@@ -191,6 +193,7 @@ pub fn run(acc: &Recording, gyro: &Recording, opts: &GyroOptions) -> Result<Gyro
         verdict: lp.verdict,
         diagnostics: lp.diagnostics,
         motion_loop: lp.motion_loop,
+        open_basis: lp.open_basis,
     })
 }
 
@@ -215,6 +218,21 @@ struct LoopPart {
     verdict: String,
     diagnostics: Vec<String>,
     motion_loop: Option<report::MotionLoop>,
+    open_basis: Option<report::OpenBasis>,
+}
+
+/// The window basis after the named window effects ([`basis`]).
+fn window_basis(
+    search: &effects::Search,
+    cands: &[effects::Candidate],
+    data: &effects::WindowData,
+) -> Option<report::OpenBasis> {
+    let chosen: Vec<&effects::Candidate> = search
+        .effects
+        .iter()
+        .filter_map(|e| cands.iter().find(|c| c.name == e.name))
+        .collect();
+    basis::search(data, &chosen, &basis::window_terms(cands))
 }
 
 /// Noise floor, static-window candidates and verdict for the chosen calibration.
@@ -230,6 +248,7 @@ fn loop_part(
     let (data, cands) = keep_windows(window_data(gyro, seg, fit, &fl), candidates(seg), &kept);
     let search = effects::search(&data, &cands)
         .ok_or(GyroError::GyroFitFailed(wiical_core::Error::NotConverged))?;
+    let open_basis = window_basis(&search, &cands, &data);
     let fits_bias = matches!(fit.name, "bias" | "scale+bias" | "full+bias");
     let fits_scale = fit.name.starts_with("scale") || fit.name.starts_with("full");
     let ev = verdict::Evidence {
@@ -290,6 +309,7 @@ fn loop_part(
         verdict: text,
         diagnostics,
         motion_loop,
+        open_basis,
     })
 }
 
@@ -616,12 +636,29 @@ fn with_effects(ml: &report::MotionLoop, held: f64, floor: f64) -> String {
     }
     let ratio = after / floor.to_degrees().max(1e-300);
     format!(
-        ". With {} applied to the motions the held-out angle error is {after:.3}° ({ratio:.1}× the floor): {}; the calibration written carries no such terms",
+        ". With {} applied to the motions the held-out angle error is {after:.3}° ({ratio:.1}× the floor): {}; {}",
         names.join(" and "),
         if ratio <= crate::report::verdict::UNEXPLAINED_CV_FACTOR {
             "they account for the residual"
         } else {
             "they explain part of it"
-        }
+        },
+        written(&names)
     )
+}
+
+/// What the calibration `--out` writes carries of the effects `names`: the g-sensitivity
+/// (the core's gyro term, [`device::correction`]), none of the others (bias drift,
+/// temperature and the motion effects have no term in the gyro calibration file).
+fn written(names: &[&str]) -> String {
+    const CARRIED: &str = "g-sensitivity";
+    let rest: Vec<&str> = names.iter().copied().filter(|n| *n != CARRIED).collect();
+    match (names.contains(&CARRIED), rest.is_empty()) {
+        (true, true) => "the calibration `--out` writes carries it (its g-sensitivity term, applied with the accelerometer beside the gyro), the verdict judges the calibration without it".into(),
+        (true, false) => format!(
+            "the calibration `--out` writes carries the g-sensitivity, not {}",
+            rest.join(" or ")
+        ),
+        _ => "the calibration written carries no such terms".into(),
+    }
 }

@@ -44,6 +44,56 @@ pub enum Kind {
     Nonlinearity,
     /// One accelerometer ↔ gyro time offset.
     TimeOffset,
+    /// A generic term of the open basis ([`super::motion_basis`]): one coefficient on one
+    /// gyro axis.
+    Rate(RateTerm),
+}
+
+/// A generic rate term of the motions' open basis, added to the calibrated rate of gyro axis
+/// `axis` times its coefficient `c` (dimensionless).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct RateTerm {
+    /// Gyro axis corrected (0, 1, 2).
+    pub axis: u8,
+    /// What multiplies the coefficient.
+    pub form: RateForm,
+}
+
+/// The regressor of a [`RateTerm`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RateForm {
+    /// `ω_i·ω_j / ω_ref` (`ω_ref` = 100 °/s): a product of rates; the coefficient is the error
+    /// at `ω_i = ω_j` = 100 °/s as a fraction of 100 °/s.
+    Product(u8, u8),
+    /// `|ω_j|`, `j` another axis: a rate on one axis read on another depending on its sign.
+    Abs(u8),
+}
+
+impl RateTerm {
+    /// The regressor at calibrated rate `w`, rad/s.
+    fn regressor(self, w: &Vector3<f64>) -> f64 {
+        match self.form {
+            RateForm::Product(i, j) => w[i as usize] * w[j as usize] / RATE_REF,
+            RateForm::Abs(j) => w[j as usize].abs(),
+        }
+    }
+
+    /// The form in words, `ω_x·ω_z` or `|ω_y|`.
+    pub fn form_name(self) -> String {
+        const AX: [&str; 3] = ["x", "y", "z"];
+        match self.form {
+            RateForm::Product(i, j) => format!("ω_{}·ω_{}", AX[i as usize], AX[j as usize]),
+            RateForm::Abs(j) => format!("|ω_{}|", AX[j as usize]),
+        }
+    }
+
+    /// Its family in the report.
+    pub fn family(self) -> &'static str {
+        match self.form {
+            RateForm::Product(..) => "rate-product",
+            RateForm::Abs(_) => "cross-axis-asymmetry",
+        }
+    }
 }
 
 impl Kind {
@@ -51,11 +101,12 @@ impl Kind {
     pub const ALL: [Kind; 3] = [Kind::Asymmetry, Kind::Nonlinearity, Kind::TimeOffset];
 
     /// Its name in the report.
-    pub fn name(self) -> &'static str {
+    pub fn name(self) -> String {
         match self {
-            Kind::Asymmetry => "scale-asymmetry",
-            Kind::Nonlinearity => "scale-nonlinearity",
-            Kind::TimeOffset => "time-offset",
+            Kind::Asymmetry => "scale-asymmetry".into(),
+            Kind::Nonlinearity => "scale-nonlinearity".into(),
+            Kind::TimeOffset => "time-offset".into(),
+            Kind::Rate(t) => format!("{} on {}", t.form_name(), ["x", "y", "z"][t.axis as usize]),
         }
     }
 
@@ -65,13 +116,18 @@ impl Kind {
             Kind::Asymmetry => "%",
             Kind::Nonlinearity => "% at 100 °/s",
             Kind::TimeOffset => "s",
+            Kind::Rate(RateTerm {
+                form: RateForm::Product(..),
+                ..
+            }) => "% of 100 °/s at 100 °/s",
+            Kind::Rate(_) => "%",
         }
     }
 
     /// Coefficients it adds.
     pub fn width(self) -> usize {
         match self {
-            Kind::TimeOffset => 1,
+            Kind::TimeOffset | Kind::Rate(_) => 1,
             _ => 3,
         }
     }
@@ -90,6 +146,7 @@ impl Kind {
             Kind::Asymmetry => "the motions' errors follow the rates' sign",
             Kind::Nonlinearity => "the motions' errors grow with the cube of the rate",
             Kind::TimeOffset => "the motions' errors follow the change of rate at their ends",
+            Kind::Rate(_) => "the motions' errors follow a generic term of the rates",
         }
     }
 
@@ -154,12 +211,14 @@ fn corrected(set: &MotionSet, i: usize, kinds: &[Kind], eff: &[f64]) -> Vec<[f64
     let (s0, n) = set.span[i];
     let r = &set.rates[i];
     let (mut tau, mut asym, mut cube) = (0.0, [0.0; 3], [0.0; 3]);
+    let mut generic: Vec<(RateTerm, f64)> = Vec::new();
     let mut at = 0;
     for k in kinds {
         match k {
             Kind::TimeOffset => tau = eff[at],
             Kind::Asymmetry => asym.copy_from_slice(&eff[at..at + 3]),
             Kind::Nonlinearity => cube.copy_from_slice(&eff[at..at + 3]),
+            Kind::Rate(t) => generic.push((*t, eff[at])),
         }
         at += k.width();
     }
@@ -167,10 +226,14 @@ fn corrected(set: &MotionSet, i: usize, kinds: &[Kind], eff: &[f64]) -> Vec<[f64
     (0..n)
         .map(|j| {
             let w = interp(r, (s0 + j) as f64 + shift);
-            std::array::from_fn(|a| {
+            let mut out: [f64; 3] = std::array::from_fn(|a| {
                 let x = w[a];
                 x + asym[a] * x.abs() + cube[a] * x * (x / RATE_REF).powi(2)
-            })
+            });
+            for (t, c) in &generic {
+                out[t.axis as usize] += c * t.regressor(&w);
+            }
+            out
         })
         .collect()
 }
@@ -261,6 +324,27 @@ fn linearize(set: &MotionSet, p: &Point, kinds: &[Kind]) -> Option<Lin> {
     Some(Lin { r, x, angles })
 }
 
+/// The weighted residuals' derivative (2 per motion) in the coefficient of `extra` added at
+/// zero to the model `kinds` at `p` (central differences, as the effects' columns).
+pub fn column(set: &MotionSet, p: &Point, kinds: &[Kind], extra: Kind) -> Option<DVector<f64>> {
+    let mut all = kinds.to_vec();
+    all.push(extra);
+    let h = extra.step(set.dt);
+    let n = set.span.len();
+    let mut z = DVector::zeros(2 * n);
+    for i in 0..n {
+        let moved = |sign: f64| {
+            let mut q = p.clone();
+            q.eff.push(sign * h);
+            integrate(set, i, &q, &all, false).map(|o| o.0)
+        };
+        let d = (moved(1.0)? - moved(-1.0)?) / (2.0 * h);
+        z[2 * i] = d[0];
+        z[2 * i + 1] = d[1];
+    }
+    Some(z)
+}
+
 /// A fitted model.
 pub struct Fit {
     /// Where it ended.
@@ -278,6 +362,10 @@ pub struct Fit {
     pub held: Vec<f64>,
     /// Free calibration parameters (the first columns of `inv`).
     pub free: usize,
+    /// The last linearisation's weighted residuals at `point` (2 per motion).
+    pub r: DVector<f64>,
+    /// Its design (free calibration parameters, then the effects' coefficients).
+    pub x: DMatrix<f64>,
 }
 
 /// Fits the free calibration parameters and the effects `kinds` from the chosen calibration.
@@ -337,5 +425,7 @@ fn finish(set: &MotionSet, point: Point, lin: Lin, free: usize) -> Option<Fit> {
         angles: lin.angles,
         held,
         free,
+        r: lin.r,
+        x: lin.x,
     })
 }

@@ -83,7 +83,7 @@ pub fn search(set: &MotionSet, applied: Vec<String>) -> Option<MotionLoop> {
         steps.push(MotionStep {
             candidates: rows,
             level,
-            accepted: accepted.map(|i| open[i].name().to_string()),
+            accepted: accepted.map(|i| open[i].name()),
         });
         let Some(i) = accepted else { break };
         let Some(new) = fits.into_iter().nth(i).flatten() else {
@@ -93,12 +93,14 @@ pub fn search(set: &MotionSet, applied: Vec<String>) -> Option<MotionLoop> {
         chosen.push(open[i]);
         current = new;
     }
+    let final_model = summary(&current);
     Some(MotionLoop {
         window_effects_applied: applied,
         base,
         effects,
-        final_model: summary(&current),
+        final_model,
         steps,
+        open_basis: super::motion_basis::search(set, &chosen, current),
     })
 }
 
@@ -170,7 +172,7 @@ fn row(
         (Some(_), false) => "significant, but the held-out RMS does not fall by 10 %".into(),
     };
     MotionCandidate {
-        name: k.name().into(),
+        name: k.name(),
         params: k.width(),
         unit: k.unit().into(),
         rms_deg: f.map(|f| st::rms(&f.angles).to_degrees()),
@@ -198,7 +200,7 @@ fn effect(cur: &Fit, new: &Fit, k: Kind, chosen: &[Kind]) -> MotionEffect {
         st::rms(&new.held).to_degrees(),
     );
     MotionEffect {
-        name: k.name().into(),
+        name: k.name(),
         params: k.width(),
         unit: k.unit().into(),
         values,

@@ -197,6 +197,10 @@ pub struct MotionLoop {
     pub final_model: MotionSummary,
     /// The greedy steps with every candidate.
     pub steps: Vec<MotionStep>,
+    /// The motions' open basis after the named motion effects (generic terms of the rate:
+    /// products of two rates, another axis's `|ω|`, per gyro axis); `null` when the motions
+    /// are too few to fit it.
+    pub open_basis: Option<OpenBasis>,
 }
 
 /// The verdict's class.
@@ -282,4 +286,105 @@ pub struct GyroReport {
     /// The motions' candidates (scale asymmetry, nonlinearity, time offset) after the window
     /// effects; `null` when the motions' model could not be fitted.
     pub motion_loop: Option<MotionLoop>,
+    /// The static windows' open basis after the named window effects (generic terms: the
+    /// gravity direction's quadratic monomials, time², temperature², per gyro axis); `null`
+    /// when the windows are too few to fit it.
+    pub open_basis: Option<OpenBasis>,
+}
+
+/// One term of an open basis at one round.
+#[derive(Debug, Clone, Serialize)]
+pub struct BasisRow {
+    /// The term, e.g. `g_x·g_z on y` (form, then the gyro axis it acts on).
+    pub name: String,
+    /// Its family, e.g. `gravity-quadratic`.
+    pub family: String,
+    /// Unit of its coefficient and of `detection_limit`.
+    pub unit: String,
+    /// F statistic of adding it (1 coefficient) to the current model.
+    pub f_stat: f64,
+    /// Its p-value (before the factor over the basis).
+    pub p_value: f64,
+    /// Held-out RMS with it (°/s for the windows, degrees for the motions).
+    pub cv_rms: f64,
+    /// Passed both rules at this round.
+    pub passed: bool,
+    /// Not accepted: the smallest coefficient this recording would have shown at the round's
+    /// level (80 % power), in `unit`.
+    pub detection_limit: Option<f64>,
+}
+
+/// One accepted term of an open basis.
+#[derive(Debug, Clone, Serialize)]
+pub struct BasisEffect {
+    /// The term, e.g. `g_x·g_z on y`.
+    pub name: String,
+    /// Its family.
+    pub family: String,
+    /// Unit of `value`.
+    pub unit: String,
+    /// Fitted coefficient.
+    pub value: f64,
+    /// Its standard error.
+    pub std_error: f64,
+    /// "something of the form …", with the test results.
+    pub evidence: String,
+    /// F statistic.
+    pub f_stat: f64,
+    /// Its p-value (before the factor over the basis).
+    pub p_value: f64,
+    /// Held-out RMS before adding it (°/s for the windows, degrees for the motions).
+    pub cv_rms_before: f64,
+    /// After.
+    pub cv_rms: f64,
+}
+
+/// One round of an open basis.
+#[derive(Debug, Clone, Serialize)]
+pub struct BasisStep {
+    /// Terms tested (those not already in the model's span): the Bonferroni factor.
+    pub screened: usize,
+    /// Level each term was held to (α / screened).
+    pub level: f64,
+    /// The one accepted, if any.
+    pub accepted: Option<String>,
+    /// Every term tested.
+    pub candidates: Vec<BasisRow>,
+}
+
+/// The largest detection limit of a family over its terms not accepted (every gyro axis).
+#[derive(Debug, Clone, Serialize)]
+pub struct FamilyLimit {
+    /// Family, e.g. `gravity-quadratic`.
+    pub family: String,
+    /// Its forms in words, e.g. `g_i·g_j`.
+    pub form: String,
+    /// Unit.
+    pub unit: String,
+    /// The largest limit over the family's terms at the last round.
+    pub detection_limit: f64,
+}
+
+/// An open basis: generic low-order terms beyond the named candidates, each one coefficient on
+/// one gyro axis, tried by the same F + CV rule with a Bonferroni factor over the basis.
+#[derive(Debug, Clone, Serialize)]
+pub struct OpenBasis {
+    /// The families in the basis.
+    pub families: Vec<String>,
+    /// Terms in the basis.
+    pub terms: usize,
+    /// Held-out RMS of the named model it starts from (°/s for the windows, degrees for the
+    /// motions).
+    pub cv_rms_start: f64,
+    /// With the terms accepted.
+    pub cv_rms_final: f64,
+    /// Accepted terms, in order.
+    pub found: Vec<BasisEffect>,
+    /// The rounds.
+    pub steps: Vec<BasisStep>,
+    /// Per family, the largest limit of its terms at the last round.
+    pub limits: Vec<FamilyLimit>,
+    /// One sentence: what was found ("something of the form g_x·g_z on the gyro's y axis") or
+    /// each family's limit.
+    pub summary: String,
 }

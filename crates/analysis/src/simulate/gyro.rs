@@ -56,6 +56,10 @@ pub struct GyroTruth {
     pub bias: [f64; 3],
     /// g-sensitivity, rad/s per g (row = gyro axis, column = specific-force component).
     pub g_sensitivity: [[f64; 3]; 3],
+    /// Bias quadratic in the gravity direction, rad/s per g² (row = gyro axis; columns the
+    /// monomials `g_x², g_y², g_z², g_x·g_y, g_x·g_z, g_y·g_z` of the true specific force): a
+    /// term of the window open basis that no named candidate models.
+    pub g_quadratic: [[f64; 6]; 3],
     /// Bias drift, rad/s per second.
     pub drift: [f64; 3],
     /// Temperature sensitivity of the bias, rad/s per °C (with a temperature column that rises
@@ -70,6 +74,11 @@ pub struct GyroTruth {
     pub nonlinearity: [f64; 3],
     /// Gyro lag behind the accelerometer, s.
     pub time_offset: f64,
+    /// Products of two rates read on a gyro axis (row = axis; columns the monomials
+    /// `ω_x², ω_y², ω_z², ω_x·ω_y, ω_x·ω_z, ω_y·ω_z` over 100 °/s): the gyro reads
+    /// `ω_a − Σ c·monomial/(100 °/s)`, which the motions' open basis term (`+ c·ω_i·ω_j /
+    /// 100 °/s` on the calibrated rate) undoes to first order.
+    pub rate_product: [[f64; 6]; 3],
 }
 
 impl Default for GyroTruth {
@@ -85,12 +94,14 @@ impl Default for GyroTruth {
             ],
             bias: [23.0, -41.0, 12.0],
             g_sensitivity: [[0.0; 3]; 3],
+            g_quadratic: [[0.0; 6]; 3],
             drift: [0.0; 3],
             temp_coef: [0.0; 3],
             temp_ramp: 0.0,
             asymmetry: [0.0; 3],
             nonlinearity: [0.0; 3],
             time_offset: 0.0,
+            rate_product: [[0.0; 6]; 3],
         }
     }
 }
@@ -194,7 +205,7 @@ pub fn simulate_gyro(o: &GyroSimOptions) -> GyroSim {
         let drift = Vector3::from(t.drift) * time + Vector3::from(t.temp_coef) * temp;
         let wn = Vector3::from_fn(|_, _| noise(o.gyro_noise));
         let w = motion_effects(t, &rates, i as f64 - t.time_offset * o.rate_hz);
-        let w_meas = w + g_sens * a + drift + wn;
+        let w_meas = w + g_sens * a + quadratic(&t.g_quadratic, &a) + drift + wn;
         let m = k_inv * w_meas + Vector3::from(t.bias);
         let an = Vector3::from_fn(|_, _| noise(o.accel_noise_g));
         acc.push((a + an).into());
@@ -217,6 +228,19 @@ pub fn simulate_gyro(o: &GyroSimOptions) -> GyroSim {
     }
 }
 
+/// The bias quadratic in the specific force `a` (g): `Σ q[axis][m]·monomial_m(a)`.
+fn quadratic(q: &[[f64; 6]; 3], a: &Vector3<f64>) -> Vector3<f64> {
+    let m = [
+        a.x * a.x,
+        a.y * a.y,
+        a.z * a.z,
+        a.x * a.y,
+        a.x * a.z,
+        a.y * a.z,
+    ];
+    Vector3::from_fn(|r, _| (0..6).map(|k| q[r][k] * m[k]).sum())
+}
+
 /// The true rate at fractional sample `x` (linear between samples, clamped), as the gyro
 /// reads it through the asymmetry and the cubic of `t` (module docs).
 fn motion_effects(t: &GyroTruth, rates: &[Vector3<f64>], x: f64) -> Vector3<f64> {
@@ -226,6 +250,7 @@ fn motion_effects(t: &GyroTruth, rates: &[Vector3<f64>], x: f64) -> Vector3<f64>
     let f = x - i as f64;
     let w = rates[i] * (1.0 - f) + rates[(i + 1).min(last)] * f;
     let r = crate::gyro::motion::RATE_REF;
+    let w = w - quadratic(&t.rate_product, &w) / r;
     Vector3::from_fn(|k, _| {
         let (a, c, target) = (t.asymmetry[k], t.nonlinearity[k], w[k]);
         // Newton on m + a·|m| + c·m³/r² = target (monotone for small a, c).
