@@ -318,6 +318,16 @@ pub fn fmt_p(p: f64) -> String {
     }
 }
 
+/// `x` to three significant digits (at least; whole digits are kept), as the reports print a
+/// detection limit or a coefficient: `0.0123`, `1.23`, `123`, `12345`.
+pub fn sig3(x: f64) -> String {
+    if x == 0.0 || !x.is_finite() {
+        return format!("{x}");
+    }
+    let d = (2 - x.abs().log10().floor() as i32).max(0) as usize;
+    format!("{x:.d$}")
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

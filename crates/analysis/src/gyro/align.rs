@@ -1,7 +1,7 @@
 //! Pairing the accelerometer's rows with the gyro's: by position when both files have the same
 //! samples, by time when the gyro's rows are a subset (a capture whose rows alternate).
 
-use super::{GyroError, Result};
+use super::options::{GyroError, Result};
 use crate::input::recording::Recording;
 use crate::input::timecheck::TimeSteps;
 

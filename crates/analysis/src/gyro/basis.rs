@@ -1,5 +1,5 @@
 //! The open basis of the static windows: after the named window candidates
-//! ([`super::effects`]), generic low-order terms of what moves the gyro's window means, one
+//! (`effects`), generic low-order terms of what moves the gyro's window means, one
 //! coefficient on one gyro axis each, tried by the same rule (F-test at α / the terms tested,
 //! a Bonferroni factor over the basis, **and** the held-out window RMS down by
 //! [`CV_FACTOR`]), greedily.
@@ -63,7 +63,7 @@ pub(super) fn family_form(family: &str) -> &'static str {
 }
 
 /// The window basis from the named candidates' regressors (gravity, time, temperature per
-/// window, as [`super::effects`] has them).
+/// window, as `effects` has them).
 pub fn window_terms(cands: &[Candidate]) -> Vec<Term> {
     let col = |name: &str| cands.iter().find(|c| c.name == name).map(|c| &c.columns);
     let mut forms: Vec<(&'static str, String, &'static str, Vec<f64>)> = Vec::new();
@@ -416,7 +416,7 @@ fn summary_sentence(
             format!(
                 "{} above {} {}",
                 l.form,
-                super::sig3(l.detection_limit),
+                crate::stats::sig3(l.detection_limit),
                 l.unit
             )
         })

@@ -1,5 +1,5 @@
-//! The gyro's static-window regression shared by the candidate search ([`super::effects`])
-//! and the detection limits ([`super::limits`]): the candidates, the window data they are
+//! The gyro's static-window regression shared by the candidate search (`effects`)
+//! and the detection limits (`limits`): the candidates, the window data they are
 //! fitted to, and the design matrix (a constant for the bias, then each candidate's
 //! regressors).
 

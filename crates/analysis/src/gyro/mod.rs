@@ -34,73 +34,21 @@ pub mod motion;
 pub mod motion_basis;
 pub mod motion_search;
 mod nominal;
+mod options;
 pub mod report;
 mod segment;
 mod verdict;
 
-use crate::detect::windows::DetectOptions;
 pub use crate::error::gyro::GyroError;
 use crate::input::recording::Recording;
 use crate::stats as st;
 use wiical_core::gyro::GyroCalibration;
-use wiical_core::multipos::MultiPosModel;
 
 pub use models::{GyroModelRow, MotionRow};
 pub use nominal::{estimate_nominal, nominal_from_columns, nominal_given_usable};
+pub use options::GyroOptions;
+use options::{deg, Result};
 pub use report::{GyroQuality, GyroReport};
-
-type Result<T, E = GyroError> = std::result::Result<T, E>;
-
-/// Settings of [`run`].
-#[derive(Debug, Clone)]
-pub struct GyroOptions {
-    /// Static-window detection on the accelerometer.
-    pub detect: DetectOptions,
-    /// Nominal gyro sensitivity per axis, rad/s per count (signed: an inverted axis is
-    /// negative), from the datasheet.
-    pub nominal_rad_per_count: [f64; 3],
-    /// Accelerometer model for the gravity directions.
-    pub accel_model: MultiPosModel,
-    /// Levenberg–Marquardt iteration budget per fit.
-    pub max_iterations: u32,
-    /// Where the nominal came from, for the report (`--scale`, the columns' unit, …).
-    pub nominal_source: String,
-    /// Estimate the nominal from the motions instead ([`estimate_nominal`]): no datasheet.
-    pub estimate_nominal: bool,
-    /// Held-out errors by an exact refit per motion instead of one Gauss–Newton step from the
-    /// all-motion fit (`leave_one_out_one_step`; within 0.01° of exact on the real logs,
-    /// docs/gyro.md, ~40× faster).
-    pub exact_held_out: bool,
-}
-
-impl GyroOptions {
-    /// Defaults with the nominal estimated from the motions ([`estimate_nominal`]).
-    pub fn estimated() -> Self {
-        Self {
-            estimate_nominal: true,
-            nominal_source: "estimated from the motions".into(),
-            ..Self::new([1.0; 3])
-        }
-    }
-
-    /// Defaults for a nominal sensitivity.
-    pub fn new(nominal_rad_per_count: [f64; 3]) -> Self {
-        Self {
-            detect: DetectOptions::default(),
-            nominal_rad_per_count,
-            accel_model: MultiPosModel::Full,
-            max_iterations: 100,
-            nominal_source: "given".into(),
-            estimate_nominal: false,
-            exact_held_out: false,
-        }
-    }
-}
-
-/// Radians to degrees.
-fn deg(rad: f64) -> f64 {
-    rad.to_degrees()
-}
 
 /// A datasheet scale given by the caller must be finite and non-zero on every axis (without
 /// one, the nominal scale is estimated from the motions).
@@ -406,19 +354,10 @@ fn limit_sentence(name: &str, unit: &str, limit: Option<f64>, note: &str, source
     match limit {
         Some(l) => format!(
             "no {name} above {} {unit} (the smallest {source} would show in 80 % of cases)",
-            sig3(l)
+            st::sig3(l)
         ),
         None => format!("{name}: not tested ({note})"),
     }
-}
-
-/// Three significant digits.
-fn sig3(x: f64) -> String {
-    if x == 0.0 || !x.is_finite() {
-        return format!("{x}");
-    }
-    let d = (2 - x.abs().log10().floor() as i32).max(0) as usize;
-    format!("{x:.d$}")
 }
 
 /// A sentence when the window means scatter about the final window model more than their noise

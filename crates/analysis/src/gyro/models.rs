@@ -1,8 +1,8 @@
 //! The six candidate models of the multi-position fit, each judged by its leave-one-motion-out
 //! error, and the per-motion table of the chosen one.
 
+use super::options::{deg, GyroError, GyroOptions, Result};
 use super::segment::Segmentation;
-use super::{deg, GyroError, GyroOptions, Result};
 use serde::Serialize;
 use wiical_core::gyro::{GyroCalibration, MotionResidual};
 use wiical_core::gyro_fit::{

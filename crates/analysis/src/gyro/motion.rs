@@ -44,7 +44,7 @@ pub enum Kind {
     Nonlinearity,
     /// One accelerometer ↔ gyro time offset.
     TimeOffset,
-    /// A generic term of the open basis ([`super::motion_basis`]): one coefficient on one
+    /// A generic term of the open basis (`motion_basis`): one coefficient on one
     /// gyro axis.
     Rate(RateTerm),
 }

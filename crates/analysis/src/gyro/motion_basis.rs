@@ -1,4 +1,4 @@
-//! The motions' open basis: after the named motion candidates ([`super::motion_search`]),
+//! The motions' open basis: after the named motion candidates (`motion_search`),
 //! generic terms of the calibrated rate, one coefficient on one gyro axis each
 //! ([`RateTerm`]):
 //!

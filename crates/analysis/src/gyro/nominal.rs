@@ -1,7 +1,7 @@
 //! The nominal gyro sensitivity: from the columns' unit, estimated from the motions when no
 //! datasheet value is given, and the checks that refuse an absurd given one.
 
-use super::{GyroError, Result};
+use super::options::{GyroError, Result};
 use crate::input::recording::Recording;
 use wiical_core::gyro::GyroCalibration;
 use wiical_core::gyro_fit::{motion_angle, Motion};
@@ -165,7 +165,7 @@ pub(super) fn choose(
     motions: &[Motion<'_, f64>],
     bias: [f64; 3],
     dt: f64,
-    opts: &super::GyroOptions,
+    opts: &super::options::GyroOptions,
 ) -> Result<([f64; 3], String)> {
     if opts.estimate_nominal {
         let s = estimate_nominal(motions, bias, dt)?;

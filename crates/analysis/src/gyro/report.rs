@@ -279,7 +279,7 @@ pub struct GyroReport {
     /// Findings worth a sentence that are not effects (untested candidates, limits).
     pub diagnostics: Vec<String>,
     /// The chosen calibration with the accepted g-sensitivity, as a device applies it
-    /// ([`super::device::correction`]); what `gyrofit --out` saves. Not in the JSON report
+    /// (`device::correction`); what `gyrofit --out` saves. Not in the JSON report
     /// (`bias`, `matrix` and `effects` are).
     #[serde(skip)]
     pub correction: wiical_core::gyro_correct::GyroCorrection<f64>,

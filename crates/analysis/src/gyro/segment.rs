@@ -1,7 +1,7 @@
 //! What the accelerometer says about the recording: the static windows, the motions between
 //! them with their gravity directions, and the checks on the gyro that need them.
 
-use super::{GyroError, GyroOptions, Result};
+use super::options::{GyroError, GyroOptions, Result};
 use crate::detect::windows::{detect_windows, WindowStats};
 use crate::fit::base::{run_windows, FitOptions};
 use crate::input::recording::Recording;

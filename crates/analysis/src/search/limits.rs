@@ -193,7 +193,7 @@ pub fn outlier_limit(ctx: &LimitContext<'_>, state: &State, level: f64) -> Optio
 /// pose)". Three significant digits: the limit rests on a variance estimated from tens of
 /// windows, good to a few per cent at best.
 pub fn phrase(name: &str, limit: f64, unit: &str) -> String {
-    let l = sig3(limit);
+    let l = st::sig3(limit);
     if unit == OUTLIER_UNIT {
         format!("no window off by more than {l} mg (at the least influential pose)")
     } else if unit == COMBINATION_UNIT {
@@ -201,15 +201,6 @@ pub fn phrase(name: &str, limit: f64, unit: &str) -> String {
     } else {
         format!("no {name} above {l} {unit}")
     }
-}
-
-/// Three significant digits (no exponent: limits span mg/g³ to ppm/°C, all within 10⁻⁴–10⁵).
-fn sig3(x: f64) -> String {
-    if x == 0.0 || !x.is_finite() {
-        return format!("{x}");
-    }
-    let d = (2 - x.abs().log10().floor() as i32).max(0) as usize;
-    format!("{x:.d$}")
 }
 
 #[cfg(test)]
