@@ -177,7 +177,7 @@ pub fn t_two_sided(t: f64, nu: f64) -> f64 {
 /// monotone survival function reach full `f64` precision.
 pub fn f_critical(level: f64, d1: f64, d2: f64) -> f64 {
     let (mut lo, mut hi) = (0.0, 1.0);
-    while f_sf(hi, d1, d2) > level && hi < 1e12 {
+    while f_sf(hi, d1, d2) > level && hi < 1e18 {
         hi *= 2.0;
     }
     for _ in 0..100 {
