@@ -453,9 +453,11 @@ fn gyrofit(
                 wiical_analysis::load(&path, &LoadOptions::default())?,
                 wiical_analysis::load(g, &LoadOptions::default())?,
             )),
-            None => {
-                wiical_analysis::input::front_door::load_imu(&path, &LoadOptions::default(), gyro_columns)
-            }
+            None => wiical_analysis::input::front_door::load_imu(
+                &path,
+                &LoadOptions::default(),
+                gyro_columns,
+            ),
         })
         .map_err(py_err)?;
     let given = match (scale, counts_per_dps) {

@@ -13,11 +13,18 @@ use wiical_capture::{CaptureMode, CaptureOptions};
 use wiical_extbus::NunchukReport;
 
 /// The shared recordings: `$WIICAL_DATA`, else `<workspace>/../shared/data`. Fails loudly when
-/// missing, so a test on real data can never pass by skipping its data.
+/// missing, so a test on real data can never pass by skipping its data. This file is compiled
+/// into this crate's tests (`crates/capture`) and the host's (`host/`), whose manifests sit at
+/// different depths: the workspace is the nearest ancestor holding `Cargo.lock`.
 pub fn data_dir() -> PathBuf {
+    let manifest = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let workspace = manifest
+        .ancestors()
+        .find(|d| d.join("Cargo.lock").is_file())
+        .unwrap_or(manifest);
     let dir = std::env::var_os("WIICAL_DATA")
         .map(Into::into)
-        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data"));
+        .unwrap_or_else(|| workspace.join("../shared/data"));
     assert!(
         dir.is_dir(),
         "shared data not found at {} (set WIICAL_DATA)",
