@@ -23,7 +23,7 @@
 //! bytes: every offset is inside a 512-byte block and every count is checked against it.
 
 #![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x > 0.0)` is deliberately true for NaN.
-use super::{civil_seconds, valid_civil, Block, GoodBlock, RawFile, RawFormat};
+use super::block::{civil_seconds, valid_civil, Block, GoodBlock, RawFile, RawFormat};
 use crate::error::input::InputError;
 
 /// This module's errors are all the input stage's.

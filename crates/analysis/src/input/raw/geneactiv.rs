@@ -23,7 +23,7 @@
 //! a `:`): a data line is at most 3600 bytes, and a key's value beyond 8 KiB is not read.
 
 #![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x > 0.0)` is deliberately true for NaN.
-use super::{civil_seconds, valid_civil, Block, GoodBlock, RawFile, RawFormat};
+use super::block::{civil_seconds, valid_civil, Block, GoodBlock, RawFile, RawFormat};
 use crate::error::input::InputError;
 use rayon::prelude::*;
 use std::io::BufRead;

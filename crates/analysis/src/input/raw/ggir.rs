@@ -29,7 +29,7 @@
 //! Rows carry the block's temperature, battery and light, as GGIRread's columns do.
 
 #![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x > 0.0)` is deliberately true for NaN.
-use super::{Block, GoodBlock, RawFile};
+use super::block::{Block, GoodBlock, RawFile};
 use crate::error::input::InputError;
 
 /// This module's errors are all the input stage's.

@@ -1,0 +1,159 @@
+//! What a raw file is made of, at the bottom of `raw/`: its format, its blocks (pages) decoded
+//! or skipped, the file as read, and the civil-date arithmetic both formats' timestamps need.
+//! The readers (`cwa`, `geneactiv`) build these; `mod.rs` and `stream` use them.
+
+/// Which raw format a file is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RawFormat {
+    /// Axivity `.cwa` (`MD` header block, `AX` data blocks).
+    Cwa,
+    /// GENEActiv `.bin` (text header starting `Device Identity`, hex-encoded pages).
+    GeneActiv,
+}
+
+/// One decoded data block (Axivity) or page (GENEActiv).
+#[derive(Debug, Clone)]
+pub struct GoodBlock {
+    /// Position in the file (0: the first data block).
+    pub index: usize,
+    /// The block's sequence number as stored (Axivity `sequenceId`, GENEActiv `Sequence Number`).
+    pub sequence: u32,
+    /// Time of the block's first sample, device-clock seconds (see the module docs).
+    pub start_s: f64,
+    /// The block's sample rate, Hz.
+    pub rate_hz: f64,
+    /// Sensor temperature, °C.
+    pub temp_c: f64,
+    /// Battery voltage, V (Axivity: `3·(b/256 + 1)`; GENEActiv: the page's value).
+    pub battery_v: f64,
+    /// Light: Axivity's raw 10-bit light value per block; GENEActiv's lux of the first sample.
+    pub light: f64,
+    /// Samples, row-major, [`RawFile::channels`] values each (g for the accelerometer, °/s for
+    /// the gyroscope, raw counts for a magnetometer).
+    pub data: Vec<f64>,
+    /// GENEActiv: light per sample (lux); `None` for Axivity.
+    pub light_per_sample: Option<Vec<f64>>,
+}
+
+impl GoodBlock {
+    /// Samples in the block.
+    pub fn len(&self, channels: usize) -> usize {
+        self.data.len() / channels.max(1)
+    }
+}
+
+/// A data block of the file: decoded, or skipped and why.
+#[derive(Debug, Clone)]
+pub enum Block {
+    /// Decoded.
+    Good(GoodBlock),
+    /// Its checksum fails (bits were corrupted; nothing in it can be trusted).
+    Corrupt,
+    /// Checksum fine but a field is impossible (header, length, date, layout); the reason.
+    Invalid(String),
+}
+
+/// A raw file as read: what the header says and every data block.
+#[derive(Debug, Clone)]
+pub struct RawFile {
+    /// The format.
+    pub format: RawFormat,
+    /// Device as the header names it (`AX3`, `AX6`, `GENEActiv 1.1`).
+    pub device: String,
+    /// Channel names of each sample: `ax, ay, az` (+ `gx, gy, gz` first on an AX6, as stored).
+    pub channels: Vec<String>,
+    /// Sample rate the header declares, Hz.
+    pub header_rate_hz: f64,
+    /// Data blocks in file order.
+    pub blocks: Vec<Block>,
+    /// Blocks (pages) the header declares, when it does (GENEActiv `Number of Pages`).
+    pub declared_blocks: Option<usize>,
+    /// What the reader noticed that does not stop it (a cut-off last block), one sentence each.
+    pub notes: Vec<String>,
+}
+
+impl RawFile {
+    /// Number of values per sample.
+    pub fn n_channels(&self) -> usize {
+        self.channels.len()
+    }
+
+    /// The decoded blocks.
+    pub fn good(&self) -> impl Iterator<Item = &GoodBlock> {
+        self.blocks.iter().filter_map(|b| match b {
+            Block::Good(g) => Some(g),
+            _ => None,
+        })
+    }
+
+    /// Indices of the blocks that failed their checksum.
+    pub fn corrupt_blocks(&self) -> Vec<usize> {
+        (0..self.blocks.len())
+            .filter(|&i| matches!(self.blocks[i], Block::Corrupt))
+            .collect()
+    }
+
+    /// Indices and reasons of the blocks skipped for an impossible field.
+    pub fn invalid_blocks(&self) -> Vec<(usize, &str)> {
+        (0..self.blocks.len())
+            .filter_map(|i| match &self.blocks[i] {
+                Block::Invalid(why) => Some((i, why.as_str())),
+                _ => None,
+            })
+            .collect()
+    }
+}
+
+/// Seconds since 1970-01-01 of a civil date and time (proleptic Gregorian, no time zone):
+/// the days-from-civil count of H. Hinnant's date algorithms.
+pub fn civil_seconds(y: i64, mo: u32, d: u32, h: u32, mi: u32, s: f64) -> f64 {
+    let y = if mo <= 2 { y - 1 } else { y };
+    let era = y.div_euclid(400);
+    let yoe = y - era * 400;
+    let mp = (mo as i64 + 9) % 12;
+    let doy = (153 * mp + 2) / 5 + d as i64 - 1;
+    let doe = yoe * 365 + yoe / 4 - yoe / 100 + doy;
+    let days = era * 146_097 + doe - 719_468;
+    days as f64 * 86_400.0 + (h * 3600 + mi * 60) as f64 + s
+}
+
+/// True when a civil date and time is possible (day checked against the month's length).
+pub fn valid_civil(y: i64, mo: u32, d: u32, h: u32, mi: u32, s: u32) -> bool {
+    let leap = (y % 4 == 0 && y % 100 != 0) || y % 400 == 0;
+    let month_days = [
+        31,
+        if leap { 29 } else { 28 },
+        31,
+        30,
+        31,
+        30,
+        31,
+        31,
+        30,
+        31,
+        30,
+        31,
+    ];
+    (1..=12).contains(&mo)
+        && d >= 1
+        && d <= month_days[(mo - 1) as usize]
+        && h < 24
+        && mi < 60
+        && s < 60
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn civil_seconds_match_known_instants() {
+        // 2019-02-26 09:55:06 UTC is 1551174906 (date -u -d @1551174906).
+        assert_eq!(civil_seconds(2019, 2, 26, 9, 55, 6.0), 1_551_174_906.0);
+        assert_eq!(civil_seconds(1970, 1, 1, 0, 0, 0.0), 0.0);
+        assert_eq!(civil_seconds(2000, 3, 1, 0, 0, 0.0), 951_868_800.0);
+        assert!(valid_civil(2024, 2, 29, 23, 59, 59));
+        assert!(!valid_civil(2023, 2, 29, 0, 0, 0));
+        assert!(!valid_civil(2023, 13, 1, 0, 0, 0));
+    }
+}
