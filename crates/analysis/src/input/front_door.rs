@@ -102,21 +102,35 @@ pub fn open_whole(path: &Path) -> Result<Whole> {
 /// a raw file block by block and a large plain text file in pieces, with no size cap; anything
 /// else whole, at most [`MAX_RECORDING_BYTES`].
 pub fn load(path: &Path, opts: &LoadOptions) -> Result<Recording> {
-    if let Some(rec) = load_in_pieces(path, opts, |_| true)? {
-        return Ok(rec);
-    }
-    if let Some(format) = raw::stream::raw_file_format(path) {
-        // Read block by block into a recording allocated once (no size cap).
-        return raw::stream::load_raw(path, format, opts).map_err(|e| e.in_file(path));
-    }
-    match open_whole(path)? {
+    let whole = match open(path)? {
+        Opened::RawFile(format) => {
+            // Read block by block into a recording allocated once (no size cap).
+            return raw::stream::load_raw(path, format, opts).map_err(|e| e.in_file(path));
+        }
+        Opened::TextFile => match pieces(path, opts, |_| true)? {
+            Some(rec) => return Ok(rec),
+            None => read_whole(path)?,
+        },
+        Opened::Raw(raw) => Ok(*raw),
+        Opened::Text(text) => Err(text),
+    };
+    match whole {
         Ok(raw) => raw::to_recording(&raw, opts).map_err(|e| e.in_file(path)),
         Err(text) => parse(&text, opts).map_err(|e| e.in_file(path)),
     }
 }
 
 /// A large plain text file's recording read in pieces (`head_ok` asked about its first
-/// piece), `None` when the file is to be read whole.
+/// piece), `None` when the file is to be read whole. [`Opened::TextFile`] files only.
+fn pieces(
+    path: &Path,
+    opts: &LoadOptions,
+    head_ok: impl Fn(&str) -> bool,
+) -> Result<Option<Recording>> {
+    text_file::load_pieces(path, opts, head_ok).map_err(|e| e.in_file(path))
+}
+
+/// [`pieces`] when `path` is a large plain text file, else `None`.
 fn load_in_pieces(
     path: &Path,
     opts: &LoadOptions,
@@ -125,7 +139,7 @@ fn load_in_pieces(
     if !is_large_text_file(path) {
         return Ok(None);
     }
-    text_file::load_pieces(path, opts, head_ok).map_err(|e| e.in_file(path))
+    pieces(path, opts, head_ok)
 }
 
 /// An accelerometer and a gyroscope from one file, read once (`wiical gyrofit FILE`, so each
@@ -211,17 +225,17 @@ pub enum Input {
 pub fn load_input(path: &Path, opts: &WindowInputOptions) -> Result<Input> {
     // A window-mean table is small: only samples are read in pieces.
     let samples = |head: &str| !opts.force && matches!(parse_window_table(head, opts), Ok(None));
-    if let Some(rec) = load_in_pieces(path, &opts.load, samples)? {
-        return Ok(Input::Samples(rec));
-    }
     let whole = match open(path)? {
         Opened::RawFile(format) => {
             let table = raw::stream::raw_epoch_table(path, format, &opts.load, &Default::default());
             return table.map(Input::Table).map_err(|e| e.in_file(path));
         }
+        Opened::TextFile => match pieces(path, &opts.load, samples)? {
+            Some(rec) => return Ok(Input::Samples(rec)),
+            None => read_whole(path)?,
+        },
         Opened::Raw(raw) => Ok(*raw),
         Opened::Text(text) => Err(text),
-        Opened::TextFile => read_whole(path)?,
     };
     let parsed = match whole {
         Ok(raw) => raw_epochs(&raw, &opts.load),
