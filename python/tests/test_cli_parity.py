@@ -125,6 +125,39 @@ def test_gyrofit_equals_cli() -> None:
     assert got == cli_json("gyrofit", unit, "--counts-per-dps", "16.384")
 
 
+# The residual loop's keys (verdict, candidates with their detection limits, noise floors, the
+# motions' loop and the open bases), checked by name as well as by equality with the CLI.
+LOOP_KEYS = {"verdict", "reasons", "effects", "steps", "base", "final", "diagnostics"}
+
+
+def test_gyrofit_returns_the_loop_equal_to_the_cli() -> None:
+    acc, gyro = data("imu_tk_xsens", "xsens_acc.mat"), data("imu_tk_xsens", "xsens_gyro.mat")
+    got = wiical.gyrofit(acc, gyro)
+    cli = cli_json("gyrofit", acc, gyro)
+    assert LOOP_KEYS | {"quality", "noise_floor_deg", "noise_floor_rate_dps",
+                        "noise_floor_window_dps", "motion_loop", "open_basis"} <= set(got)
+    # Every candidate row carries its detection limit (null when accepted).
+    rows = [c for s in got["steps"] for c in s["candidates"]]
+    assert rows and all("detection_limit" in c for c in rows)
+    assert any(c["detection_limit"] is not None for c in rows)
+    motion = got["motion_loop"]
+    assert {"base", "effects", "final", "steps", "open_basis"} <= set(motion)
+    assert all("detection_limit" in c for s in motion["steps"] for c in s["candidates"])
+    assert got["effects"][0]["name"] == "g-sensitivity"
+    assert got == cli
+
+
+def test_magfit_returns_the_loop_equal_to_the_cli() -> None:
+    path = data("qmc5883l_mag_tomisuarez", "filtered_raw_data.csv")
+    got = wiical.magfit(path)
+    cli = cli_json("magfit", path)
+    assert LOOP_KEYS | {"noise_floor", "noise_floor_axes", "center", "matrix", "radius"} <= set(got)
+    assert got["verdict"] in ("good", "unexplained-residual", "not-usable")
+    rows = [c for s in got["steps"] for c in s["candidates"]]
+    assert rows and all("detection_limit" in c for c in rows)
+    assert got == cli
+
+
 @pytest.mark.parametrize("estimator", ["mean", "kalman"])
 def test_six_position_equals_cli(estimator: str) -> None:
     path = data("seed_six_position", "wiimote_M.csv")
