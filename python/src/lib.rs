@@ -589,10 +589,7 @@ fn read<'py>(
 
 /// The second pass of a raw file's read into vectors of `T` allocated at the plan's length
 /// (zeroed by the allocator: untouched pages cost nothing until written), filled with the
-/// GIL released, then taken over by numpy arrays without a copy. Allocated here rather than
-/// by numpy: numpy asks the kernel for huge pages for large arrays, whose first touch
-/// zeroes 2 MiB at a time and, on a machine with fragmented memory, waits for compaction
-/// (measured: 3–4 s of system time for 1 GB, against 0.7 s with ordinary pages).
+/// GIL released, then taken over by numpy arrays without a copy.
 fn fill_raw<'py, T: samples::Real + numpy::Element + Default>(
     py: Python<'py>,
     plan: &samples::RawPlan,
