@@ -5,9 +5,9 @@
 //! order on one core.
 //!
 //! Two passes, as [`super::stream`]: the first ([`plan`]) checks every block and keeps, per
-//! block whose samples are kept, its index in the file, its times' span and the row its
-//! first sample goes to, so that the output's length is known; the caller allocates the
-//! arrays (numpy's, in the Python package: no copy afterwards), and the second
+//! block whose samples are kept, its index in the file and its times' span, so that the
+//! output's length and each block's rows are known; the caller allocates the arrays (the
+//! Python package: vectors that numpy then takes over without a copy), and the second
 //! ([`RawPlan::fill`]) decodes the blocks again, each into its own rows, on all cores. A
 //! `.cwa` block's first pass only checks it (checksum and fields), its samples are decoded
 //! once, straight into the output. The samples, times, temperatures and notes are the ones
@@ -17,8 +17,8 @@
 //! a 10-bit one shifted by at most 3, times a power of two for the accelerometer; the
 //! gyroscope's `count / 32768 · 8000 / 2ⁿ` is `count · 125 / 2^(9+n)`, 23 bits of
 //! significand; a magnetometer's raw count), and so is its block temperature
-//! (`(v·75 − 12800) / 256`, 17 bits). A `.bin` value (`(count·100 − offset) / gain`) and its
-//! page temperature are rounded to f32's 24 bits (7 significant digits). Times are f64:
+//! (`(v·75 − 12800) / 256`, 17 bits). A `.bin` value (a 12-bit count calibrated by the
+//! header's gain and offset) and its page temperature are rounded to f32's 24 bits (7 significant digits). Times are f64:
 //! seconds since 1970 need its 53 bits to resolve a millisecond.
 
 use super::cwa::{self, Checked, Head, BLOCK_BYTES};
