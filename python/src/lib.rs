@@ -22,6 +22,8 @@ use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
 use wiical_analysis::arrays::ArrayError;
 use wiical_analysis::input::front_door::{load_input, Input};
+use wiical_analysis::input::raw::samples;
+use wiical_analysis::input::raw::stream::raw_file_format;
 use wiical_analysis::input::window_means::WindowInputOptions;
 use wiical_analysis::{
     input::columns::Sensor, AnalyzeOptions, Candidate, DetectOptions, FitOptions, LoadOptions,
@@ -496,7 +498,7 @@ fn gyrofit(
 type ReadResult<'py> = (
     Bound<'py, PyAny>,
     Option<Bound<'py, PyArray1<f64>>>,
-    Option<Bound<'py, PyArray1<f64>>>,
+    Option<Bound<'py, PyAny>>,
     String,
 );
 
@@ -512,21 +514,50 @@ fn sensor_of(sensor: Option<&str>) -> PyResult<Option<Sensor>> {
     }
 }
 
-/// Reads any recording the CLI reads: `(xyz, t or None, temp or None, metadata JSON)`. The
-/// arrays take over the loader's vectors (no copy): the rows of `[f64; 3]` are reinterpreted
-/// as 3n values (`bytemuck`: same alignment, same bytes) and shaped n × 3 in place.
+/// Reads any recording the CLI reads: `(xyz, t or None, temp or None, metadata JSON)`, the
+/// values and temperatures as `dtype` (`"float64"` or `"float32"`), the times (float64)
+/// only when `times` is true. A raw file (`.cwa`, `.bin`) is planned in a first pass and
+/// written in a second straight into vectors allocated at their final length, its blocks
+/// decoded on all cores ([`samples`]), which the arrays then take over. Any other file is the loader's recording, whose vectors the float64
+/// arrays take over without a copy (the rows of `[f64; 3]` reinterpreted as 3n values,
+/// `bytemuck`: same alignment, same bytes); as float32 they are cast, one copy.
 #[pyfunction]
-#[pyo3(signature = (path, columns=None, sensor=None, progress=None))]
+#[pyo3(signature = (path, columns=None, sensor=None, progress=None, dtype="float64", times=true))]
 fn read<'py>(
     py: Python<'py>,
     path: PathBuf,
     columns: Option<Vec<String>>,
     sensor: Option<&str>,
     progress: Option<Py<PyAny>>,
+    dtype: &str,
+    times: bool,
 ) -> PyResult<ReadResult<'py>> {
     let opts = load_options(columns, sensor_of(sensor)?)?;
+    let single = match dtype {
+        "float64" => false,
+        "float32" => true,
+        other => {
+            return Err(arg_err(format!(
+                "dtype '{other}': expected \"float64\" or \"float32\""
+            )))
+        }
+    };
     let progress = Reporter::new(progress);
     progress.report("reading", 0, 0);
+    if let Some(format) = raw_file_format(&path) {
+        let plan = py
+            .detach(|| samples::plan(&path, format, &opts))
+            .map_err(|e| py_err(e.in_file(&path)))?;
+        let n = plan.rows();
+        let out = if single {
+            fill_raw::<f32>(py, &plan, &path, times)?
+        } else {
+            fill_raw::<f64>(py, &plan, &path, times)?
+        };
+        progress.report("reading", n, n);
+        progress.finish()?;
+        return Ok(out);
+    }
     let rec = py
         .detach(|| wiical_analysis::load(&path, &opts))
         .map_err(py_err)?;
@@ -542,11 +573,51 @@ fn read<'py>(
     });
     let n = rec.xyz.len();
     let flat: Vec<f64> = bytemuck::allocation::cast_vec(rec.xyz);
-    let xyz = PyArray1::from_vec(py, flat).reshape([n, 3])?.into_any();
+    let (xyz, temp) = if single {
+        let xyz = PyArray1::from_iter(py, flat.iter().map(|&v| v as f32));
+        let temp = rec
+            .temp
+            .map(|t| PyArray1::from_iter(py, t.iter().map(|&v| v as f32)).into_any());
+        (xyz.reshape([n, 3])?.into_any(), temp)
+    } else {
+        let xyz = PyArray1::from_vec(py, flat).reshape([n, 3])?.into_any();
+        (xyz, rec.temp.map(|t| PyArray1::from_vec(py, t).into_any()))
+    };
+    let t = rec.t.filter(|_| times).map(|t| PyArray1::from_vec(py, t));
+    Ok((xyz, t, temp, meta.to_string()))
+}
+
+/// The second pass of a raw file's read into vectors of `T` allocated at the plan's length
+/// (zeroed by the allocator: untouched pages cost nothing until written), filled with the
+/// GIL released, then taken over by numpy arrays without a copy.
+fn fill_raw<'py, T: samples::Real + numpy::Element + Default>(
+    py: Python<'py>,
+    plan: &samples::RawPlan,
+    path: &std::path::Path,
+    times: bool,
+) -> PyResult<ReadResult<'py>> {
+    let n = plan.rows();
+    let (xyz, temp, t, meta) = py
+        .detach(|| {
+            let mut xyz = vec![T::default(); 3 * n];
+            let mut temp = vec![T::default(); n];
+            let mut t = times.then(|| vec![0.0; n]);
+            let meta = plan.fill(&mut xyz, &mut temp, t.as_deref_mut())?;
+            Ok::<_, wiical_analysis::Error>((xyz, temp, t, meta))
+        })
+        .map_err(|e| py_err(e.in_file(path)))?;
+    let meta = serde_json::json!({
+        "columns": meta.columns,
+        "sample_rate_hz": meta.rate_hz,
+        "labels": Option::<Vec<String>>::None,
+        "notes": meta.notes,
+        "info": [meta.info],
+        "skipped_empty_rows": 0,
+    });
     Ok((
-        xyz,
-        rec.t.map(|t| PyArray1::from_vec(py, t)),
-        rec.temp.map(|t| PyArray1::from_vec(py, t)),
+        PyArray1::from_vec(py, xyz).reshape([n, 3])?.into_any(),
+        t.map(|t| PyArray1::from_vec(py, t)),
+        Some(PyArray1::from_vec(py, temp).into_any()),
         meta.to_string(),
     ))
 }

@@ -373,9 +373,10 @@ def correct(
 
 
 class Recording(dict):
-    """What :func:`read` returns: ``xyz`` (n × 3 float64), ``t`` and ``temp`` (n, or None),
-    and the loader's metadata (``columns``, ``sample_rate_hz``, ``labels``, ``notes``,
-    ``info``, ``skipped_empty_rows``). A dict, so ``rec["xyz"]`` and ``rec.xyz`` both work."""
+    """What :func:`read` returns: ``xyz`` (n × 3, float64 or the ``dtype`` asked for), ``t``
+    (n float64 seconds, or None) and ``temp`` (n °C, as ``xyz``, or None), and the loader's
+    metadata (``columns``, ``sample_rate_hz``, ``labels``, ``notes``, ``info``,
+    ``skipped_empty_rows``). A dict, so ``rec["xyz"]`` and ``rec.xyz`` both work."""
 
     def __getattr__(self, name: str) -> _t.Any:
         try:
@@ -390,12 +391,28 @@ def read(
     columns: _t.Optional[_t.Sequence[str]] = None,
     sensor: _t.Optional[str] = None,
     progress: _Progress = None,
+    dtype: str = "float64",
+    times: bool = True,
 ) -> Recording:
-    """Reads any recording the command line reads, as numpy arrays (made from the engine's
-    own buffers, not copied). ``sensor`` picks the triplet from a header naming several
-    ("accelerometer", "gyroscope", "magnetometer")."""
+    """Reads any recording the command line reads, as numpy arrays (filled or taken over by
+    the engine, not copied). ``sensor`` picks the triplet from a header naming several
+    ("accelerometer", "gyroscope", "magnetometer").
+
+    ``dtype="float32"`` returns ``xyz`` and ``temp`` as float32, half the memory: a raw
+    ``.cwa`` file's values and temperatures are exact in float32 (counts times powers of two),
+    a ``.bin`` file's and a text file's are rounded to 7 significant digits (a text file's
+    after parsing, one copy). ``t`` is always float64 (seconds since 1970 need its precision);
+    ``times=False`` leaves it out (``t`` is None; the notes and ``sample_rate_hz`` are the
+    same)."""
+    if dtype not in ("float64", "float32"):
+        raise ValueError(f"dtype must be 'float64' or 'float32', got {dtype!r}")
     xyz, t, temp, meta = _wiical.read(
-        _path(path, "path"), _names(columns, "columns", _COLUMNS), sensor, _progress(progress)
+        _path(path, "path"),
+        _names(columns, "columns", _COLUMNS),
+        sensor,
+        _progress(progress),
+        dtype,
+        bool(times),
     )
     rec = Recording(_json.loads(meta))
     rec["xyz"] = xyz

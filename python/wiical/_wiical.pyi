@@ -64,4 +64,6 @@ def read(
     columns: Optional[List[str]] = None,
     sensor: Optional[str] = None,
     progress: _Progress = None,
+    dtype: str = "float64",
+    times: bool = True,
 ) -> Tuple[np.ndarray, Optional[np.ndarray], Optional[np.ndarray], str]: ...

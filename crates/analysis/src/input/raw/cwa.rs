@@ -171,6 +171,30 @@ impl BlockReader {
         Ok(got == self.buf.len())
     }
 
+    /// The next chunk's whole blocks as read, given to `each` with the index of the first and
+    /// the channel layout (fixed by the first good block); the index of the chunk's first
+    /// block and whether more follow.
+    pub(crate) fn next_bytes(
+        &mut self,
+        each: impl FnOnce(usize, &[u8], &mut Option<(u8, bool)>),
+    ) -> crate::error::Result<(usize, bool)> {
+        let got = fill(&mut self.file, &mut self.buf).map_err(|source| InputError::Read {
+            path: self.path.clone(),
+            source,
+        })?;
+        let first = self.index;
+        let whole = got - got % BLOCK_BYTES;
+        each(first, &self.buf[..whole], &mut self.layout);
+        self.index += got / BLOCK_BYTES;
+        self.rest = got % BLOCK_BYTES;
+        Ok((first, got == self.buf.len()))
+    }
+
+    /// The channel layout (channels, packed) of the first good block, once read.
+    pub(crate) fn layout(&self) -> Option<(u8, bool)> {
+        self.layout
+    }
+
     /// The channel names (known once the first block is decoded).
     pub fn channels(&self) -> Vec<String> {
         channel_names(self.layout)
@@ -197,21 +221,33 @@ fn fill(file: &mut impl std::io::Read, buf: &mut [u8]) -> std::io::Result<usize>
 }
 
 /// Decodes the whole blocks of `bytes` (the first at position `first` in the file) onto `out`
-/// as [`decode_block`] one after the other would, on all cores: the blocks up to the one
-/// that fixes `layout` (the first good block) one by one, the rest in parallel (each then
-/// only compares its layout with the fixed one).
+/// as [`decode_block`] one after the other would, on all cores (see [`each_block`]).
 fn decode_blocks(
     bytes: &[u8],
     first: usize,
     layout: &mut Option<(u8, bool)>,
     out: &mut Vec<Block>,
 ) {
+    each_block(bytes, first, layout, out, decode_block);
+}
+
+/// `each` of every whole block of `bytes` (the first at position `first` in the file) onto
+/// `out` in file order, as calling it on one block after the other would give, on all cores:
+/// the blocks up to the one that fixes `layout` (the first good block) one by one, the rest
+/// in parallel (each then only compares its layout with the fixed one).
+pub(crate) fn each_block<R: Send>(
+    bytes: &[u8],
+    first: usize,
+    layout: &mut Option<(u8, bool)>,
+    out: &mut Vec<R>,
+    each: impl Fn(&[u8], usize, &mut Option<(u8, bool)>) -> R + Sync,
+) {
     use rayon::prelude::*;
     let n = bytes.len() / BLOCK_BYTES;
     let mut k = 0;
     while layout.is_none() && k < n {
         let block = &bytes[k * BLOCK_BYTES..(k + 1) * BLOCK_BYTES];
-        out.push(decode_block(block, first + k, layout));
+        out.push(each(block, first + k, layout));
         k += 1;
     }
     let fixed = *layout;
@@ -219,7 +255,7 @@ fn decode_blocks(
         bytes[k * BLOCK_BYTES..n * BLOCK_BYTES]
             .par_chunks_exact(BLOCK_BYTES)
             .enumerate()
-            .map(|(j, block)| decode_block(block, first + k + j, &mut { fixed })),
+            .map(|(j, block)| each(block, first + k + j, &mut { fixed })),
     );
 }
 
@@ -233,13 +269,33 @@ pub fn checksum_ok(block: &[u8]) -> bool {
 /// Decodes one 512-byte block. `layout` is the first good block's channel count and packing;
 /// a later block with another layout is invalid (its samples would not line up).
 fn decode_block(b: &[u8], index: usize, layout: &mut Option<(u8, bool)>) -> Block {
+    match head_block(b, layout) {
+        Checked::Good(h) => Block::Good(h.decode(b, index)),
+        Checked::Corrupt => Block::Corrupt,
+        Checked::Invalid(why) => Block::Invalid(why),
+    }
+}
+
+/// A block checked as [`decode_block`] checks it, its samples not yet decoded.
+#[derive(Debug, Clone)]
+pub(crate) enum Checked {
+    /// Readable: its fields.
+    Good(Head),
+    /// Its checksum fails.
+    Corrupt,
+    /// A field is impossible: the reason.
+    Invalid(String),
+}
+
+/// Checks one 512-byte block (checksum, then fields) as [`decode_block`] does.
+pub(crate) fn head_block(b: &[u8], layout: &mut Option<(u8, bool)>) -> Checked {
     let rate_code = b[24];
     if rate_code != 0 && !checksum_ok(b) {
-        return Block::Corrupt;
+        return Checked::Corrupt;
     }
-    match decode_fields(b, index, layout) {
-        Ok(g) => Block::Good(g),
-        Err(why) => Block::Invalid(why),
+    match Head::of(b, layout) {
+        Ok(h) => Checked::Good(h),
+        Err(why) => Checked::Invalid(why),
     }
 }
 
@@ -273,74 +329,162 @@ fn start_time(b: &[u8], rate_hz: f64) -> std::result::Result<f64, String> {
     Ok(whole + fraction - shift / rate_hz)
 }
 
-fn decode_fields(
-    b: &[u8],
-    index: usize,
-    layout: &mut Option<(u8, bool)>,
-) -> std::result::Result<GoodBlock, String> {
-    if &b[..2] != b"AX" || u16_at(b, 2) != 508 {
-        return Err("not an 'AX' data block of 512 bytes".into());
+/// The fields of a readable data block: what decoding its samples needs, and its time.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Head {
+    /// Sample rate, Hz.
+    pub rate_hz: f64,
+    /// Channels per sample (3, 6 or 9).
+    pub channels: u8,
+    /// Three 10-bit values and an exponent in a `u32` (else one `i16` per channel).
+    pub packed: bool,
+    /// Samples in the block.
+    pub n: usize,
+    /// g per count of the accelerometer (`2^-(8+n)`).
+    pub accel_scale: f64,
+    /// The gyroscope's full range, °/s (`8000 / 2ⁿ`).
+    pub gyro_range: f64,
+    /// Time of the first sample, device-clock seconds.
+    pub start_s: f64,
+    /// Word 18: light (low 10 bits) and the range codes.
+    word18: u16,
+}
+
+impl Head {
+    /// The fields of block `b`, checked in the order [`decode_block`] always has (the layout
+    /// is fixed by the first block that gets that far, even if its timestamp is impossible).
+    fn of(b: &[u8], layout: &mut Option<(u8, bool)>) -> std::result::Result<Self, String> {
+        if &b[..2] != b"AX" || u16_at(b, 2) != 508 {
+            return Err("not an 'AX' data block of 512 bytes".into());
+        }
+        let rate_hz = if b[24] == 0 {
+            f64::from(u16_at(b, 26))
+        } else {
+            rate_of_code(b[24])
+        };
+        if !(rate_hz > 0.0) {
+            return Err("sample rate 0".into());
+        }
+        let channels = b[25] >> 4;
+        let packed = b[25] & 0x0f == 0;
+        let per_sample = match (channels, packed) {
+            (3, true) => 4,
+            (3 | 6 | 9, false) if b[25] & 0x0f == 2 => 2 * channels as usize,
+            _ => return Err(format!("unknown channel layout 0x{:02x}", b[25])),
+        };
+        if *layout.get_or_insert((channels, packed)) != (channels, packed) {
+            return Err("channel layout differs from the first block's".into());
+        }
+        let n = usize::from(u16_at(b, 28));
+        if n * per_sample > DATA_BYTES {
+            return Err(format!(
+                "{n} samples overrun the block's {DATA_BYTES} data bytes"
+            ));
+        }
+        let word18 = u16_at(b, 18);
+        Ok(Self {
+            rate_hz,
+            channels,
+            packed,
+            n,
+            accel_scale: 1.0 / f64::from(1u32 << (8 + (word18 >> 13))),
+            gyro_range: 8000.0 / f64::from(1u32 << ((word18 >> 10) & 7)),
+            start_s: start_time(b, rate_hz)?,
+            word18,
+        })
     }
-    let rate_hz = if b[24] == 0 {
-        f64::from(u16_at(b, 26))
-    } else {
-        rate_of_code(b[24])
-    };
-    if !(rate_hz > 0.0) {
-        return Err("sample rate 0".into());
+
+    /// Value `v` (as stored) of channel `c` in the unit of its sensor: g for the
+    /// accelerometer, °/s for the gyroscope, counts for a magnetometer.
+    fn scaled(&self, c: usize, v: f64) -> f64 {
+        match (self.channels, c) {
+            (3, _) | (_, 3..=5) => v * self.accel_scale,
+            (_, 0..=2) => v / 32768.0 * self.gyro_range,
+            _ => v, // magnetometer: raw counts
+        }
     }
-    let channels = b[25] >> 4;
-    let packed = b[25] & 0x0f == 0;
-    let per_sample = match (channels, packed) {
-        (3, true) => 4,
-        (3 | 6 | 9, false) if b[25] & 0x0f == 2 => 2 * channels as usize,
-        _ => return Err(format!("unknown channel layout 0x{:02x}", b[25])),
-    };
-    if *layout.get_or_insert((channels, packed)) != (channels, packed) {
-        return Err("channel layout differs from the first block's".into());
-    }
-    let n = usize::from(u16_at(b, 28));
-    if n * per_sample > DATA_BYTES {
-        return Err(format!(
-            "{n} samples overrun the block's {DATA_BYTES} data bytes"
-        ));
-    }
-    let word18 = u16_at(b, 18);
-    let accel_scale = 1.0 / f64::from(1u32 << (8 + (word18 >> 13)));
-    let gyro_range = 8000.0 / f64::from(1u32 << ((word18 >> 10) & 7));
-    let samples = &b[30..30 + n * per_sample];
-    let mut data = Vec::with_capacity(n * channels as usize);
-    if packed {
-        for w in samples.chunks_exact(4) {
-            let v = u32::from_le_bytes([w[0], w[1], w[2], w[3]]);
-            let e = v >> 30;
-            for k in 0..3 {
-                // 10-bit two's complement, then shifted left by the shared exponent.
-                let raw = (((v >> (10 * k)) & 0x3ff) as i32) << 22 >> 22;
-                data.push(f64::from(raw << e) * accel_scale);
+
+    /// Channels `cols` of every sample of block `b` (whose head this is) into `out`, three
+    /// values a sample (`out` holds `3·n`), each as [`Head::decode`] gives it, then cast.
+    pub fn samples_into<T: Copy>(
+        &self,
+        b: &[u8],
+        cols: [usize; 3],
+        cast: impl Fn(f64) -> T,
+        out: &mut [T],
+    ) {
+        let nch = usize::from(self.channels);
+        if self.packed {
+            for (w, row) in b[30..30 + 4 * self.n]
+                .chunks_exact(4)
+                .zip(out.chunks_exact_mut(3))
+            {
+                let v = u32_at(w, 0);
+                let e = v >> 30;
+                for (o, &c) in row.iter_mut().zip(&cols) {
+                    let raw = (((v >> (10 * c)) & 0x3ff) as i32) << 22 >> 22;
+                    *o = cast(f64::from(raw << e) * self.accel_scale);
+                }
+            }
+        } else {
+            let scale = cols.map(|c| self.scaled(c, 1.0));
+            let direct = cols.map(|c| matches!((self.channels, c), (3, _) | (_, 3..=5)));
+            for (s, row) in b[30..30 + 2 * nch * self.n]
+                .chunks_exact(2 * nch)
+                .zip(out.chunks_exact_mut(3))
+            {
+                for k in 0..3 {
+                    let c = cols[k];
+                    let v = f64::from(i16::from_le_bytes([s[2 * c], s[2 * c + 1]]));
+                    row[k] = cast(if direct[k] {
+                        v * scale[k]
+                    } else {
+                        self.scaled(c, v)
+                    });
+                }
             }
         }
-    } else {
-        for (i, w) in samples.chunks_exact(2).enumerate() {
-            let v = f64::from(i16::from_le_bytes([w[0], w[1]]));
-            data.push(match (channels, i % channels as usize) {
-                (3, _) | (_, 3..=5) => v * accel_scale,
-                (_, 0..=2) => v / 32768.0 * gyro_range,
-                _ => v, // magnetometer: raw counts
-            });
+    }
+
+    /// Sensor temperature, °C (`v·75/256 − 50` of the low 10 bits of word 20).
+    pub fn temp_c(b: &[u8]) -> f64 {
+        f64::from(u16_at(b, 20) & 0x3ff) * 75.0 / 256.0 - 50.0
+    }
+
+    /// The decoded block: every channel of every sample.
+    fn decode(&self, b: &[u8], index: usize) -> GoodBlock {
+        let nch = usize::from(self.channels);
+        let per_sample = if self.packed { 4 } else { 2 * nch };
+        let samples = &b[30..30 + self.n * per_sample];
+        let mut data = Vec::with_capacity(self.n * nch);
+        if self.packed {
+            for w in samples.chunks_exact(4) {
+                let v = u32_at(w, 0);
+                let e = v >> 30;
+                for k in 0..3 {
+                    // 10-bit two's complement, then shifted left by the shared exponent.
+                    let raw = (((v >> (10 * k)) & 0x3ff) as i32) << 22 >> 22;
+                    data.push(f64::from(raw << e) * self.accel_scale);
+                }
+            }
+        } else {
+            for (i, w) in samples.chunks_exact(2).enumerate() {
+                let v = f64::from(i16::from_le_bytes([w[0], w[1]]));
+                data.push(self.scaled(i % nch, v));
+            }
+        }
+        GoodBlock {
+            index,
+            sequence: u32_at(b, 10),
+            start_s: self.start_s,
+            rate_hz: self.rate_hz,
+            temp_c: Self::temp_c(b),
+            battery_v: 3.0 * (f64::from(b[23]) / 256.0 + 1.0),
+            light: f64::from(self.word18 & 0x3ff),
+            data,
+            light_per_sample: None,
         }
     }
-    Ok(GoodBlock {
-        index,
-        sequence: u32_at(b, 10),
-        start_s: start_time(b, rate_hz)?,
-        rate_hz,
-        temp_c: f64::from(u16_at(b, 20) & 0x3ff) * 75.0 / 256.0 - 50.0,
-        battery_v: 3.0 * (f64::from(b[23]) / 256.0 + 1.0),
-        light: f64::from(word18 & 0x3ff),
-        data,
-        light_per_sample: None,
-    })
 }
 
 #[cfg(test)]

@@ -25,6 +25,7 @@ pub mod cwa;
 pub mod epochs;
 pub mod geneactiv;
 pub mod ggir;
+pub mod samples;
 pub mod stream;
 
 pub use block::{Block, GoodBlock, RawFile, RawFormat};
@@ -159,24 +160,36 @@ pub struct Tally {
 impl Tally {
     /// Counts block `b`, the next in file order, of a file whose samples have `channels` values.
     pub fn push(&mut self, b: &Block, channels: usize) {
-        let index = self.blocks;
-        self.blocks += 1;
         match b {
-            Block::Good(g) => self.empty += usize::from(g.len(channels) == 0),
+            Block::Good(g) => self.push_good(g.len(channels)),
             Block::Corrupt => {
+                let index = self.blocks;
+                self.blocks += 1;
                 self.corrupt += 1;
                 if self.corrupt_first.len() < LISTED_BLOCKS {
                     self.corrupt_first.push(index);
                 }
             }
-            Block::Invalid(why) => {
-                self.invalid += 1;
-                if self.invalid_first.len() < LISTED_BLOCKS {
-                    self.invalid_first.push(index);
-                }
-                self.first_invalid_why.get_or_insert_with(|| why.clone());
-            }
+            Block::Invalid(why) => self.push_invalid(why),
         }
+    }
+
+    /// Counts the next block, decoded with `samples` samples.
+    pub fn push_good(&mut self, samples: usize) {
+        self.blocks += 1;
+        self.empty += usize::from(samples == 0);
+    }
+
+    /// Counts the next block, skipped for an impossible field (`why`).
+    pub fn push_invalid(&mut self, why: &str) {
+        let index = self.blocks;
+        self.blocks += 1;
+        self.invalid += 1;
+        if self.invalid_first.len() < LISTED_BLOCKS {
+            self.invalid_first.push(index);
+        }
+        self.first_invalid_why
+            .get_or_insert_with(|| why.to_string());
     }
 
     /// The counts of a file read whole.

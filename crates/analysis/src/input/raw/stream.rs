@@ -59,20 +59,20 @@ pub fn raw_file_format(path: &Path) -> Option<RawFormat> {
 }
 
 /// A raw file's blocks a chunk at a time, whatever its format.
-enum Reader {
+pub(super) enum Reader {
     Cwa(BlockReader),
     Bin(Box<PageReader<std::io::BufReader<std::fs::File>>>),
 }
 
 impl Reader {
-    fn open(path: &Path, format: RawFormat) -> Result<Self> {
+    pub(super) fn open(path: &Path, format: RawFormat) -> Result<Self> {
         Ok(match format {
             RawFormat::Cwa => Self::Cwa(BlockReader::open(path)?),
             RawFormat::GeneActiv => Self::Bin(Box::new(PageReader::open(path)?)),
         })
     }
 
-    fn next_chunk(&mut self, out: &mut Vec<Block>) -> Result<bool> {
+    pub(super) fn next_chunk(&mut self, out: &mut Vec<Block>) -> Result<bool> {
         match self {
             Self::Cwa(r) => r.next_chunk(out),
             Self::Bin(r) => r.next_chunk(out),
@@ -80,28 +80,28 @@ impl Reader {
     }
 
     /// The channel names (a `.cwa` file's are known once its first block is decoded).
-    fn channels(&self) -> Vec<String> {
+    pub(super) fn channels(&self) -> Vec<String> {
         match self {
             Self::Cwa(r) => r.channels(),
             Self::Bin(_) => geneactiv::CHANNELS.iter().map(|s| s.to_string()).collect(),
         }
     }
 
-    fn notes(&self) -> Vec<String> {
+    pub(super) fn notes(&self) -> Vec<String> {
         match self {
             Self::Cwa(r) => r.notes(),
             Self::Bin(r) => r.notes(),
         }
     }
 
-    fn device(&self) -> String {
+    pub(super) fn device(&self) -> String {
         match self {
             Self::Cwa(r) => r.header.device.to_string(),
             Self::Bin(r) => r.device(),
         }
     }
 
-    fn header_rate_hz(&self) -> f64 {
+    pub(super) fn header_rate_hz(&self) -> f64 {
         match self {
             Self::Cwa(r) => r.header.rate_hz,
             Self::Bin(r) => r.header_rate_hz(),
@@ -109,7 +109,7 @@ impl Reader {
     }
 
     /// Every chunk of blocks in file order through `each`.
-    fn for_each_chunk(&mut self, mut each: impl FnMut(&Self, &[Block])) -> Result<()> {
+    pub(super) fn for_each_chunk(&mut self, mut each: impl FnMut(&Self, &[Block])) -> Result<()> {
         let mut chunk = Vec::new();
         loop {
             let more = self.next_chunk(&mut chunk)?;

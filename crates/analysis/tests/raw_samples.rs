@@ -1,0 +1,213 @@
+//! Every sample of a raw file written into caller-allocated arrays (`input::raw::samples`)
+//! against the whole-file path (`raw::read` + `to_recording`, f64 rows pushed in order): the
+//! same samples, times, temperatures, notes and rate, on every raw file of the shared data
+//! and on a `.cwa` written here that spans two read chunks with a corrupt, an unreadable and
+//! a clock-step-back block and a cut-off tail. As f64 the values are bit for bit the
+//! whole-file path's; as f32 they are its values rounded, and for a `.cwa` exactly them (the
+//! counts times powers of two fit f32's 24 bits).
+
+mod common;
+
+use std::path::{Path, PathBuf};
+use wiical_analysis::input::columns::LoadOptions;
+use wiical_analysis::input::raw::samples::{self, RawMeta, Real};
+use wiical_analysis::input::raw::{self, cwa, stream, RawFormat};
+use wiical_analysis::Recording;
+
+/// The whole-file path's recording of `path`.
+fn whole(path: &Path, opts: &LoadOptions) -> Recording {
+    raw::to_recording(&raw::read(path).unwrap(), opts).unwrap()
+}
+
+/// `(xyz, temp, t, meta)` through the plan and the fill, times asked for or not.
+fn filled<T: Real + Default>(
+    path: &Path,
+    opts: &LoadOptions,
+    with_t: bool,
+) -> (Vec<T>, Vec<T>, Vec<f64>, RawMeta) {
+    let format = stream::raw_file_format(path).expect("a raw file");
+    let plan = samples::plan(path, format, opts).unwrap();
+    let n = plan.rows();
+    let (mut xyz, mut temp) = (vec![T::default(); 3 * n], vec![T::default(); n]);
+    let mut t = vec![0.0; if with_t { n } else { 0 }];
+    let meta = plan
+        .fill(&mut xyz, &mut temp, with_t.then_some(&mut t[..]))
+        .unwrap();
+    (xyz, temp, t, meta)
+}
+
+/// The f64 fill is the recording bit for bit, the f32 fill its values rounded (and for a
+/// `.cwa` unchanged by the rounding), with or without the times.
+fn assert_same(path: &Path, opts: &LoadOptions) {
+    let rec = whole(path, opts);
+    let name = path.display();
+    let (xyz, temp, t, meta) = filled::<f64>(path, opts, true);
+    let flat: Vec<f64> = rec.xyz.iter().flatten().copied().collect();
+    assert!(xyz == flat, "{name}: values differ");
+    assert!(
+        Some(&temp) == rec.temp.as_ref(),
+        "{name}: temperatures differ"
+    );
+    assert!(Some(&t) == rec.t.as_ref(), "{name}: times differ");
+    assert_eq!(meta.columns, rec.axis_columns, "{name}");
+    assert_eq!(meta.notes, rec.notes, "{name}");
+    assert_eq!(Some(&meta.info), rec.info.first(), "{name}");
+    assert_eq!(meta.rate_hz, rec.estimated_rate_hz(), "{name}");
+    let (xyz32, temp32, no_t, meta32) = filled::<f32>(path, opts, false);
+    assert!(no_t.is_empty());
+    assert_eq!(
+        meta32, meta,
+        "{name}: the description needs no stored times"
+    );
+    let cast: Vec<f32> = flat.iter().map(|&v| v as f32).collect();
+    assert!(xyz32 == cast, "{name}: f32 values differ");
+    let temp_cast: Vec<f32> = temp.iter().map(|&v| v as f32).collect();
+    assert!(temp32 == temp_cast, "{name}: f32 temperatures differ");
+    if stream::raw_file_format(path) == Some(RawFormat::Cwa) {
+        let back: Vec<f64> = xyz32.iter().map(|&v| f64::from(v)).collect();
+        assert!(back == flat, "{name}: a .cwa value is not exact in f32");
+        assert!(temp32
+            .iter()
+            .map(|&v| f64::from(v))
+            .eq(temp.iter().copied()));
+    }
+}
+
+/// Every raw file of GGIRread's test set (packed AX3, one with six corrupt blocks, AX6 with
+/// its gyroscope, GENEActiv), accelerometer and (AX6) gyroscope.
+#[test]
+fn real_raw_files_fill_as_they_read_whole() {
+    let dir = common::data_dir().join("ggirread_testfiles");
+    let mut seen = 0;
+    for entry in std::fs::read_dir(&dir).unwrap() {
+        let path = entry.unwrap().path();
+        if stream::raw_file_format(&path).is_none() {
+            continue;
+        }
+        assert_same(&path, &LoadOptions::default());
+        if path.to_string_lossy().contains("ax6") {
+            let gyro = LoadOptions {
+                columns: Some(["gx", "gy", "gz"].map(String::from)),
+                ..Default::default()
+            };
+            assert_same(&path, &gyro);
+        }
+        seen += 1;
+    }
+    assert_eq!(
+        seen,
+        4,
+        "GGIRread's 3 .cwa and 1 .bin files in {}",
+        dir.display()
+    );
+}
+
+fn scratch(name: &str, bytes: &[u8]) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("wiical-raw-samples-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join(name);
+    std::fs::write(&path, bytes).unwrap();
+    path
+}
+
+/// A block with its checksum word set so that the 256 words sum to 0.
+fn seal(mut b: Vec<u8>) -> Vec<u8> {
+    b[510..512].fill(0);
+    let s = b.chunks_exact(2).fold(0u16, |s, w| {
+        s.wrapping_add(u16::from_le_bytes([w[0], w[1]]))
+    });
+    b[510..512].copy_from_slice(&0u16.wrapping_sub(s).to_le_bytes());
+    b
+}
+
+/// An unpacked AX3 block `i` (80 samples at 100 Hz, 256 counts/g) starting `secs` after
+/// 2024-01-02 00:00:00, its values a function of `i` and the sample.
+fn block(i: usize, secs: f64) -> Vec<u8> {
+    let mut b = vec![0u8; 512];
+    b[..2].copy_from_slice(b"AX");
+    b[2..4].copy_from_slice(&508u16.to_le_bytes());
+    b[10..14].copy_from_slice(&(i as u32).to_le_bytes());
+    let whole = secs.floor() as u32;
+    let ts: u32 = (24 << 26)
+        | (1 << 22)
+        | (2 << 17)
+        | ((whole / 3600) << 12)
+        | ((whole / 60 % 60) << 6)
+        | (whole % 60);
+    b[14..18].copy_from_slice(&ts.to_le_bytes());
+    b[20..22].copy_from_slice(&(200 + (i % 300) as u16).to_le_bytes());
+    b[24] = 0x4a;
+    b[25] = 0x32;
+    // The timestamp belongs to the sample that starts its second.
+    let before = ((secs - secs.floor()) * 100.0).round() as i16;
+    b[26..28].copy_from_slice(&(-before).to_le_bytes());
+    b[28..30].copy_from_slice(&80u16.to_le_bytes());
+    for s in 0..80 {
+        for k in 0..3 {
+            let v = ((i * 7 + s * 13 + k * 101) % 1024) as i16 - 512;
+            let at = 30 + 6 * s + 2 * k;
+            b[at..at + 2].copy_from_slice(&v.to_le_bytes());
+        }
+    }
+    seal(b)
+}
+
+/// A `.cwa` of more than one read chunk: block 8195 corrupt, 8200 of an unknown channel
+/// layout, 8300 stamped 10 s before its predecessor (left out), a cut-off tail.
+fn long_cwa() -> Vec<u8> {
+    let mut f = vec![0u8; 1024];
+    f[..2].copy_from_slice(b"MD");
+    f[2..4].copy_from_slice(&1020u16.to_le_bytes());
+    f[36] = 0x4a;
+    let blocks = cwa::CHUNK_BLOCKS + 500;
+    for i in 0..blocks {
+        let secs = i as f64 * 0.8 - if i == 8300 { 10.0 } else { 0.0 };
+        let mut b = block(i, secs);
+        if i == 8195 {
+            b[100] ^= 1;
+        }
+        if i == 8200 {
+            b[25] = 0x52;
+            b = seal(b);
+        }
+        f.extend(b);
+    }
+    f.extend([0u8; 100]);
+    f
+}
+
+#[test]
+fn a_long_written_cwa_fills_as_it_reads_whole() {
+    let path = scratch("long.cwa", &long_cwa());
+    let rec = whole(&path, &LoadOptions::default());
+    let notes = rec.notes.join("\n");
+    for said in [
+        "skipped 1 corrupt data block(s)",
+        "skipped 1 unreadable data block(s)",
+        "left out 1 data block(s)",
+        "is cut short",
+    ] {
+        assert!(notes.contains(said), "{said}: {notes}");
+    }
+    assert_same(&path, &LoadOptions::default());
+}
+
+/// A file that changed after the first pass (cut shorter) is an error naming the block, not
+/// a panic or zeros.
+#[test]
+fn a_file_cut_between_the_passes_is_refused() {
+    let bytes = long_cwa();
+    let path = scratch("shrinks.cwa", &bytes);
+    let plan = samples::plan(&path, RawFormat::Cwa, &LoadOptions::default()).unwrap();
+    std::fs::write(&path, &bytes[..1024 + 512 * 8500]).unwrap();
+    let n = plan.rows();
+    let (mut xyz, mut temp) = (vec![0f32; 3 * n], vec![0f32; n]);
+    let e = plan
+        .fill(&mut xyz, &mut temp, None)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("data block #8500 changed while the file was read"),
+        "{e}"
+    );
+}

@@ -1,0 +1,96 @@
+"""`wiical.read` of raw files (.cwa, .bin): the arrays the engine fills in two passes, against
+the whole-file reader (the same file gzip-compressed, which is read whole) and, when it is
+installed, cwa-reader-rs (PyPI); float32 against float64; times left out. Real recordings
+from $WIICAL_DATA (GGIRread's test files)."""
+
+import gzip
+import os
+import pathlib
+import shutil
+
+import numpy as np
+import pytest
+
+import wiical
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+DATA = pathlib.Path(os.environ.get("WIICAL_DATA", ROOT.parent / "shared" / "data"))
+RAW = ["ax3_testfile.cwa", "ax3_testfile_corrupt_blocks_0_13_14_142_143_144.cwa",
+       "ax6_testfile.cwa", "GENEActiv_testfile.bin"]
+
+
+def raw(name: str) -> str:
+    p = DATA / "ggirread_testfiles" / name
+    if not p.exists():
+        pytest.fail(f"{p} is missing: set WIICAL_DATA to the shared data folder")
+    return str(p)
+
+
+def meta(rec: wiical.Recording) -> dict:
+    return {k: v for k, v in rec.items() if k not in ("xyz", "t", "temp")}
+
+
+@pytest.mark.parametrize("name", RAW)
+def test_raw_read_is_the_whole_file_readers(name: str, tmp_path: pathlib.Path) -> None:
+    path = raw(name)
+    packed = tmp_path / (name + ".gz")
+    with open(path, "rb") as src, gzip.open(packed, "wb") as dst:
+        shutil.copyfileobj(src, dst)
+    got, want = wiical.read(path), wiical.read(str(packed))
+    assert got.xyz.dtype == np.float64 and got.xyz.shape == want.xyz.shape
+    assert got.xyz.flags.c_contiguous
+    assert np.array_equal(got.xyz, want.xyz)
+    assert np.array_equal(got.t, want.t)
+    assert np.array_equal(got.temp, want.temp)
+    assert meta(got) == meta(want)
+
+
+@pytest.mark.parametrize("name", RAW)
+def test_float32_is_float64_rounded_and_exact_for_cwa(name: str) -> None:
+    path = raw(name)
+    f64 = wiical.read(path)
+    f32 = wiical.read(path, dtype="float32", times=False)
+    assert f32.xyz.dtype == np.float32 and f32.temp.dtype == np.float32
+    assert f32.t is None
+    assert meta(f32) == meta(f64)
+    assert np.array_equal(f32.xyz, f64.xyz.astype(np.float32))
+    assert np.array_equal(f32.temp, f64.temp.astype(np.float32))
+    if name.endswith(".cwa"):
+        # Counts times powers of two: nothing is lost in float32.
+        assert np.array_equal(f32.xyz.astype(np.float64), f64.xyz)
+        assert np.array_equal(f32.temp.astype(np.float64), f64.temp)
+    gyro = wiical.read(path, dtype="float32", sensor="gyroscope") if "ax6" in name else None
+    if gyro is not None:
+        assert np.array_equal(
+            gyro.xyz.astype(np.float64), wiical.read(path, sensor="gyroscope").xyz
+        )
+
+
+def test_a_text_file_in_float32_is_cast_once() -> None:
+    path = str(DATA / "imu_tk_xsens" / "xsens_acc.mat")
+    f64, f32 = wiical.read(path), wiical.read(path, dtype="float32")
+    assert np.array_equal(f32.xyz, f64.xyz.astype(np.float32))
+    assert np.array_equal(f32.t, f64.t)
+    with pytest.raises(ValueError, match="dtype"):
+        wiical.read(path, dtype="float16")
+
+
+@pytest.mark.parametrize("name", ["ax3_testfile.cwa", "ax6_testfile.cwa"])
+def test_cwa_samples_are_cwa_reader_rs_samples(name: str) -> None:
+    """The same samples as cwa-reader-rs (PyPI), where it is installed: the accelerometer's
+    values and the block temperatures, sample for sample, equal to its float32 columns; the
+    gyroscope's within one float32 step (it scales in float32 arithmetic, wiical in float64
+    and rounds once: `count · 125 / 2^(9+n)` is exact in float32, so wiical's are the exact
+    values, as the float64 comparison above shows). It refuses the file with corrupt blocks
+    ("Invalid block timestamp"), which wiical reads without them."""
+    cwa_reader_rs = pytest.importorskip("cwa_reader_rs")
+    path = raw(name)
+    df = cwa_reader_rs.read_cwa_file(path, include_light=False, include_battery=False)
+    ours = wiical.read(path, dtype="float32")
+    assert np.array_equal(df[["acc_x", "acc_y", "acc_z"]].to_numpy(), ours.xyz)
+    assert np.array_equal(df["temperature"].to_numpy(), ours.temp)
+    if "gyro_x" in df:
+        gyro = wiical.read(path, dtype="float32", sensor="gyroscope")
+        np.testing.assert_array_max_ulp(
+            df[["gyro_x", "gyro_y", "gyro_z"]].to_numpy(), gyro.xyz, maxulp=1
+        )
