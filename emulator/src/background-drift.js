@@ -45,15 +45,11 @@ const IDEAL_ZERO = 512;
 const IDEAL_PER_G = 200;
 /** The poll period's cycles at 125 MHz (5 ms). */
 const PERIOD_CYCLES = 625_000;
-/** "Near the floor": a window's RMS error against the truth with background recalibration
- * within FLOOR_FACTOR × the no-drift floor's + FLOOR_MG. Measured and reported for every
- * window after the first adoption; the time-scaled session does not meet it (see
- * docs/background-calibration.md), so the pass condition is the weaker one below. */
+/** The acceptance, "near the floor": every window that starts after the first adoption has an
+ * RMS error against the truth, with background recalibration, of at most FLOOR_FACTOR × the
+ * no-drift floor's in that window + FLOOR_MG (docs/background-calibration.md says why). */
 const FLOOR_FACTOR = 2;
 const FLOOR_MG = 1;
-/** The pass condition: every window after the first adoption's below this × the error
- * without background recalibration. */
-const WITHOUT_FACTOR = 0.5;
 
 /** The adapter's intervals divided by the time scale (its defaults at scale 1: a commit per
  * 1800 s, 8 a day, a fit per 60 s). */
@@ -310,26 +306,33 @@ export function driftScenario(h, { scale, name }) {
     const ctl = new PoseNunchuk({ seed: 47 });
     const rig = newRig(shared.selfCal.image, { nunchuk: { motion: ctl.motion } });
     ctl.clock = () => rig.board.nanos;
-    const intervals = scaledIntervals(scale);
-    const { host, error } = await setIntervals(rig, intervals);
-    if (error) return fail(error);
-    const t0 = rig.board.nanos;
+    // The session starts after the settings are set; until then it is at its start.
+    let t0 = Infinity;
     const sessionS = (tNs) => (Math.max(0, tNs - t0) / 1e9) * scale;
-    // The chip's sensor follows the session's temperature (read at each conversion).
+    // The chip's sensor follows the session's temperature (read at each conversion), from
+    // power-up: a moment binned while the ADC read the emulator's default (an implausible
+    // temperature, so none) would keep its bin without a temperature, and a fit that trains on
+    // that bin without the slope.
     const adc = rig.board.rp2040.adc;
     const convert = adc.onADCRead;
     adc.onADCRead = (channel) => {
       adc.channelValues[4] = adcCounts(temperatureAt(sessionS(rig.board.nanos)));
       convert(channel);
     };
+    const intervals = scaledIntervals(scale);
+    const { host, error } = await setIntervals(rig, intervals);
+    if (error) return fail(error);
+    t0 = rig.board.nanos;
     const [polls, control] = [[], []];
     drivenNunchuk(rig, ctl, sessionS, control, polls);
     // Each adoption's held-out numbers, asked for after the rest in which it was stored.
     const adoptions = [];
     const afterCommit = async () => {
       const reply = await host.request(frame([REQUEST.getBackgroundStatus]));
-      const a = reply?.tag === RESPONSE.background ? decodeBackgroundHead(reply.body).lastAdoption : null;
-      if (a && !adoptions.some((x) => x.atS === a.atS)) adoptions.push(a);
+      const st = reply?.tag === RESPONSE.background ? decodeBackgroundHead(reply.body) : null;
+      const a = st?.lastAdoption;
+      // The last candidate then: the adopted one unless another fit ran since.
+      if (a && !adoptions.some((x) => x.atS === a.atS)) adoptions.push({ ...a, candidate: st.candidate, playS: st.playS });
     };
     const endNs = t0 + (SESSION_S / scale) * 1e9;
     const wall = Date.now();
@@ -364,7 +367,7 @@ export function driftScenario(h, { scale, name }) {
     for (const t of table) {
       console.log(`table ${name}: | ${t.minute} | ${t.celsius.toFixed(1)} | ${t.rests} | ${fmt(t.withoutTruth)} | ${fmt(t.withoutStill)} | ${fmt(t.withTruth)} | ${fmt(t.withStill)} | ${fmt(t.floorTruth)} | ${fmt(t.floorStill)} |`);
     }
-    for (const a of adopted) console.log(`adoption ${name}: minute ${a.minute.toFixed(1)}, held out ${fmt(a.beforeMg)} → ${fmt(a.afterMg)} mg`);
+    for (const a of adopted) console.log(`adoption ${name}: minute ${a.minute.toFixed(1)}, held out ${fmt(a.beforeMg)} → ${fmt(a.afterMg)} mg; last candidate at ${a.playS} s of play: ${JSON.stringify(a.candidate)}`);
     h.measurements[name] = { scale, cycles, playWallS, emulatedS: (rig.board.nanos - t0) / 1e9 };
     return verdict({ name, scale, bg, rig, rests, table, adopted, cycles, playWallS, intervals, sessionS, adoptNs, fail });
   };
@@ -381,17 +384,17 @@ function verdict({ scale, bg, rig, rests, table, adopted, cycles, playWallS, int
   if (!(Math.abs((bg.temperature_c ?? NaN) - tEnd) < 1.5)) return fail(`the firmware reads ${bg.temperature_c} °C, the session is at ${tEnd.toFixed(1)} °C`);
   // The windows that start after the first adoption.
   const after = table.filter((t) => t.minute * 60 > sessionS(adoptNs[0]) + WINDOW_S);
-  const worse = after.filter((t) => !(t.withTruth < WITHOUT_FACTOR * t.withoutTruth));
-  if (!after.length || worse.length) {
-    return fail(`after the first adoption (minute ${(sessionS(adoptNs[0]) / 60).toFixed(1)}), windows not below ${WITHOUT_FACTOR} × the error without: ${worse.map((t) => `minute ${t.minute}: ${fmt(t.withTruth)} mg, without ${fmt(t.withoutTruth)} mg`).join('; ') || 'no window'}`);
+  const over = after.filter((t) => !(t.withTruth <= FLOOR_FACTOR * t.floorTruth + FLOOR_MG));
+  if (!after.length || over.length) {
+    return fail(`after the first adoption (minute ${(sessionS(adoptNs[0]) / 60).toFixed(1)}), windows over ${FLOOR_FACTOR} × the floor + ${FLOOR_MG} mg: ${over.map((t) => `minute ${t.minute}: ${fmt(t.withTruth)} mg, floor ${fmt(t.floorTruth)} mg`).join('; ') || 'no window'}`);
   }
   if (!(cycles.worst < PERIOD_CYCLES)) return fail(`a poll period used ${cycles.worst} cycles (period ${PERIOD_CYCLES})`);
   const c = bg.candidate;
-  const near = after.filter((t) => t.withTruth <= FLOOR_FACTOR * t.floorTruth + FLOOR_MG).length;
+  const near = after.length;
   const worst = after.reduce((w, t) => (t.withTruth - t.floorTruth > w.withTruth - w.floorTruth ? t : w), after[0]);
   return `${SESSION_S / scale} s of play (2 h of drift at ${scale}×, intervals ${intervals.commitIntervalS} s / ${intervals.commitsPerDay} a day / fit ${intervals.fitIntervalMs / 1000} s, ${rests.length} rests, ${playWallS.toFixed(0)} s wall): ` +
     `${adopted.length} adoptions at minute ${adopted.map((a) => `${a.minute.toFixed(1)} (${fmt(a.beforeMg)} → ${fmt(a.afterMg)} mg)`).join(', ')} of the session (last candidate ${c?.full_model ? '9 parameters' : 'bias + scale'}${c?.temperature ? ' + temperature slope' : ''}); ` +
-    `error against the truth at the end ${fmt(table.at(-1).withTruth)} mg with, ${fmt(table.at(-1).withoutTruth)} mg without, floor ${fmt(table.at(-1).floorTruth)} mg; near the floor (≤ ${FLOOR_FACTOR} × floor + ${FLOOR_MG} mg): ${near} of the ${after.length} windows after the first adoption (farthest: minute ${worst.minute}, ${fmt(worst.withTruth)} mg, floor ${fmt(worst.floorTruth)} mg); ` +
+    `error against the truth at the end ${fmt(table.at(-1).withTruth)} mg with, ${fmt(table.at(-1).withoutTruth)} mg without, floor ${fmt(table.at(-1).floorTruth)} mg; near the floor (≤ ${FLOOR_FACTOR} × floor + ${FLOOR_MG} mg) in all ${near} windows after the first adoption (farthest above the floor: minute ${worst.minute}, ${fmt(worst.withTruth)} mg, floor ${fmt(worst.floorTruth)} mg); ` +
     `firmware reads ${bg.temperature_c.toFixed(1)} °C (session ${tEnd.toFixed(1)} °C); ` +
     `busy cycles per 5-ms poll period: median ${cycles.median}, worst ${cycles.worst} (${((100 * cycles.worst) / PERIOD_CYCLES).toFixed(1)} %), commit periods worst ${cycles.commitWorst}`;
 }
