@@ -507,7 +507,7 @@ const scenarios = [
     expectedCounts, IDEAL_BLOCK, CAL_A, calA, measurements,
   }),
   ...backgroundScenarios({
-    newRig, getState, fail, shared, work, sameCal, checkReports, correctionBatch, prefill, measurements,
+    newRig, getState, fail, shared, work, sameCal, checkReports, correctionBatch, prefill, expectedCounts, measurements,
   }),
   ['power-cut-commit', async () => {
     if (!shared.committedA) return fail('needs commit-live');

@@ -7,21 +7,29 @@
 //
 // Time scale: the session's drift runs `scale` times faster than the emulated clock (the
 // default scenario: 2 h of drift in 180 s of play). The adapter's own clock is its reports
-// (200 per emulated second), so its intervals — a fit attempt per minute of play, at most one
-// commit per 30 min of play — are not scaled: in the time-scaled session one adoption at most
-// can happen. The full session at scale 1 (two emulated hours) runs only when named.
+// (200 per emulated second), so before play its intervals are set over the wire
+// (SetBackground), divided by the same scale: a fit attempt per 60/scale s and at most one
+// commit per 1800/scale s of play, and the daily cap at its largest (16; a scaled day is far
+// longer than the session). Everything is then scaled but the rests themselves (1.8–3 s of
+// emulated time each: `scale` times fewer rests per minute of the session than at scale 1).
+// The full session at scale 1 (two emulated hours, the adapter's default intervals) runs only
+// when named.
 //
 // Output: the error of the Wii Remote's reports (what the firmware outputs) at every rest,
 // against the simulator's truth (‖ā − a‖, the rest's mean output against the true gravity
 // direction) and as ‖ā‖ − 1 g, per 10 minutes of the session; "without background
 // recalibration" is the same session's raw counts corrected by the self-calibration with the
 // core's correction (`xtask emulate-correct`): the calibration a firmware with adoption off
-// would have kept. A table (stdout and JSON) and an SVG plot go to target/emulate/.
+// would have kept; "floor" is the same measurement on the same session without drift (the
+// raw counts the Nunchuk would have given at the same instants with the same noise, bias and
+// scale constant), corrected the same way. A table (stdout and JSON) and an SVG plot go to
+// target/emulate/.
 
 import { mkdirSync, writeFileSync } from 'node:fs';
 import { join } from 'node:path';
 import { PoseNunchuk, TRUTH, inverse3, mulberry32 } from './pose-nunchuk.js';
 import { decodeReport } from './nunchuk.js';
+import { RawHost, RESPONSE, frame, REQUEST, setBackgroundFrame, decodeBackgroundHead } from './wire.js';
 
 /** The session: its length (s of the session's own time), temperature and drift. */
 const SESSION_S = 7200;
@@ -37,6 +45,19 @@ const IDEAL_ZERO = 512;
 const IDEAL_PER_G = 200;
 /** The poll period's cycles at 125 MHz (5 ms). */
 const PERIOD_CYCLES = 625_000;
+/** The acceptance, "near the floor": every window that starts after the first adoption has an
+ * RMS error against the truth, with background recalibration, of at most FLOOR_FACTOR × the
+ * no-drift floor's in that window + FLOOR_MG (docs/background-calibration.md says why). */
+const FLOOR_FACTOR = 2;
+const FLOOR_MG = 1;
+
+/** The adapter's intervals divided by the time scale (its defaults at scale 1: a commit per
+ * 1800 s, 8 a day, a fit per 60 s). */
+export const scaledIntervals = (scale) => ({
+  commitIntervalS: Math.round(1800 / scale),
+  commitsPerDay: scale === 1 ? 8 : 16,
+  fitIntervalMs: Math.round(60_000 / scale),
+});
 
 /** The 12-bit ADC reading of the RP2040's sensor at `celsius` (3.3 V reference): the
  * datasheet's T = 27 − (V − 0.706)/0.001721 solved for V. */
@@ -67,10 +88,13 @@ function randomDirection(rnd) {
 }
 
 /** Plays until `endNs`: a 0.4 s turn to a random orientation, a rest of 1.8–3 s; every
- * sixth turn a 0.7–1.4 s shake first. Returns the rests: { fromNs, toNs, a }. */
-async function play(rig, ctl, endNs, seed) {
+ * sixth turn a 0.7–1.4 s shake first. After a rest in which the adapter wrote its flash (an
+ * adoption's commit), `afterCommit()` runs (it asks for the adoption's numbers). Returns the
+ * rests: { fromNs, toNs, a }. */
+async function play(rig, ctl, endNs, seed, afterCommit) {
   const rnd = mulberry32(seed);
   const rests = [];
+  let steps = rig.board.flashSteps.length;
   for (let k = 0; rig.board.nanos < endNs && !rig.board.fault; k++) {
     if (k % 6 === 5) {
       const shakes = 6 + Math.floor(rnd() * 6);
@@ -85,6 +109,10 @@ async function play(rig, ctl, endNs, seed) {
     const fromNs = rig.board.nanos + 650e6;
     await rig.board.run(400 + restMs);
     rests.push({ fromNs, toNs: rig.board.nanos - 20e6, a });
+    if (rig.board.flashSteps.length !== steps) {
+      await afterCommit();
+      steps = rig.board.flashSteps.length;
+    }
   }
   return rests;
 }
@@ -96,23 +124,26 @@ function meanG(counts) {
   return m.map((v) => (v / counts.length - IDEAL_ZERO) / IDEAL_PER_G);
 }
 
-/** Per rest: the mean output with and without the background recalibration, errors in mg. */
-function restErrors(rig, rests, fixed) {
-  const reports = rig.remote.reports;
-  const served = rig.nunchuk.served;
-  let ri = 0;
-  let si = 0;
+/** The entries of `list` (sorted by tNs) within [fromNs, toNs], from index `*at` on. */
+function within(list, at, fromNs, toNs, pick) {
+  while (at.i < list.length && list[at.i].tNs < fromNs) at.i++;
+  const out = [];
+  for (let j = at.i; j < list.length && list[j].tNs <= toNs; j++) out.push(pick(list[j]));
+  return out;
+}
+
+/** Per rest: the mean output with and without the background recalibration, and of the
+ * no-drift control corrected like "without"; errors in mg. */
+function restErrors(rig, rests, fixed, control) {
+  const [ri, si, ci] = [{ i: 0 }, { i: 0 }, { i: 0 }];
   const rows = [];
   for (const r of rests) {
-    while (ri < reports.length && reports[ri].tNs < r.fromNs) ri++;
-    while (si < served.length && served[si].tNs < r.fromNs) si++;
-    const out = [];
-    for (let j = ri; j < reports.length && reports[j].tNs <= r.toNs; j++) out.push(decodeReport(reports[j].bytes).accel);
-    const raw = [];
-    for (let j = si; j < served.length && served[j].tNs <= r.toNs; j++) raw.push(served[j].raw.accel);
-    if (out.length < 50 || raw.length < 50) continue;
+    const out = within(rig.remote.reports, ri, r.fromNs, r.toNs, (x) => decodeReport(x.bytes).accel);
+    const raw = within(rig.nunchuk.served, si, r.fromNs, r.toNs, (x) => x.raw.accel);
+    const still = within(control, ci, r.fromNs, r.toNs, (x) => x.accel);
+    if (out.length < 50 || raw.length < 50 || still.length < 50) continue;
     const errs = (g) => ({ truth: 1000 * Math.hypot(...g.map((v, i) => v - r.a[i])), still: 1000 * (Math.hypot(...g) - 1) });
-    rows.push({ toNs: r.toNs, with: errs(meanG(out)), without: errs(meanG(raw.map(fixed))) });
+    rows.push({ toNs: r.toNs, with: errs(meanG(out)), without: errs(meanG(raw.map(fixed))), floor: errs(meanG(still.map(fixed))) });
   }
   return rows;
 }
@@ -126,8 +157,8 @@ export function svgPlot(table, adoptionsMin, title) {
   const L = 64;
   const R = 20;
   const T = 40;
-  const B = 106;
-  const ymax = Math.max(5, ...table.flatMap((r) => [r.withoutTruth, r.withTruth, r.withoutStill, r.withStill].filter(Number.isFinite))) * 1.1;
+  const B = 126;
+  const ymax = Math.max(5, ...table.flatMap((r) => [r.withoutTruth, r.withTruth, r.withoutStill, r.withStill, r.floorTruth].filter(Number.isFinite))) * 1.1;
   const x = (min) => L + ((W - L - R) * min) / (SESSION_S / 60);
   const y = (mg) => H - B - ((H - T - B) * mg) / ymax;
   const line = (key, colour, dash) => {
@@ -160,12 +191,14 @@ export function svgPlot(table, adoptionsMin, title) {
     line('withoutStill', '#c33', true),
     line('withTruth', '#35c', false),
     line('withStill', '#35c', true),
+    line('floorTruth', '#777', false),
   );
   const legend = [
     ['#c33', false, 'without background recalibration: against the truth'],
     ['#c33', true, 'without: ‖a‖ − 1 g at the rests'],
     ['#35c', false, 'with background recalibration: against the truth'],
     ['#35c', true, 'with: ‖a‖ − 1 g at rests'],
+    ['#777', false, 'floor: the same session without drift, against the truth'],
   ];
   legend.forEach(([c, dash, text], i) => {
     const lx = L - 40 + (i % 2) * 400;
@@ -200,37 +233,110 @@ function cycleStats(polls, flashNs) {
   };
 }
 
+/** Raw counts of a sensor { s, bias } for a gravity reading g (in g) with the given noise
+ * (counts per axis), rounded and clamped to 10 bits as the Nunchuk's. */
+const rawCounts = ({ s, bias }, g, noise) =>
+  [0, 1, 2].map((i) => Math.max(0, Math.min(1023, Math.round(bias[i] + s[i][0] * g[0] + s[i][1] * g[1] + s[i][2] * g[2] + noise[i]))));
+
+/** Sets the adapter's intervals over the wire (SetBackground after a Hello), then reads
+ * them back; returns the host for later requests, or a reason. */
+async function setIntervals(rig, intervals) {
+  await rig.board.runUntilTrue(() => rig.usb.configured, 500);
+  const host = new RawHost(rig);
+  if (!(await host.hello(6))) return { error: 'no Hello answer' };
+  const ack = await host.request(setBackgroundFrame(intervals));
+  if (ack?.tag !== RESPONSE.ack) return { error: `SetBackground ${JSON.stringify(intervals)} answered ${JSON.stringify(ack)}` };
+  const back = await host.request(frame([REQUEST.getBackgroundStatus]));
+  if (back?.tag !== RESPONSE.background) return { error: 'no answer to GetBackgroundStatus' };
+  const got = decodeBackgroundHead(back.body).settings;
+  if (got.commitIntervalS !== intervals.commitIntervalS || got.commitsPerDay !== intervals.commitsPerDay || got.fitIntervalMs !== intervals.fitIntervalMs) {
+    return { error: `the adapter reports ${JSON.stringify(got)} after SetBackground ${JSON.stringify(intervals)}` };
+  }
+  return { host };
+}
+
+/** Per-window RMS errors (mg) of the rows, by the session time of each rest's end. */
+function windows(rows, sessionS) {
+  const table = [];
+  for (let w = 0; w < SESSION_S / WINDOW_S; w++) {
+    const inW = rows.filter((x) => Math.floor(sessionS(x.toNs) / WINDOW_S) === w);
+    const col = (k, e) => rms(inW.map((x) => x[k][e]));
+    table.push({
+      minute: ((w + 1) * WINDOW_S) / 60,
+      celsius: temperatureAt((w + 1) * WINDOW_S),
+      rests: inW.length,
+      withoutTruth: col('without', 'truth'),
+      withoutStill: col('without', 'still'),
+      withTruth: col('with', 'truth'),
+      withStill: col('with', 'still'),
+      floorTruth: col('floor', 'truth'),
+      floorStill: col('floor', 'still'),
+    });
+  }
+  return table;
+}
+
+/** The session's Nunchuk: drifting counts served to the firmware, and beside each served
+ * report the counts the same instant and noise would give without drift (`control`). */
+function drivenNunchuk(rig, ctl, sessionS, control, polls) {
+  const still = sensorAt(0);
+  ctl.counts = (g, tNs) => {
+    const noise = [0, 1, 2].map(() => ctl.noise * ctl.gaussian());
+    ctl.lastControl = rawCounts(still, g, noise);
+    return rawCounts(sensorAt(sessionS(tNs)), g, noise);
+  };
+  // Busy cycles at every report read (the poll period's CPU load).
+  const motion = ctl.motion;
+  rig.nunchuk.motion = (tNs) => {
+    polls.push([tNs, rig.board.busyCycles]);
+    const m = motion(tNs);
+    control.push({ tNs, accel: ctl.lastControl });
+    return m;
+  };
+}
+
 /**
  * The scenario at time scale `scale` (session seconds per emulated second). `name` names the
- * output files in target/emulate/; `floorMg()` is the self-calibration's error before the drift.
+ * output files in target/emulate/.
  */
-export function driftScenario(h, { scale, name, floorMg }) {
+export function driftScenario(h, { scale, name }) {
   const { newRig, fail, shared, work } = h;
   return async () => {
     if (!shared.selfCal) return fail('needs self-calibration');
     const ctl = new PoseNunchuk({ seed: 47 });
     const rig = newRig(shared.selfCal.image, { nunchuk: { motion: ctl.motion } });
     ctl.clock = () => rig.board.nanos;
-    const t0 = rig.board.nanos;
+    // The session starts after the settings are set; until then it is at its start.
+    let t0 = Infinity;
     const sessionS = (tNs) => (Math.max(0, tNs - t0) / 1e9) * scale;
-    ctl.sensorAt = (tNs) => sensorAt(sessionS(tNs));
-    // The chip's sensor follows the session's temperature (read at each conversion).
+    // The chip's sensor follows the session's temperature (read at each conversion), from
+    // power-up: a moment binned while the ADC read the emulator's default (an implausible
+    // temperature, so none) would keep its bin without a temperature, and a fit that trains on
+    // that bin without the slope.
     const adc = rig.board.rp2040.adc;
     const convert = adc.onADCRead;
     adc.onADCRead = (channel) => {
       adc.channelValues[4] = adcCounts(temperatureAt(sessionS(rig.board.nanos)));
       convert(channel);
     };
-    // Busy cycles at every report read (the poll period's CPU load).
-    const polls = [];
-    const motion = ctl.motion;
-    rig.nunchuk.motion = (tNs) => {
-      polls.push([tNs, rig.board.busyCycles]);
-      return motion(tNs);
+    const intervals = scaledIntervals(scale);
+    const { host, error } = await setIntervals(rig, intervals);
+    if (error) return fail(error);
+    t0 = rig.board.nanos;
+    const [polls, control] = [[], []];
+    drivenNunchuk(rig, ctl, sessionS, control, polls);
+    // Each adoption's held-out numbers, asked for after the rest in which it was stored.
+    const adoptions = [];
+    const afterCommit = async () => {
+      const reply = await host.request(frame([REQUEST.getBackgroundStatus]));
+      const st = reply?.tag === RESPONSE.background ? decodeBackgroundHead(reply.body) : null;
+      const a = st?.lastAdoption;
+      // The last candidate then: the adopted one unless another fit ran since.
+      if (a && !adoptions.some((x) => x.atS === a.atS)) adoptions.push({ ...a, candidate: st.candidate, playS: st.playS });
     };
     const endNs = t0 + (SESSION_S / scale) * 1e9;
     const wall = Date.now();
-    const rests = await play(rig, ctl, endNs, 91);
+    const rests = await play(rig, ctl, endNs, 91, afterCommit);
     if (rig.board.fault) return fail(`firmware fault: ${rig.board.fault}`);
     const playWallS = (Date.now() - wall) / 1000;
     const r = await rig.wiical(['selfcal-status', '--json']);
@@ -245,50 +351,50 @@ export function driftScenario(h, { scale, name, floorMg }) {
     writeFileSync(fixedPath, JSON.stringify(shared.selfCal.fitted));
     const fn = h.correctionBatch(fixedPath);
     h.prefill(fn, fixedPath, rig);
-    const rows = restErrors(rig, rests, fn);
-    const table = [];
-    for (let w = 0; w < SESSION_S / WINDOW_S; w++) {
-      const inW = rows.filter((x) => Math.floor(sessionS(x.toNs) / WINDOW_S) === w);
-      table.push({
-        minute: ((w + 1) * WINDOW_S) / 60,
-        celsius: temperatureAt((w + 1) * WINDOW_S),
-        rests: inW.length,
-        withoutTruth: rms(inW.map((x) => x.without.truth)),
-        withoutStill: rms(inW.map((x) => x.without.still)),
-        withTruth: rms(inW.map((x) => x.with.truth)),
-        withStill: rms(inW.map((x) => x.with.still)),
-      });
-    }
+    const uniq = [...new Set(control.map((c) => c.accel.join(' ')))].map((k) => k.split(' ').map(Number));
+    h.expectedCounts(fixedPath, uniq).forEach((v, i) => fn.memoSet(uniq[i], v));
+    const table = windows(restErrors(rig, rests, fn, control), sessionS);
     const adoptionsMin = adoptNs.map((t) => sessionS(t) / 60);
+    const adopted = adoptionsMin.map((minute, i) => ({ minute, ...adoptions[i] }));
     const cycles = cycleStats(polls, flashNs);
     const outDir = join(process.cwd(), '..', 'target', 'emulate');
     mkdirSync(outDir, { recursive: true });
     const title = `Real firmware in rp2040js: 2-hour play session with drift (time scale ${scale}×)`;
     writeFileSync(join(outDir, `${name}.svg`), svgPlot(table, adoptionsMin, title));
-    writeFileSync(join(outDir, `${name}.json`), JSON.stringify({ scale, table, adoptionsMin, cycles, status: { ...bg, bin_moments: undefined }, rests: rests.length }, null, 1));
+    writeFileSync(join(outDir, `${name}.json`), JSON.stringify({ scale, intervals, table, adoptions: adopted, cycles, status: { ...bg, bin_moments: undefined }, rests: rests.length }, null, 1));
     const fmt = (v) => (Number.isFinite(v) ? v.toFixed(2) : '–');
-    console.log(`table ${name}: | minute | °C | rests | without: truth | without: ‖a‖−1 | with: truth | with: ‖a‖−1 |`);
+    console.log(`table ${name}: | minute | °C | rests | without: truth | without: ‖a‖−1 | with: truth | with: ‖a‖−1 | floor: truth | floor: ‖a‖−1 |`);
     for (const t of table) {
-      console.log(`table ${name}: | ${t.minute} | ${t.celsius.toFixed(1)} | ${t.rests} | ${fmt(t.withoutTruth)} | ${fmt(t.withoutStill)} | ${fmt(t.withTruth)} | ${fmt(t.withStill)} |`);
+      console.log(`table ${name}: | ${t.minute} | ${t.celsius.toFixed(1)} | ${t.rests} | ${fmt(t.withoutTruth)} | ${fmt(t.withoutStill)} | ${fmt(t.withTruth)} | ${fmt(t.withStill)} | ${fmt(t.floorTruth)} | ${fmt(t.floorStill)} |`);
     }
+    for (const a of adopted) console.log(`adoption ${name}: minute ${a.minute.toFixed(1)}, held out ${fmt(a.beforeMg)} → ${fmt(a.afterMg)} mg; last candidate at ${a.playS} s of play: ${JSON.stringify(a.candidate)}`);
     h.measurements[name] = { scale, cycles, playWallS, emulatedS: (rig.board.nanos - t0) / 1e9 };
-
-    if (!adoptNs.length || !bg?.last_adoption) return fail(`no adoption in ${SESSION_S / scale} s of play (${rests.length} rests): ${JSON.stringify({ ...bg, bin_moments: undefined })}`);
-    const tEnd = temperatureAt(sessionS(rig.board.nanos));
-    if (!(Math.abs((bg.temperature_c ?? NaN) - tEnd) < 1.5)) return fail(`the firmware reads ${bg.temperature_c} °C, the session is at ${tEnd.toFixed(1)} °C`);
-    // The floor: the self-calibration's own error against the truth before the drift.
-    const floor = floorMg();
-    const after = table.filter((t) => t.minute * 60 > sessionS(adoptNs[0]) + WINDOW_S);
-    const worstAfter = Math.max(...after.map((t) => t.withTruth));
-    const worstFixed = Math.max(...after.map((t) => t.withoutTruth));
-    if (!(worstAfter < 0.5 * worstFixed)) return fail(`after the adoption the error against the truth is up to ${worstAfter.toFixed(2)} mg, without ${worstFixed.toFixed(2)} mg`);
-    if (!(cycles.worst < PERIOD_CYCLES)) return fail(`a poll period used ${cycles.worst} cycles (period ${PERIOD_CYCLES})`);
-    const c = bg.candidate;
-    return `${SESSION_S / scale} s of play (2 h of drift at ${scale}×, ${rests.length} rests, ${playWallS.toFixed(0)} s wall): ` +
-      `adopted at minute ${adoptionsMin.map((m) => m.toFixed(1)).join(', ')} of the session (held out ${bg.last_adoption.before_mg.toFixed(2)} → ${bg.last_adoption.after_mg.toFixed(2)} mg, ` +
-      `last candidate ${c?.full_model ? '9 parameters' : 'bias + scale'}${c?.temperature ? ' + temperature slope' : ''}); ` +
-      `error against the truth, floor ${floor.toFixed(2)} mg: at the end ${fmt(table.at(-1).withTruth)} mg with, ${fmt(table.at(-1).withoutTruth)} mg without; ` +
-      `firmware reads ${bg.temperature_c.toFixed(1)} °C (session ${tEnd.toFixed(1)} °C); ` +
-      `busy cycles per 5-ms poll period: median ${cycles.median}, worst ${cycles.worst} (${((100 * cycles.worst) / PERIOD_CYCLES).toFixed(1)} %), commit periods worst ${cycles.commitWorst}`;
+    return verdict({ name, scale, bg, rig, rests, table, adopted, cycles, playWallS, intervals, sessionS, adoptNs, fail });
   };
+}
+
+/** The pass conditions and the scenario's line. */
+function verdict({ scale, bg, rig, rests, table, adopted, cycles, playWallS, intervals, sessionS, adoptNs, fail }) {
+  const fmt = (v) => (Number.isFinite(v) ? v.toFixed(2) : '–');
+  if (!adoptNs.length || !bg?.last_adoption) return fail(`no adoption in ${SESSION_S / scale} s of play (${rests.length} rests): ${JSON.stringify({ ...bg, bin_moments: undefined })}`);
+  if (bg.commit_interval_s !== intervals.commitIntervalS || bg.commits_per_day !== intervals.commitsPerDay || Math.round(bg.fit_interval_s * 1000) !== intervals.fitIntervalMs) {
+    return fail(`selfcal-status shows ${bg.commit_interval_s} s, ${bg.commits_per_day} a day, a fit every ${bg.fit_interval_s} s; set ${JSON.stringify(intervals)}`);
+  }
+  const tEnd = temperatureAt(sessionS(rig.board.nanos));
+  if (!(Math.abs((bg.temperature_c ?? NaN) - tEnd) < 1.5)) return fail(`the firmware reads ${bg.temperature_c} °C, the session is at ${tEnd.toFixed(1)} °C`);
+  // The windows that start after the first adoption.
+  const after = table.filter((t) => t.minute * 60 > sessionS(adoptNs[0]) + WINDOW_S);
+  const over = after.filter((t) => !(t.withTruth <= FLOOR_FACTOR * t.floorTruth + FLOOR_MG));
+  if (!after.length || over.length) {
+    return fail(`after the first adoption (minute ${(sessionS(adoptNs[0]) / 60).toFixed(1)}), windows over ${FLOOR_FACTOR} × the floor + ${FLOOR_MG} mg: ${over.map((t) => `minute ${t.minute}: ${fmt(t.withTruth)} mg, floor ${fmt(t.floorTruth)} mg`).join('; ') || 'no window'}`);
+  }
+  if (!(cycles.worst < PERIOD_CYCLES)) return fail(`a poll period used ${cycles.worst} cycles (period ${PERIOD_CYCLES})`);
+  const c = bg.candidate;
+  const near = after.length;
+  const worst = after.reduce((w, t) => (t.withTruth - t.floorTruth > w.withTruth - w.floorTruth ? t : w), after[0]);
+  return `${SESSION_S / scale} s of play (2 h of drift at ${scale}×, intervals ${intervals.commitIntervalS} s / ${intervals.commitsPerDay} a day / fit ${intervals.fitIntervalMs / 1000} s, ${rests.length} rests, ${playWallS.toFixed(0)} s wall): ` +
+    `${adopted.length} adoptions at minute ${adopted.map((a) => `${a.minute.toFixed(1)} (${fmt(a.beforeMg)} → ${fmt(a.afterMg)} mg)`).join(', ')} of the session (last candidate ${c?.full_model ? '9 parameters' : 'bias + scale'}${c?.temperature ? ' + temperature slope' : ''}); ` +
+    `error against the truth at the end ${fmt(table.at(-1).withTruth)} mg with, ${fmt(table.at(-1).withoutTruth)} mg without, floor ${fmt(table.at(-1).floorTruth)} mg; near the floor (≤ ${FLOOR_FACTOR} × floor + ${FLOOR_MG} mg) in all ${near} windows after the first adoption (farthest above the floor: minute ${worst.minute}, ${fmt(worst.withTruth)} mg, floor ${fmt(worst.floorTruth)} mg); ` +
+    `firmware reads ${bg.temperature_c.toFixed(1)} °C (session ${tEnd.toFixed(1)} °C); ` +
+    `busy cycles per 5-ms poll period: median ${cycles.median}, worst ${cycles.worst} (${((100 * cycles.worst) / PERIOD_CYCLES).toFixed(1)} %), commit periods worst ${cycles.commitWorst}`;
 }

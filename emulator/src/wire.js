@@ -60,9 +60,9 @@ export function unitRequestFrame(variantIndex) {
 }
 
 /** Response variant indices (crates/wire/src/schema.rs). */
-export const RESPONSE = { hello: 0, error: 1, ack: 2, calibration: 3, streamStarted: 4, sample: 5, status: 6 };
+export const RESPONSE = { hello: 0, error: 1, ack: 2, calibration: 3, streamStarted: 4, sample: 5, status: 6, background: 7 };
 /** Request variant indices. */
-export const REQUEST = { getCalibration: 1, getStatus: 6 };
+export const REQUEST = { getCalibration: 1, getStatus: 6, getBackgroundStatus: 8, setBackground: 9 };
 
 /**
  * Splits the adapter's byte stream, which starts at a frame boundary, at its 0x00 delimiters
@@ -142,6 +142,50 @@ function readVarint(body, i) {
     shift += 7;
     if (!(b & 0x80)) return [v, i];
   }
+}
+
+/**
+ * SetBackground (protocol 6): adoption and host-upload flags, then the budget's commit
+ * interval (s of play, varint), commits per day (u8) and the fit interval (ms, varint).
+ */
+export function setBackgroundFrame({ adopt = true, replaceUploaded = false, commitIntervalS, commitsPerDay, fitIntervalMs }) {
+  return frame([REQUEST.setBackground, adopt ? 1 : 0, replaceUploaded ? 1 : 0, ...varint(commitIntervalS), commitsPerDay, ...varint(fitIntervalMs)]);
+}
+
+/**
+ * The head of a Background response (protocol 6's BackgroundReport), as far as the last
+ * adoption: { settings, playS, moments, binsFilled, temperatureC, candidate, lastAdoption }.
+ */
+export function decodeBackgroundHead(body) {
+  const view = new DataView(Uint8Array.from(body).buffer);
+  let i = 2; // tag, phase
+  const u8 = () => body[i++];
+  const v = () => {
+    const [x, j] = readVarint(body, i);
+    i = j;
+    return x;
+  };
+  const f32 = () => {
+    const x = view.getFloat32(i, true);
+    i += 4;
+    return x;
+  };
+  const settings = { adopt: !!u8(), replaceUploaded: !!u8(), commitIntervalS: v(), commitsPerDay: u8(), fitIntervalMs: v() };
+  u8(); // origin
+  const playS = v();
+  const moments = v();
+  const binsFilled = u8();
+  v(); // fresh bins
+  const bins = v();
+  i += bins; // bin moments
+  const temperatureC = u8() ? f32() : null;
+  if (u8()) {
+    const gap = u8();
+    if (gap <= 1) i += 2;
+  }
+  const candidate = u8() ? { candidateMg: f32(), liveMg: f32(), fitRmsMg: f32(), full: !!u8(), temperature: !!u8(), training: u8(), heldout: u8() } : null;
+  const lastAdoption = u8() ? { atS: v(), beforeMg: f32(), afterMg: f32() } : null;
+  return { settings, playS, moments, binsFilled, temperatureC, candidate, lastAdoption };
 }
 
 /**

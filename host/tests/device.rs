@@ -135,6 +135,79 @@ fn cli_commands_over_the_pty() {
     assert!(
         Cli::try_parse_from(["wiical", "device", "selfcal-set", "--background", "maybe"]).is_err()
     );
+    // The budget and the fit interval: the flags not given keep the adapter's values.
+    assert!(text.contains("at most one commit per 1800 s of play and 8 per 24 h of play; a fit every 60 s of play"), "{text}");
+    let (text, _) = run(&[
+        "selfcal-set",
+        "--commit-every",
+        "45",
+        "--commits-per-day",
+        "16",
+        "--fit-every",
+        "1.5",
+    ]);
+    assert!(
+        text.contains("adoption on, a host upload is kept"),
+        "{text}"
+    );
+    assert!(text.contains("at most one commit per 45 s of play and 16 per 24 h of play; a fit every 1.5 s of play"), "{text}");
+    let (text, _) = run(&["selfcal-set", "--commits-per-day", "3"]);
+    assert!(
+        text.contains("one commit per 45 s of play and 3 per 24 h of play; a fit every 1.5 s"),
+        "{text}"
+    );
+    let (text, _) = run(&["selfcal-status"]);
+    assert!(text.contains("budget             at most one commit per 45 s of play and 3 per 24 h of play; a fit every 1.5 s of play"), "{text}");
+    let (st, _) = run(&["selfcal-status", "--json"]);
+    let st: serde_json::Value = serde_json::from_str(&st).unwrap();
+    assert_eq!(st["background"]["commit_interval_s"], 45, "{st}");
+    assert_eq!(st["background"]["commits_per_day"], 3, "{st}");
+    assert_eq!(st["background"]["fit_interval_s"], 1.5, "{st}");
+    // Out of bounds: one sentence naming the flag; nothing changes in the adapter.
+    for (flag, value, words) in [
+        (
+            "--commit-every",
+            "0",
+            "--commit-every 0: must be between 10 and 604800 seconds",
+        ),
+        (
+            "--commits-per-day",
+            "0",
+            "--commits-per-day 0: must be between 1 and 16",
+        ),
+        (
+            "--commits-per-day",
+            "17",
+            "--commits-per-day 17: must be between 1 and 16",
+        ),
+        (
+            "--fit-every",
+            "0.1",
+            "--fit-every 0.1: must be between 0.5 and 3600",
+        ),
+        (
+            "--fit-every",
+            "nan",
+            "--fit-every NaN: must be between 0.5 and 3600",
+        ),
+    ] {
+        let args = ["device", "selfcal-set", flag, value, "--port", &p];
+        let err = device::run(&device_args(&args), &mut Vec::new()).unwrap_err();
+        assert!(err.to_string().contains(words), "{flag} {value}: {err}");
+    }
+    assert!(Cli::try_parse_from([
+        "wiical",
+        "device",
+        "selfcal-set",
+        "--commits-per-day",
+        "1000000000"
+    ])
+    .is_err());
+    let (st, _) = run(&["selfcal-status", "--json"]);
+    let st: serde_json::Value = serde_json::from_str(&st).unwrap();
+    assert_eq!(st["background"]["commits_per_day"], 3, "{st}");
+    // No setting at all is a usage error.
+    assert!(Cli::try_parse_from(["wiical", "device", "selfcal-set"]).is_err());
 
     // put reads what `wiical fit --out` writes (pretty serde JSON of a Calibration).
     let cal = true_calibration();

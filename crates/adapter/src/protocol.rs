@@ -301,12 +301,13 @@ impl<F: NorFlash> Protocol<F> {
             }
             Request::GetBackgroundStatus => Response::Background(self.background_report()),
             Request::SetBackground(_) if self.selfcal.active() => Response::Error(ErrorCode::Busy),
-            Request::SetBackground(b) => {
-                match self.set_background(b.adopt, b.replace_uploaded).await {
-                    Ok(()) => Response::Ack,
-                    Err(_) => Response::Error(ErrorCode::StorageFailure),
+            Request::SetBackground(b) => match self.set_background(&b).await {
+                Ok(()) => Response::Ack,
+                Err(recal::CommitError::OutOfBounds) => {
+                    Response::Error(ErrorCode::InvalidParameter)
                 }
-            }
+                Err(_) => Response::Error(ErrorCode::StorageFailure),
+            },
         }
     }
 
@@ -337,6 +338,7 @@ impl<F: NorFlash> Protocol<F> {
         stored.map_err(|e| match e {
             recal::CommitError::Storage => ErrorCode::StorageFailure,
             recal::CommitError::Internal => ErrorCode::Internal,
+            recal::CommitError::OutOfBounds => ErrorCode::InvalidParameter,
         })
     }
 

@@ -6,7 +6,7 @@
 //! ([`crate::CalibrationStore::save_settings`]), with its own magic, version and CRC: a damaged
 //! or unknown settings record reads as "none stored" and the defaults apply.
 //!
-//! ## Record layout (version 2, little-endian, [`SETTINGS_LEN`] bytes)
+//! ## Record layout (version 3, little-endian, [`SETTINGS_LEN`] bytes)
 //! | offset | content |
 //! |---|---|
 //! | 0 | magic `"WSET"` |
@@ -16,10 +16,17 @@
 //! | 8 | the play clock when written, `u32` seconds ([`BudgetRecord::clock_s`]) |
 //! | 12 | commits listed `u8` (≤ [`MAX_DAILY`]), then 3 zero bytes |
 //! | 16 | [`MAX_DAILY`] commit times `u32` (play seconds, oldest first; unused ones zero) |
-//! | 80 | CRC-32/ISO-HDLC of bytes 0..80 |
+//! | 80 | the budget's commit interval `u32`, s of play ([`Intervals::commit_interval_s`]) |
+//! | 84 | the fit interval `u32`, ms of play ([`Intervals::fit_interval_ms`]) |
+//! | 88 | commits per day `u8` ([`Intervals::commits_per_day`]), then 3 zero bytes |
+//! | 92 | CRC-32/ISO-HDLC of bytes 0..92 |
 //!
-//! Version 1 (12 bytes: bytes 0..8 as above, then the CRC of bytes 0..8, written before the
-//! budget was stored) is still read, with an empty budget.
+//! Version 2 (84 bytes: bytes 0..80 as above, then the CRC of bytes 0..80, written before
+//! the intervals were settable) is still read, with the default intervals; version 1 (12
+//! bytes: bytes 0..8 as above, then the CRC of bytes 0..8, written before the budget was
+//! stored) with an empty budget and the default intervals. A version-3 record whose
+//! intervals are outside the wire protocol's bounds (`wiical_wire::BackgroundSettings`) is
+//! refused like a damaged one.
 //!
 //! The flash-write budget of the background recalibration lives here so that a power cycle
 //! does not reset it (see [`crate::background::adopt`]).
@@ -41,9 +48,13 @@ pub const SETTINGS_KEY: u8 = 0x02;
 /// Magic bytes at the start of a settings record.
 pub const SETTINGS_MAGIC: [u8; 4] = *b"WSET";
 /// Version written by this firmware.
-pub const SETTINGS_VERSION: u16 = 2;
+pub const SETTINGS_VERSION: u16 = 3;
 /// Length of a settings record, bytes.
-pub const SETTINGS_LEN: usize = 16 + 4 * MAX_DAILY + 4;
+pub const SETTINGS_LEN: usize = SETTINGS_LEN_V2 + 12;
+/// Version 2 (a budget, the default intervals), still read.
+const SETTINGS_VERSION_V2: u16 = 2;
+/// Length of a version-2 record.
+const SETTINGS_LEN_V2: usize = 16 + 4 * MAX_DAILY + 4;
 /// Version 1 (no budget), still read.
 const SETTINGS_VERSION_V1: u16 = 1;
 /// Length of a version-1 record.
@@ -62,6 +73,45 @@ pub struct StoredSettings {
     pub origin: LiveOrigin,
     /// The background recalibration's flash-write budget and play clock.
     pub budget: BudgetRecord,
+    /// The budget's limits and the fit interval, set over the wire.
+    pub intervals: Intervals,
+}
+
+/// The background recalibration's intervals as the host sets them: the flash-write budget
+/// (at most one commit per `commit_interval_s` of play and `commits_per_day` per 24 h of
+/// play) and how often a fit is attempted. Bounded by the wire protocol's limits
+/// (`wiical_wire::BackgroundSettings::COMMIT_INTERVAL_S` and its siblings).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Intervals {
+    /// Fewest seconds of play between two commits.
+    pub commit_interval_s: u32,
+    /// Most commits per 24 h of play (≤ [`MAX_DAILY`]).
+    pub commits_per_day: u8,
+    /// Milliseconds of play between fit attempts.
+    pub fit_interval_ms: u32,
+}
+
+impl Default for Intervals {
+    /// One commit per 30 min of play, 8 per day, a fit attempt per minute
+    /// ([`crate::background::BackgroundSettings::nunchuk`]'s).
+    fn default() -> Self {
+        Self {
+            commit_interval_s: 1800,
+            commits_per_day: 8,
+            fit_interval_ms: 60_000,
+        }
+    }
+}
+
+impl Intervals {
+    /// Within the wire protocol's bounds.
+    pub fn in_bounds(&self) -> bool {
+        use wiical_wire::BackgroundSettings as W;
+        W::COMMIT_INTERVAL_S.contains(&self.commit_interval_s)
+            && W::COMMITS_PER_DAY.contains(&self.commits_per_day)
+            && W::FIT_INTERVAL_MS.contains(&self.fit_interval_ms)
+            && usize::from(self.commits_per_day) <= MAX_DAILY
+    }
 }
 
 impl Default for StoredSettings {
@@ -73,6 +123,7 @@ impl Default for StoredSettings {
             replace_uploaded: false,
             origin: LiveOrigin::Host,
             budget: BudgetRecord::default(),
+            intervals: Intervals::default(),
         }
     }
 }
@@ -86,7 +137,7 @@ const fn origin_code(o: LiveOrigin) -> u8 {
     }
 }
 
-/// Serialize settings as a version-2 record (see the module docs).
+/// Serialize settings as a version-3 record (see the module docs).
 pub fn encode_settings(s: &StoredSettings) -> [u8; SETTINGS_LEN] {
     let mut out = [0u8; SETTINGS_LEN];
     out[..4].copy_from_slice(&SETTINGS_MAGIC);
@@ -99,18 +150,23 @@ pub fn encode_settings(s: &StoredSettings) -> [u8; SETTINGS_LEN] {
     for (chunk, t) in out[16..16 + 4 * MAX_DAILY].chunks_exact_mut(4).zip(commits) {
         chunk.copy_from_slice(&t.to_le_bytes());
     }
+    let i = &s.intervals;
+    out[80..84].copy_from_slice(&i.commit_interval_s.to_le_bytes());
+    out[84..88].copy_from_slice(&i.fit_interval_ms.to_le_bytes());
+    out[88] = i.commits_per_day;
     let end = SETTINGS_LEN - 4;
     let crc = CRC32.checksum(&out[..end]);
     out[end..].copy_from_slice(&crc.to_le_bytes());
     out
 }
 
-/// Parse and check a settings record; `None` for anything but an intact version-2 (or
-/// version-1) record with known flags and origin and a budget of at most [`MAX_DAILY`]
-/// commits (the caller then uses the defaults).
+/// Parse and check a settings record; `None` for anything but an intact version-3 (or
+/// version-2 or -1) record with known flags and origin, a budget of at most [`MAX_DAILY`]
+/// commits and intervals within their bounds (the caller then uses the defaults).
 pub fn decode_settings(bytes: &[u8]) -> Option<StoredSettings> {
     let len = match u16::from_le_bytes([*bytes.get(4)?, *bytes.get(5)?]) {
         SETTINGS_VERSION => SETTINGS_LEN,
+        SETTINGS_VERSION_V2 => SETTINGS_LEN_V2,
         SETTINGS_VERSION_V1 => SETTINGS_LEN_V1,
         _ => return None,
     };
@@ -120,10 +176,15 @@ pub fn decode_settings(bytes: &[u8]) -> Option<StoredSettings> {
     if CRC32.checksum(&bytes[..len - 4]).to_le_bytes() != bytes[len - 4..] {
         return None;
     }
-    let budget = if len == SETTINGS_LEN {
+    let budget = if len >= SETTINGS_LEN_V2 {
         decode_budget(bytes)?
     } else {
         BudgetRecord::default()
+    };
+    let intervals = if len == SETTINGS_LEN {
+        decode_intervals(bytes)?
+    } else {
+        Intervals::default()
     };
     let flags = bytes[6];
     if flags & !0b11 != 0 {
@@ -141,10 +202,27 @@ pub fn decode_settings(bytes: &[u8]) -> Option<StoredSettings> {
         replace_uploaded: flags & 2 != 0,
         origin,
         budget,
+        intervals,
     })
 }
 
-/// The budget of a version-2 record whose CRC matched; `None` for a count beyond
+/// The intervals of a version-3 record whose CRC matched; `None` for nonzero padding or a
+/// value outside its bounds.
+fn decode_intervals(bytes: &[u8]) -> Option<Intervals> {
+    let word =
+        |at: usize| u32::from_le_bytes([bytes[at], bytes[at + 1], bytes[at + 2], bytes[at + 3]]);
+    if bytes[89..92] != [0, 0, 0] {
+        return None;
+    }
+    let i = Intervals {
+        commit_interval_s: word(80),
+        fit_interval_ms: word(84),
+        commits_per_day: bytes[88],
+    };
+    i.in_bounds().then_some(i)
+}
+
+/// The budget of a version-2 or -3 record whose CRC matched; `None` for a count beyond
 /// [`MAX_DAILY`], nonzero padding or unused slots, or a commit after the record's clock.
 fn decode_budget(bytes: &[u8]) -> Option<BudgetRecord> {
     let word =

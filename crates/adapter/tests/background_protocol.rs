@@ -20,7 +20,7 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 use wiical_adapter::background::LiveOrigin;
-use wiical_adapter::settings::StoredSettings;
+use wiical_adapter::settings::{Intervals, StoredSettings};
 use wiical_adapter::{BootLoad, CalibrationStore, DeviceInfo, IdealScale, NunchukInfo, Protocol};
 use wiical_core::Calibration;
 use wiical_extbus::Encryption;
@@ -145,6 +145,18 @@ fn play(
     None
 }
 
+/// The wire settings a fresh adapter reports: adoption on, host uploads kept, one commit per
+/// 30 min of play and 8 per day, a fit attempt per minute.
+fn defaults() -> BackgroundSettings {
+    BackgroundSettings {
+        adopt: true,
+        replace_uploaded: false,
+        commit_interval_s: 1800,
+        commits_per_day: 8,
+        fit_interval_ms: 60_000,
+    }
+}
+
 fn live(p: &Protocol<Shared>) -> Calibration {
     *p.corrector()
         .user_calibration()
@@ -215,7 +227,7 @@ fn adoption_off_is_stored_and_keeps_the_calibration() {
     let mut p = boot(&flash);
     let off = BackgroundSettings {
         adopt: false,
-        replace_uploaded: false,
+        ..defaults()
     };
     assert_eq!(
         block_on(p.handle(Request::SetBackground(off))),
@@ -269,8 +281,8 @@ fn a_host_upload_is_replaced_only_when_allowed() {
     let mut p = boot(&flash);
     assert_eq!(p.background_report().origin, CalibrationOrigin::Host);
     let allow = BackgroundSettings {
-        adopt: true,
         replace_uploaded: true,
+        ..defaults()
     };
     assert_eq!(
         block_on(p.handle(Request::SetBackground(allow))),
@@ -439,6 +451,11 @@ fn settings_records_round_trip_and_a_flipped_bit_is_no_record() {
             replace_uploaded: k / 2 == 1,
             origin,
             budget,
+            intervals: Intervals {
+                commit_interval_s: 10 + 600_000 * (k as u32 % 2),
+                commits_per_day: 1 + 5 * k as u8,
+                fit_interval_ms: 500 + 1_000_000 * k as u32,
+            },
         };
         let bytes = encode_settings(&s);
         assert_eq!(bytes.len(), SETTINGS_LEN);
@@ -453,6 +470,60 @@ fn settings_records_round_trip_and_a_flipped_bit_is_no_record() {
     let d = StoredSettings::default();
     assert!(d.background_adopt && !d.replace_uploaded && d.origin == LiveOrigin::Host);
     assert_eq!(d.budget, BudgetRecord::default());
+    let nominal = Intervals {
+        commit_interval_s: 1800,
+        commits_per_day: 8,
+        fit_interval_ms: 60_000,
+    };
+    assert_eq!(d.intervals, nominal);
+    // Intervals outside the wire protocol's bounds, with a valid CRC (a writer's bug), are
+    // refused like a damaged record.
+    for bad in [
+        Intervals {
+            commit_interval_s: 0,
+            ..nominal
+        },
+        Intervals {
+            commits_per_day: 17,
+            ..nominal
+        },
+        Intervals {
+            fit_interval_ms: 0,
+            ..nominal
+        },
+    ] {
+        let s = StoredSettings {
+            intervals: bad,
+            ..d
+        };
+        assert_eq!(decode_settings(&encode_settings(&s)), None, "{bad:?}");
+    }
+    // A version-2 record (written before the intervals were settable, bytes as that
+    // firmware wrote them: adoption off, self-calibration origin, clock 5000 s, two commits
+    // at 100 and 2000 s, CRC-32 of the first 80 bytes) still reads, with its budget and the
+    // default intervals.
+    let mut v2 = [0u8; 84];
+    v2[..8].copy_from_slice(b"WSET\x02\x00\x00\x01");
+    v2[8..12].copy_from_slice(&5000u32.to_le_bytes());
+    v2[12] = 2;
+    v2[16..20].copy_from_slice(&100u32.to_le_bytes());
+    v2[20..24].copy_from_slice(&2000u32.to_le_bytes());
+    let crc = crc32_iso_hdlc(&v2[..80]);
+    v2[80..].copy_from_slice(&crc.to_le_bytes());
+    let mut commits = [0; MAX_DAILY];
+    commits[..2].copy_from_slice(&[100, 2000]);
+    let want = StoredSettings {
+        background_adopt: false,
+        replace_uploaded: false,
+        origin: LiveOrigin::SelfCal,
+        budget: BudgetRecord {
+            clock_s: 5000,
+            commits,
+            count: 2,
+        },
+        intervals: nominal,
+    };
+    assert_eq!(decode_settings(&v2), Some(want));
     // A version-1 record (written before the budget was stored, bytes as that firmware
     // wrote them: adoption on, background origin, CRC-32 of the first 8 bytes) still reads,
     // with an empty budget.
@@ -464,6 +535,7 @@ fn settings_records_round_trip_and_a_flipped_bit_is_no_record() {
         replace_uploaded: false,
         origin: LiveOrigin::Background,
         budget: BudgetRecord::default(),
+        intervals: nominal,
     };
     assert_eq!(decode_settings(&v1), Some(want));
 }
@@ -573,4 +645,106 @@ fn a_swapped_nunchuk_starts_with_empty_bins() {
         "another Nunchuk"
     );
     assert!(r.bin_moments.iter().all(|m| *m == 0));
+}
+
+/// The budget and the fit interval set over the wire: out-of-bounds values are refused and
+/// store nothing; the values set are stored (a reboot reports them) and enforced. With a
+/// commit every 45 s of play the sensor's second move is adopted 100 s after the first; with
+/// one commit per day it is refused with `Budget` and the rest of the day as the wait; the
+/// defaults (one per 30 min) refuse it too.
+#[test]
+fn the_budget_set_over_the_wire_is_stored_and_enforced() {
+    let (truth, start) = sensor(3);
+    let mut moved = truth.clone();
+    moved.b0 += Vector3::new(3.0, -4.0, 3.0);
+    let (first, again) = (rests(&truth, 40, 3), rests(&moved, 40, 4));
+    // Adoptions (play seconds) after the two plays, and the last refusal.
+    let run = |set: Option<BackgroundSettings>| {
+        let flash = flash_with(&start, LiveOrigin::SelfCal);
+        let mut p = boot(&flash);
+        if let Some(set) = set {
+            for bad in [
+                BackgroundSettings {
+                    commit_interval_s: 0,
+                    ..set
+                },
+                BackgroundSettings {
+                    commits_per_day: 0,
+                    ..set
+                },
+                BackgroundSettings {
+                    commits_per_day: 200,
+                    ..set
+                },
+                BackgroundSettings {
+                    fit_interval_ms: 0,
+                    ..set
+                },
+            ] {
+                let answer = block_on(p.handle(Request::SetBackground(bad)));
+                assert_eq!(
+                    answer,
+                    Response::Error(wiical_wire::ErrorCode::InvalidParameter)
+                );
+                assert_eq!(p.background_report().settings, defaults());
+            }
+            let answer = block_on(p.handle(Request::SetBackground(set)));
+            assert_eq!(answer, Response::Ack);
+            drop(p);
+            p = boot(&flash);
+            assert_eq!(p.background_report().settings, set, "not stored");
+        }
+        let mut adoptions = Vec::new();
+        for reports in [&first, &again] {
+            for raw in reports.iter() {
+                let _ = p.on_report(&report(*raw));
+                block_on(p.service());
+                let a = p.background_report().last_adoption.map(|a| a.at_s);
+                if let Some(at) = a.filter(|&at| Some(at) != adoptions.last().copied()) {
+                    adoptions.push(at);
+                }
+            }
+        }
+        (adoptions, p.background_report())
+    };
+    let fast = BackgroundSettings {
+        commit_interval_s: 45,
+        commits_per_day: 16,
+        fit_interval_ms: 1500,
+        ..defaults()
+    };
+    let (adoptions, r) = run(Some(fast));
+    assert!(adoptions.len() >= 2, "{adoptions:?}: {:?}", r.last_refusal);
+    assert!(
+        adoptions.windows(2).all(|w| w[1] - w[0] >= 45),
+        "{adoptions:?}"
+    );
+    // One commit per day: the first adoption only, then the day's wait.
+    let daily = BackgroundSettings {
+        commits_per_day: 1,
+        ..fast
+    };
+    let (adoptions1, r) = run(Some(daily));
+    assert_eq!(adoptions1.len(), 1, "{adoptions1:?}");
+    let played = r.play_s;
+    match r.last_refusal {
+        Some(RefusalReport::Budget { wait_s }) => {
+            assert!(
+                (86_400 - played..86_400 - 45).contains(&wait_s),
+                "{wait_s} s ({played} s played)"
+            );
+        }
+        other => panic!("refused for {other:?}, not the budget"),
+    }
+    // The defaults: a commit per 30 min of play, a fit per minute.
+    let (adoptions0, r) = run(None);
+    assert_eq!(adoptions0.len(), 1, "{adoptions0:?}");
+    assert!(
+        matches!(
+            r.last_refusal,
+            Some(RefusalReport::Budget { .. }) | Some(RefusalReport::NotBetter { .. })
+        ),
+        "{:?}",
+        r.last_refusal
+    );
 }

@@ -291,6 +291,9 @@ mod tests {
                 settings: BackgroundSettings {
                     adopt: true,
                     replace_uploaded: false,
+                    commit_interval_s: 1800,
+                    commits_per_day: 8,
+                    fit_interval_ms: 60_000,
                 },
                 origin: crate::messages::CalibrationOrigin::Factory,
                 play_s: 0,
@@ -325,6 +328,9 @@ mod tests {
                 Request::SetBackground(BackgroundSettings {
                     adopt: false,
                     replace_uploaded: false,
+                    commit_interval_s: 1800,
+                    commits_per_day: 8,
+                    fit_interval_ms: 60_000,
                 }),
                 2,
             ),

@@ -69,10 +69,10 @@ pub use frame::{
 };
 pub use messages::{
     check_schema_key, AdapterStatus, AdoptionReport, BackgroundPhase, BackgroundReport,
-    BackgroundSettings, BootRecord, CalibrationOrigin, CalibrationState, CandidateReport,
-    CoverageGapReport, ErrorCode, Hello, HelloResponse, RecordProblem, RefusalReport, Request,
-    Response, Sample, SelfCalOutcome, SelfCalPhase, WireCalibration, WireEffects, BACKGROUND_BINS,
-    FIRMWARE_VERSION_CAP, SELFCAL_MESSAGE_CAP,
+    BackgroundSettings, BackgroundSettingsField, BootRecord, CalibrationOrigin, CalibrationState,
+    CandidateReport, CoverageGapReport, ErrorCode, Hello, HelloResponse, RecordProblem,
+    RefusalReport, Request, Response, Sample, SelfCalOutcome, SelfCalPhase, WireCalibration,
+    WireEffects, BACKGROUND_BINS, FIRMWARE_VERSION_CAP, SELFCAL_MESSAGE_CAP,
 };
 pub use schema::{
     fnv1a_32, protocol_of_key, PREVIOUS_SCHEMA_KEYS, PROTOCOL_VERSION, SCHEMA, SCHEMA_KEY,

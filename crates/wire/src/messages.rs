@@ -55,8 +55,9 @@ pub enum Request {
     /// [`Response::Background`].
     GetBackgroundStatus,
     /// (Protocol 5.) Store the background recalibration's settings in the adapter's flash
-    /// and put them in force: [`Response::Ack`], or [`ErrorCode::StorageFailure`] (the old
-    /// settings stay).
+    /// and put them in force: [`Response::Ack`], [`ErrorCode::InvalidParameter`] for a field
+    /// outside its bounds ([`BackgroundSettings::out_of_bounds`]) or
+    /// [`ErrorCode::StorageFailure`] (the old settings stay either way).
     SetBackground(BackgroundSettings),
 }
 
@@ -493,13 +494,63 @@ pub enum SelfCalOutcome {
 /// cells of ≈ 30°; `wiical_adapter::background::grid` numbers them).
 pub const BACKGROUND_BINS: usize = 54;
 
-/// (Protocol 5.) The background recalibration's settings, kept in the adapter's flash.
+/// (Protocol 5; the budget and the fit interval since protocol 6.) The background
+/// recalibration's settings, kept in the adapter's flash.
+///
+/// Times are of play (reports at the fixed poll rate: the adapter has no clock). The adapter
+/// refuses values outside [`BackgroundSettings::COMMIT_INTERVAL_S`],
+/// [`BackgroundSettings::COMMITS_PER_DAY`] and [`BackgroundSettings::FIT_INTERVAL_MS`] with
+/// [`ErrorCode::InvalidParameter`]: the budget exists to bound flash wear.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 pub struct BackgroundSettings {
     /// Adopt better calibrations found during play (false: monitor only).
     pub adopt: bool,
     /// A calibration the host uploaded may be replaced by one found during play.
     pub replace_uploaded: bool,
+    /// (Protocol 6.) Fewest seconds of play between two commits of adopted calibrations.
+    pub commit_interval_s: u32,
+    /// (Protocol 6.) Most commits per 24 h of play.
+    pub commits_per_day: u8,
+    /// (Protocol 6.) Milliseconds of play between two fit attempts (an attempt also needs
+    /// new still moments since the last).
+    pub fit_interval_ms: u32,
+}
+
+/// A field of [`BackgroundSettings`] outside its bounds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum BackgroundSettingsField {
+    /// [`BackgroundSettings::commit_interval_s`].
+    CommitInterval,
+    /// [`BackgroundSettings::commits_per_day`].
+    CommitsPerDay,
+    /// [`BackgroundSettings::fit_interval_ms`].
+    FitInterval,
+}
+
+impl BackgroundSettings {
+    /// Bounds of [`BackgroundSettings::commit_interval_s`]: at least 10 s (a commit is a few
+    /// hundred bytes of flash and about 0.7 M cycles outside the report path; the daily cap
+    /// is what bounds wear), at most a week.
+    pub const COMMIT_INTERVAL_S: core::ops::RangeInclusive<u32> = 10..=604_800;
+    /// Bounds of [`BackgroundSettings::commits_per_day`]: 1 to the 16 commit times the
+    /// adapter's budget record remembers (monitor only is `adopt: false`, not 0 commits).
+    pub const COMMITS_PER_DAY: core::ops::RangeInclusive<u8> = 1..=16;
+    /// Bounds of [`BackgroundSettings::fit_interval_ms`]: at least 0.5 s (a fit takes about
+    /// 0.36 s of reports on the RP2040), at most an hour.
+    pub const FIT_INTERVAL_MS: core::ops::RangeInclusive<u32> = 500..=3_600_000;
+
+    /// The first field outside its bounds, if any.
+    pub fn out_of_bounds(&self) -> Option<BackgroundSettingsField> {
+        if !Self::COMMIT_INTERVAL_S.contains(&self.commit_interval_s) {
+            Some(BackgroundSettingsField::CommitInterval)
+        } else if !Self::COMMITS_PER_DAY.contains(&self.commits_per_day) {
+            Some(BackgroundSettingsField::CommitsPerDay)
+        } else if !Self::FIT_INTERVAL_MS.contains(&self.fit_interval_ms) {
+            Some(BackgroundSettingsField::FitInterval)
+        } else {
+            None
+        }
+    }
 }
 
 /// (Protocol 5.) Who made the adapter's live calibration.

@@ -60,12 +60,19 @@ fn request() -> impl Strategy<Value = Request> {
         Just(Request::GetStatus),
         Just(Request::EndSession),
         Just(Request::GetBackgroundStatus),
-        (any::<bool>(), any::<bool>()).prop_map(|(adopt, replace_uploaded)| {
-            Request::SetBackground(BackgroundSettings {
-                adopt,
-                replace_uploaded,
-            })
-        }),
+        (
+            (any::<bool>(), any::<bool>()),
+            (any::<u32>(), any::<u8>(), any::<u32>())
+        )
+            .prop_map(|((adopt, replace_uploaded), (commit, per_day, fit))| {
+                Request::SetBackground(BackgroundSettings {
+                    adopt,
+                    replace_uploaded,
+                    commit_interval_s: commit,
+                    commits_per_day: per_day,
+                    fit_interval_ms: fit,
+                })
+            }),
     ]
 }
 
@@ -113,6 +120,9 @@ fn background() -> impl Strategy<Value = BackgroundReport> {
                 settings: BackgroundSettings {
                     adopt,
                     replace_uploaded: !adopt,
+                    commit_interval_s: play_s,
+                    commits_per_day: fresh as u8,
+                    fit_interval_ms: moments,
                 },
                 origin: CalibrationOrigin::Background,
                 play_s,
@@ -140,6 +150,9 @@ fn largest_background() -> BackgroundReport {
         settings: BackgroundSettings {
             adopt: true,
             replace_uploaded: true,
+            commit_interval_s: u32::MAX,
+            commits_per_day: u8::MAX,
+            fit_interval_ms: u32::MAX,
         },
         origin: CalibrationOrigin::Host,
         play_s: u32::MAX,
@@ -492,17 +505,20 @@ fn golden_encodings() {
     );
     // Protocol 5 additions, at the end of each enum.
     assert_eq!(hex(&enc(&Request::GetBackgroundStatus)), "08");
-    let set = Request::SetBackground(BackgroundSettings {
+    // Protocol 6: the settings' budget (1800 s = varint 88 0e, 8 per day) and fit interval
+    // (60,000 ms = varint e0 d4 03) after the two flags.
+    let settings = BackgroundSettings {
         adopt: true,
         replace_uploaded: false,
-    });
-    assert_eq!(hex(&enc(&set)), "090100");
+        commit_interval_s: 1800,
+        commits_per_day: 8,
+        fit_interval_ms: 60_000,
+    };
+    let set = Request::SetBackground(settings);
+    assert_eq!(hex(&enc(&set)), "090100880e08e0d403");
     let bg = BackgroundReport {
         phase: BackgroundPhase::Fitting,
-        settings: BackgroundSettings {
-            adopt: true,
-            replace_uploaded: false,
-        },
+        settings,
         origin: CalibrationOrigin::Host,
         play_s: 300,
         moments: 5,
@@ -519,11 +535,12 @@ fn golden_encodings() {
         }),
         last_refusal: Some(RefusalReport::Budget { wait_s: 300 }),
     };
-    // 07 Background, 01 Fitting, 01 00 settings, 03 Host, varint 300, 05, 02, varint 3,
+    // 07 Background, 01 Fitting, 01 00 88 0e 08 e0 d4 03 settings, 03 Host, varint 300, 05,
+    // 02, varint 3,
     // vec [1, 2], Some 1.0, None, None, Some {1, 1.0, 1.0}, Some Budget (07) varint 300.
     assert_eq!(
         hex(&enc(&Response::Background(bg))),
-        "0701010003ac02050203020102010000803f000001010000803f0000803f0107ac02"
+        "07010100880e08e0d40303ac02050203020102010000803f000001010000803f0000803f0107ac02"
     );
 }
 
@@ -866,12 +883,119 @@ fn a_protocol_2_calibration_frame_is_refused() {
     assert_eq!(got.len(), 1);
     assert!(got[0].is_err(), "{got:?}");
     // The Hello exchange refuses every earlier protocol's key (3: the first with these
-    // cross terms; 4: the newest before this one).
-    for (k, v) in [(1, 3), (0, 4)] {
+    // cross terms; 5: the newest before this one).
+    for (k, v) in [(2, 3), (1, 4), (0, 5)] {
         assert_eq!(protocol_of_key(PREVIOUS_SCHEMA_KEYS[k].1), Some(v));
         assert_eq!(
             check_schema_key(PREVIOUS_SCHEMA_KEYS[k].1),
             Err(ErrorCode::SchemaMismatch)
         );
+    }
+}
+
+/// The bounds of the background settings, checked against values written out here: the
+/// defaults and the time-scaled session's values pass, an interval of 0 s, 0 or more than
+/// 16 commits a day and a fit interval below half a second are refused, each naming its field.
+#[test]
+fn background_settings_bounds() {
+    let ok = BackgroundSettings {
+        adopt: true,
+        replace_uploaded: false,
+        commit_interval_s: 1800,
+        commits_per_day: 8,
+        fit_interval_ms: 60_000,
+    };
+    assert_eq!(ok.out_of_bounds(), None);
+    let scaled = BackgroundSettings {
+        commit_interval_s: 45,
+        commits_per_day: 16,
+        fit_interval_ms: 1500,
+        ..ok
+    };
+    assert_eq!(scaled.out_of_bounds(), None);
+    use wiical_wire::BackgroundSettingsField as F;
+    for (bad, field) in [
+        (
+            BackgroundSettings {
+                commit_interval_s: 0,
+                ..ok
+            },
+            F::CommitInterval,
+        ),
+        (
+            BackgroundSettings {
+                commit_interval_s: 9,
+                ..ok
+            },
+            F::CommitInterval,
+        ),
+        (
+            BackgroundSettings {
+                commit_interval_s: 604_801,
+                ..ok
+            },
+            F::CommitInterval,
+        ),
+        (
+            BackgroundSettings {
+                commits_per_day: 0,
+                ..ok
+            },
+            F::CommitsPerDay,
+        ),
+        (
+            BackgroundSettings {
+                commits_per_day: 17,
+                ..ok
+            },
+            F::CommitsPerDay,
+        ),
+        (
+            BackgroundSettings {
+                commits_per_day: 255,
+                ..ok
+            },
+            F::CommitsPerDay,
+        ),
+        (
+            BackgroundSettings {
+                fit_interval_ms: 0,
+                ..ok
+            },
+            F::FitInterval,
+        ),
+        (
+            BackgroundSettings {
+                fit_interval_ms: 499,
+                ..ok
+            },
+            F::FitInterval,
+        ),
+        (
+            BackgroundSettings {
+                fit_interval_ms: 3_600_001,
+                ..ok
+            },
+            F::FitInterval,
+        ),
+    ] {
+        assert_eq!(bad.out_of_bounds(), Some(field), "{bad:?}");
+    }
+    // The edges are inside.
+    for edge in [
+        BackgroundSettings {
+            commit_interval_s: 10,
+            commits_per_day: 1,
+            fit_interval_ms: 500,
+            ..ok
+        },
+        BackgroundSettings {
+            commit_interval_s: 604_800,
+            commits_per_day: 16,
+            fit_interval_ms: 3_600_000,
+            ..ok
+        },
+    ] {
+        assert_eq!(edge.out_of_bounds(), None, "{edge:?}");
     }
 }

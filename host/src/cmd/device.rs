@@ -16,8 +16,8 @@ use wiical_core::acceptance::Acceptance;
 use wiical_core::terms::TERMS;
 use wiical_core::Calibration;
 use wiical_wire::{
-    AdapterStatus, BootRecord, CalibrationState, HelloResponse, RecordProblem, Sample,
-    SelfCalOutcome, PROTOCOL_VERSION, SCHEMA_KEY,
+    AdapterStatus, BackgroundSettings, BackgroundSettingsField, BootRecord, CalibrationState,
+    HelloResponse, RecordProblem, Sample, SelfCalOutcome, PROTOCOL_VERSION, SCHEMA_KEY,
 };
 
 /// Arguments of `wiical device`.
@@ -79,15 +79,27 @@ pub enum DeviceAction {
     /// recalibration (bins, coverage, candidate vs live error, last adoption and refusal).
     SelfcalStatus,
     /// Store the background recalibration's settings in the adapter: adoption on or off,
-    /// and whether it may replace a calibration uploaded by the host.
+    /// whether it may replace a calibration uploaded by the host, the flash-write budget and
+    /// the fit interval. A setting not given keeps the adapter's current value.
+    #[command(group(clap::ArgGroup::new("setting").required(true).multiple(true)
+        .args(["background", "replace_uploaded", "commit_every", "commits_per_day", "fit_every"])))]
     SelfcalSet {
         /// Adopt better calibrations found during play (off: monitor only).
         #[arg(long, value_parser = ["on", "off"])]
-        background: String,
-        /// Allow replacing a calibration the host uploaded (default: keep the adapter's
-        /// current setting).
+        background: Option<String>,
+        /// Allow replacing a calibration the host uploaded.
         #[arg(long, value_parser = ["yes", "no"])]
         replace_uploaded: Option<String>,
+        /// At most one commit of an adopted calibration per SECONDS of play (10 to 604800;
+        /// the adapter's default 1800).
+        #[arg(long, value_name = "SECONDS")]
+        commit_every: Option<u32>,
+        /// At most N commits per 24 h of play (1 to 16; default 8).
+        #[arg(long, value_name = "N")]
+        commits_per_day: Option<u8>,
+        /// A fit attempt every SECONDS of play, decimals allowed (0.5 to 3600; default 60).
+        #[arg(long, value_name = "SECONDS")]
+        fit_every: Option<f64>,
     },
     /// Stream corrected samples (CSV: seq,raw_x,raw_y,raw_z,ax,ay,az,c,z,stick_x,stick_y).
     Stream {
@@ -361,13 +373,19 @@ pub fn run(args: &DeviceArgs, out: &mut dyn Write) -> Result<String> {
         DeviceAction::SelfcalSet {
             background,
             replace_uploaded,
-        } => selfcal_set(
-            &mut dev,
-            port,
-            background,
-            replace_uploaded.as_deref(),
-            json,
-        ),
+            commit_every,
+            commits_per_day,
+            fit_every,
+        } => {
+            let change = SettingsChange {
+                adopt: background.as_deref().map(|b| b == "on"),
+                replace_uploaded: replace_uploaded.as_deref().map(|r| r == "yes"),
+                commit_interval_s: *commit_every,
+                commits_per_day: *commits_per_day,
+                fit_every_s: *fit_every,
+            };
+            selfcal_set(&mut dev, port, &change, json)
+        }
         DeviceAction::Stream { count, divider } => {
             stream(&mut dev, *count, *divider, json, out)?;
             Ok(String::new())
@@ -390,19 +408,73 @@ fn selfcal_status(dev: &mut Device, port: &str, json: bool) -> Result<String> {
     Ok(o)
 }
 
-/// `device selfcal-set`: stores the background settings and reads them back.
+/// The settings `selfcal-set` was given (`None`: keep the adapter's current value).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct SettingsChange {
+    /// `--background on|off`.
+    pub adopt: Option<bool>,
+    /// `--replace-uploaded yes|no`.
+    pub replace_uploaded: Option<bool>,
+    /// `--commit-every`, s of play.
+    pub commit_interval_s: Option<u32>,
+    /// `--commits-per-day`.
+    pub commits_per_day: Option<u8>,
+    /// `--fit-every`, s of play.
+    pub fit_every_s: Option<f64>,
+}
+
+impl SettingsChange {
+    /// The adapter's settings `now` with this change applied, or one sentence naming the flag
+    /// outside its bounds (the adapter refuses such values too: the budget bounds flash wear).
+    pub fn apply(&self, now: BackgroundSettings) -> Result<BackgroundSettings> {
+        let fit_interval_ms = match self.fit_every_s {
+            None => now.fit_interval_ms,
+            Some(s) if s.is_finite() && (0.0..=4.0e6).contains(&s) => (s * 1000.0).round() as u32,
+            Some(s) => bail!("--fit-every {s}: must be between 0.5 and 3600 seconds of play"),
+        };
+        let want = BackgroundSettings {
+            adopt: self.adopt.unwrap_or(now.adopt),
+            replace_uploaded: self.replace_uploaded.unwrap_or(now.replace_uploaded),
+            commit_interval_s: self.commit_interval_s.unwrap_or(now.commit_interval_s),
+            commits_per_day: self.commits_per_day.unwrap_or(now.commits_per_day),
+            fit_interval_ms,
+        };
+        match want.out_of_bounds() {
+            None => Ok(want),
+            Some(BackgroundSettingsField::CommitInterval) => {
+                let r = BackgroundSettings::COMMIT_INTERVAL_S;
+                bail!(
+                    "--commit-every {}: must be between {} and {} seconds of play (the interval bounds how often the adapter writes its flash)",
+                    want.commit_interval_s, r.start(), r.end()
+                )
+            }
+            Some(BackgroundSettingsField::CommitsPerDay) => {
+                let r = BackgroundSettings::COMMITS_PER_DAY;
+                bail!(
+                    "--commits-per-day {}: must be between {} and {} (the adapter remembers {} commit times; --background off stops adoptions)",
+                    want.commits_per_day, r.start(), r.end(), r.end()
+                )
+            }
+            Some(BackgroundSettingsField::FitInterval) => {
+                bail!(
+                    "--fit-every {}: must be between 0.5 and 3600 seconds of play",
+                    f64::from(want.fit_interval_ms) / 1000.0
+                )
+            }
+        }
+    }
+}
+
+/// `device selfcal-set`: stores the background settings (the ones not given kept) and reads
+/// them back.
 fn selfcal_set(
     dev: &mut Device,
     port: &str,
-    background: &str,
-    replace_uploaded: Option<&str>,
+    change: &SettingsChange,
     json: bool,
 ) -> Result<String> {
     let now = dev.background_status()?.settings;
-    let want = wiical_wire::BackgroundSettings {
-        adopt: background == "on",
-        replace_uploaded: replace_uploaded.map_or(now.replace_uploaded, |r| r == "yes"),
-    };
+    let want = change.apply(now)?;
     dev.set_background(want)?;
     let back = dev.background_status()?.settings;
     if back != want {
@@ -411,14 +483,20 @@ fn selfcal_set(
     if json {
         return to_json(&serde_json::json!({
             "port": port, "stored": true,
-            "adopt": back.adopt, "replace_uploaded": back.replace_uploaded
+            "adopt": back.adopt, "replace_uploaded": back.replace_uploaded,
+            "commit_interval_s": back.commit_interval_s,
+            "commits_per_day": back.commits_per_day,
+            "fit_interval_s": f64::from(back.fit_interval_ms) / 1000.0,
         }));
     }
-    Ok(format!(
+    let mut o = format!(
         "background recalibration on {port}: adoption {}, a host upload {} (stored in the adapter)\n",
         if back.adopt { "on" } else { "off (monitor only)" },
         if back.replace_uploaded { "may be replaced" } else { "is kept" }
-    ))
+    );
+    o.push_str(&render::budget_text(&back));
+    o.push('\n');
+    Ok(o)
 }
 
 fn background_json(b: &wiical_wire::BackgroundReport) -> serde_json::Value {
@@ -426,6 +504,9 @@ fn background_json(b: &wiical_wire::BackgroundReport) -> serde_json::Value {
         "phase": format!("{:?}", b.phase),
         "adopt": b.settings.adopt,
         "replace_uploaded": b.settings.replace_uploaded,
+        "commit_interval_s": b.settings.commit_interval_s,
+        "commits_per_day": b.settings.commits_per_day,
+        "fit_interval_s": f64::from(b.settings.fit_interval_ms) / 1000.0,
         "origin": format!("{:?}", b.origin),
         "play_s": b.play_s,
         "moments": b.moments,

@@ -7,8 +7,8 @@ use std::fmt::Write as _;
 use std::path::Path;
 use wiical_core::Calibration;
 use wiical_wire::{
-    AdapterStatus, BackgroundPhase, BackgroundReport, CalibrationOrigin, CoverageGapReport,
-    RefusalReport, SelfCalOutcome, SelfCalPhase,
+    AdapterStatus, BackgroundPhase, BackgroundReport, BackgroundSettings, CalibrationOrigin,
+    CoverageGapReport, RefusalReport, SelfCalOutcome, SelfCalPhase,
 };
 
 /// A calibration under a title: bias and `K = D⁻¹` (g per count, shown ×1e-3).
@@ -222,6 +222,16 @@ fn origin_text(o: CalibrationOrigin) -> &'static str {
     }
 }
 
+/// The flash-write budget and the fit interval, in a sentence.
+pub fn budget_text(s: &BackgroundSettings) -> String {
+    format!(
+        "at most one commit per {} s of play and {} per 24 h of play; a fit every {} s of play",
+        s.commit_interval_s,
+        s.commits_per_day,
+        f64::from(s.fit_interval_ms) / 1000.0
+    )
+}
+
 /// The background recalibration (`device selfcal-status`): one row per fact.
 pub fn fmt_background(o: &mut String, b: &BackgroundReport) -> Result<()> {
     let phase = match b.phase {
@@ -239,6 +249,7 @@ pub fn fmt_background(o: &mut String, b: &BackgroundReport) -> Result<()> {
         (true, true) => "on; may replace a host upload",
     };
     row(o, "adoption", adoption)?;
+    row(o, "budget", &budget_text(&b.settings))?;
     row(o, "live calibration", origin_text(b.origin))?;
     row(o, "play time", &format!("{} s since power-up", b.play_s))?;
     let bins = format!(

@@ -11,7 +11,7 @@
 //! 2. [`grid`]: the moment is binned by orientation into a fixed grid over the sphere; a bin
 //!    keeps exponentially weighted statistics (newest moments weigh more, so the grid
 //!    follows drift) and the moment's temperature when the caller has one.
-//! 3. [`schedule`] and [`fit`]: every [`BackgroundSettings::fit_interval_s`] of play, when the
+//! 3. [`schedule`] and [`fit`]: every [`BackgroundSettings::fit_interval_ms`] of play, when the
 //!    fresh bins satisfy the coverage rule, a correction of the live calibration is fitted
 //!    (bias + scale, the full 9 parameters when coverage allows, plus a bias-against-
 //!    temperature slope when the temperatures span enough), one bounded slice per report.
@@ -84,8 +84,9 @@ pub struct BackgroundSettings {
     pub damping: f32,
     /// Most bins processed per slice (per report).
     pub bins_per_slice: u8,
-    /// Play seconds between fit attempts.
-    pub fit_interval_s: u32,
+    /// Play milliseconds between fit attempts (counted in reports at `rate_hz`; at least one
+    /// report).
+    pub fit_interval_ms: u32,
     /// Held-out improvement a candidate needs, g.
     pub margin_g: f32,
     /// A candidate's held-out error must be at most this × the live one's.
@@ -132,7 +133,7 @@ impl BackgroundSettings {
             fit_iterations: 4,
             damping: 1e-3,
             bins_per_slice: 3,
-            fit_interval_s: 60,
+            fit_interval_ms: 60_000,
             margin_g: 0.0015,
             improvement_ratio: 0.7,
             acceptance: Acceptance::nunchuk(),
@@ -141,6 +142,13 @@ impl BackgroundSettings {
             adopt: true,
             replace_host: false,
         }
+    }
+
+    /// Reports between two fit attempts: [`BackgroundSettings::fit_interval_ms`] at
+    /// [`BackgroundSettings::rate_hz`], at least one.
+    fn fit_interval_reports(&self) -> u32 {
+        let r = u64::from(self.fit_interval_ms) * u64::from(self.rate_hz.max(1)) / 1000;
+        r.clamp(1, u64::from(u32::MAX)) as u32
     }
 
     fn job(&self) -> JobSettings {
@@ -230,7 +238,8 @@ pub struct Background {
     origin: LiveOrigin,
     ticks: u32,
     play_s: u32,
-    next_attempt_s: u32,
+    /// Reports until the next fit attempt may start.
+    attempt_wait: u32,
     moments_at_attempt: u32,
     deferred: Option<([f32; 3], Option<f32>)>,
     pending: Option<Candidate>,
@@ -258,7 +267,7 @@ impl Background {
             origin,
             ticks: 0,
             play_s: 0,
-            next_attempt_s: settings.fit_interval_s,
+            attempt_wait: settings.fit_interval_reports(),
             moments_at_attempt: 0,
             deferred: None,
             pending: None,
@@ -285,7 +294,7 @@ impl Background {
         self.budget = Budget::from_record(record);
         self.play_s = record.clock_s;
         self.status.power_up_s = record.clock_s;
-        self.next_attempt_s = record.clock_s.saturating_add(self.s.fit_interval_s);
+        self.attempt_wait = self.s.fit_interval_reports();
     }
 
     /// The budget and the clock as a record to store now.
@@ -320,13 +329,15 @@ impl Background {
         &self.s
     }
 
-    /// Changes the settings (e.g. adoption on or off from the host); a running fit is
-    /// dropped, the bins are kept.
+    /// Changes the settings (e.g. adoption on or off, the budget or the fit interval from the
+    /// host); a running fit is dropped, the bins are kept, and a shorter fit interval takes
+    /// effect from now (the next attempt comes no later than the new interval).
     pub fn set_settings(&mut self, settings: BackgroundSettings) {
         if self.job.take().is_some() {
             self.refuse(Refusal::Interrupted);
         }
         self.s = settings;
+        self.attempt_wait = self.attempt_wait.min(settings.fit_interval_reports());
     }
 
     /// The grid.
@@ -408,6 +419,8 @@ impl Background {
     /// at once, all its slices in this call (no poll deadline to keep here).
     pub fn advance(&mut self, seconds: u32, live: &Calibration) {
         self.play_s = self.play_s.saturating_add(seconds);
+        let reports = u64::from(seconds) * u64::from(self.s.rate_hz);
+        self.attempt_wait = (u64::from(self.attempt_wait).saturating_sub(reports)) as u32;
         if self.job.is_none() && self.pending.is_none() && self.due() {
             self.start_job();
         }
@@ -419,11 +432,12 @@ impl Background {
     fn start_job(&mut self) {
         self.rotation = self.rotation.wrapping_add(1);
         self.moments_at_attempt = self.grid.moments();
-        self.next_attempt_s = self.play_s.saturating_add(self.s.fit_interval_s.max(1));
+        self.attempt_wait = self.s.fit_interval_reports();
         self.job = Some(Job::new(self.rotation));
     }
 
     fn tick(&mut self) {
+        self.attempt_wait = self.attempt_wait.saturating_sub(1);
         self.ticks += 1;
         if self.ticks >= self.s.rate_hz {
             self.ticks = 0;
@@ -438,7 +452,7 @@ impl Background {
 
     fn due(&self) -> bool {
         self.feed.valid()
-            && self.play_s >= self.next_attempt_s
+            && self.attempt_wait == 0
             && self.grid.moments() != self.moments_at_attempt
     }
 

@@ -9,7 +9,7 @@ use wiical_core::Calibration;
 
 use super::Protocol;
 use crate::background::{Background, BackgroundSettings, LiveOrigin};
-use crate::settings::StoredSettings;
+use crate::settings::{Intervals, StoredSettings};
 use crate::store::Loaded;
 
 /// Why a stored calibration and its origin did not both reach flash.
@@ -17,6 +17,8 @@ use crate::store::Loaded;
 pub(super) enum CommitError {
     /// Writing or reading back failed; the old calibration is live.
     Storage,
+    /// A setting was outside its bounds; nothing was stored.
+    OutOfBounds,
     /// The calibration was stored but the corrector refused it (cannot happen for a
     /// calibration that passed validation).
     Internal,
@@ -31,9 +33,17 @@ pub(super) fn background_for(
     let mut s = BackgroundSettings::nunchuk(rate_hz);
     s.adopt = stored.background_adopt;
     s.replace_host = stored.replace_uploaded;
+    apply_intervals(&mut s, &stored.intervals);
     let mut bg = Background::new(s, origin);
     bg.resume(&stored.budget);
     bg
+}
+
+/// The budget's limits and the fit interval into the machine's settings.
+fn apply_intervals(s: &mut BackgroundSettings, i: &Intervals) {
+    s.min_commit_interval_s = i.commit_interval_s;
+    s.max_commits_per_day = i.commits_per_day;
+    s.fit_interval_ms = i.fit_interval_ms;
 }
 
 impl<F: NorFlash> Protocol<F> {
@@ -113,22 +123,33 @@ impl<F: NorFlash> Protocol<F> {
         self.background.committed(stored.map_err(|_| ()));
     }
 
-    /// Background adoption on or off, and whether it may replace a host upload: stored
-    /// first (power-loss safe), then in force.
+    /// Background adoption on or off, whether it may replace a host upload, the flash-write
+    /// budget and the fit interval: checked against the wire protocol's bounds (nothing is
+    /// stored otherwise: the budget bounds flash wear), stored (power-loss safe), then in
+    /// force.
     pub(super) async fn set_background(
         &mut self,
-        adopt: bool,
-        replace_uploaded: bool,
+        w: &wiical_wire::BackgroundSettings,
     ) -> Result<(), CommitError> {
+        let intervals = Intervals {
+            commit_interval_s: w.commit_interval_s,
+            commits_per_day: w.commits_per_day,
+            fit_interval_ms: w.fit_interval_ms,
+        };
+        if w.out_of_bounds().is_some() || !intervals.in_bounds() {
+            return Err(CommitError::OutOfBounds);
+        }
         let settings = StoredSettings {
-            background_adopt: adopt,
-            replace_uploaded,
+            background_adopt: w.adopt,
+            replace_uploaded: w.replace_uploaded,
+            intervals,
             ..self.settings
         };
         self.save_settings(settings).await?;
         let mut s = *self.background.settings();
-        s.adopt = adopt;
-        s.replace_host = replace_uploaded;
+        s.adopt = w.adopt;
+        s.replace_host = w.replace_uploaded;
+        apply_intervals(&mut s, &intervals);
         self.background.set_settings(s);
         Ok(())
     }

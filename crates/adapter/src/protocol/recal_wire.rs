@@ -97,6 +97,9 @@ impl<F: NorFlash> Protocol<F> {
             settings: BackgroundSettings {
                 adopt: s.adopt,
                 replace_uploaded: s.replace_host,
+                commit_interval_s: s.min_commit_interval_s,
+                commits_per_day: s.max_commits_per_day,
+                fit_interval_ms: s.fit_interval_ms,
             },
             origin: origin(bg.origin()),
             // Since power-up (the clock itself resumes across power cycles).
