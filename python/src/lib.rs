@@ -135,10 +135,7 @@ fn input_of(
             };
             progress.report("reading", 0, 0);
             let input = py.detach(|| load_input(&path, &opts)).map_err(py_err)?;
-            let rows = match &input {
-                Input::Samples(rec) => rec.len(),
-                Input::Table(table) => table.recording.len(),
-            };
+            let rows = input.len();
             progress.report("reading", rows, rows);
             Ok(input)
         }

@@ -33,6 +33,7 @@ pub fn fit_judged(input: &Input, opts: &FitOptions) -> Result<Judged<FitReport>>
     let report = match input {
         Input::Table(table) => fit_table(table, opts)?,
         Input::Samples(rec) => crate::fit::base::run(rec, opts)?,
+        Input::Stream(src) => crate::fit::base::run_streamed(src, opts)?,
     };
     let means: Vec<[f64; 3]> = report
         .windows
@@ -49,6 +50,7 @@ pub fn analyze_judged(input: &Input, opts: &AnalyzeOptions) -> Result<Judged<Ana
     let report = match input {
         Input::Table(t) => analyze_table(t, opts)?,
         Input::Samples(rec) => crate::analyze(rec, opts)?,
+        Input::Stream(src) => crate::search::analyze::analyze_streamed(src, opts)?,
     };
     let quality = match &report.six_position {
         Some(six) => Quality::assess_with(

@@ -10,7 +10,7 @@ use wiical_analysis::correct::{correct_at, correct_recording};
 use wiical_analysis::detect::windows::detect_windows;
 use wiical_analysis::output::calfile::{parse, to_json_file, CalibrationFile, SCHEMA_V3};
 use wiical_analysis::output::host_term_checks::{HostTerm, Regressor};
-use wiical_analysis::search::thermal::SampleTemps;
+use wiical_analysis::search::thermal::{HeldTemps, SampleTemps};
 use wiical_analysis::simulate::{self, Device, EffectSpec, SimConfig, SimEffect, SimOutput};
 use wiical_analysis::{analyze, AnalyzeOptions, AnalyzeReport};
 
@@ -96,11 +96,11 @@ fn check(effect: SimEffect, mg: f64) -> [f64; 4] {
     assert_eq!(ws.stats.len(), r.windows.len());
     let spans: Vec<(usize, usize)> = ws.stats.iter().map(|w| (w.start, w.end)).collect();
     let temp = s.recording.temp.clone().unwrap_or_default();
-    let st = SampleTemps {
+    let st = SampleTemps::Held(HeldTemps {
         times: &ws.times,
         temp: &temp,
         spans: &spans,
-    };
+    });
     let xs = window_regressors(&file.host_terms, &r, &st);
     let core_only = CalibrationFile {
         host_terms: Vec::new(),

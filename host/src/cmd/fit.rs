@@ -8,7 +8,7 @@ use crate::cli_error::cli_error;
 use crate::render;
 use anyhow::Result;
 use std::path::PathBuf;
-use wiical_analysis::input::front_door::Input;
+
 use wiical_core::multipos::MultiPosModel;
 
 /// Arguments of `wiical fit`.
@@ -55,11 +55,8 @@ pub fn run(a: &Args) -> Result<String> {
     if a.json {
         return to_json(&judged);
     }
-    let rec = match &input {
-        Input::Table(t) => &t.recording,
-        Input::Samples(rec) => rec,
-    };
-    let mut text = render::fit_text(rep, rec, &a.file.display().to_string());
+    let (rec, samples) = (input.recording(), input.len());
+    let mut text = render::fit_text(rep, rec, samples, &a.file.display().to_string());
     text.push_str(&quality.line());
     text.push('\n');
     Ok(text)

@@ -82,6 +82,7 @@ impl DetectArgs {
         .map_err(cli_error)?;
         match &input {
             Input::Samples(rec) => print_notes(path, rec),
+            Input::Stream(src) => print_notes(path, &src.meta),
             Input::Table(_) if self.detector_flags_given() || self.adc_range.is_some() => {
                 eprintln!(
                     "warning: in {}: the rows are windows already: the detector settings are not used",

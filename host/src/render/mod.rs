@@ -47,12 +47,12 @@ pub fn six_position_text(rep: &SixPositionReport, file: &str) -> String {
 }
 
 /// The `fit` table.
-pub fn fit_text(rep: &FitReport, rec: &Recording, file: &str) -> String {
+pub fn fit_text(rep: &FitReport, rec: &Recording, samples: usize, file: &str) -> String {
     let mut o = String::new();
     let _ = writeln!(
         o,
         "Multi-position fit of {file} ({} {}): {} static windows",
-        rec.len(),
+        samples,
         if rep.window_input.is_some() {
             "rows"
         } else {

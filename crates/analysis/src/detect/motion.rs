@@ -113,6 +113,8 @@ mod tests {
             var: [var_g2; 3],
             batch_var_of_mean: None,
             t_centre: 0.0,
+            t_first: 0.0,
+            t_last: 0.0,
             temp: None,
             count: None,
         }

@@ -30,6 +30,8 @@ impl Windows {
                     .map_or([f64::NAN; 3], |sd| sd[i].map(|s| s * s)),
                 batch_var_of_mean: None,
                 t_centre: times[i] - t0,
+                t_first: times[i],
+                t_last: times[i],
                 temp: rec.temp.as_ref().map(|t| t[i]),
                 count: table.count.as_ref().map(|c| c[i]),
             })
@@ -47,6 +49,7 @@ impl Windows {
         Windows {
             units: infer_units(rec.is_integer(), st::median(&norms)),
             stats,
+            clock: times.first().zip(times.last()).map(|(a, b)| (*a, *b)),
             times,
             reference_variance,
         }

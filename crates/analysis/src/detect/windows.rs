@@ -236,7 +236,22 @@ const ADAPTIVE_SCRATCH: usize = 4096;
 /// tried from the IMU-TK defaults (1 s windows, 2 s holds) down to 0.25 s / 0.5 s until one
 /// gives at least [`ADAPTIVE_MIN_WINDOWS`] windows that a multi-position fit accepts.
 pub fn detect_adaptive(rec: &Recording, opts: &DetectOptions) -> Result<Detection> {
-    let rate = rec.estimated_rate_hz().unwrap_or(opts.default_rate_hz);
+    let rate = adaptive_rate(rec.estimated_rate_hz(), opts)?;
+    let lattice = lattice_view(&rec.xyz);
+    let xyz = lattice.as_deref().unwrap_or(&rec.xyz);
+    let samples = xyz.iter().map(|s| s.map(|v| v as f32));
+    let (intervals, reference_variance) = adaptive_intervals(samples, rec.len(), rate)?;
+    Ok(Detection {
+        intervals,
+        reference_variance,
+        times: rec.times(rate),
+    })
+}
+
+/// The sample rate the detection takes (`estimated`: the recording's, when known), refused
+/// when it is not a positive number or slower than [`MIN_SAMPLE_RATE_HZ`].
+pub(crate) fn adaptive_rate(estimated: Option<f64>, opts: &DetectOptions) -> Result<f64> {
+    let rate = estimated.unwrap_or(opts.default_rate_hz);
     if !(rate.is_finite() && rate > 0.0) {
         return Err(DetectError::NoSampleRate);
     }
@@ -245,15 +260,26 @@ pub fn detect_adaptive(rec: &Recording, opts: &DetectOptions) -> Result<Detectio
             rate_hz: (rate * 1e6).round() / 1e6,
         });
     }
-    let lattice = lattice_view(&rec.xyz);
-    let xyz = lattice.as_deref().unwrap_or(&rec.xyz);
-    let samples = xyz.iter().map(|s| s.map(|v| v as f32));
+    Ok(rate)
+}
+
+/// [`detect_adaptive`]'s intervals and reference variance from the `n` samples `samples`
+/// yields (as the detector sees them: quantiser levels or values, `f32`), passed over several
+/// times (clones of it).
+pub(crate) fn adaptive_intervals<I>(
+    samples: I,
+    n: usize,
+    rate: f64,
+) -> Result<(Vec<StaticInterval>, [f32; 3])>
+where
+    I: Iterator<Item = [f32; 3]> + Clone,
+{
     let mut scratch = vec![[0.0f32; 3]; ADAPTIVE_SCRATCH];
     // The intervals of every setting tried, kept as found: the chosen one's are the result,
     // with no final pass over the samples (`detect_fitted_each`).
     let mut per_setting = vec![Vec::new(); adaptive::HOLD_SCHEDULE.len()];
     let (det, chosen) = adaptive::detect_fitted_each::<MAX_WINDOW, _>(
-        samples,
+        samples.clone(),
         rate as f32,
         ADAPTIVE_MIN_WINDOWS,
         &MultiPosConfig::default(),
@@ -262,7 +288,7 @@ pub fn detect_adaptive(rec: &Recording, opts: &DetectOptions) -> Result<Detectio
     )
     .map_err(|e| match e {
         wiical_core::Error::TooFewSamples { needed, .. } => DetectError::TooShortForSurvey {
-            samples: rec.len(),
+            samples: n,
             needed,
             survey_s: f64::from(adaptive::SURVEY_BLOCK_S) * f64::from(adaptive::MIN_SURVEY_BLOCKS),
             rate_hz: rate,
@@ -276,18 +302,13 @@ pub fn detect_adaptive(rec: &Recording, opts: &DetectOptions) -> Result<Detectio
             .thresholds
             .detector_config(rate as f32, window_s, min_static_s);
         let mut short = Vec::new();
-        let samples = xyz.iter().map(|s| s.map(|v| v as f32));
         adaptive::run::<MAX_WINDOW, _>(samples, cfg, det.thresholds.reference_variance, |iv| {
             short.push(iv)
         })
         .map_err(DetectError::DetectorSettings)?;
         intervals = fill_holds(intervals, &short);
     }
-    Ok(Detection {
-        intervals,
-        reference_variance: det.thresholds.reference_variance,
-        times: rec.times(rate),
-    })
+    Ok((intervals, det.thresholds.reference_variance))
 }
 
 /// The [`adaptive::HOLD_SCHEDULE`] setting (0.5 s windows, 1 s holds) whose holds fill the
@@ -320,7 +341,7 @@ fn fill_holds(mut chosen: Vec<StaticInterval>, short: &[StaticInterval]) -> Vec<
 
 /// Most quantiser levels per axis [`lattice_view`] recognises: a 16-bit ADC has 65 536;
 /// beyond it the values are taken as continuous (and f32 still holds every level exactly).
-const MAX_LATTICE_LEVELS: usize = 1 << 17;
+pub(crate) const MAX_LATTICE_LEVELS: usize = 1 << 17;
 
 /// How far (in steps) a value may sit from its lattice point and still count as on it: a
 /// count converted to g and printed with 7 significant digits is ~10⁻⁵ step off.
@@ -339,45 +360,68 @@ fn lattice_view(xyz: &[[f64; 3]]) -> Option<Vec<[f64; 3]>> {
     if xyz.iter().all(|s| s.iter().all(|v| v.fract() == 0.0)) {
         return None;
     }
-    let mut step = [0.0; 3];
-    let mut origin = [0.0; 3];
-    for a in 0..3 {
+    let mut lattice = [(0.0, 0.0); 3];
+    for (a, axis) in lattice.iter_mut().enumerate() {
         let mut v: Vec<f64> = xyz.iter().map(|s| s[a]).collect();
         if v.iter().any(|x| !x.is_finite()) {
             return None;
         }
         v.sort_by(f64::total_cmp);
         v.dedup();
-        if v.len() > MAX_LATTICE_LEVELS {
-            return None;
-        }
-        let span = v[v.len() - 1] - v[0];
-        // The smallest gap that is not float noise is the step candidate.
-        let q = v
-            .windows(2)
-            .map(|w| w[1] - w[0])
-            .filter(|g| *g > 1e-9 * span.max(v[0].abs()))
-            .fold(f64::INFINITY, f64::min);
-        origin[a] = v[0];
-        step[a] = if q.is_finite() { q } else { 1.0 };
-        let on_lattice = v.iter().all(|x| {
-            let k = (x - v[0]) / step[a];
-            (k - k.round()).abs() <= LATTICE_TOLERANCE
-        });
-        if !on_lattice || span / step[a] > MAX_LATTICE_LEVELS as f64 {
-            return None;
-        }
+        *axis = axis_lattice(&v)?;
     }
-    Some(
-        xyz.iter()
-            .map(|s| std::array::from_fn(|a| ((s[a] - origin[a]) / step[a]).round()))
-            .collect(),
-    )
+    Some(xyz.iter().map(|s| to_levels(s, &lattice)).collect())
+}
+
+/// A sample as quantiser levels of the per-axis lattices `(origin, step)` ([`lattice_view`]).
+pub(crate) fn to_levels(s: &[f64; 3], lattice: &[(f64, f64); 3]) -> [f64; 3] {
+    std::array::from_fn(|a| ((s[a] - lattice[a].0) / lattice[a].1).round())
+}
+
+/// One axis's lattice `(origin, step)` from its distinct values `v` (finite, ascending, no
+/// repeats): `None` when they are too many levels ([`MAX_LATTICE_LEVELS`]) or off a lattice.
+pub(crate) fn axis_lattice(v: &[f64]) -> Option<(f64, f64)> {
+    if v.is_empty() || v.len() > MAX_LATTICE_LEVELS {
+        return None;
+    }
+    let span = v[v.len() - 1] - v[0];
+    // The smallest gap that is not float noise is the step candidate.
+    let q = v
+        .windows(2)
+        .map(|w| w[1] - w[0])
+        .filter(|g| *g > 1e-9 * span.max(v[0].abs()))
+        .fold(f64::INFINITY, f64::min);
+    let step = if q.is_finite() { q } else { 1.0 };
+    let on_lattice = v.iter().all(|x| {
+        let k = (x - v[0]) / step;
+        (k - k.round()).abs() <= LATTICE_TOLERANCE
+    });
+    if !on_lattice || span / step > MAX_LATTICE_LEVELS as f64 {
+        return None;
+    }
+    Some((v[0], step))
 }
 
 /// Runs the core's streaming static detector over a recording.
 pub fn detect(rec: &Recording, opts: &DetectOptions) -> Result<Detection> {
     let rate = rec.estimated_rate_hz().unwrap_or(opts.default_rate_hz);
+    let samples = rec.xyz.iter().copied();
+    let (intervals, reference_variance) = fixed_intervals(samples, rec.len(), rate, opts)?;
+    Ok(Detection {
+        intervals,
+        reference_variance,
+        times: rec.times(rate),
+    })
+}
+
+/// [`detect`]'s intervals and reference variance from the `n` samples `samples` yields (as
+/// the detector sees them), at `rate` Hz.
+pub(crate) fn fixed_intervals(
+    samples: impl Iterator<Item = [f64; 3]>,
+    n: usize,
+    rate: f64,
+    opts: &DetectOptions,
+) -> Result<(Vec<StaticInterval>, [f32; 3])> {
     if !(rate.is_finite() && rate > 0.0) {
         return Err(DetectError::NoSampleRate);
     }
@@ -394,9 +438,9 @@ pub fn detect(rec: &Recording, opts: &DetectOptions) -> Result<Detection> {
             max: MAX_WINDOW,
         });
     }
-    if (rec.len() as u32) < cfg.init_samples.max(cfg.window as u32) {
+    if (n as u32) < cfg.init_samples.max(cfg.window as u32) {
         return Err(DetectError::TooShort {
-            samples: rec.len(),
+            samples: n,
             needed: cfg.init_samples,
             init_s: opts.init_s,
             rate_hz: rate,
@@ -406,7 +450,7 @@ pub fn detect(rec: &Recording, opts: &DetectOptions) -> Result<Detection> {
     let mut det: StaticDetector<MAX_WINDOW> =
         StaticDetector::new(cfg).map_err(DetectError::DetectorSettings)?;
     let mut intervals = Vec::new();
-    for (i, s) in rec.xyz.iter().enumerate() {
+    for (i, s) in samples.enumerate() {
         let m = [s[0] as f32, s[1] as f32, s[2] as f32];
         if let Some(iv) = det.push(m).map_err(|cause| DetectError::Sample {
             index: i + 1,
@@ -418,12 +462,7 @@ pub fn detect(rec: &Recording, opts: &DetectOptions) -> Result<Detection> {
     if let Some(iv) = det.finish() {
         intervals.push(iv);
     }
-    let reference_variance = det.reference_variance().unwrap_or([0.0; 3]);
-    Ok(Detection {
-        intervals,
-        reference_variance,
-        times: rec.times(rate),
-    })
+    Ok((intervals, det.reference_variance().unwrap_or([0.0; 3])))
 }
 
 /// ADC limits inferred from integer-valued data: 10-bit (0..1023), 8-bit (0..255),
@@ -444,6 +483,11 @@ pub fn infer_adc_range(rec: &Recording) -> Option<(f64, f64)> {
         .flatten()
         .copied()
         .fold(f64::NEG_INFINITY, f64::max);
+    adc_range_of(lo, hi)
+}
+
+/// The ADC range holding every value from `lo` to `hi` ([`infer_adc_range`]).
+pub(crate) fn adc_range_of(lo: f64, hi: f64) -> Option<(f64, f64)> {
     [
         (0.0, 255.0),
         (0.0, 1023.0),
@@ -498,6 +542,10 @@ pub struct WindowStats {
     pub batch_var_of_mean: Option<[f64; 3]>,
     /// Mean time, s since the first sample.
     pub t_centre: f64,
+    /// Time of the window's first sample, s (recording clock).
+    pub t_first: f64,
+    /// Time of the window's last sample, s (recording clock).
+    pub t_last: f64,
     /// Mean temperature.
     pub temp: Option<f64>,
     /// Samples averaged: the span for detected windows; for windows read from a window-mean
@@ -517,8 +565,13 @@ impl WindowStats {
 pub struct Windows {
     /// The windows.
     pub stats: Vec<WindowStats>,
-    /// Sample times (recording clock), s.
+    /// Sample times (recording clock), s: every sample's for a recording held in memory (the
+    /// gyroscope's segments read them); empty for samples streamed from a file
+    /// ([`crate::detect::streamed`]), whose windows carry their own times.
     pub times: Vec<f64>,
+    /// Times of the recording's first and last sample, s (recording clock); `None` without
+    /// samples.
+    pub clock: Option<(f64, f64)>,
     /// Detected units.
     pub units: &'static str,
     /// The detector's per-axis reference variance.
@@ -534,26 +587,16 @@ fn detector_view(rec: &Recording, opts: &DetectOptions) -> Option<Recording> {
         return None;
     }
     let rate = rec.estimated_rate_hz().unwrap_or(opts.default_rate_hz);
-    let init = ((opts.init_s * rate) as usize).clamp(2, rec.len().max(2));
-    let head = &rec.xyz[..init.min(rec.len())];
-    let mut sd_min = f64::INFINITY;
-    for a in 0..3 {
-        let m = head.iter().map(|s| s[a]).sum::<f64>() / head.len().max(1) as f64;
-        let v =
-            head.iter().map(|s| (s[a] - m).powi(2)).sum::<f64>() / (head.len().max(2) - 1) as f64;
-        sd_min = sd_min.min(v.sqrt());
-    }
-    let mags: Vec<f64> = rec
-        .xyz
-        .iter()
-        .map(|s| (s[0] * s[0] + s[1] * s[1] + s[2] * s[2]).sqrt())
-        .collect();
-    let med = st::median(&mags);
-    let k = if sd_min > 0.0 && sd_min.is_finite() {
-        1.0 / sd_min
-    } else {
-        1e4 / med.max(1e-30)
-    };
+    let k = detector_scale(
+        || rec.xyz.iter().copied(),
+        rec.len(),
+        rate,
+        opts,
+        || {
+            let mags: Vec<f64> = rec.xyz.iter().map(magnitude).collect();
+            st::median(&mags)
+        },
+    );
     Some(Recording {
         xyz: rec.xyz.iter().map(|s| s.map(|v| v * k)).collect(),
         t: rec.t.clone(),
@@ -565,6 +608,37 @@ fn detector_view(rec: &Recording, opts: &DetectOptions) -> Option<Recording> {
         notes: Vec::new(),
         info: Vec::new(),
     })
+}
+
+/// ‖s‖ of one sample.
+pub(crate) fn magnitude(s: &[f64; 3]) -> f64 {
+    (s[0] * s[0] + s[1] * s[1] + s[2] * s[2]).sqrt()
+}
+
+/// [`detector_view`]'s scale for the `n` samples `samples` yields afresh on every call (only
+/// the rest period's head is read): one over the quietest axis's std over the rest period,
+/// else (a constant head) 10⁴ over the median ‖a‖ (`median_mag`, asked only then).
+pub(crate) fn detector_scale<I: Iterator<Item = [f64; 3]>>(
+    samples: impl Fn() -> I,
+    n: usize,
+    rate: f64,
+    opts: &DetectOptions,
+    median_mag: impl FnOnce() -> f64,
+) -> f64 {
+    let init = ((opts.init_s * rate) as usize).clamp(2, n.max(2));
+    let len = init.min(n);
+    let mut sd_min = f64::INFINITY;
+    for a in 0..3 {
+        let m = samples().take(len).map(|s| s[a]).sum::<f64>() / len.max(1) as f64;
+        let v =
+            samples().take(len).map(|s| (s[a] - m).powi(2)).sum::<f64>() / (len.max(2) - 1) as f64;
+        sd_min = sd_min.min(v.sqrt());
+    }
+    if sd_min > 0.0 && sd_min.is_finite() {
+        1.0 / sd_min
+    } else {
+        1e4 / median_mag().max(1e-30)
+    }
 }
 
 /// Names the setting the core's detector would refuse with a bare "invalid parameter": the
@@ -603,7 +677,7 @@ fn check_detector_settings(cfg: &StaticDetectorConfig, rate: f64) -> Result<()> 
 }
 
 /// Batch means per window: the window split into this many blocks.
-const BATCHES: usize = 10;
+pub(crate) const BATCHES: usize = 10;
 
 /// Per-axis variance of the mean from [`BATCHES`] batch means (sees slow noise that var/n
 /// misses); `None` when the window is shorter than 5 samples per batch.
@@ -621,13 +695,32 @@ fn batch_var_of_mean(xs: &[[f64; 3]]) -> Option<[f64; 3]> {
             }
         }
     }
+    Some(batch_spread(&bm))
+}
+
+/// Per-axis variance of the mean from the [`BATCHES`] batch means `bm`.
+pub(crate) fn batch_spread(bm: &[[f64; 3]; BATCHES]) -> [f64; 3] {
+    const B: usize = BATCHES;
     let mut out = [0.0; 3];
     for a in 0..3 {
         let mu = bm.iter().map(|m| m[a]).sum::<f64>() / B as f64;
         let v = bm.iter().map(|m| (m[a] - mu).powi(2)).sum::<f64>() / (B - 1) as f64;
         out[a] = v / B as f64;
     }
-    Some(out)
+    out
+}
+
+/// The sample variance from the sums of squared deviations `sq` of `n` samples, floored at
+/// the quantisation's 1/12 for `integer` counts.
+pub(crate) fn variance_of(sq: [f64; 3], n: f64, integer: bool) -> [f64; 3] {
+    sq.map(|v| {
+        let v = v / (n - 1.0);
+        if integer {
+            v.max(1.0 / 12.0)
+        } else {
+            v
+        }
+    })
 }
 
 /// The f64 statistics of samples `s..e` (at least two). `t0`: time of the first sample.
@@ -653,14 +746,7 @@ fn window_stats(
             var[a] += (x[a] - mean[a]).powi(2);
         }
     }
-    var = var.map(|v| {
-        let v = v / (n - 1.0);
-        if integer {
-            v.max(1.0 / 12.0)
-        } else {
-            v
-        }
-    });
+    var = variance_of(var, n, integer);
     WindowStats {
         start: s,
         end: e,
@@ -668,6 +754,8 @@ fn window_stats(
         var,
         batch_var_of_mean: batch_var_of_mean(xs),
         t_centre: times[s..e].iter().sum::<f64>() / n - t0,
+        t_first: times[s],
+        t_last: times[e - 1],
         temp: rec.temp.as_ref().map(|tc| tc[s..e].iter().sum::<f64>() / n),
         count: Some(e - s),
     }
@@ -702,6 +790,11 @@ pub fn detect_windows(rec: &Recording, opts: &DetectOptions) -> Result<Windows> 
     Ok(Windows {
         units: infer_units(integer, st::median(&norms)),
         stats,
+        clock: det
+            .times
+            .first()
+            .zip(det.times.last())
+            .map(|(a, b)| (*a, *b)),
         times: det.times,
         reference_variance: det.reference_variance,
     })

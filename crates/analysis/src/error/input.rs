@@ -241,6 +241,9 @@ pub enum InputError {
     /// Metadata only.
     #[error("no header line found")]
     NoHeader,
+    /// A file read in passes (its samples streamed, never held) changed between them.
+    #[error("the file changed while it was being read (its size, modification time or rows differ from the first pass); read it again once it is complete")]
+    ChangedWhileRead,
     /// A header and nothing else.
     #[error("file has a header but no data rows")]
     HeaderOnly,

@@ -5,6 +5,7 @@ use crate::detect::windows::{detect_windows, DetectOptions, Windows};
 use crate::error::fit::FitError;
 use crate::error::Result;
 use crate::input::recording::Recording;
+use crate::input::text_source::TextSource;
 use serde::Serialize;
 use wiical_core::multipos::{self, MultiPosConfig, MultiPosFit, MultiPosModel};
 use wiical_core::Calibration;
@@ -86,6 +87,13 @@ pub fn run(rec: &Recording, opts: &FitOptions) -> Result<FitReport> {
     Ok(run_windows(&detect_windows(rec, &opts.detect)?, opts)?)
 }
 
+/// [`run`] on a large text file streamed in passes ([`TextSource`]: the samples are never
+/// held): the same windows ([`crate::detect::streamed`]) and the same fit.
+pub fn run_streamed(src: &TextSource, opts: &FitOptions) -> Result<FitReport> {
+    let ws = crate::detect::streamed::detect_windows_streamed(src, &opts.detect)?;
+    Ok(run_windows(&ws, opts)?)
+}
+
 /// The fit of windows already found: detected by [`run`], or read from a window-mean table
 /// ([`crate::input::window_means`]) — the same windows `analyze` uses for the same file.
 pub fn run_windows(ws: &Windows, opts: &FitOptions) -> Result<FitReport, FitError> {
@@ -97,8 +105,8 @@ pub fn run_windows(ws: &Windows, opts: &FitOptions) -> Result<FitReport, FitErro
         .iter()
         .zip(&means)
         .map(|(w, m)| WindowReport {
-            t_start: ws.times[w.start],
-            t_end: ws.times[w.end - 1],
+            t_start: w.t_first,
+            t_end: w.t_last,
             samples: w.n().map(|n| n as u32),
             mean: *m,
             std: w.var.map(|v| v.sqrt() as f32),

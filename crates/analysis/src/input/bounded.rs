@@ -284,7 +284,12 @@ pub(crate) fn check_reading_scale(xyz: &[[f64; 3]]) -> Result<()> {
         .iter()
         .flat_map(|r| r.iter())
         .fold(0.0f64, |m, v| m.max(v.abs()));
-    if !xyz.is_empty() && largest < MIN_FULL_SCALE {
+    check_largest_reading(!xyz.is_empty(), largest)
+}
+
+/// [`check_reading_scale`] given its fold: `any` sample, the `largest` |value|.
+pub(crate) fn check_largest_reading(any: bool, largest: f64) -> Result<()> {
+    if any && largest < MIN_FULL_SCALE {
         return Err(InputError::ReadingsTooSmall { largest }.into());
     }
     Ok(())

@@ -4,7 +4,7 @@
 //! each kind has one reader: [`load`] (every sample), [`load_imu`] (an accelerometer and a
 //! gyroscope from one read), [`load_input`] (what `fit`, `analyze` and `batch` need: samples,
 //! or a table whose rows are windows already — a window-mean text table or a raw file's still
-//! epochs).
+//! epochs; a large plain text file streamed, [`Input::Stream`]).
 //!
 //! Why one door: the kind decides the reader, and each door used to decide it again (and
 //! standard input can be read only once). Errors are the readers' own, with the file named.
@@ -18,8 +18,10 @@ use crate::input::recording::Recording;
 use crate::input::table::WindowTable;
 use crate::input::text::parse;
 use crate::input::text_file::{self, PIECES_FROM_BYTES};
+use crate::input::text_source::TextSource;
 use crate::input::window_means::{parse_window_table, WindowInputOptions};
 use std::path::Path;
+use std::sync::Arc;
 
 /// What a file is, decided from its first bytes.
 #[derive(Debug)]
@@ -70,9 +72,15 @@ fn read_whole(path: &Path) -> Result<Whole> {
 /// True when `path` is a regular file of at least [`PIECES_FROM_BYTES`] whose first bytes are
 /// neither gzip's nor a raw format's magic.
 fn is_large_text_file(path: &Path) -> bool {
+    is_text_file_from(path, PIECES_FROM_BYTES)
+}
+
+/// True when `path` is a regular file of at least `min_bytes` whose first bytes are neither
+/// gzip's nor a raw format's magic.
+fn is_text_file_from(path: &Path, min_bytes: u64) -> bool {
     use std::io::Read;
     if path.as_os_str() == "-"
-        || !std::fs::metadata(path).is_ok_and(|m| m.is_file() && m.len() >= PIECES_FROM_BYTES)
+        || !std::fs::metadata(path).is_ok_and(|m| m.is_file() && m.len() >= min_bytes)
     {
         return false;
     }
@@ -213,6 +221,52 @@ pub enum Input {
     Samples(Recording),
     /// Rows that are windows already.
     Table(WindowTable),
+    /// A plain text file of at least [`STREAM_FROM_BYTES`], its samples read in passes from
+    /// the file, never held ([`TextSource`]): `fit` and `analyze` in bounded memory.
+    Stream(Arc<TextSource>),
+}
+
+impl Input {
+    /// The recording as read (for a streamed file: its metadata, without samples).
+    pub fn recording(&self) -> &Recording {
+        match self {
+            Input::Samples(rec) => rec,
+            Input::Table(t) => &t.recording,
+            Input::Stream(src) => &src.meta,
+        }
+    }
+
+    /// Samples (or rows of a table) read.
+    pub fn len(&self) -> usize {
+        match self {
+            Input::Stream(src) => src.len(),
+            other => other.recording().len(),
+        }
+    }
+
+    /// True when nothing was read.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+}
+
+/// Plain text files at least this large are streamed by [`load_input`] ([`Input::Stream`]):
+/// `fit` and `analyze` read them in passes with memory bounded by a piece and the windows,
+/// where holding the rows would take ~1.5× the file. Smaller files are held: one read,
+/// no re-parse per pass.
+pub const STREAM_FROM_BYTES: u64 = 128 << 20;
+
+/// Environment variable that sets the size (bytes) from which [`load_input`] streams a plain
+/// text file, in place of [`STREAM_FROM_BYTES`]: `0` streams every one, a huge value none
+/// (for benchmarks and tests that compare the two paths on one file).
+pub const STREAM_FROM_BYTES_VAR: &str = "WIICAL_STREAM_FROM_BYTES";
+
+/// [`STREAM_FROM_BYTES`], or the value of [`STREAM_FROM_BYTES_VAR`] when it is a number.
+pub fn stream_from_bytes() -> u64 {
+    std::env::var(STREAM_FROM_BYTES_VAR)
+        .ok()
+        .and_then(|v| v.trim().parse().ok())
+        .unwrap_or(STREAM_FROM_BYTES)
 }
 
 /// Reads `path` once (standard input can be read only once) as a window-mean table when its
@@ -223,8 +277,21 @@ pub enum Input {
 /// few of them is an error saying how many were found and needed. A regular raw file is
 /// read block by block: memory is the still epochs, not the file (no size cap).
 pub fn load_input(path: &Path, opts: &WindowInputOptions) -> Result<Input> {
+    load_input_from(path, opts, stream_from_bytes())
+}
+
+/// [`load_input`], streaming plain text files of at least `stream_from` bytes
+/// ([`Input::Stream`]; a file the stream declines — not plain text, a pose column — is read
+/// as [`load_input`] reads it).
+pub fn load_input_from(path: &Path, opts: &WindowInputOptions, stream_from: u64) -> Result<Input> {
     // A window-mean table is small: only samples are read in pieces.
     let samples = |head: &str| !opts.force && matches!(parse_window_table(head, opts), Ok(None));
+    if is_text_file_from(path, stream_from) {
+        let src = TextSource::open(path, &opts.load, samples).map_err(|e| e.in_file(path))?;
+        if let Some(src) = src {
+            return Ok(Input::Stream(Arc::new(src)));
+        }
+    }
     let whole = match open(path)? {
         Opened::RawFile(format) => {
             let table = raw::stream::raw_epoch_table(path, format, &opts.load, &Default::default());

@@ -15,10 +15,12 @@ pub mod front_door;
 pub mod grt;
 pub mod raw;
 pub mod recording;
+pub mod sample_summary;
 pub mod table;
 pub mod text;
 pub mod text_file;
 pub(crate) mod text_rows;
+pub mod text_source;
 pub mod timecheck;
 pub mod window_means;
 

@@ -367,6 +367,12 @@ impl<'o> CsvState<'o> {
         Ok(())
     }
 
+    /// The recording's metadata without its rows (rate, axis columns, the loader's choices),
+    /// for a file whose rows are streamed ([`crate::input::text_source`]).
+    pub(crate) fn into_meta(self) -> Recording {
+        self.rec
+    }
+
     /// The recording from the metadata, the header and the rows read after it.
     pub(crate) fn finish(self, cols: Option<Columns>) -> Result<Recording> {
         let mut rec = self.rec;

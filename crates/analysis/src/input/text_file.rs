@@ -31,7 +31,7 @@ pub const PIECE_BYTES: usize = 16 << 20;
 pub const PIECES_FROM_BYTES: u64 = 64 << 20;
 
 /// The file's pieces, each ending at a line end (the last at the end of the file).
-struct Pieces {
+pub(crate) struct Pieces {
     file: std::fs::File,
     /// The piece handed out last, then the start of the next (its unfinished line).
     buf: Vec<u8>,
@@ -42,7 +42,7 @@ struct Pieces {
 }
 
 impl Pieces {
-    fn open(path: &Path, piece_bytes: usize) -> Result<Self> {
+    pub(crate) fn open(path: &Path, piece_bytes: usize) -> Result<Self> {
         let file = std::fs::File::open(path).map_err(|source| {
             Error::from(crate::error::input::InputError::Read {
                 path: path.into(),
@@ -58,10 +58,15 @@ impl Pieces {
         })
     }
 
+    /// The piece handed out last (empty before the first).
+    pub(crate) fn current(&self) -> &[u8] {
+        &self.buf[..self.given]
+    }
+
     /// The next piece (`None` at the end), or `Err(())` when a line is longer than the limit
     /// allows a piece to carry (the whole-text path names it). I/O errors end the pieces too:
     /// the whole-text path reads the file again and names the error.
-    fn next_piece(&mut self) -> std::result::Result<Option<&[u8]>, ()> {
+    pub(crate) fn next_piece(&mut self) -> std::result::Result<Option<&[u8]>, ()> {
         self.buf.drain(..self.given);
         self.given = 0;
         // A piece is at least `piece_bytes` and holds a whole line: a line of up to
@@ -95,7 +100,7 @@ impl Pieces {
 
 /// The piece as text the fast splitter reads as the `csv` reader does, with no comment line
 /// and no line over the limit; `None` for anything else.
-fn plain_piece(piece: &[u8]) -> Option<&str> {
+pub(crate) fn plain_piece(piece: &[u8]) -> Option<&str> {
     let text = std::str::from_utf8(piece).ok()?;
     let marked = memchr::memchr3(b'"', b'#', b'%', piece).is_some();
     let lone_cr = memchr::memchr_iter(b'\r', piece).any(|i| piece.get(i + 1) != Some(&b'\n'));

@@ -146,6 +146,91 @@ impl TimeSteps {
     }
 }
 
+/// Most distinct positive steps a [`StepTally`] counts before it gives up (a time column
+/// printed to fixed decimals has a few dozen; 2¹⁸ keys are ~10 MB).
+pub const MAX_TALLIED_STEPS: usize = 1 << 18;
+
+/// [`TimeSteps::of`] in one pass over times fed one at a time (a file read in pieces, never
+/// held): the positive steps are counted by value, so the median is selected exactly as a
+/// sort would, and the gap count follows from the counts. Gives up (`finish` → `None`) past
+/// [`MAX_TALLIED_STEPS`] distinct steps; [`TimeSteps::of_times`] then re-reads the times.
+#[derive(Debug, Default)]
+pub struct StepTally {
+    prev: Option<f64>,
+    first: f64,
+    last: f64,
+    steps: usize,
+    positive: usize,
+    /// Positive steps by their bits (for positive floats their order as integers); `None`
+    /// once too many.
+    counts: Option<std::collections::HashMap<u64, usize>>,
+}
+
+impl StepTally {
+    /// An empty tally.
+    pub fn new() -> Self {
+        Self {
+            counts: Some(Default::default()),
+            ..Default::default()
+        }
+    }
+
+    /// The next time.
+    pub fn push(&mut self, t: f64) {
+        if let Some(prev) = self.prev.replace(t) {
+            if self.steps == 0 {
+                self.first = prev;
+            }
+            self.steps += 1;
+            self.last = t;
+            let d = t - prev;
+            if d > 0.0 {
+                self.positive += 1;
+                if let Some(counts) = &mut self.counts {
+                    *counts.entry(d.to_bits()).or_insert(0) += 1;
+                    if counts.len() > MAX_TALLIED_STEPS {
+                        self.counts = None;
+                    }
+                }
+            }
+        }
+    }
+
+    /// What [`TimeSteps::of`] gives for the times pushed (`Some(None)`: no summary), or
+    /// `None` when the tally gave up.
+    pub fn finish(self) -> Option<Option<TimeSteps>> {
+        if self.steps < 2 || self.positive == 0 {
+            return Some(None);
+        }
+        let mut counts: Vec<(u64, usize)> = self.counts?.into_iter().collect();
+        counts.sort_unstable();
+        let mut k = self.positive / 2;
+        let mut median_s = f64::NAN;
+        for &(bits, c) in &counts {
+            if k < c {
+                median_s = f64::from_bits(bits);
+                break;
+            }
+            k -= c;
+        }
+        if !(median_s.is_finite() && median_s > 0.0) {
+            return Some(None);
+        }
+        let gaps = counts
+            .iter()
+            .filter(|(bits, _)| f64::from_bits(*bits) > GAP_FACTOR * median_s)
+            .map(|(_, c)| c)
+            .sum();
+        Some(Some(TimeSteps {
+            median_s,
+            mean_s: (self.last - self.first) / self.steps as f64,
+            gaps,
+            steps: self.steps,
+            repeats: self.steps - self.positive,
+        }))
+    }
+}
+
 /// Consecutive pairs `(t[i], t[i+1])` of an iterator of times.
 fn pairs<I: Iterator<Item = f64>>(mut it: I) -> impl Iterator<Item = (f64, f64)> {
     let mut prev = it.next();
@@ -302,6 +387,32 @@ mod tests {
         let mut c = TimeCheck::new("time");
         c.push(1.0, 2).unwrap();
         assert!(c.push(1.0, 3).is_ok());
+    }
+
+    /// The one-pass tally gives what the whole-column summary gives: regular, coarse, gappy,
+    /// bursty and too-short columns.
+    #[test]
+    fn the_tally_is_the_summary_of_the_column() {
+        let columns: Vec<Vec<f64>> = vec![
+            (0..1000).map(|i| i as f64 * 0.01).collect(),
+            (0..2000)
+                .map(|i| ((i as f64 / 200.0) * 100.0).floor() / 100.0)
+                .collect(),
+            (0..1000)
+                .map(|i| (i / 5) as f64 * 0.05 + (i % 5) as f64 * 0.0015)
+                .collect(),
+            (0..300)
+                .map(|i| i as f64 * 0.01 + if i > 150 { 3.0 } else { 0.0 })
+                .collect(),
+            vec![1.0, 2.0],
+            vec![1.0, 1.0, 1.0],
+            Vec::new(),
+        ];
+        for t in &columns {
+            let mut tally = StepTally::new();
+            t.iter().for_each(|&x| tally.push(x));
+            assert_eq!(tally.finish(), Some(TimeSteps::of(t)), "{t:?}");
+        }
     }
 
     #[test]

@@ -16,12 +16,14 @@
 //!    with `t₀` the time of the first sample ([`AnalyzeReport::time_origin_s`]).
 
 #![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x > 0.0)` is deliberately true for NaN.
+use crate::detect::streamed::detect_windows_streamed;
 use crate::detect::windows::{detect_windows, Windows};
 use crate::error::search::SearchError;
 use crate::error::Result;
 use crate::fit::base::fit_means_named;
 use crate::fit::model::{self as am, Fit, Normalisation, Part, Term, Win};
 use crate::input::recording::Recording;
+use crate::input::text_source::TextSource;
 use crate::report::contract::{
     AnalyzeReport, CandidateReport, EffectReport, ModelSummary, StepReport, WindowInfo,
 };
@@ -36,6 +38,7 @@ use crate::search::options::AnalyzeOptions;
 use crate::search::outliers::{find_outliers, OutlierTrial};
 use crate::search::select::{check_rule, cv_over, select, Choice, OutlierScore, TermScore};
 use crate::search::thermal;
+use crate::search::thermal_stream;
 use crate::search::trial::{
     base_mask, block_weight, bonferroni_weights, drop_tests, mask_for, term_note, try_term,
     CandSpec, State, TermTrial,
@@ -57,6 +60,35 @@ pub fn analyze(rec: &Recording, opts: &AnalyzeOptions) -> Result<AnalyzeReport> 
     analyze_windows(rec, ws, opts)
 }
 
+/// [`analyze`] on a large text file streamed in passes ([`TextSource`]: the samples are never
+/// held): the same windows ([`crate::detect::streamed`]) and the same report.
+pub fn analyze_streamed(src: &TextSource, opts: &AnalyzeOptions) -> Result<AnalyzeReport> {
+    check_rule(opts.alpha, opts.cv_factor)?;
+    let report = |stage, done, total| opts.progress.report(Progress { stage, done, total });
+    report(Stage::Windows, 0, 0);
+    let ws = detect_windows_streamed(src, &opts.fit.detect)?;
+    analyze_in(Samples::Streamed(src), ws, opts)
+}
+
+/// What the analysis reads of the samples beyond their windows: their count and, for the
+/// open basis's thermal terms, their temperature history.
+#[derive(Clone, Copy)]
+enum Samples<'a> {
+    /// A recording held in memory.
+    Held(&'a Recording),
+    /// A file streamed in passes.
+    Streamed(&'a TextSource),
+}
+
+impl Samples<'_> {
+    fn len(&self) -> usize {
+        match self {
+            Samples::Held(rec) => rec.len(),
+            Samples::Streamed(src) => src.len(),
+        }
+    }
+}
+
 /// The multi-position analysis of windows already found: detected by [`analyze`], or read
 /// from a window-mean table ([`crate::input::window_means`]); everything after the detection is the
 /// same pipeline.
@@ -65,6 +97,11 @@ pub fn analyze_windows(
     ws: Windows,
     opts: &AnalyzeOptions,
 ) -> Result<AnalyzeReport> {
+    analyze_in(Samples::Held(rec), ws, opts)
+}
+
+/// [`analyze_windows`] on the windows of `samples`.
+fn analyze_in(samples: Samples<'_>, ws: Windows, opts: &AnalyzeOptions) -> Result<AnalyzeReport> {
     check_rule(opts.alpha, opts.cv_factor)?;
     let report = |stage, done, total| opts.progress.report(Progress { stage, done, total });
     let mut ctx = Context::new(ws, opts)?;
@@ -78,16 +115,29 @@ pub fn analyze_windows(
         // could stand in for a withheld candidate, runs only when every candidate is allowed.
         if opts.candidates.is_none() {
             let spans = ctx.spans();
+            let has_temp = ctx.temp_range > 0.05;
+            let streamed;
+            let temps = match samples {
+                Samples::Held(rec) => rec.temp.as_deref().map(|temp| {
+                    thermal::SampleTemps::Held(thermal::HeldTemps {
+                        times: &ctx.ws.times,
+                        temp,
+                        spans: &spans,
+                    })
+                }),
+                // Only read when the open basis will use it (it needs a temperature spread).
+                Samples::Streamed(src) if has_temp && src.has_temp() => {
+                    streamed = streamed_temps(src, &ctx.ws, &opts.fit.detect)?;
+                    Some(thermal::SampleTemps::Streamed(&streamed))
+                }
+                Samples::Streamed(_) => None,
+            };
             let hc = open_basis_screening::HostContext {
                 nrm: &ctx.nrm,
                 has_time: ctx.duration > 0.0,
-                has_temp: ctx.temp_range > 0.05,
+                has_temp,
                 units: ctx.ws.units,
-                samples: rec.temp.as_deref().map(|temp| thermal::SampleTemps {
-                    times: &ctx.ws.times,
-                    temp,
-                    spans: &spans,
-                }),
+                samples: temps,
             };
             let open = open_basis_screening::extend(
                 &mut search.state,
@@ -100,7 +150,24 @@ pub fn analyze_windows(
             search.host_terms = open.host_terms;
         }
     }
-    ctx.report(rec, &base, search)
+    ctx.report(samples.len(), &base, search)
+}
+
+/// The thermal terms' per-window values from a pass over the streamed file.
+fn streamed_temps(
+    src: &TextSource,
+    ws: &Windows,
+    detect: &crate::detect::windows::DetectOptions,
+) -> Result<thermal::StreamedTemps> {
+    let duration = ws.clock.map_or(0.0, |(first, last)| last - first);
+    let taus = thermal::lag_grid(open_basis_screening::LAG_MAX_FRACTION * duration);
+    let time = crate::detect::streamed::sample_clock(src, detect);
+    let rows = src.rows().enumerate();
+    let samples = rows.map(|(i, r)| (time(r.t, i), r.temp.unwrap_or(f64::NAN)));
+    let usable = src.summary.finite_t_temp;
+    let temps = thermal_stream::fold(samples, src.len(), &ws.stats, &taus, (usable, duration));
+    src.check()?;
+    Ok(temps)
 }
 
 /// What the analysis knows about the recording once the windows are found.
@@ -145,8 +212,7 @@ impl<'a> Context<'a> {
             .iter()
             .map(|w| nrm.window(&w.mean, w.t_centre, w.temp))
             .collect();
-        let duration =
-            ws.times.last().copied().unwrap_or(0.0) - ws.times.first().copied().unwrap_or(0.0);
+        let duration = ws.clock.map_or(0.0, |(first, last)| last - first);
         let temp_info = temps.as_ref().map(|t| {
             let lo = t.iter().copied().fold(f64::INFINITY, f64::min);
             let hi = t.iter().copied().fold(f64::NEG_INFINITY, f64::max);
@@ -269,6 +335,15 @@ impl<'a> Context<'a> {
     /// Sample spans (first, one past the last) of the windows.
     fn spans(&self) -> Vec<(usize, usize)> {
         self.ws.stats.iter().map(|w| (w.start, w.end)).collect()
+    }
+
+    /// Times of the windows' first and last samples, s.
+    fn window_times(&self) -> Vec<(f64, f64)> {
+        self.ws
+            .stats
+            .iter()
+            .map(|w| (w.t_first, w.t_last))
+            .collect()
     }
 }
 
@@ -642,13 +717,7 @@ impl Search {
         ot: OutlierTrial,
         best_smooth: Option<&TermTrial>,
     ) {
-        let evidence = ev::outlier_evidence(
-            &ot,
-            &self.state.loo,
-            &ctx.ws.times,
-            &ctx.spans(),
-            best_smooth,
-        );
+        let evidence = ev::outlier_evidence(&ot, &self.state.loo, &ctx.window_times(), best_smooth);
         if self.first_signature.is_none() {
             let sig = (0..ctx.n())
                 .map(|i| {
@@ -829,8 +898,8 @@ impl Context<'_> {
             .enumerate()
             .map(|(i, w)| WindowInfo {
                 index: i + 1,
-                t_start: self.ws.times[w.start],
-                t_end: self.ws.times[w.end - 1],
+                t_start: w.t_first,
+                t_end: w.t_last,
                 t_centre: w.t_centre,
                 samples: w.n(),
                 temp: w.temp,
@@ -902,7 +971,7 @@ impl Context<'_> {
         crate::detect::motion::diagnostic(&m, self.opts.alpha, base.noise_floor * 1e3)
     }
 
-    fn report(&self, rec: &Recording, base: &Base, search: Search) -> Result<AnalyzeReport> {
+    fn report(&self, samples: usize, base: &Base, search: Search) -> Result<AnalyzeReport> {
         let (base_summary, final_model) = self.summaries(base, &search.state);
         let calibration = match self.wins.first() {
             Some(w) => self.nrm.to_calibration_open(&search.state.fit.p, &w.slots),
@@ -947,7 +1016,7 @@ impl Context<'_> {
         Ok(AnalyzeReport {
             mode: "multi-position",
             units: self.ws.units,
-            samples: rec.len(),
+            samples,
             static_windows: self.n(),
             // Unknown (NaN) when the windows' sample counts are not known.
             noise_floor_mg: Some(base.noise_floor * 1e3).filter(|x| x.is_finite()),
@@ -957,7 +1026,7 @@ impl Context<'_> {
             final_model,
             steps: search.steps,
             verdict,
-            time_origin_s: self.ws.times.first().copied().unwrap_or(0.0),
+            time_origin_s: self.ws.clock.map_or(0.0, |(first, _)| first),
             time_temp_correlation: self.time_temp_r,
             diagnostics,
             calibration,

@@ -478,14 +478,13 @@ pub fn member_evidence(
     evidence
 }
 
-/// Evidence for rejecting the outlier candidate's windows. `times`: sample times;
-/// `spans`: each window's first and last sample; `current_loo`: the current model's held-out
+/// Evidence for rejecting the outlier candidate's windows. `window_times`: each window's
+/// first and last sample's time, s; `current_loo`: the current model's held-out
 /// residuals (g); `best_term`: the best smooth effect that passes, if any.
 pub fn outlier_evidence(
     ot: &OutlierTrial,
     current_loo: &[Option<f64>],
-    times: &[f64],
-    spans: &[(usize, usize)],
+    window_times: &[(f64, f64)],
     best_term: Option<&TermTrial>,
 ) -> String {
     let cv_before = cv_over(current_loo, &ot.used);
@@ -495,12 +494,12 @@ pub fn outlier_evidence(
         .iter()
         .zip(&ot.p_values)
         .map(|(&i, p)| {
-            let (s, e) = spans[i];
+            let (first, last) = window_times[i];
             format!(
                 "{} (t = {:.1}–{:.1} s, held-out residual {:+.2} mg, p {})",
                 i + 1,
-                times[s],
-                times[e - 1],
+                first,
+                last,
                 current_loo[i].unwrap_or(f64::NAN) * 1e3,
                 fmt_p(*p)
             )

@@ -18,6 +18,7 @@ pub mod outliers;
 pub mod select;
 pub mod six_contrasts;
 pub mod thermal;
+pub mod thermal_stream;
 pub mod trial;
 
 pub use crate::error::search::SearchError;

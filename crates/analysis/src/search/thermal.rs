@@ -18,7 +18,7 @@ pub const RATE_SPAN_S: f64 = 30.0;
 
 /// The recording's per-sample time and temperature and the windows' sample spans.
 #[derive(Debug, Clone, Copy)]
-pub struct SampleTemps<'a> {
+pub struct HeldTemps<'a> {
     /// Sample times, s.
     pub times: &'a [f64],
     /// Sample temperatures, °C (same length as `times`).
@@ -27,11 +27,76 @@ pub struct SampleTemps<'a> {
     pub spans: &'a [(usize, usize)],
 }
 
+/// The thermal regressors' per-window values from a pass over samples streamed from a file
+/// ([`crate::search::thermal_stream`]).
+#[derive(Debug, Clone)]
+pub struct StreamedTemps {
+    /// [`SampleTemps::usable`] of the samples.
+    pub usable: bool,
+    /// Recording duration, s.
+    pub duration: f64,
+    /// Windows.
+    pub windows: usize,
+    /// Per time constant (s): the window means of the lagged temperature.
+    pub lagged: Vec<(f64, Vec<f64>)>,
+    /// dT/dt per window, °C/s (`None` when a window's span has no time spread).
+    pub rates: Option<Vec<f64>>,
+}
+
+/// What the thermal regressors are computed from: the samples held in memory, or their
+/// per-window aggregates folded in a pass over a file streamed from disk ([`StreamedTemps`]).
+#[derive(Debug, Clone, Copy)]
+pub enum SampleTemps<'a> {
+    /// Every sample's time and temperature.
+    Held(HeldTemps<'a>),
+    /// The aggregates of a pass.
+    Streamed(&'a StreamedTemps),
+}
+
 impl SampleTemps<'_> {
     /// Whether the spans lie in the samples, each holds at least two (windows read from a
     /// window-mean table are single rows: no per-sample temperature history) and every value
     /// is finite.
     pub fn usable(&self) -> bool {
+        match self {
+            Self::Held(h) => h.usable(),
+            Self::Streamed(s) => s.usable,
+        }
+    }
+
+    /// Recording duration, s.
+    pub fn duration(&self) -> f64 {
+        match self {
+            Self::Held(h) => h.duration(),
+            Self::Streamed(s) => s.duration,
+        }
+    }
+
+    /// Window means of the temperature through a first-order lag of `tau_s` ([`lagged`]);
+    /// for streamed samples only the time constants of [`StreamedTemps::lagged`] (NaN
+    /// otherwise: never asked, the grid is the same).
+    pub fn lagged_means(&self, tau_s: f64) -> Vec<f64> {
+        match self {
+            Self::Held(h) => h.lagged_means(tau_s),
+            Self::Streamed(s) => s
+                .lagged
+                .iter()
+                .find(|(t, _)| t.to_bits() == tau_s.to_bits())
+                .map_or_else(|| vec![f64::NAN; s.windows], |(_, m)| m.clone()),
+        }
+    }
+
+    /// dT/dt per window, °C/s (`None` where the widened span has no time spread).
+    pub fn rates(&self) -> Option<Vec<f64>> {
+        match self {
+            Self::Held(h) => h.rates(),
+            Self::Streamed(s) => s.rates.clone(),
+        }
+    }
+}
+
+impl HeldTemps<'_> {
+    fn usable(&self) -> bool {
         self.times.len() == self.temp.len()
             && !self.spans.is_empty()
             && self
@@ -41,16 +106,14 @@ impl SampleTemps<'_> {
             && self.times.iter().chain(self.temp).all(|x| x.is_finite())
     }
 
-    /// Recording duration, s.
-    pub fn duration(&self) -> f64 {
+    fn duration(&self) -> f64 {
         match (self.times.first(), self.times.last()) {
             (Some(a), Some(b)) => b - a,
             _ => 0.0,
         }
     }
 
-    /// Window means of the temperature through a first-order lag of `tau_s` ([`lagged`]).
-    pub fn lagged_means(&self, tau_s: f64) -> Vec<f64> {
+    fn lagged_means(&self, tau_s: f64) -> Vec<f64> {
         let lagged = lagged(self.times, self.temp, tau_s);
         self.spans
             .iter()
@@ -58,8 +121,7 @@ impl SampleTemps<'_> {
             .collect()
     }
 
-    /// dT/dt per window, °C/s (`None` where the widened span has no time spread).
-    pub fn rates(&self) -> Option<Vec<f64>> {
+    fn rates(&self) -> Option<Vec<f64>> {
         self.spans
             .iter()
             .map(|&(s, e)| {
@@ -123,7 +185,7 @@ pub fn sample_rates(times: &[f64], temp: &[f64]) -> Vec<Option<f64>> {
 }
 
 /// Least-squares slope of `y` on `x`; `None` without spread in `x`.
-fn slope(x: &[f64], y: &[f64]) -> Option<f64> {
+pub(crate) fn slope(x: &[f64], y: &[f64]) -> Option<f64> {
     let n = x.len() as f64;
     let (mx, my) = (x.iter().sum::<f64>() / n, y.iter().sum::<f64>() / n);
     let sxx: f64 = x.iter().map(|a| (a - mx).powi(2)).sum();
@@ -183,11 +245,11 @@ mod tests {
             .collect();
         let n = times.len();
         let spans = [(n - 1, n), (0, 2)];
-        let s = SampleTemps {
+        let s = SampleTemps::Held(HeldTemps {
             times: &times,
             temp: &temp,
             spans: &spans,
-        };
+        });
         let m = s.lagged_means(100.0);
         // The step reaches the filter at the first sample after it (t = 0, Δt = 1 s).
         let expect = 1.0 - (-101.0f64 / 100.0).exp();
@@ -201,11 +263,11 @@ mod tests {
         let times: Vec<f64> = (0..1000).map(|i| i as f64 * 0.1).collect();
         let temp: Vec<f64> = times.iter().map(|t| 20.0 + 0.01 * t).collect();
         let spans = [(500, 520), (0, 20)];
-        let s = SampleTemps {
+        let s = SampleTemps::Held(HeldTemps {
             times: &times,
             temp: &temp,
             spans: &spans,
-        };
+        });
         for r in s.rates().unwrap() {
             assert!((r - 0.01).abs() < 1e-12, "{r}");
         }
@@ -242,11 +304,11 @@ mod tests {
         assert_eq!(sample_rates(&[0.0], &[20.0]), vec![None]);
         // The per-sample lag is the one the window means are taken of.
         let spans = [(0, 15_000)];
-        let s = SampleTemps {
+        let s = SampleTemps::Held(HeldTemps {
             times: &times,
             temp: &temp,
             spans: &spans,
-        };
+        });
         let l = lagged(&times, &temp, 60.0);
         let m = l.iter().sum::<f64>() / l.len() as f64;
         assert_eq!(s.lagged_means(60.0), vec![m]);

@@ -1,0 +1,183 @@
+//! What one pass over a recording's samples says about all of them, for a file whose samples
+//! are streamed rather than held ([`crate::input::text_source`]): the count, whether every
+//! value is an integer, the extremes, each axis's distinct values (the quantiser lattice's
+//! evidence, up to [`MAX_DISTINCT`]), and the time column's first and last values. Each is
+//! folded in sample order with the same operations as the whole-recording code
+//! ([`crate::input::recording::Recording::is_integer`], `detect::windows::infer_adc_range`,
+//! `bounded::check_reading_scale`), so it gives the same values bit for bit.
+
+use std::collections::HashSet;
+use std::hash::{BuildHasherDefault, Hasher};
+
+/// Most distinct values per axis kept: past it the values are not on a quantiser lattice the
+/// detector maps back to levels (`detect::windows::MAX_LATTICE_LEVELS`), so they are dropped.
+pub const MAX_DISTINCT: usize = 1 << 17;
+
+/// A hasher for float bits: one multiply and a shift (the set of distinct values sees every
+/// sample's three values, and std's SipHash would cost more than the parse; no crate of the
+/// tree offers a fast one).
+#[derive(Default)]
+pub struct BitsHasher(u64);
+
+impl Hasher for BitsHasher {
+    fn finish(&self) -> u64 {
+        self.0
+    }
+    fn write(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.0 = (self.0 ^ u64::from(b)).wrapping_mul(0x100_0000_01b3);
+        }
+    }
+    fn write_u64(&mut self, v: u64) {
+        let h = (v ^ self.0).wrapping_mul(0x9e37_79b9_7f4a_7c15);
+        self.0 = h ^ (h >> 29);
+    }
+}
+
+type Distinct = HashSet<u64, BuildHasherDefault<BitsHasher>>;
+
+/// The one-pass summary of a recording's samples.
+#[derive(Debug, Clone)]
+pub struct SampleSummary {
+    /// Samples.
+    pub count: usize,
+    /// Every axis value an integer (raw counts).
+    pub integer: bool,
+    /// Smallest and largest axis value (`f64::min`/`max` folds, NaN ignored).
+    pub lo: f64,
+    /// See `lo`.
+    pub hi: f64,
+    /// Largest |value| (`check_reading_scale`'s fold).
+    pub largest: f64,
+    /// Every axis value finite.
+    pub finite: bool,
+    /// Each axis's distinct values, ascending (sorted by `total_cmp` and deduplicated as the
+    /// whole-recording lattice check does); `None` when an axis has more than
+    /// [`MAX_DISTINCT`].
+    pub distinct: Option<[Vec<f64>; 3]>,
+    /// First and last time (the time column's, when there is one).
+    pub t_first: Option<f64>,
+    /// See `t_first`.
+    pub t_last: Option<f64>,
+    /// Every time and temperature value finite.
+    pub finite_t_temp: bool,
+}
+
+/// [`SampleSummary`] as it is being folded.
+#[derive(Debug)]
+pub struct SummaryFold {
+    sum: SampleSummary,
+    sets: Option<[Distinct; 3]>,
+    last: [u64; 3],
+}
+
+impl Default for SummaryFold {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl SummaryFold {
+    /// No samples yet.
+    pub fn new() -> Self {
+        Self {
+            sum: SampleSummary {
+                count: 0,
+                integer: true,
+                lo: f64::INFINITY,
+                hi: f64::NEG_INFINITY,
+                largest: 0.0,
+                finite: true,
+                distinct: None,
+                t_first: None,
+                t_last: None,
+                finite_t_temp: true,
+            },
+            sets: Some(Default::default()),
+            last: [u64::MAX; 3],
+        }
+    }
+
+    /// The next rows: their axis values, times (empty without a time column) and
+    /// temperatures (empty without a temperature column).
+    pub fn push(&mut self, xyz: &[[f64; 3]], t: &[f64], temp: &[f64]) {
+        let s = &mut self.sum;
+        s.count += xyz.len();
+        for x in xyz {
+            for &v in x {
+                s.integer &= v.fract() == 0.0;
+                s.lo = s.lo.min(v);
+                s.hi = s.hi.max(v);
+                s.largest = s.largest.max(v.abs());
+                s.finite &= v.is_finite();
+            }
+        }
+        if let Some(sets) = &mut self.sets {
+            let mut full = false;
+            for x in xyz {
+                for a in 0..3 {
+                    let bits = x[a].to_bits();
+                    if bits != self.last[a] {
+                        self.last[a] = bits;
+                        sets[a].insert(bits);
+                    }
+                }
+            }
+            for set in sets.iter() {
+                // +1: `0.0` and `-0.0` are two keys and one value.
+                full |= set.len() > MAX_DISTINCT + 1;
+            }
+            if full {
+                self.sets = None;
+            }
+        }
+        if let (Some(&a), Some(&b)) = (t.first(), t.last()) {
+            s.t_first.get_or_insert(a);
+            s.t_last = Some(b);
+        }
+        s.finite_t_temp &= t.iter().chain(temp).all(|v| v.is_finite());
+    }
+
+    /// The summary of every row pushed.
+    pub fn finish(self) -> SampleSummary {
+        let mut sum = self.sum;
+        sum.distinct = self.sets.map(|sets| {
+            sets.map(|set| {
+                let mut v: Vec<f64> = set.into_iter().map(f64::from_bits).collect();
+                v.sort_by(f64::total_cmp);
+                v.dedup();
+                v
+            })
+        });
+        sum
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Pushed in any split, the summary is the whole recording's folds.
+    #[test]
+    fn the_summary_is_the_folds_of_every_sample() {
+        let xyz: Vec<[f64; 3]> = (0..1000)
+            .map(|i| [(i % 17) as f64 * 0.5 - 3.0, -0.0, (i * 7 % 100) as f64])
+            .collect();
+        let t: Vec<f64> = (0..1000).map(|i| i as f64 * 0.01).collect();
+        for split in [1, 7, 999] {
+            let mut f = SummaryFold::new();
+            for (c, tc) in xyz.chunks(split).zip(t.chunks(split)) {
+                f.push(c, tc, &[]);
+            }
+            let s = f.finish();
+            assert_eq!(s.count, 1000);
+            assert!(!s.integer);
+            assert_eq!((s.lo, s.hi, s.largest), (-3.0, 99.0, 99.0));
+            let d = s.distinct.unwrap();
+            assert_eq!(d[0].len(), 17);
+            assert_eq!(d[1], vec![-0.0]);
+            assert_eq!(d[2].len(), 100);
+            assert_eq!((s.t_first, s.t_last), (Some(0.0), Some(9.99)));
+        }
+    }
+}

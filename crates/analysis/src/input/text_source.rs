@@ -1,0 +1,509 @@
+//! A large plain text file as a re-readable source of samples: memory is one piece of text
+//! and its parsed rows, never the file's rows, whatever its length.
+//!
+//! [`TextSource::open`] is the first pass: the file read in pieces exactly as
+//! [`crate::input::text_file`] reads it (the same pieces, the same row parser, the time check
+//! joined across pieces, the same sentences with line and column, the same files handed back
+//! to be read whole), but each piece's rows are folded into a [`SampleSummary`] and a
+//! [`StepTally`] and dropped. [`TextSource::rows`] is every later pass: the file reopened and
+//! its pieces parsed again, as an iterator whose clone reads the file afresh from the same
+//! row (the core's detector takes an `Iterator + Clone` and passes over it several times).
+//! A file whose size or modification time differs from the first pass's, or whose pieces no
+//! longer parse, stops the pass; [`TextSource::check`] then says so in one sentence.
+
+use crate::error::input::InputError;
+use crate::error::{Error, Result};
+use crate::input::bounded::check_largest_reading;
+use crate::input::columns::LoadOptions;
+use crate::input::recording::Recording;
+use crate::input::sample_summary::{SampleSummary, SummaryFold};
+use crate::input::text::{check_axis_columns, is_comment_or_blank, CsvState, Delimiter};
+use crate::input::text_file::{plain_piece, Pieces, PIECE_BYTES};
+use crate::input::text_rows::{Columns, RowLayout};
+use crate::input::timecheck::{time_notes_given, StepTally, TimeSteps};
+use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+
+/// One sample as a pass reads it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Row {
+    /// The time column's value, s (`None` without one).
+    pub t: Option<f64>,
+    /// x, y, z as read.
+    pub xyz: [f64; 3],
+    /// The temperature column's value, °C (`None` without one).
+    pub temp: Option<f64>,
+}
+
+/// What identifies the file's content between passes: its size and modification time.
+type Stamp = (u64, Option<std::time::SystemTime>);
+
+fn stamp_of(path: &Path) -> Option<Stamp> {
+    let m = std::fs::metadata(path).ok()?;
+    Some((m.len(), m.modified().ok()))
+}
+
+/// A large plain text file read once for its summary, re-read for every later pass.
+#[derive(Debug)]
+pub struct TextSource {
+    path: PathBuf,
+    stamp: Stamp,
+    layout: RowLayout,
+    delim: u8,
+    piece_bytes: usize,
+    /// Byte offset of the first data row in the first piece (its byte-order mark removed).
+    data_offset: usize,
+    /// Line number of the first data row's line.
+    data_line: usize,
+    /// The recording without its samples: rate, axis columns, notes, the loader's choices,
+    /// skipped rows (`t`, `temp` and `labels` are `None`, `xyz` empty).
+    pub meta: Recording,
+    /// The first pass's summary of the samples.
+    pub summary: SampleSummary,
+    /// The time column's steps (`None` without a time column or a usable step).
+    pub steps: Option<TimeSteps>,
+    /// The first failure of a later pass.
+    failed: Mutex<Option<Error>>,
+}
+
+/// The first pass's reading of the head: `None` hands the file back to be read whole.
+struct Head {
+    layout: RowLayout,
+    delim: Delimiter,
+    state_meta: Recording,
+    data_offset: usize,
+    data_line: usize,
+}
+
+impl TextSource {
+    /// The first pass over the regular text file `path` (see the module docs); `head_ok` is
+    /// asked about the first piece's text as by [`crate::input::text_file::load_pieces`].
+    /// `Ok(None)`: the file is to be read whole (not plain text, a pose-label column, …).
+    /// Errors carry no file name (the caller adds it).
+    pub fn open(
+        path: &Path,
+        opts: &LoadOptions,
+        head_ok: impl Fn(&str) -> bool,
+    ) -> Result<Option<Self>> {
+        Self::open_in(path, opts, PIECE_BYTES, head_ok)
+    }
+
+    /// [`TextSource::open`] with pieces of `piece_bytes`.
+    pub(crate) fn open_in(
+        path: &Path,
+        opts: &LoadOptions,
+        piece_bytes: usize,
+        head_ok: impl Fn(&str) -> bool,
+    ) -> Result<Option<Self>> {
+        let Some(stamp) = stamp_of(path) else {
+            return Ok(None);
+        };
+        let Ok(mut pieces) = Pieces::open(path, piece_bytes) else {
+            return Ok(None);
+        };
+        let head = match read_head(&mut pieces, opts, head_ok) {
+            Ok(Some(h)) => h,
+            Ok(None) => return Ok(None),
+            Err(e) => return rest_is_plain(&mut pieces).then_some(Err(e)).transpose(),
+        };
+        let (fold, tally, skipped) = match first_pass(&mut pieces, &head) {
+            Ok(Some(x)) => x,
+            Ok(None) => return Ok(None),
+            Err(e) => return rest_is_plain(&mut pieces).then_some(Err(e)).transpose(),
+        };
+        let summary = fold.finish();
+        if summary.count == 0 {
+            return Err(InputError::HeaderOnly.into());
+        }
+        let mut meta = head.state_meta;
+        meta.skipped_empty_rows = skipped;
+        let mut src = Self {
+            path: path.to_path_buf(),
+            stamp,
+            layout: head.layout,
+            delim: head.delim.byte(),
+            piece_bytes,
+            data_offset: head.data_offset,
+            data_line: head.data_line,
+            meta,
+            summary,
+            steps: None,
+            failed: Mutex::new(None),
+        };
+        if let Some(i) = src.layout.time {
+            let steps = tally
+                .finish()
+                .unwrap_or_else(|| TimeSteps::of_times(|| src.times()));
+            let notes = time_notes_given(&src.layout.names[i], steps, || src.times());
+            src.check()?;
+            src.steps = steps;
+            src.meta.notes = notes;
+        }
+        check_axis_columns(&src.meta)?;
+        check_largest_reading(true, src.summary.largest)?;
+        Ok(Some(src))
+    }
+
+    /// Whether the file has a time column.
+    pub fn has_time(&self) -> bool {
+        self.layout.time.is_some()
+    }
+
+    /// Whether the file has a temperature column.
+    pub fn has_temp(&self) -> bool {
+        self.layout.temp.is_some()
+    }
+
+    /// Samples in the file.
+    pub fn len(&self) -> usize {
+        self.summary.count
+    }
+
+    /// True without samples (never, once opened: a header alone is an error).
+    pub fn is_empty(&self) -> bool {
+        self.summary.count == 0
+    }
+
+    /// The sample rate as [`Recording::estimated_rate_hz`] gives it: the metadata's, else
+    /// the time column's.
+    pub fn estimated_rate_hz(&self) -> Option<f64> {
+        self.meta
+            .sample_rate_hz
+            .or_else(|| self.steps.map(|s| s.rate_hz()))
+    }
+
+    /// A pass over every sample, from the file (see the module docs); it ends early when the
+    /// file changed or could not be read: [`TextSource::check`] after the pass says so.
+    pub fn rows(&self) -> Rows<'_> {
+        Rows {
+            src: self,
+            reader: None,
+            skip: 0,
+            consumed: 0,
+            done: false,
+        }
+    }
+
+    /// The time column, from the file.
+    pub fn times(&self) -> impl Iterator<Item = f64> + '_ {
+        self.rows().filter_map(|r| r.t)
+    }
+
+    /// The first failure of a pass since the file was opened (`Ok` when every pass read the
+    /// whole file as the first did).
+    pub fn check(&self) -> Result<()> {
+        match self.failed.lock().map(|mut f| f.take()) {
+            Ok(Some(e)) => Err(e),
+            _ => Ok(()),
+        }
+    }
+
+    fn fail(&self, e: Error) {
+        if let Ok(mut f) = self.failed.lock() {
+            f.get_or_insert(e);
+        }
+    }
+
+    /// The file reopened at its first data row, when it is still the file of the first pass.
+    fn reopen(&self) -> Result<Reader> {
+        let changed = || Error::from(InputError::ChangedWhileRead);
+        if stamp_of(&self.path) != Some(self.stamp) {
+            return Err(changed());
+        }
+        let mut pieces = Pieces::open(&self.path, self.piece_bytes)?;
+        let first = match pieces.next_piece() {
+            Ok(Some(p)) => p,
+            _ => return Err(changed()),
+        };
+        let first = first.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(first);
+        let text = plain_piece(first).ok_or_else(changed)?;
+        let data = text.get(self.data_offset..).ok_or_else(changed)?;
+        let cols = self.parse(data, self.data_line, None)?;
+        let line = self.data_line + memchr::memchr_iter(b'\n', data.as_bytes()).count();
+        Ok(Reader {
+            pieces,
+            cols,
+            at: 0,
+            line,
+            prev_t: None,
+        })
+    }
+
+    fn parse(&self, text: &str, line: usize, prev: Option<f64>) -> Result<Columns> {
+        self.layout
+            .read_plain_after(text, line, self.delim, prev)
+            .map_err(|_| InputError::ChangedWhileRead.into())
+    }
+}
+
+/// The header read from the first piece as [`crate::input::text_file`] reads it.
+fn read_head(
+    pieces: &mut Pieces,
+    opts: &LoadOptions,
+    head_ok: impl Fn(&str) -> bool,
+) -> Result<Option<Head>> {
+    let Ok(Some(first)) = pieces.next_piece() else {
+        return Ok(None);
+    };
+    let first = first.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(first);
+    let Some(head) = plain_piece(first).filter(|h| !h.starts_with('\u{feff}')) else {
+        return Ok(None);
+    };
+    let Some(first_line) = head.lines().find(|l| !is_comment_or_blank(l)) else {
+        return Ok(None);
+    };
+    let delim = match Delimiter::of_first_line(first_line) {
+        Some(d) if !crate::input::grt::is_grt(first_line) && head_ok(head) => d,
+        _ => return Ok(None),
+    };
+    let mut st = CsvState::new(opts, delim);
+    let (offset, header_line) = st.read_head(head, delim)?;
+    let Some(layout) = st.layout.clone() else {
+        return Ok(None);
+    };
+    if layout.label.is_some() {
+        return Ok(None); // a pose table: read in memory (six-position files are short)
+    }
+    Ok(Some(Head {
+        layout,
+        delim,
+        state_meta: st.into_meta(),
+        data_offset: offset,
+        data_line: header_line + 1,
+    }))
+}
+
+/// The summary folds of the first pass; `Ok(None)` when a piece is not plain text.
+type Folds = (SummaryFold, StepTally, usize);
+
+/// Every piece's rows (the first piece's after the header) folded and dropped.
+fn first_pass(pieces: &mut Pieces, head: &Head) -> Result<Option<Folds>> {
+    let (mut fold, mut tally, mut skipped) = (SummaryFold::new(), StepTally::new(), 0usize);
+    let mut line = head.data_line;
+    let mut prev: Option<f64> = None;
+    let mut first = true;
+    loop {
+        let text = if std::mem::take(&mut first) {
+            // The first piece again, from its data rows (its head was read above).
+            let cur = pieces.current();
+            let cur = cur.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(cur);
+            match plain_piece(cur).and_then(|t| t.get(head.data_offset..)) {
+                Some(t) => t,
+                None => return Ok(None),
+            }
+        } else {
+            match pieces.next_piece() {
+                Ok(Some(p)) => match plain_piece(p) {
+                    Some(t) => t,
+                    None => return Ok(None),
+                },
+                Ok(None) => break,
+                Err(()) => return Ok(None),
+            }
+        };
+        let cols = head
+            .layout
+            .read_plain_after(text, line, head.delim.byte(), prev)?;
+        line += memchr::memchr_iter(b'\n', text.as_bytes()).count();
+        fold.push(&cols.xyz, &cols.t, &cols.temp);
+        cols.t.iter().for_each(|&t| tally.push(t));
+        prev = cols.t.last().copied().or(prev);
+        skipped += cols.skipped;
+    }
+    Ok(Some((fold, tally, skipped)))
+}
+
+/// True when the rest of the file is plain text (an error found in the rows is reported
+/// then; else the whole-text path reports what it finds first).
+fn rest_is_plain(pieces: &mut Pieces) -> bool {
+    loop {
+        match pieces.next_piece() {
+            Ok(Some(p)) if plain_piece(p).is_some() => {}
+            Ok(None) => return true,
+            _ => return false,
+        }
+    }
+}
+
+/// A pass's position in the file.
+struct Reader {
+    pieces: Pieces,
+    cols: Columns,
+    at: usize,
+    line: usize,
+    /// The last time read before `cols` (the time check is joined to it).
+    prev_t: Option<f64>,
+}
+
+/// Every sample of a [`TextSource`], read from the file; a clone reads the file afresh to the
+/// same row.
+pub struct Rows<'a> {
+    src: &'a TextSource,
+    reader: Option<Reader>,
+    /// Rows to pass over before the first one given (a clone's position).
+    skip: usize,
+    consumed: usize,
+    done: bool,
+}
+
+impl Clone for Rows<'_> {
+    fn clone(&self) -> Self {
+        Rows {
+            src: self.src,
+            reader: None,
+            skip: self.consumed,
+            consumed: self.consumed,
+            done: self.done,
+        }
+    }
+}
+
+impl Rows<'_> {
+    /// The next parsed piece into the reader; false at the end of the file.
+    fn next_piece(&mut self) -> Result<bool> {
+        let src = self.src;
+        let Some(r) = self.reader.as_mut() else {
+            self.reader = Some(src.reopen()?);
+            return Ok(true);
+        };
+        r.prev_t = r.cols.t.last().copied().or(r.prev_t);
+        let text = match r.pieces.next_piece() {
+            Ok(Some(p)) => plain_piece(p).ok_or(InputError::ChangedWhileRead)?,
+            Ok(None) => return Ok(false),
+            Err(()) => return Err(InputError::ChangedWhileRead.into()),
+        };
+        let lines = memchr::memchr_iter(b'\n', text.as_bytes()).count();
+        r.cols = src.parse(text, r.line, r.prev_t)?;
+        r.line += lines;
+        r.at = 0;
+        Ok(true)
+    }
+}
+
+impl Iterator for Rows<'_> {
+    type Item = Row;
+
+    fn next(&mut self) -> Option<Row> {
+        loop {
+            if self.done {
+                return None;
+            }
+            if let Some(r) = self.reader.as_mut() {
+                if r.at < r.cols.xyz.len() {
+                    let i = r.at;
+                    r.at += 1;
+                    let row = Row {
+                        t: r.cols.t.get(i).copied(),
+                        xyz: r.cols.xyz[i],
+                        temp: r.cols.temp.get(i).copied(),
+                    };
+                    if self.skip > 0 {
+                        self.skip -= 1;
+                        continue;
+                    }
+                    self.consumed += 1;
+                    return Some(row);
+                }
+            }
+            match self.next_piece() {
+                Ok(true) => {}
+                Ok(false) => {
+                    self.done = true;
+                    if self.consumed != self.src.summary.count {
+                        self.src.fail(InputError::ChangedWhileRead.into());
+                    }
+                }
+                Err(e) => {
+                    self.done = true;
+                    self.src.fail(e);
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every text, read in pieces of every size, gives in each pass what the whole-text parse
+    /// gives: the rows bit for bit, the notes, the summary's count — or the same sentence, or
+    /// is handed back to be read whole; a clone taken mid-pass goes on from the same row.
+    #[test]
+    fn passes_read_as_the_whole_text() {
+        let mut rows = String::from("Fs,100\nt,x,y,z,temp\n");
+        for i in 0..400 {
+            let t = i as f64 * 0.01 + if i > 300 { 2.0 } else { 0.0 };
+            rows += &format!(
+                "{t},{},{}.5,-{}e-{},2{}.5\n",
+                i % 97,
+                i % 13,
+                i % 7,
+                i % 3,
+                i % 9
+            );
+        }
+        let texts = [
+            rows.clone(),
+            rows.replace('\n', "\r\n"),
+            rows.replace("\n2.5,", "\n1.5,"),
+            rows.replace("\n3.01,", "\n3.01,x"),
+            rows.clone() + "1,2\n",
+            "t;x;y;z\n0;1,5;2;3\n0,01;4;5;6\n".to_string(),
+            "x,y,z\n".to_string(),
+            rows.replace("t,x,y,z,temp", "x,y,z,pose")
+                .replace(",2", ",a"),
+            format!("\u{feff}{rows}"),
+            rows.clone() + "# a comment\n",
+        ];
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("r.csv");
+        let opts = LoadOptions::default();
+        for text in &texts {
+            std::fs::write(&path, text).unwrap();
+            let whole = crate::input::text::parse(text.trim_start_matches('\u{feff}'), &opts);
+            let whole = whole.map(|r| {
+                let t = r.t.clone().unwrap_or_default();
+                let temp = r.temp.clone().unwrap_or_default();
+                let rows: Vec<Row> = (0..r.len())
+                    .map(|i| Row {
+                        t: t.get(i).copied(),
+                        xyz: r.xyz[i],
+                        temp: temp.get(i).copied(),
+                    })
+                    .collect();
+                format!("{rows:?} {:?} {}", r.notes, r.len())
+            });
+            let whole = whole.map_err(|e| e.to_string());
+            for size in [1, 7, 64, 300, 4096, 1 << 20] {
+                let got = match TextSource::open_in(&path, &opts, size, |_| true) {
+                    Ok(None) => continue, // read whole by the caller
+                    Ok(Some(src)) => {
+                        let rows: Vec<Row> = src.rows().collect();
+                        let mut it = src.rows();
+                        let head: Vec<Row> = it.by_ref().take(5).collect();
+                        let rest: Vec<Row> = it.clone().collect();
+                        assert_eq!([head, rest].concat(), rows);
+                        src.check().unwrap();
+                        Ok(format!("{rows:?} {:?} {}", src.meta.notes, src.len()))
+                    }
+                    Err(e) => Err(e.to_string()),
+                };
+                assert_eq!(got, whole, "{text:?} in pieces of {size}");
+            }
+        }
+        // The plain file is streamed; a comment, a pose column: read whole.
+        std::fs::write(&path, &texts[0]).unwrap();
+        assert!(matches!(
+            TextSource::open_in(&path, &opts, 64, |_| true),
+            Ok(Some(_))
+        ));
+        for k in [7, 9] {
+            std::fs::write(&path, &texts[k]).unwrap();
+            assert!(matches!(
+                TextSource::open_in(&path, &opts, 64, |_| true),
+                Ok(None)
+            ));
+        }
+    }
+}
