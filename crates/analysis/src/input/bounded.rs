@@ -23,24 +23,24 @@ pub const MAX_LINE_BYTES: usize = 64 << 10;
 /// Refuses a text with a line longer than [`MAX_LINE_BYTES`], naming the line: the readers
 /// then need memory in proportion to the file, not to one line's fields.
 pub fn check_line_lengths(text: &str) -> Result<()> {
-    // Line ends found by memchr (SIMD): this scan runs over every byte of every text file.
-    let mut line = 1;
+    // A line is too long only where MAX_LINE_BYTES + 1 bytes hold no line end: the scan jumps
+    // from the last line end of each such window to the next (`memrchr`, SIMD), a few calls per
+    // 64 kB instead of one per line; the line is named only when one is too long.
+    let bytes = text.as_bytes();
     let mut start = 0;
-    for i in memchr::memchr_iter(b'\n', text.as_bytes()) {
-        if i - start > MAX_LINE_BYTES {
-            break;
+    while bytes.len() - start > MAX_LINE_BYTES {
+        match memchr::memrchr(b'\n', &bytes[start..=start + MAX_LINE_BYTES]) {
+            Some(i) => start += i + 1,
+            None => {
+                let len = memchr::memchr(b'\n', &bytes[start..]).unwrap_or(bytes.len() - start);
+                return Err(InputError::LineTooLong {
+                    line: 1 + memchr::memchr_iter(b'\n', &bytes[..start]).count(),
+                    bytes: len,
+                    max: MAX_LINE_BYTES,
+                }
+                .into());
+            }
         }
-        line += 1;
-        start = i + 1;
-    }
-    let len = memchr::memchr(b'\n', &text.as_bytes()[start..]).unwrap_or(text.len() - start);
-    if len > MAX_LINE_BYTES {
-        return Err(InputError::LineTooLong {
-            line,
-            bytes: len,
-            max: MAX_LINE_BYTES,
-        }
-        .into());
     }
     Ok(())
 }
@@ -71,6 +71,9 @@ pub fn read_bounded(path: &Path, limit: u64) -> Result<Vec<u8>> {
         if meta.len() > limit {
             return Err(too_large(path, limit).into());
         }
+        // Room for the whole file up front (`take` hides its size from `read_to_end`, which
+        // would otherwise grow the buffer step by step, copying what it has read).
+        bytes.reserve_exact(meta.len() as usize + 1);
         std::fs::File::open(path)
             .map_err(read_err)?
             .take(limit + 1)
@@ -280,11 +283,13 @@ pub(crate) fn parse_reading(
 /// Refuses a recording whose readings are all numerically zero (largest |value| below
 /// [`MIN_FULL_SCALE`]): a unit error (e.g. a scale applied twice), not a sensor.
 pub(crate) fn check_reading_scale(xyz: &[[f64; 3]]) -> Result<()> {
-    let largest = xyz
-        .iter()
-        .flat_map(|r| r.iter())
-        .fold(0.0f64, |m, v| m.max(v.abs()));
-    check_largest_reading(!xyz.is_empty(), largest)
+    // The first reading of full scale ends the scan (in a recording, the first row); the
+    // largest is looked for only to be named.
+    if xyz.is_empty() || xyz.iter().flatten().any(|v| v.abs() >= MIN_FULL_SCALE) {
+        return Ok(());
+    }
+    let largest = xyz.iter().flatten().fold(0.0f64, |m, v| m.max(v.abs()));
+    check_largest_reading(true, largest)
 }
 
 /// [`check_reading_scale`] given its fold: `any` sample, the `largest` |value|.
@@ -390,6 +395,38 @@ mod tests {
                 assert_eq!(parse_f64(c.as_bytes()).map(f64::to_bits), want, "{c}");
             }
         }
+    }
+
+    /// The windowed scan names the line a line-by-line count names: the first line over the
+    /// limit, its length, at every position and length around the limit.
+    #[test]
+    fn line_lengths_are_checked_as_line_by_line() {
+        let by_lines = |text: &str| {
+            let mut lines = text.split('\n').enumerate();
+            lines
+                .find(|(_, line)| line.len() > MAX_LINE_BYTES)
+                .map(|(k, line)| (k + 1, line.len()))
+        };
+        let m = MAX_LINE_BYTES;
+        for short in [0, 1, 35, m - 1, m] {
+            for long in [m - 1, m, m + 1, m + 2, 3 * m] {
+                for ending in ["", "\n", "\r\n"] {
+                    let row = format!("{}\n", "1".repeat(short));
+                    let text = format!("{}{}{ending}{}", row.repeat(3), "2".repeat(long), row);
+                    let got = match check_line_lengths(&text) {
+                        Ok(()) => None,
+                        Err(Error::Input(InputError::LineTooLong { line, bytes, .. })) => {
+                            Some((line, bytes))
+                        }
+                        Err(e) => panic!("{e}"),
+                    };
+                    assert_eq!(got, by_lines(&text), "{short} {long} {ending:?}");
+                }
+            }
+        }
+        assert!(check_line_lengths("").is_ok());
+        assert!(check_line_lengths(&"3".repeat(m)).is_ok());
+        assert!(check_line_lengths(&"3".repeat(m + 1)).is_err());
     }
 
     #[test]

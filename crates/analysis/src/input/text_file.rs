@@ -159,12 +159,10 @@ fn read_pieces(
     let mut cols = Columns::default();
     let mut piece = &head[offset..];
     loop {
-        let prev = cols.t.last().copied();
-        match layout.read_plain_after(piece, line, delim.byte(), prev) {
-            Ok(more) => cols.append(more),
+        match layout.read_plain_onto(&mut cols, piece, line, delim.byte()) {
+            Ok(newlines) => line += newlines,
             Err(e) => return finish_checks(&mut pieces, Err(e)),
         }
-        line += memchr::memchr_iter(b'\n', piece.as_bytes()).count();
         piece = match pieces.next_piece() {
             Ok(Some(p)) => match plain_piece(p) {
                 Some(text) => text,

@@ -9,7 +9,7 @@
 
 use crate::error::input::InputError;
 use crate::error::{Error, Result};
-use crate::input::bounded::{parse_number, parse_reading};
+use crate::input::bounded::{parse_number, parse_reading, MAX_READING};
 use crate::input::timecheck::TimeCheck;
 use rayon::prelude::*;
 
@@ -201,7 +201,7 @@ impl RowLayout {
     /// The rows of `text` (plain delimited text: no quotes, no lone CR), whose first line is
     /// line `first_line` of the file, parsed in chunks on all cores (see the module docs).
     pub(crate) fn read_plain(&self, text: &str, first_line: usize, delim: u8) -> Result<Columns> {
-        self.read_plain_in(text, first_line, delim, CHUNK_BYTES, None)
+        self.read_plain_after(text, first_line, delim, None)
     }
 
     /// [`RowLayout::read_plain`] on a piece of a file that continues rows read before, whose
@@ -216,6 +216,21 @@ impl RowLayout {
         self.read_plain_in(text, first_line, delim, CHUNK_BYTES, prev_time)
     }
 
+    /// [`RowLayout::read_plain_after`] appending to `cols` (rows read before, whose last time
+    /// is the one the time check is joined to), with no copy of the rows: the chunks are parsed
+    /// into `cols`' own new rows. The number of line ends in `text`. On an error `cols` holds
+    /// the rows before and some of `text`'s.
+    pub(crate) fn read_plain_onto(
+        &self,
+        cols: &mut Columns,
+        text: &str,
+        first_line: usize,
+        delim: u8,
+    ) -> Result<usize> {
+        let prev_time = cols.t.last().copied();
+        self.read_plain_into(cols, text, first_line, delim, CHUNK_BYTES, prev_time)
+    }
+
     /// [`RowLayout::read_plain_after`] in chunks of about `chunk_bytes`.
     fn read_plain_in(
         &self,
@@ -225,17 +240,44 @@ impl RowLayout {
         chunk_bytes: usize,
         prev_time: Option<f64>,
     ) -> Result<Columns> {
-        let bounds = chunk_bounds(text.as_bytes(), chunk_bytes);
+        let mut cols = Columns::default();
+        self.read_plain_into(&mut cols, text, first_line, delim, chunk_bytes, prev_time)?;
+        Ok(cols)
+    }
+
+    /// The rows of `text` appended to `cols`, in chunks of about `chunk_bytes` (see the module
+    /// docs): each chunk's share of the new rows is as many rows as it has lines, so that
+    /// without blank or skipped lines the rows are where they belong and nothing moves. The
+    /// number of line ends in `text`.
+    fn read_plain_into(
+        &self,
+        cols: &mut Columns,
+        text: &str,
+        first_line: usize,
+        delim: u8,
+        chunk_bytes: usize,
+        prev_time: Option<f64>,
+    ) -> Result<usize> {
+        let bytes = text.as_bytes();
+        let bounds = chunk_bounds(bytes, chunk_bytes);
         let newlines: Vec<usize> = bounds
             .par_iter()
-            .map(|&(a, b)| memchr::memchr_iter(b'\n', &text.as_bytes()[a..b]).count())
+            .map(|&(a, b)| memchr::memchr_iter(b'\n', &bytes[a..b]).count())
             .collect();
-        let caps: Vec<usize> = newlines.iter().map(|n| n + 1).collect();
-        let mut cols = self.columns(caps.iter().sum());
+        let caps: Vec<usize> = (bounds.iter().zip(&newlines))
+            .map(|(&(_, b), n)| n + usize::from(bytes[b - 1] != b'\n'))
+            .collect();
+        let base = cols.xyz.len();
+        self.grow(cols, caps.iter().sum());
+        let plan = self.plan();
         let mut jobs = Vec::with_capacity(bounds.len());
         {
-            let (mut xyz, mut t, mut temp) =
-                (&mut cols.xyz[..], &mut cols.t[..], &mut cols.temp[..]);
+            let (tb, tempb) = (base.min(cols.t.len()), base.min(cols.temp.len()));
+            let (mut xyz, mut t, mut temp) = (
+                &mut cols.xyz[base..],
+                &mut cols.t[tb..],
+                &mut cols.temp[tempb..],
+            );
             let mut line = first_line;
             for (k, &(a, b)) in bounds.iter().enumerate() {
                 let n = |s: &[f64]| if s.is_empty() { 0 } else { caps[k] };
@@ -250,7 +292,7 @@ impl RowLayout {
         let outs: Vec<ChunkOut> = jobs
             .into_par_iter()
             .map(|(mut slot, chunk, line)| {
-                let err = self.read_chunk(chunk, line, delim, &mut slot).err();
+                let err = (self.read_chunk(chunk, line, delim, plan.as_ref(), &mut slot)).err();
                 let last_time =
                     (slot.rows > 0 && !slot.t.is_empty()).then(|| slot.t[slot.rows - 1]);
                 ChunkOut {
@@ -263,19 +305,46 @@ impl RowLayout {
                 }
             })
             .collect();
-        self.join(cols, &caps, outs, prev_time)
+        self.join(cols, base, &caps, outs, prev_time)?;
+        Ok(newlines.iter().sum())
     }
 
-    /// The chunks' results in file order: the time joined at each boundary, the first error
-    /// returned, the rows moved together (each chunk filled only the front of its share).
+    /// `cols` with room for `rows` more rows (zero pages from the allocator when `cols` is
+    /// empty: what no row fills is never touched).
+    fn grow(&self, cols: &mut Columns, rows: usize) {
+        if cols.xyz.is_empty() {
+            let Columns {
+                labels, skipped, ..
+            } = std::mem::take(cols);
+            *cols = Columns {
+                labels,
+                skipped,
+                ..self.columns(rows)
+            };
+            return;
+        }
+        let n = cols.xyz.len() + rows;
+        cols.xyz.resize(n, [0.0; 3]);
+        if self.time.is_some() {
+            cols.t.resize(n, 0.0);
+        }
+        if self.temp.is_some() {
+            cols.temp.resize(n, 0.0);
+        }
+    }
+
+    /// The chunks' results in file order, into `cols` from row `base`: the time joined at each
+    /// boundary, the first error returned, the rows moved together (each chunk filled only the
+    /// front of its share).
     fn join(
         &self,
-        mut cols: Columns,
+        cols: &mut Columns,
+        base: usize,
         caps: &[usize],
         outs: Vec<ChunkOut>,
         mut prev_time: Option<f64>,
-    ) -> Result<Columns> {
-        let (mut at, mut offset) = (0usize, 0usize);
+    ) -> Result<()> {
+        let (mut at, mut offset) = (base, base);
         for (out, cap) in outs.into_iter().zip(caps) {
             if let (Some(prev), Some((t0, line)), Some(i)) = (prev_time, out.first_time, self.time)
             {
@@ -300,59 +369,187 @@ impl RowLayout {
             cols.labels.extend(out.labels);
         }
         cols.truncate(at);
-        Ok(cols)
+        Ok(())
     }
 
-    /// One chunk's lines: fields cut at every delimiter and line end that `memchr2` finds, a
-    /// carriage return before a line end dropped, empty lines skipped.
+    /// One chunk's lines, each read by the fast path ([`fast_row`]) when the [`Plan`] allows
+    /// and its fields are plain decimals, else split at its delimiters (a carriage return
+    /// before the line end dropped, an empty line skipped) and read by [`RowLayout::row`], which
+    /// names what is wrong with it.
     fn read_chunk(
         &self,
         chunk: &str,
         first_line: usize,
         delim: u8,
+        plan: Option<&Plan>,
         slot: &mut Slot<'_>,
     ) -> Result<()> {
         let bytes = chunk.as_bytes();
         let mut fields: Vec<&str> = Vec::with_capacity(self.names.len() + 1);
-        let (mut line_start, mut field_start, mut line_no) = (0usize, 0usize, first_line);
-        for pos in memchr::memchr2_iter(delim, b'\n', bytes) {
-            if bytes[pos] == delim {
-                fields.push(&chunk[field_start..pos]);
-            } else {
-                let line = &chunk[line_start..pos];
-                self.end_line(line, field_start - line_start, line_no, &mut fields, slot)?;
-                line_start = pos + 1;
-                line_no += 1;
+        let (mut at, mut line_no) = (0usize, first_line);
+        let mut vals = [0.0f64; 5];
+        while at < bytes.len() {
+            if let Some(plan) = plan {
+                if let Some(next) = fast_row(&plan.dest, bytes, at, delim, &mut vals) {
+                    if slot.take(&vals, plan, line_no) {
+                        at = next;
+                        line_no += 1;
+                        continue;
+                    }
+                }
             }
-            field_start = pos + 1;
-        }
-        if line_start < bytes.len() {
-            let line = &chunk[line_start..];
-            self.end_line(line, field_start - line_start, line_no, &mut fields, slot)?;
+            let end = memchr::memchr(b'\n', &bytes[at..]).map_or(bytes.len(), |p| at + p);
+            let line = &chunk[at..end];
+            let line = line.strip_suffix('\r').unwrap_or(line);
+            if !line.is_empty() {
+                fields.clear();
+                fields.extend(line.split(char::from(delim)));
+                self.row(&fields[..], line_no, slot)?;
+            }
+            at = end + 1;
+            line_no += 1;
         }
         Ok(())
     }
 
-    /// The end of `line` (its last field starting at byte `last`; the fields before it in
-    /// `fields`): a CR before the line end dropped, an empty line skipped, else the row read.
-    fn end_line<'c>(
-        &self,
-        line: &'c str,
-        last: usize,
-        line_no: usize,
-        fields: &mut Vec<&'c str>,
-        slot: &mut Slot<'_>,
-    ) -> Result<()> {
-        let line = line.strip_suffix('\r').unwrap_or(line);
-        let result = if line.is_empty() {
-            Ok(())
-        } else {
-            fields.push(&line[last.min(line.len())..]);
-            self.row(&fields[..], line_no, slot)
-        };
-        fields.clear();
-        result
+    /// The fast path's plan for this layout: `None` when a field feeds two columns (an axis
+    /// that is also the time: refused later, read by [`RowLayout::row`] until then), for a
+    /// label column (text) and for decimal commas.
+    fn plan(&self) -> Option<Plan> {
+        if self.label.is_some() || self.decimal_comma {
+            return None;
+        }
+        let mut dest = vec![SKIP; self.names.len()];
+        let wanted = self.xyz.iter().enumerate().map(|(k, &i)| (i, k as Dest));
+        let wanted = wanted.chain(self.time.map(|i| (i, TIME)));
+        for (i, d) in wanted.chain(self.temp.map(|i| (i, TEMP))) {
+            if *dest.get(i)? != SKIP {
+                return None;
+            }
+            dest[i] = d;
+        }
+        Some(Plan {
+            dest,
+            temp: self.temp.is_some(),
+        })
     }
+}
+
+/// Where a field of a data row goes on the fast path: an axis (0–2), the time ([`TIME`]), the
+/// temperature ([`TEMP`]), or nowhere ([`SKIP`]: a column the recording does not keep).
+type Dest = u8;
+/// The time column's [`Dest`].
+const TIME: Dest = 3;
+/// The temperature column's [`Dest`].
+const TEMP: Dest = 4;
+/// A column not read.
+const SKIP: Dest = u8::MAX;
+
+/// How the fast path reads a row of this layout: every field's destination.
+struct Plan {
+    /// [`Dest`] of each field, in order.
+    dest: Vec<Dest>,
+    /// The layout has a temperature column (its reading is range-checked).
+    temp: bool,
+}
+
+impl Slot<'_> {
+    /// A row read by the fast path (values by [`Dest`]) kept when it passes the checks
+    /// [`RowLayout::row`] makes (readings within range, time not going back); `false` leaves
+    /// the slot as it was, for [`RowLayout::row`] to read the line again and name the problem.
+    fn take(&mut self, v: &[f64; 5], plan: &Plan, line_no: usize) -> bool {
+        let out = |x: f64| x.abs() > MAX_READING;
+        if out(v[0]) || out(v[1]) || out(v[2]) || (plan.temp && out(v[4])) {
+            return false;
+        }
+        let k = self.rows;
+        if let Some(clock) = self.clock.as_mut() {
+            if clock.push(v[3], line_no).is_err() {
+                return false;
+            }
+            self.first_time.get_or_insert((v[3], line_no));
+            self.t[k] = v[3];
+        }
+        if plan.temp {
+            self.temp[k] = v[4];
+        }
+        self.xyz[k] = [v[0], v[1], v[2]];
+        self.rows += 1;
+        true
+    }
+}
+
+/// One line of plain decimals from `b[at]`: each field to its destination in `vals`
+/// ([`Dest`]; skipped fields may hold anything but a delimiter or a line end), then the line
+/// end (`\n`, `\r\n` or the end of the text). The index after the line, or `None` when the
+/// line is anything else (blanks around a number, an exponent, an empty field, too many or
+/// too few fields, more than 19 digits): [`RowLayout::row`] reads it then.
+#[inline]
+fn fast_row(dest: &[Dest], b: &[u8], at: usize, delim: u8, vals: &mut [f64; 5]) -> Option<usize> {
+    let mut i = at;
+    for (k, &d) in dest.iter().enumerate() {
+        if k > 0 {
+            if b.get(i) != Some(&delim) {
+                return None;
+            }
+            i += 1;
+        }
+        if d == SKIP {
+            while b.get(i).is_some_and(|&c| c != delim && c != b'\n') {
+                i += 1;
+            }
+        } else {
+            let (v, next) = plain_decimal(b, i)?;
+            vals[usize::from(d)] = v;
+            i = next;
+        }
+    }
+    match b.get(i) {
+        None => Some(i),
+        Some(b'\n') => Some(i + 1),
+        Some(b'\r') if b.get(i + 1) == Some(&b'\n') => Some(i + 2),
+        _ => None,
+    }
+}
+
+/// Powers of ten that are exact doubles (10²² is the largest).
+const POW10: [f64; 23] = [
+    1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15, 1e16,
+    1e17, 1e18, 1e19, 1e20, 1e21, 1e22,
+];
+
+/// A plain decimal `[-]digits[.digits]` at `b[i]` (at least one digit, at most 19, the digits
+/// as an integer at most 2⁵³): its value and the index after it, else `None`. Such an integer
+/// and the power of ten that scales it are exact doubles, so their quotient is the correctly
+/// rounded value (Clinger's fast path): the bits `str::parse` and `fast-float2` give. Written
+/// by hand because it is the one shape nearly every recording's numbers have, read here in
+/// the same pass that finds the field's end (a general parser is called per field, after a
+/// delimiter search).
+#[inline]
+fn plain_decimal(b: &[u8], mut i: usize) -> Option<(f64, usize)> {
+    let neg = b.get(i) == Some(&b'-');
+    i += usize::from(neg);
+    let start = i;
+    let mut m = 0u64;
+    let mut frac = 0usize;
+    let mut point = None;
+    loop {
+        match b.get(i) {
+            Some(c @ b'0'..=b'9') => m = m.wrapping_mul(10).wrapping_add(u64::from(c - b'0')),
+            Some(b'.') if point.is_none() => point = Some(i),
+            _ => break,
+        }
+        i += 1;
+    }
+    if let Some(p) = point {
+        frac = i - p - 1;
+    }
+    let digits = i - start - usize::from(point.is_some());
+    if digits == 0 || digits > 19 || m > 1 << 53 {
+        return None;
+    }
+    let v = m as f64 / POW10[frac];
+    Some((if neg { -v } else { v }, i))
 }
 
 /// The first `n` values of `s`, leaving `s` the rest.
@@ -363,7 +560,9 @@ fn share<'a>(s: &mut &'a mut [f64], n: usize) -> &'a mut [f64] {
 }
 
 impl Columns {
-    /// `more` (the rows after these) appended.
+    /// `more` (the rows after these) appended: for rows read separately (a piece appended
+    /// as it is read is parsed in place by [`RowLayout::read_plain_onto`], with no copy).
+    #[allow(dead_code)]
     pub(crate) fn append(&mut self, more: Columns) {
         self.xyz.extend_from_slice(&more.xyz);
         self.t.extend_from_slice(&more.t);
@@ -502,6 +701,152 @@ mod tests {
             e.starts_with("line 262, column temp: the reading 1e300"),
             "{e}"
         );
+    }
+
+    /// Every text the fast path reads, read as by the `csv` reader and [`RowLayout::row`]
+    /// (which the fast path hands any other line to): plain decimals of every shape, and lines
+    /// it must hand over — blanks, exponents, signs, more than 19 digits or over 2⁵³, readings
+    /// out of range, times that go back, empty, missing or extra fields, a column not read.
+    #[test]
+    fn fast_path_reads_as_the_csv_reader() {
+        let l = RowLayout {
+            names: ["t", "x", "note", "y", "z", "temp"]
+                .map(String::from)
+                .to_vec(),
+            time: Some(0),
+            xyz: [1, 3, 4],
+            temp: Some(5),
+            label: None,
+            decimal_comma: false,
+        };
+        assert!(l.plan().is_some());
+        let odd = [
+            "-0",
+            "0",
+            "-0.0",
+            ".5",
+            "-.5",
+            "1.",
+            "007.250",
+            "9007199254740992",
+            "9007199254740993",
+            "1234567890123456789",
+            "12345678901234567890",
+            "0.1234567890123456789",
+            "999999999999",
+            "1000000000000",
+            "1000000000000.5",
+            "-1000000000001",
+            "+1",
+            " 1",
+            "1 ",
+            "1e3",
+            "-",
+            ".",
+            "1.2.3",
+            "",
+            "inf",
+            "0x10",
+            "1,5",
+        ];
+        let mut text = String::new();
+        let mut t = 0.0f64;
+        for (i, v) in odd.iter().cycle().take(400).enumerate() {
+            t += [0.01, 0.0, 0.25][i % 3];
+            let t_text = if i == 333 {
+                format!("{}", t - 1.0)
+            } else {
+                format!("{t:.4}")
+            };
+            let row = match i % 4 {
+                0 => format!(
+                    "{t_text},{v},n{i},{},-{}.{},2{}",
+                    i % 97,
+                    i % 13,
+                    i * 31 % 1000,
+                    i % 9
+                ),
+                1 => format!("{t_text},{},,{v},{}.5,{v}", i % 7, i % 5),
+                2 => format!("{t_text},{},x y,{},{v},2{}.25", i % 3, i % 11, i % 8),
+                _ => format!(
+                    "{t_text},1,n,2,3,{}{}",
+                    20 + i % 5,
+                    if i % 8 == 3 { ",9" } else { "" }
+                ),
+            };
+            text += &row;
+            text += if i % 5 == 0 { "\r\n" } else { "\n" };
+            if i % 50 == 7 {
+                text += "\n";
+            }
+        }
+        // Errors end a read at their line: read each line's prefix so every bad line is met.
+        let mut checked = 0;
+        for cut in memchr::memchr_iter(b'\n', text.as_bytes()).step_by(3) {
+            let part = &text[..=cut];
+            let whole = outcome(l.read_plain_in(part, 2, b',', usize::MAX, None));
+            let mut reader = csv::ReaderBuilder::new()
+                .has_headers(false)
+                .flexible(true)
+                .from_reader(part.as_bytes());
+            let by_csv = outcome(l.read_records(&mut reader, part.len() + 1));
+            match (&whole, by_csv) {
+                (Ok(a), Ok(b)) => assert_eq!(a, &b, "{part:?}"),
+                (Err(a), Err(b)) => {
+                    assert_eq!(a.split_once(':').unwrap().1, b.split_once(':').unwrap().1);
+                    checked += 1;
+                }
+                (a, b) => panic!("{a:?} vs {b:?}"),
+            }
+            for size in [1, 64, 4096] {
+                let chunked = outcome(l.read_plain_in(part, 2, b',', size, None));
+                assert_eq!(chunked, whole, "chunks of {size}");
+            }
+        }
+        assert!(checked > 10, "{checked} prefixes ended in an error");
+    }
+
+    /// The hand-written decimal reader gives `str::parse`'s bits, or hands the field over.
+    #[test]
+    fn plain_decimals_read_as_str_parse() {
+        let mut cases: Vec<String> = [
+            "0",
+            "-0",
+            "1.",
+            ".5",
+            "-.5",
+            "00012.3400",
+            "4503599627370497",
+        ]
+        .map(String::from)
+        .to_vec();
+        for i in (-3_000_000i64..3_000_000).step_by(997) {
+            for d in 0..8 {
+                let (int, frac) = (i / 1000, (i % 1000).unsigned_abs());
+                cases.push(format!("{int}.{frac:0d$}", d = d));
+            }
+        }
+        for p in 0..20 {
+            cases.push(format!("0.{}1", "0".repeat(p)));
+            cases.push(format!("9007199254740{p:03}"));
+        }
+        for c in &cases {
+            if let Some((v, end)) = plain_decimal(c.as_bytes(), 0) {
+                assert_eq!(end, c.len(), "{c}");
+                assert_eq!(v.to_bits(), c.parse::<f64>().unwrap().to_bits(), "{c}");
+            }
+        }
+        assert_eq!(plain_decimal(b"1.25,", 0), Some((1.25, 4)));
+        for hand_over in [
+            "",
+            "-",
+            ".",
+            "9007199254740993",
+            "12345678901234567890",
+            "+1",
+        ] {
+            assert_eq!(plain_decimal(hand_over.as_bytes(), 0), None, "{hand_over}");
+        }
     }
 
     #[test]

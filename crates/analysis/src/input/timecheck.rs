@@ -88,7 +88,7 @@ impl TimeSteps {
     /// The summary of `t` (`None` with fewer than 3 rows or no time elapsed). With repeated
     /// times the step statistics are those of the positive steps.
     pub fn of(t: &[f64]) -> Option<Self> {
-        Self::of_times(|| t.iter().copied())
+        Self::of_steps(&Slice(t))
     }
 
     /// [`TimeSteps::of`] on times that `times` yields afresh on every call (the times of a
@@ -96,29 +96,37 @@ impl TimeSteps {
     /// The median is selected exactly (by the bits of the positive steps, 16 at a time), so
     /// the result is the one of a sort.
     pub fn of_times<I: Iterator<Item = f64>>(times: impl Fn() -> I) -> Option<Self> {
+        Self::of_steps(&Regenerated(times))
+    }
+
+    /// [`TimeSteps::of`] over the steps `steps` visits (a few passes, memory constant).
+    fn of_steps(steps: &impl Steps) -> Option<Self> {
         let (mut rows, mut positive) = (0usize, 0usize);
         let (mut first, mut last) = (f64::NAN, f64::NAN);
-        for (prev, t) in pairs(times()) {
+        // The selection's first histogram is made in this pass (it needs no count).
+        let mut top = vec![0usize; 1 << 16];
+        steps.each(|prev, t| {
             if rows == 0 {
                 first = prev;
             }
             rows += 1;
             last = t;
-            if t - prev > 0.0 {
+            let d = t - prev;
+            if d > 0.0 {
                 positive += 1;
+                top[(d.to_bits() >> 48) as usize] += 1;
             }
-        }
+        });
         let all = rows;
         if all < 2 || positive == 0 {
             return None;
         }
-        let median_s = kth_positive_step(&times, positive / 2);
+        let median_s = kth_positive_step(steps, positive / 2, top);
         if !(median_s.is_finite() && median_s > 0.0) {
             return None;
         }
-        let gaps = pairs(times())
-            .filter(|(a, b)| b - a > GAP_FACTOR * median_s)
-            .count();
+        let mut gaps = 0usize;
+        steps.each(|a, b| gaps += usize::from(b - a > GAP_FACTOR * median_s));
         Some(Self {
             median_s,
             mean_s: (last - first) / all as f64,
@@ -231,6 +239,34 @@ impl StepTally {
     }
 }
 
+/// A pass over consecutive times `(t[i], t[i+1])`, as often as the statistics need.
+trait Steps {
+    /// Calls `f` on every pair, in order.
+    fn each<F: FnMut(f64, f64)>(&self, f: F);
+}
+
+/// The times of a slice (a tight loop over its pairs).
+struct Slice<'a>(&'a [f64]);
+
+impl Steps for Slice<'_> {
+    fn each<F: FnMut(f64, f64)>(&self, mut f: F) {
+        for w in self.0.windows(2) {
+            f(w[0], w[1]);
+        }
+    }
+}
+
+/// Times generated afresh for every pass (see [`TimeSteps::of_times`]).
+struct Regenerated<G>(G);
+
+impl<I: Iterator<Item = f64>, G: Fn() -> I> Steps for Regenerated<G> {
+    fn each<F: FnMut(f64, f64)>(&self, mut f: F) {
+        for (a, b) in pairs((self.0)()) {
+            f(a, b);
+        }
+    }
+}
+
 /// Consecutive pairs `(t[i], t[i+1])` of an iterator of times.
 fn pairs<I: Iterator<Item = f64>>(mut it: I) -> impl Iterator<Item = (f64, f64)> {
     let mut prev = it.next();
@@ -241,21 +277,25 @@ fn pairs<I: Iterator<Item = f64>>(mut it: I) -> impl Iterator<Item = (f64, f64)>
 }
 
 /// The `k`-th smallest (0-based) positive step of the times `times` yields: a radix selection
-/// on the steps' bits (for positive floats their order as integers), four passes of a 2¹⁶
-/// histogram, so no step is stored.
-fn kth_positive_step<I: Iterator<Item = f64>>(times: &impl Fn() -> I, mut k: usize) -> f64 {
+/// on the steps' bits (for positive floats their order as integers), four levels of a 2¹⁶
+/// histogram, so no step is stored; `top`, the histogram of the top 16 bits, was made by the
+/// caller's pass over the times.
+fn kth_positive_step(steps: &impl Steps, mut k: usize, top: Vec<usize>) -> f64 {
     let mut prefix = 0u64;
+    let mut hist = top;
     for level in 0..4u32 {
         let shift = 48 - 16 * level;
-        let mut hist = vec![0usize; 1 << 16];
-        for (a, b) in pairs(times()) {
-            let d = b - a;
-            if d > 0.0 {
-                let bits = d.to_bits();
-                if level == 0 || bits >> (shift + 16) == prefix {
-                    hist[((bits >> shift) & 0xffff) as usize] += 1;
+        if level > 0 {
+            hist.iter_mut().for_each(|c| *c = 0);
+            steps.each(|a, b| {
+                let d = b - a;
+                if d > 0.0 {
+                    let bits = d.to_bits();
+                    if bits >> (shift + 16) == prefix {
+                        hist[((bits >> shift) & 0xffff) as usize] += 1;
+                    }
                 }
-            }
+            });
         }
         let mut below = 0usize;
         for (i, &c) in hist.iter().enumerate() {
@@ -279,7 +319,7 @@ fn shown(x: f64) -> f64 {
 /// step), or, when there are so many that the timestamps come in bursts, how the rate is
 /// taken instead. Empty when all is regular.
 pub fn time_notes(column: &str, t: &[f64]) -> Vec<String> {
-    time_notes_of(column, || t.iter().copied())
+    time_notes_given(column, TimeSteps::of(t), || t.iter().copied())
 }
 
 /// [`time_notes`] on times that `times` yields afresh on every call (see
@@ -316,6 +356,9 @@ pub fn time_notes_given<I: Iterator<Item = f64>>(
             steps.steps,
             (steps.rate_hz() * 1e3).round() / 1e3,
         )];
+    }
+    if steps.gaps == 0 {
+        return Vec::new(); // counted by `TimeSteps::of_times`: no pass to list none
     }
     let mut gaps = 0usize;
     let mut listed: Vec<String> = Vec::new();
@@ -371,6 +414,39 @@ mod tests {
         assert!(
             matches!(e, InputError::TimeNotIncreasing { line: 3, .. }),
             "{e}"
+        );
+    }
+
+    /// The selection's median is a sort's, and a slice's summary is that of the same times
+    /// generated afresh (the two ways the passes are made).
+    #[test]
+    fn median_step_is_a_sorts_and_both_passes_agree() {
+        let mut t = vec![0.0f64];
+        let mut x = 12345u64;
+        for i in 1..5000 {
+            x = x
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            let step = match i % 17 {
+                0 => 0.0,
+                5 => 0.4,
+                _ => 0.01 + (x >> 40) as f64 * 1e-12,
+            };
+            t.push(t[i - 1] + step);
+        }
+        let mut pos: Vec<f64> = t
+            .windows(2)
+            .map(|w| w[1] - w[0])
+            .filter(|d| *d > 0.0)
+            .collect();
+        pos.sort_by(f64::total_cmp);
+        let s = TimeSteps::of(&t).unwrap();
+        assert_eq!(s.median_s.to_bits(), pos[pos.len() / 2].to_bits());
+        assert_eq!(Some(s), TimeSteps::of_times(|| t.iter().copied()));
+        assert_eq!(s.repeats, (1..5000).filter(|i| i % 17 == 0).count());
+        assert_eq!(
+            time_notes("t", &t),
+            time_notes_of("t", || t.iter().copied())
         );
     }
 
