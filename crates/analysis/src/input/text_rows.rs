@@ -560,17 +560,6 @@ fn share<'a>(s: &mut &'a mut [f64], n: usize) -> &'a mut [f64] {
 }
 
 impl Columns {
-    /// `more` (the rows after these) appended: for rows read separately (a piece appended
-    /// as it is read is parsed in place by [`RowLayout::read_plain_onto`], with no copy).
-    #[allow(dead_code)]
-    pub(crate) fn append(&mut self, more: Columns) {
-        self.xyz.extend_from_slice(&more.xyz);
-        self.t.extend_from_slice(&more.t);
-        self.temp.extend_from_slice(&more.temp);
-        self.labels.extend(more.labels);
-        self.skipped += more.skipped;
-    }
-
     fn truncate(&mut self, rows: usize) {
         self.xyz.truncate(rows);
         self.t.truncate(rows);
