@@ -133,19 +133,8 @@ fn read_pieces(
     let Ok(mut pieces) = Pieces::open(path, piece_bytes) else {
         return Ok(None);
     };
-    let Ok(Some(first)) = pieces.next_piece() else {
+    let Some((head, delim)) = first_piece_head(&mut pieces, head_ok) else {
         return Ok(None);
-    };
-    let first = first.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(first);
-    let Some(head) = plain_piece(first).filter(|h| !h.starts_with('\u{feff}')) else {
-        return Ok(None);
-    };
-    let Some(first_line) = head.lines().find(|l| !is_comment_or_blank(l)) else {
-        return Ok(None);
-    };
-    let delim = match Delimiter::of_first_line(first_line) {
-        Some(d) if !crate::input::grt::is_grt(first_line) && head_ok(head) => d,
-        _ => return Ok(None),
     };
     let mut st = CsvState::new(opts, delim);
     let (offset, header_line) = match st.read_head(head, delim) {
@@ -178,6 +167,23 @@ fn read_pieces(
         Ok(rec)
     });
     rec.map(Some)
+}
+
+/// The first piece as text (after a UTF-8 byte-order mark) and its delimiter, when the piece is
+/// plain text with a delimited, non-GRT first line that `head_ok` accepts; `None`: the
+/// whole-text path reads the file and says what it finds.
+pub(crate) fn first_piece_head(
+    pieces: &mut Pieces,
+    head_ok: impl Fn(&str) -> bool,
+) -> Option<(&str, Delimiter)> {
+    let first = pieces.next_piece().ok()??;
+    let first = first.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(first);
+    let head = plain_piece(first).filter(|h| !h.starts_with('\u{feff}'))?;
+    let first_line = head.lines().find(|l| !is_comment_or_blank(l))?;
+    match Delimiter::of_first_line(first_line) {
+        Some(d) if !crate::input::grt::is_grt(first_line) && head_ok(head) => Some((head, d)),
+        _ => None,
+    }
 }
 
 /// `result` (an error in the rows) once the rest of the file is known to be plain text (else

@@ -17,8 +17,8 @@ use crate::input::bounded::check_largest_reading;
 use crate::input::columns::LoadOptions;
 use crate::input::recording::Recording;
 use crate::input::sample_summary::{SampleSummary, SummaryFold};
-use crate::input::text::{check_axis_columns, is_comment_or_blank, CsvState, Delimiter};
-use crate::input::text_file::{plain_piece, Pieces, PIECE_BYTES};
+use crate::input::text::{check_axis_columns, CsvState, Delimiter};
+use crate::input::text_file::{first_piece_head, plain_piece, Pieces, PIECE_BYTES};
 use crate::input::text_rows::{Columns, RowLayout};
 use crate::input::timecheck::{time_notes_given, StepTally, TimeSteps};
 use std::path::{Path, PathBuf};
@@ -242,19 +242,8 @@ fn read_head(
     opts: &LoadOptions,
     head_ok: impl Fn(&str) -> bool,
 ) -> Result<Option<Head>> {
-    let Ok(Some(first)) = pieces.next_piece() else {
+    let Some((head, delim)) = first_piece_head(pieces, head_ok) else {
         return Ok(None);
-    };
-    let first = first.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(first);
-    let Some(head) = plain_piece(first).filter(|h| !h.starts_with('\u{feff}')) else {
-        return Ok(None);
-    };
-    let Some(first_line) = head.lines().find(|l| !is_comment_or_blank(l)) else {
-        return Ok(None);
-    };
-    let delim = match Delimiter::of_first_line(first_line) {
-        Some(d) if !crate::input::grt::is_grt(first_line) && head_ok(head) => d,
-        _ => return Ok(None),
     };
     let mut st = CsvState::new(opts, delim);
     let (offset, header_line) = st.read_head(head, delim)?;
