@@ -107,9 +107,10 @@ pub struct Expanded {
 }
 
 /// The files of `inputs`: a directory gives every regular, non-hidden file below it
-/// (sorted, recursively, links followed); a file is taken as is; a pattern with `*`, `?` or
-/// `[` is expanded (sorted). `exclude` (the results file) is never taken. Duplicates (by
-/// canonical path) are dropped.
+/// (sorted, recursively, links followed) but the simulator's truth files (`FILE.truth.json`
+/// beside its recording `FILE`: [`crate::simulate::truth_path`]), which are no
+/// recordings; a file is taken as is; a pattern with `*`, `?` or `[` is expanded (sorted).
+/// `exclude` (the results file) is never taken. Duplicates (by canonical path) are dropped.
 pub fn expand_inputs(inputs: &[PathBuf], exclude: &Path) -> Result<Expanded> {
     let mut found = Expanded::default();
     for input in inputs {
@@ -188,12 +189,27 @@ fn walk(dir: &Path, out: &mut Expanded) {
             continue;
         }
         if kind.is_file() {
-            out.files.push(entry.into_path());
+            if !is_truth_beside_its_recording(entry.path()) {
+                out.files.push(entry.into_path());
+            }
         } else {
             // A pipe would block the batch forever; a device or socket is no recording.
             out.problems.push((entry.into_path(), NOT_REGULAR.into()));
         }
     }
+}
+
+/// True for `FILE.truth.json` when `FILE` is a regular file beside it: what `wiical simulate`
+/// writes next to each recording (the known truth, JSON), which would otherwise be one
+/// failure line per recording in a batch over a simulated folder.
+fn is_truth_beside_its_recording(path: &Path) -> bool {
+    let name = path.file_name().map(|n| n.to_string_lossy());
+    let Some(stem) = name.as_deref().and_then(|n| n.strip_suffix(".truth.json")) else {
+        return false;
+    };
+    !stem.is_empty()
+        && crate::simulate::truth_path(&path.with_file_name(stem)) == path
+        && path.with_file_name(stem).is_file()
 }
 
 /// Refuses a results file batch did not create: anything that is not a regular file (a
@@ -583,6 +599,27 @@ mod tests {
         assert_eq!(expand_inputs(&[pattern], &out).unwrap().files.len(), 2);
         let missing = expand_inputs(&[dir.path().join("nope.csv")], &out).unwrap_err();
         assert!(missing.to_string().contains("no such file"), "{missing}");
+    }
+
+    /// In a folder `wiical simulate` wrote, each recording's `FILE.truth.json` is not taken
+    /// (it is no recording); a truth file without its recording, or named on its own, is.
+    #[test]
+    fn the_simulators_truth_files_beside_their_recordings_are_not_taken() {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("results.jsonl");
+        let sim = simulate(&SimConfig {
+            poses: 20,
+            ..Default::default()
+        })
+        .unwrap();
+        let rec = dir.path().join("rec.csv");
+        let truth = crate::simulate::write(&sim, &rec).unwrap();
+        let orphan = dir.path().join("gone.csv.truth.json");
+        std::fs::copy(&truth, &orphan).unwrap();
+        let found = expand_inputs(&[dir.path().to_path_buf()], &out).unwrap();
+        assert_eq!(found.files, [orphan, rec]);
+        let named = expand_inputs(std::slice::from_ref(&truth), &out).unwrap();
+        assert_eq!(named.files, [truth]);
     }
 
     /// A second run on a results file another run is writing is refused (not a second pass

@@ -217,8 +217,35 @@ pub fn noncentral_chi2_sf(c: f64, q: f64, lambda: f64) -> f64 {
 }
 
 /// The non-centrality at which the χ² test with critical value `c` on `q` dof has [`POWER`].
+///
+/// Remembered per `(c, q)` for the process: the searches ask the same question for every
+/// candidate of a step (the same `q`, residual dof and level give the same `c`), and each
+/// answer costs 80 bisection steps of a Poisson-weighted series (it was a quarter of a
+/// `batch` run's CPU). The value is the bisection's, bit for bit, whoever asked first.
 pub fn lambda_for_power(c: f64, q: f64) -> f64 {
-    // Bracket first (the power rises with λ), then halve the bracket.
+    use std::collections::HashMap;
+    use std::sync::{Mutex, OnceLock};
+    /// Answers kept at most; beyond, the memory starts again (a bound, never reached in
+    /// practice: a recording asks a few dozen distinct questions).
+    const KEPT: usize = 4096;
+    static KNOWN: OnceLock<Mutex<HashMap<(u64, u64), f64>>> = OnceLock::new();
+    let known = KNOWN.get_or_init(Default::default);
+    let key = (c.to_bits(), q.to_bits());
+    if let Some(v) = known.lock().ok().and_then(|m| m.get(&key).copied()) {
+        return v;
+    }
+    let v = bisect_lambda_for_power(c, q);
+    if let Ok(mut m) = known.lock() {
+        if m.len() >= KEPT {
+            m.clear();
+        }
+        m.insert(key, v);
+    }
+    v
+}
+
+/// [`lambda_for_power`] computed: the power rises with λ, so a bracket and its halving.
+fn bisect_lambda_for_power(c: f64, q: f64) -> f64 {
     let mut hi = 1.0;
     while noncentral_chi2_sf(c, q, hi) < POWER && hi < 1e6 {
         hi *= 2.0;
@@ -356,6 +383,36 @@ mod tests {
         assert!((t_two_sided(2.750, 30.0) - 0.01).abs() < 1e-4);
         // F(1, ν) = t²_ν.
         assert!((f_sf(2.5f64.powi(2), 1.0, 12.0) - t_two_sided(2.5, 12.0)).abs() < 1e-12);
+    }
+
+    /// The remembered answer is the computed one for each question, whatever the order of
+    /// asking (questions differing only in `q`, or only in `c`, are not confused), and
+    /// the same from several threads at once.
+    #[test]
+    fn remembered_powers_are_the_computed_ones() {
+        let questions = [
+            (3.841_458_8, 1.0),
+            (3.841_458_8, 2.0),
+            (9.2, 2.0),
+            (9.2, 3.0),
+        ];
+        let threads: Vec<_> = (0..3)
+            .map(|k| {
+                std::thread::spawn(move || {
+                    (0..8)
+                        .map(|i| questions[(i + k) % questions.len()])
+                        .map(|(c, q)| (lambda_for_power(c, q), bisect_lambda_for_power(c, q)))
+                        .collect::<Vec<_>>()
+                })
+            })
+            .collect();
+        for t in threads {
+            for (remembered, computed) in t.join().unwrap() {
+                assert_eq!(remembered.to_bits(), computed.to_bits());
+            }
+        }
+        // The same critical value is passed more easily with more dof: less non-centrality.
+        assert!(lambda_for_power(9.2, 3.0) < lambda_for_power(9.2, 2.0));
     }
 
     /// The central case (λ = 0) is the test's level; a known value of the non-central χ²

@@ -14,8 +14,8 @@ use wiical_core::multipos::MultiPosModel;
 /// Arguments of `wiical batch`.
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// Files, directories (every non-hidden file below, sorted) or quoted patterns
-    /// ("data/*.csv").
+    /// Files, directories (every non-hidden file below, sorted; not the FILE.truth.json
+    /// that `wiical simulate` writes beside each recording) or quoted patterns ("data/*.csv").
     #[arg(required = true)]
     pub inputs: Vec<PathBuf>,
     /// Results file, JSON lines: one {"file", "ok", "result" | "error"} per file. Files
