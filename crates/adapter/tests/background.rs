@@ -20,6 +20,8 @@ struct Arm {
     prepared: PreparedCalibration,
     bg: Option<Background>,
     adoptions: Vec<(f64, f64, f64)>,
+    /// When (play time, s) the temperature reading fails: the report comes without one.
+    temperature_fails: fn(f64) -> bool,
 }
 
 impl Arm {
@@ -29,6 +31,15 @@ impl Arm {
             prepared: live.prepare(),
             bg: settings.map(|s| Background::new(s, LiveOrigin::SelfCal)),
             adoptions: Vec::new(),
+            temperature_fails: |_| false,
+        }
+    }
+
+    /// The same arm whose temperature reading fails at the play times `fails` picks.
+    fn with_failing_temperature(self, fails: fn(f64) -> bool) -> Self {
+        Self {
+            temperature_fails: fails,
+            ..self
         }
     }
 
@@ -38,7 +49,8 @@ impl Arm {
         let Some(bg) = self.bg.as_mut() else {
             return;
         };
-        let t = temperature.then_some(s.temperature_c as f32);
+        let read = temperature && !(self.temperature_fails)(s.t);
+        let t = read.then_some(s.temperature_c as f32);
         bg.on_report(s.raw, t, &self.live);
         if let Some(cal) = bg.pending_calibration() {
             let before = truth_error(truth, &self.prepared, s.t);
@@ -189,6 +201,48 @@ fn drift_session_adopts_and_returns_near_the_floor() {
         );
         let bg = arm.bg.as_ref().expect("background arm");
         assert!(bg.max_slice_bins() <= bg.settings().bins_per_slice);
+    }
+}
+
+/// The drift session with a temperature reading that fails now and then — through the
+/// first 30 s of play and one report in 97 (an ADC that errs) —: every bin meets moments
+/// without a temperature. Such a moment is taken at its bin's temperature, so the slope is
+/// still learnt and the error returns as near the floor as with every reading (a bin that
+/// had lost its temperature for good would fit no slope: the error of bias + scale alone).
+#[test]
+fn failing_temperature_readings_do_not_take_the_slope_away() {
+    let session = Session::new(7, 120.0 * MINUTE, true, Mix::PLAY);
+    let start = session.truth.calibration_at(0.0);
+    let fails = |t: f64| t < 30.0 || (t * RATE_HZ).round() as u64 % 97 == 0;
+    let mut arms = [
+        Arm::new(start, None),
+        Arm::new(start, Some(settings(true))),
+        Arm::new(start, Some(settings(true))).with_failing_temperature(fails),
+    ];
+    let rows = run(
+        session,
+        &mut arms,
+        &[false, true, true],
+        10.0 * MINUTE,
+        |_, _| false,
+    );
+    print_rows(&rows, &["fixed", "every reading", "failing readings"]);
+    assert!(!arms[2].adoptions.is_empty(), "nothing adopted");
+    // Wherever every reading brought the error near the floor (below 5 mg), failing
+    // readings did too, within 2 mg.
+    let near_floor = rows.iter().filter(|r| r.truth_g[1] < 0.005);
+    assert!(
+        near_floor.clone().count() >= 6,
+        "every reading: too few windows near the floor"
+    );
+    for r in near_floor {
+        let (fixed, every, failing) = (r.truth_g[0], r.truth_g[1], r.truth_g[2]);
+        assert!(
+            failing < every + 0.002,
+            "minute {}: error with failing readings {failing} g, with every reading {every} g, \
+             fixed {fixed} g",
+            r.end_min
+        );
     }
 }
 

@@ -40,7 +40,7 @@ pub struct Bin {
     /// Weighted covariance of the moments' means about [`Bin::mean`], raw counts², packed
     /// `xx, xy, xz, yy, yz, zz`.
     pub cov: [f32; 6],
-    /// Weighted mean temperature, °C (NaN when some moment had none).
+    /// Weighted mean temperature of the moments that had one, °C (NaN while none had).
     pub temperature_c: f32,
     /// Play time of the latest moment, s.
     pub last_s: u32,
@@ -78,10 +78,13 @@ impl Bin {
             *c = (1.0 - w) * (*c + w * o);
         }
         self.temperature_c = match temperature_c {
-            // A bin whose first moment had no temperature stays NaN (no covariate).
-            Some(t) if self.count == 0 => t,
+            // The first temperature a bin meets is its temperature (NaN until then).
+            Some(t) if self.temperature_c.is_nan() => t,
             Some(t) => self.temperature_c + w * (t - self.temperature_c),
-            None => f32::NAN,
+            // A moment without one (the ADC failed for it) is taken at the bin's: one failed
+            // reading must not leave the bin without a covariate, and every fit that trains
+            // on it without a slope, for good.
+            None => self.temperature_c,
         };
         self.count = self.count.saturating_add(1);
         self.last_s = now_s;
