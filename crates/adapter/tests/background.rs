@@ -213,7 +213,7 @@ fn drift_session_adopts_and_returns_near_the_floor() {
 fn failing_temperature_readings_do_not_take_the_slope_away() {
     let session = Session::new(7, 120.0 * MINUTE, true, Mix::PLAY);
     let start = session.truth.calibration_at(0.0);
-    let fails = |t: f64| t < 30.0 || (t * RATE_HZ).round() as u64 % 97 == 0;
+    let fails = |t: f64| t < 30.0 || ((t * RATE_HZ).round() as u64).is_multiple_of(97);
     let mut arms = [
         Arm::new(start, None),
         Arm::new(start, Some(settings(true))),
