@@ -335,16 +335,18 @@ fn candidates(seg: &segment::Segmentation) -> Vec<effects::Candidate> {
 fn limit_sentences(search: &effects::Search) -> Vec<String> {
     let last = search.steps.last().map_or(&[][..], |s| &s.candidates[..]);
     let rejected = last.iter().filter(|c| !c.passed);
+    let said = rejected.map(|c| (&*c.name, &*c.unit, c.detection_limit, &*c.note));
+    rejected_sentences(said, "this recording")
+}
+
+/// Each candidate not accepted — `(name, unit, detection limit, note)` — in words
+/// ([`limit_sentence`]), `source` being what would have shown it.
+fn rejected_sentences<'a>(
+    rejected: impl Iterator<Item = (&'a str, &'a str, Option<f64>, &'a str)>,
+    source: &str,
+) -> Vec<String> {
     rejected
-        .map(|c| {
-            limit_sentence(
-                &c.name,
-                &c.unit,
-                c.detection_limit,
-                &c.note,
-                "this recording",
-            )
-        })
+        .map(|(name, unit, limit, note)| limit_sentence(name, unit, limit, note, source))
         .collect()
 }
 
@@ -495,17 +497,8 @@ fn window_correction<'a>(
 fn motion_limit_sentences(ml: &report::MotionLoop) -> Vec<String> {
     let last = ml.steps.last().map_or(&[][..], |s| &s.candidates[..]);
     let rejected = last.iter().filter(|c| !c.passed);
-    rejected
-        .map(|c| {
-            limit_sentence(
-                &c.name,
-                &c.unit,
-                c.detection_limit,
-                &c.note,
-                "these motions",
-            )
-        })
-        .collect()
+    let said = rejected.map(|c| (&*c.name, &*c.unit, c.detection_limit, &*c.note));
+    rejected_sentences(said, "these motions")
 }
 
 /// A window whose gyro per-sample variance is this many times the median window's is not
