@@ -10,7 +10,10 @@
 //! Python package: vectors that numpy then takes over without a copy), and the second
 //! ([`RawPlan::fill`]) decodes the blocks again, each into its own rows, on all cores. A
 //! `.cwa` block's first pass only checks it (checksum and fields), its samples are decoded
-//! once, straight into the output. The samples, times, temperatures and notes are the ones
+//! once, straight into the output. [`read`] does both for a `.cwa` in one pass, chunk by
+//! chunk (the blocks checked, placed, then decoded), into output it allocates at the file's
+//! upper bound of samples, and can give the times as block spans ([`Spans`]) instead of a
+//! value a sample. The samples, times, temperatures and notes are the ones
 //! [`load_raw`](super::stream::load_raw) gives, value for value.
 //!
 //! The values can be written as f32: every `.cwa` value is exact in f32 (a 16-bit count, or
