@@ -491,12 +491,22 @@ fn gyrofit(
 }
 
 /// What `read` returns: the samples (n × 3), times and temperatures (n, or `None`) as numpy
-/// arrays, and the loader's metadata (JSON).
+/// arrays, the times as block spans (`times="spans"`: start, duration and row boundaries, or
+/// `None`), and the loader's metadata (JSON).
 type ReadResult<'py> = (
     Bound<'py, PyAny>,
     Option<Bound<'py, PyArray1<f64>>>,
     Option<Bound<'py, PyAny>>,
+    Option<SpanArrays<'py>>,
     String,
+);
+
+/// A raw file's times as block spans: each block's start (s), duration (s) and first row,
+/// the row count last ([`samples::Spans`]).
+type SpanArrays<'py> = (
+    Bound<'py, PyArray1<f64>>,
+    Bound<'py, PyArray1<f64>>,
+    Bound<'py, PyArray1<u64>>,
 );
 
 fn sensor_of(sensor: Option<&str>) -> PyResult<Option<Sensor>> {
@@ -511,15 +521,17 @@ fn sensor_of(sensor: Option<&str>) -> PyResult<Option<Sensor>> {
     }
 }
 
-/// Reads any recording the CLI reads: `(xyz, t or None, temp or None, metadata JSON)`, the
-/// values and temperatures as `dtype` (`"float64"` or `"float32"`), the times (float64)
-/// only when `times` is true. A raw file (`.cwa`, `.bin`) is planned in a first pass and
-/// written in a second straight into vectors allocated at their final length, its blocks
-/// decoded on all cores ([`samples`]), which the arrays then take over. Any other file is the loader's recording, whose vectors the float64
-/// arrays take over without a copy (the rows of `[f64; 3]` reinterpreted as 3n values,
-/// `bytemuck`: same alignment, same bytes); as float32 they are cast, one copy.
+/// Reads any recording the CLI reads: `(xyz, t or None, temp or None, spans or None,
+/// metadata JSON)`, the values and temperatures as `dtype` (`"float64"` or `"float32"`), the
+/// times (float64) as `times` asks: `"full"`, `"none"` or `"spans"` (a raw file's blocks'
+/// spans, [`samples::Spans`]; a text file has no blocks, its times are given in full). A raw
+/// file (`.cwa`, `.bin`) is written straight into vectors allocated once, its blocks decoded
+/// on all cores ([`samples::read`]), which the arrays then take over. Any other file is the
+/// loader's recording, whose vectors the float64 arrays take over without a copy (the rows of
+/// `[f64; 3]` reinterpreted as 3n values, `bytemuck`: same alignment, same bytes); as float32
+/// they are cast, one copy.
 #[pyfunction]
-#[pyo3(signature = (path, columns=None, sensor=None, progress=None, dtype="float64", times=true))]
+#[pyo3(signature = (path, columns=None, sensor=None, progress=None, dtype="float64", times="full"))]
 fn read<'py>(
     py: Python<'py>,
     path: PathBuf,
@@ -527,7 +539,7 @@ fn read<'py>(
     sensor: Option<&str>,
     progress: Option<Py<PyAny>>,
     dtype: &str,
-    times: bool,
+    times: &str,
 ) -> PyResult<ReadResult<'py>> {
     let opts = load_options(columns, sensor_of(sensor)?)?;
     let single = match dtype {
@@ -539,18 +551,25 @@ fn read<'py>(
             )))
         }
     };
+    let times = match times {
+        "full" => samples::Times::Full,
+        "none" => samples::Times::Omit,
+        "spans" => samples::Times::Spans,
+        other => {
+            return Err(arg_err(format!(
+                "times '{other}': expected \"full\", \"none\" or \"spans\""
+            )))
+        }
+    };
     let progress = Reporter::new(progress);
     progress.report("reading", 0, 0);
     if let Some(format) = raw_file_format(&path) {
-        let plan = py
-            .detach(|| samples::plan(&path, format, &opts))
-            .map_err(|e| py_err(e.in_file(&path)))?;
-        let n = plan.rows();
         let out = if single {
-            fill_raw::<f32>(py, &plan, &path, times)?
+            read_raw::<f32>(py, &path, format, &opts, times)?
         } else {
-            fill_raw::<f64>(py, &plan, &path, times)?
+            read_raw::<f64>(py, &path, format, &opts, times)?
         };
+        let n = out.0.len()?;
         progress.report("reading", n, n);
         progress.finish()?;
         return Ok(out);
@@ -580,43 +599,76 @@ fn read<'py>(
         let xyz = PyArray1::from_vec(py, flat).reshape([n, 3])?.into_any();
         (xyz, rec.temp.map(|t| PyArray1::from_vec(py, t).into_any()))
     };
-    let t = rec.t.filter(|_| times).map(|t| PyArray1::from_vec(py, t));
-    Ok((xyz, t, temp, meta.to_string()))
+    let keep_t = times != samples::Times::Omit;
+    let t = rec.t.filter(|_| keep_t).map(|t| PyArray1::from_vec(py, t));
+    Ok((xyz, t, temp, None, meta.to_string()))
 }
 
-/// The second pass of a raw file's read into vectors of `T` allocated at the plan's length
-/// (zeroed by the allocator: untouched pages cost nothing until written), filled with the
-/// GIL released, then taken over by numpy arrays without a copy.
-fn fill_raw<'py, T: samples::Real + numpy::Element + Default>(
+/// A raw file's samples read with the GIL released into vectors of `T` allocated once (zeroed
+/// by the allocator: untouched pages cost nothing until written), then taken over by numpy
+/// arrays without a copy.
+fn read_raw<'py, T: samples::Real + numpy::Element>(
     py: Python<'py>,
-    plan: &samples::RawPlan,
     path: &std::path::Path,
-    times: bool,
+    format: wiical_analysis::input::raw::RawFormat,
+    opts: &LoadOptions,
+    times: samples::Times,
 ) -> PyResult<ReadResult<'py>> {
-    let n = plan.rows();
-    let (xyz, temp, t, meta) = py
-        .detach(|| {
-            let mut xyz = vec![T::default(); 3 * n];
-            let mut temp = vec![T::default(); n];
-            let mut t = times.then(|| vec![0.0; n]);
-            let meta = plan.fill(&mut xyz, &mut temp, t.as_deref_mut())?;
-            Ok::<_, wiical_analysis::Error>((xyz, temp, t, meta))
-        })
+    let got = py
+        .detach(|| samples::read::<T>(path, format, opts, times))
         .map_err(|e| py_err(e.in_file(path)))?;
+    let n = got.temp.len();
     let meta = serde_json::json!({
-        "columns": meta.columns,
-        "sample_rate_hz": meta.rate_hz,
+        "columns": got.meta.columns,
+        "sample_rate_hz": got.meta.rate_hz,
         "labels": Option::<Vec<String>>::None,
-        "notes": meta.notes,
-        "info": [meta.info],
+        "notes": got.meta.notes,
+        "info": [got.meta.info],
         "skipped_empty_rows": 0,
     });
+    let spans = got.spans.map(|s| {
+        (
+            PyArray1::from_vec(py, s.start_s),
+            PyArray1::from_vec(py, s.dur_s),
+            PyArray1::from_vec(py, s.rows),
+        )
+    });
     Ok((
-        PyArray1::from_vec(py, xyz).reshape([n, 3])?.into_any(),
-        t.map(|t| PyArray1::from_vec(py, t)),
-        Some(PyArray1::from_vec(py, temp).into_any()),
+        PyArray1::from_vec(py, got.xyz).reshape([n, 3])?.into_any(),
+        got.t.map(|t| PyArray1::from_vec(py, t)),
+        Some(PyArray1::from_vec(py, got.temp).into_any()),
+        spans,
         meta.to_string(),
     ))
+}
+
+/// Every sample's time from a raw file's block spans (what `read(times="spans")` gives): the
+/// float64 array `read(times="full")` gives, bit for bit, expanded on all cores.
+#[pyfunction]
+fn span_times<'py>(
+    py: Python<'py>,
+    start_s: PyReadonlyArray1<'py, f64>,
+    dur_s: PyReadonlyArray1<'py, f64>,
+    rows: PyReadonlyArray1<'py, u64>,
+) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    let spans = samples::Spans {
+        start_s: start_s.as_slice()?.to_vec(),
+        dur_s: dur_s.as_slice()?.to_vec(),
+        rows: rows.as_slice()?.to_vec(),
+    };
+    let n = spans.rows.last().copied().unwrap_or(0);
+    let n = usize::try_from(n).map_err(|_| arg_err("spans: too many rows".into()))?;
+    let t = py.detach(|| {
+        let mut t = vec![0.0; n];
+        spans.times_into(&mut t).map(|()| t)
+    });
+    let t = t.ok_or_else(|| {
+        arg_err(
+            "spans: inconsistent (one start and duration a block, rows one longer and increasing)"
+                .into(),
+        )
+    })?;
+    Ok(PyArray1::from_vec(py, t))
 }
 
 /// `wiical noise --json`: the Allan deviation of a still recording and the IEEE 952 terms.
@@ -721,6 +773,7 @@ fn _wiical(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(six_position, m)?)?;
     m.add_function(wrap_pyfunction!(decode_cal, m)?)?;
     m.add_function(wrap_pyfunction!(read, m)?)?;
+    m.add_function(wrap_pyfunction!(span_times, m)?)?;
     m.add_function(wrap_pyfunction!(noise, m)?)?;
     m.add_function(wrap_pyfunction!(tempcal, m)?)?;
     m.add_function(wrap_pyfunction!(correct, m)?)?;

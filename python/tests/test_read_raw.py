@@ -27,7 +27,7 @@ def raw(name: str) -> str:
 
 
 def meta(rec: wiical.Recording) -> dict:
-    return {k: v for k, v in rec.items() if k not in ("xyz", "t", "temp")}
+    return {k: v for k, v in rec.items() if k not in ("xyz", "t", "temp", "spans")}
 
 
 @pytest.mark.parametrize("name", RAW)
@@ -94,3 +94,47 @@ def test_cwa_samples_are_cwa_reader_rs_samples(name: str) -> None:
         np.testing.assert_array_max_ulp(
             df[["gyro_x", "gyro_y", "gyro_z"]].to_numpy(), gyro.xyz, maxulp=1
         )
+
+
+@pytest.mark.parametrize("name", RAW)
+def test_spans_expand_to_the_full_times(name: str) -> None:
+    """`times="spans"` gives each block's start, duration and rows instead of a time a sample;
+    `span_times` expands them into the float64 array `times=True` gives, bit for bit, and the
+    values, temperatures and description are the same."""
+    path = raw(name)
+    full = wiical.read(path, dtype="float32")
+    spans = wiical.read(path, dtype="float32", times="spans")
+    assert spans.t is None and full.spans is None
+    s = spans.spans
+    assert s["start_s"].dtype == np.float64 and s["dur_s"].dtype == np.float64
+    assert s["rows"].dtype == np.uint64
+    assert len(s["rows"]) == len(s["start_s"]) + 1 == len(s["dur_s"]) + 1
+    assert s["rows"][0] == 0 and s["rows"][-1] == len(full.xyz)
+    assert np.all(np.diff(s["rows"].astype(np.int64)) > 0)
+    assert len(s["start_s"]) < len(full.xyz) / 10  # a few numbers a block, not a sample
+    t = wiical.span_times(spans)
+    assert t.dtype == np.float64 and np.array_equal(t, full.t)
+    assert wiical.span_times(full) is full.t
+    # The expansion is the documented formula, evaluated in float64 in that order.
+    n = np.diff(s["rows"]).astype(np.float64)
+    k = 1 if len(n) > 1 else 0
+    i = np.arange(n[k])
+    want = s["start_s"][k] + i * s["dur_s"][k] / n[k]
+    assert np.array_equal(t[int(s["rows"][k]):int(s["rows"][k + 1])], want)
+    assert np.array_equal(spans.xyz, full.xyz) and np.array_equal(spans.temp, full.temp)
+    assert meta(spans) == meta(full)
+
+
+def test_spans_of_a_text_file_are_its_times_and_bad_arguments_are_refused() -> None:
+    path = str(DATA / "imu_tk_xsens" / "xsens_acc.mat")
+    rec = wiical.read(path, times="spans")
+    assert rec.spans is None and rec.t is not None
+    assert wiical.span_times(rec) is rec.t
+    assert wiical.read(path, times=False).t is None
+    with pytest.raises(ValueError, match="times"):
+        wiical.read(path, times="half")
+    with pytest.raises(ValueError, match="no times"):
+        wiical.span_times(wiical.read(path, times=False))
+    bad = {"t": None, "spans": {"start_s": [0.0], "dur_s": [1.0], "rows": [0, 3, 2]}}
+    with pytest.raises(ValueError, match="spans"):
+        wiical.span_times(bad)

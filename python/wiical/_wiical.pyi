@@ -65,5 +65,12 @@ def read(
     sensor: Optional[str] = None,
     progress: _Progress = None,
     dtype: str = "float64",
-    times: bool = True,
-) -> Tuple[np.ndarray, Optional[np.ndarray], Optional[np.ndarray], str]: ...
+    times: str = "full",
+) -> Tuple[
+    np.ndarray,
+    Optional[np.ndarray],
+    Optional[np.ndarray],
+    Optional[Tuple[np.ndarray, np.ndarray, np.ndarray]],
+    str,
+]: ...
+def span_times(start_s: np.ndarray, dur_s: np.ndarray, rows: np.ndarray) -> np.ndarray: ...

@@ -63,6 +63,7 @@ fn assert_same(path: &Path, opts: &LoadOptions) {
     assert!(xyz32 == cast, "{name}: f32 values differ");
     let temp_cast: Vec<f32> = temp.iter().map(|&v| v as f32).collect();
     assert!(temp32 == temp_cast, "{name}: f32 temperatures differ");
+    assert_read(path, opts, &rec, &meta);
     if stream::raw_file_format(path) == Some(RawFormat::Cwa) {
         let back: Vec<f64> = xyz32.iter().map(|&v| f64::from(v)).collect();
         assert!(back == flat, "{name}: a .cwa value is not exact in f32");
@@ -71,6 +72,47 @@ fn assert_same(path: &Path, opts: &LoadOptions) {
             .map(|&v| f64::from(v))
             .eq(temp.iter().copied()));
     }
+}
+
+/// The one-call read (a `.cwa` in one pass) gives the recording's values, temperatures and
+/// times bit for bit as f64, its values rounded as f32, and the same description, with the
+/// times in full, left out, or as block spans that expand to the same times.
+fn assert_read(path: &Path, opts: &LoadOptions, rec: &Recording, meta: &RawMeta) {
+    let name = path.display();
+    let format = stream::raw_file_format(path).expect("a raw file");
+    let full = samples::read::<f64>(path, format, opts, samples::Times::Full).unwrap();
+    let flat: Vec<f64> = rec.xyz.iter().flatten().copied().collect();
+    assert!(full.xyz == flat, "{name}: read's values differ");
+    assert!(
+        Some(&full.temp) == rec.temp.as_ref(),
+        "{name}: read's temperatures differ"
+    );
+    assert!(
+        full.t.as_ref() == rec.t.as_ref(),
+        "{name}: read's times differ"
+    );
+    assert!(full.spans.is_none());
+    assert_eq!(&full.meta, meta, "{name}: read's description");
+    let spans = samples::read::<f32>(path, format, opts, samples::Times::Spans).unwrap();
+    let cast: Vec<f32> = flat.iter().map(|&v| v as f32).collect();
+    assert!(spans.xyz == cast, "{name}: read's f32 values differ");
+    assert!(spans.t.is_none());
+    assert_eq!(
+        &spans.meta, meta,
+        "{name}: the description needs no stored times"
+    );
+    let s = spans.spans.expect("spans asked for");
+    assert_eq!(s.rows.first(), Some(&0));
+    assert_eq!(s.rows.last().copied(), Some(rec.len() as u64));
+    let mut t = vec![f64::NAN; rec.len()];
+    s.times_into(&mut t).expect("consistent spans");
+    assert!(
+        Some(&t) == rec.t.as_ref(),
+        "{name}: the spans' times differ"
+    );
+    let none = samples::read::<f32>(path, format, opts, samples::Times::Omit).unwrap();
+    assert!(none.t.is_none() && none.spans.is_none() && none.xyz == spans.xyz);
+    assert_eq!(&none.meta, meta, "{name}");
 }
 
 /// Every raw file of GGIRread's test set (packed AX3, one with six corrupt blocks, AX6 with
@@ -210,4 +252,51 @@ fn a_file_cut_between_the_passes_is_refused() {
         e.contains("data block #8500 changed while the file was read"),
         "{e}"
     );
+}
+
+/// Blocks of fewer samples than a block can hold (40 of 80, and none), and a first read chunk
+/// without one good block (the layout, the channels and the output's size are fixed in the
+/// second): the one-pass read places every block's samples where the whole-file path does.
+#[test]
+fn short_blocks_and_a_late_first_good_block_read_as_whole() {
+    let mut f = long_cwa();
+    for i in 0..cwa::CHUNK_BLOCKS + 3 {
+        let at = 1024 + 512 * i;
+        f[at + 100] ^= 1; // checksum fails: corrupt
+    }
+    for (i, n) in [(8197usize, 40u16), (8198, 0), (8250, 1), (8400, 79)] {
+        let at = 1024 + 512 * i;
+        let mut b = f[at..at + 512].to_vec();
+        b[28..30].copy_from_slice(&n.to_le_bytes());
+        f[at..at + 512].copy_from_slice(&seal(b));
+    }
+    let path = scratch("short.cwa", &f);
+    let rec = whole(&path, &LoadOptions::default());
+    assert!(rec.notes.join("\n").contains("corrupt"), "{:?}", rec.notes);
+    assert_same(&path, &LoadOptions::default());
+}
+
+/// Spans that do not describe the rows (rows not increasing, a length that differs, `t` of
+/// another length) are refused, not a panic.
+#[test]
+fn inconsistent_spans_are_refused() {
+    let ok = samples::Spans {
+        start_s: vec![0.0, 1.0],
+        dur_s: vec![1.0, 1.0],
+        rows: vec![0, 2, 4],
+    };
+    let mut t = vec![0.0; 4];
+    assert_eq!(ok.times_into(&mut t), Some(()));
+    assert_eq!(t, [0.0, 0.5, 1.0, 1.5]);
+    let back = samples::Spans {
+        rows: vec![0, 3, 2],
+        ..ok.clone()
+    };
+    assert_eq!(back.times_into(&mut [0.0; 2]), None);
+    assert_eq!(ok.times_into(&mut [0.0; 5]), None);
+    let short = samples::Spans {
+        dur_s: vec![1.0],
+        ..ok
+    };
+    assert_eq!(short.times_into(&mut t), None);
 }

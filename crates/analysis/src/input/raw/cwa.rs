@@ -110,8 +110,19 @@ fn cut_note(full: usize, rest: usize) -> Option<String> {
     ))
 }
 
+/// The most samples a block of `layout` (channels, packed) can hold: its 480 data bytes by
+/// the bytes of a sample (a checked block's count never exceeds it).
+pub(crate) fn max_samples(layout: (u8, bool)) -> usize {
+    let per_sample = if layout.1 {
+        4
+    } else {
+        2 * usize::from(layout.0.max(1))
+    };
+    DATA_BYTES / per_sample
+}
+
 /// The channel names of a layout (channels, packed) as the blocks store them.
-fn channel_names(layout: Option<(u8, bool)>) -> Vec<String> {
+pub(crate) fn channel_names(layout: Option<(u8, bool)>) -> Vec<String> {
     let names = match layout.map(|l| l.0) {
         Some(6) => &["gx", "gy", "gz", "ax", "ay", "az"][..],
         Some(9) => &["gx", "gy", "gz", "ax", "ay", "az", "mx", "my", "mz"][..],
@@ -188,6 +199,23 @@ impl BlockReader {
         self.index += got / BLOCK_BYTES;
         self.rest = got % BLOCK_BYTES;
         Ok((first, got == self.buf.len()))
+    }
+
+    /// Whole data blocks the file holds now (its length after the header, by 512 bytes):
+    /// what a one-pass reader sizes its output by.
+    pub(crate) fn data_blocks(&self) -> crate::error::Result<usize> {
+        let len = self
+            .file
+            .metadata()
+            .map_err(|source| InputError::Read {
+                path: self.path.clone(),
+                source,
+            })?
+            .len();
+        Ok(
+            usize::try_from(len.saturating_sub(HEADER_BYTES as u64)).unwrap_or(usize::MAX)
+                / BLOCK_BYTES,
+        )
     }
 
     /// The channel layout (channels, packed) of the first good block, once read.
@@ -425,6 +453,13 @@ impl Head {
                     let raw = (((v >> (10 * c)) & 0x3ff) as i32) << 22 >> 22;
                     *o = cast(f64::from(raw << e) * self.accel_scale);
                 }
+            }
+        } else if self.channels == 3 && cols == [0, 1, 2] {
+            // The AX3's own layout in its own order: one straight loop over the 16-bit
+            // values (the same product and cast as below, which the compiler vectorises).
+            let scale = self.accel_scale;
+            for (w, o) in b[30..30 + 6 * self.n].chunks_exact(2).zip(out.iter_mut()) {
+                *o = cast(f64::from(i16::from_le_bytes([w[0], w[1]])) * scale);
             }
         } else {
             let scale = cols.map(|c| self.scaled(c, 1.0));

@@ -405,6 +405,15 @@ impl TimePlan {
         Some(self.close(prev, Some(next)))
     }
 
+    /// Whether the block last pushed will be kept when its span is closed: it holds samples
+    /// and starts after the last kept sample, which every block before it has already fixed
+    /// (only its duration waits for the next block). Lets a one-pass reader place its
+    /// samples before its span is known.
+    pub(crate) fn keeps_pending(&self) -> bool {
+        self.pending
+            .is_some_and(|p| p.n > 0 && p.start_s > self.last_t)
+    }
+
     /// The last decoded block's span, once the file ends.
     pub fn finish(&mut self) -> Option<Option<BlockSpan>> {
         let prev = self.pending.take()?;

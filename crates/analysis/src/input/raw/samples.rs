@@ -10,7 +10,10 @@
 //! Python package: vectors that numpy then takes over without a copy), and the second
 //! ([`RawPlan::fill`]) decodes the blocks again, each into its own rows, on all cores. A
 //! `.cwa` block's first pass only checks it (checksum and fields), its samples are decoded
-//! once, straight into the output. The samples, times, temperatures and notes are the ones
+//! once, straight into the output. [`read`] does both for a `.cwa` in one pass, chunk by
+//! chunk (the blocks checked, placed, then decoded), into output it allocates at the file's
+//! upper bound of samples, and can give the times as block spans ([`Spans`]) instead of a
+//! value a sample. The samples, times, temperatures and notes are the ones
 //! [`load_raw`](super::stream::load_raw) gives, value for value.
 //!
 //! The values can be written as f32: every `.cwa` value is exact in f32 (a 16-bit count, or
@@ -34,7 +37,7 @@ use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 
 /// The value types the samples can be written as (f32, f64), cast from the decoder's f64.
-pub trait Real: Copy + Send + Sync {
+pub trait Real: Copy + Send + Sync + Default {
     /// `v` as this type (f32: rounded to nearest).
     fn of(v: f64) -> Self;
 }
@@ -255,6 +258,18 @@ impl RawPlan {
             RawFormat::GeneActiv => self.fill_pages(shares)?,
         };
         Ok(self.meta(&steps, with_t.then_some(&*t)))
+    }
+
+    /// Every kept sample's time into `t` when given (`rows`), each block's on all cores; the
+    /// blocks' steps.
+    fn times_into(&self, t: Option<&mut [f64]>) -> Vec<Steps> {
+        let t: &mut [f64] = t.unwrap_or_default();
+        cut(t, &self.kept, 1)
+            .into_par_iter()
+            .zip(self.kept.par_iter())
+            .with_min_len(64)
+            .map(|(t, k)| times_into(k.span, t))
+            .collect()
     }
 
     /// The `.cwa` blocks read again a chunk at a time, each kept one decoded into its rows.
@@ -481,4 +496,290 @@ fn times_into(span: BlockSpan, t: &mut [f64]) -> Steps {
         }
     }
     steps
+}
+
+/// How [`read`] gives the samples' times.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Times {
+    /// Not at all (the notes and the rate are still computed from them).
+    Omit,
+    /// One f64 a sample.
+    Full,
+    /// Each kept block's start, duration and rows ([`Spans`]), a few bytes a block instead of
+    /// 8 a sample; [`Spans::times_into`] expands them into the same f64 values.
+    Spans,
+}
+
+/// The samples' times as each kept block's span: sample `i` of block `k` (row `rows[k] + i`,
+/// of `n = rows[k + 1] − rows[k]`) at `start_s[k] + i · dur_s[k] / n` seconds, evaluated in
+/// that order in f64 (the block's `n / dur_s[k]` is its rate, Hz, as the device's own clock
+/// sets it: see [`sample_times`](super::sample_times)).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Spans {
+    /// Each block's first sample's time, s.
+    pub start_s: Vec<f64>,
+    /// The time each block's samples are spread over, s.
+    pub dur_s: Vec<f64>,
+    /// The blocks' first rows, and the row count last (one more than the blocks).
+    pub rows: Vec<u64>,
+}
+
+impl Spans {
+    fn of(kept: &[Kept]) -> Self {
+        let mut rows = Vec::with_capacity(kept.len() + 1);
+        let mut row = 0u64;
+        rows.push(row);
+        for k in kept {
+            row += u64::from(k.span.n);
+            rows.push(row);
+        }
+        Self {
+            start_s: kept.iter().map(|k| k.span.start_s).collect(),
+            dur_s: kept.iter().map(|k| k.span.dur).collect(),
+            rows,
+        }
+    }
+
+    /// Every sample's time into `t` (as many as the last row), the value [`Times::Full`]
+    /// gives bit for bit, on all cores; `None` when the spans are inconsistent (rows not
+    /// increasing, a block of more than `u32::MAX` samples, lengths that differ, `t` of
+    /// another length).
+    pub fn times_into(&self, t: &mut [f64]) -> Option<()> {
+        let k = self.start_s.len();
+        if self.dur_s.len() != k || self.rows.len() != k + 1 || self.rows[k] != t.len() as u64 {
+            return None;
+        }
+        let mut jobs = Vec::with_capacity(k);
+        let mut rest = t;
+        for j in 0..k {
+            let n = self.rows[j + 1].checked_sub(self.rows[j])?;
+            let n32 = u32::try_from(n).ok()?;
+            let (mine, more) = std::mem::take(&mut rest).split_at_mut_checked(n as usize)?;
+            rest = more;
+            let span = BlockSpan {
+                start_s: self.start_s[j],
+                dur: self.dur_s[j],
+                n: n32,
+            };
+            jobs.push((span, mine));
+        }
+        jobs.into_par_iter().for_each(|(span, t)| {
+            for (i, o) in t.iter_mut().enumerate() {
+                *o = span.time(i as u32);
+            }
+        });
+        Some(())
+    }
+}
+
+/// Every sample of a raw file as [`read`] gives them: the chosen triplet (`3·rows`,
+/// row-major), the block temperature (°C), the times as asked, the description.
+#[derive(Debug, Clone)]
+pub struct Samples<T> {
+    /// Three values a row.
+    pub xyz: Vec<T>,
+    /// The block's temperature, °C, a row.
+    pub temp: Vec<T>,
+    /// The times, s, a row ([`Times::Full`]).
+    pub t: Option<Vec<f64>>,
+    /// The times as block spans ([`Times::Spans`]).
+    pub spans: Option<Spans>,
+    /// The notes, columns, rate and description.
+    pub meta: RawMeta,
+}
+
+/// Every sample of the raw file at `path` (in `format`) into vectors allocated once, the
+/// values [`plan`] and [`RawPlan::fill`] give. A `.cwa` is read in one pass: each chunk's
+/// blocks checked on all cores, their places set in file order, then decoded on all cores
+/// straight into the output, which is allocated zeroed at the file's upper bound of samples
+/// (its blocks times the most a block of its layout holds: pages never written are never
+/// touched, and the vectors are cut to the samples found). A `.bin` is read in the two
+/// passes. Errors as [`plan`]'s.
+pub fn read<T: Real>(
+    path: &Path,
+    format: RawFormat,
+    opts: &LoadOptions,
+    times: Times,
+) -> Result<Samples<T>> {
+    let full = times == Times::Full;
+    let (plan, xyz, temp, t, meta) = match format {
+        RawFormat::Cwa => {
+            let (plan, xyz, temp) = Sweep::run(path, opts)?;
+            let mut t = full.then(|| vec![0.0; plan.rows]);
+            let steps = plan.times_into(t.as_deref_mut());
+            let meta = plan.meta(&steps, t.as_deref());
+            (plan, xyz, temp, t, meta)
+        }
+        RawFormat::GeneActiv => {
+            let plan = plan(path, format, opts)?;
+            let n = plan.rows;
+            let (mut xyz, mut temp) = (vec![T::default(); 3 * n], vec![T::default(); n]);
+            let mut t = full.then(|| vec![0.0; n]);
+            let meta = plan.fill(&mut xyz, &mut temp, t.as_deref_mut())?;
+            (plan, xyz, temp, t, meta)
+        }
+    };
+    Ok(Samples {
+        xyz,
+        temp,
+        t,
+        spans: (times == Times::Spans).then(|| Spans::of(&plan.kept)),
+        meta,
+    })
+}
+
+/// One pass over a `.cwa`: the first pass's planning and the second's decoding per chunk.
+struct Sweep<T> {
+    planner: Planner,
+    tally: Tally,
+    /// The chosen channels, once the layout is known.
+    cols: Option<[usize; 3]>,
+    xyz: Vec<T>,
+    temp: Vec<T>,
+    /// Rows placed so far.
+    rows: usize,
+}
+
+/// A block whose samples are placed: its bytes, fields and rows.
+type Job<'a, T> = (&'a [u8], Head, &'a mut [T], &'a mut [T]);
+
+impl<T: Real> Sweep<T> {
+    fn run(path: &Path, opts: &LoadOptions) -> Result<(RawPlan, Vec<T>, Vec<T>)> {
+        let mut reader = cwa::BlockReader::open(path)?;
+        let blocks = reader.data_blocks()?;
+        let mut sweep = Self {
+            planner: Planner::default(),
+            tally: Tally::default(),
+            cols: None,
+            xyz: Vec::new(),
+            temp: Vec::new(),
+            rows: 0,
+        };
+        let mut checked = Vec::new();
+        loop {
+            let mut res = Ok(());
+            let (_, more) = reader.next_bytes(|first, bytes, layout| {
+                res = sweep.chunk(first, bytes, layout, &mut checked, (blocks, opts));
+            })?;
+            res?;
+            if !more {
+                break;
+            }
+        }
+        sweep.planner.finish();
+        let layout = reader.layout();
+        let channels = cwa::channel_names(layout);
+        let cols = match sweep.cols {
+            Some(c) => c,
+            None => choose_channels(&channels, opts)?,
+        };
+        if sweep.planner.rows == 0 {
+            return Err(no_data(&sweep.tally, sweep.planner.left_out).into());
+        }
+        debug_assert_eq!(sweep.planner.rows, sweep.rows, "every kept block placed");
+        let n = sweep.rows;
+        sweep.xyz.truncate(3 * n);
+        sweep.temp.truncate(n);
+        let plan = RawPlan {
+            path: path.into(),
+            format: RawFormat::Cwa,
+            cols,
+            layout,
+            tally: sweep.tally,
+            reader_notes: reader.notes(),
+            device: reader.header.device.into(),
+            header_rate_hz: reader.header.rate_hz,
+            channels,
+            kept: sweep.planner.kept,
+            rows: n,
+            left_out: sweep.planner.left_out,
+        };
+        Ok((plan, sweep.xyz, sweep.temp))
+    }
+
+    /// One chunk's blocks (the first at index `first`): checked on all cores, counted and
+    /// planned in order, the kept ones decoded on all cores into their rows. `size`: the
+    /// file's data blocks when opened, and the options choosing the channels.
+    fn chunk(
+        &mut self,
+        first: usize,
+        bytes: &[u8],
+        layout: &mut Option<(u8, bool)>,
+        checked: &mut Vec<Checked>,
+        (blocks, opts): (usize, &LoadOptions),
+    ) -> Result<()> {
+        checked.clear();
+        cwa::each_block(bytes, first, layout, checked, |b, _, l| {
+            cwa::head_block(b, l)
+        });
+        let mut placed = Vec::new();
+        for (k, c) in checked.iter().enumerate() {
+            match c {
+                Checked::Good(h) => {
+                    self.tally.push_good(h.n);
+                    self.planner.push(first + k, h.start_s, h.rate_hz, h.n);
+                    if self.planner.times.keeps_pending() {
+                        placed.push((k, *h));
+                    }
+                }
+                Checked::Corrupt => self.tally.push(&Block::Corrupt, 0),
+                Checked::Invalid(why) => self.tally.push_invalid(why),
+            }
+        }
+        let (Some(l), false) = (*layout, placed.is_empty()) else {
+            return Ok(());
+        };
+        let cols = match self.cols {
+            Some(c) => c,
+            None => self.allocate(l, blocks, opts)?,
+        };
+        let jobs = self.place(bytes, placed)?;
+        jobs.into_par_iter().for_each(|(b, h, xyz, temp)| {
+            h.samples_into(b, cols, T::of, xyz);
+            temp.fill(T::of(Head::temp_c(b)));
+        });
+        Ok(())
+    }
+
+    /// The output at the file's upper bound of samples (zeroed: untouched pages cost
+    /// nothing), once the first good block fixed the layout; the chosen channels.
+    fn allocate(
+        &mut self,
+        layout: (u8, bool),
+        blocks: usize,
+        opts: &LoadOptions,
+    ) -> Result<[usize; 3]> {
+        let cols = choose_channels(&cwa::channel_names(Some(layout)), opts)?;
+        let cap = blocks.saturating_mul(cwa::max_samples(layout));
+        self.xyz = vec![T::default(); cap.saturating_mul(3)];
+        self.temp = vec![T::default(); cap];
+        self.cols = Some(cols);
+        Ok(cols)
+    }
+
+    /// The rows of each placed block (`(k, head)`: its position in `bytes`), in order.
+    fn place<'a>(
+        &'a mut self,
+        bytes: &'a [u8],
+        placed: Vec<(usize, Head)>,
+    ) -> Result<Vec<Job<'a, T>>> {
+        let mut xyz = self.xyz.get_mut(3 * self.rows..).unwrap_or_default();
+        let mut temp = self.temp.get_mut(self.rows..).unwrap_or_default();
+        let mut jobs = Vec::with_capacity(placed.len());
+        for (k, h) in placed {
+            if temp.len() < h.n {
+                return Err(InputError::RawHeader {
+                    format: "Axivity .cwa",
+                    why: "it grew while it was read (is it still being written?)".into(),
+                }
+                .into());
+            }
+            let (x, more_x) = std::mem::take(&mut xyz).split_at_mut(3 * h.n);
+            let (t, more_t) = std::mem::take(&mut temp).split_at_mut(h.n);
+            (xyz, temp) = (more_x, more_t);
+            self.rows += h.n;
+            jobs.push((&bytes[k * BLOCK_BYTES..(k + 1) * BLOCK_BYTES], h, x, t));
+        }
+        Ok(jobs)
+    }
 }
