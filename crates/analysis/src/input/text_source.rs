@@ -414,9 +414,17 @@ impl Iterator for Rows<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::io::Write;
 
-    /// Every text, read in pieces of every size, gives in each pass what the whole-text parse
-    /// gives: the rows bit for bit, the notes, the summary's count — or the same sentence, or
+    /// `bytes` as one gzip member.
+    fn gzip(bytes: &[u8]) -> Vec<u8> {
+        let mut z = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::fast());
+        z.write_all(bytes).unwrap();
+        z.finish().unwrap()
+    }
+
+    /// Every text, plain or gzip'd, read in pieces of every size, gives in each pass what the
+    /// whole-text parse gives: the rows bit for bit, the notes, the summary's count — or the same sentence, or
     /// is handed back to be read whole; a clone taken mid-pass goes on from the same row.
     #[test]
     fn passes_read_as_the_whole_text() {
@@ -448,8 +456,17 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("r.csv");
         let opts = LoadOptions::default();
+        let gz_path = dir.path().join("r.csv.gz");
         for text in &texts {
             std::fs::write(&path, text).unwrap();
+            // The same text gzip'd in two members (as `cat a.gz b.gz` makes): read alike.
+            let half = text.len() / 2;
+            let gz = [
+                gzip(&text.as_bytes()[..half]),
+                gzip(&text.as_bytes()[half..]),
+            ]
+            .concat();
+            std::fs::write(&gz_path, gz).unwrap();
             let whole = crate::input::text::parse(text.trim_start_matches('\u{feff}'), &opts);
             let whole = whole.map(|r| {
                 let t = r.t.clone().unwrap_or_default();
@@ -464,8 +481,9 @@ mod tests {
                 format!("{rows:?} {:?} {}", r.notes, r.len())
             });
             let whole = whole.map_err(|e| e.to_string());
-            for size in [1, 7, 64, 300, 4096, 1 << 20] {
-                let got = match TextSource::open_in(&path, &opts, size, |_| true) {
+            let sizes = [1, 7, 64, 300, 4096, 1 << 20];
+            for (size, path) in sizes.iter().flat_map(|&n| [(n, &path), (n, &gz_path)]) {
+                let got = match TextSource::open_in(path, &opts, size, |_| true) {
                     Ok(None) => continue, // read whole by the caller
                     Ok(Some(src)) => {
                         let rows: Vec<Row> = src.rows().collect();
@@ -478,7 +496,7 @@ mod tests {
                     }
                     Err(e) => Err(e.to_string()),
                 };
-                assert_eq!(got, whole, "{text:?} in pieces of {size}");
+                assert_eq!(got, whole, "{text:?} in pieces of {size} from {path:?}");
             }
         }
         // The plain file is streamed; a comment, a pose column: read whole.
