@@ -12,7 +12,7 @@
 use crate::error::gyro::GyroError;
 use crate::error::input::InputError;
 use crate::error::{Error, Result};
-use crate::input::bounded::{read_bounded, text_of, MAX_RECORDING_BYTES};
+use crate::input::bounded::{decompressed, read_bounded, text_of, MAX_RECORDING_BYTES};
 use crate::input::columns::{LoadOptions, Sensor};
 use crate::input::raw::{self, RawFile, RawFormat};
 use crate::input::recording::Recording;
@@ -41,12 +41,20 @@ pub enum Opened {
     /// content counted, [`text_file_size`]): read in pieces by [`crate::input::text_file`]
     /// when it is plain delimited text, else whole.
     TextFile,
+    /// Standard input too long to hold, copied to a temporary file (deleted when this is
+    /// dropped): read from there as a regular file.
+    Spooled(tempfile::TempPath),
 }
 
 /// Sniffs `path` (`-`: standard input, read once) and reads what its kind needs up front: a
 /// regular raw file only its first bytes, anything else whole, at most
-/// [`MAX_RECORDING_BYTES`] (gzip decompressed to the same limit).
+/// [`MAX_RECORDING_BYTES`] (gzip decompressed to the same limit). Standard input longer than
+/// [`stream_from_bytes`] (or than its content may be held, gzip'd) is copied to a temporary
+/// file ([`Opened::Spooled`]).
 pub fn open(path: &Path) -> Result<Opened> {
+    if path.as_os_str() == "-" {
+        return open_stdin();
+    }
     if let Some(format) = raw::stream::raw_file_format(path) {
         return Ok(Opened::RawFile(format));
     }
@@ -73,11 +81,75 @@ type Whole = std::result::Result<RawFile, String>;
 /// The file read whole (capped) and sniffed: gzip decompressed, a raw format by its magic,
 /// else UTF-8 text.
 fn read_whole(path: &Path) -> Result<Whole> {
-    let bytes = read_bounded(path, MAX_RECORDING_BYTES)?;
+    whole_of(path, read_bounded(path, MAX_RECORDING_BYTES)?)
+}
+
+/// The content of `path` (decompressed) sniffed: a raw format by its magic, else UTF-8 text.
+fn whole_of(path: &Path, bytes: Vec<u8>) -> Result<Whole> {
     if let Some(raw) = raw::parse_bytes(&bytes, path).map_err(|e| e.in_file(path))? {
         return Ok(Ok(raw));
     }
     Ok(Err(text_of(path, bytes)?))
+}
+
+/// Standard input read once: held as any file read whole when it ends within
+/// [`stream_from_bytes`] (at most [`MAX_RECORDING_BYTES`]) and its content may be held;
+/// else copied to a temporary file ([`spool`]) and read from there as a regular file — a
+/// week's recording piped in (`zcat week.csv.gz | wiical fit -`) is streamed as the file
+/// itself would be, where holding it would take memory in proportion to it.
+fn open_stdin() -> Result<Opened> {
+    use std::io::Read;
+    let path = Path::new("-");
+    let hold = stream_from_bytes().min(MAX_RECORDING_BYTES);
+    let mut stdin = std::io::stdin().lock();
+    let mut bytes = Vec::new();
+    let read = (&mut stdin).take(hold + 1).read_to_end(&mut bytes);
+    read.map_err(|source| InputError::Read {
+        path: path.into(),
+        source,
+    })?;
+    if bytes.len() as u64 > hold {
+        return spool(bytes, &mut stdin).map(Opened::Spooled);
+    }
+    // Gzip'd input whose content passes the limit is spooled (its content streamed) too.
+    let gzip = bytes.starts_with(&GZIP_MAGIC);
+    let content = match decompressed(path, bytes.clone(), MAX_RECORDING_BYTES) {
+        Err(e) if gzip && gzip_too_large(&e) => {
+            return spool(bytes, &mut std::io::empty()).map(Opened::Spooled)
+        }
+        other => other?,
+    };
+    drop(bytes);
+    Ok(match whole_of(path, content)? {
+        Ok(raw) => Opened::Raw(Box::new(raw)),
+        Err(text) => Opened::Text(text),
+    })
+}
+
+/// `head` and the rest of `input` copied to a temporary file in the temporary directory
+/// (`$TMPDIR`, named `wiical-stdin-…`), deleted when the returned path is dropped (when
+/// the command ends, or the stream reading it is dropped).
+fn spool(head: Vec<u8>, input: &mut dyn std::io::Read) -> Result<tempfile::TempPath> {
+    use std::io::Write;
+    let mut file = tempfile::Builder::new()
+        .prefix("wiical-stdin-")
+        .tempfile()
+        .map_err(|source| write_error(std::env::temp_dir().as_path(), source))?;
+    let spooled = (|| {
+        file.write_all(&head)?;
+        std::io::copy(input, &mut file)?;
+        file.flush()
+    })();
+    spooled.map_err(|source| write_error(file.path(), source))?;
+    Ok(file.into_temp_path())
+}
+
+fn write_error(path: &Path, source: std::io::Error) -> Error {
+    crate::error::output::OutputError::Write {
+        path: path.into(),
+        source,
+    }
+    .into()
 }
 
 /// True when `path` is a regular file of at least [`PIECES_FROM_BYTES`] whose first bytes are
@@ -149,11 +221,17 @@ const GZIP_MAGIC: [u8; 2] = [0x1f, 0x8b];
 /// The file whole, for readers that need every sample: `Ok(raw file)` (a [`Opened::RawFile`]
 /// decoded now, as any other raw file, within the size limit) or `Err(text)`.
 pub fn open_whole(path: &Path) -> Result<Whole> {
-    Ok(match open(path)? {
+    whole_from(open(path)?, path)
+}
+
+/// [`open_whole`] of a file opened already.
+fn whole_from(opened: Opened, path: &Path) -> Result<Whole> {
+    Ok(match opened {
         Opened::RawFile(_) => Ok(raw::read(path)?),
         Opened::Raw(raw) => Ok(*raw),
         Opened::Text(text) => Err(text),
         Opened::TextFile => read_whole(path)?,
+        Opened::Spooled(tmp) => open_whole(&tmp)?,
     })
 }
 
@@ -173,6 +251,7 @@ pub fn load(path: &Path, opts: &LoadOptions) -> Result<Recording> {
             Some(rec) => return Ok(rec),
             None => read_whole(path)?,
         },
+        Opened::Spooled(tmp) => return load(&tmp, opts),
         Opened::Raw(raw) => Ok(*raw),
         Opened::Text(text) => Err(text),
     };
@@ -214,6 +293,11 @@ pub fn load_imu(
     acc: &LoadOptions,
     gyro_columns: Option<[String; 3]>,
 ) -> Result<(Recording, Recording)> {
+    // Standard input once, and when it was spooled, the file it was spooled to (in pieces).
+    let stdin = match (path.as_os_str() == "-").then(|| open(path)).transpose()? {
+        Some(Opened::Spooled(tmp)) => return load_imu(&tmp, acc, gyro_columns),
+        other => other,
+    };
     let named = gyro_columns.is_none();
     let gyro_opts = LoadOptions {
         columns: gyro_columns,
@@ -224,7 +308,11 @@ pub fn load_imu(
             return check_gyro_named(named, accel, gyro, path);
         }
     }
-    let text = match open_whole(path)? {
+    let whole = match stdin {
+        Some(opened) => whole_from(opened, path)?,
+        None => open_whole(path)?,
+    };
+    let text = match whole {
         Ok(raw) => {
             // An AX6 file: its gyro is `gx,gy,gz` (crate::input::raw); the other formats have
             // none.
@@ -377,6 +465,18 @@ pub fn load_input_in(
                 Some(rec) => return Ok(Input::Samples(rec)),
                 None => read_whole(path)?,
             }
+        }
+        Opened::Spooled(tmp) => {
+            return Ok(match load_input_in(&tmp, opts, stream_from, piece_bytes)? {
+                Input::Stream(mut src) => {
+                    // The temporary file lives as long as the stream reading it.
+                    if let Some(s) = Arc::get_mut(&mut src) {
+                        s.keep(tmp);
+                    }
+                    Input::Stream(src)
+                }
+                held => held,
+            });
         }
         Opened::Raw(raw) => Ok(*raw),
         Opened::Text(text) => Err(text),
