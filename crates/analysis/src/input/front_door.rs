@@ -38,7 +38,7 @@ pub enum Opened {
     /// window-mean table; the text reader tells them apart by the first lines.
     Text(String),
     /// A regular file of at least [`PIECES_FROM_BYTES`] of text that is not raw (a gzip file's
-    /// content counted, [`text_file_size`]): read in pieces by [`crate::input::text_file`]
+    /// content counted, its trailer's size): read in pieces by [`crate::input::text_file`]
     /// when it is plain delimited text, else whole.
     TextFile,
     /// Standard input too long to hold, copied to a temporary file (deleted when this is
