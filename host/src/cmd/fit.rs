@@ -14,7 +14,9 @@ use wiical_core::multipos::MultiPosModel;
 /// Arguments of `wiical fit`.
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// Recording: CSV with header (t,x,y,z[,temp]) or whitespace `t x y z` text.
+    /// Recording: CSV with header (t,x,y,z[,temp]) or whitespace `t x y z` text, plain or
+    /// gzip'd (text of 128 MiB or more is streamed, no size cap). `-` reads standard input;
+    /// beyond 128 MiB it is copied to a temporary file in $TMPDIR (deleted on exit).
     pub file: PathBuf,
     /// Print JSON.
     #[arg(long)]

@@ -83,6 +83,12 @@ pub fn read_bounded(path: &Path, limit: u64) -> Result<Vec<u8>> {
     if bytes.len() as u64 > limit {
         return Err(too_large(path, limit).into());
     }
+    decompressed(path, bytes, limit)
+}
+
+/// `bytes` read from `path`, decompressed when they are gzip (by their first bytes), the
+/// content held to `limit` bytes as [`read_bounded`] holds it.
+pub fn decompressed(path: &Path, bytes: Vec<u8>, limit: u64) -> Result<Vec<u8>> {
     if bytes.starts_with(&GZIP_MAGIC) {
         return gunzip(path, &bytes, limit);
     }

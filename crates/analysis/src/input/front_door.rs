@@ -10,8 +10,9 @@
 //! standard input can be read only once). Errors are the readers' own, with the file named.
 
 use crate::error::gyro::GyroError;
+use crate::error::input::InputError;
 use crate::error::{Error, Result};
-use crate::input::bounded::{read_bounded, text_of, MAX_RECORDING_BYTES};
+use crate::input::bounded::{decompressed, read_bounded, text_of, MAX_RECORDING_BYTES};
 use crate::input::columns::{LoadOptions, Sensor};
 use crate::input::raw::{self, RawFile, RawFormat};
 use crate::input::recording::Recording;
@@ -20,6 +21,7 @@ use crate::input::text::parse;
 use crate::input::text_file::{self, PIECES_FROM_BYTES};
 use crate::input::text_source::TextSource;
 use crate::input::window_means::{parse_window_table, WindowInputOptions};
+use std::ops::Not;
 use std::path::Path;
 use std::sync::Arc;
 
@@ -35,25 +37,42 @@ pub enum Opened {
     /// UTF-8 text (byte-order mark removed): CSV, whitespace-separated numbers, GRT, or a
     /// window-mean table; the text reader tells them apart by the first lines.
     Text(String),
-    /// A regular uncompressed file of at least [`PIECES_FROM_BYTES`] that is not raw: read in
-    /// pieces by [`crate::input::text_file`] when it is plain delimited text, else whole.
+    /// A regular file of at least [`PIECES_FROM_BYTES`] of text that is not raw (a gzip file's
+    /// content counted, its trailer's size): read in pieces by [`crate::input::text_file`]
+    /// when it is plain delimited text, else whole.
     TextFile,
+    /// Standard input too long to hold, copied to a temporary file (deleted when this is
+    /// dropped): read from there as a regular file.
+    Spooled(tempfile::TempPath),
 }
 
 /// Sniffs `path` (`-`: standard input, read once) and reads what its kind needs up front: a
 /// regular raw file only its first bytes, anything else whole, at most
-/// [`MAX_RECORDING_BYTES`] (gzip decompressed to the same limit).
+/// [`MAX_RECORDING_BYTES`] (gzip decompressed to the same limit). Standard input longer than
+/// [`stream_from_bytes`] (or than its content may be held, gzip'd) is copied to a temporary
+/// file ([`Opened::Spooled`]).
 pub fn open(path: &Path) -> Result<Opened> {
+    if path.as_os_str() == "-" {
+        return open_stdin();
+    }
     if let Some(format) = raw::stream::raw_file_format(path) {
         return Ok(Opened::RawFile(format));
     }
     if is_large_text_file(path) {
         return Ok(Opened::TextFile);
     }
-    Ok(match read_whole(path)? {
-        Ok(raw) => Opened::Raw(Box::new(raw)),
-        Err(text) => Opened::Text(text),
+    Ok(match read_whole(path) {
+        Ok(Ok(raw)) => Opened::Raw(Box::new(raw)),
+        Ok(Err(text)) => Opened::Text(text),
+        // Its trailer said less than it holds (several members, or 4 GiB and more).
+        Err(e) if gzip_too_large(&e) && text_file_size(path).is_some() => Opened::TextFile,
+        Err(e) => return Err(e),
     })
+}
+
+/// True for a gzip file's content over the size limit of files read whole.
+fn gzip_too_large(e: &Error) -> bool {
+    matches!(e, Error::Input(InputError::GzipTooLarge { .. }))
 }
 
 /// A file read whole: `Ok(raw file)` or `Err(text)`.
@@ -62,11 +81,75 @@ type Whole = std::result::Result<RawFile, String>;
 /// The file read whole (capped) and sniffed: gzip decompressed, a raw format by its magic,
 /// else UTF-8 text.
 fn read_whole(path: &Path) -> Result<Whole> {
-    let bytes = read_bounded(path, MAX_RECORDING_BYTES)?;
+    whole_of(path, read_bounded(path, MAX_RECORDING_BYTES)?)
+}
+
+/// The content of `path` (decompressed) sniffed: a raw format by its magic, else UTF-8 text.
+fn whole_of(path: &Path, bytes: Vec<u8>) -> Result<Whole> {
     if let Some(raw) = raw::parse_bytes(&bytes, path).map_err(|e| e.in_file(path))? {
         return Ok(Ok(raw));
     }
     Ok(Err(text_of(path, bytes)?))
+}
+
+/// Standard input read once: held as any file read whole when it ends within
+/// [`stream_from_bytes`] (at most [`MAX_RECORDING_BYTES`]) and its content may be held;
+/// else copied to a temporary file ([`spool`]) and read from there as a regular file — a
+/// week's recording piped in (`zcat week.csv.gz | wiical fit -`) is streamed as the file
+/// itself would be, where holding it would take memory in proportion to it.
+fn open_stdin() -> Result<Opened> {
+    use std::io::Read;
+    let path = Path::new("-");
+    let hold = stream_from_bytes().min(MAX_RECORDING_BYTES);
+    let mut stdin = std::io::stdin().lock();
+    let mut bytes = Vec::new();
+    let read = (&mut stdin).take(hold + 1).read_to_end(&mut bytes);
+    read.map_err(|source| InputError::Read {
+        path: path.into(),
+        source,
+    })?;
+    if bytes.len() as u64 > hold {
+        return spool(bytes, &mut stdin).map(Opened::Spooled);
+    }
+    // Gzip'd input whose content passes the limit is spooled (its content streamed) too.
+    let gzip = bytes.starts_with(&GZIP_MAGIC);
+    let content = match decompressed(path, bytes.clone(), MAX_RECORDING_BYTES) {
+        Err(e) if gzip && gzip_too_large(&e) => {
+            return spool(bytes, &mut std::io::empty()).map(Opened::Spooled)
+        }
+        other => other?,
+    };
+    drop(bytes);
+    Ok(match whole_of(path, content)? {
+        Ok(raw) => Opened::Raw(Box::new(raw)),
+        Err(text) => Opened::Text(text),
+    })
+}
+
+/// `head` and the rest of `input` copied to a temporary file in the temporary directory
+/// (`$TMPDIR`, named `wiical-stdin-…`), deleted when the returned path is dropped (when
+/// the command ends, or the stream reading it is dropped).
+fn spool(head: Vec<u8>, input: &mut dyn std::io::Read) -> Result<tempfile::TempPath> {
+    use std::io::Write;
+    let mut file = tempfile::Builder::new()
+        .prefix("wiical-stdin-")
+        .tempfile()
+        .map_err(|source| write_error(std::env::temp_dir().as_path(), source))?;
+    let spooled = (|| {
+        file.write_all(&head)?;
+        std::io::copy(input, &mut file)?;
+        file.flush()
+    })();
+    spooled.map_err(|source| write_error(file.path(), source))?;
+    Ok(file.into_temp_path())
+}
+
+fn write_error(path: &Path, source: std::io::Error) -> Error {
+    crate::error::output::OutputError::Write {
+        path: path.into(),
+        source,
+    }
+    .into()
 }
 
 /// True when `path` is a regular file of at least [`PIECES_FROM_BYTES`] whose first bytes are
@@ -75,31 +158,80 @@ fn is_large_text_file(path: &Path) -> bool {
     is_text_file_from(path, PIECES_FROM_BYTES)
 }
 
-/// True when `path` is a regular file of at least `min_bytes` whose first bytes are neither
-/// gzip's nor a raw format's magic.
+/// True when `path` is a regular text file (plain, or gzip'd) of at least `min_bytes`
+/// ([`text_file_size`]).
 fn is_text_file_from(path: &Path, min_bytes: u64) -> bool {
-    use std::io::Read;
-    if path.as_os_str() == "-"
-        || !std::fs::metadata(path).is_ok_and(|m| m.is_file() && m.len() >= min_bytes)
-    {
-        return false;
-    }
-    let mut head = [0u8; 64];
-    let Ok(n) = std::fs::File::open(path).and_then(|mut f| f.read(&mut head)) else {
-        return false;
-    };
-    let head = &head[..n];
-    !head.starts_with(&[0x1f, 0x8b]) && raw::detect(head, Path::new("")).is_ok_and(|f| f.is_none())
+    text_file_size(path).is_some_and(|n| n >= min_bytes)
 }
+
+/// The size of a regular file's text, bytes, when the file is not raw: a plain file's
+/// length; for a gzip file whose content is not raw, the larger of its length and the
+/// content's size its trailer gives (ISIZE, RFC 1952: the last member's size modulo 2³²).
+/// That is a hint only (a file of several members, or of 4 GiB or more, may say less):
+/// a gzip file read whole that passes the size limit is streamed after all
+/// ([`load_input_from`]). `None` for standard input, anything not a regular file, raw
+/// files.
+fn text_file_size(path: &Path) -> Option<u64> {
+    use std::io::{Read, Seek, SeekFrom};
+    let meta = std::fs::metadata(path).ok()?;
+    if path.as_os_str() == "-" || !meta.is_file() {
+        return None;
+    }
+    let mut file = std::fs::File::open(path).ok()?;
+    let mut head = [0u8; 64];
+    let n = file.read(&mut head).ok()?;
+    if !head[..n].starts_with(&GZIP_MAGIC) {
+        return is_raw(&head[..n]).not().then_some(meta.len());
+    }
+    // The content's first bytes, for its magic (a `.cwa.gz` is read whole, as before).
+    file.seek(SeekFrom::Start(0)).ok()?;
+    let mut content = [0u8; 64];
+    let mut gz = flate2::read::MultiGzDecoder::new(std::io::BufReader::new(&file)).take(64);
+    let mut got = 0;
+    while let Ok(k @ 1..) = gz.read(&mut content[got..]) {
+        got += k;
+    }
+    if is_raw(&content[..got]) {
+        return None;
+    }
+    let mut trailer = [0u8; 4];
+    file.seek(SeekFrom::End(-4)).ok()?;
+    file.read_exact(&mut trailer).ok()?;
+    Some(meta.len().max(u64::from(u32::from_le_bytes(trailer))))
+}
+
+/// True when `head` starts as a raw format does.
+fn is_raw(head: &[u8]) -> bool {
+    !raw::detect(head, Path::new("")).is_ok_and(|f| f.is_none())
+}
+
+/// True when `path` starts with gzip's magic.
+fn is_gzip(path: &Path) -> bool {
+    use std::io::Read;
+    let mut head = [0u8; 2];
+    std::fs::File::open(path)
+        .and_then(|mut f| f.read_exact(&mut head))
+        .is_ok()
+        && head == GZIP_MAGIC
+}
+
+/// The first two bytes of a gzip member (RFC 1952).
+const GZIP_MAGIC: [u8; 2] = [0x1f, 0x8b];
 
 /// The file whole, for readers that need every sample: `Ok(raw file)` (a [`Opened::RawFile`]
 /// decoded now, as any other raw file, within the size limit) or `Err(text)`.
 pub fn open_whole(path: &Path) -> Result<Whole> {
-    Ok(match open(path)? {
+    whole_from(open(path)?, path)
+}
+
+/// [`open_whole`] of a file opened already.
+fn whole_from(opened: Opened, path: &Path) -> Result<Whole> {
+    Ok(match opened {
         Opened::RawFile(_) => Ok(raw::read(path)?),
         Opened::Raw(raw) => Ok(*raw),
         Opened::Text(text) => Err(text),
         Opened::TextFile => read_whole(path)?,
+        Opened::Spooled(tmp) => open_whole(&tmp)?,
     })
 }
 
@@ -119,6 +251,7 @@ pub fn load(path: &Path, opts: &LoadOptions) -> Result<Recording> {
             Some(rec) => return Ok(rec),
             None => read_whole(path)?,
         },
+        Opened::Spooled(tmp) => return load(&tmp, opts),
         Opened::Raw(raw) => Ok(*raw),
         Opened::Text(text) => Err(text),
     };
@@ -160,6 +293,11 @@ pub fn load_imu(
     acc: &LoadOptions,
     gyro_columns: Option<[String; 3]>,
 ) -> Result<(Recording, Recording)> {
+    // Standard input once, and when it was spooled, the file it was spooled to (in pieces).
+    let stdin = match (path.as_os_str() == "-").then(|| open(path)).transpose()? {
+        Some(Opened::Spooled(tmp)) => return load_imu(&tmp, acc, gyro_columns),
+        other => other,
+    };
     let named = gyro_columns.is_none();
     let gyro_opts = LoadOptions {
         columns: gyro_columns,
@@ -170,7 +308,11 @@ pub fn load_imu(
             return check_gyro_named(named, accel, gyro, path);
         }
     }
-    let text = match open_whole(path)? {
+    let whole = match stdin {
+        Some(opened) => whole_from(opened, path)?,
+        None => open_whole(path)?,
+    };
+    let text = match whole {
         Ok(raw) => {
             // An AX6 file: its gyro is `gx,gy,gz` (crate::input::raw); the other formats have
             // none.
@@ -284,12 +426,27 @@ pub fn load_input(path: &Path, opts: &WindowInputOptions) -> Result<Input> {
 /// ([`Input::Stream`]; a file the stream declines — not plain text, a pose column — is read
 /// as [`load_input`] reads it).
 pub fn load_input_from(path: &Path, opts: &WindowInputOptions, stream_from: u64) -> Result<Input> {
+    load_input_in(path, opts, stream_from, text_file::PIECE_BYTES)
+}
+
+/// [`load_input_from`] reading a streamed file in pieces of `piece_bytes` (tests: many
+/// pieces, and pieces in flight, from a small file).
+pub fn load_input_in(
+    path: &Path,
+    opts: &WindowInputOptions,
+    stream_from: u64,
+    piece_bytes: usize,
+) -> Result<Input> {
+    let stream = |samples: &dyn Fn(&str) -> bool| {
+        let src = TextSource::open_in(path, &opts.load, piece_bytes, samples);
+        src.map(|s| s.map(|s| Input::Stream(Arc::new(s))))
+            .map_err(|e| e.in_file(path))
+    };
     // A window-mean table is small: only samples are read in pieces.
     let samples = |head: &str| !opts.force && matches!(parse_window_table(head, opts), Ok(None));
     if is_text_file_from(path, stream_from) {
-        let src = TextSource::open(path, &opts.load, samples).map_err(|e| e.in_file(path))?;
-        if let Some(src) = src {
-            return Ok(Input::Stream(Arc::new(src)));
+        if let Some(input) = stream(&samples)? {
+            return Ok(input);
         }
     }
     let whole = match open(path)? {
@@ -297,10 +454,30 @@ pub fn load_input_from(path: &Path, opts: &WindowInputOptions, stream_from: u64)
             let table = raw::stream::raw_epoch_table(path, format, &opts.load, &Default::default());
             return table.map(Input::Table).map_err(|e| e.in_file(path));
         }
-        Opened::TextFile => match pieces(path, &opts.load, samples)? {
-            Some(rec) => return Ok(Input::Samples(rec)),
-            None => read_whole(path)?,
-        },
+        Opened::TextFile => {
+            if is_gzip(path) && !is_large_text_file(path) {
+                // A gzip file larger than its trailer said: streamed after all.
+                if let Some(input) = stream(&samples)? {
+                    return Ok(input);
+                }
+            }
+            match pieces(path, &opts.load, samples)? {
+                Some(rec) => return Ok(Input::Samples(rec)),
+                None => read_whole(path)?,
+            }
+        }
+        Opened::Spooled(tmp) => {
+            return Ok(match load_input_in(&tmp, opts, stream_from, piece_bytes)? {
+                Input::Stream(mut src) => {
+                    // The temporary file lives as long as the stream reading it.
+                    if let Some(s) = Arc::get_mut(&mut src) {
+                        s.keep(tmp);
+                    }
+                    Input::Stream(src)
+                }
+                held => held,
+            });
+        }
         Opened::Raw(raw) => Ok(*raw),
         Opened::Text(text) => Err(text),
     };

@@ -30,9 +30,11 @@ pub const PIECE_BYTES: usize = 16 << 20;
 /// simplest where the text is no burden).
 pub const PIECES_FROM_BYTES: u64 = 64 << 20;
 
-/// The file's pieces, each ending at a line end (the last at the end of the file).
+/// The file's pieces, each ending at a line end (the last at the end of the file). A gzip
+/// file (by its magic) gives its content's pieces, decompressed as they are read (every
+/// member, as `gzip -d` gives it).
 pub(crate) struct Pieces {
-    file: std::fs::File,
+    file: Box<dyn Read + Send>,
     /// The piece handed out last, then the start of the next (its unfinished line).
     buf: Vec<u8>,
     /// Bytes of `buf` that are the piece handed out last.
@@ -43,12 +45,24 @@ pub(crate) struct Pieces {
 
 impl Pieces {
     pub(crate) fn open(path: &Path, piece_bytes: usize) -> Result<Self> {
-        let file = std::fs::File::open(path).map_err(|source| {
+        use std::io::BufRead;
+        let read_err = |source| {
             Error::from(crate::error::input::InputError::Read {
                 path: path.into(),
                 source,
             })
-        })?;
+        };
+        // Reads of a whole piece bypass the buffer: it only lets the magic be seen.
+        let mut file = std::io::BufReader::new(std::fs::File::open(path).map_err(read_err)?);
+        let gzip = file
+            .fill_buf()
+            .map_err(read_err)?
+            .starts_with(&[0x1f, 0x8b]);
+        let file: Box<dyn Read + Send> = if gzip {
+            Box::new(flate2::read::MultiGzDecoder::new(file))
+        } else {
+            Box::new(file)
+        };
         Ok(Self {
             file,
             buf: Vec::new(),
@@ -77,10 +91,11 @@ impl Pieces {
                 || (self.buf.len() <= most && memchr::memrchr(b'\n', &self.buf).is_none()))
         {
             let at = self.buf.len();
-            self.buf.resize(at + self.piece_bytes.min(most), 0);
-            let n = self.file.read(&mut self.buf[at..]).map_err(|_| ())?;
+            let room = self.piece_bytes.min(most);
+            self.buf.resize(at + room, 0);
+            let n = read_full(&mut self.file, &mut self.buf[at..]).map_err(|_| ())?;
             self.buf.truncate(at + n);
-            self.eof = n == 0;
+            self.eof = n < room;
         }
         if self.buf.is_empty() {
             return Ok(None);
@@ -96,6 +111,21 @@ impl Pieces {
         self.given = end;
         Ok(Some(&self.buf[..end]))
     }
+}
+
+/// Fills `buf` from `r` (fewer bytes only at the end of the input): a decompressor gives a
+/// few kB per read, and a piece is grown (and zeroed) once, not once per read.
+fn read_full(r: &mut dyn Read, buf: &mut [u8]) -> std::io::Result<usize> {
+    let mut n = 0;
+    while n < buf.len() {
+        match r.read(&mut buf[n..]) {
+            Ok(0) => break,
+            Ok(k) => n += k,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+            Err(e) => return Err(e),
+        }
+    }
+    Ok(n)
 }
 
 /// The piece as text the fast splitter reads as the `csv` reader does, with no comment line

@@ -64,6 +64,9 @@ pub struct TextSource {
     pub steps: Option<TimeSteps>,
     /// The first failure of a later pass.
     failed: Mutex<Option<Error>>,
+    /// The temporary file standard input was copied to, when this reads one (deleted when
+    /// this is dropped).
+    spool: Option<tempfile::TempPath>,
 }
 
 /// The first pass's reading of the head: `None` hands the file back to be read whole.
@@ -129,6 +132,7 @@ impl TextSource {
             summary,
             steps: None,
             failed: Mutex::new(None),
+            spool: None,
         };
         if let Some(i) = src.layout.time {
             let steps = tally
@@ -142,6 +146,11 @@ impl TextSource {
         check_axis_columns(&src.meta)?;
         check_largest_reading(true, src.summary.largest)?;
         Ok(Some(src))
+    }
+
+    /// Keeps `file` (the temporary file this reads) until this is dropped.
+    pub(crate) fn keep(&mut self, file: tempfile::TempPath) {
+        self.spool = Some(file);
     }
 
     /// Whether the file has a time column.
@@ -204,35 +213,26 @@ impl TextSource {
         }
     }
 
-    /// The file reopened at its first data row, when it is still the file of the first pass.
+    /// The file reopened at its first data row, when it is still the file of the first pass:
+    /// its pieces parsed ahead of the pass ([`Feed`]).
     fn reopen(&self) -> Result<Reader> {
-        let changed = || Error::from(InputError::ChangedWhileRead);
         if stamp_of(&self.path) != Some(self.stamp) {
-            return Err(changed());
+            return Err(InputError::ChangedWhileRead.into());
         }
-        let mut pieces = Pieces::open(&self.path, self.piece_bytes)?;
-        let first = match pieces.next_piece() {
-            Ok(Some(p)) => p,
-            _ => return Err(changed()),
-        };
-        let first = first.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(first);
-        let text = plain_piece(first).ok_or_else(changed)?;
-        let data = text.get(self.data_offset..).ok_or_else(changed)?;
-        let cols = self.parse(data, self.data_line, None)?;
-        let line = self.data_line + memchr::memchr_iter(b'\n', data.as_bytes()).count();
-        Ok(Reader {
+        let pieces = Pieces::open(&self.path, self.piece_bytes)?;
+        let parser = Parser {
             pieces,
-            cols,
-            at: 0,
-            line,
+            layout: self.layout.clone(),
+            delim: self.delim,
+            data_offset: Some(self.data_offset),
+            line: self.data_line,
             prev_t: None,
+        };
+        Ok(Reader {
+            feed: Feed::start(parser, &self.path)?,
+            cols: Columns::default(),
+            at: 0,
         })
-    }
-
-    fn parse(&self, text: &str, line: usize, prev: Option<f64>) -> Result<Columns> {
-        self.layout
-            .read_plain_after(text, line, self.delim, prev)
-            .map_err(|_| InputError::ChangedWhileRead.into())
     }
 }
 
@@ -316,12 +316,105 @@ fn rest_is_plain(pieces: &mut Pieces) -> bool {
 
 /// A pass's position in the file.
 struct Reader {
-    pieces: Pieces,
+    feed: Feed,
     cols: Columns,
     at: usize,
+}
+
+/// A pass's pieces, parsed one after another from the file: the time check joined across
+/// them, line numbers counted on.
+struct Parser {
+    pieces: Pieces,
+    layout: RowLayout,
+    delim: u8,
+    /// Where the first piece's data rows start (`None` once it is read).
+    data_offset: Option<usize>,
+    /// Line number of the next piece's first line.
     line: usize,
-    /// The last time read before `cols` (the time check is joined to it).
+    /// The last time read (the next piece's time check is joined to it).
     prev_t: Option<f64>,
+}
+
+impl Parser {
+    /// The next piece's rows (`None` at the end of the file). Anything the first pass did not
+    /// find (a piece that is not plain text, a row that does not parse) means the file changed.
+    fn next(&mut self) -> Option<Result<Columns>> {
+        let changed = || Error::from(InputError::ChangedWhileRead);
+        let piece = match self.pieces.next_piece() {
+            Ok(Some(p)) => p,
+            Ok(None) if self.data_offset.is_none() => return None,
+            _ => return Some(Err(changed())),
+        };
+        let text = match self.data_offset.take() {
+            Some(offset) => {
+                let piece = piece.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(piece);
+                plain_piece(piece).and_then(|t| t.get(offset..))
+            }
+            None => plain_piece(piece),
+        };
+        let Some(text) = text else {
+            return Some(Err(changed()));
+        };
+        let cols = (self.layout)
+            .read_plain_after(text, self.line, self.delim, self.prev_t)
+            .map_err(|_| changed());
+        self.line += memchr::memchr_iter(b'\n', text.as_bytes()).count();
+        if let Ok(c) = &cols {
+            self.prev_t = c.t.last().copied().or(self.prev_t);
+        }
+        Some(cols)
+    }
+}
+
+/// Environment variable that, set to `0`, has every pass parse its pieces itself, one after
+/// another (for benchmarks that compare the two).
+pub const PARSE_AHEAD_VAR: &str = "WIICAL_PARSE_AHEAD";
+
+/// Where a pass's parsed pieces come from: a thread of its own that parses the next piece
+/// while the pass goes through the rows of the one before (a pass's consumer — the detector,
+/// the window sums — runs on one thread, and the parse would otherwise wait for it), handing
+/// them over one at a time (at most two pieces' rows held, in order); or, on a thread of
+/// the parse's own pool (which a parse started from there could wait for), the pass itself.
+enum Feed {
+    Ahead(std::sync::mpsc::Receiver<Result<Columns>>),
+    Inline(Box<Parser>),
+}
+
+impl Feed {
+    /// The feed of `parser`'s pieces; an error when no thread could be started (reading
+    /// `path`).
+    fn start(mut parser: Parser, path: &Path) -> Result<Self> {
+        let off = std::env::var_os(PARSE_AHEAD_VAR).is_some_and(|v| v == "0");
+        if off || rayon::current_thread_index().is_some() {
+            return Ok(Feed::Inline(Box::new(parser)));
+        }
+        let (tx, rx) = std::sync::mpsc::sync_channel(0);
+        let spawned = std::thread::Builder::new()
+            .name("wiical-pieces".into())
+            .spawn(move || {
+                // Ends at the end of the file, or when the pass is dropped (send fails).
+                while let Some(cols) = parser.next() {
+                    if tx.send(cols).is_err() {
+                        break;
+                    }
+                }
+            });
+        match spawned {
+            Ok(_) => Ok(Feed::Ahead(rx)),
+            Err(source) => Err(InputError::Read {
+                path: path.into(),
+                source,
+            }
+            .into()),
+        }
+    }
+
+    fn next(&mut self) -> Option<Result<Columns>> {
+        match self {
+            Feed::Ahead(rx) => rx.recv().ok(),
+            Feed::Inline(p) => p.next(),
+        }
+    }
 }
 
 /// Every sample of a [`TextSource`], read from the file; a clone reads the file afresh to the
@@ -350,22 +443,20 @@ impl Clone for Rows<'_> {
 impl Rows<'_> {
     /// The next parsed piece into the reader; false at the end of the file.
     fn next_piece(&mut self) -> Result<bool> {
-        let src = self.src;
+        if self.reader.is_none() {
+            self.reader = Some(self.src.reopen()?);
+        }
         let Some(r) = self.reader.as_mut() else {
-            self.reader = Some(src.reopen()?);
-            return Ok(true);
+            return Ok(false);
         };
-        r.prev_t = r.cols.t.last().copied().or(r.prev_t);
-        let text = match r.pieces.next_piece() {
-            Ok(Some(p)) => plain_piece(p).ok_or(InputError::ChangedWhileRead)?,
-            Ok(None) => return Ok(false),
-            Err(()) => return Err(InputError::ChangedWhileRead.into()),
-        };
-        let lines = memchr::memchr_iter(b'\n', text.as_bytes()).count();
-        r.cols = src.parse(text, r.line, r.prev_t)?;
-        r.line += lines;
-        r.at = 0;
-        Ok(true)
+        match r.feed.next() {
+            None => Ok(false),
+            Some(cols) => {
+                r.cols = cols?;
+                r.at = 0;
+                Ok(true)
+            }
+        }
     }
 }
 
@@ -414,9 +505,17 @@ impl Iterator for Rows<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::io::Write;
 
-    /// Every text, read in pieces of every size, gives in each pass what the whole-text parse
-    /// gives: the rows bit for bit, the notes, the summary's count — or the same sentence, or
+    /// `bytes` as one gzip member.
+    fn gzip(bytes: &[u8]) -> Vec<u8> {
+        let mut z = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::fast());
+        z.write_all(bytes).unwrap();
+        z.finish().unwrap()
+    }
+
+    /// Every text, plain or gzip'd, read in pieces of every size, gives in each pass what the
+    /// whole-text parse gives: the rows bit for bit, the notes, the summary's count — or the same sentence, or
     /// is handed back to be read whole; a clone taken mid-pass goes on from the same row.
     #[test]
     fn passes_read_as_the_whole_text() {
@@ -448,8 +547,17 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("r.csv");
         let opts = LoadOptions::default();
+        let gz_path = dir.path().join("r.csv.gz");
         for text in &texts {
             std::fs::write(&path, text).unwrap();
+            // The same text gzip'd in two members (as `cat a.gz b.gz` makes): read alike.
+            let half = text.len() / 2;
+            let gz = [
+                gzip(&text.as_bytes()[..half]),
+                gzip(&text.as_bytes()[half..]),
+            ]
+            .concat();
+            std::fs::write(&gz_path, gz).unwrap();
             let whole = crate::input::text::parse(text.trim_start_matches('\u{feff}'), &opts);
             let whole = whole.map(|r| {
                 let t = r.t.clone().unwrap_or_default();
@@ -464,8 +572,9 @@ mod tests {
                 format!("{rows:?} {:?} {}", r.notes, r.len())
             });
             let whole = whole.map_err(|e| e.to_string());
-            for size in [1, 7, 64, 300, 4096, 1 << 20] {
-                let got = match TextSource::open_in(&path, &opts, size, |_| true) {
+            let sizes = [1, 7, 64, 300, 4096, 1 << 20];
+            for (size, path) in sizes.iter().flat_map(|&n| [(n, &path), (n, &gz_path)]) {
+                let got = match TextSource::open_in(path, &opts, size, |_| true) {
                     Ok(None) => continue, // read whole by the caller
                     Ok(Some(src)) => {
                         let rows: Vec<Row> = src.rows().collect();
@@ -478,7 +587,7 @@ mod tests {
                     }
                     Err(e) => Err(e.to_string()),
                 };
-                assert_eq!(got, whole, "{text:?} in pieces of {size}");
+                assert_eq!(got, whole, "{text:?} in pieces of {size} from {path:?}");
             }
         }
         // The plain file is streamed; a comment, a pose column: read whole.
