@@ -120,6 +120,7 @@ struct WindowSums {
 
 impl WindowSums {
     /// Adds a sample entering the window.
+    #[allow(clippy::needless_range_loop)] // four arrays indexed by the same axis
     #[inline]
     fn add(&mut self, x: &[f32; 3]) {
         for a in 0..3 {
@@ -131,6 +132,7 @@ impl WindowSums {
 
     /// Takes out a sample leaving the window: the same operations as adding it with the
     /// opposite sign (`s + (−d) = s − d` exactly in IEEE arithmetic).
+    #[allow(clippy::needless_range_loop)] // four arrays indexed by the same axis
     #[inline]
     fn remove(&mut self, x: &[f32; 3]) {
         for a in 0..3 {
