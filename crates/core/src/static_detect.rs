@@ -22,7 +22,6 @@
 
 use crate::estimators::Welford3;
 use crate::Error;
-use heapless::HistoryBuf;
 
 pub mod adaptive;
 pub use adaptive::{AdaptiveDetection, AdaptiveThresholds, NoiseSurvey};
@@ -92,7 +91,7 @@ impl StaticInterval {
 #[derive(Debug, Clone)]
 pub struct StaticDetector<const N: usize> {
     cfg: StaticDetectorConfig,
-    ring: HistoryBuf<[f32; 3], N>,
+    ring: Ring<N>,
     /// Number of samples pushed.
     count: u32,
     init: Welford3,
@@ -120,17 +119,78 @@ struct WindowSums {
 }
 
 impl WindowSums {
-    fn add(&mut self, x: &[f32; 3], sign: f32) {
-        for (((xa, shift), s1), s2) in x.iter().zip(self.shift).zip(&mut self.s1).zip(&mut self.s2)
-        {
-            let d = xa - shift;
-            *s1 += sign * d;
-            *s2 += sign * d * d;
+    /// Adds a sample entering the window.
+    #[allow(clippy::needless_range_loop)] // four arrays indexed by the same axis
+    #[inline]
+    fn add(&mut self, x: &[f32; 3]) {
+        for a in 0..3 {
+            let d = x[a] - self.shift[a];
+            self.s1[a] += d;
+            self.s2[a] += d * d;
+        }
+    }
+
+    /// Takes out a sample leaving the window: the same operations as adding it with the
+    /// opposite sign (`s + (−d) = s − d` exactly in IEEE arithmetic).
+    #[allow(clippy::needless_range_loop)] // four arrays indexed by the same axis
+    #[inline]
+    fn remove(&mut self, x: &[f32; 3]) {
+        for a in 0..3 {
+            let d = x[a] - self.shift[a];
+            self.s1[a] -= d;
+            self.s2[a] -= d * d;
         }
     }
 
     fn total_s2(&self) -> f32 {
         self.s2[0] + self.s2[1] + self.s2[2]
+    }
+}
+
+/// The last `N` samples in a fixed array used as a ring (on the stack, like the rest of the
+/// detector). Written by hand rather than with `heapless::HistoryBuf` so that the window's
+/// samples are found by one index computation, not by splitting the buffer per access: the
+/// detector reads two of them per sample.
+#[derive(Debug, Clone)]
+struct Ring<const N: usize> {
+    buf: [[f32; 3]; N],
+    /// Where the next sample goes.
+    next: usize,
+    /// Samples held (at most `N`).
+    len: usize,
+}
+
+impl<const N: usize> Ring<N> {
+    const fn new() -> Self {
+        Self {
+            buf: [[0.0; 3]; N],
+            next: 0,
+            len: 0,
+        }
+    }
+
+    #[inline]
+    fn write(&mut self, m: [f32; 3]) {
+        self.buf[self.next] = m;
+        self.next = if self.next + 1 == N { 0 } else { self.next + 1 };
+        self.len = (self.len + 1).min(N);
+    }
+
+    /// The `i`-th (0 = oldest) of the latest `w` samples; `i < w ≤ len`.
+    #[inline]
+    fn at(&self, w: usize, i: usize) -> [f32; 3] {
+        // next + N − w + i < 2N since i < w.
+        let k = self.next + N - w + i;
+        self.buf[if k >= N { k - N } else { k }]
+    }
+
+    /// The latest `w` samples (`w ≤ len`), oldest first, as at most two contiguous pieces.
+    fn latest(&self, w: usize) -> (&[[f32; 3]], &[[f32; 3]]) {
+        if w <= self.next {
+            (&self.buf[self.next - w..self.next], &[])
+        } else {
+            (&self.buf[N - (w - self.next)..], &self.buf[..self.next])
+        }
     }
 }
 
@@ -153,7 +213,7 @@ impl<const N: usize> StaticDetector<N> {
         }
         Ok(Self {
             cfg,
-            ring: HistoryBuf::new(),
+            ring: Ring::new(),
             count: 0,
             init: Welford3::new(),
             threshold: None,
@@ -190,21 +250,10 @@ impl<const N: usize> StaticDetector<N> {
         (self.cfg.window as usize - 1) / 2
     }
 
-    /// The latest `window` samples, oldest first.
+    /// The latest `window` samples (fewer at the start), oldest first.
     fn window_samples(&self) -> impl Iterator<Item = &[f32; 3]> + '_ {
-        let (a, b) = self.ring.as_slices();
-        let skip = self.ring.len().saturating_sub(self.cfg.window as usize);
-        a.iter().chain(b.iter()).skip(skip)
-    }
-
-    /// The `i`-th sample of the window (0 = oldest), in O(1).
-    fn window_at(&self, i: usize) -> Option<&[f32; 3]> {
-        let (a, b) = self.ring.as_slices();
-        let idx = self.ring.len().saturating_sub(self.cfg.window as usize) + i;
-        match idx.checked_sub(a.len()) {
-            None => a.get(idx),
-            Some(j) => b.get(j),
-        }
+        let (a, b) = self.ring.latest(self.window_len());
+        a.iter().chain(b)
     }
 
     /// The noise reference (per-axis variance of the init period, floored), once known.
@@ -242,29 +291,28 @@ impl<const N: usize> StaticDetector<N> {
             return Err(Error::CapacityExceeded);
         }
         let window = self.cfg.window as usize;
-        let outgoing = if self.ring.len() >= window {
-            self.window_at(0).copied()
-        } else {
-            None
-        };
+        let outgoing = (self.ring.len >= window).then(|| self.ring.at(window, 0));
         self.ring.write(m);
         self.count += 1;
         if let Some(o) = outgoing {
-            self.sums.add(&o, -1.0);
+            self.sums.remove(&o);
         }
-        self.sums.add(&m, 1.0);
+        self.sums.add(&m);
         self.sums.since += 1;
         let total = self.sums.total_s2();
         self.sums.peak = self.sums.peak.max(total);
         // Recompute when the sums are stale (once per window), when large values have left the
         // window (rounding they left behind), or when the shift is far from the window mean
-        // (variance = s2 − s1²/n would cancel).
-        let spread = self.window_variance_sum() * self.window_len() as f32;
+        // (variance = s2 − s1²/n would cancel). The window variance depends on the sums alone,
+        // so it is computed once here and again only after a recomputation.
+        let mut variance = self.window_variance_sum();
+        let spread = variance * self.window_len() as f32;
         if self.sums.since as usize >= window
             || total < 1e-3 * self.sums.peak
             || spread < 1e-3 * total
         {
             self.recompute_sums();
+            variance = self.window_variance_sum();
         }
         if self.threshold.is_none() {
             self.init.push(m)?;
@@ -278,16 +326,16 @@ impl<const N: usize> StaticDetector<N> {
             }
         }
         let half = self.half();
-        if (self.count as usize) < self.cfg.window as usize {
+        if (self.count as usize) < window {
             return Ok(None);
         }
         // Decide the centre sample of the full window. Before the threshold is known, the
         // init period is static by definition.
         let centre_index = self.count - 1 - half as u32;
-        let centre = self.window_at(half).copied().unwrap_or(m);
+        let centre = self.ring.at(window, half);
         let is_static = match self.threshold {
             None => true,
-            Some(th) => self.window_variance_sum() <= th,
+            Some(th) => variance <= th,
         };
         let mut ended = None;
         if is_static {
@@ -340,7 +388,7 @@ impl<const N: usize> StaticDetector<N> {
 
     /// Number of samples currently in the window.
     fn window_len(&self) -> usize {
-        self.ring.len().min(self.cfg.window as usize)
+        self.ring.len.min(self.cfg.window as usize)
     }
 
     /// Exact two-pass recomputation of the window sums about the window mean.
@@ -363,7 +411,7 @@ impl<const N: usize> StaticDetector<N> {
             sums.shift[a] = first[a] + mean[a] / n as f32;
         }
         for s in self.window_samples() {
-            sums.add(s, 1.0);
+            sums.add(s);
         }
         sums.peak = sums.total_s2();
         self.sums = sums;

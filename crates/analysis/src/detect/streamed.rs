@@ -13,8 +13,8 @@
 
 use crate::detect::windows::{
     adaptive_intervals, adaptive_rate, adc_range_of, axis_lattice, batch_spread, detector_scale,
-    fixed_intervals, magnitude, to_levels, variance_of, DetectOptions, WindowStats, Windows,
-    BATCHES,
+    fixed_intervals, magnitude, to_levels, variance_of, DetectOptions, Streamed, WindowStats,
+    Windows, BATCHES,
 };
 use crate::error::detect::DetectError;
 use crate::error::Result;
@@ -87,7 +87,7 @@ fn detect_adaptive(
         Some(l) => to_levels(&r.xyz, l).map(|v| v as f32),
         None => r.xyz.map(|v| v as f32),
     });
-    let found = adaptive_intervals(samples, src.len(), rate);
+    let found = adaptive_intervals(&Streamed(samples), src.len(), rate);
     src.check()?;
     let (intervals, reference) = found?;
     Ok((intervals, reference, rate))

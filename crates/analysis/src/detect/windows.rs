@@ -236,11 +236,27 @@ const ADAPTIVE_SCRATCH: usize = 4096;
 /// tried from the IMU-TK defaults (1 s windows, 2 s holds) down to 0.25 s / 0.5 s until one
 /// gives at least [`ADAPTIVE_MIN_WINDOWS`] windows that a multi-position fit accepts.
 pub fn detect_adaptive(rec: &Recording, opts: &DetectOptions) -> Result<Detection> {
+    detect_adaptive_of(rec, opts, all_whole(&rec.xyz))
+}
+
+/// [`detect_adaptive`] on a recording whose values are all whole numbers or not (`integer`,
+/// [`Recording::is_integer`]), known to the caller.
+fn detect_adaptive_of(rec: &Recording, opts: &DetectOptions, integer: bool) -> Result<Detection> {
+    use rayon::prelude::*;
     let rate = adaptive_rate(rec.estimated_rate_hz(), opts)?;
-    let lattice = lattice_view(&rec.xyz);
-    let xyz = lattice.as_deref().unwrap_or(&rec.xyz);
-    let samples = xyz.iter().map(|s| s.map(|v| v as f32));
-    let (intervals, reference_variance) = adaptive_intervals(samples, rec.len(), rate)?;
+    // Quantiser levels are computed once, in parallel, rather than on every pass; other
+    // values are cast as they are passed over (no copy of the recording).
+    let (intervals, reference_variance) = match lattice_of(&rec.xyz, integer) {
+        Some(l) => {
+            let levels: Vec<[f32; 3]> = rec
+                .xyz
+                .par_iter()
+                .map(|s| to_levels(s, &l).map(|v| v as f32))
+                .collect();
+            adaptive_intervals(&Held(&levels[..]), rec.len(), rate)?
+        }
+        None => adaptive_intervals(&Held(&rec.xyz[..]), rec.len(), rate)?,
+    };
     Ok(Detection {
         intervals,
         reference_variance,
@@ -263,49 +279,223 @@ pub(crate) fn adaptive_rate(estimated: Option<f64>, opts: &DetectOptions) -> Res
     Ok(rate)
 }
 
-/// [`detect_adaptive`]'s intervals and reference variance from the `n` samples `samples`
-/// yields (as the detector sees them: quantiser levels or values, `f32`), passed over several
-/// times (clones of it).
-pub(crate) fn adaptive_intervals<I>(
+/// The passes the adaptive detection makes over its samples (as the detector sees them:
+/// quantiser levels or values, `f32`): samples held in memory are passed over by both cores at
+/// once; samples streamed from a file feed several detectors from one read.
+pub(crate) trait Passes {
+    /// One pass over the samples.
+    type Iter: Iterator<Item = [f32; 3]> + Clone;
+    /// A fresh pass.
+    fn pass(&self) -> Self::Iter;
+    /// The noise survey (`AdaptiveThresholds::from_samples`).
+    fn survey(&self, rate: f32) -> Result<adaptive::AdaptiveThresholds, CoreError> {
+        adaptive::AdaptiveThresholds::from_samples(self.pass(), rate)
+    }
+    /// The intervals of two detector settings with the same reference (`adaptive::run` of each).
+    fn run_pair(&self, cfgs: [StaticDetectorConfig; 2], reference: [f32; 3]) -> PairResult;
+}
+
+/// Intervals of two detector settings ([`Passes::run_pair`]).
+pub(crate) type PairResult = std::result::Result<[Vec<StaticInterval>; 2], CoreError>;
+
+type CoreError = wiical_core::Error;
+
+/// One setting's intervals (`adaptive::run`).
+fn run_one<I: Iterator<Item = [f32; 3]>>(
     samples: I,
+    cfg: StaticDetectorConfig,
+    reference: [f32; 3],
+) -> std::result::Result<Vec<StaticInterval>, CoreError> {
+    let mut out = Vec::new();
+    adaptive::run::<MAX_WINDOW, _>(samples, cfg, reference, |iv| out.push(iv))?;
+    Ok(out)
+}
+
+/// A held sample as the detector takes it (`f32`).
+pub(crate) trait DetectorSample: Copy + Send + Sync {
+    /// The sample in `f32`.
+    fn f32s(&self) -> [f32; 3];
+}
+
+impl DetectorSample for [f32; 3] {
+    #[inline]
+    fn f32s(&self) -> [f32; 3] {
+        *self
+    }
+}
+
+impl DetectorSample for [f64; 3] {
+    #[inline]
+    fn f32s(&self) -> [f32; 3] {
+        self.map(|v| v as f32)
+    }
+}
+
+/// A pass over held samples, each in `f32`.
+#[derive(Clone)]
+pub(crate) struct AsF32<'a, S>(std::slice::Iter<'a, S>);
+
+impl<S: DetectorSample> Iterator for AsF32<'_, S> {
+    type Item = [f32; 3];
+
+    #[inline]
+    fn next(&mut self) -> Option<[f32; 3]> {
+        self.0.next().map(S::f32s)
+    }
+}
+
+/// Samples held in memory.
+pub(crate) struct Held<'a, S>(pub(crate) &'a [S]);
+
+impl<'a, S: DetectorSample> Passes for Held<'a, S> {
+    type Iter = AsF32<'a, S>;
+
+    fn pass(&self) -> Self::Iter {
+        AsF32(self.0.iter())
+    }
+
+    /// The blocks' variances measured on all cores, added to the histogram in order (the
+    /// survey of the samples pushed one by one, bit for bit).
+    fn survey(&self, rate: f32) -> Result<adaptive::AdaptiveThresholds, CoreError> {
+        use rayon::prelude::*;
+        let mut survey = adaptive::NoiseSurvey::for_rate(rate)?;
+        let block = survey.block_samples() as usize;
+        let (full, rest) = self.0.split_at(self.0.len() / block * block);
+        let measured: Vec<_> = full
+            .par_chunks(block)
+            .map_init(Vec::new, |buf, chunk| {
+                buf.clear();
+                buf.extend(chunk.iter().map(S::f32s));
+                adaptive::NoiseSurvey::measure_block(buf)
+            })
+            .collect();
+        for m in measured {
+            survey.add_measured(m?);
+        }
+        for m in rest {
+            survey.push(m.f32s())?;
+        }
+        survey.thresholds(adaptive::DEFAULT_QUANTILE)
+    }
+
+    /// The two settings on the two cores at once.
+    fn run_pair(&self, cfgs: [StaticDetectorConfig; 2], reference: [f32; 3]) -> PairResult {
+        let (a, b) = rayon::join(
+            || run_one(self.pass(), cfgs[0], reference),
+            || run_one(self.pass(), cfgs[1], reference),
+        );
+        Ok([a?, b?])
+    }
+}
+
+/// Samples that cost a read per pass (a file streamed, never held).
+pub(crate) struct Streamed<I>(pub(crate) I);
+
+impl<I: Iterator<Item = [f32; 3]> + Clone> Passes for Streamed<I> {
+    type Iter = I;
+
+    fn pass(&self) -> I {
+        self.0.clone()
+    }
+
+    /// Both detectors fed from one read of the samples.
+    fn run_pair(&self, cfgs: [StaticDetectorConfig; 2], reference: [f32; 3]) -> PairResult {
+        let mut a: StaticDetector<MAX_WINDOW> = StaticDetector::with_reference(cfgs[0], reference)?;
+        let mut b: StaticDetector<MAX_WINDOW> = StaticDetector::with_reference(cfgs[1], reference)?;
+        let mut out = [Vec::new(), Vec::new()];
+        for m in self.pass() {
+            out[0].extend(a.push(m)?);
+            out[1].extend(b.push(m)?);
+        }
+        out[0].extend(a.finish());
+        out[1].extend(b.finish());
+        Ok(out)
+    }
+}
+
+/// [`detect_adaptive`]'s intervals and reference variance from the `n` samples of `passes`.
+///
+/// The common case in two passes: the survey, then the first setting of the schedule and the
+/// gap-filling one ([`FILL_SETTING`]) together; when the first is accepted (the core's rule,
+/// [`accepted`]) its intervals filled from the second's are the result, when only the second
+/// is, the second's. Otherwise the core's whole schedule ([`adaptive_schedule`]), which
+/// decides every other case as it always has.
+pub(crate) fn adaptive_intervals(
+    passes: &impl Passes,
     n: usize,
     rate: f64,
-) -> Result<(Vec<StaticInterval>, [f32; 3])>
-where
-    I: Iterator<Item = [f32; 3]> + Clone,
-{
-    let mut scratch = vec![[0.0f32; 3]; ADAPTIVE_SCRATCH];
-    // The intervals of every setting tried, kept as found: the chosen one's are the result,
-    // with no final pass over the samples (`detect_fitted_each`).
-    let mut per_setting = vec![Vec::new(); adaptive::HOLD_SCHEDULE.len()];
-    let (det, chosen) = adaptive::detect_fitted_each::<MAX_WINDOW, _>(
-        samples.clone(),
-        rate as f32,
-        ADAPTIVE_MIN_WINDOWS,
-        &MultiPosConfig::default(),
-        &mut scratch,
-        |setting, iv| per_setting[setting].push(iv),
-    )
-    .map_err(|e| match e {
-        wiical_core::Error::TooFewSamples { needed, .. } => DetectError::TooShortForSurvey {
+) -> Result<(Vec<StaticInterval>, [f32; 3])> {
+    let survey_error = |e| match e {
+        CoreError::TooFewSamples { needed, .. } => DetectError::TooShortForSurvey {
             samples: n,
             needed,
             survey_s: f64::from(adaptive::SURVEY_BLOCK_S) * f64::from(adaptive::MIN_SURVEY_BLOCKS),
             rate_hz: rate,
         },
         other => DetectError::DetectorSettings(other),
-    })?;
+    };
+    let thresholds = passes.survey(rate as f32).map_err(survey_error)?;
+    let cfg = |setting: usize| {
+        let (window_s, min_static_s) = adaptive::HOLD_SCHEDULE[setting];
+        thresholds.detector_config(rate as f32, window_s, min_static_s)
+    };
+    let cfgs = [cfg(0), cfg(FILL_SETTING)];
+    let reference = thresholds.reference_variance;
+    if cfgs.iter().all(|c| c.window as usize <= MAX_WINDOW) {
+        let [first, fill] = passes
+            .run_pair(cfgs, reference)
+            .map_err(DetectError::DetectorSettings)?;
+        if accepted(&first) {
+            return Ok((fill_holds(first, &fill), reference));
+        }
+        // The first rejected, the schedule's second setting is tried next: the fill setting.
+        if FILL_SETTING == 1 && accepted(&fill) {
+            return Ok((fill, reference));
+        }
+    }
+    adaptive_schedule(passes, rate).map_err(survey_error)
+}
+
+/// The core's acceptance of a setting's intervals (`adaptive::detect_fitted_each`): at least
+/// [`ADAPTIVE_MIN_WINDOWS`], and a multi-position fit of their means unless there are more of
+/// them than its scratch ([`ADAPTIVE_SCRATCH`]) holds.
+fn accepted(intervals: &[StaticInterval]) -> bool {
+    let n = intervals.len();
+    if (n as u32) < ADAPTIVE_MIN_WINDOWS {
+        return false;
+    }
+    if n > ADAPTIVE_SCRATCH {
+        return true;
+    }
+    let means: Vec<[f32; 3]> = intervals.iter().map(|iv| iv.mean).collect();
+    wiical_core::multipos::fit(&means, &MultiPosConfig::default()).is_ok()
+}
+
+/// The core's whole schedule (`adaptive::detect_fitted_each`), then the gap-filling pass when
+/// a longer setting was chosen.
+fn adaptive_schedule(
+    passes: &impl Passes,
+    rate: f64,
+) -> std::result::Result<(Vec<StaticInterval>, [f32; 3]), CoreError> {
+    let mut scratch = vec![[0.0f32; 3]; ADAPTIVE_SCRATCH];
+    // The intervals of every setting tried, kept as found: the chosen one's are the result,
+    // with no final pass over the samples (`detect_fitted_each`).
+    let mut per_setting = vec![Vec::new(); adaptive::HOLD_SCHEDULE.len()];
+    let (det, chosen) = adaptive::detect_fitted_each::<MAX_WINDOW, _>(
+        passes.pass(),
+        rate as f32,
+        ADAPTIVE_MIN_WINDOWS,
+        &MultiPosConfig::default(),
+        &mut scratch,
+        |setting, iv| per_setting[setting].push(iv),
+    )?;
     let mut intervals = std::mem::take(&mut per_setting[chosen]);
     if chosen < FILL_SETTING {
         let (window_s, min_static_s) = adaptive::HOLD_SCHEDULE[FILL_SETTING];
         let cfg = det
             .thresholds
             .detector_config(rate as f32, window_s, min_static_s);
-        let mut short = Vec::new();
-        adaptive::run::<MAX_WINDOW, _>(samples, cfg, det.thresholds.reference_variance, |iv| {
-            short.push(iv)
-        })
-        .map_err(DetectError::DetectorSettings)?;
+        let short = run_one(passes.pass(), cfg, det.thresholds.reference_variance)?;
         intervals = fill_holds(intervals, &short);
     }
     Ok((intervals, det.thresholds.reference_variance))
@@ -356,21 +546,32 @@ const LATTICE_TOLERANCE: f64 = 1e-3;
 /// in counts and in g would be detected with slightly different references (window edges a
 /// sample apart). In levels it is the counts recording up to an offset, which a variance
 /// does not see: the same windows, whatever unit or scale the counts were converted to.
+#[cfg(test)]
 fn lattice_view(xyz: &[[f64; 3]]) -> Option<Vec<[f64; 3]>> {
-    if xyz.iter().all(|s| s.iter().all(|v| v.fract() == 0.0)) {
+    let lattice = lattice_of(xyz, all_whole(xyz))?;
+    Some(xyz.iter().map(|s| to_levels(s, &lattice)).collect())
+}
+
+/// [`lattice_view`]'s per-axis lattices `(origin, step)` of `xyz` (whose values are all
+/// whole numbers or not: `integer`), `None` when it has none. The checks and sorts run on all
+/// cores (a sort of values equal under `total_cmp` is the same stable or not: they are the
+/// same bits).
+fn lattice_of(xyz: &[[f64; 3]], integer: bool) -> Option<[(f64, f64); 3]> {
+    use rayon::prelude::*;
+    if integer {
         return None;
     }
     let mut lattice = [(0.0, 0.0); 3];
     for (a, axis) in lattice.iter_mut().enumerate() {
-        let mut v: Vec<f64> = xyz.iter().map(|s| s[a]).collect();
-        if v.iter().any(|x| !x.is_finite()) {
+        let mut v: Vec<f64> = xyz.par_iter().map(|s| s[a]).collect();
+        if v.par_iter().any(|x| !x.is_finite()) {
             return None;
         }
-        v.sort_by(f64::total_cmp);
+        v.par_sort_unstable_by(f64::total_cmp);
         v.dedup();
         *axis = axis_lattice(&v)?;
     }
-    Some(xyz.iter().map(|s| to_levels(s, &lattice)).collect())
+    Some(lattice)
 }
 
 /// A sample as quantiser levels of the per-axis lattices `(origin, step)` ([`lattice_view`]).
@@ -468,22 +669,47 @@ pub(crate) fn fixed_intervals(
 /// ADC limits inferred from integer-valued data: 10-bit (0..1023), 8-bit (0..255),
 /// signed 16-bit or unsigned 16-bit. `None` for non-integer (already scaled) data.
 pub fn infer_adc_range(rec: &Recording) -> Option<(f64, f64)> {
-    if !rec.is_integer() {
+    adc_range_if(&rec.xyz, all_whole(&rec.xyz))
+}
+
+/// [`infer_adc_range`] of `xyz`, whose values are all whole numbers or not (`integer`). The
+/// extremes are found on all cores (`min`/`max` do not depend on the order; a `−0` for a `0`
+/// compares equal in [`adc_range_of`]).
+fn adc_range_if(xyz: &[[f64; 3]], integer: bool) -> Option<(f64, f64)> {
+    use rayon::prelude::*;
+    if !integer {
         return None;
     }
-    let lo = rec
-        .xyz
-        .iter()
-        .flatten()
-        .copied()
-        .fold(f64::INFINITY, f64::min);
-    let hi = rec
-        .xyz
-        .iter()
-        .flatten()
-        .copied()
-        .fold(f64::NEG_INFINITY, f64::max);
+    let (lo, hi) = xyz
+        .par_iter()
+        .fold(
+            || (f64::INFINITY, f64::NEG_INFINITY),
+            |(lo, hi), s| {
+                let (l, h) = s.iter().fold((lo, hi), |(l, h), v| (l.min(*v), h.max(*v)));
+                (l, h)
+            },
+        )
+        .reduce(
+            || (f64::INFINITY, f64::NEG_INFINITY),
+            |a, b| (a.0.min(b.0), a.1.max(b.1)),
+        );
     adc_range_of(lo, hi)
+}
+
+/// [`Recording::is_integer`] of samples `xyz` (every value whole: `v.fract() == 0`), on all
+/// cores and without `fract`'s call to `trunc` (a library call on x86-64 without SSE4.1):
+/// below 2⁵² in magnitude a value is whole exactly when the round trip through `i64` gives
+/// it back, above every finite value is whole; NaN and infinities are not.
+pub(crate) fn all_whole(xyz: &[[f64; 3]]) -> bool {
+    use rayon::prelude::*;
+    fn whole(v: f64) -> bool {
+        if v.abs() < 4_503_599_627_370_496.0 {
+            (v as i64) as f64 == v
+        } else {
+            v.is_finite()
+        }
+    }
+    xyz.par_iter().all(|s| s.iter().all(|v| whole(*v)))
 }
 
 /// The ADC range holding every value from `lo` to `hi` ([`infer_adc_range`]).
@@ -764,16 +990,16 @@ fn window_stats(
 /// Detects the static windows (the core's detector via [`detect`]), refuses saturated ones,
 /// computes their f64 statistics and infers the input units.
 pub fn detect_windows(rec: &Recording, opts: &DetectOptions) -> Result<Windows> {
-    let integer = rec.is_integer();
+    let integer = all_whole(&rec.xyz);
     let det = if opts.adaptive {
-        detect_adaptive(rec, opts)?
+        detect_adaptive_of(rec, opts, integer)?
     } else {
         match detector_view(rec, opts) {
             None => detect(rec, opts)?,
             Some(scaled) => detect(&scaled, opts)?,
         }
     };
-    let range = opts.adc_range.or_else(|| infer_adc_range(rec));
+    let range = opts.adc_range.or_else(|| adc_range_if(&rec.xyz, integer));
     check_saturation(rec, &det.intervals, range)?;
     let t0 = det.times.first().copied().unwrap_or(0.0);
     let stats: Vec<WindowStats> = det
@@ -851,6 +1077,34 @@ mod tests {
             got,
             vec![iv(0, 300), iv(350, 500), iv(600, 900), iv(950, 1100)]
         );
+    }
+
+    /// The whole-number check is `fract() == 0` for every kind of value.
+    #[test]
+    fn whole_numbers_are_those_without_a_fraction() {
+        let two52 = 4_503_599_627_370_496.0f64;
+        let values = [
+            0.0,
+            -0.0,
+            1.0,
+            -32768.0,
+            0.5,
+            -1e-300,
+            two52 - 0.5,
+            two52,
+            -two52 - 2.0,
+            9.3e18,
+            1e300,
+            f64::MAX,
+            f64::MIN_POSITIVE,
+            f64::NAN,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+        ];
+        for v in values {
+            assert_eq!(all_whole(&[[0.0, v, 1.0]]), v.fract() == 0.0, "{v}");
+        }
+        assert!(all_whole(&[]));
     }
 
     #[test]

@@ -77,6 +77,11 @@ pub struct AdaptiveThresholds {
     pub blocks: u32,
 }
 
+/// True when every value of a sample is a whole number (the survey's test for integer data).
+fn whole(m: &[f32; 3]) -> bool {
+    m.iter().all(|x| libm::truncf(*x) == *x)
+}
+
 /// Bin of a block variance (0 for zero or underflow, the last bin for overflow).
 fn bin_of(v: f32) -> usize {
     // Zero, negative rounding residue or NaN: the lowest bin.
@@ -115,19 +120,51 @@ impl NoiseSurvey {
     /// Feeds one sample (non-finite samples are refused and leave the state unchanged).
     pub fn push(&mut self, m: [f32; 3]) -> Result<(), Error> {
         self.current.push(m)?;
-        self.all_integer &= m.iter().all(|x| libm::truncf(*x) == *x);
+        self.all_integer &= whole(&m);
         if self.current.count() >= self.block {
             let v = self.current.variance()?;
-            let total = v.x + v.y + v.z;
-            let b = bin_of(total);
-            self.counts[b] = self.counts[b].saturating_add(1);
-            for a in 0..3 {
-                self.axis_sums[b][a] += v[a];
-            }
-            self.blocks += 1;
+            self.add_block(v);
             self.current.reset();
         }
         Ok(())
+    }
+
+    /// Samples per block.
+    pub fn block_samples(&self) -> u32 {
+        self.block
+    }
+
+    /// The variance of one complete block of samples as [`NoiseSurvey::push`] measures it,
+    /// and whether all its values are whole numbers: for a caller that measures the blocks of
+    /// a recording on several cores, then gives them to [`NoiseSurvey::add_measured`] in
+    /// order (the histogram's sums are then added in the same order, bit for bit).
+    pub fn measure_block(samples: &[[f32; 3]]) -> Result<(crate::Vec3, bool), Error> {
+        let mut w = Welford3::new();
+        let mut all_whole = true;
+        for m in samples {
+            w.push(*m)?;
+            all_whole &= whole(m);
+        }
+        Ok((w.variance()?, all_whole))
+    }
+
+    /// Adds a block measured by [`NoiseSurvey::measure_block`] (of [`Self::block_samples`]
+    /// samples, the next of the recording; no sample may have been pushed since the last
+    /// complete block).
+    pub fn add_measured(&mut self, (variance, all_whole): (crate::Vec3, bool)) {
+        self.all_integer &= all_whole;
+        self.add_block(variance);
+    }
+
+    /// A complete block's variance into the histogram.
+    fn add_block(&mut self, v: crate::Vec3) {
+        let total = v.x + v.y + v.z;
+        let b = bin_of(total);
+        self.counts[b] = self.counts[b].saturating_add(1);
+        for a in 0..3 {
+            self.axis_sums[b][a] += v[a];
+        }
+        self.blocks += 1;
     }
 
     /// Complete blocks surveyed so far.
@@ -589,6 +626,37 @@ mod tests {
                 assert_eq!(fit.err(), Some(Error::CapacityExceeded), "{ctx:?}");
             }
         }
+    }
+
+    /// Blocks measured apart (as on several cores) and added in order give the survey of
+    /// the samples pushed one by one, bit for bit, for float and integer data.
+    #[test]
+    fn measured_blocks_survey_as_pushed_samples() {
+        let mut ints = Noise(5);
+        let counts: Vec<[f32; 3]> = (0..1013)
+            .map(|_| [libm::roundf(512.0 + ints.next(3.0)), 500.0, 300.0])
+            .collect();
+        for xs in [short_holds(), counts] {
+            let mut pushed = NoiseSurvey::for_rate(100.0).unwrap();
+            for m in &xs {
+                pushed.push(*m).unwrap();
+            }
+            let mut measured = NoiseSurvey::for_rate(100.0).unwrap();
+            let block = measured.block_samples() as usize;
+            let full = xs.len() / block * block;
+            for chunk in xs[..full].chunks(block) {
+                measured.add_measured(NoiseSurvey::measure_block(chunk).unwrap());
+            }
+            for m in &xs[full..] {
+                measured.push(*m).unwrap();
+            }
+            assert_eq!(measured.blocks(), pushed.blocks());
+            assert_eq!(measured.thresholds(0.2), pushed.thresholds(0.2));
+        }
+        assert_eq!(
+            NoiseSurvey::measure_block(&[[0.0; 3], [f32::NAN, 0.0, 0.0], [0.0; 3]]),
+            Err(Error::NonFinite)
+        );
     }
 
     #[test]
