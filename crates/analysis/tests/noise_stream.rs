@@ -101,11 +101,14 @@ fn streamed_noise_is_the_held_one_and_gives_the_truth_back() {
     }
 }
 
+/// A change made to a row's values.
+type Edit = fn(usize, &mut [f64; 6]);
+
 #[test]
 fn streamed_refusals_are_the_held_ones() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("bad.csv");
-    let cases: [(&str, fn(usize, &mut [f64; 6])); 2] = [
+    let cases: [(&str, Edit); 2] = [
         // Turned by 90° half-way: the accelerometer moved.
         ("moved", |i, v| {
             if i > 20_000 {
