@@ -152,8 +152,8 @@ fn window_scatter(rec: &Recording, win: usize) -> f64 {
     scatter_of(per_axis, win)
 }
 
-/// [`window_scatter`] from each axis's median |first difference| and, used only where that
-/// median is 0, their RMS.
+/// The scatter of `window_scatter` from each axis's median |first difference| and, used only
+/// where that median is 0, their RMS (the stream folds them without holding the differences).
 pub fn scatter_of(per_axis: impl Iterator<Item = (f64, f64)>, win: usize) -> f64 {
     per_axis
         .map(|(med, rms)| {
