@@ -6,7 +6,7 @@ use crate::cli_error::cli_error;
 use crate::render;
 use anyhow::Result;
 use std::path::PathBuf;
-use wiical_analysis::noise::report::{load_sensors, noise};
+use wiical_analysis::noise::report::{noise_of, open_sensors};
 
 /// Arguments of `wiical noise`.
 #[derive(clap::Args, Debug)]
@@ -32,15 +32,22 @@ pub struct Args {
 pub fn run(a: &Args) -> Result<String> {
     check_outputs(&[&a.file], &[a.plot.as_deref()])?;
     let columns = load_options(a.columns.as_deref())?.columns;
-    let recs = super::with_spinner(&format!("reading {}", a.file.display()), || {
-        load_sensors(&a.file, columns)
+    // A large plain text file is opened as sources read in passes (memory: a piece of the
+    // file and the Allan sums, not the samples).
+    let sensors = super::with_spinner(&format!("reading {}", a.file.display()), || {
+        open_sensors(&a.file, columns)
     })
     .map_err(cli_error)?;
-    if let Some(first) = recs.first() {
+    if let Some(first) = sensors.first() {
         super::print_notes(&a.file, first);
     }
-    let rep = super::with_spinner("computing Allan deviations", || noise(&recs, a.rate_hz))
-        .map_err(cli_error)?;
+    let rep = super::with_spinner("computing Allan deviations", || {
+        noise_of(&sensors, a.rate_hz)
+    })
+    .map_err(cli_error)?;
+    if let Some(how) = &rep.streamed {
+        eprintln!("note: in {}: {how}", a.file.display());
+    }
     if let Some(path) = &a.plot {
         render::noise::write_plot(&rep, path)?;
     }

@@ -8,11 +8,13 @@
 use crate::error::noise::NoiseError;
 use crate::error::Result;
 use crate::input::columns::{classify, unit_of, Sensor};
-use crate::input::front_door::open_whole;
+use crate::input::front_door::{open_whole, stream_from_bytes};
 use crate::input::recording::Recording;
 use crate::input::text::{parse, LoadOptions};
+use crate::input::text_source::TextSource;
 use crate::noise::allan::{fit_terms, overlapping_adev, AllanCurve, NoiseTerms};
 use crate::noise::reading::read_terms;
+use crate::noise::stream::{stream_sensor, FULL_OVERLAP_M};
 use serde::Serialize;
 use std::path::Path;
 
@@ -49,6 +51,10 @@ pub struct NoiseReport {
     pub duration_s: f64,
     /// Every axis of every sensor found.
     pub axes: Vec<NoiseAxis>,
+    /// What the large-file path did differently from holding the samples (absent when they
+    /// were held): [`crate::noise::stream`].
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub streamed: Option<String>,
 }
 
 /// The sensors of a still recording, read once: every triplet the header names (accelerometer,
@@ -101,6 +107,113 @@ pub fn load_sensors(path: &Path, columns: Option<[String; 3]>) -> Result<Vec<Rec
         out.push(parse(&text, &LoadOptions::default()).map_err(|e| e.in_file(path))?);
     }
     Ok(out)
+}
+
+/// The sensors of a still recording: held as recordings, or (a plain text file of at least
+/// [`stream_from_bytes`] bytes) opened as sources streamed by [`crate::noise::stream`].
+#[derive(Debug)]
+pub enum Sensors {
+    /// Every sample held ([`load_sensors`]).
+    Held(Vec<Recording>),
+    /// Read in passes from the file, never held.
+    Streamed(Vec<TextSource>),
+}
+
+impl Sensors {
+    /// The first sensor's recording (a streamed one's without samples): its notes.
+    pub fn first(&self) -> Option<&Recording> {
+        match self {
+            Sensors::Held(recs) => recs.first(),
+            Sensors::Streamed(srcs) => srcs.first().map(|s| &s.meta),
+        }
+    }
+}
+
+/// [`load_sensors`], or the same sensors streamed when `path` is a plain text file of at least
+/// [`stream_from_bytes`] bytes (`WIICAL_STREAM_FROM_BYTES` sets it, as for `fit`).
+pub fn open_sensors(path: &Path, columns: Option<[String; 3]>) -> Result<Sensors> {
+    open_sensors_from(path, columns, stream_from_bytes())
+}
+
+/// [`open_sensors`], streaming plain text files of at least `stream_from` bytes.
+pub fn open_sensors_from(
+    path: &Path,
+    columns: Option<[String; 3]>,
+    stream_from: u64,
+) -> Result<Sensors> {
+    let large = path.as_os_str() != "-"
+        && std::fs::metadata(path).is_ok_and(|m| m.is_file() && m.len() >= stream_from);
+    if large {
+        if let Some(srcs) = stream_sensors(path, columns.clone())? {
+            return Ok(Sensors::Streamed(srcs));
+        }
+    }
+    load_sensors(path, columns).map(Sensors::Held)
+}
+
+/// [`load_sensors`]'s choice of triplets, each opened as a [`TextSource`]; `None` when the
+/// file is not plain delimited text (gzip, raw, a pose column: read whole instead).
+fn stream_sensors(path: &Path, columns: Option<[String; 3]>) -> Result<Option<Vec<TextSource>>> {
+    let open =
+        |opts: &LoadOptions| TextSource::open(path, opts, |_| true).map_err(|e| e.in_file(path));
+    if columns.is_some() {
+        let opts = LoadOptions {
+            columns,
+            sensor: None,
+        };
+        return Ok(open(&opts)?.map(|s| vec![s]));
+    }
+    let head = first_lines(path, 64);
+    let (mut out, mut taken) = (Vec::new(), Vec::<[String; 3]>::new());
+    for sensor in [
+        Sensor::Accelerometer,
+        Sensor::Gyroscope,
+        Sensor::Magnetometer,
+    ] {
+        let opts = LoadOptions {
+            columns: None,
+            sensor: Some(sensor),
+        };
+        // The header decides, as in load_sensors: the first lines alone when they parse.
+        let (probe, opened) = match parse(&head, &opts) {
+            Ok(rec) => (rec.axis_columns, None),
+            Err(_) => match open(&opts)? {
+                Some(src) => (src.meta.axis_columns.clone(), Some(src)),
+                None => return Ok(None),
+            },
+        };
+        let named = sensor_of(&probe[0]);
+        let wanted = named == sensor || (taken.is_empty() && named == Sensor::Unnamed);
+        if wanted && !taken.contains(&probe) {
+            match opened.map_or_else(|| open(&opts), |s| Ok(Some(s)))? {
+                Some(src) => out.push(src),
+                None => return Ok(None),
+            }
+            taken.push(probe);
+        }
+    }
+    if out.is_empty() {
+        match open(&LoadOptions::default())? {
+            Some(src) => out.push(src),
+            None => return Ok(None),
+        }
+    }
+    Ok(Some(out))
+}
+
+/// The first `n` lines of a file (at most its first MiB, cut at a character boundary).
+fn first_lines(path: &Path, n: usize) -> String {
+    use std::io::Read;
+    let mut buf = Vec::new();
+    let read = std::fs::File::open(path).and_then(|f| f.take(1 << 20).read_to_end(&mut buf));
+    if read.is_err() {
+        return String::new();
+    }
+    let text = match std::str::from_utf8(&buf) {
+        Ok(t) => t,
+        Err(e) => std::str::from_utf8(&buf[..e.valid_up_to()]).unwrap_or_default(),
+    };
+    head_lines(text.trim_start_matches('\u{feff}'), n).to_string()
 }
 
 /// [`load_sensors`] of a raw file: the accelerometer (or `columns`), and an AX6's gyroscope.
@@ -166,29 +279,83 @@ pub fn noise(recs: &[Recording], default_rate_hz: f64) -> Result<NoiseReport, No
         let accel_unit = (sensor == Sensor::Accelerometer || sensor == Sensor::Unnamed)
             .then(|| accel_unit(rec))
             .flatten();
-        for a in 0..3 {
+        let curves = std::array::from_fn(|a| {
             let y: Vec<f64> = rec.xyz.iter().map(|v| v[a]).collect();
-            let curve = overlapping_adev(&y, rate);
-            let column = rec.axis_columns[a].clone();
-            // The column's own unit, else (accelerometer) what its magnitude says.
-            let unit = unit_of(&column)
-                .map(String::from)
-                .or_else(|| accel_unit.clone());
-            axes.push(NoiseAxis {
-                sensor: sensor_name(sensor),
-                unit,
-                terms: read_terms(&curve),
-                joint_fit: fit_terms(&curve),
-                curve,
-                column,
-            });
-        }
+            overlapping_adev(&y, rate)
+        });
+        push_axes(&mut axes, sensor, &rec.axis_columns, accel_unit, curves);
     }
     Ok(NoiseReport {
         samples,
         sample_rate_hz: rate,
         duration_s: samples as f64 / rate,
         axes,
+        streamed: None,
+    })
+}
+
+/// One sensor's three axes, each with its reading and joint fit.
+fn push_axes(
+    axes: &mut Vec<NoiseAxis>,
+    sensor: Sensor,
+    columns: &[String; 3],
+    accel_unit: Option<String>,
+    curves: [AllanCurve; 3],
+) {
+    for (column, curve) in columns.iter().zip(curves) {
+        // The column's own unit, else (accelerometer) what its magnitude says.
+        let unit = unit_of(column)
+            .map(String::from)
+            .or_else(|| accel_unit.clone());
+        axes.push(NoiseAxis {
+            column: column.clone(),
+            sensor: sensor_name(sensor),
+            unit,
+            terms: read_terms(&curve),
+            joint_fit: fit_terms(&curve),
+            curve,
+        });
+    }
+}
+
+/// [`noise`] of the sensors as [`open_sensors`] opened them: held, or streamed (one pass per
+/// sensor, [`crate::noise::stream`]; the report then says what that path does differently).
+pub fn noise_of(sensors: &Sensors, default_rate_hz: f64) -> Result<NoiseReport> {
+    let srcs = match sensors {
+        Sensors::Held(recs) => return Ok(noise(recs, default_rate_hz)?),
+        Sensors::Streamed(srcs) => srcs,
+    };
+    let first = srcs.first().ok_or(NoiseError::NoSampleRate)?;
+    let rate = first.estimated_rate_hz().unwrap_or(default_rate_hz);
+    if !(rate.is_finite() && rate > 0.0) {
+        return Err(NoiseError::NoSampleRate.into());
+    }
+    let samples = first.len();
+    let needed = 2 * crate::noise::allan::MIN_CLUSTERS;
+    if samples < needed {
+        return Err(NoiseError::NoiseTooShort { samples, needed }.into());
+    }
+    let mut axes = Vec::new();
+    for src in srcs {
+        let columns = &src.meta.axis_columns;
+        let sensor = sensor_of(&columns[0]);
+        let got = stream_sensor(src, sensor, rate)?;
+        let accel_unit = (sensor == Sensor::Accelerometer || sensor == Sensor::Unnamed)
+            .then(|| unit_of_mean(src.summary.integer, &got.mean))
+            .flatten();
+        push_axes(&mut axes, sensor, columns, accel_unit, got.curves);
+    }
+    Ok(NoiseReport {
+        samples,
+        sample_rate_hz: rate,
+        duration_s: samples as f64 / rate,
+        axes,
+        streamed: Some(format!(
+            "read in passes from the file, never held: the points beyond τ = {FULL_OVERLAP_M} \
+             samples use every (m/{FULL_OVERLAP_M})-th of the overlapping clusters (the fully \
+             overlapping value differs by a small fraction of adev_rel_err); the others are \
+             the held path's"
+        )),
     })
 }
 
@@ -196,8 +363,13 @@ pub fn noise(recs: &[Recording], default_rate_hz: f64) -> Result<NoiseReport, No
 fn accel_unit(rec: &Recording) -> Option<String> {
     let n = rec.len().max(1) as f64;
     let mean: [f64; 3] = std::array::from_fn(|a| rec.xyz.iter().map(|v| v[a]).sum::<f64>() / n);
+    unit_of_mean(rec.is_integer(), &mean)
+}
+
+/// [`accel_unit`] from the mean and whether every value is an integer.
+fn unit_of_mean(integer: bool, mean: &[f64; 3]) -> Option<String> {
     let norm = mean.iter().map(|m| m * m).sum::<f64>().sqrt();
-    match crate::input::recording::infer_units(rec.is_integer(), norm) {
+    match crate::input::recording::infer_units(integer, norm) {
         "raw" => None,
         u => Some(u.into()),
     }

@@ -34,8 +34,32 @@ pub fn check_still(rec: &Recording, sensor: Sensor, rate_hz: f64) -> Result<(), 
             });
         }
     }
-    let win = (rate_hz.round() as usize).clamp(10, (rec.len() / 8).max(10));
+    let win = window_of(rate_hz, rec.len());
     let means: Vec<[f64; 3]> = rec.xyz.chunks_exact(win).map(mean).collect();
+    if means.len() < 2 {
+        return Ok(());
+    }
+    let scatter = window_scatter(rec, win);
+    let steps = rec.t.as_deref().and_then(TimeSteps::of);
+    decide_still(&means, scatter, &rec.axis_columns, sensor, steps)
+}
+
+/// The window of the motion check, samples: one second, at least 10 and at most an eighth of
+/// the `n` samples (so that a short recording still has eight windows).
+pub fn window_of(rate_hz: f64, n: usize) -> usize {
+    (rate_hz.round() as usize).clamp(10, (n / 8).max(10))
+}
+
+/// The motion and time checks of [`check_still`] from what they need: the window means (in
+/// order), the white-noise scatter of a window mean ([`scatter_of`]), the time column's steps.
+/// Fewer than two windows: nothing to compare, accepted.
+pub fn decide_still(
+    means: &[[f64; 3]],
+    scatter: f64,
+    columns: &[String; 3],
+    sensor: Sensor,
+    steps: Option<TimeSteps>,
+) -> Result<(), NoiseError> {
     if means.len() < 2 {
         return Ok(());
     }
@@ -44,7 +68,6 @@ pub fn check_still(rec: &Recording, sensor: Sensor, rate_hz: f64) -> Result<(), 
         .iter()
         .map(|m| angle_deg(m, &centre))
         .fold(0.0, f64::max);
-    let scatter = window_scatter(rec, win);
     let norm = centre.iter().map(|c| c * c).sum::<f64>().sqrt();
     let spread = means
         .iter()
@@ -60,7 +83,7 @@ pub fn check_still(rec: &Recording, sensor: Sensor, rate_hz: f64) -> Result<(), 
     };
     if moved {
         return Err(NoiseError::Moving {
-            columns: rec.axis_columns.join(","),
+            columns: columns.join(","),
             why: if field {
                 format!("their mean direction turns by {turn:.0}° (a still sensor's by under {MAX_TURN_DEG}°)")
             } else {
@@ -73,7 +96,7 @@ pub fn check_still(rec: &Recording, sensor: Sensor, rate_hz: f64) -> Result<(), 
     }
     // Motion first: a hand-held log is usually also unevenly stamped, and motion is the
     // reason it cannot be noise.
-    if let Some(steps) = rec.t.as_deref().and_then(TimeSteps::of) {
+    if let Some(steps) = steps {
         let mismatch = steps.mean_s / steps.median_s - 1.0;
         if steps.repeats == 0 && mismatch.abs() > MAX_STEP_MISMATCH {
             return Err(NoiseError::UnevenTime {
@@ -110,21 +133,33 @@ fn angle_deg(a: &[f64; 3], b: &[f64; 3]) -> f64 {
 /// the first differences (σ² = var(Δ)/2, robust: from their median absolute value), so that
 /// a slow motion or drift does not count as noise.
 fn window_scatter(rec: &Recording, win: usize) -> f64 {
-    (0..3)
-        .map(|a| {
-            let d: Vec<f64> = rec
-                .xyz
-                .windows(2)
-                .map(|w| (w[1][a] - w[0][a]).abs())
-                .collect();
-            // For Gaussian Δ, median |Δ| = 0.6745·σ_Δ and σ = σ_Δ/√2.
-            let med = crate::stats::median(&d);
-            // Quantised quiet signals have mostly zero steps: the RMS step then.
-            let sd = if med > 0.0 {
-                med / 0.6745
+    let per_axis = (0..3).map(|a| {
+        let d: Vec<f64> = rec
+            .xyz
+            .windows(2)
+            .map(|w| (w[1][a] - w[0][a]).abs())
+            .collect();
+        let med = crate::stats::median(&d);
+        (
+            med,
+            if med > 0.0 {
+                0.0
             } else {
                 crate::stats::rms(&d)
-            };
+            },
+        )
+    });
+    scatter_of(per_axis, win)
+}
+
+/// The scatter of `window_scatter` from each axis's median |first difference| and, used only
+/// where that median is 0, their RMS (the stream folds them without holding the differences).
+pub fn scatter_of(per_axis: impl Iterator<Item = (f64, f64)>, win: usize) -> f64 {
+    per_axis
+        .map(|(med, rms)| {
+            // For Gaussian Δ, median |Δ| = 0.6745·σ_Δ and σ = σ_Δ/√2.
+            // Quantised quiet signals have mostly zero steps: the RMS step then.
+            let sd = if med > 0.0 { med / 0.6745 } else { rms };
             let sigma = sd / std::f64::consts::SQRT_2;
             sigma / (win as f64).sqrt()
         })

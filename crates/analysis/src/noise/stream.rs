@@ -1,0 +1,404 @@
+//! `wiical noise` on a large plain text file ([`crate::input::text_source::TextSource`]): the
+//! samples pass once through folds whose memory does not grow with the recording, where the
+//! held path keeps every sample as f64 (24 B per sample and sensor, plus its θ copy).
+//!
+//! **The Allan deviation ([`AllanStream`]).** The overlapping estimator of
+//! [`crate::noise::allan::overlapping_adev`] needs `θₖ`, `θ_{k+m}` and `θ_{k+2m}` together: a
+//! stream keeps the last `2m + 1` values of `θ` per octave. Up to `m = FULL_OVERLAP_M`
+//! samples every `k` is used, in the held order, so those points are the held path's bit for
+//! bit. Beyond, `k` steps by `m / FULL_OVERLAP_M` (still `FULL_OVERLAP_M` cluster starts per
+//! `m`, where fully overlapping has `m`): memory `2·FULL_OVERLAP_M + 1` values per octave. The
+//! point's estimate then differs from the fully overlapping one by a small fraction of its
+//! uncertainty (`adev_rel_err`, which is kept as the held path's): overlapping clusters whose
+//! starts are `s ≪ m` apart are nearly the same cluster, so leaving them out loses almost no
+//! information (tested against the held path on simulated white noise and random walk).
+//!
+//! **The stillness checks** of [`crate::noise::still`] from the same pass: the constant-axis
+//! check, the 1-s window means (one per window: a week at 100 Hz is 604 800), the accelerometer
+//! mean, and the median |first difference| per axis exactly as a sort gives it — counted by
+//! value while there are few distinct values (quantised data: a handful), else selected by
+//! its bits, 16 at a time, in a few more passes over the file.
+
+use crate::error::noise::NoiseError;
+use crate::error::Result;
+use crate::input::columns::Sensor;
+use crate::input::text_source::TextSource;
+use crate::noise::allan::{AllanCurve, MIN_CLUSTERS};
+use crate::noise::still::{decide_still, scatter_of, window_of};
+use std::collections::{HashMap, VecDeque};
+
+/// Largest cluster size (samples) at which every overlapping cluster is used; beyond it the
+/// cluster starts step by `m / FULL_OVERLAP_M` (module docs). 2¹³: 16 385 values of θ per
+/// octave at most (128 KiB), and every point up to τ = 82 s at 100 Hz is the held one.
+pub const FULL_OVERLAP_M: usize = 1 << 13;
+
+/// Most distinct |first differences| per axis counted by value before the median is selected
+/// by bits instead (2¹⁸ keys: ~10 MB per axis at most).
+pub const MAX_COUNTED_STEPS: usize = 1 << 18;
+
+/// One octave's running sum.
+#[derive(Debug)]
+struct Octave {
+    /// Cluster size, samples.
+    m: usize,
+    /// Step between the cluster starts used (1 up to [`FULL_OVERLAP_M`]).
+    stride: usize,
+    /// θ at the last `2m/stride + 1` multiples of the stride.
+    ring: VecDeque<f64>,
+    sum: f64,
+    terms: usize,
+}
+
+/// The overlapping Allan deviation of one axis, fed sample by sample (module docs).
+#[derive(Debug)]
+pub struct AllanStream {
+    tau0: f64,
+    n: usize,
+    pushed: usize,
+    theta: f64,
+    octaves: Vec<Octave>,
+}
+
+impl AllanStream {
+    /// A stream for `n` samples at `rate_hz`, with full overlap up to `full_m` samples.
+    pub fn new(n: usize, rate_hz: f64, full_m: usize) -> Self {
+        let mut octaves = Vec::new();
+        let mut m = 1usize;
+        // The held path's octaves: τ doubles while at least MIN_CLUSTERS clusters remain.
+        while n / m >= MIN_CLUSTERS && 2 * m <= n {
+            let stride = (m / full_m.max(1)).max(1);
+            let mut ring = VecDeque::with_capacity(2 * m / stride + 1);
+            ring.push_back(0.0); // θ₀
+            octaves.push(Octave {
+                m,
+                stride,
+                ring,
+                sum: 0.0,
+                terms: 0,
+            });
+            m *= 2;
+        }
+        Self {
+            tau0: 1.0 / rate_hz,
+            n,
+            pushed: 0,
+            theta: 0.0,
+            octaves,
+        }
+    }
+
+    /// The next sample.
+    pub fn push(&mut self, y: f64) {
+        self.theta += y * self.tau0;
+        self.pushed += 1;
+        let (i, theta) = (self.pushed, self.theta);
+        for o in &mut self.octaves {
+            if i % o.stride != 0 {
+                continue;
+            }
+            let span = 2 * o.m / o.stride;
+            if o.ring.len() > span {
+                o.ring.pop_front();
+            }
+            o.ring.push_back(theta);
+            if o.ring.len() == span + 1 {
+                let d = o.ring[span] - 2.0 * o.ring[span / 2] + o.ring[0];
+                o.sum += d * d;
+                o.terms += 1;
+            }
+        }
+    }
+
+    /// The curve, as [`crate::noise::allan::overlapping_adev`] lays it out (the uncertainty
+    /// of each point is the held path's formula).
+    pub fn finish(&self) -> AllanCurve {
+        let n = self.pushed.min(self.n);
+        let mut curve = AllanCurve::default();
+        for o in self.octaves.iter().filter(|o| o.terms > 0) {
+            let tau = o.m as f64 * self.tau0;
+            curve.tau_s.push(tau);
+            curve
+                .adev
+                .push((o.sum / (2.0 * tau * tau * o.terms as f64)).sqrt());
+            curve
+                .adev_rel_err
+                .push(1.0 / (2.0 * ((n / o.m) as f64 - 1.0)).sqrt());
+        }
+        curve
+    }
+}
+
+/// |First differences| of one axis counted for their median (module docs).
+#[derive(Debug)]
+struct StepCounts {
+    /// Counts by bits (non-negative floats order as their bits); `None` once too many.
+    by_value: Option<HashMap<u64, usize>>,
+    /// Counts by the top 16 bits (the selection's first digit).
+    top: Vec<usize>,
+    sum_sq: f64,
+    count: usize,
+}
+
+impl StepCounts {
+    fn new() -> Self {
+        Self {
+            by_value: Some(HashMap::new()),
+            top: vec![0; 1 << 16],
+            sum_sq: 0.0,
+            count: 0,
+        }
+    }
+
+    fn push(&mut self, d: f64) {
+        let bits = d.to_bits();
+        self.top[(bits >> 48) as usize] += 1;
+        self.sum_sq += d * d;
+        self.count += 1;
+        if let Some(map) = &mut self.by_value {
+            *map.entry(bits).or_insert(0) += 1;
+            if map.len() > MAX_COUNTED_STEPS {
+                self.by_value = None;
+            }
+        }
+    }
+
+    /// The `k`-th smallest (0-based) from the counts by value, when they were kept.
+    fn kth_counted(&self, k: usize) -> Option<f64> {
+        let mut counts: Vec<(u64, usize)> = self
+            .by_value
+            .as_ref()?
+            .iter()
+            .map(|(b, c)| (*b, *c))
+            .collect();
+        counts.sort_unstable();
+        let mut k = k;
+        for (bits, c) in counts {
+            if k < c {
+                return Some(f64::from_bits(bits));
+            }
+            k -= c;
+        }
+        None
+    }
+}
+
+/// Everything one pass over a sensor's samples gives.
+struct SensorFold {
+    allan: [AllanStream; 3],
+    first: Option<[f64; 3]>,
+    varies: [bool; 3],
+    win: usize,
+    in_win: usize,
+    win_sum: [f64; 3],
+    means: Vec<[f64; 3]>,
+    total: [f64; 3],
+    prev: Option<[f64; 3]>,
+    steps: [StepCounts; 3],
+}
+
+impl SensorFold {
+    fn new(n: usize, rate_hz: f64) -> Self {
+        Self {
+            allan: std::array::from_fn(|_| AllanStream::new(n, rate_hz, FULL_OVERLAP_M)),
+            first: None,
+            varies: [false; 3],
+            win: window_of(rate_hz, n),
+            in_win: 0,
+            win_sum: [0.0; 3],
+            means: Vec::new(),
+            total: [0.0; 3],
+            prev: None,
+            steps: std::array::from_fn(|_| StepCounts::new()),
+        }
+    }
+
+    fn push(&mut self, v: [f64; 3]) {
+        let first = *self.first.get_or_insert(v);
+        for a in 0..3 {
+            self.allan[a].push(v[a]);
+            self.varies[a] |= v[a] != first[a];
+            self.win_sum[a] += v[a];
+            self.total[a] += v[a];
+        }
+        self.in_win += 1;
+        if self.in_win == self.win {
+            let w = self.win as f64;
+            self.means.push(self.win_sum.map(|s| s / w));
+            (self.in_win, self.win_sum) = (0, [0.0; 3]);
+        }
+        if let Some(p) = self.prev.replace(v) {
+            for a in 0..3 {
+                self.steps[a].push((v[a] - p[a]).abs());
+            }
+        }
+    }
+}
+
+/// The median |first difference| of each axis, as `crate::stats::median` of them gives it.
+fn median_steps(src: &TextSource, steps: &[StepCounts; 3]) -> Result<[f64; 3]> {
+    let len = steps[0].count;
+    if len == 0 {
+        return Ok([f64::NAN; 3]);
+    }
+    // The two middle ranks (one when odd), each axis.
+    let ranks: Vec<usize> = if len % 2 == 1 {
+        vec![len / 2]
+    } else {
+        vec![len / 2 - 1, len / 2]
+    };
+    let mut out = [0.0; 3];
+    for (a, counts) in steps.iter().enumerate() {
+        let mut vals = Vec::new();
+        for &k in &ranks {
+            vals.push(match counts.kth_counted(k) {
+                Some(v) => v,
+                None => select_by_bits(src, a, k, &counts.top)?,
+            });
+        }
+        out[a] = if vals.len() == 1 {
+            vals[0]
+        } else {
+            0.5 * (vals[0] + vals[1])
+        };
+    }
+    Ok(out)
+}
+
+/// The `k`-th smallest |first difference| of axis `a`, selected 16 bits at a time: the first
+/// digit from `top` (made in the first pass), each further digit from one more pass.
+fn select_by_bits(src: &TextSource, a: usize, k: usize, top: &[usize]) -> Result<f64> {
+    let (mut prefix, mut k) = digit_of(top, k);
+    for shift in [32u32, 16, 0] {
+        let mut hist = vec![0usize; 1 << 16];
+        let mut prev: Option<f64> = None;
+        for row in src.rows() {
+            if let Some(p) = prev.replace(row.xyz[a]) {
+                let bits = (row.xyz[a] - p).abs().to_bits();
+                if bits >> (shift + 16) == prefix {
+                    hist[((bits >> shift) & 0xffff) as usize] += 1;
+                }
+            }
+        }
+        src.check()?;
+        let (digit, rest) = digit_of(&hist, k);
+        (prefix, k) = ((prefix << 16) | digit, rest);
+    }
+    Ok(f64::from_bits(prefix))
+}
+
+/// The bucket of a histogram holding the `k`-th value, and `k` within it.
+fn digit_of(hist: &[usize], mut k: usize) -> (u64, usize) {
+    for (d, &c) in hist.iter().enumerate() {
+        if k < c {
+            return (d as u64, k);
+        }
+        k -= c;
+    }
+    (hist.len() as u64 - 1, 0)
+}
+
+/// One sensor of a streamed file: its three curves and its mean, or the still check's refusal.
+pub struct StreamedSensor {
+    /// Each axis's curve.
+    pub curves: [AllanCurve; 3],
+    /// The mean of each axis (the accelerometer's unit is read off its magnitude).
+    pub mean: [f64; 3],
+}
+
+/// One pass over `src` (and, for data with many distinct steps, a few more for the median
+/// step): its curves, after the checks of [`crate::noise::still::check_still`].
+pub fn stream_sensor(src: &TextSource, sensor: Sensor, rate_hz: f64) -> Result<StreamedSensor> {
+    let n = src.len();
+    let mut fold = SensorFold::new(n, rate_hz);
+    for row in src.rows() {
+        fold.push(row.xyz);
+    }
+    src.check()?;
+    let columns = &src.meta.axis_columns;
+    for a in 0..3 {
+        if !fold.varies[a] {
+            return Err(NoiseError::ConstantAxis {
+                column: columns[a].clone(),
+                value: fold.first.map_or(0.0, |v| v[a]),
+            }
+            .into());
+        }
+    }
+    let median = median_steps(src, &fold.steps)?;
+    let per_axis = (0..3).map(|a| {
+        let s = &fold.steps[a];
+        let rms = if s.count == 0 {
+            0.0
+        } else {
+            (s.sum_sq / s.count as f64).sqrt()
+        };
+        (median[a], rms)
+    });
+    let scatter = scatter_of(per_axis, fold.win);
+    decide_still(&fold.means, scatter, columns, sensor, src.steps)?;
+    let nf = n.max(1) as f64;
+    Ok(StreamedSensor {
+        curves: std::array::from_fn(|a| fold.allan[a].finish()),
+        mean: fold.total.map(|s| s / nf),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::noise::allan::overlapping_adev;
+
+    /// With full overlap at every octave the stream is the held estimator bit for bit; with
+    /// a small `full_m` the strided points stay within a fraction of their uncertainty.
+    #[test]
+    fn the_stream_is_the_held_estimator() {
+        let y: Vec<f64> = (0..5000)
+            .map(|i| ((i * 7919 % 104_729) as f64).sin() + (i as f64 * 1e-3).cos())
+            .collect();
+        let held = overlapping_adev(&y, 50.0);
+        let run = |full_m: usize| {
+            let mut s = AllanStream::new(y.len(), 50.0, full_m);
+            y.iter().for_each(|v| s.push(*v));
+            s.finish()
+        };
+        assert_eq!(run(1 << 20), held);
+        let strided = run(8);
+        assert_eq!(strided.tau_s, held.tau_s);
+        assert_eq!(strided.adev_rel_err, held.adev_rel_err);
+        for i in 0..held.adev.len() {
+            let rel = strided.adev[i] / held.adev[i] - 1.0;
+            if held.tau_s[i] * 50.0 <= 8.0 {
+                assert_eq!(strided.adev[i], held.adev[i]);
+            }
+            assert!(rel.abs() < 0.5 * held.adev_rel_err[i], "{i}: {rel}");
+        }
+    }
+
+    /// The median selected by bits is the sorted one's.
+    #[test]
+    fn digits_select_the_kth_value() {
+        let vals: Vec<f64> = (0..1000)
+            .map(|i| ((i * 31 % 997) as f64 * 0.37).abs())
+            .collect();
+        let mut top = vec![0usize; 1 << 16];
+        vals.iter()
+            .for_each(|v| top[(v.to_bits() >> 48) as usize] += 1);
+        let mut sorted = vals.clone();
+        sorted.sort_by(f64::total_cmp);
+        for k in [0, 1, 499, 500, 999] {
+            let (mut prefix, mut kk) = digit_of(&top, k);
+            for shift in [32u32, 16, 0] {
+                let mut hist = vec![0usize; 1 << 16];
+                for v in &vals {
+                    let b = v.to_bits();
+                    if b >> (shift + 16) == prefix {
+                        hist[((b >> shift) & 0xffff) as usize] += 1;
+                    }
+                }
+                let (d, r) = digit_of(&hist, kk);
+                (prefix, kk) = ((prefix << 16) | d, r);
+            }
+            assert_eq!(f64::from_bits(prefix), sorted[k], "k = {k}");
+        }
+    }
+}
