@@ -191,6 +191,41 @@ pub fn f_critical(level: f64, d1: f64, d2: f64) -> f64 {
     0.5 * (lo + hi)
 }
 
+/// The `k`-th smallest (from 0, below the number of values) of values given by their order
+/// keys — `u64`s whose integer order is the values' order (an `f64`'s bits for non-negative
+/// values, or its `total_cmp` order mapped to unsigned) —, selected 16 bits at a time so that
+/// no value is stored: `top` counts the keys' top 16 bits (made in a pass the caller makes
+/// anyway), and `count(shift, prefix, hist)` adds to `hist` the 16 bits at `shift` of every key
+/// whose bits above `shift + 16` are `prefix`: one pass over the values, three in all. The
+/// exact order statistic, as a sort gives it. Errors are `count`'s (a re-read file that
+/// changed).
+pub fn kth_key_by_digits<E>(
+    top: &[usize],
+    k: usize,
+    mut count: impl FnMut(u32, u64, &mut [usize]) -> Result<(), E>,
+) -> Result<u64, E> {
+    let (mut prefix, mut k) = digit_of(top, k);
+    let mut hist = vec![0usize; 1 << 16];
+    for shift in [32u32, 16, 0] {
+        hist.iter_mut().for_each(|c| *c = 0);
+        count(shift, prefix, &mut hist)?;
+        let (digit, rest) = digit_of(&hist, k);
+        (prefix, k) = ((prefix << 16) | digit, rest);
+    }
+    Ok(prefix)
+}
+
+/// The bucket of a histogram holding the `k`-th value, and `k` within it.
+fn digit_of(hist: &[usize], mut k: usize) -> (u64, usize) {
+    for (d, &c) in hist.iter().enumerate() {
+        if k < c {
+            return (d as u64, k);
+        }
+        k -= c;
+    }
+    (hist.len() as u64 - 1, 0)
+}
+
 /// The power detection limits are stated at: an effect at its limit passes the test in 80 %
 /// of recordings like the one measured.
 pub const POWER: f64 = 0.8;
@@ -383,6 +418,38 @@ mod tests {
         assert!((t_two_sided(2.750, 30.0) - 0.01).abs() < 1e-4);
         // F(1, ν) = t²_ν.
         assert!((f_sf(2.5f64.powi(2), 1.0, 12.0) - t_two_sided(2.5, 12.0)).abs() < 1e-12);
+    }
+
+    /// The value selected by digits is the sorted one's, for non-negative values by their bits
+    /// and for signed ones by their `total_cmp` order.
+    #[test]
+    fn digits_select_the_kth_value() {
+        let keys = |vals: &[f64], key: fn(f64) -> u64| -> Vec<u64> {
+            vals.iter().map(|v| key(*v)).collect()
+        };
+        let total = |x: f64| {
+            let b = x.to_bits() as i64;
+            ((b ^ (((b >> 63) as u64) >> 1) as i64) as u64) ^ (1 << 63)
+        };
+        let bits = |x: f64| x.to_bits();
+        let positive: Vec<f64> = (0..1000).map(|i| (i * 31 % 997) as f64 * 0.37).collect();
+        let signed: Vec<f64> = positive.iter().map(|v| v - 150.0).collect();
+        for (vals, key) in [(&positive, bits as fn(f64) -> u64), (&signed, total)] {
+            let ks = keys(vals, key);
+            let mut top = vec![0usize; 1 << 16];
+            ks.iter().for_each(|b| top[(b >> 48) as usize] += 1);
+            let mut sorted = vals.clone();
+            sorted.sort_by(f64::total_cmp);
+            for k in [0, 1, 499, 500, 999] {
+                let Ok(got) = kth_key_by_digits(&top, k, |shift, prefix, hist| {
+                    for b in ks.iter().filter(|b| *b >> (shift + 16) == prefix) {
+                        hist[((b >> shift) & 0xffff) as usize] += 1;
+                    }
+                    Ok::<(), std::convert::Infallible>(())
+                });
+                assert_eq!(got, key(sorted[k]), "k = {k}");
+            }
+        }
     }
 
     /// The remembered answer is the computed one for each question, whatever the order of

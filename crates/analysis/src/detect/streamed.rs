@@ -149,28 +149,16 @@ fn median_of<I: Iterator<Item = f64>>(values: impl Fn() -> I, n: usize) -> f64 {
         let b = x.to_bits() as i64;
         ((b ^ (((b >> 63) as u64) >> 1) as i64) as u64) ^ (1 << 63)
     };
-    let kth = |mut k: usize| {
-        let mut prefix = 0u64;
-        for level in 0..4u32 {
-            let shift = 48 - 16 * level;
-            let mut hist = vec![0usize; 1 << 16];
-            for x in values() {
-                let b = key(x);
-                if level == 0 || b >> (shift + 16) == prefix {
-                    hist[((b >> shift) & 0xffff) as usize] += 1;
-                }
+    let kth = |k: usize| {
+        let mut top = vec![0usize; 1 << 16];
+        values().for_each(|x| top[(key(x) >> 48) as usize] += 1);
+        let Ok(b) = crate::stats::kth_key_by_digits(&top, k, |shift, prefix, hist| {
+            for b in values().map(key).filter(|b| b >> (shift + 16) == prefix) {
+                hist[((b >> shift) & 0xffff) as usize] += 1;
             }
-            let mut below = 0usize;
-            for (i, &c) in hist.iter().enumerate() {
-                if below + c > k {
-                    prefix = (prefix << 16) | i as u64;
-                    k -= below;
-                    break;
-                }
-                below += c;
-            }
-        }
-        let b = prefix ^ (1 << 63);
+            Ok::<(), std::convert::Infallible>(())
+        });
+        let b = b ^ (1 << 63);
         f64::from_bits(b ^ ((((b as i64) >> 63) as u64) >> 1))
     };
     if n % 2 == 1 {

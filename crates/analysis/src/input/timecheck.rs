@@ -333,34 +333,20 @@ fn pairs<I: Iterator<Item = f64>>(mut it: I) -> impl Iterator<Item = (f64, f64)>
 /// on the steps' bits (for positive floats their order as integers), four levels of a 2¹⁶
 /// histogram, so no step is stored; `top`, the histogram of the top 16 bits, was made by the
 /// caller's pass over the times.
-fn kth_positive_step(steps: &impl Steps, mut k: usize, top: Vec<usize>) -> f64 {
-    let mut prefix = 0u64;
-    let mut hist = top;
-    for level in 0..4u32 {
-        let shift = 48 - 16 * level;
-        if level > 0 {
-            hist.iter_mut().for_each(|c| *c = 0);
-            steps.each(|a, b| {
-                let d = b - a;
-                if d > 0.0 {
-                    let bits = d.to_bits();
-                    if bits >> (shift + 16) == prefix {
-                        hist[((bits >> shift) & 0xffff) as usize] += 1;
-                    }
+fn kth_positive_step(steps: &impl Steps, k: usize, top: Vec<usize>) -> f64 {
+    let Ok(bits) = crate::stats::kth_key_by_digits(&top, k, |shift, prefix, hist| {
+        steps.each(|a, b| {
+            let d = b - a;
+            if d > 0.0 {
+                let bits = d.to_bits();
+                if bits >> (shift + 16) == prefix {
+                    hist[((bits >> shift) & 0xffff) as usize] += 1;
                 }
-            });
-        }
-        let mut below = 0usize;
-        for (i, &c) in hist.iter().enumerate() {
-            if below + c > k {
-                prefix = (prefix << 16) | i as u64;
-                k -= below;
-                break;
             }
-            below += c;
-        }
-    }
-    f64::from_bits(prefix)
+        });
+        Ok::<(), std::convert::Infallible>(())
+    });
+    f64::from_bits(bits)
 }
 
 /// Rounded for messages (a median of 0.009999999999990905 s reads as 0.01 s).

@@ -264,12 +264,10 @@ fn median_steps(src: &TextSource, steps: &[StepCounts; 3]) -> Result<[f64; 3]> {
     Ok(out)
 }
 
-/// The `k`-th smallest |first difference| of axis `a`, selected 16 bits at a time: the first
-/// digit from `top` (made in the first pass), each further digit from one more pass.
+/// The `k`-th smallest |first difference| of axis `a` (`stats::kth_key_by_digits`, by their
+/// bits): the first digit from `top` (made in the first pass), each further one a pass.
 fn select_by_bits(src: &TextSource, a: usize, k: usize, top: &[usize]) -> Result<f64> {
-    let (mut prefix, mut k) = digit_of(top, k);
-    for shift in [32u32, 16, 0] {
-        let mut hist = vec![0usize; 1 << 16];
+    let bits = crate::stats::kth_key_by_digits(top, k, |shift, prefix, hist| {
         let mut prev: Option<f64> = None;
         for row in src.rows() {
             if let Some(p) = prev.replace(row.xyz[a]) {
@@ -279,22 +277,9 @@ fn select_by_bits(src: &TextSource, a: usize, k: usize, top: &[usize]) -> Result
                 }
             }
         }
-        src.check()?;
-        let (digit, rest) = digit_of(&hist, k);
-        (prefix, k) = ((prefix << 16) | digit, rest);
-    }
-    Ok(f64::from_bits(prefix))
-}
-
-/// The bucket of a histogram holding the `k`-th value, and `k` within it.
-fn digit_of(hist: &[usize], mut k: usize) -> (u64, usize) {
-    for (d, &c) in hist.iter().enumerate() {
-        if k < c {
-            return (d as u64, k);
-        }
-        k -= c;
-    }
-    (hist.len() as u64 - 1, 0)
+        src.check()
+    })?;
+    Ok(f64::from_bits(bits))
 }
 
 /// One sensor of a streamed file: its three curves and its mean, or the still check's refusal.
@@ -371,34 +356,6 @@ mod tests {
                 assert_eq!(strided.adev[i], held.adev[i]);
             }
             assert!(rel.abs() < 0.5 * held.adev_rel_err[i], "{i}: {rel}");
-        }
-    }
-
-    /// The median selected by bits is the sorted one's.
-    #[test]
-    fn digits_select_the_kth_value() {
-        let vals: Vec<f64> = (0..1000)
-            .map(|i| ((i * 31 % 997) as f64 * 0.37).abs())
-            .collect();
-        let mut top = vec![0usize; 1 << 16];
-        vals.iter()
-            .for_each(|v| top[(v.to_bits() >> 48) as usize] += 1);
-        let mut sorted = vals.clone();
-        sorted.sort_by(f64::total_cmp);
-        for k in [0, 1, 499, 500, 999] {
-            let (mut prefix, mut kk) = digit_of(&top, k);
-            for shift in [32u32, 16, 0] {
-                let mut hist = vec![0usize; 1 << 16];
-                for v in &vals {
-                    let b = v.to_bits();
-                    if b >> (shift + 16) == prefix {
-                        hist[((b >> shift) & 0xffff) as usize] += 1;
-                    }
-                }
-                let (d, r) = digit_of(&hist, kk);
-                (prefix, kk) = ((prefix << 16) | d, r);
-            }
-            assert_eq!(f64::from_bits(prefix), sorted[k], "k = {k}");
         }
     }
 }
