@@ -78,11 +78,7 @@ pub fn load_sensors(path: &Path, columns: Option<[String; 3]>) -> Result<Vec<Rec
     // 820 MB that way). A head that does not parse on its own is parsed in full instead.
     let head = head_lines(&text, 64);
     let mut taken: Vec<[String; 3]> = Vec::new();
-    for sensor in [
-        Sensor::Accelerometer,
-        Sensor::Gyroscope,
-        Sensor::Magnetometer,
-    ] {
+    for sensor in SENSORS {
         let opts = LoadOptions {
             columns: None,
             sensor: Some(sensor),
@@ -95,9 +91,7 @@ pub fn load_sensors(path: &Path, columns: Option<[String; 3]>) -> Result<Vec<Rec
                     .axis_columns
             }
         };
-        let named = sensor_of(&probe[0]);
-        let wanted = named == sensor || (taken.is_empty() && named == Sensor::Unnamed);
-        if wanted && !taken.contains(&probe) {
+        if takes(sensor, &probe, &taken) {
             out.push(parse(&text, &opts).map_err(|e| e.in_file(path))?);
             taken.push(probe);
         }
@@ -107,6 +101,22 @@ pub fn load_sensors(path: &Path, columns: Option<[String; 3]>) -> Result<Vec<Rec
         out.push(parse(&text, &LoadOptions::default()).map_err(|e| e.in_file(path))?);
     }
     Ok(out)
+}
+
+/// The sensors asked for in turn, each the triplet the loader picks for it.
+const SENSORS: [Sensor; 3] = [
+    Sensor::Accelerometer,
+    Sensor::Gyroscope,
+    Sensor::Magnetometer,
+];
+
+/// True when the triplet `probe` the loader picked for `sensor` is to be read, given the
+/// triplets `taken` so far: its header names that sensor (or names none and nothing was taken
+/// yet), and it is not one already taken. The held and the streamed paths choose alike.
+fn takes(sensor: Sensor, probe: &[String; 3], taken: &[[String; 3]]) -> bool {
+    let named = sensor_of(&probe[0]);
+    let wanted = named == sensor || (taken.is_empty() && named == Sensor::Unnamed);
+    wanted && !taken.contains(probe)
 }
 
 /// The sensors of a still recording: held as recordings, or (a plain text file of at least
@@ -165,11 +175,7 @@ fn stream_sensors(path: &Path, columns: Option<[String; 3]>) -> Result<Option<Ve
     }
     let head = first_lines(path, 64);
     let (mut out, mut taken) = (Vec::new(), Vec::<[String; 3]>::new());
-    for sensor in [
-        Sensor::Accelerometer,
-        Sensor::Gyroscope,
-        Sensor::Magnetometer,
-    ] {
+    for sensor in SENSORS {
         let opts = LoadOptions {
             columns: None,
             sensor: Some(sensor),
@@ -182,9 +188,7 @@ fn stream_sensors(path: &Path, columns: Option<[String; 3]>) -> Result<Option<Ve
                 None => return Ok(None),
             },
         };
-        let named = sensor_of(&probe[0]);
-        let wanted = named == sensor || (taken.is_empty() && named == Sensor::Unnamed);
-        if wanted && !taken.contains(&probe) {
+        if takes(sensor, &probe, &taken) {
             match opened.map_or_else(|| open(&opts), |s| Ok(Some(s)))? {
                 Some(src) => out.push(src),
                 None => return Ok(None),
