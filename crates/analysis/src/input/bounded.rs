@@ -298,6 +298,22 @@ pub(crate) fn check_reading_scale(xyz: &[[f64; 3]]) -> Result<()> {
     check_largest_reading(true, largest)
 }
 
+/// Fills `buf` from `r` until it is full or the input ends; the bytes read (fewer only at the
+/// end). One `read` may give less than asked — a decompressor a few kB, a pipe what it holds —
+/// so the block, piece or head readers loop here rather than take a short read for the end.
+pub(crate) fn read_full(r: &mut impl Read, buf: &mut [u8]) -> std::io::Result<usize> {
+    let mut n = 0;
+    while n < buf.len() {
+        match r.read(&mut buf[n..]) {
+            Ok(0) => break,
+            Ok(k) => n += k,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+            Err(e) => return Err(e),
+        }
+    }
+    Ok(n)
+}
+
 /// [`check_reading_scale`] given its fold: `any` sample, the `largest` |value|.
 pub(crate) fn check_largest_reading(any: bool, largest: f64) -> Result<()> {
     if any && largest < MIN_FULL_SCALE {

@@ -14,7 +14,7 @@
 //! report first).
 
 use crate::error::{Error, Result};
-use crate::input::bounded::{check_line_lengths, MAX_LINE_BYTES};
+use crate::input::bounded::{check_line_lengths, read_full, MAX_LINE_BYTES};
 use crate::input::columns::LoadOptions;
 use crate::input::recording::Recording;
 use crate::input::text::{check_axis_columns, is_comment_or_blank, CsvState, Delimiter};
@@ -111,21 +111,6 @@ impl Pieces {
         self.given = end;
         Ok(Some(&self.buf[..end]))
     }
-}
-
-/// Fills `buf` from `r` (fewer bytes only at the end of the input): a decompressor gives a
-/// few kB per read, and a piece is grown (and zeroed) once, not once per read.
-fn read_full(r: &mut dyn Read, buf: &mut [u8]) -> std::io::Result<usize> {
-    let mut n = 0;
-    while n < buf.len() {
-        match r.read(&mut buf[n..]) {
-            Ok(0) => break,
-            Ok(k) => n += k,
-            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
-            Err(e) => return Err(e),
-        }
-    }
-    Ok(n)
 }
 
 /// The piece as text the fast splitter reads as the `csv` reader does, with no comment line

@@ -25,6 +25,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x > 0.0)` is deliberately true for NaN.
 use super::block::{civil_seconds, valid_civil, Block, GoodBlock, RawFile, RawFormat};
 use crate::error::input::InputError;
+use crate::input::bounded::read_full;
 
 /// This module's errors are all the input stage's.
 type Result<T, E = InputError> = std::result::Result<T, E>;
@@ -156,7 +157,7 @@ impl BlockReader {
         };
         let mut file = std::fs::File::open(path).map_err(read_err)?;
         let mut head = vec![0u8; HEADER_BYTES];
-        let got = fill(&mut file, &mut head).map_err(read_err)?;
+        let got = read_full(&mut file, &mut head).map_err(read_err)?;
         let header = Header::of(&head[..got])?;
         Ok(Self {
             file,
@@ -172,7 +173,7 @@ impl BlockReader {
     /// The next chunk's blocks in `out` (cleared first); `false` once the file is read.
     pub fn next_chunk(&mut self, out: &mut Vec<Block>) -> crate::error::Result<bool> {
         out.clear();
-        let got = fill(&mut self.file, &mut self.buf).map_err(|source| InputError::Read {
+        let got = read_full(&mut self.file, &mut self.buf).map_err(|source| InputError::Read {
             path: self.path.clone(),
             source,
         })?;
@@ -189,7 +190,7 @@ impl BlockReader {
         &mut self,
         each: impl FnOnce(usize, &[u8], &mut Option<(u8, bool)>),
     ) -> crate::error::Result<(usize, bool)> {
-        let got = fill(&mut self.file, &mut self.buf).map_err(|source| InputError::Read {
+        let got = read_full(&mut self.file, &mut self.buf).map_err(|source| InputError::Read {
             path: self.path.clone(),
             source,
         })?;
@@ -232,20 +233,6 @@ impl BlockReader {
     pub fn notes(&self) -> Vec<String> {
         cut_note(self.index, self.rest).into_iter().collect()
     }
-}
-
-/// Reads into `buf` until it is full or the file ends; the bytes read.
-fn fill(file: &mut impl std::io::Read, buf: &mut [u8]) -> std::io::Result<usize> {
-    let mut got = 0;
-    while got < buf.len() {
-        match file.read(&mut buf[got..]) {
-            Ok(0) => break,
-            Ok(k) => got += k,
-            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
-            Err(e) => return Err(e),
-        }
-    }
-    Ok(got)
 }
 
 /// Decodes the whole blocks of `bytes` (the first at position `first` in the file) onto `out`

@@ -33,21 +33,12 @@ use std::path::Path;
 /// 1020; `.bin`: `Device Identity`): such a file is read block by block. Standard input, gzip
 /// and anything else are `None`, read whole by the other readers.
 pub fn raw_file_format(path: &Path) -> Option<RawFormat> {
-    use std::io::Read;
     if path.as_os_str() == "-" || !std::fs::metadata(path).is_ok_and(|m| m.is_file()) {
         return None;
     }
     let mut head = [0u8; 15];
     let mut file = std::fs::File::open(path).ok()?;
-    let mut got = 0;
-    while got < head.len() {
-        match file.read(&mut head[got..]) {
-            Ok(0) => break,
-            Ok(k) => got += k,
-            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
-            Err(_) => return None,
-        }
-    }
+    let got = crate::input::bounded::read_full(&mut file, &mut head).ok()?;
     let head = &head[..got];
     if head.len() >= 4 && &head[..2] == b"MD" && u16::from_le_bytes([head[2], head[3]]) == 1020 {
         Some(RawFormat::Cwa)
