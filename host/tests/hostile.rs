@@ -763,3 +763,72 @@ fn batch_names_a_pipe_and_does_not_block_on_one() {
         .find(|l| l["file"].as_str().unwrap().ends_with("pipe.csv"));
     assert!(pipe.is_some_and(|l| l["ok"] == false), "{lines:?}");
 }
+
+/// Runs `wiical args` with `input` on standard input and `env` set: (success, stdout, stderr).
+fn wiical_piped(args: &[&str], input: &[u8], env: &[(&str, &str)]) -> (bool, String, String) {
+    use std::io::Write;
+    use std::process::{Command, Stdio};
+    let mut child = Command::new(env!("CARGO_BIN_EXE_wiical"))
+        .args(args)
+        .envs(env.iter().copied())
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut stdin = child.stdin.take().unwrap();
+    // A refusal may close the pipe before all is written: that is the point of it.
+    let _ = stdin.write_all(input);
+    drop(stdin);
+    let out = child.wait_with_output().unwrap();
+    let text = |b: &[u8]| String::from_utf8_lossy(b).into_owned();
+    (out.status.success(), text(&out.stdout), text(&out.stderr))
+}
+
+/// Standard input too long to hold (here: over 4 kB) is copied to a temporary file in
+/// `$TMPDIR` and read from there: the same report as held, the copy deleted after, errors
+/// naming `-` (not the copy), and bounded — text no recording starts with (no digit, not
+/// UTF-8) is refused before the copy, and the copy stops at `WIICAL_MAX_SPOOL_BYTES`.
+#[test]
+fn standard_input_too_long_to_hold_is_spooled_within_bounds() {
+    let tmp = tempfile::tempdir().unwrap();
+    let tmpdir = tmp.path().to_str().unwrap();
+    let small = [("WIICAL_STREAM_FROM_BYTES", "4096"), ("TMPDIR", tmpdir)];
+    let leftovers = || std::fs::read_dir(tmp.path()).unwrap().count();
+    let xsens = std::fs::read(data_dir().join("imu_tk_xsens/xsens_acc.mat")).unwrap();
+    let args = ["fit", "-", "--json"];
+    let (ok, held, err) = wiical_piped(&args, &xsens, &[("TMPDIR", tmpdir)]);
+    assert!(ok, "{err}");
+    let (ok, spooled, err) = wiical_piped(&args, &xsens, &small);
+    assert!(ok, "{err}");
+    assert_eq!(held, spooled, "the spooled standard input's report");
+    assert_eq!(leftovers(), 0, "the copy is deleted");
+
+    // A bad number far down a spooled input: named in `-`, at its line.
+    let mut bad = xsens.clone();
+    let line_start = bad.len() - 200 + memchr_back(&bad[bad.len() - 200..]);
+    bad.splice(line_start..line_start, b"1.0 2.0 x 4.0\n".iter().copied());
+    let (ok, _, err) = wiical_piped(&args, &bad, &small);
+    assert!(
+        !ok && err.contains("in -") && !err.contains("wiical-stdin"),
+        "{err}"
+    );
+
+    let refusals: [(&[u8], &str); 2] = [
+        (&b"y\n".repeat(10_000), "hold no digit"),
+        (&[0xFFu8; 20_000], "not UTF-8"),
+    ];
+    for (input, words) in refusals {
+        let (ok, _, err) = wiical_piped(&args, input, &small);
+        assert!(!ok && err.contains(words), "{words}: {err}");
+    }
+    let capped = [small[0], small[1], ("WIICAL_MAX_SPOOL_BYTES", "100000")];
+    let (ok, _, err) = wiical_piped(&args, &xsens, &capped);
+    assert!(!ok && err.contains("WIICAL_MAX_SPOOL_BYTES"), "{err}");
+    assert_eq!(leftovers(), 0, "nothing left after a refusal");
+}
+
+/// Offset in `tail` just after its first line end.
+fn memchr_back(tail: &[u8]) -> usize {
+    tail.iter().position(|&b| b == b'\n').unwrap() + 1
+}

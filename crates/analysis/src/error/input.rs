@@ -60,6 +60,25 @@ pub enum InputError {
         /// Where it stops being UTF-8, or which other encoding it is, and what to do.
         why: String,
     },
+    /// Text whose first bytes hold no digit: no recording's rows (a stream such as `yes`).
+    #[error("the first {bytes} bytes of {} hold no digit: not a recording's rows", path.display())]
+    NoDigits {
+        /// The file (`-` for standard input).
+        path: PathBuf,
+        /// Bytes looked at.
+        bytes: usize,
+    },
+    /// Standard input copied to a temporary file (too long to hold) passed a bound: the most
+    /// copied, or the free space kept on the temporary directory's disk.
+    #[error("{} (standard input) was copied to {} to be read in passes, but {why}: save it to a file on a disk with room and give that file's path", path.display(), dir.display())]
+    SpoolBound {
+        /// `-`.
+        path: PathBuf,
+        /// The temporary directory.
+        dir: PathBuf,
+        /// Which bound, with the numbers and the variable that sets it.
+        why: String,
+    },
     /// A file named or shaped like a raw format that is not one (wrong magic, bad header).
     #[error("not a readable {format} file: {why}")]
     RawHeader {
@@ -335,4 +354,39 @@ pub enum InputError {
         /// The header, comma-separated.
         header: String,
     },
+}
+
+impl InputError {
+    /// This error with each file it names passed through `swap` (see
+    /// [`super::Error::renaming`]).
+    pub fn renaming(self, swap: &dyn Fn(PathBuf) -> PathBuf) -> Self {
+        use InputError as E;
+        match self {
+            E::Read { path, source } => E::Read {
+                path: swap(path),
+                source,
+            },
+            E::TooLarge { path, limit_mib } => E::TooLarge {
+                path: swap(path),
+                limit_mib,
+            },
+            E::Gzip { path, cause } => E::Gzip {
+                path: swap(path),
+                cause,
+            },
+            E::GzipTooLarge { path, limit_mib } => E::GzipTooLarge {
+                path: swap(path),
+                limit_mib,
+            },
+            E::NotUtf8 { path, why } => E::NotUtf8 {
+                path: swap(path),
+                why,
+            },
+            E::NoDigits { path, bytes } => E::NoDigits {
+                path: swap(path),
+                bytes,
+            },
+            other => other,
+        }
+    }
 }

@@ -22,7 +22,7 @@ pub mod search;
 pub mod simulate;
 pub mod six_position;
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// Everything that can go wrong between a file and a report.
 #[derive(Debug, thiserror::Error)]
@@ -158,6 +158,23 @@ impl Error {
         Error::InFile {
             path: path.into(),
             source: Box::new(self),
+        }
+    }
+
+    /// This error with the file `from` named `to` wherever it names it: standard input too
+    /// long to hold is read from a temporary file ([`crate::input::front_door::Opened::Spooled`]),
+    /// but the user gave `-`, and a temporary name they never saw would not tell them which
+    /// input is meant.
+    pub fn renaming(self, from: &Path, to: &Path) -> Self {
+        let swap = |p: PathBuf| if p == from { to.to_path_buf() } else { p };
+        match self {
+            Error::InFile { path, source } => Error::InFile {
+                path: swap(path),
+                source: Box::new(source.renaming(from, to)),
+            },
+            Error::NotRegularFile { path } => Error::NotRegularFile { path: swap(path) },
+            Error::Input(e) => Error::Input(e.renaming(&swap)),
+            other => other,
         }
     }
 }

@@ -45,6 +45,38 @@ pub fn check_line_lengths(text: &str) -> Result<()> {
     Ok(())
 }
 
+/// Refuses the first bytes of a stream that is to be copied whole before it is read (standard
+/// input too long to hold, spooled to a temporary file): as text it must be UTF-8 (a character
+/// cut by the end of `head` aside), its lines at most [`MAX_LINE_BYTES`], and it must hold a
+/// digit somewhere. A binary stream, one endless line, or `yes` is then refused at once, with
+/// the sentence its file would get, instead of filling the temporary directory first.
+pub fn check_text_head(path: &Path, head: &[u8]) -> Result<()> {
+    let head = head.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(head);
+    // UTF-8 but for a character cut by the end of `head`.
+    let text = match std::str::from_utf8(head) {
+        Ok(text) => text,
+        Err(e) if e.error_len().is_none() => {
+            std::str::from_utf8(&head[..e.valid_up_to()]).unwrap_or_default()
+        }
+        Err(e) => {
+            return Err(InputError::NotUtf8 {
+                path: path.into(),
+                why: not_utf8_why(head, e.valid_up_to()),
+            }
+            .into())
+        }
+    };
+    check_line_lengths(text)?;
+    if !head.iter().any(u8::is_ascii_digit) {
+        return Err(InputError::NoDigits {
+            path: path.into(),
+            bytes: head.len(),
+        }
+        .into());
+    }
+    Ok(())
+}
+
 /// Longest piece of a field quoted back in an error message, characters.
 pub const MAX_QUOTED_CHARS: usize = 40;
 

@@ -12,7 +12,9 @@
 use crate::error::gyro::GyroError;
 use crate::error::input::InputError;
 use crate::error::{Error, Result};
-use crate::input::bounded::{decompressed, read_bounded, text_of, MAX_RECORDING_BYTES};
+use crate::input::bounded::{
+    check_text_head, decompressed, read_bounded, read_full, text_of, MAX_RECORDING_BYTES,
+};
 use crate::input::columns::{LoadOptions, Sensor};
 use crate::input::raw::{self, RawFile, RawFormat};
 use crate::input::recording::Recording;
@@ -126,22 +128,139 @@ fn open_stdin() -> Result<Opened> {
     })
 }
 
+/// The most of standard input copied to a temporary file ([`Opened::Spooled`]), bytes
+/// (64 GiB: a month of 100 Hz CSV is ~9 GB), unless [`MAX_SPOOL_BYTES_VAR`] says otherwise:
+/// an endless stream (`yes 1,2,3`) must end in a sentence, not in a full disk.
+pub const MAX_SPOOL_BYTES: u64 = 64 << 30;
+
+/// Environment variable that sets [`MAX_SPOOL_BYTES`] (bytes).
+pub const MAX_SPOOL_BYTES_VAR: &str = "WIICAL_MAX_SPOOL_BYTES";
+
+/// Free space the copy of standard input ([`Opened::Spooled`]) leaves on the temporary
+/// directory's disk, bytes: the copy stops before the disk is full, for this command's own
+/// output and for everything else on it.
+pub const SPOOL_RESERVE_BYTES: u64 = 1 << 30;
+
+/// [`MAX_SPOOL_BYTES`], or the value of [`MAX_SPOOL_BYTES_VAR`] when it is a number.
+fn max_spool_bytes() -> u64 {
+    std::env::var(MAX_SPOOL_BYTES_VAR)
+        .ok()
+        .and_then(|v| v.trim().parse().ok())
+        .unwrap_or(MAX_SPOOL_BYTES)
+}
+
 /// `head` and the rest of `input` copied to a temporary file in the temporary directory
 /// (`$TMPDIR`, named `wiical-stdin-…`), deleted when the returned path is dropped (when
-/// the command ends, or the stream reading it is dropped).
+/// the command ends, or the stream reading it is dropped). Bounded: text that no recording
+/// starts with is refused before a byte is copied ([`check_text_head`]), and the copy stops
+/// at [`max_spool_bytes`] or when the disk would keep less than [`SPOOL_RESERVE_BYTES`].
 fn spool(head: Vec<u8>, input: &mut dyn std::io::Read) -> Result<tempfile::TempPath> {
-    use std::io::Write;
+    if !head.starts_with(&GZIP_MAGIC) && !is_raw(&head) {
+        check_text_head(Path::new("-"), &head)?;
+    }
+    let dir = std::env::temp_dir();
     let mut file = tempfile::Builder::new()
         .prefix("wiical-stdin-")
         .tempfile()
-        .map_err(|source| write_error(std::env::temp_dir().as_path(), source))?;
-    let spooled = (|| {
-        file.write_all(&head)?;
-        std::io::copy(input, &mut file)?;
-        file.flush()
-    })();
-    spooled.map_err(|source| write_error(file.path(), source))?;
-    Ok(file.into_temp_path())
+        .map_err(|source| write_error(&dir, source))?;
+    let bound = SpoolBound {
+        dir,
+        most: max_spool_bytes(),
+        reserve: SPOOL_RESERVE_BYTES,
+    };
+    bound.check(file.as_file(), head.len() as u64)?;
+    let copied = copy_bounded(&head, input, file.as_file_mut(), &bound);
+    match copied {
+        Ok(()) => Ok(file.into_temp_path()),
+        Err(SpoolFailure::Bound(e)) => Err(e),
+        Err(SpoolFailure::Io(source)) => Err(write_error(file.path(), source)),
+    }
+}
+
+/// Why [`copy_bounded`] stopped.
+enum SpoolFailure {
+    /// A bound of [`SpoolBound`].
+    Bound(Error),
+    /// Reading standard input or writing the copy failed.
+    Io(std::io::Error),
+}
+
+/// The bounds of a spool: the most bytes copied, and the free space kept on `dir`'s disk.
+struct SpoolBound {
+    dir: std::path::PathBuf,
+    most: u64,
+    reserve: u64,
+}
+
+impl SpoolBound {
+    /// Refuses a copy that has written `copied` bytes to `file`.
+    fn check(&self, file: &std::fs::File, copied: u64) -> Result<()> {
+        let size = |b: u64| match b {
+            b if b >= 1 << 30 => format!("{:.1} GiB", b as f64 / f64::from(1u32 << 30)),
+            b if b >= 1 << 20 => format!("{:.1} MiB", b as f64 / f64::from(1u32 << 20)),
+            b => format!("{b} bytes"),
+        };
+        let why = if copied > self.most {
+            format!(
+                "it passed {}, the most copied ({MAX_SPOOL_BYTES_VAR} sets it)",
+                size(self.most)
+            )
+        } else {
+            match free_bytes(file) {
+                Some(free) if free < self.reserve => format!(
+                    "its disk had {} free after {}, and the copy leaves {} free (TMPDIR \
+                     chooses the directory)",
+                    size(free),
+                    size(copied),
+                    size(self.reserve)
+                ),
+                _ => return Ok(()),
+            }
+        };
+        Err(InputError::SpoolBound {
+            path: "-".into(),
+            dir: self.dir.clone(),
+            why,
+        }
+        .into())
+    }
+}
+
+/// Bytes free to an unprivileged user on `file`'s file system (`None` where unknown).
+fn free_bytes(file: &std::fs::File) -> Option<u64> {
+    #[cfg(unix)]
+    {
+        let s = rustix::fs::fstatvfs(file).ok()?;
+        Some(s.f_bavail.saturating_mul(s.f_frsize))
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = file;
+        None
+    }
+}
+
+/// `head`, then the rest of `input`, written to `file` in 8 MiB reads, `bound` checked after
+/// each (a `statvfs` per 8 MiB costs nothing beside the copy).
+fn copy_bounded(
+    head: &[u8],
+    input: &mut dyn std::io::Read,
+    file: &mut std::fs::File,
+    bound: &SpoolBound,
+) -> std::result::Result<(), SpoolFailure> {
+    use std::io::Write;
+    file.write_all(head).map_err(SpoolFailure::Io)?;
+    let mut buf = vec![0u8; 8 << 20];
+    let mut copied = head.len() as u64;
+    loop {
+        let n = read_full(&mut &mut *input, &mut buf).map_err(SpoolFailure::Io)?;
+        if n == 0 {
+            return file.flush().map_err(SpoolFailure::Io);
+        }
+        file.write_all(&buf[..n]).map_err(SpoolFailure::Io)?;
+        copied += n as u64;
+        bound.check(file, copied).map_err(SpoolFailure::Bound)?;
+    }
 }
 
 fn write_error(path: &Path, source: std::io::Error) -> Error {
@@ -231,7 +350,7 @@ fn whole_from(opened: Opened, path: &Path) -> Result<Whole> {
         Opened::Raw(raw) => Ok(*raw),
         Opened::Text(text) => Err(text),
         Opened::TextFile => read_whole(path)?,
-        Opened::Spooled(tmp) => open_whole(&tmp)?,
+        Opened::Spooled(tmp) => open_whole(&tmp).map_err(|e| e.renaming(&tmp, path))?,
     })
 }
 
@@ -251,7 +370,7 @@ pub fn load(path: &Path, opts: &LoadOptions) -> Result<Recording> {
             Some(rec) => return Ok(rec),
             None => read_whole(path)?,
         },
-        Opened::Spooled(tmp) => return load(&tmp, opts),
+        Opened::Spooled(tmp) => return load(&tmp, opts).map_err(|e| e.renaming(&tmp, path)),
         Opened::Raw(raw) => Ok(*raw),
         Opened::Text(text) => Err(text),
     };
@@ -295,7 +414,9 @@ pub fn load_imu(
 ) -> Result<(Recording, Recording)> {
     // Standard input once, and when it was spooled, the file it was spooled to (in pieces).
     let stdin = match (path.as_os_str() == "-").then(|| open(path)).transpose()? {
-        Some(Opened::Spooled(tmp)) => return load_imu(&tmp, acc, gyro_columns),
+        Some(Opened::Spooled(tmp)) => {
+            return load_imu(&tmp, acc, gyro_columns).map_err(|e| e.renaming(&tmp, path))
+        }
         other => other,
     };
     let named = gyro_columns.is_none();
@@ -467,7 +588,8 @@ pub fn load_input_in(
             }
         }
         Opened::Spooled(tmp) => {
-            return Ok(match load_input_in(&tmp, opts, stream_from, piece_bytes)? {
+            let input = load_input_in(&tmp, opts, stream_from, piece_bytes);
+            return Ok(match input.map_err(|e| e.renaming(&tmp, path))? {
                 Input::Stream(mut src) => {
                     // The temporary file lives as long as the stream reading it.
                     if let Some(s) = Arc::get_mut(&mut src) {
@@ -512,4 +634,32 @@ fn raw_epochs(raw: &RawFile, opts: &LoadOptions) -> Result<Input> {
         )
     })?;
     Ok(Input::Table(table))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The copy stops with a sentence at either bound: the most bytes, and the free space
+    /// kept (a reserve larger than any disk stands for a full one); under both, it goes on.
+    #[test]
+    fn a_spool_stops_at_its_bounds_with_a_sentence() {
+        let file = tempfile::tempfile().unwrap();
+        let bound = |most, reserve| SpoolBound {
+            dir: "/tmp".into(),
+            most,
+            reserve,
+        };
+        assert!(bound(1000, 0).check(&file, 1000).is_ok());
+        let capped = bound(1000, 0).check(&file, 1001).unwrap_err().to_string();
+        assert!(capped.contains("passed 1000 bytes"), "{capped}");
+        assert!(capped.contains(MAX_SPOOL_BYTES_VAR), "{capped}");
+        let full = bound(u64::MAX, u64::MAX).check(&file, 3 << 20).unwrap_err();
+        let full = full.to_string();
+        assert!(
+            full.contains("free after 3.0 MiB") && full.contains("TMPDIR"),
+            "{full}"
+        );
+        assert!(full.starts_with("- (standard input)"), "{full}");
+    }
 }
