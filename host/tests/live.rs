@@ -439,12 +439,15 @@ fn live_page_updates_in_chromium_without_reloading() {
         "--port",
         "0",
     ]);
-    let profile = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
-        .join(format!("live-chromium-{}", std::process::id()));
+    // The browser's profile, deleted after the browser (dropped first: declared after it).
+    let profile = tempfile::Builder::new()
+        .prefix("live-chromium-")
+        .tempdir_in(env!("CARGO_TARGET_TMPDIR"))
+        .unwrap();
     let b = browser(
         &chromium,
         &format!("http://127.0.0.1:{}/", live.port),
-        &profile,
+        profile.path(),
     );
     let targets = devtools_targets(b.devtools_port);
     let ws_url = targets
