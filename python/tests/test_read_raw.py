@@ -45,6 +45,33 @@ def test_raw_read_is_the_whole_file_readers(name: str, tmp_path: pathlib.Path) -
     assert meta(got) == meta(want)
 
 
+@pytest.mark.parametrize("cut", [600, 1024, 1024 + 3 * 512 + 100, -7])
+def test_a_cut_cwa_reads_as_the_whole_file_reader(cut: int, tmp_path: pathlib.Path) -> None:
+    """A .cwa (read from a mapping of it) cut inside its header block, right after it, inside
+    its fourth data block or inside its last: the whole-file reader's samples, or its error."""
+    with open(raw("ax3_testfile.cwa"), "rb") as f:
+        data = f.read()
+    cut = cut if cut >= 0 else len(data) + cut
+    path = tmp_path / "cut.cwa"
+    path.write_bytes(data[:cut])
+    packed = tmp_path / "cut.cwa.gz"
+    with gzip.open(packed, "wb") as dst:
+        dst.write(data[:cut])
+    if cut <= 1024:
+        with pytest.raises(ValueError) as got:
+            wiical.read(str(path))
+        with pytest.raises(ValueError) as want:
+            wiical.read(str(packed))
+        said = str(got.value).replace(str(path), "FILE")
+        assert said == str(want.value).replace(str(packed), "FILE")
+        assert ("header block is cut short" in said) == (cut < 1024)
+        return
+    got, want = wiical.read(str(path)), wiical.read(str(packed))
+    assert len(got.xyz) > 0 and np.array_equal(got.xyz, want.xyz)
+    assert np.array_equal(got.t, want.t) and np.array_equal(got.temp, want.temp)
+    assert meta(got) == meta(want) and any("cut short" in n for n in got.notes)
+
+
 @pytest.mark.parametrize("name", RAW)
 def test_float32_is_float64_rounded_and_exact_for_cwa(name: str) -> None:
     path = raw(name)

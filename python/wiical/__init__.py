@@ -411,7 +411,11 @@ def read(
     same). ``times="spans"`` gives a raw file's (``.cwa``, ``.bin``) times as its blocks'
     spans instead (``spans``: ``start_s``, ``dur_s``, ``rows``; a few bytes a block instead of
     8 a sample, and the read's fastest form); :func:`span_times` expands them into the array
-    ``times=True`` gives, bit for bit. A text file has no blocks: its ``t`` is given whole."""
+    ``times=True`` gives, bit for bit. A text file has no blocks: its ``t`` is given whole.
+
+    A ``.cwa`` file is mapped into memory and its blocks decoded where they lie (no copy into
+    a buffer): a file that another program cuts shorter *while* it is being read kills the
+    process (SIGBUS) instead of raising an error; one already cut short reads as before."""
     if dtype not in ("float64", "float32"):
         raise ValueError(f"dtype must be 'float64' or 'float32', got {dtype!r}")
     if not isinstance(times, (bool, str)) or times not in _TIMES:

@@ -93,6 +93,11 @@ fn assert_read(path: &Path, opts: &LoadOptions, rec: &Recording, meta: &RawMeta)
     );
     assert!(full.spans.is_none());
     assert_eq!(&full.meta, meta, "{name}: read's description");
+    if format == RawFormat::Cwa {
+        let bytes = Box::new(std::fs::read(path).unwrap());
+        let mapped = samples::read_cwa_bytes::<f64>(path, bytes, opts, samples::Times::Full);
+        assert_same_samples(&mapped.unwrap(), &full, &name.to_string());
+    }
     let spans = samples::read::<f32>(path, format, opts, samples::Times::Spans).unwrap();
     let cast: Vec<f32> = flat.iter().map(|&v| v as f32).collect();
     assert!(spans.xyz == cast, "{name}: read's f32 values differ");
@@ -113,6 +118,19 @@ fn assert_read(path: &Path, opts: &LoadOptions, rec: &Recording, meta: &RawMeta)
     let none = samples::read::<f32>(path, format, opts, samples::Times::Omit).unwrap();
     assert!(none.t.is_none() && none.spans.is_none() && none.xyz == spans.xyz);
     assert_eq!(&none.meta, meta, "{name}");
+}
+
+/// `got` holds the same samples, times, spans and description as `want`, bit for bit.
+fn assert_same_samples<T: Real + PartialEq>(
+    got: &samples::Samples<T>,
+    want: &samples::Samples<T>,
+    name: &str,
+) {
+    assert!(got.xyz == want.xyz, "{name}: values differ");
+    assert!(got.temp == want.temp, "{name}: temperatures differ");
+    assert!(got.t == want.t, "{name}: times differ");
+    assert_eq!(got.spans, want.spans, "{name}: spans differ");
+    assert_eq!(got.meta, want.meta, "{name}: descriptions differ");
 }
 
 /// Every raw file of GGIRread's test set (packed AX3, one with six corrupt blocks, AX6 with
@@ -232,6 +250,37 @@ fn a_long_written_cwa_fills_as_it_reads_whole() {
         assert!(notes.contains(said), "{said}: {notes}");
     }
     assert_same(&path, &LoadOptions::default());
+}
+
+/// A `.cwa` read from its bytes in memory (what the Python package maps) reads as the file
+/// read a chunk at a time: cut inside the header block, after it, inside a data block of the
+/// first chunk and of the second, and whole; the same samples, or the same error sentence.
+#[test]
+fn a_cut_cwa_reads_from_its_bytes_as_from_the_file() {
+    let full = long_cwa();
+    let opts = LoadOptions::default();
+    let cuts = [0, 600, 1024, 1024 + 3 * 512 + 100, 1024 + 8192 * 512 + 37];
+    for len in cuts.into_iter().chain([full.len()]) {
+        let path = scratch(&format!("cut{len}.cwa"), &full[..len]);
+        let name = format!("cut at {len} of {}", full.len());
+        for times in [samples::Times::Full, samples::Times::Spans] {
+            let read = samples::read::<f32>(&path, RawFormat::Cwa, &opts, times);
+            let bytes = Box::new(full[..len].to_vec());
+            let mapped = samples::read_cwa_bytes::<f32>(&path, bytes, &opts, times);
+            match (mapped, read) {
+                (Ok(got), Ok(want)) => assert_same_samples(&got, &want, &name),
+                (Err(got), Err(want)) => assert_eq!(got.to_string(), want.to_string(), "{name}"),
+                (got, want) => panic!("{name}: {:?} against {:?}", got.err(), want.err()),
+            }
+        }
+    }
+    assert!(samples::read::<f32>(
+        &scratch("cut600.cwa", &full[..600]),
+        RawFormat::Cwa,
+        &opts,
+        samples::Times::Full
+    )
+    .is_err_and(|e| e.to_string().contains("header block is cut short")));
 }
 
 /// A file that changed after the first pass (cut shorter) is an error naming the block, not

@@ -138,14 +138,43 @@ pub const CHUNK_BLOCKS: usize = 8192;
 /// A `.cwa` file read a chunk of blocks at a time ([`CHUNK_BLOCKS`]), each decoded as
 /// [`parse`] decodes it: memory is one chunk, whatever the file's length.
 pub struct BlockReader {
-    file: std::fs::File,
+    source: Source,
     path: std::path::PathBuf,
     /// The header block's fields.
     pub header: Header,
     layout: Option<(u8, bool)>,
     index: usize,
     rest: usize,
-    buf: Vec<u8>,
+}
+
+/// A file's bytes in memory (a mapping of it, made by the caller), for
+/// [`BlockReader::of_bytes`].
+pub trait Mapped: Send + Sync {
+    /// The whole file.
+    fn bytes(&self) -> &[u8];
+    /// The bytes before `upto` are read and will not be read again: a mapping may let go of
+    /// them (its resident pages then do not grow to the file's size).
+    fn consumed(&self, upto: usize) {
+        let _ = upto;
+    }
+}
+
+impl Mapped for Vec<u8> {
+    fn bytes(&self) -> &[u8] {
+        self
+    }
+}
+
+/// A file's bytes in memory, owned by the reader.
+pub type Bytes = Box<dyn Mapped>;
+
+/// Where a [`BlockReader`]'s blocks come from.
+enum Source {
+    /// Read from the file a chunk at a time into `buf`.
+    File { file: std::fs::File, buf: Vec<u8> },
+    /// The whole file already in memory (a mapping the caller made), given a chunk at a time
+    /// without a copy; `at`: where the next chunk starts.
+    Bytes { bytes: Bytes, at: usize },
 }
 
 impl BlockReader {
@@ -159,28 +188,61 @@ impl BlockReader {
         let mut head = vec![0u8; HEADER_BYTES];
         let got = read_full(&mut file, &mut head).map_err(read_err)?;
         let header = Header::of(&head[..got])?;
-        Ok(Self {
-            file,
+        let buf = vec![0u8; CHUNK_BLOCKS * BLOCK_BYTES];
+        Ok(Self::with(Source::File { file, buf }, path, header))
+    }
+
+    /// The reader of a file whose bytes are `bytes` (the file at `path` mapped into memory by
+    /// the caller: the chunks are then slices of it, not copies), the blocks and notes as
+    /// [`BlockReader::open`] gives them from the file.
+    pub fn of_bytes(path: &std::path::Path, bytes: Bytes) -> crate::error::Result<Self> {
+        let all = bytes.bytes();
+        let header = Header::of(&all[..all.len().min(HEADER_BYTES)])?;
+        let at = HEADER_BYTES;
+        Ok(Self::with(Source::Bytes { bytes, at }, path, header))
+    }
+
+    fn with(source: Source, path: &std::path::Path, header: Header) -> Self {
+        Self {
+            source,
             path: path.into(),
             header,
             layout: None,
             index: 0,
             rest: 0,
-            buf: vec![0u8; CHUNK_BLOCKS * BLOCK_BYTES],
-        })
+        }
+    }
+
+    /// The next chunk's bytes ([`CHUNK_BLOCKS`] blocks, fewer at the end of the file) and
+    /// whether it was a whole chunk (more may follow).
+    fn next_raw(&mut self) -> crate::error::Result<(&[u8], bool)> {
+        let want = CHUNK_BLOCKS * BLOCK_BYTES;
+        match &mut self.source {
+            Source::File { file, buf } => {
+                let got = read_full(file, buf).map_err(|source| InputError::Read {
+                    path: self.path.clone(),
+                    source,
+                })?;
+                Ok((&buf[..got], got == want))
+            }
+            Source::Bytes { bytes, at } => {
+                bytes.consumed(*at);
+                let all = bytes.bytes();
+                let start = (*at).min(all.len());
+                let end = start.saturating_add(want).min(all.len());
+                *at = end;
+                Ok((&all[start..end], end - start == want))
+            }
+        }
     }
 
     /// The next chunk's blocks in `out` (cleared first); `false` once the file is read.
     pub fn next_chunk(&mut self, out: &mut Vec<Block>) -> crate::error::Result<bool> {
         out.clear();
-        let got = read_full(&mut self.file, &mut self.buf).map_err(|source| InputError::Read {
-            path: self.path.clone(),
-            source,
+        let (_, more) = self.next_bytes(|first, bytes, layout| {
+            decode_blocks(bytes, first, layout, out);
         })?;
-        decode_blocks(&self.buf[..got], self.index, &mut self.layout, out);
-        self.index += got / BLOCK_BYTES;
-        self.rest = got % BLOCK_BYTES;
-        Ok(got == self.buf.len())
+        Ok(more)
     }
 
     /// The next chunk's whole blocks as read, given to `each` with the index of the first and
@@ -190,29 +252,30 @@ impl BlockReader {
         &mut self,
         each: impl FnOnce(usize, &[u8], &mut Option<(u8, bool)>),
     ) -> crate::error::Result<(usize, bool)> {
-        let got = read_full(&mut self.file, &mut self.buf).map_err(|source| InputError::Read {
-            path: self.path.clone(),
-            source,
-        })?;
         let first = self.index;
-        let whole = got - got % BLOCK_BYTES;
-        each(first, &self.buf[..whole], &mut self.layout);
+        let mut layout = self.layout;
+        let (bytes, more) = self.next_raw()?;
+        let got = bytes.len();
+        each(first, &bytes[..got - got % BLOCK_BYTES], &mut layout);
+        self.layout = layout;
         self.index += got / BLOCK_BYTES;
         self.rest = got % BLOCK_BYTES;
-        Ok((first, got == self.buf.len()))
+        Ok((first, more))
     }
 
     /// Whole data blocks the file holds now (its length after the header, by 512 bytes):
     /// what a one-pass reader sizes its output by.
     pub(crate) fn data_blocks(&self) -> crate::error::Result<usize> {
-        let len = self
-            .file
-            .metadata()
-            .map_err(|source| InputError::Read {
-                path: self.path.clone(),
-                source,
-            })?
-            .len();
+        let len = match &self.source {
+            Source::File { file, .. } => file
+                .metadata()
+                .map_err(|source| InputError::Read {
+                    path: self.path.clone(),
+                    source,
+                })?
+                .len(),
+            Source::Bytes { bytes, .. } => bytes.bytes().len() as u64,
+        };
         Ok(
             usize::try_from(len.saturating_sub(HEADER_BYTES as u64)).unwrap_or(usize::MAX)
                 / BLOCK_BYTES,

@@ -34,6 +34,7 @@ use crate::error::Result;
 use crate::input::columns::LoadOptions;
 use crate::input::timecheck::{time_notes_given, TimeSteps, GAP_FACTOR};
 use rayon::prelude::*;
+use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 /// The value types the samples can be written as (f32, f64), cast from the decoder's f64.
@@ -390,17 +391,14 @@ impl RawPlan {
     /// steps between blocks, exactly (the median selected among the distinct steps by their
     /// counts); `None` when a block's steps were too varied to be counted.
     fn time_steps(&self, steps: &[Steps]) -> Option<Option<TimeSteps>> {
-        let mut all: Vec<(f64, usize)> = Vec::with_capacity(4 * steps.len());
-        for (k, s) in steps.iter().enumerate() {
-            if s.overflow {
-                return None;
-            }
-            all.extend(s.vals[..s.len].iter().map(|&(d, c)| (d, c as usize)));
-            if k > 0 {
-                let (a, b) = (self.kept[k - 1].span, self.kept[k].span);
-                all.push((b.time(0) - a.time(a.n - 1), 1));
-            }
+        if steps.iter().any(|s| s.overflow) {
+            return None;
         }
+        let mut all: Vec<(f64, usize)> = self
+            .step_counts(steps)
+            .into_iter()
+            .map(|(bits, c)| (f64::from_bits(bits), c))
+            .collect();
         let pairs: usize = all.iter().map(|e| e.1).sum();
         all.retain(|e| e.0 > 0.0);
         let positive: usize = all.iter().map(|e| e.1).sum();
@@ -436,6 +434,37 @@ impl RawPlan {
     }
 }
 
+impl RawPlan {
+    /// How often each distinct step between consecutive kept times occurs (keyed by its
+    /// bits), the blocks' own steps and those between blocks, counted on all cores: a few
+    /// distinct values however long the file, where listing every block's (four a block) and
+    /// sorting them took a serial tenth of a second for a week of wear.
+    fn step_counts(&self, steps: &[Steps]) -> HashMap<u64, usize> {
+        let add = |mut m: HashMap<u64, usize>, (d, c): (f64, usize)| {
+            *m.entry(d.to_bits()).or_default() += c;
+            m
+        };
+        steps
+            .par_iter()
+            .enumerate()
+            .with_min_len(4096)
+            .fold(HashMap::new, |mut m, (k, s)| {
+                for &(d, c) in &s.vals[..s.len] {
+                    m = add(m, (d, c as usize));
+                }
+                if k > 0 {
+                    let (a, b) = (self.kept[k - 1].span, self.kept[k].span);
+                    m = add(m, (b.time(0) - a.time(a.n - 1), 1));
+                }
+                m
+            })
+            .reduce(HashMap::new, |a, b| {
+                b.into_iter()
+                    .fold(a, |m, (bits, c)| add(m, (f64::from_bits(bits), c)))
+            })
+    }
+}
+
 /// A block's steps between consecutive times: the distinct ones (at most four; rounding
 /// makes two or three of a block's even spacing) and how often each occurs.
 #[derive(Debug, Clone, Copy, Default)]
@@ -447,17 +476,32 @@ struct Steps {
 }
 
 impl Steps {
-    fn push(&mut self, d: f64) {
-        if let Some(e) = self.vals[..self.len]
-            .iter_mut()
-            .find(|e| e.0.to_bits() == d.to_bits())
-        {
-            e.1 += 1;
-        } else if self.len < self.vals.len() {
-            self.vals[self.len] = (d, 1);
+    /// Counts the steps `ds` as pushing them one by one would: each stored step's count
+    /// first, then each new one's, in the order they first occur. Each count is one pass
+    /// over the run comparing bits (it vectorises); a block has two or three distinct steps,
+    /// which alternate too unpredictably for a branch a step.
+    fn push_all(&mut self, ds: &[f64]) {
+        let count = |bits: u64| ds.iter().map(|d| u32::from(d.to_bits() == bits)).sum();
+        let mut counted = 0;
+        for e in &mut self.vals[..self.len] {
+            let c: u32 = count(e.0.to_bits());
+            e.1 += c;
+            counted += c as usize;
+        }
+        while counted < ds.len() {
+            let stored = &self.vals[..self.len];
+            let new = ds
+                .iter()
+                .find(|d| stored.iter().all(|e| e.0.to_bits() != d.to_bits()));
+            let Some(&d) = new else { break };
+            if self.len == self.vals.len() {
+                self.overflow = true;
+                break;
+            }
+            let c: u32 = count(d.to_bits());
+            self.vals[self.len] = (d, c);
             self.len += 1;
-        } else {
-            self.overflow = true;
+            counted += c as usize;
         }
     }
 }
@@ -480,20 +524,37 @@ fn decode_into<T: Real>(
 }
 
 /// A block's sample times into `t` (nothing stored when `t` is empty: times not asked for);
-/// the steps between them.
+/// the steps between them. The times are computed a run at a time into a slice of their own
+/// (`t`'s, or a local one), each as [`BlockSpan::time`] computes it, then their steps, then
+/// the steps counted: three loops that vectorise, where one loop doing all three did not.
 fn times_into(span: BlockSpan, t: &mut [f64]) -> Steps {
+    const RUN: usize = 128;
     let mut steps = Steps::default();
-    let mut prev = span.time(0);
-    if let Some(first) = t.first_mut() {
-        *first = prev;
-    }
-    for i in 1..span.n {
-        let ti = span.time(i);
-        steps.push(ti - prev);
-        prev = ti;
-        if let Some(o) = t.get_mut(i as usize) {
-            *o = ti;
+    let (mut local, mut ds) = ([0.0; RUN], [0.0; RUN]);
+    let n = span.n as usize;
+    let mut prev = None;
+    let mut at = 0;
+    while at < n {
+        let len = (n - at).min(RUN);
+        let out = match t.get_mut(at..at + len) {
+            Some(mine) => mine,
+            None => &mut local[..len],
+        };
+        for (j, o) in out.iter_mut().enumerate() {
+            // `at + j < n ≤ u32::MAX`: the index is exact as u32, as `time` takes it.
+            *o = span.time((at + j) as u32);
         }
+        let mut k = 0;
+        if let Some(p) = prev {
+            ds[0] = out[0] - p;
+            k = 1;
+        }
+        for (d, w) in ds[k..].iter_mut().zip(out.windows(2)) {
+            *d = w[1] - w[0];
+        }
+        steps.push_all(&ds[..k + len - 1]);
+        prev = Some(out[len - 1]);
+        at += len;
     }
     steps
 }
@@ -601,10 +662,38 @@ pub fn read<T: Real>(
     opts: &LoadOptions,
     times: Times,
 ) -> Result<Samples<T>> {
+    read_from(path, format, None, opts, times)
+}
+
+/// [`read`] of the `.cwa` file at `path` whose bytes are `bytes` (the caller's mapping of
+/// it: its blocks are decoded where they lie, not copied into a buffer first); the same
+/// samples, times, notes and errors as [`read`] of the file. The bytes must not change while
+/// they are read (a mapped file cut short meanwhile is the caller's to guard against).
+pub fn read_cwa_bytes<T: Real>(
+    path: &Path,
+    bytes: cwa::Bytes,
+    opts: &LoadOptions,
+    times: Times,
+) -> Result<Samples<T>> {
+    read_from(path, RawFormat::Cwa, Some(bytes), opts, times)
+}
+
+/// [`read`], a `.cwa` from `bytes` when given.
+fn read_from<T: Real>(
+    path: &Path,
+    format: RawFormat,
+    bytes: Option<cwa::Bytes>,
+    opts: &LoadOptions,
+    times: Times,
+) -> Result<Samples<T>> {
     let full = times == Times::Full;
     let (plan, xyz, temp, t, meta) = match format {
         RawFormat::Cwa => {
-            let (plan, xyz, temp) = Sweep::run(path, opts)?;
+            let reader = match bytes {
+                Some(b) => cwa::BlockReader::of_bytes(path, b)?,
+                None => cwa::BlockReader::open(path)?,
+            };
+            let (plan, xyz, temp) = Sweep::run(reader, path, opts)?;
             let mut t = full.then(|| vec![0.0; plan.rows]);
             let steps = plan.times_into(t.as_deref_mut());
             let meta = plan.meta(&steps, t.as_deref());
@@ -644,8 +733,11 @@ struct Sweep<T> {
 type Job<'a, T> = (&'a [u8], Head, &'a mut [T], &'a mut [T]);
 
 impl<T: Real> Sweep<T> {
-    fn run(path: &Path, opts: &LoadOptions) -> Result<(RawPlan, Vec<T>, Vec<T>)> {
-        let mut reader = cwa::BlockReader::open(path)?;
+    fn run(
+        mut reader: cwa::BlockReader,
+        path: &Path,
+        opts: &LoadOptions,
+    ) -> Result<(RawPlan, Vec<T>, Vec<T>)> {
         let blocks = reader.data_blocks()?;
         let mut sweep = Self {
             planner: Planner::default(),
