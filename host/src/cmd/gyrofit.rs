@@ -122,6 +122,8 @@ pub fn run(a: &Args) -> Result<String> {
 
 /// The two recordings: held, or (a plain text file of at least the streaming size) streamed
 /// in passes ([`wiical_analysis::gyro::stream`]).
+/// One value per run: the variants' sizes do not matter.
+#[allow(clippy::large_enum_variant)]
 enum Pair {
     Held(Recording, Recording),
     Streamed(StreamedImu),
