@@ -2,7 +2,7 @@
 //! triplets each a [`TextSource`] (the file read in passes, never held; for one file, two
 //! sources of it with different columns), the windows found by `fit`'s streamed detection
 //! ([`crate::detect::streamed`]), and every other stage reading the rows through the same
-//! passes as the held recording ([`super::samples`]): the report is the held one's, bit for
+//! passes as the held recording (`gyro/samples.rs`): the report is the held one's, bit for
 //! bit.
 //!
 //! Memory is a piece of each file in flight, the windows, and the motions' samples with a
