@@ -5,7 +5,9 @@ use super::{check_outputs, load, load_options, to_json, DetectArgs};
 use crate::cli_error::cli_error;
 use anyhow::{bail, Result};
 use std::path::PathBuf;
+use wiical_analysis::gyro::stream::{self, run_streamed, StreamedImu};
 use wiical_analysis::gyro::{nominal_from_columns, GyroOptions};
+use wiical_analysis::input::front_door::stream_from_bytes;
 use wiical_analysis::Recording;
 
 /// Arguments of `wiical gyrofit`.
@@ -85,12 +87,74 @@ pub fn run(a: &Args) -> Result<String> {
     let mut inputs = vec![a.file.as_path()];
     inputs.extend(a.gyro_file.as_deref());
     check_outputs(&inputs, &[a.out.as_deref()])?;
+    let pair = read(a, gyro_columns)?;
+    let gyro = match &pair {
+        Pair::Held(_, gyro) => gyro,
+        Pair::Streamed(imu) => imu.gyroscope(),
+    };
+    let mut opts = match nominal(a, gyro)? {
+        Some((scale, source)) => GyroOptions {
+            nominal_source: source,
+            ..GyroOptions::new(scale)
+        },
+        None => GyroOptions::estimated(),
+    };
+    opts.detect = a
+        .detect
+        .fit_options(wiical_core::multipos::MultiPosModel::Full)
+        .detect;
+    opts.exact_held_out = a.exact_held_out;
+    let rep = match &pair {
+        Pair::Held(acc, gyro) => wiical_analysis::gyro::run(acc, gyro, &opts).map_err(cli_error)?,
+        Pair::Streamed(imu) => run_streamed(imu, &opts).map_err(cli_error)?,
+    };
+    if let Some(path) = &a.out {
+        save(path, &rep)?;
+    }
+    if a.json {
+        return to_json(&rep);
+    }
+    Ok(crate::render::gyrofit::text(
+        &rep,
+        &a.file.display().to_string(),
+    ))
+}
+
+/// The two recordings: held, or (a plain text file of at least the streaming size) streamed
+/// in passes ([`wiical_analysis::gyro::stream`]).
+/// One value per run: the variants' sizes do not matter.
+#[allow(clippy::large_enum_variant)]
+enum Pair {
+    Held(Recording, Recording),
+    Streamed(StreamedImu),
+}
+
+/// Reads FILE (and GYRO_FILE); notes on them go to stderr, each once.
+fn read(a: &Args, gyro_columns: Option<[String; 3]>) -> Result<Pair> {
+    let (acc_opts, gyro_opts) = (a.detect.load_options()?, load_options(None)?);
+    let gyro_file = a.gyro_file.as_deref().map(|g| (g, &gyro_opts));
+    let streamed = super::with_spinner(&format!("reading {}", a.file.display()), || {
+        stream::open(
+            (&a.file, &acc_opts),
+            gyro_file,
+            gyro_columns.clone(),
+            stream_from_bytes(),
+        )
+    })
+    .map_err(cli_error)?;
+    if let Some(imu) = streamed {
+        super::print_notes(&a.file, imu.accelerometer());
+        match &a.gyro_file {
+            Some(g) => super::print_notes(g, imu.gyroscope()),
+            None => gyro_info(a, imu.accelerometer(), imu.gyroscope()),
+        }
+        return Ok(Pair::Streamed(imu));
+    }
     let (acc, gyro) = match &a.gyro_file {
         Some(g) => {
             // Two files: the gyro's is parsed on a second thread while the accelerometer's is
             // read here (parsing is a good part of what is left outside the fit); its notes
             // are printed after the accelerometer's, as when read one after the other.
-            let (acc_opts, gyro_opts) = (a.detect.load_options()?, load_options(None)?);
             let (acc, gyro) = std::thread::scope(|s| {
                 let gyro = s.spawn(|| wiical_analysis::load(g, &gyro_opts));
                 let acc = load(&a.file, &acc_opts);
@@ -104,41 +168,24 @@ pub fn run(a: &Args) -> Result<String> {
             (acc, gyro)
         }
         None => {
-            let acc_opts = a.detect.load_options()?;
             let (acc, gyro) = super::with_spinner(&format!("reading {}", a.file.display()), || {
                 wiical_analysis::input::front_door::load_imu(&a.file, &acc_opts, gyro_columns)
             })
             .map_err(cli_error)?;
             super::print_notes(&a.file, &acc);
-            for note in gyro.info.iter().filter(|n| !acc.info.contains(n)) {
-                eprintln!("note: in {}: {note}", a.file.display());
-            }
+            gyro_info(a, &acc, &gyro);
             (acc, gyro)
         }
     };
-    let mut opts = match nominal(a, &gyro)? {
-        Some((scale, source)) => GyroOptions {
-            nominal_source: source,
-            ..GyroOptions::new(scale)
-        },
-        None => GyroOptions::estimated(),
-    };
-    opts.detect = a
-        .detect
-        .fit_options(wiical_core::multipos::MultiPosModel::Full)
-        .detect;
-    opts.exact_held_out = a.exact_held_out;
-    let rep = wiical_analysis::gyro::run(&acc, &gyro, &opts).map_err(cli_error)?;
-    if let Some(path) = &a.out {
-        save(path, &rep)?;
+    Ok(Pair::Held(acc, gyro))
+}
+
+/// The loader's notes on the gyro's triplet of FILE that it did not make on the
+/// accelerometer's.
+fn gyro_info(a: &Args, acc: &Recording, gyro: &Recording) {
+    for note in gyro.info.iter().filter(|n| !acc.info.contains(n)) {
+        eprintln!("note: in {}: {note}", a.file.display());
     }
-    if a.json {
-        return to_json(&rep);
-    }
-    Ok(crate::render::gyrofit::text(
-        &rep,
-        &a.file.display().to_string(),
-    ))
 }
 
 /// Writes `--out` (`wiical_analysis::output::gyrocal`): the chosen calibration with the

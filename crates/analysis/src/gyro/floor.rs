@@ -16,18 +16,11 @@
 //! variance below the quantisation's 1/12 count², so that is the least taken.
 
 use super::segment::Segmentation;
-use crate::detect::windows::WindowStats;
-use crate::input::recording::Recording;
 
-/// Per-sample variance of the gyro over one window, raw counts² per axis.
-fn gyro_variance(gyro: &Recording, w: &WindowStats, quantum: f64) -> [f64; 3] {
-    let s = &gyro.xyz[w.start..w.end];
-    let n = s.len().max(2) as f64;
-    std::array::from_fn(|a| {
-        let mean = s.iter().map(|v| v[a]).sum::<f64>() / n;
-        let var = s.iter().map(|v| (v[a] - mean).powi(2)).sum::<f64>() / (n - 1.0);
-        var.max(quantum)
-    })
+/// Per-sample variance of the gyro over one window, raw counts² per axis: `var` (from
+/// [`super::samples::window_variances`]) floored at `quantum`.
+fn gyro_variance(var: &[f64; 3], quantum: f64) -> [f64; 3] {
+    var.map(|v| v.max(quantum))
 }
 
 /// Mean over the axes of `K·diag(var)·Kᵀ`'s diagonal: the per-axis rate variance in the
@@ -51,14 +44,20 @@ pub struct Floors {
     pub rate_noise: f64,
 }
 
-/// The floors for `gyro` on the segmentation `seg`, the gyro calibration `k` (raw → rad/s),
-/// sampling step `dt` (s).
-pub(super) fn floors(gyro: &Recording, seg: &Segmentation, k: &[[f64; 3]; 3], dt: f64) -> Floors {
-    let quantum = if gyro.is_integer() { 1.0 / 12.0 } else { 0.0 };
-    let gyro_var: Vec<f64> = seg
-        .windows
+/// The floors for the gyro's per-sample variance `var` in each window of the segmentation
+/// `seg` (raw counts², [`super::samples::window_variances`]; `integer`: the gyro reads whole
+/// counts), the gyro calibration `k` (raw → rad/s), sampling step `dt` (s).
+pub(super) fn floors(
+    var: &[[f64; 3]],
+    integer: bool,
+    seg: &Segmentation,
+    k: &[[f64; 3]; 3],
+    dt: f64,
+) -> Floors {
+    let quantum = if integer { 1.0 / 12.0 } else { 0.0 };
+    let gyro_var: Vec<f64> = var
         .iter()
-        .map(|w| through(k, gyro_variance(gyro, w, quantum)))
+        .map(|v| through(k, gyro_variance(v, quantum)))
         .collect();
     let acc_k: [[f64; 3]; 3] = seg.accel.matrix.map(|r| r.map(f64::from));
     let acc_quantum = if seg
@@ -97,9 +96,10 @@ pub(super) fn floors(gyro: &Recording, seg: &Segmentation, k: &[[f64; 3]; 3], dt
     let window_mean_var = seg
         .windows
         .iter()
-        .map(|w| {
+        .zip(var)
+        .map(|(w, v)| {
             let n = (w.end - w.start).max(1) as f64;
-            let v = gyro_variance(gyro, w, quantum);
+            let v = gyro_variance(v, quantum);
             std::array::from_fn(|r| (0..3).map(|c| k[r][c].powi(2) * v[c]).sum::<f64>() / n)
         })
         .collect();

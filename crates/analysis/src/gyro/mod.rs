@@ -36,12 +36,15 @@ pub mod motion_search;
 mod nominal;
 mod options;
 pub mod report;
+mod samples;
 mod segment;
+pub mod stream;
 mod verdict;
 
 pub use crate::error::gyro::GyroError;
 use crate::input::recording::Recording;
 use crate::stats as st;
+use samples::{Collected, Imu};
 use wiical_core::gyro::GyroCalibration;
 
 pub use models::{GyroModelRow, MotionRow};
@@ -68,24 +71,30 @@ fn check_nominal_scale(opts: &GyroOptions) -> Result<()> {
 /// samples.
 pub fn run(acc: &Recording, gyro: &Recording, opts: &GyroOptions) -> Result<GyroReport> {
     check_nominal_scale(opts)?;
-    let acc_rec = align::paired_accelerometer(acc, gyro)?;
-    segment::check_gyro_reads(gyro, &acc_rec)?;
-    let rate = acc_rec
-        .estimated_rate_hz()
-        .unwrap_or(opts.detect.default_rate_hz);
+    run_on(&samples::Held::pair(acc, gyro)?, opts)
+}
+
+/// [`run`] on the paired recording `imu`, held or streamed: every stage reads the samples
+/// through [`Imu`]'s passes, so both give the same report.
+fn run_on(imu: &impl Imu, opts: &GyroOptions) -> Result<GyroReport> {
+    let default_rate = opts.detect.default_rate_hz;
+    segment::check_gyro_reads(imu, default_rate)?;
+    let rate = imu.rate_hz().unwrap_or(default_rate);
     // A static log is recognised only when no segmentation is found: the test reads the raw
     // vector's direction, which a large offset (raw ADC counts) can hold nearly still even
     // while the sensor turns, so it must not override a segmentation that worked.
-    let seg = segment::segment(&acc_rec, opts).map_err(|e| {
-        segment::static_only(&acc_rec, rate)
-            .or_else(|| segment::swapped(acc, gyro, opts))
+    let seg = segment::segment(imu, opts).map_err(|e| {
+        segment::static_only(imu, rate, default_rate)
+            .or_else(|| segment::swapped(imu, opts))
             .unwrap_or(e)
     })?;
-    segment::check_not_gravity(gyro, &seg)
-        .map_err(|e| segment::swapped(acc, gyro, opts).unwrap_or(e))?;
-    let bias_from_rest = segment::bias_at_rest(gyro, &seg.intervals[0]);
     let dt = 1.0 / rate;
-    let motions = seg.motions(gyro);
+    let margin = (MOTION_MARGIN_S / dt).ceil() as usize;
+    let col = samples::collect(imu, &seg, margin, default_rate)?;
+    segment::check_not_gravity(imu.gyro_columns(), &seg, &col)
+        .map_err(|e| segment::swapped(imu, opts).unwrap_or(e))?;
+    let bias_from_rest = col.window_mean[0];
+    let motions = seg.motions(&col);
     let (nominal_scale, nominal_source) = nominal::choose(&motions, bias_from_rest, dt, opts)?;
     let nominal = GyroCalibration::nominal(bias_from_rest, nominal_scale);
     let (rows, best, before) = models::evaluate_candidates(&motions, &nominal, dt, opts)?;
@@ -93,7 +102,7 @@ pub fn run(acc: &Recording, gyro: &Recording, opts: &GyroOptions) -> Result<Gyro
     let cal = fit.calibration;
     let mut notes = models::choice_notes(&rows, name);
     notes.extend(nominal::flipped_axes(&cal, &nominal_scale));
-    let motion_table = models::motion_table(&seg, &motions, &held, (&before, &after));
+    let motion_table = models::motion_table(&seg, &col, &motions, &held, (&before, &after));
     let k = cal.matrix;
     let fitted = Fitted {
         name,
@@ -105,7 +114,7 @@ pub fn run(acc: &Recording, gyro: &Recording, opts: &GyroOptions) -> Result<Gyro
             .find(|r| r.name == name)
             .and_then(|r| r.identifiability),
     };
-    let lp = loop_part(gyro, &acc_rec, &seg, &fitted, dt)?;
+    let lp = loop_part(imu, &col, &seg, &fitted, dt)?;
     let correction = device::correction(fitted.bias, fitted.matrix, &lp.search);
     Ok(GyroReport {
         correction,
@@ -185,15 +194,16 @@ fn window_basis(
 
 /// Noise floor, static-window candidates and verdict for the chosen calibration.
 fn loop_part(
-    gyro: &Recording,
-    acc_rec: &Recording,
+    imu: &impl Imu,
+    col: &Collected,
     seg: &segment::Segmentation,
     fit: &Fitted<'_>,
     dt: f64,
 ) -> Result<LoopPart> {
-    let fl = floor::floors(gyro, seg, &fit.matrix, dt);
+    let var = samples::window_variances(imu, seg, &col.window_mean)?;
+    let fl = floor::floors(&var, imu.gyro_is_integer(), seg, &fit.matrix, dt);
     let kept = still_windows(seg, &fl);
-    let (data, cands) = keep_windows(window_data(gyro, seg, fit, &fl), candidates(seg), &kept);
+    let (data, cands) = keep_windows(window_data(col, fit, &fl), candidates(seg), &kept);
     let search = effects::search(&data, &cands)
         .ok_or(GyroError::GyroFitFailed(wiical_core::Error::NotConverged))?;
     let open_basis = window_basis(&search, &cands, &data);
@@ -202,11 +212,11 @@ fn loop_part(
     let ev = verdict::Evidence {
         held_out: fit.held,
         floor: &fl.motion_rad,
-        bias_offset: fits_bias.then(|| segment::bias_against_rest(gyro, seg, fit.bias)),
+        bias_offset: fits_bias.then(|| segment::bias_against_rest(&col.window_mean, fit.bias)),
         scale_and_bias: (fits_bias && fits_scale)
             .then_some(fit.identifiability)
             .flatten(),
-        timestamps: segment::timestamp_problem(acc_rec),
+        timestamps: segment::timestamp_problem(imu.time_steps()),
         dps_per_count: std::array::from_fn(|a| {
             (0..3)
                 .map(|c| fit.matrix[a][c].powi(2))
@@ -232,7 +242,7 @@ fn loop_part(
         diagnostics.push(format!("the motion candidates (scale asymmetry, nonlinearity, time offset) were not tried: their fit is linearised about the chosen calibration and needs {}", if far { "held-out angle errors within 30× the floor" } else { "samples at one rate" }));
         None
     } else {
-        let motions = motion_set(gyro, acc_rec, seg, fit, &fl, dt, (&search, &cands, &data));
+        let motions = motion_set(col, seg, fit, &fl, dt, (&search, &cands, &data));
         motion_search::search(&motions.0, motions.1)
     };
     let mut text = text;
@@ -262,17 +272,11 @@ fn loop_part(
 }
 
 /// The gyro's window means through the chosen calibration and their noise, °/s.
-fn window_data(
-    gyro: &Recording,
-    seg: &segment::Segmentation,
-    fit: &Fitted<'_>,
-    fl: &floor::Floors,
-) -> effects::WindowData {
-    let rate_dps = seg
-        .intervals
+fn window_data(col: &Collected, fit: &Fitted<'_>, fl: &floor::Floors) -> effects::WindowData {
+    let rate_dps = col
+        .window_mean
         .iter()
-        .map(|iv| {
-            let m = segment::bias_at_rest(gyro, iv);
+        .map(|m| {
             std::array::from_fn(|r| {
                 (0..3)
                     .map(|c| fit.matrix[r][c] * (m[c] - fit.bias[c]))
@@ -390,8 +394,7 @@ const MOTION_MARGIN_S: f64 = 1.0;
 /// sample (their deviation from their mean over the windows, °/s → rad/s), the chosen
 /// model's free parameters and each motion's floor; and the names of the effects applied.
 fn motion_set(
-    gyro: &Recording,
-    acc_rec: &Recording,
+    col: &Collected,
     seg: &segment::Segmentation,
     fit: &Fitted<'_>,
     fl: &floor::Floors,
@@ -402,21 +405,20 @@ fn motion_set(
         &effects::WindowData,
     ),
 ) -> (motion::MotionSet, Vec<String>) {
-    let corr = window_correction(acc_rec, seg, search, cands, data.rate_dps.len());
-    let margin = (MOTION_MARGIN_S / dt).ceil() as usize;
+    let corr = window_correction(col, seg, search, cands, data.rate_dps.len());
     let k = nalgebra::Matrix3::from_fn(|r, c| fit.matrix[r][c]);
     let b = nalgebra::Vector3::from(fit.bias);
-    let n = gyro.xyz.len();
     let (mut rates, mut span, mut gravity) = (Vec::new(), Vec::new(), Vec::new());
-    for s in &seg.spans {
+    for (s, kept) in seg.spans.iter().zip(&col.kept) {
         let (start, end) = (s.start as usize, s.end as usize);
-        let lo = start.saturating_sub(margin);
-        let hi = (end + margin).min(n);
+        let lo = kept.lo;
         rates.push(
-            (lo..hi)
-                .map(|j| {
-                    let w = k * (nalgebra::Vector3::from(gyro.xyz[j]) - b);
-                    w - nalgebra::Vector3::from(corr(j)).map(f64::to_radians)
+            kept.gyro
+                .iter()
+                .enumerate()
+                .map(|(i, g)| {
+                    let w = k * (nalgebra::Vector3::from(*g) - b);
+                    w - nalgebra::Vector3::from(corr(kept, i)).map(f64::to_radians)
                 })
                 .collect(),
         );
@@ -440,17 +442,18 @@ fn motion_set(
     (set, applied)
 }
 
-/// The accepted window effects at sample `j`, °/s: each regressor's deviation from its mean
-/// over the windows times the fitted coefficients (so the constant stays the calibration's
-/// bias). The regressors per sample are the windows': the calibrated specific force (g), the
-/// time from the windows' mean centre (h), the temperature from the windows' mean (°C).
+/// The accepted window effects at sample `i` of a motion's kept samples, °/s: each
+/// regressor's deviation from its mean over the windows times the fitted coefficients (so the
+/// constant stays the calibration's bias). The regressors per sample are the windows': the
+/// calibrated specific force (g), the time from the windows' mean centre (h), the temperature
+/// from the windows' mean (°C).
 fn window_correction<'a>(
-    acc_rec: &'a Recording,
+    col: &'a Collected,
     seg: &'a segment::Segmentation,
     search: &'a effects::Search,
     cands: &'a [effects::Candidate],
     windows: usize,
-) -> impl Fn(usize) -> [f64; 3] + 'a {
+) -> impl Fn(&samples::Kept, usize) -> [f64; 3] + 'a {
     let t0 = seg.windows.iter().map(|w| w.t_centre).sum::<f64>() / seg.windows.len() as f64;
     let terms: Vec<(&'a str, Vec<f64>, Vec<f64>)> = search
         .effects
@@ -466,21 +469,21 @@ fn window_correction<'a>(
         .collect();
     let temp_mean =
         seg.windows.iter().filter_map(|w| w.temp).sum::<f64>() / seg.windows.len().max(1) as f64;
-    move |j: usize| {
+    move |kept: &samples::Kept, i: usize| {
         let mut out = [0.0; 3];
         for (name, mean, values) in &terms {
             let x: Vec<f64> = match *name {
                 "g-sensitivity" => seg
                     .accel
-                    .correct_linear(acc_rec.xyz[j].map(|x| x as f32))
+                    .correct_linear(kept.acc[i].map(|x| x as f32))
                     .map(f64::from)
                     .to_vec(),
-                "bias-drift" => vec![(seg.times.get(j).copied().unwrap_or(t0) - t0) / 3600.0],
-                _ => vec![acc_rec
-                    .temp
-                    .as_ref()
-                    .and_then(|t| t.get(j).copied())
-                    .map_or(0.0, |t| t - temp_mean)],
+                "bias-drift" => vec![(kept.t[i] - t0) / 3600.0],
+                _ => vec![if col.has_temp {
+                    kept.temp[i] - temp_mean
+                } else {
+                    0.0
+                }],
             };
             let k = mean.len();
             for (a, o) in out.iter_mut().enumerate() {

@@ -2,6 +2,7 @@
 //! error, and the per-motion table of the chosen one.
 
 use super::options::{deg, GyroError, GyroOptions, Result};
+use super::samples::Collected;
 use super::segment::Segmentation;
 use serde::Serialize;
 use wiical_core::gyro::{GyroCalibration, MotionResidual};
@@ -88,6 +89,7 @@ pub(super) fn choice_notes(rows: &[GyroModelRow], name: &str) -> Vec<String> {
 /// (`angles.1`, the chosen calibration), rad, and held out.
 pub(super) fn motion_table(
     seg: &Segmentation,
+    col: &Collected,
     motions: &[Motion<'_, f64>],
     held: &[f64],
     angles: (&[f64], &[f64]),
@@ -97,8 +99,9 @@ pub(super) fn motion_table(
         .zip(motions)
         .zip(held)
         .zip(angles.0.iter().zip(angles.1))
-        .map(|(((s, m), h), (before, after))| {
-            let t = |i: u32| seg.times.get(i as usize).copied().unwrap_or(f64::NAN);
+        .enumerate()
+        .map(|(k, (((s, m), h), (before, after)))| {
+            let t = |i: u32| col.time(k, i as usize);
             MotionRow {
                 t_start: t(s.start),
                 t_end: t(s.end.saturating_sub(1)),

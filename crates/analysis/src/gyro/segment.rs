@@ -2,20 +2,18 @@
 //! them with their gravity directions, and the checks on the gyro that need them.
 
 use super::options::{GyroError, GyroOptions, Result};
-use crate::detect::windows::{detect_windows, WindowStats};
+use super::samples::{self, Collected, Imu};
+use crate::detect::windows::WindowStats;
 use crate::fit::base::{run_windows, FitOptions};
-use crate::input::recording::Recording;
 use crate::input::timecheck::TimeSteps;
 use wiical_core::gyro_fit;
 use wiical_core::static_detect::StaticInterval;
 use wiical_core::Calibration;
 
 /// What the accelerometer says: the windows `wiical fit` finds on the same file and settings
-/// (as the core's intervals), their times, and the motions between them with `fit`'s
-/// gravity directions.
+/// (as the core's intervals) and the motions between them with `fit`'s gravity directions.
 pub(super) struct Segmentation {
     pub(super) intervals: Vec<StaticInterval>,
-    pub(super) times: Vec<f64>,
     pub(super) spans: Vec<gyro_fit::MotionSpan>,
     /// The accelerometer's statistics per window (mean, variance, centre time, temperature).
     pub(super) windows: Vec<WindowStats>,
@@ -24,12 +22,13 @@ pub(super) struct Segmentation {
 }
 
 impl Segmentation {
-    /// The motions between the windows, with the gyro's samples.
-    pub(super) fn motions<'a>(&self, gyro: &'a Recording) -> Vec<gyro_fit::Motion<'a, f64>> {
+    /// The motions between the windows, with the gyro's samples `col` kept.
+    pub(super) fn motions<'a>(&self, col: &'a Collected) -> Vec<gyro_fit::Motion<'a, f64>> {
         self.spans
             .iter()
-            .map(|s| gyro_fit::Motion {
-                samples: &gyro.xyz[s.start as usize..s.end as usize],
+            .zip(samples::motion_samples(self, col))
+            .map(|(s, samples)| gyro_fit::Motion {
+                samples,
                 g_start: nalgebra::Vector3::from(s.g_start).cast(),
                 g_end: nalgebra::Vector3::from(s.g_end).cast(),
             })
@@ -50,8 +49,8 @@ impl Segmentation {
     }
 }
 
-pub(super) fn segment(acc_rec: &Recording, opts: &GyroOptions) -> Result<Segmentation> {
-    let ws = detect_windows(acc_rec, &opts.detect)?;
+pub(super) fn segment(imu: &impl Imu, opts: &GyroOptions) -> Result<Segmentation> {
+    let ws = imu.windows(&opts.detect)?;
     let fit_opts = FitOptions {
         detect: opts.detect.clone(),
         model: opts.accel_model,
@@ -78,7 +77,6 @@ pub(super) fn segment(acc_rec: &Recording, opts: &GyroOptions) -> Result<Segment
     }
     Ok(Segmentation {
         intervals,
-        times: ws.times,
         spans,
         windows: ws.stats,
         accel,
@@ -89,19 +87,19 @@ pub(super) fn segment(acc_rec: &Recording, opts: &GyroOptions) -> Result<Segment
 /// given as the gyro's): a gyro's mean over the still windows is its bias, the same
 /// in every pose, while gravity's points a different way in each. Refused when the spread of
 /// the window means is more than half the RMS of the signal during the motions.
-pub(super) fn check_not_gravity(gyro: &Recording, seg: &Segmentation) -> Result<()> {
-    let means: Vec<[f64; 3]> = seg
-        .intervals
-        .iter()
-        .map(|iv| bias_at_rest(gyro, iv))
-        .collect();
+pub(super) fn check_not_gravity(
+    columns: &[String; 3],
+    seg: &Segmentation,
+    col: &Collected,
+) -> Result<()> {
+    let means = &col.window_mean;
     let n = means.len() as f64;
     let centre: [f64; 3] = std::array::from_fn(|a| means.iter().map(|m| m[a]).sum::<f64>() / n);
     let sq = |v: [f64; 3]| (0..3).map(|a| (v[a] - centre[a]).powi(2)).sum::<f64>();
     let spread = (means.iter().map(|m| sq(*m)).sum::<f64>() / n).sqrt();
     let (mut acc, mut count) = (0.0, 0usize);
-    for s in &seg.spans {
-        for v in &gyro.xyz[s.start as usize..s.end as usize] {
+    for samples in samples::motion_samples(seg, col) {
+        for v in samples {
             acc += sq(*v);
             count += 1;
         }
@@ -109,7 +107,7 @@ pub(super) fn check_not_gravity(gyro: &Recording, seg: &Segmentation) -> Result<
     let motion_rms = (acc / count.max(1) as f64).sqrt();
     if spread > 0.5 * motion_rms {
         return Err(GyroError::GyroLooksLikeGravity {
-            columns: gyro.axis_columns.join(","),
+            columns: columns.join(","),
             spread,
             motion_rms,
         });
@@ -117,54 +115,38 @@ pub(super) fn check_not_gravity(gyro: &Recording, seg: &Segmentation) -> Result<
     Ok(())
 }
 
-/// The gyro's mean over the first window (the uncalibrated bias), raw counts.
-pub(super) fn bias_at_rest(gyro: &Recording, rest: &StaticInterval) -> [f64; 3] {
-    let rest_samples = &gyro.xyz[rest.start as usize..rest.end as usize];
-    let n = rest_samples.len() as f64;
-    std::array::from_fn(|a| rest_samples.iter().map(|s| s[a]).sum::<f64>() / n)
-}
-
 /// Refuses gyro columns that read nothing: an axis with one value on every row (all zeros from
 /// a gyro that was never enabled, a column the logger leaves empty) cannot be integrated, and
 /// saying so is clearer than what the fit would say later. The accelerometer's mean magnitude
 /// is quoted so that the sentence shows the other sensor was working.
-pub(super) fn check_gyro_reads(gyro: &Recording, acc: &Recording) -> Result<()> {
-    let dead: Vec<usize> = (0..3)
-        .filter(|&a| {
-            let first = gyro.xyz.first().map_or(0.0, |v| v[a]);
-            gyro.xyz.iter().all(|v| v[a] == first)
-        })
-        .collect();
-    if dead.is_empty() {
+pub(super) fn check_gyro_reads(imu: &impl Imu, default_rate_hz: f64) -> Result<()> {
+    let Some(r) = samples::reads(imu, default_rate_hz)? else {
         return Ok(());
-    }
-    let n = acc.xyz.len().max(1) as f64;
-    let acc_norm = acc
-        .xyz
-        .iter()
-        .map(|v| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt())
-        .sum::<f64>()
-        / n;
+    };
+    let n = imu.len().max(1) as f64;
+    let columns = imu.gyro_columns();
     Err(GyroError::GyroReadsNothing {
-        columns: dead
+        columns: r
+            .dead
             .iter()
-            .map(|&a| gyro.axis_columns[a].clone())
+            .map(|&a| columns[a].clone())
             .collect::<Vec<_>>()
             .join(", "),
-        value: gyro.xyz.first().map_or(0.0, |v| v[dead[0]]),
-        rows: gyro.xyz.len(),
-        accel_norm: acc_norm,
+        value: r.first[r.dead[0]],
+        rows: imu.len(),
+        accel_norm: r.acc_norm_sum / n,
     })
 }
 
-/// After the accelerometer's stages failed on `acc` (or the gyro turned out to move with
+/// After the accelerometer's stages failed on `imu` (or the gyro turned out to move with
 /// gravity): whether the two recordings were given in swapped order, i.e. the "gyro" has the
 /// poses of an accelerometer and the "accelerometer" passes the gyro's gravity check. Returns
 /// the error that says so, or `None` (then the original error stands).
-pub(super) fn swapped(acc: &Recording, gyro: &Recording, opts: &GyroOptions) -> Option<GyroError> {
-    let as_acc = super::align::paired_accelerometer(gyro, acc).ok()?;
+pub(super) fn swapped(imu: &impl Imu, opts: &GyroOptions) -> Option<GyroError> {
+    let as_acc = imu.swapped()?;
     let seg = segment(&as_acc, opts).ok()?;
-    check_not_gravity(acc, &seg).ok()?;
+    let col = samples::collect(&as_acc, &seg, 0, opts.detect.default_rate_hz).ok()?;
+    check_not_gravity(as_acc.gyro_columns(), &seg, &col).ok()?;
     Some(GyroError::GyroFilesSwapped {
         windows: seg.intervals.len(),
     })
@@ -176,16 +158,9 @@ pub(super) const STATIC_TILT_DEG: f64 = 5.0;
 
 /// The static-only refusal, when the accelerometer's 1-s means (at `rate` Hz) all point within
 /// [`STATIC_TILT_DEG`] of their overall mean direction.
-pub(super) fn static_only(acc: &Recording, rate: f64) -> Option<GyroError> {
+pub(super) fn static_only(imu: &impl Imu, rate: f64, default_rate_hz: f64) -> Option<GyroError> {
     let block = (rate.max(1.0).round() as usize).max(1);
-    let means: Vec<nalgebra::Vector3<f64>> = acc
-        .xyz
-        .chunks(block)
-        .filter_map(|c| {
-            let s: nalgebra::Vector3<f64> = c.iter().map(|v| nalgebra::Vector3::from(*v)).sum();
-            s.try_normalize(0.0)
-        })
-        .collect();
+    let means = samples::block_directions(imu, block, default_rate_hz).ok()?;
     let all = means
         .iter()
         .sum::<nalgebra::Vector3<f64>>()
@@ -197,18 +172,10 @@ pub(super) fn static_only(acc: &Recording, rate: f64) -> Option<GyroError> {
     (max_tilt_deg < STATIC_TILT_DEG).then_some(GyroError::GyroStaticOnly { max_tilt_deg })
 }
 
-/// The gyro's mean at rest (the mean of the window means) against the fitted bias: the
-/// difference and the window means' spread (standard deviation over the windows), raw counts.
-pub(super) fn bias_against_rest(
-    gyro: &Recording,
-    seg: &Segmentation,
-    bias: [f64; 3],
-) -> ([f64; 3], [f64; 3]) {
-    let means: Vec<[f64; 3]> = seg
-        .intervals
-        .iter()
-        .map(|iv| bias_at_rest(gyro, iv))
-        .collect();
+/// The gyro's mean at rest (the mean of the window means `means`) against the fitted bias:
+/// the difference and the window means' spread (standard deviation over the windows), raw
+/// counts.
+pub(super) fn bias_against_rest(means: &[[f64; 3]], bias: [f64; 3]) -> ([f64; 3], [f64; 3]) {
     let n = means.len() as f64;
     let centre: [f64; 3] = std::array::from_fn(|a| means.iter().map(|m| m[a]).sum::<f64>() / n);
     let spread = std::array::from_fn(|a| {
@@ -225,8 +192,8 @@ pub(super) fn bias_against_rest(
 /// Why the recording's timestamps cannot be integrated at one rate, if they cannot: they come
 /// in bursts (the logger stamps FIFO reads, not samples, so where the samples lie in time is
 /// unknown and any lost between bursts go unnoticed) or have gaps.
-pub(super) fn timestamp_problem(rec: &Recording) -> Option<String> {
-    let steps = TimeSteps::of(rec.t.as_deref()?)?;
+pub(super) fn timestamp_problem(steps: Option<TimeSteps>) -> Option<String> {
+    let steps = steps?;
     if steps.bursty() {
         return Some(format!(
             "the timestamps come in bursts ({} of {} steps are gaps of more than {}× the median step): the samples' times are not known, so the motions cannot be integrated at one rate (log the sensor's own sample counter or a steady rate)",
