@@ -10,6 +10,8 @@
 //! extremes. Then two passes over the windows' samples: the first sums the means, times,
 //! temperatures and batch means and checks saturation; the second, with the means known, sums
 //! the squared deviations. Times are kept per window (first, last, centre), not per sample.
+//! When the first pass's rows were kept in a temporary file ([`TextSource::is_spilled`]), the
+//! two passes read each window's rows alone from it, windows on all cores.
 
 use crate::detect::windows::{
     adaptive_intervals, adaptive_rate, adc_range_of, axis_lattice, batch_spread, detector_scale,
@@ -408,6 +410,9 @@ fn saturated_at(
     }
 }
 
+/// A window's samples: the first and one past the last.
+type Span = (usize, usize);
+
 /// Rows a window reads from the spill at a time ([`window_stats_spilled`]).
 const WINDOW_READ_ROWS: usize = 1 << 16;
 
@@ -419,7 +424,7 @@ const WINDOW_READ_ROWS: usize = 1 << 16;
 fn window_stats_spilled(
     src: &TextSource,
     intervals: &[StaticInterval],
-    (checked, spans): (&[(usize, usize)], &[(usize, usize)]),
+    (checked, spans): (&[Span], &[Span]),
     range: Option<(f64, f64)>,
     fs: f64,
 ) -> Option<Result<Vec<WindowStats>>> {
