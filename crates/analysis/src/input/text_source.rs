@@ -12,7 +12,7 @@
 //! longer parse, stops the pass; [`TextSource::check`] then says so in one sentence.
 //!
 //! The first pass also writes the rows it parsed to a temporary file
-//! ([`crate::input::text_spill`]), and every later pass reads them back from there instead
+//! (`input::text_spill`), and every later pass reads them back from there instead
 //! of parsing the text again: the same values bit for bit, at the cost of a copy instead of a
 //! parse. Without it (no temporary directory, a full disk, or [`SPILL_VAR`] set to `0`) the
 //! passes re-read the text as described above.
