@@ -4,7 +4,8 @@
 //! temperature effect (the thermal terms folded in a pass), the same in g (the quantiser
 //! lattice mapped back from the first pass's distinct values), without a time column, and
 //! with the fixed IMU-TK detector; and a file that changes between passes is refused in one
-//! sentence.
+//! sentence. The later passes read back the rows the first wrote to a temporary file: the
+//! same windows and reports as when they parse the text again.
 
 use std::path::Path;
 use wiical_analysis::input::front_door::{load_input_from, Input};
@@ -183,4 +184,59 @@ fn a_gzip_file_is_streamed_and_gives_the_plain_file_reports() {
     assert_eq!(rep["samples"].as_u64(), Some(out.recording.len() as u64));
     let effects = rep["effects"].to_string();
     assert!(effects.contains("temperature"), "{effects}");
+}
+
+/// A streamed input's windows as text (every value as its shortest exact decimal).
+fn windows_text(input: &Input, opts: &wiical_analysis::detect::windows::DetectOptions) -> String {
+    let Input::Stream(src) = input else {
+        panic!("not streamed")
+    };
+    let w = wiical_analysis::detect::streamed::detect_windows_streamed(src, opts).unwrap();
+    format!(
+        "{:?} {:?} {:?} {} {:?}",
+        w.stats, w.times, w.clock, w.units, w.reference_variance
+    )
+}
+
+/// The rows read back from the temporary file (many blocks: small pieces) give the windows,
+/// `fit` and `analyze` of the passes that parse the text again, bit for bit, for the adaptive
+/// and the fixed detector, with and without a time column.
+#[test]
+fn the_rows_read_back_give_the_windows_of_the_text_read_again() {
+    use std::sync::Arc;
+    use wiical_analysis::input::front_door::load_input_in;
+    let dir = tempfile::tempdir().unwrap();
+    let (path, _) = sim_csv(dir.path(), "ms2.csv", true);
+    let text = std::fs::read_to_string(&path).unwrap();
+    let no_t: String = text
+        .lines()
+        .map(|l| l.split_once(',').unwrap().1.to_string() + "\n")
+        .collect();
+    let no_t_path = dir.path().join("no_t.csv");
+    std::fs::write(&no_t_path, format!("Fs,100\n{no_t}")).unwrap();
+    let opts = WindowInputOptions::default();
+    for path in [&path, &no_t_path] {
+        let spilled = load_input_in(path, &opts, 0, 64 << 10).unwrap();
+        let Input::Stream(mut src) = load_input_in(path, &opts, 0, 64 << 10).unwrap() else {
+            panic!("{path:?} not streamed")
+        };
+        let Input::Stream(s) = &spilled else {
+            panic!("{path:?} not streamed")
+        };
+        assert!(s.is_spilled(), "{path:?} not spilled");
+        Arc::get_mut(&mut src).unwrap().forget_spill();
+        assert!(!src.is_spilled());
+        let text_read = Input::Stream(src);
+        let mut fixed = AnalyzeOptions::default();
+        fixed.fit.detect.adaptive = false;
+        for analyze in [AnalyzeOptions::default(), fixed] {
+            let detect = &analyze.fit.detect;
+            let want = windows_text(&text_read, detect);
+            assert_eq!(windows_text(&spilled, detect), want, "{path:?}");
+            let fit = json(&fit_judged(&text_read, &analyze.fit).unwrap());
+            assert_eq!(json(&fit_judged(&spilled, &analyze.fit).unwrap()), fit);
+            let rep = json(&analyze_judged(&text_read, &analyze).unwrap());
+            assert_eq!(json(&analyze_judged(&spilled, &analyze).unwrap()), rep);
+        }
+    }
 }

@@ -10,18 +10,23 @@
 //! extremes. Then two passes over the windows' samples: the first sums the means, times,
 //! temperatures and batch means and checks saturation; the second, with the means known, sums
 //! the squared deviations. Times are kept per window (first, last, centre), not per sample.
+//! When the first pass's rows were kept in a temporary file ([`TextSource::is_spilled`]), the
+//! two passes read each window's rows alone from it, windows on all cores.
 
 use crate::detect::windows::{
     adaptive_intervals, adaptive_rate, adc_range_of, axis_lattice, batch_spread, detector_scale,
-    fixed_intervals, magnitude, to_levels, variance_of, DetectOptions, Streamed, WindowStats,
-    Windows, BATCHES,
+    fixed_intervals, magnitude, to_levels, variance_of, DetectOptions, PairResult, Passes,
+    WindowStats, Windows, BATCHES, MAX_WINDOW,
 };
 use crate::error::detect::DetectError;
 use crate::error::Result;
 use crate::input::recording::infer_units;
-use crate::input::text_source::TextSource;
+use crate::input::text_source::{Columns, Rows, TextSource, Want};
 use crate::stats as st;
-use wiical_core::static_detect::StaticInterval;
+use wiical_core::static_detect::adaptive::{self, AdaptiveThresholds, NoiseSurvey};
+use wiical_core::static_detect::{StaticDetector, StaticDetectorConfig, StaticInterval};
+
+type CoreError = wiical_core::Error;
 
 /// The time of sample `i` of `src` whose time column gives `t` (without one: `i / Fs`, the
 /// metadata's rate else the detection's, as [`crate::input::recording::Recording::times`]).
@@ -83,14 +88,139 @@ fn detect_adaptive(
 ) -> Result<(Vec<StaticInterval>, [f32; 3], f64)> {
     let rate = adaptive_rate(src.estimated_rate_hz(), opts)?;
     let lattice = lattice(src);
-    let samples = src.rows().map(move |r| match &lattice {
-        Some(l) => to_levels(&r.xyz, l).map(|v| v as f32),
-        None => r.xyz.map(|v| v as f32),
-    });
-    let found = adaptive_intervals(&Streamed(samples), src.len(), rate);
+    let found = adaptive_intervals(&InPieces { src, lattice }, src.len(), rate);
     src.check()?;
     let (intervals, reference) = found?;
     Ok((intervals, reference, rate))
+}
+
+/// A sample as the adaptive detector sees it: its quantiser levels on `lattice`, else its
+/// values, in `f32`.
+fn view(x: &[f64; 3], lattice: &Option<[(f64, f64); 3]>) -> [f32; 3] {
+    match lattice {
+        Some(l) => to_levels(x, l).map(|v| v as f32),
+        None => x.map(|v| v as f32),
+    }
+}
+
+/// The detector's view of every sample of a pass ([`view`]).
+#[derive(Clone)]
+pub(crate) struct Viewed<'a> {
+    rows: Rows<'a>,
+    lattice: Option<[(f64, f64); 3]>,
+}
+
+impl Iterator for Viewed<'_> {
+    type Item = [f32; 3];
+
+    fn next(&mut self) -> Option<[f32; 3]> {
+        self.rows.next().map(|r| view(&r.xyz, &self.lattice))
+    }
+}
+
+/// The adaptive detection's passes over a streamed file, a piece at a time: the pieces'
+/// blocks surveyed on all cores and the two detectors of a pair fed each on its own core (the
+/// same values in the same order as one sample at a time: the same thresholds and intervals).
+struct InPieces<'a> {
+    src: &'a TextSource,
+    lattice: Option<[(f64, f64); 3]>,
+}
+
+impl<'a> Passes for InPieces<'a> {
+    type Iter = Viewed<'a>;
+
+    fn pass(&self) -> Viewed<'a> {
+        Viewed {
+            rows: self.src.rows(),
+            lattice: self.lattice,
+        }
+    }
+
+    /// Each piece's complete blocks measured on all cores and added in order, the rest carried
+    /// to the next piece; the last incomplete block pushed sample by sample
+    /// (`Held`'s survey, bit for bit).
+    fn survey(&self, rate: f32) -> Result<AdaptiveThresholds, CoreError> {
+        use rayon::prelude::*;
+        let mut survey = NoiseSurvey::for_rate(rate)?;
+        let block = survey.block_samples() as usize;
+        let mut pending: Vec<[f32; 3]> = Vec::new();
+        let mut failed = None;
+        self.src.each_piece(AXES, |cols| {
+            let viewed = cols.xyz.par_iter().map(|x| view(x, &self.lattice));
+            pending.par_extend(viewed);
+            let full = pending.len() / block * block;
+            let measured: Vec<_> = pending[..full]
+                .par_chunks(block)
+                .map(NoiseSurvey::measure_block)
+                .collect();
+            pending.drain(..full);
+            for m in measured {
+                match m {
+                    Ok(m) => survey.add_measured(m),
+                    Err(e) => {
+                        failed = Some(e);
+                        return false;
+                    }
+                }
+            }
+            true
+        });
+        if let Some(e) = failed {
+            return Err(e);
+        }
+        for m in pending {
+            survey.push(m)?;
+        }
+        survey.thresholds(adaptive::DEFAULT_QUANTILE)
+    }
+
+    /// Each piece fed to the two detectors on two cores at once; the error is the one met
+    /// first in sample order (the first setting's on the same sample).
+    fn run_pair(&self, cfgs: [StaticDetectorConfig; 2], reference: [f32; 3]) -> PairResult {
+        type Detector = StaticDetector<MAX_WINDOW>;
+        let mut dets: [Detector; 2] = [
+            StaticDetector::with_reference(cfgs[0], reference)?,
+            StaticDetector::with_reference(cfgs[1], reference)?,
+        ];
+        let mut out = [Vec::new(), Vec::new()];
+        let (mut viewed, mut failed) = (Vec::new(), None);
+        let feed = |det: &mut Detector, out: &mut Vec<StaticInterval>, samples: &[[f32; 3]]| {
+            for (i, m) in samples.iter().enumerate() {
+                out.extend(det.push(*m).map_err(|e| (i, e))?);
+            }
+            Ok::<(), (usize, CoreError)>(())
+        };
+        self.src.each_piece(AXES, |cols| {
+            use rayon::prelude::*;
+            let samples = cols.xyz.par_iter().map(|x| view(x, &self.lattice));
+            samples.collect_into_vec(&mut viewed);
+            let ([a, b], [oa, ob]) = (&mut dets, &mut out);
+            match rayon::join(|| feed(a, oa, &viewed), || feed(b, ob, &viewed)) {
+                (Ok(()), Ok(())) => true,
+                (Err((i, e)), Err((j, _))) if i <= j => fail_with(&mut failed, e),
+                (Err((_, e)), Ok(())) | (_, Err((_, e))) => fail_with(&mut failed, e),
+            }
+        });
+        if let Some(e) = failed {
+            return Err(e);
+        }
+        let [mut a, mut b] = dets;
+        out[0].extend(a.finish());
+        out[1].extend(b.finish());
+        Ok(out)
+    }
+}
+
+/// The columns the detector's passes read: the axes alone.
+const AXES: Want = Want {
+    t: false,
+    temp: false,
+};
+
+/// `e` kept as the pass's error; false (the pass stops).
+fn fail_with(failed: &mut Option<CoreError>, e: CoreError) -> bool {
+    *failed = Some(e);
+    false
 }
 
 /// The per-axis quantiser lattice of `detect::windows::lattice_view` from the first pass's
@@ -181,6 +311,23 @@ struct Acc {
     batches: [[f64; 3]; BATCHES],
 }
 
+impl Acc {
+    /// No sample of the window `span` yet.
+    fn new(span: (usize, usize)) -> Self {
+        let zero = sum_start();
+        Acc {
+            span,
+            sum: [0.0; 3],
+            sq: [0.0; 3],
+            t_sum: zero,
+            temp_sum: zero,
+            t_first: f64::NAN,
+            t_last: f64::NAN,
+            batches: [[0.0; 3]; BATCHES],
+        }
+    }
+}
+
 /// The windows of at least two samples, their statistics folded over two passes of `src`;
 /// a sample of any interval at an ADC limit of `range` is refused as
 /// `detect::windows::check_saturation` refuses it.
@@ -198,20 +345,10 @@ fn window_stats(
         .copied()
         .filter(|(s, e)| *e > s + 1)
         .collect();
-    let zero = sum_start();
-    let mut accs: Vec<Acc> = spans
-        .iter()
-        .map(|&span| Acc {
-            span,
-            sum: [0.0; 3],
-            sq: [0.0; 3],
-            t_sum: zero,
-            temp_sum: zero,
-            t_first: f64::NAN,
-            t_last: f64::NAN,
-            batches: [[0.0; 3]; BATCHES],
-        })
-        .collect();
+    if let Some(stats) = window_stats_spilled(src, intervals, (&checked, &spans), range, fs) {
+        return stats;
+    }
+    let mut accs: Vec<Acc> = spans.iter().map(|&span| Acc::new(span)).collect();
     let mut saturated: Option<(usize, DetectError)> = None;
     let (mut sat_cover, mut cover) = (Cover::new(&checked), Cover::new(&spans));
     for (i, r) in src.rows().enumerate() {
@@ -221,18 +358,7 @@ fn window_stats(
                     continue;
                 }
                 if let Some(a) = (0..3).find(|&a| r.xyz[a] <= lo || r.xyz[a] >= hi) {
-                    let iv = &intervals[k];
-                    saturated = Some((
-                        k,
-                        DetectError::Saturated {
-                            window: k + 1,
-                            start: iv.start,
-                            end: iv.end,
-                            axis: ["x", "y", "z"][a],
-                            value: r.xyz[a],
-                            sample: i + 1,
-                        },
-                    ));
+                    saturated = Some((k, saturated_at(intervals, k, i, a, r.xyz[a])));
                 }
             }
         }
@@ -262,6 +388,128 @@ fn window_stats(
         .iter()
         .map(|a| finish(a, t0, integer, has_temp))
         .collect())
+}
+
+/// Window `k` of `intervals` refused for its sample `i` (from 0) whose axis `a` reads
+/// `value`, at an ADC limit.
+fn saturated_at(
+    intervals: &[StaticInterval],
+    k: usize,
+    i: usize,
+    a: usize,
+    value: f64,
+) -> DetectError {
+    let iv = &intervals[k];
+    DetectError::Saturated {
+        window: k + 1,
+        start: iv.start,
+        end: iv.end,
+        axis: ["x", "y", "z"][a],
+        value,
+        sample: i + 1,
+    }
+}
+
+/// A window's samples: the first and one past the last.
+type Span = (usize, usize);
+
+/// Rows a window reads from the spill at a time ([`window_stats_spilled`]).
+const WINDOW_READ_ROWS: usize = 1 << 16;
+
+/// [`window_stats`] from the rows the first pass wrote ([`TextSource::read_spilled`]): each
+/// window's rows alone read back, on all cores, window by window (each window's sums in
+/// sample order as the passes fold them: the same values). `checked`: the intervals' sample
+/// spans, `spans`: those of at least two samples. `None` when the file has no spill, or a
+/// read of it failed (the passes then read every sample).
+fn window_stats_spilled(
+    src: &TextSource,
+    intervals: &[StaticInterval],
+    (checked, spans): (&[Span], &[Span]),
+    range: Option<(f64, f64)>,
+    fs: f64,
+) -> Option<Result<Vec<WindowStats>>> {
+    use rayon::prelude::*;
+    if !src.is_spilled() || !src.unchanged() {
+        return None; // the passes say that the file changed
+    }
+    if let Some((lo, hi)) = range {
+        let first = checked
+            .par_iter()
+            .map_init(Buffers::default, |buf, &span| {
+                let mut found = None;
+                let read = buf.fold(src, span, |i, x, _, _| {
+                    found = found.or_else(|| {
+                        (0..3)
+                            .find(|&a| x[a] <= lo || x[a] >= hi)
+                            .map(|a| (i, a, x[a]))
+                    });
+                });
+                read.then_some(found)
+            })
+            .collect::<Option<Vec<_>>>()?;
+        let saturated = first
+            .iter()
+            .enumerate()
+            .find_map(|(k, f)| f.map(|f| (k, f)));
+        if let Some((k, (i, a, value))) = saturated {
+            return Some(Err(saturated_at(intervals, k, i, a, value).into()));
+        }
+    }
+    let accs = spans
+        .par_iter()
+        .map_init(Buffers::default, |buf, &span| {
+            let mut acc = Acc::new(span);
+            let read = buf.fold(src, span, |i, x, t, temp| {
+                first_sums(&mut acc, i, x, time_of(t, i, fs), temp)
+            });
+            let m = mean_of(&acc);
+            let read = read
+                && buf.fold(src, span, |_, x, _, _| {
+                    for ((q, x), m) in acc.sq.iter_mut().zip(x).zip(&m) {
+                        *q += (x - m).powi(2);
+                    }
+                });
+            read.then_some(acc)
+        })
+        .collect::<Option<Vec<Acc>>>()?;
+    let t0 = time_of(src.summary.t_first, 0, fs);
+    let (integer, has_temp) = (src.summary.integer, src.has_temp());
+    Some(Ok(accs
+        .iter()
+        .map(|a| finish(a, t0, integer, has_temp))
+        .collect()))
+}
+
+/// A window's read buffers.
+#[derive(Default)]
+struct Buffers {
+    cols: Columns,
+    scratch: Vec<u8>,
+}
+
+impl Buffers {
+    /// `f(i, values, time, temperature)` on each sample `i` of `span`, in order, read from the
+    /// spill [`WINDOW_READ_ROWS`] at a time; false when a read failed.
+    fn fold(
+        &mut self,
+        src: &TextSource,
+        (s, e): (usize, usize),
+        mut f: impl FnMut(usize, &[f64; 3], Option<f64>, Option<f64>),
+    ) -> bool {
+        let mut from = s;
+        while from < e {
+            let to = e.min(from + WINDOW_READ_ROWS);
+            if !src.read_spilled((from, to), &mut self.cols, &mut self.scratch) {
+                return false;
+            }
+            let c = &self.cols;
+            for (j, x) in c.xyz.iter().enumerate() {
+                f(from + j, x, c.t.get(j).copied(), c.temp.get(j).copied());
+            }
+            from = to;
+        }
+        true
+    }
 }
 
 fn mean_of(a: &Acc) -> [f64; 3] {
@@ -390,5 +638,93 @@ mod tests {
                 .collect();
             assert_eq!(cover.at(i), &want[..], "sample {i}");
         }
+    }
+}
+
+/// A streamed file whose rows cannot be written to a temporary file (no such directory, a
+/// disk full from the start or after a few blocks), or whose spill cannot be read back in the
+/// middle of a pass, gives the rows, the windows and the clones of the text parsed again.
+#[cfg(test)]
+mod spill_tests {
+    use crate::input::columns::LoadOptions;
+    use crate::input::text_source::{Row, SpillTo, TextSource};
+
+    fn rows_of(src: &TextSource) -> Vec<Row> {
+        let rows: Vec<Row> = src.rows().collect();
+        src.check().unwrap();
+        rows
+    }
+
+    fn windows_of(src: &TextSource) -> String {
+        let opts = crate::detect::windows::DetectOptions::default();
+        let w = super::detect_windows_streamed(src, &opts).unwrap();
+        format!(
+            "{:?} {:?} {:?} {:?}",
+            w.stats, w.clock, w.units, w.reference_variance
+        )
+    }
+
+    #[test]
+    fn without_the_spill_the_text_is_read_again_alike() {
+        let out = crate::simulate::simulate(&crate::simulate::SimConfig {
+            seed: 3,
+            poses: 12,
+            temp_column: true,
+            ..Default::default()
+        })
+        .unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("r.csv");
+        std::fs::write(&path, crate::simulate::to_csv(&out.recording)).unwrap();
+        let opts = LoadOptions::default();
+        let open = |to: &SpillTo| {
+            TextSource::open_with(&path, &opts, 4096, to, |_| true)
+                .unwrap()
+                .unwrap()
+        };
+        let on = SpillTo {
+            on: true,
+            dir: None,
+            limit: u64::MAX,
+        };
+        let text = open(&SpillTo {
+            on: false,
+            ..on.clone()
+        });
+        assert!(!text.is_spilled());
+        let (want_rows, want_windows) = (rows_of(&text), windows_of(&text));
+        assert_eq!(want_rows.len(), out.recording.len());
+        let spilled = open(&on);
+        assert!(spilled.is_spilled());
+        let no_dir = SpillTo {
+            dir: Some(dir.path().join("no such directory")),
+            ..on.clone()
+        };
+        let full_at_once = SpillTo {
+            limit: 0,
+            ..on.clone()
+        };
+        let full_later = SpillTo {
+            limit: 20_000,
+            ..on.clone()
+        };
+        for to in [&on, &no_dir, &full_at_once, &full_later] {
+            let src = open(to);
+            assert_eq!(src.is_spilled(), to.limit == u64::MAX && to.dir.is_none());
+            assert_eq!(rows_of(&src), want_rows, "{to:?}");
+            assert_eq!(windows_of(&src), want_windows, "{to:?}");
+        }
+        // The spill emptied in the middle of a pass (and of a clone's): both go on from the
+        // text at the same row; every later pass reads the text.
+        let mut it = spilled.rows();
+        let head: Vec<Row> = it.by_ref().take(1000).collect();
+        let clone = it.clone();
+        spilled.truncate_spill();
+        let rest: Vec<Row> = it.collect();
+        assert_eq!([head.clone(), rest].concat(), want_rows);
+        assert_eq!([head, clone.collect()].concat(), want_rows);
+        assert!(!spilled.is_spilled());
+        assert_eq!(windows_of(&spilled), want_windows);
+        spilled.check().unwrap();
     }
 }

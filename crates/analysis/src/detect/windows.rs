@@ -281,7 +281,7 @@ pub(crate) fn adaptive_rate(estimated: Option<f64>, opts: &DetectOptions) -> Res
 
 /// The passes the adaptive detection makes over its samples (as the detector sees them:
 /// quantiser levels or values, `f32`): samples held in memory are passed over by both cores at
-/// once; samples streamed from a file feed several detectors from one read.
+/// once; samples streamed from a file (`detect::streamed`) a piece at a time, on all cores too.
 pub(crate) trait Passes {
     /// One pass over the samples.
     type Iter: Iterator<Item = [f32; 3]> + Clone;
@@ -385,31 +385,6 @@ impl<'a, S: DetectorSample> Passes for Held<'a, S> {
             || run_one(self.pass(), cfgs[1], reference),
         );
         Ok([a?, b?])
-    }
-}
-
-/// Samples that cost a read per pass (a file streamed, never held).
-pub(crate) struct Streamed<I>(pub(crate) I);
-
-impl<I: Iterator<Item = [f32; 3]> + Clone> Passes for Streamed<I> {
-    type Iter = I;
-
-    fn pass(&self) -> I {
-        self.0.clone()
-    }
-
-    /// Both detectors fed from one read of the samples.
-    fn run_pair(&self, cfgs: [StaticDetectorConfig; 2], reference: [f32; 3]) -> PairResult {
-        let mut a: StaticDetector<MAX_WINDOW> = StaticDetector::with_reference(cfgs[0], reference)?;
-        let mut b: StaticDetector<MAX_WINDOW> = StaticDetector::with_reference(cfgs[1], reference)?;
-        let mut out = [Vec::new(), Vec::new()];
-        for m in self.pass() {
-            out[0].extend(a.push(m)?);
-            out[1].extend(b.push(m)?);
-        }
-        out[0].extend(a.finish());
-        out[1].extend(b.finish());
-        Ok(out)
     }
 }
 

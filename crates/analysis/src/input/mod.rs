@@ -21,6 +21,7 @@ pub mod text;
 pub mod text_file;
 pub(crate) mod text_rows;
 pub mod text_source;
+pub(crate) mod text_spill;
 pub mod timecheck;
 pub mod window_means;
 

@@ -36,6 +36,50 @@ impl Hasher for BitsHasher {
 
 type Distinct = HashSet<u64, BuildHasherDefault<BitsHasher>>;
 
+/// Whole numbers of magnitude below this are kept in a bitmap, not hashed.
+const SMALL: i64 = 1 << 20;
+
+/// One axis's distinct values (their bits): whole numbers of magnitude below [`SMALL`] (but
+/// `-0.0`) as bits of a bitmap — raw counts, the common case, at the cost of a bit test rather
+/// than a hash — the rest in a hash set.
+#[derive(Debug, Default)]
+struct Keys {
+    small: Vec<u64>,
+    others: Distinct,
+    len: usize,
+}
+
+impl Keys {
+    fn insert(&mut self, bits: u64) {
+        let v = f64::from_bits(bits);
+        if v.fract() == 0.0 && v.abs() < SMALL as f64 && bits != (-0.0f64).to_bits() {
+            if self.small.is_empty() {
+                self.small = vec![0; (2 * SMALL / 64) as usize];
+            }
+            let i = (v as i64 + SMALL) as usize;
+            let (word, bit) = (&mut self.small[i / 64], 1u64 << (i % 64));
+            if *word & bit == 0 {
+                *word |= bit;
+                self.len += 1;
+            }
+        } else if self.others.insert(bits) {
+            self.len += 1;
+        }
+    }
+
+    /// Every key as its value.
+    fn values(self) -> Vec<f64> {
+        let small = self.small.iter().enumerate().flat_map(|(w, &word)| {
+            (0..64)
+                .filter(move |b| word >> b & 1 == 1)
+                .map(move |b| ((w * 64 + b) as i64 - SMALL) as f64)
+        });
+        let mut v: Vec<f64> = small.collect();
+        v.extend(self.others.into_iter().map(f64::from_bits));
+        v
+    }
+}
+
 /// The one-pass summary of a recording's samples.
 #[derive(Debug, Clone)]
 pub struct SampleSummary {
@@ -67,7 +111,7 @@ pub struct SampleSummary {
 #[derive(Debug)]
 pub struct SummaryFold {
     sum: SampleSummary,
-    sets: Option<[Distinct; 3]>,
+    sets: Option<[Keys; 3]>,
     last: [u64; 3],
 }
 
@@ -125,7 +169,7 @@ impl SummaryFold {
             }
             for set in sets.iter() {
                 // +1: `0.0` and `-0.0` are two keys and one value.
-                full |= set.len() > MAX_DISTINCT + 1;
+                full |= set.len > MAX_DISTINCT + 1;
             }
             if full {
                 self.sets = None;
@@ -143,7 +187,7 @@ impl SummaryFold {
         let mut sum = self.sum;
         sum.distinct = self.sets.map(|sets| {
             sets.map(|set| {
-                let mut v: Vec<f64> = set.into_iter().map(f64::from_bits).collect();
+                let mut v = set.values();
                 v.sort_by(f64::total_cmp);
                 v.dedup();
                 v
@@ -156,6 +200,35 @@ impl SummaryFold {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The keys kept are the distinct bit patterns, whole or not, small or large, signed
+    /// zeros and NaN included.
+    #[test]
+    fn the_keys_are_the_distinct_bits() {
+        let values = [
+            0.0,
+            -0.0,
+            3.0,
+            -3.0,
+            3.0,
+            0.5,
+            -1048575.0,
+            -1048576.0,
+            1048575.0,
+            1048576.0,
+            1e300,
+            f64::NAN,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            7.0,
+        ];
+        let mut keys = Keys::default();
+        values.iter().for_each(|v| keys.insert(v.to_bits()));
+        let want: HashSet<u64> = values.iter().map(|v| v.to_bits()).collect();
+        assert_eq!(keys.len, want.len());
+        let got: HashSet<u64> = keys.values().iter().map(|v| v.to_bits()).collect();
+        assert_eq!(got, want);
+    }
 
     /// Pushed in any split, the summary is the whole recording's folds.
     #[test]

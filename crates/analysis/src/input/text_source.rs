@@ -10,6 +10,12 @@
 //! row (the core's detector takes an `Iterator + Clone` and passes over it several times).
 //! A file whose size or modification time differs from the first pass's, or whose pieces no
 //! longer parse, stops the pass; [`TextSource::check`] then says so in one sentence.
+//!
+//! The first pass also writes the rows it parsed to a temporary file
+//! (`input::text_spill`), and every later pass reads them back from there instead
+//! of parsing the text again: the same values bit for bit, at the cost of a copy instead of a
+//! parse. Without it (no temporary directory, a full disk, or [`SPILL_VAR`] set to `0`) the
+//! passes re-read the text as described above.
 
 use crate::error::input::InputError;
 use crate::error::{Error, Result};
@@ -19,9 +25,13 @@ use crate::input::recording::Recording;
 use crate::input::sample_summary::{SampleSummary, SummaryFold};
 use crate::input::text::{check_axis_columns, CsvState, Delimiter};
 use crate::input::text_file::{first_piece_head, plain_piece, Pieces, PIECE_BYTES};
-use crate::input::text_rows::{Columns, RowLayout};
+pub(crate) use crate::input::text_rows::Columns;
+use crate::input::text_rows::RowLayout;
+pub(crate) use crate::input::text_spill::Want;
+use crate::input::text_spill::{Spill, SpillWriter};
 use crate::input::timecheck::{time_notes_given, StepTally, TimeSteps};
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Mutex;
 
 /// One sample as a pass reads it.
@@ -67,6 +77,44 @@ pub struct TextSource {
     /// The temporary file standard input was copied to, when this reads one (deleted when
     /// this is dropped).
     spool: Option<tempfile::TempPath>,
+    /// The rows of the first pass, for the later passes to read back (`None`: they re-read
+    /// the text).
+    spill: Option<Spill>,
+    /// Set when the spill could not be read back: later passes re-read the text.
+    spill_failed: AtomicBool,
+}
+
+/// Environment variable that, set to `0`, has the later passes re-read and re-parse the text
+/// rather than the rows the first pass wrote to a temporary file (for benchmarks that compare
+/// the two).
+pub const SPILL_VAR: &str = "WIICAL_SPILL";
+
+/// Where the first pass writes its rows ([`crate::input::text_spill`]).
+#[derive(Debug, Clone)]
+pub(crate) struct SpillTo {
+    /// Write them at all.
+    pub on: bool,
+    /// The temporary directory (`None`: the system's, `$TMPDIR`).
+    pub dir: Option<PathBuf>,
+    /// Most bytes written (past it the spill is dropped, as on a full disk).
+    pub limit: u64,
+}
+
+impl SpillTo {
+    /// The system's temporary directory, unless [`SPILL_VAR`] is `0`.
+    fn from_env() -> Self {
+        Self {
+            on: std::env::var_os(SPILL_VAR).is_none_or(|v| v != "0"),
+            dir: None,
+            limit: u64::MAX,
+        }
+    }
+
+    fn writer(&self) -> Option<SpillWriter> {
+        self.on
+            .then(|| SpillWriter::create(self.dir.as_deref(), self.limit))
+            .flatten()
+    }
 }
 
 /// The first pass's reading of the head: `None` hands the file back to be read whole.
@@ -98,6 +146,17 @@ impl TextSource {
         piece_bytes: usize,
         head_ok: impl Fn(&str) -> bool,
     ) -> Result<Option<Self>> {
+        Self::open_with(path, opts, piece_bytes, &SpillTo::from_env(), head_ok)
+    }
+
+    /// [`TextSource::open_in`] writing the first pass's rows as `spill_to` says.
+    pub(crate) fn open_with(
+        path: &Path,
+        opts: &LoadOptions,
+        piece_bytes: usize,
+        spill_to: &SpillTo,
+        head_ok: impl Fn(&str) -> bool,
+    ) -> Result<Option<Self>> {
         let Some(stamp) = stamp_of(path) else {
             return Ok(None);
         };
@@ -109,7 +168,8 @@ impl TextSource {
             Ok(None) => return Ok(None),
             Err(e) => return rest_is_plain(&mut pieces).then_some(Err(e)).transpose(),
         };
-        let (fold, tally, skipped) = match first_pass(&mut pieces, &head) {
+        let mut writer = spill_to.writer();
+        let (fold, tally, skipped) = match first_pass(&mut pieces, &head, &mut writer) {
             Ok(Some(x)) => x,
             Ok(None) => return Ok(None),
             Err(e) => return rest_is_plain(&mut pieces).then_some(Err(e)).transpose(),
@@ -133,6 +193,8 @@ impl TextSource {
             steps: None,
             failed: Mutex::new(None),
             spool: None,
+            spill: writer.map(SpillWriter::finish),
+            spill_failed: AtomicBool::new(false),
         };
         if let Some(i) = src.layout.time {
             let steps = tally
@@ -151,6 +213,26 @@ impl TextSource {
     /// Keeps `file` (the temporary file this reads) until this is dropped.
     pub(crate) fn keep(&mut self, file: tempfile::TempPath) {
         self.spool = Some(file);
+    }
+
+    /// Whether the later passes read the first pass's rows back from a temporary file (else
+    /// they parse the text again).
+    pub fn is_spilled(&self) -> bool {
+        self.spill.is_some() && !self.spill_failed.load(Ordering::Relaxed)
+    }
+
+    /// Drops the first pass's rows: every later pass parses the text again (the same values:
+    /// for comparisons).
+    pub fn forget_spill(&mut self) {
+        self.spill = None;
+    }
+
+    /// Empties the spill's file: a spill that can no longer be read back.
+    #[cfg(test)]
+    pub(crate) fn truncate_spill(&self) {
+        if let Some(s) = &self.spill {
+            s.truncate();
+        }
     }
 
     /// Whether the file has a time column.
@@ -190,7 +272,66 @@ impl TextSource {
             skip: 0,
             consumed: 0,
             done: false,
+            want: Want::ALL,
         }
+    }
+
+    /// A pass over every sample a piece (or a block of the spill) at a time: `f` is given
+    /// each piece's rows in order, and may stop the pass by returning `false`. As
+    /// [`TextSource::rows`], the pass ends early when the file changed or could not be read:
+    /// [`TextSource::check`] after it says so.
+    /// Read from the spill, the rows hold the columns `want` asks for (and the axes); from
+    /// the text, all of them.
+    pub(crate) fn each_piece(&self, want: Want, mut f: impl FnMut(&Columns) -> bool) {
+        let mut rows = self.rows();
+        rows.want = want;
+        loop {
+            match rows.next_piece() {
+                Ok(true) => {}
+                Ok(false) => break,
+                Err(e) => return self.fail(e),
+            }
+            let Some(r) = rows.reader.as_mut() else {
+                break;
+            };
+            if rows.skip > 0 {
+                // Rows given before the spill failed and the pass went on from the text.
+                let k = rows.skip.min(r.cols.xyz.len());
+                r.cols.xyz.drain(..k);
+                r.cols.t.drain(..k.min(r.cols.t.len()));
+                r.cols.temp.drain(..k.min(r.cols.temp.len()));
+                rows.skip -= k;
+            }
+            rows.consumed += r.cols.xyz.len();
+            if !f(&r.cols) {
+                return;
+            }
+        }
+        if rows.consumed != self.summary.count {
+            self.fail(InputError::ChangedWhileRead.into());
+        }
+    }
+
+    /// Whether the file is still the one of the first pass (its size and modification time).
+    pub(crate) fn unchanged(&self) -> bool {
+        stamp_of(&self.path) == Some(self.stamp)
+    }
+
+    /// Rows `from..to` of the spill into `cols` (with `scratch` for the bytes read), when the
+    /// later passes read it; `false` (nothing read) otherwise, or when it could not be read.
+    pub(crate) fn read_spilled(
+        &self,
+        (from, to): (usize, usize),
+        cols: &mut Columns,
+        scratch: &mut Vec<u8>,
+    ) -> bool {
+        let Some(spill) = self.spill.as_ref().filter(|_| self.is_spilled()) else {
+            return false;
+        };
+        if to > spill.len() || spill.read_rows(from, to, Want::ALL, cols, scratch).is_err() {
+            return false;
+        }
+        true
     }
 
     /// The time column, from the file.
@@ -211,6 +352,29 @@ impl TextSource {
         if let Ok(mut f) = self.failed.lock() {
             f.get_or_insert(e);
         }
+    }
+
+    /// A pass's reader, at the block holding row `*skip` of the spill (`*skip` then counted
+    /// from the block's first row), else at the text's first data row ([`TextSource::reopen`]).
+    /// A file changed since the first pass is refused either way (a pass of the spill would
+    /// read the rows it had).
+    fn reader_at(&self, skip: &mut usize) -> Result<Reader> {
+        if let Some(spill) = self.spill.as_ref().filter(|_| self.is_spilled()) {
+            if !self.unchanged() {
+                return Err(InputError::ChangedWhileRead.into());
+            }
+            let (k, first) = spill.block_holding(*skip);
+            *skip -= first;
+            return Ok(Reader {
+                feed: Feed::Spilled {
+                    next: k,
+                    scratch: Vec::new(),
+                },
+                cols: Columns::default(),
+                at: 0,
+            });
+        }
+        self.reopen()
     }
 
     /// The file reopened at its first data row, when it is still the file of the first pass:
@@ -265,8 +429,13 @@ fn read_head(
 /// The summary folds of the first pass; `Ok(None)` when a piece is not plain text.
 type Folds = (SummaryFold, StepTally, usize);
 
-/// Every piece's rows (the first piece's after the header) folded and dropped.
-fn first_pass(pieces: &mut Pieces, head: &Head) -> Result<Option<Folds>> {
+/// Every piece's rows (the first piece's after the header) folded, written to `spill` (which
+/// is dropped when a write fails) and dropped.
+fn first_pass(
+    pieces: &mut Pieces,
+    head: &Head,
+    spill: &mut Option<SpillWriter>,
+) -> Result<Option<Folds>> {
     let (mut fold, mut tally, mut skipped) = (SummaryFold::new(), StepTally::new(), 0usize);
     let mut line = head.data_line;
     let mut prev: Option<f64> = None;
@@ -298,6 +467,9 @@ fn first_pass(pieces: &mut Pieces, head: &Head) -> Result<Option<Folds>> {
         cols.t.iter().for_each(|&t| tally.push(t));
         prev = cols.t.last().copied().or(prev);
         skipped += cols.skipped;
+        if spill.as_mut().is_some_and(|w| w.push(&cols).is_err()) {
+            *spill = None;
+        }
     }
     Ok(Some((fold, tally, skipped)))
 }
@@ -375,9 +547,11 @@ pub const PARSE_AHEAD_VAR: &str = "WIICAL_PARSE_AHEAD";
 /// the window sums — runs on one thread, and the parse would otherwise wait for it), handing
 /// them over one at a time (at most two pieces' rows held, in order); or, on a thread of
 /// the parse's own pool (which a parse started from there could wait for), the pass itself.
+/// Or, with a spill, its blocks read back one at a time (`next`: the next block).
 enum Feed {
     Ahead(std::sync::mpsc::Receiver<Result<Columns>>),
     Inline(Box<Parser>),
+    Spilled { next: usize, scratch: Vec<u8> },
 }
 
 impl Feed {
@@ -409,10 +583,12 @@ impl Feed {
         }
     }
 
+    /// The next parsed piece (not for [`Feed::Spilled`], read by [`Rows::next_block`]).
     fn next(&mut self) -> Option<Result<Columns>> {
         match self {
             Feed::Ahead(rx) => rx.recv().ok(),
             Feed::Inline(p) => p.next(),
+            Feed::Spilled { .. } => None,
         }
     }
 }
@@ -426,6 +602,8 @@ pub struct Rows<'a> {
     skip: usize,
     consumed: usize,
     done: bool,
+    /// The columns a block of the spill is read with.
+    want: Want,
 }
 
 impl Clone for Rows<'_> {
@@ -436,19 +614,24 @@ impl Clone for Rows<'_> {
             skip: self.consumed,
             consumed: self.consumed,
             done: self.done,
+            want: self.want,
         }
     }
 }
 
 impl Rows<'_> {
-    /// The next parsed piece into the reader; false at the end of the file.
+    /// The next parsed piece (or block of the spill) into the reader; false at the end of the
+    /// file.
     fn next_piece(&mut self) -> Result<bool> {
         if self.reader.is_none() {
-            self.reader = Some(self.src.reopen()?);
+            self.reader = Some(self.src.reader_at(&mut self.skip)?);
         }
         let Some(r) = self.reader.as_mut() else {
             return Ok(false);
         };
+        if let Feed::Spilled { .. } = r.feed {
+            return self.next_block();
+        }
         match r.feed.next() {
             None => Ok(false),
             Some(cols) => {
@@ -457,6 +640,34 @@ impl Rows<'_> {
                 Ok(true)
             }
         }
+    }
+}
+
+impl Rows<'_> {
+    /// The next block of the spill into the reader; false after the last. A block that cannot
+    /// be read back ends the spill's use: this pass goes on from the text, at the same row.
+    fn next_block(&mut self) -> Result<bool> {
+        let (Some(r), Some(spill)) = (self.reader.as_mut(), self.src.spill.as_ref()) else {
+            return Ok(false);
+        };
+        let Feed::Spilled { next, scratch } = &mut r.feed else {
+            return Ok(false);
+        };
+        let Some((from, to)) = spill.block_rows().nth(*next) else {
+            return Ok(false);
+        };
+        if spill
+            .read_rows(from, to, self.want, &mut r.cols, scratch)
+            .is_ok()
+        {
+            *next += 1;
+            r.at = 0;
+            return Ok(true);
+        }
+        self.src.spill_failed.store(true, Ordering::Relaxed);
+        self.reader = None;
+        self.skip = self.consumed;
+        self.next_piece()
     }
 }
 

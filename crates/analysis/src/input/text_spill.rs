@@ -1,0 +1,383 @@
+//! The rows a streamed text file's first pass parsed, kept for the later passes in an
+//! anonymous temporary file ([`tempfile::tempfile`]: in the system's temporary directory,
+//! `$TMPDIR`, with no name, gone when it is closed): a later pass reads the values back (from
+//! the page cache, at the speed of a copy) instead of parsing the text again. Memory is one
+//! block; the file is not counted in a process's resident memory.
+//!
+//! The values are written exactly: each block (one piece's rows) stores each column — time,
+//! x, y, z, temperature — as `f32` when every value of it in the block is one (counts and
+//! values of few digits mostly are, bit for bit after the round trip), else as `f64`. A row of
+//! `t,x,y,z,temp` thus costs 20 to 40 bytes of disk (28 for counts with a decimal time and
+//! temperature). A spill that cannot be written (no temporary directory, a full disk) is
+//! dropped, and the passes parse the text again: the same values either way.
+
+use crate::input::text_rows::Columns;
+use std::fs::File;
+use std::io::Write;
+use std::path::Path;
+
+/// How one column of a block is stored.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Width {
+    /// The file has no such column.
+    Absent,
+    /// Every value is an `f32` exactly.
+    F32,
+    /// Values as `f64`.
+    F64,
+}
+
+impl Width {
+    fn bytes(self) -> usize {
+        match self {
+            Width::Absent => 0,
+            Width::F32 => 4,
+            Width::F64 => 8,
+        }
+    }
+
+    /// The narrowest width holding every value of `values` exactly (their bits after the
+    /// round trip, NaN payloads and signed zeros included).
+    fn of(mut values: impl Iterator<Item = f64>) -> Self {
+        if values.all(|v| f64::from(v as f32).to_bits() == v.to_bits()) {
+            Width::F32
+        } else {
+            Width::F64
+        }
+    }
+}
+
+/// One piece's rows in the file: columns one after another, each `rows × width` bytes.
+#[derive(Debug, Clone)]
+struct Block {
+    first_row: usize,
+    rows: usize,
+    offset: u64,
+    /// t, x, y, z, temperature.
+    widths: [Width; 5],
+}
+
+impl Block {
+    /// Byte offset of column `c`'s value of the block's row `r`.
+    fn at(&self, c: usize, r: usize) -> u64 {
+        let before: usize = self.widths[..c].iter().map(|w| w.bytes() * self.rows).sum();
+        self.offset + (before + r * self.widths[c].bytes()) as u64
+    }
+}
+
+/// Which columns a read wants (the axes always).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Want {
+    /// The time column.
+    pub t: bool,
+    /// The temperature column.
+    pub temp: bool,
+}
+
+impl Want {
+    /// Every column.
+    pub(crate) const ALL: Want = Want {
+        t: true,
+        temp: true,
+    };
+}
+
+/// The rows written, read back by row.
+#[derive(Debug)]
+pub(crate) struct Spill {
+    file: File,
+    blocks: Vec<Block>,
+    rows: usize,
+}
+
+/// A spill being written, block by block.
+#[derive(Debug)]
+pub(crate) struct SpillWriter {
+    file: File,
+    blocks: Vec<Block>,
+    at: u64,
+    rows: usize,
+    buf: Vec<u8>,
+    /// Most bytes written (a full disk, for tests: a write past it fails).
+    limit: u64,
+}
+
+impl SpillWriter {
+    /// A spill in the temporary directory `dir` (`None`: the system's), of at most `limit`
+    /// bytes; `None` when no file can be made there.
+    pub(crate) fn create(dir: Option<&Path>, limit: u64) -> Option<Self> {
+        let file = match dir {
+            Some(d) => tempfile::tempfile_in(d),
+            None => tempfile::tempfile(),
+        };
+        Some(Self {
+            file: file.ok()?,
+            blocks: Vec::new(),
+            at: 0,
+            rows: 0,
+            buf: Vec::new(),
+            limit,
+        })
+    }
+
+    /// The next rows (`cols`: one piece's, the time and temperature columns empty when the
+    /// file has none) appended.
+    pub(crate) fn push(&mut self, cols: &Columns) -> std::io::Result<()> {
+        let rows = cols.xyz.len();
+        if rows == 0 {
+            return Ok(());
+        }
+        let opt = |v: &[f64]| (!v.is_empty()).then(|| Width::of(v.iter().copied()));
+        let axis = |a: usize| Width::of(cols.xyz.iter().map(|r| r[a]));
+        let widths = [
+            opt(&cols.t).unwrap_or(Width::Absent),
+            axis(0),
+            axis(1),
+            axis(2),
+            opt(&cols.temp).unwrap_or(Width::Absent),
+        ];
+        self.buf.clear();
+        put(&mut self.buf, widths[0], cols.t.iter().copied());
+        for (a, &w) in widths[1..4].iter().enumerate() {
+            put(&mut self.buf, w, cols.xyz.iter().map(|r| r[a]));
+        }
+        put(&mut self.buf, widths[4], cols.temp.iter().copied());
+        let len = self.buf.len() as u64;
+        if self.at.saturating_add(len) > self.limit {
+            return Err(std::io::ErrorKind::StorageFull.into());
+        }
+        self.file.write_all(&self.buf)?;
+        self.blocks.push(Block {
+            first_row: self.rows,
+            rows,
+            offset: self.at,
+            widths,
+        });
+        self.at += len;
+        self.rows += rows;
+        Ok(())
+    }
+
+    /// The spill, to be read back.
+    pub(crate) fn finish(self) -> Spill {
+        Spill {
+            file: self.file,
+            blocks: self.blocks,
+            rows: self.rows,
+        }
+    }
+}
+
+/// `values` appended to `buf` at width `w`, little-endian.
+fn put(buf: &mut Vec<u8>, w: Width, values: impl Iterator<Item = f64>) {
+    match w {
+        Width::Absent => {}
+        Width::F32 => values.for_each(|v| buf.extend_from_slice(&(v as f32).to_le_bytes())),
+        Width::F64 => values.for_each(|v| buf.extend_from_slice(&v.to_le_bytes())),
+    }
+}
+
+impl Spill {
+    /// Rows written.
+    pub(crate) fn len(&self) -> usize {
+        self.rows
+    }
+
+    /// Rows `from..to` (`to` at most [`Spill::len`]) into `cols` (replacing what it held),
+    /// with the columns `want` asks for that the file has; `scratch` holds the bytes read.
+    pub(crate) fn read_rows(
+        &self,
+        from: usize,
+        to: usize,
+        want: Want,
+        cols: &mut Columns,
+        scratch: &mut Vec<u8>,
+    ) -> std::io::Result<()> {
+        cols.xyz.clear();
+        cols.t.clear();
+        cols.temp.clear();
+        let mut k = self
+            .blocks
+            .partition_point(|b| b.first_row + b.rows <= from);
+        let mut row = from;
+        while row < to {
+            let Some(b) = self.blocks.get(k) else {
+                return Err(std::io::ErrorKind::UnexpectedEof.into());
+            };
+            let (r0, r1) = (row - b.first_row, (to - b.first_row).min(b.rows));
+            let start = cols.xyz.len();
+            cols.xyz.resize(start + (r1 - r0), [0.0; 3]);
+            for a in 0..3 {
+                let bytes = self.column(b, a + 1, r0..r1, scratch)?;
+                let dst = cols.xyz[start..].iter_mut();
+                match b.widths[a + 1] {
+                    Width::F32 => dst
+                        .zip(bytes.chunks_exact(4))
+                        .for_each(|(x, c)| x[a] = f32_of(c)),
+                    _ => dst
+                        .zip(bytes.chunks_exact(8))
+                        .for_each(|(x, c)| x[a] = f64_of(c)),
+                }
+            }
+            for (c, on, out) in [(0, want.t, &mut cols.t), (4, want.temp, &mut cols.temp)] {
+                if on && b.widths[c] != Width::Absent {
+                    let bytes = self.column(b, c, r0..r1, scratch)?;
+                    match b.widths[c] {
+                        Width::F32 => out.extend(bytes.chunks_exact(4).map(f32_of)),
+                        _ => out.extend(bytes.chunks_exact(8).map(f64_of)),
+                    }
+                }
+            }
+            row += r1 - r0;
+            k += 1;
+        }
+        Ok(())
+    }
+
+    /// The bytes of rows `rows` of column `c` of block `b`, read into `scratch` (grown, never
+    /// shrunk: no bytes cleared per read).
+    fn column<'s>(
+        &self,
+        b: &Block,
+        c: usize,
+        rows: std::ops::Range<usize>,
+        scratch: &'s mut Vec<u8>,
+    ) -> std::io::Result<&'s [u8]> {
+        let n = rows.len() * b.widths[c].bytes();
+        if scratch.len() < n {
+            scratch.resize(n, 0);
+        }
+        let bytes = &mut scratch[..n];
+        read_at(&self.file, bytes, b.at(c, rows.start))?;
+        Ok(bytes)
+    }
+
+    /// The block holding row `row` and its first row (past the last row: the number of
+    /// blocks and of rows).
+    pub(crate) fn block_holding(&self, row: usize) -> (usize, usize) {
+        let k = self.blocks.partition_point(|b| b.first_row + b.rows <= row);
+        (k, self.blocks.get(k).map_or(self.rows, |b| b.first_row))
+    }
+
+    /// Empties the file (a spill that can no longer be read back).
+    #[cfg(test)]
+    pub(crate) fn truncate(&self) {
+        self.file.set_len(0).unwrap();
+    }
+
+    /// The row ranges of the blocks, in order (a pass reads a block at a time).
+    pub(crate) fn block_rows(&self) -> impl Iterator<Item = (usize, usize)> + '_ {
+        self.blocks
+            .iter()
+            .map(|b| (b.first_row, b.first_row + b.rows))
+    }
+}
+
+/// The value of 4 little-endian bytes of an `f32`.
+fn f32_of(c: &[u8]) -> f64 {
+    f64::from(f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+}
+
+/// The value of 8 little-endian bytes of an `f64`.
+fn f64_of(c: &[u8]) -> f64 {
+    f64::from_le_bytes(std::array::from_fn(|i| c[i]))
+}
+
+/// Fills `buf` from `file` at byte `offset` (positioned reads: several threads may read one
+/// spill at once).
+#[cfg(unix)]
+fn read_at(file: &File, buf: &mut [u8], offset: u64) -> std::io::Result<()> {
+    std::os::unix::fs::FileExt::read_exact_at(file, buf, offset)
+}
+
+/// Fills `buf` from `file` at byte `offset`.
+#[cfg(windows)]
+fn read_at(file: &File, mut buf: &mut [u8], mut offset: u64) -> std::io::Result<()> {
+    use std::os::windows::fs::FileExt;
+    while !buf.is_empty() {
+        match file.seek_read(buf, offset)? {
+            0 => return Err(std::io::ErrorKind::UnexpectedEof.into()),
+            n => {
+                buf = &mut buf[n..];
+                offset += n as u64;
+            }
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Values of every kind read back bit for bit, by block and across block ends, with the
+    /// columns asked for; a spill past its limit fails.
+    #[test]
+    fn rows_read_back_bit_for_bit() {
+        let odd = [
+            0.0,
+            -0.0,
+            1.5,
+            0.1,
+            f64::NAN,
+            f64::from_bits(0x7ff8_0000_0000_0001),
+            f64::INFINITY,
+            1e300,
+            -3.0,
+            f64::from(f32::MAX),
+            5e-324,
+        ];
+        let piece = |n: usize, k: usize| Columns {
+            xyz: (0..n)
+                .map(|i| [odd[(i + k) % odd.len()], (i * 3 + k) as f64, odd[i % 3]])
+                .collect(),
+            t: (0..n).map(|i| (i + k) as f64 * 0.01).collect(),
+            temp: if k == 1 { vec![] } else { vec![25.0; n] },
+            ..Default::default()
+        };
+        let pieces = [piece(7, 0), piece(0, 5), piece(13, 2), piece(1, 3)];
+        let mut w = SpillWriter::create(None, u64::MAX).unwrap();
+        pieces.iter().for_each(|p| w.push(p).unwrap());
+        let spill = w.finish();
+        let all: Vec<(f64, [f64; 3], f64)> = pieces
+            .iter()
+            .flat_map(|p| (0..p.xyz.len()).map(|i| (p.t[i], p.xyz[i], p.temp[i])))
+            .collect();
+        assert_eq!(spill.len(), all.len());
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        let (mut cols, mut scratch) = (Columns::default(), Vec::new());
+        for from in 0..all.len() {
+            for to in from..=all.len() {
+                spill
+                    .read_rows(from, to, Want::ALL, &mut cols, &mut scratch)
+                    .unwrap();
+                let want = &all[from..to];
+                assert_eq!(
+                    bits(&cols.t),
+                    bits(&want.iter().map(|r| r.0).collect::<Vec<_>>())
+                );
+                let xyz: Vec<f64> = cols.xyz.concat();
+                let want_xyz: Vec<f64> = want.iter().flat_map(|r| r.1).collect();
+                assert_eq!(bits(&xyz), bits(&want_xyz), "rows {from}..{to}");
+                assert_eq!(
+                    bits(&cols.temp),
+                    bits(&want.iter().map(|r| r.2).collect::<Vec<_>>())
+                );
+            }
+        }
+        let only_xyz = Want {
+            t: false,
+            temp: false,
+        };
+        spill
+            .read_rows(2, 9, only_xyz, &mut cols, &mut scratch)
+            .unwrap();
+        assert!(cols.t.is_empty() && cols.temp.is_empty() && cols.xyz.len() == 7);
+        assert!(spill
+            .read_rows(0, all.len() + 1, Want::ALL, &mut cols, &mut scratch)
+            .is_err());
+        let mut small = SpillWriter::create(None, 200).unwrap();
+        assert!(small.push(&pieces[0]).is_ok());
+        assert!(small.push(&pieces[2]).is_err());
+    }
+}
