@@ -111,6 +111,17 @@ fn scratch(tag: &str) -> (tempfile::TempDir, PathBuf) {
     (guard, dir)
 }
 
+/// An error and its sources in one line, as the command line prints it.
+fn sentence(e: &dyn std::error::Error) -> String {
+    let mut s = e.to_string();
+    let mut source = e.source();
+    while let Some(inner) = source {
+        s += &format!(": {inner}");
+        source = inner.source();
+    }
+    s
+}
+
 /// The held path's output (bytes) or sentence, then the streamed path's, for `rec` written to
 /// `out_held` / `out_stream`; asserts the recording was streamed.
 fn both(
@@ -122,7 +133,7 @@ fn both(
 ) -> [Result<Vec<u8>, String>; 2] {
     let held = wiical_analysis::load(rec, opts).unwrap();
     let held = correct_recording(file, &held, 100.0)
-        .map_err(|e| wiical_analysis::Error::from(e).in_file(rec).to_string())
+        .map_err(|e| sentence(&wiical_analysis::Error::from(e).in_file(rec)))
         .and_then(|c| {
             write_corrected(out_held, &c).unwrap();
             Ok(std::fs::read(out_held).unwrap())
@@ -135,7 +146,7 @@ fn both(
             assert_eq!(c.samples, src.len());
             std::fs::read(out_stream).unwrap()
         })
-        .map_err(|e| e.to_string());
+        .map_err(|e| sentence(&e));
     [held, streamed]
 }
 
