@@ -20,7 +20,7 @@ pub enum Samples {
     /// Every sample in memory.
     Held(Recording),
     /// Read in passes from a file, never held.
-    Streamed(TextSource),
+    Streamed(Box<TextSource>),
 }
 
 impl Samples {
@@ -49,7 +49,7 @@ pub fn open_samples_from(path: &Path, opts: &LoadOptions, stream_from: u64) -> R
     if is_text_file_from(path, stream_from) {
         let src = TextSource::open(path, opts, |_| true).map_err(|e| e.in_file(path))?;
         if let Some(src) = src {
-            return Ok(Samples::Streamed(src));
+            return Ok(Samples::Streamed(Box::new(src)));
         }
     }
     front_door::load(path, opts).map(Samples::Held)
@@ -63,7 +63,7 @@ fn open_stdin(path: &Path, opts: &LoadOptions) -> Result<Samples> {
             let src = TextSource::open(&tmp, opts, |_| true).map_err(|e| e.in_file(&tmp))?;
             if let Some(mut src) = src {
                 src.keep(tmp);
-                return Ok(Samples::Streamed(src));
+                return Ok(Samples::Streamed(Box::new(src)));
             }
             front_door::load(&tmp, opts)?
         }
