@@ -134,9 +134,9 @@ fn both(
     let held = wiical_analysis::load(rec, opts).unwrap();
     let held = correct_recording(file, &held, 100.0)
         .map_err(|e| sentence(&wiical_analysis::Error::from(e).in_file(rec)))
-        .and_then(|c| {
+        .map(|c| {
             write_corrected(out_held, &c).unwrap();
-            Ok(std::fs::read(out_held).unwrap())
+            std::fs::read(out_held).unwrap()
         });
     let Samples::Streamed(src) = open_samples_from(rec, opts, 0).unwrap() else {
         panic!("{} was not streamed", rec.display());
