@@ -2,14 +2,15 @@
 //! (`wiical_analysis::correct`): what a host with a clock and a thermometer applies, where
 //! the adapter applies only the core's acceleration terms.
 
-use super::{check_outputs, load_options};
+use super::{check_outputs, load_options, print_notes, with_spinner};
 use crate::cli_error::cli_error;
 use anyhow::Result;
-use std::fmt::Write as _;
 use std::path::PathBuf;
-use wiical_analysis::correct::{correct_recording, Corrected};
+use wiical_analysis::correct::correct_recording;
+use wiical_analysis::correct::csv::write_corrected;
+use wiical_analysis::correct::source::{open_samples, Samples};
+use wiical_analysis::correct::stream::correct_streamed;
 use wiical_analysis::output::calfile::read_calibration_file;
-use wiical_analysis::output::write::write_file;
 
 /// Arguments of `wiical correct`.
 #[derive(clap::Args, Debug)]
@@ -31,29 +32,37 @@ pub struct Args {
     pub rate_hz: f64,
 }
 
-/// Runs `wiical correct`; returns the summary line.
+/// Runs `wiical correct`; returns the summary line. A large plain text file (and standard
+/// input spooled to a temporary file) is corrected as it is read, in bounded memory
+/// (`wiical_analysis::correct::stream`); the output is the same file either way.
 pub fn run(a: &Args) -> Result<String> {
     check_outputs(&[&a.calibration, &a.recording], &[Some(&a.out)])?;
     let file = read_calibration_file(&a.calibration).map_err(cli_error)?;
-    let rec = super::load(&a.recording, &load_options(a.columns.as_deref())?)?;
-    let c = correct_recording(&file, &rec, a.rate_hz)
-        .map_err(|e| cli_error(wiical_analysis::Error::from(e).in_file(&a.recording)))?;
-    write_file(&a.out, csv(&c).as_bytes()).map_err(cli_error)?;
+    let opts = load_options(a.columns.as_deref())?;
+    // Millions of rows take seconds to read: say so (hidden when stderr is not a terminal).
+    let samples = with_spinner(&format!("reading {}", a.recording.display()), || {
+        open_samples(&a.recording, &opts)
+    })
+    .map_err(cli_error)?;
+    print_notes(&a.recording, samples.recording());
+    let (n, applied) = match samples {
+        Samples::Held(rec) => {
+            let c = correct_recording(&file, &rec, a.rate_hz)
+                .map_err(|e| cli_error(wiical_analysis::Error::from(e).in_file(&a.recording)))?;
+            write_corrected(&a.out, &c).map_err(cli_error)?;
+            (c.accel.len(), c.applied)
+        }
+        Samples::Streamed(src) => {
+            let c = with_spinner(&format!("correcting {}", a.recording.display()), || {
+                correct_streamed(&file, &src, a.rate_hz, &a.out, &a.recording)
+            })
+            .map_err(cli_error)?;
+            (c.samples, c.applied)
+        }
+    };
     Ok(format!(
-        "{} samples corrected to {} with {}\n",
-        c.accel.len(),
+        "{n} samples corrected to {} with {}\n",
         a.out.display(),
-        c.applied.join(", ")
+        applied.join(", ")
     ))
-}
-
-/// The corrected samples as CSV text.
-fn csv(c: &Corrected) -> String {
-    let mut s = String::with_capacity(48 * c.accel.len() + 16);
-    s.push_str("t,a_x,a_y,a_z\n");
-    for (t, a) in c.times.iter().zip(&c.accel) {
-        // Shortest round-trip text of each value (f64 time, f32 acceleration).
-        let _ = writeln!(s, "{t},{},{},{}", a[0], a[1], a[2]);
-    }
-    s
 }

@@ -25,6 +25,20 @@ pub enum CorrectError {
         /// 0-based sample index.
         sample: usize,
     },
+    /// A temperature-rate term, and more samples within 30 s of one than a recording read
+    /// from disk in passes holds to fit the rate (a time column in other units than seconds,
+    /// or tens of kHz).
+    #[error(
+        "the calibration's term {term} needs the temperature rate over ±15 s, and more than {max} samples lie within 30 s of sample {sample}, more than a recording this large is held for: is the time column in seconds?"
+    )]
+    RateSpanTooDense {
+        /// The term's name.
+        term: String,
+        /// 0-based sample index.
+        sample: usize,
+        /// Most samples held.
+        max: usize,
+    },
     /// The recording has no samples.
     #[error("the recording has no samples to correct")]
     Empty,

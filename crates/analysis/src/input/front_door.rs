@@ -279,7 +279,7 @@ fn is_large_text_file(path: &Path) -> bool {
 
 /// True when `path` is a regular text file (plain, or gzip'd) of at least `min_bytes`
 /// ([`text_file_size`]).
-fn is_text_file_from(path: &Path, min_bytes: u64) -> bool {
+pub(crate) fn is_text_file_from(path: &Path, min_bytes: u64) -> bool {
     text_file_size(path).is_some_and(|n| n >= min_bytes)
 }
 

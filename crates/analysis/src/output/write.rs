@@ -40,6 +40,59 @@ where
     pending.commit()
 }
 
+/// A large output written as it is produced (a corrected recording of hundreds of millions of
+/// rows, which [`write_with`] would take as one closure): bytes go through a buffer of
+/// [`STREAM_BUFFER_BYTES`] into the temporary file of a [`PendingFile`], and
+/// [`AtomicWriter::commit`] flushes, `fsync`s and renames it over the target. Dropped without
+/// a commit (a check that fails after half the rows were written) the temporary file is
+/// deleted and the target keeps its old bytes: the same rule as [`write_with`].
+#[derive(Debug)]
+pub struct AtomicWriter {
+    out: std::io::BufWriter<std::fs::File>,
+    pending: PendingFile,
+}
+
+/// Buffer of an [`AtomicWriter`], bytes: large enough that the writes are few system calls.
+pub const STREAM_BUFFER_BYTES: usize = 1 << 20;
+
+impl AtomicWriter {
+    /// Opens the temporary file next to `path` (nothing at `path` changes yet).
+    pub fn create(path: &Path) -> Result<Self> {
+        let pending = PendingFile::create(path)?;
+        let file = pending.file().try_clone().map_err(|e| pending.error(e))?;
+        Ok(Self {
+            out: std::io::BufWriter::with_capacity(STREAM_BUFFER_BYTES, file),
+            pending,
+        })
+    }
+
+    /// An I/O error of this writer as a write error naming the target.
+    pub fn error(&self, source: std::io::Error) -> Error {
+        self.pending.error(source)
+    }
+
+    /// Flushes the buffer and replaces the target with the file written ([`PendingFile::commit`]).
+    pub fn commit(mut self) -> Result<()> {
+        self.out.flush().map_err(|e| self.pending.error(e))?;
+        drop(self.out);
+        self.pending.commit()
+    }
+}
+
+impl Write for AtomicWriter {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        self.out.write(buf)
+    }
+
+    fn write_all(&mut self, buf: &[u8]) -> std::io::Result<()> {
+        self.out.write_all(buf)
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.out.flush()
+    }
+}
+
 /// A file being written for a long time (a capture): the bytes go to a temporary file next
 /// to the target, which replaces the target only on [`PendingFile::commit`]. Dropped without
 /// a commit, the temporary file is deleted; [`PendingFile::keep_aside`] keeps it under its
@@ -332,6 +385,30 @@ mod tests {
             vec!["good_cal.json"],
             "temporary file removed"
         );
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// Written as it is produced: nothing at the target until the commit; dropped uncommitted,
+    /// the old bytes stay and no temporary file is left.
+    #[test]
+    fn a_streamed_file_appears_only_when_committed() {
+        let (_guard, dir) = scratch("stream");
+        let p = dir.join("out.csv");
+        std::fs::write(&p, b"old").unwrap();
+        let mut w = AtomicWriter::create(&p).unwrap();
+        for i in 0..100_000 {
+            writeln!(w, "{i}").unwrap();
+        }
+        w.flush().unwrap();
+        assert_eq!(std::fs::read(&p).unwrap(), b"old");
+        drop(w);
+        assert_eq!(std::fs::read(&p).unwrap(), b"old");
+        assert_eq!(entries(&dir), vec!["out.csv"], "temporary file removed");
+        let mut w = AtomicWriter::create(&p).unwrap();
+        w.write_all(b"new\n").unwrap();
+        w.commit().unwrap();
+        assert_eq!(std::fs::read(&p).unwrap(), b"new\n");
+        assert_eq!(entries(&dir), vec!["out.csv"]);
         std::fs::remove_dir_all(&dir).unwrap();
     }
 

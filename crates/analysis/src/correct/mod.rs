@@ -13,7 +13,7 @@
 //! sample); and dT/dt, the least-squares slope over ±15 s about the sample
 //! ([`thermal::sample_rates`]).
 //!
-//! **What is refused**, in this order ([`check_units`], [`check_output`],
+//! **What is refused**, in this order ([`checks`]: [`check_units`], [`check_output`],
 //! [`check_plausible`]): readings whose linear correction has a median magnitude outside
 //! ½–2 g where gravity gives 1 g, which is what a calibration made in other units (counts,
 //! mg, m/s²) than the recording does; a corrected value that is not finite; a calibration
@@ -23,14 +23,27 @@
 //! `correct` serves any accelerometer, not only the Nunchuk whose offset and sensitivity
 //! limits the adapter adds; and a corrected value beyond ±16 g at any sample (host terms
 //! included, which the predicate does not see).
+//!
+//! **Two paths, one output.** A recording held in memory is corrected by
+//! [`correct_recording`]; a large plain text file ([`source::open_samples`]) is corrected as
+//! it is read by [`stream::correct_streamed`], in memory bounded by a piece of the file and
+//! ±15 s of samples, written straight to a temporary file beside the output that replaces it
+//! only when every check passed. Both give the same file byte for byte ([`csv`]) and refuse
+//! the same recordings with the same sentence.
+
+pub mod checks;
+pub mod csv;
+pub mod regress;
+pub mod source;
+pub mod stream;
 
 pub use crate::error::correct::CorrectError;
 use crate::input::recording::Recording;
 use crate::output::calfile::{adapter_terms, CalibrationFile};
 use crate::output::host_term_checks::{HostTerm, Regressor};
 use crate::search::thermal;
+pub use checks::{check_output, check_plausible, check_units, limits_for};
 use std::borrow::Cow;
-use wiical_core::acceptance::{Acceptance, ConditionRange};
 use wiical_core::{Calibration, Conditions};
 
 /// Corrected readings whose median magnitude lies outside this range (g) are taken for a
@@ -154,24 +167,9 @@ pub fn correct_recording(
     let t0 = *times.first().ok_or(CorrectError::Empty)?;
     let since: Vec<f64> = times.iter().map(|t| t - t0).collect();
     let temp = rec.temp.as_deref();
-    let e = &file.calibration.effects;
-    for (name, c) in [
-        ("bias_temp (temperature)", e.bias_temp),
-        ("scale_temp (temperature)", e.scale_temp),
-    ] {
-        if temp.is_none() && c.iter().any(|x| *x != 0.0) {
-            return Err(CorrectError::NeedsTemperature { term: name.into() });
-        }
-    }
-    let core = adapter_terms(&file.calibration);
-    let mut applied: Vec<String> = core.applied.iter().map(|s| s.to_string()).collect();
-    applied.extend(core.host_only);
+    check_core_temperature(file, temp.is_some())?;
     let cols = regressors(&file.host_terms, &since, temp)?;
     check_units(&file.calibration, rec)?;
-    applied.extend(file.host_terms.iter().map(|t| {
-        let what = t.shape().map_or("nothing", |s| needs(s.0));
-        format!("{} [{what}]", t.name)
-    }));
     let mut xs = vec![0.0; cols.len()];
     let accel: Vec<[f32; 3]> = rec
         .xyz
@@ -192,137 +190,36 @@ pub fn correct_recording(
     Ok(Corrected {
         times,
         accel,
-        applied,
+        applied: applied(file),
     })
 }
 
-/// The acceptance limits `device put` uses ([`Acceptance::nunchuk`]: the ±16 g output bound
-/// and the `θ₀` range) with the sensor-specific ones (offset from 512 counts, sensitivity near
-/// 200 counts/g, cross-axis share) opened up and the input box and conditions taken from the
-/// recording: its readings' smallest and largest value, its duration (s since the first
-/// sample) and its temperature range, if it has one. `None` for a recording without a finite
-/// reading (refused by the loader before this).
-pub fn limits_for(rec: &Recording, since: &[f64]) -> Option<Acceptance> {
-    let finite = rec.xyz.iter().flatten().copied().filter(|v| v.is_finite());
-    let (lo, hi) = finite.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
-        (a.min(v), b.max(v))
-    });
-    if lo > hi {
-        return None;
-    }
-    let span = |v: &[f64]| {
-        let f = v.iter().copied().filter(|x| x.is_finite());
-        f.fold(None, |acc: Option<(f64, f64)>, x| {
-            Some(acc.map_or((x, x), |(a, b)| (a.min(x), b.max(x))))
-        })
-    };
-    let max_time_s = since.last().copied().filter(|t| t.is_finite() && *t >= 0.0);
-    let nunchuk = Acceptance::nunchuk();
-    Some(Acceptance {
-        input_range: (lo as f32, hi as f32),
-        conditions: ConditionRange {
-            max_time_s: max_time_s.unwrap_or(0.0) as f32,
-            temperature_c: rec
-                .temp
-                .as_deref()
-                .and_then(span)
-                .map(|(a, b)| (a as f32, b as f32)),
-        },
-        nominal_zero: 0.0,
-        max_offset: f32::MAX,
-        nominal_sensitivity: 1.0,
-        sensitivity_ratio: (f32::MIN, f32::MAX),
-        max_cross_axis: f32::MAX,
-        ..nunchuk
-    })
-}
-
-/// Refuses a calibration that fails the acceptance predicate over the recording
-/// ([`limits_for`]): corrected output beyond ±16 g somewhere in the recording's input
-/// range and conditions, or an implausible `θ₀`.
-pub fn check_plausible(
-    cal: &Calibration,
-    rec: &Recording,
-    since: &[f64],
-) -> Result<(), CorrectError> {
-    let Some(limits) = limits_for(rec, since) else {
-        return Ok(());
-    };
-    limits
-        .check(cal, None)
-        .map_err(|why| CorrectError::Implausible {
-            why,
-            lo: limits.input_range.0,
-            hi: limits.input_range.1,
-        })
-}
-
-/// Refuses a recording whose readings, corrected by the calibration's linear part alone
-/// (`K·(m − b)`: units are a linear matter, whatever the effect terms), have a median `‖a‖`
-/// outside [`PLAUSIBLE_MEDIAN_G`]: the calibration was made from readings in other units
-/// (described from its zero point and sensitivity and the raw readings' median magnitude).
-pub fn check_units(cal: &Calibration, rec: &Recording) -> Result<(), CorrectError> {
-    let norm = |v: [f64; 3]| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-    let linear = |m: &[f64; 3]| {
-        let u = cal.correct_linear(m.map(|v| v as f32));
-        norm(u.map(f64::from))
-    };
-    let Some(median_g) = median(rec.xyz.iter().map(linear).collect()) else {
-        return Ok(());
-    };
-    let (lo, hi) = PLAUSIBLE_MEDIAN_G;
-    if (lo..=hi).contains(&median_g) {
-        return Ok(());
-    }
-    let per_g = wiical_core::model::invert3(&cal.k()).map_or(f64::NAN, |d| {
-        (0..3).map(|i| f64::from(d[(i, i)])).sum::<f64>() / 3.0
-    });
-    let raw = median(rec.xyz.iter().map(|m| norm(*m)).collect());
-    Err(CorrectError::UnitsMismatch {
-        median_g: round3(median_g),
-        zero: round3(cal.bias.iter().map(|b| f64::from(*b)).sum::<f64>() / 3.0),
-        per_g: round3(per_g),
-        median_raw: round3(raw.unwrap_or(f64::NAN)),
-    })
-}
-
-/// Refuses the first corrected value (1-based sample, its time) that is not finite, or,
-/// with `bounded`, beyond the ±16 g output bound of the acceptance limits (host terms can
-/// push a sample there, which the acceptance predicate does not see).
-pub fn check_output(times: &[f64], accel: &[[f32; 3]], bounded: bool) -> Result<(), CorrectError> {
-    let bound = Acceptance::nunchuk().output_bound;
-    for (i, a) in accel.iter().enumerate() {
-        for (j, v) in a.iter().enumerate() {
-            let why = if !v.is_finite() {
-                "not a finite number".to_string()
-            } else if bounded && v.abs() > bound {
-                format!("beyond ±{bound} g")
-            } else {
-                continue;
-            };
-            return Err(CorrectError::BadOutput {
-                sample: i + 1,
-                time_s: times.get(i).copied().unwrap_or(f64::NAN),
-                axis: ["x", "y", "z"][j],
-                value: *v,
-                why,
-            });
+/// Refuses the core's temperature terms (`bias_temp`, `scale_temp`) for a recording without
+/// a temperature (`has_temp` false), naming the term: the core would silently skip them.
+pub fn check_core_temperature(file: &CalibrationFile, has_temp: bool) -> Result<(), CorrectError> {
+    let e = &file.calibration.effects;
+    for (name, c) in [
+        ("bias_temp (temperature)", e.bias_temp),
+        ("scale_temp (temperature)", e.scale_temp),
+    ] {
+        if !has_temp && c.iter().any(|x| *x != 0.0) {
+            return Err(CorrectError::NeedsTemperature { term: name.into() });
         }
     }
     Ok(())
 }
 
-/// The median of `v` (the mean of the middle two for an even count); `None` when empty.
-fn median(mut v: Vec<f64>) -> Option<f64> {
-    v.retain(|x| x.is_finite());
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    (n > 0).then(|| (v[(n - 1) / 2] + v[n / 2]) / 2.0)
-}
-
-/// Three significant figures, for a sentence.
-fn round3(x: f64) -> f64 {
-    format!("{x:.2e}").parse().unwrap_or(x)
+/// The terms a correction with `file` applies, as [`Corrected::applied`] lists them: the
+/// core's, then each host term as `<name> [<regressor>]`.
+pub fn applied(file: &CalibrationFile) -> Vec<String> {
+    let core = adapter_terms(&file.calibration);
+    let mut applied: Vec<String> = core.applied.iter().map(|s| s.to_string()).collect();
+    applied.extend(core.host_only);
+    applied.extend(file.host_terms.iter().map(|t| {
+        let what = t.shape().map_or("nothing", |s| needs(s.0));
+        format!("{} [{what}]", t.name)
+    }));
+    applied
 }
 
 #[cfg(test)]

@@ -1,0 +1,80 @@
+//! Which path a recording to correct takes: held in memory ([`Samples::Held`], the loader's
+//! [`crate::load`]), or — a plain text file (gzip'd too) of at least
+//! [`crate::input::front_door::stream_from_bytes`], or standard input long enough to be
+//! spooled to a temporary file — read in passes from the file ([`Samples::Streamed`],
+//! [`crate::input::text_source::TextSource`]) and corrected as it is read
+//! ([`super::stream`]). The same threshold as `fit`, `analyze` and `noise`
+//! (`WIICAL_STREAM_FROM_BYTES`).
+
+use crate::error::Result;
+use crate::input::columns::LoadOptions;
+use crate::input::front_door::{self, is_text_file_from, stream_from_bytes, Opened};
+use crate::input::recording::Recording;
+use crate::input::text::parse;
+use crate::input::text_source::TextSource;
+use std::path::Path;
+
+/// A recording to correct.
+// One value per command, moved once: its size does not matter, boxing either variant moves
+// the lint to the other.
+#[allow(clippy::large_enum_variant)]
+#[derive(Debug)]
+pub enum Samples {
+    /// Every sample in memory.
+    Held(Recording),
+    /// Read in passes from a file, never held.
+    Streamed(TextSource),
+}
+
+impl Samples {
+    /// The recording as read (for a streamed file: without samples), for its notes.
+    pub fn recording(&self) -> &Recording {
+        match self {
+            Samples::Held(rec) => rec,
+            Samples::Streamed(src) => &src.meta,
+        }
+    }
+}
+
+/// [`open_samples_from`] with the threshold of `WIICAL_STREAM_FROM_BYTES` (default 128 MiB).
+pub fn open_samples(path: &Path, opts: &LoadOptions) -> Result<Samples> {
+    open_samples_from(path, opts, stream_from_bytes())
+}
+
+/// Opens `path` (`-`: standard input) as [`Samples`]: streamed when it is a regular text file
+/// of at least `stream_from` bytes (a gzip file's content counted) that is plain delimited
+/// text, or standard input spooled to a temporary file; held otherwise, as [`crate::load`]
+/// reads it. Errors name the file.
+pub fn open_samples_from(path: &Path, opts: &LoadOptions, stream_from: u64) -> Result<Samples> {
+    if path.as_os_str() == "-" {
+        return open_stdin(path, opts);
+    }
+    if is_text_file_from(path, stream_from) {
+        let src = TextSource::open(path, opts, |_| true).map_err(|e| e.in_file(path))?;
+        if let Some(src) = src {
+            return Ok(Samples::Streamed(src));
+        }
+    }
+    front_door::load(path, opts).map(Samples::Held)
+}
+
+/// Standard input, read once: spooled (longer than the threshold) it is streamed from the
+/// temporary file, which lives as long as the source; else read as [`crate::load`] reads it.
+fn open_stdin(path: &Path, opts: &LoadOptions) -> Result<Samples> {
+    Ok(Samples::Held(match front_door::open(path)? {
+        Opened::Spooled(tmp) => {
+            let src = TextSource::open(&tmp, opts, |_| true).map_err(|e| e.in_file(&tmp))?;
+            if let Some(mut src) = src {
+                src.keep(tmp);
+                return Ok(Samples::Streamed(src));
+            }
+            front_door::load(&tmp, opts)?
+        }
+        Opened::Raw(raw) => {
+            crate::input::raw::to_recording(&raw, opts).map_err(|e| e.in_file(path))?
+        }
+        Opened::Text(text) => parse(&text, opts).map_err(|e| e.in_file(path))?,
+        // A regular file's kinds: not standard input's.
+        Opened::RawFile(_) | Opened::TextFile => front_door::load(path, opts)?,
+    }))
+}
