@@ -10,9 +10,7 @@ use anyhow::{anyhow, Result};
 use std::path::{Path, PathBuf};
 use wiical_analysis::input::front_door::stream_from_bytes;
 use wiical_analysis::input::text_source::TextSource;
-use wiical_analysis::magnetometer::{
-    self, stream, MagAnalysis, MagFitReport, MagInput, MagModel,
-};
+use wiical_analysis::magnetometer::{self, stream, MagAnalysis, MagFitReport, MagInput, MagModel};
 use wiical_analysis::search::select::ALPHA;
 use wiical_core::Calibration;
 

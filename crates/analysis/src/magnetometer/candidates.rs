@@ -153,7 +153,12 @@ impl ScalarFold {
 
     /// The scalars the centre may follow, with `follow` (each named column's sums) and the
     /// field's `unit`; `time_unit` is `s` or `sample`.
-    pub fn scalars(&self, follow: &[(String, ColumnFold)], unit: &str, time_unit: &str) -> Vec<Scalar> {
+    pub fn scalars(
+        &self,
+        follow: &[(String, ColumnFold)],
+        unit: &str,
+        time_unit: &str,
+    ) -> Vec<Scalar> {
         let n = self.n;
         let u = unit;
         let mut out = vec![Scalar {

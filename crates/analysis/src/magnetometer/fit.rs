@@ -5,9 +5,7 @@
 
 use super::model::MagModel;
 pub use crate::error::magnetometer::MagnetometerError;
-use wiical_core::magfit::{
-    AxisEllipsoidFit, EllipsoidFit, MagFit, ResidualAccumulator, SphereFit,
-};
+use wiical_core::magfit::{AxisEllipsoidFit, EllipsoidFit, MagFit, ResidualAccumulator, SphereFit};
 
 type Result<T, E = MagnetometerError> = std::result::Result<T, E>;
 

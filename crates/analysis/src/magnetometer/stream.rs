@@ -86,10 +86,20 @@ fn time_of(src: &TextSource, i: usize, row: &Row) -> f64 {
 /// The fit of `src` with `model` (passes 1–3 of the module docs), refused as the held path
 /// refuses: a still blob first ([`super::check_spans`]), then the fit's own errors.
 pub fn fit_source(src: &TextSource, model: MagModel) -> Result<Prepared> {
+    fit_source_counting(src, model, MAX_COUNTED)
+}
+
+/// [`fit_source`] counting at most `max_counted` distinct |second differences| per axis by
+/// value (tests: the selection by bits on a small file).
+pub fn fit_source_counting(
+    src: &TextSource,
+    model: MagModel,
+    max_counted: usize,
+) -> Result<Prepared> {
     let n = src.len();
     let mut fit = FitFold::new(model);
     let mut steps = StepFold::new();
-    let mut counts: [Counts; 3] = std::array::from_fn(|_| Counts::new());
+    let mut counts: [Counts; 3] = std::array::from_fn(|_| Counts::new(max_counted));
     let mut sums = AxisSums::new();
     let mut scalars = ScalarFold::new(n, src.has_temp());
     for (i, row) in src.rows().enumerate() {
@@ -174,13 +184,15 @@ pub fn analyze_source(
 struct Counts {
     by_value: Option<HashMap<u64, usize>>,
     top: Vec<usize>,
+    max: usize,
 }
 
 impl Counts {
-    fn new() -> Self {
+    fn new(max: usize) -> Self {
         Self {
             by_value: Some(HashMap::new()),
             top: vec![0; 1 << 16],
+            max,
         }
     }
 
@@ -190,7 +202,7 @@ impl Counts {
         self.top[(bits >> 48) as usize] += 1;
         if let Some(map) = &mut self.by_value {
             *map.entry(bits).or_insert(0) += 1;
-            if map.len() > MAX_COUNTED {
+            if map.len() > self.max {
                 self.by_value = None;
             }
         }
@@ -198,7 +210,12 @@ impl Counts {
 
     /// The `k`-th smallest (0-based) key from the counts by value, when they were kept.
     fn kth_counted(&self, k: usize) -> Option<u64> {
-        let mut counts: Vec<(u64, usize)> = self.by_value.as_ref()?.iter().map(|(b, c)| (*b, *c)).collect();
+        let mut counts: Vec<(u64, usize)> = self
+            .by_value
+            .as_ref()?
+            .iter()
+            .map(|(b, c)| (*b, *c))
+            .collect();
         counts.sort_unstable();
         let mut k = k;
         for (bits, c) in counts {
@@ -293,15 +310,17 @@ fn next_digits(
         if want.key.is_some() {
             continue;
         }
-        let got = crate::stats::kth_key_by_digits(&counts[want.axis].top, want.k, |shift, prefix, hist| {
-            match cache.get(&(w, shift, prefix)) {
+        let got = crate::stats::kth_key_by_digits(
+            &counts[want.axis].top,
+            want.k,
+            |shift, prefix, hist| match cache.get(&(w, shift, prefix)) {
                 Some(h) => {
                     hist.copy_from_slice(h);
                     Ok(())
                 }
                 None => Err((shift, prefix)),
-            }
-        });
+            },
+        );
         match got {
             Ok(key) => want.key = Some(key),
             Err((shift, prefix)) => needs.push((w, shift, prefix)),
