@@ -69,8 +69,8 @@ impl StepFold {
         let out = match (self.before, self.last) {
             (Some(b), Some(l)) => {
                 let d: [f64; 3] = std::array::from_fn(|a| (p[a] - 2.0 * l[a] + b[a]).abs());
-                for a in 0..3 {
-                    self.sum_sq[a] += d[a] * d[a];
+                for (s, x) in self.sum_sq.iter_mut().zip(d) {
+                    *s += x * x;
                 }
                 self.count += 1;
                 Some(d)
@@ -228,8 +228,8 @@ impl AxisSums {
 
     /// Adds a point.
     pub fn push(&mut self, p: &[f64; 3]) {
-        for a in 0..3 {
-            self.sum[a] += p[a];
+        for (s, x) in self.sum.iter_mut().zip(p) {
+            *s += x;
         }
         self.n += 1;
     }
