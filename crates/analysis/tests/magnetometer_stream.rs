@@ -1,8 +1,8 @@
 //! `magfit` in passes over a file (`magnetometer::stream`) against the held path (the whole
 //! recording loaded, `fit_points` and `analyze`, as the CLI did before): the whole JSON of
 //! the fit and the loop, or the refusal's sentence, must be equal — on every real
-//! magnetometer recording, and on a simulated recording with temperature and a `--follow`
-//! column whose medians are selected by bits (few values counted by value).
+//! magnetometer recording the stream takes, and on a simulated recording with a temperature
+//! column whose medians are selected by bits (none counted by value).
 
 use std::path::{Path, PathBuf};
 use wiical_analysis::input::columns::{triplet_unit, Sensor};
@@ -147,8 +147,7 @@ fn real_recordings_stream_as_held() {
     assert!(streamed_files >= 5, "{streamed_files} streamed");
 }
 
-/// A simulated recording with a centre drift, a temperature column and a followed current,
-/// written as text: every model's JSON in passes is the held one, the medians selected by
+/// A simulated recording with a centre drift and a temperature column, written as text: every model's JSON in passes is the held one, the medians selected by
 /// bits.
 #[test]
 fn simulation_with_follow_streams_as_held() {
