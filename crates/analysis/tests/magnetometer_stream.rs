@@ -147,10 +147,10 @@ fn real_recordings_stream_as_held() {
     assert!(streamed_files >= 5, "{streamed_files} streamed");
 }
 
-/// A simulated recording with a centre drift and a temperature column, written as text: every model's JSON in passes is the held one, the medians selected by
-/// bits.
+/// A simulated recording with a centre drift and a temperature column, written as text:
+/// every model's JSON in passes is the held one, the medians selected by bits.
 #[test]
-fn simulation_with_follow_streams_as_held() {
+fn simulation_streams_as_held() {
     let sim = simulate_mag(&MagSimConfig {
         effect: MagEffectTruth::Drift([0.2, -0.1, 0.15]),
         seed: 7,
