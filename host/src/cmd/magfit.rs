@@ -1,12 +1,16 @@
 //! `wiical magfit`: magnetometer hard/soft-iron fit, and the residual loop around it (noise
 //! floor, candidate effects, detection limits, verdict).
 
-use super::{check_outputs, load, load_options, to_json, write_calibration};
+use super::{
+    check_outputs, load, load_options, print_notes, to_json, with_spinner, write_calibration,
+};
 use crate::cli_error::cli_error;
 use crate::render;
 use anyhow::{anyhow, Result};
 use std::path::{Path, PathBuf};
-use wiical_analysis::magnetometer::{self, MagAnalysis, MagFitReport, MagInput, MagModel};
+use wiical_analysis::input::front_door::stream_from_bytes;
+use wiical_analysis::input::text_source::TextSource;
+use wiical_analysis::magnetometer::{self, stream, MagAnalysis, MagFitReport, MagInput, MagModel};
 use wiical_analysis::search::select::ALPHA;
 use wiical_core::Calibration;
 
@@ -49,23 +53,14 @@ pub fn run(a: &Args) -> Result<String> {
         sensor: Some(wiical_analysis::input::columns::Sensor::Magnetometer),
         ..load_options(a.columns.as_deref())?
     };
-    let rec = load(&a.file, &opts)?;
-    magnetometer::check_spans(&rec.xyz).map_err(cli_error)?;
-    let rep = magnetometer::fit_points(&rec.xyz, a.model).map_err(cli_error)?;
-    let follow = follow_columns(&a.file, a.follow.as_deref().unwrap_or(&[]), rec.len())?;
-    let times = rec
-        .t
-        .clone()
-        .or_else(|| rec.sample_rate_hz.map(|_| rec.times(1.0)));
-    let unit = wiical_analysis::input::columns::triplet_unit(&rec.axis_columns).unwrap_or("raw");
-    let input = MagInput {
-        xyz: &rec.xyz,
-        t: times.as_deref(),
-        temp: rec.temp.as_deref(),
-        follow: &follow,
-        unit,
+    let source = with_spinner(&format!("reading {}", a.file.display()), || {
+        stream::open_field_from(&a.file, &opts, stream_from_bytes())
+    })
+    .map_err(cli_error)?;
+    let (rep, analysis, unit) = match source {
+        Some(src) => streamed(a, &src)?,
+        None => held(a, &opts)?,
     };
-    let analysis = magnetometer::analyze(&input, &rep, a.model, ALPHA).map_err(cli_error)?;
     if let Some(path) = &a.out {
         let k = rep.matrix.map(|r| r.map(|x| (x / rep.radius) as f32));
         let cal = Calibration {
@@ -86,6 +81,64 @@ pub fn run(a: &Args) -> Result<String> {
     Ok(text)
 }
 
+/// The fit and the loop with every sample held.
+fn held(
+    a: &Args,
+    opts: &wiical_analysis::LoadOptions,
+) -> Result<(MagFitReport, MagAnalysis, &'static str)> {
+    let rec = load(&a.file, opts)?;
+    magnetometer::check_spans(&rec.xyz).map_err(cli_error)?;
+    let rep = magnetometer::fit_points(&rec.xyz, a.model).map_err(cli_error)?;
+    let follow = follow_columns(&a.file, a.follow.as_deref().unwrap_or(&[]), rec.len())?;
+    let times = rec
+        .t
+        .clone()
+        .or_else(|| rec.sample_rate_hz.map(|_| rec.times(1.0)));
+    let unit = wiical_analysis::input::columns::triplet_unit(&rec.axis_columns).unwrap_or("raw");
+    let input = MagInput {
+        xyz: &rec.xyz,
+        t: times.as_deref(),
+        temp: rec.temp.as_deref(),
+        follow: &follow,
+        unit,
+    };
+    let analysis = magnetometer::analyze(&input, &rep, a.model, ALPHA).map_err(cli_error)?;
+    Ok((rep, analysis, unit))
+}
+
+/// The fit and the loop in passes over a large plain text file (the same numbers as
+/// [`held`], memory bounded: `magnetometer::stream`).
+fn streamed(a: &Args, src: &TextSource) -> Result<(MagFitReport, MagAnalysis, &'static str)> {
+    print_notes(&a.file, &src.meta);
+    let prep = stream::fit_source(src, a.model).map_err(cli_error)?;
+    let mut follow = Vec::new();
+    for name in a.follow.as_deref().unwrap_or(&[]) {
+        let Some(col) = stream::open_follow(&a.file, name).map_err(cli_error)? else {
+            return Err(anyhow!(
+                "--follow {name}: {} is no longer plain text (was it replaced while read?)",
+                a.file.display()
+            ));
+        };
+        check_rows(name, col.len(), src.len(), &a.file)?;
+        follow.push((name.clone(), col));
+    }
+    let analysis =
+        stream::analyze_source(src, &prep, &follow, a.model, ALPHA).map_err(cli_error)?;
+    Ok((prep.report, analysis, stream::unit_of(src)))
+}
+
+/// A followed column must have a value on every row the field has.
+fn check_rows(name: &str, got: usize, rows: usize, file: &Path) -> Result<()> {
+    if got != rows {
+        return Err(anyhow!(
+            "--follow {name}: {got} rows in {} against {rows} of the field (a row where one \
+             is empty): give a column filled on every row",
+            file.display()
+        ));
+    }
+    Ok(())
+}
+
 /// Each named column, read by the same loader as the field (so its rows are the field's).
 fn follow_columns(file: &Path, names: &[String], rows: usize) -> Result<Vec<(String, Vec<f64>)>> {
     names
@@ -96,14 +149,7 @@ fn follow_columns(file: &Path, names: &[String], rows: usize) -> Result<Vec<(Str
                 sensor: None,
             };
             let rec = wiical_analysis::load(file, &opts).map_err(cli_error)?;
-            if rec.len() != rows {
-                return Err(anyhow!(
-                    "--follow {name}: {} rows in {} against {rows} of the field (a row where one \
-                     is empty): give a column filled on every row",
-                    rec.len(),
-                    file.display()
-                ));
-            }
+            check_rows(name, rec.len(), rows, file)?;
             Ok((name.clone(), rec.xyz.iter().map(|v| v[0]).collect()))
         })
         .collect()

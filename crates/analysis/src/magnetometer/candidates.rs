@@ -62,101 +62,275 @@ pub struct Layout {
     pub blocks: Vec<Normal>,
 }
 
-fn centred(v: impl Iterator<Item = f64>) -> Vec<f64> {
-    let v: Vec<f64> = v.collect();
-    let m = v.iter().sum::<f64>() / v.len().max(1) as f64;
-    v.into_iter().map(|x| x - m).collect()
+/// One column's sums in file order (from `-0.0`, as `Iterator::sum`): its mean, removed
+/// from the column so a centre effect does not take the constant the centre already has, and
+/// whether it varies at all (a constant column is not a candidate).
+#[derive(Debug, Clone)]
+pub struct ColumnFold {
+    first: Option<f64>,
+    varies: bool,
+    sum: f64,
+    n: usize,
 }
 
-/// The scalars the centre may follow, with their candidates (columns still to be numbered).
-fn scalars(inp: &MagInput, n: usize) -> Vec<(String, Vec<f64>, String, Option<f64>)> {
-    let (times, tu) = match inp.t {
-        Some(t) => (t.to_vec(), "s"),
-        None => ((0..n).map(|i| i as f64).collect(), "sample"),
-    };
-    let u = inp.unit;
-    let mut out = vec![(
-        "centre-drift".to_string(),
-        centred(times.iter().copied()),
-        format!("{u}/{tu}"),
-        None,
-    )];
-    for k in 2..=BLOCKS - 2 {
-        let at = k * n / BLOCKS;
-        let g = (0..n).map(|i| if i >= at { 1.0 } else { 0.0 }).collect();
-        out.push((
-            "centre-step".into(),
-            g,
-            u.to_string(),
-            Some(times[at.min(n - 1)]),
-        ));
+impl Default for ColumnFold {
+    fn default() -> Self {
+        Self::new()
     }
-    if let Some(t) = inp.temp {
-        if t.iter().any(|x| *x != t[0]) {
-            out.push((
-                "temperature".into(),
-                centred(t.iter().copied()),
-                format!("{u}/°C"),
-                None,
-            ));
-        }
-    }
-    for (name, v) in inp.follow {
-        if v.len() == n && v.iter().any(|x| *x != v[0]) {
-            out.push((
-                format!("interference:{name}"),
-                centred(v.iter().copied()),
-                format!("{u} per {name} unit"),
-                None,
-            ));
-        }
-    }
-    out
 }
 
-/// Numbers every column and accumulates the blocks' normal equations in one pass.
-pub fn layout(inp: &MagInput, geos: &[Geo], shape: Shape) -> Layout {
-    let n = geos.len();
-    let sc = scalars(inp, n);
-    let mut row = Vec::new();
-    design::base_row(&geos[0], shape, &mut row);
-    let base = row.len();
-    let mut cands: Vec<Cand> = Vec::new();
-    let mut next = base;
-    for (name, _, unit, at) in &sc {
-        let cols: Vec<usize> = (next..next + 3).collect();
-        next += 3;
-        match cands.iter_mut().find(|c| &c.name == name) {
-            Some(c) => c.alts.push((cols, *at)),
-            None => cands.push(Cand {
-                name: name.clone(),
-                alts: vec![(cols, *at)],
-                unit: unit.clone(),
-                kind: Kind::Centre,
-            }),
+impl ColumnFold {
+    /// Nothing seen.
+    pub fn new() -> Self {
+        Self {
+            first: None,
+            varies: false,
+            sum: -0.0,
+            n: 0,
         }
     }
-    cands.push(Cand {
-        name: "shape".into(),
-        alts: vec![((next..next + 10).collect(), None)],
-        unit: inp.unit.to_string(),
-        kind: Kind::Shape,
-    });
-    let p = next + 10;
-    let mut blocks: Vec<Normal> = (0..BLOCKS).map(|_| Normal::zeros(p)).collect();
-    for (i, g) in geos.iter().enumerate() {
-        row.clear();
-        design::base_row(g, shape, &mut row);
-        for (_, v, _, _) in &sc {
-            design::follow_row(g, v[i], &mut row);
-        }
-        design::shape_row(g, &mut row);
-        blocks[i * BLOCKS / n].push(&row, g.res);
+
+    /// The next value.
+    pub fn push(&mut self, x: f64) {
+        let first = *self.first.get_or_insert(x);
+        self.varies |= x != first;
+        self.sum += x;
+        self.n += 1;
     }
-    blocks.iter_mut().for_each(Normal::symmetrise);
-    Layout {
-        base,
-        cands,
-        blocks,
+
+    /// The mean (`sum / max(n, 1)`).
+    pub fn mean(&self) -> f64 {
+        self.sum / self.n.max(1) as f64
+    }
+
+    /// Values seen.
+    pub fn len(&self) -> usize {
+        self.n
+    }
+
+    /// True before any value.
+    pub fn is_empty(&self) -> bool {
+        self.n == 0
+    }
+}
+
+/// The field pass's share of the scalars: the times (the time column, `i / Fs`, or the
+/// sample index), the times at the scanned steps, the temperature.
+#[derive(Debug, Clone)]
+pub struct ScalarFold {
+    n: usize,
+    i: usize,
+    time: ColumnFold,
+    step_times: [f64; BLOCKS - 3],
+    temp: Option<ColumnFold>,
+}
+
+impl ScalarFold {
+    /// For `n` samples, with a temperature column or not.
+    pub fn new(n: usize, has_temp: bool) -> Self {
+        Self {
+            n,
+            i: 0,
+            time: ColumnFold::new(),
+            step_times: [f64::NAN; BLOCKS - 3],
+            temp: has_temp.then(ColumnFold::new),
+        }
+    }
+
+    /// The next sample's time and temperature (`NaN` without a column: not read then).
+    pub fn push(&mut self, t: f64, temp: f64) {
+        self.time.push(t);
+        for (slot, k) in self.step_times.iter_mut().zip(2..=BLOCKS - 2) {
+            if self.i == (k * self.n / BLOCKS).min(self.n.saturating_sub(1)) {
+                *slot = t;
+            }
+        }
+        if let Some(f) = &mut self.temp {
+            f.push(temp);
+        }
+        self.i += 1;
+    }
+
+    /// The scalars the centre may follow, with `follow` (each named column's sums) and the
+    /// field's `unit`; `time_unit` is `s` or `sample`.
+    pub fn scalars(
+        &self,
+        follow: &[(String, ColumnFold)],
+        unit: &str,
+        time_unit: &str,
+    ) -> Vec<Scalar> {
+        let n = self.n;
+        let u = unit;
+        let mut out = vec![Scalar {
+            name: "centre-drift".into(),
+            unit: format!("{u}/{time_unit}"),
+            at: None,
+            value: Value::Centred(Column::Time, self.time.mean()),
+        }];
+        for (k, at_t) in (2..=BLOCKS - 2).zip(self.step_times) {
+            out.push(Scalar {
+                name: "centre-step".into(),
+                unit: u.to_string(),
+                at: Some(at_t),
+                value: Value::Step(k * n / BLOCKS),
+            });
+        }
+        if let Some(t) = self.temp.as_ref().filter(|t| t.varies) {
+            out.push(Scalar {
+                name: "temperature".into(),
+                unit: format!("{u}/°C"),
+                at: None,
+                value: Value::Centred(Column::Temp, t.mean()),
+            });
+        }
+        for (j, (name, f)) in follow.iter().enumerate() {
+            if f.len() == n && f.varies {
+                out.push(Scalar {
+                    name: format!("interference:{name}"),
+                    unit: format!("{u} per {name} unit"),
+                    at: None,
+                    value: Value::Centred(Column::Follow(j), f.mean()),
+                });
+            }
+        }
+        out
+    }
+}
+
+/// Which column a scalar reads.
+#[derive(Debug, Clone, Copy)]
+enum Column {
+    Time,
+    Temp,
+    Follow(usize),
+}
+
+/// How a scalar's value is read per sample.
+#[derive(Debug, Clone, Copy)]
+enum Value {
+    /// A column less its mean.
+    Centred(Column, f64),
+    /// 0 before the sample index, 1 from it.
+    Step(usize),
+}
+
+/// A scalar the centre may follow: its candidate, unit, when (a step), and its value.
+#[derive(Debug, Clone)]
+pub struct Scalar {
+    name: String,
+    unit: String,
+    at: Option<f64>,
+    value: Value,
+}
+
+/// The scalars of a held recording ([`MagInput`]), as a pass over it gives them.
+pub fn scalars(inp: &MagInput, n: usize) -> Vec<Scalar> {
+    let mut fold = ScalarFold::new(n, inp.temp.is_some());
+    for i in 0..n {
+        let t = inp.t.map_or(i as f64, |t| t[i]);
+        fold.push(t, inp.temp.map_or(f64::NAN, |v| v[i]));
+    }
+    let follow: Vec<(String, ColumnFold)> = inp
+        .follow
+        .iter()
+        .map(|(name, v)| {
+            let mut f = ColumnFold::new();
+            v.iter().for_each(|x| f.push(*x));
+            (name.clone(), f)
+        })
+        .collect();
+    let time_unit = if inp.t.is_some() { "s" } else { "sample" };
+    fold.scalars(&follow, inp.unit, time_unit)
+}
+
+/// The blocks' normal equations fed one sample's geometry at a time, in file order (the
+/// held slices and a streamed pass push the same rows in the same order: the same bits).
+pub struct LayoutFold {
+    scalars: Vec<Scalar>,
+    shape: Shape,
+    n: usize,
+    i: usize,
+    row: Vec<f64>,
+    lay: Layout,
+}
+
+impl LayoutFold {
+    /// Numbers every column: the base model's, then each scalar's three, then shape's ten.
+    pub fn new(scalars: Vec<Scalar>, shape: Shape, unit: &str, n: usize) -> Self {
+        let mut row = Vec::new();
+        let zero = Geo {
+            res: 0.0,
+            grad: [0.0; 3],
+            d: [0.0; 3],
+            u: [0.0; 3],
+        };
+        design::base_row(&zero, shape, &mut row);
+        let base = row.len();
+        let mut cands: Vec<Cand> = Vec::new();
+        let mut next = base;
+        for s in &scalars {
+            let cols: Vec<usize> = (next..next + 3).collect();
+            next += 3;
+            match cands.iter_mut().find(|c| c.name == s.name) {
+                Some(c) => c.alts.push((cols, s.at)),
+                None => cands.push(Cand {
+                    name: s.name.clone(),
+                    alts: vec![(cols, s.at)],
+                    unit: s.unit.clone(),
+                    kind: Kind::Centre,
+                }),
+            }
+        }
+        cands.push(Cand {
+            name: "shape".into(),
+            alts: vec![((next..next + 10).collect(), None)],
+            unit: unit.to_string(),
+            kind: Kind::Shape,
+        });
+        let p = next + 10;
+        let blocks = (0..BLOCKS).map(|_| Normal::zeros(p)).collect();
+        Self {
+            scalars,
+            shape,
+            n,
+            i: 0,
+            row,
+            lay: Layout {
+                base,
+                cands,
+                blocks,
+            },
+        }
+    }
+
+    /// The next sample: its geometry, time (or index), temperature and followed columns.
+    pub fn push(&mut self, g: &Geo, t: f64, temp: f64, follow: &[f64]) {
+        let i = self.i;
+        self.row.clear();
+        design::base_row(g, self.shape, &mut self.row);
+        for s in &self.scalars {
+            let x = match s.value {
+                Value::Centred(Column::Time, m) => t - m,
+                Value::Centred(Column::Temp, m) => temp - m,
+                Value::Centred(Column::Follow(j), m) => follow[j] - m,
+                Value::Step(at) => {
+                    if i >= at {
+                        1.0
+                    } else {
+                        0.0
+                    }
+                }
+            };
+            design::follow_row(g, x, &mut self.row);
+        }
+        design::shape_row(g, &mut self.row);
+        self.lay.blocks[i * BLOCKS / self.n].push(&self.row, g.res);
+        self.i += 1;
+    }
+
+    /// The layout, once every sample is in.
+    pub fn finish(mut self) -> Layout {
+        self.lay.blocks.iter_mut().for_each(Normal::symmetrise);
+        self.lay
     }
 }

@@ -5,9 +5,7 @@
 
 use super::model::MagModel;
 pub use crate::error::magnetometer::MagnetometerError;
-use wiical_core::magfit::{
-    AxisEllipsoidFit, EllipsoidFit, MagFit, ResidualAccumulator, SphereFit, StreamingMagFit,
-};
+use wiical_core::magfit::{AxisEllipsoidFit, EllipsoidFit, MagFit, ResidualAccumulator, SphereFit};
 
 type Result<T, E = MagnetometerError> = std::result::Result<T, E>;
 
@@ -56,75 +54,167 @@ impl MagFitReport {
 /// degenerate coverage (points on a plane, line or single spot), or a fitted surface that
 /// is not an ellipsoid.
 pub fn fit_points(points: &[[f64; 3]], model: MagModel) -> Result<MagFitReport> {
-    if points.is_empty() {
-        return Err(MagnetometerError::NoMagSamples);
+    let mut fold = FitFold::new(model);
+    points.iter().for_each(|p| fold.push(p));
+    let fit = fold.solve()?;
+    let mut quality = QualityFold::new(fit);
+    points.iter().for_each(|p| quality.push(p));
+    quality.report(model, points.len())
+}
+
+/// The core's accumulator of one model.
+#[derive(Debug, Clone)]
+enum Acc {
+    Sphere(SphereFit),
+    Axis(AxisEllipsoidFit),
+    Ellipsoid(EllipsoidFit),
+}
+
+impl Acc {
+    fn push(&mut self, p: [f32; 3]) -> Result<(), wiical_core::Error> {
+        match self {
+            Acc::Sphere(f) => f.push(p),
+            Acc::Axis(f) => f.push(p),
+            Acc::Ellipsoid(f) => f.push(p),
+        }
     }
-    let pts32 = to_f32(points)?;
-    let fit = match model {
-        MagModel::Sphere => run::<SphereFit>(&pts32),
-        MagModel::Axis => run::<AxisEllipsoidFit>(&pts32),
-        MagModel::Ellipsoid => run::<EllipsoidFit>(&pts32),
+
+    fn solve(&self) -> Result<MagFit, wiical_core::Error> {
+        match self {
+            Acc::Sphere(f) => f.solve(),
+            Acc::Axis(f) => f.solve(),
+            Acc::Ellipsoid(f) => f.solve(),
+        }
     }
-    .map_err(|source| MagnetometerError::MagFit {
-        context: format!(
-            "{model} fit of {} samples failed{}",
-            points.len(),
-            hint(source)
-        ),
-        source,
-    })?;
-    let mut quality = ResidualAccumulator::new(fit);
-    for (i, p) in pts32.iter().enumerate() {
-        quality
-            .push(*p)
+}
+
+/// The fit's accumulator fed one point at a time in file order (what [`fit_points`] does
+/// with a slice, and a streamed pass with a file's rows): each point converted to the
+/// core's `f32`; the first one that is not finite there, or the first the core refuses,
+/// ends the accumulation and is the error [`FitFold::solve`] gives.
+#[derive(Debug)]
+pub struct FitFold {
+    model: MagModel,
+    acc: Acc,
+    n: usize,
+    not_f32: Option<MagnetometerError>,
+    refused: Option<wiical_core::Error>,
+}
+
+impl FitFold {
+    /// An empty accumulator of `model`.
+    pub fn new(model: MagModel) -> Self {
+        let acc = match model {
+            MagModel::Sphere => Acc::Sphere(SphereFit::default()),
+            MagModel::Axis => Acc::Axis(AxisEllipsoidFit::default()),
+            MagModel::Ellipsoid => Acc::Ellipsoid(EllipsoidFit::default()),
+        };
+        Self {
+            model,
+            acc,
+            n: 0,
+            not_f32: None,
+            refused: None,
+        }
+    }
+
+    /// The next point.
+    pub fn push(&mut self, p: &[f64; 3]) {
+        self.n += 1;
+        if self.not_f32.is_some() {
+            return;
+        }
+        let q = p.map(|v| v as f32);
+        if !q.iter().all(|v| v.is_finite()) {
+            self.not_f32 = Some(MagnetometerError::MagSampleNotF32 {
+                index: self.n,
+                x: p[0],
+                y: p[1],
+                z: p[2],
+            });
+            return;
+        }
+        if self.refused.is_none() {
+            if let Err(e) = self.acc.push(q) {
+                self.refused = Some(e);
+            }
+        }
+    }
+
+    /// The fit, or why not: no points, the first point not finite in `f32` (1-based), the
+    /// core's refusal.
+    pub fn solve(self) -> Result<MagFit> {
+        if self.n == 0 {
+            return Err(MagnetometerError::NoMagSamples);
+        }
+        if let Some(e) = self.not_f32 {
+            return Err(e);
+        }
+        let (model, n) = (self.model, self.n);
+        self.refused
+            .map_or_else(|| self.acc.solve(), Err)
             .map_err(|source| MagnetometerError::MagFit {
-                context: format!("fit quality: sample {}", i + 1),
+                context: format!("{model} fit of {n} samples failed{}", hint(source)),
+                source,
+            })
+    }
+}
+
+/// The fit's quality ([`ResidualAccumulator`]) fed one point at a time; the first point it
+/// refuses is the error [`QualityFold::report`] gives.
+#[derive(Debug)]
+pub struct QualityFold {
+    fit: MagFit,
+    acc: ResidualAccumulator,
+    n: usize,
+    refused: Option<MagnetometerError>,
+}
+
+impl QualityFold {
+    /// An empty accumulator for `fit`.
+    pub fn new(fit: MagFit) -> Self {
+        Self {
+            acc: ResidualAccumulator::new(fit),
+            fit,
+            n: 0,
+            refused: None,
+        }
+    }
+
+    /// The next point (as the fit took it: converted to `f32`).
+    pub fn push(&mut self, p: &[f64; 3]) {
+        self.n += 1;
+        if self.refused.is_some() {
+            return;
+        }
+        if let Err(source) = self.acc.push(p.map(|v| v as f32)) {
+            self.refused = Some(MagnetometerError::MagFit {
+                context: format!("fit quality: sample {}", self.n),
+                source,
+            });
+        }
+    }
+
+    /// The report of `samples` points fitted with `model`.
+    pub fn report(self, model: MagModel, samples: usize) -> Result<MagFitReport> {
+        if let Some(e) = self.refused {
+            return Err(e);
+        }
+        let q = self
+            .acc
+            .finish()
+            .map_err(|source| MagnetometerError::MagFit {
+                context: "fit quality".into(),
                 source,
             })?;
+        Ok(MagFitReport::new(
+            model,
+            samples,
+            &self.fit,
+            q.fit_error_pct,
+            q.rms_radius_error,
+        ))
     }
-    let q = quality
-        .finish()
-        .map_err(|source| MagnetometerError::MagFit {
-            context: "fit quality".into(),
-            source,
-        })?;
-    Ok(MagFitReport::new(
-        model,
-        points.len(),
-        &fit,
-        q.fit_error_pct,
-        q.rms_radius_error,
-    ))
-}
-
-/// Converts to the core's `f32`, rejecting values that are not finite there (NaN, inf, or
-/// beyond `f32::MAX`), naming the first bad sample (1-based).
-fn to_f32(points: &[[f64; 3]]) -> Result<Vec<[f32; 3]>> {
-    points
-        .iter()
-        .enumerate()
-        .map(|(i, p)| {
-            let q = p.map(|v| v as f32);
-            if q.iter().all(|v| v.is_finite()) {
-                Ok(q)
-            } else {
-                Err(MagnetometerError::MagSampleNotF32 {
-                    index: i + 1,
-                    x: p[0],
-                    y: p[1],
-                    z: p[2],
-                })
-            }
-        })
-        .collect()
-}
-
-fn run<F: StreamingMagFit + Default>(pts: &[[f32; 3]]) -> Result<MagFit, wiical_core::Error> {
-    let mut f = F::default();
-    for p in pts {
-        f.push(*p)?;
-    }
-    f.solve()
 }
 
 /// What the user can do about a core error.

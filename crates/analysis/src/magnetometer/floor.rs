@@ -11,42 +11,167 @@ use super::design::Geo;
 
 /// Each axis's white-noise standard deviation, raw units (see the module docs).
 pub fn axis_noise(points: &[[f64; 3]]) -> [f64; 3] {
-    std::array::from_fn(|a| {
-        let d2: Vec<f64> = points
-            .windows(3)
-            .map(|w| (w[2][a] - 2.0 * w[1][a] + w[0][a]).abs())
-            .collect();
-        let med = crate::stats::median(&d2);
-        let robust = if med > 0.0 {
-            med / 0.6745 / 6f64.sqrt()
-        } else {
-            crate::stats::rms(&d2) / 6f64.sqrt()
-        };
-        let q = points
-            .windows(2)
-            .map(|w| (w[1][a] - w[0][a]).abs())
-            .filter(|d| *d > 0.0)
-            .fold(f64::INFINITY, f64::min);
-        let rounding = if q.is_finite() { q / 12f64.sqrt() } else { 0.0 };
-        if robust.is_finite() {
-            robust.max(rounding)
-        } else {
-            rounding
+    let mut steps = StepFold::new();
+    let mut d2: [Vec<f64>; 3] = Default::default();
+    for p in points {
+        if let Some(d) = steps.push(p) {
+            for a in 0..3 {
+                d2[a].push(d[a]);
+            }
         }
-    })
+    }
+    steps.noise(d2.each_ref().map(|v| crate::stats::median(v)))
+}
+
+/// The sums behind [`axis_noise`] except the median, fed one point at a time in file order
+/// (the held and the streamed reading push the same points in the same order, so every sum
+/// has the same bits): the last two points, the squared second differences and the smallest
+/// non-zero first difference per axis.
+#[derive(Debug, Clone)]
+pub struct StepFold {
+    last: Option<[f64; 3]>,
+    before: Option<[f64; 3]>,
+    /// `Σ d²` per axis (`-0.0` to start, as `Iterator::sum` does).
+    sum_sq: [f64; 3],
+    /// Second differences seen.
+    pub count: usize,
+    min_step: [f64; 3],
+}
+
+impl Default for StepFold {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl StepFold {
+    /// Nothing seen.
+    pub fn new() -> Self {
+        Self {
+            last: None,
+            before: None,
+            sum_sq: [-0.0; 3],
+            count: 0,
+            min_step: [f64::INFINITY; 3],
+        }
+    }
+
+    /// The next point; its `|m[i] − 2·m[i−1] + m[i−2]|` per axis once there are three.
+    pub fn push(&mut self, p: &[f64; 3]) -> Option<[f64; 3]> {
+        if let Some(l) = self.last {
+            for a in 0..3 {
+                let d = (p[a] - l[a]).abs();
+                if d > 0.0 {
+                    self.min_step[a] = self.min_step[a].min(d);
+                }
+            }
+        }
+        let out = match (self.before, self.last) {
+            (Some(b), Some(l)) => {
+                let d: [f64; 3] = std::array::from_fn(|a| (p[a] - 2.0 * l[a] + b[a]).abs());
+                for (s, x) in self.sum_sq.iter_mut().zip(d) {
+                    *s += x * x;
+                }
+                self.count += 1;
+                Some(d)
+            }
+            _ => None,
+        };
+        self.before = self.last.replace(*p);
+        out
+    }
+
+    /// Each axis's noise given the median of its |second differences| (`NaN` without any):
+    /// the median's Gaussian σ, the RMS's when the median is 0, at least the rounding.
+    pub fn noise(&self, median: [f64; 3]) -> [f64; 3] {
+        std::array::from_fn(|a| {
+            let med = median[a];
+            let robust = if med > 0.0 {
+                med / 0.6745 / 6f64.sqrt()
+            } else {
+                let rms = if self.count == 0 {
+                    0.0
+                } else {
+                    (self.sum_sq[a] / self.count as f64).sqrt()
+                };
+                rms / 6f64.sqrt()
+            };
+            let q = self.min_step[a];
+            let rounding = if q.is_finite() { q / 12f64.sqrt() } else { 0.0 };
+            if robust.is_finite() {
+                robust.max(rounding)
+            } else {
+                rounding
+            }
+        })
+    }
 }
 
 /// The residual's noise floor, raw units: the axes' noise seen along each sample's radial
 /// direction (`Wᵀn̂`), as an RMS over the samples.
 pub fn residual_floor(geos: &[Geo], sigma: &[f64; 3]) -> f64 {
-    if geos.is_empty() {
-        return 0.0;
+    let mut f = GeoFold::new(*sigma);
+    geos.iter().for_each(|g| f.push(g));
+    f.floor()
+}
+
+/// How well the fitted directions cover the sphere: the smallest eigenvalue of the mean
+/// `n̂·n̂ᵀ` (1/3 for a full sphere, 0 for a plane or a line).
+pub fn coverage(geos: &[Geo]) -> f64 {
+    let mut f = GeoFold::new([0.0; 3]);
+    geos.iter().for_each(|g| f.push(g));
+    f.coverage()
+}
+
+/// The sums of [`residual_floor`] and [`coverage`], one point's geometry at a time (sums
+/// start at `-0.0`, as `Iterator::sum` does, so the held slices and a streamed pass agree in
+/// their bits).
+#[derive(Debug, Clone)]
+pub struct GeoFold {
+    sigma: [f64; 3],
+    radial: f64,
+    uu: [[f64; 3]; 3],
+    n: usize,
+}
+
+impl GeoFold {
+    /// Nothing seen, with the axes' noise `sigma`.
+    pub fn new(sigma: [f64; 3]) -> Self {
+        Self {
+            sigma,
+            radial: -0.0,
+            uu: [[-0.0; 3]; 3],
+            n: 0,
+        }
     }
-    let s: f64 = geos
-        .iter()
-        .map(|g| (0..3).map(|a| (g.grad[a] * sigma[a]).powi(2)).sum::<f64>())
-        .sum();
-    (s / geos.len() as f64).sqrt()
+
+    /// One point's geometry.
+    pub fn push(&mut self, g: &Geo) {
+        self.radial += (0..3)
+            .map(|a| (g.grad[a] * self.sigma[a]).powi(2))
+            .sum::<f64>();
+        for i in 0..3 {
+            for j in 0..3 {
+                self.uu[i][j] += g.u[i] * g.u[j];
+            }
+        }
+        self.n += 1;
+    }
+
+    /// [`residual_floor`].
+    pub fn floor(&self) -> f64 {
+        if self.n == 0 {
+            return 0.0;
+        }
+        (self.radial / self.n as f64).sqrt()
+    }
+
+    /// [`coverage`].
+    pub fn coverage(&self) -> f64 {
+        let n = self.n.max(1) as f64;
+        let m = nalgebra::Matrix3::from_fn(|i, j| self.uu[i][j] / n);
+        m.symmetric_eigenvalues().min()
+    }
 }
 
 /// Fewest noise standard deviations the points must spread over on some axis for a fit to
@@ -61,11 +186,16 @@ pub fn still_blob(points: &[[f64; 3]]) -> Option<(f64, f64)> {
         return None;
     }
     let sigma = axis_noise(points);
-    let n = points.len() as f64;
-    let spread: [f64; 3] = std::array::from_fn(|a| {
-        let m = points.iter().map(|p| p[a]).sum::<f64>() / n;
-        (points.iter().map(|p| (p[a] - m).powi(2)).sum::<f64>() / n).sqrt()
-    });
+    let mut sums = AxisSums::new();
+    points.iter().for_each(|p| sums.push(p));
+    let mut dev = AxisSums::new();
+    let mean = sums.mean();
+    points.iter().for_each(|p| dev.push_dev(p, &mean));
+    blob(dev.spread(), sigma)
+}
+
+/// [`still_blob`]'s decision from each axis's standard deviation `spread` and noise `sigma`.
+pub fn blob(spread: [f64; 3], sigma: [f64; 3]) -> Option<(f64, f64)> {
     let (a, s) = spread.iter().enumerate().max_by(|x, y| {
         (x.1 / sigma[x.0].max(f64::MIN_POSITIVE))
             .total_cmp(&(y.1 / sigma[y.0].max(f64::MIN_POSITIVE)))
@@ -73,11 +203,53 @@ pub fn still_blob(points: &[[f64; 3]]) -> Option<(f64, f64)> {
     (*s < MIN_SPREAD_OVER_NOISE * sigma[a]).then_some((*s, sigma[a]))
 }
 
-/// How well the fitted directions cover the sphere: the smallest eigenvalue of the mean
-/// `n̂·n̂ᵀ` (1/3 for a full sphere, 0 for a plane or a line).
-pub fn coverage(geos: &[Geo]) -> f64 {
-    let n = geos.len().max(1) as f64;
-    let m =
-        nalgebra::Matrix3::from_fn(|i, j| geos.iter().map(|g| g.u[i] * g.u[j]).sum::<f64>() / n);
-    m.symmetric_eigenvalues().min()
+/// Per-axis sums in file order (from `-0.0`, as `Iterator::sum`): of the points for their
+/// mean, or of their squared deviations from a mean for their spread.
+#[derive(Debug, Clone)]
+pub struct AxisSums {
+    sum: [f64; 3],
+    n: usize,
+}
+
+impl Default for AxisSums {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl AxisSums {
+    /// Nothing seen.
+    pub fn new() -> Self {
+        Self {
+            sum: [-0.0; 3],
+            n: 0,
+        }
+    }
+
+    /// Adds a point.
+    pub fn push(&mut self, p: &[f64; 3]) {
+        for (s, x) in self.sum.iter_mut().zip(p) {
+            *s += x;
+        }
+        self.n += 1;
+    }
+
+    /// Adds a point's squared deviation from `mean`.
+    pub fn push_dev(&mut self, p: &[f64; 3], mean: &[f64; 3]) {
+        for a in 0..3 {
+            self.sum[a] += (p[a] - mean[a]).powi(2);
+        }
+        self.n += 1;
+    }
+
+    /// The mean of the points pushed.
+    pub fn mean(&self) -> [f64; 3] {
+        let n = self.n as f64;
+        self.sum.map(|s| s / n)
+    }
+
+    /// The standard deviation, from squared deviations pushed.
+    pub fn spread(&self) -> [f64; 3] {
+        self.mean().map(f64::sqrt)
+    }
 }

@@ -20,6 +20,7 @@ pub mod fit;
 pub mod floor;
 pub mod model;
 pub mod search;
+pub mod stream;
 pub mod verdict;
 
 pub use crate::error::magnetometer::MagnetometerError;
@@ -41,51 +42,106 @@ pub fn analyze(
     alpha: f64,
 ) -> Result<MagAnalysis, MagnetometerError> {
     check_spans(inp.xyz)?;
-    let geos: Vec<design::Geo> = inp
-        .xyz
-        .iter()
-        .map(|m| design::geo(m, &rep.center, &rep.matrix, rep.radius))
-        .collect();
     let sigma = floor::axis_noise(inp.xyz);
-    let noise = floor::residual_floor(&geos, &sigma);
-    let coverage = floor::coverage(&geos);
-    let shape = match model {
-        MagModel::Sphere => Shape::Sphere,
-        MagModel::Axis => Shape::Axis,
-        MagModel::Ellipsoid => Shape::Ellipsoid,
-    };
-    let lay = candidates::layout(inp, &geos, shape);
-    let found = search::search(&lay, noise, alpha);
-    let n = geos.len();
-    let base = summary(&found.base, n, noise);
-    let final_model = summary(&found.last, n, noise);
-    let (verdict, reasons) = verdict::verdict(&final_model, noise, coverage, inp.unit);
-    let mut diagnostics = Vec::new();
-    if inp.temp.is_none() {
-        diagnostics.push(
-            "temperature not tested: the file has no temperature column (log one beside the field)"
-                .into(),
-        );
+    let n = inp.xyz.len();
+    let mut pass = LoopPass::new(rep, sigma, candidates::scalars(inp, n), model, inp.unit, n);
+    let mut follow = vec![0.0; inp.follow.len()];
+    for (i, m) in inp.xyz.iter().enumerate() {
+        for (slot, (_, v)) in follow.iter_mut().zip(inp.follow) {
+            *slot = v.get(i).copied().unwrap_or(f64::NAN);
+        }
+        let t = inp.t.map_or(i as f64, |t| t[i]);
+        pass.push(m, t, inp.temp.map_or(f64::NAN, |v| v[i]), &follow);
     }
-    if inp.follow.is_empty() {
-        diagnostics.push(
-            "interference not tested: no column named for it (give --follow current, throttle or \
-             pwm when the file logs one)"
-                .into(),
-        );
+    Ok(pass.finish(alpha, inp.temp.is_some(), !inp.follow.is_empty()))
+}
+
+/// The loop's pass over the samples once the fit and the axes' noise are known: each
+/// sample's geometry ([`design::geo`]) folded into the residual's floor, the coverage and the
+/// blocks' normal equations, and dropped (the held recording and a streamed file push the
+/// same samples in the same order: the same sums, bit for bit).
+pub struct LoopPass<'r> {
+    rep: &'r MagFitReport,
+    sigma: [f64; 3],
+    unit: String,
+    n: usize,
+    geo: floor::GeoFold,
+    lay: candidates::LayoutFold,
+}
+
+impl<'r> LoopPass<'r> {
+    /// A pass over `n` samples around the fit `rep` (made with `model`), the axes' noise
+    /// `sigma`, the candidates' `scalars`, the field's `unit`.
+    pub fn new(
+        rep: &'r MagFitReport,
+        sigma: [f64; 3],
+        scalars: Vec<candidates::Scalar>,
+        model: MagModel,
+        unit: &str,
+        n: usize,
+    ) -> Self {
+        let shape = match model {
+            MagModel::Sphere => Shape::Sphere,
+            MagModel::Axis => Shape::Axis,
+            MagModel::Ellipsoid => Shape::Ellipsoid,
+        };
+        Self {
+            rep,
+            sigma,
+            unit: unit.to_string(),
+            n,
+            geo: floor::GeoFold::new(sigma),
+            lay: candidates::LayoutFold::new(scalars, shape, unit, n),
+        }
     }
-    Ok(MagAnalysis {
-        noise_floor: noise,
-        noise_floor_axes: sigma,
-        coverage,
-        base,
-        effects: found.effects,
-        final_model,
-        steps: found.steps,
-        verdict,
-        reasons,
-        diagnostics,
-    })
+
+    /// The next sample `m`, its time (s, or the sample index), temperature (°C, `NaN`
+    /// without a column) and the followed columns' values.
+    pub fn push(&mut self, m: &[f64; 3], t: f64, temp: f64, follow: &[f64]) {
+        let g = design::geo(m, &self.rep.center, &self.rep.matrix, self.rep.radius);
+        self.geo.push(&g);
+        self.lay.push(&g, t, temp, follow);
+    }
+
+    /// The search, the summaries and the verdict at family level `alpha`; `has_temp` and
+    /// `has_follow` say whether a temperature column and `--follow` columns were there.
+    pub fn finish(self, alpha: f64, has_temp: bool, has_follow: bool) -> MagAnalysis {
+        let noise = self.geo.floor();
+        let coverage = self.geo.coverage();
+        let lay = self.lay.finish();
+        let found = search::search(&lay, noise, alpha);
+        let n = self.n;
+        let base = summary(&found.base, n, noise);
+        let final_model = summary(&found.last, n, noise);
+        let (verdict, reasons) = verdict::verdict(&final_model, noise, coverage, &self.unit);
+        let mut diagnostics = Vec::new();
+        if !has_temp {
+            diagnostics.push(
+                "temperature not tested: the file has no temperature column (log one beside the \
+                 field)"
+                    .into(),
+            );
+        }
+        if !has_follow {
+            diagnostics.push(
+                "interference not tested: no column named for it (give --follow current, \
+                 throttle or pwm when the file logs one)"
+                    .into(),
+            );
+        }
+        MagAnalysis {
+            noise_floor: noise,
+            noise_floor_axes: self.sigma,
+            coverage,
+            base,
+            effects: found.effects,
+            final_model,
+            steps: found.steps,
+            verdict,
+            reasons,
+            diagnostics,
+        }
+    }
 }
 
 /// Refuses points that never leave a blob of their own noise: an ellipsoid fitted to them

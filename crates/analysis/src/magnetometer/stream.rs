@@ -1,0 +1,330 @@
+//! `wiical magfit` on a large plain text file ([`TextSource`]): the same fit and loop as the
+//! held recording, in passes over the file, with memory that does not grow with it.
+//!
+//! Every sum is a fold that the held path feeds from its slices and a pass feeds from the
+//! file's rows, in the same order ([`super::fit::FitFold`], [`super::floor::StepFold`],
+//! [`super::floor::AxisSums`], [`super::candidates::ScalarFold`], [`super::LoopPass`]), so
+//! the two readings give the same bits. The passes after the source's own:
+//!
+//! 1. the core's fit, the axes' differences, the means, the times and temperature;
+//! 2. the axes' spread about their means and the fit's quality (and the first digit of any
+//!    median still to select);
+//! 3. up to two more for the medians of the |second differences| when an axis has more
+//!    than [`MAX_COUNTED`] distinct values: selected by their bits, 16 at a time
+//!    ([`crate::stats::kth_key_by_digits`]), every axis and both middle ranks in one pass;
+//! 4. each `--follow` column's own pass (its mean), then the loop's pass: each sample's
+//!    geometry into the floor, the coverage and the blocks' normal equations
+//!    ([`super::design::Normal`]), dropped.
+//!
+//! The medians are exact order statistics either way (counted by value, or selected by bits),
+//! as the held path's sort gives them.
+
+use super::candidates::{ColumnFold, ScalarFold};
+use super::fit::{FitFold, MagFitReport, QualityFold};
+use super::floor::{blob, AxisSums, StepFold};
+use super::{LoopPass, MagAnalysis, MagModel, MagnetometerError};
+use crate::error::Result;
+use crate::input::columns::{triplet_unit, LoadOptions};
+use crate::input::text_source::{Row, TextSource};
+use std::collections::HashMap;
+use std::path::Path;
+
+/// Most distinct |second differences| per axis counted by value before the median is
+/// selected by bits instead (2¹⁸ keys: a few MB per axis at most). Quantised sensors have a
+/// handful; a file in gauss with many decimals may pass it.
+pub const MAX_COUNTED: usize = 1 << 18;
+
+/// The field of `path` opened for passes when it is a regular plain text file of at least
+/// `stream_from` bytes (`None`: read it whole). `opts` are the held loader's.
+pub fn open_field_from(
+    path: &Path,
+    opts: &LoadOptions,
+    stream_from: u64,
+) -> Result<Option<TextSource>> {
+    let large = path.as_os_str() != "-"
+        && std::fs::metadata(path).is_ok_and(|m| m.is_file() && m.len() >= stream_from);
+    if !large {
+        return Ok(None);
+    }
+    TextSource::open(path, opts, |_| true).map_err(|e| e.in_file(path))
+}
+
+/// The column `name` of `path` opened for passes as the held loader reads a `--follow`
+/// column (its rows are the field's when it is filled on every row); `None` when the file
+/// is not plain text.
+pub fn open_follow(path: &Path, name: &str) -> Result<Option<TextSource>> {
+    let opts = LoadOptions {
+        columns: Some([name.to_string(), name.to_string(), name.to_string()]),
+        sensor: None,
+    };
+    TextSource::open(path, &opts, |_| true).map_err(|e| e.in_file(path))
+}
+
+/// The field's unit as the held path names it (`raw` when the header does not say).
+pub fn unit_of(src: &TextSource) -> &'static str {
+    triplet_unit(&src.meta.axis_columns).unwrap_or("raw")
+}
+
+/// The fit and what the loop needs from the first passes.
+#[derive(Debug)]
+pub struct Prepared {
+    /// The fit, as [`super::fit_points`] reports it.
+    pub report: MagFitReport,
+    sigma: [f64; 3],
+    scalars: ScalarFold,
+}
+
+/// Sample `i`'s time as the held path takes it: the time column, else `i / Fs`, else `i`.
+fn time_of(src: &TextSource, i: usize, row: &Row) -> f64 {
+    match (row.t, src.meta.sample_rate_hz) {
+        (Some(t), _) => t,
+        (None, Some(fs)) => i as f64 / fs,
+        (None, None) => i as f64,
+    }
+}
+
+/// The fit of `src` with `model` (passes 1–3 of the module docs), refused as the held path
+/// refuses: a still blob first ([`super::check_spans`]), then the fit's own errors.
+pub fn fit_source(src: &TextSource, model: MagModel) -> Result<Prepared> {
+    fit_source_counting(src, model, MAX_COUNTED)
+}
+
+/// [`fit_source`] counting at most `max_counted` distinct |second differences| per axis by
+/// value (tests: the selection by bits on a small file).
+pub fn fit_source_counting(
+    src: &TextSource,
+    model: MagModel,
+    max_counted: usize,
+) -> Result<Prepared> {
+    let n = src.len();
+    let mut fit = FitFold::new(model);
+    let mut steps = StepFold::new();
+    let mut counts: [Counts; 3] = std::array::from_fn(|_| Counts::new(max_counted));
+    let mut sums = AxisSums::new();
+    let mut scalars = ScalarFold::new(n, src.has_temp());
+    for (i, row) in src.rows().enumerate() {
+        fit.push(&row.xyz);
+        if let Some(d) = steps.push(&row.xyz) {
+            (0..3).for_each(|a| counts[a].push(d[a]));
+        }
+        sums.push(&row.xyz);
+        scalars.push(time_of(src, i, &row), row.temp.unwrap_or(f64::NAN));
+    }
+    src.check()?;
+    let fit = fit.solve();
+    let mean = sums.mean();
+    let mut dev = AxisSums::new();
+    let mut quality = fit.as_ref().ok().map(|f| QualityFold::new(*f));
+    let median = medians(src, &counts, steps.count, |row| {
+        dev.push_dev(&row.xyz, &mean);
+        if let Some(q) = &mut quality {
+            q.push(&row.xyz);
+        }
+    })?;
+    let sigma = steps.noise(median);
+    if n >= 3 {
+        if let Some((spread, noise)) = blob(dev.spread(), sigma) {
+            return Err(MagnetometerError::NotRotated { spread, noise }.into());
+        }
+    }
+    fit?;
+    let report = quality.map_or(Err(MagnetometerError::NoMagSamples), |q| q.report(model, n))?;
+    Ok(Prepared {
+        report,
+        sigma,
+        scalars,
+    })
+}
+
+/// The loop on `src` around `prep`'s fit (made with `model`) at family level `alpha`, with
+/// the `--follow` columns `follow` (each opened by [`open_follow`], as many rows as the field).
+pub fn analyze_source(
+    src: &TextSource,
+    prep: &Prepared,
+    follow: &[(String, TextSource)],
+    model: MagModel,
+    alpha: f64,
+) -> Result<MagAnalysis> {
+    let n = src.len();
+    let mut folds = Vec::new();
+    for (name, f) in follow {
+        let mut fold = ColumnFold::new();
+        f.rows().for_each(|r| fold.push(r.xyz[0]));
+        f.check()?;
+        folds.push((name.clone(), fold));
+    }
+    let time_unit = if src.has_time() || src.meta.sample_rate_hz.is_some() {
+        "s"
+    } else {
+        "sample"
+    };
+    let unit = unit_of(src);
+    let scalars = prep.scalars.scalars(&folds, unit, time_unit);
+    let mut pass = LoopPass::new(&prep.report, prep.sigma, scalars, model, unit, n);
+    let mut rows: Vec<_> = follow.iter().map(|(_, f)| f.rows()).collect();
+    let mut values = vec![0.0; follow.len()];
+    for (i, row) in src.rows().enumerate() {
+        for (v, r) in values.iter_mut().zip(&mut rows) {
+            *v = r.next().map_or(f64::NAN, |r| r.xyz[0]);
+        }
+        let temp = row.temp.unwrap_or(f64::NAN);
+        pass.push(&row.xyz, time_of(src, i, &row), temp, &values);
+    }
+    drop(rows);
+    src.check()?;
+    for (_, f) in follow {
+        f.check()?;
+    }
+    Ok(pass.finish(alpha, src.has_temp(), !follow.is_empty()))
+}
+
+/// One axis's |second differences| counted for their median: by value while they are few,
+/// and by their top 16 bits (the selection's first digit) always.
+#[derive(Debug)]
+struct Counts {
+    by_value: Option<HashMap<u64, usize>>,
+    top: Vec<usize>,
+    max: usize,
+}
+
+impl Counts {
+    fn new(max: usize) -> Self {
+        Self {
+            by_value: Some(HashMap::new()),
+            top: vec![0; 1 << 16],
+            max,
+        }
+    }
+
+    /// A non-negative value: its bits order as it does.
+    fn push(&mut self, d: f64) {
+        let bits = d.to_bits();
+        self.top[(bits >> 48) as usize] += 1;
+        if let Some(map) = &mut self.by_value {
+            *map.entry(bits).or_insert(0) += 1;
+            if map.len() > self.max {
+                self.by_value = None;
+            }
+        }
+    }
+
+    /// The `k`-th smallest (0-based) key from the counts by value, when they were kept.
+    fn kth_counted(&self, k: usize) -> Option<u64> {
+        let mut counts: Vec<(u64, usize)> = self
+            .by_value
+            .as_ref()?
+            .iter()
+            .map(|(b, c)| (*b, *c))
+            .collect();
+        counts.sort_unstable();
+        let mut k = k;
+        for (bits, c) in counts {
+            if k < c {
+                return Some(bits);
+            }
+            k -= c;
+        }
+        None
+    }
+}
+
+/// One order statistic to select: axis, rank, and its key once known.
+struct Want {
+    axis: usize,
+    k: usize,
+    key: Option<u64>,
+}
+
+/// The median |second difference| of each axis (`NaN` without any), as `stats::median` of
+/// them gives it: the middle ranks counted by value, or selected by bits in passes that
+/// serve every axis and rank at once. `first` is given every row of the first pass made
+/// (there is always one).
+fn medians(
+    src: &TextSource,
+    counts: &[Counts; 3],
+    len: usize,
+    mut first: impl FnMut(&Row),
+) -> Result<[f64; 3]> {
+    let ranks: Vec<usize> = match len {
+        0 => vec![],
+        _ if len % 2 == 1 => vec![len / 2],
+        _ => vec![len / 2 - 1, len / 2],
+    };
+    let mut wants: Vec<Want> = (0..3)
+        .flat_map(|axis| ranks.iter().map(move |&k| (axis, k)))
+        .map(|(axis, k)| Want {
+            axis,
+            k,
+            key: counts[axis].kth_counted(k),
+        })
+        .collect();
+    let mut cache: HashMap<(usize, u32, u64), Vec<usize>> = HashMap::new();
+    let mut passes = 0;
+    loop {
+        let needs = next_digits(&mut wants, counts, &cache);
+        if needs.is_empty() && passes > 0 {
+            break;
+        }
+        let mut hists: Vec<Vec<usize>> = needs.iter().map(|_| vec![0; 1 << 16]).collect();
+        let mut steps = StepFold::new();
+        for row in src.rows() {
+            if passes == 0 {
+                first(&row);
+            }
+            let Some(d) = steps.push(&row.xyz) else {
+                continue;
+            };
+            for (&(w, shift, prefix), h) in needs.iter().zip(&mut hists) {
+                let bits = d[wants[w].axis].to_bits();
+                if bits >> (shift + 16) == prefix {
+                    h[((bits >> shift) & 0xffff) as usize] += 1;
+                }
+            }
+        }
+        src.check()?;
+        passes += 1;
+        for (need, h) in needs.into_iter().zip(hists) {
+            cache.insert(need, h);
+        }
+    }
+    let value = |w: &Want| w.key.map_or(f64::NAN, f64::from_bits);
+    Ok(std::array::from_fn(|a| {
+        let v: Vec<f64> = wants.iter().filter(|w| w.axis == a).map(value).collect();
+        match v.as_slice() {
+            [m] => *m,
+            [lo, hi] => 0.5 * (lo + hi),
+            _ => f64::NAN,
+        }
+    }))
+}
+
+/// Each selection not finished replayed from the histograms made so far: the keys it gives,
+/// or the `(want, shift, prefix)` histogram it needs next.
+fn next_digits(
+    wants: &mut [Want],
+    counts: &[Counts; 3],
+    cache: &HashMap<(usize, u32, u64), Vec<usize>>,
+) -> Vec<(usize, u32, u64)> {
+    let mut needs = Vec::new();
+    for (w, want) in wants.iter_mut().enumerate() {
+        if want.key.is_some() {
+            continue;
+        }
+        let got = crate::stats::kth_key_by_digits(
+            &counts[want.axis].top,
+            want.k,
+            |shift, prefix, hist| match cache.get(&(w, shift, prefix)) {
+                Some(h) => {
+                    hist.copy_from_slice(h);
+                    Ok(())
+                }
+                None => Err((shift, prefix)),
+            },
+        );
+        match got {
+            Ok(key) => want.key = Some(key),
+            Err((shift, prefix)) => needs.push((w, shift, prefix)),
+        }
+    }
+    needs
+}

@@ -1,0 +1,176 @@
+//! `magfit` in passes over a file (`magnetometer::stream`) against the held path (the whole
+//! recording loaded, `fit_points` and `analyze`, as the CLI did before): the whole JSON of
+//! the fit and the loop, or the refusal's sentence, must be equal — on every real
+//! magnetometer recording the stream takes, and on a simulated recording with a temperature
+//! column whose medians are selected by bits (none counted by value).
+
+use std::path::{Path, PathBuf};
+use wiical_analysis::input::columns::{triplet_unit, Sensor};
+use wiical_analysis::magnetometer::{self, stream, MagInput, MagModel};
+use wiical_analysis::search::select::ALPHA;
+use wiical_analysis::simulate::magnetometer::{simulate_mag, MagEffectTruth, MagSimConfig};
+use wiical_analysis::LoadOptions;
+
+fn data(rel: &str) -> PathBuf {
+    let root = std::env::var("WIICAL_DATA").unwrap_or_else(|_| {
+        concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data").to_string()
+    });
+    let p = Path::new(&root).join(rel);
+    assert!(
+        p.exists(),
+        "test data missing: {} (set WIICAL_DATA)",
+        p.display()
+    );
+    p
+}
+
+fn opts(columns: Option<&str>) -> LoadOptions {
+    LoadOptions {
+        columns: columns.map(|c| {
+            let v: Vec<String> = c.split(',').map(String::from).collect();
+            [v[0].clone(), v[1].clone(), v[2].clone()]
+        }),
+        sensor: Some(Sensor::Magnetometer),
+    }
+}
+
+/// The held path, as the CLI runs it: the JSON of the fit and the loop, or the error.
+fn held(path: &Path, o: &LoadOptions, follow: &[&str], model: MagModel) -> String {
+    let run = || -> Result<String, String> {
+        let rec = wiical_analysis::load(path, o).map_err(|e| e.to_string())?;
+        magnetometer::check_spans(&rec.xyz).map_err(|e| e.to_string())?;
+        let rep = magnetometer::fit_points(&rec.xyz, model).map_err(|e| e.to_string())?;
+        let cols: Vec<(String, Vec<f64>)> = follow
+            .iter()
+            .map(|name| {
+                let fo = LoadOptions {
+                    columns: Some([name.to_string(), name.to_string(), name.to_string()]),
+                    sensor: None,
+                };
+                let r = wiical_analysis::load(path, &fo).unwrap();
+                (name.to_string(), r.xyz.iter().map(|v| v[0]).collect())
+            })
+            .collect();
+        let times = rec
+            .t
+            .clone()
+            .or_else(|| rec.sample_rate_hz.map(|_| rec.times(1.0)));
+        let inp = MagInput {
+            xyz: &rec.xyz,
+            t: times.as_deref(),
+            temp: rec.temp.as_deref(),
+            follow: &cols,
+            unit: triplet_unit(&rec.axis_columns).unwrap_or("raw"),
+        };
+        let an = magnetometer::analyze(&inp, &rep, model, ALPHA).map_err(|e| e.to_string())?;
+        Ok(json(&rep, &an))
+    };
+    run().unwrap_or_else(|e| format!("error: {e}"))
+}
+
+/// The streamed path with every file streamed, counting at most `counted` values by value.
+fn streamed(
+    path: &Path,
+    o: &LoadOptions,
+    follow: &[&str],
+    model: MagModel,
+    counted: usize,
+) -> String {
+    let Some(src) = stream::open_field_from(path, o, 0).unwrap() else {
+        return "read whole".into();
+    };
+    let run = || -> Result<String, String> {
+        let prep = stream::fit_source_counting(&src, model, counted).map_err(|e| e.to_string())?;
+        let cols: Vec<_> = follow
+            .iter()
+            .map(|n| {
+                (
+                    n.to_string(),
+                    stream::open_follow(path, n).unwrap().unwrap(),
+                )
+            })
+            .collect();
+        let an =
+            stream::analyze_source(&src, &prep, &cols, model, ALPHA).map_err(|e| e.to_string())?;
+        Ok(json(&prep.report, &an))
+    };
+    run().unwrap_or_else(|e| format!("error: {e}"))
+}
+
+fn json(rep: &magnetometer::MagFitReport, an: &magnetometer::MagAnalysis) -> String {
+    let mut v = serde_json::to_value(rep).unwrap();
+    let a = serde_json::to_value(an).unwrap();
+    v.as_object_mut()
+        .unwrap()
+        .extend(a.as_object().unwrap().clone());
+    serde_json::to_string(&v).unwrap()
+}
+
+/// Every real magnetometer recording: the same JSON (or refusal) in passes as held, with the
+/// medians counted by value (the default) and selected by bits (nothing counted).
+#[test]
+fn real_recordings_stream_as_held() {
+    let files = [
+        ("qmc5883l_mag_tomisuarez/noisy_raw_data.csv", None),
+        ("qmc5883l_mag_tomisuarez/filtered_raw_data.csv", None),
+        ("mag_ellipsoid_fit_python/mag_out.txt", None),
+        ("acc_mag_ck_explorer/acc_mag_log.csv", Some("mx,my,mz")),
+        (
+            "mpu6050_hmc5883l_sunsided_set2/full-sphere_hmc5883l.csv",
+            None,
+        ),
+        (
+            "mpu6050_hmc5883l_sunsided_set2/roll-and-tilt-at-45-90_hmc5883l.csv",
+            None,
+        ),
+        (
+            "mpu6050_hmc5883l_sunsided_set2/unmoved-with-x-pointing-forward_hmc5883l.csv",
+            None,
+        ),
+    ];
+    let (mut refused, mut streamed_files) = (0, 0);
+    for (rel, cols) in files {
+        let path = data(rel);
+        let o = opts(cols);
+        let want = held(&path, &o, &[], MagModel::Ellipsoid);
+        refused += usize::from(want.starts_with("error:"));
+        for counted in [stream::MAX_COUNTED, 0] {
+            let got = streamed(&path, &o, &[], MagModel::Ellipsoid, counted);
+            if got != "read whole" {
+                assert_eq!(got, want, "{rel}, counting {counted} by value");
+                streamed_files += usize::from(counted == 0);
+            }
+        }
+    }
+    // The unmoved log is refused on both paths, the rest fitted.
+    assert_eq!(refused, 1);
+    assert!(streamed_files >= 5, "{streamed_files} streamed");
+}
+
+/// A simulated recording with a centre drift and a temperature column, written as text:
+/// every model's JSON in passes is the held one, the medians selected by bits.
+#[test]
+fn simulation_streams_as_held() {
+    let sim = simulate_mag(&MagSimConfig {
+        effect: MagEffectTruth::Drift([0.2, -0.1, 0.15]),
+        seed: 7,
+        ..Default::default()
+    });
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("mag.csv");
+    let mut text = String::from("t,mx,my,mz,temp,current\n");
+    for i in 0..sim.xyz.len() {
+        let [x, y, z] = sim.xyz[i];
+        text += &format!(
+            "{},{x},{y},{z},{},{}\n",
+            sim.t[i], sim.temp[i], sim.current[i]
+        );
+    }
+    std::fs::write(&path, text).unwrap();
+    let o = opts(None);
+    for model in MagModel::ALL {
+        let want = held(&path, &o, &[], model);
+        assert!(want.contains("centre-drift"), "{model}: {want}");
+        assert_eq!(streamed(&path, &o, &[], model, 0), want, "{model}");
+    }
+}
