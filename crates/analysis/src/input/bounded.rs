@@ -77,6 +77,25 @@ pub fn check_text_head(path: &Path, head: &[u8]) -> Result<()> {
     Ok(())
 }
 
+/// Free space a temporary copy leaves on its disk, bytes (standard input spooled, a streamed
+/// file's parsed rows): such a copy stops, or is not made, before the disk is full, for the
+/// command's own output and for everything else on it.
+pub const KEEP_FREE_BYTES: u64 = 1 << 30;
+
+/// Bytes free to an unprivileged user on `file`'s file system (`None` where unknown).
+pub(crate) fn free_bytes(file: &std::fs::File) -> Option<u64> {
+    #[cfg(unix)]
+    {
+        let s = rustix::fs::fstatvfs(file).ok()?;
+        Some(s.f_bavail.saturating_mul(s.f_frsize))
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = file;
+        None
+    }
+}
+
 /// Longest piece of a field quoted back in an error message, characters.
 pub const MAX_QUOTED_CHARS: usize = 40;
 

@@ -13,7 +13,8 @@ use crate::error::gyro::GyroError;
 use crate::error::input::InputError;
 use crate::error::{Error, Result};
 use crate::input::bounded::{
-    check_text_head, decompressed, read_bounded, read_full, text_of, MAX_RECORDING_BYTES,
+    check_text_head, decompressed, free_bytes, read_bounded, read_full, text_of, KEEP_FREE_BYTES,
+    MAX_RECORDING_BYTES,
 };
 use crate::input::columns::{LoadOptions, Sensor};
 use crate::input::raw::{self, RawFile, RawFormat};
@@ -139,7 +140,7 @@ pub const MAX_SPOOL_BYTES_VAR: &str = "WIICAL_MAX_SPOOL_BYTES";
 /// Free space the copy of standard input ([`Opened::Spooled`]) leaves on the temporary
 /// directory's disk, bytes: the copy stops before the disk is full, for this command's own
 /// output and for everything else on it.
-pub const SPOOL_RESERVE_BYTES: u64 = 1 << 30;
+pub const SPOOL_RESERVE_BYTES: u64 = KEEP_FREE_BYTES;
 
 /// [`MAX_SPOOL_BYTES`], or the value of [`MAX_SPOOL_BYTES_VAR`] when it is a number.
 fn max_spool_bytes() -> u64 {
@@ -223,20 +224,6 @@ impl SpoolBound {
             why,
         }
         .into())
-    }
-}
-
-/// Bytes free to an unprivileged user on `file`'s file system (`None` where unknown).
-fn free_bytes(file: &std::fs::File) -> Option<u64> {
-    #[cfg(unix)]
-    {
-        let s = rustix::fs::fstatvfs(file).ok()?;
-        Some(s.f_bavail.saturating_mul(s.f_frsize))
-    }
-    #[cfg(not(unix))]
-    {
-        let _ = file;
-        None
     }
 }
 

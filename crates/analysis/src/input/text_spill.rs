@@ -11,6 +11,7 @@
 //! temperature). A spill that cannot be written (no temporary directory, a full disk) is
 //! dropped, and the passes parse the text again: the same values either way.
 
+use crate::input::bounded::{free_bytes, KEEP_FREE_BYTES};
 use crate::input::text_rows::Columns;
 use std::fs::File;
 use std::io::Write;
@@ -104,19 +105,24 @@ pub(crate) struct SpillWriter {
 
 impl SpillWriter {
     /// A spill in the temporary directory `dir` (`None`: the system's), of at most `limit`
-    /// bytes; `None` when no file can be made there.
+    /// bytes and of what leaves [`KEEP_FREE_BYTES`] free on its disk; `None` when no file can
+    /// be made there.
     pub(crate) fn create(dir: Option<&Path>, limit: u64) -> Option<Self> {
         let file = match dir {
             Some(d) => tempfile::tempfile_in(d),
             None => tempfile::tempfile(),
         };
+        let file = file.ok()?;
+        // Never down to a full disk: past what leaves KEEP_FREE_BYTES free the spill is
+        // dropped (the text parsed again), as on a full disk.
+        let free = free_bytes(&file).map_or(u64::MAX, |f| f.saturating_sub(KEEP_FREE_BYTES));
         Some(Self {
-            file: file.ok()?,
+            file,
             blocks: Vec::new(),
             at: 0,
             rows: 0,
             buf: Vec::new(),
-            limit,
+            limit: limit.min(free),
         })
     }
 
