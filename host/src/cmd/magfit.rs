@@ -89,7 +89,8 @@ fn held(
     let rec = load(&a.file, opts)?;
     magnetometer::check_spans(&rec.xyz).map_err(cli_error)?;
     let rep = magnetometer::fit_points(&rec.xyz, a.model).map_err(cli_error)?;
-    let follow = follow_columns(&a.file, a.follow.as_deref().unwrap_or(&[]), rec.len())?;
+    let names = a.follow.as_deref().unwrap_or(&[]);
+    let follow = follow_columns(&a.file, names, &rec.axis_columns, rec.len())?;
     let times = rec
         .t
         .clone()
@@ -113,7 +114,8 @@ fn streamed(a: &Args, src: &TextSource) -> Result<(MagFitReport, MagAnalysis, &'
     let prep = stream::fit_source(src, a.model).map_err(cli_error)?;
     let mut follow = Vec::new();
     for name in a.follow.as_deref().unwrap_or(&[]) {
-        let Some(col) = stream::open_follow(&a.file, name).map_err(cli_error)? else {
+        let col = stream::open_follow(&a.file, name, &src.meta.axis_columns);
+        let Some(col) = col.map_err(cli_error)? else {
             return Err(anyhow!(
                 "--follow {name}: {} is no longer plain text (was it replaced while read?)",
                 a.file.display()
@@ -140,14 +142,16 @@ fn check_rows(name: &str, got: usize, rows: usize, file: &Path) -> Result<()> {
 }
 
 /// Each named column, read by the same loader as the field (so its rows are the field's).
-fn follow_columns(file: &Path, names: &[String], rows: usize) -> Result<Vec<(String, Vec<f64>)>> {
+fn follow_columns(
+    file: &Path,
+    names: &[String],
+    field_axes: &[String; 3],
+    rows: usize,
+) -> Result<Vec<(String, Vec<f64>)>> {
     names
         .iter()
         .map(|name| {
-            let opts = wiical_analysis::LoadOptions {
-                columns: Some([name.clone(), name.clone(), name.clone()]),
-                sensor: None,
-            };
+            let opts = stream::follow_options(name, field_axes);
             let rec = wiical_analysis::load(file, &opts).map_err(cli_error)?;
             check_rows(name, rec.len(), rows, file)?;
             Ok((name.clone(), rec.xyz.iter().map(|v| v[0]).collect()))

@@ -49,14 +49,27 @@ pub fn open_field_from(
     TextSource::open(path, opts, |_| true).map_err(|e| e.in_file(path))
 }
 
-/// The column `name` of `path` opened for passes as the held loader reads a `--follow`
-/// column (its rows are the field's when it is filled on every row); `None` when the file
-/// is not plain text.
-pub fn open_follow(path: &Path, name: &str) -> Result<Option<TextSource>> {
-    let opts = LoadOptions {
-        columns: Some([name.to_string(), name.to_string(), name.to_string()]),
+/// How a `--follow` column `name` is read beside a field whose axes are `field_axes`: as the
+/// first of three columns, the other two the field's own (the loader reads a triplet, and
+/// refuses one column named for two axes), so that its rows are the field's rows.
+pub fn follow_options(name: &str, field_axes: &[String; 3]) -> LoadOptions {
+    let mut others = field_axes.iter().filter(|a| a.as_str() != name).cloned();
+    let mut next = || others.next().unwrap_or_default();
+    LoadOptions {
+        columns: Some([name.to_string(), next(), next()]),
         sensor: None,
-    };
+    }
+}
+
+/// The column `name` of `path` opened for passes as the held loader reads a `--follow`
+/// column ([`follow_options`]; its rows are the field's when it is filled on every row);
+/// `None` when the file is not plain text.
+pub fn open_follow(
+    path: &Path,
+    name: &str,
+    field_axes: &[String; 3],
+) -> Result<Option<TextSource>> {
+    let opts = follow_options(name, field_axes);
     TextSource::open(path, &opts, |_| true).map_err(|e| e.in_file(path))
 }
 
