@@ -390,9 +390,80 @@ pub fn sig3(x: f64) -> String {
     format!("{x:.d$}")
 }
 
+/// Keys (the bits of non-negative floats, which order as the floats do) counted by value
+/// while at most `max` distinct ones are seen: the exact `k`-th smallest then comes from the
+/// counts, without the passes of [`kth_key_by_digits`]; past `max` the counts are dropped
+/// (memory bounded) and [`CountedKeys::kth`] says `None`, leaving the selection by digits.
+#[derive(Debug, Clone)]
+pub struct CountedKeys {
+    by_value: Option<std::collections::HashMap<u64, usize>>,
+    max: usize,
+}
+
+impl CountedKeys {
+    /// Counts of at most `max` distinct keys.
+    pub fn new(max: usize) -> Self {
+        Self {
+            by_value: Some(std::collections::HashMap::new()),
+            max,
+        }
+    }
+
+    /// One more `key`.
+    pub fn push(&mut self, key: u64) {
+        if let Some(map) = &mut self.by_value {
+            *map.entry(key).or_insert(0) += 1;
+            if map.len() > self.max {
+                self.by_value = None;
+            }
+        }
+    }
+
+    /// The `k`-th smallest (0-based) key counted, when the counts were kept and hold it.
+    pub fn kth(&self, k: usize) -> Option<u64> {
+        let mut counts: Vec<(u64, usize)> = self
+            .by_value
+            .as_ref()?
+            .iter()
+            .map(|(b, c)| (*b, *c))
+            .collect();
+        counts.sort_unstable();
+        let mut k = k;
+        for (key, c) in counts {
+            if k < c {
+                return Some(key);
+            }
+            k -= c;
+        }
+        None
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The counts give the sorted list's `k`-th key for every `k`, and nothing once more
+    /// distinct keys than the cap were pushed (the caller then selects by digits).
+    #[test]
+    fn counted_keys_give_the_sorted_kth_within_their_cap() {
+        let values = [3.5f64, 0.0, 1.25, 3.5, 7.0, 1.25, 1.25, 0.5];
+        let mut counted = CountedKeys::new(8);
+        for v in values {
+            counted.push(v.to_bits());
+        }
+        let mut sorted = values;
+        sorted.sort_by(f64::total_cmp);
+        for (k, v) in sorted.iter().enumerate() {
+            assert_eq!(counted.kth(k), Some(v.to_bits()), "k = {k}");
+        }
+        assert_eq!(counted.kth(values.len()), None);
+        let mut capped = CountedKeys::new(2);
+        for v in [1.0f64, 2.0, 3.0] {
+            capped.push(v.to_bits());
+        }
+        assert_eq!(capped.kth(0), None);
+    }
 
     #[test]
     fn gamma_function_values() {

@@ -26,6 +26,7 @@ use super::{LoopPass, MagAnalysis, MagModel, MagnetometerError};
 use crate::error::Result;
 use crate::input::columns::{triplet_unit, LoadOptions};
 use crate::input::text_source::{Row, TextSource};
+use crate::stats::CountedKeys;
 use std::collections::HashMap;
 use std::path::Path;
 
@@ -195,17 +196,15 @@ pub fn analyze_source(
 /// and by their top 16 bits (the selection's first digit) always.
 #[derive(Debug)]
 struct Counts {
-    by_value: Option<HashMap<u64, usize>>,
+    by_value: CountedKeys,
     top: Vec<usize>,
-    max: usize,
 }
 
 impl Counts {
     fn new(max: usize) -> Self {
         Self {
-            by_value: Some(HashMap::new()),
+            by_value: CountedKeys::new(max),
             top: vec![0; 1 << 16],
-            max,
         }
     }
 
@@ -213,31 +212,12 @@ impl Counts {
     fn push(&mut self, d: f64) {
         let bits = d.to_bits();
         self.top[(bits >> 48) as usize] += 1;
-        if let Some(map) = &mut self.by_value {
-            *map.entry(bits).or_insert(0) += 1;
-            if map.len() > self.max {
-                self.by_value = None;
-            }
-        }
+        self.by_value.push(bits);
     }
 
     /// The `k`-th smallest (0-based) key from the counts by value, when they were kept.
     fn kth_counted(&self, k: usize) -> Option<u64> {
-        let mut counts: Vec<(u64, usize)> = self
-            .by_value
-            .as_ref()?
-            .iter()
-            .map(|(b, c)| (*b, *c))
-            .collect();
-        counts.sort_unstable();
-        let mut k = k;
-        for (bits, c) in counts {
-            if k < c {
-                return Some(bits);
-            }
-            k -= c;
-        }
-        None
+        self.by_value.kth(k)
     }
 }
 

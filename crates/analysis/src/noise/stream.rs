@@ -25,7 +25,8 @@ use crate::input::columns::Sensor;
 use crate::input::text_source::TextSource;
 use crate::noise::allan::{AllanCurve, MIN_CLUSTERS};
 use crate::noise::still::{decide_still, scatter_of, window_of};
-use std::collections::{HashMap, VecDeque};
+use crate::stats::CountedKeys;
+use std::collections::VecDeque;
 
 /// Largest cluster size (samples) at which every overlapping cluster is used; beyond it the
 /// cluster starts step by `m / FULL_OVERLAP_M` (module docs). 2¹³: 16 385 values of θ per
@@ -131,8 +132,8 @@ impl AllanStream {
 /// |First differences| of one axis counted for their median (module docs).
 #[derive(Debug)]
 struct StepCounts {
-    /// Counts by bits (non-negative floats order as their bits); `None` once too many.
-    by_value: Option<HashMap<u64, usize>>,
+    /// Counts by bits (non-negative floats order as their bits), dropped once too many.
+    by_value: CountedKeys,
     /// Counts by the top 16 bits (the selection's first digit).
     top: Vec<usize>,
     sum_sq: f64,
@@ -142,7 +143,7 @@ struct StepCounts {
 impl StepCounts {
     fn new() -> Self {
         Self {
-            by_value: Some(HashMap::new()),
+            by_value: CountedKeys::new(MAX_COUNTED_STEPS),
             top: vec![0; 1 << 16],
             sum_sq: 0.0,
             count: 0,
@@ -154,31 +155,12 @@ impl StepCounts {
         self.top[(bits >> 48) as usize] += 1;
         self.sum_sq += d * d;
         self.count += 1;
-        if let Some(map) = &mut self.by_value {
-            *map.entry(bits).or_insert(0) += 1;
-            if map.len() > MAX_COUNTED_STEPS {
-                self.by_value = None;
-            }
-        }
+        self.by_value.push(bits);
     }
 
     /// The `k`-th smallest (0-based) from the counts by value, when they were kept.
     fn kth_counted(&self, k: usize) -> Option<f64> {
-        let mut counts: Vec<(u64, usize)> = self
-            .by_value
-            .as_ref()?
-            .iter()
-            .map(|(b, c)| (*b, *c))
-            .collect();
-        counts.sort_unstable();
-        let mut k = k;
-        for (bits, c) in counts {
-            if k < c {
-                return Some(f64::from_bits(bits));
-            }
-            k -= c;
-        }
-        None
+        self.by_value.kth(k).map(f64::from_bits)
     }
 }
 
