@@ -357,36 +357,18 @@ pub enum InputError {
 }
 
 impl InputError {
-    /// This error with each file it names passed through `swap` (see
-    /// [`super::Error::renaming`]).
-    pub fn renaming(self, swap: &dyn Fn(PathBuf) -> PathBuf) -> Self {
+    /// The file this error names, for [`super::Error::renaming`] (`None` for the errors
+    /// about a file's content, which the `Error::InFile` around them names).
+    pub fn file_mut(&mut self) -> Option<&mut PathBuf> {
         use InputError as E;
         match self {
-            E::Read { path, source } => E::Read {
-                path: swap(path),
-                source,
-            },
-            E::TooLarge { path, limit_mib } => E::TooLarge {
-                path: swap(path),
-                limit_mib,
-            },
-            E::Gzip { path, cause } => E::Gzip {
-                path: swap(path),
-                cause,
-            },
-            E::GzipTooLarge { path, limit_mib } => E::GzipTooLarge {
-                path: swap(path),
-                limit_mib,
-            },
-            E::NotUtf8 { path, why } => E::NotUtf8 {
-                path: swap(path),
-                why,
-            },
-            E::NoDigits { path, bytes } => E::NoDigits {
-                path: swap(path),
-                bytes,
-            },
-            other => other,
+            E::Read { path, .. }
+            | E::TooLarge { path, .. }
+            | E::Gzip { path, .. }
+            | E::GzipTooLarge { path, .. }
+            | E::NotUtf8 { path, .. }
+            | E::NoDigits { path, .. } => Some(path),
+            _ => None,
         }
     }
 }

@@ -165,16 +165,24 @@ impl Error {
     /// long to hold is read from a temporary file ([`crate::input::front_door::Opened::Spooled`]),
     /// but the user gave `-`, and a temporary name they never saw would not tell them which
     /// input is meant.
-    pub fn renaming(self, from: &Path, to: &Path) -> Self {
-        let swap = |p: PathBuf| if p == from { to.to_path_buf() } else { p };
-        match self {
-            Error::InFile { path, source } => Error::InFile {
-                path: swap(path),
-                source: Box::new(source.renaming(from, to)),
-            },
-            Error::NotRegularFile { path } => Error::NotRegularFile { path: swap(path) },
-            Error::Input(e) => Error::Input(e.renaming(&swap)),
-            other => other,
+    pub fn renaming(mut self, from: &Path, to: &Path) -> Self {
+        self.rename_file(from, to);
+        self
+    }
+
+    /// [`Error::renaming`] in place, down the chain of files.
+    fn rename_file(&mut self, from: &Path, to: &Path) {
+        let named = match self {
+            Error::InFile { path, source } => {
+                source.rename_file(from, to);
+                Some(path)
+            }
+            Error::NotRegularFile { path } => Some(path),
+            Error::Input(e) => e.file_mut(),
+            _ => None,
+        };
+        if let Some(path) = named.filter(|p| p.as_path() == from) {
+            *path = to.to_path_buf();
         }
     }
 }
