@@ -90,7 +90,7 @@ fn run_on(imu: &impl Imu, opts: &GyroOptions) -> Result<GyroReport> {
     })?;
     let dt = 1.0 / rate;
     let margin = (MOTION_MARGIN_S / dt).ceil() as usize;
-    let col = samples::collect(imu, &seg, margin, default_rate)?;
+    let col = samples::collect(imu, (&seg.intervals, &seg.spans), margin, default_rate)?;
     segment::check_not_gravity(imu.gyro_columns(), &seg, &col)
         .map_err(|e| segment::swapped(imu, opts).unwrap_or(e))?;
     let bias_from_rest = col.window_mean[0];
@@ -200,7 +200,7 @@ fn loop_part(
     fit: &Fitted<'_>,
     dt: f64,
 ) -> Result<LoopPart> {
-    let var = samples::window_variances(imu, seg, &col.window_mean)?;
+    let var = samples::window_variances(imu, &seg.intervals, &col.window_mean)?;
     let fl = floor::floors(&var, imu.gyro_is_integer(), seg, &fit.matrix, dt);
     let kept = still_windows(seg, &fl);
     let (data, cands) = keep_windows(window_data(col, fit, &fl), candidates(seg), &kept);

@@ -9,11 +9,12 @@
 //! the rows.
 
 use super::options::Result;
-use super::segment::Segmentation;
 use crate::detect::streamed::Cover;
 use crate::detect::windows::{detect_windows, DetectOptions, Windows};
 use crate::input::recording::Recording;
 use crate::input::timecheck::TimeSteps;
+use wiical_core::gyro_fit::MotionSpan;
+use wiical_core::static_detect::StaticInterval;
 
 /// Both sensors at one instant.
 #[derive(Debug, Clone, Copy)]
@@ -190,25 +191,25 @@ impl Collected {
 }
 
 /// The sample ranges `(first, one past the last)` of the static windows.
-fn window_ranges(seg: &Segmentation) -> Vec<(usize, usize)> {
-    seg.intervals
+fn window_ranges(intervals: &[StaticInterval]) -> Vec<(usize, usize)> {
+    intervals
         .iter()
         .map(|iv| (iv.start as usize, iv.end as usize))
         .collect()
 }
 
-/// One pass over `imu`: the gyro's window means and each motion's samples with `margin` rows
-/// either side; a pass that ended early (a file changed while read) is an error.
+/// One pass over `imu`: the gyro's mean over each static window of `intervals` and the
+/// samples of each motion of `spans` with `margin` rows either side; a pass that ended early
+/// (a file changed while read) is an error.
 pub(super) fn collect(
     imu: &impl Imu,
-    seg: &Segmentation,
+    (intervals, spans): (&[StaticInterval], &[MotionSpan]),
     margin: usize,
     default_rate_hz: f64,
 ) -> Result<Collected> {
     let n = imu.len();
-    let windows = window_ranges(seg);
-    let ranges: Vec<(usize, usize)> = seg
-        .spans
+    let windows = window_ranges(intervals);
+    let ranges: Vec<(usize, usize)> = spans
         .iter()
         .map(|s| {
             let lo = (s.start as usize).saturating_sub(margin);
@@ -242,7 +243,7 @@ pub(super) fn collect(
         .zip(&ranges)
         .all(|(k, (lo, hi))| k.gyro.len() == hi - lo);
     if !whole {
-        return Err(super::stream::ended_early());
+        return Err(ended_early());
     }
     let window_mean = sums
         .iter()
@@ -263,10 +264,10 @@ pub(super) fn collect(
 /// squared deviations from the window's `means` over n − 1), in a pass over the gyro.
 pub(super) fn window_variances(
     imu: &impl Imu,
-    seg: &Segmentation,
+    intervals: &[StaticInterval],
     means: &[[f64; 3]],
 ) -> Result<Vec<[f64; 3]>> {
-    let windows = window_ranges(seg);
+    let windows = window_ranges(intervals);
     let zero = sum_start();
     let mut sq = vec![[zero; 3]; windows.len()];
     let mut cover = Cover::new(&windows);
@@ -343,13 +344,12 @@ pub(super) fn block_directions(
     Ok(out)
 }
 
-/// The gyro's samples of every motion of `seg` (raw counts), from what `col` kept.
+/// The gyro's samples of every motion of `spans` (raw counts), from what `col` kept.
 pub(super) fn motion_samples<'c>(
-    seg: &Segmentation,
+    spans: &[MotionSpan],
     col: &'c Collected,
 ) -> impl Iterator<Item = &'c [[f64; 3]]> + 'c {
-    let spans: Vec<(usize, usize)> = seg
-        .spans
+    let spans: Vec<(usize, usize)> = spans
         .iter()
         .map(|s| (s.start as usize, s.end as usize))
         .collect();
@@ -357,4 +357,10 @@ pub(super) fn motion_samples<'c>(
         .iter()
         .zip(spans)
         .map(|(k, (s, e))| &k.gyro[s - k.lo..e - k.lo])
+}
+
+/// Stands in for the error of a pass that ended early (a file changed or unreadable while
+/// read): the streamed run returns the file's own error, which its source keeps, instead.
+pub(super) fn ended_early() -> super::options::GyroError {
+    super::options::GyroError::GyroFitFailed(wiical_core::Error::InvalidParameter)
 }

@@ -26,7 +26,7 @@ impl Segmentation {
     pub(super) fn motions<'a>(&self, col: &'a Collected) -> Vec<gyro_fit::Motion<'a, f64>> {
         self.spans
             .iter()
-            .zip(samples::motion_samples(self, col))
+            .zip(samples::motion_samples(&self.spans, col))
             .map(|(s, samples)| gyro_fit::Motion {
                 samples,
                 g_start: nalgebra::Vector3::from(s.g_start).cast(),
@@ -98,7 +98,7 @@ pub(super) fn check_not_gravity(
     let sq = |v: [f64; 3]| (0..3).map(|a| (v[a] - centre[a]).powi(2)).sum::<f64>();
     let spread = (means.iter().map(|m| sq(*m)).sum::<f64>() / n).sqrt();
     let (mut acc, mut count) = (0.0, 0usize);
-    for samples in samples::motion_samples(seg, col) {
+    for samples in samples::motion_samples(&seg.spans, col) {
         for v in samples {
             acc += sq(*v);
             count += 1;
@@ -145,7 +145,13 @@ pub(super) fn check_gyro_reads(imu: &impl Imu, default_rate_hz: f64) -> Result<(
 pub(super) fn swapped(imu: &impl Imu, opts: &GyroOptions) -> Option<GyroError> {
     let as_acc = imu.swapped()?;
     let seg = segment(&as_acc, opts).ok()?;
-    let col = samples::collect(&as_acc, &seg, 0, opts.detect.default_rate_hz).ok()?;
+    let col = samples::collect(
+        &as_acc,
+        (&seg.intervals, &seg.spans),
+        0,
+        opts.detect.default_rate_hz,
+    )
+    .ok()?;
     check_not_gravity(as_acc.gyro_columns(), &seg, &col).ok()?;
     Some(GyroError::GyroFilesSwapped {
         windows: seg.intervals.len(),

@@ -16,7 +16,7 @@
 //! a rate) [`open`] declines and the files are read whole.
 
 use super::options::{GyroError, GyroOptions};
-use super::samples::{Imu, Row};
+use super::samples::{ended_early, Imu, Row};
 use super::GyroReport;
 use crate::detect::streamed::{detect_windows_streamed, sample_clock};
 use crate::detect::windows::{DetectOptions, Windows};
@@ -141,12 +141,6 @@ pub fn run_streamed(imu: &StreamedImu, opts: &GyroOptions) -> Result<GyroReport>
     imu.acc.check().map_err(|e| e.in_file(&imu.acc_path))?;
     imu.gyro.check().map_err(|e| e.in_file(&imu.gyro_path))?;
     Ok(out?)
-}
-
-/// Stands in for the error of a pass that ended early (a file changed or unreadable while
-/// read): [`run_streamed`] returns the file's own error, which its source keeps, instead.
-pub(super) fn ended_early() -> GyroError {
-    GyroError::GyroFitFailed(wiical_core::Error::InvalidParameter)
 }
 
 /// The paired recording of two sources (or of the same file's two triplets).
