@@ -1,7 +1,7 @@
 //! The base fit: static-interval detection followed by the multi-position fit, all in the
 //! core's `f32` code (the same code the adapter firmware runs).
 
-use crate::detect::windows::{detect_windows, DetectOptions, Windows};
+use crate::detect::windows::{detect_windows_untimed, DetectOptions, Windows};
 use crate::error::fit::FitError;
 use crate::error::Result;
 use crate::input::recording::Recording;
@@ -78,13 +78,16 @@ pub struct FitReport {
 }
 
 /// Detects static windows and fits the multi-position model: the same windows as
-/// [`crate::analyze()`] ([`detect_windows`]: one pipeline for `fit` and `analyze`), their
+/// [`crate::analyze()`] ([`crate::detect::windows::detect_windows`]: one pipeline for `fit` and `analyze`), their
 /// means fitted by the core's `f32` solver.
 pub fn run(rec: &Recording, opts: &FitOptions) -> Result<FitReport> {
     if rec.labels.is_some() {
         return Err(FitError::PoseTable { rows: rec.len() }.into());
     }
-    Ok(run_windows(&detect_windows(rec, &opts.detect)?, opts)?)
+    Ok(run_windows(
+        &detect_windows_untimed(rec, &opts.detect)?,
+        opts,
+    )?)
 }
 
 /// [`run`] on a large text file streamed in passes ([`TextSource`]: the samples are never
