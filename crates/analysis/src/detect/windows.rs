@@ -803,9 +803,10 @@ impl WindowStats {
 pub struct Windows {
     /// The windows.
     pub stats: Vec<WindowStats>,
-    /// Sample times (recording clock), s: every sample's for a recording held in memory (the
-    /// gyroscope's segments read them); empty for samples streamed from a file
-    /// ([`crate::detect::streamed`]), whose windows carry their own times.
+    /// Sample times (recording clock), s: every sample's for a recording held in memory
+    /// ([`detect_windows`]: `analyze`'s thermal regressors read them); empty for samples
+    /// streamed from a file ([`crate::detect::streamed`]) and for `fit` and `gyrofit`, which
+    /// read the windows' own times.
     pub times: Vec<f64>,
     /// Times of the recording's first and last sample, s (recording clock); `None` without
     /// samples.
@@ -1062,7 +1063,7 @@ pub fn detect_windows(rec: &Recording, opts: &DetectOptions) -> Result<Windows> 
 }
 
 /// [`detect_windows`] without every sample's time in [`Windows::times`] (left empty, as for
-/// a streamed file): for `fit`, which reads the windows' own times only.
+/// a streamed file): for `fit` and `gyrofit`, which read the windows' own times only.
 pub(crate) fn detect_windows_untimed(rec: &Recording, opts: &DetectOptions) -> Result<Windows> {
     detect_windows_timed(rec, opts, false)
 }

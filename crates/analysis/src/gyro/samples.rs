@@ -10,7 +10,7 @@
 
 use super::options::Result;
 use crate::detect::streamed::Cover;
-use crate::detect::windows::{detect_windows, DetectOptions, Windows};
+use crate::detect::windows::{detect_windows_untimed, DetectOptions, Windows};
 use crate::input::recording::Recording;
 use crate::input::timecheck::TimeSteps;
 use wiical_core::gyro_fit::MotionSpan;
@@ -96,7 +96,7 @@ impl Imu for Held<'_> {
     }
 
     fn windows(&self, opts: &DetectOptions) -> Result<Windows> {
-        Ok(detect_windows(&self.acc, opts)?)
+        Ok(detect_windows_untimed(&self.acc, opts)?)
     }
 
     fn time_steps(&self) -> Option<TimeSteps> {
