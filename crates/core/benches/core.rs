@@ -253,6 +253,15 @@ fn bench_detector(c: &mut Criterion) {
             n + u32::from(det.finish().is_some())
         })
     });
+    g.bench_function("StaticDetector<511>::push_slice, 1 s window", |bn| {
+        bn.iter(|| {
+            let mut det: StaticDetector<511> =
+                StaticDetector::with_reference(cfg, reference).unwrap();
+            let mut n = 0u32;
+            det.push_slice(black_box(&xs), |_| n += 1).unwrap();
+            n + u32::from(det.finish().is_some())
+        })
+    });
     g.bench_function("NoiseSurvey::push, 25-sample blocks", |bn| {
         bn.iter(|| {
             let mut s = NoiseSurvey::for_rate(100.0).unwrap();
