@@ -630,12 +630,16 @@ impl<const N: usize> StaticDetector<N> {
     /// The sums of the latest `n` samples of `ring` about their mean, by two passes (`None`
     /// for an empty window). Each pass walks the ring's two contiguous pieces in order.
     fn exact_sums(ring: &Ring<N>, n: usize) -> Option<WindowSums> {
-        let (a, b) = ring.latest(n);
-        let first = *a.first().or(b.first())?;
+        let pieces = ring.latest(n);
+        let first = *pieces.0.first().or(pieces.1.first())?;
         let mut mean = [0.0f32; 3];
-        for s in a.iter().chain(b) {
-            for a in 0..3 {
-                mean[a] += s[a] - first[a];
+        // Piece by piece rather than through a chained iterator: no test per sample of
+        // which piece it is in (the same additions in the same order).
+        for piece in [pieces.0, pieces.1] {
+            for s in piece {
+                for a in 0..3 {
+                    mean[a] += s[a] - first[a];
+                }
             }
         }
         let mut sums = WindowSums {
@@ -645,8 +649,10 @@ impl<const N: usize> StaticDetector<N> {
         for a in 0..3 {
             sums.shift[a] = first[a] + mean[a] / n as f32;
         }
-        for s in a.iter().chain(b) {
-            sums.add(s);
+        for piece in [pieces.0, pieces.1] {
+            for s in piece {
+                sums.add(s);
+            }
         }
         sums.peak = sums.total_s2();
         Some(sums)
