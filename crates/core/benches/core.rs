@@ -1,7 +1,7 @@
 //! Criterion benchmarks of the core's hot paths (host CPU). On-target instruction counts come
 //! from the QEMU benchmark (`cargo xtask qemu-bench`); see BENCHMARKS.md.
 
-use criterion::{criterion_group, criterion_main, Criterion};
+use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use std::hint::black_box;
 use wiical_core::kalman::{PvbConfig, PvbFilter};
 use wiical_core::magfit::{EllipsoidFit, SphereFit};
@@ -194,5 +194,100 @@ fn bench_gyro(c: &mut Criterion) {
     });
 }
 
-criterion_group!(benches, bench, bench_mag_kalman, bench_gyro);
+criterion_group!(benches, bench, bench_mag_kalman, bench_gyro, bench_detector);
 criterion_main!(benches);
+
+/// Integer counts at 100 Hz (Xsens-like magnitudes): 3 s holds with ±3-count noise between
+/// 1 s motions, so the detector meets both static runs (a Welford push per sample) and motion
+/// (recomputations as large values leave the window).
+fn motion_static_mix(n: usize) -> Vec<[f32; 3]> {
+    let mut state = 0x2545_f491u32;
+    let mut noise = move || {
+        state ^= state << 13;
+        state ^= state >> 17;
+        state ^= state << 5;
+        (state % 7) as f32 - 3.0
+    };
+    let poses = [
+        [33000.0f32, 33300.0, 36400.0],
+        [29000.0, 33200.0, 32300.0],
+        [33100.0, 29200.0, 32300.0],
+    ];
+    (0..n)
+        .map(|k| {
+            let (cycle, at) = (k / 400, k % 400);
+            let p = poses[cycle % poses.len()];
+            if at < 300 {
+                p.map(|x| x + noise())
+            } else {
+                let ph = (at - 300) as f32 * 0.0628;
+                [
+                    (p[0] + 3000.0 * ph.sin()).round(),
+                    (p[1] + 2000.0 * ph.cos()).round(),
+                    p[2] + noise(),
+                ]
+            }
+        })
+        .collect()
+}
+
+/// The adaptive detection's per-sample work as the host runs it: the noise survey, a detector
+/// with a 1 s window at 100 Hz (`StaticDetector<511>`, the analysis crate's capacity) and
+/// `Welford3::push`. Throughput is per sample: criterion prints samples per second.
+fn bench_detector(c: &mut Criterion) {
+    use wiical_core::estimators::Welford3;
+    use wiical_core::static_detect::NoiseSurvey;
+    let xs = motion_static_mix(10_000);
+    let mut g = c.benchmark_group("detector (10,000 samples, motion/static mix)");
+    g.throughput(Throughput::Elements(xs.len() as u64));
+    let cfg = StaticDetectorConfig::for_rate(100.0, 1.0, 2.0, 2.0);
+    let reference = [1.0f32, 1.0, 1.0];
+    g.bench_function("StaticDetector<511>::push, 1 s window", |bn| {
+        bn.iter(|| {
+            let mut det: StaticDetector<511> =
+                StaticDetector::with_reference(cfg, reference).unwrap();
+            let mut n = 0u32;
+            for s in &xs {
+                n += u32::from(det.push(black_box(*s)).unwrap().is_some());
+            }
+            n + u32::from(det.finish().is_some())
+        })
+    });
+    g.bench_function("StaticDetector<511>::push_slice, 1 s window", |bn| {
+        bn.iter(|| {
+            let mut det: StaticDetector<511> =
+                StaticDetector::with_reference(cfg, reference).unwrap();
+            let mut n = 0u32;
+            det.push_slice(black_box(&xs), |_| n += 1).unwrap();
+            n + u32::from(det.finish().is_some())
+        })
+    });
+    g.bench_function("NoiseSurvey::push, 25-sample blocks", |bn| {
+        bn.iter(|| {
+            let mut s = NoiseSurvey::for_rate(100.0).unwrap();
+            for m in &xs {
+                s.push(black_box(*m)).unwrap();
+            }
+            s.blocks()
+        })
+    });
+    g.bench_function("NoiseSurvey::measure_block, 25-sample blocks", |bn| {
+        bn.iter(|| {
+            let mut acc = 0.0f32;
+            for b in black_box(&xs).chunks_exact(25) {
+                acc += NoiseSurvey::measure_block(b).unwrap().0.x;
+            }
+            acc
+        })
+    });
+    g.bench_function("Welford3::push", |bn| {
+        bn.iter(|| {
+            let mut w = Welford3::new();
+            for m in &xs {
+                w.push(black_box(*m)).unwrap();
+            }
+            w.variance().unwrap()
+        })
+    });
+    g.finish();
+}

@@ -86,9 +86,55 @@ impl Welford {
         Ok(())
     }
 
+    /// [`Welford::push`]'s new `(mean, m2, m2_c)` for `x` at count `n` (`first`: no sample
+    /// yet, `x` becomes the shift), not stored: [`Welford3::push`] stores the three axes'
+    /// only when all are finite.
+    #[inline(always)]
+    fn next(&self, x: f32, n: f32, first: bool) -> (f32, f32, f32) {
+        let shift = if first { x } else { self.shift };
+        let d = x - shift;
+        let delta = d - self.mean;
+        let mean = self.mean + delta / n;
+        let inc = delta * (d - mean) - self.m2_c;
+        let m2 = self.m2 + inc;
+        let m2_c = (m2 - self.m2) - inc;
+        (mean, m2, m2_c)
+    }
+
+    /// The accumulator after [`Welford::next`].
+    #[inline(always)]
+    fn with(&self, n: u32, x: f32, first: bool, (mean, m2, m2_c): (f32, f32, f32)) -> Self {
+        Self {
+            n,
+            shift: if first { x } else { self.shift },
+            mean,
+            m2,
+            m2_c,
+        }
+    }
+
     /// Number of samples accumulated.
     pub const fn count(&self) -> u32 {
         self.n
+    }
+
+    /// The whole state as bits (count, shift, mean, `m2`, `m2_c`), for tests that compare
+    /// two ways of accumulating bit for bit.
+    #[cfg(test)]
+    pub(crate) fn bits_for_tests(&self) -> [u32; 5] {
+        [
+            self.n,
+            self.shift.to_bits(),
+            self.mean.to_bits(),
+            self.m2.to_bits(),
+            self.m2_c.to_bits(),
+        ]
+    }
+
+    /// Sets the counter, for tests of the full counter.
+    #[cfg(test)]
+    pub(crate) fn force_count_for_tests(&mut self, n: u32) {
+        self.n = n;
     }
 
     /// Arithmetic mean; needs at least one sample.
@@ -153,6 +199,12 @@ impl Welford {
     }
 }
 
+/// True when the three values are finite (bitwise `&`: no branch per value).
+#[inline(always)]
+fn finite3(&(a, b, c): &(f32, f32, f32)) -> bool {
+    a.is_finite() & b.is_finite() & c.is_finite()
+}
+
 /// Streaming per-axis mean and unbiased variance of 3-vectors (three [`Welford`]s sharing
 /// one counter): the arithmetic-mean acquisition of the seed, in raw sensor units.
 ///
@@ -173,21 +225,68 @@ impl Welford3 {
 
     /// Adds one sample `[x, y, z]`. If any component is NaN or infinite the sample is
     /// refused with [`Error::NonFinite`] and the accumulator is unchanged.
+    ///
+    /// The same arithmetic as three [`Welford::push`]es, in place: the three axes share one
+    /// counter (so one overflow test), and one test of the results stands for the test of the
+    /// input, since a NaN or infinite component always makes its axis's new mean NaN or
+    /// infinite (`d = x − shift` is, and so is `mean + (d − mean)/n`).
+    #[inline]
     pub fn push(&mut self, x: [f32; 3]) -> Result<(), Error> {
-        if !crate::all_finite(&x) {
+        self.push_inlined(x)
+    }
+
+    /// [`Welford3::push`], always inlined: for the per-sample loops of the static detector
+    /// and the noise survey, where a call per sample costs as much as the arithmetic.
+    #[inline(always)]
+    pub(crate) fn push_inlined(&mut self, x: [f32; 3]) -> Result<(), Error> {
+        let [a, b, c] = &self.axes;
+        let n0 = a.n;
+        let Some(n) = n0.checked_add(1) else {
+            // The input test first, as for a sample that is refused whatever the count.
+            return Err(if crate::all_finite(&x) {
+                Error::CapacityExceeded
+            } else {
+                Error::NonFinite
+            });
+        };
+        let nf = n as f32;
+        let first = n0 == 0;
+        let ra = a.next(x[0], nf, first);
+        let rb = b.next(x[1], nf, first);
+        let rc = c.next(x[2], nf, first);
+        if !(finite3(&ra) & finite3(&rb) & finite3(&rc)) {
             return Err(Error::NonFinite);
         }
-        let mut next = self.axes;
-        for (acc, v) in next.iter_mut().zip(x) {
-            acc.push(v)?;
+        // The whole state stored at once: stored field by field, the next push's wider loads
+        // of it could not be forwarded from the stores (a stall per sample).
+        self.axes = [
+            a.with(n, x[0], first, ra),
+            b.with(n, x[1], first, rb),
+            c.with(n, x[2], first, rc),
+        ];
+        Ok(())
+    }
+
+    /// Pushes `xs` in order, as many [`Welford3::push`]es (bit for bit); stops at the first
+    /// sample `push` refuses, `Err((its index in xs, the error))`, the samples before it kept.
+    pub fn push_slice(&mut self, xs: &[[f32; 3]]) -> Result<(), (usize, Error)> {
+        for (i, x) in xs.iter().enumerate() {
+            self.push_inlined(*x).map_err(|e| (i, e))?;
         }
-        self.axes = next;
         Ok(())
     }
 
     /// Number of samples accumulated.
     pub const fn count(&self) -> u32 {
         self.axes[0].count()
+    }
+
+    /// Sets the counter of the three axes, for tests of the full counter.
+    #[cfg(test)]
+    pub(crate) fn force_count_for_tests(&mut self, n: u32) {
+        for a in &mut self.axes {
+            a.n = n;
+        }
     }
 
     /// Per-axis arithmetic mean (raw units); needs at least one sample.

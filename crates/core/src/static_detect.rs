@@ -24,6 +24,10 @@ use crate::estimators::Welford3;
 use crate::Error;
 
 pub mod adaptive;
+#[cfg(test)]
+mod identity;
+#[cfg(test)]
+mod reference;
 pub use adaptive::{AdaptiveDetection, AdaptiveThresholds, NoiseSurvey};
 
 /// Detector settings.
@@ -142,8 +146,64 @@ impl WindowSums {
         }
     }
 
+    #[inline]
     fn total_s2(&self) -> f32 {
         self.s2[0] + self.s2[1] + self.s2[2]
+    }
+
+    /// Sum over axes of the (population) variance of the `n` samples in the window.
+    #[inline]
+    fn variance_sum(&self, n: f32) -> f32 {
+        let mut var = 0.0f32;
+        for a in 0..3 {
+            var += (self.s2[a] - self.s1[a] * self.s1[a] / n).max(0.0);
+        }
+        var / n
+    }
+}
+
+/// The steady state's constants ([`StaticDetector::steady_consts`]).
+#[derive(Debug, Clone, Copy)]
+struct SteadyConsts {
+    window: usize,
+    half: usize,
+    /// The window's length as the divisor of the variance.
+    n: f32,
+    threshold: f32,
+    min_static: u32,
+}
+
+/// Ring positions of a full window, advanced one sample at a time: where the next sample
+/// goes, the window's oldest sample before that write (the one leaving) and the window's
+/// centre after it.
+#[derive(Debug, Clone, Copy)]
+struct Positions {
+    next: usize,
+    oldest: usize,
+    centre: usize,
+}
+
+impl Positions {
+    /// The positions for a ring of capacity `N` whose next write goes to `next`.
+    #[inline]
+    fn new<const N: usize>(next: usize, k: &SteadyConsts) -> Self {
+        // Each sum is below 2N (next < N, window ≤ N, 1 + half ≤ window).
+        let wrap = |i: usize| if i >= N { i - N } else { i };
+        let oldest = wrap(next + N - k.window);
+        Self {
+            next,
+            oldest,
+            centre: wrap(oldest + 1 + k.half),
+        }
+    }
+
+    /// One sample on (after the write and the reads of the oldest and the centre).
+    #[inline(always)]
+    fn advance<const N: usize>(&mut self) {
+        let step = |i: usize| if i + 1 == N { 0 } else { i + 1 };
+        self.next = step(self.next);
+        self.oldest = step(self.oldest);
+        self.centre = step(self.centre);
     }
 }
 
@@ -283,6 +343,7 @@ impl<const N: usize> StaticDetector<N> {
 
     /// Feeds one sample. Returns a static interval when one has just ended.
     /// Non-finite samples are refused (`Error::NonFinite`) and leave the state unchanged.
+    #[inline]
     pub fn push(&mut self, m: [f32; 3]) -> Result<Option<StaticInterval>, Error> {
         if !crate::all_finite(&m) {
             return Err(Error::NonFinite);
@@ -290,6 +351,164 @@ impl<const N: usize> StaticDetector<N> {
         if self.count == u32::MAX {
             return Err(Error::CapacityExceeded);
         }
+        if self.steady() {
+            return self.steady_one(&m);
+        }
+        self.step(m)
+    }
+
+    /// Feeds `samples` in order, as many [`Self::push`]es would (the same operations on the
+    /// same values: the same intervals, bit for bit), calling `on_interval` for each static
+    /// interval that ends. Stops at the first sample `push` would refuse or fail on, with
+    /// `Err((its index in samples, the error))`, the samples before it fed. The finiteness
+    /// and counter checks are made once for the slice, and the detector's state stays in
+    /// locals through it: cheaper per sample than `push`.
+    pub fn push_slice(
+        &mut self,
+        samples: &[[f32; 3]],
+        mut on_interval: impl FnMut(StaticInterval),
+    ) -> Result<(), (usize, Error)> {
+        // `push` tests finiteness first, then the counter.
+        let room = (u32::MAX - self.count) as usize;
+        let (fed, refused) = match samples.iter().position(|m| !crate::all_finite(m)) {
+            Some(i) if i <= room => (i, Some((i, Error::NonFinite))),
+            _ if samples.len() > room => (room, Some((room, Error::CapacityExceeded))),
+            _ => (samples.len(), None),
+        };
+        let mut i = 0;
+        while i < fed && !self.steady() {
+            if let Some(iv) = self.step(samples[i]).map_err(|e| (i, e))? {
+                on_interval(iv);
+            }
+            i += 1;
+        }
+        if i < fed {
+            self.steady_run(&samples[i..fed], &mut on_interval)
+                .map_err(|(k, e)| (i + k, e))?;
+        }
+        refused.map_or(Ok(()), Err)
+    }
+
+    /// True once the threshold is known and the window full: every later sample takes
+    /// [`Self::steady_run`]'s path.
+    #[inline]
+    fn steady(&self) -> bool {
+        self.threshold.is_some() && self.count as usize >= self.cfg.window as usize
+    }
+
+    /// [`Self::step`] for samples that are finite, fit the counter, and arrive in the steady
+    /// state ([`Self::steady`]), by [`Self::steady_sample`] on the sums, the run and the
+    /// counter held in locals (registers) through the slice, written back at its end or at
+    /// the sample that failed.
+    fn steady_run(
+        &mut self,
+        samples: &[[f32; 3]],
+        on_interval: &mut impl FnMut(StaticInterval),
+    ) -> Result<(), (usize, Error)> {
+        let Some(k) = self.steady_consts() else {
+            return Ok(());
+        };
+        let (mut sums, mut run, mut count) = (self.sums, self.run, self.count);
+        let mut at = Positions::new::<N>(self.ring.next, &k);
+        let mut failed = None;
+        for (i, m) in samples.iter().enumerate() {
+            let sample = Self::steady_sample(
+                &mut self.ring,
+                &mut at,
+                (&mut sums, &mut run, &mut count),
+                &k,
+                m,
+            );
+            match sample {
+                Ok(Some(iv)) => on_interval(iv),
+                Ok(None) => {}
+                Err(e) => {
+                    failed = Some((i, e));
+                    break;
+                }
+            }
+        }
+        let fed = failed.map_or(samples.len(), |(i, _)| i + 1);
+        self.ring.next = at.next;
+        self.ring.len = (self.ring.len + fed).min(N);
+        (self.sums, self.run, self.count) = (sums, run, count);
+        failed.map_or(Ok(()), Err)
+    }
+
+    /// One sample in the steady state, on the detector's own fields (no copies).
+    #[inline]
+    fn steady_one(&mut self, m: &[f32; 3]) -> Result<Option<StaticInterval>, Error> {
+        let Some(k) = self.steady_consts() else {
+            return Ok(None);
+        };
+        let mut at = Positions::new::<N>(self.ring.next, &k);
+        let state = (&mut self.sums, &mut self.run, &mut self.count);
+        let out = Self::steady_sample(&mut self.ring, &mut at, state, &k, m);
+        self.ring.next = at.next;
+        self.ring.len = (self.ring.len + 1).min(N);
+        out
+    }
+
+    /// What the steady state's per-sample work reads and never changes (`None` before the
+    /// threshold is known).
+    #[inline]
+    fn steady_consts(&self) -> Option<SteadyConsts> {
+        let window = self.cfg.window as usize;
+        Some(SteadyConsts {
+            window,
+            half: self.half(),
+            n: window as f32,
+            threshold: self.threshold?,
+            min_static: self.cfg.min_static_samples,
+        })
+    }
+
+    /// [`Self::step`]'s operations in the steady state, in the same order: the window's
+    /// length is the constant `k.window`, its oldest sample (leaving) and its centre are at
+    /// positions that advance with the ring (`at`) instead of a modular index each, and the
+    /// threshold is known. A run can no longer start at sample 0 here (the first centre
+    /// decided in the steady state is sample `half + 1`). `ring.next` is brought up to date
+    /// only for a recomputation (the caller stores `at.next` after the last sample).
+    #[inline(always)]
+    fn steady_sample(
+        ring: &mut Ring<N>,
+        at: &mut Positions,
+        (sums, run, count): (&mut WindowSums, &mut Option<(u32, Welford3)>, &mut u32),
+        k: &SteadyConsts,
+        m: &[f32; 3],
+    ) -> Result<Option<StaticInterval>, Error> {
+        let outgoing = ring.buf[at.oldest];
+        ring.buf[at.next] = *m;
+        let centre = ring.buf[at.centre];
+        at.advance::<N>();
+        *count += 1;
+        sums.remove(&outgoing);
+        sums.add(m);
+        sums.since += 1;
+        let total = sums.total_s2();
+        sums.peak = sums.peak.max(total);
+        let mut variance = sums.variance_sum(k.n);
+        let spread = variance * k.n;
+        if sums.since as usize >= k.window || total < 1e-3 * sums.peak || spread < 1e-3 * total {
+            ring.next = at.next;
+            if let Some(fresh) = Self::exact_sums(ring, k.window) {
+                *sums = fresh;
+            }
+            variance = sums.variance_sum(k.n);
+        }
+        let centre_index = *count - 1 - k.half as u32;
+        if variance <= k.threshold {
+            let (_, w) = run.get_or_insert((centre_index, Welford3::new()));
+            w.push_inlined(centre)?;
+            Ok(None)
+        } else {
+            Ok(Self::close(run, centre_index, k.min_static))
+        }
+    }
+
+    /// One sample, finite and within the counter, in any state (the warm-up: window filling,
+    /// init period).
+    fn step(&mut self, m: [f32; 3]) -> Result<Option<StaticInterval>, Error> {
         let window = self.cfg.window as usize;
         let outgoing = (self.ring.len >= window).then(|| self.ring.at(window, 0));
         self.ring.write(m);
@@ -372,8 +591,18 @@ impl<const N: usize> StaticDetector<N> {
     }
 
     fn close_run(&mut self, end: u32) -> Option<StaticInterval> {
-        let (start, w) = self.run.take()?;
-        if w.count() < self.cfg.min_static_samples {
+        Self::close(&mut self.run, end, self.cfg.min_static_samples)
+    }
+
+    /// Ends the open `run` at `end`: its interval when it has at least `min_static` samples.
+    #[inline]
+    fn close(
+        run: &mut Option<(u32, Welford3)>,
+        end: u32,
+        min_static: u32,
+    ) -> Option<StaticInterval> {
+        let (start, w) = run.take()?;
+        if w.count() < min_static {
             return None;
         }
         let mean = w.mean().ok()?;
@@ -393,14 +622,24 @@ impl<const N: usize> StaticDetector<N> {
 
     /// Exact two-pass recomputation of the window sums about the window mean.
     fn recompute_sums(&mut self) {
-        let n = self.window_len();
-        let Some(first) = self.window_samples().next().copied() else {
-            return;
-        };
+        if let Some(sums) = Self::exact_sums(&self.ring, self.window_len()) {
+            self.sums = sums;
+        }
+    }
+
+    /// The sums of the latest `n` samples of `ring` about their mean, by two passes (`None`
+    /// for an empty window). Each pass walks the ring's two contiguous pieces in order.
+    fn exact_sums(ring: &Ring<N>, n: usize) -> Option<WindowSums> {
+        let pieces = ring.latest(n);
+        let first = *pieces.0.first().or(pieces.1.first())?;
         let mut mean = [0.0f32; 3];
-        for s in self.window_samples() {
-            for a in 0..3 {
-                mean[a] += s[a] - first[a];
+        // Piece by piece rather than through a chained iterator: no test per sample of
+        // which piece it is in (the same additions in the same order).
+        for piece in [pieces.0, pieces.1] {
+            for s in piece {
+                for a in 0..3 {
+                    mean[a] += s[a] - first[a];
+                }
             }
         }
         let mut sums = WindowSums {
@@ -410,11 +649,13 @@ impl<const N: usize> StaticDetector<N> {
         for a in 0..3 {
             sums.shift[a] = first[a] + mean[a] / n as f32;
         }
-        for s in self.window_samples() {
-            sums.add(s);
+        for piece in [pieces.0, pieces.1] {
+            for s in piece {
+                sums.add(s);
+            }
         }
         sums.peak = sums.total_s2();
-        self.sums = sums;
+        Some(sums)
     }
 
     /// Sum over axes of the (population) variance of the samples in the window.
@@ -423,11 +664,7 @@ impl<const N: usize> StaticDetector<N> {
         if n == 0.0 {
             return 0.0;
         }
-        let mut var = 0.0f32;
-        for a in 0..3 {
-            var += (self.sums.s2[a] - self.sums.s1[a] * self.sums.s1[a] / n).max(0.0);
-        }
-        var / n
+        self.sums.variance_sum(n)
     }
 
     /// The window variance recomputed exactly (two-pass), for tests of the running sums.

@@ -185,10 +185,7 @@ impl<'a> Passes for InPieces<'a> {
         let mut out = [Vec::new(), Vec::new()];
         let (mut viewed, mut failed) = (Vec::new(), None);
         let feed = |det: &mut Detector, out: &mut Vec<StaticInterval>, samples: &[[f32; 3]]| {
-            for (i, m) in samples.iter().enumerate() {
-                out.extend(det.push(*m).map_err(|e| (i, e))?);
-            }
-            Ok::<(), (usize, CoreError)>(())
+            det.push_slice(samples, |iv| out.push(iv))
         };
         self.src.each_piece(AXES, |cols| {
             use rayon::prelude::*;

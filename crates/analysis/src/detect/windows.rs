@@ -312,16 +312,49 @@ fn run_one<I: Iterator<Item = [f32; 3]>>(
     Ok(out)
 }
 
+/// One setting's intervals over held samples: [`run_one`] by slices
+/// (`StaticDetector::push_slice`, the same intervals and error), the samples given as they
+/// are when already `f32`, else cast a chunk at a time.
+fn run_held<S: DetectorSample>(
+    samples: &[S],
+    cfg: StaticDetectorConfig,
+    reference: [f32; 3],
+) -> std::result::Result<Vec<StaticInterval>, CoreError> {
+    let mut det = StaticDetector::<MAX_WINDOW>::with_reference(cfg, reference)?;
+    let mut out = Vec::new();
+    let mut feed = |xs: &[[f32; 3]]| det.push_slice(xs, |iv| out.push(iv)).map_err(|(_, e)| e);
+    if let Some(xs) = S::as_f32s(samples) {
+        feed(xs)?;
+    } else {
+        let mut buf = Vec::with_capacity(4096);
+        for chunk in samples.chunks(4096) {
+            buf.clear();
+            buf.extend(chunk.iter().map(S::f32s));
+            feed(&buf)?;
+        }
+    }
+    out.extend(det.finish());
+    Ok(out)
+}
+
 /// A held sample as the detector takes it (`f32`).
 pub(crate) trait DetectorSample: Copy + Send + Sync {
     /// The sample in `f32`.
     fn f32s(&self) -> [f32; 3];
+    /// The samples as they are, when they already are `f32` (no copy).
+    fn as_f32s(_samples: &[Self]) -> Option<&[[f32; 3]]> {
+        None
+    }
 }
 
 impl DetectorSample for [f32; 3] {
     #[inline]
     fn f32s(&self) -> [f32; 3] {
         *self
+    }
+
+    fn as_f32s(samples: &[Self]) -> Option<&[[f32; 3]]> {
+        Some(samples)
     }
 }
 
@@ -365,6 +398,9 @@ impl<'a, S: DetectorSample> Passes for Held<'a, S> {
         let measured: Vec<_> = full
             .par_chunks(block)
             .map_init(Vec::new, |buf, chunk| {
+                if let Some(xs) = S::as_f32s(chunk) {
+                    return adaptive::NoiseSurvey::measure_block(xs);
+                }
                 buf.clear();
                 buf.extend(chunk.iter().map(S::f32s));
                 adaptive::NoiseSurvey::measure_block(buf)
@@ -382,8 +418,8 @@ impl<'a, S: DetectorSample> Passes for Held<'a, S> {
     /// The two settings on the two cores at once.
     fn run_pair(&self, cfgs: [StaticDetectorConfig; 2], reference: [f32; 3]) -> PairResult {
         let (a, b) = rayon::join(
-            || run_one(self.pass(), cfgs[0], reference),
-            || run_one(self.pass(), cfgs[1], reference),
+            || run_held(self.0, cfgs[0], reference),
+            || run_held(self.0, cfgs[1], reference),
         );
         Ok([a?, b?])
     }

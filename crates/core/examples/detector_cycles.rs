@@ -1,0 +1,120 @@
+//! The static detector, the noise survey's block measurement and `Welford3` per sample: the
+//! current code against the implementation it replaced (`src/static_detect/reference.rs`,
+//! kept as the tests' oracle), one workload per run, so that
+//! `perf stat -e cycles:u,instructions:u` counts the process's own cycles and instructions
+//! whatever else the machine runs (wall-clock benchmarks on a shared machine are not).
+//!
+//! `cargo run --release -p wiical-core --example detector_cycles -- WORKLOAD` with WORKLOAD
+//! one of `detector-old`, `detector-push`, `detector-slice`, `block-old`, `block-new`,
+//! `welford-old`, `welford-new`, `none` (the stream alone, to subtract); each runs 200 passes
+//! over 10,000 samples (2,000,000 samples).
+
+use std::hint::black_box;
+use wiical_core::static_detect::{NoiseSurvey, StaticDetector};
+#[allow(unused_imports)] // for the reference module's `super::` paths
+use wiical_core::static_detect::{StaticDetectorConfig, StaticInterval};
+#[allow(unused_imports)] // for the reference module's `crate::` paths
+use wiical_core::{all_finite, Error, Vec3};
+
+mod estimators {
+    pub use wiical_core::estimators::*;
+}
+
+#[path = "../src/static_detect/reference.rs"]
+mod reference;
+
+/// Integer counts at 100 Hz: 3 s holds with ±3-count noise between 1 s motions (the
+/// criterion benchmark's stream).
+fn motion_static_mix(n: usize) -> Vec<[f32; 3]> {
+    let mut state = 0x2545_f491u32;
+    let mut noise = move || {
+        state ^= state << 13;
+        state ^= state >> 17;
+        state ^= state << 5;
+        (state % 7) as f32 - 3.0
+    };
+    let poses = [
+        [33000.0f32, 33300.0, 36400.0],
+        [29000.0, 33200.0, 32300.0],
+        [33100.0, 29200.0, 32300.0],
+    ];
+    (0..n)
+        .map(|k| {
+            let (cycle, at) = (k / 400, k % 400);
+            let p = poses[cycle % poses.len()];
+            if at < 300 {
+                p.map(|x| x + noise())
+            } else {
+                let ph = (at - 300) as f32 * 0.0628;
+                [
+                    (p[0] + 3000.0 * ph.sin()).round(),
+                    (p[1] + 2000.0 * ph.cos()).round(),
+                    p[2] + noise(),
+                ]
+            }
+        })
+        .collect()
+}
+
+fn main() {
+    let which = std::env::args().nth(1).unwrap_or_default();
+    let xs = motion_static_mix(10_000);
+    let cfg = StaticDetectorConfig::for_rate(100.0, 1.0, 2.0, 2.0);
+    let reference = [1.0f32, 1.0, 1.0];
+    let mut found = 0u64;
+    for _ in 0..200 {
+        let xs = black_box(&xs[..]);
+        match which.as_str() {
+            "detector-old" => {
+                let mut d =
+                    reference::ReferenceDetector::<511>::with_reference(cfg, reference).unwrap();
+                for m in xs {
+                    found += u64::from(d.push(*m).unwrap().is_some());
+                }
+                found += u64::from(d.finish().is_some());
+            }
+            "detector-push" => {
+                let mut d = StaticDetector::<511>::with_reference(cfg, reference).unwrap();
+                for m in xs {
+                    found += u64::from(d.push(*m).unwrap().is_some());
+                }
+                found += u64::from(d.finish().is_some());
+            }
+            "detector-slice" => {
+                let mut d = StaticDetector::<511>::with_reference(cfg, reference).unwrap();
+                d.push_slice(xs, |_| found += 1).unwrap();
+                found += u64::from(d.finish().is_some());
+            }
+            "block-old" => {
+                for b in xs.chunks_exact(25) {
+                    found += reference::reference_measure_block(b).unwrap().0.x as u64;
+                }
+            }
+            "block-new" => {
+                for b in xs.chunks_exact(25) {
+                    found += NoiseSurvey::measure_block(b).unwrap().0.x as u64;
+                }
+            }
+            "welford-old" => {
+                let mut w = reference::ReferenceWelford3::new();
+                for m in xs {
+                    w.push(*m).unwrap();
+                }
+                found += w.variance().unwrap().x as u64;
+            }
+            "welford-new" => {
+                let mut w = wiical_core::estimators::Welford3::new();
+                for m in xs {
+                    w.push(*m).unwrap();
+                }
+                found += w.variance().unwrap().x as u64;
+            }
+            "none" => found += xs.len() as u64,
+            _ => {
+                eprintln!("unknown workload {which:?} (see the file's doc comment)");
+                std::process::exit(2);
+            }
+        }
+    }
+    println!("{which}: {found}");
+}
