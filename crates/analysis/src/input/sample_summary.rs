@@ -49,10 +49,22 @@ struct Keys {
     len: usize,
 }
 
+/// `v.fract() == 0.0` without the library call `fract` makes on targets without a rounding
+/// instruction (it is asked of every value): below 2⁵² in magnitude a truncation to an
+/// integer and back is exact, at or above it every finite value is whole; NaN and the
+/// infinities are not (their `fract` is NaN).
+fn is_whole(v: f64) -> bool {
+    if v.abs() < (1u64 << 52) as f64 {
+        (v as i64) as f64 == v
+    } else {
+        v.is_finite()
+    }
+}
+
 impl Keys {
     fn insert(&mut self, bits: u64) {
         let v = f64::from_bits(bits);
-        if v.fract() == 0.0 && v.abs() < SMALL as f64 && bits != (-0.0f64).to_bits() {
+        if is_whole(v) && v.abs() < SMALL as f64 && bits != (-0.0f64).to_bits() {
             if self.small.is_empty() {
                 self.small = vec![0; (2 * SMALL / 64) as usize];
             }
@@ -149,7 +161,7 @@ impl SummaryFold {
         s.count += xyz.len();
         for x in xyz {
             for &v in x {
-                s.integer &= v.fract() == 0.0;
+                s.integer &= is_whole(v);
                 s.lo = s.lo.min(v);
                 s.hi = s.hi.max(v);
                 s.largest = s.largest.max(v.abs());
@@ -228,6 +240,34 @@ mod tests {
         assert_eq!(keys.len, want.len());
         let got: HashSet<u64> = keys.values().iter().map(|v| v.to_bits()).collect();
         assert_eq!(got, want);
+    }
+
+    /// The test for whole numbers is `fract`'s, at the edges of exactness too.
+    #[test]
+    fn whole_is_a_zero_fraction() {
+        let p52 = (1u64 << 52) as f64;
+        let mut values = vec![
+            0.0,
+            -0.0,
+            0.5,
+            -0.5,
+            1e-300,
+            -3.0,
+            f64::NAN,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::MAX,
+            f64::MIN,
+            9.2e18,
+            -9.3e18,
+        ];
+        for base in [p52, -p52, p52 / 2.0, 1.0, (1u64 << 53) as f64] {
+            values.extend((0..4).map(|k| f64::from_bits(base.to_bits() + k)));
+            values.extend((1..4).map(|k| f64::from_bits(base.to_bits() - k)));
+        }
+        for v in values {
+            assert_eq!(is_whole(v), v.fract() == 0.0, "{v:e}");
+        }
     }
 
     /// Pushed in any split, the summary is the whole recording's folds.
