@@ -487,26 +487,43 @@ type Folds = (SummaryFold, StepTally, usize);
 /// Every piece's rows (the first piece's after the header) folded, written to `spill` (which
 /// is dropped when a write fails, and moved to disk when the file's `file_bytes` say its rows
 /// will not fit in memory) and dropped. The pieces are parsed (on the pool's cores) while the
-/// piece before is folded and written on a thread of its own: the same folds in the same
-/// order as one piece after another.
+/// piece before is folded into the summary on a thread of its own and tallied and written on
+/// another: the same folds in the same order as one piece after another.
 fn first_pass(
     pieces: &mut Pieces,
     head: &Head,
     spill: &mut Option<SpillWriter>,
     file_bytes: u64,
 ) -> Result<Option<Folds>> {
+    use std::sync::{mpsc::sync_channel, Arc};
     std::thread::scope(|s| {
-        // One piece's rows waiting while the next is parsed: at most three pieces' rows held.
-        let (tx, rx) = std::sync::mpsc::sync_channel::<(Columns, u64)>(1);
-        let folder = s.spawn(move || fold_pieces(rx, spill, file_bytes));
-        let parsed = parse_pieces(pieces, head, |cols, done| tx.send((cols, done)).is_ok());
-        drop(tx);
-        let folds = match folder.join() {
-            Ok(folds) => folds,
-            Err(panic) => std::panic::resume_unwind(panic),
-        };
-        Ok(parsed?.then_some(folds))
+        // Each thread takes a piece when done with the one before (no piece waits in a queue):
+        // at most three pieces' rows held.
+        let (to_fold, fold_rx) = sync_channel::<Arc<Columns>>(0);
+        let (to_write, write_rx) = sync_channel::<(Arc<Columns>, u64)>(0);
+        let folder = s.spawn(move || {
+            let mut fold = SummaryFold::new();
+            fold_rx
+                .into_iter()
+                .for_each(|c| fold.push(&c.xyz, &c.t, &c.temp));
+            fold
+        });
+        let writer = s.spawn(move || write_pieces(write_rx, spill, file_bytes));
+        let parsed = parse_pieces(pieces, head, |cols, done| {
+            let cols = Arc::new(cols);
+            to_fold.send(Arc::clone(&cols)).is_ok() && to_write.send((cols, done)).is_ok()
+        });
+        drop((to_fold, to_write));
+        let fold = joined(folder);
+        let (tally, skipped) = joined(writer);
+        Ok(parsed?.then_some((fold, tally, skipped)))
     })
+}
+
+/// What the thread `h` returned (its panic resumed).
+fn joined<T>(h: std::thread::ScopedJoinHandle<'_, T>) -> T {
+    h.join()
+        .unwrap_or_else(|panic| std::panic::resume_unwind(panic))
 }
 
 /// The rows of every piece handed to `give` in order with the text bytes read up to their end
@@ -555,33 +572,38 @@ fn parse_pieces(
     Ok(true)
 }
 
-/// The pieces' rows from `rx` folded and written to `spill` (see [`first_pass`]), until the
-/// sender is dropped; `done` with each piece: the bytes of text up to its end.
-fn fold_pieces(
-    rx: std::sync::mpsc::Receiver<(Columns, u64)>,
+/// The pieces' rows from `rx` tallied (their time steps and skipped rows) and written to
+/// `spill` (see [`first_pass`]), until the sender is dropped; `done` with each piece: the bytes
+/// of text up to its end.
+fn write_pieces(
+    rx: std::sync::mpsc::Receiver<(std::sync::Arc<Columns>, u64)>,
     spill: &mut Option<SpillWriter>,
     file_bytes: u64,
-) -> Folds {
-    let (mut fold, mut tally, mut skipped) = (SummaryFold::new(), StepTally::new(), 0usize);
+) -> (StepTally, usize) {
+    let (mut tally, mut skipped) = (StepTally::new(), 0usize);
     for (cols, done) in rx {
-        fold.push(&cols.xyz, &cols.t, &cols.temp);
         tally.push_all(&cols.t);
         skipped += cols.skipped;
         let written = spill.as_mut().is_some_and(|w| {
-            w.push(&cols).is_ok() && (!w.in_memory() || fits(w.bytes(), done, file_bytes, w))
+            w.push(&cols).is_ok()
+                && (!w.in_memory()
+                    || fits_in_memory(w.bytes(), done, file_bytes, w.memory())
+                    || w.to_disk().is_ok())
         });
         if !written {
             *spill = None;
         }
     }
-    (fold, tally, skipped)
+    (tally, skipped)
 }
 
-/// Whether the spill `w`, `written` bytes for `done` bytes of the file's `file_bytes`, will
-/// fit in memory at that rate; else it is moved to disk now (`false` when that failed).
-fn fits(written: u64, done: u64, file_bytes: u64, w: &mut SpillWriter) -> bool {
-    let projected = (written as u128 * file_bytes as u128) / u128::from(done.max(1));
-    projected <= u128::from(w.memory()) || w.to_disk().is_ok()
+/// Whether a spill of `written` bytes for `done` bytes of the file's `file_bytes` will fit in
+/// `memory` bytes at that rate (else it goes to disk now, before memory grows past what it
+/// will hold: a file too large for memory never takes it). A gzip file's size is its
+/// compressed size: its spill then goes to disk once past `memory`, when written.
+fn fits_in_memory(written: u64, done: u64, file_bytes: u64, memory: u64) -> bool {
+    let projected = u128::from(written) * u128::from(file_bytes) / u128::from(done.max(1));
+    projected <= u128::from(memory)
 }
 
 /// True when the rest of the file is plain text (an error found in the rows is reported
@@ -835,9 +857,34 @@ mod tests {
         z.finish().unwrap()
     }
 
+    /// The summary and time steps of a recording held whole: its rows folded at once, its
+    /// time column's steps as the whole-text path takes them.
+    fn summary_of(r: &Recording) -> (String, Option<TimeSteps>) {
+        let mut fold = SummaryFold::new();
+        let (t, temp) = (
+            r.t.clone().unwrap_or_default(),
+            r.temp.clone().unwrap_or_default(),
+        );
+        fold.push(&r.xyz, &t, &temp);
+        let steps = r.t.as_ref().and_then(|t| TimeSteps::of(t));
+        (format!("{:?}", fold.finish()), steps)
+    }
+
+    /// A file's rows in memory when the first pieces' rate says they fit, else on disk.
+    #[test]
+    fn the_spill_is_kept_in_memory_when_its_projection_fits() {
+        // 10 bytes of rows for 100 of a 1000-byte file: 100 bytes in all.
+        assert!(fits_in_memory(10, 100, 1000, 100));
+        assert!(!fits_in_memory(10, 100, 1000, 99));
+        assert!(fits_in_memory(0, 0, 1000, 0));
+        assert!(!fits_in_memory(u64::MAX, 1, u64::MAX, u64::MAX));
+    }
+
     /// Every text, plain or gzip'd, read in pieces of every size, gives in each pass what the
-    /// whole-text parse gives: the rows bit for bit, the notes, the summary's count — or the same sentence, or
-    /// is handed back to be read whole; a clone taken mid-pass goes on from the same row.
+    /// whole-text parse gives: the rows bit for bit, the notes, the summary (its pieces folded
+    /// while the next is parsed: the folds of the whole recording at once) and the time steps
+    /// — or the same sentence, or is handed back to be read whole; a clone taken mid-pass goes
+    /// on from the same row.
     #[test]
     fn passes_read_as_the_whole_text() {
         let mut rows = String::from("Fs,100\nt,x,y,z,temp\n");
@@ -880,6 +927,7 @@ mod tests {
             .concat();
             std::fs::write(&gz_path, gz).unwrap();
             let whole = crate::input::text::parse(text.trim_start_matches('\u{feff}'), &opts);
+            let summary = whole.as_ref().ok().map(summary_of);
             let whole = whole.map(|r| {
                 let t = r.t.clone().unwrap_or_default();
                 let temp = r.temp.clone().unwrap_or_default();
@@ -904,6 +952,8 @@ mod tests {
                         let rest: Vec<Row> = it.clone().collect();
                         assert_eq!([head, rest].concat(), rows);
                         src.check().unwrap();
+                        let got = (format!("{:?}", src.summary), src.steps);
+                        assert_eq!(Some(got), summary, "{text:?} in pieces of {size}");
                         Ok(format!("{rows:?} {:?} {}", src.meta.notes, src.len()))
                     }
                     Err(e) => Err(e.to_string()),
