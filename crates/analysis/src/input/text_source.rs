@@ -588,7 +588,7 @@ fn write_pieces(
             w.push(&cols).is_ok()
                 && (!w.in_memory()
                     || fits_in_memory(w.bytes(), done, file_bytes, w.memory())
-                    || w.to_disk().is_ok())
+                    || w.move_to_disk().is_ok())
         });
         if !written {
             *spill = None;

@@ -186,7 +186,7 @@ impl SpillWriter {
 
     /// The rows written so far moved to a temporary file (the rows after them go there too);
     /// an error when no file can be made or written.
-    pub(crate) fn to_disk(&mut self) -> std::io::Result<()> {
+    pub(crate) fn move_to_disk(&mut self) -> std::io::Result<()> {
         let Store::Memory(blocks) = &mut self.store else {
             return Ok(());
         };
@@ -232,7 +232,7 @@ impl SpillWriter {
             return Err(std::io::ErrorKind::StorageFull.into());
         }
         if self.in_memory() && self.at.saturating_add(len) > self.memory {
-            self.to_disk()?;
+            self.move_to_disk()?;
         }
         match &mut self.store {
             Store::Memory(blocks) => blocks.push(std::mem::take(&mut self.buf)),
@@ -514,7 +514,7 @@ mod tests {
         }
         let mut w = SpillWriter::create(None, u64::MAX, u64::MAX).unwrap();
         w.push(&pieces[0]).unwrap();
-        w.to_disk().unwrap();
+        w.move_to_disk().unwrap();
         w.push(&pieces[2]).unwrap();
         let spill = w.finish();
         assert!(!spill.in_memory());
