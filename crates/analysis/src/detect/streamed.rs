@@ -824,4 +824,68 @@ mod spill_tests {
         assert_eq!(windows_of(&spilled), want_windows);
         spilled.check().unwrap();
     }
+
+    /// The detector's view read straight to `f32` is every row's values as `f32`, from memory,
+    /// from disk, from the text, and from a spill that fails in the middle of the pass (the
+    /// pass going on from the text at the same row).
+    #[test]
+    fn the_f32_view_is_the_rows_whatever_the_spill() {
+        let out = crate::simulate::simulate(&crate::simulate::SimConfig {
+            seed: 5,
+            poses: 9,
+            ..Default::default()
+        })
+        .unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("r.csv");
+        std::fs::write(&path, crate::simulate::to_csv(&out.recording)).unwrap();
+        let opts = LoadOptions::default();
+        let disk = SpillTo {
+            on: true,
+            dir: None,
+            limit: u64::MAX,
+            memory: 0,
+        };
+        let cases = [
+            (disk.clone(), false),
+            (
+                SpillTo {
+                    memory: u64::MAX,
+                    ..disk.clone()
+                },
+                false,
+            ),
+            (
+                SpillTo {
+                    on: false,
+                    ..disk.clone()
+                },
+                false,
+            ),
+            (disk.clone(), true),
+        ];
+        for (to, fail) in cases {
+            let src = TextSource::open_with(&path, &opts, 4096, &to, |_| true)
+                .unwrap()
+                .unwrap();
+            let want: Vec<[u32; 3]> = rows_of(&src)
+                .iter()
+                .map(|r| r.xyz.map(|v| (v as f32).to_bits()))
+                .collect();
+            assert_eq!(want.len(), out.recording.len());
+            let (mut got, mut pieces) = (Vec::new(), 0);
+            src.each_piece_f32(|v| {
+                got.extend(v.iter().map(|x| x.map(f32::to_bits)));
+                pieces += 1;
+                if fail && pieces == 2 {
+                    src.truncate_spill();
+                }
+                true
+            });
+            src.check().unwrap();
+            assert!(pieces > 2, "{pieces} pieces");
+            assert_eq!(got, want, "{to:?}, failing: {fail}");
+            assert_eq!(src.is_spilled(), to.on && !fail);
+        }
+    }
 }
