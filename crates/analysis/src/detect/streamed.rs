@@ -176,22 +176,14 @@ impl<'a> Passes for InPieces<'a> {
     /// Each piece fed to the two detectors on two cores at once; the error is the one met
     /// first in sample order (the first setting's on the same sample).
     fn run_pair(&self, cfgs: [StaticDetectorConfig; 2], reference: [f32; 3]) -> PairResult {
-        type Detector = StaticDetector<MAX_WINDOW>;
-        let mut dets: [Detector; 2] = [
-            StaticDetector::with_reference(cfgs[0], reference)?,
-            StaticDetector::with_reference(cfgs[1], reference)?,
+        let mut lanes = [
+            Lane::new(StaticDetector::with_reference(cfgs[0], reference)?),
+            Lane::new(StaticDetector::with_reference(cfgs[1], reference)?),
         ];
-        let mut out = [Vec::new(), Vec::new()];
         let mut failed = None;
-        let feed = |det: &mut Detector, out: &mut Vec<StaticInterval>, samples: &[[f32; 3]]| {
-            for (i, m) in samples.iter().enumerate() {
-                out.extend(det.push(*m).map_err(|e| (i, e))?);
-            }
-            Ok::<(), (usize, CoreError)>(())
-        };
         self.each_view(|viewed| {
-            let ([a, b], [oa, ob]) = (&mut dets, &mut out);
-            match rayon::join(|| feed(a, oa, viewed), || feed(b, ob, viewed)) {
+            let [a, b] = &mut lanes;
+            match rayon::join(|| a.feed(viewed), || b.feed(viewed)) {
                 (Ok(()), Ok(())) => true,
                 (Err((i, e)), Err((j, _))) if i <= j => fail_with(&mut failed, e),
                 (Err((_, e)), Ok(())) | (_, Err((_, e))) => fail_with(&mut failed, e),
@@ -200,10 +192,33 @@ impl<'a> Passes for InPieces<'a> {
         if let Some(e) = failed {
             return Err(e);
         }
-        let [mut a, mut b] = dets;
-        out[0].extend(a.finish());
-        out[1].extend(b.finish());
-        Ok(out)
+        Ok(lanes.map(|Lane(mut det, mut out)| {
+            out.extend(det.finish());
+            out
+        }))
+    }
+}
+
+/// One detector of a pair and its intervals, aligned to a cache line pair of its own: the two
+/// run on two cores at once, and side by side in one array the end of the first and the start
+/// of the second (each written on every sample) shared a line, which the cores then took from
+/// each other on every sample (the pass ran several times slower than the two detectors of
+/// the held path, each on its own thread's stack).
+#[repr(align(128))]
+struct Lane(StaticDetector<MAX_WINDOW>, Vec<StaticInterval>);
+
+impl Lane {
+    fn new(det: StaticDetector<MAX_WINDOW>) -> Self {
+        Lane(det, Vec::new())
+    }
+
+    /// `samples` fed to the detector, its intervals kept; the error with the index of the
+    /// sample that met it.
+    fn feed(&mut self, samples: &[[f32; 3]]) -> std::result::Result<(), (usize, CoreError)> {
+        for (i, m) in samples.iter().enumerate() {
+            self.1.extend(self.0.push(*m).map_err(|e| (i, e))?);
+        }
+        Ok(())
     }
 }
 
