@@ -10,8 +10,9 @@
 //! extremes. Then two passes over the windows' samples: the first sums the means, times,
 //! temperatures and batch means and checks saturation; the second, with the means known, sums
 //! the squared deviations. Times are kept per window (first, last, centre), not per sample.
-//! When the first pass's rows were kept in a temporary file ([`TextSource::is_spilled`]), the
-//! two passes read each window's rows alone from it, windows on all cores.
+//! When the first pass's rows were kept, in memory or a temporary file
+//! ([`TextSource::is_spilled`]), the two passes read each window's rows alone from them (once
+//! per window that fits a read), windows on all cores.
 
 use crate::detect::windows::{
     adaptive_intervals, adaptive_rate, adc_range_of, axis_lattice, batch_spread, detector_scale,

@@ -11,11 +11,12 @@
 //! A file whose size or modification time differs from the first pass's, or whose pieces no
 //! longer parse, stops the pass; [`TextSource::check`] then says so in one sentence.
 //!
-//! The first pass also writes the rows it parsed to a temporary file
-//! (`input::text_spill`), and every later pass reads them back from there instead
+//! The first pass also keeps the rows it parsed (`input::text_spill`: in memory when they
+//! fit, else in a temporary file), and every later pass reads them back from there instead
 //! of parsing the text again: the same values bit for bit, at the cost of a copy instead of a
 //! parse. Without it (no temporary directory, a full disk, or [`SPILL_VAR`] set to `0`) the
-//! passes re-read the text as described above.
+//! passes re-read the text as described above. The first pass parses each piece while the
+//! one before is folded and written, on threads of their own.
 
 use crate::error::input::InputError;
 use crate::error::{Error, Result};
@@ -222,8 +223,8 @@ impl TextSource {
         self.spool = Some(file);
     }
 
-    /// Whether the later passes read the first pass's rows back from a temporary file (else
-    /// they parse the text again).
+    /// Whether the later passes read the first pass's rows back, from memory or a temporary
+    /// file (else they parse the text again).
     pub fn is_spilled(&self) -> bool {
         self.spill.is_some() && !self.spill_failed.load(Ordering::Relaxed)
     }
