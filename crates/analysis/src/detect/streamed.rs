@@ -10,8 +10,9 @@
 //! extremes. Then two passes over the windows' samples: the first sums the means, times,
 //! temperatures and batch means and checks saturation; the second, with the means known, sums
 //! the squared deviations. Times are kept per window (first, last, centre), not per sample.
-//! When the first pass's rows were kept in a temporary file ([`TextSource::is_spilled`]), the
-//! two passes read each window's rows alone from it, windows on all cores.
+//! When the first pass's rows were kept, in memory or a temporary file
+//! ([`TextSource::is_spilled`]), the two passes read each window's rows alone from them (once
+//! per window that fits a read), windows on all cores.
 
 use crate::detect::windows::{
     adaptive_intervals, adaptive_rate, adc_range_of, axis_lattice, batch_spread, detector_scale,
@@ -145,9 +146,8 @@ impl<'a> Passes for InPieces<'a> {
         let block = survey.block_samples() as usize;
         let mut pending: Vec<[f32; 3]> = Vec::new();
         let mut failed = None;
-        self.src.each_piece(AXES, |cols| {
-            let viewed = cols.xyz.par_iter().map(|x| view(x, &self.lattice));
-            pending.par_extend(viewed);
+        self.each_view(|viewed| {
+            pending.extend_from_slice(viewed);
             let full = pending.len() / block * block;
             let measured: Vec<_> = pending[..full]
                 .par_chunks(block)
@@ -177,22 +177,14 @@ impl<'a> Passes for InPieces<'a> {
     /// Each piece fed to the two detectors on two cores at once; the error is the one met
     /// first in sample order (the first setting's on the same sample).
     fn run_pair(&self, cfgs: [StaticDetectorConfig; 2], reference: [f32; 3]) -> PairResult {
-        type Detector = StaticDetector<MAX_WINDOW>;
-        let mut dets: [Detector; 2] = [
-            StaticDetector::with_reference(cfgs[0], reference)?,
-            StaticDetector::with_reference(cfgs[1], reference)?,
+        let mut lanes = [
+            Lane::new(StaticDetector::with_reference(cfgs[0], reference)?),
+            Lane::new(StaticDetector::with_reference(cfgs[1], reference)?),
         ];
-        let mut out = [Vec::new(), Vec::new()];
-        let (mut viewed, mut failed) = (Vec::new(), None);
-        let feed = |det: &mut Detector, out: &mut Vec<StaticInterval>, samples: &[[f32; 3]]| {
-            det.push_slice(samples, |iv| out.push(iv))
-        };
-        self.src.each_piece(AXES, |cols| {
-            use rayon::prelude::*;
-            let samples = cols.xyz.par_iter().map(|x| view(x, &self.lattice));
-            samples.collect_into_vec(&mut viewed);
-            let ([a, b], [oa, ob]) = (&mut dets, &mut out);
-            match rayon::join(|| feed(a, oa, &viewed), || feed(b, ob, &viewed)) {
+        let mut failed = None;
+        self.each_view(|viewed| {
+            let [a, b] = &mut lanes;
+            match rayon::join(|| a.feed(viewed), || b.feed(viewed)) {
                 (Ok(()), Ok(())) => true,
                 (Err((i, e)), Err((j, _))) if i <= j => fail_with(&mut failed, e),
                 (Err((_, e)), Ok(())) | (_, Err((_, e))) => fail_with(&mut failed, e),
@@ -201,18 +193,50 @@ impl<'a> Passes for InPieces<'a> {
         if let Some(e) = failed {
             return Err(e);
         }
-        let [mut a, mut b] = dets;
-        out[0].extend(a.finish());
-        out[1].extend(b.finish());
-        Ok(out)
+        Ok(lanes.map(|Lane(mut det, mut out)| {
+            out.extend(det.finish());
+            out
+        }))
     }
 }
 
-/// The columns the detector's passes read: the axes alone.
-const AXES: Want = Want {
-    t: false,
-    temp: false,
-};
+/// One detector of a pair and its intervals, aligned to a cache line pair of its own: the two
+/// run on two cores at once, and side by side in one array the end of the first and the start
+/// of the second (each written on every sample) shared a line, which the cores then took from
+/// each other on every sample (the pass ran several times slower than the two detectors of
+/// the held path, each on its own thread's stack).
+#[repr(align(128))]
+struct Lane(StaticDetector<MAX_WINDOW>, Vec<StaticInterval>);
+
+impl Lane {
+    fn new(det: StaticDetector<MAX_WINDOW>) -> Self {
+        Lane(det, Vec::new())
+    }
+
+    /// `samples` fed to the detector, its intervals kept; the error with the index of the
+    /// sample that met it.
+    fn feed(&mut self, samples: &[[f32; 3]]) -> std::result::Result<(), (usize, CoreError)> {
+        let Lane(det, out) = self;
+        det.push_slice(samples, |iv| out.push(iv))
+    }
+}
+
+impl InPieces<'_> {
+    /// A pass over the detector's view of every sample, a piece at a time (`f` may stop it
+    /// by returning `false`): values on no lattice read straight to `f32`, else their levels.
+    fn each_view(&self, mut f: impl FnMut(&[[f32; 3]]) -> bool) {
+        use rayon::prelude::*;
+        if self.lattice.is_none() {
+            return self.src.each_piece_f32(f);
+        }
+        let mut viewed = Vec::new();
+        self.src.each_piece(Want::AXES, |cols| {
+            let samples = cols.xyz.par_iter().map(|x| view(x, &self.lattice));
+            samples.collect_into_vec(&mut viewed);
+            f(&viewed)
+        });
+    }
+}
 
 /// `e` kept as the pass's error; false (the pass stops).
 fn fail_with(failed: &mut Option<CoreError>, e: CoreError) -> bool {
@@ -429,46 +453,25 @@ fn window_stats_spilled(
     if !src.is_spilled() || !src.unchanged() {
         return None; // the passes say that the file changed
     }
-    if let Some((lo, hi)) = range {
-        let first = checked
-            .par_iter()
-            .map_init(Buffers::default, |buf, &span| {
-                let mut found = None;
-                let read = buf.fold(src, span, |i, x, _, _| {
-                    found = found.or_else(|| {
-                        (0..3)
-                            .find(|&a| x[a] <= lo || x[a] >= hi)
-                            .map(|a| (i, a, x[a]))
-                    });
-                });
-                read.then_some(found)
-            })
-            .collect::<Option<Vec<_>>>()?;
-        let saturated = first
-            .iter()
-            .enumerate()
-            .find_map(|(k, f)| f.map(|f| (k, f)));
-        if let Some((k, (i, a, value))) = saturated {
-            return Some(Err(saturated_at(intervals, k, i, a, value).into()));
-        }
-    }
-    let accs = spans
+    debug_assert_eq!(
+        spans.len(),
+        checked.iter().filter(|(s, e)| *e > s + 1).count()
+    );
+    let per_window = checked
         .par_iter()
         .map_init(Buffers::default, |buf, &span| {
-            let mut acc = Acc::new(span);
-            let read = buf.fold(src, span, |i, x, t, temp| {
-                first_sums(&mut acc, i, x, time_of(t, i, fs), temp)
-            });
-            let m = mean_of(&acc);
-            let read = read
-                && buf.fold(src, span, |_, x, _, _| {
-                    for ((q, x), m) in acc.sq.iter_mut().zip(x).zip(&m) {
-                        *q += (x - m).powi(2);
-                    }
-                });
-            read.then_some(acc)
+            buf.window(src, span, range, fs)
         })
-        .collect::<Option<Vec<Acc>>>()?;
+        .collect::<Option<Vec<_>>>()?;
+    let saturated = per_window
+        .iter()
+        .enumerate()
+        .find_map(|(k, (f, _))| f.map(|f| (k, f)));
+    if let Some((k, (i, a, value))) = saturated {
+        return Some(Err(saturated_at(intervals, k, i, a, value).into()));
+    }
+    // The windows of two samples or more, in order: `spans`'.
+    let accs: Vec<Acc> = per_window.into_iter().filter_map(|(_, a)| a).collect();
     let t0 = time_of(src.summary.t_first, 0, fs);
     let (integer, has_temp) = (src.summary.integer, src.has_temp());
     Some(Ok(accs
@@ -484,7 +487,54 @@ struct Buffers {
     scratch: Vec<u8>,
 }
 
+/// A window's first sample at an ADC limit: its index, axis and value.
+type AtLimit = (usize, usize, f64);
+
 impl Buffers {
+    /// The window `span`'s first sample at an ADC limit of `range` (when given) and, when it
+    /// has two samples or more, its sums: its rows read from the spill once (twice when
+    /// longer than [`WINDOW_READ_ROWS`]); `None` when a read failed.
+    fn window(
+        &mut self,
+        src: &TextSource,
+        (s, e): Span,
+        range: Option<(f64, f64)>,
+        fs: f64,
+    ) -> Option<(Option<AtLimit>, Option<Acc>)> {
+        let e = e.max(s);
+        let at_limit = |i: usize, x: &[f64; 3]| {
+            let (lo, hi) = range?;
+            let a = (0..3).find(|&a| x[a] <= lo || x[a] >= hi)?;
+            Some((i, a, x[a]))
+        };
+        let mut found = None;
+        let mut acc = (e > s + 1).then(|| Acc::new((s, e)));
+        let read = self.fold(src, (s, e), |i, x, t, temp| {
+            found = found.or_else(|| at_limit(i, x));
+            if let Some(acc) = &mut acc {
+                first_sums(acc, i, x, time_of(t, i, fs), temp);
+            }
+        });
+        if !read {
+            return None;
+        }
+        if let Some(acc) = &mut acc {
+            let m = mean_of(acc);
+            let add = |acc: &mut Acc, x: &[f64; 3]| {
+                for ((q, x), m) in acc.sq.iter_mut().zip(x).zip(&m) {
+                    *q += (x - m).powi(2);
+                }
+            };
+            if e - s <= WINDOW_READ_ROWS {
+                // The rows read above, still in the buffer.
+                self.cols.xyz.iter().for_each(|x| add(acc, x));
+            } else if !self.fold(src, (s, e), |_, x, _, _| add(acc, x)) {
+                return None;
+            }
+        }
+        Some((found, acc))
+    }
+
     /// `f(i, values, time, temperature)` on each sample `i` of `span`, in order, read from the
     /// spill [`WINDOW_READ_ROWS`] at a time; false when a read failed.
     fn fold(
@@ -638,9 +688,10 @@ mod tests {
     }
 }
 
-/// A streamed file whose rows cannot be written to a temporary file (no such directory, a
-/// disk full from the start or after a few blocks), or whose spill cannot be read back in the
-/// middle of a pass, gives the rows, the windows and the clones of the text parsed again.
+/// A streamed file whose rows are kept in memory, on disk, or moved to disk as they are
+/// written, or cannot be written to a temporary file (no such directory, a disk full from the
+/// start or after a few blocks), or whose spill cannot be read back in the middle of a pass,
+/// gives the rows, the windows and the clones of the text parsed again.
 #[cfg(test)]
 mod spill_tests {
     use crate::input::columns::LoadOptions;
@@ -683,6 +734,7 @@ mod spill_tests {
             on: true,
             dir: None,
             limit: u64::MAX,
+            memory: 0,
         };
         let text = open(&SpillTo {
             on: false,
@@ -692,22 +744,84 @@ mod spill_tests {
         let (want_rows, want_windows) = (rows_of(&text), windows_of(&text));
         assert_eq!(want_rows.len(), out.recording.len());
         let spilled = open(&on);
-        assert!(spilled.is_spilled());
-        let no_dir = SpillTo {
-            dir: Some(dir.path().join("no such directory")),
-            ..on.clone()
-        };
-        let full_at_once = SpillTo {
-            limit: 0,
-            ..on.clone()
-        };
-        let full_later = SpillTo {
-            limit: 20_000,
-            ..on.clone()
-        };
-        for to in [&on, &no_dir, &full_at_once, &full_later] {
+        assert!(spilled.is_spilled() && !spilled.is_spill_in_memory());
+        let no_dir = Some(dir.path().join("no such directory"));
+        // (where, spilled, in memory)
+        let cases = [
+            (on.clone(), true, false),
+            (
+                SpillTo {
+                    memory: u64::MAX,
+                    ..on.clone()
+                },
+                true,
+                true,
+            ),
+            // Moved to disk once past the memory kept.
+            (
+                SpillTo {
+                    memory: 20_000,
+                    ..on.clone()
+                },
+                true,
+                false,
+            ),
+            (
+                SpillTo {
+                    dir: no_dir.clone(),
+                    ..on.clone()
+                },
+                false,
+                false,
+            ),
+            (
+                SpillTo {
+                    dir: no_dir.clone(),
+                    memory: u64::MAX,
+                    ..on.clone()
+                },
+                true,
+                true,
+            ),
+            (
+                SpillTo {
+                    dir: no_dir.clone(),
+                    memory: 20_000,
+                    ..on.clone()
+                },
+                false,
+                false,
+            ),
+            (
+                SpillTo {
+                    limit: 0,
+                    ..on.clone()
+                },
+                false,
+                false,
+            ),
+            (
+                SpillTo {
+                    limit: 20_000,
+                    ..on.clone()
+                },
+                false,
+                false,
+            ),
+            (
+                SpillTo {
+                    limit: 20_000,
+                    memory: u64::MAX,
+                    ..on.clone()
+                },
+                false,
+                false,
+            ),
+        ];
+        for (to, is_spilled, in_memory) in &cases {
             let src = open(to);
-            assert_eq!(src.is_spilled(), to.limit == u64::MAX && to.dir.is_none());
+            assert_eq!(src.is_spilled(), *is_spilled, "{to:?}");
+            assert_eq!(src.is_spill_in_memory(), *in_memory, "{to:?}");
             assert_eq!(rows_of(&src), want_rows, "{to:?}");
             assert_eq!(windows_of(&src), want_windows, "{to:?}");
         }
@@ -723,5 +837,69 @@ mod spill_tests {
         assert!(!spilled.is_spilled());
         assert_eq!(windows_of(&spilled), want_windows);
         spilled.check().unwrap();
+    }
+
+    /// The detector's view read straight to `f32` is every row's values as `f32`, from memory,
+    /// from disk, from the text, and from a spill that fails in the middle of the pass (the
+    /// pass going on from the text at the same row).
+    #[test]
+    fn the_f32_view_is_the_rows_whatever_the_spill() {
+        let out = crate::simulate::simulate(&crate::simulate::SimConfig {
+            seed: 5,
+            poses: 9,
+            ..Default::default()
+        })
+        .unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("r.csv");
+        std::fs::write(&path, crate::simulate::to_csv(&out.recording)).unwrap();
+        let opts = LoadOptions::default();
+        let disk = SpillTo {
+            on: true,
+            dir: None,
+            limit: u64::MAX,
+            memory: 0,
+        };
+        let cases = [
+            (disk.clone(), false),
+            (
+                SpillTo {
+                    memory: u64::MAX,
+                    ..disk.clone()
+                },
+                false,
+            ),
+            (
+                SpillTo {
+                    on: false,
+                    ..disk.clone()
+                },
+                false,
+            ),
+            (disk.clone(), true),
+        ];
+        for (to, fail) in cases {
+            let src = TextSource::open_with(&path, &opts, 4096, &to, |_| true)
+                .unwrap()
+                .unwrap();
+            let want: Vec<[u32; 3]> = rows_of(&src)
+                .iter()
+                .map(|r| r.xyz.map(|v| (v as f32).to_bits()))
+                .collect();
+            assert_eq!(want.len(), out.recording.len());
+            let (mut got, mut pieces) = (Vec::new(), 0);
+            src.each_piece_f32(|v| {
+                got.extend(v.iter().map(|x| x.map(f32::to_bits)));
+                pieces += 1;
+                if fail && pieces == 2 {
+                    src.truncate_spill();
+                }
+                true
+            });
+            src.check().unwrap();
+            assert!(pieces > 2, "{pieces} pieces");
+            assert_eq!(got, want, "{to:?}, failing: {fail}");
+            assert_eq!(src.is_spilled(), to.on && !fail);
+        }
     }
 }

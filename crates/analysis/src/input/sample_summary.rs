@@ -49,22 +49,41 @@ struct Keys {
     len: usize,
 }
 
+/// `v.fract() == 0.0` without the library call `fract` makes on targets without a rounding
+/// instruction (it is asked of every value): below 2⁵² in magnitude a truncation to an
+/// integer and back is exact, at or above it every finite value is whole; NaN and the
+/// infinities are not (their `fract` is NaN).
+fn is_whole(v: f64) -> bool {
+    if v.abs() < (1u64 << 52) as f64 {
+        (v as i64) as f64 == v
+    } else {
+        v.is_finite()
+    }
+}
+
 impl Keys {
-    fn insert(&mut self, bits: u64) {
+    /// The value of `bits` kept; whether it is whole ([`is_whole`]).
+    fn insert(&mut self, bits: u64) -> bool {
         let v = f64::from_bits(bits);
-        if v.fract() == 0.0 && v.abs() < SMALL as f64 && bits != (-0.0f64).to_bits() {
+        // One conversion for the bitmap's test and index (saturating; NaN gives 0).
+        let i = v as i64;
+        let small = v.abs() < SMALL as f64 && i as f64 == v;
+        if small && bits != (-0.0f64).to_bits() {
             if self.small.is_empty() {
                 self.small = vec![0; (2 * SMALL / 64) as usize];
             }
-            let i = (v as i64 + SMALL) as usize;
+            let i = (i + SMALL) as usize;
             let (word, bit) = (&mut self.small[i / 64], 1u64 << (i % 64));
             if *word & bit == 0 {
                 *word |= bit;
                 self.len += 1;
             }
-        } else if self.others.insert(bits) {
+            return true;
+        }
+        if self.others.insert(bits) {
             self.len += 1;
         }
+        small || is_whole(v)
     }
 
     /// Every key as its value.
@@ -149,7 +168,6 @@ impl SummaryFold {
         s.count += xyz.len();
         for x in xyz {
             for &v in x {
-                s.integer &= v.fract() == 0.0;
                 s.lo = s.lo.min(v);
                 s.hi = s.hi.max(v);
                 s.largest = s.largest.max(v.abs());
@@ -157,13 +175,16 @@ impl SummaryFold {
             }
         }
         if let Some(sets) = &mut self.sets {
+            // Whether each value is whole is asked as it is kept: a value skipped repeats the
+            // bits of the one before it (or is `last`'s first pattern, a NaN, which `finite`
+            // holds: `finish` takes both).
             let mut full = false;
             for x in xyz {
                 for a in 0..3 {
                     let bits = x[a].to_bits();
                     if bits != self.last[a] {
                         self.last[a] = bits;
-                        sets[a].insert(bits);
+                        s.integer &= sets[a].insert(bits);
                     }
                 }
             }
@@ -174,6 +195,8 @@ impl SummaryFold {
             if full {
                 self.sets = None;
             }
+        } else if s.integer {
+            s.integer = xyz.iter().flatten().all(|&v| is_whole(v));
         }
         if let (Some(&a), Some(&b)) = (t.first(), t.last()) {
             s.t_first.get_or_insert(a);
@@ -185,6 +208,8 @@ impl SummaryFold {
     /// The summary of every row pushed.
     pub fn finish(self) -> SampleSummary {
         let mut sum = self.sum;
+        // A value that is not finite is not whole (see `push`).
+        sum.integer &= sum.finite;
         sum.distinct = self.sets.map(|sets| {
             sets.map(|set| {
                 let mut v = set.values();
@@ -223,11 +248,69 @@ mod tests {
             7.0,
         ];
         let mut keys = Keys::default();
-        values.iter().for_each(|v| keys.insert(v.to_bits()));
+        for v in values {
+            assert_eq!(keys.insert(v.to_bits()), v.fract() == 0.0, "{v}");
+        }
         let want: HashSet<u64> = values.iter().map(|v| v.to_bits()).collect();
         assert_eq!(keys.len, want.len());
         let got: HashSet<u64> = keys.values().iter().map(|v| v.to_bits()).collect();
         assert_eq!(got, want);
+    }
+
+    /// The test for whole numbers is `fract`'s, at the edges of exactness too.
+    #[test]
+    fn whole_is_a_zero_fraction() {
+        let p52 = (1u64 << 52) as f64;
+        let mut values = vec![
+            0.0,
+            -0.0,
+            0.5,
+            -0.5,
+            1e-300,
+            -3.0,
+            f64::NAN,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::MAX,
+            f64::MIN,
+            9.2e18,
+            -9.3e18,
+        ];
+        for base in [p52, -p52, p52 / 2.0, 1.0, (1u64 << 53) as f64] {
+            values.extend((0..4).map(|k| f64::from_bits(base.to_bits() + k)));
+            values.extend((1..4).map(|k| f64::from_bits(base.to_bits() - k)));
+        }
+        for v in values {
+            assert_eq!(is_whole(v), v.fract() == 0.0, "{v:e}");
+        }
+    }
+
+    /// Whether every value is whole is `fract`'s verdict on each, whatever the repeats, the
+    /// signed zeros, a NaN whose bits are all ones (the pattern no value is taken to repeat
+    /// at the start), and the distinct values outgrowing their sets.
+    #[test]
+    fn integer_is_every_values_fract() {
+        let all_ones = f64::from_bits(u64::MAX);
+        let many: Vec<[f64; 3]> = (0..(MAX_DISTINCT + 3))
+            .map(|i| [i as f64, 1.0, 2.0])
+            .collect();
+        let cases: Vec<Vec<[f64; 3]>> = vec![
+            vec![[1.0, 2.0, 3.0]; 3],
+            vec![[all_ones, 2.0, 3.0], [all_ones, 2.0, 3.0]],
+            vec![[-0.0, 0.0, 5e15], [-0.0, 0.0, 5e15]],
+            vec![[1.0, 2.0, 3.0], [1.0, 2.5, 3.0]],
+            vec![[1.0, 2.0, 3.0], [1.0, f64::INFINITY, 3.0]],
+            [many.clone(), vec![[0.5, 1.0, 2.0]]].concat(),
+            [many, vec![[7.0, 1.0, 2.0]]].concat(),
+        ];
+        for rows in &cases {
+            let want = rows.iter().flatten().all(|v| v.fract() == 0.0);
+            for split in [1, 2, rows.len()] {
+                let mut f = SummaryFold::new();
+                rows.chunks(split).for_each(|c| f.push(c, &[], &[]));
+                assert_eq!(f.finish().integer, want, "{:?}", &rows[..2]);
+            }
+        }
     }
 
     /// Pushed in any split, the summary is the whole recording's folds.

@@ -11,11 +11,12 @@
 //! A file whose size or modification time differs from the first pass's, or whose pieces no
 //! longer parse, stops the pass; [`TextSource::check`] then says so in one sentence.
 //!
-//! The first pass also writes the rows it parsed to a temporary file
-//! (`input::text_spill`), and every later pass reads them back from there instead
+//! The first pass also keeps the rows it parsed (`input::text_spill`: in memory when they
+//! fit, else in a temporary file), and every later pass reads them back from there instead
 //! of parsing the text again: the same values bit for bit, at the cost of a copy instead of a
 //! parse. Without it (no temporary directory, a full disk, or [`SPILL_VAR`] set to `0`) the
-//! passes re-read the text as described above.
+//! passes re-read the text as described above. The first pass parses each piece while the
+//! one before is folded and written, on threads of their own.
 
 use crate::error::input::InputError;
 use crate::error::{Error, Result};
@@ -28,7 +29,7 @@ use crate::input::text_file::{first_piece_head, plain_piece, Pieces, PIECE_BYTES
 pub(crate) use crate::input::text_rows::Columns;
 use crate::input::text_rows::RowLayout;
 pub(crate) use crate::input::text_spill::Want;
-use crate::input::text_spill::{Spill, SpillWriter};
+use crate::input::text_spill::{Spill, SpillWriter, MEMORY_SPILL_BYTES};
 use crate::input::timecheck::{time_notes_given, StepTally, TimeSteps};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -85,8 +86,8 @@ pub struct TextSource {
 }
 
 /// Environment variable that, set to `0`, has the later passes re-read and re-parse the text
-/// rather than the rows the first pass wrote to a temporary file (for benchmarks that compare
-/// the two).
+/// rather than the rows the first pass kept, and set to `disk`, has those rows kept in the
+/// temporary file whatever their size (for benchmarks that compare the three).
 pub const SPILL_VAR: &str = "WIICAL_SPILL";
 
 /// Where the first pass writes its rows ([`crate::input::text_spill`]).
@@ -98,21 +99,28 @@ pub(crate) struct SpillTo {
     pub dir: Option<PathBuf>,
     /// Most bytes written (past it the spill is dropped, as on a full disk).
     pub limit: u64,
+    /// Most bytes kept in memory (past them, or when the file's size says they will pass
+    /// them, the rows go to the temporary directory).
+    pub memory: u64,
 }
 
 impl SpillTo {
-    /// The system's temporary directory, unless [`SPILL_VAR`] is `0`.
+    /// In memory up to [`MEMORY_SPILL_BYTES`], else the system's temporary directory; unless
+    /// [`SPILL_VAR`] is `0` (no spill) or `disk` (none in memory).
     fn from_env() -> Self {
+        let var = std::env::var_os(SPILL_VAR);
+        let disk = var.as_ref().is_some_and(|v| v == "disk");
         Self {
-            on: std::env::var_os(SPILL_VAR).is_none_or(|v| v != "0"),
+            on: var.is_none_or(|v| v != "0"),
             dir: None,
             limit: u64::MAX,
+            memory: if disk { 0 } else { MEMORY_SPILL_BYTES },
         }
     }
 
     fn writer(&self) -> Option<SpillWriter> {
         self.on
-            .then(|| SpillWriter::create(self.dir.as_deref(), self.limit))
+            .then(|| SpillWriter::create(self.dir.as_deref(), self.limit, self.memory))
             .flatten()
     }
 }
@@ -169,7 +177,7 @@ impl TextSource {
             Err(e) => return rest_is_plain(&mut pieces).then_some(Err(e)).transpose(),
         };
         let mut writer = spill_to.writer();
-        let (fold, tally, skipped) = match first_pass(&mut pieces, &head, &mut writer) {
+        let (fold, tally, skipped) = match first_pass(&mut pieces, &head, &mut writer, stamp.0) {
             Ok(Some(x)) => x,
             Ok(None) => return Ok(None),
             Err(e) => return rest_is_plain(&mut pieces).then_some(Err(e)).transpose(),
@@ -215,10 +223,15 @@ impl TextSource {
         self.spool = Some(file);
     }
 
-    /// Whether the later passes read the first pass's rows back from a temporary file (else
-    /// they parse the text again).
+    /// Whether the later passes read the first pass's rows back, from memory or a temporary
+    /// file (else they parse the text again).
     pub fn is_spilled(&self) -> bool {
         self.spill.is_some() && !self.spill_failed.load(Ordering::Relaxed)
+    }
+
+    /// Whether the first pass's rows are kept in memory (else on disk, or not at all).
+    pub fn is_spill_in_memory(&self) -> bool {
+        self.is_spilled() && self.spill.as_ref().is_some_and(Spill::in_memory)
     }
 
     /// Drops the first pass's rows: every later pass parses the text again (the same values:
@@ -282,9 +295,14 @@ impl TextSource {
     /// [`TextSource::check`] after it says so.
     /// Read from the spill, the rows hold the columns `want` asks for (and the axes); from
     /// the text, all of them.
-    pub(crate) fn each_piece(&self, want: Want, mut f: impl FnMut(&Columns) -> bool) {
+    pub(crate) fn each_piece(&self, want: Want, f: impl FnMut(&Columns) -> bool) {
         let mut rows = self.rows();
         rows.want = want;
+        self.pieces_from(rows, f);
+    }
+
+    /// [`TextSource::each_piece`] from the row `rows` is at.
+    fn pieces_from(&self, mut rows: Rows<'_>, mut f: impl FnMut(&Columns) -> bool) {
         loop {
             match rows.next_piece() {
                 Ok(true) => {}
@@ -310,6 +328,44 @@ impl TextSource {
         if rows.consumed != self.summary.count {
             self.fail(InputError::ChangedWhileRead.into());
         }
+    }
+
+    /// A pass over every sample's axes as `f32` (`v as f32`: the detector's view of values on
+    /// no lattice), a piece (or a block of the spill, read straight to `f32`) at a time, as
+    /// [`TextSource::each_piece`]: `f` may stop it by returning `false`; a spill that cannot
+    /// be read back ends its use, the pass going on from the text at the same row.
+    pub(crate) fn each_piece_f32(&self, mut f: impl FnMut(&[[f32; 3]]) -> bool) {
+        let mut view = Vec::new();
+        let mut consumed = 0;
+        if let Some(spill) = self.spill.as_ref().filter(|_| self.is_spilled()) {
+            if !self.unchanged() {
+                return self.fail(InputError::ChangedWhileRead.into());
+            }
+            let mut scratch = Vec::new();
+            for (from, to) in spill.block_rows() {
+                if spill.read_f32(from, to, &mut view, &mut scratch).is_err() {
+                    self.spill_failed.store(true, Ordering::Relaxed);
+                    break;
+                }
+                consumed = to;
+                if !f(&view) {
+                    return;
+                }
+            }
+            if self.is_spilled() {
+                if consumed != self.summary.count {
+                    self.fail(InputError::ChangedWhileRead.into());
+                }
+                return;
+            }
+        }
+        let mut rows = self.rows();
+        (rows.want, rows.skip, rows.consumed) = (Want::AXES, consumed, consumed);
+        self.pieces_from(rows, |cols| {
+            view.clear();
+            view.extend(cols.xyz.iter().map(|x| x.map(|v| v as f32)));
+            f(&view)
+        });
     }
 
     /// Whether the file is still the one of the first pass (its size and modification time).
@@ -430,48 +486,125 @@ fn read_head(
 type Folds = (SummaryFold, StepTally, usize);
 
 /// Every piece's rows (the first piece's after the header) folded, written to `spill` (which
-/// is dropped when a write fails) and dropped.
+/// is dropped when a write fails, and moved to disk when the file's `file_bytes` say its rows
+/// will not fit in memory) and dropped. The pieces are parsed (on the pool's cores) while the
+/// piece before is folded into the summary on a thread of its own and tallied and written on
+/// another: the same folds in the same order as one piece after another.
 fn first_pass(
     pieces: &mut Pieces,
     head: &Head,
     spill: &mut Option<SpillWriter>,
+    file_bytes: u64,
 ) -> Result<Option<Folds>> {
-    let (mut fold, mut tally, mut skipped) = (SummaryFold::new(), StepTally::new(), 0usize);
+    use std::sync::{mpsc::sync_channel, Arc};
+    std::thread::scope(|s| {
+        // Each thread takes a piece when done with the one before (no piece waits in a queue):
+        // at most three pieces' rows held.
+        let (to_fold, fold_rx) = sync_channel::<Arc<Columns>>(0);
+        let (to_write, write_rx) = sync_channel::<(Arc<Columns>, u64)>(0);
+        let folder = s.spawn(move || {
+            let mut fold = SummaryFold::new();
+            fold_rx
+                .into_iter()
+                .for_each(|c| fold.push(&c.xyz, &c.t, &c.temp));
+            fold
+        });
+        let writer = s.spawn(move || write_pieces(write_rx, spill, file_bytes));
+        let parsed = parse_pieces(pieces, head, |cols, done| {
+            let cols = Arc::new(cols);
+            to_fold.send(Arc::clone(&cols)).is_ok() && to_write.send((cols, done)).is_ok()
+        });
+        drop((to_fold, to_write));
+        let fold = joined(folder);
+        let (tally, skipped) = joined(writer);
+        Ok(parsed?.then_some((fold, tally, skipped)))
+    })
+}
+
+/// What the thread `h` returned (its panic resumed).
+fn joined<T>(h: std::thread::ScopedJoinHandle<'_, T>) -> T {
+    h.join()
+        .unwrap_or_else(|panic| std::panic::resume_unwind(panic))
+}
+
+/// The rows of every piece handed to `give` in order with the text bytes read up to their end
+/// (`give` returns false to stop); `Ok(false)` when a piece is not plain text.
+fn parse_pieces(
+    pieces: &mut Pieces,
+    head: &Head,
+    mut give: impl FnMut(Columns, u64) -> bool,
+) -> Result<bool> {
     let mut line = head.data_line;
     let mut prev: Option<f64> = None;
     let mut first = true;
+    let mut done = 0u64;
     loop {
         let text = if std::mem::take(&mut first) {
             // The first piece again, from its data rows (its head was read above).
             let cur = pieces.current();
+            done += cur.len() as u64;
             let cur = cur.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(cur);
             match plain_piece(cur).and_then(|t| t.get(head.data_offset..)) {
                 Some(t) => t,
-                None => return Ok(None),
+                None => return Ok(false),
             }
         } else {
             match pieces.next_piece() {
-                Ok(Some(p)) => match plain_piece(p) {
-                    Some(t) => t,
-                    None => return Ok(None),
-                },
+                Ok(Some(p)) => {
+                    done += p.len() as u64;
+                    match plain_piece(p) {
+                        Some(t) => t,
+                        None => return Ok(false),
+                    }
+                }
                 Ok(None) => break,
-                Err(()) => return Ok(None),
+                Err(()) => return Ok(false),
             }
         };
         let cols = head
             .layout
             .read_plain_after(text, line, head.delim.byte(), prev)?;
         line += memchr::memchr_iter(b'\n', text.as_bytes()).count();
-        fold.push(&cols.xyz, &cols.t, &cols.temp);
-        cols.t.iter().for_each(|&t| tally.push(t));
         prev = cols.t.last().copied().or(prev);
+        if !give(cols, done) {
+            break;
+        }
+    }
+    Ok(true)
+}
+
+/// The pieces' rows from `rx` tallied (their time steps and skipped rows) and written to
+/// `spill` (see [`first_pass`]), until the sender is dropped; `done` with each piece: the bytes
+/// of text up to its end.
+fn write_pieces(
+    rx: std::sync::mpsc::Receiver<(std::sync::Arc<Columns>, u64)>,
+    spill: &mut Option<SpillWriter>,
+    file_bytes: u64,
+) -> (StepTally, usize) {
+    let (mut tally, mut skipped) = (StepTally::new(), 0usize);
+    for (cols, done) in rx {
+        tally.push_all(&cols.t);
         skipped += cols.skipped;
-        if spill.as_mut().is_some_and(|w| w.push(&cols).is_err()) {
+        let written = spill.as_mut().is_some_and(|w| {
+            w.push(&cols).is_ok()
+                && (!w.in_memory()
+                    || fits_in_memory(w.bytes(), done, file_bytes, w.memory())
+                    || w.move_to_disk().is_ok())
+        });
+        if !written {
             *spill = None;
         }
     }
-    Ok(Some((fold, tally, skipped)))
+    (tally, skipped)
+}
+
+/// Whether a spill of `written` bytes for `done` bytes of the file's `file_bytes` will fit in
+/// `memory` bytes at that rate (else it goes to disk now, before memory grows past what it
+/// will hold: a file too large for memory never takes it). A gzip file's size is its
+/// compressed size: its spill then goes to disk once past `memory`, when written.
+fn fits_in_memory(written: u64, done: u64, file_bytes: u64, memory: u64) -> bool {
+    let projected = u128::from(written) * u128::from(file_bytes) / u128::from(done.max(1));
+    projected <= u128::from(memory)
 }
 
 /// True when the rest of the file is plain text (an error found in the rows is reported
@@ -725,9 +858,34 @@ mod tests {
         z.finish().unwrap()
     }
 
+    /// The summary and time steps of a recording held whole: its rows folded at once, its
+    /// time column's steps as the whole-text path takes them.
+    fn summary_of(r: &Recording) -> (String, Option<TimeSteps>) {
+        let mut fold = SummaryFold::new();
+        let (t, temp) = (
+            r.t.clone().unwrap_or_default(),
+            r.temp.clone().unwrap_or_default(),
+        );
+        fold.push(&r.xyz, &t, &temp);
+        let steps = r.t.as_ref().and_then(|t| TimeSteps::of(t));
+        (format!("{:?}", fold.finish()), steps)
+    }
+
+    /// A file's rows in memory when the first pieces' rate says they fit, else on disk.
+    #[test]
+    fn the_spill_is_kept_in_memory_when_its_projection_fits() {
+        // 10 bytes of rows for 100 of a 1000-byte file: 100 bytes in all.
+        assert!(fits_in_memory(10, 100, 1000, 100));
+        assert!(!fits_in_memory(10, 100, 1000, 99));
+        assert!(fits_in_memory(0, 0, 1000, 0));
+        assert!(!fits_in_memory(u64::MAX, 1, u64::MAX, u64::MAX));
+    }
+
     /// Every text, plain or gzip'd, read in pieces of every size, gives in each pass what the
-    /// whole-text parse gives: the rows bit for bit, the notes, the summary's count — or the same sentence, or
-    /// is handed back to be read whole; a clone taken mid-pass goes on from the same row.
+    /// whole-text parse gives: the rows bit for bit, the notes, the summary (its pieces folded
+    /// while the next is parsed: the folds of the whole recording at once) and the time steps
+    /// — or the same sentence, or is handed back to be read whole; a clone taken mid-pass goes
+    /// on from the same row.
     #[test]
     fn passes_read_as_the_whole_text() {
         let mut rows = String::from("Fs,100\nt,x,y,z,temp\n");
@@ -770,6 +928,7 @@ mod tests {
             .concat();
             std::fs::write(&gz_path, gz).unwrap();
             let whole = crate::input::text::parse(text.trim_start_matches('\u{feff}'), &opts);
+            let summary = whole.as_ref().ok().map(summary_of);
             let whole = whole.map(|r| {
                 let t = r.t.clone().unwrap_or_default();
                 let temp = r.temp.clone().unwrap_or_default();
@@ -794,6 +953,8 @@ mod tests {
                         let rest: Vec<Row> = it.clone().collect();
                         assert_eq!([head, rest].concat(), rows);
                         src.check().unwrap();
+                        let got = (format!("{:?}", src.summary), src.steps);
+                        assert_eq!(Some(got), summary, "{text:?} in pieces of {size}");
                         Ok(format!("{rows:?} {:?} {}", src.meta.notes, src.len()))
                     }
                     Err(e) => Err(e.to_string()),
