@@ -16,8 +16,8 @@
 
 use crate::detect::windows::{
     adaptive_intervals, adaptive_rate, adc_range_of, axis_lattice, batch_spread, detector_scale,
-    fixed_intervals, magnitude, to_levels, variance_of, DetectOptions, PairResult, Passes,
-    WindowStats, Windows, BATCHES, MAX_WINDOW,
+    fixed_intervals, magnitude, saturated_at, to_levels, variance_of, DetectOptions, PairResult,
+    Passes, WindowStats, Windows, BATCHES, MAX_WINDOW,
 };
 use crate::error::detect::DetectError;
 use crate::error::Result;
@@ -409,26 +409,6 @@ fn window_stats(
         .iter()
         .map(|a| finish(a, t0, integer, has_temp))
         .collect())
-}
-
-/// Window `k` of `intervals` refused for its sample `i` (from 0) whose axis `a` reads
-/// `value`, at an ADC limit.
-fn saturated_at(
-    intervals: &[StaticInterval],
-    k: usize,
-    i: usize,
-    a: usize,
-    value: f64,
-) -> DetectError {
-    let iv = &intervals[k];
-    DetectError::Saturated {
-        window: k + 1,
-        start: iv.start,
-        end: iv.end,
-        axis: ["x", "y", "z"][a],
-        value,
-        sample: i + 1,
-    }
 }
 
 /// A window's samples: the first and one past the last.

@@ -772,18 +772,31 @@ pub fn check_saturation(
     let found = intervals
         .par_iter()
         .enumerate()
-        .filter_map(|(k, iv)| saturated_sample(rec, iv, range).map(|s| (k, iv, s)))
+        .filter_map(|(k, iv)| saturated_sample(rec, iv, range).map(|s| (k, s)))
         .find_first(|_| true);
     match found {
         None => Ok(()),
-        Some((k, iv, (i, a, value))) => Err(DetectError::Saturated {
-            window: k + 1,
-            start: iv.start,
-            end: iv.end,
-            axis: ["x", "y", "z"][a],
-            value,
-            sample: i + 1,
-        }),
+        Some((k, (i, a, value))) => Err(saturated_at(intervals, k, i, a, value)),
+    }
+}
+
+/// Window `k` of `intervals` refused for its sample `i` (from 0) whose axis `a` reads
+/// `value`, at an ADC limit.
+pub(crate) fn saturated_at(
+    intervals: &[StaticInterval],
+    k: usize,
+    i: usize,
+    a: usize,
+    value: f64,
+) -> DetectError {
+    let iv = &intervals[k];
+    DetectError::Saturated {
+        window: k + 1,
+        start: iv.start,
+        end: iv.end,
+        axis: ["x", "y", "z"][a],
+        value,
+        sample: i + 1,
     }
 }
 
