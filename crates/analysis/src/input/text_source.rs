@@ -177,11 +177,12 @@ impl TextSource {
             Err(e) => return rest_is_plain(&mut pieces).then_some(Err(e)).transpose(),
         };
         let mut writer = spill_to.writer();
-        let (fold, tally, skipped) = match first_pass(&mut pieces, &head, &mut writer, stamp.0) {
-            Ok(Some(x)) => x,
-            Ok(None) => return Ok(None),
-            Err(e) => return rest_is_plain(&mut pieces).then_some(Err(e)).transpose(),
-        };
+        let (fold, tally, skipped) =
+            match first_pass(&mut pieces, (&head, path), &mut writer, stamp.0) {
+                Ok(Some(x)) => x,
+                Ok(None) => return Ok(None),
+                Err(e) => return rest_is_plain(&mut pieces).then_some(Err(e)).transpose(),
+            };
         let summary = fold.finish();
         if summary.count == 0 {
             return Err(InputError::HeaderOnly.into());
@@ -489,27 +490,40 @@ type Folds = (SummaryFold, StepTally, usize);
 /// is dropped when a write fails, and moved to disk when the file's `file_bytes` say its rows
 /// will not fit in memory) and dropped. The pieces are parsed (on the pool's cores) while the
 /// piece before is folded into the summary on a thread of its own and tallied and written on
-/// another: the same folds in the same order as one piece after another.
+/// another: the same folds in the same order as one piece after another. A thread the system
+/// cannot start is an error reading `path` (as for a pass's parse-ahead thread), not a panic.
 fn first_pass(
     pieces: &mut Pieces,
-    head: &Head,
+    (head, path): (&Head, &Path),
     spill: &mut Option<SpillWriter>,
     file_bytes: u64,
 ) -> Result<Option<Folds>> {
     use std::sync::{mpsc::sync_channel, Arc};
+    let thread = |name: &str| std::thread::Builder::new().name(format!("wiical-{name}"));
+    let not_started = |source| {
+        Error::from(InputError::Read {
+            path: path.into(),
+            source,
+        })
+    };
     std::thread::scope(|s| {
         // Each thread takes a piece when done with the one before (no piece waits in a queue):
         // at most three pieces' rows held.
         let (to_fold, fold_rx) = sync_channel::<Arc<Columns>>(0);
         let (to_write, write_rx) = sync_channel::<(Arc<Columns>, u64)>(0);
-        let folder = s.spawn(move || {
-            let mut fold = SummaryFold::new();
-            fold_rx
-                .into_iter()
-                .for_each(|c| fold.push(&c.xyz, &c.t, &c.temp));
-            fold
-        });
-        let writer = s.spawn(move || write_pieces(write_rx, spill, file_bytes));
+        // On an early return the senders are dropped: a thread already started ends.
+        let folder = thread("summary")
+            .spawn_scoped(s, move || {
+                let mut fold = SummaryFold::new();
+                fold_rx
+                    .into_iter()
+                    .for_each(|c| fold.push(&c.xyz, &c.t, &c.temp));
+                fold
+            })
+            .map_err(not_started)?;
+        let writer = thread("spill")
+            .spawn_scoped(s, move || write_pieces(write_rx, spill, file_bytes))
+            .map_err(not_started)?;
         let parsed = parse_pieces(pieces, head, |cols, done| {
             let cols = Arc::new(cols);
             to_fold.send(Arc::clone(&cols)).is_ok() && to_write.send((cols, done)).is_ok()
