@@ -302,20 +302,11 @@ impl Spill {
         cols.xyz.clear();
         cols.t.clear();
         cols.temp.clear();
-        let mut k = self
-            .blocks
-            .partition_point(|b| b.first_row + b.rows <= from);
-        let mut row = from;
-        while row < to {
-            let Some(b) = self.blocks.get(k) else {
-                return Err(std::io::ErrorKind::UnexpectedEof.into());
-            };
-            let (r0, r1) = (row - b.first_row, (to - b.first_row).min(b.rows));
-            let b = &(k, b);
+        self.each_span(from, to, |b, rows| {
             let start = cols.xyz.len();
-            cols.xyz.resize(start + (r1 - r0), [0.0; 3]);
+            cols.xyz.resize(start + rows.len(), [0.0; 3]);
             for a in 0..3 {
-                let bytes = self.column(b, a + 1, r0..r1, scratch)?;
+                let bytes = self.column(b, a + 1, rows.clone(), scratch)?;
                 let dst = cols.xyz[start..].iter_mut();
                 match b.1.widths[a + 1] {
                     Width::F32 => dst
@@ -328,17 +319,15 @@ impl Spill {
             }
             for (c, on, out) in [(0, want.t, &mut cols.t), (4, want.temp, &mut cols.temp)] {
                 if on && b.1.widths[c] != Width::Absent {
-                    let bytes = self.column(b, c, r0..r1, scratch)?;
+                    let bytes = self.column(b, c, rows.clone(), scratch)?;
                     match b.1.widths[c] {
                         Width::F32 => out.extend(bytes.chunks_exact(4).map(f32_of)),
                         _ => out.extend(bytes.chunks_exact(8).map(f64_of)),
                     }
                 }
             }
-            row += r1 - r0;
-            k += 1;
-        }
-        Ok(())
+            Ok(())
+        })
     }
 
     /// The axes of rows `from..to` (`to` at most [`Spill::len`]) as `f32` (`v as f32` of each
@@ -352,6 +341,34 @@ impl Spill {
         scratch: &mut Vec<u8>,
     ) -> std::io::Result<()> {
         out.clear();
+        self.each_span(from, to, |b, rows| {
+            let start = out.len();
+            out.resize(start + rows.len(), [0.0; 3]);
+            for a in 0..3 {
+                let bytes = self.column(b, a + 1, rows.clone(), scratch)?;
+                let dst = out[start..].iter_mut();
+                match b.1.widths[a + 1] {
+                    Width::F32 => dst
+                        .zip(bytes.chunks_exact(4))
+                        .for_each(|(x, c)| x[a] = f32_of(c) as f32),
+                    _ => dst
+                        .zip(bytes.chunks_exact(8))
+                        .for_each(|(x, c)| x[a] = f64_of(c) as f32),
+                }
+            }
+            Ok(())
+        })
+    }
+
+    /// Each block holding some of rows `from..to` (its index and itself), in order, with the
+    /// range of its own rows among them: the walk [`Spill::read_rows`] and
+    /// [`Spill::read_f32`] share. Rows past the blocks written are an unexpected end.
+    fn each_span(
+        &self,
+        from: usize,
+        to: usize,
+        mut f: impl FnMut(&(usize, &Block), std::ops::Range<usize>) -> std::io::Result<()>,
+    ) -> std::io::Result<()> {
         let mut k = self
             .blocks
             .partition_point(|b| b.first_row + b.rows <= from);
@@ -361,20 +378,7 @@ impl Spill {
                 return Err(std::io::ErrorKind::UnexpectedEof.into());
             };
             let (r0, r1) = (row - b.first_row, (to - b.first_row).min(b.rows));
-            let start = out.len();
-            out.resize(start + (r1 - r0), [0.0; 3]);
-            for a in 0..3 {
-                let bytes = self.column(&(k, b), a + 1, r0..r1, scratch)?;
-                let dst = out[start..].iter_mut();
-                match b.widths[a + 1] {
-                    Width::F32 => dst
-                        .zip(bytes.chunks_exact(4))
-                        .for_each(|(x, c)| x[a] = f32_of(c) as f32),
-                    _ => dst
-                        .zip(bytes.chunks_exact(8))
-                        .for_each(|(x, c)| x[a] = f64_of(c) as f32),
-                }
-            }
+            f(&(k, b), r0..r1)?;
             row += r1 - r0;
             k += 1;
         }
