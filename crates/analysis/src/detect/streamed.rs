@@ -677,6 +677,18 @@ mod spill_tests {
     use crate::input::columns::LoadOptions;
     use crate::input::text_source::{Row, SpillTo, TextSource};
 
+    /// A simulated recording of `cfg` written as CSV into a temporary directory (kept alive by
+    /// the first value): the directory, the file, its rows.
+    fn simulated_csv(
+        cfg: crate::simulate::SimConfig,
+    ) -> (tempfile::TempDir, std::path::PathBuf, usize) {
+        let out = crate::simulate::simulate(&cfg).unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("r.csv");
+        std::fs::write(&path, crate::simulate::to_csv(&out.recording)).unwrap();
+        (dir, path, out.recording.len())
+    }
+
     fn rows_of(src: &TextSource) -> Vec<Row> {
         let rows: Vec<Row> = src.rows().collect();
         src.check().unwrap();
@@ -694,16 +706,12 @@ mod spill_tests {
 
     #[test]
     fn without_the_spill_the_text_is_read_again_alike() {
-        let out = crate::simulate::simulate(&crate::simulate::SimConfig {
+        let (dir, path, rows) = simulated_csv(crate::simulate::SimConfig {
             seed: 3,
             poses: 12,
             temp_column: true,
             ..Default::default()
-        })
-        .unwrap();
-        let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("r.csv");
-        std::fs::write(&path, crate::simulate::to_csv(&out.recording)).unwrap();
+        });
         let opts = LoadOptions::default();
         let open = |to: &SpillTo| {
             TextSource::open_with(&path, &opts, 4096, to, |_| true)
@@ -722,7 +730,7 @@ mod spill_tests {
         });
         assert!(!text.is_spilled());
         let (want_rows, want_windows) = (rows_of(&text), windows_of(&text));
-        assert_eq!(want_rows.len(), out.recording.len());
+        assert_eq!(want_rows.len(), rows);
         let spilled = open(&on);
         assert!(spilled.is_spilled() && !spilled.is_spill_in_memory());
         let no_dir = Some(dir.path().join("no such directory"));
@@ -824,15 +832,11 @@ mod spill_tests {
     /// pass going on from the text at the same row).
     #[test]
     fn the_f32_view_is_the_rows_whatever_the_spill() {
-        let out = crate::simulate::simulate(&crate::simulate::SimConfig {
+        let (_dir, path, rows) = simulated_csv(crate::simulate::SimConfig {
             seed: 5,
             poses: 9,
             ..Default::default()
-        })
-        .unwrap();
-        let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("r.csv");
-        std::fs::write(&path, crate::simulate::to_csv(&out.recording)).unwrap();
+        });
         let opts = LoadOptions::default();
         let disk = SpillTo {
             on: true,
@@ -866,7 +870,7 @@ mod spill_tests {
                 .iter()
                 .map(|r| r.xyz.map(|v| (v as f32).to_bits()))
                 .collect();
-            assert_eq!(want.len(), out.recording.len());
+            assert_eq!(want.len(), rows);
             let (mut got, mut pieces) = (Vec::new(), 0);
             src.each_piece_f32(|v| {
                 got.extend(v.iter().map(|x| x.map(f32::to_bits)));
