@@ -240,3 +240,54 @@ fn the_rows_read_back_give_the_windows_of_the_text_read_again() {
         }
     }
 }
+
+/// A recording in g (values on a lattice of 1/counts-per-g) whose first rows all read whole
+/// numbers (resting at exactly 0, 0, 1 g): the first pass keeps no distinct values while they
+/// are all whole, so the lattice is found in a pass of its own, and the windows and reports
+/// are the held file's.
+#[test]
+fn a_lattice_after_whole_first_rows_is_found_and_gives_the_held_reports() {
+    use wiical_analysis::input::front_door::load_input_in;
+    use wiical_analysis::input::sample_summary::Distinct;
+    let dir = tempfile::tempdir().unwrap();
+    let (_, out) = sim_csv(dir.path(), "ms2.csv", false);
+    let rec = &out.recording;
+    let per_g = Device::Mems16.counts_per_g();
+    let per_count = Device::Mems16.unit_per_count();
+    let mut g = String::from("t,x,y,z,temp\n");
+    let times = rec.times(100.0);
+    for i in 0..3000 {
+        g += &format!("{:.5},0,0,1,25.00\n", i as f64 * 0.01);
+    }
+    for (i, m) in rec.xyz.iter().enumerate() {
+        let [x, y, z] = m.map(|v| (v / per_count).round() / per_g);
+        let temp = rec.temp.as_ref().unwrap()[i];
+        g += &format!("{:.5},{x},{y},{z},{temp:.2}\n", times[i] + 30.0);
+    }
+    let path = dir.path().join("g_whole_first.csv");
+    std::fs::write(&path, g).unwrap();
+    let opts = WindowInputOptions::default();
+    let streamed = load_input_in(&path, &opts, 0, 16 << 10).unwrap();
+    let Input::Stream(src) = &streamed else {
+        panic!("not streamed")
+    };
+    assert!(!src.summary.integer);
+    assert_eq!(src.summary.distinct, Distinct::NotKept);
+    let held = load_input_from(&path, &opts, u64::MAX).unwrap();
+    let mut fixed = AnalyzeOptions::default();
+    fixed.fit.detect.adaptive = false;
+    for analyze in [AnalyzeOptions::default(), fixed] {
+        // The same report, or the same refusal (the fixed detector's rest period is the
+        // constant first rows: too few windows either way).
+        let fit = |input| outcome(fit_judged(input, &analyze.fit));
+        assert_eq!(fit(&streamed), fit(&held));
+        let rep = |input| outcome(analyze_judged(input, &analyze));
+        assert_eq!(rep(&streamed), rep(&held));
+    }
+    assert!(fit_judged(&streamed, &FitOptions::default()).is_ok());
+}
+
+/// A report as its JSON text, or the error's sentence.
+fn outcome<T: serde::Serialize>(r: wiical_analysis::error::Result<T>) -> String {
+    r.map_or_else(|e| e.to_string(), |v| json(&v))
+}

@@ -16,12 +16,13 @@
 
 use crate::detect::windows::{
     adaptive_intervals, adaptive_rate, adc_range_of, axis_lattice, batch_spread, detector_scale,
-    fixed_intervals, magnitude, saturated_at, to_levels, variance_of, DetectOptions, PairResult,
-    Passes, WindowStats, Windows, BATCHES, MAX_WINDOW,
+    fixed_intervals, magnitude, run_pair_held, saturated_at, survey_held, to_levels, variance_of,
+    DetectOptions, PairResult, Passes, WindowStats, Windows, BATCHES, MAX_WINDOW,
 };
 use crate::error::detect::DetectError;
 use crate::error::Result;
 use crate::input::recording::infer_units;
+use crate::input::sample_summary::{Distinct, SummaryFold};
 use crate::input::text_source::{Columns, Rows, TextSource, Want};
 use crate::stats as st;
 use wiical_core::static_detect::adaptive::{self, AdaptiveThresholds, NoiseSurvey};
@@ -142,6 +143,9 @@ impl<'a> Passes for InPieces<'a> {
     /// (`Held`'s survey, bit for bit).
     fn survey(&self, rate: f32) -> Result<AdaptiveThresholds, CoreError> {
         use rayon::prelude::*;
+        if let Some(pieces) = self.in_place() {
+            return survey_held(&pieces, rate);
+        }
         let mut survey = NoiseSurvey::for_rate(rate)?;
         let block = survey.block_samples() as usize;
         let mut pending: Vec<[f32; 3]> = Vec::new();
@@ -177,6 +181,9 @@ impl<'a> Passes for InPieces<'a> {
     /// Each piece fed to the two detectors on two cores at once; the error is the one met
     /// first in sample order (the first setting's on the same sample).
     fn run_pair(&self, cfgs: [StaticDetectorConfig; 2], reference: [f32; 3]) -> PairResult {
+        if let Some(pieces) = self.in_place() {
+            return run_pair_held(&pieces, cfgs, reference);
+        }
         let mut lanes = [
             Lane::new(StaticDetector::with_reference(cfgs[0], reference)?),
             Lane::new(StaticDetector::with_reference(cfgs[1], reference)?),
@@ -222,6 +229,16 @@ impl Lane {
 }
 
 impl InPieces<'_> {
+    /// The detector's view of every sample in place, when it is the spill's (values on no
+    /// lattice, the spill in memory with `f32` axes: [`TextSource::axes_f32_in_place`]): the
+    /// passes then run as over held samples, with no copy and no step per piece.
+    fn in_place(&self) -> Option<Vec<&[[f32; 3]]>> {
+        self.lattice
+            .is_none()
+            .then(|| self.src.axes_f32_in_place())
+            .flatten()
+    }
+
     /// A pass over the detector's view of every sample, a piece at a time (`f` may stop it
     /// by returning `false`): values on no lattice read straight to `f32`, else their levels.
     fn each_view(&self, mut f: impl FnMut(&[[f32; 3]]) -> bool) {
@@ -250,7 +267,15 @@ fn lattice(src: &TextSource) -> Option<[(f64, f64); 3]> {
     if src.summary.integer {
         return None;
     }
-    let distinct = src.summary.distinct.as_ref()?;
+    let found;
+    let distinct = match &src.summary.distinct {
+        Distinct::Values(v) => v,
+        Distinct::TooMany => return None,
+        Distinct::NotKept => {
+            found = distinct_in_a_pass(src)?;
+            &found
+        }
+    };
     let mut out = [(0.0, 0.0); 3];
     for (a, v) in distinct.iter().enumerate() {
         if v.iter().any(|x| !x.is_finite()) {
@@ -259,6 +284,22 @@ fn lattice(src: &TextSource) -> Option<[(f64, f64); 3]> {
         out[a] = axis_lattice(v)?;
     }
     Some(out)
+}
+
+/// Each axis's distinct values in a pass of their own (the first pass did not keep them:
+/// [`Distinct::NotKept`]); `None` past `MAX_DISTINCT`, or when the pass ended early (which
+/// [`TextSource::check`] after the detection reports).
+fn distinct_in_a_pass(src: &TextSource) -> Option<[Vec<f64>; 3]> {
+    let mut fold = SummaryFold::keeping();
+    src.each_piece(Want::AXES, |cols| {
+        fold.push(&cols.xyz, &[], &[]);
+        true
+    });
+    let complete = src.check().is_ok();
+    match fold.finish().distinct {
+        Distinct::Values(v) if complete => Some(v),
+        _ => None,
+    }
 }
 
 /// Intervals, reference variance and rate of [`crate::detect::windows::detect`] on the

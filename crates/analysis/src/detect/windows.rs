@@ -312,29 +312,114 @@ fn run_one<I: Iterator<Item = [f32; 3]>>(
     Ok(out)
 }
 
-/// One setting's intervals over held samples: [`run_one`] by slices
+/// One setting's intervals over held samples, in consecutive pieces: [`run_one`] by slices
 /// (`StaticDetector::push_slice`, the same intervals and error), the samples given as they
-/// are when already `f32`, else cast a chunk at a time.
+/// are when already `f32`, else cast a chunk at a time; the error with the index of the sample
+/// that met it.
 fn run_held<S: DetectorSample>(
-    samples: &[S],
+    pieces: &[&[S]],
     cfg: StaticDetectorConfig,
     reference: [f32; 3],
-) -> std::result::Result<Vec<StaticInterval>, CoreError> {
-    let mut det = StaticDetector::<MAX_WINDOW>::with_reference(cfg, reference)?;
+) -> std::result::Result<Vec<StaticInterval>, (usize, CoreError)> {
+    let mut det =
+        StaticDetector::<MAX_WINDOW>::with_reference(cfg, reference).map_err(|e| (0, e))?;
     let mut out = Vec::new();
-    let mut feed = |xs: &[[f32; 3]]| det.push_slice(xs, |iv| out.push(iv)).map_err(|(_, e)| e);
-    if let Some(xs) = S::as_f32s(samples) {
-        feed(xs)?;
-    } else {
-        let mut buf = Vec::with_capacity(4096);
-        for chunk in samples.chunks(4096) {
-            buf.clear();
-            buf.extend(chunk.iter().map(S::f32s));
-            feed(&buf)?;
+    let mut feed = |xs: &[[f32; 3]], at: usize| {
+        det.push_slice(xs, |iv| out.push(iv))
+            .map_err(|(i, e)| (at + i, e))
+    };
+    let (mut at, mut buf) = (0, Vec::new());
+    for samples in pieces {
+        if let Some(xs) = S::as_f32s(samples) {
+            feed(xs, at)?;
+        } else {
+            for (c, chunk) in samples.chunks(4096).enumerate() {
+                buf.clear();
+                buf.extend(chunk.iter().map(S::f32s));
+                feed(&buf, at + c * 4096)?;
+            }
         }
+        at += samples.len();
     }
     out.extend(det.finish());
     Ok(out)
+}
+
+/// [`Passes::run_pair`] over held samples in consecutive pieces: the two settings on two
+/// cores at once ([`run_held`]), the error the one met first in sample order (the first
+/// setting's on the same sample).
+pub(crate) fn run_pair_held<S: DetectorSample>(
+    pieces: &[&[S]],
+    cfgs: [StaticDetectorConfig; 2],
+    reference: [f32; 3],
+) -> PairResult {
+    match rayon::join(
+        || run_held(pieces, cfgs[0], reference),
+        || run_held(pieces, cfgs[1], reference),
+    ) {
+        (Ok(a), Ok(b)) => Ok([a, b]),
+        (Err((i, e)), Err((j, _))) if i <= j => Err(e),
+        (Err((_, e)), Ok(_)) | (_, Err((_, e))) => Err(e),
+    }
+}
+
+/// [`Passes::survey`] of held samples in consecutive pieces: every complete block's variances
+/// measured on all cores (a block across two pieces gathered), added to the histogram in
+/// order, the last incomplete block pushed sample by sample (the survey of the samples pushed
+/// one by one, bit for bit).
+pub(crate) fn survey_held<S: DetectorSample>(
+    pieces: &[&[S]],
+    rate: f32,
+) -> Result<adaptive::AdaptiveThresholds, CoreError> {
+    use rayon::prelude::*;
+    let mut survey = adaptive::NoiseSurvey::for_rate(rate)?;
+    let block = survey.block_samples() as usize;
+    let starts: Vec<usize> = std::iter::once(0)
+        .chain(pieces.iter().scan(0, |n, p| {
+            *n += p.len();
+            Some(*n)
+        }))
+        .collect();
+    let total = starts[pieces.len()];
+    let measured: Vec<_> = (0..total / block)
+        .into_par_iter()
+        .map_init(Vec::new, |buf, j| {
+            let (from, to) = (j * block, (j + 1) * block);
+            let k = starts.partition_point(|&s| s <= from) - 1;
+            let whole = (to <= starts[k + 1]).then(|| &pieces[k][from - starts[k]..][..block]);
+            if let Some(xs) = whole.and_then(|c| S::as_f32s(c)) {
+                return adaptive::NoiseSurvey::measure_block(xs);
+            }
+            buf.clear();
+            buf.extend(samples_between(pieces, &starts, from, to).map(S::f32s));
+            adaptive::NoiseSurvey::measure_block(buf)
+        })
+        .collect();
+    for m in measured {
+        survey.add_measured(m?);
+    }
+    for m in samples_between(pieces, &starts, total / block * block, total) {
+        survey.push(m.f32s())?;
+    }
+    survey.thresholds(adaptive::DEFAULT_QUANTILE)
+}
+
+/// Samples `from..to` of `pieces`, whose first samples are at `starts`.
+fn samples_between<'a, S>(
+    pieces: &'a [&'a [S]],
+    starts: &'a [usize],
+    from: usize,
+    to: usize,
+) -> impl Iterator<Item = &'a S> + 'a {
+    let first = starts.partition_point(|&s| s <= from).saturating_sub(1);
+    pieces[first..]
+        .iter()
+        .zip(&starts[first..])
+        .take_while(move |(_, &s)| s < to)
+        .flat_map(move |(p, &s)| {
+            let clamp = |i: usize| i.saturating_sub(s).min(p.len());
+            &p[clamp(from)..clamp(to)]
+        })
 }
 
 /// A held sample as the detector takes it (`f32`).
@@ -388,40 +473,14 @@ impl<'a, S: DetectorSample> Passes for Held<'a, S> {
         AsF32(self.0.iter())
     }
 
-    /// The blocks' variances measured on all cores, added to the histogram in order (the
-    /// survey of the samples pushed one by one, bit for bit).
+    /// The blocks' variances measured on all cores ([`survey_held`]).
     fn survey(&self, rate: f32) -> Result<adaptive::AdaptiveThresholds, CoreError> {
-        use rayon::prelude::*;
-        let mut survey = adaptive::NoiseSurvey::for_rate(rate)?;
-        let block = survey.block_samples() as usize;
-        let (full, rest) = self.0.split_at(self.0.len() / block * block);
-        let measured: Vec<_> = full
-            .par_chunks(block)
-            .map_init(Vec::new, |buf, chunk| {
-                if let Some(xs) = S::as_f32s(chunk) {
-                    return adaptive::NoiseSurvey::measure_block(xs);
-                }
-                buf.clear();
-                buf.extend(chunk.iter().map(S::f32s));
-                adaptive::NoiseSurvey::measure_block(buf)
-            })
-            .collect();
-        for m in measured {
-            survey.add_measured(m?);
-        }
-        for m in rest {
-            survey.push(m.f32s())?;
-        }
-        survey.thresholds(adaptive::DEFAULT_QUANTILE)
+        survey_held(&[self.0], rate)
     }
 
-    /// The two settings on the two cores at once.
+    /// The two settings on the two cores at once ([`run_pair_held`]).
     fn run_pair(&self, cfgs: [StaticDetectorConfig; 2], reference: [f32; 3]) -> PairResult {
-        let (a, b) = rayon::join(
-            || run_held(self.0, cfgs[0], reference),
-            || run_held(self.0, cfgs[1], reference),
-        );
-        Ok([a?, b?])
+        run_pair_held(&[self.0], cfgs, reference)
     }
 }
 

@@ -235,18 +235,11 @@ impl Imu for Streamed<'_> {
         self.acc.0.has_time().then_some(self.acc.0.steps).flatten()
     }
 
-    /// From the first pass's distinct values, when it kept them: an axis is constant when all
-    /// its values compare equal (`−0` and `0` do, NaN does not).
+    /// From the first pass: an axis is constant when all its values compare equal (`−0` and
+    /// `0` do, NaN does not).
     fn constant_axes(&self) -> Option<Vec<usize>> {
-        let distinct = self.gyro.0.summary.distinct.as_ref()?;
-        Some(
-            (0..3)
-                .filter(|&a| {
-                    let v = &distinct[a];
-                    v.first().is_some_and(|f| v.iter().all(|x| x == f))
-                })
-                .collect(),
-        )
+        let constant = self.gyro.0.summary.constant;
+        Some((0..3).filter(|&a| constant[a]).collect())
     }
 
     fn pass(

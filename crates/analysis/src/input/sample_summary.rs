@@ -34,7 +34,7 @@ impl Hasher for BitsHasher {
     }
 }
 
-type Distinct = HashSet<u64, BuildHasherDefault<BitsHasher>>;
+type BitsSet = HashSet<u64, BuildHasherDefault<BitsHasher>>;
 
 /// Whole numbers of magnitude below this are kept in a bitmap, not hashed.
 const SMALL: i64 = 1 << 20;
@@ -45,45 +45,60 @@ const SMALL: i64 = 1 << 20;
 #[derive(Debug, Default)]
 struct Keys {
     small: Vec<u64>,
-    others: Distinct,
+    others: BitsSet,
     len: usize,
 }
 
 /// `v.fract() == 0.0` without the library call `fract` makes on targets without a rounding
-/// instruction (it is asked of every value): below 2⁵² in magnitude a truncation to an
-/// integer and back is exact, at or above it every finite value is whole; NaN and the
-/// infinities are not (their `fract` is NaN).
+/// instruction, and without a branch (it is asked of every value, in a loop the compiler can
+/// then run on several values at once): at or above 2⁵² in magnitude every finite value is
+/// whole; below it, adding 2⁵² rounds `|v|` to an integer (round to nearest, the only mode
+/// Rust runs in) and subtracting it again gives `|v|` back exactly when `|v|` was one. NaN
+/// and the infinities are neither (their `fract` is NaN).
+#[inline]
 fn is_whole(v: f64) -> bool {
-    if v.abs() < (1u64 << 52) as f64 {
-        (v as i64) as f64 == v
-    } else {
-        v.is_finite()
-    }
+    const P52: f64 = (1u64 << 52) as f64;
+    let a = v.abs();
+    (P52..=f64::MAX).contains(&a) | ((a < P52) & ((a + P52) - P52 == a))
+}
+
+/// The bitmap index of `v` when it is a whole number of magnitude below [`SMALL`] but `-0.0`
+/// (the bitmap's keys), else `None`.
+#[inline]
+fn small_index(v: f64) -> Option<usize> {
+    // One conversion for the test and the index (saturating; NaN gives 0).
+    let i = v as i64;
+    let small = v.abs() < SMALL as f64 && i as f64 == v && v.to_bits() != (-0.0f64).to_bits();
+    small.then(|| (i + SMALL) as usize)
 }
 
 impl Keys {
-    /// The value of `bits` kept; whether it is whole ([`is_whole`]).
-    fn insert(&mut self, bits: u64) -> bool {
-        let v = f64::from_bits(bits);
-        // One conversion for the bitmap's test and index (saturating; NaN gives 0).
-        let i = v as i64;
-        let small = v.abs() < SMALL as f64 && i as f64 == v;
-        if small && bits != (-0.0f64).to_bits() {
-            if self.small.is_empty() {
-                self.small = vec![0; (2 * SMALL / 64) as usize];
-            }
-            let i = (i + SMALL) as usize;
-            let (word, bit) = (&mut self.small[i / 64], 1u64 << (i % 64));
-            if *word & bit == 0 {
-                *word |= bit;
-                self.len += 1;
-            }
-            return true;
+    /// The value of `bits` kept.
+    #[cfg(test)]
+    fn insert(&mut self, bits: u64) {
+        match small_index(f64::from_bits(bits)) {
+            Some(i) => self.mark(i),
+            None => self.insert_other(bits),
         }
+    }
+
+    /// The small whole number of bitmap index `i` kept (no branch on whether it was new: most
+    /// are not, and which are is not predictable).
+    #[inline]
+    fn mark(&mut self, i: usize) {
+        if self.small.is_empty() {
+            self.small = vec![0; (2 * SMALL / 64) as usize];
+        }
+        let word = &mut self.small[i / 64];
+        self.len += ((*word >> (i % 64)) & 1 ^ 1) as usize;
+        *word |= 1u64 << (i % 64);
+    }
+
+    /// The value of `bits`, not a [`small_index`] one, kept.
+    fn insert_other(&mut self, bits: u64) {
         if self.others.insert(bits) {
             self.len += 1;
         }
-        small || is_whole(v)
     }
 
     /// Every key as its value.
@@ -97,6 +112,20 @@ impl Keys {
         v.extend(self.others.into_iter().map(f64::from_bits));
         v
     }
+}
+
+/// Each axis's distinct values, as the summary of a pass has them.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Distinct {
+    /// Each axis's distinct values, ascending (sorted by `total_cmp` and deduplicated as the
+    /// whole-recording lattice check does).
+    Values([Vec<f64>; 3]),
+    /// An axis has more than [`MAX_DISTINCT`]: not on a lattice.
+    TooMany,
+    /// Not kept: every value is whole (whole numbers are not mapped to a lattice: they are
+    /// their own levels), or the first rows' values all were and later ones were not (a pass
+    /// of their own finds them: [`SummaryFold::keeping`]).
+    NotKept,
 }
 
 /// The one-pass summary of a recording's samples.
@@ -114,10 +143,11 @@ pub struct SampleSummary {
     pub largest: f64,
     /// Every axis value finite.
     pub finite: bool,
-    /// Each axis's distinct values, ascending (sorted by `total_cmp` and deduplicated as the
-    /// whole-recording lattice check does); `None` when an axis has more than
-    /// [`MAX_DISTINCT`].
-    pub distinct: Option<[Vec<f64>; 3]>,
+    /// Each axis's distinct values, when kept.
+    pub distinct: Distinct,
+    /// Per axis: every value compares equal to the first (`==`: `−0` and `0` do, NaN does
+    /// not); false without samples.
+    pub constant: [bool; 3],
     /// First and last time (the time column's, when there is one).
     pub t_first: Option<f64>,
     /// See `t_first`.
@@ -126,11 +156,54 @@ pub struct SampleSummary {
     pub finite_t_temp: bool,
 }
 
+/// The extremes (`lo`, `hi`, `largest`), `finite` and `constant` of `s` folded over `xyz`,
+/// each axis in its own accumulators (three independent chains rather than one: the fold is
+/// bound by the latency of `min`/`max`); whether every value of `xyz` is whole. The order
+/// does not change a result: `min`/`max` ignore NaN, and values that compare equal are the
+/// same bits but for `0`/`−0`, which only `lo`/`hi` can be and which their one use,
+/// `detect::windows::adc_range_of`, compares as equal (as the held path, whose fold runs on
+/// all cores).
+fn fold_extremes(s: &mut SampleSummary, first: &[f64; 3], xyz: &[[f64; 3]]) -> bool {
+    let (mut lo, mut hi, mut largest) = ([s.lo; 3], [s.hi; 3], [s.largest; 3]);
+    let (mut finite, mut whole, mut same) = (true, true, s.constant);
+    for x in xyz {
+        for a in 0..3 {
+            lo[a] = lo[a].min(x[a]);
+            hi[a] = hi[a].max(x[a]);
+            largest[a] = largest[a].max(x[a].abs());
+            finite &= x[a].is_finite();
+            whole &= is_whole(x[a]);
+            same[a] &= x[a] == first[a];
+        }
+    }
+    s.lo = lo[0].min(lo[1]).min(lo[2]);
+    s.hi = hi[0].max(hi[1]).max(hi[2]);
+    s.largest = largest[0].max(largest[1]).max(largest[2]);
+    s.finite &= finite;
+    s.constant = same;
+    whole
+}
+
+/// Whether a fold keeps each axis's distinct values ([`Distinct`]).
+#[derive(Debug)]
+enum Sets {
+    /// Not yet: every value so far is whole. A file of counts, the common case, keeps none
+    /// (a bit per value in a bitmap was a tenth of the first pass).
+    Waiting,
+    /// Kept from the first rows on (a value of theirs was not whole).
+    Kept([Keys; 3]),
+    /// Past [`MAX_DISTINCT`] on an axis.
+    TooMany,
+    /// Values that are not whole came after rows whose values all were, which were not kept.
+    NotKept,
+}
+
 /// [`SampleSummary`] as it is being folded.
 #[derive(Debug)]
 pub struct SummaryFold {
     sum: SampleSummary,
-    sets: Option<[Keys; 3]>,
+    sets: Sets,
+    first: Option<[f64; 3]>,
     last: [u64; 3],
 }
 
@@ -151,13 +224,24 @@ impl SummaryFold {
                 hi: f64::NEG_INFINITY,
                 largest: 0.0,
                 finite: true,
-                distinct: None,
+                distinct: Distinct::NotKept,
+                constant: [true; 3],
                 t_first: None,
                 t_last: None,
                 finite_t_temp: true,
             },
-            sets: Some(Default::default()),
+            sets: Sets::Waiting,
+            first: None,
             last: [u64::MAX; 3],
+        }
+    }
+
+    /// No samples yet, each axis's distinct values kept whatever they are (the pass that
+    /// finds them when the first one did not keep them: [`Distinct::NotKept`]).
+    pub fn keeping() -> Self {
+        Self {
+            sets: Sets::Kept(Default::default()),
+            ..Self::new()
         }
     }
 
@@ -165,39 +249,21 @@ impl SummaryFold {
     /// temperatures (empty without a temperature column).
     pub fn push(&mut self, xyz: &[[f64; 3]], t: &[f64], temp: &[f64]) {
         let s = &mut self.sum;
+        let before = s.count;
         s.count += xyz.len();
-        for x in xyz {
-            for &v in x {
-                s.lo = s.lo.min(v);
-                s.hi = s.hi.max(v);
-                s.largest = s.largest.max(v.abs());
-                s.finite &= v.is_finite();
-            }
+        if self.first.is_none() {
+            self.first = xyz.first().copied();
         }
-        if let Some(sets) = &mut self.sets {
-            // Whether each value is whole is asked as it is kept: a value skipped repeats the
-            // bits of the one before it (or is `last`'s first pattern, a NaN, which `finite`
-            // holds: `finish` takes both).
-            let mut full = false;
-            for x in xyz {
-                for a in 0..3 {
-                    let bits = x[a].to_bits();
-                    if bits != self.last[a] {
-                        self.last[a] = bits;
-                        s.integer &= sets[a].insert(bits);
-                    }
-                }
-            }
-            for set in sets.iter() {
-                // +1: `0.0` and `-0.0` are two keys and one value.
-                full |= set.len > MAX_DISTINCT + 1;
-            }
-            if full {
-                self.sets = None;
-            }
-        } else if s.integer {
-            s.integer = xyz.iter().flatten().all(|&v| is_whole(v));
-        }
+        // Without a first row yet, there are no rows to compare.
+        let whole = fold_extremes(s, &self.first.unwrap_or_default(), xyz);
+        s.integer &= whole;
+        self.sets = match std::mem::replace(&mut self.sets, Sets::TooMany) {
+            Sets::Waiting if whole => Sets::Waiting,
+            Sets::Waiting if before == 0 => keep(Default::default(), &mut self.last, xyz),
+            Sets::Waiting => Sets::NotKept,
+            Sets::Kept(sets) => keep(sets, &mut self.last, xyz),
+            other => other,
+        };
         if let (Some(&a), Some(&b)) = (t.first(), t.last()) {
             s.t_first.get_or_insert(a);
             s.t_last = Some(b);
@@ -208,17 +274,45 @@ impl SummaryFold {
     /// The summary of every row pushed.
     pub fn finish(self) -> SampleSummary {
         let mut sum = self.sum;
-        // A value that is not finite is not whole (see `push`).
+        // A value that is not finite is not whole.
         sum.integer &= sum.finite;
-        sum.distinct = self.sets.map(|sets| {
-            sets.map(|set| {
+        sum.constant = sum.constant.map(|c| c && sum.count > 0);
+        sum.distinct = match self.sets {
+            Sets::Kept(sets) => Distinct::Values(sets.map(|set| {
                 let mut v = set.values();
                 v.sort_by(f64::total_cmp);
                 v.dedup();
                 v
-            })
-        });
+            })),
+            Sets::TooMany => Distinct::TooMany,
+            Sets::Waiting | Sets::NotKept => Distinct::NotKept,
+        };
         sum
+    }
+}
+
+/// The values of `xyz` added to `sets` (a value that repeats the bits of the last value of
+/// its axis that was not a small whole number, `last`, is skipped: it is in the set), then
+/// [`Sets::TooMany`] when an axis is past [`MAX_DISTINCT`].
+fn keep(mut sets: [Keys; 3], last: &mut [u64; 3], xyz: &[[f64; 3]]) -> Sets {
+    for x in xyz {
+        for a in 0..3 {
+            if let Some(i) = small_index(x[a]) {
+                sets[a].mark(i);
+                continue;
+            }
+            let bits = x[a].to_bits();
+            if bits != last[a] {
+                last[a] = bits;
+                sets[a].insert_other(bits);
+            }
+        }
+    }
+    // +1: `0.0` and `-0.0` are two keys and one value.
+    if sets.iter().any(|set| set.len > MAX_DISTINCT + 1) {
+        Sets::TooMany
+    } else {
+        Sets::Kept(sets)
     }
 }
 
@@ -249,7 +343,7 @@ mod tests {
         ];
         let mut keys = Keys::default();
         for v in values {
-            assert_eq!(keys.insert(v.to_bits()), v.fract() == 0.0, "{v}");
+            keys.insert(v.to_bits());
         }
         let want: HashSet<u64> = values.iter().map(|v| v.to_bits()).collect();
         assert_eq!(keys.len, want.len());
@@ -329,11 +423,56 @@ mod tests {
             assert_eq!(s.count, 1000);
             assert!(!s.integer);
             assert_eq!((s.lo, s.hi, s.largest), (-3.0, 99.0, 99.0));
-            let d = s.distinct.unwrap();
+            // One row per piece: the first's values are all whole, and are not kept; a pass
+            // that keeps them finds them.
+            let d = match (s.distinct, split) {
+                (Distinct::Values(d), 7 | 999) => d,
+                (Distinct::NotKept, 1) => {
+                    let mut f = SummaryFold::keeping();
+                    xyz.chunks(split).for_each(|c| f.push(c, &[], &[]));
+                    match f.finish().distinct {
+                        Distinct::Values(d) => d,
+                        other => panic!("{other:?}"),
+                    }
+                }
+                (other, _) => panic!("split {split}: {other:?}"),
+            };
+            assert_eq!(s.constant, [false, true, false]);
             assert_eq!(d[0].len(), 17);
             assert_eq!(d[1], vec![-0.0]);
             assert_eq!(d[2].len(), 100);
             assert_eq!((s.t_first, s.t_last), (Some(0.0), Some(9.99)));
         }
+    }
+
+    /// Whole numbers keep no distinct values (they are their own levels); values that are
+    /// not keep them from the first rows on, up to `MAX_DISTINCT`; an axis is constant when
+    /// every value equals the first (`-0` equals `0`, NaN nothing).
+    #[test]
+    fn whole_numbers_keep_no_distinct_values() {
+        let fold = |rows: &[[f64; 3]]| {
+            let mut f = SummaryFold::new();
+            rows.chunks(2).for_each(|c| f.push(c, &[], &[]));
+            f.finish()
+        };
+        let counts = fold(&[[1.0, 0.0, 5.0], [2.0, -0.0, 5.0], [3.0, 0.0, 5.0]]);
+        let mut after_none = SummaryFold::new();
+        after_none.push(&[], &[], &[]);
+        after_none.push(&[[1.0, 2.0, 3.0], [1.0, 2.0, 4.0]], &[], &[]);
+        assert_eq!(after_none.finish().constant, [true, true, false]);
+        assert!(counts.integer);
+        assert_eq!(counts.distinct, Distinct::NotKept);
+        assert_eq!(counts.constant, [false, true, true]);
+        let g = fold(&[[0.5, 1.0, 2.0], [0.25, 1.0, 2.0], [0.5, 1.0, 3.0]]);
+        let want = [vec![0.25, 0.5], vec![1.0], vec![2.0, 3.0]];
+        assert_eq!(g.distinct, Distinct::Values(want));
+        assert_eq!(g.constant, [false, true, false]);
+        let nan = fold(&[[f64::NAN, 1.0, 0.5], [f64::NAN, 1.0, 0.5]]);
+        assert_eq!(nan.constant, [false, true, true]);
+        let many: Vec<[f64; 3]> = (0..=MAX_DISTINCT + 2)
+            .map(|i| [i as f64 + 0.5, 1.0, 2.0])
+            .collect();
+        assert_eq!(fold(&many).distinct, Distinct::TooMany);
+        assert_eq!(fold(&[]).constant, [false; 3]);
     }
 }

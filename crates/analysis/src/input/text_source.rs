@@ -343,13 +343,17 @@ impl TextSource {
                 return self.fail(InputError::ChangedWhileRead.into());
             }
             let mut scratch = Vec::new();
-            for (from, to) in spill.block_rows() {
-                if spill.read_f32(from, to, &mut view, &mut scratch).is_err() {
-                    self.spill_failed.store(true, Ordering::Relaxed);
-                    break;
-                }
+            for (k, (from, to)) in spill.block_rows().enumerate() {
+                let axes = match spill.axes_f32(k) {
+                    Some(axes) => axes,
+                    None if spill.read_f32(from, to, &mut view, &mut scratch).is_ok() => &view,
+                    None => {
+                        self.spill_failed.store(true, Ordering::Relaxed);
+                        break;
+                    }
+                };
                 consumed = to;
-                if !f(&view) {
+                if !f(axes) {
                     return;
                 }
             }
@@ -367,6 +371,21 @@ impl TextSource {
             view.extend(cols.xyz.iter().map(|x| x.map(|v| v as f32)));
             f(&view)
         });
+    }
+
+    /// Every sample's axes as `f32` in place, a block of the spill after another, when the
+    /// spill is in memory and every block's axes are `f32` ([`Spill::axes_f32`]): a pass over
+    /// them with no copy, in pieces any core may read at once. `None` otherwise, and when the
+    /// file has changed since the first pass (a pass then goes by
+    /// [`TextSource::each_piece_f32`], which says so).
+    pub(crate) fn axes_f32_in_place(&self) -> Option<Vec<&[[f32; 3]]>> {
+        let spill = self.spill.as_ref().filter(|_| self.is_spilled())?;
+        if !self.unchanged() {
+            return None;
+        }
+        let blocks = spill.block_rows().count();
+        let axes: Option<Vec<_>> = (0..blocks).map(|k| spill.axes_f32(k)).collect();
+        axes.filter(|a| a.iter().map(|b| b.len()).sum::<usize>() == self.summary.count)
     }
 
     /// Whether the file is still the one of the first pass (its size and modification time).

@@ -9,7 +9,9 @@
 //! x, y, z, temperature — as `f32` when every value of it in the block is one (counts and
 //! values of few digits mostly are, bit for bit after the round trip), else as `f64`. A row of
 //! `t,x,y,z,temp` thus costs 20 to 40 bytes (28 for counts with a decimal time and
-//! temperature). A spill that cannot be written (no temporary directory, a full disk) is
+//! temperature). When all three axes are `f32` they are stored row by row (x, y, z of a row
+//! together), and a block in memory is kept in 4-byte words: its axes are then the
+//! detector's `[f32; 3]` samples as they lie ([`Spill::axes_f32`]), read with no copy. A spill that cannot be written (no temporary directory, a full disk) is
 //! dropped, and the passes parse the text again: the same values either way.
 
 use crate::input::bounded::{free_bytes, KEEP_FREE_BYTES};
@@ -69,10 +71,23 @@ struct Block {
 }
 
 impl Block {
-    /// Byte offset of column `c`'s value of the block's row `r`.
+    /// Byte offset of column `c`'s value of the block's row `r` (for an axis: of a block whose
+    /// axes are in columns, not [`Block::interleaved`]).
     fn at(&self, c: usize, r: usize) -> u64 {
         let before: usize = self.widths[..c].iter().map(|w| w.bytes() * self.rows).sum();
         self.offset + (before + r * self.widths[c].bytes()) as u64
+    }
+
+    /// Whether the axes are stored row by row (`x y z` of a row together, 12 bytes): when all
+    /// three are `f32`. They take the place of the three columns (the temperature column's
+    /// offset is the same either way).
+    fn interleaved(&self) -> bool {
+        self.widths[1..4].iter().all(|&w| w == Width::F32)
+    }
+
+    /// Byte offset of row `r`'s axes in an [`Block::interleaved`] block.
+    fn axes_at(&self, r: usize) -> u64 {
+        self.offset + (self.widths[0].bytes() * self.rows + r * 12) as u64
     }
 }
 
@@ -102,8 +117,9 @@ impl Want {
 /// Where a spill's bytes are.
 #[derive(Debug)]
 enum Store {
-    /// In memory, a buffer per block (no buffer grown by copying, none larger than a block).
-    Memory(Vec<Vec<u8>>),
+    /// In memory, a buffer per block (no buffer grown by copying, none larger than a block),
+    /// in 4-byte words so that `f32` values lie aligned ([`Spill::axes_f32`]).
+    Memory(Vec<Vec<u32>>),
     /// In the temporary file.
     File(File),
 }
@@ -123,7 +139,8 @@ pub(crate) struct SpillWriter {
     blocks: Vec<Block>,
     at: u64,
     rows: usize,
-    buf: Vec<u8>,
+    /// The block being written (every column's bytes are a whole number of words).
+    buf: Vec<u32>,
     /// Most bytes written (a full disk, for tests: a write past it fails).
     limit: u64,
     /// Most bytes kept in memory (past them the rows go to a file in `dir`).
@@ -196,7 +213,7 @@ impl SpillWriter {
             return Err(std::io::ErrorKind::StorageFull.into());
         }
         for b in blocks.iter() {
-            file.write_all(b)?;
+            file.write_all(bytemuck::cast_slice(b))?;
         }
         self.store = Store::File(file);
         self.limit = limit;
@@ -211,23 +228,27 @@ impl SpillWriter {
             return Ok(());
         }
         let opt = |v: &[f64]| (!v.is_empty()).then(|| Width::of(v.iter().copied()));
-        let axis = |a: usize| Width::of(cols.xyz.iter().map(|r| r[a]));
+        let [x, y, z] = axis_widths(&cols.xyz);
         let widths = [
             opt(&cols.t).unwrap_or(Width::Absent),
-            axis(0),
-            axis(1),
-            axis(2),
+            x,
+            y,
+            z,
             opt(&cols.temp).unwrap_or(Width::Absent),
         ];
+        let bytes = rows * widths.iter().map(|w| w.bytes()).sum::<usize>();
         self.buf.clear();
-        self.buf
-            .reserve_exact(rows * widths.iter().map(|w| w.bytes()).sum::<usize>());
-        put(&mut self.buf, widths[0], cols.t.iter().copied());
-        for (a, &w) in widths[1..4].iter().enumerate() {
-            put(&mut self.buf, w, cols.xyz.iter().map(|r| r[a]));
+        self.buf.reserve_exact(bytes / 4);
+        put(&mut self.buf, widths[0], &cols.t);
+        if widths[1..4].iter().all(|&w| w == Width::F32) {
+            put(&mut self.buf, Width::F32, cols.xyz.as_flattened());
+        } else {
+            for (a, &w) in widths[1..4].iter().enumerate() {
+                put_each(&mut self.buf, w, cols.xyz.iter().map(|r| r[a]));
+            }
         }
-        put(&mut self.buf, widths[4], cols.temp.iter().copied());
-        let len = self.buf.len() as u64;
+        put(&mut self.buf, widths[4], &cols.temp);
+        let len = bytes as u64;
         if self.at.saturating_add(len) > self.limit {
             return Err(std::io::ErrorKind::StorageFull.into());
         }
@@ -236,7 +257,7 @@ impl SpillWriter {
         }
         match &mut self.store {
             Store::Memory(blocks) => blocks.push(std::mem::take(&mut self.buf)),
-            Store::File(file) => file.write_all(&self.buf)?,
+            Store::File(file) => file.write_all(bytemuck::cast_slice(&self.buf))?,
         }
         self.blocks.push(Block {
             first_row: self.rows,
@@ -259,23 +280,50 @@ impl SpillWriter {
     }
 }
 
-/// `values` appended to `buf` at width `w`, little-endian (written into the bytes in place:
-/// one bounds check per value rather than a capacity check per byte).
-fn put(buf: &mut Vec<u8>, w: Width, values: impl ExactSizeIterator<Item = f64>) {
-    let start = buf.len();
-    buf.resize(start + values.len() * w.bytes(), 0);
-    let out = &mut buf[start..];
+/// The widths of the three axes of `xyz` ([`Width::of`] of each), in one pass over the rows
+/// (the three tests of a row at once, none stopping early: a loop the compiler runs on
+/// several values at a time).
+fn axis_widths(xyz: &[[f64; 3]]) -> [Width; 3] {
+    let exact = |v: f64| f64::from(v as f32).to_bits() == v.to_bits();
+    let all = xyz.iter().fold([true; 3], |all, r| {
+        [
+            all[0] & exact(r[0]),
+            all[1] & exact(r[1]),
+            all[2] & exact(r[2]),
+        ]
+    });
+    all.map(|f32| if f32 { Width::F32 } else { Width::F64 })
+}
+
+/// `values` appended to `buf` at width `w`, little-endian: each word's bytes are the value's
+/// little-endian bytes, whatever the machine's order (an `f64` is two words).
+fn put(buf: &mut Vec<u32>, w: Width, values: &[f64]) {
     match w {
         Width::Absent => {}
-        Width::F32 => out
-            .chunks_exact_mut(4)
-            .zip(values)
-            .for_each(|(c, v)| c.copy_from_slice(&(v as f32).to_le_bytes())),
-        Width::F64 => out
-            .chunks_exact_mut(8)
-            .zip(values)
-            .for_each(|(c, v)| c.copy_from_slice(&v.to_le_bytes())),
+        Width::F32 => buf.extend(values.iter().map(|&v| le_word((v as f32).to_le_bytes()))),
+        Width::F64 => put_each(buf, w, values.iter().copied()),
     }
+}
+
+/// [`put`] of values given one at a time.
+fn put_each(buf: &mut Vec<u32>, w: Width, values: impl Iterator<Item = f64>) {
+    match w {
+        Width::Absent => {}
+        Width::F32 => buf.extend(values.map(|v| le_word((v as f32).to_le_bytes()))),
+        Width::F64 => values.for_each(|v| {
+            let b = v.to_le_bytes();
+            buf.extend([
+                le_word([b[0], b[1], b[2], b[3]]),
+                le_word([b[4], b[5], b[6], b[7]]),
+            ]);
+        }),
+    }
+}
+
+/// The word whose bytes in memory are `b`.
+#[inline]
+fn le_word(b: [u8; 4]) -> u32 {
+    u32::from_ne_bytes(b)
 }
 
 impl Spill {
@@ -305,18 +353,8 @@ impl Spill {
         self.each_span(from, to, |b, rows| {
             let start = cols.xyz.len();
             cols.xyz.resize(start + rows.len(), [0.0; 3]);
-            for a in 0..3 {
-                let bytes = self.column(b, a + 1, rows.clone(), scratch)?;
-                let dst = cols.xyz[start..].iter_mut();
-                match b.1.widths[a + 1] {
-                    Width::F32 => dst
-                        .zip(bytes.chunks_exact(4))
-                        .for_each(|(x, c)| x[a] = f32_of(c)),
-                    _ => dst
-                        .zip(bytes.chunks_exact(8))
-                        .for_each(|(x, c)| x[a] = f64_of(c)),
-                }
-            }
+            let to_f64 = (|v: f32| f64::from(v), |v: f64| v);
+            self.axes_into(b, rows.clone(), scratch, &mut cols.xyz[start..], to_f64)?;
             for (c, on, out) in [(0, want.t, &mut cols.t), (4, want.temp, &mut cols.temp)] {
                 if on && b.1.widths[c] != Width::Absent {
                     let bytes = self.column(b, c, rows.clone(), scratch)?;
@@ -344,20 +382,58 @@ impl Spill {
         self.each_span(from, to, |b, rows| {
             let start = out.len();
             out.resize(start + rows.len(), [0.0; 3]);
-            for a in 0..3 {
-                let bytes = self.column(b, a + 1, rows.clone(), scratch)?;
-                let dst = out[start..].iter_mut();
-                match b.1.widths[a + 1] {
-                    Width::F32 => dst
-                        .zip(bytes.chunks_exact(4))
-                        .for_each(|(x, c)| x[a] = f32_of(c) as f32),
-                    _ => dst
-                        .zip(bytes.chunks_exact(8))
-                        .for_each(|(x, c)| x[a] = f64_of(c) as f32),
-                }
-            }
-            Ok(())
+            let to_f32 = (|v: f32| v, |v: f64| v as f32);
+            self.axes_into(b, rows, scratch, &mut out[start..], to_f32)
         })
+    }
+
+    /// The axes of rows `rows` of block `b` (its index and itself) into `out` (one per row),
+    /// each value converted by `of.0` when stored as `f32`, by `of.1` when as `f64`.
+    fn axes_into<T: Copy>(
+        &self,
+        b: &(usize, &Block),
+        rows: std::ops::Range<usize>,
+        scratch: &mut Vec<u8>,
+        out: &mut [[T; 3]],
+        of: (impl Fn(f32) -> T, impl Fn(f64) -> T),
+    ) -> std::io::Result<()> {
+        if b.1.interleaved() {
+            let at = b.1.axes_at(rows.start);
+            let bytes = self.bytes(b, at, rows.len() * 12, scratch)?;
+            for (x, c) in out.iter_mut().zip(bytes.chunks_exact(12)) {
+                *x = std::array::from_fn(|a| of.0(f32_at(&c[4 * a..4 * a + 4])));
+            }
+            return Ok(());
+        }
+        for a in 0..3 {
+            let bytes = self.column(b, a + 1, rows.clone(), scratch)?;
+            let dst = out.iter_mut();
+            match b.1.widths[a + 1] {
+                Width::F32 => dst
+                    .zip(bytes.chunks_exact(4))
+                    .for_each(|(x, c)| x[a] = of.0(f32_at(c))),
+                _ => dst
+                    .zip(bytes.chunks_exact(8))
+                    .for_each(|(x, c)| x[a] = of.1(f64_of(c))),
+            }
+        }
+        Ok(())
+    }
+
+    /// The axes of block `k` as the `[f32; 3]` samples they are, in place, when they can be
+    /// (the block in memory, its axes [`Block::interleaved`], a little-endian machine: the
+    /// bytes were written little-endian); `None` otherwise, when [`Spill::read_f32`] reads
+    /// them.
+    pub(crate) fn axes_f32(&self, k: usize) -> Option<&[[f32; 3]]> {
+        let (Store::Memory(words), Some(b)) = (&self.store, self.blocks.get(k)) else {
+            return None;
+        };
+        if !(cfg!(target_endian = "little") && b.interleaved()) {
+            return None;
+        }
+        let from = (b.axes_at(0) - b.offset) as usize / 4;
+        let axes = words.get(k)?.get(from..from + 3 * b.rows)?;
+        bytemuck::try_cast_slice(axes).ok()
     }
 
     /// Each block holding some of rows `from..to` (its index and itself), in order, with the
@@ -395,11 +471,23 @@ impl Spill {
         scratch: &'s mut Vec<u8>,
     ) -> std::io::Result<&'s [u8]> {
         let n = rows.len() * b.widths[c].bytes();
-        let at = b.at(c, rows.start);
+        self.bytes(&(*k, b), b.at(c, rows.start), n, scratch)
+    }
+
+    /// The `n` bytes of block `b` (its index and itself) at the spill's byte `at`: in memory,
+    /// else read into `scratch` (grown, never shrunk: no bytes cleared per read).
+    fn bytes<'s>(
+        &'s self,
+        (k, b): &(usize, &Block),
+        at: u64,
+        n: usize,
+        scratch: &'s mut Vec<u8>,
+    ) -> std::io::Result<&'s [u8]> {
         match &self.store {
             Store::Memory(blocks) => {
                 let from = (at - b.offset) as usize;
-                let bytes = blocks[*k].get(from..from + n);
+                let words: &[u8] = bytemuck::cast_slice(&blocks[*k]);
+                let bytes = words.get(from..from + n);
                 bytes.ok_or_else(|| std::io::ErrorKind::UnexpectedEof.into())
             }
             Store::File(file) => {
@@ -439,9 +527,14 @@ impl Spill {
 
 /// The value of 4 little-endian bytes of an `f32` (`c` a chunk of exactly 4: one load).
 fn f32_of(c: &[u8]) -> f64 {
+    f64::from(f32_at(c))
+}
+
+/// The `f32` of 4 little-endian bytes (`c` a chunk of exactly 4).
+fn f32_at(c: &[u8]) -> f32 {
     let mut b = [0u8; 4];
     b.copy_from_slice(c);
-    f64::from(f32::from_le_bytes(b))
+    f32::from_le_bytes(b)
 }
 
 /// The value of 8 little-endian bytes of an `f64` (`c` a chunk of exactly 8: one load).
@@ -503,7 +596,13 @@ mod tests {
             temp: if k == 1 { vec![] } else { vec![25.0; n] },
             ..Default::default()
         };
-        let pieces = [piece(7, 0), piece(0, 5), piece(13, 2), piece(1, 3)];
+        // Axes that are all `f32` (stored row by row) in the third piece.
+        let mut third = piece(13, 2);
+        third
+            .xyz
+            .iter_mut()
+            .for_each(|r| r[0] = f64::from(r[0] as f32));
+        let pieces = [piece(7, 0), piece(0, 5), third, piece(1, 3)];
         let all: Vec<(f64, [f64; 3], f64)> = pieces
             .iter()
             .flat_map(|p| (0..p.xyz.len()).map(|i| (p.t[i], p.xyz[i], p.temp[i])))
@@ -557,6 +656,26 @@ mod tests {
                 );
             }
         }
+        let f32_bits = |v: &[[f32; 3]]| v.iter().flatten().map(|x| x.to_bits()).collect::<Vec<_>>();
+        let as_f32 = |rows: &[(f64, [f64; 3], f64)]| -> Vec<[f32; 3]> {
+            rows.iter().map(|r| r.1.map(|v| v as f32)).collect()
+        };
+        let mut view = Vec::new();
+        for from in 0..all.len() {
+            for to in from..=all.len() {
+                spill.read_f32(from, to, &mut view, &mut scratch).unwrap();
+                assert_eq!(f32_bits(&view), f32_bits(&as_f32(&all[from..to])));
+            }
+        }
+        let mut in_place = 0;
+        for (k, (from, to)) in spill.block_rows().enumerate() {
+            if let Some(axes) = spill.axes_f32(k) {
+                assert_eq!(f32_bits(axes), f32_bits(&as_f32(&all[from..to])));
+                in_place += 1;
+            }
+        }
+        // Only the block of `f32` axes, and only in memory.
+        assert_eq!(in_place, usize::from(spill.in_memory()), "{in_place}");
         let only_xyz = Want {
             t: false,
             temp: false,
