@@ -202,18 +202,24 @@ impl RowLayout {
     /// line `first_line` of the file, parsed in chunks on all cores (see the module docs).
     pub(crate) fn read_plain(&self, text: &str, first_line: usize, delim: u8) -> Result<Columns> {
         self.read_plain_after(text, first_line, delim, None)
+            .map(|(cols, _)| cols)
     }
 
     /// [`RowLayout::read_plain`] on a piece of a file that continues rows read before, whose
-    /// last time was `prev_time`: the time check is joined to it as between two chunks.
+    /// last time was `prev_time`: the time check is joined to it as between two chunks. With
+    /// the rows, the number of line ends in `text` (counted on all cores with the chunks: the
+    /// next piece's first line number, with no other pass over the text).
     pub(crate) fn read_plain_after(
         &self,
         text: &str,
         first_line: usize,
         delim: u8,
         prev_time: Option<f64>,
-    ) -> Result<Columns> {
-        self.read_plain_in(text, first_line, delim, CHUNK_BYTES, prev_time)
+    ) -> Result<(Columns, usize)> {
+        let mut cols = Columns::default();
+        let newlines =
+            self.read_plain_into(&mut cols, text, first_line, delim, CHUNK_BYTES, prev_time)?;
+        Ok((cols, newlines))
     }
 
     /// [`RowLayout::read_plain_after`] appending to `cols` (rows read before, whose last time
@@ -231,7 +237,9 @@ impl RowLayout {
         self.read_plain_into(cols, text, first_line, delim, CHUNK_BYTES, prev_time)
     }
 
-    /// [`RowLayout::read_plain_after`] in chunks of about `chunk_bytes`.
+    /// [`RowLayout::read_plain_after`]'s rows in chunks of about `chunk_bytes` (tests: many
+    /// chunks from a small text).
+    #[cfg(test)]
     fn read_plain_in(
         &self,
         text: &str,

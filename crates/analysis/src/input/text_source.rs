@@ -594,10 +594,10 @@ fn parse_pieces(
                 Err(()) => return Ok(false),
             }
         };
-        let cols = head
+        let (cols, newlines) = head
             .layout
             .read_plain_after(text, line, head.delim.byte(), prev)?;
-        line += memchr::memchr_iter(b'\n', text.as_bytes()).count();
+        line += newlines;
         prev = cols.t.last().copied().or(prev);
         if !give(cols, done) {
             break;
@@ -693,14 +693,13 @@ impl Parser {
         let Some(text) = text else {
             return Some(Err(changed()));
         };
-        let cols = (self.layout)
-            .read_plain_after(text, self.line, self.delim, self.prev_t)
-            .map_err(|_| changed());
-        self.line += memchr::memchr_iter(b'\n', text.as_bytes()).count();
-        if let Ok(c) = &cols {
-            self.prev_t = c.t.last().copied().or(self.prev_t);
-        }
-        Some(cols)
+        let read = (self.layout).read_plain_after(text, self.line, self.delim, self.prev_t);
+        let Ok((cols, newlines)) = read else {
+            return Some(Err(changed()));
+        };
+        self.line += newlines;
+        self.prev_t = cols.t.last().copied().or(self.prev_t);
+        Some(Ok(cols))
     }
 }
 
