@@ -14,7 +14,7 @@
 //! report first).
 
 use crate::error::{Error, Result};
-use crate::input::bounded::{check_line_lengths, read_full, MAX_LINE_BYTES};
+use crate::input::bounded::{check_line_lengths, MAX_LINE_BYTES};
 use crate::input::columns::LoadOptions;
 use crate::input::recording::Recording;
 use crate::input::text::{check_axis_columns, is_comment_or_blank, CsvState, Delimiter};
@@ -33,14 +33,116 @@ pub const PIECES_FROM_BYTES: u64 = 64 << 20;
 /// The file's pieces, each ending at a line end (the last at the end of the file). A gzip
 /// file (by its magic) gives its content's pieces, decompressed as they are read (every
 /// member, as `gzip -d` gives it).
+///
+/// A thread of its own reads the next piece, decompresses it, and checks it for the fast
+/// splitter ([`plain_piece`]) while the one handed out last is parsed: those steps run one
+/// piece at a time, and on the thread that parses they left the other cores idle for about a
+/// sixth of a read. Two pieces are held at once (the one handed out, the next), their buffers
+/// used again from piece to piece.
 pub(crate) struct Pieces {
+    cuts: std::sync::mpsc::Receiver<Cut>,
+    spent: std::sync::mpsc::Sender<Vec<u8>>,
+    /// The piece handed out last.
+    current: Text,
+    /// How the pieces ended, once they have (every later call says it again).
+    ended: Option<std::result::Result<(), ()>>,
+    reader: Option<std::thread::JoinHandle<()>>,
+}
+
+/// A piece as the reading thread hands it over: checked for the fast splitter, as text when
+/// it passed ([`plain_piece`], which for text holds the UTF-8 check too), else as bytes.
+enum Text {
+    Plain(String),
+    Bytes(Vec<u8>),
+}
+
+impl Text {
+    fn bytes(&self) -> &[u8] {
+        match self {
+            Text::Plain(s) => s.as_bytes(),
+            Text::Bytes(b) => b,
+        }
+    }
+
+    fn into_bytes(self) -> Vec<u8> {
+        match self {
+            Text::Plain(s) => s.into_bytes(),
+            Text::Bytes(b) => b,
+        }
+    }
+}
+
+/// What the reading thread sends: the next piece, the end, or a line too long to carry.
+type Cut = std::result::Result<Option<Text>, ()>;
+
+/// The reading half of [`Pieces`]: the file cut into pieces at line ends.
+struct Cutter {
     file: Box<dyn Read + Send>,
-    /// The piece handed out last, then the start of the next (its unfinished line).
-    buf: Vec<u8>,
-    /// Bytes of `buf` that are the piece handed out last.
-    given: usize,
+    /// The start of the next piece (the unfinished line of the one before).
+    carry: Vec<u8>,
     eof: bool,
     piece_bytes: usize,
+}
+
+impl Cutter {
+    /// The next piece, in `buf` (a spent piece's buffer, or a new one).
+    fn next(&mut self, mut buf: Vec<u8>) -> std::result::Result<Option<Vec<u8>>, ()> {
+        buf.clear();
+        buf.append(&mut self.carry);
+        // A piece is at least `piece_bytes` and holds a whole line: a line of up to
+        // MAX_LINE_BYTES longer than the piece is carried whole.
+        let most = self.piece_bytes + MAX_LINE_BYTES + 1;
+        while !self.eof
+            && (buf.len() < self.piece_bytes
+                || (buf.len() <= most && memchr::memrchr(b'\n', &buf).is_none()))
+        {
+            // Read into the buffer's spare room (no zeroing of it first).
+            let room = self.piece_bytes.min(most);
+            buf.reserve(room);
+            let mut next = (&mut self.file).take(room as u64);
+            let n = next.read_to_end(&mut buf).map_err(|_| ())?;
+            self.eof = n < room;
+        }
+        if buf.is_empty() {
+            return Ok(None);
+        }
+        let end = if self.eof {
+            buf.len()
+        } else {
+            memchr::memrchr(b'\n', &buf).ok_or(())? + 1
+        };
+        self.carry.extend_from_slice(&buf[end..]);
+        buf.truncate(end);
+        Ok(Some(buf))
+    }
+
+    /// Cuts pieces and sends them to `cuts`, each checked, until the end, an error, or no one
+    /// takes them; a buffer from `spent` when there is one.
+    fn run(
+        mut self,
+        cuts: std::sync::mpsc::SyncSender<Cut>,
+        spent: std::sync::mpsc::Receiver<Vec<u8>>,
+    ) {
+        loop {
+            let buf = spent.try_recv().unwrap_or_default();
+            let cut = self.next(buf).map(|piece| piece.map(checked));
+            let last = !matches!(cut, Ok(Some(_)));
+            if cuts.send(cut).is_err() || last {
+                return;
+            }
+        }
+    }
+}
+
+/// A piece as [`Text`]: plain text when [`plain_piece`] passes it.
+fn checked(piece: Vec<u8>) -> Text {
+    if plain_piece(&piece).is_none() {
+        return Text::Bytes(piece);
+    }
+    match String::from_utf8(piece) {
+        Ok(text) => Text::Plain(text),
+        Err(e) => Text::Bytes(e.into_bytes()),
+    }
 }
 
 impl Pieces {
@@ -63,53 +165,79 @@ impl Pieces {
         } else {
             Box::new(file)
         };
-        Ok(Self {
+        let cutter = Cutter {
             file,
-            buf: Vec::new(),
-            given: 0,
+            carry: Vec::new(),
             eof: false,
             piece_bytes,
+        };
+        // Rendezvous: the next piece is cut while the last is parsed, no further ahead.
+        let (to_pieces, cuts) = std::sync::mpsc::sync_channel(0);
+        let (spent, spent_rx) = std::sync::mpsc::channel();
+        let reader = std::thread::Builder::new()
+            .name("wiical-pieces".into())
+            .spawn(move || cutter.run(to_pieces, spent_rx))
+            .map_err(read_err)?;
+        Ok(Self {
+            cuts,
+            spent,
+            current: Text::Bytes(Vec::new()),
+            ended: None,
+            reader: Some(reader),
         })
     }
 
     /// The piece handed out last (empty before the first).
     pub(crate) fn current(&self) -> &[u8] {
-        &self.buf[..self.given]
+        self.current.bytes()
+    }
+
+    /// The piece handed out last as text the fast splitter reads ([`plain_piece`] of it,
+    /// checked when it was read), else `None`.
+    pub(crate) fn plain(&self) -> Option<&str> {
+        match &self.current {
+            Text::Plain(text) => Some(text),
+            Text::Bytes(_) => None,
+        }
     }
 
     /// The next piece (`None` at the end), or `Err(())` when a line is longer than the limit
     /// allows a piece to carry (the whole-text path names it). I/O errors end the pieces too:
     /// the whole-text path reads the file again and names the error.
     pub(crate) fn next_piece(&mut self) -> std::result::Result<Option<&[u8]>, ()> {
-        self.buf.drain(..self.given);
-        self.given = 0;
-        // A piece is at least `piece_bytes` and holds a whole line: a line of up to
-        // MAX_LINE_BYTES longer than the piece is carried whole.
-        let most = self.piece_bytes + MAX_LINE_BYTES + 1;
-        while !self.eof
-            && (self.buf.len() < self.piece_bytes
-                || (self.buf.len() <= most && memchr::memrchr(b'\n', &self.buf).is_none()))
-        {
-            let at = self.buf.len();
-            let room = self.piece_bytes.min(most);
-            self.buf.resize(at + room, 0);
-            let n = read_full(&mut self.file, &mut self.buf[at..]).map_err(|_| ())?;
-            self.buf.truncate(at + n);
-            self.eof = n < room;
+        if let Some(end) = self.ended {
+            return end.map(|()| None);
         }
-        if self.buf.is_empty() {
-            return Ok(None);
-        }
-        let end = if self.eof {
-            self.buf.len()
-        } else {
-            match memchr::memrchr(b'\n', &self.buf) {
-                Some(i) => i + 1,
-                None => return Err(()),
+        let spent = std::mem::replace(&mut self.current, Text::Bytes(Vec::new()));
+        // The reader may have ended: the buffer is then dropped here.
+        let _ = self.spent.send(spent.into_bytes());
+        match self.cuts.recv() {
+            Ok(Ok(Some(text))) => {
+                self.current = text;
+                Ok(Some(self.current.bytes()))
             }
-        };
-        self.given = end;
-        Ok(Some(&self.buf[..end]))
+            Ok(Err(())) => {
+                self.ended = Some(Err(()));
+                Err(())
+            }
+            // The end, or a reader that stopped without saying (it panicked): no more pieces.
+            Ok(Ok(None)) | Err(_) => {
+                self.ended = Some(Ok(()));
+                Ok(None)
+            }
+        }
+    }
+}
+
+impl Drop for Pieces {
+    /// Stops the reading thread (it ends when its piece finds no taker) and waits for it, so
+    /// that no file is left open behind a finished read.
+    fn drop(&mut self) {
+        let (_, dead) = std::sync::mpsc::sync_channel(0);
+        drop(std::mem::replace(&mut self.cuts, dead));
+        if let Some(reader) = self.reader.take() {
+            let _ = reader.join();
+        }
     }
 }
 
@@ -168,7 +296,7 @@ fn read_pieces(
             Err(e) => return finish_checks(&mut pieces, Err(e)),
         }
         piece = match pieces.next_piece() {
-            Ok(Some(p)) => match plain_piece(p) {
+            Ok(Some(_)) => match pieces.plain() {
                 Some(text) => text,
                 None => return Ok(None),
             },
@@ -205,9 +333,10 @@ pub(crate) fn first_piece_head(
 /// `Ok(None)`: the whole-text path reports what it finds first).
 fn finish_checks(pieces: &mut Pieces, result: Result<Recording>) -> Result<Option<Recording>> {
     loop {
-        match pieces.next_piece() {
-            Ok(Some(p)) if plain_piece(p).is_some() => {}
-            Ok(None) => return result.map(Some),
+        let more = pieces.next_piece().map(|p| p.is_some());
+        match more {
+            Ok(true) if pieces.plain().is_some() => {}
+            Ok(false) => return result.map(Some),
             _ => return Ok(None),
         }
     }

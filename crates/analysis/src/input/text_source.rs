@@ -583,15 +583,13 @@ fn parse_pieces(
             }
         } else {
             match pieces.next_piece() {
-                Ok(Some(p)) => {
-                    done += p.len() as u64;
-                    match plain_piece(p) {
-                        Some(t) => t,
-                        None => return Ok(false),
-                    }
-                }
+                Ok(Some(p)) => done += p.len() as u64,
                 Ok(None) => break,
                 Err(()) => return Ok(false),
+            }
+            match pieces.plain() {
+                Some(t) => t,
+                None => return Ok(false),
             }
         };
         let (cols, newlines) = head
@@ -644,9 +642,10 @@ fn fits_in_memory(written: u64, done: u64, file_bytes: u64, memory: u64) -> bool
 /// then; else the whole-text path reports what it finds first).
 fn rest_is_plain(pieces: &mut Pieces) -> bool {
     loop {
-        match pieces.next_piece() {
-            Ok(Some(p)) if plain_piece(p).is_some() => {}
-            Ok(None) => return true,
+        let more = pieces.next_piece().map(|p| p.is_some());
+        match more {
+            Ok(true) if pieces.plain().is_some() => {}
+            Ok(false) => return true,
             _ => return false,
         }
     }
@@ -678,17 +677,18 @@ impl Parser {
     /// find (a piece that is not plain text, a row that does not parse) means the file changed.
     fn next(&mut self) -> Option<Result<Columns>> {
         let changed = || Error::from(InputError::ChangedWhileRead);
-        let piece = match self.pieces.next_piece() {
-            Ok(Some(p)) => p,
+        match self.pieces.next_piece() {
+            Ok(Some(_)) => {}
             Ok(None) if self.data_offset.is_none() => return None,
             _ => return Some(Err(changed())),
         };
         let text = match self.data_offset.take() {
             Some(offset) => {
+                let piece = self.pieces.current();
                 let piece = piece.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(piece);
                 plain_piece(piece).and_then(|t| t.get(offset..))
             }
-            None => plain_piece(piece),
+            None => self.pieces.plain(),
         };
         let Some(text) = text else {
             return Some(Err(changed()));
