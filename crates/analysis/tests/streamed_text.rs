@@ -93,17 +93,10 @@ fn streamed_values_with_temperature_give_the_held_reports() {
 fn streamed_g_values_without_times_and_the_fixed_detector_give_the_held_reports() {
     let dir = tempfile::tempdir().unwrap();
     let (_, out) = sim_csv(dir.path(), "ms2.csv", false);
-    let rec = &out.recording;
-    let per_g = Device::Mems16.counts_per_g();
-    let per_count = Device::Mems16.unit_per_count();
-    let mut g = String::from("t,x,y,z,temp\n");
+    let g = String::from("t,x,y,z,temp\n") + &g_rows(&out.recording, 0.0);
     let mut no_t = String::from("Fs,100\nx,y,z,temp\n");
-    let times = rec.times(100.0);
-    for (i, m) in rec.xyz.iter().enumerate() {
-        let temp = rec.temp.as_ref().unwrap()[i];
-        let counts = m.map(|v| (v / per_count).round());
-        let [x, y, z] = counts.map(|c| c / per_g);
-        g += &format!("{:.5},{x},{y},{z},{temp:.2}\n", times[i]);
+    for (i, counts) in counts_of(&out.recording).into_iter().enumerate() {
+        let temp = out.recording.temp.as_ref().unwrap()[i];
         let [x, y, z] = counts;
         no_t += &format!("{x},{y},{z},{temp:.2}\n");
     }
@@ -120,6 +113,29 @@ fn streamed_g_values_without_times_and_the_fixed_detector_give_the_held_reports(
     let mut fixed = AnalyzeOptions::default();
     fixed.fit.detect.adaptive = false;
     same_reports(&g_path, &fixed.fit, &fixed);
+}
+
+/// The simulated 16-bit recording's values as whole counts.
+fn counts_of(rec: &wiical_analysis::Recording) -> Vec<[f64; 3]> {
+    let per_count = Device::Mems16.unit_per_count();
+    rec.xyz
+        .iter()
+        .map(|m| m.map(|v| (v / per_count).round()))
+        .collect()
+}
+
+/// The recording's rows in g (its counts over counts-per-g: a lattice of non-integer values),
+/// `t,x,y,z,temp`, its times (at 100 Hz) shifted by `t0`.
+fn g_rows(rec: &wiical_analysis::Recording, t0: f64) -> String {
+    let per_g = Device::Mems16.counts_per_g();
+    let times = rec.times(100.0);
+    let mut g = String::new();
+    for (i, counts) in counts_of(rec).into_iter().enumerate() {
+        let temp = rec.temp.as_ref().unwrap()[i];
+        let [x, y, z] = counts.map(|c| c / per_g);
+        g += &format!("{:.5},{x},{y},{z},{temp:.2}\n", times[i] + t0);
+    }
+    g
 }
 
 /// A file that grows after its first pass is refused when a later pass reads it.
@@ -243,27 +259,19 @@ fn the_rows_read_back_give_the_windows_of_the_text_read_again() {
 
 /// A recording in g (values on a lattice of 1/counts-per-g) whose first rows all read whole
 /// numbers (resting at exactly 0, 0, 1 g): the first pass keeps no distinct values while they
-/// are all whole, so the lattice is found in a pass of its own, and the windows and reports
-/// are the held file's.
+/// are all whole, so the lattice is found in a pass of its own, and the reports are the held
+/// file's.
 #[test]
 fn a_lattice_after_whole_first_rows_is_found_and_gives_the_held_reports() {
     use wiical_analysis::input::front_door::load_input_in;
     use wiical_analysis::input::sample_summary::Distinct;
     let dir = tempfile::tempdir().unwrap();
     let (_, out) = sim_csv(dir.path(), "ms2.csv", false);
-    let rec = &out.recording;
-    let per_g = Device::Mems16.counts_per_g();
-    let per_count = Device::Mems16.unit_per_count();
     let mut g = String::from("t,x,y,z,temp\n");
-    let times = rec.times(100.0);
     for i in 0..3000 {
         g += &format!("{:.5},0,0,1,25.00\n", i as f64 * 0.01);
     }
-    for (i, m) in rec.xyz.iter().enumerate() {
-        let [x, y, z] = m.map(|v| (v / per_count).round() / per_g);
-        let temp = rec.temp.as_ref().unwrap()[i];
-        g += &format!("{:.5},{x},{y},{z},{temp:.2}\n", times[i] + 30.0);
-    }
+    g += &g_rows(&out.recording, 30.0);
     let path = dir.path().join("g_whole_first.csv");
     std::fs::write(&path, g).unwrap();
     let opts = WindowInputOptions::default();
