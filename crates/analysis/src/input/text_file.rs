@@ -216,12 +216,13 @@ impl Pieces {
                 self.current = text;
                 Ok(Some(self.current.bytes()))
             }
-            Ok(Err(())) => {
+            // A line too long, an error reading, or a reader that stopped without saying (it
+            // panicked): never taken for the end of the file (the caller reads it whole).
+            Ok(Err(())) | Err(_) => {
                 self.ended = Some(Err(()));
                 Err(())
             }
-            // The end, or a reader that stopped without saying (it panicked): no more pieces.
-            Ok(Ok(None)) | Err(_) => {
+            Ok(Ok(None)) => {
                 self.ended = Some(Ok(()));
                 Ok(None)
             }
