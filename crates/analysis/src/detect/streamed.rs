@@ -15,9 +15,10 @@
 //! per window that fits a read), windows on all cores.
 
 use crate::detect::windows::{
-    adaptive_intervals, adaptive_rate, adc_range_of, axis_lattice, batch_spread, detector_scale,
-    fixed_intervals, magnitude, run_pair_held, saturated_at, survey_held, to_levels, variance_of,
-    DetectOptions, PairResult, Passes, WindowStats, Windows, BATCHES, MAX_WINDOW,
+    adaptive_intervals, adaptive_rate, adc_range_of, axis_lattice, batch_spread,
+    both_or_first_error, detector_scale, fixed_intervals, magnitude, run_pair_held, saturated_at,
+    survey_held, to_levels, variance_of, DetectOptions, PairResult, Passes, WindowStats, Windows,
+    BATCHES, MAX_WINDOW,
 };
 use crate::error::detect::DetectError;
 use crate::error::Result;
@@ -191,10 +192,10 @@ impl<'a> Passes for InPieces<'a> {
         let mut failed = None;
         self.each_view(|viewed| {
             let [a, b] = &mut lanes;
-            match rayon::join(|| a.feed(viewed), || b.feed(viewed)) {
-                (Ok(()), Ok(())) => true,
-                (Err((i, e)), Err((j, _))) if i <= j => fail_with(&mut failed, e),
-                (Err((_, e)), Ok(())) | (_, Err((_, e))) => fail_with(&mut failed, e),
+            let (ra, rb) = rayon::join(|| a.feed(viewed), || b.feed(viewed));
+            match both_or_first_error(ra, rb) {
+                Ok(_) => true,
+                Err(e) => fail_with(&mut failed, e),
             }
         });
         if let Some(e) = failed {

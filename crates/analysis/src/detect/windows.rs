@@ -6,6 +6,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x > 0.0)` is deliberately true for NaN.
 use crate::error::detect::{DetectError, Setting};
 use crate::input::recording::{infer_units, Recording};
+use crate::input::sample_summary::is_whole;
 use crate::stats as st;
 use wiical_core::multipos::MultiPosConfig;
 use wiical_core::static_detect::adaptive;
@@ -353,11 +354,21 @@ pub(crate) fn run_pair_held<S: DetectorSample>(
     cfgs: [StaticDetectorConfig; 2],
     reference: [f32; 3],
 ) -> PairResult {
-    match rayon::join(
+    let (a, b) = rayon::join(
         || run_held(pieces, cfgs[0], reference),
         || run_held(pieces, cfgs[1], reference),
-    ) {
-        (Ok(a), Ok(b)) => Ok([a, b]),
+    );
+    both_or_first_error(a, b).map(|(a, b)| [a, b])
+}
+
+/// A pair's two results, or the error met first in sample order of the two (each with the
+/// index of the sample that met it; the first setting's on the same sample).
+pub(crate) fn both_or_first_error<A, B>(
+    a: std::result::Result<A, (usize, CoreError)>,
+    b: std::result::Result<B, (usize, CoreError)>,
+) -> std::result::Result<(A, B), CoreError> {
+    match (a, b) {
+        (Ok(a), Ok(b)) => Ok((a, b)),
         (Err((i, e)), Err((j, _))) if i <= j => Err(e),
         (Err((_, e)), Ok(_)) | (_, Err((_, e))) => Err(e),
     }
@@ -789,18 +800,10 @@ fn adc_range_if(xyz: &[[f64; 3]], integer: bool) -> Option<(f64, f64)> {
 
 /// [`Recording::is_integer`] of samples `xyz` (every value whole: `v.fract() == 0`), on all
 /// cores and without `fract`'s call to `trunc` (a library call on x86-64 without SSE4.1):
-/// below 2⁵² in magnitude a value is whole exactly when the round trip through `i64` gives
-/// it back, above every finite value is whole; NaN and infinities are not.
+/// the streamed summary's test of each value ([`is_whole`]).
 pub(crate) fn all_whole(xyz: &[[f64; 3]]) -> bool {
     use rayon::prelude::*;
-    fn whole(v: f64) -> bool {
-        if v.abs() < 4_503_599_627_370_496.0 {
-            (v as i64) as f64 == v
-        } else {
-            v.is_finite()
-        }
-    }
-    xyz.par_iter().all(|s| s.iter().all(|v| whole(*v)))
+    xyz.par_iter().all(|s| s.iter().all(|v| is_whole(*v)))
 }
 
 /// The ADC range holding every value from `lo` to `hi` ([`infer_adc_range`]).

@@ -56,7 +56,7 @@ struct Keys {
 /// Rust runs in) and subtracting it again gives `|v|` back exactly when `|v|` was one. NaN
 /// and the infinities are neither (their `fract` is NaN).
 #[inline]
-fn is_whole(v: f64) -> bool {
+pub(crate) fn is_whole(v: f64) -> bool {
     const P52: f64 = (1u64 << 52) as f64;
     let a = v.abs();
     (P52..=f64::MAX).contains(&a) | ((a < P52) & ((a + P52) - P52 == a))

@@ -134,13 +134,12 @@ impl Cutter {
     }
 }
 
-/// A piece as [`Text`]: plain text when [`plain_piece`] passes it.
+/// A piece as [`Text`]: plain text when [`plain_piece`] passes it (its UTF-8 check made
+/// once, by the conversion to a `String`).
 fn checked(piece: Vec<u8>) -> Text {
-    if plain_piece(&piece).is_none() {
-        return Text::Bytes(piece);
-    }
     match String::from_utf8(piece) {
-        Ok(text) => Text::Plain(text),
+        Ok(text) if is_plain(&text) => Text::Plain(text),
+        Ok(text) => Text::Bytes(text.into_bytes()),
         Err(e) => Text::Bytes(e.into_bytes()),
     }
 }
@@ -165,6 +164,12 @@ impl Pieces {
         } else {
             Box::new(file)
         };
+        Self::reading(file, piece_bytes).map_err(read_err)
+    }
+
+    /// The pieces of what `file` gives, cut on a thread of its own (an error when the system
+    /// cannot start it).
+    fn reading(file: Box<dyn Read + Send>, piece_bytes: usize) -> std::io::Result<Self> {
         let cutter = Cutter {
             file,
             carry: Vec::new(),
@@ -176,8 +181,7 @@ impl Pieces {
         let (spent, spent_rx) = std::sync::mpsc::channel();
         let reader = std::thread::Builder::new()
             .name("wiical-pieces".into())
-            .spawn(move || cutter.run(to_pieces, spent_rx))
-            .map_err(read_err)?;
+            .spawn(move || cutter.run(to_pieces, spent_rx))?;
         Ok(Self {
             cuts,
             spent,
@@ -198,6 +202,30 @@ impl Pieces {
         match &self.current {
             Text::Plain(text) => Some(text),
             Text::Bytes(_) => None,
+        }
+    }
+
+    /// [`Pieces::plain`] of the piece handed out last after a UTF-8 byte-order mark (the first
+    /// piece's text): the reader's check stands for it when the piece passed it (without its
+    /// first three bytes it still does), else the piece after the mark is checked here.
+    pub(crate) fn plain_after_bom(&self) -> Option<&str> {
+        match self.plain() {
+            Some(text) => Some(text.strip_prefix('\u{feff}').unwrap_or(text)),
+            None => {
+                let piece = self.current();
+                plain_piece(piece.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(piece))
+            }
+        }
+    }
+
+    /// Whether every piece left is plain text ([`Pieces::plain`]), read to the end.
+    pub(crate) fn rest_is_plain(&mut self) -> bool {
+        loop {
+            match self.next_piece().map(|p| p.is_some()) {
+                Ok(true) if self.plain().is_some() => {}
+                Ok(false) => return true,
+                _ => return false,
+            }
         }
     }
 
@@ -244,14 +272,20 @@ impl Drop for Pieces {
 
 /// The piece as text the fast splitter reads as the `csv` reader does, with no comment line
 /// and no line over the limit; `None` for anything else.
-pub(crate) fn plain_piece(piece: &[u8]) -> Option<&str> {
-    let text = std::str::from_utf8(piece).ok()?;
+fn plain_piece(piece: &[u8]) -> Option<&str> {
+    std::str::from_utf8(piece)
+        .ok()
+        .filter(|text| is_plain(text))
+}
+
+/// Whether `text` is what the fast splitter reads as the `csv` reader does: no quote, no `#`
+/// or `%` comment mark, no lone carriage return, no line over the limit ([`plain_piece`]
+/// without its UTF-8 check).
+fn is_plain(text: &str) -> bool {
+    let piece = text.as_bytes();
     let marked = memchr::memchr3(b'"', b'#', b'%', piece).is_some();
     let lone_cr = memchr::memchr_iter(b'\r', piece).any(|i| piece.get(i + 1) != Some(&b'\n'));
-    if marked || lone_cr || check_line_lengths(text).is_err() {
-        return None;
-    }
-    Some(text)
+    !marked && !lone_cr && check_line_lengths(text).is_ok()
 }
 
 /// Reads the regular text file `path` in pieces of [`PIECE_BYTES`] as
@@ -320,9 +354,8 @@ pub(crate) fn first_piece_head(
     pieces: &mut Pieces,
     head_ok: impl Fn(&str) -> bool,
 ) -> Option<(&str, Delimiter)> {
-    let first = pieces.next_piece().ok()??;
-    let first = first.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(first);
-    let head = plain_piece(first).filter(|h| !h.starts_with('\u{feff}'))?;
+    pieces.next_piece().ok()??;
+    let head = (pieces.plain_after_bom()).filter(|h| !h.starts_with('\u{feff}'))?;
     let first_line = head.lines().find(|l| !is_comment_or_blank(l))?;
     match Delimiter::of_first_line(first_line) {
         Some(d) if !crate::input::grt::is_grt(first_line) && head_ok(head) => Some((head, d)),
@@ -333,19 +366,64 @@ pub(crate) fn first_piece_head(
 /// `result` (an error in the rows) once the rest of the file is known to be plain text (else
 /// `Ok(None)`: the whole-text path reports what it finds first).
 fn finish_checks(pieces: &mut Pieces, result: Result<Recording>) -> Result<Option<Recording>> {
-    loop {
-        let more = pieces.next_piece().map(|p| p.is_some());
-        match more {
-            Ok(true) if pieces.plain().is_some() => {}
-            Ok(false) => return result.map(Some),
-            _ => return Ok(None),
-        }
+    if pieces.rest_is_plain() {
+        result.map(Some)
+    } else {
+        Ok(None)
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Gives `text`, then fails: with an error (`panic: false`) or by panicking.
+    struct Failing {
+        text: std::io::Cursor<Vec<u8>>,
+        panic: bool,
+    }
+
+    impl Read for Failing {
+        fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+            match self.text.read(buf)? {
+                0 if self.panic => panic!("a reader that panics"),
+                0 => Err(std::io::Error::other("a failing disk")),
+                n => Ok(n),
+            }
+        }
+    }
+
+    /// A source that fails after some pieces (an error reading, or a reading thread that
+    /// panics) ends the pieces with `Err(())` — the file then read whole, which names the
+    /// error — never as the end of the file (which would cut the recording short); later
+    /// calls say it again, and a dropped `Pieces` stops its thread mid-file.
+    #[test]
+    fn a_source_that_fails_is_never_the_end_of_the_file() {
+        let text: Vec<u8> = (0..2000)
+            .flat_map(|i| format!("{i},1,2\n").into_bytes())
+            .collect();
+        for panic in [false, true] {
+            let file = Failing {
+                text: std::io::Cursor::new(text.clone()),
+                panic,
+            };
+            let mut pieces = Pieces::reading(Box::new(file), 1000).unwrap();
+            let mut read = Vec::new();
+            let end = loop {
+                match pieces.next_piece() {
+                    Ok(Some(p)) => read.extend_from_slice(p),
+                    other => break other.map(|p| p.is_some()),
+                }
+            };
+            assert_eq!(end, Err(()), "panic: {panic}");
+            assert_eq!(pieces.next_piece(), Err(()));
+            assert!(text.starts_with(&read) && read.len() < text.len());
+        }
+        let endless = std::io::repeat(b'\n');
+        let mut pieces = Pieces::reading(Box::new(endless), 1000).unwrap();
+        assert!(matches!(pieces.next_piece(), Ok(Some(_))));
+        drop(pieces);
+    }
 
     /// Every text, read in pieces of every size, gives what the whole-text parse gives: the
     /// values bit for bit or the same sentence — or is handed back to be read whole.

@@ -25,7 +25,7 @@ use crate::input::columns::LoadOptions;
 use crate::input::recording::Recording;
 use crate::input::sample_summary::{SampleSummary, SummaryFold};
 use crate::input::text::{check_axis_columns, CsvState, Delimiter};
-use crate::input::text_file::{first_piece_head, plain_piece, Pieces, PIECE_BYTES};
+use crate::input::text_file::{first_piece_head, Pieces, PIECE_BYTES};
 pub(crate) use crate::input::text_rows::Columns;
 use crate::input::text_rows::RowLayout;
 pub(crate) use crate::input::text_spill::Want;
@@ -174,14 +174,14 @@ impl TextSource {
         let head = match read_head(&mut pieces, opts, head_ok) {
             Ok(Some(h)) => h,
             Ok(None) => return Ok(None),
-            Err(e) => return rest_is_plain(&mut pieces).then_some(Err(e)).transpose(),
+            Err(e) => return pieces.rest_is_plain().then_some(Err(e)).transpose(),
         };
         let mut writer = spill_to.writer();
         let (fold, tally, skipped) =
             match first_pass(&mut pieces, (&head, path), &mut writer, stamp.0) {
                 Ok(Some(x)) => x,
                 Ok(None) => return Ok(None),
-                Err(e) => return rest_is_plain(&mut pieces).then_some(Err(e)).transpose(),
+                Err(e) => return pieces.rest_is_plain().then_some(Err(e)).transpose(),
             };
         let summary = fold.finish();
         if summary.count == 0 {
@@ -574,10 +574,8 @@ fn parse_pieces(
     loop {
         let text = if std::mem::take(&mut first) {
             // The first piece again, from its data rows (its head was read above).
-            let cur = pieces.current();
-            done += cur.len() as u64;
-            let cur = cur.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(cur);
-            match plain_piece(cur).and_then(|t| t.get(head.data_offset..)) {
+            done += pieces.current().len() as u64;
+            match (pieces.plain_after_bom()).and_then(|t| t.get(head.data_offset..)) {
                 Some(t) => t,
                 None => return Ok(false),
             }
@@ -638,19 +636,6 @@ fn fits_in_memory(written: u64, done: u64, file_bytes: u64, memory: u64) -> bool
     projected <= u128::from(memory)
 }
 
-/// True when the rest of the file is plain text (an error found in the rows is reported
-/// then; else the whole-text path reports what it finds first).
-fn rest_is_plain(pieces: &mut Pieces) -> bool {
-    loop {
-        let more = pieces.next_piece().map(|p| p.is_some());
-        match more {
-            Ok(true) if pieces.plain().is_some() => {}
-            Ok(false) => return true,
-            _ => return false,
-        }
-    }
-}
-
 /// A pass's position in the file.
 struct Reader {
     feed: Feed,
@@ -683,11 +668,7 @@ impl Parser {
             _ => return Some(Err(changed())),
         };
         let text = match self.data_offset.take() {
-            Some(offset) => {
-                let piece = self.pieces.current();
-                let piece = piece.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(piece);
-                plain_piece(piece).and_then(|t| t.get(offset..))
-            }
+            Some(offset) => (self.pieces.plain_after_bom()).and_then(|t| t.get(offset..)),
             None => self.pieces.plain(),
         };
         let Some(text) = text else {

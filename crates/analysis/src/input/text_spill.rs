@@ -11,8 +11,9 @@
 //! `t,x,y,z,temp` thus costs 20 to 40 bytes (28 for counts with a decimal time and
 //! temperature). When all three axes are `f32` they are stored row by row (x, y, z of a row
 //! together), and a block in memory is kept in 4-byte words: its axes are then the
-//! detector's `[f32; 3]` samples as they lie ([`Spill::axes_f32`]), read with no copy. A spill that cannot be written (no temporary directory, a full disk) is
-//! dropped, and the passes parse the text again: the same values either way.
+//! detector's `[f32; 3]` samples as they lie ([`Spill::axes_f32`]), read with no copy. A
+//! spill that cannot be written (no temporary directory, a full disk) is dropped, and the
+//! passes parse the text again: the same values either way.
 
 use crate::input::bounded::{free_bytes, KEEP_FREE_BYTES};
 use crate::input::text_rows::Columns;
@@ -52,12 +53,29 @@ impl Width {
     /// The narrowest width holding every value of `values` exactly (their bits after the
     /// round trip, NaN payloads and signed zeros included).
     fn of(mut values: impl Iterator<Item = f64>) -> Self {
-        if values.all(|v| f64::from(v as f32).to_bits() == v.to_bits()) {
+        Self::f32_if(values.all(is_f32))
+    }
+
+    /// `F32` when every value is an `f32` exactly, else `F64`.
+    fn f32_if(exact: bool) -> Self {
+        if exact {
             Width::F32
         } else {
             Width::F64
         }
     }
+}
+
+/// Whether `v` is an `f32` exactly (its bits after the round trip, NaN payloads and signed
+/// zeros included).
+fn is_f32(v: f64) -> bool {
+    f64::from(v as f32).to_bits() == v.to_bits()
+}
+
+/// Whether a block whose columns have `widths` (t, x, y, z, temperature) stores its axes row
+/// by row: when all three are `f32`.
+fn axes_row_by_row(widths: &[Width; 5]) -> bool {
+    widths[1..4].iter().all(|&w| w == Width::F32)
 }
 
 /// One piece's rows in the file: columns one after another, each `rows × width` bytes.
@@ -82,7 +100,7 @@ impl Block {
     /// three are `f32`. They take the place of the three columns (the temperature column's
     /// offset is the same either way).
     fn interleaved(&self) -> bool {
-        self.widths[1..4].iter().all(|&w| w == Width::F32)
+        axes_row_by_row(&self.widths)
     }
 
     /// Byte offset of row `r`'s axes in an [`Block::interleaved`] block.
@@ -239,15 +257,19 @@ impl SpillWriter {
         let bytes = rows * widths.iter().map(|w| w.bytes()).sum::<usize>();
         self.buf.clear();
         self.buf.reserve_exact(bytes / 4);
-        put(&mut self.buf, widths[0], &cols.t);
-        if widths[1..4].iter().all(|&w| w == Width::F32) {
-            put(&mut self.buf, Width::F32, cols.xyz.as_flattened());
+        put(&mut self.buf, widths[0], cols.t.iter().copied());
+        if axes_row_by_row(&widths) {
+            put(
+                &mut self.buf,
+                Width::F32,
+                cols.xyz.iter().flatten().copied(),
+            );
         } else {
             for (a, &w) in widths[1..4].iter().enumerate() {
-                put_each(&mut self.buf, w, cols.xyz.iter().map(|r| r[a]));
+                put(&mut self.buf, w, cols.xyz.iter().map(|r| r[a]));
             }
         }
-        put(&mut self.buf, widths[4], &cols.temp);
+        put(&mut self.buf, widths[4], cols.temp.iter().copied());
         let len = bytes as u64;
         if self.at.saturating_add(len) > self.limit {
             return Err(std::io::ErrorKind::StorageFull.into());
@@ -284,29 +306,19 @@ impl SpillWriter {
 /// (the three tests of a row at once, none stopping early: a loop the compiler runs on
 /// several values at a time).
 fn axis_widths(xyz: &[[f64; 3]]) -> [Width; 3] {
-    let exact = |v: f64| f64::from(v as f32).to_bits() == v.to_bits();
     let all = xyz.iter().fold([true; 3], |all, r| {
         [
-            all[0] & exact(r[0]),
-            all[1] & exact(r[1]),
-            all[2] & exact(r[2]),
+            all[0] & is_f32(r[0]),
+            all[1] & is_f32(r[1]),
+            all[2] & is_f32(r[2]),
         ]
     });
-    all.map(|f32| if f32 { Width::F32 } else { Width::F64 })
+    all.map(Width::f32_if)
 }
 
 /// `values` appended to `buf` at width `w`, little-endian: each word's bytes are the value's
 /// little-endian bytes, whatever the machine's order (an `f64` is two words).
-fn put(buf: &mut Vec<u32>, w: Width, values: &[f64]) {
-    match w {
-        Width::Absent => {}
-        Width::F32 => buf.extend(values.iter().map(|&v| le_word((v as f32).to_le_bytes()))),
-        Width::F64 => put_each(buf, w, values.iter().copied()),
-    }
-}
-
-/// [`put`] of values given one at a time.
-fn put_each(buf: &mut Vec<u32>, w: Width, values: impl Iterator<Item = f64>) {
+fn put(buf: &mut Vec<u32>, w: Width, values: impl Iterator<Item = f64>) {
     match w {
         Width::Absent => {}
         Width::F32 => buf.extend(values.map(|v| le_word((v as f32).to_le_bytes()))),
