@@ -5,12 +5,12 @@
 //! whatever else the machine runs (wall-clock benchmarks on a shared machine are not).
 //!
 //! `cargo run --release -p wiical-core --example detector_cycles -- WORKLOAD` with WORKLOAD
-//! one of `detector-old`, `detector-push`, `detector-slice`, `block-old`, `block-new`,
-//! `welford-old`, `welford-new`, `none` (the stream alone, to subtract); each runs 200 passes
-//! over 10,000 samples (2,000,000 samples).
+//! one of `detector-old`, `detector-push`, `detector-slice`, `detector-spans`, `block-old`, `block-new`, `block-four`,
+//! `welford-old`, `welford-new`, `welford-four`, `none` (the stream alone, to subtract); each runs 200 passes
+//! over 10,000 samples (2,000,000 samples), or as many passes as a second argument says.
 
 use std::hint::black_box;
-use wiical_core::static_detect::{NoiseSurvey, StaticDetector};
+use wiical_core::static_detect::{NoiseSurvey, SpanDetector, StaticDetector};
 #[allow(unused_imports)] // for the reference module's `super::` paths
 use wiical_core::static_detect::{StaticDetectorConfig, StaticInterval};
 #[allow(unused_imports)] // for the reference module's `crate::` paths
@@ -33,7 +33,11 @@ fn main() {
     let cfg = StaticDetectorConfig::for_rate(100.0, 1.0, 2.0, 2.0);
     let reference = [1.0f32, 1.0, 1.0];
     let mut found = 0u64;
-    for _ in 0..200 {
+    let passes: usize = std::env::args()
+        .nth(2)
+        .and_then(|p| p.parse().ok())
+        .unwrap_or(200);
+    for _ in 0..passes {
         let xs = black_box(&xs[..]);
         match which.as_str() {
             "detector-old" => {
@@ -56,6 +60,11 @@ fn main() {
                 d.push_slice(xs, |_| found += 1).unwrap();
                 found += u64::from(d.finish().is_some());
             }
+            "detector-spans" => {
+                let mut d = SpanDetector::<511>::with_reference(cfg, reference).unwrap();
+                d.push_slice(xs, |_| found += 1).unwrap();
+                found += u64::from(d.finish().is_some());
+            }
             "block-old" => {
                 for b in xs.chunks_exact(25) {
                     found += reference::reference_measure_block(b).unwrap().0.x as u64;
@@ -64,6 +73,14 @@ fn main() {
             "block-new" => {
                 for b in xs.chunks_exact(25) {
                     found += NoiseSurvey::measure_block(b).unwrap().0.x as u64;
+                }
+            }
+            "block-four" => {
+                for b in xs.chunks_exact(100) {
+                    let four = [&b[..25], &b[25..50], &b[50..75], &b[75..]];
+                    for m in NoiseSurvey::measure_four_blocks(four) {
+                        found += m.unwrap().0.x as u64;
+                    }
                 }
             }
             "welford-old" => {
@@ -79,6 +96,13 @@ fn main() {
                     w.push(*m).unwrap();
                 }
                 found += w.variance().unwrap().x as u64;
+            }
+            "welford-four" => {
+                let q = xs.len() / 4;
+                let four = [&xs[..q], &xs[q..2 * q], &xs[2 * q..3 * q], &xs[3 * q..]];
+                for w in wiical_core::estimators::Welford3::of_four(four) {
+                    found += w.unwrap().variance().unwrap().x as u64;
+                }
             }
             "none" => found += xs.len() as u64,
             _ => {

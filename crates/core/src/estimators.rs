@@ -27,6 +27,8 @@
 
 use crate::{Error, Mat3, Vec3};
 
+mod four;
+
 /// Streaming mean and unbiased variance of a scalar (Welford's algorithm on shifted data).
 ///
 /// See the [module docs](self) for why the data are shifted by the first sample.

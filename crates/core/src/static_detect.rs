@@ -28,7 +28,9 @@ pub mod adaptive;
 mod identity;
 #[cfg(test)]
 mod reference;
+mod spans;
 pub use adaptive::{AdaptiveDetection, AdaptiveThresholds, NoiseSurvey};
+pub use spans::{spans_are_exact, SpanDetector, StaticSpan, EXACT_SPAN_ABS};
 
 /// Detector settings.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -87,6 +89,21 @@ impl StaticInterval {
     /// True for an empty interval (never reported by the detector).
     pub fn is_empty(&self) -> bool {
         self.end == self.start
+    }
+
+    /// The interval of the static run `start..end` whose samples `stats` holds, pushed in
+    /// order (as the detector pushes them): its mean and unbiased variance (zeros for a single
+    /// sample); `None` for no sample. With [`SpanDetector`]'s spans, the detector's own
+    /// intervals, bit for bit.
+    pub fn of_run(start: u32, end: u32, stats: &Welford3) -> Option<Self> {
+        let mean = stats.mean().ok()?;
+        let var = stats.variance().unwrap_or_else(|_| crate::Vec3::zeros());
+        Some(StaticInterval {
+            start,
+            end,
+            mean: [mean.x, mean.y, mean.z],
+            variance: [var.x, var.y, var.z],
+        })
     }
 }
 
@@ -368,13 +385,7 @@ impl<const N: usize> StaticDetector<N> {
         samples: &[[f32; 3]],
         mut on_interval: impl FnMut(StaticInterval),
     ) -> Result<(), (usize, Error)> {
-        // `push` tests finiteness first, then the counter.
-        let room = (u32::MAX - self.count) as usize;
-        let (fed, refused) = match samples.iter().position(|m| !crate::all_finite(m)) {
-            Some(i) if i <= room => (i, Some((i, Error::NonFinite))),
-            _ if samples.len() > room => (room, Some((room, Error::CapacityExceeded))),
-            _ => (samples.len(), None),
-        };
+        let (fed, refused) = self.acceptable(samples);
         let mut i = 0;
         while i < fed && !self.steady() {
             if let Some(iv) = self.step(samples[i]).map_err(|e| (i, e))? {
@@ -387,6 +398,18 @@ impl<const N: usize> StaticDetector<N> {
                 .map_err(|(k, e)| (i + k, e))?;
         }
         refused.map_or(Ok(()), Err)
+    }
+
+    /// How many of `samples` [`Self::push`] would take before the first it refuses, and that
+    /// refusal (its index in `samples` and the error), if any.
+    fn acceptable(&self, samples: &[[f32; 3]]) -> (usize, Option<(usize, Error)>) {
+        // `push` tests finiteness first, then the counter.
+        let room = (u32::MAX - self.count) as usize;
+        match samples.iter().position(|m| !crate::all_finite(m)) {
+            Some(i) if i <= room => (i, Some((i, Error::NonFinite))),
+            _ if samples.len() > room => (room, Some((room, Error::CapacityExceeded))),
+            _ => (samples.len(), None),
+        }
     }
 
     /// True once the threshold is known and the window full: every later sample takes
@@ -477,9 +500,32 @@ impl<const N: usize> StaticDetector<N> {
         k: &SteadyConsts,
         m: &[f32; 3],
     ) -> Result<Option<StaticInterval>, Error> {
+        // The centre is never where `m` goes (it lies inside the window): read before the write.
+        let centre = ring.buf[at.centre];
+        let variance = Self::steady_window(ring, at, (sums, count), k, m);
+        let centre_index = *count - 1 - k.half as u32;
+        if variance <= k.threshold {
+            let (_, w) = run.get_or_insert((centre_index, Welford3::new()));
+            w.push_inlined(centre)?;
+            Ok(None)
+        } else {
+            Ok(Self::close(run, centre_index, k.min_static))
+        }
+    }
+
+    /// The window's part of [`Self::steady_sample`]: `m` written to the ring, the oldest
+    /// sample taken out of the sums and `m` put in, the sums recomputed when stale; the
+    /// window's variance sum after it (what the centre's decision compares).
+    #[inline(always)]
+    fn steady_window(
+        ring: &mut Ring<N>,
+        at: &mut Positions,
+        (sums, count): (&mut WindowSums, &mut u32),
+        k: &SteadyConsts,
+        m: &[f32; 3],
+    ) -> f32 {
         let outgoing = ring.buf[at.oldest];
         ring.buf[at.next] = *m;
-        let centre = ring.buf[at.centre];
         at.advance::<N>();
         *count += 1;
         sums.remove(&outgoing);
@@ -496,14 +542,7 @@ impl<const N: usize> StaticDetector<N> {
             }
             variance = sums.variance_sum(k.n);
         }
-        let centre_index = *count - 1 - k.half as u32;
-        if variance <= k.threshold {
-            let (_, w) = run.get_or_insert((centre_index, Welford3::new()));
-            w.push_inlined(centre)?;
-            Ok(None)
-        } else {
-            Ok(Self::close(run, centre_index, k.min_static))
-        }
+        variance
     }
 
     /// One sample, finite and within the counter, in any state (the warm-up: window filling,
@@ -605,14 +644,7 @@ impl<const N: usize> StaticDetector<N> {
         if w.count() < min_static {
             return None;
         }
-        let mean = w.mean().ok()?;
-        let var = w.variance().unwrap_or_else(|_| crate::Vec3::zeros());
-        Some(StaticInterval {
-            start,
-            end,
-            mean: [mean.x, mean.y, mean.z],
-            variance: [var.x, var.y, var.z],
-        })
+        StaticInterval::of_run(start, end, &w)
     }
 
     /// Number of samples currently in the window.

@@ -4,7 +4,9 @@
 //! same windows without holding the samples; [`table`], the rows of a window-mean table as windows in place of
 //! the detection; and [`motion`], the check that those windows were still.
 
+mod held;
 pub mod motion;
+mod spans;
 pub mod streamed;
 pub mod table;
 pub mod windows;

@@ -14,11 +14,11 @@
 //! ([`TextSource::is_spilled`]), the two passes read each window's rows alone from them (once
 //! per window that fits a read), windows on all cores.
 
+use crate::detect::held::both_or_first_error;
 use crate::detect::windows::{
-    adaptive_intervals, adaptive_rate, adc_range_of, axis_lattice, batch_spread,
-    both_or_first_error, detector_scale, fixed_intervals, magnitude, run_pair_held, saturated_at,
-    survey_held, to_levels, variance_of, DetectOptions, PairResult, Passes, WindowStats, Windows,
-    BATCHES, MAX_WINDOW,
+    adaptive_intervals, adaptive_rate, adc_range_of, axis_lattice, batch_spread, detector_scale,
+    fixed_intervals, magnitude, run_pair_held, saturated_at, survey_held, to_levels, variance_of,
+    DetectOptions, PairResult, Passes, WindowStats, Windows, BATCHES, MAX_WINDOW,
 };
 use crate::error::detect::DetectError;
 use crate::error::Result;
@@ -154,9 +154,15 @@ impl<'a> Passes for InPieces<'a> {
         self.each_view(|viewed| {
             pending.extend_from_slice(viewed);
             let full = pending.len() / block * block;
+            // Four blocks at a time (`NoiseSurvey::measure_four_blocks`), on all cores.
             let measured: Vec<_> = pending[..full]
-                .par_chunks(block)
-                .map(NoiseSurvey::measure_block)
+                .par_chunks(4 * block)
+                .flat_map_iter(|four| {
+                    let mut blocks = four.chunks(block);
+                    let slices = [(); 4].map(|_| blocks.next().unwrap_or(&[]));
+                    let n = four.len() / block;
+                    NoiseSurvey::measure_four_blocks(slices).into_iter().take(n)
+                })
                 .collect();
             pending.drain(..full);
             for m in measured {

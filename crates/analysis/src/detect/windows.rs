@@ -4,6 +4,10 @@
 //! works from.
 
 #![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x > 0.0)` is deliberately true for NaN.
+use crate::detect::held::{
+    both_or_first_error, feed_held, four_slices, piece_starts, samples_between, DetectorSample,
+};
+use crate::detect::spans;
 use crate::error::detect::{DetectError, Setting};
 use crate::input::recording::{infer_units, Recording};
 use crate::input::sample_summary::is_whole;
@@ -207,6 +211,7 @@ impl DetectOptions {
 }
 
 /// Capacity of the detector's window ring (samples). At 100 Hz this allows windows up to 5 s.
+/// (The span pair's tests take the same ring.)
 pub const MAX_WINDOW: usize = 511;
 
 /// Detected static intervals plus the noise reference.
@@ -314,10 +319,9 @@ fn run_one<I: Iterator<Item = [f32; 3]>>(
 }
 
 /// One setting's intervals over held samples, in consecutive pieces: [`run_one`] by slices
-/// (`StaticDetector::push_slice`, the same intervals and error), the samples given as they
-/// are when already `f32`, else cast a chunk at a time; the error with the index of the sample
-/// that met it.
-fn run_held<S: DetectorSample>(
+/// (`StaticDetector::push_slice`, the same intervals and error, [`feed_held`]); the error with
+/// the index of the sample that met it.
+pub(crate) fn run_held<S: DetectorSample>(
     pieces: &[&[S]],
     cfg: StaticDetectorConfig,
     reference: [f32; 3],
@@ -325,59 +329,33 @@ fn run_held<S: DetectorSample>(
     let mut det =
         StaticDetector::<MAX_WINDOW>::with_reference(cfg, reference).map_err(|e| (0, e))?;
     let mut out = Vec::new();
-    let mut feed = |xs: &[[f32; 3]], at: usize| {
-        det.push_slice(xs, |iv| out.push(iv))
-            .map_err(|(i, e)| (at + i, e))
-    };
-    let (mut at, mut buf) = (0, Vec::new());
-    for samples in pieces {
-        if let Some(xs) = S::as_f32s(samples) {
-            feed(xs, at)?;
-        } else {
-            for (c, chunk) in samples.chunks(4096).enumerate() {
-                buf.clear();
-                buf.extend(chunk.iter().map(S::f32s));
-                feed(&buf, at + c * 4096)?;
-            }
-        }
-        at += samples.len();
-    }
+    feed_held(pieces, |xs| det.push_slice(xs, |iv| out.push(iv)))?;
     out.extend(det.finish());
     Ok(out)
 }
 
-/// [`Passes::run_pair`] over held samples in consecutive pieces: the two settings on two
-/// cores at once ([`run_held`]), the error the one met first in sample order (the first
-/// setting's on the same sample).
+/// [`Passes::run_pair`] over held samples in consecutive pieces: by spans ([`spans::pair`]:
+/// the detector's result in about half its time) unless a sample is beyond their exact range,
+/// else the two detectors; the two settings on two cores at once, the error the one met first
+/// in sample order (the first setting's on the same sample).
 pub(crate) fn run_pair_held<S: DetectorSample>(
     pieces: &[&[S]],
     cfgs: [StaticDetectorConfig; 2],
     reference: [f32; 3],
 ) -> PairResult {
-    let (a, b) = rayon::join(
-        || run_held(pieces, cfgs[0], reference),
-        || run_held(pieces, cfgs[1], reference),
-    );
-    both_or_first_error(a, b).map(|(a, b)| [a, b])
-}
-
-/// A pair's two results, or the error met first in sample order of the two (each with the
-/// index of the sample that met it; the first setting's on the same sample).
-pub(crate) fn both_or_first_error<A, B>(
-    a: std::result::Result<A, (usize, CoreError)>,
-    b: std::result::Result<B, (usize, CoreError)>,
-) -> std::result::Result<(A, B), CoreError> {
-    match (a, b) {
-        (Ok(a), Ok(b)) => Ok((a, b)),
-        (Err((i, e)), Err((j, _))) if i <= j => Err(e),
-        (Err((_, e)), Ok(_)) | (_, Err((_, e))) => Err(e),
-    }
+    spans::pair::<MAX_WINDOW, S>(pieces, cfgs, reference).unwrap_or_else(|| {
+        let (a, b) = rayon::join(
+            || run_held(pieces, cfgs[0], reference),
+            || run_held(pieces, cfgs[1], reference),
+        );
+        both_or_first_error(a, b).map(|(a, b)| [a, b])
+    })
 }
 
 /// [`Passes::survey`] of held samples in consecutive pieces: every complete block's variances
-/// measured on all cores (a block across two pieces gathered), added to the histogram in
-/// order, the last incomplete block pushed sample by sample (the survey of the samples pushed
-/// one by one, bit for bit).
+/// measured on all cores, four blocks at a time (a block across two pieces gathered), added to
+/// the histogram in order, the last incomplete block pushed sample by sample (the survey of
+/// the samples pushed one by one, bit for bit).
 pub(crate) fn survey_held<S: DetectorSample>(
     pieces: &[&[S]],
     rate: f32,
@@ -385,80 +363,31 @@ pub(crate) fn survey_held<S: DetectorSample>(
     use rayon::prelude::*;
     let mut survey = adaptive::NoiseSurvey::for_rate(rate)?;
     let block = survey.block_samples() as usize;
-    let starts: Vec<usize> = std::iter::once(0)
-        .chain(pieces.iter().scan(0, |n, p| {
-            *n += p.len();
-            Some(*n)
-        }))
-        .collect();
+    let starts = piece_starts(pieces);
     let total = starts[pieces.len()];
-    let measured: Vec<_> = (0..total / block)
+    let blocks = total / block;
+    let measured: Vec<_> = (0..blocks.div_ceil(4))
         .into_par_iter()
-        .map_init(Vec::new, |buf, j| {
-            let (from, to) = (j * block, (j + 1) * block);
-            let k = starts.partition_point(|&s| s <= from) - 1;
-            let whole = (to <= starts[k + 1]).then(|| &pieces[k][from - starts[k]..][..block]);
-            if let Some(xs) = whole.and_then(|c| S::as_f32s(c)) {
-                return adaptive::NoiseSurvey::measure_block(xs);
-            }
-            buf.clear();
-            buf.extend(samples_between(pieces, &starts, from, to).map(S::f32s));
-            adaptive::NoiseSurvey::measure_block(buf)
-        })
+        .map_init(
+            || [(); 4].map(|_| Vec::new()),
+            |bufs, g| {
+                let js = g * 4..((g + 1) * 4).min(blocks);
+                let ranges = js.clone().map(|j| (j * block, (j + 1) * block));
+                let slices = four_slices(pieces, &starts, ranges, bufs);
+                let mut four = adaptive::NoiseSurvey::measure_four_blocks(slices).into_iter();
+                js.map(move |_| four.next().expect("a result per block"))
+                    .collect::<Vec<_>>()
+            },
+        )
+        .flatten_iter()
         .collect();
     for m in measured {
         survey.add_measured(m?);
     }
-    for m in samples_between(pieces, &starts, total / block * block, total) {
+    for m in samples_between(pieces, &starts, blocks * block, total) {
         survey.push(m.f32s())?;
     }
     survey.thresholds(adaptive::DEFAULT_QUANTILE)
-}
-
-/// Samples `from..to` of `pieces`, whose first samples are at `starts`.
-fn samples_between<'a, S>(
-    pieces: &'a [&'a [S]],
-    starts: &'a [usize],
-    from: usize,
-    to: usize,
-) -> impl Iterator<Item = &'a S> + 'a {
-    let first = starts.partition_point(|&s| s <= from).saturating_sub(1);
-    pieces[first..]
-        .iter()
-        .zip(&starts[first..])
-        .take_while(move |(_, &s)| s < to)
-        .flat_map(move |(p, &s)| {
-            let clamp = |i: usize| i.saturating_sub(s).min(p.len());
-            &p[clamp(from)..clamp(to)]
-        })
-}
-
-/// A held sample as the detector takes it (`f32`).
-pub(crate) trait DetectorSample: Copy + Send + Sync {
-    /// The sample in `f32`.
-    fn f32s(&self) -> [f32; 3];
-    /// The samples as they are, when they already are `f32` (no copy).
-    fn as_f32s(_samples: &[Self]) -> Option<&[[f32; 3]]> {
-        None
-    }
-}
-
-impl DetectorSample for [f32; 3] {
-    #[inline]
-    fn f32s(&self) -> [f32; 3] {
-        *self
-    }
-
-    fn as_f32s(samples: &[Self]) -> Option<&[[f32; 3]]> {
-        Some(samples)
-    }
-}
-
-impl DetectorSample for [f64; 3] {
-    #[inline]
-    fn f32s(&self) -> [f32; 3] {
-        self.map(|v| v as f32)
-    }
 }
 
 /// A pass over held samples, each in `f32`.

@@ -170,9 +170,18 @@ pub struct StepTally {
     steps: usize,
     positive: usize,
     /// Positive steps by their bits (for positive floats their order as integers); `None`
-    /// once too many. Hashed by a multiply and a shift: every row of a streamed file is
-    /// counted, and std's SipHash cost a tenth of the first pass.
-    counts: Option<StepCounts>,
+    /// once too many. Every row of a streamed file is counted: in the small table of
+    /// [`few_steps`] while the steps take few values (a multiply, a shift and a compare per
+    /// step), then in a map hashed by a multiply and a shift (std's SipHash cost a tenth of
+    /// the first pass; the map's entry a tenth of the spill's thread).
+    counts: Option<Tallied>,
+}
+
+/// [`StepTally`]'s counts: few distinct steps, or many.
+#[derive(Debug)]
+enum Tallied {
+    Few(Box<FewTable>),
+    Many(StepCounts),
 }
 
 type StepCounts = std::collections::HashMap<
@@ -185,7 +194,7 @@ impl StepTally {
     /// An empty tally.
     pub fn new() -> Self {
         Self {
-            counts: Some(Default::default()),
+            counts: Some(Tallied::Few(Box::new(FewTable::new()))),
             ..Default::default()
         }
     }
@@ -201,12 +210,24 @@ impl StepTally {
             let d = t - prev;
             if d > 0.0 {
                 self.positive += 1;
-                if let Some(counts) = &mut self.counts {
-                    *counts.entry(d.to_bits()).or_insert(0) += 1;
-                    if counts.len() > MAX_TALLIED_STEPS {
-                        self.counts = None;
-                    }
-                }
+                self.count(d.to_bits());
+            }
+        }
+    }
+
+    /// One more positive step of these bits: in the small table while it has room, then in
+    /// the map (the table's counts moved into it once), until that holds too many.
+    fn count(&mut self, bits: u64) {
+        if let Some(Tallied::Few(few)) = &mut self.counts {
+            if few.add(bits) {
+                return;
+            }
+            self.counts = Some(Tallied::Many(few.counted().collect()));
+        }
+        if let Some(Tallied::Many(many)) = &mut self.counts {
+            *many.entry(bits).or_insert(0) += 1;
+            if many.len() > MAX_TALLIED_STEPS {
+                self.counts = None;
             }
         }
     }
@@ -222,7 +243,10 @@ impl StepTally {
         if self.steps < 2 || self.positive == 0 {
             return Some(None);
         }
-        let mut counts: Vec<(u64, usize)> = self.counts?.into_iter().collect();
+        let mut counts: Vec<(u64, usize)> = match self.counts? {
+            Tallied::Few(few) => few.counted().collect(),
+            Tallied::Many(many) => many.into_iter().collect(),
+        };
         counts.sort_unstable();
         let mut k = self.positive / 2;
         let mut median_s = f64::NAN;
@@ -264,27 +288,13 @@ const FEW_SLOTS: usize = 512;
 /// Why by hand: a general hash map costs several times the whole pass per step; this table is
 /// a multiply, a shift and a compare.
 fn few_steps(t: &[f64]) -> Option<Option<TimeSteps>> {
-    let mut keys = [0u64; FEW_SLOTS]; // 0: empty (a positive step's bits are never 0)
-    let mut counts = [0usize; FEW_SLOTS];
-    let (mut distinct, mut positive) = (0usize, 0usize);
+    let mut few = FewTable::new();
+    let mut positive = 0usize;
     // Only positive steps are counted (not zero, negative or NaN).
     for d in t.windows(2).map(|w| w[1] - w[0]).filter(|d| *d > 0.0) {
         positive += 1;
-        let bits = d.to_bits();
-        let mut slot = (bits.wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 55) as usize;
-        loop {
-            if keys[slot] == bits {
-                counts[slot] += 1;
-                break;
-            }
-            if keys[slot] == 0 {
-                if distinct == FEW_SLOTS / 4 * 3 {
-                    return None;
-                }
-                (keys[slot], counts[slot], distinct) = (bits, 1, distinct + 1);
-                break;
-            }
-            slot = (slot + 1) & (FEW_SLOTS - 1);
+        if !few.add(d.to_bits()) {
+            return None;
         }
     }
     let tally = StepTally {
@@ -293,15 +303,60 @@ fn few_steps(t: &[f64]) -> Option<Option<TimeSteps>> {
         last: t.last().copied().unwrap_or(f64::NAN),
         steps: t.len().saturating_sub(1),
         positive,
-        counts: Some(
-            keys.iter()
-                .zip(counts)
-                .filter(|(k, _)| **k != 0)
-                .map(|(k, c)| (*k, c))
-                .collect(),
-        ),
+        counts: Some(Tallied::Few(Box::new(few))),
     };
     tally.finish()
+}
+
+/// Counts of up to three quarters of [`FEW_SLOTS`] distinct positive steps (their bits), in
+/// an open-addressing table.
+#[derive(Debug, Clone)]
+struct FewTable {
+    /// 0: empty (a positive step's bits are never 0).
+    keys: [u64; FEW_SLOTS],
+    counts: [usize; FEW_SLOTS],
+    distinct: usize,
+}
+
+impl FewTable {
+    fn new() -> Self {
+        Self {
+            keys: [0; FEW_SLOTS],
+            counts: [0; FEW_SLOTS],
+            distinct: 0,
+        }
+    }
+
+    /// One more step of these bits (not 0); false, and nothing counted, when it would be a
+    /// new value past the table's three quarters.
+    #[inline]
+    fn add(&mut self, bits: u64) -> bool {
+        let mut slot = (bits.wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 55) as usize;
+        loop {
+            if self.keys[slot] == bits {
+                self.counts[slot] += 1;
+                return true;
+            }
+            if self.keys[slot] == 0 {
+                if self.distinct == FEW_SLOTS / 4 * 3 {
+                    return false;
+                }
+                (self.keys[slot], self.counts[slot]) = (bits, 1);
+                self.distinct += 1;
+                return true;
+            }
+            slot = (slot + 1) & (FEW_SLOTS - 1);
+        }
+    }
+
+    /// Each step counted and its count.
+    fn counted(&self) -> impl Iterator<Item = (u64, usize)> + '_ {
+        self.keys
+            .iter()
+            .zip(self.counts)
+            .filter(|(k, _)| **k != 0)
+            .map(|(k, c)| (*k, c))
+    }
 }
 
 /// A pass over consecutive times `(t[i], t[i+1])`, as often as the statistics need.
@@ -577,12 +632,23 @@ mod tests {
             vec![1.0, 2.0],
             vec![1.0, 1.0, 1.0],
             Vec::new(),
+            // Jittered stamps: thousands of distinct steps, past the small table into the map.
+            (0..5000)
+                .map(|i| i as f64 * 0.01 + ((i * 7919) % 1000) as f64 * 1e-7)
+                .collect(),
         ];
         for t in &columns {
             let mut tally = StepTally::new();
             t.iter().for_each(|&x| tally.push(x));
             assert_eq!(tally.finish(), Some(TimeSteps::of(t)), "{t:?}");
         }
+        // More distinct steps than the tally keeps: it gives up (the times are then re-read).
+        let many: Vec<f64> = (0..MAX_TALLIED_STEPS as u64 + 10)
+            .map(|i| (i * i) as f64 * 1e-6)
+            .collect();
+        let mut tally = StepTally::new();
+        many.iter().for_each(|&x| tally.push(x));
+        assert_eq!(tally.finish(), None);
     }
 
     #[test]

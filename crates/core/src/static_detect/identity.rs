@@ -125,12 +125,24 @@ fn by_push(setup: &Setup, xs: &[[f32; 3]]) -> Vec<Event> {
     out
 }
 
-/// The detector under test fed by `push_slice` in pieces of the given lengths (cycled),
-/// going on after a refused sample with the rest of its piece; the state after each piece.
-/// Returns the events without the per-sample states, and the reference's the same way.
-fn by_slices(setup: &Setup, xs: &[[f32; 3]], pieces: &[usize]) -> (Vec<Event>, Vec<Event>) {
-    let (mut d, mut r) = (setup.detector(), setup.reference());
-    let (mut got, mut want) = (Vec::new(), Vec::new());
+/// One step of [`in_pieces`]: samples `from..to` of the stream taken, the sample at an
+/// index refused with an error, or a piece `from..to` over.
+enum Fed {
+    Taken(usize, usize),
+    Refused(usize, Error),
+    PieceOver(usize, usize),
+}
+
+/// Feeds `xs` to `push` (a `push_slice` on `state`) in pieces of the given lengths (cycled),
+/// going on after a refused sample with the rest of its piece; tells `on` what was taken and
+/// refused (indices in `xs`) and when each piece is over.
+fn in_pieces<T>(
+    state: &mut T,
+    xs: &[[f32; 3]],
+    pieces: &[usize],
+    push: impl Fn(&mut T, &[[f32; 3]]) -> Result<(), (usize, Error)>,
+    on: impl Fn(&mut T, Fed),
+) {
     let mut at = 0;
     for len in pieces.iter().cycle() {
         if at >= xs.len() {
@@ -139,25 +151,53 @@ fn by_slices(setup: &Setup, xs: &[[f32; 3]], pieces: &[usize]) -> (Vec<Event>, V
         let end = (at + len.max(&1)).min(xs.len());
         let mut from = at;
         while from < end {
-            match d.push_slice(&xs[from..end], |iv| got.push(interval(iv))) {
-                Ok(()) => from = end,
+            match push(state, &xs[from..end]) {
+                Ok(()) => {
+                    on(state, Fed::Taken(from, end));
+                    from = end;
+                }
                 Err((k, e)) => {
-                    got.push(Event::Refused(from + k, e));
+                    on(state, Fed::Taken(from, from + k));
+                    on(state, Fed::Refused(from + k, e));
                     from += k + 1;
                 }
             }
         }
-        got.push(state(&d));
-        for (i, m) in xs.iter().enumerate().take(end).skip(at) {
-            match r.push(*m) {
-                Ok(Some(iv)) => want.push(interval(iv)),
-                Ok(None) => {}
-                Err(e) => want.push(Event::Refused(i, e)),
-            }
-        }
-        want.push(ref_state(&r));
+        on(state, Fed::PieceOver(at, end));
         at = end;
     }
+}
+
+/// The detector under test fed by `push_slice` in pieces of the given lengths (cycled),
+/// going on after a refused sample with the rest of its piece; the state after each piece.
+/// Returns the events without the per-sample states, and the reference's the same way.
+fn by_slices(setup: &Setup, xs: &[[f32; 3]], pieces: &[usize]) -> (Vec<Event>, Vec<Event>) {
+    let mut st = (setup.detector(), setup.reference(), Vec::new(), Vec::new());
+    let push = |(d, _, got, _): &mut (StaticDetector<CAP>, _, Vec<Event>, _), xs: &[_]| {
+        d.push_slice(xs, |iv| got.push(interval(iv)))
+    };
+    in_pieces(
+        &mut st,
+        xs,
+        pieces,
+        push,
+        |(d, r, got, want), fed| match fed {
+            Fed::Taken(..) => {}
+            Fed::Refused(i, e) => got.push(Event::Refused(i, e)),
+            Fed::PieceOver(at, end) => {
+                got.push(state(d));
+                for (i, m) in xs.iter().enumerate().take(end).skip(at) {
+                    match r.push(*m) {
+                        Ok(Some(iv)) => want.push(interval(iv)),
+                        Ok(None) => {}
+                        Err(e) => want.push(Event::Refused(i, e)),
+                    }
+                }
+                want.push(ref_state(r));
+            }
+        },
+    );
+    let (mut d, mut r, mut got, mut want) = st;
     got.extend(d.finish().map(interval));
     got.push(state(&d));
     want.extend(r.finish().map(interval));
@@ -518,4 +558,151 @@ fn full_counter_is_refused_at_the_same_sample() {
     assert_eq!(wf.push([f32::NAN, 0.0, 0.0]), rf.push([f32::NAN, 0.0, 0.0]));
     assert_eq!(wf.push([0.0; 3]), rf.push([0.0; 3]));
     assert_eq!(wf.push([0.0; 3]), Err(Error::CapacityExceeded));
+}
+
+/// What a span detector and the measurement of its spans report: each span as the interval
+/// [`StaticInterval::of_run`] makes of its samples (the samples the detector took, refused
+/// ones left out), and the refusals; fed in pieces as [`by_slices`] feeds.
+fn by_spans(setup: &Setup, xs: &[[f32; 3]], pieces: &[usize]) -> Vec<Event> {
+    let reference = setup.given.unwrap_or([0.5; 3]);
+    let d = SpanDetector::<CAP>::with_reference(setup.cfg, reference).unwrap();
+    let mut st = (d, Vec::new(), Vec::new(), Vec::new());
+    let push = |(d, spans, _, _): &mut (SpanDetector<CAP>, Vec<StaticSpan>, _, _), xs: &[_]| {
+        d.push_slice(xs, |s| spans.push(s))
+    };
+    in_pieces(
+        &mut st,
+        xs,
+        pieces,
+        push,
+        |(_, _, refused, taken), fed| match fed {
+            Fed::Taken(from, to) => taken.extend_from_slice(&xs[from..to]),
+            Fed::Refused(i, e) => refused.push(Event::Refused(i, e)),
+            Fed::PieceOver(..) => {}
+        },
+    );
+    let (mut d, mut spans, mut out, taken) = st;
+    spans.extend(d.finish());
+    assert_eq!(d.samples_seen() as usize, taken.len());
+    for s in spans {
+        let mut w = Welford3::new();
+        w.push_slice(&taken[s.start as usize..s.end as usize])
+            .unwrap();
+        out.extend(StaticInterval::of_run(s.start, s.end, &w).map(interval));
+    }
+    out
+}
+
+/// The same setup's detector (its reference given) fed as [`by_spans`], its intervals and
+/// refusals in the same order (refusals first).
+fn by_detector(setup: &Setup, xs: &[[f32; 3]], pieces: &[usize]) -> Vec<Event> {
+    let reference = setup.given.unwrap_or([0.5; 3]);
+    let d = StaticDetector::<CAP>::with_reference(setup.cfg, reference).unwrap();
+    let mut st = (d, Vec::new(), Vec::new());
+    let push = |(d, intervals, _): &mut (StaticDetector<CAP>, Vec<Event>, _), xs: &[_]| {
+        d.push_slice(xs, |iv| intervals.push(interval(iv)))
+    };
+    in_pieces(&mut st, xs, pieces, push, |(_, _, refused), fed| {
+        if let Fed::Refused(i, e) = fed {
+            refused.push(Event::Refused(i, e));
+        }
+    });
+    let (mut d, intervals, mut refused) = st;
+    refused.extend(intervals);
+    refused.extend(d.finish().map(interval));
+    refused
+}
+
+/// `Welford3::of_four`'s results as bits, or the error.
+fn four_bits(ws: [Result<Welford3, Error>; 4]) -> Vec<Result<[[u32; 5]; 3], Error>> {
+    ws.iter()
+        .map(|w| w.map(|w| [0, 1, 2].map(|a| welford_bits(w.axis(a).unwrap()))))
+        .collect()
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 96, ..ProptestConfig::default() })]
+
+    /// The span detector's spans, each measured from its samples, are the detector's
+    /// intervals bit for bit, with the same refusals, whenever every sample the detectors
+    /// take is within `EXACT_SPAN_ABS` (the generated streams also go beyond it, where the
+    /// detector may fail on a run's statistics: those are left out).
+    #[test]
+    fn spans_measured_are_the_detectors_intervals(
+        setup in setups(),
+        parts in stretches(),
+        seed in any::<u32>(),
+        pieces in prop::collection::vec(1usize..300, 1..5),
+    ) {
+        let xs = stream(&parts, seed);
+        let taken: Vec<[f32; 3]> = xs.iter().copied().filter(|m| crate::all_finite(m)).collect();
+        prop_assume!(spans_are_exact(&taken));
+        prop_assert_eq!(by_spans(&setup, &xs, &pieces), by_detector(&setup, &xs, &pieces));
+    }
+
+    /// Four slices measured in step are each `push_slice` into an empty accumulator: the same
+    /// state bit for bit, or the same error (non-finite samples, overflowing squares, empty
+    /// and unequal slices).
+    #[test]
+    fn of_four_is_push_slice_of_each(
+        parts in stretches(),
+        seed in any::<u32>(),
+        cuts in prop::collection::vec(0usize..500, 8),
+    ) {
+        let xs = stream(&parts, seed);
+        let slice = |k: usize| {
+            let from = cuts[2 * k].min(xs.len());
+            &xs[from..(from + cuts[2 * k + 1]).min(xs.len())]
+        };
+        let four = [slice(0), slice(1), slice(2), slice(3)];
+        let one_by_one = four.map(|s| {
+            let mut w = Welford3::new();
+            w.push_slice(s).map(|()| w).map_err(|(_, e)| e)
+        });
+        prop_assert_eq!(four_bits(Welford3::of_four(four)), four_bits(one_by_one));
+        let blocks = four.map(NoiseSurvey::measure_block);
+        let bits = |r: &Result<(crate::Vec3, bool), Error>| {
+            r.map(|(v, w)| ([v.x, v.y, v.z].map(f32::to_bits), w))
+        };
+        let in_step = NoiseSurvey::measure_four_blocks(four);
+        prop_assert_eq!(in_step.iter().map(bits).collect::<Vec<_>>(), blocks.iter().map(bits).collect::<Vec<_>>());
+    }
+}
+
+/// A sample beyond `EXACT_SPAN_ABS` is what the exactness check refuses, and one at it is not;
+/// the hand-made streams (huge offsets among them) give the detector's intervals whenever
+/// they are within it.
+#[test]
+fn spans_are_exact_at_the_bound_and_on_hand_made_streams() {
+    assert!(spans_are_exact(&[[EXACT_SPAN_ABS, -EXACT_SPAN_ABS, 0.0]]));
+    let beyond = f32::from_bits(EXACT_SPAN_ABS.to_bits() + 1);
+    assert!(!spans_are_exact(&[[0.0, -beyond, 0.0]]));
+    assert!(!spans_are_exact(&[[0.0, 0.0, f32::NAN]]));
+    let mut checked = 0;
+    for (name, window, parts) in hand_made() {
+        let xs = stream(&parts, 7);
+        let taken: Vec<[f32; 3]> = xs
+            .iter()
+            .copied()
+            .filter(|m| crate::all_finite(m))
+            .collect();
+        if !spans_are_exact(&taken) {
+            continue;
+        }
+        let setup = Setup {
+            cfg: cfg(window, 20),
+            given: Some([0.5; 3]),
+        };
+        for pieces in [&[1usize][..], &[63], &[1000, 7, 64], &[100_000]] {
+            let want = by_detector(&setup, &xs, pieces);
+            assert!(!want.is_empty() || name.contains("one window"), "{name}");
+            assert_eq!(
+                by_spans(&setup, &xs, pieces),
+                want,
+                "{name}, pieces {pieces:?}"
+            );
+        }
+        checked += 1;
+    }
+    assert_eq!(checked, 5);
 }
