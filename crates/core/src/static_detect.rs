@@ -95,6 +95,7 @@ impl StaticInterval {
     /// order (as the detector pushes them): its mean and unbiased variance (zeros for a single
     /// sample); `None` for no sample. With [`SpanDetector`]'s spans, the detector's own
     /// intervals, bit for bit.
+    #[inline]
     pub fn of_run(start: u32, end: u32, stats: &Welford3) -> Option<Self> {
         let mean = stats.mean().ok()?;
         let var = stats.variance().unwrap_or_else(|_| crate::Vec3::zeros());
