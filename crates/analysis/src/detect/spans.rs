@@ -73,7 +73,7 @@ fn spans_held<const N: usize, S: DetectorSample>(
 
 /// The interval of each span: its samples' statistics ([`StaticInterval::of_run`]), runs of
 /// similar length measured four at a time, on all cores; the first error in span order (only
-/// for samples beyond [`EXACT_SPAN_ABS`], which [`run_pair_held`] leaves to the detector).
+/// for samples beyond [`EXACT_SPAN_ABS`], which [`pair`] leaves to the detector).
 fn measured<S: DetectorSample>(
     pieces: &[&[S]],
     starts: &[usize],

@@ -372,11 +372,11 @@ pub(crate) fn survey_held<S: DetectorSample>(
             || [(); 4].map(|_| Vec::new()),
             |bufs, g| {
                 let js = g * 4..((g + 1) * 4).min(blocks);
-                let ranges = js.clone().map(|j| (j * block, (j + 1) * block));
+                let n = js.len();
+                let ranges = js.map(|j| (j * block, (j + 1) * block));
                 let slices = four_slices(pieces, &starts, ranges, bufs);
-                let mut four = adaptive::NoiseSurvey::measure_four_blocks(slices).into_iter();
-                js.map(move |_| four.next().expect("a result per block"))
-                    .collect::<Vec<_>>()
+                let four = adaptive::NoiseSurvey::measure_four_blocks(slices);
+                four.into_iter().take(n).collect::<Vec<_>>()
             },
         )
         .flatten_iter()
