@@ -90,6 +90,7 @@ pub mod magnetometer;
 pub mod noise;
 pub mod output;
 pub mod pipeline;
+pub mod protocol;
 pub mod report;
 pub mod search;
 #[cfg(feature = "simulate")]

@@ -30,11 +30,25 @@ pub struct Judged<R> {
 /// `wiical fit`: static windows (or the table's rows) → the 9- or 6-parameter calibration,
 /// judged on its poses.
 pub fn fit_judged(input: &Input, opts: &FitOptions) -> Result<Judged<FitReport>> {
-    let report = match input {
-        Input::Table(table) => fit_table(table, opts)?,
-        Input::Samples(rec) => crate::fit::base::run(rec, opts)?,
-        Input::Stream(src) => crate::fit::base::run_streamed(src, opts)?,
+    let ws = match input {
+        Input::Table(table) => return judged_free(fit_table(table, opts)?),
+        Input::Samples(rec) => {
+            if rec.labels.is_some() {
+                return Err(crate::error::fit::FitError::PoseTable { rows: rec.len() }.into());
+            }
+            crate::detect::windows::detect_windows_untimed(rec, &opts.detect)?
+        }
+        Input::Stream(src) => crate::detect::streamed::detect_windows_streamed(src, &opts.detect)?,
     };
+    let r = crate::protocol::accel::fit_by_protocol(&ws, opts)?;
+    Ok(Judged {
+        report: r.report,
+        quality: r.quality,
+    })
+}
+
+/// A free-pose fit report judged on its poses by the default coverage rule.
+fn judged_free(report: FitReport) -> Result<Judged<FitReport>> {
     let means: Vec<[f64; 3]> = report
         .windows
         .iter()

@@ -8,6 +8,7 @@ use std::path::PathBuf;
 use wiical_analysis::gyro::stream::{self, run_streamed, StreamedImu};
 use wiical_analysis::gyro::{nominal_from_columns, GyroOptions};
 use wiical_analysis::input::front_door::stream_from_bytes;
+use wiical_analysis::protocol::gyro::{GyroProtocolOptions, GyroProtocolReport};
 use wiical_analysis::Recording;
 
 /// Arguments of `wiical gyrofit`.
@@ -41,6 +42,14 @@ pub struct Args {
     /// g-sensitivity in rad/s/g) as JSON here.
     #[arg(long)]
     pub out: Option<PathBuf>,
+    /// Known table rates, °/s (0 for a rest part), e.g. 25 for a rate table turned at ±25 °/s
+    /// about each axis, or 0,200,270 for a record player at 33⅓ and 45 RPM: the gyro's scale,
+    /// misalignment and bias from the steady parts, no clock needed.
+    #[arg(long, value_delimiter = ',')]
+    pub table_rate: Option<Vec<f64>>,
+    /// The angle of each full turn between rests (the Ferraris protocol), degrees.
+    #[arg(long, default_value_t = 360.0)]
+    pub rotation_deg: f64,
     #[command(flatten)]
     pub detect: DetectArgs,
 }
@@ -105,7 +114,21 @@ pub fn run(a: &Args) -> Result<String> {
         .detect;
     opts.exact_held_out = a.exact_held_out;
     let rep = match &pair {
-        Pair::Held(acc, gyro) => wiical_analysis::gyro::run(acc, gyro, &opts).map_err(cli_error)?,
+        Pair::Held(acc, gyro) => {
+            // A gyro-only file (the loader took the gyro for the accelerometer) or known
+            // table rates: the protocol's methods; otherwise the motions between poses, and
+            // the protocol's methods when those give nothing.
+            let gyro_only = a.gyro_file.is_none() && acc.axis_columns == gyro.axis_columns;
+            let popts = protocol_options(a, &opts);
+            if gyro_only || a.table_rate.is_some() {
+                let acc = (!gyro_only).then_some(acc);
+                return protocol_run(a, acc, gyro, &popts, None);
+            }
+            match wiical_analysis::gyro::run(acc, gyro, &opts) {
+                Ok(rep) => rep,
+                Err(e) => return protocol_run(a, Some(acc), gyro, &popts, Some(e)),
+            }
+        }
         Pair::Streamed(imu) => run_streamed(imu, &opts).map_err(cli_error)?,
     };
     if let Some(path) = &a.out {
@@ -118,6 +141,76 @@ pub fn run(a: &Args) -> Result<String> {
         &rep,
         &a.file.display().to_string(),
     ))
+}
+
+/// The protocol methods' settings from the flags.
+fn protocol_options(a: &Args, opts: &GyroOptions) -> GyroProtocolOptions {
+    GyroProtocolOptions {
+        rotation_deg: a.rotation_deg,
+        table_rates_dps: a.table_rate.clone(),
+        detect: opts.detect.clone(),
+        nominal_rad_per_raw: (!opts.estimate_nominal).then_some(opts.nominal_rad_per_count),
+    }
+}
+
+/// The gyro's protocol method (`wiical_analysis::protocol::gyro`); `motion_error`: why the
+/// motion fit gave nothing, printed as a note when the protocol's method gives something, and
+/// returned as the error when it does not either.
+fn protocol_run(
+    a: &Args,
+    acc: Option<&Recording>,
+    gyro: &Recording,
+    popts: &GyroProtocolOptions,
+    motion_error: Option<wiical_analysis::gyro::GyroError>,
+) -> Result<String> {
+    let rep = match wiical_analysis::protocol::gyro::run(acc, gyro, popts) {
+        Ok(rep) => rep,
+        Err(e) => {
+            let e: wiical_analysis::Error = match motion_error {
+                Some(m) => m.into(),
+                None => e.into(),
+            };
+            return Err(cli_error(e));
+        }
+    };
+    if let Some(e) = motion_error {
+        eprintln!(
+            "note: in {}: the motions between poses gave no calibration ({e}); the recognised protocol's method was used",
+            a.file.display()
+        );
+    }
+    if let Some(path) = &a.out {
+        save_protocol(path, &rep)?;
+    }
+    if a.json {
+        return to_json(&rep);
+    }
+    Ok(crate::render::protocol::gyro_text(
+        &rep,
+        &a.file.display().to_string(),
+    ))
+}
+
+/// Writes `--out` for a protocol's gyro calibration (no held-out error: the file has no
+/// `cv_rms_deg`); refused when only the bias was measured and no nominal scale is known.
+fn save_protocol(path: &std::path::Path, rep: &GyroProtocolReport) -> Result<()> {
+    use wiical_analysis::output::gyrocal::{write_gyro_calibration, GyroCalFile};
+    let Some(matrix) = rep.matrix else {
+        bail!(
+            "--out {}: only the gyro's bias was measured and no nominal scale is known (give --scale or --counts-per-dps, or known rates with --table-rate)",
+            path.display()
+        );
+    };
+    let file = GyroCalFile {
+        model: rep.method.to_string(),
+        correction: wiical_core::gyro_correct::GyroCorrection {
+            bias: rep.bias,
+            matrix,
+            effects: Default::default(),
+        },
+        cv_rms_deg: f64::NAN,
+    };
+    write_gyro_calibration(path, &file).map_err(cli_error)
 }
 
 /// The two recordings: held, or (a plain text file of at least the streaming size) streamed

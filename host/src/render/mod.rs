@@ -10,6 +10,7 @@ pub mod kalman_demo;
 pub mod magfit;
 pub mod noise;
 pub mod plot;
+pub mod protocol;
 pub mod tempcal;
 
 use std::fmt::Write as _;

@@ -34,6 +34,14 @@ pub enum FitError {
     /// The core's multi-position fit failed otherwise.
     #[error("multi-position fit failed: {0}")]
     FitFailed(wiical_core::Error),
+    /// The recognised protocol's method cannot calibrate these windows.
+    #[error("protocol: {summary}: {why}")]
+    Protocol {
+        /// What was recognised.
+        summary: String,
+        /// Why its method gives no calibration, and what to record.
+        why: String,
+    },
 }
 
 impl FitError {

@@ -17,6 +17,7 @@ pub mod input;
 pub mod magnetometer;
 pub mod noise;
 pub mod output;
+pub mod protocol;
 pub mod search;
 #[cfg(feature = "simulate")]
 pub mod simulate;
@@ -68,6 +69,10 @@ pub enum Error {
     /// The multi-position fit failed ([`crate::error::fit::FitError`]).
     #[error(transparent)]
     Fit(#[from] crate::error::fit::FitError),
+    /// The gyro's protocol methods found nothing to calibrate from
+    /// ([`crate::error::protocol::GyroProtocolError`]).
+    #[error(transparent)]
+    GyroProtocol(#[from] crate::error::protocol::GyroProtocolError),
     /// The search refused its settings or could not finish
     /// ([`crate::error::search::SearchError`]).
     #[error(transparent)]

@@ -75,6 +75,10 @@ pub struct FitReport {
     /// The calibration (what `--out` writes).
     #[serde(skip)]
     pub calibration: Calibration,
+    /// The recognised protocol and its method, when it is not today's free poses
+    /// ([`crate::protocol`]); absent otherwise, so free-pose reports are unchanged.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub protocol: Option<crate::protocol::ProtocolReport>,
 }
 
 /// Detects static windows and fits the multi-position model: the same windows as
@@ -128,6 +132,7 @@ pub fn run_windows(ws: &Windows, opts: &FitOptions) -> Result<FitReport, FitErro
         windows,
         window_input: None,
         calibration: cal,
+        protocol: None,
     })
 }
 

@@ -49,7 +49,8 @@ pub struct GyroCalFile {
     pub model: String,
     /// The calibration with its effect terms.
     pub correction: GyroCorrection<f64>,
-    /// Leave-one-motion-out RMS angle error of the chosen model, degrees.
+    /// Leave-one-motion-out RMS angle error of the chosen model, degrees; NaN (no key in the
+    /// file) when the method has none.
     pub cv_rms_deg: f64,
 }
 
@@ -64,7 +65,9 @@ struct Layout {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     effects: Option<BTreeMap<String, serde_json::Value>>,
     units: String,
-    cv_rms_deg: f64,
+    /// Absent when the method has no held-out error (a protocol's exactly determined fit).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    cv_rms_deg: Option<f64>,
 }
 
 /// The lowest version holding every non-zero term of `e`.
@@ -109,7 +112,7 @@ pub fn to_text(f: &GyroCalFile) -> Result<String> {
         matrix: c.matrix,
         effects: effects_json(&c.effects),
         units: "rad/s".into(),
-        cv_rms_deg: f.cv_rms_deg,
+        cv_rms_deg: f.cv_rms_deg.is_finite().then_some(f.cv_rms_deg),
     };
     // Serialising plain numbers and strings cannot fail; a failure would be a non-number.
     let text = serde_json::to_string_pretty(&layout)
@@ -194,7 +197,7 @@ pub fn parse(text: &str) -> std::result::Result<GyroCalFile, String> {
     Ok(GyroCalFile {
         model: l.model,
         correction,
-        cv_rms_deg: l.cv_rms_deg,
+        cv_rms_deg: l.cv_rms_deg.unwrap_or(f64::NAN),
     })
 }
 

@@ -1,0 +1,349 @@
+//! The gyroscope's protocols: what `gyrofit` does when the recording is not today's (motions
+//! between free poses), and what `calibrate` runs for a gyro.
+//!
+//! * `--table-rate R[,R…]` (°/s): known constant rates ([`super::rates`]): no clock needed.
+//! * full turns of a known angle between rests, with a clock (Ferraris: [`super::rotations`]).
+//! * otherwise the rests alone: the bias (the AHRS seed's gyro offset), scale and misalignment
+//!   named as not measured, with what to record or give.
+
+use super::faces::{window_face, zero_reading};
+use super::rates::{fit_rates, steady_runs, RateFit, SteadyMean};
+use super::rotations::{fit_turns, turns, Turn, TurnFit, TurnInput};
+use crate::detect::windows::{detect_windows, DetectOptions, Windows};
+use crate::input::recording::Recording;
+use serde::Serialize;
+
+/// Settings of the gyro's protocol methods.
+#[derive(Debug, Clone)]
+pub struct GyroProtocolOptions {
+    /// The angle of each full turn, degrees (Ferraris: 360).
+    pub rotation_deg: f64,
+    /// Known table rates, °/s (0 for a rest); `None`: not a rate table.
+    pub table_rates_dps: Option<Vec<f64>>,
+    /// The still-window detector.
+    pub detect: DetectOptions,
+    /// The gyro's nominal rad/s per raw unit, when known (flags or column names).
+    pub nominal_rad_per_raw: Option<[f64; 3]>,
+}
+
+impl Default for GyroProtocolOptions {
+    fn default() -> Self {
+        Self {
+            rotation_deg: 360.0,
+            table_rates_dps: None,
+            detect: DetectOptions::default(),
+            nominal_rad_per_raw: None,
+        }
+    }
+}
+
+/// What the gyro's protocol method found (`gyrofit --json` when it runs).
+#[derive(Debug, Clone, Serialize)]
+pub struct GyroProtocolReport {
+    /// What was recognised, one line.
+    pub protocol: String,
+    /// `ferraris`, `rate-table`, `rate-shells` or `rest-bias`.
+    pub method: &'static str,
+    /// `b`, raw units.
+    pub bias: [f64; 3],
+    /// `K`, rad/s per raw unit (`ω = K·(m − b)`); the nominal when only the bias was measured
+    /// (`null` entries when no nominal is known).
+    pub matrix: Option<[[f64; 3]; 3]>,
+    /// Rests (still windows) the bias came from, and their samples.
+    pub rests: usize,
+    /// Samples in the rests.
+    pub rest_samples: usize,
+    /// Standard error of the bias, raw units.
+    pub bias_std_error: [f64; 3],
+    /// The motions between rests, when a clock allowed integrating them.
+    pub turns: Vec<Turn>,
+    /// The Ferraris fit, when full turns about x, y and z were found.
+    pub turn_fit: Option<TurnFit>,
+    /// The known-rate fit.
+    pub rate_fit: Option<RateFit>,
+    /// Verdict: `good`, `unchecked` (exactly determined: nothing left to test it),
+    /// `bias-only`, `unexplained-residual`.
+    pub verdict: &'static str,
+    /// The verdict's reasons and what could not be tested, one sentence each.
+    pub notes: Vec<String>,
+}
+
+pub use crate::error::protocol::GyroProtocolError;
+
+type Result<T> = std::result::Result<T, GyroProtocolError>;
+
+/// Count-weighted mean and its standard error over windows.
+fn pooled(ws: &Windows, pick: &[usize]) -> ([f64; 3], [f64; 3], usize) {
+    let n: usize = pick.iter().map(|i| ws.stats[*i].count.unwrap_or(1)).sum();
+    let mean = std::array::from_fn(|a| {
+        pick.iter()
+            .map(|i| ws.stats[*i].count.unwrap_or(1) as f64 * ws.stats[*i].mean[a])
+            .sum::<f64>()
+            / n.max(1) as f64
+    });
+    let se = std::array::from_fn(|a| {
+        let v = pick
+            .iter()
+            .map(|i| ws.stats[*i].count.unwrap_or(1) as f64 * ws.stats[*i].var[a])
+            .sum::<f64>()
+            / n.max(1) as f64;
+        (v / n.max(1) as f64).sqrt()
+    });
+    (mean, se, n)
+}
+
+/// Runs the gyro's protocol method on `gyro` (and the accelerometer `acc` of the same samples,
+/// when the file has one).
+pub fn run(
+    acc: Option<&Recording>,
+    gyro: &Recording,
+    opts: &GyroProtocolOptions,
+) -> Result<GyroProtocolReport> {
+    let gws = detect_windows(gyro, &opts.detect).map_err(|e| GyroProtocolError::Detect(e))?;
+    let rest_idx = rests_of(&gws);
+    if let Some(rates) = &opts.table_rates_dps {
+        return Ok(rate_table(gyro, &gws, &rest_idx, rates, opts));
+    }
+    if rest_idx.is_empty() {
+        return Err(GyroProtocolError::NoRest);
+    }
+    let (bias, se, n) = pooled(&gws, &rest_idx);
+    let mut rep = GyroProtocolReport {
+        protocol: String::new(),
+        method: "rest-bias",
+        bias,
+        matrix: opts.nominal_rad_per_raw.map(diag),
+        rests: rest_idx.len(),
+        rest_samples: n,
+        bias_std_error: se,
+        turns: Vec::new(),
+        turn_fit: None,
+        rate_fit: None,
+        verdict: "bias-only",
+        notes: Vec::new(),
+    };
+    let levels = turning_levels(&gws, &rest_idx, bias);
+    match (acc, gyro.t.is_some() || gyro.sample_rate_hz.is_some()) {
+        (Some(acc), true) => ferraris(acc, gyro, bias, opts, &mut rep),
+        (_, false) => rep.notes.push(
+            "the file has no clock (no time column, no Fs): turns between rests cannot be \
+             integrated, so the gyro's scale cannot come from them; give --rate-hz, or known \
+             table rates with --table-rate"
+                .into(),
+        ),
+        (None, true) => {}
+    }
+    if rep.turn_fit.is_none() {
+        rest_only_notes(&mut rep, levels);
+    }
+    Ok(rep)
+}
+
+/// Count-weighted per-sample variance over windows, raw².
+fn pooled_var(ws: &Windows, pick: &[usize]) -> [f64; 3] {
+    let n: usize = pick.iter().map(|i| ws.stats[*i].count.unwrap_or(1)).sum();
+    std::array::from_fn(|a| {
+        pick.iter()
+            .map(|i| ws.stats[*i].count.unwrap_or(1) as f64 * ws.stats[*i].var[a])
+            .sum::<f64>()
+            / n.max(1) as f64
+    })
+}
+
+fn diag(s: [f64; 3]) -> [[f64; 3]; 3] {
+    [[s[0], 0.0, 0.0], [0.0, s[1], 0.0], [0.0, 0.0, s[2]]]
+}
+
+/// The windows at rest: within a few noise widths of the slowest window.
+fn rests_of(ws: &Windows) -> Vec<usize> {
+    let norm = |v: [f64; 3]| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+    let Some(slow) = (0..ws.stats.len())
+        .min_by(|a, b| norm(ws.stats[*a].mean).total_cmp(&norm(ws.stats[*b].mean)))
+    else {
+        return Vec::new();
+    };
+    let origin = ws.stats[slow].mean;
+    // The spread of a rest's samples: 5 per-sample standard deviations from the slowest
+    // window is still a rest (the bias moves a little between rests); a turning window is far
+    // beyond (a rate table's 25 °/s is ~100 standard deviations).
+    let sd = norm(ws.stats[slow].var.map(f64::sqrt)).max(f64::MIN_POSITIVE);
+    (0..ws.stats.len())
+        .filter(|i| {
+            let m = ws.stats[*i].mean;
+            norm([m[0] - origin[0], m[1] - origin[1], m[2] - origin[2]]) <= 5.0 * sd
+        })
+        .collect()
+}
+
+/// Distinct steady turning rates (magnitudes from the bias, raw units), clustered within 6 %.
+fn turning_levels(ws: &Windows, rests: &[usize], bias: [f64; 3]) -> Vec<f64> {
+    let mut mags: Vec<f64> = (0..ws.stats.len())
+        .filter(|i| !rests.contains(i))
+        .map(|i| {
+            let m = ws.stats[i].mean;
+            ((m[0] - bias[0]).powi(2) + (m[1] - bias[1]).powi(2) + (m[2] - bias[2]).powi(2)).sqrt()
+        })
+        .collect();
+    mags.sort_by(f64::total_cmp);
+    let mut levels: Vec<(f64, usize)> = Vec::new();
+    for m in mags {
+        match levels.last_mut() {
+            Some((l, k)) if m <= *l * 1.06 => {
+                *l = (*l * *k as f64 + m) / (*k + 1) as f64;
+                *k += 1;
+            }
+            _ => levels.push((m, 1)),
+        }
+    }
+    // A level seen in at least two steady windows is a rate the table or turntable held.
+    levels
+        .into_iter()
+        .filter(|(_, k)| *k >= 2)
+        .map(|(l, _)| l)
+        .collect()
+}
+
+fn rest_only_notes(rep: &mut GyroProtocolReport, levels: Vec<f64>) {
+    if levels.is_empty() {
+        rep.protocol = format!("{} rest(s), no steady turning rate", rep.rests);
+        rep.notes.push(
+            "scale and misalignment were not measured: only the bias at rest (the AHRS seed's \
+             gyro offset); turn the sensor once about each axis between rests (Ferraris), or \
+             record known table rates (--table-rate)"
+                .into(),
+        );
+        return;
+    }
+    let shown: Vec<String> = levels.iter().map(|l| format!("{l:.4}")).collect();
+    rep.protocol = format!(
+        "{} rest(s) and steady turning at {} level(s) ({} raw, ratio {:.3})",
+        rep.rests,
+        levels.len(),
+        shown.join(", "),
+        levels.last().unwrap_or(&1.0) / levels[0]
+    );
+    rep.notes.push(format!(
+        "a rate table or turntable was recognised (steady rates at {} levels): give their \
+         rates with --table-rate (°/s, e.g. --table-rate 0,200,270 for 33⅓ and 45 RPM) to \
+         measure scale and misalignment; without them only the bias is measured",
+        levels.len()
+    ));
+}
+
+/// Full turns between the accelerometer's rests, and the Ferraris fit when x, y, z turned.
+fn ferraris(
+    acc: &Recording,
+    gyro: &Recording,
+    bias: [f64; 3],
+    opts: &GyroProtocolOptions,
+    rep: &mut GyroProtocolReport,
+) {
+    let Ok(aws) = detect_windows(acc, &opts.detect) else {
+        return;
+    };
+    let means: Vec<[f64; 3]> = aws.stats.iter().map(|w| w.mean).collect();
+    let zero = zero_reading(&means, aws.units);
+    let dirs: Vec<[f64; 3]> = means
+        .iter()
+        .map(|m| window_face(*m, zero).direction)
+        .collect();
+    let rests: Vec<(usize, usize)> = aws.stats.iter().map(|w| (w.start, w.end)).collect();
+    let times = gyro.times(opts.detect.default_rate_hz);
+    let raw_per_dps = opts
+        .nominal_rad_per_raw
+        .map(|s| 1f64.to_radians() / s[0].abs());
+    let inp = TurnInput {
+        gyro: &gyro.xyz,
+        times: &times,
+        rests: &rests,
+        rest_directions: Some(&dirs),
+        bias,
+        raw_per_dps,
+    };
+    rep.turns = turns(&inp);
+    let full: Vec<&Turn> = rep.turns.iter().filter(|t| t.full_turn).collect();
+    let axes: Vec<&str> = full.iter().filter_map(|t| t.axis.as_deref()).collect();
+    match fit_turns(&rep.turns, bias, opts.rotation_deg) {
+        Ok(fit) => {
+            rep.protocol = format!(
+                "{} rests, {} full turns (about {}) of {}° taken",
+                rep.rests,
+                full.len(),
+                axes.join(", "),
+                opts.rotation_deg
+            );
+            rep.method = "ferraris";
+            rep.matrix = Some(fit.matrix);
+            rep.verdict = if fit.turns_per_axis.iter().all(|k| *k >= 2) {
+                "good"
+            } else {
+                "unchecked"
+            };
+            if rep.verdict == "unchecked" {
+                rep.notes.push(format!(
+                    "one full turn per axis fixes the scale and misalignment exactly (each turn \
+                     taken as {}°): nothing is left over to test them; a second turn about each \
+                     axis would, and a hand turn of 370° instead of 360° reads as a 2.8 % scale \
+                     error",
+                    opts.rotation_deg
+                ));
+            }
+            rep.turn_fit = Some(fit);
+        }
+        Err(e) if !full.is_empty() => rep.notes.push(e.to_string()),
+        Err(_) => {}
+    }
+}
+
+/// The known-rate method on the gyro's steady windows.
+fn rate_table(
+    gyro: &Recording,
+    gws: &Windows,
+    rests: &[usize],
+    rates: &[f64],
+    opts: &GyroProtocolOptions,
+) -> GyroProtocolReport {
+    let (bias0, se, n) = pooled(gws, rests);
+    let rest_var = pooled_var(gws, rests);
+    let steady: Vec<SteadyMean> = steady_runs(&gyro.xyz, bias0, rest_var.map(f64::sqrt));
+    let mut rep = GyroProtocolReport {
+        protocol: String::new(),
+        method: "rate-table",
+        bias: bias0,
+        matrix: opts.nominal_rad_per_raw.map(diag),
+        rests: rests.len(),
+        rest_samples: n,
+        bias_std_error: se,
+        turns: Vec::new(),
+        turn_fit: None,
+        rate_fit: None,
+        verdict: "bias-only",
+        notes: Vec::new(),
+    };
+    match fit_rates(&steady, rates) {
+        Ok(fit) => {
+            let turning = fit.windows.iter().filter(|w| w.rate_dps > 0.0).count();
+            rep.protocol = format!(
+                "rate table: {} steady parts at the rates given, {} at rest, {} at no rate given",
+                turning,
+                fit.windows.len() - turning,
+                fit.left_out
+            );
+            rep.method = fit.method;
+            rep.bias = fit.bias;
+            rep.matrix = Some(fit.matrix);
+            rep.verdict = "good";
+            rep.notes.push(format!(
+                "|ω| after calibration is within {:.3} °/s RMS of the rates given (before: \
+                 {:.3} °/s)",
+                fit.rms_dps, fit.rms_dps_before
+            ));
+            rep.rate_fit = Some(fit);
+        }
+        Err(e) => {
+            rep.protocol = format!("{} steady part(s)", gws.stats.len());
+            rep.notes.push(e.to_string());
+        }
+    }
+    rep
+}
