@@ -78,9 +78,9 @@ pub(super) fn rows(m: &[[f64; 3]; 3]) -> Matrix3<f64> {
     Matrix3::from_fn(|r, c| m[r][c])
 }
 
-/// Rows of a matrix.
+/// Rows of a matrix (a zero written `0.0`, never `-0.0`).
 pub(super) fn to_rows(m: &Matrix3<f64>) -> [[f64; 3]; 3] {
-    std::array::from_fn(|r| std::array::from_fn(|c| m[(r, c)]))
+    std::array::from_fn(|r| std::array::from_fn(|c| m[(r, c)] + 0.0))
 }
 
 /// A value drawn uniformly in `range` (its lower end when the range is empty).
