@@ -97,38 +97,49 @@ fn six_faces_window_means_are_the_forward_model_of_each_face() {
     }
 }
 
-/// The gyro, calibrated with the truth, integrated over each tumble, turns the gravity the
-/// accelerometer saw on one face into the gravity it sees on the next.
+/// The gyro, calibrated with the truth, integrated over all the motion between two rests
+/// (tumbles, rotations, spins), turns the gravity the accelerometer saw at one rest into the
+/// gravity it sees at the next, under every protocol with an accelerometer.
 #[test]
-fn tumbles_gyro_turns_one_faces_gravity_into_the_next() {
-    let s = simulate_protocol(&ProtocolSimOptions {
-        g_sensitivity_dps_per_g: 0.3,
-        ..Default::default()
-    });
-    let (a, w) = calibrated(&s);
-    let dt = 1.0 / s.truth.rate_hz;
-    let segs = &s.truth.segments;
-    let still = |seg: &TrueSegment| {
-        a[seg.first..seg.end]
-            .iter()
-            .sum::<Vector3<f64>>()
-            .normalize()
-    };
-    let mut checked = 0;
-    for k in 1..segs.len() - 1 {
-        if segs[k].kind != SegmentKind::Tumble {
-            continue;
+fn the_gyro_turns_each_rests_gravity_into_the_next() {
+    let cases = [
+        (SimProtocol::SixFaces, 5),
+        (SimProtocol::FaceMissing, 5),
+        (SimProtocol::Ferraris, 5 + 1 + 3 + 2),
+        (SimProtocol::RateTable, 6),
+    ];
+    for (protocol, moves) in cases {
+        let s = simulate_protocol(&ProtocolSimOptions {
+            protocol,
+            g_sensitivity_dps_per_g: 0.3,
+            ..Default::default()
+        });
+        let (a, w) = calibrated(&s);
+        let dt = 1.0 / s.truth.rate_hz;
+        let gravity = |seg: &TrueSegment| {
+            a[seg.first..seg.end]
+                .iter()
+                .sum::<Vector3<f64>>()
+                .normalize()
+        };
+        let rests: Vec<&TrueSegment> = s.truth.segments_of(SegmentKind::Rest).collect();
+        let mut checked = 0;
+        for pair in rests.windows(2) {
+            if pair[0].end == pair[1].first {
+                continue;
+            }
+            // Gravity in the body frame: ġ = −ω × g.
+            let mut up = gravity(pair[0]);
+            for wi in &w[pair[0].end..pair[1].first] {
+                up = Rotation3::from_scaled_axis(-wi * dt) * up;
+            }
+            let next = gravity(pair[1]);
+            let err = angle_deg(up, next);
+            assert!(err < 0.2, "{protocol:?} before {:?}: {err}°", pair[1]);
+            checked += 1;
         }
-        // Gravity in the body frame: ġ = −ω × g.
-        let mut up = still(&segs[k - 1]);
-        for wi in &w[segs[k].first..segs[k].end] {
-            up = Rotation3::from_scaled_axis(-wi * dt) * up;
-        }
-        let next = still(&segs[k + 1]);
-        assert!(angle_deg(up, next) < 0.2, "tumble {k}: {up} vs {next}");
-        checked += 1;
+        assert_eq!(checked, moves, "{protocol:?}");
     }
-    assert_eq!(checked, 5);
 }
 
 /// Each Ferraris rotation's corrected gyro integral is the truth's angle about the truth's
