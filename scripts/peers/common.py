@@ -225,33 +225,34 @@ def detect_static(xyz, fs, window_s=1.0, init_s=2.0, threshold=6.0, min_static_s
     w = max(3, int(round(window_s * fs)))
     if n < w + 1:
         return []
-    x0 = x - x.mean(axis=0)
-    c1 = np.vstack([np.zeros((1, 3)), np.cumsum(x0, axis=0)])
-    c2 = np.vstack([np.zeros((1, 3)), np.cumsum(x0 * x0, axis=0)])
-    s1 = c1[w:] - c1[:-w]
-    s2 = c2[w:] - c2[:-w]
-    var = (s2 - s1 * s1 / w) / (w - 1)  # window starting at j, j = 0..n−w
-    tot = var.sum(axis=1)
+    tot = window_var(x, w).sum(axis=1)  # window starting at j, j = 0..n−w
     half = w // 2
     score = np.full(n, np.inf)
     score[half : half + len(tot)] = tot  # centre sample of each window
     n_init = max(w, int(round(init_s * fs)))
     ref = float(np.median(tot[: max(1, n_init - w + 1)]))
     still = score <= threshold * ref
-    min_len = int(round(min_static_s * fs))
-    runs = []
-    i = 0
-    while i < n:
-        if still[i]:
-            j = i
-            while j < n and still[j]:
-                j += 1
-            if j - i >= min_len:
-                runs.append((i, j))
-            i = j
-        else:
-            i += 1
-    return runs
+    return runs_of(still, int(round(min_static_s * fs)))
+
+
+def window_var(x, w: int) -> np.ndarray:
+    """Per-axis sample variance (ddof 1) of every ``w``-sample window of ``x`` (N, k): row j is
+    the window starting at sample j, j = 0..N−w. Cumulative sums of the mean-removed data, f64."""
+    x = np.asarray(x, dtype=np.float64)
+    x0 = x - x.mean(axis=0)
+    zero = np.zeros((1, x.shape[1]))
+    c1 = np.vstack([zero, np.cumsum(x0, axis=0)])
+    c2 = np.vstack([zero, np.cumsum(x0 * x0, axis=0)])
+    s1 = c1[w:] - c1[:-w]
+    s2 = c2[w:] - c2[:-w]
+    return (s2 - s1 * s1 / w) / (w - 1)
+
+
+def runs_of(mask, min_len: int):
+    """``(start, end)`` of the runs of True in ``mask`` at least ``min_len`` long (end exclusive)."""
+    m = np.concatenate([[False], np.asarray(mask, dtype=bool), [False]])
+    edges = np.flatnonzero(m[1:] != m[:-1])
+    return [(int(s), int(e)) for s, e in zip(edges[::2], edges[1::2]) if e - s >= min_len]
 
 
 # --------------------------------------------------------------------------------------------

@@ -4,6 +4,9 @@ use crate::cli_error::cli_error;
 use anyhow::Result;
 use std::fmt::Write as _;
 use std::path::PathBuf;
+use wiical_analysis::simulate::protocols::{
+    simulate_protocol, write_protocol, ProtocolSimOptions, SimProtocol,
+};
 use wiical_analysis::simulate::{self, Device, EffectSpec, Profile, SimConfig, SimEffect};
 
 /// Arguments of `wiical simulate`.
@@ -28,7 +31,8 @@ pub struct Args {
     /// written in m/s²).
     #[arg(long, default_value = "wiimote", value_parser = parse_device)]
     pub device: Device,
-    /// Sample rate, Hz (20 to 2000); default: the device's usual (100, or 400 for mems16).
+    /// Sample rate, Hz (20 to 2000); default: the device's usual (100, or 400 for mems16;
+    /// 100 with --protocol).
     #[arg(long, value_parser = parse_rate)]
     pub rate: Option<f64>,
     /// calm (holds of 4–8 s, moves of 1.5–3 s) | brisk (holds of 2–4 s, moves of 1–2 s with
@@ -47,6 +51,27 @@ pub struct Args {
     /// axis (the monomial is drawn); not for `outliers`.
     #[arg(long, value_parser = parse_axis)]
     pub axis: Option<usize>,
+    /// Instead, a calibration protocol with an IMU (accelerometer and gyro in raw 16-bit
+    /// counts): six-faces | one-pose | ferraris | rate-table | turntable | face-missing,
+    /// written as t,ax,ay,az,gx,gy,gz (the turntable: gx,gy,gz, no clock), the truth in
+    /// FILE.truth.json (see `wiical_analysis::simulate::protocols`).
+    #[arg(
+        long,
+        value_parser = parse_protocol,
+        conflicts_with_all = ["effect", "magnitude", "device", "profile", "poses", "no_temp", "axis"]
+    )]
+    pub protocol: Option<SimProtocol>,
+    /// With --protocol: write no time column.
+    #[arg(long, requires = "protocol")]
+    pub no_clock: bool,
+}
+
+/// `--protocol`: one of the protocols' names.
+fn parse_protocol(s: &str) -> Result<SimProtocol, String> {
+    SimProtocol::parse(s).ok_or_else(|| {
+        let names: Vec<&str> = SimProtocol::ALL.iter().map(|p| p.name()).collect();
+        format!("'{s}': expected one of {}", names.join(", "))
+    })
 }
 
 /// `--axis`: x, y or z.
@@ -124,6 +149,9 @@ pub const MAX_POSES: usize = 5000;
 pub fn run(a: &Args) -> Result<String> {
     // `-` is refused as every command's --out is (it would be a file named "-").
     super::check_outputs(&[], &[Some(&a.out)])?;
+    if let Some(protocol) = a.protocol {
+        return run_protocol(a, protocol);
+    }
     let effects = effect_specs(&a.effect, &a.magnitude, a.axis)?;
     let cfg = SimConfig {
         effects,
@@ -164,4 +192,28 @@ pub fn run(a: &Args) -> Result<String> {
         truth.display()
     )?;
     Ok(o)
+}
+
+/// `wiical simulate --protocol`: the protocol at `--seed`, `--rate` (default 100 Hz) and
+/// `--no-clock`, everything else at the simulator's defaults.
+fn run_protocol(a: &Args, protocol: SimProtocol) -> Result<String> {
+    let defaults = ProtocolSimOptions::default();
+    let o = ProtocolSimOptions {
+        protocol,
+        seed: a.seed,
+        rate_hz: a.rate.unwrap_or(defaults.rate_hz),
+        no_clock: a.no_clock,
+        ..defaults
+    };
+    let sim = simulate_protocol(&o);
+    let truth = write_protocol(&sim, &a.out).map_err(cli_error)?;
+    Ok(format!(
+        "wrote {} ({} samples at {} Hz, protocol {}, columns {}) and the truth {}\n",
+        a.out.display(),
+        sim.len(),
+        sim.truth.rate_hz,
+        sim.truth.protocol,
+        sim.truth.columns.join(","),
+        truth.display()
+    ))
 }

@@ -75,7 +75,9 @@
 //!   holds), `files` (the output, CSV and JSON);
 //!
 //! and this module runs them in that order. [`gyro`], [`magnetometer`] and [`kalman`]
-//! simulate the other sensors and the Kalman demo.
+//! simulate the other sensors and the Kalman demo; [`protocols`] simulates the calibration
+//! protocols (six faces, one pose, Ferraris, rate table, turntable, a face missing) with an
+//! IMU's accelerometer and gyro.
 
 mod conditions;
 mod config;
@@ -89,6 +91,7 @@ pub mod kalman;
 pub mod magnetometer;
 mod motion;
 pub mod open_basis_terms;
+pub mod protocols;
 mod sensor;
 mod truth;
 
