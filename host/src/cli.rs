@@ -22,6 +22,10 @@ pub enum Cmd {
     SixPosition(cmd::six_position::Args),
     /// Static-interval detection + multi-position fit (bias + scale + non-orthogonality).
     Fit(cmd::fit::Args),
+    /// Every sensor of a recording (accelerometer, gyroscope, magnetometer) with the method its
+    /// recognised protocol calls for (free poses, six faces, one pose, Ferraris turns, rate
+    /// table): one table and verdict per sensor.
+    Calibrate(cmd::calibrate::Args),
     /// Gyroscope scale, misalignment and bias from the motions between static poses
     /// (Tedaldi et al. 2014): FILE with x,y,z and gx,gy,gz columns, or an accelerometer file and
     /// a gyro file (IMU-TK). The model (uncalibrated, bias, scale, full, each ± bias) is chosen
@@ -82,6 +86,7 @@ pub fn run(cli: Cli) -> Result<String> {
     match cli.cmd {
         Cmd::SixPosition(a) => cmd::six_position::run(&a),
         Cmd::Fit(a) => cmd::fit::run(&a),
+        Cmd::Calibrate(a) => cmd::calibrate::run(&a),
         Cmd::Analyze(a) => cmd::analyze::run(&a),
         Cmd::Correct(a) => cmd::correct::run(&a),
         Cmd::Gyrofit(a) => cmd::gyrofit::run(&a),

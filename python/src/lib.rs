@@ -367,6 +367,38 @@ fn magfit(
     })
 }
 
+/// `wiical calibrate --json`: every sensor of a recording with its recognised protocol's
+/// method (`table_rate`: known gyro rates in °/s; `rotation_deg`: each full turn's angle).
+#[pyfunction]
+#[pyo3(signature = (path, table_rate=None, rotation_deg=360.0))]
+fn calibrate(
+    py: Python<'_>,
+    path: PathBuf,
+    table_rate: Option<Vec<f64>>,
+    rotation_deg: f64,
+) -> PyResult<String> {
+    use wiical_analysis::calibrate::CalibrateOptions;
+    if !(rotation_deg.is_finite() && rotation_deg > 0.0) {
+        return Err(arg_err(format!(
+            "rotation_deg {rotation_deg}: expected a positive angle in degrees"
+        )));
+    }
+    if let Some(r) = &table_rate {
+        if r.is_empty() || r.iter().any(|v| !(v.is_finite() && *v >= 0.0)) {
+            return Err(arg_err(
+                "table_rate: expected one or more rates in °/s, each finite and ≥ 0".into(),
+            ));
+        }
+    }
+    let mut opts = CalibrateOptions::default();
+    opts.gyro.rotation_deg = rotation_deg;
+    opts.gyro.table_rates_dps = table_rate;
+    let rep = py
+        .detach(|| wiical_analysis::calibrate::calibrate(&path, &opts))
+        .map_err(py_err)?;
+    to_json(&rep)
+}
+
 /// `wiical six-position --json`: the seed's six-position test on a file with a pose column.
 #[pyfunction]
 #[pyo3(signature = (path, estimator="mean"))]
@@ -827,6 +859,7 @@ fn _wiical(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(magfit, m)?)?;
     m.add_function(wrap_pyfunction!(gyrofit, m)?)?;
     m.add_function(wrap_pyfunction!(six_position, m)?)?;
+    m.add_function(wrap_pyfunction!(calibrate, m)?)?;
     m.add_function(wrap_pyfunction!(decode_cal, m)?)?;
     m.add_function(wrap_pyfunction!(read, m)?)?;
     m.add_function(wrap_pyfunction!(span_times, m)?)?;

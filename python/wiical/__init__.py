@@ -33,6 +33,7 @@ __all__ = [
     "magfit",
     "gyrofit",
     "six_position",
+    "calibrate",
     "decode_cal",
     "noise",
     "tempcal",
@@ -290,6 +291,23 @@ def gyrofit(
         _names(gyro_columns, "gyro_columns", "['gx', 'gy', 'gz']"),
         _many(scale, "scale"),
         _many(counts_per_dps, "counts_per_dps"),
+    )
+    return _json.loads(out)
+
+
+def calibrate(
+    path: _PathLike,
+    *,
+    table_rate: _t.Optional[_t.Union[float, _t.Sequence[float]]] = None,
+    rotation_deg: float = 360.0,
+) -> _t.Dict[str, _t.Any]:
+    """Every sensor of a recording (accelerometer, gyroscope, magnetometer) with the method
+    its recognised protocol calls for: ``wiical calibrate --json``. ``table_rate``: known gyro
+    rates in °/s (0 for a rest); ``rotation_deg``: the angle of each full turn (Ferraris)."""
+    out = _wiical.calibrate(
+        _path(path, "path"),
+        None if table_rate is None else _many(table_rate, "table_rate"),
+        _number(rotation_deg, "rotation_deg"),
     )
     return _json.loads(out)
 

@@ -78,6 +78,7 @@
 pub mod arrays;
 pub mod autocal;
 pub mod batch;
+pub mod calibrate;
 pub mod correct;
 pub mod detect;
 pub mod error;

@@ -59,6 +59,9 @@ pub fn run(a: &Args) -> Result<String> {
     }
     let (rec, samples) = (input.recording(), input.len());
     let mut text = render::fit_text(rep, rec, samples, &a.file.display().to_string());
+    if let Some(p) = &rep.protocol {
+        text.push_str(&render::protocol::accel_lines(p));
+    }
     text.push_str(&quality.line());
     text.push('\n');
     Ok(text)

@@ -3,6 +3,7 @@
 
 pub mod analyze;
 pub mod batch;
+pub mod calibrate;
 pub mod capture;
 pub mod correct;
 pub mod decode_cal;

@@ -2,6 +2,7 @@
 //! identify (accelerometer), and the gyro's protocol report.
 
 use std::fmt::Write as _;
+use wiical_analysis::calibrate::{CalibrateReport, GyroOutcome, Outcome};
 use wiical_analysis::protocol::gyro::GyroProtocolReport;
 use wiical_analysis::protocol::ProtocolReport;
 
@@ -98,5 +99,77 @@ pub fn gyro_text(rep: &GyroProtocolReport, file: &str) -> String {
         let _ = writeln!(o, "  {n}");
     }
     let _ = writeln!(o, "verdict: {}", rep.verdict);
+    o
+}
+
+/// `wiical calibrate`'s text: one block per sensor with its verdict.
+pub fn calibrate_text(rep: &CalibrateReport, file: &str) -> String {
+    let mut o = String::new();
+    let _ = writeln!(o, "Calibration of {file}: {}", rep.sensors.join("; "));
+    if let Some(acc) = &rep.accelerometer {
+        let _ = writeln!(o, "\n== accelerometer");
+        match acc {
+            Outcome::Ok(j) => {
+                let r = &j.report;
+                match &r.protocol {
+                    Some(p) => o.push_str(&accel_lines(p)),
+                    None => {
+                        let _ = writeln!(
+                            o,
+                            "protocol: free poses ({} still windows) → method: multi-position fit",
+                            r.static_windows
+                        );
+                    }
+                }
+                let _ = writeln!(
+                    o,
+                    "bias b (raw): {:.6} {:.6} {:.6}",
+                    r.bias[0], r.bias[1], r.bias[2]
+                );
+                let _ = writeln!(o, "K = D⁻¹ (g per raw unit):");
+                for row in &r.matrix {
+                    let _ = writeln!(o, "  {:>14.8} {:>14.8} {:>14.8}", row[0], row[1], row[2]);
+                }
+                let _ = writeln!(o, "{}", j.quality.line());
+            }
+            Outcome::Error(e) => {
+                let _ = writeln!(o, "not calibrated: {e}");
+            }
+        }
+    }
+    if let Some(g) = &rep.gyroscope {
+        let _ = writeln!(o, "\n== gyroscope");
+        match g {
+            Outcome::Ok(GyroOutcome::Protocol(r)) => o.push_str(&gyro_text(r, file)),
+            Outcome::Ok(GyroOutcome::Motions(r)) => {
+                let _ = writeln!(
+                    o,
+                    "protocol: motions between free poses ({} windows, {} motions) → method: {} (held-out error {:.3}°)",
+                    r.static_windows, r.motions, r.model, r.cv_rms_deg
+                );
+                let _ = writeln!(o, "verdict: {}", r.verdict);
+            }
+            Outcome::Error(e) => {
+                let _ = writeln!(o, "not calibrated: {e}");
+            }
+        }
+    }
+    if let Some(m) = &rep.magnetometer {
+        let _ = writeln!(o, "\n== magnetometer");
+        match m {
+            Outcome::Ok(m) => {
+                let f = &m.fit;
+                let _ = writeln!(
+                    o,
+                    "ellipsoid: centre {:.4} {:.4} {:.4}, radius {:.4}, fit error {:.3} %",
+                    f.center[0], f.center[1], f.center[2], f.radius, f.fit_error_pct
+                );
+                let _ = writeln!(o, "verdict: {}", m.analysis.verdict);
+            }
+            Outcome::Error(e) => {
+                let _ = writeln!(o, "not calibrated: {e}");
+            }
+        }
+    }
     o
 }

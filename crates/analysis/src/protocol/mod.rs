@@ -21,6 +21,7 @@ pub mod accel;
 pub mod face_fit;
 pub mod faces;
 pub mod gyro;
+pub mod labelled;
 pub mod offsets;
 pub mod rates;
 pub mod rotations;

@@ -57,6 +57,9 @@ pub fn analyze(rec: &Recording, opts: &AnalyzeOptions) -> Result<AnalyzeReport> 
     let report = |stage, done, total| opts.progress.report(Progress { stage, done, total });
     report(Stage::Windows, 0, 0);
     let ws = detect_windows(rec, &opts.fit.detect)?;
+    if let Some(labelled) = crate::protocol::labelled::faces_recording(rec, &ws)? {
+        return Ok(crate::search::six_contrasts::analyze_six(&labelled, opts)?);
+    }
     analyze_windows(rec, ws, opts)
 }
 

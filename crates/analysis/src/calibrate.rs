@@ -1,0 +1,213 @@
+//! `wiical calibrate`: every sensor a recording holds, each with the method its recognised
+//! protocol calls for, and one verdict per sensor (`wiical.calibrate` in Python returns the
+//! same dictionary).
+//!
+//! The file is read once per sensor triplet the header names (accelerometer, gyroscope,
+//! magnetometer; a header-less `t x y z` file is an accelerometer). Each sensor's result is
+//! its own command's report — `fit` ([`crate::pipeline::fit_judged`], with the protocol's
+//! method), `gyrofit` (the motions between poses, else [`crate::protocol::gyro`]), `magfit`
+//! (the ellipsoid and its loop) — or the one sentence saying why it gave none. A sensor's
+//! failure never hides the others'.
+
+use crate::gyro::GyroOptions;
+use crate::input::columns::{classify, Sensor};
+use crate::input::front_door::Input;
+use crate::input::recording::Recording;
+use crate::magnetometer::{self, MagAnalysis, MagFitReport, MagInput, MagModel};
+use crate::pipeline::{fit_judged, Judged};
+use crate::protocol::gyro::{GyroProtocolOptions, GyroProtocolReport};
+use crate::{FitOptions, FitReport, LoadOptions};
+use serde::Serialize;
+use std::path::Path;
+
+/// Settings of `calibrate` (the per-sensor commands' defaults unless given).
+#[derive(Debug, Clone, Default)]
+pub struct CalibrateOptions {
+    /// The accelerometer's fit (detector and model).
+    pub fit: FitOptions,
+    /// The gyro's protocol settings (turn angle, table rates).
+    pub gyro: GyroProtocolOptions,
+}
+
+/// One sensor's outcome: its report, or why it has none.
+#[derive(Debug, Clone, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Outcome<T> {
+    /// The sensor's command's report.
+    Ok(T),
+    /// The one sentence saying why it gave none.
+    Error(String),
+}
+
+/// The gyro's report: the motion fit's (`gyrofit`'s today) or a protocol's.
+#[derive(Debug, Clone, Serialize)]
+#[serde(untagged)]
+pub enum GyroOutcome {
+    /// The motions between free poses ([`crate::gyro::run`]).
+    Motions(Box<crate::gyro::GyroReport>),
+    /// A recognised protocol's method ([`crate::protocol::gyro`]).
+    Protocol(Box<GyroProtocolReport>),
+}
+
+/// The magnetometer's fit and loop.
+#[derive(Debug, Clone, Serialize)]
+pub struct MagOutcome {
+    /// The ellipsoid fit.
+    pub fit: MagFitReport,
+    /// Its residual loop.
+    pub analysis: MagAnalysis,
+}
+
+/// Everything `calibrate` found (`--json`).
+#[derive(Debug, Clone, Serialize)]
+pub struct CalibrateReport {
+    /// Columns of each sensor found, e.g. `accelerometer: ax,ay,az`.
+    pub sensors: Vec<String>,
+    /// The accelerometer (absent when the file holds none).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub accelerometer: Option<Outcome<Judged<FitReport>>>,
+    /// The gyroscope.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub gyroscope: Option<Outcome<GyroOutcome>>,
+    /// The magnetometer.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub magnetometer: Option<Outcome<MagOutcome>>,
+}
+
+/// A sensor's triplet from `path`, when the header names one for `sensor`; the accelerometer
+/// is also the triplet of a file that names no sensor (`x,y,z`, a header-less `t x y z`),
+/// as for `fit`.
+fn triplet(path: &Path, sensor: Sensor) -> Option<Recording> {
+    let opts = LoadOptions {
+        columns: None,
+        sensor: Some(sensor),
+    };
+    let rec = crate::load(path, &opts).ok()?;
+    let sensor_of = |c: &String| classify(&c.to_ascii_lowercase()).map(|(_, s, _)| s);
+    let named = rec
+        .axis_columns
+        .iter()
+        .all(|c| sensor_of(c) == Some(sensor));
+    let other = rec
+        .axis_columns
+        .iter()
+        .any(|c| sensor_of(c).is_some_and(|s| s != Sensor::Accelerometer));
+    (named || (sensor == Sensor::Accelerometer && !other)).then_some(rec)
+}
+
+/// The accelerometer's input as `fit` reads it (a window-mean table, a raw file's still
+/// epochs, or samples), when the file has an accelerometer.
+fn accel_input(path: &Path, acc: &Option<Recording>) -> Option<crate::Result<Input>> {
+    acc.as_ref()?;
+    let opts = crate::input::window_means::WindowInputOptions {
+        load: LoadOptions {
+            columns: None,
+            sensor: Some(Sensor::Accelerometer),
+        },
+        force: false,
+    };
+    Some(crate::input::front_door::load_input(path, &opts))
+}
+
+/// Calibrates every sensor `path` holds.
+pub fn calibrate(path: &Path, opts: &CalibrateOptions) -> crate::Result<CalibrateReport> {
+    let acc = triplet(path, Sensor::Accelerometer);
+    let gyro = triplet(path, Sensor::Gyroscope);
+    let mag = triplet(path, Sensor::Magnetometer);
+    if acc.is_none() && gyro.is_none() && mag.is_none() {
+        // Nothing named: the loader's own error for the accelerometer says why.
+        crate::load(path, &LoadOptions::default())?;
+    }
+    let sensors = [
+        ("accelerometer", &acc),
+        ("gyroscope", &gyro),
+        ("magnetometer", &mag),
+    ]
+    .iter()
+    .filter_map(|(n, r)| {
+        r.as_ref()
+            .map(|r| format!("{n}: {}", r.axis_columns.join(",")))
+    })
+    .collect();
+    Ok(CalibrateReport {
+        sensors,
+        accelerometer: accel_input(path, &acc)
+            .map(|i| outcome(i.and_then(|i| fit_judged(&i, &opts.fit)))),
+        gyroscope: gyro
+            .as_ref()
+            .map(|g| outcome(gyro_of(acc.as_ref(), g, opts))),
+        magnetometer: mag.as_ref().map(|m| outcome(mag_of(m))),
+    })
+}
+
+/// A sensor's result as its outcome.
+fn outcome<T>(r: crate::Result<T>) -> Outcome<T> {
+    match r {
+        Ok(v) => Outcome::Ok(v),
+        Err(e) => Outcome::Error(sentence(&e)),
+    }
+}
+
+/// The error and its causes in one sentence (as the CLI prints them).
+fn sentence(e: &crate::Error) -> String {
+    let mut s = e.to_string();
+    let mut src = std::error::Error::source(e);
+    while let Some(c) = src {
+        let t = c.to_string();
+        if !s.contains(&t) {
+            s = format!("{s}: {t}");
+        }
+        src = c.source();
+    }
+    s
+}
+
+/// The gyro: the motions between free poses when they calibrate it, else the protocol's.
+fn gyro_of(
+    acc: Option<&Recording>,
+    gyro: &Recording,
+    opts: &CalibrateOptions,
+) -> crate::Result<GyroOutcome> {
+    let nominal = crate::gyro::nominal_from_columns(gyro);
+    let mut popts = opts.gyro.clone();
+    popts.nominal_rad_per_raw = popts.nominal_rad_per_raw.or(nominal.as_ref().map(|n| n.0));
+    if let (Some(acc), None) = (acc, &popts.table_rates_dps) {
+        let mut gopts = match nominal {
+            Some((scale, source)) => GyroOptions {
+                nominal_source: source,
+                ..GyroOptions::new(scale)
+            },
+            None => GyroOptions::estimated(),
+        };
+        gopts.detect = opts.fit.detect.clone();
+        if let Ok(rep) = crate::gyro::run(acc, gyro, &gopts) {
+            return Ok(GyroOutcome::Motions(Box::new(rep)));
+        }
+    }
+    let rep = crate::protocol::gyro::run(acc, gyro, &popts)?;
+    Ok(GyroOutcome::Protocol(Box::new(rep)))
+}
+
+/// The magnetometer: `magfit`'s default ellipsoid and its loop.
+fn mag_of(m: &Recording) -> crate::Result<MagOutcome> {
+    magnetometer::check_spans(&m.xyz)?;
+    let fit = magnetometer::fit_points(&m.xyz, MagModel::Ellipsoid)?;
+    let times =
+        m.t.clone()
+            .or_else(|| m.sample_rate_hz.map(|_| m.times(1.0)));
+    let unit = crate::input::columns::triplet_unit(&m.axis_columns).unwrap_or("raw");
+    let input = MagInput {
+        xyz: &m.xyz,
+        t: times.as_deref(),
+        temp: m.temp.as_deref(),
+        follow: &[],
+        unit,
+    };
+    let analysis = magnetometer::analyze(
+        &input,
+        &fit,
+        MagModel::Ellipsoid,
+        crate::search::select::ALPHA,
+    )?;
+    Ok(MagOutcome { fit, analysis })
+}
