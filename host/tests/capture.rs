@@ -53,6 +53,7 @@ fn cli_capture_without_a_remote_fails_with_the_pairing_advice() {
 }
 
 #[test]
+#[allow(clippy::too_many_lines, reason = "a test reads top to bottom")]
 fn cli_capture_replays_a_raw_log_in_guided_mode() {
     // Record a guided session from the fake remote through --raw-log's logger…
     let poses = twelve_poses();
@@ -146,6 +147,7 @@ fn cli_capture_replays_a_raw_log_in_guided_mode() {
 }
 
 #[test]
+#[allow(clippy::too_many_lines, reason = "a test reads top to bottom")]
 fn cli_capture_live_feeds_the_live_page_while_capturing() {
     use std::io::BufRead;
     // A guided session of twelve poses from the fake remote, logged as a real one would be…

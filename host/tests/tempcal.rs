@@ -42,6 +42,7 @@ fn warmup_csv(seed: u64, from: f64, to: f64) -> String {
 }
 
 #[test]
+#[allow(clippy::too_many_lines, reason = "a test reads top to bottom")]
 fn simulated_cubic_warmup_is_recovered_and_both_parameter_files_read_back() {
     let f = temp_file("tempcal", "warm.csv", &warmup_csv(5, 18.0, 39.0));
     let file = f.to_str().unwrap();

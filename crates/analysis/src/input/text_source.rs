@@ -900,6 +900,7 @@ mod tests {
     /// — or the same sentence, or is handed back to be read whole; a clone taken mid-pass goes
     /// on from the same row.
     #[test]
+    #[allow(clippy::too_many_lines, reason = "a test reads top to bottom")]
     fn passes_read_as_the_whole_text() {
         let mut rows = String::from("Fs,100\nt,x,y,z,temp\n");
         for i in 0..400 {
