@@ -41,7 +41,8 @@ pub struct Limits {
     /// closed without an answer when every one is busy.
     pub max_connections: usize,
     /// Connections open at once from one client address; as `max_connections`, among that
-    /// address's own connections (so one address cannot push out another's).
+    /// address's own connections (below `max_connections`, so one address alone never fills
+    /// the server and pushes out only its own).
     pub max_per_client: usize,
     /// Bytes of a request head (request line and headers); more is answered 431.
     pub max_head_bytes: usize,
