@@ -11,6 +11,8 @@ temp = np.zeros(len(xyz))
 with_nan = np.vstack([xyz[:5], [[np.nan, 0.0, 1.0]], xyz[5:]])
 back = np.arange(len(xyz)) * 0.01
 back[100] = back[98]
+masked = np.ma.masked_array(xyz, mask=np.zeros(xyz.shape, bool))
+masked[100:103] = np.ma.masked
 CASES = [
     ("data None", "wiical.fit(None)", lambda: wiical.fit(None)),
     ("a NaN row", "wiical.fit(xyz with a NaN row)", lambda: wiical.fit(with_nan)),
@@ -32,6 +34,7 @@ CASES = [
     ("tempcal rate_hz=1e300", "wiical.tempcal(xyz, temp=temp, rate_hz=1e300)", lambda: wiical.tempcal(xyz, temp=temp, rate_hz=1e300)),
     ("decode_cal without a device", "wiical.decode_cal(None, '82')", lambda: wiical.decode_cal(None, "82")),
     ("correct without a calibration", "wiical.correct(None, xyz)", lambda: wiical.correct(None, xyz)),
+    ("a masked array", "wiical.fit(xyz with 3 rows masked)", lambda: wiical.fit(masked)),
 ]
 for desc, call, f in CASES:
     try:

@@ -10,7 +10,7 @@ use std::sync::atomic::AtomicUsize;
 use std::sync::{Arc, OnceLock};
 use std::time::Duration;
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
-use wiical::live::http::{Connection, Limits};
+use wiical::live::http::{Connection, HostCheck, Limits};
 use wiical::live::Shared;
 
 /// Most of an answer read per input: an event stream never ends by itself.
@@ -37,6 +37,8 @@ fuzz_target!(|data: &[u8]| {
             keepalive: Duration::from_millis(10),
             ..Limits::default()
         },
+        // Requests naming another host are answered 421 before any route.
+        host: HostCheck::new(std::net::SocketAddr::from(([127, 0, 0, 1], 8080))),
     };
     let out = runtime().block_on(async move {
         let (mut client, server) = tokio::io::duplex(64 * 1024);

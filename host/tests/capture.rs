@@ -20,7 +20,7 @@ fn http_get(port: u16, path: &str) -> String {
     let mut s = std::net::TcpStream::connect(("127.0.0.1", port)).unwrap();
     write!(
         s,
-        "GET {path} HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n"
+        "GET {path} HTTP/1.1\r\nHost: localhost\r\nConnection: close\r\n\r\n"
     )
     .unwrap();
     let mut buf = String::new();
@@ -53,6 +53,7 @@ fn cli_capture_without_a_remote_fails_with_the_pairing_advice() {
 }
 
 #[test]
+#[allow(clippy::too_many_lines, reason = "a test reads top to bottom")]
 fn cli_capture_replays_a_raw_log_in_guided_mode() {
     // Record a guided session from the fake remote through --raw-log's logger…
     let poses = twelve_poses();
@@ -146,6 +147,7 @@ fn cli_capture_replays_a_raw_log_in_guided_mode() {
 }
 
 #[test]
+#[allow(clippy::too_many_lines, reason = "a test reads top to bottom")]
 fn cli_capture_live_feeds_the_live_page_while_capturing() {
     use std::io::BufRead;
     // A guided session of twelve poses from the fake remote, logged as a real one would be…

@@ -46,6 +46,7 @@ fn device_args(args: &[&str]) -> DeviceArgs {
 }
 
 #[test]
+#[allow(clippy::too_many_lines, reason = "a test reads top to bottom")]
 fn cli_commands_over_the_pty() {
     // Parsing: options before or after the action.
     let a = device_args(&[

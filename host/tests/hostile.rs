@@ -832,3 +832,36 @@ fn standard_input_too_long_to_hold_is_spooled_within_bounds() {
 fn memchr_back(tail: &[u8]) -> usize {
     tail.iter().position(|&b| b == b'\n').unwrap() + 1
 }
+
+/// The recording piped in with `<` is never replaced: `--out` naming the file standard input
+/// reads (by its own name or as `/dev/stdin`) is refused before anything is read or written,
+/// for `correct`, `analyze` and `fit` with `-` as the recording; another output still works.
+#[test]
+fn out_naming_the_file_on_standard_input_is_refused() {
+    let tag = "hostile-stdin-out";
+    let rec = counts_recording(tag, 40);
+    let cal = counts_cal(tag, "good.json", "", "");
+    let before = std::fs::read(&rec).unwrap();
+    let (r, c) = (rec.to_str().unwrap(), cal.to_str().unwrap());
+    for args in [
+        vec!["correct", c, "-", "--out", r],
+        vec!["correct", c, "-", "--out", "/dev/stdin"],
+        vec!["analyze", "-", "--out", r],
+        vec!["fit", "-", "--out", r],
+        vec!["fit", "-", "--out", "/dev/stdin"],
+    ] {
+        let (ok, _, err) = common::wiical_stdin(&args, &rec);
+        assert!(!ok, "{args:?} succeeded");
+        assert!(
+            err.contains("it is the file standard input reads"),
+            "{args:?}: {err}"
+        );
+        assert_eq!(err.lines().count(), 1, "{args:?}: {err}");
+        assert_eq!(std::fs::read(&rec).unwrap(), before, "{args:?}");
+    }
+    let other = rec.with_file_name("corrected.csv");
+    let (ok, _, err) =
+        common::wiical_stdin(&["correct", c, "-", "--out", other.to_str().unwrap()], &rec);
+    assert!(ok, "{err}");
+    assert_eq!(std::fs::read(&rec).unwrap(), before);
+}

@@ -87,7 +87,7 @@ fn good_client_is_served(port: u16) {
     let v: serde_json::Value = serde_json::from_str(&snap).unwrap();
     assert!(v["samples"].is_u64(), "{snap}");
     let mut s = connect(port);
-    write!(s, "GET /events HTTP/1.1\r\nHost: x\r\n\r\n").unwrap();
+    write!(s, "GET /events HTTP/1.1\r\nHost: localhost\r\n\r\n").unwrap();
     let mut got = Vec::new();
     let mut buf = [0u8; 4096];
     let t0 = Instant::now();
@@ -105,7 +105,7 @@ fn get(port: u16, path: &str) -> (u16, String) {
     let mut s = connect(port);
     write!(
         s,
-        "GET {path} HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n"
+        "GET {path} HTTP/1.1\r\nHost: localhost\r\nConnection: close\r\n\r\n"
     )
     .unwrap();
     let mut buf = String::new();
@@ -133,11 +133,11 @@ fn live_server_answers_oversized_and_malformed_requests_and_keeps_serving() {
     // method other than GET, 413 for a GET with a body).
     for (req, want) in [
         (
-            &b"POST / HTTP/1.1\r\nHost: x\r\nContent-Length: 99999999999\r\n\r\n"[..],
+            &b"POST / HTTP/1.1\r\nHost: localhost\r\nContent-Length: 99999999999\r\n\r\n"[..],
             405,
         ),
         (
-            b"GET / HTTP/1.1\r\nHost: x\r\nContent-Length: 99999999999\r\n\r\n",
+            b"GET / HTTP/1.1\r\nHost: localhost\r\nContent-Length: 99999999999\r\n\r\n",
             413,
         ),
         (
@@ -225,14 +225,18 @@ fn live_server_survives_slow_stalled_and_pipelining_clients_at_once() {
     // Never reading: an event stream, and 2000 pipelined snapshot requests on one connection
     // (their answers fill the socket buffers; the server must drop it, not wait for it).
     let mut stalled_events = connect(port);
-    write!(stalled_events, "GET /events HTTP/1.1\r\nHost: x\r\n\r\n").unwrap();
+    write!(
+        stalled_events,
+        "GET /events HTTP/1.1\r\nHost: localhost\r\n\r\n"
+    )
+    .unwrap();
     let mut stalled_pipe = connect(port);
-    let one = b"GET /snapshot.json HTTP/1.1\r\nHost: x\r\n\r\n";
+    let one = b"GET /snapshot.json HTTP/1.1\r\nHost: localhost\r\n\r\n";
     let pipelined: Vec<u8> = one.iter().copied().cycle().take(one.len() * 2000).collect();
     let _ = stalled_pipe.write_all(&pipelined);
     // Pipelining behind /events: twenty stream requests on one connection hold one slot.
     let mut piped_events = connect(port);
-    let ev = b"GET /events HTTP/1.1\r\nHost: x\r\n\r\n";
+    let ev = b"GET /events HTTP/1.1\r\nHost: localhost\r\n\r\n";
     let many: Vec<u8> = ev.iter().copied().cycle().take(ev.len() * 20).collect();
     piped_events.write_all(&many).unwrap();
     let t0 = Instant::now();
@@ -249,7 +253,7 @@ fn live_server_survives_slow_stalled_and_pipelining_clients_at_once() {
     let mut held = Vec::new();
     for _ in 0..6 {
         let mut s = connect(port);
-        write!(s, "GET /events HTTP/1.1\r\nHost: x\r\n\r\n").unwrap();
+        write!(s, "GET /events HTTP/1.1\r\nHost: localhost\r\n\r\n").unwrap();
         let mut head = [0u8; 12];
         s.read_exact(&mut head).unwrap();
         assert_eq!(&head[9..12], b"200");
@@ -258,7 +262,7 @@ fn live_server_survives_slow_stalled_and_pipelining_clients_at_once() {
     assert_eq!(
         answer(
             port,
-            b"GET /events HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n"
+            b"GET /events HTTP/1.1\r\nHost: localhost\r\nConnection: close\r\n\r\n"
         ),
         Some(503)
     );
@@ -280,4 +284,111 @@ fn live_server_closes_a_connection_that_never_sends_its_head() {
     assert_eq!(n, 0, "{:?}", String::from_utf8_lossy(&buf[..n]));
     assert!(t0.elapsed() < Duration::from_secs(14), "{:?}", t0.elapsed());
     good_client_is_served(live.port);
+}
+
+/// Sends `req` and returns the status code and body of the answer (read to the close).
+fn exchange(port: u16, req: &str) -> (Option<u16>, String) {
+    let mut s = connect(port);
+    let _ = s.write_all(req.as_bytes());
+    let mut buf = Vec::new();
+    let _ = s.read_to_end(&mut buf);
+    let text = String::from_utf8_lossy(&buf).into_owned();
+    let code = text
+        .strip_prefix("HTTP/1.1 ")
+        .and_then(|r| r.get(..3))
+        .and_then(|c| c.parse().ok());
+    let body = text
+        .split_once("\r\n\r\n")
+        .map_or("", |(_, b)| b)
+        .to_string();
+    (code, body)
+}
+
+/// DNS rebinding: a page whose name is rebound to 127.0.0.1 sends its own name as `Host`.
+/// Only 127.0.0.1, localhost and [::1] (with this port or none) are answered; any other name,
+/// another port, a missing Host or an absolute URI naming another host gets 421 and one short
+/// sentence, on every path (the page, the snapshot, the event stream).
+#[test]
+fn live_server_answers_only_a_loopback_host() {
+    let live = start();
+    let port = live.port;
+    let refused = [
+        "Host: attacker.example".to_string(),
+        format!("Host: attacker.example:{port}"),
+        format!("Host: 127.0.0.1:{}", port.wrapping_add(1).max(1)),
+        "Host: localhost.attacker.example".to_string(),
+        "Host: 127.0.0.1.nip.io".to_string(),
+        "Host: 127.0.0.1:x".to_string(),
+        "Host: ::1".to_string(),
+        String::new(),
+    ];
+    for host in &refused {
+        for path in ["/", "/snapshot.json", "/events"] {
+            let req = format!("GET {path} HTTP/1.1\r\n{host}\r\nConnection: close\r\n\r\n");
+            let (code, body) = exchange(port, &req);
+            assert_eq!(code, Some(421), "{host:?} {path}: {body}");
+            assert!(body.contains("answers only Host 127.0.0.1"), "{body}");
+            assert!(body.len() < 200 && !body.contains("samples"), "{body}");
+        }
+    }
+    let absolute = format!(
+        "GET http://attacker.example/snapshot.json HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\nConnection: close\r\n\r\n"
+    );
+    assert_eq!(exchange(port, &absolute).0, Some(421));
+    for host in [
+        format!("127.0.0.1:{port}"),
+        "127.0.0.1".to_string(),
+        format!("localhost:{port}"),
+        "LocalHost".to_string(),
+        format!("[::1]:{port}"),
+        "[::1]".to_string(),
+    ] {
+        let req =
+            format!("GET /snapshot.json HTTP/1.1\r\nHost: {host}\r\nConnection: close\r\n\r\n");
+        let (code, body) = exchange(port, &req);
+        assert_eq!(code, Some(200), "{host}: {body}");
+        assert!(body.contains("\"samples\""), "{host}: {body}");
+    }
+}
+
+/// True when the server has closed `s` or answered on it.
+fn closed_by_server(s: &TcpStream) -> bool {
+    s.set_nonblocking(true).unwrap();
+    let mut buf = [0u8; 16];
+    // Nothing to read yet: still open. End of file, a reset or an answer: the server is done.
+    let closed = match (&*s).read(&mut buf) {
+        Err(e) => e.kind() != std::io::ErrorKind::WouldBlock,
+        Ok(_) => true,
+    };
+    s.set_nonblocking(false).unwrap();
+    closed
+}
+
+/// Slow-header lock-out: 80 connections from the viewer's own address that send half a
+/// request head and wait (each re-opened as soon as the server drops it) do not keep a new
+/// viewer out: the oldest idle connection makes way for it, every round, within seconds.
+#[test]
+fn idle_connections_cannot_lock_out_a_new_viewer() {
+    let live = start();
+    let port = live.port;
+    let open_idle = |i: usize| {
+        let mut s = connect(port);
+        if i.is_multiple_of(2) {
+            s.write_all(b"GET / HTTP/1.1\r\nX-Slow: ").unwrap();
+        }
+        s
+    };
+    let mut idle: Vec<TcpStream> = (0..80).map(open_idle).collect();
+    let t0 = Instant::now();
+    for round in 0..4 {
+        for (i, s) in idle.iter_mut().enumerate() {
+            if closed_by_server(s) {
+                *s = open_idle(i);
+            }
+        }
+        good_client_is_served(port);
+        assert!(t0.elapsed() < Duration::from_secs(10), "round {round}");
+        std::thread::sleep(Duration::from_millis(200));
+    }
+    drop(idle);
 }

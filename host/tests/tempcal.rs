@@ -42,6 +42,7 @@ fn warmup_csv(seed: u64, from: f64, to: f64) -> String {
 }
 
 #[test]
+#[allow(clippy::too_many_lines, reason = "a test reads top to bottom")]
 fn simulated_cubic_warmup_is_recovered_and_both_parameter_files_read_back() {
     let f = temp_file("tempcal", "warm.csv", &warmup_csv(5, 18.0, 39.0));
     let file = f.to_str().unwrap();
@@ -176,6 +177,70 @@ fn calibration_file_form_takes_the_linear_term() {
         let want = v["axes"][j]["linear"][0].as_f64().unwrap() as f32;
         assert_eq!(c["effects"]["bias_temp"][j].as_f64().unwrap() as f32, want);
     }
+}
+
+/// A calibration in other units than the warm-up (raw counts, where the warm-up is in g) is
+/// refused in one sentence by `correct`'s units check, nothing written: its temperature term
+/// would be in g per °C inside a counts calibration, wrong by the counts per g.
+#[test]
+fn calibration_file_form_refuses_a_calibration_in_other_units() {
+    let f = temp_file("tempcal", "warm-g.csv", &warmup_csv(6, 15.0, 37.0));
+    let cal = temp_file(
+        "tempcal",
+        "counts-cal.json",
+        r#"{"schema":"wiical-calibration/1","bias":[33000,33000,33000],"matrix":[[0.00025,0,0],[0,0.00025,0],[0,0,0.00025]]}"#,
+    );
+    let out = cal.with_file_name("counts-cal-t.json");
+    let (ok, _, err) = wiical(&[
+        "tempcal",
+        f.to_str().unwrap(),
+        "--format",
+        "calfile",
+        "--calibration",
+        cal.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(!ok, "{err}");
+    assert!(
+        err.contains("counts-cal.json does not suit") && err.contains("different units"),
+        "{err}"
+    );
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(!out.exists());
+}
+
+/// A temperature column in kelvin is refused in one sentence saying so, for every output
+/// (no autopilot file with TMIN 293 "°C").
+#[test]
+fn a_temperature_column_in_kelvin_is_refused() {
+    let mut rows = String::from("t,x,y,z,temp\n");
+    for i in 0..6000 {
+        let t = i as f64 / 10.0;
+        let wobble = 1e-3 * ((i * 7919 % 13) as f64 - 6.0);
+        rows.push_str(&format!(
+            "{t},{},-0.1,0.99,{}\n",
+            0.05 + wobble,
+            293.2 + t / 30.0
+        ));
+    }
+    let f = temp_file("tempcal", "kelvin.csv", &rows);
+    let out = f.with_file_name("kelvin.parm");
+    let (ok, _, err) = wiical(&[
+        "tempcal",
+        f.to_str().unwrap(),
+        "--format",
+        "ardupilot",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(!ok, "{err}");
+    assert!(
+        err.contains("from 293.2 to 313.2") && err.contains("kelvin"),
+        "{err}"
+    );
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(!out.exists());
 }
 
 #[test]

@@ -609,6 +609,8 @@ fn read<'py>(
     let rec = py
         .detach(|| wiical_analysis::load(&path, &opts))
         .map_err(py_err)?;
+    // A Ctrl-C during the read: KeyboardInterrupt now, before any array is made.
+    py.check_signals()?;
     progress.report("reading", rec.len(), rec.len());
     progress.finish()?;
     let meta = serde_json::json!({
@@ -652,6 +654,7 @@ fn read_raw<'py, T: samples::Real + numpy::Element>(
             None => samples::read::<T>(path, format, opts, times),
         })
         .map_err(|e| py_err(e.in_file(path)))?;
+    py.check_signals()?;
     let n = got.temp.len();
     let meta = serde_json::json!({
         "columns": got.meta.columns,
@@ -853,6 +856,11 @@ fn correct<'py>(
 #[pymodule]
 fn _wiical(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("WiicalError", m.py().get_type::<WiicalError>())?;
+    // numpy's C API is looked up now, at import, not at the first array a call returns: that
+    // lookup runs Python code, and a Ctrl-C pending after a long read raised its
+    // KeyboardInterrupt inside it, which the numpy crate turns into a panic.
+    // SAFETY: reads the API table's version entry; no argument, no pointer kept.
+    let _ = unsafe { numpy::PY_ARRAY_API.PyArray_GetNDArrayCVersion(m.py()) };
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add_function(wrap_pyfunction!(fit, m)?)?;
     m.add_function(wrap_pyfunction!(analyze, m)?)?;

@@ -409,3 +409,52 @@ def test_every_function_answers_any_arguments_with_a_result_or_a_sentence(name: 
     except (TypeError, ValueError) as e:
         assert str(e).strip(), f"{name}: an empty message"
         assert "PanicException" not in type(e).__name__
+
+
+# --- masked arrays and Ctrl-C (issue 49) ---------------------------------------------------
+
+
+def test_a_masked_array_is_refused_not_read_as_if_unmasked() -> None:
+    """numpy hands over the values under a mask as if unmasked: the glitches a user masked
+    out were fitted (bias 33196.9 against 33123.8). A masked value is refused, naming how
+    many; a mask hiding nothing reads as the plain array."""
+    rec = _xsens()
+    xyz = np.ma.masked_array(rec["xyz"], mask=np.zeros(rec["xyz"].shape, dtype=bool))
+    xyz[100:110, 0] = np.ma.masked
+    with pytest.raises(ValueError) as e:
+        wiical.fit(xyz)
+    assert str(e.value).startswith("data is a masked array with 10 masked value(s)")
+    assert not isinstance(e.value, wiical.WiicalError)
+    with pytest.raises(ValueError, match="t is a masked array with 1 masked"):
+        wiical.fit(rec["xyz"], t=np.ma.masked_array(rec["t"], mask=np.arange(len(rec["t"])) == 5))
+    clear = np.ma.masked_array(rec["xyz"], mask=False)
+    assert wiical.fit(clear)["bias"] == wiical.fit(rec["xyz"])["bias"]
+
+
+def test_ctrl_c_during_the_first_read_raises_keyboard_interrupt() -> None:
+    """SIGINT while the first ``wiical.read`` of a process runs (the numpy API not yet looked
+    up) is a KeyboardInterrupt, not a pyo3 PanicException from the lookup."""
+    with tempfile.TemporaryDirectory() as d:
+        path = os.path.join(d, "big.csv")
+        block = "".join(f"{0.01 * (i % 7)},{-0.02},{1.0 + 1e-4 * (i % 13)}\n" for i in range(10_000))
+        with open(path, "w") as f:
+            f.write("x,y,z\n")
+            for _ in range(400):
+                f.write(block)
+        script = (
+            "import os, signal, sys, threading, time, wiical\n"
+            "threading.Timer(0.05, lambda: os.kill(os.getpid(), signal.SIGINT)).start()\n"
+            "t0 = time.monotonic()\n"
+            "try:\n"
+            "    wiical.read(sys.argv[1])\n"
+            "    print('read finished', time.monotonic() - t0)\n"
+            "    time.sleep(5)\n"
+            "except KeyboardInterrupt:\n"
+            "    print('KeyboardInterrupt', time.monotonic() - t0)\n"
+        )
+        out = subprocess.run(
+            [sys.executable, "-c", script, path], capture_output=True, text=True, timeout=120
+        )
+    assert "PanicException" not in out.stderr and "panicked" not in out.stderr, out.stderr
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.startswith("KeyboardInterrupt"), out.stdout

@@ -95,10 +95,21 @@ def _opt_number(v: _t.Any, name: str) -> _t.Optional[float]:
 def _real(values: _t.Any, name: str) -> _np.ndarray:
     """``values`` as a float64 array (no copy when it is one already). Anything numpy would
     turn into numbers silently — None (NaN), text ("1.5"), complex (imaginary part dropped),
-    booleans (0/1) — is a TypeError naming the argument and, for a None, its place."""
+    booleans (0/1) — is a TypeError naming the argument and, for a None, its place. A masked
+    array with a value masked is a ValueError (numpy would give the masked values unmasked)."""
     what = f"{name} must be {'a path or ' if name == 'data' else ''}an array of numbers"
     if values is None or _np.isscalar(values):
         raise TypeError(f"{what}, got {type(values).__name__} {values!r}")
+    if isinstance(values, _np.ma.MaskedArray):
+        # numpy would hand over the values under the mask (the glitches it hides) unmasked.
+        hidden = int(_np.ma.count_masked(values))
+        if hidden:
+            raise ValueError(
+                f"{name} is a masked array with {hidden} masked value(s), which would be read as "
+                "if unmasked: leave the masked samples out first (numpy.ma.compress_rows for "
+                "the n × 3 readings, with their times and temperatures) or fill them"
+            )
+        values = _np.ma.getdata(values)
     try:
         raw = _np.asarray(values)
     except (TypeError, ValueError) as e:

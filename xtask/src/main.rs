@@ -183,7 +183,11 @@ fn run_qemu(elf: &Path, icount: bool) -> Result<QemuRun> {
         }
         std::thread::sleep(Duration::from_millis(20));
     };
-    let _ = reader.join();
+    // The reader ends with QEMU's output; a panic of it is raised here, not taken for the end
+    // of the output.
+    if let Err(panic) = reader.join() {
+        std::panic::resume_unwind(panic);
+    }
     while let Ok(line) = rx.try_recv() {
         println!("{line}");
         lines.push(line);

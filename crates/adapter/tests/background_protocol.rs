@@ -427,6 +427,7 @@ fn the_corrector_applies_the_temperature_slope_at_the_boards_reading() {
 /// defaults: adoption on, a host upload kept, the calibration counted as the host's), never as
 /// other settings.
 #[test]
+#[allow(clippy::too_many_lines, reason = "a test reads top to bottom")]
 fn settings_records_round_trip_and_a_flipped_bit_is_no_record() {
     use wiical_adapter::background::adopt::MAX_DAILY;
     use wiical_adapter::background::BudgetRecord;
@@ -653,6 +654,7 @@ fn a_swapped_nunchuk_starts_with_empty_bins() {
 /// one commit per day it is refused with `Budget` and the rest of the day as the wait; the
 /// defaults (one per 30 min) refuse it too.
 #[test]
+#[allow(clippy::too_many_lines, reason = "a test reads top to bottom")]
 fn the_budget_set_over_the_wire_is_stored_and_enforced() {
     let (truth, start) = sensor(3);
     let mut moved = truth.clone();

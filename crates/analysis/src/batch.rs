@@ -254,10 +254,24 @@ pub fn check_results_file(out: &Path) -> Result<()> {
     }
 }
 
-/// The canonical path of `path` (or `path` itself when it cannot be resolved): the key of a
-/// file in the results file.
+/// The canonical path of `path`: the key of a file in the results file. A file that cannot
+/// be resolved (deleted or renamed while the batch runs, a dangling link) is keyed by its
+/// canonical directory and its name, which is what the file gets once it is back: keyed by
+/// the path as typed (`dm/k250.csv`) its error line would not match it, and a resumed run
+/// would write a second, contradictory line for it. `path` itself only when even the
+/// directory cannot be resolved.
 fn key_of(path: &Path) -> PathBuf {
-    std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf())
+    if let Ok(c) = std::fs::canonicalize(path) {
+        return c;
+    }
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    match (std::fs::canonicalize(dir), path.file_name()) {
+        (Ok(d), Some(name)) => d.join(name),
+        _ => path.to_path_buf(),
+    }
 }
 
 /// The key a line was written for: its canonical path (bytes or text), else its `file`
@@ -273,7 +287,10 @@ fn line_key(l: &BatchLine) -> PathBuf {
         return PathBuf::from(String::from_utf8_lossy(b).into_owned());
     }
     match &l.canonical {
-        Some(c) => PathBuf::from(c),
+        // An absolute key as written; a relative one (written for a missing file by earlier
+        // versions) resolved now, as the file's own key is.
+        Some(c) if Path::new(c).is_absolute() => PathBuf::from(c),
+        Some(c) => key_of(Path::new(c)),
         None => key_of(Path::new(&l.file)),
     }
 }
@@ -557,6 +574,31 @@ mod tests {
         let again = run(&all(&files), &out, &opts(1), &|_| {}).unwrap();
         assert_eq!((again.skipped, again.ok + again.failed), (5, 0));
         assert_eq!(lines(&out).len(), 5);
+    }
+
+    /// A file deleted while the batch runs gets its error line under the key it has when it
+    /// is back (its canonical directory and name, not the path as typed), so the resumed run
+    /// skips it: one line per file, never an `ok: false` and an `ok: true` for one file.
+    #[test]
+    fn a_file_missing_during_the_run_is_one_line_when_it_is_back() {
+        let (dir, files) = inputs(2);
+        std::fs::create_dir(dir.path().join("sub")).unwrap();
+        // Spelled through another directory, as a relative path is: not its canonical form.
+        let spelled = dir.path().join("sub/../rec00.csv");
+        let found = all(&[spelled.clone(), files[1].clone()]);
+        let out = dir.path().join("results.jsonl");
+        let kept = std::fs::read(&files[0]).unwrap();
+        std::fs::remove_file(&files[0]).unwrap();
+        let first = run(&found, &out, &opts(1), &|_| {}).unwrap();
+        assert_eq!((first.ok, first.failed), (1, 1));
+        std::fs::write(&files[0], kept).unwrap();
+        let again = run(&found, &out, &opts(1), &|_| {}).unwrap();
+        assert_eq!((again.skipped, again.ok + again.failed), (2, 0));
+        let got = lines(&out);
+        assert_eq!(got.len(), 2, "{got:?}");
+        let want = std::fs::canonicalize(&files[0]).unwrap();
+        let missing = got.iter().find(|l| !l.ok).unwrap();
+        assert_eq!(missing.canonical.as_deref(), want.to_str());
     }
 
     #[test]

@@ -79,6 +79,7 @@ fn clean_recordings_get_no_effect() {
 /// One undeclared effect at its default magnitude: named, alone, and the CV error at least
 /// halved; the fitted values agree with the truth.
 #[test]
+#[allow(clippy::too_many_lines, reason = "a test reads top to bottom")]
 fn each_effect_is_named_and_cv_halved() {
     for effect in &SimEffect::SIMULATED_CANDIDATES[1..] {
         for seed in 11..=14 {

@@ -463,6 +463,7 @@ fn sweep_basis() {
 /// effect at 1×, 2×, 4× the limit a clean recording states.
 #[test]
 #[ignore]
+#[allow(clippy::too_many_lines, reason = "a test reads top to bottom")]
 fn sweep() {
     let mut false_pos = 0;
     let mut not_good = 0;

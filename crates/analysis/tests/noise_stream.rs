@@ -3,7 +3,7 @@
 //! rate noise N and rate random walk K on a gyroscope, a still accelerometer beside it. Every
 //! Allan point up to `FULL_OVERLAP_M` samples is the held one bit for bit; the points beyond
 //! (cluster starts stepped) stay within a fraction of their uncertainty; N and K come back
-//! from both; the refusals (a moving or constant axis) are the held path's sentences.
+//! from both; the refusals (a moving, constant or counter axis) are the held path's sentences.
 
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -108,7 +108,7 @@ type Edit = fn(usize, &mut [f64; 6]);
 fn streamed_refusals_are_the_held_ones() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("bad.csv");
-    let cases: [(&str, Edit); 2] = [
+    let cases: [(&str, Edit); 4] = [
         // Turned by 90° half-way: the accelerometer moved.
         ("moved", |i, v| {
             if i > 20_000 {
@@ -116,6 +116,15 @@ fn streamed_refusals_are_the_held_ones() {
             }
         }),
         ("constant", |_, v| v[4] = 3.0),
+        // An 8-bit sample counter where a still axis should be (it was accepted as a
+        // perfect sensor: B = 1e-12).
+        ("counter ax", |i, v| v[0] = (i % 256) as f64),
+        // A 16-bit counter on every gyro axis.
+        ("counter gx", |i, v| {
+            v[3] = (i % 65_536) as f64;
+            v[4] = v[3];
+            v[5] = v[3];
+        }),
     ];
     for (name, edit) in cases {
         write_still(&path, 40_000, edit);
@@ -125,5 +134,11 @@ fn streamed_refusals_are_the_held_ones() {
         };
         let (s, h) = (err(0), err(u64::MAX));
         assert_eq!(s, h, "{name}");
+        if let Some(column) = name.strip_prefix("counter ") {
+            assert!(
+                s.contains(&format!("column {column} counts rather than measures")),
+                "{name}: {s}"
+            );
+        }
     }
 }

@@ -151,51 +151,164 @@ fn seal(mut b: Vec<u8>) -> Vec<u8> {
 /// A `.cwa` file at 100 Hz (unpacked int16, 256 counts/g): AX3 (80 samples a block) or AX6
 /// (40 samples of gyro and accelerometer; the gyro reads a constant turn); block 5 corrupt.
 fn cwa_file(ax6: bool) -> Vec<u8> {
-    let mut f = vec![0u8; 1024];
-    f[..2].copy_from_slice(b"MD");
-    f[2..4].copy_from_slice(&1020u16.to_le_bytes());
-    f[4] = if ax6 { 0x64 } else { 0x17 };
-    f[36] = 0x4a;
+    let mut f = cwa_header(ax6);
     let per_block = if ax6 { 40 } else { 80 };
     for (i, samples) in holds(100.0, 256.0).chunks_exact(per_block).enumerate() {
-        let mut b = vec![0u8; 512];
-        b[..2].copy_from_slice(b"AX");
-        b[2..4].copy_from_slice(&508u16.to_le_bytes());
-        b[10..14].copy_from_slice(&(i as u32).to_le_bytes());
-        let secs = (i * per_block / 100) as u32;
-        let ts: u32 = (24 << 26)
-            | (1 << 22)
-            | (2 << 17)
-            | ((3 + secs / 3600) << 12)
-            | ((secs / 60 % 60) << 6)
-            | (secs % 60);
-        b[14..18].copy_from_slice(&ts.to_le_bytes());
-        b[20..22].copy_from_slice(&(256 + i as u16 % 50).to_le_bytes());
-        b[24] = 0x4a;
-        b[25] = if ax6 { 0x62 } else { 0x32 };
-        // The sample index of the whole-second timestamp: the samples before it this second.
-        let before = (i * per_block % 100) as i16;
-        b[26..28].copy_from_slice(&(-before).to_le_bytes());
-        b[28..30].copy_from_slice(&(per_block as u16).to_le_bytes());
-        let mut at = 30;
-        for s in samples {
-            let row: Vec<i16> = if ax6 {
-                vec![100, -50, 25, s[0] as i16, s[1] as i16, s[2] as i16]
-            } else {
-                s.iter().map(|&v| v as i16).collect()
-            };
-            for v in row {
-                b[at..at + 2].copy_from_slice(&v.to_le_bytes());
-                at += 2;
-            }
-        }
-        let mut b = seal(b);
+        let mut b = cwa_block(i, samples, ax6);
         if i == 5 {
             b[100] ^= 1;
         }
         f.extend(b);
     }
     f
+}
+
+/// The `.cwa` header block of [`cwa_file`].
+fn cwa_header(ax6: bool) -> Vec<u8> {
+    let mut f = vec![0u8; 1024];
+    f[..2].copy_from_slice(b"MD");
+    f[2..4].copy_from_slice(&1020u16.to_le_bytes());
+    f[4] = if ax6 { 0x64 } else { 0x17 };
+    f[36] = 0x4a;
+    f
+}
+
+/// Data block `i` of [`cwa_file`] holding `samples` (sealed), its time `i` blocks after
+/// 2024-01-02 03:00:00.
+fn cwa_block(i: usize, samples: &[[i32; 3]], ax6: bool) -> Vec<u8> {
+    let per_block = samples.len();
+    let mut b = vec![0u8; 512];
+    b[..2].copy_from_slice(b"AX");
+    b[2..4].copy_from_slice(&508u16.to_le_bytes());
+    b[10..14].copy_from_slice(&(i as u32).to_le_bytes());
+    let secs = (i * per_block / 100) as u32;
+    let ts: u32 = (24 << 26)
+        | (1 << 22)
+        | (2 << 17)
+        | ((3 + secs / 3600) << 12)
+        | ((secs / 60 % 60) << 6)
+        | (secs % 60);
+    b[14..18].copy_from_slice(&ts.to_le_bytes());
+    b[20..22].copy_from_slice(&(256 + i as u16 % 50).to_le_bytes());
+    b[24] = 0x4a;
+    b[25] = if ax6 { 0x62 } else { 0x32 };
+    // The sample index of the whole-second timestamp: the samples before it this second.
+    let before = (i * per_block % 100) as i16;
+    b[26..28].copy_from_slice(&(-before).to_le_bytes());
+    b[28..30].copy_from_slice(&(per_block as u16).to_le_bytes());
+    let mut at = 30;
+    for s in samples {
+        let row: Vec<i16> = if ax6 {
+            vec![100, -50, 25, s[0] as i16, s[1] as i16, s[2] as i16]
+        } else {
+            s.iter().map(|&v| v as i16).collect()
+        };
+        for v in row {
+            b[at..at + 2].copy_from_slice(&v.to_le_bytes());
+            at += 2;
+        }
+    }
+    seal(b)
+}
+
+/// Data block `k` of the `.cwa` bytes `f` changed by `edit`, then sealed again.
+fn edit_block(f: &mut [u8], k: usize, edit: impl FnOnce(&mut [u8])) {
+    let at = 1024 + 512 * k;
+    let mut b = f[at..at + 512].to_vec();
+    edit(&mut b);
+    f[at..at + 512].copy_from_slice(&seal(b));
+}
+
+/// A block's clock set one year ahead (the year field of its timestamp).
+fn a_year_ahead(b: &mut [u8]) {
+    let ts = u32::from_le_bytes(b[14..18].try_into().unwrap()) + (1 << 26);
+    b[14..18].copy_from_slice(&ts.to_le_bytes());
+}
+
+/// `read`'s one-pass (`.cwa`) or two-pass (`.bin`) samples are `load_raw`'s: values, times,
+/// notes.
+fn assert_read_is_load_raw(path: &Path, format: RawFormat) -> wiical_analysis::Recording {
+    let rec = stream::load_raw(path, format, &LoadOptions::default()).unwrap();
+    let got = raw::samples::read::<f64>(
+        path,
+        format,
+        &LoadOptions::default(),
+        raw::samples::Times::Full,
+    )
+    .unwrap();
+    let flat: Vec<f64> = rec.xyz.iter().flatten().copied().collect();
+    assert!(got.xyz == flat, "{}: samples differ", path.display());
+    assert!(
+        got.t.as_ref() == rec.t.as_ref(),
+        "{}: times differ",
+        path.display()
+    );
+    assert_eq!(got.meta.notes, rec.notes);
+    rec
+}
+
+/// One block (page) stamped a year ahead among good ones costs that block alone, named by
+/// its index and time (it cost every block after it: "the clock steps back … the file is
+/// damaged"), on every path: whole, block by block, and `read`'s one pass, also when the
+/// block ends a chunk (its samples already placed); one `.cwa` block of 0 samples is told as
+/// empty, not as a clock that steps back.
+#[test]
+fn one_block_stamped_ahead_costs_that_block_only() {
+    let clean = stream::load_raw(
+        &scratch("clean3.cwa", &cwa_file(false)),
+        RawFormat::Cwa,
+        &LoadOptions::default(),
+    )
+    .unwrap();
+    let mut f = cwa_file(false);
+    edit_block(&mut f, 30, a_year_ahead);
+    edit_block(&mut f, 60, |b| b[28..30].fill(0));
+    let path = scratch("ahead.cwa", &f);
+    assert_same(&path, &LoadOptions::default());
+    let rec = assert_read_is_load_raw(&path, RawFormat::Cwa);
+    assert_eq!(rec.len(), clean.len() - 160);
+    let notes = rec.notes.join("\n");
+    for want in [
+        "left out 1 data block(s) stamped far ahead of the data blocks around them (the clock jumped ahead and back; the data blocks after them are kept): #30 at 2025-01-02 03:00:24 (366 days ahead)",
+        "left out 1 empty data block(s) (0 samples, a valid checksum): #60",
+    ] {
+        assert!(notes.contains(want), "{want}\n{notes}");
+    }
+    assert!(!notes.contains("steps back"), "{notes}");
+    let (_, table) = streamed(&path, &LoadOptions::default());
+    assert!(table.starts_with("Ok("), "{table}");
+    // The last block of the first chunk stamped ahead: its rows, placed with that chunk,
+    // are given back when the next chunk's first block shows it.
+    let last = raw::cwa::CHUNK_BLOCKS - 1;
+    let samples = holds(100.0, 256.0);
+    let mut f = cwa_header(false);
+    for i in 0..last + 50 {
+        let k = i % (samples.len() / 80);
+        let mut b = cwa_block(i, &samples[80 * k..80 * (k + 1)], false);
+        if i == last {
+            a_year_ahead(&mut b);
+            b = seal(b);
+        }
+        f.extend(b);
+    }
+    let path = scratch("ahead-chunk.cwa", &f);
+    let rec = assert_read_is_load_raw(&path, RawFormat::Cwa);
+    assert_eq!(rec.len(), 80 * (last + 49));
+    // A GENEActiv page a year ahead (page 7 of the written file).
+    let text = String::from_utf8(bin_file()).unwrap().replacen(
+        "Page Time:2013-05-30 10:00:43:000",
+        "Page Time:2014-05-30 10:00:43:000",
+        1,
+    );
+    let path = scratch("ahead.bin", text.as_bytes());
+    assert_same(&path, &LoadOptions::default());
+    let rec = assert_read_is_load_raw(&path, RawFormat::GeneActiv);
+    let notes = rec.notes.join("\n");
+    assert!(
+        notes.contains("left out 1 page(s) stamped far ahead of the pages around them (the clock jumped ahead and back; the pages after them are kept): #7 at 2014-05-30 10:00:43 (365 days ahead)"),
+        "{notes}"
+    );
+    assert!(!notes.contains("steps back"), "{notes}");
 }
 
 #[test]

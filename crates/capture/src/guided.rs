@@ -278,6 +278,23 @@ impl Guided {
         }
         let mut events = Vec::new();
         let t0 = *self.t0.get_or_insert(t);
+        self.slide_window(t, sample);
+        match self.phase {
+            Phase::Rest => self.push_rest(t, t0, sample, &mut events)?,
+            Phase::WaitStill { pose, deadline } => {
+                self.push_wait_still(t, (pose, deadline), sample, &mut events)?;
+            }
+            Phase::WaitMotion { pose, deadline } => {
+                self.push_wait_motion(t, (pose, deadline), &mut events)?;
+            }
+            Phase::Done => {}
+        }
+        Ok(events)
+    }
+
+    /// Adds the sample to the stillness window and drops what is older than `window_s`
+    /// before `t`: every phase after the rest decides on this window.
+    fn slide_window(&mut self, t: f64, sample: &[[f64; 3]]) {
         self.window.push_back((t, sample.to_vec()));
         while let Some(&(tf, _)) = self.window.front() {
             if tf < t - self.cfg.window_s {
@@ -286,84 +303,116 @@ impl Guided {
                 break;
             }
         }
-        match self.phase {
-            Phase::Rest => {
-                self.rest.push(sample.to_vec());
-                if t - t0 >= self.cfg.init_s {
-                    let v = variance_sums(self.rest.iter().map(|s| s.as_slice()), self.devices);
-                    let noise_std: Vec<f64> = v
-                        .iter()
-                        .map(|d| (d.iter().sum::<f64>() / 3.0).sqrt())
-                        .collect();
-                    if let Some((d, s)) = noise_std
-                        .iter()
-                        .enumerate()
-                        .find(|(_, s)| **s > self.cfg.max_rest_std)
-                    {
-                        bail!(
-                            "the {} moved during the initial rest (noise {s:.1} counts RMS, at most {} expected): lay it still at the start and try again",
-                            if d == 0 { "remote" } else { "Nunchuk" },
-                            self.cfg.max_rest_std
-                        );
-                    }
-                    self.limit = v
-                        .iter()
-                        .zip(&self.floor)
-                        .map(|(var, fl)| {
-                            self.cfg.threshold * (0..3).map(|a| var[a].max(fl[a])).sum::<f64>()
-                        })
-                        .collect();
-                    events.push(GuidedEvent::RestDone { noise_std });
-                    events.push(GuidedEvent::Holding { pose: 1 });
-                    // The rest is still by construction: it starts pose 1's hold.
-                    self.run = Some((t0, std::mem::take(&mut self.rest)));
-                    self.phase = Phase::WaitStill {
-                        pose: 1,
-                        deadline: t + self.cfg.still_timeout_s,
-                    };
-                    self.check_hold(t, &mut events);
-                }
-            }
-            Phase::WaitStill { pose, deadline } => {
-                if self.window_is_still() {
-                    match self.run.as_mut() {
-                        Some((_, samples)) => samples.push(sample.to_vec()),
-                        None => {
-                            let start = self.window.front().map(|w| w.0).unwrap_or(t);
-                            let samples = self.window.iter().map(|(_, s)| s.clone()).collect();
-                            self.run = Some((start, samples));
-                            events.push(GuidedEvent::Holding { pose });
-                        }
-                    }
-                    self.check_hold(t, &mut events);
-                } else {
-                    self.run = None;
-                    if t > deadline {
-                        bail!(
-                            "pose {pose}: the remote did not keep still for {} s within {} s; hold it still against something (or raise --still-timeout-s / --threshold)",
-                            self.cfg.hold_s,
-                            self.cfg.still_timeout_s
-                        );
-                    }
-                }
-            }
-            Phase::WaitMotion { pose, deadline } => {
-                if !self.window_is_still() {
-                    events.push(GuidedEvent::Moving { pose });
-                    self.phase = Phase::WaitStill {
-                        pose,
-                        deadline: t + self.cfg.still_timeout_s,
-                    };
-                } else if t > deadline {
-                    bail!(
-                        "pose {pose}: no motion within {} s; turn the remote to a new orientation after each pose",
-                        self.cfg.still_timeout_s
-                    );
-                }
-            }
-            Phase::Done => {}
+    }
+
+    /// [`Self::push`] in the initial rest: collects samples until `init_s` after `t0`, then
+    /// ends the rest ([`Self::end_rest`]). Each phase has its own method so that `push` reads
+    /// as the phases' dispatch.
+    fn push_rest(
+        &mut self,
+        t: f64,
+        t0: f64,
+        sample: &[[f64; 3]],
+        events: &mut Vec<GuidedEvent>,
+    ) -> Result<()> {
+        self.rest.push(sample.to_vec());
+        if t - t0 >= self.cfg.init_s {
+            self.end_rest(t, t0, events)?;
         }
-        Ok(events)
+        Ok(())
+    }
+
+    /// The end of the initial rest at `t` (it began at `t0`): its noise (an error when it
+    /// moved), the stillness limits, and pose 1 started with the rest as its hold.
+    fn end_rest(&mut self, t: f64, t0: f64, events: &mut Vec<GuidedEvent>) -> Result<()> {
+        let v = variance_sums(self.rest.iter().map(|s| s.as_slice()), self.devices);
+        let noise_std: Vec<f64> = v
+            .iter()
+            .map(|d| (d.iter().sum::<f64>() / 3.0).sqrt())
+            .collect();
+        if let Some((d, s)) = noise_std
+            .iter()
+            .enumerate()
+            .find(|(_, s)| **s > self.cfg.max_rest_std)
+        {
+            bail!(
+                "the {} moved during the initial rest (noise {s:.1} counts RMS, at most {} expected): lay it still at the start and try again",
+                if d == 0 { "remote" } else { "Nunchuk" },
+                self.cfg.max_rest_std
+            );
+        }
+        self.limit = v
+            .iter()
+            .zip(&self.floor)
+            .map(|(var, fl)| self.cfg.threshold * (0..3).map(|a| var[a].max(fl[a])).sum::<f64>())
+            .collect();
+        events.push(GuidedEvent::RestDone { noise_std });
+        events.push(GuidedEvent::Holding { pose: 1 });
+        // The rest is still by construction: it starts pose 1's hold.
+        self.run = Some((t0, std::mem::take(&mut self.rest)));
+        self.phase = Phase::WaitStill {
+            pose: 1,
+            deadline: t + self.cfg.still_timeout_s,
+        };
+        self.check_hold(t, events);
+        Ok(())
+    }
+
+    /// [`Self::push`] while waiting for `pose` to be held: a still window starts or extends
+    /// the hold (recorded once it lasts `hold_s`), a moving one restarts it; an error when
+    /// no hold has lasted by `deadline`.
+    fn push_wait_still(
+        &mut self,
+        t: f64,
+        (pose, deadline): (usize, f64),
+        sample: &[[f64; 3]],
+        events: &mut Vec<GuidedEvent>,
+    ) -> Result<()> {
+        if self.window_is_still() {
+            match self.run.as_mut() {
+                Some((_, samples)) => samples.push(sample.to_vec()),
+                None => {
+                    let start = self.window.front().map(|w| w.0).unwrap_or(t);
+                    let samples = self.window.iter().map(|(_, s)| s.clone()).collect();
+                    self.run = Some((start, samples));
+                    events.push(GuidedEvent::Holding { pose });
+                }
+            }
+            self.check_hold(t, events);
+        } else {
+            self.run = None;
+            if t > deadline {
+                bail!(
+                    "pose {pose}: the remote did not keep still for {} s within {} s; hold it still against something (or raise --still-timeout-s / --threshold)",
+                    self.cfg.hold_s,
+                    self.cfg.still_timeout_s
+                );
+            }
+        }
+        Ok(())
+    }
+
+    /// [`Self::push`] after a pose was recorded: the first moving window starts the wait for
+    /// `pose` to be held; an error when the remote has not moved by `deadline`.
+    fn push_wait_motion(
+        &mut self,
+        t: f64,
+        (pose, deadline): (usize, f64),
+        events: &mut Vec<GuidedEvent>,
+    ) -> Result<()> {
+        if !self.window_is_still() {
+            events.push(GuidedEvent::Moving { pose });
+            self.phase = Phase::WaitStill {
+                pose,
+                deadline: t + self.cfg.still_timeout_s,
+            };
+        } else if t > deadline {
+            bail!(
+                "pose {pose}: no motion within {} s; turn the remote to a new orientation after each pose",
+                self.cfg.still_timeout_s
+            );
+        }
+        Ok(())
     }
 
     fn check_hold(&mut self, t: f64, events: &mut Vec<GuidedEvent>) {

@@ -22,6 +22,7 @@ use wiical_capture::replay::{report_0x35, status_report, EndOfScript, ReadReques
 use wiical_capture::{capture, CaptureMode, CollectUi};
 
 #[test]
+#[allow(clippy::too_many_lines, reason = "a test reads top to bottom")]
 fn replay_session_decodes_the_real_calibrations_and_writes_a_loadable_csv() {
     let mut dev = fake(true);
     let end = script(&mut dev, &[Seg::Still([0.0, 0.0, 1.0], 3.0)], true, 1, 0.0);
@@ -190,6 +191,7 @@ fn an_extension_that_is_not_a_nunchuk_is_not_recorded() {
 }
 
 #[test]
+#[allow(clippy::too_many_lines, reason = "a test reads top to bottom")]
 fn guided_capture_counts_the_poses_and_the_fit_recovers_the_simulated_sensors() {
     let poses = twelve_poses();
     let mut segs = vec![Seg::Still(poses[0], 5.0)];

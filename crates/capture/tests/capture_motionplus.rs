@@ -70,6 +70,7 @@ fn write_position(written: &[Vec<u8>], address: [u8; 3], value: u8) -> Option<us
 }
 
 #[test]
+#[allow(clippy::too_many_lines, reason = "a test reads top to bottom")]
 fn motionplus_with_nunchuk_passthrough_records_both_streams() {
     let (w, n) = real_blocks();
     let mut dev = ReplayWiimote::new()

@@ -377,6 +377,67 @@ fn minimize_skipping<T: RealField + Copy, const N: usize, P: Problem<T, N>>(
     skip: Option<usize>,
     s: &LmSettings<T>,
 ) -> Result<LmFit<T, N>, Error> {
+    let (used, free) = check_budget(problem, mask, weights, skip, s)?;
+    let cost = cost_skipping(problem, &p0, weights, skip);
+    if !cost.is_finite() {
+        return Err(Error::NonFinite);
+    }
+    let mut walk = Walk {
+        p: p0,
+        cost,
+        lambda: s.initial_damping,
+    };
+    let mut iterations = 0;
+    let mut converged = false;
+    while iterations < s.max_iterations {
+        iterations += 1;
+        let (mut jtj, mut jtr) = normal_skipping(problem, &walk.p, weights, skip);
+        pin_fixed(&mut jtj, &mut jtr, mask);
+        if let Some(tol) = s.gradient_tol {
+            if jtr.amax() <= tol {
+                converged = true;
+                break;
+            }
+        }
+        converged = match damped_step(problem, (weights, skip), &mut walk, (&jtj, &jtr), mask, s)? {
+            Some(small) => small,
+            None => s.stall_limit.is_none_or(|limit| walk.lambda < limit),
+        };
+        if converged {
+            break;
+        }
+    }
+    if !converged {
+        return Err(out_of_budget(&walk.p, mask, s));
+    }
+    Ok(LmFit {
+        params: walk.p,
+        cost: walk.cost,
+        iterations,
+        used,
+        free,
+    })
+}
+
+/// Where the walk stands between iterations: the parameters, their cost and the damping.
+/// One value, so that the damping search ([`damped_step`]) moves all three together.
+struct Walk<T: RealField + Copy, const N: usize> {
+    p: SVector<T, N>,
+    cost: T,
+    lambda: T,
+}
+
+/// The used and free counts of a fit that may start: the inputs pass [`check_inputs`] (one
+/// observation fewer when the skipped one has weight), the iteration budget is not zero, and
+/// there are at least as many used observations as free parameters. Apart from the loop so
+/// that [`minimize_skipping`] reads as the schedule of the module's docs.
+fn check_budget<T: RealField + Copy, const N: usize, P: Problem<T, N>>(
+    problem: &P,
+    mask: &[bool; N],
+    weights: Option<&[T]>,
+    skip: Option<usize>,
+    s: &LmSettings<T>,
+) -> Result<(usize, usize), Error> {
     let (mut used, free) = check_inputs(problem, mask, weights)?;
     if let Some(i) = skip {
         if weight_of(weights, None, i) > T::zero() {
@@ -392,82 +453,71 @@ fn minimize_skipping<T: RealField + Copy, const N: usize, P: Problem<T, N>>(
             got: used as u32,
         });
     }
-    let mut p = p0;
-    let mut lambda = s.initial_damping;
-    let mut cost = cost_skipping(problem, &p, weights, skip);
-    if !cost.is_finite() {
-        return Err(Error::NonFinite);
-    }
-    let mut iterations = 0;
-    let mut converged = false;
-    while iterations < s.max_iterations {
-        iterations += 1;
-        let (mut jtj, mut jtr) = normal_skipping(problem, &p, weights, skip);
-        pin_fixed(&mut jtj, &mut jtr, mask);
-        if let Some(tol) = s.gradient_tol {
-            if jtr.amax() <= tol {
-                converged = true;
-                break;
-            }
+    Ok((used, free))
+}
+
+/// One iteration's damping search on the pinned normal equations `(jtj, jtr)`: up to
+/// `max_inner` trials of the damped step, raising `λ` after a failed factorisation or a step
+/// that raises the cost. `Some(small)` when a step was taken (`walk` moved to it, `λ`
+/// lowered; `small` when its size or cost gain says the fit has converged), `None` when no
+/// trial lowered the cost (the caller applies `stall_limit`); [`Error::Diverged`] when the
+/// step took a free parameter beyond `param_bound`. The expressions are those of the loop it
+/// came from, in the same order: the `f32` fit stays bit-identical.
+fn damped_step<T: RealField + Copy, const N: usize, P: Problem<T, N>>(
+    problem: &P,
+    (weights, skip): (Option<&[T]>, Option<usize>),
+    walk: &mut Walk<T, N>,
+    (jtj, jtr): (&SMatrix<T, N, N>, &SVector<T, N>),
+    mask: &[bool; N],
+    s: &LmSettings<T>,
+) -> Result<Option<bool>, Error> {
+    for _ in 0..s.max_inner {
+        let mut a = *jtj;
+        for i in 0..N {
+            a[(i, i)] += walk.lambda * jtj[(i, i)].max(s.diagonal_floor);
         }
-        let mut accepted = false;
-        for _ in 0..s.max_inner {
-            let mut a = jtj;
-            for i in 0..N {
-                a[(i, i)] += lambda * jtj[(i, i)].max(s.diagonal_floor);
-            }
-            let Some(chol) = Cholesky::new(a) else {
-                lambda *= s.damping_up_singular;
-                continue;
-            };
-            let step = chol.solve(&(-jtr));
-            let candidate = p + step;
-            let new_cost = cost_skipping(problem, &candidate, weights, skip);
-            if new_cost.is_finite() && new_cost <= cost {
-                let small_step = step_is_small(&s.step_test, &step, &p, mask);
-                let small_gain = cost - new_cost <= s.gain_tol * cost + s.gain_abs;
-                p = candidate;
-                cost = new_cost;
-                lambda = (lambda * s.damping_down).max(s.min_damping);
-                accepted = true;
-                if let Some(bound) = s.param_bound {
-                    if (0..N).any(|j| mask[j] && p[j].abs() > bound) {
-                        return Err(Error::Diverged);
-                    }
+        let Some(chol) = Cholesky::new(a) else {
+            walk.lambda *= s.damping_up_singular;
+            continue;
+        };
+        let step = chol.solve(&(-*jtr));
+        let candidate = walk.p + step;
+        let new_cost = cost_skipping(problem, &candidate, weights, skip);
+        if new_cost.is_finite() && new_cost <= walk.cost {
+            let small_step = step_is_small(&s.step_test, &step, &walk.p, mask);
+            let small_gain = walk.cost - new_cost <= s.gain_tol * walk.cost + s.gain_abs;
+            walk.p = candidate;
+            walk.cost = new_cost;
+            walk.lambda = (walk.lambda * s.damping_down).max(s.min_damping);
+            if let Some(bound) = s.param_bound {
+                if (0..N).any(|j| mask[j] && walk.p[j].abs() > bound) {
+                    return Err(Error::Diverged);
                 }
-                if small_step || small_gain {
-                    converged = true;
-                }
-                break;
             }
-            lambda *= s.damping_up;
+            return Ok(Some(small_step || small_gain));
         }
-        if !accepted {
-            converged = s.stall_limit.is_none_or(|limit| lambda < limit);
-        }
-        if converged {
-            break;
-        }
+        walk.lambda *= s.damping_up;
     }
-    if !converged {
-        // Out of budget while far out and still moving: report the run-away, not the budget.
-        let far = s.param_bound.is_some_and(|bound| {
-            let limit = bound / lit(RUNAWAY_FRACTION_INV);
-            (0..N).any(|j| mask[j] && p[j].abs() > limit)
-        });
-        return Err(if far {
-            Error::Diverged
-        } else {
-            Error::NotConverged
-        });
+    Ok(None)
+}
+
+/// The error of a fit whose iteration budget ran out at `p`: out of budget while far out
+/// (a free parameter beyond a tenth of `param_bound`) and still moving is reported as the
+/// run-away it is ([`Error::Diverged`]), not as the budget ([`Error::NotConverged`]).
+fn out_of_budget<T: RealField + Copy, const N: usize>(
+    p: &SVector<T, N>,
+    mask: &[bool; N],
+    s: &LmSettings<T>,
+) -> Error {
+    let far = s.param_bound.is_some_and(|bound| {
+        let limit = bound / lit(RUNAWAY_FRACTION_INV);
+        (0..N).any(|j| mask[j] && p[j].abs() > limit)
+    });
+    if far {
+        Error::Diverged
+    } else {
+        Error::NotConverged
     }
-    Ok(LmFit {
-        params: p,
-        cost,
-        iterations,
-        used,
-        free,
-    })
 }
 
 #[inline]

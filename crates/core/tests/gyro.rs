@@ -317,26 +317,7 @@ fn reference_fit(
     let mut lambda = 1e-4;
     let mut cost: f64 = residuals(&x).iter().map(|r| r * r).sum();
     for _ in 0..50 {
-        let r = residuals(&x);
-        let mut jac = vec![vec![0.0; np]; r.len()];
-        for c in 0..np {
-            let h = scale(c);
-            let (mut xp, mut xm) = (x, x);
-            xp[c] += h;
-            xm[c] -= h;
-            let (rp, rm) = (residuals(&xp), residuals(&xm));
-            for i in 0..r.len() {
-                jac[i][c] = (rp[i] - rm[i]) / (2.0 * h);
-            }
-        }
-        let mut a = SMatrix::<f64, 12, 12>::identity();
-        let mut g = V::zeros();
-        for c in 0..np {
-            for d in 0..np {
-                a[(c, d)] = (0..r.len()).map(|i| jac[i][c] * jac[i][d]).sum();
-            }
-            g[c] = (0..r.len()).map(|i| jac[i][c] * r[i]).sum();
-        }
+        let (a, g) = reference_normal(&residuals, &x, np, &scale);
         let mut improved = false;
         for _ in 0..20 {
             let mut damped = a;
@@ -364,6 +345,38 @@ fn reference_fit(
         }
     }
     unpack(&x)
+}
+
+/// The Gauss–Newton normal equations of [`reference_fit`] at `x`: `JᵀJ` (the identity outside
+/// the first `np` rows and columns) and `Jᵀr`, with a central-difference Jacobian of
+/// `residuals` in steps of `scale(c)`. Apart from the damping loop so that each reads alone.
+fn reference_normal(
+    residuals: &impl Fn(&SVector<f64, 12>) -> Vec<f64>,
+    x: &SVector<f64, 12>,
+    np: usize,
+    scale: &impl Fn(usize) -> f64,
+) -> (SMatrix<f64, 12, 12>, SVector<f64, 12>) {
+    let r = residuals(x);
+    let mut jac = vec![vec![0.0; np]; r.len()];
+    for c in 0..np {
+        let h = scale(c);
+        let (mut xp, mut xm) = (*x, *x);
+        xp[c] += h;
+        xm[c] -= h;
+        let (rp, rm) = (residuals(&xp), residuals(&xm));
+        for i in 0..r.len() {
+            jac[i][c] = (rp[i] - rm[i]) / (2.0 * h);
+        }
+    }
+    let mut a = SMatrix::<f64, 12, 12>::identity();
+    let mut g = SVector::<f64, 12>::zeros();
+    for c in 0..np {
+        for d in 0..np {
+            a[(c, d)] = (0..r.len()).map(|i| jac[i][c] * jac[i][d]).sum();
+        }
+        g[c] = (0..r.len()).map(|i| jac[i][c] * r[i]).sum();
+    }
+    (a, g)
 }
 
 fn rel(a: &Matrix3<f64>, b: &Matrix3<f64>) -> f64 {

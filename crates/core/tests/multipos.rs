@@ -60,28 +60,7 @@ fn reference_fit_status(poses: &[[f64; 3]], g: f64) -> Reference {
     let mut cost = sumsq(&cost_vec(&p));
     let mut converged = false;
     for _ in 0..500 {
-        let r = cost_vec(&p);
-        let mut j = vec![[0.0f64; 9]; poses.len()];
-        for c in 0..9 {
-            let h = 1e-6 * p[c].abs().max(if c < 3 { spread } else { s });
-            let (mut pp, mut pm) = (p, p);
-            pp[c] += h;
-            pm[c] -= h;
-            let (rp, rm) = (cost_vec(&pp), cost_vec(&pm));
-            for i in 0..poses.len() {
-                j[i][c] = (rp[i] - rm[i]) / (2.0 * h);
-            }
-        }
-        let mut jtj = SMatrix::<f64, 9, 9>::zeros();
-        let mut jtr = V::zeros();
-        for i in 0..poses.len() {
-            for a in 0..9 {
-                jtr[a] += j[i][a] * r[i];
-                for b in 0..9 {
-                    jtj[(a, b)] += j[i][a] * j[i][b];
-                }
-            }
-        }
+        let (jtj, jtr) = reference_normal(&cost_vec, &p, poses.len(), (spread, s));
         let mut improved = false;
         for _ in 0..40 {
             let mut a = jtj;
@@ -115,6 +94,41 @@ fn reference_fit_status(poses: &[[f64; 3]], g: f64) -> Reference {
         spread,
         centroid: mean,
     }
+}
+
+/// The Gauss–Newton normal equations `JᵀJ`, `Jᵀr` of [`reference_fit_status`] at `p` over
+/// its `n` poses, with a central-difference Jacobian of `cost_vec` (relative steps, at least
+/// `spread` for the bias and `s` for the matrix). Apart from the damping loop so that each
+/// reads alone.
+fn reference_normal(
+    cost_vec: &impl Fn(&SVector<f64, 9>) -> Vec<f64>,
+    p: &SVector<f64, 9>,
+    n: usize,
+    (spread, s): (f64, f64),
+) -> (SMatrix<f64, 9, 9>, SVector<f64, 9>) {
+    let r = cost_vec(p);
+    let mut j = vec![[0.0f64; 9]; n];
+    for c in 0..9 {
+        let h = 1e-6 * p[c].abs().max(if c < 3 { spread } else { s });
+        let (mut pp, mut pm) = (*p, *p);
+        pp[c] += h;
+        pm[c] -= h;
+        let (rp, rm) = (cost_vec(&pp), cost_vec(&pm));
+        for i in 0..n {
+            j[i][c] = (rp[i] - rm[i]) / (2.0 * h);
+        }
+    }
+    let mut jtj = SMatrix::<f64, 9, 9>::zeros();
+    let mut jtr = SVector::<f64, 9>::zeros();
+    for i in 0..n {
+        for a in 0..9 {
+            jtr[a] += j[i][a] * r[i];
+            for b in 0..9 {
+                jtj[(a, b)] += j[i][a] * j[i][b];
+            }
+        }
+    }
+    (jtj, jtr)
 }
 
 /// Smallest eigenvalue of the unit-diagonal `JᵀJ` at the reference's solution, with a

@@ -581,19 +581,21 @@ impl SimHandle {
         &self.counters
     }
 
-    /// Stop the simulator and wait for it. Its flash keeps the committed calibration.
+    /// Stop the simulator and wait for it. Its flash keeps the committed calibration. A
+    /// simulator thread that panicked is an error carrying the panic's message.
     pub fn stop(mut self) -> Result<()> {
-        self.shutdown()
+        self.shutdown().unwrap_or_else(|panic| {
+            Err(anyhow!(
+                "the device-sim thread panicked: {}",
+                panic_message(panic.as_ref())
+            ))
+        })
     }
 
-    fn shutdown(&mut self) -> Result<()> {
+    /// Stops the simulator thread and waits for it: what it returned, or its panic (`Err`).
+    fn shutdown(&mut self) -> std::thread::Result<Result<()>> {
         self.stop.store(true, Ordering::Relaxed);
-        match self.thread.take() {
-            Some(t) => t
-                .join()
-                .map_err(|_| anyhow!("device-sim thread panicked"))?,
-            None => Ok(()),
-        }
+        self.thread.take().map_or(Ok(Ok(())), JoinHandle::join)
     }
 
     /// True while the simulator thread runs.
@@ -603,9 +605,26 @@ impl SimHandle {
 }
 
 impl Drop for SimHandle {
+    /// Stops the simulator. What it returned is dropped with it (call [`SimHandle::stop`] to
+    /// see it), but a panic of its thread is raised here (unless this thread is already
+    /// unwinding): a test whose simulator panicked must not pass.
     fn drop(&mut self) {
-        let _ = self.shutdown();
+        if let Err(panic) = self.shutdown() {
+            if !std::thread::panicking() {
+                std::panic::resume_unwind(panic);
+            }
+        }
     }
+}
+
+/// The message a panic was raised with (its `&str` or `String` payload), or a note that it
+/// has none that can be shown.
+fn panic_message(payload: &(dyn std::any::Any + Send)) -> &str {
+    payload
+        .downcast_ref::<&str>()
+        .copied()
+        .or_else(|| payload.downcast_ref::<String>().map(String::as_str))
+        .unwrap_or("(a panic without a text message)")
 }
 
 /// Start a simulator on a new pty; returns the pty path (what `--port` takes) and its

@@ -399,6 +399,7 @@ fn hex(b: &[u8]) -> String {
 /// fails you changed the wire format: update `SCHEMA` (the key changes) and
 /// `PROTOCOL_VERSION`, then these expected strings.
 #[test]
+#[allow(clippy::too_many_lines, reason = "a test reads top to bottom")]
 fn golden_encodings() {
     let enc = |m: &dyn erased::Ser| m.bytes();
     assert_eq!(
@@ -897,6 +898,7 @@ fn a_protocol_2_calibration_frame_is_refused() {
 /// defaults and the time-scaled session's values pass, an interval of 0 s, 0 or more than
 /// 16 commits a day and a fit interval below half a second are refused, each naming its field.
 #[test]
+#[allow(clippy::too_many_lines, reason = "a test reads top to bottom")]
 fn background_settings_bounds() {
     let ok = BackgroundSettings {
         adopt: true,

@@ -6,6 +6,7 @@ use crate::cli_error::cli_error;
 use crate::render;
 use anyhow::{anyhow, bail, Result};
 use std::path::PathBuf;
+use wiical_analysis::output::calfile::CalibrationFile;
 use wiical_analysis::tempcal::{
     params, tempcal, TempcalError, TempcalOptions, TempcalReport, STILL_RATIO,
 };
@@ -113,6 +114,12 @@ pub fn run(a: &Args) -> Result<String> {
     inputs.extend(a.calibration.as_deref());
     check_outputs(&inputs, &[a.plot.as_deref(), a.out.as_deref()])?;
     let rec = load(&a.file, &load_options(a.columns.as_deref())?)?;
+    // The calibration `--format calfile` adds to: read and checked before anything is fitted
+    // or written.
+    let cal = match a.calibration.as_deref() {
+        Some(path) => Some(suited_calibration(a, path, &rec)?),
+        None => None,
+    };
     let opts = TempcalOptions {
         t_ref_c: a.tref,
         segments: a.segments.into(),
@@ -127,7 +134,7 @@ pub fn run(a: &Args) -> Result<String> {
         render::tempcal::write_plot(&rep, path)?;
     }
     let written = match a.format {
-        Some(f) => Some(output(a, f, &rep)?),
+        Some(f) => Some(output(a, f, &rep, cal)?),
         None => None,
     };
     if a.json {
@@ -170,12 +177,19 @@ fn tempcal_error(e: TempcalError) -> anyhow::Error {
     }
 }
 
-/// The text of `--format` (written to `--out` when given).
-fn output(a: &Args, f: Format, rep: &TempcalReport) -> Result<String> {
-    let text = match f {
-        Format::Ardupilot => params::ardupilot(rep, to_ms2(a, rep)?),
-        Format::Px4 => params::px4(rep, to_ms2(a, rep)?),
-        Format::Calfile => calfile(a, rep)?,
+/// The text of `--format` (written to `--out` when given); `cal` is the calibration of
+/// `--calibration` (read by [`suited_calibration`]).
+fn output(
+    a: &Args,
+    f: Format,
+    rep: &TempcalReport,
+    cal: Option<CalibrationFile>,
+) -> Result<String> {
+    let text = match (f, cal) {
+        (Format::Ardupilot, _) => params::ardupilot(rep, to_ms2(a, rep)?),
+        (Format::Px4, _) => params::px4(rep, to_ms2(a, rep)?),
+        (Format::Calfile, Some(cal)) => calfile(a, rep, cal)?,
+        (Format::Calfile, None) => bail!("--format calfile needs --calibration"),
     };
     if let Some(path) = &a.out {
         wiical_analysis::output::write::write_file(path, text.as_bytes()).map_err(cli_error)?;
@@ -195,15 +209,33 @@ fn to_ms2(a: &Args, rep: &TempcalReport) -> Result<f64> {
     }
 }
 
-/// The calibration of `--calibration` with `bias_temp` = the linear fit's slope and
+/// The calibration file at `path` (`--calibration`), refused when it is in other units than
+/// the warm-up `rec` (`correct`'s check): the fitted slope is in the warm-up's units per °C,
+/// and written into a calibration of other units (g per °C into a raw-counts file) it would
+/// be wrong by the ratio of the two.
+fn suited_calibration(
+    a: &Args,
+    path: &std::path::Path,
+    rec: &wiical_analysis::Recording,
+) -> Result<CalibrationFile> {
+    let file = wiical_analysis::output::calfile::read_calibration_file(path).map_err(cli_error)?;
+    wiical_analysis::correct::check_units(&file.calibration, rec).map_err(|e| {
+        anyhow!(
+            "--calibration {} does not suit {}: {e}",
+            path.display(),
+            a.file.display()
+        )
+    })?;
+    Ok(file)
+}
+
+/// The calibration of `--calibration` (`file`) with `bias_temp` = the linear fit's slope and
 /// `temp_ref_c` = `--tref` (the calibration file holds a linear temperature term only).
-fn calfile(a: &Args, rep: &TempcalReport) -> Result<String> {
+fn calfile(a: &Args, rep: &TempcalReport, mut file: CalibrationFile) -> Result<String> {
     let path = a
         .calibration
         .as_deref()
-        .ok_or_else(|| anyhow!("--format calfile needs --calibration"))?;
-    let mut file =
-        wiical_analysis::output::calfile::read_calibration_file(path).map_err(cli_error)?;
+        .unwrap_or(std::path::Path::new("-"));
     let e = &mut file.calibration.effects;
     if e.bias_temp.iter().any(|v| *v != 0.0) {
         eprintln!(

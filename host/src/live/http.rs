@@ -5,8 +5,15 @@
 //! time to arrive: hyper's limits), request bodies (never read: a request that declares one is
 //! answered 413 and the connection closed, so a huge `Content-Length` costs nothing), writes (a
 //! client that stops reading is dropped after [`Limits::write_timeout`], see [`TimedIo`]),
-//! connections (at most [`Limits::max_connections`]; more are closed at once) and event streams
-//! (at most [`MAX_STREAMS`], counted per response, so pipelining cannot exceed it).
+//! connections (at most [`Limits::max_connections`], and [`Limits::max_per_client`] from one
+//! address: beyond either the oldest idle connection is dropped for the new one, see
+//! [`Registry`], so idle or slow-header connections cannot lock a new viewer out) and event
+//! streams (at most [`MAX_STREAMS`], counted per response, so pipelining cannot exceed it).
+//!
+//! Only a `Host` naming this machine's loopback (`127.0.0.1`, `localhost`, `[::1]`, with the
+//! server's port or none; or the address given with `--bind`) is answered ([`HostCheck`]): a
+//! web page whose name an attacker rebinds to 127.0.0.1 (DNS rebinding) sends its own name
+//! as `Host` and is refused 421, so it cannot read the calibration stream.
 
 use super::{page, Published, Shared, KEEPALIVE, MAX_STREAMS};
 use http_body_util::{combinators::BoxBody, BodyExt, Full};
@@ -17,20 +24,26 @@ use hyper_util::rt::{TokioIo, TokioTimer};
 use std::convert::Infallible;
 use std::future::Future;
 use std::io;
+use std::net::{IpAddr, Ipv4Addr, Ipv6Addr, SocketAddr};
 use std::pin::Pin;
 use std::sync::atomic::{AtomicUsize, Ordering};
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 use std::task::{Context, Poll};
 use std::time::Duration;
 use tokio::io::{AsyncRead, AsyncWrite, ReadBuf};
-use tokio::sync::{mpsc, watch, Semaphore};
+use tokio::sync::{mpsc, oneshot, watch};
 use tokio::time::Sleep;
 
 /// The server's bounds on what one client may cost.
 #[derive(Clone, Copy, Debug)]
 pub struct Limits {
-    /// Connections open at once; one more is closed without an answer.
+    /// Connections open at once; one more takes the place of the oldest idle one, or is
+    /// closed without an answer when every one is busy.
     pub max_connections: usize,
+    /// Connections open at once from one client address; as `max_connections`, among that
+    /// address's own connections (below `max_connections`, so one address alone never fills
+    /// the server and pushes out only its own).
+    pub max_per_client: usize,
     /// Bytes of a request head (request line and headers); more is answered 431.
     pub max_head_bytes: usize,
     /// Headers in one request; more is answered 431.
@@ -48,6 +61,7 @@ impl Default for Limits {
     fn default() -> Self {
         Self {
             max_connections: 64,
+            max_per_client: 16,
             max_head_bytes: 8 * 1024,
             max_headers: 64,
             head_timeout: Duration::from_secs(10),
@@ -57,11 +71,13 @@ impl Default for Limits {
     }
 }
 
-/// Serves `listener` (already non-blocking) until the process ends.
+/// Serves `listener` (already non-blocking) until the process ends; `host` says which `Host`
+/// headers are answered.
 pub fn serve(
     listener: std::net::TcpListener,
     shared: Arc<Shared>,
     limits: Limits,
+    host: HostCheck,
 ) -> io::Result<()> {
     let rt = tokio::runtime::Builder::new_current_thread()
         .enable_io()
@@ -69,11 +85,11 @@ pub fn serve(
         .build()?;
     rt.block_on(async move {
         let listener = tokio::net::TcpListener::from_std(listener)?;
-        let conns = Arc::new(Semaphore::new(limits.max_connections));
+        let registry = Arc::new(Mutex::new(Registry::default()));
         let streams = Arc::new(AtomicUsize::new(0));
         loop {
-            let sock = match listener.accept().await {
-                Ok((sock, _)) => sock,
+            let (sock, peer) = match listener.accept().await {
+                Ok(accepted) => accepted,
                 // Out of descriptors or a connection reset before it was accepted: the
                 // listener itself is fine; wait a little so that a full table can drain.
                 Err(_) => {
@@ -81,8 +97,12 @@ pub fn serve(
                     continue;
                 }
             };
-            // Beyond the limit the socket is dropped (closed) at once.
-            let Ok(permit) = conns.clone().try_acquire_owned() else {
+            let admitted = match registry.lock() {
+                Ok(mut r) => r.admit(peer.ip(), &limits),
+                Err(_) => None,
+            };
+            // Every connection busy: the socket is dropped (closed) at once.
+            let Some(Admitted { id, busy, evicted }) = admitted else {
                 continue;
             };
             let _ = sock.set_nodelay(true);
@@ -90,13 +110,187 @@ pub fn serve(
                 shared: shared.clone(),
                 streams: streams.clone(),
                 limits,
+                host,
             };
+            let registry = registry.clone();
             tokio::spawn(async move {
-                conn.serve(sock).await;
-                drop(permit);
+                until_evicted(conn.serve_counted(sock, busy), evicted).await;
+                if let Ok(mut r) = registry.lock() {
+                    r.leave(id);
+                }
             });
         }
     })
+}
+
+/// Runs `work` until it ends or `evicted` fires (dropping `work` closes its connection).
+async fn until_evicted(work: impl Future<Output = ()>, mut evicted: oneshot::Receiver<()>) {
+    let mut work = std::pin::pin!(work);
+    std::future::poll_fn(|cx| {
+        if work.as_mut().poll(cx).is_ready() || Pin::new(&mut evicted).poll(cx).is_ready() {
+            Poll::Ready(())
+        } else {
+            Poll::Pending
+        }
+    })
+    .await;
+}
+
+/// The open connections, oldest first, for the caps of [`Limits`]. Why: a fixed number of
+/// slots taken first come, first served lets anyone who opens that many idle (or slowly
+/// sending) connections lock every viewer out for as long as they re-open them. Here a new
+/// connection beyond a cap takes the place of the oldest idle one (no request being
+/// answered: waiting for a head, half a head, or between keep-alive requests), so a viewer
+/// always gets in while any connection is idle; busy ones (a page being sent, an event
+/// stream) are never dropped for it.
+#[derive(Default)]
+pub struct Registry {
+    next_id: u64,
+    open: Vec<Entry>,
+}
+
+/// One open connection.
+struct Entry {
+    id: u64,
+    peer: IpAddr,
+    /// Responses of this connection not yet finished (0: idle).
+    busy: Arc<AtomicUsize>,
+    /// Fired to drop the connection.
+    evict: oneshot::Sender<()>,
+}
+
+/// What an admitted connection's task gets.
+pub struct Admitted {
+    /// Its number, to [`Registry::leave`] with.
+    pub id: u64,
+    /// Its count of responses in progress.
+    pub busy: Arc<AtomicUsize>,
+    /// Fires when it is dropped for a newer connection.
+    pub evicted: oneshot::Receiver<()>,
+}
+
+impl Registry {
+    /// Admits a connection from `peer`, dropping the oldest idle connection of that address
+    /// when it is at [`Limits::max_per_client`], then the oldest idle one of any address when
+    /// the server is at [`Limits::max_connections`]; `None` when a cap is reached and no
+    /// connection it counts is idle.
+    pub fn admit(&mut self, peer: IpAddr, limits: &Limits) -> Option<Admitted> {
+        let mine = self.open.iter().filter(|e| e.peer == peer).count();
+        if mine >= limits.max_per_client.max(1) && !self.evict_oldest_idle(Some(peer)) {
+            return None;
+        }
+        if self.open.len() >= limits.max_connections.max(1) && !self.evict_oldest_idle(None) {
+            return None;
+        }
+        let (evict, evicted) = oneshot::channel();
+        let busy = Arc::new(AtomicUsize::new(0));
+        self.next_id += 1;
+        self.open.push(Entry {
+            id: self.next_id,
+            peer,
+            busy: busy.clone(),
+            evict,
+        });
+        Some(Admitted {
+            id: self.next_id,
+            busy,
+            evicted,
+        })
+    }
+
+    /// Drops the oldest idle connection (of `peer` only, when given); false when none is idle.
+    fn evict_oldest_idle(&mut self, peer: Option<IpAddr>) -> bool {
+        let idle =
+            |e: &Entry| peer.is_none_or(|p| e.peer == p) && e.busy.load(Ordering::SeqCst) == 0;
+        let Some(i) = self.open.iter().position(idle) else {
+            return false;
+        };
+        let _ = self.open.remove(i).evict.send(());
+        true
+    }
+
+    /// Forgets connection `id` (ended by itself; nothing if it was evicted).
+    pub fn leave(&mut self, id: u64) {
+        self.open.retain(|e| e.id != id);
+    }
+
+    /// Connections open.
+    pub fn len(&self) -> usize {
+        self.open.len()
+    }
+
+    /// True when none is open.
+    pub fn is_empty(&self) -> bool {
+        self.open.is_empty()
+    }
+}
+
+/// Which `Host` a request may name (the DNS-rebinding defence, module docs): `localhost`,
+/// `127.0.0.1` or `[::1]`, or the address the server was bound to with `--bind` (any IP
+/// literal when bound to all addresses: an address cannot be rebound, a name can), each with
+/// the server's port or without a port.
+#[derive(Clone, Copy, Debug)]
+pub struct HostCheck {
+    bound: SocketAddr,
+}
+
+impl HostCheck {
+    /// The check for a server listening on `bound`.
+    pub fn new(bound: SocketAddr) -> Self {
+        Self { bound }
+    }
+
+    /// True when `host` (a `Host` header's value or a URI's authority) may be answered.
+    pub fn allows(&self, host: &str) -> bool {
+        let Some((name, port)) = split_host(host) else {
+            return false;
+        };
+        if port.is_some_and(|p| p != self.bound.port()) {
+            return false;
+        }
+        if name.eq_ignore_ascii_case("localhost") {
+            return true;
+        }
+        let Ok(ip) = name.parse::<IpAddr>() else {
+            return false;
+        };
+        let loopback =
+            ip == IpAddr::V4(Ipv4Addr::LOCALHOST) || ip == IpAddr::V6(Ipv6Addr::LOCALHOST);
+        loopback || ip == self.bound.ip() || self.bound.ip().is_unspecified()
+    }
+
+    /// The sentence of the refusal.
+    fn refusal(&self) -> String {
+        format!(
+            "this server answers only Host 127.0.0.1, localhost or [::1] (port {}); open http://127.0.0.1:{}/",
+            self.bound.port(),
+            self.bound.port()
+        )
+    }
+}
+
+/// `host[:port]` or `[v6][:port]` split into the name (brackets removed) and the port; `None`
+/// when malformed (an unbracketed IPv6 address, a port that is not a number).
+fn split_host(host: &str) -> Option<(&str, Option<u16>)> {
+    let (name, rest) = match host.strip_prefix('[') {
+        Some(inner) => {
+            let (name, rest) = inner.split_once(']')?;
+            name.parse::<Ipv6Addr>().ok()?;
+            (name, rest)
+        }
+        None => host.split_at(host.find(':').unwrap_or(host.len())),
+    };
+    let port = match rest {
+        "" => None,
+        _ => {
+            let digits = rest.strip_prefix(':')?;
+            if digits.is_empty() || !digits.bytes().all(|b| b.is_ascii_digit()) {
+                return None;
+            }
+            Some(digits.parse().ok()?)
+        }
+    };
+    (!name.is_empty()).then_some((name, port))
 }
 
 /// What one connection's task needs.
@@ -108,6 +302,8 @@ pub struct Connection {
     pub streams: Arc<AtomicUsize>,
     /// The bounds.
     pub limits: Limits,
+    /// Which `Host` headers are answered.
+    pub host: HostCheck,
 }
 
 impl Connection {
@@ -116,9 +312,26 @@ impl Connection {
     where
         T: AsyncRead + AsyncWrite + Unpin + Send + 'static,
     {
+        self.serve_counted(io, Arc::new(AtomicUsize::new(0))).await;
+    }
+
+    /// [`Connection::serve`], keeping in `busy` the number of its responses not yet finished
+    /// (a response's body holds one until it is dropped: sent, or the connection gone), which
+    /// tells the [`Registry`] whether the connection is idle.
+    pub async fn serve_counted<T>(self, io: T, busy: Arc<AtomicUsize>)
+    where
+        T: AsyncRead + AsyncWrite + Unpin + Send + 'static,
+    {
         let limits = self.limits;
         let svc = hyper::service::service_fn(move |req| {
-            let resp = self.route(&req);
+            let guard = BusyGuard::new(busy.clone());
+            let resp = self.route(&req).map(|body| {
+                Busy {
+                    body,
+                    _guard: guard,
+                }
+                .boxed()
+            });
             async move { Ok::<_, Infallible>(resp) }
         });
         let conn = hyper::server::conn::http1::Builder::new()
@@ -144,6 +357,10 @@ impl Connection {
                 "a GET request carries no body",
             ));
         }
+        if !self.host_allowed(req) {
+            let msg = self.host.refusal();
+            return closing(text(StatusCode::MISDIRECTED_REQUEST, &msg));
+        }
         match req.uri().path() {
             "/" | "/index.html" => {
                 let html = page(&self.shared.latest().json);
@@ -155,6 +372,20 @@ impl Connection {
             }
             "/events" => self.start_stream(),
             _ => text(StatusCode::NOT_FOUND, "not found"),
+        }
+    }
+
+    /// True when the request's `Host` (and the authority of an absolute URI, which HTTP
+    /// puts before it) names this server ([`HostCheck`]); a request without one is refused.
+    fn host_allowed(&self, req: &Request<Incoming>) -> bool {
+        let header = req
+            .headers()
+            .get(hyper::header::HOST)
+            .and_then(|h| h.to_str().ok());
+        let authority = req.uri().authority().map(|a| a.as_str());
+        match (header, authority) {
+            (None, None) => false,
+            (h, a) => h.into_iter().chain(a).all(|v| self.host.allows(v)),
         }
     }
 
@@ -233,6 +464,49 @@ impl Body for EventBody {
         cx: &mut Context<'_>,
     ) -> Poll<Option<Result<Frame<Bytes>, Infallible>>> {
         self.rx.poll_recv(cx).map(|m| m.map(|b| Ok(Frame::data(b))))
+    }
+}
+
+/// One response in progress on a connection ([`Connection::serve_counted`]): counted from
+/// when the request arrives until the response's body is dropped.
+struct BusyGuard(Arc<AtomicUsize>);
+
+impl BusyGuard {
+    fn new(busy: Arc<AtomicUsize>) -> Self {
+        busy.fetch_add(1, Ordering::SeqCst);
+        Self(busy)
+    }
+}
+
+impl Drop for BusyGuard {
+    fn drop(&mut self) {
+        self.0.fetch_sub(1, Ordering::SeqCst);
+    }
+}
+
+/// A response body that holds its connection's [`BusyGuard`] until it is dropped.
+struct Busy {
+    body: BoxBody<Bytes, Infallible>,
+    _guard: BusyGuard,
+}
+
+impl Body for Busy {
+    type Data = Bytes;
+    type Error = Infallible;
+
+    fn poll_frame(
+        mut self: Pin<&mut Self>,
+        cx: &mut Context<'_>,
+    ) -> Poll<Option<Result<Frame<Bytes>, Infallible>>> {
+        Pin::new(&mut self.body).poll_frame(cx)
+    }
+
+    fn is_end_stream(&self) -> bool {
+        self.body.is_end_stream()
+    }
+
+    fn size_hint(&self) -> hyper::body::SizeHint {
+        self.body.size_hint()
     }
 }
 

@@ -167,6 +167,7 @@ impl LiveServer {
     /// Serves until the process ends: the page, `/snapshot.json`, `/events`. Returns only if
     /// the runtime cannot be started (the system refuses a timer or a socket poller).
     pub fn serve(self, shared: &Arc<Shared>) -> std::io::Result<()> {
-        http::serve(self.listener, shared.clone(), http::Limits::default())
+        let host = http::HostCheck::new(self.addr);
+        http::serve(self.listener, shared.clone(), http::Limits::default(), host)
     }
 }

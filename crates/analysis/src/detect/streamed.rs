@@ -753,6 +753,7 @@ mod spill_tests {
     }
 
     #[test]
+    #[allow(clippy::too_many_lines, reason = "a test reads top to bottom")]
     fn without_the_spill_the_text_is_read_again_alike() {
         let (dir, path, rows) = simulated_csv(crate::simulate::SimConfig {
             seed: 3,

@@ -51,6 +51,16 @@ pub enum GyroError {
     /// The core's gyro fit failed on the data.
     #[error("gyro fit failed: {0}")]
     GyroFitFailed(wiical_core::Error),
+    /// The thread fitting one candidate model panicked: a bug in the fit, reported as an error
+    /// of the whole fit rather than as a model that did not converge (which would hide it in
+    /// the candidates' table and let another model be chosen as if nothing had happened).
+    #[error("the thread fitting the {candidate} gyro model panicked (a bug, please report it): {message}")]
+    WorkerPanicked {
+        /// The candidate model's name (`wiical gyrofit`'s table).
+        candidate: &'static str,
+        /// The panic's message.
+        message: String,
+    },
     /// A single-file gyro calibration whose header names no gyroscope columns.
     #[error("the header names no gyroscope columns (the nearest triplet is {taken}, not a gyroscope): name them gx,gy,gz or gyro_x_dps,… (deg/s), gyro_x_rads,… (rad/s)")]
     NoGyroColumns {

@@ -35,6 +35,16 @@ pub enum NoiseError {
         /// Its one value.
         value: f64,
     },
+    /// An axis that steps like a counter (a sample index, a packet counter), not a sensor.
+    #[error("column {column} counts rather than measures: {percent:.0}% of its changes are the same step of {step} (a sample counter or index column, not a still sensor) — choose the sensor's columns with --columns")]
+    CounterAxis {
+        /// The column.
+        column: String,
+        /// The step it repeats.
+        step: f64,
+        /// Share of its successive changes that repeat the previous one, %.
+        percent: f64,
+    },
     /// A recording that moved.
     #[error("columns {columns} are not still: {why}; the noise terms need the sensor at rest — record it lying still")]
     Moving {

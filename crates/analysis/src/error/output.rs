@@ -60,6 +60,13 @@ pub enum OutputError {
         /// The input it is the same file as.
         input: PathBuf,
     },
+    /// An output is the file standard input reads (`-` as the input, the recording
+    /// redirected from that file): writing it would replace the recording being read.
+    #[error("refusing to write {}: it is the file standard input reads (the recording given as -); choose another output file", output.display())]
+    OutputIsStdin {
+        /// The output asked for.
+        output: PathBuf,
+    },
     /// Two outputs of one command are the same file (one would overwrite the other).
     #[error("refusing to write {} twice: it is also given as {} (choose different output files)", first.display(), second.display())]
     OutputsCollide {

@@ -157,6 +157,55 @@ fn evaluate_one(
     Ok((f, cv, held, kept.iter().map(|k| k.angle).collect()))
 }
 
+/// What one candidate's thread gives: its outcome, or why the core's fit failed on it (a row
+/// of the table, not an error of the whole fit).
+type CandidateResult = core::result::Result<Outcome, wiical_core::Error>;
+
+/// `work` run for every candidate of [`CANDIDATES`] (its model and whether the bias is fitted),
+/// one thread each (the candidates are independent; the machine's cores share them), the
+/// results in the candidates' order. Every thread is joined before any result is looked at,
+/// so that a panic in one is never left for the scope to re-raise without its message.
+///
+/// A thread that panicked is a bug, not a model that failed to converge: it is
+/// [`GyroError::WorkerPanicked`] for the whole fit (naming the candidate and carrying the
+/// panic's message), never a row saying the model did not converge. `work` is a parameter
+/// so that a test can make a candidate's thread panic.
+fn run_candidates<F>(work: F) -> Result<Vec<CandidateResult>>
+where
+    F: Fn((GyroModel, bool)) -> CandidateResult + Sync,
+{
+    let work = &work;
+    let joins: Vec<_> = std::thread::scope(|scope| {
+        let handles: Vec<_> = CANDIDATES
+            .iter()
+            .map(|&(_, model, fit_bias)| scope.spawn(move || work((model, fit_bias))))
+            .collect();
+        handles.into_iter().map(|h| h.join()).collect()
+    });
+    CANDIDATES
+        .iter()
+        .zip(joins)
+        .map(|(&(name, ..), joined)| {
+            joined.map_err(|panic| GyroError::WorkerPanicked {
+                candidate: name,
+                message: panic_message(panic.as_ref()),
+            })
+        })
+        .collect()
+}
+
+/// The message a panic was raised with: the `&str` or `String` payload `panic!` gives, or a
+/// note that it carried none that can be shown (a payload of another type).
+fn panic_message(payload: &(dyn std::any::Any + Send)) -> String {
+    if let Some(s) = payload.downcast_ref::<&str>() {
+        (*s).to_string()
+    } else if let Some(s) = payload.downcast_ref::<String>() {
+        s.clone()
+    } else {
+        "(a panic without a text message)".to_string()
+    }
+}
+
 pub(super) fn evaluate_candidates(
     motions: &[Motion<'_, f64>],
     nominal: &GyroCalibration<f64>,
@@ -176,21 +225,8 @@ pub(super) fn evaluate_candidates(
     let mut shared = vec![blank; motions.len()];
     let pass = nominal_pass(motions, nominal, dt, &mut shared).map_err(GyroError::GyroFitFailed)?;
     let start = (&pass, shared.as_slice());
-    // The candidates are independent: one thread each (the machine's cores share them).
-    let outcomes: Vec<_> = std::thread::scope(|scope| {
-        let handles: Vec<_> = CANDIDATES
-            .iter()
-            .map(|&(_, model, fit_bias)| {
-                scope.spawn(move || {
-                    evaluate_one(motions, nominal, dt, start, opts, (model, fit_bias))
-                })
-            })
-            .collect();
-        handles
-            .into_iter()
-            .map(|h| h.join().unwrap_or(Err(wiical_core::Error::NotConverged)))
-            .collect()
-    });
+    let outcomes =
+        run_candidates(|candidate| evaluate_one(motions, nominal, dt, start, opts, candidate))?;
     for ((name, model, fit_bias), outcome) in CANDIDATES.into_iter().zip(outcomes) {
         let parameters = model.mask(fit_bias).iter().filter(|f| **f).count();
         match outcome {
@@ -224,4 +260,85 @@ pub(super) fn evaluate_candidates(
     }
     let best = best.ok_or(GyroError::GyroFitFailed(wiical_core::Error::NotConverged))?;
     Ok((rows, best, before))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A candidate's thread that panics makes the whole fit an error naming the candidate and
+    /// carrying the panic's message. Before, the join's panic became `NotConverged`: the
+    /// candidate showed as a model that failed and another was chosen as if nothing happened.
+    #[test]
+    fn a_panicking_candidate_is_an_error_not_a_failed_model() {
+        let err = run_candidates(|(model, fit_bias)| {
+            if model == GyroModel::Scale && fit_bias {
+                panic!("candidate {} broke", 3);
+            }
+            Err(wiical_core::Error::NotConverged)
+        })
+        .expect_err("a panicking candidate must fail the fit");
+        match err {
+            GyroError::WorkerPanicked { candidate, message } => {
+                assert_eq!(candidate, "scale+bias");
+                assert_eq!(message, "candidate 3 broke");
+            }
+            other => panic!("expected WorkerPanicked, got {other:?}"),
+        }
+    }
+
+    /// The message of a `panic!` with a literal (`&str` payload) is kept too, and a payload
+    /// that is not text is still an error (with a note instead of a message).
+    #[test]
+    fn panic_payloads_give_their_text_or_a_note() {
+        let literal = run_candidates(|(model, _)| {
+            if model == GyroModel::Full {
+                panic!("literal");
+            }
+            Err(wiical_core::Error::NotConverged)
+        });
+        assert!(
+            matches!(&literal, Err(GyroError::WorkerPanicked { candidate: "full", message }) if message == "literal"),
+            "{literal:?}"
+        );
+        let opaque = run_candidates(|(model, _)| {
+            if model == GyroModel::BiasOnly {
+                std::panic::panic_any(42_u32);
+            }
+            Err(wiical_core::Error::NotConverged)
+        });
+        assert!(
+            matches!(&opaque, Err(GyroError::WorkerPanicked { candidate: "uncalibrated", message }) if message.contains("without a text message")),
+            "{opaque:?}"
+        );
+    }
+
+    /// Without a panic every candidate's own result comes back, in the candidates' order (a
+    /// failed fit stays a row of the table, not an error of the whole fit).
+    #[test]
+    fn results_come_back_in_the_candidates_order() {
+        let got = run_candidates(|(model, fit_bias)| {
+            Err(if fit_bias {
+                wiical_core::Error::NotConverged
+            } else if model == GyroModel::Full {
+                wiical_core::Error::Diverged
+            } else {
+                wiical_core::Error::NonFinite
+            })
+        })
+        .expect("no candidate panicked");
+        let errors: Vec<_> = got.into_iter().map(|r| r.expect_err("all fail")).collect();
+        use wiical_core::Error::{Diverged, NonFinite, NotConverged};
+        assert_eq!(
+            errors,
+            [
+                NonFinite,
+                NotConverged,
+                NonFinite,
+                NotConverged,
+                Diverged,
+                NotConverged
+            ]
+        );
+    }
 }

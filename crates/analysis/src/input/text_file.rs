@@ -169,7 +169,7 @@ impl Pieces {
 
     /// The pieces of what `file` gives, cut on a thread of its own (an error when the system
     /// cannot start it).
-    fn reading(file: Box<dyn Read + Send>, piece_bytes: usize) -> std::io::Result<Self> {
+    pub(crate) fn reading(file: Box<dyn Read + Send>, piece_bytes: usize) -> std::io::Result<Self> {
         let cutter = Cutter {
             file,
             carry: Vec::new(),
@@ -244,10 +244,18 @@ impl Pieces {
                 self.current = text;
                 Ok(Some(self.current.bytes()))
             }
-            // A line too long, an error reading, or a reader that stopped without saying (it
-            // panicked): never taken for the end of the file (the caller reads it whole).
-            Ok(Err(())) | Err(_) => {
+            // A line too long or an error reading: never taken for the end of the file (the
+            // caller reads it whole).
+            Ok(Err(())) => {
                 self.ended = Some(Err(()));
+                Err(())
+            }
+            // A reader that stopped without saying: it panicked, a bug raised here as the
+            // caller's own panic (not a reason to read the file another way, which would
+            // hide it).
+            Err(_) => {
+                self.ended = Some(Err(()));
+                self.raise_reader_panic();
                 Err(())
             }
             Ok(Ok(None)) => {
@@ -258,14 +266,29 @@ impl Pieces {
     }
 }
 
+impl Pieces {
+    /// Waits for the reading thread and raises its panic, if it panicked, on this thread.
+    fn raise_reader_panic(&mut self) {
+        if let Some(Err(panic)) = self.reader.take().map(std::thread::JoinHandle::join) {
+            std::panic::resume_unwind(panic);
+        }
+    }
+}
+
 impl Drop for Pieces {
     /// Stops the reading thread (it ends when its piece finds no taker) and waits for it, so
-    /// that no file is left open behind a finished read.
+    /// that no file is left open behind a finished read. A panic of the thread not seen yet is
+    /// raised here (unless this thread is already unwinding): a bug never passes unseen.
     fn drop(&mut self) {
         let (_, dead) = std::sync::mpsc::sync_channel(0);
         drop(std::mem::replace(&mut self.cuts, dead));
-        if let Some(reader) = self.reader.take() {
-            let _ = reader.join();
+        if std::thread::panicking() {
+            if let Some(reader) = self.reader.take() {
+                // Already unwinding: a second panic would abort; the first one is reported.
+                let _ = reader.join();
+            }
+        } else {
+            self.raise_reader_panic();
         }
     }
 }
@@ -393,36 +416,78 @@ mod tests {
         }
     }
 
-    /// A source that fails after some pieces (an error reading, or a reading thread that
-    /// panics) ends the pieces with `Err(())` — the file then read whole, which names the
-    /// error — never as the end of the file (which would cut the recording short); later
-    /// calls say it again, and a dropped `Pieces` stops its thread mid-file.
+    /// A source that fails after some pieces with an error ends the pieces with `Err(())` —
+    /// the file then read whole, which names the error — never as the end of the file (which
+    /// would cut the recording short); later calls say it again, and a dropped `Pieces` stops
+    /// its thread mid-file.
     #[test]
     fn a_source_that_fails_is_never_the_end_of_the_file() {
         let text: Vec<u8> = (0..2000)
             .flat_map(|i| format!("{i},1,2\n").into_bytes())
             .collect();
-        for panic in [false, true] {
-            let file = Failing {
-                text: std::io::Cursor::new(text.clone()),
-                panic,
-            };
-            let mut pieces = Pieces::reading(Box::new(file), 1000).unwrap();
-            let mut read = Vec::new();
-            let end = loop {
-                match pieces.next_piece() {
-                    Ok(Some(p)) => read.extend_from_slice(p),
-                    other => break other.map(|p| p.is_some()),
-                }
-            };
-            assert_eq!(end, Err(()), "panic: {panic}");
-            assert_eq!(pieces.next_piece(), Err(()));
-            assert!(text.starts_with(&read) && read.len() < text.len());
-        }
+        let file = Failing {
+            text: std::io::Cursor::new(text.clone()),
+            panic: false,
+        };
+        let mut pieces = Pieces::reading(Box::new(file), 1000).unwrap();
+        let mut read = Vec::new();
+        let end = loop {
+            match pieces.next_piece() {
+                Ok(Some(p)) => read.extend_from_slice(p),
+                other => break other.map(|p| p.is_some()),
+            }
+        };
+        assert_eq!(end, Err(()));
+        assert_eq!(pieces.next_piece(), Err(()));
+        assert!(text.starts_with(&read) && read.len() < text.len());
         let endless = std::io::repeat(b'\n');
         let mut pieces = Pieces::reading(Box::new(endless), 1000).unwrap();
         assert!(matches!(pieces.next_piece(), Ok(Some(_))));
         drop(pieces);
+    }
+
+    /// The message of a panic caught by `catch_unwind` (`panic!` with a format gives a
+    /// `String`, with a literal a `&str`).
+    fn message(payload: &(dyn std::any::Any + Send)) -> Option<&str> {
+        payload
+            .downcast_ref::<&str>()
+            .copied()
+            .or_else(|| payload.downcast_ref::<String>().map(String::as_str))
+    }
+
+    /// A reading thread that panics after some pieces: its panic is raised by `next_piece` on
+    /// the caller's thread — a bug, never a reason to read the file another way (which would
+    /// hide it) nor the end of the file; later calls then end the pieces with `Err(())`.
+    #[test]
+    fn a_reader_that_panics_raises_its_panic_to_the_caller() {
+        let text: Vec<u8> = (0..2000)
+            .flat_map(|i| format!("{i},1,2\n").into_bytes())
+            .collect();
+        let file = Failing {
+            text: std::io::Cursor::new(text.clone()),
+            panic: true,
+        };
+        let mut pieces = Pieces::reading(Box::new(file), 1000).unwrap();
+        let mut read = Vec::new();
+        let raised = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| loop {
+            match pieces.next_piece() {
+                Ok(Some(p)) => read.extend_from_slice(p),
+                other => break other.map(|p| p.is_some()),
+            }
+        }));
+        let payload = raised.expect_err("the reader's panic is raised, not an end of the pieces");
+        assert_eq!(message(payload.as_ref()), Some("a reader that panics"));
+        assert!(text.starts_with(&read) && read.len() < text.len());
+        assert_eq!(pieces.next_piece(), Err(()));
+        // A reader that panics before its first piece was asked for: raised by the drop.
+        let file = Failing {
+            text: std::io::Cursor::new(Vec::new()),
+            panic: true,
+        };
+        let pieces = Pieces::reading(Box::new(file), 1000).unwrap();
+        let raised = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| drop(pieces)));
+        let payload = raised.expect_err("the reader's panic is raised by the drop");
+        assert_eq!(message(payload.as_ref()), Some("a reader that panics"));
     }
 
     /// Every text, read in pieces of every size, gives what the whole-text parse gives: the

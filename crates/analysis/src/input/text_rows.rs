@@ -705,6 +705,7 @@ mod tests {
     /// it must hand over — blanks, exponents, signs, more than 19 digits or over 2⁵³, readings
     /// out of range, times that go back, empty, missing or extra fields, a column not read.
     #[test]
+    #[allow(clippy::too_many_lines, reason = "a test reads top to bottom")]
     fn fast_path_reads_as_the_csv_reader() {
         let l = RowLayout {
             names: ["t", "x", "note", "y", "z", "temp"]

@@ -694,10 +694,20 @@ pub const PARSE_AHEAD_VAR: &str = "WIICAL_PARSE_AHEAD";
 /// them over one at a time (at most two pieces' rows held, in order); or, on a thread of
 /// the parse's own pool (which a parse started from there could wait for), the pass itself.
 /// Or, with a spill, its blocks read back one at a time (`next`: the next block).
+///
+/// `Ahead` keeps its thread's handle until the thread has hung up: a parse that panicked
+/// there is raised again on the pass's thread ([`Feed::next`]), as it would be `Inline`,
+/// never taken for the end of the file.
 enum Feed {
-    Ahead(std::sync::mpsc::Receiver<Result<Columns>>),
+    Ahead(
+        std::sync::mpsc::Receiver<Result<Columns>>,
+        Option<std::thread::JoinHandle<()>>,
+    ),
     Inline(Box<Parser>),
-    Spilled { next: usize, scratch: Vec<u8> },
+    Spilled {
+        next: usize,
+        scratch: Vec<u8>,
+    },
 }
 
 impl Feed {
@@ -720,7 +730,7 @@ impl Feed {
                 }
             });
         match spawned {
-            Ok(_) => Ok(Feed::Ahead(rx)),
+            Ok(thread) => Ok(Feed::Ahead(rx, Some(thread))),
             Err(source) => Err(InputError::Read {
                 path: path.into(),
                 source,
@@ -732,7 +742,16 @@ impl Feed {
     /// The next parsed piece (not for [`Feed::Spilled`], read by [`Rows::next_block`]).
     fn next(&mut self) -> Option<Result<Columns>> {
         match self {
-            Feed::Ahead(rx) => rx.recv().ok(),
+            Feed::Ahead(rx, thread) => match rx.recv() {
+                Ok(cols) => Some(cols),
+                // The thread hung up: at the end of the file, or in a panic, raised here.
+                Err(_) => {
+                    if let Some(Err(panic)) = thread.take().map(std::thread::JoinHandle::join) {
+                        std::panic::resume_unwind(panic);
+                    }
+                    None
+                }
+            },
             Feed::Inline(p) => p.next(),
             Feed::Spilled { .. } => None,
         }
@@ -884,6 +903,46 @@ mod tests {
         (format!("{:?}", fold.finish()), steps)
     }
 
+    /// A parse that panics on the thread that parses ahead of a pass is raised on the pass's
+    /// thread, as it is when the pass parses the pieces itself (`Feed::Inline`): never taken
+    /// for the end of the file (a recording silently cut short) nor for a file that changed.
+    /// The panic comes from the pieces' own reading thread, raised on the parse's thread by
+    /// [`Pieces::next_piece`] and from there on the pass's by [`Feed::next`]: without either,
+    /// `next` returns instead of raising it.
+    #[test]
+    fn a_panic_ahead_of_the_pass_is_raised_on_its_thread() {
+        struct Panicking;
+        impl std::io::Read for Panicking {
+            fn read(&mut self, _: &mut [u8]) -> std::io::Result<usize> {
+                panic!("a parse that panics")
+            }
+        }
+        let parser = Parser {
+            pieces: Pieces::reading(Box::new(Panicking), 64).unwrap(),
+            layout: RowLayout {
+                names: vec!["x".into(), "y".into(), "z".into()],
+                time: None,
+                xyz: [0, 1, 2],
+                temp: None,
+                label: None,
+                decimal_comma: false,
+            },
+            delim: b',',
+            data_offset: Some(0),
+            line: 1,
+            prev_t: None,
+        };
+        let mut feed = Feed::start(parser, Path::new("r.csv")).unwrap();
+        let raised = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+            feed.next().map(|cols| cols.map(|c| c.xyz.len()))
+        }));
+        let payload = match raised {
+            Ok(got) => panic!("the parse's panic became {got:?}"),
+            Err(payload) => payload,
+        };
+        assert_eq!(payload.downcast_ref::<&str>(), Some(&"a parse that panics"));
+    }
+
     /// A file's rows in memory when the first pieces' rate says they fit, else on disk.
     #[test]
     fn the_spill_is_kept_in_memory_when_its_projection_fits() {
@@ -900,6 +959,7 @@ mod tests {
     /// — or the same sentence, or is handed back to be read whole; a clone taken mid-pass goes
     /// on from the same row.
     #[test]
+    #[allow(clippy::too_many_lines, reason = "a test reads top to bottom")]
     fn passes_read_as_the_whole_text() {
         let mut rows = String::from("Fs,100\nt,x,y,z,temp\n");
         for i in 0..400 {

@@ -23,7 +23,69 @@ pub const MAX_TURN_DEG: f64 = 5.0;
 /// rotation moves it by thousands.
 pub const MAX_GYRO_SPREAD: f64 = 1000.0;
 
-/// Refuses `rec` when an axis is constant, it moved, or its time column is uneven.
+/// Share of an axis's successive changes (its nonzero first differences, zeros skipped) that
+/// repeat the change before at or above which the axis is a counter. A counter (`i mod 256`,
+/// a sample index, a value stepping up every other sample) repeats its step at every change
+/// but its wrap-arounds; a still sensor's noise turns back (white noise: a step up is
+/// mostly followed by one down) or wanders (a random walk repeats half its steps).
+pub const COUNTER_REPEATS: f64 = 0.9;
+
+/// Least share of first differences that are changes for the counter test: a quantised,
+/// quiet sensor that drifts one step at a time, rarely, is not taken for a counter.
+pub const COUNTER_MIN_CHANGES: f64 = 0.25;
+
+/// The counter test ([`COUNTER_REPEATS`]) of three axes, fed sample by sample (the held path
+/// and the stream share it).
+#[derive(Debug, Clone, Default)]
+pub struct CounterFold {
+    prev: Option<[f64; 3]>,
+    last_step: [Option<f64>; 3],
+    steps: usize,
+    changes: [usize; 3],
+    repeats: [usize; 3],
+}
+
+impl CounterFold {
+    /// The next sample.
+    pub fn push(&mut self, v: [f64; 3]) {
+        if let Some(p) = self.prev.replace(v) {
+            self.steps += 1;
+            for a in 0..3 {
+                let d = v[a] - p[a];
+                if d == 0.0 || !d.is_finite() {
+                    continue;
+                }
+                self.changes[a] += 1;
+                if self.last_step[a].replace(d) == Some(d) {
+                    self.repeats[a] += 1;
+                }
+            }
+        }
+    }
+
+    /// Refuses the first axis that steps like a counter, naming its column.
+    pub fn verdict(&self, columns: &[String; 3]) -> Result<(), NoiseError> {
+        for (a, column) in columns.iter().enumerate() {
+            let changes = self.changes[a];
+            let pairs = changes.saturating_sub(1);
+            if pairs == 0 || (changes as f64) < COUNTER_MIN_CHANGES * self.steps as f64 {
+                continue;
+            }
+            let share = self.repeats[a] as f64 / pairs as f64;
+            if share >= COUNTER_REPEATS {
+                return Err(NoiseError::CounterAxis {
+                    column: column.clone(),
+                    step: self.last_step[a].unwrap_or(0.0),
+                    percent: 100.0 * share,
+                });
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Refuses `rec` when an axis is constant or a counter, it moved, or its time column is
+/// uneven.
 pub fn check_still(rec: &Recording, sensor: Sensor, rate_hz: f64) -> Result<(), NoiseError> {
     for a in 0..3 {
         let first = rec.xyz.first().map_or(0.0, |v| v[a]);
@@ -34,6 +96,9 @@ pub fn check_still(rec: &Recording, sensor: Sensor, rate_hz: f64) -> Result<(), 
             });
         }
     }
+    let mut counters = CounterFold::default();
+    rec.xyz.iter().for_each(|v| counters.push(*v));
+    counters.verdict(&rec.axis_columns)?;
     let win = window_of(rate_hz, rec.len());
     let means: Vec<[f64; 3]> = rec.xyz.chunks_exact(win).map(mean).collect();
     if means.len() < 2 {
@@ -164,4 +229,56 @@ pub fn scatter_of(per_axis: impl Iterator<Item = (f64, f64)>, win: usize) -> f64
             sigma / (win as f64).sqrt()
         })
         .fold(0.0, f64::max)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::SeedableRng;
+    use rand_distr::{Distribution, StandardNormal};
+
+    fn verdict(samples: impl Iterator<Item = f64>) -> Result<(), NoiseError> {
+        let mut f = CounterFold::default();
+        samples.for_each(|x| f.push([x, 0.0, 0.0]));
+        f.verdict(&["x".into(), "y".into(), "z".into()])
+    }
+
+    /// Counters of every kind are refused naming the column; quantised white noise, a
+    /// quantised random walk and a rare one-step drift are not counters.
+    #[test]
+    fn counters_are_told_from_quantised_noise() {
+        for (name, counter) in [
+            (
+                "8-bit",
+                (0..20_000).map(|i| (i % 256) as f64).collect::<Vec<_>>(),
+            ),
+            ("index", (0..20_000).map(f64::from).collect()),
+            (
+                "every other sample",
+                (0..20_000).map(|i| (i / 2) as f64).collect(),
+            ),
+            (
+                "down by 4",
+                (0..20_000).map(|i| -4.0 * f64::from(i % 100)).collect(),
+            ),
+        ] {
+            let e = verdict(counter.into_iter()).unwrap_err();
+            assert!(matches!(e, NoiseError::CounterAxis { .. }), "{name}: {e}");
+            assert!(e.to_string().starts_with("column x counts"), "{e}");
+        }
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+        let mut g = move || -> f64 { StandardNormal.sample(&mut rng) };
+        let white: Vec<f64> = (0..20_000).map(|_| (512.0 + 1.5 * g()).round()).collect();
+        let mut level = 0.0;
+        let walk: Vec<f64> = (0..20_000)
+            .map(|_| {
+                level += g();
+                level.round()
+            })
+            .collect();
+        let drift: Vec<f64> = (0..20_000).map(|i| f64::from(i / 500)).collect();
+        for (name, still) in [("white", white), ("walk", walk), ("drift", drift)] {
+            assert!(verdict(still.into_iter()).is_ok(), "{name}");
+        }
+    }
 }

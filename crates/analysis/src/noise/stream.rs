@@ -24,7 +24,7 @@ use crate::error::Result;
 use crate::input::columns::Sensor;
 use crate::input::text_source::TextSource;
 use crate::noise::allan::{AllanCurve, MIN_CLUSTERS};
-use crate::noise::still::{decide_still, scatter_of, window_of};
+use crate::noise::still::{decide_still, scatter_of, window_of, CounterFold};
 use crate::stats::CountedKeys;
 use std::collections::VecDeque;
 
@@ -176,6 +176,7 @@ struct SensorFold {
     total: [f64; 3],
     prev: Option<[f64; 3]>,
     steps: [StepCounts; 3],
+    counters: CounterFold,
 }
 
 impl SensorFold {
@@ -191,6 +192,7 @@ impl SensorFold {
             total: [0.0; 3],
             prev: None,
             steps: std::array::from_fn(|_| StepCounts::new()),
+            counters: CounterFold::default(),
         }
     }
 
@@ -202,6 +204,7 @@ impl SensorFold {
             self.win_sum[a] += v[a];
             self.total[a] += v[a];
         }
+        self.counters.push(v);
         self.in_win += 1;
         if self.in_win == self.win {
             let w = self.win as f64;
@@ -291,6 +294,7 @@ pub fn stream_sensor(src: &TextSource, sensor: Sensor, rate_hz: f64) -> Result<S
             .into());
         }
     }
+    fold.counters.verdict(columns)?;
     let median = median_steps(src, &fold.steps)?;
     let per_axis = (0..3).map(|a| {
         let s = &fold.steps[a];

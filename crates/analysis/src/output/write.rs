@@ -272,14 +272,38 @@ fn file_key(path: &Path) -> Option<FileKey> {
     Some(FileKey::Path(dir.join(path.file_name()?)))
 }
 
+/// The file standard input reads (`-` as an input), by device and inode: in
+/// `wiical correct CAL - --out rec.csv < rec.csv` the recording being read is named only
+/// through file descriptor 0, so comparing names alone would let the output replace it.
+/// `None` when descriptor 0 is closed or cannot be examined (nothing to compare).
+fn stdin_key() -> Option<FileKey> {
+    #[cfg(unix)]
+    {
+        use std::os::fd::AsFd;
+        use std::os::unix::fs::MetadataExt;
+        let fd = std::io::stdin().as_fd().try_clone_to_owned().ok()?;
+        let meta = std::fs::File::from(fd).metadata().ok()?;
+        Some(FileKey::Inode(meta.dev(), meta.ino()))
+    }
+    #[cfg(not(unix))]
+    None
+}
+
 /// Refuses outputs that are one of the inputs, or each other, before anything is written.
-/// `-` (standard input) as an input is skipped. Paths whose directory does not exist are not
-/// compared (writing them fails later with a clear error).
+/// `-` (standard input) as an input is compared by what descriptor 0 reads ([`stdin_key`]).
+/// Paths whose directory does not exist are not compared (writing them fails later with a
+/// clear error).
 pub fn check_outputs(inputs: &[&Path], outputs: &[&Path]) -> Result<()> {
     let input_keys: Vec<(&Path, FileKey)> = inputs
         .iter()
-        .filter(|p| p.as_os_str() != "-")
-        .filter_map(|p| file_key(p).map(|k| (*p, k)))
+        .filter_map(|p| {
+            let key = if p.as_os_str() == "-" {
+                stdin_key()
+            } else {
+                file_key(p)
+            };
+            key.map(|k| (*p, k))
+        })
         .collect();
     let mut seen: Vec<(&Path, FileKey)> = Vec::new();
     for out in outputs {
@@ -309,6 +333,12 @@ pub fn check_outputs(inputs: &[&Path], outputs: &[&Path]) -> Result<()> {
         }
         let Some(key) = file_key(out) else { continue };
         if let Some((input, _)) = input_keys.iter().find(|(_, k)| *k == key) {
+            if input.as_os_str() == "-" {
+                return Err(OutputError::OutputIsStdin {
+                    output: out.to_path_buf(),
+                }
+                .into());
+            }
             return Err(OutputError::OutputIsInput {
                 output: out.to_path_buf(),
                 input: input.to_path_buf(),

@@ -398,6 +398,27 @@ pub fn member_evidence(
     trials: &[TermTrial],
     (vals, ses, unit): (&[f64; 3], &[f64; 3], &str),
 ) -> String {
+    let mut evidence = member_summary(ctx, combo, d, (vals, ses, unit));
+    let counterpart = match d.part.term {
+        Term::Drift => Some(Term::BiasTemp),
+        Term::BiasTemp => Some(Term::Drift),
+        _ => None,
+    };
+    if let Some(c) = counterpart.filter(|c| !combo.parts.iter().any(|p| p.term == *c)) {
+        against_counterpart(ctx, combo, d, trials, c, &mut evidence);
+    }
+    evidence
+}
+
+/// The first sentence of [`member_evidence`]: the other members, the pattern the member
+/// explains in the residual they leave (share of variance and correlation), its drop test and
+/// its fitted values. Apart so that the counterpart comparison reads on its own.
+fn member_summary(
+    ctx: &MemberContext<'_>,
+    combo: &TermTrial,
+    d: &DropTest,
+    (vals, ses, unit): (&[f64; 3], &[f64; 3], &str),
+) -> String {
     let used_idx = || (0..ctx.wins.len()).filter(|i| ctx.used[*i]);
     let r_rest: Vec<f64> = used_idx()
         .map(|i| am::residual(&ctx.without.p, &ctx.wins[i]))
@@ -414,7 +435,7 @@ pub fn member_evidence(
         .filter(|t| **t != d.part)
         .map(|t| t.name())
         .collect();
-    let mut evidence = format!(
+    format!(
         "found together with {} ({} at once): {}: the others leave CV {:.3} mg, with it {:.3} mg; it explains {:.0}% of the residual variance they leave (r = {r_sig:.2}); without it F({},{}) = {:.1}, p {}; fitted {} ± {} {unit}",
         others.join(" + "),
         combo.name(),
@@ -428,54 +449,62 @@ pub fn member_evidence(
         fmt_p(d.p),
         fmt_vec(vals, 3),
         fmt_vec(ses, 3),
-    );
-    let counterpart = match d.part.term {
-        Term::Drift => Some(Term::BiasTemp),
-        Term::BiasTemp => Some(Term::Drift),
-        _ => None,
-    };
-    if let Some(c) = counterpart.filter(|c| !combo.parts.iter().any(|p| p.term == *c)) {
-        let swapped: Vec<Part> = combo
-            .parts
-            .iter()
-            .map(|t| {
-                if *t == d.part {
-                    Part {
-                        term: c,
-                        axes: t.axes,
-                    }
-                } else {
-                    *t
+    )
+}
+
+/// Appends to `evidence` the comparison of a time- or temperature-like member with its
+/// counterpart `c` (the same combination with `c` in its place, when it was tried): their CVs
+/// and the paired test on held-out errors, the window time–temperature correlation, and a
+/// warning when both pass and the data cannot tell them apart (drift and temperature look
+/// alike when the temperature rises steadily).
+fn against_counterpart(
+    ctx: &MemberContext<'_>,
+    combo: &TermTrial,
+    d: &DropTest,
+    trials: &[TermTrial],
+    c: Term,
+    evidence: &mut String,
+) {
+    let swapped: Vec<Part> = combo
+        .parts
+        .iter()
+        .map(|t| {
+            if *t == d.part {
+                Part {
+                    term: c,
+                    axes: t.axes,
                 }
-            })
-            .collect();
-        if let Some(alt) = trials.iter().find(|t| t.adds(&swapped)) {
-            let pp = paired_p(&combo.loo, &alt.loo, ctx.used);
-            let _ = write!(
-                evidence,
-                "; against {}: CV {:.3} mg (paired test on held-out errors p {})",
-                alt.name(),
-                alt.cv * 1e3,
-                pp.map_or("n/a".into(), fmt_p)
-            );
-            if let Some(r) = ctx.time_temp_r {
-                let _ = write!(
-                    evidence,
-                    "; window time and temperature correlate r = {r:.2}"
-                );
+            } else {
+                *t
             }
-            if alt.passes_rules && pp.is_some_and(|p| p > 0.05) {
-                let _ = write!(
-                    evidence,
-                    "; {} and {} are NOT separable by these data (both pass; their held-out errors do not differ significantly): chose {} by its lower CV",
-                    d.part.name(),
-                    c.name(),
-                    d.part.name()
-                );
-            }
-        }
+        })
+        .collect();
+    let Some(alt) = trials.iter().find(|t| t.adds(&swapped)) else {
+        return;
+    };
+    let pp = paired_p(&combo.loo, &alt.loo, ctx.used);
+    let _ = write!(
+        evidence,
+        "; against {}: CV {:.3} mg (paired test on held-out errors p {})",
+        alt.name(),
+        alt.cv * 1e3,
+        pp.map_or("n/a".into(), fmt_p)
+    );
+    if let Some(r) = ctx.time_temp_r {
+        let _ = write!(
+            evidence,
+            "; window time and temperature correlate r = {r:.2}"
+        );
     }
-    evidence
+    if alt.passes_rules && pp.is_some_and(|p| p > 0.05) {
+        let _ = write!(
+            evidence,
+            "; {} and {} are NOT separable by these data (both pass; their held-out errors do not differ significantly): chose {} by its lower CV",
+            d.part.name(),
+            c.name(),
+            d.part.name()
+        );
+    }
 }
 
 /// Evidence for rejecting the outlier candidate's windows. `window_times`: each window's

@@ -95,6 +95,16 @@ pub enum TempcalError {
         /// 1-based data row.
         row: usize,
     },
+    /// Every temperature lies where kelvin put a sensor's working range (200–400): as °C it
+    /// would be hotter than any accelerometer runs, and the coefficients, reference
+    /// temperature and range written as °C would be ~273 °C off.
+    #[error("the temperature column runs from {min:.1} to {max:.1}, which as °C is hotter than any accelerometer works: it looks like kelvin; give the temperature in °C (subtract 273.15)")]
+    Kelvin {
+        /// Lowest temperature in the file.
+        min: f64,
+        /// Highest temperature in the file.
+        max: f64,
+    },
     /// Too little temperature range (TCAL's check).
     #[error("the temperature spans only {seen_c:.1} °C ({min_c:.1} to {max_c:.1} °C) in the still blocks; a temperature calibration needs at least {needed_c:.0} °C (as ArduPilot's TCAL): record a warm-up from a cold start")]
     RangeTooSmall {
@@ -391,6 +401,25 @@ fn units_of(rec: &Recording, kept: &[Block]) -> &'static str {
     infer_units(rec.is_integer(), median)
 }
 
+/// Temperatures that all lie in this range, °C, are taken for kelvin: 200 K is −73 °C and
+/// 400 K is 127 °C (a sensor's working range), while 200–400 °C is beyond any accelerometer's.
+pub const KELVIN_LIKE: (f64, f64) = (200.0, 400.0);
+
+/// Refuses a temperature column in kelvin ([`KELVIN_LIKE`]): read as °C its fit would be
+/// written as °C with `T_ref` ~273 °C below every sample, extrapolated across that gap.
+fn check_celsius(temp: &[f64]) -> std::result::Result<(), TempcalError> {
+    let (min, max) = temp
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, z), t| {
+            (a.min(*t), z.max(*t))
+        });
+    let (lo, hi) = KELVIN_LIKE;
+    if !temp.is_empty() && min >= lo && max <= hi {
+        return Err(TempcalError::Kelvin { min, max });
+    }
+    Ok(())
+}
+
 /// Averages the samples into blocks, drops moving blocks, assigns poses (by the pose label
 /// when the file has one, else by direction) and drops poses held for one block only.
 fn blocks(rec: &Recording, opts: &TempcalOptions) -> std::result::Result<Blocks, TempcalError> {
@@ -402,6 +431,7 @@ fn blocks(rec: &Recording, opts: &TempcalOptions) -> std::result::Result<Blocks,
     if let Some(i) = temp.iter().position(|t| !t.is_finite()) {
         return Err(TempcalError::NonFiniteTemperature { row: i + 1 });
     }
+    check_celsius(temp)?;
     let rate_hz = rec
         .estimated_rate_hz()
         .filter(|r| r.is_finite() && *r > 0.0)

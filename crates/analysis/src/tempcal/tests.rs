@@ -184,6 +184,21 @@ fn a_small_range_is_refused_saying_how_much_was_seen() {
     assert!(text.contains("at least 10 °C"), "{text}");
 }
 
+/// A warm-up logged in kelvin (291–311 K) is refused naming its range and kelvin, never
+/// fitted as °C (which wrote TMIN 293 °C and coefficients extrapolated 258 °C to T_ref).
+#[test]
+fn a_temperature_column_in_kelvin_is_refused() {
+    let mut rec = Sim::new(3, CUBIC).recording();
+    for t in rec.temp.as_mut().unwrap() {
+        *t += 273.15;
+    }
+    let e = tempcal(&rec, &Default::default()).unwrap_err();
+    let text = e.to_string();
+    assert!(matches!(e, TempcalError::Kelvin { .. }), "{text}");
+    assert!(text.contains("from 291.1 to 311.1"), "{text}");
+    assert!(text.contains("kelvin") && text.contains("273.15"), "{text}");
+}
+
 #[test]
 fn no_temperature_column_is_refused() {
     let mut rec = Sim::new(3, CUBIC).recording();

@@ -117,6 +117,31 @@ pub fn civil_seconds(y: i64, mo: u32, d: u32, h: u32, mi: u32, s: f64) -> f64 {
     days as f64 * 86_400.0 + (h * 3600 + mi * 60) as f64 + s
 }
 
+/// `s` seconds since 1970-01-01 as the civil date and time `YYYY-MM-DD hh:mm:ss` (the inverse
+/// of [`civil_seconds`], whole seconds): how a block's device-clock time is named in a note.
+pub fn civil_text(s: f64) -> String {
+    if !s.is_finite() {
+        return format!("{s} s");
+    }
+    let days = (s / 86_400.0).floor() as i64;
+    let sod = (s - days as f64 * 86_400.0).floor() as i64;
+    let z = days + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z - era * 146_097;
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let d = doy - (153 * mp + 2) / 5 + 1;
+    let m = if mp < 10 { mp + 3 } else { mp - 9 };
+    let y = yoe + era * 400 + i64::from(m <= 2);
+    format!(
+        "{y:04}-{m:02}-{d:02} {:02}:{:02}:{:02}",
+        sod / 3600,
+        sod / 60 % 60,
+        sod % 60
+    )
+}
+
 /// True when a civil date and time is possible (day checked against the month's length).
 pub fn valid_civil(y: i64, mo: u32, d: u32, h: u32, mi: u32, s: u32) -> bool {
     let leap = (y % 4 == 0 && y % 100 != 0) || y % 400 == 0;
@@ -152,6 +177,9 @@ mod tests {
         assert_eq!(civil_seconds(2019, 2, 26, 9, 55, 6.0), 1_551_174_906.0);
         assert_eq!(civil_seconds(1970, 1, 1, 0, 0, 0.0), 0.0);
         assert_eq!(civil_seconds(2000, 3, 1, 0, 0, 0.0), 951_868_800.0);
+        assert_eq!(civil_text(1_551_174_906.5), "2019-02-26 09:55:06");
+        assert_eq!(civil_text(951_868_800.0 - 1.0), "2000-02-29 23:59:59");
+        assert_eq!(civil_text(0.0), "1970-01-01 00:00:00");
         assert!(valid_civil(2024, 2, 29, 23, 59, 59));
         assert!(!valid_civil(2023, 2, 29, 0, 0, 0));
         assert!(!valid_civil(2023, 13, 1, 0, 0, 0));

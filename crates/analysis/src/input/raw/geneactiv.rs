@@ -484,6 +484,23 @@ fn hex3(d: &[u8]) -> Option<i32> {
     u16::from_str_radix(s, 16).ok().map(i32::from)
 }
 
+/// A page's `Temperature` field, °C, or why not in the field's own terms: a page that says
+/// `Temperature:nan` has the field, and "no 'Temperature'" would send the reader looking for
+/// a missing line instead of a sensor that reported no value.
+fn page_temperature(field: Option<&str>) -> std::result::Result<f64, String> {
+    let Some(v) = field else {
+        return Err("no 'Temperature'".into());
+    };
+    let word = v.split_whitespace().next().unwrap_or("");
+    match word.parse::<f64>() {
+        Ok(t) if t.is_finite() => Ok(t),
+        Ok(t) if t.is_nan() => Err("its temperature is NaN (the device reported no value)".into()),
+        Ok(_) => Err(format!("its temperature is {word}, not a finite number")),
+        Err(_) if word.is_empty() => Err("its 'Temperature' line holds no value".into()),
+        Err(_) => Err(format!("its temperature '{word}' is not a number")),
+    }
+}
+
 fn decode_page(
     page: &PageText,
     index: usize,
@@ -493,9 +510,7 @@ fn decode_page(
     let start_s = get("Page Time")
         .and_then(page_time)
         .ok_or("no valid 'Page Time'")?;
-    let temp_c = get("Temperature")
-        .and_then(number)
-        .ok_or("no 'Temperature'")?;
+    let temp_c = page_temperature(get("Temperature"))?;
     if !TEMP_RANGE.contains(&temp_c) {
         return Err(format!(
             "temperature {} °C is impossible ({}…{} °C)",
@@ -625,6 +640,25 @@ mod plausibility {
         let raw = parse(text.as_bytes()).unwrap();
         let (_, why) = raw.invalid_blocks()[0];
         assert!(why.contains("temperature 1e300 °C is impossible"), "{why}");
+        // A field that is there but not a number is told as what it holds, not as missing.
+        for (temp, want) in [
+            (
+                "nan",
+                "its temperature is NaN (the device reported no value)",
+            ),
+            (
+                "NaN",
+                "its temperature is NaN (the device reported no value)",
+            ),
+            ("inf", "its temperature is inf, not a finite number"),
+            ("warm", "its temperature 'warm' is not a number"),
+            ("", "its 'Temperature' line holds no value"),
+        ] {
+            let text = format!("{HEADER}{}", page_at("2013-05-30 10:12:54:500", temp, &hex));
+            let raw = parse(text.as_bytes()).unwrap();
+            let (_, why) = raw.invalid_blocks()[0];
+            assert_eq!(why, want, "{temp}");
+        }
         // The real device's values pass.
         let text = format!("{HEADER}{page}");
         assert_eq!(parse(text.as_bytes()).unwrap().good().count(), 1);

@@ -155,6 +155,13 @@ pub struct Tally {
     pub first_invalid_why: Option<String>,
     /// Decoded blocks holding no sample.
     pub empty: usize,
+    /// The first `LISTED_BLOCKS` of them.
+    pub empty_first: Vec<usize>,
+    /// Decoded blocks left out for standing far ahead of the blocks around them
+    /// ([`TimePlan`]: a clock that jumps ahead for one block and back).
+    pub ahead: usize,
+    /// The first `LISTED_BLOCKS` of them.
+    pub ahead_first: Vec<Ahead>,
 }
 
 impl Tally {
@@ -176,8 +183,14 @@ impl Tally {
 
     /// Counts the next block, decoded with `samples` samples.
     pub fn push_good(&mut self, samples: usize) {
+        let index = self.blocks;
         self.blocks += 1;
-        self.empty += usize::from(samples == 0);
+        if samples == 0 {
+            self.empty += 1;
+            if self.empty_first.len() < LISTED_BLOCKS {
+                self.empty_first.push(index);
+            }
+        }
     }
 
     /// Counts the next block, skipped for an impossible field (`why`).
@@ -192,13 +205,64 @@ impl Tally {
             .get_or_insert_with(|| why.to_string());
     }
 
-    /// The counts of a file read whole.
+    /// The counts of a file read whole (its blocks' times planned as [`sample_times`] does).
     pub fn of(raw: &RawFile) -> Self {
         let mut t = Self::default();
         for b in &raw.blocks {
             t.push(b, raw.n_channels());
         }
+        let mut plan = TimePlan::default();
+        for b in raw.good() {
+            plan.push(b.index, b.start_s, b.rate_hz, b.len(raw.n_channels()));
+        }
+        plan.finish();
+        t.note_ahead(&plan);
         t
+    }
+
+    /// Takes the blocks `plan` left out for standing ahead of their neighbours (once the plan
+    /// has seen every block).
+    pub fn note_ahead(&mut self, plan: &TimePlan) {
+        self.ahead = plan.ahead;
+        self.ahead_first = plan.ahead_first.clone();
+    }
+
+    /// Decoded blocks left out (`left_out`, as the time plan counts them) whose clock steps
+    /// back: those neither empty nor stamped ahead.
+    fn stepped_back(&self, left_out: usize) -> usize {
+        left_out.saturating_sub(self.empty + self.ahead)
+    }
+
+    /// "#30 at 2027-06-01 10:00:00 (365 days ahead)", … for the blocks stamped ahead.
+    fn ahead_list(&self) -> String {
+        let shown: Vec<String> = self
+            .ahead_first
+            .iter()
+            .map(|a| {
+                format!(
+                    "#{} at {} ({} ahead)",
+                    a.index,
+                    block::civil_text(a.start_s),
+                    span_text(a.by_s)
+                )
+            })
+            .collect();
+        let more = if self.ahead > LISTED_BLOCKS {
+            ", …"
+        } else {
+            ""
+        };
+        format!("{}{more}", shown.join(", "))
+    }
+}
+
+/// A time difference in the unit a reader takes in at once (s, min, h, days).
+fn span_text(s: f64) -> String {
+    match s {
+        s if s >= 2.0 * 86_400.0 => format!("{:.0} days", s / 86_400.0),
+        s if s >= 2.0 * 3600.0 => format!("{:.0} h", s / 3600.0),
+        s if s >= 120.0 => format!("{:.0} min", s / 60.0),
+        s => format!("{s:.1} s"),
     }
 }
 
@@ -223,7 +287,14 @@ pub(crate) fn no_data(tally: &Tally, left_out: usize) -> InputError {
     if tally.empty > 0 {
         why.push(format!("{} hold 0 samples", tally.empty));
     }
-    let stepped_back = left_out.saturating_sub(tally.empty);
+    if tally.ahead > 0 {
+        why.push(format!(
+            "{} stamped far ahead of the blocks around them: {}",
+            tally.ahead,
+            tally.ahead_list()
+        ));
+    }
+    let stepped_back = tally.stepped_back(left_out);
     if stepped_back > 0 {
         why.push(format!(
             "{stepped_back} start before the previous block's last sample (the clock steps back)"
@@ -264,13 +335,17 @@ pub(crate) fn explain_too_few(
         RawFormat::Cwa => "data blocks",
         RawFormat::GeneActiv => "pages",
     };
-    let stepped_back = left_out.saturating_sub(tally.empty);
-    let lost = tally.corrupt + tally.invalid + stepped_back;
+    let stepped_back = tally.stepped_back(left_out);
+    let lost = tally.corrupt + tally.invalid + stepped_back + tally.ahead;
     let cause = if lost > 0 && 2 * lost >= tally.blocks {
         let mut parts = Vec::new();
         for (k, what) in [
             (tally.corrupt, "fail their checksum"),
             (tally.invalid, "have an impossible field"),
+            (
+                tally.ahead,
+                "are stamped far ahead of the blocks around them",
+            ),
             (
                 stepped_back,
                 "start before the previous one ends (the clock steps back)",
@@ -368,12 +443,27 @@ struct Pending {
     n: usize,
 }
 
+/// A decoded block left out for standing ahead of the blocks around it ([`TimePlan`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Ahead {
+    /// Its index among the file's data blocks.
+    pub index: usize,
+    /// Its start, device-clock seconds.
+    pub start_s: f64,
+    /// How far it starts after the block that follows it, s.
+    pub by_s: f64,
+}
+
 /// [`sample_times`] one block at a time: a block's span is known once the next decoded block
 /// is (its start ends the block), so each push returns the previous block's span.
 #[derive(Debug, Clone)]
 pub struct TimePlan {
     pending: Option<Pending>,
     last_t: f64,
+    /// Blocks left out for standing ahead of their neighbours.
+    pub ahead: usize,
+    /// The first `LISTED_BLOCKS` of them.
+    pub ahead_first: Vec<Ahead>,
 }
 
 impl Default for TimePlan {
@@ -381,6 +471,8 @@ impl Default for TimePlan {
         Self {
             pending: None,
             last_t: f64::NEG_INFINITY,
+            ahead: 0,
+            ahead_first: Vec::new(),
         }
     }
 }
@@ -407,8 +499,9 @@ impl TimePlan {
 
     /// Whether the block last pushed will be kept when its span is closed: it holds samples
     /// and starts after the last kept sample, which every block before it has already fixed
-    /// (only its duration waits for the next block). Lets a one-pass reader place its
-    /// samples before its span is known.
+    /// (only its duration waits for the next block), unless the next block shows it stamped
+    /// ahead ([`TimePlan::ahead`] then grows at the next push). Lets a one-pass reader place
+    /// its samples before its span is known (and take them back in that one case).
     pub(crate) fn keeps_pending(&self) -> bool {
         self.pending
             .is_some_and(|p| p.n > 0 && p.start_s > self.last_t)
@@ -425,6 +518,23 @@ impl TimePlan {
             return None;
         }
         let nominal = b.n as f64 / b.rate_hz;
+        // One block whose clock jumps ahead while the next one resumes after the blocks before
+        // it: the one block is wrong, not the rest. Kept, it would put every later block
+        // before its own last sample (left out as stepping back: a whole recording lost to
+        // one bad stamp).
+        if let Some(nx) = next
+            .filter(|nx| nx.n > 0 && nx.start_s > self.last_t && b.start_s - nx.start_s >= nominal)
+        {
+            self.ahead += 1;
+            if self.ahead_first.len() < LISTED_BLOCKS {
+                self.ahead_first.push(Ahead {
+                    index: b.index,
+                    start_s: b.start_s,
+                    by_s: b.start_s - nx.start_s,
+                });
+            }
+            return None;
+        }
         let dur = match next {
             Some(next) if next.index == b.index + 1 => {
                 let d = next.start_s - b.start_s;
@@ -447,7 +557,9 @@ impl TimePlan {
 }
 
 /// Each decoded block's sample times (`None`: the block is left out because it holds no
-/// sample or its start is not after the previous block's last sample, a clock step back). A
+/// sample, its start is not after the previous block's last sample, a clock step back, or it
+/// starts a block's length or more after the next block, which resumes after the blocks
+/// before it: one block stamped ahead). A
 /// block's samples are spread evenly from its start to the next block's start when the next
 /// block follows it in the file and starts within half to twice the nominal block duration
 /// later (the devices' own clocks set the rate, as GGIRread and OpenMovement's converters
@@ -467,7 +579,8 @@ pub fn sample_times(raw: &RawFile) -> Vec<Option<Vec<f64>>> {
         .collect()
 }
 
-/// Warnings on skipped blocks: counted, the first few named.
+/// Warnings on skipped blocks: counted, the first few named. `out_of_order`: decoded blocks
+/// left out, empty ones included (the tally tells them apart).
 pub(crate) fn skip_notes(
     format: RawFormat,
     reader_notes: &[String],
@@ -500,9 +613,26 @@ pub(crate) fn skip_notes(
             list(&tally.invalid_first, tally.invalid)
         ));
     }
-    if out_of_order > 0 {
+    // Blocks left out for holding no sample are said so: counted with the clock's steps back
+    // they were told as a time that steps back, which sends the reader to the wrong fault.
+    if tally.empty > 0 {
         notes.push(format!(
-            "left out {out_of_order} {unit}(s) whose time steps back before the previous one's samples"
+            "left out {} empty {unit}(s) (0 samples, a valid checksum): {}",
+            tally.empty,
+            list(&tally.empty_first, tally.empty)
+        ));
+    }
+    if tally.ahead > 0 {
+        notes.push(format!(
+            "left out {} {unit}(s) stamped far ahead of the {unit}s around them (the clock jumped ahead and back; the {unit}s after them are kept): {}",
+            tally.ahead,
+            tally.ahead_list()
+        ));
+    }
+    let stepped_back = tally.stepped_back(out_of_order);
+    if stepped_back > 0 {
+        notes.push(format!(
+            "left out {stepped_back} {unit}(s) whose time steps back before the previous one's samples"
         ));
     }
     notes

@@ -179,6 +179,7 @@ pub fn plan(path: &Path, format: RawFormat, opts: &LoadOptions) -> Result<RawPla
         })?;
     }
     planner.finish();
+    tally.note_ahead(&planner.times);
     let channels = reader.channels();
     let cols = choose_channels(&channels, opts)?;
     if planner.rows == 0 {
@@ -727,6 +728,8 @@ struct Sweep<T> {
     temp: Vec<T>,
     /// Rows placed so far.
     rows: usize,
+    /// Samples of the block placed last (taken back if it turns out to be stamped ahead).
+    last_placed: usize,
 }
 
 /// A block whose samples are placed: its bytes, fields and rows.
@@ -746,6 +749,7 @@ impl<T: Real> Sweep<T> {
             xyz: Vec::new(),
             temp: Vec::new(),
             rows: 0,
+            last_placed: 0,
         };
         let mut checked = Vec::new();
         loop {
@@ -759,6 +763,7 @@ impl<T: Real> Sweep<T> {
             }
         }
         sweep.planner.finish();
+        sweep.tally.note_ahead(&sweep.planner.times);
         let layout = reader.layout();
         let channels = cwa::channel_names(layout);
         let cols = match sweep.cols {
@@ -809,7 +814,16 @@ impl<T: Real> Sweep<T> {
             match c {
                 Checked::Good(h) => {
                     self.tally.push_good(h.n);
+                    let ahead = self.planner.times.ahead;
                     self.planner.push(first + k, h.start_s, h.rate_hz, h.n);
+                    if self.planner.times.ahead > ahead {
+                        // The block placed last stands ahead of this one: its rows are given
+                        // back (in this chunk, before they are placed; else they are written
+                        // over by the blocks that follow).
+                        if placed.pop().is_none() {
+                            self.rows -= self.last_placed;
+                        }
+                    }
                     if self.planner.times.keeps_pending() {
                         placed.push((k, *h));
                     }
@@ -870,6 +884,7 @@ impl<T: Real> Sweep<T> {
             let (t, more_t) = std::mem::take(&mut temp).split_at_mut(h.n);
             (xyz, temp) = (more_x, more_t);
             self.rows += h.n;
+            self.last_placed = h.n;
             jobs.push((&bytes[k * BLOCK_BYTES..(k + 1) * BLOCK_BYTES], h, x, t));
         }
         Ok(jobs)

@@ -130,7 +130,7 @@ impl Scan {
         self.spans.iter().flatten().flat_map(|s| s.times())
     }
 
-    /// Decoded blocks left out (no sample, or a clock step back).
+    /// Decoded blocks left out (no sample, a clock step back, or stamped ahead).
     fn left_out(&self) -> usize {
         self.spans.iter().filter(|s| s.is_none()).count()
     }
@@ -164,6 +164,7 @@ fn scan(path: &Path, format: RawFormat) -> Result<Scan> {
         }
     })?;
     spans.extend(plan.finish());
+    tally.note_ahead(&plan);
     Ok(Scan {
         format,
         device: reader.device(),
