@@ -63,41 +63,61 @@ fn sunsided_full_sphere_at_its_real_rate() {
 }
 
 /// The other sunsided recordings are one pose each, or sweeps with fewer still moments than
-/// the 9-parameter model has unknowns: refused with the count and the advice to re-record
-/// (no setting can help once the adaptive detector tried its shortest holds).
+/// the 9-parameter model has unknowns: the multi-position fit refuses them with the count and
+/// the advice to re-record (no setting can help once the adaptive detector tried its shortest
+/// holds); the residual analysis names the protocol it recognised instead (one pose, three
+/// faces), which `fit` calibrates as far as it goes (`protocols_real.rs`).
 #[test]
 fn sunsided_single_poses_and_sweeps_are_refused_with_a_reason() {
-    for (rel, most) in [
-        ("roll-and-tilt-at-45-90_mpu6050.csv", 8),
-        ("unmoved-with-x-pointing-forward_mpu6050.csv", 2),
-        ("unmoved-with-z-pointing-front-and-x-up_mpu6050.csv", 2),
-        ("unmoved-with-z-pointing-front-and-y-down_mpu6050.csv", 2),
+    for (rel, most, protocol) in [
+        (
+            "roll-and-tilt-at-45-90_mpu6050.csv",
+            8,
+            "three faces (x+ y+ z-)",
+        ),
+        (
+            "unmoved-with-x-pointing-forward_mpu6050.csv",
+            2,
+            "one pose (z- up",
+        ),
+        (
+            "unmoved-with-z-pointing-front-and-x-up_mpu6050.csv",
+            2,
+            "one pose (x- up",
+        ),
+        (
+            "unmoved-with-z-pointing-front-and-y-down_mpu6050.csv",
+            2,
+            "one pose (y+ up",
+        ),
     ] {
         let rel = format!("mpu6050_hmc5883l_sunsided_set2/{rel}");
         let rec = load_file(&rel);
-        for e in [
-            fit::run(&rec, &Default::default()).err(),
-            analyze(&rec, &AnalyzeOptions::default()).err(),
-        ] {
-            match e {
-                Some(
-                    ref e @ Error::Fit(FitError::TooFewWindows {
-                        found,
-                        adaptive: true,
-                        ..
-                    }),
-                ) => {
-                    assert!(found <= most, "{rel}: {found}");
-                    assert!(e.to_string().contains("record again"), "{e}");
-                }
-                other => panic!("{rel}: {other:?}"),
+        match fit::run(&rec, &Default::default()).err() {
+            Some(
+                ref e @ Error::Fit(FitError::TooFewWindows {
+                    found,
+                    adaptive: true,
+                    ..
+                }),
+            ) => {
+                assert!(found <= most, "{rel}: {found}");
+                assert!(e.to_string().contains("record again"), "{e}");
             }
+            other => panic!("{rel}: {other:?}"),
+        }
+        match analyze(&rec, &AnalyzeOptions::default()).err() {
+            Some(Error::Fit(FitError::Protocol { summary, why })) => {
+                assert!(summary.starts_with(protocol), "{rel}: {summary}");
+                assert!(why.contains("needs free poses or all six faces"), "{why}");
+            }
+            other => panic!("{rel}: {other:?}"),
         }
     }
 }
 
 /// GRT's Wii Remote files (normalised values, one orientation or five tilt classes): read as
-/// recordings without time, refused for too few orientations.
+/// recordings without time, refused for too few orientations (or named as one tilted pose).
 #[test]
 fn grt_wiimote_files_are_read_and_refused_for_too_few_poses() {
     for rel in [
@@ -107,11 +127,14 @@ fn grt_wiimote_files_are_read_and_refused_for_too_few_poses() {
         let rec = load_file(rel);
         assert!(rec.len() > 1400, "{rel}: {}", rec.len());
         assert!(rec.t.is_none());
+        // Too few orientations for the multi-position fit; one pose (tilted 50° off every
+        // axis: no offsets either) or too few windows for the analysis.
         let e = analyze(&rec, &AnalyzeOptions::default()).unwrap_err();
         assert!(
             matches!(
-                e,
+                &e,
                 Error::Fit(FitError::TooFewWindows { adaptive: true, .. })
+                    | Error::Fit(FitError::Protocol { .. })
             ),
             "{rel}: {e:?}"
         );

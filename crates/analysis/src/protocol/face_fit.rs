@@ -278,6 +278,7 @@ impl FaceFit {
 }
 
 #[cfg(test)]
+#[allow(clippy::needless_range_loop)] // index loops mirror the matrix notation
 mod tests {
     use super::super::faces::{face_set, window_face};
     use super::*;

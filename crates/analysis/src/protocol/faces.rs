@@ -53,16 +53,23 @@ pub struct FaceSet {
 }
 
 /// The reading at 0 g that directions are taken from. Data already in g or m/s², and signed
-/// counts (any negative mean), read 0 at 0 g; unsigned counts (the Wii Remote's 8- or 10-bit
-/// ADC) read mid-scale, the middle of the smallest power-of-two range holding the means.
+/// counts, read 0 at 0 g; unsigned counts (the Wii Remote's 8- or 10-bit ADC) read mid-scale,
+/// the middle of the smallest power-of-two range holding the means. Counts are taken as
+/// unsigned only when every mean lies in the range's upper three quarters: an axis at 0 g of a
+/// signed sensor reads near 0, far below a quarter of its range, even when no mean happens to
+/// be negative (one pose, z up, both horizontal offsets positive).
 pub fn zero_reading(means: &[[f64; 3]], units: &str) -> [f64; 3] {
     let signed = means.iter().flatten().any(|v| *v < 0.0);
     if units != "raw" || signed {
         return [0.0; 3];
     }
     let hi = means.iter().flatten().fold(0.0f64, |a, v| a.max(*v));
-    let half = (hi + 1.0).log2().ceil().exp2() / 2.0;
-    [half; 3]
+    let range = (hi + 1.0).log2().ceil().exp2();
+    let lo = means.iter().flatten().fold(f64::INFINITY, |a, v| a.min(*v));
+    if lo < 0.25 * range {
+        return [0.0; 3];
+    }
+    [range / 2.0; 3]
 }
 
 /// The face of a window whose mean is `mean`, directions from `zero`.
@@ -163,6 +170,8 @@ mod tests {
             window_face([103.0, 128.0, 130.0], zero).pose,
             Some(Pose::XNeg)
         );
+        // Signed counts that happen to be positive (one pose, z up): still signed.
+        assert_eq!(zero_reading(&[[175.0, 403.0, 16026.0]], "raw"), [0.0; 3]);
         // A diagonal pose (35° from every axis) is no face.
         assert_eq!(window_face([1.0, 1.0, 1.0], [0.0; 3]).pose, None);
         // 21° off is no face, 19° is.

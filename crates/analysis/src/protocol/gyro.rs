@@ -99,7 +99,7 @@ pub fn run(
     gyro: &Recording,
     opts: &GyroProtocolOptions,
 ) -> Result<GyroProtocolReport> {
-    let gws = detect_windows(gyro, &opts.detect).map_err(|e| GyroProtocolError::Detect(e))?;
+    let gws = detect_windows(gyro, &opts.detect).map_err(GyroProtocolError::Detect)?;
     let rest_idx = rests_of(&gws);
     if let Some(rates) = &opts.table_rates_dps {
         return Ok(rate_table(gyro, &gws, &rest_idx, rates, opts));

@@ -110,7 +110,7 @@ pub const STEADY_BLOCK: usize = 32;
 /// [`STEADY_BLOCK`] samples whose spread is within 4× the rest's noise or 6 % of their rate
 /// (a turntable's spin shakes the sensor: its noise grows with the rate, which the still-window
 /// detector, tuned on the quietest blocks, refuses), joined while their means agree within
-/// 1 % of the rate (or the rest's noise); runs of at least 3 blocks are kept.
+/// 1 % of the rate (or the rest's noise); the interior of runs of at least 5 blocks is kept.
 pub fn steady_runs(xyz: &[[f64; 3]], bias: [f64; 3], rest_sd: [f64; 3]) -> Vec<SteadyMean> {
     let blocks: Vec<Option<[f64; 3]>> = xyz
         .chunks_exact(STEADY_BLOCK)
@@ -125,39 +125,37 @@ pub fn steady_runs(xyz: &[[f64; 3]], bias: [f64; 3], rest_sd: [f64; 3]) -> Vec<S
             steady.then_some(mean)
         })
         .collect();
-    let mut runs: Vec<(SteadyMean, usize)> = Vec::new();
-    let mut open: Option<(SteadyMean, usize)> = None;
+    let mut runs: Vec<Vec<[f64; 3]>> = Vec::new();
+    let mut open: Vec<[f64; 3]> = Vec::new();
     for b in blocks {
-        let joined = match (&mut open, b) {
-            (Some((run, k)), Some(m)) => {
+        let joined = match (open.is_empty(), b) {
+            (false, Some(m)) => {
+                let mean = mean_of(&open);
                 let tol = (0.01 * norm(sub(m, bias))).max(4.0 * norm(rest_sd));
-                if norm(sub(run.mean, m)) <= tol {
-                    let w = *k as f64;
-                    run.mean = std::array::from_fn(|a| (run.mean[a] * w + m[a]) / (w + 1.0));
-                    run.samples += STEADY_BLOCK;
-                    *k += 1;
-                    true
-                } else {
-                    false
-                }
+                norm(sub(mean, m)) <= tol
             }
             _ => false,
         };
-        if !joined {
-            runs.extend(open.take().filter(|(_, k)| *k >= 3));
-            open = b.map(|m| {
-                (
-                    SteadyMean {
-                        mean: m,
-                        samples: STEADY_BLOCK,
-                    },
-                    1,
-                )
-            });
+        if !joined && !open.is_empty() {
+            runs.push(std::mem::take(&mut open));
         }
+        open.extend(b);
     }
-    runs.extend(open.filter(|(_, k)| *k >= 3));
-    runs.into_iter().map(|(r, _)| r).collect()
+    runs.push(open);
+    // A run's first and last blocks may straddle a ramp (their means are still within 1 % of
+    // the rate): only the interior is kept, so runs of at least 5 blocks.
+    runs.into_iter()
+        .filter(|r| r.len() >= 5)
+        .map(|r| SteadyMean {
+            mean: mean_of(&r[1..r.len() - 1]),
+            samples: (r.len() - 2) * STEADY_BLOCK,
+        })
+        .collect()
+}
+
+fn mean_of(blocks: &[[f64; 3]]) -> [f64; 3] {
+    let n = blocks.len().max(1) as f64;
+    std::array::from_fn(|a| blocks.iter().map(|b| b[a]).sum::<f64>() / n)
 }
 
 /// Rests: the windows whose rate is within a few percent of the slowest's distance to the rest.
@@ -468,6 +466,7 @@ fn mat_vec(k: &[[f64; 3]; 3], v: [f64; 3]) -> [f64; 3] {
 }
 
 #[cfg(test)]
+#[allow(clippy::needless_range_loop)] // index loops mirror the matrix notation
 mod tests {
     use super::*;
 
