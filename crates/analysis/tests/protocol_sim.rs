@@ -166,7 +166,6 @@ fn one_pose_gives_the_horizontal_offsets_within_tilt_and_misalignment() {
 /// counts (`faces::zero_reading` puts 0 g at mid-scale, 8192 or 16384), so no axis is near
 /// vertical and the offsets are refused. 16 of 50 seeds do this; seed 1 is one of them.
 #[test]
-#[ignore = "fails today: one pose with all-positive signed counts is refused (docs/protocols-sim.md)"]
 fn one_pose_with_positive_horizontal_readings_is_not_refused() {
     let s = sim(SimProtocol::OnePose, 1);
     let (e, _) = accel_errors(&s);
@@ -227,7 +226,6 @@ fn ferraris_takes_the_rotation_angle_given() {
 /// its still windows run into the turn, and `rotations::turns` integrates only between them,
 /// so part of the turn is lost (seed 4: 17 %; seeds 21, 50: all of it, no z turn found).
 #[test]
-#[ignore = "fails today: the z turn is integrated only between the accelerometer's still windows"]
 fn ferraris_integrates_the_whole_z_turn() {
     for seed in [1, 4, 21] {
         let s = sim(SimProtocol::Ferraris, seed);

@@ -124,7 +124,7 @@ pub fn run(
     };
     let levels = turning_levels(&gws, &rest_idx, bias);
     match (acc, gyro.t.is_some() || gyro.sample_rate_hz.is_some()) {
-        (Some(acc), true) => ferraris(acc, gyro, bias, opts, &mut rep),
+        (Some(acc), true) => ferraris(acc, gyro, (&gws, &rest_idx), bias, opts, &mut rep),
         (_, false) => rep.notes.push(
             "the file has no clock (no time column, no Fs): turns between rests cannot be \
              integrated, so the gyro's scale cannot come from them; give --rate-hz, or known \
@@ -234,20 +234,33 @@ fn rest_only_notes(rep: &mut GyroProtocolReport, levels: Vec<f64>) {
 fn ferraris(
     acc: &Recording,
     gyro: &Recording,
+    (gws, rest_idx): (&Windows, &[usize]),
     bias: [f64; 3],
     opts: &GyroProtocolOptions,
     rep: &mut GyroProtocolReport,
 ) {
-    let Ok(aws) = detect_windows(acc, &opts.detect) else {
-        return;
-    };
-    let means: Vec<[f64; 3]> = aws.stats.iter().map(|w| w.mean).collect();
-    let zero = zero_reading(&means, aws.units);
+    // The rests are the gyro's own (a turn about the vertical leaves the accelerometer still:
+    // its still windows would swallow the turn); the accelerometer's direction is read over
+    // each rest's samples, the same rows of the same file.
+    let mut rests: Vec<(usize, usize)> = rest_idx
+        .iter()
+        .map(|i| (gws.stats[*i].start, gws.stats[*i].end.min(acc.len())))
+        .filter(|(s, e)| e > s)
+        .collect();
+    rests.sort_unstable();
+    let means: Vec<[f64; 3]> = rests
+        .iter()
+        .map(|(s, e)| {
+            let n = (e - s) as f64;
+            std::array::from_fn(|a| acc.xyz[*s..*e].iter().map(|x| x[a]).sum::<f64>() / n)
+        })
+        .collect();
+    let units = if acc.is_integer() { "raw" } else { "g" };
+    let zero = zero_reading(&means, units);
     let dirs: Vec<[f64; 3]> = means
         .iter()
         .map(|m| window_face(*m, zero).direction)
         .collect();
-    let rests: Vec<(usize, usize)> = aws.stats.iter().map(|w| (w.start, w.end)).collect();
     let times = gyro.times(opts.detect.default_rate_hz);
     let raw_per_dps = opts
         .nominal_rad_per_raw
@@ -332,11 +345,24 @@ fn rate_table(
             rep.method = fit.method;
             rep.bias = fit.bias;
             rep.matrix = Some(fit.matrix);
-            rep.verdict = "good";
+            let explained = fit.rms_dps <= 3.0 * fit.noise_floor_dps;
+            rep.verdict = if explained {
+                "good"
+            } else {
+                "unexplained-residual"
+            };
             rep.notes.push(format!(
                 "|ω| after calibration is within {:.3} °/s RMS of the rates given (before: \
-                 {:.3} °/s)",
-                fit.rms_dps, fit.rms_dps_before
+                 {:.3} °/s); the steady parts' own noise allows {:.3} °/s{}",
+                fit.rms_dps,
+                fit.rms_dps_before,
+                fit.noise_floor_dps,
+                if explained {
+                    ""
+                } else {
+                    ": more is left than the noise explains (rates not exactly the ones given \
+                     each way, an offset while turning, or a wobbling table)"
+                }
             ));
             rep.rate_fit = Some(fit);
         }

@@ -32,6 +32,9 @@ pub struct SteadyMean {
     pub mean: [f64; 3],
     /// Samples averaged.
     pub samples: usize,
+    /// Standard error of the mean per axis, raw (from the spread of its blocks' means, so
+    /// correlated noise and wobble count; NaN when unknown).
+    pub std_error: [f64; 3],
 }
 
 /// A steady window sorted onto a known rate.
@@ -64,6 +67,9 @@ pub struct RateFit {
     pub rms_dps: f64,
     /// RMS of the same before (nominal scale from the common scale, bias from the rests), °/s.
     pub rms_dps_before: f64,
+    /// What the turning windows' own noise allows: RMS of their means' standard errors through
+    /// the calibration, °/s (NaN when unknown).
+    pub noise_floor_dps: f64,
 }
 
 /// Why the rates give no calibration.
@@ -110,7 +116,7 @@ pub const STEADY_BLOCK: usize = 32;
 /// [`STEADY_BLOCK`] samples whose spread is within 4× the rest's noise or 6 % of their rate
 /// (a turntable's spin shakes the sensor: its noise grows with the rate, which the still-window
 /// detector, tuned on the quietest blocks, refuses), joined while their means agree within
-/// 1 % of the rate (or the rest's noise); the interior of runs of at least 5 blocks is kept.
+/// 1 % of the rate (or the rest's noise); the interior of runs of at least 3 blocks is kept.
 pub fn steady_runs(xyz: &[[f64; 3]], bias: [f64; 3], rest_sd: [f64; 3]) -> Vec<SteadyMean> {
     let blocks: Vec<Option<[f64; 3]>> = xyz
         .chunks_exact(STEADY_BLOCK)
@@ -143,12 +149,22 @@ pub fn steady_runs(xyz: &[[f64; 3]], bias: [f64; 3], rest_sd: [f64; 3]) -> Vec<S
     }
     runs.push(open);
     // A run's first and last blocks may straddle a ramp (their means are still within 1 % of
-    // the rate): only the interior is kept, so runs of at least 5 blocks.
+    // the rate): only the interior is kept, of runs of at least 3 blocks.
     runs.into_iter()
-        .filter(|r| r.len() >= 5)
-        .map(|r| SteadyMean {
-            mean: mean_of(&r[1..r.len() - 1]),
-            samples: (r.len() - 2) * STEADY_BLOCK,
+        .filter(|r| r.len() >= 3)
+        .map(|r| {
+            let inner = &r[1..r.len() - 1];
+            let mean = mean_of(inner);
+            let k = inner.len() as f64;
+            let std_error = std::array::from_fn(|a| {
+                let v = inner.iter().map(|b| (b[a] - mean[a]).powi(2)).sum::<f64>() / (k - 1.0);
+                (v / k).sqrt()
+            });
+            SteadyMean {
+                mean,
+                samples: inner.len() * STEADY_BLOCK,
+                std_error,
+            }
         })
         .collect()
 }
@@ -258,7 +274,15 @@ pub fn fit_rates(ws: &[SteadyMean], rates_dps: &[f64]) -> Result<RateFit, RateFi
             .collect();
         (t.iter().map(|e| e * e).sum::<f64>() / t.len().max(1) as f64).sqrt()
     };
+    let floor: Vec<f64> = matched
+        .iter()
+        .filter(|(_, r)| *r > 0.0)
+        .map(|(i, _)| norm(mat_vec(&k, ws[*i].std_error)).to_degrees())
+        .collect();
+    let noise_floor_dps =
+        (floor.iter().map(|e| e * e).sum::<f64>() / floor.len().max(1) as f64).sqrt();
     Ok(RateFit {
+        noise_floor_dps,
         method,
         bias,
         matrix: k,
@@ -486,6 +510,7 @@ mod tests {
         SteadyMean {
             mean: std::array::from_fn(|r| (0..3).map(|c| s[r][c] * w[c]).sum::<f64>() + B[r]),
             samples: 500,
+            std_error: [f64::NAN; 3],
         }
     }
 
