@@ -306,6 +306,20 @@ def gyrofit(
     return _json.loads(out)
 
 
+def _rates(v: _t.Any, name: str) -> _t.Optional[_t.List[float]]:
+    """One rate or several (°/s), as ``--table-rate R[,R…]``; their range is checked by the
+    engine."""
+    if v is None:
+        return None
+    if isinstance(v, (str, bytes)):
+        raise TypeError(f"{name} takes a number or a list of numbers (°/s), not the string {v!r}")
+    if isinstance(v, _np.ndarray):
+        v = v[()] if v.ndim == 0 else list(v)
+    if isinstance(v, (list, tuple)):
+        return [_number(x, name) for x in v]
+    return [_number(v, name)]
+
+
 def calibrate(
     path: _PathLike,
     *,
@@ -317,7 +331,7 @@ def calibrate(
     rates in °/s (0 for a rest); ``rotation_deg``: the angle of each full turn (Ferraris)."""
     out = _wiical.calibrate(
         _path(path, "path"),
-        None if table_rate is None else _many(table_rate, "table_rate"),
+        _rates(table_rate, "table_rate"),
         _number(rotation_deg, "rotation_deg"),
     )
     return _json.loads(out)

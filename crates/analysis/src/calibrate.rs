@@ -111,6 +111,24 @@ fn accel_input(path: &Path, acc: &Option<Recording>) -> Option<crate::Result<Inp
 
 /// Calibrates every sensor `path` holds.
 pub fn calibrate(path: &Path, opts: &CalibrateOptions) -> crate::Result<CalibrateReport> {
+    if path.as_os_str() == "-" {
+        // Each sensor's triplet is read from the file in turn: standard input reads once.
+        return Err(crate::Error::InvalidSetting(
+            "calibrate reads the file once per sensor: give a file, not - (standard input)",
+        ));
+    }
+    if !(opts.gyro.rotation_deg.is_finite() && opts.gyro.rotation_deg > 0.0) {
+        return Err(crate::Error::InvalidSetting(
+            "rotation_deg: the angle of each full turn must be a finite number of degrees above 0",
+        ));
+    }
+    if let Some(r) = &opts.gyro.table_rates_dps {
+        if r.is_empty() || r.iter().any(|v| !(v.is_finite() && *v >= 0.0)) {
+            return Err(crate::Error::InvalidSetting(
+                "table_rate: the table rates must be finite numbers of °/s, 0 or above",
+            ));
+        }
+    }
     let acc = triplet(path, Sensor::Accelerometer);
     let gyro = triplet(path, Sensor::Gyroscope);
     let mag = triplet(path, Sensor::Magnetometer);

@@ -23,13 +23,29 @@ pub struct Args {
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// Known table rates for the gyro, °/s (0 for a rest part): see `gyrofit --table-rate`.
-    #[arg(long, value_delimiter = ',')]
+    #[arg(long, value_delimiter = ',', value_parser = rate_dps)]
     pub table_rate: Option<Vec<f64>>,
     /// The angle of each full turn between rests (Ferraris), degrees.
-    #[arg(long, default_value_t = 360.0)]
+    #[arg(long, default_value_t = 360.0, value_parser = angle_deg)]
     pub rotation_deg: f64,
     #[command(flatten)]
     pub detect: DetectArgs,
+}
+
+/// A table rate, °/s: finite, 0 (a rest) or above (a turn's direction comes from the data).
+pub fn rate_dps(s: &str) -> Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(v) if v.is_finite() && v >= 0.0 => Ok(v),
+        _ => Err(format!("'{s}': a rate in °/s, finite and 0 or above")),
+    }
+}
+
+/// A turn's angle, degrees: finite and above 0.
+pub fn angle_deg(s: &str) -> Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
+        _ => Err(format!("'{s}': an angle in degrees, finite and above 0")),
+    }
 }
 
 /// `cal.json` → `cal.gyro.json`.

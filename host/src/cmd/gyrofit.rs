@@ -45,10 +45,10 @@ pub struct Args {
     /// Known table rates, °/s (0 for a rest part), e.g. 25 for a rate table turned at ±25 °/s
     /// about each axis, or 0,200,270 for a record player at 33⅓ and 45 RPM: the gyro's scale,
     /// misalignment and bias from the steady parts, no clock needed.
-    #[arg(long, value_delimiter = ',')]
+    #[arg(long, value_delimiter = ',', value_parser = super::calibrate::rate_dps)]
     pub table_rate: Option<Vec<f64>>,
     /// The angle of each full turn between rests (the Ferraris protocol), degrees.
-    #[arg(long, default_value_t = 360.0)]
+    #[arg(long, default_value_t = 360.0, value_parser = super::calibrate::angle_deg)]
     pub rotation_deg: f64,
     #[command(flatten)]
     pub detect: DetectArgs,

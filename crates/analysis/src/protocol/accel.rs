@@ -24,10 +24,13 @@ pub struct AccelResult {
 /// Fits the windows `ws` with the method their protocol calls for.
 pub fn fit_by_protocol(ws: &Windows, opts: &FitOptions) -> Result<AccelResult, crate::Error> {
     let rec = recognise(ws);
+    // One pose with no axis near vertical gives no offsets: the multi-position fit's own
+    // refusal (too few windows, poses too close) says what to record, as before.
+    let level = rec.faces.first().is_some_and(|f| f.pose.is_some());
     match rec.protocol {
         AccelProtocol::Faces => faces(ws, &rec),
-        AccelProtocol::OnePose => one_pose(ws, &rec),
-        AccelProtocol::None | AccelProtocol::FreePoses => {
+        AccelProtocol::OnePose if level => one_pose(ws, &rec),
+        AccelProtocol::OnePose | AccelProtocol::None | AccelProtocol::FreePoses => {
             let report = run_windows(ws, opts)?;
             let means: Vec<[f64; 3]> = report
                 .windows

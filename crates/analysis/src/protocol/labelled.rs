@@ -14,8 +14,10 @@ use wiical_core::six_position::Pose;
 /// pose or an incomplete set of faces, which the residual analysis cannot take.
 pub fn faces_recording(rec: &Recording, ws: &Windows) -> Result<Option<Recording>, FitError> {
     let r = recognise(ws);
+    let level = r.faces.first().is_some_and(|f| f.pose.is_some());
     match r.protocol {
         AccelProtocol::None | AccelProtocol::FreePoses => return Ok(None),
+        AccelProtocol::OnePose if !level => return Ok(None),
         AccelProtocol::Faces if r.set.missing.is_empty() => {}
         _ => {
             return Err(FitError::Protocol {
