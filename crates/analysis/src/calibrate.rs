@@ -198,12 +198,31 @@ fn gyro_of(
             None => GyroOptions::estimated(),
         };
         gopts.detect = opts.fit.detect.clone();
-        if let Ok(rep) = crate::gyro::run(acc, gyro, &gopts) {
-            return Ok(GyroOutcome::Motions(Box::new(rep)));
+        match crate::gyro::run(acc, gyro, &gopts) {
+            Ok(rep) => return Ok(GyroOutcome::Motions(Box::new(rep))),
+            Err(e) if !another_protocol(&e) => return Err(e.into()),
+            Err(_) => {}
         }
     }
     let rep = crate::protocol::gyro::run(acc, gyro, &popts)?;
     Ok(GyroOutcome::Protocol(Box::new(rep)))
+}
+
+/// Whether the motion fit's refusal says the recording is another protocol (poses too few or
+/// all on faces, a static log, too few motions) rather than that the input is wrong (an absurd
+/// nominal, a gyro shifted, cut short or reading gravity), which stays refused.
+pub fn another_protocol(e: &crate::gyro::GyroError) -> bool {
+    use crate::error::fit::FitError;
+    use crate::gyro::GyroError as G;
+    matches!(
+        e,
+        G::Fit(
+            FitError::TooFewWindows { .. }
+                | FitError::DegeneratePoses { .. }
+                | FitError::FitFailed(_)
+        ) | G::TooFewMotions { .. }
+            | G::GyroStaticOnly { .. }
+    )
 }
 
 /// The magnetometer: `magfit`'s default ellipsoid and its loop.

@@ -118,7 +118,15 @@ pub fn run(a: &Args) -> Result<String> {
             // A gyro-only file (the loader took the gyro for the accelerometer) or known
             // table rates: the protocol's methods; otherwise the motions between poses, and
             // the protocol's methods when those give nothing.
-            let gyro_only = a.gyro_file.is_none() && acc.axis_columns == gyro.axis_columns;
+            // The loader took the gyro's named columns for the accelerometer: the file has
+            // none (the same triplet given as both by hand stays the motion fit's to judge).
+            let named_gyro = gyro.axis_columns.iter().all(|c| {
+                wiical_analysis::input::columns::classify(&c.to_ascii_lowercase()).is_some_and(
+                    |(_, s, _)| s == wiical_analysis::input::columns::Sensor::Gyroscope,
+                )
+            });
+            let gyro_only =
+                a.gyro_file.is_none() && acc.axis_columns == gyro.axis_columns && named_gyro;
             let popts = protocol_options(a, &opts);
             if gyro_only || a.table_rate.is_some() {
                 let acc = (!gyro_only).then_some(acc);
@@ -126,7 +134,10 @@ pub fn run(a: &Args) -> Result<String> {
             }
             match wiical_analysis::gyro::run(acc, gyro, &opts) {
                 Ok(rep) => rep,
-                Err(e) => return protocol_run(a, Some(acc), gyro, &popts, Some(e)),
+                Err(e) if wiical_analysis::calibrate::another_protocol(&e) => {
+                    return protocol_run(a, Some(acc), gyro, &popts, Some(e))
+                }
+                Err(e) => return Err(cli_error(e)),
             }
         }
         Pair::Streamed(imu) => run_streamed(imu, &opts).map_err(cli_error)?,

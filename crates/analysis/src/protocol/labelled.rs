@@ -9,25 +9,34 @@ use crate::error::fit::FitError;
 use crate::input::recording::Recording;
 use wiical_core::six_position::Pose;
 
+/// Whether the residual analysis can take the windows `ws`: `Ok(false)` for free poses
+/// (today's pipeline, also one pose with no axis near vertical, which that pipeline refuses in
+/// its own words), `Ok(true)` for the six faces, and an error naming the protocol for one pose
+/// or an incomplete set of faces.
+pub fn six_faces_or_free(ws: &Windows) -> Result<bool, FitError> {
+    let r = recognise(ws);
+    let level = r.faces.first().is_some_and(|f| f.pose.is_some());
+    match r.protocol {
+        AccelProtocol::None | AccelProtocol::FreePoses => Ok(false),
+        AccelProtocol::OnePose if !level => Ok(false),
+        AccelProtocol::Faces if r.set.missing.is_empty() => Ok(true),
+        _ => Err(FitError::Protocol {
+            summary: r.summary(),
+            why: "the residual analysis needs free poses or all six faces; `wiical fit` (or \
+                  `calibrate`) gives what these poses identify"
+                .into(),
+        }),
+    }
+}
+
 /// The labelled recording of `rec`'s face windows `ws` when they are the six faces; `None`
 /// for free poses (today's pipeline); an error naming the protocol when the windows are one
 /// pose or an incomplete set of faces, which the residual analysis cannot take.
 pub fn faces_recording(rec: &Recording, ws: &Windows) -> Result<Option<Recording>, FitError> {
-    let r = recognise(ws);
-    let level = r.faces.first().is_some_and(|f| f.pose.is_some());
-    match r.protocol {
-        AccelProtocol::None | AccelProtocol::FreePoses => return Ok(None),
-        AccelProtocol::OnePose if !level => return Ok(None),
-        AccelProtocol::Faces if r.set.missing.is_empty() => {}
-        _ => {
-            return Err(FitError::Protocol {
-                summary: r.summary(),
-                why: "the residual analysis needs free poses or all six faces; `wiical fit` (or \
-                      `calibrate`) gives what these poses identify"
-                    .into(),
-            })
-        }
+    if !six_faces_or_free(ws)? {
+        return Ok(None);
     }
+    let r = recognise(ws);
     let mut out = Recording {
         axis_columns: rec.axis_columns.clone(),
         sample_rate_hz: rec.sample_rate_hz,
