@@ -78,9 +78,11 @@ pub struct CalibrateReport {
 /// is also the triplet of a file that names no sensor (`x,y,z`, a header-less `t x y z`),
 /// as for `fit`.
 fn triplet(path: &Path, sensor: Sensor) -> Option<Recording> {
+    // The accelerometer as `fit` reads it (the loader's default triplet: `x,y,z` beside
+    // `gx,gy,gz` is the accelerometer); the others by their names.
     let opts = LoadOptions {
         columns: None,
-        sensor: Some(sensor),
+        sensor: (sensor != Sensor::Accelerometer).then_some(sensor),
     };
     let rec = crate::load(path, &opts).ok()?;
     let sensor_of = |c: &String| classify(&c.to_ascii_lowercase()).map(|(_, s, _)| s);
@@ -88,10 +90,9 @@ fn triplet(path: &Path, sensor: Sensor) -> Option<Recording> {
         .axis_columns
         .iter()
         .all(|c| sensor_of(c) == Some(sensor));
-    let other = rec
-        .axis_columns
-        .iter()
-        .any(|c| sensor_of(c).is_some_and(|s| s != Sensor::Accelerometer));
+    let other = rec.axis_columns.iter().any(|c| {
+        sensor_of(c).is_some_and(|s| matches!(s, Sensor::Gyroscope | Sensor::Magnetometer))
+    });
     (named || (sensor == Sensor::Accelerometer && !other)).then_some(rec)
 }
 
@@ -100,10 +101,7 @@ fn triplet(path: &Path, sensor: Sensor) -> Option<Recording> {
 fn accel_input(path: &Path, acc: &Option<Recording>) -> Option<crate::Result<Input>> {
     acc.as_ref()?;
     let opts = crate::input::window_means::WindowInputOptions {
-        load: LoadOptions {
-            columns: None,
-            sensor: Some(Sensor::Accelerometer),
-        },
+        load: LoadOptions::default(),
         force: false,
     };
     Some(crate::input::front_door::load_input(path, &opts))
