@@ -290,7 +290,7 @@ fn stdin_key() -> Option<FileKey> {
 }
 
 /// Refuses outputs that are one of the inputs, or each other, before anything is written.
-/// `-` (standard input) as an input is compared by what descriptor 0 reads ([`stdin_key`]).
+/// `-` (standard input) as an input is compared by what descriptor 0 reads (`stdin_key`).
 /// Paths whose directory does not exist are not compared (writing them fails later with a
 /// clear error).
 pub fn check_outputs(inputs: &[&Path], outputs: &[&Path]) -> Result<()> {
