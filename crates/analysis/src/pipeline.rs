@@ -49,13 +49,11 @@ pub fn fit_judged(input: &Input, opts: &FitOptions) -> Result<Judged<FitReport>>
 
 /// A free-pose fit report judged on its poses by the default coverage rule.
 fn judged_free(report: FitReport) -> Result<Judged<FitReport>> {
-    let means: Vec<[f64; 3]> = report
-        .windows
-        .iter()
-        .map(|w| w.mean.map(f64::from))
-        .collect();
-    let quality = Quality::assess(&report.calibration, &means, f64::from(report.rms_mg));
-    Ok(Judged { report, quality })
+    let r = crate::protocol::accel::judged_free(report);
+    Ok(Judged {
+        report: r.report,
+        quality: r.quality,
+    })
 }
 
 /// `wiical analyze`: the residual analysis, judged on its poses (a six-position table on its

@@ -31,16 +31,21 @@ pub fn fit_by_protocol(ws: &Windows, opts: &FitOptions) -> Result<AccelResult, c
         AccelProtocol::Faces => faces(ws, &rec),
         AccelProtocol::OnePose if level => one_pose(ws, &rec),
         AccelProtocol::OnePose | AccelProtocol::None | AccelProtocol::FreePoses => {
-            let report = run_windows(ws, opts)?;
-            let means: Vec<[f64; 3]> = report
-                .windows
-                .iter()
-                .map(|w| w.mean.map(f64::from))
-                .collect();
-            let quality = Quality::assess(&report.calibration, &means, f64::from(report.rms_mg));
-            Ok(AccelResult { report, quality })
+            Ok(judged_free(run_windows(ws, opts)?))
         }
     }
+}
+
+/// A free-pose fit report judged on its poses by the default coverage rule (the
+/// multi-position fit's verdict, also for a window-mean table's rows).
+pub fn judged_free(report: FitReport) -> AccelResult {
+    let means: Vec<[f64; 3]> = report
+        .windows
+        .iter()
+        .map(|w| w.mean.map(f64::from))
+        .collect();
+    let quality = Quality::assess(&report.calibration, &means, f64::from(report.rms_mg));
+    AccelResult { report, quality }
 }
 
 /// The six-position family.

@@ -107,21 +107,8 @@ pub fn run(
     if rest_idx.is_empty() {
         return Err(GyroProtocolError::NoRest);
     }
-    let (bias, se, n) = pooled(&gws, &rest_idx);
-    let mut rep = GyroProtocolReport {
-        protocol: String::new(),
-        method: "rest-bias",
-        bias,
-        matrix: opts.nominal_rad_per_raw.map(diag),
-        rests: rest_idx.len(),
-        rest_samples: n,
-        bias_std_error: se,
-        turns: Vec::new(),
-        turn_fit: None,
-        rate_fit: None,
-        verdict: "bias-only",
-        notes: Vec::new(),
-    };
+    let mut rep = rest_report(&gws, &rest_idx, opts);
+    let bias = rep.bias;
     let levels = turning_levels(&gws, &rest_idx, bias);
     match (acc, gyro.t.is_some() || gyro.sample_rate_hz.is_some()) {
         (Some(acc), true) => ferraris(acc, gyro, (&gws, &rest_idx), bias, opts, &mut rep),
@@ -148,6 +135,25 @@ fn pooled_var(ws: &Windows, pick: &[usize]) -> [f64; 3] {
             .sum::<f64>()
             / n.max(1) as f64
     })
+}
+
+/// The report of the rests alone: their pooled bias, the nominal scale when known.
+fn rest_report(gws: &Windows, rests: &[usize], opts: &GyroProtocolOptions) -> GyroProtocolReport {
+    let (bias, se, n) = pooled(gws, rests);
+    GyroProtocolReport {
+        protocol: String::new(),
+        method: "rest-bias",
+        bias,
+        matrix: opts.nominal_rad_per_raw.map(diag),
+        rests: rests.len(),
+        rest_samples: n,
+        bias_std_error: se,
+        turns: Vec::new(),
+        turn_fit: None,
+        rate_fit: None,
+        verdict: "bias-only",
+        notes: Vec::new(),
+    }
 }
 
 fn diag(s: [f64; 3]) -> [[f64; 3]; 3] {
@@ -316,23 +322,10 @@ fn rate_table(
     rates: &[f64],
     opts: &GyroProtocolOptions,
 ) -> GyroProtocolReport {
-    let (bias0, se, n) = pooled(gws, rests);
+    let mut rep = rest_report(gws, rests, opts);
+    rep.method = "rate-table";
     let rest_var = pooled_var(gws, rests);
-    let steady: Vec<SteadyMean> = steady_runs(&gyro.xyz, bias0, rest_var.map(f64::sqrt));
-    let mut rep = GyroProtocolReport {
-        protocol: String::new(),
-        method: "rate-table",
-        bias: bias0,
-        matrix: opts.nominal_rad_per_raw.map(diag),
-        rests: rests.len(),
-        rest_samples: n,
-        bias_std_error: se,
-        turns: Vec::new(),
-        turn_fit: None,
-        rate_fit: None,
-        verdict: "bias-only",
-        notes: Vec::new(),
-    };
+    let steady: Vec<SteadyMean> = steady_runs(&gyro.xyz, rep.bias, rest_var.map(f64::sqrt));
     match fit_rates(&steady, rates) {
         Ok(fit) => {
             let turning = fit.windows.iter().filter(|w| w.rate_dps > 0.0).count();
