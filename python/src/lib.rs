@@ -508,13 +508,7 @@ fn gyrofit(
             "the nominal sensitivity must be finite and non-zero on every axis".into(),
         ));
     }
-    let mut opts = match given {
-        Some((s, source)) => GyroOptions {
-            nominal_source: source,
-            ..GyroOptions::new(s)
-        },
-        None => GyroOptions::estimated(),
-    };
+    let mut opts = GyroOptions::of_nominal(given);
     opts.detect = detect.options()?;
     let rep = py
         .detach(|| wiical_analysis::gyro::run(&acc, &gyro, &opts))

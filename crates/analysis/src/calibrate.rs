@@ -10,7 +10,7 @@
 //! failure never hides the others'.
 
 use crate::gyro::GyroOptions;
-use crate::input::columns::{classify, Sensor};
+use crate::input::columns::{all_named, column_sensor, Sensor};
 use crate::input::front_door::Input;
 use crate::input::recording::Recording;
 use crate::magnetometer::{self, MagAnalysis, MagFitReport, MagInput, MagModel};
@@ -85,13 +85,9 @@ fn triplet(path: &Path, sensor: Sensor) -> Option<Recording> {
         sensor: (sensor != Sensor::Accelerometer).then_some(sensor),
     };
     let rec = crate::load(path, &opts).ok()?;
-    let sensor_of = |c: &String| classify(&c.to_ascii_lowercase()).map(|(_, s, _)| s);
-    let named = rec
-        .axis_columns
-        .iter()
-        .all(|c| sensor_of(c) == Some(sensor));
+    let named = all_named(&rec.axis_columns, sensor);
     let other = rec.axis_columns.iter().any(|c| {
-        sensor_of(c).is_some_and(|s| matches!(s, Sensor::Gyroscope | Sensor::Magnetometer))
+        column_sensor(c).is_some_and(|s| matches!(s, Sensor::Gyroscope | Sensor::Magnetometer))
     });
     (named || (sensor == Sensor::Accelerometer && !other)).then_some(rec)
 }
@@ -188,39 +184,16 @@ fn gyro_of(
     let mut popts = opts.gyro.clone();
     popts.nominal_rad_per_raw = popts.nominal_rad_per_raw.or(nominal.as_ref().map(|n| n.0));
     if let (Some(acc), None) = (acc, &popts.table_rates_dps) {
-        let mut gopts = match nominal {
-            Some((scale, source)) => GyroOptions {
-                nominal_source: source,
-                ..GyroOptions::new(scale)
-            },
-            None => GyroOptions::estimated(),
-        };
+        let mut gopts = GyroOptions::of_nominal(nominal);
         gopts.detect = opts.fit.detect.clone();
         match crate::gyro::run(acc, gyro, &gopts) {
             Ok(rep) => return Ok(GyroOutcome::Motions(Box::new(rep))),
-            Err(e) if !another_protocol(&e) => return Err(e.into()),
+            Err(e) if !e.says_another_protocol() => return Err(e.into()),
             Err(_) => {}
         }
     }
     let rep = crate::protocol::gyro::run(acc, gyro, &popts)?;
     Ok(GyroOutcome::Protocol(Box::new(rep)))
-}
-
-/// Whether the motion fit's refusal says the recording is another protocol (poses too few or
-/// all on faces, a static log, too few motions) rather than that the input is wrong (an absurd
-/// nominal, a gyro shifted, cut short or reading gravity), which stays refused.
-pub fn another_protocol(e: &crate::gyro::GyroError) -> bool {
-    use crate::error::fit::FitError;
-    use crate::gyro::GyroError as G;
-    matches!(
-        e,
-        G::Fit(
-            FitError::TooFewWindows { .. }
-                | FitError::DegeneratePoses { .. }
-                | FitError::FitFailed(_)
-        ) | G::TooFewMotions { .. }
-            | G::GyroStaticOnly { .. }
-    )
 }
 
 /// The magnetometer: `magfit`'s default ellipsoid and its loop.

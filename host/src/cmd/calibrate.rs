@@ -98,25 +98,12 @@ fn save(path: &Path, gyro_path: Option<&Path>, rep: &CalibrateReport) -> Result<
     let (Some(gp), Some(Outcome::Ok(g))) = (gyro_path, &rep.gyroscope) else {
         return Ok(());
     };
-    use wiical_analysis::output::gyrocal::{write_gyro_calibration, GyroCalFile};
     let file = match g {
-        GyroOutcome::Motions(r) => GyroCalFile {
-            model: r.model.to_string(),
-            correction: r.correction,
-            cv_rms_deg: r.cv_rms_deg,
-        },
-        GyroOutcome::Protocol(r) => match r.matrix {
-            Some(matrix) => GyroCalFile {
-                model: r.method.to_string(),
-                correction: wiical_core::gyro_correct::GyroCorrection {
-                    bias: r.bias,
-                    matrix,
-                    effects: Default::default(),
-                },
-                cv_rms_deg: f64::NAN,
-            },
+        GyroOutcome::Motions(r) => r.cal_file(),
+        GyroOutcome::Protocol(r) => match r.cal_file() {
+            Some(file) => file,
             None => return Ok(()),
         },
     };
-    write_gyro_calibration(gp, &file).map_err(cli_error)
+    wiical_analysis::output::gyrocal::write_gyro_calibration(gp, &file).map_err(cli_error)
 }

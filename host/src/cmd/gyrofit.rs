@@ -101,13 +101,7 @@ pub fn run(a: &Args) -> Result<String> {
         Pair::Held(_, gyro) => gyro,
         Pair::Streamed(imu) => imu.gyroscope(),
     };
-    let mut opts = match nominal(a, gyro)? {
-        Some((scale, source)) => GyroOptions {
-            nominal_source: source,
-            ..GyroOptions::new(scale)
-        },
-        None => GyroOptions::estimated(),
-    };
+    let mut opts = GyroOptions::of_nominal(nominal(a, gyro)?);
     opts.detect = a
         .detect
         .fit_options(wiical_core::multipos::MultiPosModel::Full)
@@ -120,11 +114,8 @@ pub fn run(a: &Args) -> Result<String> {
             // the protocol's methods when those give nothing.
             // The loader took the gyro's named columns for the accelerometer: the file has
             // none (the same triplet given as both by hand stays the motion fit's to judge).
-            let named_gyro = gyro.axis_columns.iter().all(|c| {
-                wiical_analysis::input::columns::classify(&c.to_ascii_lowercase()).is_some_and(
-                    |(_, s, _)| s == wiical_analysis::input::columns::Sensor::Gyroscope,
-                )
-            });
+            use wiical_analysis::input::columns::{all_named, Sensor};
+            let named_gyro = all_named(&gyro.axis_columns, Sensor::Gyroscope);
             let gyro_only =
                 a.gyro_file.is_none() && acc.axis_columns == gyro.axis_columns && named_gyro;
             let popts = protocol_options(a, &opts);
@@ -134,7 +125,7 @@ pub fn run(a: &Args) -> Result<String> {
             }
             match wiical_analysis::gyro::run(acc, gyro, &opts) {
                 Ok(rep) => rep,
-                Err(e) if wiical_analysis::calibrate::another_protocol(&e) => {
+                Err(e) if e.says_another_protocol() => {
                     return protocol_run(a, Some(acc), gyro, &popts, Some(e))
                 }
                 Err(e) => return Err(cli_error(e)),
@@ -205,23 +196,13 @@ fn protocol_run(
 /// Writes `--out` for a protocol's gyro calibration (no held-out error: the file has no
 /// `cv_rms_deg`); refused when only the bias was measured and no nominal scale is known.
 fn save_protocol(path: &std::path::Path, rep: &GyroProtocolReport) -> Result<()> {
-    use wiical_analysis::output::gyrocal::{write_gyro_calibration, GyroCalFile};
-    let Some(matrix) = rep.matrix else {
+    let Some(file) = rep.cal_file() else {
         bail!(
             "--out {}: only the gyro's bias was measured and no nominal scale is known (give --scale or --counts-per-dps, or known rates with --table-rate)",
             path.display()
         );
     };
-    let file = GyroCalFile {
-        model: rep.method.to_string(),
-        correction: wiical_core::gyro_correct::GyroCorrection {
-            bias: rep.bias,
-            matrix,
-            effects: Default::default(),
-        },
-        cv_rms_deg: f64::NAN,
-    };
-    write_gyro_calibration(path, &file).map_err(cli_error)
+    wiical_analysis::output::gyrocal::write_gyro_calibration(path, &file).map_err(cli_error)
 }
 
 /// The two recordings: held, or (a plain text file of at least the streaming size) streamed
@@ -295,13 +276,8 @@ fn gyro_info(a: &Args, acc: &Recording, gyro: &Recording) {
 /// Writes `--out` (`wiical_analysis::output::gyrocal`): the chosen calibration with the
 /// accepted g-sensitivity; accepted effects the file cannot hold are named on stderr.
 fn save(path: &std::path::Path, rep: &wiical_analysis::gyro::GyroReport) -> Result<()> {
-    use wiical_analysis::output::gyrocal::{write_gyro_calibration, GyroCalFile};
-    let file = GyroCalFile {
-        model: rep.model.to_string(),
-        correction: rep.correction,
-        cv_rms_deg: rep.cv_rms_deg,
-    };
-    write_gyro_calibration(path, &file).map_err(cli_error)?;
+    wiical_analysis::output::gyrocal::write_gyro_calibration(path, &rep.cal_file())
+        .map_err(cli_error)?;
     for name in rep
         .effects
         .iter()

@@ -130,3 +130,23 @@ pub enum GyroError {
         suggested: String,
     },
 }
+
+impl GyroError {
+    /// Whether this refusal of the motion fit says the recording is another protocol (the
+    /// accelerometer's poses too few or all on faces, a static log, too few motions) rather
+    /// than that the input is wrong (an absurd nominal, a gyro shifted, cut short or reading
+    /// gravity), which stays refused: `gyrofit` and `calibrate` then try the protocols'
+    /// methods (`crate::protocol::gyro`).
+    pub fn says_another_protocol(&self) -> bool {
+        use crate::error::fit::FitError;
+        matches!(
+            self,
+            GyroError::Fit(
+                FitError::TooFewWindows { .. }
+                    | FitError::DegeneratePoses { .. }
+                    | FitError::FitFailed(_)
+            ) | GyroError::TooFewMotions { .. }
+                | GyroError::GyroStaticOnly { .. }
+        )
+    }
+}

@@ -107,19 +107,7 @@ pub fn run_windows(ws: &Windows, opts: &FitOptions) -> Result<FitReport, FitErro
     let means: Vec<[f32; 3]> = ws.stats.iter().map(|w| w.mean.map(|x| x as f32)).collect();
     let fit = fit_means(&means, opts.model).map_err(|e| e.found_by(opts.detect.adaptive))?;
     let cal = fit.calibration;
-    let windows: Vec<WindowReport> = ws
-        .stats
-        .iter()
-        .zip(&means)
-        .map(|(w, m)| WindowReport {
-            t_start: w.t_first,
-            t_end: w.t_last,
-            samples: w.n().map(|n| n as u32),
-            mean: *m,
-            std: w.var.map(|v| v.sqrt() as f32),
-            residual_mg: 1000.0 * multipos::norm_residual(&cal, *m, 1.0),
-        })
-        .collect();
+    let windows = window_reports(ws, &cal);
     Ok(FitReport {
         static_windows: windows.len(),
         bias: cal.bias,
@@ -134,6 +122,25 @@ pub fn run_windows(ws: &Windows, opts: &FitOptions) -> Result<FitReport, FitErro
         calibration: cal,
         protocol: None,
     })
+}
+
+/// Each window as reported, with its residual `‖a‖ − 1 g` under `cal` (the multi-position
+/// fit's and the protocols' calibrations alike).
+pub(crate) fn window_reports(ws: &Windows, cal: &Calibration) -> Vec<WindowReport> {
+    ws.stats
+        .iter()
+        .map(|w| {
+            let m = w.mean.map(|x| x as f32);
+            WindowReport {
+                t_start: w.t_first,
+                t_end: w.t_last,
+                samples: w.n().map(|n| n as u32),
+                mean: m,
+                std: w.var.map(|v| v.sqrt() as f32),
+                residual_mg: 1000.0 * multipos::norm_residual(cal, m, 1.0),
+            }
+        })
+        .collect()
 }
 
 /// The core's `f32` multi-position fit of window means, its errors told in terms of windows.

@@ -39,6 +39,18 @@ impl GyroOptions {
         }
     }
 
+    /// Defaults for the nominal a caller found (`--scale`, the columns' unit: rad/s per count
+    /// and where it came from), else estimated from the motions.
+    pub fn of_nominal(given: Option<([f64; 3], String)>) -> Self {
+        match given {
+            Some((scale, source)) => Self {
+                nominal_source: source,
+                ..Self::new(scale)
+            },
+            None => Self::estimated(),
+        }
+    }
+
     /// Defaults for a nominal sensitivity.
     pub fn new(nominal_rad_per_count: [f64; 3]) -> Self {
         Self {

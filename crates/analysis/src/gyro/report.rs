@@ -292,6 +292,18 @@ pub struct GyroReport {
     pub open_basis: Option<OpenBasis>,
 }
 
+impl GyroReport {
+    /// The gyro calibration file of this report (what `gyrofit --out` writes): the chosen
+    /// model, its correction with the accepted g-sensitivity, its held-out error.
+    pub fn cal_file(&self) -> crate::output::gyrocal::GyroCalFile {
+        crate::output::gyrocal::GyroCalFile {
+            model: self.model.to_string(),
+            correction: self.correction,
+            cv_rms_deg: self.cv_rms_deg,
+        }
+    }
+}
+
 /// One term of an open basis at one round.
 #[derive(Debug, Clone, Serialize)]
 pub struct BasisRow {

@@ -21,7 +21,7 @@ use super::GyroReport;
 use crate::detect::streamed::{detect_windows_streamed, sample_clock};
 use crate::detect::windows::{DetectOptions, Windows};
 use crate::error::{Error, Result};
-use crate::input::columns::{classify, LoadOptions, Sensor};
+use crate::input::columns::{all_named, LoadOptions, Sensor};
 use crate::input::recording::Recording;
 use crate::input::text_source::TextSource;
 use crate::input::timecheck::TimeSteps;
@@ -99,10 +99,7 @@ pub fn open(
     let (Some(a), Some(g)) = (a?, g?) else {
         return Ok(None);
     };
-    let is_gyro = |n: &String| {
-        classify(&n.to_ascii_lowercase()).is_some_and(|(_, s, _)| s == Sensor::Gyroscope)
-    };
-    if named && !g.meta.axis_columns.iter().all(is_gyro) {
+    if named && !all_named(&g.meta.axis_columns, Sensor::Gyroscope) {
         let taken = g.meta.axis_columns.join(",");
         return Err(Error::from(GyroError::NoGyroColumns { taken }).in_file(acc.0));
     }

@@ -229,6 +229,17 @@ pub fn unit_of(name: &str) -> Option<&'static str> {
     })
 }
 
+/// The sensor a header name is an axis of (any case); `None`: not an axis column.
+pub fn column_sensor(name: &str) -> Option<Sensor> {
+    classify(&name.to_ascii_lowercase()).map(|(_, s, _)| s)
+}
+
+/// True when every name is an axis of `sensor` by its name (`gx`, `gyro_x_dps` for the
+/// gyroscope): a triplet the loader took by name, not as its fallback.
+pub fn all_named(names: &[String], sensor: Sensor) -> bool {
+    names.iter().all(|n| column_sensor(n) == Some(sensor))
+}
+
 /// The unit of a triplet: the one all three names state, else `None`.
 pub fn triplet_unit(names: &[String; 3]) -> Option<&'static str> {
     let u = unit_of(&names[0])?;

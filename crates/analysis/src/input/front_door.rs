@@ -451,11 +451,7 @@ fn check_gyro_named(
     gyro: Recording,
     path: &Path,
 ) -> Result<(Recording, Recording)> {
-    let is_gyro = |n: &String| {
-        crate::input::columns::classify(&n.to_ascii_lowercase())
-            .is_some_and(|(_, s, _)| s == Sensor::Gyroscope)
-    };
-    if named && !gyro.axis_columns.iter().all(is_gyro) {
+    if named && !crate::input::columns::all_named(&gyro.axis_columns, Sensor::Gyroscope) {
         return Err(Error::from(GyroError::NoGyroColumns {
             taken: gyro.axis_columns.join(","),
         })

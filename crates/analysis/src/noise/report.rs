@@ -7,7 +7,7 @@
 
 use crate::error::noise::NoiseError;
 use crate::error::Result;
-use crate::input::columns::{classify, unit_of, Sensor};
+use crate::input::columns::{column_sensor, unit_of, Sensor};
 use crate::input::front_door::{open_whole, stream_from_bytes};
 use crate::input::recording::Recording;
 use crate::input::text::{parse, LoadOptions};
@@ -255,7 +255,7 @@ fn head_lines(text: &str, n: usize) -> &str {
 }
 
 fn sensor_of(column: &str) -> Sensor {
-    classify(&column.to_ascii_lowercase()).map_or(Sensor::Unnamed, |(_, s, _)| s)
+    column_sensor(column).unwrap_or(Sensor::Unnamed)
 }
 
 /// Each axis's Allan deviation and terms. `default_rate_hz` is used when the recording has no

@@ -7,10 +7,10 @@ use super::offsets::{not_identified, offsets};
 use super::{recognise, AccelProtocol, AccelRecognition, ProtocolReport};
 use crate::detect::windows::Windows;
 use crate::error::fit::FitError;
-use crate::fit::base::{run_windows, FitOptions, FitReport, WindowReport};
+use crate::fit::base::{run_windows, window_reports, FitOptions, FitReport};
 use crate::report::verdict::Quality;
 use wiical_core::acceptance::CoverageRule;
-use wiical_core::{multipos, Calibration};
+use wiical_core::Calibration;
 
 /// A fit report and the verdict its method calls for.
 pub struct AccelResult {
@@ -24,15 +24,10 @@ pub struct AccelResult {
 /// Fits the windows `ws` with the method their protocol calls for.
 pub fn fit_by_protocol(ws: &Windows, opts: &FitOptions) -> Result<AccelResult, crate::Error> {
     let rec = recognise(ws);
-    // One pose with no axis near vertical gives no offsets: the multi-position fit's own
-    // refusal (too few windows, poses too close) says what to record, as before.
-    let level = rec.faces.first().is_some_and(|f| f.pose.is_some());
     match rec.protocol {
         AccelProtocol::Faces => faces(ws, &rec),
-        AccelProtocol::OnePose if level => one_pose(ws, &rec),
-        AccelProtocol::OnePose | AccelProtocol::None | AccelProtocol::FreePoses => {
-            Ok(judged_free(run_windows(ws, opts)?))
-        }
+        AccelProtocol::OnePose => one_pose(ws, &rec),
+        AccelProtocol::None | AccelProtocol::FreePoses => Ok(judged_free(run_windows(ws, opts)?)),
     }
 }
 
@@ -118,21 +113,7 @@ fn one_pose(ws: &Windows, rec: &AccelRecognition) -> Result<AccelResult, crate::
 
 /// The `fit` report of a calibration not found by the multi-position solver.
 fn report_of(ws: &Windows, cal: &Calibration, identifiability: f64) -> FitReport {
-    let windows: Vec<WindowReport> = ws
-        .stats
-        .iter()
-        .map(|w| {
-            let m = w.mean.map(|x| x as f32);
-            WindowReport {
-                t_start: w.t_first,
-                t_end: w.t_last,
-                samples: w.n().map(|n| n as u32),
-                mean: m,
-                std: w.var.map(|v| v.sqrt() as f32),
-                residual_mg: 1000.0 * multipos::norm_residual(cal, m, 1.0),
-            }
-        })
-        .collect();
+    let windows = window_reports(ws, cal);
     let sq: f32 = windows.iter().map(|w| w.residual_mg * w.residual_mg).sum();
     let rms_mg = (sq / windows.len().max(1) as f32).sqrt();
     let max_abs_mg = windows

@@ -14,6 +14,7 @@
 //! is named, with the face to add.
 
 use super::faces::FaceSet;
+use super::vec3::AXES;
 use nalgebra::{Matrix3, Matrix4, Matrix4x3};
 use serde::Serialize;
 use wiical_core::six_position::{self, Pose};
@@ -80,8 +81,6 @@ pub enum FaceFitError {
     #[error("the faces' readings do not differ enough to invert the scale matrix")]
     Singular,
 }
-
-const AXES: [&str; 3] = ["x", "y", "z"];
 
 /// Averages the repeats of each face (weighted by samples when all are known).
 pub fn average_faces(means: &[FaceMean]) -> Vec<(Pose, [f64; 3])> {

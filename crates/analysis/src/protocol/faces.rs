@@ -8,6 +8,7 @@
 //! off); free poses spread everywhere, so a recording whose every window is a face, and
 //! whose repeats of a face agree, is a six-position-style recording.
 
+use super::vec3::{angle_deg, nearest_axis, norm, sub};
 use serde::Serialize;
 use wiical_core::six_position::Pose;
 
@@ -74,30 +75,18 @@ pub fn zero_reading(means: &[[f64; 3]], units: &str) -> [f64; 3] {
 
 /// The face of a window whose mean is `mean`, directions from `zero`.
 pub fn window_face(mean: [f64; 3], zero: [f64; 3]) -> WindowFace {
-    let u = [mean[0] - zero[0], mean[1] - zero[1], mean[2] - zero[2]];
-    let norm = (u[0] * u[0] + u[1] * u[1] + u[2] * u[2]).sqrt();
-    let direction = if norm > 0.0 {
-        u.map(|v| v / norm)
-    } else {
-        [0.0; 3]
-    };
-    let axis = (0..3)
-        .max_by(|&a, &b| direction[a].abs().total_cmp(&direction[b].abs()))
-        .unwrap_or(0);
-    let off_deg = direction[axis].abs().clamp(0.0, 1.0).acos().to_degrees();
-    let pose = (norm > 0.0 && off_deg <= FACE_TOLERANCE_DEG)
-        .then(|| Pose::ALL[2 * axis + usize::from(direction[axis] < 0.0)]);
+    let u = sub(mean, zero);
+    let n = norm(u);
+    let direction = if n > 0.0 { u.map(|v| v / n) } else { [0.0; 3] };
+    // A zero vector points nowhere: 90° from every axis, no face.
+    let (axis, sign, off_deg) = nearest_axis(u).unwrap_or((0, 1.0, 90.0));
+    let pose =
+        (off_deg <= FACE_TOLERANCE_DEG).then(|| Pose::ALL[2 * axis + usize::from(sign < 0.0)]);
     WindowFace {
         pose,
         off_deg,
         direction,
     }
-}
-
-/// Angle between two unit vectors, degrees.
-pub fn angle_deg(a: [f64; 3], b: [f64; 3]) -> f64 {
-    let dot = a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-    dot.clamp(-1.0, 1.0).acos().to_degrees()
 }
 
 /// The face set of windows already classified.

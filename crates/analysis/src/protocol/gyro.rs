@@ -9,9 +9,27 @@
 use super::faces::{window_face, zero_reading};
 use super::rates::{fit_rates, steady_runs, RateFit, SteadyMean};
 use super::rotations::{fit_turns, turns, Turn, TurnFit, TurnInput};
+use super::vec3::{norm, sub};
 use crate::detect::windows::{detect_windows, DetectOptions, Windows};
 use crate::input::recording::Recording;
 use serde::Serialize;
+
+impl GyroProtocolReport {
+    /// The gyro calibration file of this report, `None` when only the bias was measured and
+    /// no nominal scale is known. It has no held-out error (`cv_rms_deg` absent: the protocols'
+    /// fits are exactly determined or judged against the rates, not by held-out motions).
+    pub fn cal_file(&self) -> Option<crate::output::gyrocal::GyroCalFile> {
+        Some(crate::output::gyrocal::GyroCalFile {
+            model: self.method.to_string(),
+            correction: wiical_core::gyro_correct::GyroCorrection {
+                bias: self.bias,
+                matrix: self.matrix?,
+                effects: Default::default(),
+            },
+            cv_rms_deg: f64::NAN,
+        })
+    }
+}
 
 /// Settings of the gyro's protocol methods.
 #[derive(Debug, Clone)]
@@ -72,24 +90,36 @@ pub use crate::error::protocol::GyroProtocolError;
 
 type Result<T> = std::result::Result<T, GyroProtocolError>;
 
-/// Count-weighted mean and its standard error over windows.
-fn pooled(ws: &Windows, pick: &[usize]) -> ([f64; 3], [f64; 3], usize) {
-    let n: usize = pick.iter().map(|i| ws.stats[*i].count.unwrap_or(1)).sum();
-    let mean = std::array::from_fn(|a| {
-        pick.iter()
-            .map(|i| ws.stats[*i].count.unwrap_or(1) as f64 * ws.stats[*i].mean[a])
-            .sum::<f64>()
-            / n.max(1) as f64
-    });
-    let se = std::array::from_fn(|a| {
-        let v = pick
-            .iter()
-            .map(|i| ws.stats[*i].count.unwrap_or(1) as f64 * ws.stats[*i].var[a])
-            .sum::<f64>()
-            / n.max(1) as f64;
-        (v / n.max(1) as f64).sqrt()
-    });
-    (mean, se, n)
+/// Windows pooled: the count-weighted mean and per-sample variance, raw, and the samples.
+struct Pooled {
+    mean: [f64; 3],
+    var: [f64; 3],
+    samples: usize,
+}
+
+impl Pooled {
+    /// Count-weighted over the windows `pick` of `ws`.
+    fn of(ws: &Windows, pick: &[usize]) -> Self {
+        let samples: usize = pick.iter().map(|i| ws.stats[*i].count.unwrap_or(1)).sum();
+        let weighted = |field: fn(&crate::detect::windows::WindowStats) -> [f64; 3]| {
+            std::array::from_fn(|a| {
+                pick.iter()
+                    .map(|i| ws.stats[*i].count.unwrap_or(1) as f64 * field(&ws.stats[*i])[a])
+                    .sum::<f64>()
+                    / samples.max(1) as f64
+            })
+        };
+        Self {
+            mean: weighted(|w| w.mean),
+            var: weighted(|w| w.var),
+            samples,
+        }
+    }
+
+    /// The mean's standard error, raw (samples taken as independent).
+    fn std_error(&self) -> [f64; 3] {
+        self.var.map(|v| (v / self.samples.max(1) as f64).sqrt())
+    }
 }
 
 /// Runs the gyro's protocol method on `gyro` (and the accelerometer `acc` of the same samples,
@@ -126,28 +156,17 @@ pub fn run(
     Ok(rep)
 }
 
-/// Count-weighted per-sample variance over windows, raw².
-fn pooled_var(ws: &Windows, pick: &[usize]) -> [f64; 3] {
-    let n: usize = pick.iter().map(|i| ws.stats[*i].count.unwrap_or(1)).sum();
-    std::array::from_fn(|a| {
-        pick.iter()
-            .map(|i| ws.stats[*i].count.unwrap_or(1) as f64 * ws.stats[*i].var[a])
-            .sum::<f64>()
-            / n.max(1) as f64
-    })
-}
-
 /// The report of the rests alone: their pooled bias, the nominal scale when known.
 fn rest_report(gws: &Windows, rests: &[usize], opts: &GyroProtocolOptions) -> GyroProtocolReport {
-    let (bias, se, n) = pooled(gws, rests);
+    let p = Pooled::of(gws, rests);
     GyroProtocolReport {
         protocol: String::new(),
         method: "rest-bias",
-        bias,
+        bias: p.mean,
         matrix: opts.nominal_rad_per_raw.map(diag),
         rests: rests.len(),
-        rest_samples: n,
-        bias_std_error: se,
+        rest_samples: p.samples,
+        bias_std_error: p.std_error(),
         turns: Vec::new(),
         turn_fit: None,
         rate_fit: None,
@@ -162,7 +181,6 @@ fn diag(s: [f64; 3]) -> [[f64; 3]; 3] {
 
 /// The windows at rest: within a few noise widths of the slowest window.
 fn rests_of(ws: &Windows) -> Vec<usize> {
-    let norm = |v: [f64; 3]| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
     let Some(slow) = (0..ws.stats.len())
         .min_by(|a, b| norm(ws.stats[*a].mean).total_cmp(&norm(ws.stats[*b].mean)))
     else {
@@ -174,10 +192,7 @@ fn rests_of(ws: &Windows) -> Vec<usize> {
     // beyond (a rate table's 25 °/s is ~100 standard deviations).
     let sd = norm(ws.stats[slow].var.map(f64::sqrt)).max(f64::MIN_POSITIVE);
     (0..ws.stats.len())
-        .filter(|i| {
-            let m = ws.stats[*i].mean;
-            norm([m[0] - origin[0], m[1] - origin[1], m[2] - origin[2]]) <= 5.0 * sd
-        })
+        .filter(|i| norm(sub(ws.stats[*i].mean, origin)) <= 5.0 * sd)
         .collect()
 }
 
@@ -185,10 +200,7 @@ fn rests_of(ws: &Windows) -> Vec<usize> {
 fn turning_levels(ws: &Windows, rests: &[usize], bias: [f64; 3]) -> Vec<f64> {
     let mut mags: Vec<f64> = (0..ws.stats.len())
         .filter(|i| !rests.contains(i))
-        .map(|i| {
-            let m = ws.stats[i].mean;
-            ((m[0] - bias[0]).powi(2) + (m[1] - bias[1]).powi(2) + (m[2] - bias[2]).powi(2)).sqrt()
-        })
+        .map(|i| norm(sub(ws.stats[i].mean, bias)))
         .collect();
     mags.sort_by(f64::total_cmp);
     let mut levels: Vec<(f64, usize)> = Vec::new();
@@ -324,8 +336,8 @@ fn rate_table(
 ) -> GyroProtocolReport {
     let mut rep = rest_report(gws, rests, opts);
     rep.method = "rate-table";
-    let rest_var = pooled_var(gws, rests);
-    let steady: Vec<SteadyMean> = steady_runs(&gyro.xyz, rep.bias, rest_var.map(f64::sqrt));
+    let rest_sd = Pooled::of(gws, rests).var.map(f64::sqrt);
+    let steady: Vec<SteadyMean> = steady_runs(&gyro.xyz, rep.bias, rest_sd);
     match fit_rates(&steady, rates) {
         Ok(fit) => {
             let turning = fit.windows.iter().filter(|w| w.rate_dps > 0.0).count();

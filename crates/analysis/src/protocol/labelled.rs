@@ -3,22 +3,18 @@
 //! (`x+ … z-`), so that `analyze` runs the seed's residual contrasts
 //! ([`crate::search::six_contrasts`]) on a recording nobody labelled.
 
-use super::{recognise, AccelProtocol};
+use super::{recognise, AccelProtocol, AccelRecognition};
 use crate::detect::windows::Windows;
 use crate::error::fit::FitError;
 use crate::input::recording::Recording;
 use wiical_core::six_position::Pose;
 
-/// Whether the residual analysis can take the windows `ws`: `Ok(false)` for free poses
-/// (today's pipeline, also one pose with no axis near vertical, which that pipeline refuses in
-/// its own words), `Ok(true)` for the six faces, and an error naming the protocol for one pose
-/// or an incomplete set of faces.
-pub fn six_faces_or_free(ws: &Windows) -> Result<bool, FitError> {
-    let r = recognise(ws);
-    let level = r.faces.first().is_some_and(|f| f.pose.is_some());
+/// Whether the residual analysis can take windows recognised as `r`: `Ok(false)` for free
+/// poses (today's pipeline), `Ok(true)` for the six faces, and an error naming the protocol
+/// for one pose or an incomplete set of faces.
+pub fn six_faces_or_free(r: &AccelRecognition) -> Result<bool, FitError> {
     match r.protocol {
         AccelProtocol::None | AccelProtocol::FreePoses => Ok(false),
-        AccelProtocol::OnePose if !level => Ok(false),
         AccelProtocol::Faces if r.set.missing.is_empty() => Ok(true),
         _ => Err(FitError::Protocol {
             summary: r.summary(),
@@ -33,10 +29,10 @@ pub fn six_faces_or_free(ws: &Windows) -> Result<bool, FitError> {
 /// for free poses (today's pipeline); an error naming the protocol when the windows are one
 /// pose or an incomplete set of faces, which the residual analysis cannot take.
 pub fn faces_recording(rec: &Recording, ws: &Windows) -> Result<Option<Recording>, FitError> {
-    if !six_faces_or_free(ws)? {
+    let r = recognise(ws);
+    if !six_faces_or_free(&r)? {
         return Ok(None);
     }
-    let r = recognise(ws);
     let mut out = Recording {
         axis_columns: rec.axis_columns.clone(),
         sample_rate_hz: rec.sample_rate_hz,

@@ -25,6 +25,7 @@ pub mod labelled;
 pub mod offsets;
 pub mod rates;
 pub mod rotations;
+pub mod vec3;
 
 use crate::detect::windows::Windows;
 use faces::{face_set, one_pose, window_face, zero_reading, FaceSet, WindowFace};
@@ -66,7 +67,9 @@ pub fn recognise(ws: &Windows) -> AccelRecognition {
     let set = face_set(&faces);
     let protocol = if faces.is_empty() {
         AccelProtocol::None
-    } else if one_pose(&faces) {
+    } else if one_pose(&faces) && faces[0].pose.is_some() {
+        // One pose gives offsets only with an axis near vertical; otherwise the
+        // multi-position fit's own refusal says what to record, as before.
         AccelProtocol::OnePose
     } else if set.all_faces {
         AccelProtocol::Faces
@@ -97,17 +100,8 @@ impl AccelRecognition {
             AccelProtocol::None => "no still pose".into(),
             AccelProtocol::OnePose => {
                 let f = &self.faces[0];
-                match f.pose {
-                    Some(p) => format!(
-                        "one pose ({} up, {:.1}° off the axis)",
-                        p.label(),
-                        f.off_deg
-                    ),
-                    None => format!(
-                        "one pose (no axis within 20° of vertical: {:.0}° off)",
-                        f.off_deg
-                    ),
-                }
+                let up = f.pose.map_or("?", |p| p.label());
+                format!("one pose ({up} up, {:.1}° off the axis)", f.off_deg)
             }
             AccelProtocol::Faces => {
                 let mut s = format!(

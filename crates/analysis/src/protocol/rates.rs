@@ -15,6 +15,7 @@
 //!   `K` upper triangular (the same gauge as the accelerometer's multi-position fit), `b` from
 //!   the rests, by the core's Levenberg–Marquardt in `f64`.
 
+use super::vec3::{along_axis, axis_label, mat_vec, norm, sub, AXES};
 use nalgebra::{Matrix3, Matrix4, Matrix4x3, SVector, Vector4};
 use serde::Serialize;
 use wiical_core::lm::{self, LmSettings, Problem};
@@ -303,14 +304,7 @@ pub fn fit_rates(ws: &[SteadyMean], rates_dps: &[f64]) -> Result<RateFit, RateFi
 
 /// `(axis, sign)` of a direction within [`AXIS_TOLERANCE_DEG`] of a sensor axis.
 fn axis_of(v: [f64; 3]) -> Option<(usize, f64)> {
-    let n = norm(v);
-    let a = (0..3).max_by(|x, y| v[*x].abs().total_cmp(&v[*y].abs()))?;
-    let off = (v[a].abs() / n).clamp(0.0, 1.0).acos().to_degrees();
-    (n > 0.0 && off <= AXIS_TOLERANCE_DEG).then(|| (a, v[a].signum()))
-}
-
-fn axis_label((a, s): (usize, f64)) -> String {
-    format!("{}{}", if s > 0.0 { "+" } else { "-" }, ["x", "y", "z"][a])
+    along_axis(v, AXIS_TOLERANCE_DEG)
 }
 
 /// The six-position method on rates: `[S | b] = M·Âᵀ(ÂÂᵀ)⁻¹`, `K = S⁻¹` (rad/s).
@@ -338,7 +332,7 @@ fn table_fit(
         }
     }
     if turned.contains(&false) {
-        let axes = (0..3).filter(|a| turned[*a]).map(|a| ["x", "y", "z"][a]);
+        let axes = (0..3).filter(|a| turned[*a]).map(|a| AXES[a]);
         return Err(RateFitError::MissingAxes {
             axes: axes.collect::<Vec<_>>().join(", "),
         });
@@ -475,18 +469,6 @@ fn algebraic_shells(
         .ok_or_else(|| RateFitError::Solver("the fitted shell is not an ellipsoid".into()))?
         .l();
     Ok(std::array::from_fn(|r| std::array::from_fn(|c| l[(c, r)])))
-}
-
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-fn norm(v: [f64; 3]) -> f64 {
-    (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
-}
-
-fn mat_vec(k: &[[f64; 3]; 3], v: [f64; 3]) -> [f64; 3] {
-    std::array::from_fn(|r| k[r][0] * v[0] + k[r][1] * v[1] + k[r][2] * v[2])
 }
 
 #[cfg(test)]

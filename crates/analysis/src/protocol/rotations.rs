@@ -10,6 +10,7 @@
 //! `y` and `z`, each column of `S` is the integral of the turn about that axis over `±θ` (the
 //! sign from the data), and `K = S⁻¹`. The bias comes from the rests.
 
+use super::vec3::{along_axis, angle_deg, axis_label, norm, AXES};
 use serde::Serialize;
 
 /// Before and after a full turn the accelerometer reads the same direction within this.
@@ -100,9 +101,7 @@ fn turn(inp: &TurnInput, k: usize, s: usize, e: usize) -> Turn {
             *acc += 0.5 * (y0 + y1) * dt;
         }
     }
-    let pose_change_deg = inp
-        .rest_directions
-        .map(|d| super::faces::angle_deg(d[k], d[k + 1]));
+    let pose_change_deg = inp.rest_directions.map(|d| angle_deg(d[k], d[k + 1]));
     let axis = axis_of(integral);
     let angle_deg = inp.raw_per_dps.map(|s| norm(integral) / s);
     let full_turn = axis.is_some()
@@ -115,22 +114,14 @@ fn turn(inp: &TurnInput, k: usize, s: usize, e: usize) -> Turn {
         integral,
         angle_deg,
         pose_change_deg,
-        axis: axis.map(|(a, s)| format!("{}{}", if s > 0.0 { "+" } else { "-" }, AXES[a])),
+        axis: axis.map(axis_label),
         full_turn,
     }
 }
 
-const AXES: [&str; 3] = ["x", "y", "z"];
-
+/// `(axis, sign)` of an integral within [`TURN_AXIS_DEG`] of a sensor axis.
 fn axis_of(v: [f64; 3]) -> Option<(usize, f64)> {
-    let n = norm(v);
-    let a = (0..3).max_by(|x, y| v[*x].abs().total_cmp(&v[*y].abs()))?;
-    let off = (v[a].abs() / n).clamp(0.0, 1.0).acos().to_degrees();
-    (n > 0.0 && off <= TURN_AXIS_DEG).then(|| (a, v[a].signum()))
-}
-
-fn norm(v: [f64; 3]) -> f64 {
-    (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
+    along_axis(v, TURN_AXIS_DEG)
 }
 
 /// The Ferraris gyro calibration: `K` (rad/s per raw) from full turns of `angle_deg`.

@@ -70,11 +70,12 @@ pub fn analyze_streamed(src: &TextSource, opts: &AnalyzeOptions) -> Result<Analy
     let report = |stage, done, total| opts.progress.report(Progress { stage, done, total });
     report(Stage::Windows, 0, 0);
     let ws = detect_windows_streamed(src, &opts.fit.detect)?;
-    if crate::protocol::labelled::six_faces_or_free(&ws)? {
+    let recognised = crate::protocol::recognise(&ws);
+    if crate::protocol::labelled::six_faces_or_free(&recognised)? {
         // The six-position contrasts read every face's samples, which a streamed file does
         // not hold: said, with the command that calibrates it.
         return Err(crate::error::fit::FitError::Protocol {
-            summary: crate::protocol::recognise(&ws).summary(),
+            summary: recognised.summary(),
             why: "a file this large is not held in memory, which the six-position residual \
                   analysis needs; `wiical fit` gives its six-position calibration"
                 .into(),
