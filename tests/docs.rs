@@ -132,19 +132,45 @@ fn subcommands() -> BTreeSet<String> {
         .collect()
 }
 
-#[test]
-fn readme_tour_lists_every_subcommand() {
-    let readme = read("README.md");
-    let listed: BTreeSet<String> = readme
-        .lines()
+/// The subcommands a doc's command table lists: rows starting with "| `wiical NAME".
+fn tour_rows(doc: &str) -> BTreeSet<String> {
+    doc.lines()
         .filter_map(|l| l.strip_prefix("| `wiical "))
         .map(|l| l.split([' ', '`']).next().unwrap().to_string())
-        .collect();
+        .collect()
+}
+
+#[test]
+fn readme_tour_lists_every_subcommand() {
     assert_eq!(
-        listed,
+        tour_rows(&read("README.md")),
         subcommands(),
         "README's tour (left) vs clap (right)"
     );
+}
+
+#[test]
+fn cli_doc_lists_every_subcommand() {
+    assert_eq!(
+        tour_rows(&read("docs/cli.md")),
+        subcommands(),
+        "docs/cli.md's table (left) vs clap (right)"
+    );
+}
+
+/// The checker itself: a table missing a command, or naming one clap lacks, differs.
+#[test]
+fn tour_rows_sees_a_missing_and_an_extra_row() {
+    let doc = "| `wiical fit FILE` | a |\n| `wiical nosuch X` | b |\n";
+    let rows = tour_rows(doc);
+    assert!(rows.contains("fit") && rows.contains("nosuch"));
+    assert_ne!(rows, subcommands());
+}
+
+#[test]
+fn readme_stays_short() {
+    let n = read("README.md").lines().count();
+    assert!(n <= 150, "README.md has {n} lines; the aim is at most 150 (details go to docs/)");
 }
 
 #[test]

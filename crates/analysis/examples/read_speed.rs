@@ -1,4 +1,4 @@
-//! Reading speed of the recording loader (BENCHMARKS.md, "Reading speed"): loads FILE
+//! Reading speed of the recording loader (docs/benchmarks-history.md, "Reading speed"): loads FILE
 //! `RUNS` times (default 7) with `wiical_analysis::load` and prints the median wall time and
 //! MB/s (10⁶ bytes). `cargo run --release -p wiical-analysis --example read_speed -- FILE [RUNS]`
 
