@@ -441,8 +441,8 @@ impl EmulatedMotionPlus {
     }
 
     /// A frame polled from the real MotionPlus: its gyro report corrected (returned), or the
-    /// extension's frame corrected with `nunchuk`. A gyro report saying no extension is plugged
-    /// in withdraws the extension's frame.
+    /// extension's frame corrected with `nunchuk`. A gyro report's extension-connected flag is
+    /// passed on; saying no extension is plugged in, it withdraws the extension's frame.
     pub fn on_frame(
         &mut self,
         frame: &Frame,
@@ -455,9 +455,7 @@ impl EmulatedMotionPlus {
                 if let Ok(bytes) = c.report.to_bytes() {
                     self.regs.set_gyro_bytes(&bytes);
                 }
-                if !r.extension_connected {
-                    self.regs.set_extension_bytes(None);
-                }
+                self.regs.set_extension_connected(r.extension_connected);
                 Some(c)
             }
             Frame::Nunchuk(p) => {

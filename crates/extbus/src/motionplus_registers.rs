@@ -59,6 +59,7 @@ pub struct MotionPlusRegisters {
     active: Option<PassthroughMode>,
     gyro: [u8; 6],
     extension: Option<[u8; 6]>,
+    connected: bool,
     last_was_gyro: bool,
 }
 
@@ -86,6 +87,7 @@ impl MotionPlusRegisters {
             // 8192 on every axis, all slow, MotionPlus data.
             gyro: [0x00, 0x00, 0x00, 0x82, 0x82, 0x82],
             extension: None,
+            connected: false,
             last_was_gyro: false,
         }
     }
@@ -104,9 +106,21 @@ impl MotionPlusRegisters {
     }
 
     /// The extension's next frame in the pass-through layout (e.g.
-    /// `PassthroughNunchuk::to_bytes`), or `None` when no extension is plugged in.
+    /// `PassthroughNunchuk::to_bytes`), or `None` when no extension is plugged in; sets the
+    /// extension-connected flag accordingly.
     pub fn set_extension_bytes(&mut self, bytes: Option<&[u8; 6]>) {
         self.extension = bytes.copied();
+        self.connected = bytes.is_some();
+    }
+
+    /// Whether an extension is plugged into the MotionPlus's port, for the flag (byte 4 bit 0)
+    /// of every frame: in mode `0x04` no extension frame is ever passed through, yet the flag
+    /// tells one is there. `false` also withdraws the extension's frame.
+    pub fn set_extension_connected(&mut self, connected: bool) {
+        self.connected = connected;
+        if !connected {
+            self.extension = None;
+        }
     }
 
     /// The mode when active, `None` when inactive.
@@ -210,7 +224,7 @@ impl MotionPlusRegisters {
             Some(e) => (e, false),
             None => (self.gyro, true),
         };
-        frame[4] = (frame[4] & !1) | u8::from(self.extension.is_some());
+        frame[4] = (frame[4] & !1) | u8::from(self.connected);
         frame[5] = (frame[5] & !0b11) | (u8::from(gyro) << 1);
         self.regs[..6].copy_from_slice(&frame);
         self.last_was_gyro = gyro;

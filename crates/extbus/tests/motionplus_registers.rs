@@ -127,6 +127,13 @@ fn alone_mode_never_passes_the_extension_through() {
         // Extension connected is still reported.
         assert_eq!(f[4] & 1, 1);
     }
+    // The flag without any extension frame (as an adapter in mode 0x04 learns it from the real
+    // MotionPlus's reports), and withdrawn.
+    mp.set_extension_bytes(None);
+    mp.set_extension_connected(true);
+    assert_eq!(read_at(&mut mp, ACTIVE, 0x00, 6).1[4] & 1, 1);
+    mp.set_extension_connected(false);
+    assert_eq!(read_at(&mut mp, ACTIVE, 0x00, 6).1[4] & 1, 0);
 }
 
 #[test]
@@ -167,6 +174,7 @@ enum Op {
     Read(u8, usize),
     Gyro([u8; 6]),
     Ext(Option<[u8; 6]>),
+    Connected(bool),
 }
 
 fn op() -> impl Strategy<Value = Op> {
@@ -194,6 +202,7 @@ fn op() -> impl Strategy<Value = Op> {
         (addr, 0usize..40).prop_map(|(a, n)| Op::Read(a, n)),
         any::<[u8; 6]>().prop_map(Op::Gyro),
         any::<Option<[u8; 6]>>().prop_map(Op::Ext),
+        any::<bool>().prop_map(Op::Connected),
     ]
 }
 
@@ -210,6 +219,7 @@ proptest! {
                 Op::Write(a, d) => { mp.write(a, &d); }
                 Op::Gyro(g) => mp.set_gyro_bytes(&g),
                 Op::Ext(e) => mp.set_extension_bytes(e.as_ref()),
+                Op::Connected(c) => mp.set_extension_connected(c),
                 Op::Read(a, n) => {
                     let start = mp.pointer();
                     let mut buf = vec![0u8; n];
