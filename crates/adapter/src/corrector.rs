@@ -65,6 +65,17 @@ impl IdealScale {
         (c.clamp(0.0, 1023.0)) as u16
     }
 
+    /// Encode on the even counts only, `2·round((zero + g·counts_per_g)/2)` saturated to
+    /// 0..=1022: for a layout that drops bit 0 (a Nunchuk passed through a MotionPlus), the
+    /// nearest count it can carry. NaN encodes as `zero` with bit 0 cleared.
+    pub fn encode_even(&self, g: f32) -> u16 {
+        if g.is_nan() {
+            return self.zero.min(1023) & !1;
+        }
+        let c = roundf((f32::from(self.zero) + g * f32::from(self.counts_per_g)) / 2.0) * 2.0;
+        (c.clamp(0.0, 1022.0)) as u16
+    }
+
     /// The acceleration (g) an ideal-block reader computes from a count.
     pub fn decode(&self, count: u16) -> f32 {
         (f32::from(count) - f32::from(self.zero)) / f32::from(self.counts_per_g.max(1))

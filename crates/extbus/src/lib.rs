@@ -9,6 +9,7 @@
 //! | [`nunchuk`] | I²C address, init sequences, legacy encryption, 6-byte report, 16-byte calibration block, ID |
 //! | [`registers`] | [`NunchukRegisters`]: the Nunchuk register map as a pure I²C-target state machine |
 //! | [`motionplus`] | MotionPlus gyro: activation (`0xA600FE`), 6-byte report (14-bit yaw/roll/pitch, slow bits), Nunchuk/Classic pass-through, 32-byte calibration block with CRC-32 |
+//! | [`motionplus_registers`] | [`MotionPlusRegisters`]: the MotionPlus register map (`0x53` inactive, `0x52` active) as a pure I²C-target state machine, with the pass-through interleaving |
 //! | [`wiimote`] | core input reports `0x30`–`0x37` (buttons + 10/9/9-bit accelerometer) and the EEPROM accelerometer calibration |
 //!
 //! ## Conventions
@@ -28,6 +29,7 @@
 
 pub mod error;
 pub mod motionplus;
+pub mod motionplus_registers;
 pub mod nunchuk;
 mod packing;
 pub mod registers;
@@ -35,6 +37,7 @@ pub mod wiimote;
 
 pub use error::{CalibrationCopy, Checked, Error, FromCopies};
 pub use motionplus::{Frame, MotionPlusCalibration, MotionPlusReport, PassthroughMode};
+pub use motionplus_registers::MotionPlusRegisters;
 pub use nunchuk::{CalibrationBlock, Encryption, NunchukReport};
 pub use registers::NunchukRegisters;
 pub use wiimote::{AccelCalibration, Buttons, CoreReport, ReportId};
