@@ -426,7 +426,7 @@ fn six_position(py: Python<'_>, path: PathBuf, estimator: &str) -> PyResult<Stri
 /// JSON and whether the checksum holds (the CLI exits 1 when it does not).
 #[pyfunction]
 fn decode_cal(device: &str, hex: &str) -> PyResult<(String, bool)> {
-    use wiical_analysis::factory::{self, Device};
+    use wiical_factory::{self as factory, Device};
     let err = |e: factory::FactoryError| py_err(e);
     match device.parse::<Device>().map_err(err)? {
         Device::MotionPlus => {

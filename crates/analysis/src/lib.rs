@@ -33,7 +33,6 @@
 //! | magnetometer | [`magnetometer`] | points → sphere / ellipsoid hard/soft-iron fit, then its residual loop: noise floor, candidate effects, detection limits, verdict |
 //! | noise | [`noise`] | still recording → overlapping Allan deviation per axis and the IEEE 952 terms (`wiical noise`) |
 //! | temperature | [`tempcal`] | still warm-up + temperature → bias polynomial in T − T_ref; ArduPilot / PX4 parameter files (`wiical tempcal`) |
-//! | factory blocks | [`factory`] | Wii Remote / Nunchuk / MotionPlus block bytes → decoded report (`decode-cal`) |
 //! | live session | [`live`] | samples as they come → poses, refit and verdict after each pose (`wiical live`) |
 //! | simulator (feature `simulate`) | [`simulate`] | settings → recording with known truth |
 //!
@@ -82,7 +81,6 @@ pub mod calibrate;
 pub mod correct;
 pub mod detect;
 pub mod error;
-pub mod factory;
 pub mod fit;
 pub mod gyro;
 pub mod input;

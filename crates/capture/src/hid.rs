@@ -353,7 +353,7 @@ pub fn parse_input(bytes: &[u8]) -> Result<InputReport<'_>, ReportError> {
 }
 
 /// Bytes as uppercase hex separated by spaces (the factory-block module's helper).
-pub use wiical_analysis::factory::hex;
+pub use wiical_factory::hex;
 
 #[cfg(test)]
 mod tests {

@@ -17,7 +17,7 @@ pub fn cal_path(path: &Path) -> PathBuf {
     PathBuf::from(p)
 }
 
-pub use wiical_analysis::factory::{
+pub use wiical_factory::{
     motionplus_calibration, nunchuk_calibration, wiimote_calibration, BlockCopy,
     FactoryCalibration, GyroRange, MotionPlusFactory,
 };

@@ -4,7 +4,7 @@ use super::to_json;
 use crate::render;
 use anyhow::{bail, Result};
 use std::io::Write as _;
-use wiical_analysis::factory;
+use wiical_factory as factory;
 
 /// Arguments of `wiical decode-cal`.
 #[derive(clap::Args, Debug)]

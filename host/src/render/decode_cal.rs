@@ -3,7 +3,7 @@
 
 use anyhow::Result;
 use std::fmt::Write as _;
-use wiical_analysis::factory::{DecodeCalReport, MotionPlusFactory};
+use wiical_factory::{DecodeCalReport, MotionPlusFactory};
 
 /// A Wii Remote / Nunchuk accelerometer block: zero-g, one-g, counts per g, checksum.
 pub fn block_text(rep: &DecodeCalReport) -> Result<String> {

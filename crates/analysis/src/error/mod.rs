@@ -114,11 +114,6 @@ pub enum Error {
         why: String,
     },
 
-    // ---- factory calibration blocks ----
-    /// A factory calibration block (hex text, length, device name) that cannot be decoded.
-    #[error(transparent)]
-    Factory(#[from] crate::factory::FactoryError),
-
     // ---- internal consistency (bugs, not bad input) ----
     /// The simulator's self-checks ([`crate::error::simulate::SimulateError`]).
     #[cfg(feature = "simulate")]
