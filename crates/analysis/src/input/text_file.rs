@@ -482,9 +482,10 @@ pub(crate) fn read_piece_head(
 /// Why the text file `path` (larger than the size read whole, `limit_mib`) could not be read
 /// in pieces, as an error naming the place: the first byte that is not UTF-8 by its line and
 /// column (the sentence a smaller file gets), else the first line with a quote, a lone
-/// carriage return or a comment mark inside a row, or a line too long to carry. `None` when
-/// every piece is plain (the pieces declined for another reason: no header in the first
-/// piece, a pose column…), or the file cannot be read (the caller's error stands).
+/// carriage return or a comment mark inside a row, or a line over the limit for one. `None`
+/// when every piece is plain (the pieces declined for another reason: no header in the first
+/// piece, a pose column…), or a line is too long for a piece to carry, or the file cannot be
+/// read (the caller's error stands).
 ///
 /// One more read of the file, on the way to an error only.
 pub(crate) fn why_not_in_pieces(path: &Path, limit_mib: u64) -> Option<Error> {
@@ -500,14 +501,9 @@ fn why_not_in(path: &Path, limit_mib: u64, piece_bytes: usize) -> Option<Error> 
     let why = loop {
         match pieces.next_piece() {
             Ok(Some(_)) => {}
-            Ok(None) => return None,
-            Err(()) => {
-                break format!(
-                    "line {} or one soon after it is longer than {MAX_LINE_BYTES} bytes (a \
-                     file without line breaks?)",
-                    lines_before + 1
-                )
-            }
+            // The end; or a line too long to carry, or a read error: the size sentence
+            // stands (the pieces cannot tell which).
+            Ok(None) | Err(()) => return None,
         }
         let piece = pieces.current();
         if let Err(e) = std::str::from_utf8(piece) {
