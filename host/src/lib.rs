@@ -10,6 +10,7 @@ pub mod cli_error;
 pub mod cmd;
 pub mod live;
 pub mod render;
+pub mod signals;
 
 pub use wiical_capture as capture;
 pub use wiical_client as client;

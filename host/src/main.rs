@@ -10,6 +10,8 @@ use wiical::cli::{run, Cli};
 
 fn main() {
     let cli = Cli::parse();
+    // Ctrl-C, SIGTERM and SIGHUP delete the run's temporary files before it ends.
+    wiical::signals::install();
     match run(cli) {
         Ok(text) => {
             // A closed pipe (`wiical … | head`) is no panic, but the output was not all

@@ -766,20 +766,23 @@ fn noise(
     rate_hz: f64,
     columns: Option<Vec<String>>,
 ) -> PyResult<String> {
+    use wiical_analysis::noise::report::{noise_of, open_sensors, Sensors};
     let rate_hz = rate("rate_hz", rate_hz)?;
-    let recs = match source {
+    // A file as `wiical noise` reads it: a large plain text file streamed in passes (memory: a
+    // piece of it and the Allan sums), not held — which stops at the size cap of files read
+    // whole (256 MiB) where the command line reads on.
+    let sensors = match source {
         Source::Path(path) => {
             let columns = load_options(columns, None)?.columns;
-            py.detach(|| wiical_analysis::noise::report::load_sensors(&path, columns))
-                .map_err(py_err)?
+            py.detach(|| open_sensors(&path, columns)).map_err(py_err)?
         }
-        Source::Arrays(xyz, t, temp) => {
-            vec![recording_from_arrays(&xyz, t.as_ref(), temp.as_ref())?]
-        }
+        Source::Arrays(xyz, t, temp) => Sensors::Held(vec![recording_from_arrays(
+            &xyz,
+            t.as_ref(),
+            temp.as_ref(),
+        )?]),
     };
-    let rep = py
-        .detach(|| wiical_analysis::noise::report::noise(&recs, rate_hz))
-        .map_err(py_err)?;
+    let rep = py.detach(|| noise_of(&sensors, rate_hz)).map_err(py_err)?;
     to_json(&rep)
 }
 

@@ -238,6 +238,20 @@ def test_noise_equals_the_cli() -> None:
         wiical.noise(path, rate_hz=0)
 
 
+def test_noise_streams_a_large_file_as_the_cli_does(monkeypatch, tmp_path) -> None:
+    # A plain text file from the size at which the CLI streams it (set to 0 here: every file;
+    # a 300 MB one by default) is streamed by Python too: the report says so, and equals the
+    # CLI's. Python used to hold such a file, and refused one over 256 MiB.
+    import gzip
+
+    plain = tmp_path / "imu1.csv"
+    plain.write_bytes(gzip.decompress(pathlib.Path(data("adis16405_static_smac", "imu1.csv.gz")).read_bytes()))
+    monkeypatch.setenv("WIICAL_STREAM_FROM_BYTES", "0")
+    got = wiical.noise(str(plain))
+    assert "streamed" in got, sorted(got)
+    assert got == cli_json("noise", str(plain))
+
+
 def test_tempcal_equals_the_cli_and_checks_its_settings() -> None:
     path = data("ggir_wrist_sphere_temp", "spheredata.csv")
     assert wiical.tempcal(path) == cli_json("tempcal", path)

@@ -63,12 +63,13 @@ pub fn open_samples_from(path: &Path, opts: &LoadOptions, stream_from: u64) -> R
 fn open_stdin(path: &Path, opts: &LoadOptions) -> Result<Samples> {
     Ok(Samples::Held(match front_door::open(path)? {
         Opened::Spooled(tmp) => {
-            let src = TextSource::open(&tmp, opts, |_| true).map_err(|e| e.in_file(&tmp))?;
+            // Errors name `-`, the input the user gave, not the copy's temporary name.
+            let src = TextSource::open(&tmp, opts, |_| true).map_err(|e| e.in_file(path))?;
             if let Some(mut src) = src {
-                src.keep(tmp);
+                src.keep(tmp, path);
                 return Ok(Samples::Streamed(src));
             }
-            front_door::load(&tmp, opts)?
+            front_door::load(&tmp, opts).map_err(|e| e.renaming(&tmp, path))?
         }
         Opened::Raw(raw) => {
             crate::input::raw::to_recording(&raw, opts).map_err(|e| e.in_file(path))?

@@ -26,6 +26,17 @@ pub enum InputError {
         /// The cap, MiB.
         limit_mib: u64,
     },
+    /// A text file too large to read whole holds what its pieces cannot be read with (a quote
+    /// in a data row, a lone carriage return, a comment mark inside a row, a line too long).
+    #[error("{} is larger than {limit_mib} MiB, so it is read in pieces, which takes plain delimited rows (quotes only in the header, comments only as whole lines starting with # or %), but {why}", path.display())]
+    NotPlainInPieces {
+        /// The file.
+        path: PathBuf,
+        /// The size from which a file is read only in pieces, MiB.
+        limit_mib: u64,
+        /// What is where, and what to do.
+        why: String,
+    },
     /// A text line too long to be part of a recording.
     #[error("line {line} is {bytes} bytes long (the limit is {max}): not a recording's line (a file without line breaks?)")]
     LineTooLong {
@@ -77,6 +88,16 @@ pub enum InputError {
         /// The temporary directory.
         dir: PathBuf,
         /// Which bound, with the numbers and the variable that sets it.
+        why: String,
+    },
+    /// Standard input too long to hold could not be copied to the temporary directory.
+    #[error("standard input is too long to hold in memory, so it is copied to a temporary file in {} ({}) to be read in passes, but {why}: set TMPDIR to a writable directory with room for it, or save the input to a file and give that file's path", dir.display(), if *from_tmpdir { "TMPDIR" } else { "the system's temporary directory: TMPDIR is not set" })]
+    StdinCopy {
+        /// The temporary directory.
+        dir: PathBuf,
+        /// Whether `TMPDIR` named it.
+        from_tmpdir: bool,
+        /// What is wrong with it.
         why: String,
     },
     /// A file named or shaped like a raw format that is not one (wrong magic, bad header).
@@ -261,7 +282,7 @@ pub enum InputError {
     #[error("no header line found")]
     NoHeader,
     /// A file read in passes (its samples streamed, never held) changed between them.
-    #[error("the file changed while it was being read (its size, modification time or rows differ from the first pass); read it again once it is complete")]
+    #[error("the file changed while it was being read (its size, modification time or content differ from the first pass's); read it again once it is complete")]
     ChangedWhileRead,
     /// A header and nothing else.
     #[error("file has a header but no data rows")]
@@ -364,6 +385,7 @@ impl InputError {
         match self {
             E::Read { path, .. }
             | E::TooLarge { path, .. }
+            | E::NotPlainInPieces { path, .. }
             | E::Gzip { path, .. }
             | E::GzipTooLarge { path, .. }
             | E::NotUtf8 { path, .. }

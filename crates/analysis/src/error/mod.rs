@@ -154,9 +154,14 @@ impl Error {
     }
 
     /// Attaches the file the error was found in.
+    /// An error in that file already is left as it is (one name, not the same twice).
     pub fn in_file(self, path: impl Into<PathBuf>) -> Self {
+        let path = path.into();
+        if matches!(&self, Error::InFile { path: named, .. } if *named == path) {
+            return self;
+        }
         Error::InFile {
-            path: path.into(),
+            path,
             source: Box::new(self),
         }
     }

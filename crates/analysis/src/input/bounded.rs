@@ -209,14 +209,20 @@ pub fn text_of(path: &Path, mut bytes: Vec<u8>) -> Result<String> {
 /// byte-order mark, as spreadsheet programs write "Unicode text") is named with the
 /// conversion to make; otherwise the line and column (1-based, bytes) of the first byte that
 /// is not UTF-8 are given, since a binary file given a text name fails there too.
-fn not_utf8_why(bytes: &[u8], valid_up_to: usize) -> String {
+pub(crate) fn not_utf8_why(bytes: &[u8], valid_up_to: usize) -> String {
     if bytes.starts_with(b"\xFF\xFE") || bytes.starts_with(b"\xFE\xFF") {
         return "it is UTF-16 text (it starts with a UTF-16 byte-order mark): save it as UTF-8, \
                 e.g. `iconv -f UTF-16 -t UTF-8 FILE > FILE.csv`"
             .into();
     }
-    let before = &bytes[..valid_up_to];
-    let line = 1 + memchr::memchr_iter(b'\n', before).count();
+    not_utf8_after(bytes, valid_up_to, 0)
+}
+
+/// [`not_utf8_why`] for `bytes` that follow `lines_before` whole lines of the file (a piece
+/// of it: the line is counted in the file).
+pub(crate) fn not_utf8_after(bytes: &[u8], valid_up_to: usize, lines_before: usize) -> String {
+    let before = &bytes[..valid_up_to.min(bytes.len())];
+    let line = 1 + lines_before + memchr::memchr_iter(b'\n', before).count();
     let column = 1 + before.len() - memchr::memrchr(b'\n', before).map_or(0, |i| i + 1);
     format!(
         "line {line}, column {column} holds a byte that is not UTF-8 (a binary file, or text in \

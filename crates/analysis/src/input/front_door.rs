@@ -20,6 +20,7 @@ use crate::input::columns::{LoadOptions, Sensor};
 use crate::input::raw::{self, RawFile, RawFormat};
 use crate::input::recording::Recording;
 use crate::input::table::WindowTable;
+use crate::input::temp_files::{self, OwnTemp};
 use crate::input::text::parse;
 use crate::input::text_file::{self, PIECES_FROM_BYTES};
 use crate::input::text_source::TextSource;
@@ -45,8 +46,9 @@ pub enum Opened {
     /// when it is plain delimited text, else whole.
     TextFile,
     /// Standard input too long to hold, copied to a temporary file (deleted when this is
-    /// dropped): read from there as a regular file.
-    Spooled(tempfile::TempPath),
+    /// dropped, or by the binary's signal handler: [`crate::input::temp_files`]): read from
+    /// there as a regular file.
+    Spooled(OwnTemp),
 }
 
 /// Sniffs `path` (`-`: standard input, read once) and reads what its kind needs up front: a
@@ -83,8 +85,22 @@ type Whole = std::result::Result<RawFile, String>;
 
 /// The file read whole (capped) and sniffed: gzip decompressed, a raw format by its magic,
 /// else UTF-8 text.
+/// A text file over the limit (read in pieces when it could be) is refused with what stopped
+/// its pieces, by line ([`text_file::why_not_in_pieces`]: a byte that is not UTF-8, a quote in
+/// a row…), where there is such a thing, rather than with its size alone.
 fn read_whole(path: &Path) -> Result<Whole> {
-    whole_of(path, read_bounded(path, MAX_RECORDING_BYTES)?)
+    let bytes = read_bounded(path, MAX_RECORDING_BYTES).map_err(|e| match &e {
+        Error::Input(
+            InputError::TooLarge { limit_mib, .. } | InputError::GzipTooLarge { limit_mib, .. },
+        ) => {
+            let text = text_file_size(path).is_some();
+            text.then(|| text_file::why_not_in_pieces(path, *limit_mib))
+                .flatten()
+                .unwrap_or(e)
+        }
+        _ => e,
+    })?;
+    whole_of(path, bytes)
 }
 
 /// The content of `path` (decompressed) sniffed: a raw format by its magic, else UTF-8 text.
@@ -101,18 +117,24 @@ fn whole_of(path: &Path, bytes: Vec<u8>) -> Result<Whole> {
 /// week's recording piped in (`zcat week.csv.gz | wiical fit -`) is streamed as the file
 /// itself would be, where holding it would take memory in proportion to it.
 fn open_stdin() -> Result<Opened> {
+    let hold = stream_from_bytes().min(MAX_RECORDING_BYTES);
+    open_input(&mut std::io::stdin().lock(), hold)
+}
+
+/// [`open_stdin`] of `stdin`, held when it ends within `hold` bytes (the fuzz target
+/// `streamed_reader` drives the copy with it).
+#[doc(hidden)]
+pub fn open_input(stdin: &mut dyn std::io::Read, hold: u64) -> Result<Opened> {
     use std::io::Read;
     let path = Path::new("-");
-    let hold = stream_from_bytes().min(MAX_RECORDING_BYTES);
-    let mut stdin = std::io::stdin().lock();
     let mut bytes = Vec::new();
-    let read = (&mut stdin).take(hold + 1).read_to_end(&mut bytes);
+    let read = (&mut *stdin).take(hold + 1).read_to_end(&mut bytes);
     read.map_err(|source| InputError::Read {
         path: path.into(),
         source,
     })?;
     if bytes.len() as u64 > hold {
-        return spool(bytes, &mut stdin).map(Opened::Spooled);
+        return spool(bytes, stdin).map(Opened::Spooled);
     }
     // Gzip'd input whose content passes the limit is spooled (its content streamed) too.
     let gzip = bytes.starts_with(&GZIP_MAGIC);
@@ -151,30 +173,69 @@ fn max_spool_bytes() -> u64 {
 }
 
 /// `head` and the rest of `input` copied to a temporary file in the temporary directory
-/// (`$TMPDIR`, named `wiical-stdin-…`), deleted when the returned path is dropped (when
-/// the command ends, or the stream reading it is dropped). Bounded: text that no recording
-/// starts with is refused before a byte is copied ([`check_text_head`]), and the copy stops
-/// at [`max_spool_bytes`] or when the disk would keep less than [`SPOOL_RESERVE_BYTES`].
-fn spool(head: Vec<u8>, input: &mut dyn std::io::Read) -> Result<tempfile::TempPath> {
+/// (`$TMPDIR`, named `wiical-stdin-<pid>-…`), deleted when the returned path is dropped (when
+/// the command ends, or the stream reading it is dropped) or by the binary's signal handler;
+/// the copies a killed run left there are deleted first ([`temp_files::remove_stale`]).
+/// Bounded: text that no recording starts with is refused before a byte is copied
+/// ([`check_text_head`]), and the copy stops at [`max_spool_bytes`] or when the disk would
+/// keep less than [`SPOOL_RESERVE_BYTES`]. A directory that cannot take the copy is named
+/// with what is wrong with it ([`InputError::StdinCopy`]).
+fn spool(head: Vec<u8>, input: &mut dyn std::io::Read) -> Result<OwnTemp> {
     if !head.starts_with(&GZIP_MAGIC) && !is_raw(&head) {
         check_text_head(Path::new("-"), &head)?;
     }
     let dir = std::env::temp_dir();
-    let mut file = tempfile::Builder::new()
-        .prefix("wiical-stdin-")
-        .tempfile()
-        .map_err(|source| write_error(&dir, source))?;
+    temp_files::remove_stale(&dir);
+    let (copy, mut file) = OwnTemp::stdin_copy_in(&dir).map_err(|e| stdin_copy_error(&dir, &e))?;
     let bound = SpoolBound {
         dir,
         most: max_spool_bytes(),
         reserve: SPOOL_RESERVE_BYTES,
     };
-    bound.check(file.as_file(), head.len() as u64)?;
-    let copied = copy_bounded(&head, input, file.as_file_mut(), &bound);
-    match copied {
-        Ok(()) => Ok(file.into_temp_path()),
+    bound.check(&file, head.len() as u64)?;
+    match copy_bounded(&head, input, &mut file, &bound) {
+        Ok(()) => Ok(copy),
         Err(SpoolFailure::Bound(e)) => Err(e),
-        Err(SpoolFailure::Io(source)) => Err(write_error(file.path(), source)),
+        Err(SpoolFailure::Io(source)) => Err(InputError::StdinCopy {
+            dir: bound.dir,
+            from_tmpdir: std::env::var_os("TMPDIR").is_some(),
+            why: format!("writing the copy failed: {}", io_reason(&source)),
+        }
+        .into()),
+    }
+}
+
+/// [`InputError::StdinCopy`] for a temporary directory `dir` where the copy could not be
+/// created (`e`): what is wrong with the directory, in words.
+fn stdin_copy_error(dir: &Path, e: &std::io::Error) -> Error {
+    use std::io::ErrorKind as K;
+    let why = match std::fs::metadata(dir) {
+        Err(m) if m.kind() == K::NotFound => "that directory does not exist".to_string(),
+        Ok(m) if !m.is_dir() => "it is not a directory".to_string(),
+        _ => match e.kind() {
+            K::PermissionDenied => "that directory is not writable (permission denied)".into(),
+            K::ReadOnlyFilesystem => "that directory is on a read-only file system".into(),
+            _ => format!("the copy cannot be created there: {}", io_reason(e)),
+        },
+    };
+    InputError::StdinCopy {
+        dir: dir.to_path_buf(),
+        from_tmpdir: std::env::var_os("TMPDIR").is_some(),
+        why,
+    }
+    .into()
+}
+
+/// An I/O error's reason without the path `tempfile` adds to it (the sentence names the
+/// directory already).
+fn io_reason(e: &std::io::Error) -> String {
+    let inner = e
+        .get_ref()
+        .and_then(|i| i.source())
+        .and_then(|s| s.downcast_ref::<std::io::Error>());
+    match inner.or_else(|| e.raw_os_error().map(|_| e)) {
+        Some(io) => io.to_string(),
+        None => e.kind().to_string(),
     }
 }
 
@@ -248,14 +309,6 @@ fn copy_bounded(
         copied += n as u64;
         bound.check(file, copied).map_err(SpoolFailure::Bound)?;
     }
-}
-
-fn write_error(path: &Path, source: std::io::Error) -> Error {
-    crate::error::output::OutputError::Write {
-        path: path.into(),
-        source,
-    }
-    .into()
 }
 
 /// True when `path` is a regular file of at least [`PIECES_FROM_BYTES`] whose first bytes are
@@ -576,7 +629,7 @@ pub fn load_input_in(
                 Input::Stream(mut src) => {
                     // The temporary file lives as long as the stream reading it.
                     if let Some(s) = Arc::get_mut(&mut src) {
-                        s.keep(tmp);
+                        s.keep(tmp, path);
                     }
                     Input::Stream(src)
                 }

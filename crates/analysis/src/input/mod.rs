@@ -7,7 +7,9 @@
 //! field); the time column is checked by [`timecheck`], axis triplets are found by
 //! [`columns`], and the formats are text/CSV ([`text`], its data rows parsed in parallel
 //! chunks by `text_rows`), GRT ([`grt`]), raw Axivity /
-//! GENEActiv files ([`raw`]) and window-mean text tables ([`window_means`]).
+//! GENEActiv files ([`raw`]) and window-mean text tables ([`window_means`]). Standard input too
+//! long to hold is copied to a named temporary file that [`temp_files`] deletes on every exit
+//! it can see (and on the next run, after one it could not).
 
 pub mod bounded;
 pub mod columns;
@@ -17,6 +19,7 @@ pub mod raw;
 pub mod recording;
 pub mod sample_summary;
 pub mod table;
+pub mod temp_files;
 pub mod text;
 pub mod text_file;
 pub(crate) mod text_rows;

@@ -319,7 +319,11 @@ impl<'o> CsvState<'o> {
 
     /// Before the header: metadata `key,value` lines, or the header itself (a blank record
     /// is skipped).
-    fn before_header<F: Fields + ?Sized>(&mut self, record: &F, line_no: usize) -> Result<()> {
+    pub(crate) fn before_header<F: Fields + ?Sized>(
+        &mut self,
+        record: &F,
+        line_no: usize,
+    ) -> Result<()> {
         if (0..record.count()).all(|i| record.get(i).trim_ascii().is_empty()) {
             return Ok(());
         }

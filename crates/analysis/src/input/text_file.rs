@@ -17,7 +17,9 @@ use crate::error::{Error, Result};
 use crate::input::bounded::{check_line_lengths, MAX_LINE_BYTES};
 use crate::input::columns::LoadOptions;
 use crate::input::recording::Recording;
-use crate::input::text::{check_axis_columns, is_comment_or_blank, CsvState, Delimiter};
+use crate::input::text::{
+    blank_comments, check_axis_columns, is_comment_or_blank, CsvState, Delimiter,
+};
 use crate::input::text_rows::Columns;
 use std::io::Read;
 use std::path::Path;
@@ -49,24 +51,28 @@ pub(crate) struct Pieces {
     reader: Option<std::thread::JoinHandle<()>>,
 }
 
-/// A piece as the reading thread hands it over: checked for the fast splitter, as text when
-/// it passed ([`plain_piece`], which for text holds the UTF-8 check too), else as bytes.
+/// A piece as the reading thread hands it over: its `#`/`%` comment lines blanked (as
+/// [`crate::input::text::parse`] blanks them), checked for the fast splitter, as text when it
+/// passed ([`plain_piece`], which for text holds the UTF-8 check too), as UTF-8 text that did
+/// not (its first piece may still be read when the quotes are in its head:
+/// [`Pieces::data_after_bom`]), else as bytes.
 enum Text {
     Plain(String),
+    Utf8(String),
     Bytes(Vec<u8>),
 }
 
 impl Text {
     fn bytes(&self) -> &[u8] {
         match self {
-            Text::Plain(s) => s.as_bytes(),
+            Text::Plain(s) | Text::Utf8(s) => s.as_bytes(),
             Text::Bytes(b) => b,
         }
     }
 
     fn into_bytes(self) -> Vec<u8> {
         match self {
-            Text::Plain(s) => s.into_bytes(),
+            Text::Plain(s) | Text::Utf8(s) => s.into_bytes(),
             Text::Bytes(b) => b,
         }
     }
@@ -134,12 +140,22 @@ impl Cutter {
     }
 }
 
-/// A piece as [`Text`]: plain text when [`plain_piece`] passes it (its UTF-8 check made
-/// once, by the conversion to a `String`).
+/// A piece as [`Text`]: its comment lines blanked (a piece holds whole lines, so they are
+/// the whole text's comment lines), then plain text when [`plain_piece`] passes it (its UTF-8
+/// check made once, by the conversion to a `String`).
 fn checked(piece: Vec<u8>) -> Text {
     match String::from_utf8(piece) {
-        Ok(text) if is_plain(&text) => Text::Plain(text),
-        Ok(text) => Text::Bytes(text.into_bytes()),
+        Ok(text) => {
+            let text = match blank_comments(&text) {
+                std::borrow::Cow::Borrowed(_) => text,
+                std::borrow::Cow::Owned(blanked) => blanked,
+            };
+            if is_plain(&text) {
+                Text::Plain(text)
+            } else {
+                Text::Utf8(text)
+            }
+        }
         Err(e) => Text::Bytes(e.into_bytes()),
     }
 }
@@ -201,7 +217,30 @@ impl Pieces {
     pub(crate) fn plain(&self) -> Option<&str> {
         match &self.current {
             Text::Plain(text) => Some(text),
-            Text::Bytes(_) => None,
+            Text::Utf8(_) | Text::Bytes(_) => None,
+        }
+    }
+
+    /// The piece handed out last as UTF-8 text after a byte-order mark (its comment lines
+    /// blanked), plain or not; `None` when it is not UTF-8.
+    pub(crate) fn text_after_bom(&self) -> Option<&str> {
+        match &self.current {
+            Text::Plain(text) | Text::Utf8(text) => {
+                Some(text.strip_prefix('\u{feff}').unwrap_or(text))
+            }
+            Text::Bytes(_) => self.plain_after_bom(),
+        }
+    }
+
+    /// The first piece's data rows, from `offset` in [`Pieces::text_after_bom`], when they are
+    /// plain text ([`plain_piece`]): a piece whose quotes (or other marks) are all in its head
+    /// — a quoted header, `"t","x","y","z"` — still has its rows read by the fast splitter,
+    /// which reads them as the `csv` reader does.
+    pub(crate) fn data_after_bom(&self, offset: usize) -> Option<&str> {
+        match &self.current {
+            Text::Plain(_) => self.plain_after_bom()?.get(offset..),
+            Text::Utf8(_) => self.text_after_bom()?.get(offset..).filter(|d| is_plain(d)),
+            Text::Bytes(_) => self.plain_after_bom()?.get(offset..),
         }
     }
 
@@ -334,12 +373,13 @@ fn read_pieces(
     let Ok(mut pieces) = Pieces::open(path, piece_bytes) else {
         return Ok(None);
     };
-    let Some((head, delim)) = first_piece_head(&mut pieces, head_ok) else {
+    let Some((head, delim, plain)) = first_piece_head(&mut pieces, head_ok) else {
         return Ok(None);
     };
     let mut st = CsvState::new(opts, delim);
-    let (offset, header_line) = match st.read_head(head, delim) {
-        Ok(at) => at,
+    let (offset, header_line) = match read_piece_head(&mut st, head, delim, plain) {
+        Ok(Some(at)) => at,
+        Ok(None) => return Ok(None),
         Err(e) => return finish_checks(&mut pieces, Err(e)),
     };
     let Some(layout) = st.layout.clone() else {
@@ -347,7 +387,9 @@ fn read_pieces(
     };
     let mut line = header_line + 1;
     let mut cols = Columns::default();
-    let mut piece = &head[offset..];
+    let Some(mut piece) = pieces.data_after_bom(offset) else {
+        return Ok(None);
+    };
     loop {
         match layout.read_plain_onto(&mut cols, piece, line, delim.byte()) {
             Ok(newlines) => line += newlines,
@@ -370,20 +412,191 @@ fn read_pieces(
     rec.map(Some)
 }
 
-/// The first piece as text (after a UTF-8 byte-order mark) and its delimiter, when the piece is
-/// plain text with a delimited, non-GRT first line that `head_ok` accepts; `None`: the
-/// whole-text path reads the file and says what it finds.
+/// The first piece as text (after a UTF-8 byte-order mark, its comment lines blanked), its
+/// delimiter, and whether it is plain text, when it is UTF-8 with a delimited, non-GRT first
+/// line that `head_ok` accepts; `None`: the whole-text path reads the file and says what it
+/// finds. (A piece that is not plain still has its rows read in pieces when the marks are all
+/// in its head: [`read_piece_head`], [`Pieces::data_after_bom`].)
 pub(crate) fn first_piece_head(
     pieces: &mut Pieces,
     head_ok: impl Fn(&str) -> bool,
-) -> Option<(&str, Delimiter)> {
+) -> Option<(&str, Delimiter, bool)> {
     pieces.next_piece().ok()??;
-    let head = (pieces.plain_after_bom()).filter(|h| !h.starts_with('\u{feff}'))?;
+    head_of_current(pieces, head_ok)
+}
+
+/// [`first_piece_head`] of the piece handed out last.
+fn head_of_current(
+    pieces: &Pieces,
+    head_ok: impl Fn(&str) -> bool,
+) -> Option<(&str, Delimiter, bool)> {
+    let plain = pieces.plain().is_some();
+    let head = (pieces.text_after_bom()).filter(|h| !h.starts_with('\u{feff}'))?;
     let first_line = head.lines().find(|l| !is_comment_or_blank(l))?;
     match Delimiter::of_first_line(first_line) {
-        Some(d) if !crate::input::grt::is_grt(first_line) && head_ok(head) => Some((head, d)),
+        Some(d) if !crate::input::grt::is_grt(first_line) && head_ok(head) => {
+            Some((head, d, plain))
+        }
         _ => None,
     }
+}
+
+/// The first piece's head (metadata lines, then the header) read into `st`: the byte offset
+/// of the first data row and the header's line number. A `plain` piece is read by plain
+/// splitting, as before; any other by the `csv` reader, as the whole-text path reads a text
+/// with quotes (a quoted header `"t","x","y","z"` is read as `t,x,y,z`), its line counted in
+/// the text's lines. `Ok(None)` when that reader finds no header or an error (the whole-text
+/// path then reads the file and says what it finds).
+pub(crate) fn read_piece_head(
+    st: &mut CsvState<'_>,
+    head: &str,
+    delim: Delimiter,
+    plain: bool,
+) -> Result<Option<(usize, usize)>> {
+    if plain {
+        return st.read_head(head, delim).map(Some);
+    }
+    let mut reader = csv::ReaderBuilder::new()
+        .has_headers(false)
+        .flexible(true)
+        .delimiter(delim.byte())
+        .from_reader(head.as_bytes());
+    let mut record = csv::StringRecord::new();
+    while st.layout.is_none() {
+        if !matches!(reader.read_record(&mut record), Ok(true)) {
+            return Ok(None);
+        }
+        let line_no = record.position().map_or(0, |p| p.line() as usize);
+        if st.before_header(&record, line_no).is_err() {
+            return Ok(None);
+        }
+    }
+    let offset = usize::try_from(reader.position().byte()).unwrap_or(usize::MAX);
+    let Some(read) = head.as_bytes().get(..offset) else {
+        return Ok(None);
+    };
+    // The header's own line: the line ends up to the first data row's start.
+    Ok(Some((offset, memchr::memchr_iter(b'\n', read).count())))
+}
+
+/// Why the text file `path` (larger than the size read whole, `limit_mib`) could not be read
+/// in pieces, as an error naming the place: the first byte that is not UTF-8 by its line and
+/// column (the sentence a smaller file gets), else the first line with a quote, a lone
+/// carriage return or a comment mark inside a row, or a line over the limit for one. `None`
+/// when every piece is plain (the pieces declined for another reason: no header in the first
+/// piece, a pose column…), or a line is too long for a piece to carry, or the file cannot be
+/// read (the caller's error stands).
+///
+/// One more read of the file, on the way to an error only.
+pub(crate) fn why_not_in_pieces(path: &Path, limit_mib: u64) -> Option<Error> {
+    why_not_in(path, limit_mib, PIECE_BYTES)
+}
+
+/// [`why_not_in_pieces`] with pieces of `piece_bytes`.
+fn why_not_in(path: &Path, limit_mib: u64, piece_bytes: usize) -> Option<Error> {
+    use crate::error::input::InputError;
+    let mut pieces = Pieces::open(path, piece_bytes).ok()?;
+    let mut lines_before = 0usize;
+    let mut first = true;
+    let why = loop {
+        match pieces.next_piece() {
+            Ok(Some(_)) => {}
+            // The end; or a line too long to carry, or a read error: the size sentence
+            // stands (the pieces cannot tell which).
+            Ok(None) | Err(()) => return None,
+        }
+        let piece = pieces.current();
+        if let Err(e) = std::str::from_utf8(piece) {
+            let why = if lines_before == 0 {
+                crate::input::bounded::not_utf8_why(piece, e.valid_up_to())
+            } else {
+                crate::input::bounded::not_utf8_after(piece, e.valid_up_to(), lines_before)
+            };
+            return Some(
+                InputError::NotUtf8 {
+                    path: path.into(),
+                    why,
+                }
+                .into(),
+            );
+        }
+        // The first piece's head may hold quotes (a quoted header): its rows are what count.
+        let from = if std::mem::take(&mut first) {
+            first_data_offset(&pieces)
+        } else {
+            0
+        };
+        let piece = pieces.text_after_bom().unwrap_or_default();
+        if let Some(why) = piece.get(from..).and_then(|rows| first_mark(rows)) {
+            let line = lines_before
+                + 1
+                + memchr::memchr_iter(b'\n', &piece.as_bytes()[..from + why.0]).count();
+            break format!("line {line} {}", why.1);
+        }
+        lines_before += memchr::memchr_iter(b'\n', pieces.current()).count();
+    };
+    Some(
+        InputError::NotPlainInPieces {
+            path: path.into(),
+            limit_mib,
+            why,
+        }
+        .into(),
+    )
+}
+
+/// Where the first piece's data rows start, when its head reads ([`read_piece_head`]); else 0.
+fn first_data_offset(pieces: &Pieces) -> usize {
+    let opts = LoadOptions::default();
+    let Some((head, delim, plain)) = head_of_current(pieces, |_| true) else {
+        return 0;
+    };
+    let mut st = CsvState::new(&opts, delim);
+    match read_piece_head(&mut st, head, delim, plain) {
+        Ok(Some((offset, _))) if st.layout.is_some() => offset,
+        _ => 0,
+    }
+}
+
+/// The byte offset in `rows` (whole lines, comments blanked) of the first thing the fast
+/// splitter does not read, and what it is with what to do.
+fn first_mark(rows: &str) -> Option<(usize, &'static str)> {
+    let b = rows.as_bytes();
+    let quote = memchr::memchr(b'"', b)
+        .map(|i| (i, "holds a quote (\"): write the data rows without quotes"));
+    let comment = memchr::memchr2(b'#', b'%', b).map(|i| {
+        (
+            i,
+            "holds '#' or '%' inside a row: a comment must be a line of its own",
+        )
+    });
+    let lone_cr = memchr::memchr_iter(b'\r', b)
+        .find(|&i| b.get(i + 1) != Some(&b'\n'))
+        .map(|i| {
+            (
+                i,
+                "ends with a lone carriage return (old Mac line ends): convert them to \
+                       line feeds, e.g. `tr '\\r' '\\n'`",
+            )
+        });
+    let mut start = 0;
+    let long = memchr::memchr_iter(b'\n', b)
+        .chain(std::iter::once(b.len()))
+        .find_map(|end| {
+            let line = (end - start > MAX_LINE_BYTES).then_some(start);
+            start = end + 1;
+            line
+        })
+        .map(|i| {
+            (
+                i,
+                "is longer than the limit for a line (a file without line breaks?)",
+            )
+        });
+    [quote, comment, lone_cr, long]
+        .into_iter()
+        .flatten()
+        .min_by_key(|m| m.0)
 }
 
 /// `result` (an error in the rows) once the rest of the file is known to be plain text (else
@@ -525,6 +738,8 @@ mod tests {
             format!("\u{feff}{rows}"),
             rows.clone() + "# a comment\n",
             rows.replace("2.5,", "\"2.5\","),
+            rows.replace("t,x,y,z,temp", "\"t\",\"x\",\"y\",\"z\",\"temp\""),
+            format!("# logger\n% 100 Hz, 16 bit\n{rows}").replace("\n2.5,", "\n% pause\n2.5,"),
         ];
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("r.csv");
@@ -550,8 +765,60 @@ mod tests {
             Ok(Some(_))
         ));
         assert!(matches!(read_pieces(&path, &opts, 64, |_| false), Ok(None)));
-        // A comment, a quote: read whole.
-        std::fs::write(&path, &texts[10]).unwrap();
-        assert!(matches!(read_pieces(&path, &opts, 64, |_| true), Ok(None)));
+        // Comment lines, a quoted header: read in pieces; a quote in a row: read whole.
+        for (k, in_pieces) in [(10, true), (12, true), (13, true), (11, false)] {
+            std::fs::write(&path, &texts[k]).unwrap();
+            let got = read_pieces(&path, &opts, 64, |_| true);
+            assert_eq!(matches!(got, Ok(Some(_))), in_pieces, "{k}: {got:?}");
+        }
+    }
+
+    /// What stopped a file's pieces is named by line: a byte that is not UTF-8 on the last
+    /// line with its line and column (as a file read whole gets it), a quote in a row, a
+    /// lone carriage return; a quoted header is no reason, and a plain file has none.
+    #[test]
+    fn what_stops_the_pieces_is_named_by_line() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("big.csv");
+        // Line 1 the header, line k + 1 the row k: many pieces of 4096 bytes, the lines
+        // counted across them.
+        let mut rows = String::from("\"t\",\"x\",\"y\",\"z\"\n");
+        let row = "0.000000001,123456,234567,345678\n";
+        let n = 5000;
+        for _ in 0..n {
+            rows += row;
+        }
+        let why = |bytes: &[u8]| {
+            std::fs::write(&path, bytes).unwrap();
+            why_not_in(&path, 256, 4096).map(|e| e.full_message())
+        };
+        assert_eq!(why(rows.as_bytes()), None);
+        // The last line (n + 2), column 6: a Latin-1 byte.
+        let mut bad = rows.clone().into_bytes();
+        bad.extend_from_slice(b"0.01,\xe91,2,3\n");
+        let got = why(&bad).unwrap();
+        let whole = crate::input::bounded::text_of(&path, bad.clone())
+            .unwrap_err()
+            .to_string();
+        assert!(
+            whole.contains(&format!("line {}, column 6", n + 2)),
+            "{whole}"
+        );
+        assert_eq!(got, whole);
+        let quoted = format!("{rows}\"1\",2,3,4\n");
+        let got = why(quoted.as_bytes()).unwrap();
+        assert!(
+            got.contains(&format!("but line {} holds a quote", n + 2)),
+            "{got}"
+        );
+        let cr = format!("{rows}1,2,3,4\r5,6,7,8\n");
+        let got = why(cr.as_bytes()).unwrap();
+        assert!(
+            got.contains(&format!(
+                "but line {} ends with a lone carriage return",
+                n + 2
+            )),
+            "{got}"
+        );
     }
 }

@@ -25,7 +25,7 @@ use crate::input::columns::LoadOptions;
 use crate::input::recording::Recording;
 use crate::input::sample_summary::{SampleSummary, SummaryFold};
 use crate::input::text::{check_axis_columns, CsvState, Delimiter};
-use crate::input::text_file::{first_piece_head, Pieces, PIECE_BYTES};
+use crate::input::text_file::{first_piece_head, read_piece_head, Pieces, PIECE_BYTES};
 pub(crate) use crate::input::text_rows::Columns;
 use crate::input::text_rows::RowLayout;
 pub(crate) use crate::input::text_spill::Want;
@@ -46,12 +46,50 @@ pub struct Row {
     pub temp: Option<f64>,
 }
 
-/// What identifies the file's content between passes: its size and modification time.
-type Stamp = (u64, Option<std::time::SystemTime>);
+/// What identifies the file's content between passes, cheaply: its size, its modification
+/// time, and a checksum of [`SAMPLED_PIECES`] pieces of [`SAMPLED_PIECE_BYTES`] spread over
+/// it (the first and the last among them). The size and time catch a file still being
+/// written; the checksum a rewrite in place that keeps the size within the time's
+/// resolution, or puts the time back. A change between the sampled pieces with the time put
+/// back passes: the identity is a check on accidents (a logger still writing, a file
+/// replaced), not a proof.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct Stamp {
+    len: u64,
+    modified: Option<std::time::SystemTime>,
+    sampled: u64,
+}
+
+/// Pieces of the file read for [`Stamp`]'s checksum (at every check: before each pass and
+/// after it, a few dozen kilobytes from the page cache against the pass's whole file).
+const SAMPLED_PIECES: u64 = 16;
+
+/// Bytes of each piece read for [`Stamp`]'s checksum.
+const SAMPLED_PIECE_BYTES: u64 = 4096;
 
 fn stamp_of(path: &Path) -> Option<Stamp> {
-    let m = std::fs::metadata(path).ok()?;
-    Some((m.len(), m.modified().ok()))
+    use std::hash::Hasher;
+    use std::io::{Seek, SeekFrom};
+    let mut file = std::fs::File::open(path).ok()?;
+    let m = file.metadata().ok()?;
+    let len = m.len();
+    // A fixed-key hasher: the same bytes give the same checksum at every check.
+    let mut hash = std::hash::DefaultHasher::new();
+    let mut buf = vec![0u8; SAMPLED_PIECE_BYTES as usize];
+    let last = len.saturating_sub(SAMPLED_PIECE_BYTES);
+    for k in 0..SAMPLED_PIECES {
+        // Evenly spaced from the first byte to the last piece's start (no overflow in u128).
+        let at = u128::from(last) * u128::from(k) / u128::from(SAMPLED_PIECES - 1);
+        let at = u64::try_from(at).unwrap_or(last);
+        file.seek(SeekFrom::Start(at)).ok()?;
+        let n = crate::input::bounded::read_full(&mut file, &mut buf).ok()?;
+        hash.write(&buf[..n]);
+    }
+    Some(Stamp {
+        len,
+        modified: m.modified().ok(),
+        sampled: hash.finish(),
+    })
 }
 
 /// A large plain text file read once for its summary, re-read for every later pass.
@@ -77,7 +115,9 @@ pub struct TextSource {
     failed: Mutex<Option<Error>>,
     /// The temporary file standard input was copied to, when this reads one (deleted when
     /// this is dropped).
-    spool: Option<tempfile::TempPath>,
+    spool: Option<crate::input::temp_files::OwnTemp>,
+    /// The name the user gave the file, when it is not `path` (`-`: standard input).
+    shown: Option<PathBuf>,
     /// The rows of the first pass, for the later passes to read back (`None`: they re-read
     /// the text).
     spill: Option<Spill>,
@@ -178,14 +218,22 @@ impl TextSource {
         };
         let mut writer = spill_to.writer();
         let (fold, tally, skipped) =
-            match first_pass(&mut pieces, (&head, path), &mut writer, stamp.0) {
+            match first_pass(&mut pieces, (&head, path), &mut writer, stamp.len) {
                 Ok(Some(x)) => x,
                 Ok(None) => return Ok(None),
+                // A row that does not parse in a file that changed meanwhile is the change's.
+                Err(_) if stamp_of(path) != Some(stamp) => {
+                    return Err(InputError::ChangedWhileRead.into())
+                }
                 Err(e) => return pieces.rest_is_plain().then_some(Err(e)).transpose(),
             };
         let summary = fold.finish();
         if summary.count == 0 {
             return Err(InputError::HeaderOnly.into());
+        }
+        if stamp_of(path) != Some(stamp) {
+            // Changed during the first pass: its summary may mix two versions.
+            return Err(InputError::ChangedWhileRead.into());
         }
         let mut meta = head.state_meta;
         meta.skipped_empty_rows = skipped;
@@ -202,6 +250,7 @@ impl TextSource {
             steps: None,
             failed: Mutex::new(None),
             spool: None,
+            shown: None,
             spill: writer.map(SpillWriter::finish),
             spill_failed: AtomicBool::new(false),
         };
@@ -219,9 +268,10 @@ impl TextSource {
         Ok(Some(src))
     }
 
-    /// Keeps `file` (the temporary file this reads) until this is dropped.
-    pub(crate) fn keep(&mut self, file: tempfile::TempPath) {
+    /// Keeps `file` (the temporary file this reads, a copy of `shown`) until this is dropped.
+    pub(crate) fn keep(&mut self, file: crate::input::temp_files::OwnTemp, shown: &Path) {
         self.spool = Some(file);
+        self.shown = Some(shown.to_path_buf());
     }
 
     /// Whether the later passes read the first pass's rows back, from memory or a temporary
@@ -327,7 +377,7 @@ impl TextSource {
             }
         }
         if rows.consumed != self.summary.count {
-            self.fail(InputError::ChangedWhileRead.into());
+            self.fail(self.changed());
         }
     }
 
@@ -340,7 +390,7 @@ impl TextSource {
         let mut consumed = 0;
         if let Some(spill) = self.spill.as_ref().filter(|_| self.is_spilled()) {
             if !self.unchanged() {
-                return self.fail(InputError::ChangedWhileRead.into());
+                return self.fail(self.changed());
             }
             let mut scratch = Vec::new();
             for (k, (from, to)) in spill.block_rows().enumerate() {
@@ -359,7 +409,7 @@ impl TextSource {
             }
             if self.is_spilled() {
                 if consumed != self.summary.count {
-                    self.fail(InputError::ChangedWhileRead.into());
+                    self.fail(self.changed());
                 }
                 return;
             }
@@ -388,7 +438,8 @@ impl TextSource {
         axes.filter(|a| a.iter().map(|b| b.len()).sum::<usize>() == self.summary.count)
     }
 
-    /// Whether the file is still the one of the first pass (its size and modification time).
+    /// Whether the file is still the one of the first pass ([`Stamp`]: its size, modification
+    /// time and sampled pieces).
     pub(crate) fn unchanged(&self) -> bool {
         stamp_of(&self.path) == Some(self.stamp)
     }
@@ -417,14 +468,33 @@ impl TextSource {
 
     /// The first failure of a pass since the file was opened (`Ok` when every pass read the
     /// whole file as the first did).
+    ///
+    /// The file's identity is checked here too, after the pass: a pass that read every row
+    /// as many as the first did may still have read some of them from a rewrite in place (same
+    /// size), an answer mixed from two versions.
     pub fn check(&self) -> Result<()> {
+        if !self.unchanged() {
+            self.fail(self.changed());
+        }
         match self.failed.lock().map(|mut f| f.take()) {
             Ok(Some(e)) => Err(e),
             _ => Ok(()),
         }
     }
 
+    /// [`InputError::ChangedWhileRead`] in this file (by the name the user gave it: `-` for
+    /// standard input copied to a temporary file).
+    fn changed(&self) -> Error {
+        let shown = self.shown.as_deref().unwrap_or(&self.path);
+        Error::from(InputError::ChangedWhileRead).in_file(shown)
+    }
+
+    /// Keeps `e` as the first failure (a file that changed named, as the user gave it).
     fn fail(&self, e: Error) {
+        let e = match e {
+            Error::Input(InputError::ChangedWhileRead) => self.changed(),
+            e => e,
+        };
         if let Ok(mut f) = self.failed.lock() {
             f.get_or_insert(e);
         }
@@ -437,7 +507,7 @@ impl TextSource {
     fn reader_at(&self, skip: &mut usize) -> Result<Reader> {
         if let Some(spill) = self.spill.as_ref().filter(|_| self.is_spilled()) {
             if !self.unchanged() {
-                return Err(InputError::ChangedWhileRead.into());
+                return Err(self.changed());
             }
             let (k, first) = spill.block_holding(*skip);
             *skip -= first;
@@ -456,8 +526,8 @@ impl TextSource {
     /// The file reopened at its first data row, when it is still the file of the first pass:
     /// its pieces parsed ahead of the pass ([`Feed`]).
     fn reopen(&self) -> Result<Reader> {
-        if stamp_of(&self.path) != Some(self.stamp) {
-            return Err(InputError::ChangedWhileRead.into());
+        if !self.unchanged() {
+            return Err(self.changed());
         }
         let pieces = Pieces::open(&self.path, self.piece_bytes)?;
         let parser = Parser {
@@ -482,11 +552,16 @@ fn read_head(
     opts: &LoadOptions,
     head_ok: impl Fn(&str) -> bool,
 ) -> Result<Option<Head>> {
-    let Some((head, delim)) = first_piece_head(pieces, head_ok) else {
+    let Some((head, delim, plain)) = first_piece_head(pieces, head_ok) else {
         return Ok(None);
     };
     let mut st = CsvState::new(opts, delim);
-    let (offset, header_line) = st.read_head(head, delim)?;
+    let Some((offset, header_line)) = read_piece_head(&mut st, head, delim, plain)? else {
+        return Ok(None);
+    };
+    if pieces.data_after_bom(offset).is_none() {
+        return Ok(None); // marks past the head: read whole
+    }
     let Some(layout) = st.layout.clone() else {
         return Ok(None);
     };
@@ -575,7 +650,7 @@ fn parse_pieces(
         let text = if std::mem::take(&mut first) {
             // The first piece again, from its data rows (its head was read above).
             done += pieces.current().len() as u64;
-            match (pieces.plain_after_bom()).and_then(|t| t.get(head.data_offset..)) {
+            match pieces.data_after_bom(head.data_offset) {
                 Some(t) => t,
                 None => return Ok(false),
             }
@@ -668,7 +743,7 @@ impl Parser {
             _ => return Some(Err(changed())),
         };
         let text = match self.data_offset.take() {
-            Some(offset) => (self.pieces.plain_after_bom()).and_then(|t| t.get(offset..)),
+            Some(offset) => self.pieces.data_after_bom(offset),
             None => self.pieces.plain(),
         };
         let Some(text) = text else {
@@ -866,7 +941,7 @@ impl Iterator for Rows<'_> {
                 Ok(false) => {
                     self.done = true;
                     if self.consumed != self.src.summary.count {
-                        self.src.fail(InputError::ChangedWhileRead.into());
+                        self.src.fail(self.src.changed());
                     }
                 }
                 Err(e) => {
@@ -901,6 +976,20 @@ mod tests {
         fold.push(&r.xyz, &t, &temp);
         let steps = r.t.as_ref().and_then(|t| TimeSteps::of(t));
         (format!("{:?}", fold.finish()), steps)
+    }
+
+    /// `text` with `lines` put before the lines of their index (0: the first).
+    fn with_lines(text: &str, lines: &[(usize, &str)]) -> String {
+        let mut out = String::new();
+        for (i, l) in text.split_inclusive('\n').enumerate() {
+            for (_, extra) in lines.iter().filter(|(at, _)| *at == i) {
+                out += extra;
+                out.push('\n');
+            }
+            out += l;
+        }
+        assert_eq!(out.lines().count(), text.lines().count() + lines.len());
+        out
     }
 
     /// A parse that panics on the thread that parses ahead of a pass is raised on the pass's
@@ -941,6 +1030,71 @@ mod tests {
             Err(payload) => payload,
         };
         assert_eq!(payload.downcast_ref::<&str>(), Some(&"a parse that panics"));
+    }
+
+    /// A file rewritten in place during a pass — the same size, its modification time put back,
+    /// so that only the sampled pieces' checksum tells — is refused after that pass (and
+    /// before any later one), named, whether the passes read the spill or the text again;
+    /// never taken with rows mixed from two versions. Untouched, the same file passes: the
+    /// check is not one that always fails.
+    #[test]
+    fn a_file_rewritten_in_place_is_refused_whatever_the_spill() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("r.csv");
+        // The same times and length, other readings (three digits each in both): a version
+        // whose rows all parse, so only the identity check can tell.
+        let text_of = |base: u32| {
+            let mut text = String::from("t,x,y,z\n");
+            for i in 0..20_000u32 {
+                let (x, y, z) = (base + i % 7, base + 100 + i % 5, base + 200 + i % 3);
+                text += &format!("{i}.0,{x},{y},{z}\n");
+            }
+            text
+        };
+        let (text, other) = (text_of(100), text_of(500));
+        assert_eq!(text.len(), other.len());
+        let opts = LoadOptions::default();
+        for spill in [false, true] {
+            std::fs::write(&path, &text).unwrap();
+            let to = SpillTo {
+                on: spill,
+                dir: None,
+                limit: u64::MAX,
+                memory: u64::MAX,
+            };
+            let src = TextSource::open_with(&path, &opts, 4096, &to, |_| true)
+                .unwrap()
+                .unwrap();
+            assert_eq!(src.is_spilled(), spill);
+            let first: Vec<Row> = src.rows().collect();
+            assert_eq!(first.len(), 20_000);
+            src.check().unwrap();
+            let mut rows = src.rows();
+            let head: Vec<Row> = rows.by_ref().take(10).collect();
+            let modified = std::fs::metadata(&path).unwrap().modified().unwrap();
+            let file = std::fs::OpenOptions::new().write(true).open(&path).unwrap();
+            (&file).write_all(other.as_bytes()).unwrap();
+            file.set_modified(modified).unwrap();
+            drop(file);
+            let meta = std::fs::metadata(&path).unwrap();
+            assert_eq!(
+                (meta.len(), meta.modified().unwrap()),
+                (text.len() as u64, modified)
+            );
+            let rest: Vec<Row> = rows.collect();
+            let got = [head, rest].concat();
+            // Read on to the end: from the spill the first version's rows, from the text the
+            // other version's after the pieces parsed ahead (the mix the check must catch).
+            assert_eq!(got.len(), first.len());
+            assert_eq!(got == first, spill);
+            let e = src.check().unwrap_err().full_message();
+            assert!(
+                e.contains("r.csv") && e.contains("changed while it was being read"),
+                "{e}"
+            );
+            assert_eq!(src.rows().count(), 0, "a later pass read rows");
+            assert!(src.check().is_err());
+        }
     }
 
     /// A file's rows in memory when the first pieces' rate says they fit, else on disk.
@@ -985,6 +1139,13 @@ mod tests {
                 .replace(",2", ",a"),
             format!("\u{feff}{rows}"),
             rows.clone() + "# a comment\n",
+            // Quotes in the head only, comment lines before it and among the rows: the rows
+            // are still read by the fast splitter.
+            rows.replace("t,x,y,z,temp", "\"t\",\"x\",\"y\",\"z\",\"temp\""),
+            format!("# logger v2, 100 Hz\n% a note\n{rows}"),
+            with_lines(&rows, &[(150, "% pause"), (230, "  # resumed, 100 Hz")]),
+            // A quote among the rows: read whole.
+            with_lines(&rows, &[(200, "\"1.99\",1,2,3,4")]),
         ];
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("r.csv");
@@ -1035,13 +1196,16 @@ mod tests {
                 assert_eq!(got, whole, "{text:?} in pieces of {size} from {path:?}");
             }
         }
-        // The plain file is streamed; a comment, a pose column: read whole.
-        std::fs::write(&path, &texts[0]).unwrap();
-        assert!(matches!(
-            TextSource::open_in(&path, &opts, 64, |_| true),
-            Ok(Some(_))
-        ));
-        for k in [7, 9] {
+        // The plain file is streamed, and so are comment lines and a quoted header; a pose
+        // column, a quote in a row: read whole.
+        for k in [0, 9, 10, 11, 12] {
+            std::fs::write(&path, &texts[k]).unwrap();
+            assert!(
+                matches!(TextSource::open_in(&path, &opts, 64, |_| true), Ok(Some(_))),
+                "{k}"
+            );
+        }
+        for k in [7, 13] {
             std::fs::write(&path, &texts[k]).unwrap();
             assert!(matches!(
                 TextSource::open_in(&path, &opts, 64, |_| true),
