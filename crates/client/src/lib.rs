@@ -168,7 +168,7 @@ use serde::Serialize;
 use serialport::SerialPort;
 /// The centre direction of the adapter's background-recalibration bin `i` (bins as
 /// [`wiical_wire::BackgroundReport::bin_moments`] numbers them), for drawing the grid.
-pub use wiical_adapter::background::grid::bin_centre as background_bin_centre;
+pub use wiical_wire::bins::bin_centre as background_bin_centre;
 use wiical_core::Calibration;
 use wiical_wire::endpoints::{self, Endpoint};
 use wiical_wire::{

@@ -58,6 +58,7 @@
 #![deny(unsafe_code)]
 #![warn(missing_docs)]
 
+pub mod bins;
 pub mod endpoints;
 pub mod frame;
 pub mod messages;

@@ -491,7 +491,7 @@ pub enum SelfCalOutcome {
 }
 
 /// (Protocol 5.) Bins of the background recalibration's orientation grid (6 cube faces × 3 × 3
-/// cells of ≈ 30°; `wiical_adapter::background::grid` numbers them).
+/// cells of ≈ 30°; [`crate::bins`] numbers them).
 pub const BACKGROUND_BINS: usize = 54;
 
 /// (Protocol 5; the budget and the fit interval since protocol 6.) The background
