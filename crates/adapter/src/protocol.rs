@@ -39,19 +39,20 @@
 //! it and `SetBackground` stores its settings beside the calibration
 //! ([`crate::settings`]).
 
+mod answers;
 mod recal;
 mod recal_wire;
 
 use core::fmt::Write as _;
+use core::future::Future;
 use embedded_storage_async::nor_flash::NorFlash;
 
-use wiical_core::acceptance::{Acceptance, Rejection};
+use wiical_core::acceptance::Acceptance;
 use wiical_core::Calibration;
 use wiical_extbus::NunchukReport;
 use wiical_wire::{
-    AdapterStatus, BootRecord, CalibrationState, ErrorCode, FrameError, HelloResponse,
-    RecordProblem, Request, Response, Sample, SelfCalOutcome, SelfCalPhase, FIRMWARE_VERSION_CAP,
-    PROTOCOL_VERSION, SCHEMA_KEY,
+    AdapterStatus, BootRecord, ErrorCode, FrameError, RecordProblem, Request, Response, Sample,
+    SelfCalOutcome, SelfCalPhase, FIRMWARE_VERSION_CAP, SCHEMA_KEY,
 };
 
 use crate::background::{Background, LiveOrigin};
@@ -236,92 +237,13 @@ impl<F: NorFlash> Protocol<F> {
         self
     }
 
-    /// Answer one request.
-    pub async fn handle(&mut self, req: Request) -> Response {
-        match req {
-            Request::Hello(h) => {
-                // A new session: the previous one's staged upload is not ours to commit.
-                // The stream keeps running (see the module docs).
-                self.staged = None;
-                self.session_open = h.schema_key == self.schema_key;
-                Response::Hello(HelloResponse {
-                    protocol_version: PROTOCOL_VERSION,
-                    schema_key: self.schema_key,
-                    firmware_version: self.info.firmware_version.clone(),
-                    device_id: self.info.device_id,
-                })
-            }
-            _ if !self.session_open => Response::Error(ErrorCode::SchemaMismatch),
-            Request::EndSession => {
-                // The host is leaving: its upload and session go with it (the stream is
-                // the port's and keeps running).
-                self.session_open = false;
-                self.staged = None;
-                Response::Ack
-            }
-            Request::GetCalibration => Response::Calibration(CalibrationState {
-                live: self.corrector.live_calibration().into(),
-                staged: self.staged.map(Into::into),
-                stored: self.corrector.mode() == CorrectionMode::Calibrated,
-                boot: self.boot.to_wire(),
-                damaged_records: self.damaged_records,
-            }),
-            Request::PutCalibration(_) | Request::CommitCalibration if self.selfcal.active() => {
-                Response::Error(ErrorCode::Busy)
-            }
-            Request::PutCalibration(w) => {
-                let cal = Calibration::from(w);
-                match self.acceptance.check(&cal, None) {
-                    Ok(()) => {
-                        self.staged = Some(cal);
-                        Response::Ack
-                    }
-                    Err(Rejection::Unusable(_)) => Response::Error(ErrorCode::InvalidCalibration),
-                    Err(_) => Response::Error(ErrorCode::ImplausibleCalibration),
-                }
-            }
-            Request::CommitCalibration => self.commit().await,
-            Request::GetStatus => Response::Status(self.adapter_status()),
-            Request::StartStream { rate_divider: 0 } => {
-                Response::Error(ErrorCode::InvalidParameter)
-            }
-            Request::StartStream { rate_divider } => {
-                self.stream = Some(Stream {
-                    divider: rate_divider,
-                    phase: 0,
-                });
-                self.seq = 0;
-                Response::StreamStarted {
-                    sample_rate_mhz: self.info.base_rate_mhz / u32::from(rate_divider),
-                }
-            }
-            Request::StopStream => {
-                self.stream = None;
-                Response::Ack
-            }
-            Request::GetBackgroundStatus => Response::Background(self.background_report()),
-            Request::SetBackground(_) if self.selfcal.active() => Response::Error(ErrorCode::Busy),
-            Request::SetBackground(b) => match self.set_background(&b).await {
-                Ok(()) => Response::Ack,
-                Err(recal::CommitError::OutOfBounds) => {
-                    Response::Error(ErrorCode::InvalidParameter)
-                }
-                Err(_) => Response::Error(ErrorCode::StorageFailure),
-            },
-        }
-    }
-
-    async fn commit(&mut self) -> Response {
-        let Some(cal) = self.staged else {
-            return Response::Error(ErrorCode::NothingStaged);
-        };
-        match self.store_and_apply(cal, LiveOrigin::Host).await {
-            Ok(()) => {
-                self.staged = None;
-                Response::Ack
-            }
-            Err(e) => Response::Error(e),
-        }
+    /// Answer one request: outside a session only `Hello` (see the module docs); each by
+    /// its endpoint's [`wiical_wire::Answer`] (in the `answers` child module), whose typed
+    /// reply [`wiical_wire::dispatch`] wraps in its response.
+    // Not an `async fn`: one would hold `req` beside the dispatch future that holds it too
+    // (288 B more of the serial task's static RAM).
+    pub fn handle(&mut self, req: Request) -> impl Future<Output = Response> + '_ {
+        wiical_wire::dispatch(self, req)
     }
 
     /// Store `cal` (power-loss safe) with its origin, read it back, and only then make it

@@ -364,19 +364,6 @@ fn a_power_cut_at_any_flash_operation_of_an_adoption_leaves_old_or_new() {
     assert!(olds > 0 && news > 0);
 }
 
-/// The centres the live view draws the bins at fall in their own bins, and are unit vectors.
-#[test]
-fn bin_centres_fall_in_their_bins() {
-    use wiical_adapter::background::grid::{bin_centre, bin_of, BINS};
-    for i in 0..BINS {
-        let c = bin_centre(i).expect("a centre");
-        let n = c.iter().map(|x| x * x).sum::<f32>().sqrt();
-        assert!((n - 1.0).abs() < 1e-6, "bin {i}: |c| = {n}");
-        assert_eq!(bin_of(c), Some(i), "bin {i}: centre {c:?}");
-    }
-    assert_eq!(bin_centre(BINS), None);
-}
-
 /// The corrector applies a bias temperature slope at the board's temperature (the slope the
 /// background fit learns): `a = K·(m − b − s·(θ − θ₀))`, computed here in f64; without a
 /// reading the slope is left out.

@@ -166,15 +166,15 @@ pub enum ClientError {
 pub type Result<T, E = ClientError> = std::result::Result<T, E>;
 use serde::Serialize;
 use serialport::SerialPort;
+use wiical_core::Calibration;
 /// The centre direction of the adapter's background-recalibration bin `i` (bins as
 /// [`wiical_wire::BackgroundReport::bin_moments`] numbers them), for drawing the grid.
-pub use wiical_adapter::background::grid::bin_centre as background_bin_centre;
-use wiical_core::Calibration;
-use wiical_wire::endpoints::{self, Endpoint};
+pub use wiical_wire::bins::bin_centre as background_bin_centre;
 use wiical_wire::{
     encode_frame, CalibrationState, DefaultFrameDecoder, ErrorCode, FrameError, Hello,
     HelloResponse, Request, Response, Sample, MAX_FRAME_LEN, PROTOCOL_VERSION, SCHEMA_KEY,
 };
+use wiical_wire::{endpoints, Endpoint};
 
 /// Timeouts and retries of a [`Device`] connection.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -390,8 +390,9 @@ impl Device {
     pub fn hello(&mut self) -> Result<HelloResponse> {
         // A lone delimiter ends whatever half frame the adapter may hold.
         self.write_raw(&[0])?;
-        let (resp, _) = self.transact(&Hello::CURRENT.request())?;
-        let h = Hello::reply(&resp).ok_or_else(|| unexpected(&Hello::CURRENT.request(), &resp))?;
+        let hello = endpoints::Hello(Hello::CURRENT).request();
+        let (resp, _) = self.transact(&hello)?;
+        let h = endpoints::Hello::reply(&resp).ok_or_else(|| unexpected(&hello, &resp))?;
         if h.check().is_err() {
             // Say which side is older when the key is a known one.
             if let Some(v) = wiical_wire::protocol_of_key(h.schema_key) {

@@ -39,11 +39,18 @@
 //!    last adoption and last refusal; `SetBackground` stores its settings (adoption on/off,
 //!    whether a host upload may be replaced) in the adapter's flash.
 //!
+//! ## Declared once
+//! [`Request`] and [`Response`] are declared in one place, [`protocol`]: each request with
+//! its payload and the response variant that answers it. From that declaration come the
+//! endpoint types ([`endpoints`]), the pairing ([`Request::is_answered_by`]), the schema's
+//! `Request:` and `Response:` lines and the adapter's typed [`dispatch`] (see [`declare`]).
+//!
 //! ## Versioning rules
 //! * [`SCHEMA`] describes every message; [`SCHEMA_KEY`] is its FNV-1a hash computed in a
-//!   `const fn`. **Any change to a message type must update [`SCHEMA`]** (which changes the
-//!   key) and bump [`PROTOCOL_VERSION`]. The `golden_encodings` test pins the bytes of each
-//!   message so a forgotten update fails the tests.
+//!   `const fn`. Its `Request:`, `Response:` and `WireEffects:` lines are rendered from the
+//!   declarations; **any other change to a message type must update [`SCHEMA`]'s text**. Either
+//!   way the key changes: bump [`PROTOCOL_VERSION`]. The `golden_encodings` test pins the
+//!   bytes of each message so a forgotten update fails the tests.
 //! * Frozen forever, so that mismatched builds can still tell each other so: variant 0 of
 //!   [`Request`] and [`Hello`]'s layout; variants 0 and 1 of [`Response`],
 //!   [`HelloResponse`]'s layout, and the numeric values of [`ErrorCode`] (serialized as
@@ -58,22 +65,25 @@
 #![deny(unsafe_code)]
 #![warn(missing_docs)]
 
-pub mod endpoints;
+pub mod bins;
+pub mod declare;
 pub mod frame;
 pub mod messages;
+pub mod protocol;
 pub mod schema;
 
-pub use endpoints::Endpoint;
 pub use frame::{
     encode_frame, DefaultFrameDecoder, FrameDecoder, FrameError, Frames, MAX_FRAME_LEN,
 };
 pub use messages::{
-    check_schema_key, AdapterStatus, AdoptionReport, BackgroundPhase, BackgroundReport,
-    BackgroundSettings, BackgroundSettingsField, BootRecord, CalibrationOrigin, CalibrationState,
-    CandidateReport, CoverageGapReport, ErrorCode, Hello, HelloResponse, RecordProblem,
-    RefusalReport, Request, Response, Sample, SelfCalOutcome, SelfCalPhase, WireCalibration,
-    WireEffects, BACKGROUND_BINS, FIRMWARE_VERSION_CAP, SELFCAL_MESSAGE_CAP,
+    AdapterStatus, AdoptionReport, BackgroundPhase, BackgroundReport, BackgroundSettings,
+    BackgroundSettingsField, BootRecord, CalibrationOrigin, CalibrationState, CandidateReport,
+    CoverageGapReport, ErrorCode, Hello, HelloResponse, RecordProblem, RefusalReport, Sample,
+    SelfCalOutcome, SelfCalPhase, WireCalibration, WireEffects, BACKGROUND_BINS,
+    FIRMWARE_VERSION_CAP, SELFCAL_MESSAGE_CAP,
 };
+pub use protocol::{dispatch, endpoints, Answer, AnswerAsync, Endpoint, Request, Response, Serve};
 pub use schema::{
-    fnv1a_32, protocol_of_key, PREVIOUS_SCHEMA_KEYS, PROTOCOL_VERSION, SCHEMA, SCHEMA_KEY,
+    check_schema_key, fnv1a_32, protocol_of_key, PREVIOUS_SCHEMA_KEYS, PROTOCOL_VERSION, SCHEMA,
+    SCHEMA_KEY,
 };

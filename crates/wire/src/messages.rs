@@ -1,148 +1,38 @@
-//! The messages exchanged by host and adapter.
+//! What the messages carry: the payload types of [`Request`](crate::Request) and
+//! [`Response`](crate::Response), which are declared (with the pairing of each request with
+//! its answer) in [`crate::protocol`].
 //!
-//! The host sends [`Request`]s; the adapter sends [`Response`]s, one per request, plus
-//! unsolicited [`Response::Sample`]s while a stream is running.
+//! The host sends requests; the adapter sends responses, one per request, plus unsolicited
+//! [`Sample`]s while a stream is running.
 
 use serde::{Deserialize, Serialize};
 use wiical_core::terms::EFFECT_FLOATS;
 use wiical_core::{Calibration, Effects};
 
-use crate::schema::{PROTOCOL_VERSION, SCHEMA_KEY};
-
 /// Capacity of [`HelloResponse::firmware_version`], in bytes of UTF-8.
 pub const FIRMWARE_VERSION_CAP: usize = 32;
-
-/// Host → adapter.
-///
-/// Variant 0 (`Hello`) and the layout of [`Hello`] are frozen forever so that any two
-/// versions can at least agree that they disagree. New variants go at the end only.
-// No allocator here (no_std), so the calibration cannot be boxed: a message is handled one
-// at a time, and its size (≈ 0.3 KiB per calibration since protocol 3) is bounded.
-#[allow(clippy::large_enum_variant)]
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub enum Request {
-    /// Open a session: the host's version and schema key. The adapter always answers with
-    /// [`Response::Hello`]; if the keys differ it then refuses every other request with
-    /// [`ErrorCode::SchemaMismatch`] until a Hello with a matching key arrives.
-    Hello(Hello),
-    /// Ask for the live (and staged, if any) calibration: answered by
-    /// [`Response::Calibration`].
-    GetCalibration,
-    /// Stage a calibration (validated, not yet used nor stored): answered by
-    /// [`Response::Ack`] or [`ErrorCode::InvalidCalibration`].
-    PutCalibration(WireCalibration),
-    /// Make the staged calibration live and store it persistently: [`Response::Ack`], or
-    /// [`ErrorCode::NothingStaged`] / [`ErrorCode::StorageFailure`].
-    CommitCalibration,
-    /// Start streaming [`Response::Sample`]s at the adapter's base rate divided by
-    /// `rate_divider` (≥ 1; 0 gives [`ErrorCode::InvalidParameter`]). Answered by
-    /// [`Response::StreamStarted`].
-    StartStream {
-        /// Base-rate divider, ≥ 1.
-        rate_divider: u16,
-    },
-    /// Stop streaming: [`Response::Ack`] (also when no stream was running).
-    StopStream,
-    /// (Protocol 2.) Ask for the self-calibration progress and result and the
-    /// stale-calibration estimate: answered by [`Response::Status`].
-    GetStatus,
-    /// (Protocol 4.) End this host's session before it closes the port: the adapter
-    /// discards the staged calibration and refuses every request but `Hello` until the next
-    /// `Hello`, so that another process sharing the port cannot commit this host's upload.
-    /// A running stream keeps running (it is the port's). Answered by [`Response::Ack`].
-    EndSession,
-    /// (Protocol 5.) Ask for the background recalibration's state: answered by
-    /// [`Response::Background`].
-    GetBackgroundStatus,
-    /// (Protocol 5.) Store the background recalibration's settings in the adapter's flash
-    /// and put them in force: [`Response::Ack`], [`ErrorCode::InvalidParameter`] for a field
-    /// outside its bounds ([`BackgroundSettings::out_of_bounds`]) or
-    /// [`ErrorCode::StorageFailure`] (the old settings stay either way).
-    SetBackground(BackgroundSettings),
-}
 
 /// The host's half of the handshake.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Hello {
-    /// Sender's [`PROTOCOL_VERSION`].
+    /// Sender's [`PROTOCOL_VERSION`](crate::PROTOCOL_VERSION).
     pub protocol_version: u16,
-    /// Sender's [`SCHEMA_KEY`].
+    /// Sender's [`SCHEMA_KEY`](crate::SCHEMA_KEY).
     pub schema_key: u32,
-}
-
-impl Hello {
-    /// The Hello of this build.
-    pub const CURRENT: Hello = Hello {
-        protocol_version: PROTOCOL_VERSION,
-        schema_key: SCHEMA_KEY,
-    };
-
-    /// Compare the peer's key with this build's: `Err(SchemaMismatch)` if they differ.
-    pub fn check(&self) -> Result<(), ErrorCode> {
-        check_schema_key(self.schema_key)
-    }
-}
-
-/// `Ok` when `peer_key` equals this build's [`SCHEMA_KEY`], else
-/// [`ErrorCode::SchemaMismatch`].
-pub fn check_schema_key(peer_key: u32) -> Result<(), ErrorCode> {
-    if peer_key == SCHEMA_KEY {
-        Ok(())
-    } else {
-        Err(ErrorCode::SchemaMismatch)
-    }
-}
-
-/// Adapter → host.
-///
-/// Variants 0 (`Hello`) and 1 (`Error`), the layout of [`HelloResponse`] and the numeric
-/// values of [`ErrorCode`] are frozen forever. New variants go at the end only.
-// No allocator here (no_std), so the calibration cannot be boxed: a message is handled one
-// at a time, and its size (≈ 0.3 KiB per calibration since protocol 3) is bounded.
-#[allow(clippy::large_enum_variant)]
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub enum Response {
-    /// Answer to [`Request::Hello`], whatever the host's key.
-    Hello(HelloResponse),
-    /// A request was refused or failed.
-    Error(ErrorCode),
-    /// A request without a payload answer succeeded.
-    Ack,
-    /// Answer to [`Request::GetCalibration`].
-    Calibration(CalibrationState),
-    /// Answer to [`Request::StartStream`].
-    StreamStarted {
-        /// Resulting sample rate in millihertz (integer, so that e.g. 33.333 Hz is exact
-        /// enough: 33333).
-        sample_rate_mhz: u32,
-    },
-    /// One streamed sample.
-    Sample(Sample),
-    /// (Protocol 2.) Answer to [`Request::GetStatus`].
-    Status(AdapterStatus),
-    /// (Protocol 5.) Answer to [`Request::GetBackgroundStatus`].
-    Background(BackgroundReport),
 }
 
 /// The adapter's half of the handshake.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 pub struct HelloResponse {
-    /// Adapter's [`PROTOCOL_VERSION`].
+    /// Adapter's [`PROTOCOL_VERSION`](crate::PROTOCOL_VERSION).
     pub protocol_version: u16,
-    /// Adapter's [`SCHEMA_KEY`].
+    /// Adapter's [`SCHEMA_KEY`](crate::SCHEMA_KEY).
     pub schema_key: u32,
     /// Firmware version string (e.g. `"0.1.0+g1234abc"`), at most
     /// [`FIRMWARE_VERSION_CAP`] bytes.
     pub firmware_version: heapless::String<FIRMWARE_VERSION_CAP>,
     /// Unique device ID (e.g. the MCU's 64-bit unique ID or flash ID).
     pub device_id: [u8; 8],
-}
-
-impl HelloResponse {
-    /// Compare the adapter's key with this build's: `Err(SchemaMismatch)` if they differ.
-    pub fn check(&self) -> Result<(), ErrorCode> {
-        check_schema_key(self.schema_key)
-    }
 }
 
 /// Why the adapter refused or failed a request. Serialized as its `u8` value, which never
@@ -247,7 +137,7 @@ impl core::fmt::Display for ErrorCode {
     }
 }
 
-/// The calibration state reported by [`Request::GetCalibration`].
+/// The calibration state reported by [`Request::GetCalibration`](crate::Request::GetCalibration).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct CalibrationState {
     /// The calibration applied to streamed samples now.
@@ -491,7 +381,7 @@ pub enum SelfCalOutcome {
 }
 
 /// (Protocol 5.) Bins of the background recalibration's orientation grid (6 cube faces × 3 × 3
-/// cells of ≈ 30°; `wiical_adapter::background::grid` numbers them).
+/// cells of ≈ 30°; [`crate::bins`] numbers them).
 pub const BACKGROUND_BINS: usize = 54;
 
 /// (Protocol 5; the budget and the fit interval since protocol 6.) The background
@@ -678,7 +568,7 @@ pub enum RefusalReport {
 }
 
 /// (Protocol 5.) The background recalibration's state: answer to
-/// [`Request::GetBackgroundStatus`].
+/// [`Request::GetBackgroundStatus`](crate::Request::GetBackgroundStatus).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct BackgroundReport {
     /// What it is doing.

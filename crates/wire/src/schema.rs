@@ -2,23 +2,35 @@
 //!
 //! [`SCHEMA`] is a plain-text description of every message type, in field order, with
 //! enum variant indices. [`SCHEMA_KEY`] is its 32-bit FNV-1a hash, computed at compile
-//! time. **Whenever any message type changes, update [`SCHEMA`]** (and bump
-//! [`PROTOCOL_VERSION`]); the key then changes, and a host and a firmware built from
+//! time. The `Request:` and `Response:` lines are rendered from the protocol's declaration
+//! ([`crate::protocol`]) and the `WireEffects:` line from the core's table of effect terms;
+//! **whenever any other message type changes, update its line here**, and bump
+//! [`PROTOCOL_VERSION`] either way; the key then changes, and a host and a firmware built from
 //! different schemas refuse each other in the Hello exchange instead of misreading bytes.
 //! The test `golden_encodings` in this crate pins the byte encoding of one instance of each
 //! message, so a layout change that forgets to update [`SCHEMA`] fails CI.
+
+use crate::declare::{PayloadSchema, VariantSchema};
+use crate::messages::{ErrorCode, Hello, HelloResponse};
+use crate::protocol::{Request, Response};
 
 /// Human-facing protocol version, shown by the host. Compatibility is decided by
 /// [`SCHEMA_KEY`], not by this number.
 pub const PROTOCOL_VERSION: u16 = 6;
 
-/// The schema text before the `WireEffects` line.
-const SCHEMA_HEAD: &str = "\
+/// The schema text before the `Request` line.
+const SCHEMA_PRELUDE: &str = "\
 wiical-wire schema v6
 frame: cobs(postcard(msg) ++ le16(crc16_ibm_3740(postcard(msg)))) ++ 0x00
-Request: 0 Hello(Hello) | 1 GetCalibration | 2 PutCalibration(WireCalibration) | 3 CommitCalibration | 4 StartStream{rate_divider:u16} | 5 StopStream | 6 GetStatus | 7 EndSession | 8 GetBackgroundStatus | 9 SetBackground(BackgroundSettings)
+";
+
+/// The schema text between the `Request` and the `Response` lines.
+const SCHEMA_HELLO: &str = "\
 Hello: protocol_version:u16, schema_key:u32
-Response: 0 Hello(HelloResponse) | 1 Error(ErrorCode) | 2 Ack | 3 Calibration(CalibrationState) | 4 StreamStarted{sample_rate_mhz:u32} | 5 Sample(Sample) | 6 Status(AdapterStatus) | 7 Background(BackgroundReport)
+";
+
+/// The schema text between the `Response` line and the `WireEffects` line.
+const SCHEMA_HEAD: &str = "\
 HelloResponse: protocol_version:u16, schema_key:u32, firmware_version:String<32>, device_id:[u8;8]
 ErrorCode(u8): 1 SchemaMismatch | 2 BadFrame | 3 UnsupportedRequest | 4 InvalidCalibration | 5 NothingStaged | 6 StorageFailure | 7 Busy | 8 InvalidParameter | 9 NoSensor | 10 Internal | 11 ImplausibleCalibration
 CalibrationState: live:WireCalibration, staged:Option<WireCalibration>, stored:bool, boot:BootRecord, damaged_records:u16
@@ -66,13 +78,60 @@ const fn put_count(buf: &mut [u8], at: usize, n: usize) -> usize {
     put(buf, at, &[b'0' + (n % 10) as u8])
 }
 
-/// Writes the whole schema into `buf` (or, with an empty `buf`, only measures it): the head,
-/// then the `WireEffects` line rendered from the core's table of effect terms (each term's
+/// Appends the line `{name}: 0 A | 1 B(T) | 2 C{f:t, g:u}` of an enum declared in
+/// [`crate::messages`] (its variants' declared indices, names and payloads).
+const fn put_variants(buf: &mut [u8], at: usize, name: &str, variants: &[VariantSchema]) -> usize {
+    let mut at = put(buf, at, name.as_bytes());
+    at = put(buf, at, b": ");
+    let mut i = 0;
+    while i < variants.len() {
+        let v = &variants[i];
+        if i > 0 {
+            at = put(buf, at, b" | ");
+        }
+        at = put_count(buf, at, v.index as usize);
+        at = put(buf, at, b" ");
+        at = put(buf, at, v.name.as_bytes());
+        at = match v.payload {
+            PayloadSchema::Unit => at,
+            PayloadSchema::Newtype(t) => {
+                let at = put(buf, at, b"(");
+                let at = put(buf, at, t.as_bytes());
+                put(buf, at, b")")
+            }
+            PayloadSchema::Fields(fields) => {
+                let mut at = put(buf, at, b"{");
+                let mut j = 0;
+                while j < fields.len() {
+                    if j > 0 {
+                        at = put(buf, at, b", ");
+                    }
+                    at = put(buf, at, fields[j].0.as_bytes());
+                    at = put(buf, at, b":");
+                    at = put(buf, at, fields[j].1.as_bytes());
+                    j += 1;
+                }
+                put(buf, at, b"}")
+            }
+        };
+        i += 1;
+    }
+    put(buf, at, b"\n")
+}
+
+/// Writes the whole schema into `buf` (or, with an empty `buf`, only measures it): the
+/// prelude, the `Request` and `Response` lines rendered from the protocol's declaration
+/// ([`Request::VARIANTS`], [`Response::VARIANTS`]) with the `Hello` line between them, the
+/// head, then the `WireEffects` line rendered from the core's table of effect terms (each term's
 /// name and its `f32` shape: `f32` for the reference value, `[f32;3]` for one coefficient
 /// per axis, `[[f32;N];3]` for `N` per output axis), then the tail.
 const fn write_schema(buf: &mut [u8]) -> usize {
     use wiical_core::terms::{Shape, TERMS};
-    let mut at = put(buf, 0, SCHEMA_HEAD.as_bytes());
+    let mut at = put(buf, 0, SCHEMA_PRELUDE.as_bytes());
+    at = put_variants(buf, at, "Request", Request::VARIANTS);
+    at = put(buf, at, SCHEMA_HELLO.as_bytes());
+    at = put_variants(buf, at, "Response", Response::VARIANTS);
+    at = put(buf, at, SCHEMA_HEAD.as_bytes());
     at = put(buf, at, b"WireEffects: ");
     let mut i = 0;
     while i < TERMS.len() {
@@ -144,6 +203,36 @@ pub const fn protocol_of_key(key: u32) -> Option<u16> {
 
 /// 32-bit FNV-1a hash of [`SCHEMA`]: the value host and firmware compare in Hello.
 pub const SCHEMA_KEY: u32 = fnv1a_32(SCHEMA.as_bytes());
+
+impl Hello {
+    /// The Hello of this build.
+    pub const CURRENT: Hello = Hello {
+        protocol_version: PROTOCOL_VERSION,
+        schema_key: SCHEMA_KEY,
+    };
+
+    /// Compare the peer's key with this build's: `Err(SchemaMismatch)` if they differ.
+    pub fn check(&self) -> Result<(), ErrorCode> {
+        check_schema_key(self.schema_key)
+    }
+}
+
+/// `Ok` when `peer_key` equals this build's [`SCHEMA_KEY`], else
+/// [`ErrorCode::SchemaMismatch`].
+pub fn check_schema_key(peer_key: u32) -> Result<(), ErrorCode> {
+    if peer_key == SCHEMA_KEY {
+        Ok(())
+    } else {
+        Err(ErrorCode::SchemaMismatch)
+    }
+}
+
+impl HelloResponse {
+    /// Compare the adapter's key with this build's: `Err(SchemaMismatch)` if they differ.
+    pub fn check(&self) -> Result<(), ErrorCode> {
+        check_schema_key(self.schema_key)
+    }
+}
 
 /// 32-bit FNV-1a hash (offset basis `0x811C9DC5`, prime `0x01000193`), usable in `const`
 /// context. Not cryptographic: it only has to make accidental collisions between two

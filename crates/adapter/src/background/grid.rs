@@ -25,10 +25,13 @@
 
 use wiical_core::Calibration;
 
-/// Cells per cube-face edge.
-pub const CELLS: usize = 3;
+/// The bins' numbering is the wire protocol's (a host draws `BackgroundReport::bin_moments`
+/// and `fresh_bins` by it), so it lives in `wiical-wire`, where the client reads it without
+/// this crate.
+pub use wiical_wire::bins::{bin_centre, bin_of, CELLS};
+
 /// Bins in the grid (6 faces × [`CELLS`]²).
-pub const BINS: usize = 6 * CELLS * CELLS;
+pub const BINS: usize = wiical_wire::BACKGROUND_BINS;
 
 /// One bin: exponentially weighted statistics of the still moments in one orientation cell.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -160,54 +163,4 @@ impl Grid {
         self.moments = self.moments.saturating_add(1);
         Some(i)
     }
-}
-
-/// The unit direction at the centre of bin `i` (the inverse of [`bin_of`] at cell centres),
-/// for drawing the grid; `None` past the last bin.
-pub fn bin_centre(i: usize) -> Option<[f32; 3]> {
-    if i >= BINS {
-        return None;
-    }
-    let (face, cell) = (i / (CELLS * CELLS), i % (CELLS * CELLS));
-    let axis = face / 2;
-    let major = if face % 2 == 0 { 1.0 } else { -1.0 };
-    // The cell's centre in the equal-angle coordinate, back through `tan`.
-    let coord = |k: usize| -> f32 {
-        let x = (k as f32 + 0.5) / CELLS as f32 * 2.0 - 1.0;
-        libm::tanf(x * core::f32::consts::FRAC_PI_4)
-    };
-    let mut d = [0.0f32; 3];
-    d[axis] = major;
-    d[(axis + 1) % 3] = coord(cell / CELLS);
-    d[(axis + 2) % 3] = coord(cell % CELLS);
-    let n = libm::sqrtf(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-    Some(d.map(|x| x / n))
-}
-
-/// The bin of a direction (any length), or `None` when it is zero or not finite.
-pub fn bin_of(direction: [f32; 3]) -> Option<usize> {
-    if !direction.iter().all(|x| x.is_finite()) {
-        return None;
-    }
-    let abs = direction.map(libm::fabsf);
-    let axis = if abs[0] >= abs[1] && abs[0] >= abs[2] {
-        0
-    } else if abs[1] >= abs[2] {
-        1
-    } else {
-        2
-    };
-    let major = direction[axis];
-    if major == 0.0 {
-        return None;
-    }
-    let face = 2 * axis + usize::from(major < 0.0);
-    let (s, t) = ((axis + 1) % 3, (axis + 2) % 3);
-    let cell = |c: f32| -> usize {
-        // Equal-angle coordinate in −1..=1, then the cell.
-        let x = libm::atanf(c / libm::fabsf(major)) * (4.0 / core::f32::consts::PI);
-        let k = ((x + 1.0) * 0.5 * CELLS as f32) as usize;
-        k.min(CELLS - 1)
-    };
-    Some(face * CELLS * CELLS + cell(direction[s]) * CELLS + cell(direction[t]))
 }
