@@ -208,6 +208,10 @@ def ferraris() -> dict:
         "gyro_scale_true_per_raw_definition": "diag((K_g R_g)^-1) = diag(R_g^-1 K_g^-1)",
         "gyro_bias_deg_s": r(cal.b_g, 6),
         "gyro_bias_definition": "b_g: mean gyro over all samples of the six holds (raw: 0)",
+        # imucal's K_ga per g of its own 9.81 m/s^2: raw deg/s per g, the unit of wiical's
+        # g_sensitivity.raw_per_g (the gyro's rest reading against the calibrated accelerometer).
+        "K_ga_deg_s_per_g": r(cal.K_ga * g, 6),
+        "K_ga_definition": "(mean gyro on face i+ - on face i-) / (2 g), column i (Ferraris eq. 9)",
         "raw": {"gyro_gain_raw_per_true": [1.0, 1.0, 1.0], "gyro_bias_deg_s": [0.0, 0.0, 0.0]},
         "holds": holds,
         "rotations": rotations,

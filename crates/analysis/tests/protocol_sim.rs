@@ -275,3 +275,62 @@ fn known_rates_give_the_gyro() {
         assert!(e.misalignment < 5e-3, "seed {seed}: {}", e.misalignment);
     }
 }
+
+/// The g-sensitivity a Ferraris session's rests give (imucal's `K_ga`): with a known `G`
+/// injected (each element within ±0.1 °/s/g — a consumer MEMS gyro's datasheet value, 1.6
+/// counts per g; rests on different faces then still read alike within the rest detector's
+/// five noise widths), the fitted `H` (raw per g, the
+/// gyro's rest reading against the calibrated accelerometer) within 3 of its standard errors
+/// of the truth in that frame, `D_g·G·P⁻¹` (`P = K_a·D_a`: the accelerometer's calibration
+/// of this recording on its true forward model; hand-placed faces make `P` a few degrees off
+/// the identity, which moves `G` by as much, so the truth is taken where the fit can see it).
+/// Without an injected `G`, the same test holds with the truth zero.
+#[test]
+fn ferraris_recovers_an_injected_g_sensitivity() {
+    let mut worst: f64 = 0.0;
+    for (seed, dps) in [(1, 0.1), (2, 0.1), (3, 0.05), (4, 0.0)] {
+        let s = simulate_protocol(&ProtocolSimOptions {
+            protocol: SimProtocol::Ferraris,
+            seed,
+            g_sensitivity_dps_per_g: dps,
+            ..Default::default()
+        });
+        let rep = gyro_run(&s, &GyroProtocolOptions::default());
+        assert_eq!(rep.method, "ferraris", "{:?}", rep.notes);
+        assert_gyro_bias(&s, &rep);
+        let g = rep.g_sensitivity.as_ref().expect("a g-sensitivity");
+        let (cal, _) = accel_fit(&s);
+        let ka = Matrix3::from_fn(|r, c| f64::from(cal.matrix[r][c]));
+        let p = ka * mat(&s.truth.accel.as_ref().unwrap().forward_matrix);
+        let truth = mat(&s.truth.gyro.forward_matrix)
+            * mat(&s.truth.gyro_g_sensitivity)
+            * p.try_inverse().unwrap();
+        for r in 0..3 {
+            for c in 0..3 {
+                let (got, se) = (g.raw_per_g[r][c], g.raw_per_g_std_error[r][c]);
+                let z = (got - truth[(r, c)]) / se;
+                worst = worst.max(z.abs());
+                assert!(
+                    z.abs() <= 3.0,
+                    "seed {seed}: H[{r}][{c}] {got} vs {} (SE {se}, {z:.2} SE)",
+                    truth[(r, c)]
+                );
+            }
+        }
+        // The check can fail: an injected G stands far out of the errors (a fit that ignored
+        // it, H = 0, would be off by many standard errors).
+        if dps > 0.0 {
+            let loudest = (0..9)
+                .map(|i| (truth[(i / 3, i % 3)] / g.raw_per_g_std_error[i / 3][i % 3]).abs())
+                .fold(0.0, f64::max);
+            assert!(loudest > 10.0, "seed {seed}: {loudest}");
+        }
+        // The calibration file carries G = K·H (rad/s per g).
+        let file = rep.cal_file().expect("a calibration file");
+        let k = mat(&rep.matrix.unwrap());
+        let want = k * Matrix3::from_fn(|r, c| g.raw_per_g[r][c]);
+        let got = mat(&file.correction.effects.g_sensitivity);
+        assert!((got - want).abs().max() < 1e-12, "{got} vs {want}");
+    }
+    println!("largest |error| / SE over the seeds: {worst:.2}");
+}

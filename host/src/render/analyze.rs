@@ -120,6 +120,9 @@ pub fn render_text(rep: &AnalyzeReport, file: &str) -> String {
         rep.noise_floor_batch_mg
             .map_or(String::new(), |x| format!(" (batch means {x:.4} mg)"))
     );
+    if let Some(p) = &rep.polling {
+        let _ = writeln!(o, "{}", p.sentence());
+    }
     let _ = writeln!(o, "{}", model_line("base", &rep.base));
     let _ = writeln!(o, "{}", model_line("final", &rep.final_model));
     o.push_str(&steps_text(&rep.steps));

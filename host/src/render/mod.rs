@@ -64,6 +64,9 @@ pub fn fit_text(rep: &FitReport, rec: &Recording, samples: usize, file: &str) ->
     if let Some(w) = &rep.window_input {
         let _ = writeln!(o, "{}", w.description);
     }
+    if let Some(p) = &rep.polling {
+        let _ = writeln!(o, "{}", p.sentence());
+    }
     if rec.skipped_empty_rows > 0 {
         let _ = writeln!(
             o,

@@ -21,6 +21,14 @@ pub fn text(r: &NoiseReport, file: &str) -> String {
         r.sample_rate_hz,
         r.duration_s / 3600.0
     );
+    for p in &r.polled {
+        let _ = writeln!(
+            o,
+            "{}: {}; the Allan deviation is of those, at the sensor's rate",
+            p.columns,
+            p.polling.sentence()
+        );
+    }
     let _ = writeln!(
         o,
         "\n{:<12} {:<8} {:>11} {:>11} {:>9} {:>11} {:>11} {:>11}",

@@ -82,6 +82,9 @@ pub fn gyro_text(rep: &GyroProtocolReport, file: &str) -> String {
         let a: Vec<String> = f.calibrated_deg.iter().map(|d| format!("{d:.2}")).collect();
         let _ = writeln!(o, "full turns after calibration (°): {}", a.join(", "));
     }
+    if let Some(g) = &rep.g_sensitivity {
+        o.push_str(&g_sensitivity_lines(g));
+    }
     if let Some(f) = &rep.rate_fit {
         let _ = writeln!(o, "  window  rate (°/s)  calibrated (°/s)  axis");
         for w in &f.windows {
@@ -99,6 +102,27 @@ pub fn gyro_text(rep: &GyroProtocolReport, file: &str) -> String {
         let _ = writeln!(o, "  {n}");
     }
     let _ = writeln!(o, "verdict: {}", rep.verdict);
+    o
+}
+
+/// The g-sensitivity `G` (°/s per g) with its standard errors, one row per gyro axis.
+fn g_sensitivity_lines(g: &wiical_analysis::protocol::g_sensitivity::GSensitivityFit) -> String {
+    let mut o = String::new();
+    let (Some(m), Some(se)) = (g.dps_per_g, g.dps_per_g_std_error) else {
+        return o;
+    };
+    let _ = writeln!(
+        o,
+        "g-sensitivity G (°/s per g; row = gyro axis, column = gravity's x y z), ± standard error, from {} rests:",
+        g.rests
+    );
+    for (row, err) in m.iter().zip(&se) {
+        let _ = writeln!(
+            o,
+            "  {:>9.4} ±{:.4} {:>9.4} ±{:.4} {:>9.4} ±{:.4}",
+            row[0], err[0], row[1], err[1], row[2], err[2]
+        );
+    }
     o
 }
 

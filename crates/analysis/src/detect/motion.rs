@@ -117,6 +117,8 @@ mod tests {
             t_last: 0.0,
             temp: None,
             count: None,
+            runs: None,
+            distinct: None,
         }
     }
 

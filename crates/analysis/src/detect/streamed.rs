@@ -15,10 +15,11 @@
 //! per window that fits a read), windows on all cores.
 
 use crate::detect::held::both_or_first_error;
+use crate::detect::polled::Runs;
 use crate::detect::windows::{
     adaptive_intervals, adaptive_rate, adc_range_of, axis_lattice, batch_spread, detector_scale,
-    fixed_intervals, magnitude, run_pair_held, saturated_at, survey_held, to_levels, variance_of,
-    DetectOptions, PairResult, Passes, WindowStats, Windows, BATCHES, MAX_WINDOW,
+    fixed_intervals, judge_polling, magnitude, run_pair_held, saturated_at, survey_held, to_levels,
+    variance_of, DetectOptions, PairResult, Passes, WindowStats, Windows, BATCHES, MAX_WINDOW,
 };
 use crate::error::detect::DetectError;
 use crate::error::Result;
@@ -69,7 +70,8 @@ pub fn detect_windows_streamed(src: &TextSource, opts: &DetectOptions) -> Result
         integer.then(|| adc_range_of(s.lo, s.hi)).flatten()
     });
     let fs = clock_rate(src, rate);
-    let stats = window_stats(src, &intervals, range, fs)?;
+    let mut stats = window_stats(src, &intervals, range, fs)?;
+    let polling = judge_polling(&mut stats, integer);
     let norms: Vec<f64> = stats.iter().map(|w| magnitude(&w.mean)).collect();
     let n = src.len();
     let first = time_of(src.summary.t_first, 0, fs);
@@ -80,6 +82,7 @@ pub fn detect_windows_streamed(src: &TextSource, opts: &DetectOptions) -> Result
         times: Vec::new(),
         clock: (n > 0).then_some((first, last)),
         reference_variance,
+        polling,
     })
 }
 
@@ -378,6 +381,8 @@ struct Acc {
     t_first: f64,
     t_last: f64,
     batches: [[f64; 3]; BATCHES],
+    /// Runs of identical samples, folded in the second pass (the mean known).
+    runs: Runs,
 }
 
 impl Acc {
@@ -393,6 +398,7 @@ impl Acc {
             t_first: f64::NAN,
             t_last: f64::NAN,
             batches: [[0.0; 3]; BATCHES],
+            runs: Runs::default(),
         }
     }
 }
@@ -448,6 +454,7 @@ fn window_stats(
             for ((q, x), m) in sq.iter_mut().zip(&r.xyz).zip(&means[k]) {
                 *q += (x - m).powi(2);
             }
+            accs[k].runs.push(&r.xyz, &means[k]);
         }
     }
     src.check()?;
@@ -552,6 +559,7 @@ impl Buffers {
                 for ((q, x), m) in acc.sq.iter_mut().zip(x).zip(&m) {
                     *q += (x - m).powi(2);
                 }
+                acc.runs.push(x, &m);
             };
             if e - s <= WINDOW_READ_ROWS {
                 // The rows read above, still in the buffer.
@@ -632,6 +640,12 @@ fn finish(a: &Acc, t0: f64, integer: bool, has_temp: bool) -> WindowStats {
         t_last: a.t_last,
         temp: has_temp.then(|| a.temp_sum / n),
         count: Some(e - s),
+        runs: Some({
+            let mut r = a.runs.clone();
+            r.close();
+            r
+        }),
+        distinct: None,
     }
 }
 

@@ -34,6 +34,8 @@ impl Windows {
                 t_last: times[i],
                 temp: rec.temp.as_ref().map(|t| t[i]),
                 count: table.count.as_ref().map(|c| c[i]),
+                runs: None,
+                distinct: None,
             })
             .collect();
         let norms: Vec<f64> = rec
@@ -52,6 +54,7 @@ impl Windows {
             clock: times.first().zip(times.last()).map(|(a, b)| (*a, *b)),
             times,
             reference_variance,
+            polling: None,
         }
     }
 }

@@ -7,6 +7,7 @@
 use crate::detect::held::{
     both_or_first_error, feed_held, four_slices, piece_starts, samples_between, DetectorSample,
 };
+use crate::detect::polled::{Polling, Runs};
 use crate::detect::spans;
 use crate::error::detect::{DetectError, Setting};
 use crate::input::recording::{infer_units, Recording};
@@ -830,12 +831,21 @@ pub struct WindowStats {
     /// table ([`crate::input::window_means`]) the file's count column, `None` when it has none (the
     /// noise floor var/n is then unknown, not guessed).
     pub count: Option<usize>,
+    /// The window's runs of identical consecutive samples ([`crate::detect::polled`]):
+    /// counted for detected windows, `None` for a window-mean table's rows.
+    pub runs: Option<Runs>,
+    /// The sensor's distinct samples in the window when the log was found polled faster than
+    /// the sensor updates ([`Windows::polling`]); `var` is then theirs too. `None` otherwise.
+    pub distinct: Option<usize>,
 }
 
 impl WindowStats {
-    /// Samples averaged, when known (see [`WindowStats::count`]).
+    /// Independent samples behind the mean, when known: the samples averaged
+    /// ([`WindowStats::count`]), or for a polled log the sensor's distinct samples among them
+    /// (a reading logged four times is one sample: `var/n` over the rows would understate the
+    /// noise of the mean by half).
     pub fn n(&self) -> Option<usize> {
-        self.count
+        self.distinct.or(self.count)
     }
 }
 
@@ -855,6 +865,41 @@ pub struct Windows {
     pub units: &'static str,
     /// The detector's per-axis reference variance.
     pub reference_variance: [f32; 3],
+    /// The log was polled faster than its sensor updates: the windows' `var` and
+    /// [`WindowStats::n`] are the distinct samples' ([`crate::detect::polled`]).
+    pub polling: Option<Polling>,
+}
+
+/// Judges from the windows' runs whether the log was polled faster than its sensor updates
+/// ([`crate::detect::polled::judge`]) and, if so, takes each window's variance and sample
+/// count from its distinct samples. Windows without runs (a table's rows) are left alone.
+pub(crate) fn judge_polling(stats: &mut [WindowStats], integer: bool) -> Option<Polling> {
+    let runs: Vec<&Runs> = stats.iter().filter_map(|w| w.runs.as_ref()).collect();
+    let samples: usize = stats
+        .iter()
+        .filter(|w| w.runs.is_some())
+        .map(|w| w.end - w.start)
+        .sum();
+    // The windows' own clock: each spans `(count − 1)` sample steps.
+    let (steps, seconds) = stats
+        .iter()
+        .filter(|w| w.runs.is_some() && w.end > w.start + 1)
+        .fold((0usize, 0.0), |(n, s), w| {
+            (n + w.end - w.start - 1, s + (w.t_last - w.t_first))
+        });
+    let polling = crate::detect::polled::judge(
+        &runs,
+        samples,
+        seconds * samples as f64 / steps.max(1) as f64,
+    )?;
+    for w in stats.iter_mut() {
+        let Some(r) = &w.runs else { continue };
+        if r.distinct >= 2 {
+            w.var = variance_of(r.sq_about_own_mean(), r.distinct as f64, integer);
+            w.distinct = Some(r.distinct);
+        }
+    }
+    Some(polling)
 }
 
 /// The recording as the detector should see it. The detector floors variances at the
@@ -1076,11 +1121,14 @@ fn window_stats(
     }
     mean = mean.map(|v| v / n);
     let mut var = [0.0; 3];
+    let mut runs = Runs::default();
     for x in xs {
         for a in 0..3 {
             var[a] += (x[a] - mean[a]).powi(2);
         }
+        runs.push(x, &mean);
     }
+    runs.close();
     var = variance_of(var, n, integer);
     WindowStats {
         start: s,
@@ -1093,6 +1141,8 @@ fn window_stats(
         t_last: clock.at(e - 1),
         temp: rec.temp.as_ref().map(|tc| tc[s..e].iter().sum::<f64>() / n),
         count: Some(e - s),
+        runs: Some(runs),
+        distinct: None,
     }
 }
 
@@ -1129,7 +1179,7 @@ fn detect_windows_timed(
     let t0 = clock.ends().map_or(0.0, |(first, _)| first);
     // Each window's statistics depend on its samples alone: computed on all cores, kept in
     // window order.
-    let stats: Vec<WindowStats> = {
+    let mut stats: Vec<WindowStats> = {
         use rayon::prelude::*;
         det.intervals
             .par_iter()
@@ -1138,11 +1188,13 @@ fn detect_windows_timed(
             .map(|span| window_stats(rec, span, &clock, t0, integer))
             .collect()
     };
+    let polling = judge_polling(&mut stats, integer);
     let norms: Vec<f64> = stats
         .iter()
         .map(|w| (w.mean[0].powi(2) + w.mean[1].powi(2) + w.mean[2].powi(2)).sqrt())
         .collect();
     Ok(Windows {
+        polling,
         units: infer_units(integer, st::median(&norms)),
         stats,
         clock: clock.ends(),

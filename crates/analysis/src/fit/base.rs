@@ -79,6 +79,10 @@ pub struct FitReport {
     /// ([`crate::protocol`]); absent otherwise, so free-pose reports are unchanged.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub protocol: Option<crate::protocol::ProtocolReport>,
+    /// The log was polled faster than its sensor updates ([`crate::detect::polled`]): the
+    /// windows' `std` are the distinct samples'; absent otherwise.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub polling: Option<crate::detect::polled::Polling>,
 }
 
 /// Detects static windows and fits the multi-position model: the same windows as
@@ -121,6 +125,7 @@ pub fn run_windows(ws: &Windows, opts: &FitOptions) -> Result<FitReport, FitErro
         window_input: None,
         calibration: cal,
         protocol: None,
+        polling: ws.polling.clone(),
     })
 }
 
@@ -134,7 +139,7 @@ pub(crate) fn window_reports(ws: &Windows, cal: &Calibration) -> Vec<WindowRepor
             WindowReport {
                 t_start: w.t_first,
                 t_end: w.t_last,
-                samples: w.n().map(|n| n as u32),
+                samples: w.count.map(|n| n as u32),
                 mean: m,
                 std: w.var.map(|v| v.sqrt() as f32),
                 residual_mg: 1000.0 * multipos::norm_residual(cal, m, 1.0),

@@ -5,6 +5,7 @@
 //! `joint_fit` (the same keys from the five-term fit to the whole curve, a cross-check), `tau_s`,
 //! `adev`, `adev_rel_err`.
 
+use crate::detect::polled::{distinct_samples, judge, runs_of, Polling};
 use crate::error::noise::NoiseError;
 use crate::error::Result;
 use crate::input::columns::{column_sensor, unit_of, Sensor};
@@ -55,6 +56,47 @@ pub struct NoiseReport {
     /// were held): [`crate::noise::stream`].
     #[serde(skip_serializing_if = "Option::is_none")]
     pub streamed: Option<String>,
+    /// The sensors whose log was polled faster than they update ([`crate::detect::polled`]):
+    /// their Allan deviations are of the distinct samples at the sensor's own rate, not of
+    /// the rows (a reading logged four times in a row flattens the curve's first points and
+    /// halves the white noise read off them). Absent when none was; the streamed path does
+    /// not look for it.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub polled: Vec<PolledSensor>,
+}
+
+/// One sensor of a `noise` report found polled faster than it updates.
+#[derive(Debug, Clone, Serialize)]
+pub struct PolledSensor {
+    /// Its columns, comma-separated.
+    pub columns: String,
+    /// The rates and runs.
+    #[serde(flatten)]
+    pub polling: Polling,
+}
+
+/// Whether the still recording `rec`, written at `rate` Hz, was polled faster than its sensor
+/// updates (all of it is one window of runs: [`crate::detect::polled::judge`]).
+fn polling_of(rec: &Recording, rate: f64) -> Option<Polling> {
+    let runs = runs_of(&rec.xyz, &[0.0; 3]);
+    judge(&[&runs], rec.len(), rec.len() as f64 / rate)
+}
+
+/// Each axis's Allan curve: of the samples at `rate`, or of a polled log's distinct samples at
+/// the sensor's own rate.
+fn curves_of(rec: &Recording, rate: f64, polling: Option<&Polling>) -> [AllanCurve; 3] {
+    let distinct;
+    let (xyz, hz) = match polling {
+        Some(p) => {
+            distinct = distinct_samples(&rec.xyz);
+            (&distinct, p.sensor_hz)
+        }
+        None => (&rec.xyz, rate),
+    };
+    std::array::from_fn(|a| {
+        let y: Vec<f64> = xyz.iter().map(|v| v[a]).collect();
+        overlapping_adev(&y, hz)
+    })
 }
 
 /// The sensors of a still recording, read once: every triplet the header names (accelerometer,
@@ -277,17 +319,21 @@ pub fn noise(recs: &[Recording], default_rate_hz: f64) -> Result<NoiseReport, No
     for rec in recs {
         crate::noise::still::check_still(rec, sensor_of(&rec.axis_columns[0]), rate)?;
     }
-    let mut axes = Vec::new();
+    let (mut axes, mut polled) = (Vec::new(), Vec::new());
     for rec in recs {
         let sensor = sensor_of(&rec.axis_columns[0]);
         let accel_unit = (sensor == Sensor::Accelerometer || sensor == Sensor::Unnamed)
             .then(|| accel_unit(rec))
             .flatten();
-        let curves = std::array::from_fn(|a| {
-            let y: Vec<f64> = rec.xyz.iter().map(|v| v[a]).collect();
-            overlapping_adev(&y, rate)
-        });
+        let polling = polling_of(rec, rate);
+        let curves = curves_of(rec, rate, polling.as_ref());
         push_axes(&mut axes, sensor, &rec.axis_columns, accel_unit, curves);
+        if let Some(polling) = polling {
+            polled.push(PolledSensor {
+                columns: rec.axis_columns.join(","),
+                polling,
+            });
+        }
     }
     Ok(NoiseReport {
         samples,
@@ -295,6 +341,7 @@ pub fn noise(recs: &[Recording], default_rate_hz: f64) -> Result<NoiseReport, No
         duration_s: samples as f64 / rate,
         axes,
         streamed: None,
+        polled,
     })
 }
 
@@ -360,6 +407,7 @@ pub fn noise_of(sensors: &Sensors, default_rate_hz: f64) -> Result<NoiseReport> 
              overlapping value differs by a small fraction of adev_rel_err); the others are \
              the held path's"
         )),
+        polled: Vec::new(),
     })
 }
 

@@ -133,5 +133,6 @@ fn report_of(ws: &Windows, cal: &Calibration, identifiability: f64) -> FitReport
         window_input: None,
         calibration: *cal,
         protocol: None,
+        polling: ws.polling.clone(),
     }
 }

@@ -7,6 +7,7 @@
 //!   named as not measured, with what to record or give.
 
 use super::faces::{window_face, zero_reading};
+use super::g_sensitivity::{fit_g_sensitivity, GSensitivityFit, GyroRest};
 use super::rates::{fit_rates, steady_runs, RateFit, SteadyMean};
 use super::rotations::{fit_turns, turns, Turn, TurnFit, TurnInput};
 use super::vec3::{norm, sub};
@@ -24,7 +25,12 @@ impl GyroProtocolReport {
             correction: wiical_core::gyro_correct::GyroCorrection {
                 bias: self.bias,
                 matrix: self.matrix?,
-                effects: Default::default(),
+                effects: wiical_core::gyro_correct::GyroEffects {
+                    g_sensitivity: self
+                        .g_sensitivity
+                        .as_ref()
+                        .map_or([[0.0; 3]; 3], GSensitivityFit::rad_per_s_per_g),
+                },
             },
             cv_rms_deg: f64::NAN,
         })
@@ -79,6 +85,11 @@ pub struct GyroProtocolReport {
     pub turn_fit: Option<TurnFit>,
     /// The known-rate fit.
     pub rate_fit: Option<RateFit>,
+    /// Ferraris: the gyro's g-sensitivity and its bias at zero specific force, from the rests
+    /// ([`super::g_sensitivity`]); absent otherwise. When present, `bias` is its `b` and the
+    /// calibration file carries its `G`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub g_sensitivity: Option<GSensitivityFit>,
     /// Verdict: `good`, `unchecked` (exactly determined: nothing left to test it),
     /// `bias-only`, `unexplained-residual`.
     pub verdict: &'static str,
@@ -170,6 +181,7 @@ fn rest_report(gws: &Windows, rests: &[usize], opts: &GyroProtocolOptions) -> Gy
         turns: Vec::new(),
         turn_fit: None,
         rate_fit: None,
+        g_sensitivity: None,
         verdict: "bias-only",
         notes: Vec::new(),
     }
@@ -290,40 +302,147 @@ fn ferraris(
         rest_directions: Some(&dirs),
         bias,
         raw_per_dps,
+        offset: None,
     };
     rep.turns = turns(&inp);
     let full: Vec<&Turn> = rep.turns.iter().filter(|t| t.full_turn).collect();
-    let axes: Vec<&str> = full.iter().filter_map(|t| t.axis.as_deref()).collect();
+    let axes: Vec<String> = full.iter().filter_map(|t| t.axis.clone()).collect();
+    let full = full.len();
     match fit_turns(&rep.turns, bias, opts.rotation_deg) {
         Ok(fit) => {
             rep.protocol = format!(
                 "{} rests, {} full turns (about {}) of {}° taken",
                 rep.rests,
-                full.len(),
+                full,
                 axes.join(", "),
                 opts.rotation_deg
             );
-            rep.method = "ferraris";
-            rep.matrix = Some(fit.matrix);
-            rep.verdict = if fit.turns_per_axis.iter().all(|k| *k >= 2) {
-                "good"
-            } else {
-                "unchecked"
-            };
-            if rep.verdict == "unchecked" {
-                rep.notes.push(format!(
-                    "one full turn per axis fixes the scale and misalignment exactly (each turn \
-                     taken as {}°): nothing is left over to test them; a second turn about each \
-                     axis would, and a hand turn of 370° instead of 360° reads as a 2.8 % scale \
-                     error",
-                    opts.rotation_deg
-                ));
-            }
-            rep.turn_fit = Some(fit);
+            let fit = with_g_sensitivity(acc, (gws, rest_idx), &inp, fit, opts, rep);
+            ferraris_verdict(fit, opts, rep);
         }
-        Err(e) if !full.is_empty() => rep.notes.push(e.to_string()),
+        Err(e) if full > 0 => rep.notes.push(e.to_string()),
         Err(_) => {}
     }
+}
+
+/// The Ferraris fit into the report, with its verdict.
+fn ferraris_verdict(fit: TurnFit, opts: &GyroProtocolOptions, rep: &mut GyroProtocolReport) {
+    rep.method = "ferraris";
+    rep.matrix = Some(fit.matrix);
+    rep.verdict = if fit.turns_per_axis.iter().all(|k| *k >= 2) {
+        "good"
+    } else {
+        "unchecked"
+    };
+    if rep.verdict == "unchecked" {
+        rep.notes.push(format!(
+            "one full turn per axis fixes the scale and misalignment exactly (each turn \
+             taken as {}°): nothing is left over to test them; a second turn about each \
+             axis would, and a hand turn of 370° instead of 360° reads as a 2.8 % scale \
+             error",
+            opts.rotation_deg
+        ));
+    }
+    if let Some((g, se)) = rep
+        .g_sensitivity
+        .as_ref()
+        .and_then(GSensitivityFit::largest)
+    {
+        let gs = rep.g_sensitivity.as_ref().map_or(0, |f| f.rests);
+        rep.notes.push(format!(
+            "g-sensitivity G from the {gs} rests (the gyro's reading against the calibrated \
+             gravity, imucal's K_ga): largest element {g:.4} °/s/g (standard error {se:.4}); \
+             in the calibration file, applied as ω = K·(m − b) − G·a"
+        ));
+    }
+    rep.turn_fit = Some(fit);
+}
+
+/// Ferraris: the gyro's g-sensitivity from its rests against the accelerometer's calibrated
+/// reading ([`super::g_sensitivity`]), then the turns integrated again without it (each
+/// sample less `b + H·a(t)`, as imucal integrates them) and `K` fitted again. When the rests
+/// or the accelerometer cannot give it, `fit` is kept and a note says why.
+fn with_g_sensitivity(
+    acc: &Recording,
+    (gws, rest_idx): (&Windows, &[usize]),
+    inp: &TurnInput,
+    fit: TurnFit,
+    opts: &GyroProtocolOptions,
+    rep: &mut GyroProtocolReport,
+) -> TurnFit {
+    let Some(cal) = accel_calibration(acc, opts) else {
+        rep.notes.push(
+            "g-sensitivity not measured: the accelerometer gave no calibration to read \
+             gravity with"
+                .into(),
+        );
+        return fit;
+    };
+    let force = |s: usize, e: usize| -> [f64; 3] {
+        let e = e.min(acc.len());
+        let n = e.saturating_sub(s).max(1) as f64;
+        let m: [f64; 3] =
+            std::array::from_fn(|a| acc.xyz[s..e].iter().map(|x| x[a]).sum::<f64>() / n);
+        apply(&cal, m)
+    };
+    let rests: Vec<GyroRest> = rest_idx
+        .iter()
+        .map(|i| &gws.stats[*i])
+        .filter(|w| w.start < acc.len())
+        .map(|w| GyroRest {
+            mean: w.mean,
+            var: w.var,
+            samples: w.n().unwrap_or(1),
+            specific_force_g: force(w.start, w.end),
+        })
+        .collect();
+    let gf = match fit_g_sensitivity(&rests) {
+        Ok(gf) => gf,
+        Err(e) => {
+            rep.notes.push(format!("g-sensitivity not measured: {e}"));
+            return fit;
+        }
+    };
+    let h = gf.raw_per_g;
+    let offset = |i: usize| -> [f64; 3] {
+        let a = apply(&cal, acc.xyz.get(i).copied().unwrap_or([0.0; 3]));
+        std::array::from_fn(|r| (0..3).map(|c| h[r][c] * a[c]).sum())
+    };
+    let again = TurnInput {
+        bias: gf.bias,
+        offset: Some(&offset),
+        ..*inp
+    };
+    let turned = turns(&again);
+    let Ok(refit) = fit_turns(&turned, gf.bias, opts.rotation_deg) else {
+        return fit;
+    };
+    rep.turns = turned;
+    rep.bias = gf.bias;
+    rep.bias_std_error = gf.bias_std_error;
+    rep.g_sensitivity = Some(gf.with_matrix(&refit.matrix));
+    refit
+}
+
+/// The accelerometer's calibration by its own protocol's method (the six faces of a Ferraris
+/// session: the six-position method), `None` when it gives none.
+fn accel_calibration(
+    acc: &Recording,
+    opts: &GyroProtocolOptions,
+) -> Option<wiical_core::Calibration> {
+    let ws = detect_windows(acc, &opts.detect).ok()?;
+    let fit_opts = crate::fit::base::FitOptions {
+        detect: opts.detect.clone(),
+        ..Default::default()
+    };
+    let r = super::accel::fit_by_protocol(&ws, &fit_opts).ok()?;
+    Some(r.report.calibration)
+}
+
+/// `K·(m − b)` of the accelerometer's linear calibration, in g.
+fn apply(cal: &wiical_core::Calibration, m: [f64; 3]) -> [f64; 3] {
+    let d: [f64; 3] = std::array::from_fn(|a| m[a] - f64::from(cal.bias[a]));
+    std::array::from_fn(|r| (0..3).map(|c| f64::from(cal.matrix[r][c]) * d[c]).sum())
 }
 
 /// The known-rate method on the gyro's steady windows.

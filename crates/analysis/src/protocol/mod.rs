@@ -11,7 +11,7 @@
 //! | six faces (each axis up and down; repeats averaged) | the seed's six-position method `T̂ = M·Â⁺` | [`face_fit`] |
 //! | four or five faces | the same formula on fewer columns; single-sided axes named with the face to add | [`face_fit`] |
 //! | one pose with an axis near vertical | the AHRS seed's offsets (scale and misalignment not measured) | [`offsets`] |
-//! | full turns between rests (Ferraris) | gyro scale and misalignment from a known angle | [`rotations`] |
+//! | full turns between rests (Ferraris) | gyro scale and misalignment from a known angle; its g-sensitivity from the rests | [`rotations`], [`g_sensitivity`] |
 //! | constant known rates (rate table, turntable) | gyro scale, misalignment, bias from the rates | [`rates`] |
 //!
 //! The free-pose protocol keeps today's pipeline unchanged (its outputs carry no `protocol`
@@ -20,6 +20,7 @@
 pub mod accel;
 pub mod face_fit;
 pub mod faces;
+pub mod g_sensitivity;
 pub mod gyro;
 pub mod labelled;
 pub mod offsets;

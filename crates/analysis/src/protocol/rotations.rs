@@ -54,6 +54,9 @@ pub struct TurnInput<'a> {
     pub bias: [f64; 3],
     /// Nominal raw units per °/s, when known.
     pub raw_per_dps: Option<f64>,
+    /// A further offset of sample `i`, raw, taken off beside the bias: the g-sensitivity's
+    /// `H·a(t)` once it is known ([`super::g_sensitivity`]); `None`: the bias alone.
+    pub offset: Option<&'a dyn Fn(usize) -> [f64; 3]>,
 }
 
 /// The motions between consecutive rests, integrated by the trapezoid rule; full turns
@@ -93,11 +96,13 @@ fn drop_small_turns(turns: &mut [Turn]) {
 
 fn turn(inp: &TurnInput, k: usize, s: usize, e: usize) -> Turn {
     let mut integral = [0.0; 3];
+    let off = |i: usize| inp.offset.map_or([0.0; 3], |f| f(i));
     for i in s..e {
         let dt = inp.times[i + 1] - inp.times[i];
+        let (o0, o1) = (off(i), off(i + 1));
         for (a, acc) in integral.iter_mut().enumerate() {
-            let y0 = inp.gyro[i][a] - inp.bias[a];
-            let y1 = inp.gyro[i + 1][a] - inp.bias[a];
+            let y0 = inp.gyro[i][a] - inp.bias[a] - o0[a];
+            let y1 = inp.gyro[i + 1][a] - inp.bias[a] - o1[a];
             *acc += 0.5 * (y0 + y1) * dt;
         }
     }
@@ -239,6 +244,7 @@ mod tests {
             rest_directions: Some(&dirs),
             bias: b,
             raw_per_dps: Some(1.0),
+            offset: None,
         };
         let ts = turns(&inp);
         assert_eq!(ts.len(), 3);

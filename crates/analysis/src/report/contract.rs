@@ -211,6 +211,10 @@ pub struct AnalyzeReport {
     /// criterion ends it early on thousands of epochs; see [`crate::autocal`]).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub autocalibration_converged: Option<crate::autocal::AutocalReport>,
+    /// The log was polled faster than its sensor updates ([`crate::detect::polled`]): the
+    /// noise floor is from the distinct samples; absent otherwise.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub polling: Option<crate::detect::polled::Polling>,
 }
 
 /// Six-position specifics of an [`AnalyzeReport`].

@@ -916,7 +916,7 @@ impl Context<'_> {
                 t_start: w.t_first,
                 t_end: w.t_last,
                 t_centre: w.t_centre,
-                samples: w.n(),
+                samples: w.count,
                 temp: w.temp,
                 mean: w.mean,
                 residual_base_mg: am::residual(&base.fit.p, &self.wins[i]) * 1e3,
@@ -1052,6 +1052,7 @@ impl Context<'_> {
             window_input: None,
             autocalibration: None,
             autocalibration_converged: None,
+            polling: self.ws.polling.clone(),
         })
     }
 }

@@ -469,6 +469,7 @@ pub fn analyze_six(rec: &Recording, opts: &AnalyzeOptions) -> Result<AnalyzeRepo
         window_input: None,
         autocalibration: None,
         autocalibration_converged: None,
+        polling: None,
     })
 }
 
