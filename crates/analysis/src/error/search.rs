@@ -6,9 +6,9 @@
 /// [`super::Error::Search`].
 #[derive(Debug, thiserror::Error)]
 pub enum SearchError {
-    /// A setting of the selection rule out of its range.
-    #[error("{0}")]
-    InvalidSetting(&'static str),
+    /// A setting of the selection rule (`alpha`, `cv_factor`) out of its range.
+    #[error(transparent)]
+    Setting(#[from] crate::detect::windows::SettingError),
     /// An unknown candidate effect name.
     #[error("unknown candidate effect '{name}'; known: {known}")]
     UnknownCandidate {

@@ -317,6 +317,10 @@ pub(crate) const MIN_FULL_SCALE: f64 = 1e-9;
 /// a few kHz).
 pub const MAX_RATE_HZ: f64 = 1e6;
 
+/// Lowest sample rate a recording or `--rate-hz` may state (one sample per 1000 s: below it
+/// no inertial recording exists, and the averaging times and windows it implies are absurd).
+pub const MIN_RATE_HZ: f64 = 1e-3;
+
 /// A sensor reading (axis or temperature): a finite number of magnitude at most
 /// [`MAX_READING`], else an error naming the line and column.
 pub(crate) fn parse_reading(
