@@ -12,8 +12,9 @@
 //! so that at most [`MAX_BLOCKS`] blocks are kept: bounded memory and time). The gyro's
 //! activity is its block mean's distance from the median block mean (the rate at rest: a
 //! multi-position recording rests most of the time), the accelerometer's the distance between
-//! consecutive block means (its direction changing). Their Pearson correlation at block lags
-//! up to [`SEARCH_S`] either way gives the lag: the one with the highest correlation.
+//! consecutive block means (its direction changing during the block). Their Pearson
+//! correlation at block lags up to [`SEARCH_S`] either way gives the lag: the one with the
+//! highest correlation.
 
 use super::options::Result;
 use super::samples::Imu;
@@ -109,12 +110,10 @@ fn lag_of(gyro: &[[f64; 3]], acc: &[[f64; 3]], block_s: f64) -> Option<Lag> {
     });
     let dist =
         |u: &[f64; 3], v: &[f64; 3]| (0..3).map(|a| (u[a] - v[a]).powi(2)).sum::<f64>().sqrt();
-    // Block i's accelerometer change is from block i - 1 to i + 1 (centred on block i).
-    let g: Vec<f64> = gyro[1..gyro.len() - 1]
-        .iter()
-        .map(|m| dist(m, &median))
-        .collect();
-    let a: Vec<f64> = acc.windows(3).map(|w| dist(&w[2], &w[0])).collect();
+    // The accelerometer's change from block i - 1 to block i is what it turned during block i:
+    // both series start at block 1.
+    let g: Vec<f64> = gyro[1..].iter().map(|m| dist(m, &median)).collect();
+    let a: Vec<f64> = acc.windows(2).map(|w| dist(&w[1], &w[0])).collect();
     let most = ((SEARCH_S / block_s).round() as usize).min(g.len() / 2);
     let r = |lag: isize| correlation_at(&g, &a, lag);
     let at_zero = r(0)?;
