@@ -170,7 +170,7 @@ mod tests {
                 state ^= state << 13;
                 state ^= state >> 7;
                 state ^= state << 17;
-                state % 3 != 0
+                !state.is_multiple_of(3)
             })
             .collect();
         let turning = |i: usize| (i % 50) >= 20 && (i % 50) < 30 && slots[i / 50];
