@@ -14,9 +14,9 @@
 //! report first).
 
 use crate::error::{Error, Result};
+use crate::input::bounded::HoldLimit;
 use crate::input::bounded::{check_line_lengths, MAX_LINE_BYTES};
 use crate::input::columns::LoadOptions;
-use crate::input::front_door::HoldLimit;
 use crate::input::recording::Recording;
 use crate::input::text::{check_axis_columns, is_comment_or_blank, CsvState, Delimiter};
 use crate::input::text_rows::Columns;

@@ -85,10 +85,13 @@ pub fn check_cv_factor(v: f64) -> Result<f64, RangeError> {
 /// Checks the two settings of the rule ([`check_alpha`], [`check_cv_factor`]); the error names
 /// the setting by its keyword (`alpha`, `cv_factor`).
 pub fn check_rule(alpha: f64, cv_factor: f64) -> Result<(), SearchError> {
-    let named = |name, value: f64, why| SettingError {
-        name,
-        value: format!("{value:?}"),
-        why,
+    let named = |name, value: f64, why| {
+        let e = SettingError {
+            name,
+            value: format!("{value:?}"),
+            why,
+        };
+        SearchError::InvalidSetting(e.to_string())
     };
     check_alpha(alpha).map_err(|why| named("alpha", alpha, why))?;
     check_cv_factor(cv_factor).map_err(|why| named("cv_factor", cv_factor, why))?;

@@ -23,8 +23,8 @@ use super::{
     Tally, TimePlan,
 };
 use crate::error::Result;
+use crate::input::bounded::HoldLimit;
 use crate::input::columns::LoadOptions;
-use crate::input::front_door::HoldLimit;
 use crate::input::recording::Recording;
 use crate::input::table::WindowTable;
 use crate::input::timecheck::{time_notes_given, TimeSteps};
