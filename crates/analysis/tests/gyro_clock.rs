@@ -4,7 +4,7 @@
 //! gyro holds the values of row `i − shift` (the first rows repeat the first value, a rest), its
 //! timestamps unchanged. The expectation is the shift itself: the lag found must be the one
 //! made, to the 0.1-s blocks the estimate works in, and the verdict must say it. (Some offsets,
-//! 3 s or -5 s here, are refused earlier, before any verdict: the shifted gyro moves with
+//! -5 s here, are refused earlier, before any verdict: the shifted gyro moves with
 //! gravity in the rests. That refusal does not name the lag yet.)
 
 mod common;
