@@ -392,3 +392,88 @@ fn idle_connections_cannot_lock_out_a_new_viewer() {
     }
     drop(idle);
 }
+
+/// A request that must be answered 200 with a snapshot, on a new connection, allowing
+/// `patience` for the connection and the answer (generous: this checks that the viewer is
+/// served at all while the attack goes on, not how fast); the error says what happened.
+fn snapshot_within(port: u16, patience: Duration) -> Result<(), String> {
+    let addr = std::net::SocketAddr::from(([127, 0, 0, 1], port));
+    let mut s = TcpStream::connect_timeout(&addr, patience).map_err(|e| format!("connect: {e}"))?;
+    s.set_read_timeout(Some(patience)).unwrap();
+    s.set_write_timeout(Some(patience)).unwrap();
+    let req = b"GET /snapshot.json HTTP/1.1\r\nHost: localhost\r\nConnection: close\r\n\r\n";
+    s.write_all(req).map_err(|e| format!("write: {e}"))?;
+    let mut buf = Vec::new();
+    s.read_to_end(&mut buf).map_err(|e| format!("read: {e}"))?;
+    let text = String::from_utf8_lossy(&buf);
+    if text.starts_with("HTTP/1.1 200") && text.contains("\"samples\"") {
+        Ok(())
+    } else {
+        Err(format!(
+            "answer: {:?}",
+            text.chars().take(80).collect::<String>()
+        ))
+    }
+}
+
+/// 300 connections from the viewer's own address that each send half a request head and
+/// wait, re-opened by another thread as fast as the server drops them (the attack of issue 49:
+/// every new viewer was refused for ~10 s): a viewer who sends a whole request is still
+/// served, several times over, while they are all open. The patience per request is
+/// generous (20 s; a viewer served at all is what is checked, not a time).
+#[test]
+fn three_hundred_reopened_half_sent_connections_do_not_lock_out_a_viewer() {
+    use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+    use std::sync::Arc;
+    const N: usize = 300;
+    let live = start();
+    let port = live.port;
+    let (stop, opened) = (
+        Arc::new(AtomicBool::new(false)),
+        Arc::new(AtomicUsize::new(0)),
+    );
+    let attacker = {
+        let (stop, opened) = (stop.clone(), opened.clone());
+        std::thread::spawn(move || {
+            let addr = std::net::SocketAddr::from(([127, 0, 0, 1], port));
+            let half = || {
+                let mut s = TcpStream::connect_timeout(&addr, Duration::from_secs(1)).ok()?;
+                s.write_all(b"GET / HTTP/1.1\r\nHost: localhost\r\nX-Slow: ")
+                    .ok()?;
+                opened.fetch_add(1, Ordering::SeqCst);
+                Some(s)
+            };
+            let mut socks: Vec<Option<TcpStream>> = (0..N).map(|_| half()).collect();
+            while !stop.load(Ordering::SeqCst) {
+                for s in &mut socks {
+                    if s.as_ref().is_none_or(closed_by_server) {
+                        *s = half();
+                    }
+                }
+            }
+        })
+    };
+    // Every one of the 300 opened (and the server already dropping some for them).
+    let t0 = Instant::now();
+    while opened.load(Ordering::SeqCst) < N {
+        assert!(
+            t0.elapsed() < Duration::from_secs(60),
+            "the attack never got going"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let results: Vec<Result<(), String>> = (0..5)
+        .map(|_| snapshot_within(port, Duration::from_secs(20)))
+        .collect();
+    let reopened = opened.load(Ordering::SeqCst) - N;
+    stop.store(true, Ordering::SeqCst);
+    attacker.join().unwrap();
+    // The attack was going on: the server dropped (and the attacker re-opened) connections.
+    assert!(reopened > 0, "no half-sent connection was ever dropped");
+    for (i, r) in results.iter().enumerate() {
+        assert!(
+            r.is_ok(),
+            "viewer request {i} while {N} half-sent were open: {r:?}"
+        );
+    }
+}

@@ -131,6 +131,7 @@ def test_columns_of_another_length_and_non_numbers_are_refused() -> None:
         ("threshold", math.nan, "--threshold"),
         ("rate_hz", 0.0, "--rate-hz"),
         ("rate_hz", 1e300, "--rate-hz"),
+        ("rate_hz", 1e-300, "--rate-hz"),
         ("rate_hz", math.inf, "--rate-hz"),
     ],
 )
@@ -142,6 +143,28 @@ def test_settings_are_refused_where_the_cli_flag_is(kwarg: str, value: float, fl
     assert msg.startswith(f"{kwarg} = "), msg
     # The CLI refuses the same value of its flag with the same range sentence.
     cli = cli_error("fit", path, flag, repr(value) if not math.isinf(value) else "inf")
+    assert flag in cli
+    assert msg.split(": ", 1)[1] in cli, (msg, cli)
+
+
+@pytest.mark.parametrize(
+    "kwarg,value,flag",
+    [
+        ("alpha", 1e-300, "--alpha"),
+        ("alpha", 0.9, "--alpha"),
+        ("cv_factor", 1e300, "--cv-factor"),
+        ("cv_factor", 0.5, "--cv-factor"),
+    ],
+)
+def test_the_rule_settings_are_refused_where_the_cli_flag_is(kwarg: str, value: float, flag: str) -> None:
+    """`--alpha 1e-300` ran for over a minute (issue 49): both doors refuse it at once, with
+    the same range sentence."""
+    path = data(*XSENS)
+    with pytest.raises(ValueError) as e:
+        wiical.analyze(path, **{kwarg: value})
+    msg = str(e.value)
+    assert msg.startswith(f"{kwarg} = "), msg
+    cli = cli_error("analyze", path, flag, repr(value))
     assert flag in cli
     assert msg.split(": ", 1)[1] in cli, (msg, cli)
 

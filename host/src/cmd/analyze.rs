@@ -28,14 +28,32 @@ pub struct Args {
     #[command(flatten)]
     pub detect: DetectArgs,
     /// Family-wise significance level per step (Bonferroni over the candidates).
-    #[arg(long, default_value_t = wiical_analysis::search::select::ALPHA)]
+    #[arg(long, default_value_t = wiical_analysis::search::select::ALPHA, value_parser = alpha, allow_negative_numbers = true)]
     pub alpha: f64,
     /// A candidate must divide the cross-validated RMS by at least this factor.
-    #[arg(long, default_value_t = wiical_analysis::search::select::CV_FACTOR)]
+    #[arg(long, default_value_t = wiical_analysis::search::select::CV_FACTOR, value_parser = cv_factor, allow_negative_numbers = true)]
     pub cv_factor: f64,
     /// Only try these candidates (comma-separated names).
     #[arg(long, value_delimiter = ',')]
     pub candidates: Option<Vec<String>>,
+}
+
+/// `--alpha`: a number within the engine's range (`select::ALPHA_RANGE`, shared with Python).
+fn alpha(s: &str) -> Result<f64, String> {
+    let v = number(s)?;
+    wiical_analysis::search::select::check_alpha(v).map_err(|e| format!("'{s}': {e}"))
+}
+
+/// `--cv-factor`: a number within the engine's range (`select::CV_FACTOR_RANGE`).
+fn cv_factor(s: &str) -> Result<f64, String> {
+    let v = number(s)?;
+    wiical_analysis::search::select::check_cv_factor(v).map_err(|e| format!("'{s}': {e}"))
+}
+
+fn number(s: &str) -> Result<f64, String> {
+    s.trim()
+        .parse()
+        .map_err(|_| format!("'{s}' is not a number"))
 }
 
 /// Runs `wiical analyze`; returns what to print.

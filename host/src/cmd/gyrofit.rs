@@ -1,7 +1,7 @@
 //! `wiical gyrofit`: gyroscope scale, misalignment and bias from a multi-position recording
 //! (engine: [`wiical_analysis::gyro`]; method: docs/gyro.md).
 
-use super::{check_outputs, load, load_options, to_json, DetectArgs};
+use super::{check_outputs, load_held, load_options, to_json, DetectArgs, PLAIN_TEXT_IN_PASSES};
 use crate::cli_error::cli_error;
 use anyhow::{bail, Result};
 use std::path::PathBuf;
@@ -241,8 +241,10 @@ fn read(a: &Args, gyro_columns: Option<[String; 3]>) -> Result<Pair> {
             // read here (parsing is a good part of what is left outside the fit); its notes
             // are printed after the accelerometer's, as when read one after the other.
             let (acc, gyro) = std::thread::scope(|s| {
-                let gyro = s.spawn(|| wiical_analysis::load(g, &gyro_opts));
-                let acc = load(&a.file, &acc_opts);
+                let gyro = s.spawn(|| {
+                    wiical_analysis::input::front_door::load_held(g, &gyro_opts, held_limit())
+                });
+                let acc = load_held(&a.file, &acc_opts, "gyrofit", PLAIN_TEXT_IN_PASSES);
                 (acc, gyro.join())
             });
             let acc = acc?;
@@ -254,7 +256,12 @@ fn read(a: &Args, gyro_columns: Option<[String; 3]>) -> Result<Pair> {
         }
         None => {
             let (acc, gyro) = super::with_spinner(&format!("reading {}", a.file.display()), || {
-                wiical_analysis::input::front_door::load_imu(&a.file, &acc_opts, gyro_columns)
+                wiical_analysis::input::front_door::load_imu_within(
+                    &a.file,
+                    &acc_opts,
+                    gyro_columns,
+                    Some(held_limit()),
+                )
             })
             .map_err(cli_error)?;
             super::print_notes(&a.file, &acc);
@@ -263,6 +270,11 @@ fn read(a: &Args, gyro_columns: Option<[String; 3]>) -> Result<Pair> {
         }
     };
     Ok(Pair::Held(acc, gyro))
+}
+
+/// The bound on the samples `gyrofit` holds (a file it cannot read in passes).
+fn held_limit() -> wiical_analysis::input::front_door::HoldLimit {
+    wiical_analysis::input::front_door::HoldLimit::of("gyrofit", PLAIN_TEXT_IN_PASSES)
 }
 
 /// The loader's notes on the gyro's triplet of FILE that it did not make on the

@@ -1,9 +1,7 @@
 //! `wiical magfit`: magnetometer hard/soft-iron fit, and the residual loop around it (noise
 //! floor, candidate effects, detection limits, verdict).
 
-use super::{
-    check_outputs, load, load_options, print_notes, to_json, with_spinner, write_calibration,
-};
+use super::{check_outputs, load_options, print_notes, to_json, with_spinner, write_calibration};
 use crate::cli_error::cli_error;
 use crate::render;
 use anyhow::{anyhow, Result};
@@ -86,7 +84,7 @@ fn held(
     a: &Args,
     opts: &wiical_analysis::LoadOptions,
 ) -> Result<(MagFitReport, MagAnalysis, &'static str)> {
-    let rec = load(&a.file, opts)?;
+    let rec = super::load_held(&a.file, opts, "magfit", super::PLAIN_TEXT_IN_PASSES)?;
     magnetometer::check_spans(&rec.xyz).map_err(cli_error)?;
     let rep = magnetometer::fit_points(&rec.xyz, a.model).map_err(cli_error)?;
     let names = a.follow.as_deref().unwrap_or(&[]);
@@ -152,7 +150,9 @@ fn follow_columns(
         .iter()
         .map(|name| {
             let opts = stream::follow_options(name, field_axes);
-            let rec = wiical_analysis::load(file, &opts).map_err(cli_error)?;
+            use wiical_analysis::input::front_door::{load_held, HoldLimit};
+            let limit = HoldLimit::of("magfit", super::PLAIN_TEXT_IN_PASSES);
+            let rec = load_held(file, &opts, limit).map_err(cli_error)?;
             check_rows(name, rec.len(), rows, file)?;
             Ok((name.clone(), rec.xyz.iter().map(|v| v[0]).collect()))
         })

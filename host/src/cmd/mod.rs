@@ -215,6 +215,32 @@ pub fn load(path: &std::path::Path, opts: &LoadOptions) -> Result<wiical_analysi
     Ok(rec)
 }
 
+/// [`load`] for a command that holds the whole recording: refused beyond
+/// `front_door::MAX_HELD_SAMPLES` in one sentence naming the file, the bound and `instead`.
+pub fn load_held(
+    path: &std::path::Path,
+    opts: &LoadOptions,
+    command: &'static str,
+    instead: &'static str,
+) -> Result<wiical_analysis::Recording> {
+    use wiical_analysis::input::front_door::{load_held as held, HoldLimit};
+    let limit = HoldLimit::of(command, instead);
+    let rec = with_spinner(&format!("reading {}", path.display()), || {
+        held(path, opts, limit)
+    })
+    .map_err(cli_error)?;
+    print_notes(path, &rec);
+    Ok(rec)
+}
+
+/// What reads a recording too long for `magfit` or `gyrofit` to hold ([`load_held`]).
+pub const PLAIN_TEXT_IN_PASSES: &str =
+    "a plain text file (not gzip'd, not raw) of any length is read in passes: decompress it or export it as text";
+
+/// What reads a recording too long for `tempcal` or `six-position` to hold.
+pub const CUT_IT_SHORTER: &str =
+    "cut the recording shorter (`fit`, `analyze`, `correct` and `noise` read any length in passes)";
+
 /// What the loader chose (which triplet, a GRT file) as notes, what it noticed about the
 /// file (time gaps, bursts) as warnings, on stderr.
 pub fn print_notes(path: &Path, rec: &wiical_analysis::Recording) {

@@ -1,6 +1,6 @@
 //! `wiical six-position`: the seed's six-position test.
 
-use super::{check_outputs, load, to_json, write_calibration};
+use super::{check_outputs, to_json, write_calibration};
 use crate::cli_error::cli_error;
 use crate::render;
 use anyhow::Result;
@@ -36,7 +36,8 @@ fn parse_estimator(s: &str) -> Result<PoseEstimator, String> {
 /// Runs `wiical six-position`; returns what to print.
 pub fn run(a: &Args) -> Result<String> {
     check_outputs(&[&a.file], &[a.out.as_deref()])?;
-    let rec = load(&a.file, &LoadOptions::default())?;
+    let opts = LoadOptions::default();
+    let rec = super::load_held(&a.file, &opts, "six-position", super::CUT_IT_SHORTER)?;
     let rep = six_position::run(&rec, a.estimator).map_err(cli_error)?;
     if let Some(path) = &a.out {
         let cal = Calibration {

@@ -1,7 +1,7 @@
 //! `wiical tempcal`: the bias of a still warm-up against temperature, per axis, and the
 //! autopilots' parameter files (engine: [`wiical_analysis::tempcal`]).
 
-use super::{check_outputs, load, load_options, to_json};
+use super::{check_outputs, load_options, to_json};
 use crate::cli_error::cli_error;
 use crate::render;
 use anyhow::{anyhow, bail, Result};
@@ -113,7 +113,8 @@ pub fn run(a: &Args) -> Result<String> {
     let mut inputs = vec![a.file.as_path()];
     inputs.extend(a.calibration.as_deref());
     check_outputs(&inputs, &[a.plot.as_deref(), a.out.as_deref()])?;
-    let rec = load(&a.file, &load_options(a.columns.as_deref())?)?;
+    let opts = load_options(a.columns.as_deref())?;
+    let rec = super::load_held(&a.file, &opts, "tempcal", super::CUT_IT_SHORTER)?;
     // The calibration `--format calfile` adds to: read and checked before anything is fitted
     // or written.
     let cal = match a.calibration.as_deref() {

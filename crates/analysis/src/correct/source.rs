@@ -37,8 +37,14 @@ impl Samples {
 }
 
 /// [`open_samples_from`] with the threshold of `WIICAL_STREAM_FROM_BYTES` (default 128 MiB).
+/// A recording that must be held (a raw file) is refused beyond
+/// [`front_door::MAX_HELD_SAMPLES`] ([`front_door::load_held`]).
 pub fn open_samples(path: &Path, opts: &LoadOptions) -> Result<Samples> {
-    open_samples_from(path, opts, stream_from_bytes())
+    let limit = front_door::HoldLimit::of(
+        "correct",
+        "a text file (plain or gzip'd) of any length is read in passes: cut the raw recording shorter or convert it to text",
+    );
+    open_samples_within(path, opts, stream_from_bytes(), Some(limit))
 }
 
 /// Opens `path` (`-`: standard input) as [`Samples`]: streamed when it is a regular text file
@@ -46,8 +52,18 @@ pub fn open_samples(path: &Path, opts: &LoadOptions) -> Result<Samples> {
 /// text, or standard input spooled to a temporary file; held otherwise, as [`crate::load`]
 /// reads it. Errors name the file.
 pub fn open_samples_from(path: &Path, opts: &LoadOptions, stream_from: u64) -> Result<Samples> {
+    open_samples_within(path, opts, stream_from, None)
+}
+
+/// [`open_samples_from`], a held recording refused beyond `limit`.
+fn open_samples_within(
+    path: &Path,
+    opts: &LoadOptions,
+    stream_from: u64,
+    limit: Option<front_door::HoldLimit>,
+) -> Result<Samples> {
     if path.as_os_str() == "-" {
-        return open_stdin(path, opts);
+        return open_stdin(path, opts, limit);
     }
     if is_text_file_from(path, stream_from) {
         let src = TextSource::open(path, opts, |_| true).map_err(|e| e.in_file(path))?;
@@ -55,12 +71,16 @@ pub fn open_samples_from(path: &Path, opts: &LoadOptions, stream_from: u64) -> R
             return Ok(Samples::Streamed(src));
         }
     }
-    front_door::load(path, opts).map(Samples::Held)
+    front_door::load_within(path, opts, limit).map(Samples::Held)
 }
 
 /// Standard input, read once: spooled (longer than the threshold) it is streamed from the
 /// temporary file, which lives as long as the source; else read as [`crate::load`] reads it.
-fn open_stdin(path: &Path, opts: &LoadOptions) -> Result<Samples> {
+fn open_stdin(
+    path: &Path,
+    opts: &LoadOptions,
+    limit: Option<front_door::HoldLimit>,
+) -> Result<Samples> {
     Ok(Samples::Held(match front_door::open(path)? {
         Opened::Spooled(tmp) => {
             // Errors name `-`, the input the user gave, not the copy's temporary name.
@@ -69,13 +89,13 @@ fn open_stdin(path: &Path, opts: &LoadOptions) -> Result<Samples> {
                 src.keep(tmp, path);
                 return Ok(Samples::Streamed(src));
             }
-            front_door::load(&tmp, opts).map_err(|e| e.renaming(&tmp, path))?
+            front_door::load_within(&tmp, opts, limit).map_err(|e| e.renaming(&tmp, path))?
         }
         Opened::Raw(raw) => {
             crate::input::raw::to_recording(&raw, opts).map_err(|e| e.in_file(path))?
         }
         Opened::Text(text) => parse(&text, opts).map_err(|e| e.in_file(path))?,
         // A regular file's kinds: not standard input's.
-        Opened::RawFile(_) | Opened::TextFile => front_door::load(path, opts)?,
+        Opened::RawFile(_) | Opened::TextFile => front_door::load_within(path, opts, limit)?,
     }))
 }

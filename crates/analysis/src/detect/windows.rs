@@ -93,9 +93,16 @@ pub enum RangeError {
     /// A duration outside [`DURATION_RANGE_S`].
     #[error("give a duration from 0.001 to 1000000 s")]
     Duration,
-    /// A sample rate above [`crate::input::bounded::MAX_RATE_HZ`].
-    #[error("give a sample rate from above 0 to 1000000 Hz")]
+    /// A sample rate outside [`crate::input::bounded::MIN_RATE_HZ`] to
+    /// [`crate::input::bounded::MAX_RATE_HZ`].
+    #[error("give a sample rate from 0.001 to 1000000 Hz")]
     Rate,
+    /// A family-wise significance level outside [`crate::search::select::ALPHA_RANGE`].
+    #[error("give a significance level from 0.000001 to 0.5")]
+    Alpha,
+    /// A CV factor outside [`crate::search::select::CV_FACTOR_RANGE`].
+    #[error("give a factor from 1 to 100")]
+    CvFactor,
     /// A threshold outside (1, 10⁶].
     #[error("give a threshold above 1 and at most 1000000 (times the rest variance)")]
     Threshold,
@@ -127,10 +134,12 @@ pub fn check_duration_s(v: f64) -> Result<f64, RangeError> {
     }
 }
 
-/// A sample rate, Hz: above 0, at most 1 MHz (inertial sensors stop at a few kHz; 1e300 Hz
-/// would make every window one sample).
+/// A sample rate, Hz: 1 mHz to 1 MHz (inertial sensors stop at a few kHz; 1e300 Hz would make
+/// every window one sample, and 1e-300 Hz turns `noise`'s averaging times into 1e232 s
+/// printed as results: no sensor is read once in more than 1000 s).
 pub fn check_rate_hz(v: f64) -> Result<f64, RangeError> {
-    if positive(v)? <= crate::input::bounded::MAX_RATE_HZ {
+    use crate::input::bounded::{MAX_RATE_HZ, MIN_RATE_HZ};
+    if (MIN_RATE_HZ..=MAX_RATE_HZ).contains(&positive(v)?) {
         Ok(v)
     } else {
         Err(RangeError::Rate)

@@ -129,6 +129,16 @@ pub enum GyroError {
         /// The nominal with the signs flipped, rad/s per count.
         suggested: String,
     },
+    /// The motions' samples (what the fit integrates, kept in memory even when the file is
+    /// read in passes) are more than [`crate::input::front_door::MAX_HELD_SAMPLES`]: refused
+    /// before they are collected (a 1 GB `.gz` of rows took 2.2 GB).
+    #[error("its motions between still poses hold {samples} samples, more than the {limit} `wiical gyrofit` keeps in memory; cut the recording to its calibration (still poses and the turns between them take minutes)")]
+    GyroMotionsTooLong {
+        /// Samples in the motions, margins included.
+        samples: usize,
+        /// The bound.
+        limit: usize,
+    },
 }
 
 impl GyroError {

@@ -244,8 +244,8 @@ pub enum InputError {
         /// 1-based line.
         line: usize,
     },
-    /// `Fs,0`, negative, not a number or above 1 MHz.
-    #[error("line {line}: the sample rate '{text}' must be a number above 0 and at most 1 MHz")]
+    /// `Fs,0`, negative, not a number, below 1 mHz or above 1 MHz.
+    #[error("line {line}: the sample rate '{text}' must be a number from 0.001 Hz to 1 MHz")]
     BadSampleRate {
         /// 1-based line.
         line: usize,
@@ -374,6 +374,18 @@ pub enum InputError {
     NoAxisColumns {
         /// The header, comma-separated.
         header: String,
+    },
+    /// More samples than a command that holds its whole recording keeps
+    /// ([`crate::input::front_door::HoldLimit`]): refused as they are read, before the memory
+    /// they would take is taken.
+    #[error("it holds more than {limit} samples, the most `wiical {command}` keeps in memory; {instead}")]
+    TooManyToHold {
+        /// The bound, samples.
+        limit: usize,
+        /// The command that holds the recording.
+        command: &'static str,
+        /// What reads it instead.
+        instead: &'static str,
     },
 }
 

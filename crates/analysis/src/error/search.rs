@@ -6,9 +6,11 @@
 /// [`super::Error::Search`].
 #[derive(Debug, thiserror::Error)]
 pub enum SearchError {
-    /// A setting of the selection rule out of its range.
+    /// A setting of the selection rule (`alpha`, `cv_factor`) out of its range: its keyword,
+    /// the value and the range, in the words of the detector settings' `SettingError` (held
+    /// as text: this module is below the detector's in the module graph).
     #[error("{0}")]
-    InvalidSetting(&'static str),
+    InvalidSetting(String),
     /// An unknown candidate effect name.
     #[error("unknown candidate effect '{name}'; known: {known}")]
     UnknownCandidate {

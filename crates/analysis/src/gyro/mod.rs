@@ -28,6 +28,7 @@ pub mod design;
 pub mod device;
 pub mod effects;
 pub mod floor;
+mod lag;
 pub mod limits;
 mod models;
 pub mod motion;
@@ -80,6 +81,8 @@ fn run_on(imu: &impl Imu, opts: &GyroOptions) -> Result<GyroReport> {
     let default_rate = opts.detect.default_rate_hz;
     segment::check_gyro_reads(imu, default_rate)?;
     let rate = imu.rate_hz().unwrap_or(default_rate);
+    // The two clocks first: a gyro seconds late makes every later stage's numbers wrong.
+    let clock = lag::estimate(imu, rate, default_rate)?.and_then(|l| l.problem());
     // A static log is recognised only when no segmentation is found: the test reads the raw
     // vector's direction, which a large offset (raw ADC counts) can hold nearly still even
     // while the sensor turns, so it must not override a segmentation that worked.
@@ -114,7 +117,7 @@ fn run_on(imu: &impl Imu, opts: &GyroOptions) -> Result<GyroReport> {
             .find(|r| r.name == name)
             .and_then(|r| r.identifiability),
     };
-    let lp = loop_part(imu, &col, &seg, &fitted, dt)?;
+    let lp = loop_part(imu, &col, &seg, &fitted, (dt, clock))?;
     let correction = device::correction(fitted.bias, fitted.matrix, &lp.search);
     Ok(GyroReport {
         correction,
@@ -198,7 +201,7 @@ fn loop_part(
     col: &Collected,
     seg: &segment::Segmentation,
     fit: &Fitted<'_>,
-    dt: f64,
+    (dt, clock): (f64, Option<String>),
 ) -> Result<LoopPart> {
     let var = samples::window_variances(imu, &seg.intervals, &col.window_mean)?;
     let fl = floor::floors(&var, imu.gyro_is_integer(), seg, &fit.matrix, dt);
@@ -217,6 +220,7 @@ fn loop_part(
             .then_some(fit.identifiability)
             .flatten(),
         timestamps: segment::timestamp_problem(imu.time_steps()),
+        clock,
         dps_per_count: std::array::from_fn(|a| {
             (0..3)
                 .map(|c| fit.matrix[a][c].powi(2))

@@ -216,6 +216,11 @@ pub(super) fn collect(
             (lo, (s.end as usize + margin).min(n))
         })
         .collect();
+    let samples: usize = ranges.iter().map(|(lo, hi)| hi - lo).sum();
+    let limit = crate::input::front_door::MAX_HELD_SAMPLES;
+    if samples > limit {
+        return Err(crate::error::gyro::GyroError::GyroMotionsTooLong { samples, limit });
+    }
     let zero = sum_start();
     let mut sums = vec![[zero; 3]; windows.len()];
     let mut kept: Vec<Kept> = ranges

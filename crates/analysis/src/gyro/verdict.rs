@@ -12,6 +12,13 @@ use crate::stats as st;
 /// calibration that does not hold: ten times the unexplained-residual factor.
 pub const NOT_USABLE_FLOOR_FACTOR: f64 = 30.0;
 
+/// A held-out angle error above this is not usable whatever the floor says, degrees: an
+/// uncalibrated MEMS gyro's nominal scale (a few % off) misses a quarter turn by a few degrees,
+/// so a calibration that misses by more predicts turns worse than none. (A floor inflated by
+/// the very fault that spoils the fit, such as a gyro seconds late, once let 87° be called
+/// "usable with that error".)
+pub const NOT_USABLE_ANGLE_DEG: f64 = 10.0;
+
 /// A fitted bias this many standard deviations of the rest means away from them is not the
 /// gyro's bias (the fit has absorbed something else: lost samples, a wrong rate).
 pub const BIAS_SIGMAS: f64 = 5.0;
@@ -37,6 +44,8 @@ pub struct Evidence<'a> {
     pub scale_and_bias: Option<f64>,
     /// Why the timestamps cannot be integrated at one rate, if they cannot.
     pub timestamps: Option<String>,
+    /// The gyro's clock seconds away from the accelerometer's, if it is (`lag`).
+    pub clock: Option<String>,
     /// Counts per °/s of the bias, to say it in °/s (rad/s per count × 180/π).
     pub dps_per_count: [f64; 3],
 }
@@ -53,6 +62,36 @@ pub fn judge(e: &Evidence<'_>) -> (GyroQuality, Vec<String>, String) {
         .sum();
     let dof = 2.0 * e.held_out.len() as f64;
     let p = st::chi2_sf(chi2, dof);
+    let reasons = reasons(e, cv, floor);
+    let quality = if !reasons.is_empty() {
+        GyroQuality::NotUsable
+    } else if cv > UNEXPLAINED_CV_FACTOR * floor && p < UNEXPLAINED_P {
+        GyroQuality::UnexplainedResidual
+    } else {
+        GyroQuality::Good
+    };
+    let text = match quality {
+        GyroQuality::Good if p < UNEXPLAINED_P => format!(
+            "good: the held-out angle error {cv:.3}° is within {UNEXPLAINED_CV_FACTOR}× the noise floor {floor:.3}° over the motions (some motions are above their own floor: χ² p {})",
+            st::fmt_p(p)
+        ),
+        GyroQuality::Good => format!(
+            "good: the held-out angle error {cv:.3}° agrees with the noise floor {floor:.3}° (χ² p {})",
+            st::fmt_p(p)
+        ),
+        GyroQuality::UnexplainedResidual => format!(
+            "unexplained residual: the held-out angle error {cv:.3}° is {:.1}× the noise floor {floor:.4}° (χ² p {}): the model lacks something the motions show; usable with that error",
+            cv / floor,
+            st::fmt_p(p)
+        ),
+        GyroQuality::NotUsable => format!("not usable: {}", reasons.join("; ")),
+    };
+    (quality, reasons, text)
+}
+
+/// Why the calibration cannot hold (empty: nothing says so), the clock's reason first;
+/// `cv` and `floor` are the held-out RMS and the floor's, degrees.
+fn reasons(e: &Evidence<'_>, cv: f64, floor: f64) -> Vec<String> {
     let mut reasons = Vec::new();
     if e.held_out.len() < MIN_MOTIONS {
         reasons.push(format!(
@@ -64,6 +103,11 @@ pub fn judge(e: &Evidence<'_>) -> (GyroQuality, Vec<String>, String) {
         reasons.push(format!(
             "the held-out angle error {cv:.3}° is {:.0}× the noise floor {floor:.4}° (the gyro's noise at rest and the accelerometer's tilt noise allow about 1×)",
             cv / floor
+        ));
+    }
+    if cv > NOT_USABLE_ANGLE_DEG {
+        reasons.push(format!(
+            "the held-out angle error {cv:.1}° is above {NOT_USABLE_ANGLE_DEG}° (an uncalibrated gyro misses a quarter turn by a few degrees): the calibration predicts turns worse than none"
         ));
     }
     if let Some((d, s)) = e.bias_offset {
@@ -94,28 +138,57 @@ pub fn judge(e: &Evidence<'_>) -> (GyroQuality, Vec<String>, String) {
     if let Some(t) = &e.timestamps {
         reasons.push(t.clone());
     }
-    let quality = if !reasons.is_empty() {
-        GyroQuality::NotUsable
-    } else if cv > UNEXPLAINED_CV_FACTOR * floor && p < UNEXPLAINED_P {
-        GyroQuality::UnexplainedResidual
-    } else {
-        GyroQuality::Good
-    };
-    let text = match quality {
-        GyroQuality::Good if p < UNEXPLAINED_P => format!(
-            "good: the held-out angle error {cv:.3}° is within {UNEXPLAINED_CV_FACTOR}× the noise floor {floor:.3}° over the motions (some motions are above their own floor: χ² p {})",
-            st::fmt_p(p)
-        ),
-        GyroQuality::Good => format!(
-            "good: the held-out angle error {cv:.3}° agrees with the noise floor {floor:.3}° (χ² p {})",
-            st::fmt_p(p)
-        ),
-        GyroQuality::UnexplainedResidual => format!(
-            "unexplained residual: the held-out angle error {cv:.3}° is {:.1}× the noise floor {floor:.4}° (χ² p {}): the model lacks something the motions show; usable with that error",
-            cv / floor,
-            st::fmt_p(p)
-        ),
-        GyroQuality::NotUsable => format!("not usable: {}", reasons.join("; ")),
-    };
-    (quality, reasons, text)
+    if let Some(c) = &e.clock {
+        reasons.insert(0, c.clone());
+    }
+    reasons
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn evidence<'a>(held: &'a [f64], floor: &'a [f64]) -> Evidence<'a> {
+        Evidence {
+            held_out: held,
+            floor,
+            bias_offset: None,
+            scale_and_bias: None,
+            timestamps: None,
+            clock: None,
+            dps_per_count: [1.0; 3],
+        }
+    }
+
+    /// Issue 49's lagging gyro: 87° held out against a floor the lag inflated to 8.7° (10×,
+    /// below the 30× of the floor rule) was "usable with that error"; the absolute bound
+    /// makes it not usable. 5° against 0.5° (also 10×) stays an unexplained residual.
+    #[test]
+    fn a_held_out_error_of_tens_of_degrees_is_never_usable() {
+        let deg = |d: f64| vec![d.to_radians(); 12];
+        let (held, floor) = (deg(87.0), deg(8.7));
+        let (q, reasons, text) = judge(&evidence(&held, &floor));
+        assert_eq!(q, GyroQuality::NotUsable, "{text}");
+        assert!(reasons[0].starts_with("the held-out angle error 87.0° is above 10°"));
+        let (held, floor) = (deg(5.0), deg(0.5));
+        let (q, _, text) = judge(&evidence(&held, &floor));
+        assert_eq!(q, GyroQuality::UnexplainedResidual, "{text}");
+        assert!(text.contains("usable with that error"));
+    }
+
+    /// A clock reason comes first and makes the verdict not usable.
+    #[test]
+    fn a_clock_lag_is_the_first_reason() {
+        let deg = |d: f64| vec![d.to_radians(); 12];
+        let (held, floor) = (deg(0.5), deg(0.5));
+        let mut e = evidence(&held, &floor);
+        assert_eq!(judge(&e).0, GyroQuality::Good);
+        e.clock = Some("the gyro lags the accelerometer by 10.0 s".into());
+        let (q, reasons, _) = judge(&e);
+        assert_eq!(q, GyroQuality::NotUsable);
+        assert_eq!(
+            reasons,
+            vec!["the gyro lags the accelerometer by 10.0 s".to_string()]
+        );
+    }
 }

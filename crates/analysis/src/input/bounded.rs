@@ -323,6 +323,10 @@ pub(crate) const MIN_FULL_SCALE: f64 = 1e-9;
 /// a few kHz).
 pub const MAX_RATE_HZ: f64 = 1e6;
 
+/// Lowest sample rate a recording or `--rate-hz` may state (one sample per 1000 s: below it
+/// no inertial recording exists, and the averaging times and windows it implies are absurd).
+pub const MIN_RATE_HZ: f64 = 1e-3;
+
 /// A sensor reading (axis or temperature): a finite number of magnitude at most
 /// [`MAX_READING`], else an error naming the line and column.
 pub(crate) fn parse_reading(
@@ -377,6 +381,49 @@ pub(crate) fn check_largest_reading(any: bool, largest: f64) -> Result<()> {
         return Err(InputError::ReadingsTooSmall { largest }.into());
     }
     Ok(())
+}
+
+/// The most samples a command that holds its whole recording (`magfit`, `tempcal`, `gyrofit`,
+/// `six-position`, `correct` of a raw file) loads: 2²² (11.6 h at 100 Hz), about 170 MB as
+/// held (40 B a sample: time, x, y, z, temperature) and at most twice that while read.
+/// Why: a 2.5 MB `.gz` holding 1 GB of rows, or a 300 MB `.cwa`, took 1–3.8 GB in those
+/// commands; the commands that read in passes (`fit`, `analyze`, `correct` of text, `noise`)
+/// have no such bound.
+pub const MAX_HELD_SAMPLES: usize = 1 << 22;
+
+/// The bound `front_door::load_held` reads within, and the sentence's parts.
+#[derive(Debug, Clone, Copy)]
+pub struct HoldLimit {
+    /// At most this many samples.
+    pub samples: usize,
+    /// The command holding them (`magfit`).
+    pub command: &'static str,
+    /// What reads such a file instead (the end of the sentence).
+    pub instead: &'static str,
+}
+
+impl HoldLimit {
+    /// [`MAX_HELD_SAMPLES`] for `command`.
+    pub fn of(command: &'static str, instead: &'static str) -> Self {
+        Self {
+            samples: MAX_HELD_SAMPLES,
+            command,
+            instead,
+        }
+    }
+
+    /// The refusal when `n` samples are more than the bound.
+    pub(crate) fn check(&self, n: usize) -> std::result::Result<(), InputError> {
+        if n > self.samples {
+            Err(InputError::TooManyToHold {
+                limit: self.samples,
+                command: self.command,
+                instead: self.instead,
+            })
+        } else {
+            Ok(())
+        }
+    }
 }
 
 #[cfg(test)]

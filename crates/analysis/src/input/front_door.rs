@@ -401,45 +401,68 @@ fn whole_from(opened: Opened, path: &Path) -> Result<Whole> {
 /// a raw file block by block and a large plain text file in pieces, with no size cap; anything
 /// else whole, at most [`MAX_RECORDING_BYTES`].
 pub fn load(path: &Path, opts: &LoadOptions) -> Result<Recording> {
+    load_within(path, opts, None)
+}
+
+pub use crate::input::bounded::{HoldLimit, MAX_HELD_SAMPLES};
+
+/// [`load`] for a command that holds the whole recording: refused (naming the file, the
+/// bound and `limit.instead`) as soon as more than `limit.samples` samples are read.
+pub fn load_held(path: &Path, opts: &LoadOptions, limit: HoldLimit) -> Result<Recording> {
+    load_within(path, opts, Some(limit))
+}
+
+/// [`load`] within `limit` (`None`: no bound).
+pub fn load_within(path: &Path, opts: &LoadOptions, limit: Option<HoldLimit>) -> Result<Recording> {
     let whole = match open(path)? {
         Opened::RawFile(format) => {
             // Read block by block into a recording allocated once (no size cap).
-            return raw::stream::load_raw(path, format, opts).map_err(|e| e.in_file(path));
+            return raw::stream::load_raw_within(path, format, opts, limit)
+                .map_err(|e| e.in_file(path));
         }
-        Opened::TextFile => match pieces(path, opts, |_| true)? {
+        Opened::TextFile => match pieces(path, opts, |_| true, limit)? {
             Some(rec) => return Ok(rec),
             None => read_whole(path)?,
         },
-        Opened::Spooled(tmp) => return load(&tmp, opts).map_err(|e| e.renaming(&tmp, path)),
+        Opened::Spooled(tmp) => {
+            return load_within(&tmp, opts, limit).map_err(|e| e.renaming(&tmp, path))
+        }
         Opened::Raw(raw) => Ok(*raw),
         Opened::Text(text) => Err(text),
     };
-    match whole {
-        Ok(raw) => raw::to_recording(&raw, opts).map_err(|e| e.in_file(path)),
-        Err(text) => parse(&text, opts).map_err(|e| e.in_file(path)),
-    }
+    let rec = match whole {
+        Ok(raw) => raw::to_recording(&raw, opts),
+        Err(text) => parse(&text, opts),
+    };
+    // Read whole (at most 256 MiB): checked at the end, so that every reader refuses alike.
+    let rec = rec.and_then(|r| match limit {
+        Some(l) => l.check(r.len()).map(|()| r).map_err(Into::into),
+        None => Ok(r),
+    });
+    rec.map_err(|e| e.in_file(path))
 }
 
 /// A large plain text file's recording read in pieces (`head_ok` asked about its first
-/// piece), `None` when the file is to be read whole. [`Opened::TextFile`] files only.
+/// piece), `None` when the file is to be read whole; refused beyond `limit`.
 fn pieces(
     path: &Path,
     opts: &LoadOptions,
     head_ok: impl Fn(&str) -> bool,
+    limit: Option<HoldLimit>,
 ) -> Result<Option<Recording>> {
-    text_file::load_pieces(path, opts, head_ok).map_err(|e| e.in_file(path))
+    text_file::load_pieces_within(path, opts, head_ok, limit).map_err(|e| e.in_file(path))
 }
 
 /// [`pieces`] when `path` is a large plain text file, else `None`.
 fn load_in_pieces(
     path: &Path,
     opts: &LoadOptions,
-    head_ok: impl Fn(&str) -> bool,
+    limit: Option<HoldLimit>,
 ) -> Result<Option<Recording>> {
     if !is_large_text_file(path) {
         return Ok(None);
     }
-    pieces(path, opts, head_ok)
+    pieces(path, opts, |_| true, limit)
 }
 
 /// An accelerometer and a gyroscope from one file, read once (`wiical gyrofit FILE`, so each
@@ -452,10 +475,21 @@ pub fn load_imu(
     acc: &LoadOptions,
     gyro_columns: Option<[String; 3]>,
 ) -> Result<(Recording, Recording)> {
+    load_imu_within(path, acc, gyro_columns, None)
+}
+
+/// [`load_imu`] refused beyond `limit` samples ([`load_held`]).
+pub fn load_imu_within(
+    path: &Path,
+    acc: &LoadOptions,
+    gyro_columns: Option<[String; 3]>,
+    limit: Option<HoldLimit>,
+) -> Result<(Recording, Recording)> {
     // Standard input once, and when it was spooled, the file it was spooled to (in pieces).
     let stdin = match (path.as_os_str() == "-").then(|| open(path)).transpose()? {
         Some(Opened::Spooled(tmp)) => {
-            return load_imu(&tmp, acc, gyro_columns).map_err(|e| e.renaming(&tmp, path))
+            return load_imu_within(&tmp, acc, gyro_columns, limit)
+                .map_err(|e| e.renaming(&tmp, path))
         }
         other => other,
     };
@@ -464,8 +498,8 @@ pub fn load_imu(
         columns: gyro_columns,
         sensor: Some(Sensor::Gyroscope),
     };
-    if let Some(accel) = load_in_pieces(path, acc, |_| true)? {
-        if let Some(gyro) = load_in_pieces(path, &gyro_opts, |_| true)? {
+    if let Some(accel) = load_in_pieces(path, acc, limit)? {
+        if let Some(gyro) = load_in_pieces(path, &gyro_opts, limit)? {
             return check_gyro_named(named, accel, gyro, path);
         }
     }
@@ -486,12 +520,21 @@ pub fn load_imu(
                 ..gyro_opts
             };
             let accel = raw::to_recording(&raw, acc).map_err(|e| e.in_file(path))?;
+            if let Some(l) = limit {
+                l.check(accel.len())
+                    .map_err(|e| Error::from(e).in_file(path))?;
+            }
             let gyro = raw::to_recording(&raw, &gyro_opts).map_err(|e| e.in_file(path))?;
             return Ok((accel, gyro));
         }
         Err(text) => text,
     };
     let accel = parse(&text, acc).map_err(|e| e.in_file(path))?;
+    if let Some(l) = limit {
+        // Read whole (at most 256 MiB): checked once read, as `load_held` does.
+        l.check(accel.len())
+            .map_err(|e| Error::from(e).in_file(path))?;
+    }
     let gyro = parse(&text, &gyro_opts).map_err(|e| e.in_file(path))?;
     check_gyro_named(named, accel, gyro, path)
 }
@@ -618,7 +661,7 @@ pub fn load_input_in(
                     return Ok(input);
                 }
             }
-            match pieces(path, &opts.load, samples)? {
+            match pieces(path, &opts.load, samples, None)? {
                 Some(rec) => return Ok(Input::Samples(rec)),
                 None => read_whole(path)?,
             }

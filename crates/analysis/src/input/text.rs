@@ -17,7 +17,7 @@
 use crate::error::input::InputError;
 use crate::error::Result;
 use crate::input::bounded::{
-    check_reading_scale, parse_number, parse_reading, quote, quote_header, MAX_RATE_HZ,
+    check_reading_scale, parse_number, parse_reading, quote, quote_header, MAX_RATE_HZ, MIN_RATE_HZ,
 };
 use crate::input::columns::Sensor;
 use crate::input::recording::Recording;
@@ -344,7 +344,7 @@ impl<'o> CsvState<'o> {
             if rate_key {
                 let fs = parse_number(&fields[1], line_no, &fields[0], decimal_comma)
                     .unwrap_or(f64::NAN);
-                if !(fs.is_finite() && fs > 0.0 && fs <= MAX_RATE_HZ) {
+                if !(fs.is_finite() && (MIN_RATE_HZ..=MAX_RATE_HZ).contains(&fs)) {
                     return Err(InputError::BadSampleRate {
                         line: line_no,
                         text: record.get(1).trim_ascii().chars().take(40).collect(),

@@ -14,6 +14,7 @@
 //! report first).
 
 use crate::error::{Error, Result};
+use crate::input::bounded::HoldLimit;
 use crate::input::bounded::{check_line_lengths, MAX_LINE_BYTES};
 use crate::input::columns::LoadOptions;
 use crate::input::recording::Recording;
@@ -360,7 +361,18 @@ pub fn load_pieces(
     opts: &LoadOptions,
     head_ok: impl Fn(&str) -> bool,
 ) -> Result<Option<Recording>> {
-    read_pieces(path, opts, PIECE_BYTES, head_ok)
+    read_pieces(path, opts, PIECE_BYTES, head_ok, None)
+}
+
+/// [`load_pieces`] refused as soon as the rows read pass `limit` (checked after each piece, so
+/// at most one piece's rows beyond it are ever held).
+pub fn load_pieces_within(
+    path: &Path,
+    opts: &LoadOptions,
+    head_ok: impl Fn(&str) -> bool,
+    limit: Option<HoldLimit>,
+) -> Result<Option<Recording>> {
+    read_pieces(path, opts, PIECE_BYTES, head_ok, limit)
 }
 
 /// [`load_pieces`] with pieces of `piece_bytes`: `Ok(None)` to read the file whole.
@@ -369,6 +381,7 @@ fn read_pieces(
     opts: &LoadOptions,
     piece_bytes: usize,
     head_ok: impl Fn(&str) -> bool,
+    limit: Option<HoldLimit>,
 ) -> Result<Option<Recording>> {
     let Ok(mut pieces) = Pieces::open(path, piece_bytes) else {
         return Ok(None);
@@ -394,6 +407,9 @@ fn read_pieces(
         match layout.read_plain_onto(&mut cols, piece, line, delim.byte()) {
             Ok(newlines) => line += newlines,
             Err(e) => return finish_checks(&mut pieces, Err(e)),
+        }
+        if let Some(l) = limit {
+            l.check(cols.xyz.len())?;
         }
         piece = match pieces.next_piece() {
             Ok(Some(_)) => match pieces.plain() {
@@ -750,7 +766,7 @@ mod tests {
             let whole = whole.map(|r| format!("{:?} {:?} {:?} {:?}", r.xyz, r.t, r.temp, r.notes));
             let whole = whole.map_err(|e| e.to_string());
             for size in [1, 7, 64, 300, 4096, 1 << 20] {
-                let got = match read_pieces(&path, &opts, size, |_| true) {
+                let got = match read_pieces(&path, &opts, size, |_| true, None) {
                     Ok(None) => continue, // read whole by the caller
                     Ok(Some(r)) => Ok(format!("{:?} {:?} {:?} {:?}", r.xyz, r.t, r.temp, r.notes)),
                     Err(e) => Err(e.to_string()),
@@ -761,14 +777,14 @@ mod tests {
         // The plain file is read in pieces, not handed back.
         std::fs::write(&path, &texts[0]).unwrap();
         assert!(matches!(
-            read_pieces(&path, &opts, 64, |_| true),
+            read_pieces(&path, &opts, 64, |_| true, None),
             Ok(Some(_))
         ));
-        assert!(matches!(read_pieces(&path, &opts, 64, |_| false), Ok(None)));
+        assert!(matches!(read_pieces(&path, &opts, 64, |_| false, None), Ok(None)));
         // Comment lines, a quoted header: read in pieces; a quote in a row: read whole.
         for (k, in_pieces) in [(10, true), (12, true), (13, true), (11, false)] {
             std::fs::write(&path, &texts[k]).unwrap();
-            let got = read_pieces(&path, &opts, 64, |_| true);
+            let got = read_pieces(&path, &opts, 64, |_| true, None);
             assert_eq!(matches!(got, Ok(Some(_))), in_pieces, "{k}: {got:?}");
         }
     }
@@ -820,5 +836,34 @@ mod tests {
             )),
             "{got}"
         );
+    }
+
+    /// A bound on held rows: at the 400 rows the file has, read; one below, refused in the
+    /// sentence that names the bound and the command, whatever the piece size.
+    #[test]
+    fn pieces_beyond_the_hold_limit_are_refused() {
+        let mut rows = String::from("t,x,y,z\n");
+        for i in 0..400 {
+            rows += &format!("{},{},{},{}\n", i as f64 * 0.01, i % 7, i % 5, 1000 + i);
+        }
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("r.csv");
+        std::fs::write(&path, &rows).unwrap();
+        let opts = LoadOptions::default();
+        let limit = |samples| HoldLimit {
+            samples,
+            command: "magfit",
+            instead: "cut it shorter",
+        };
+        for size in [64, 300, 1 << 20] {
+            let ok = read_pieces(&path, &opts, size, |_| true, Some(limit(400)));
+            assert_eq!(ok.unwrap().unwrap().len(), 400, "pieces of {size}");
+            let refused = read_pieces(&path, &opts, size, |_| true, Some(limit(399)));
+            assert_eq!(
+                refused.unwrap_err().to_string(),
+                "it holds more than 399 samples, the most `wiical magfit` keeps in memory; cut it shorter",
+                "pieces of {size}"
+            );
+        }
     }
 }

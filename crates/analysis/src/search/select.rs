@@ -10,6 +10,7 @@
 //! every statistic, and clean recordings gained an effect or lost a window about once in 150
 //! at these same levels (docs/residuals.md).
 
+use crate::detect::windows::{RangeError, SettingError};
 use crate::error::search::SearchError;
 use crate::stats as st;
 
@@ -50,15 +51,51 @@ pub const MIN_SPARE_OUTLIER: usize = 4;
 /// Residual degrees of freedom the outlier test needs in the fit on the other windows.
 pub const MIN_DOF_OUTLIER: usize = 3;
 
-/// Checks the two settings of the rule: α in (0, 1), CV factor at least 1.
-pub fn check_rule(alpha: f64, cv_factor: f64) -> Result<(), SearchError> {
-    if alpha > 0.0 && alpha < 1.0 && cv_factor >= 1.0 {
-        Ok(())
+/// The family-wise levels `--alpha` may take. Below 10⁻⁶ the detection limits' critical
+/// values grow without bound and each costs minutes of series terms (`--alpha 1e-300` ran for
+/// over a minute to add nothing); above 0.5 a clean recording gains a spurious effect at
+/// almost every step.
+pub const ALPHA_RANGE: (f64, f64) = (1e-6, 0.5);
+
+/// The factors `--cv-factor` may take: below 1 a candidate that makes the held-out error
+/// worse would pass; above 100 no real effect ever does (it would have to remove 99 % of the
+/// held-out error).
+pub const CV_FACTOR_RANGE: (f64, f64) = (1.0, 100.0);
+
+/// A family-wise level within [`ALPHA_RANGE`].
+pub fn check_alpha(v: f64) -> Result<f64, RangeError> {
+    let (lo, hi) = ALPHA_RANGE;
+    if (lo..=hi).contains(&v) {
+        Ok(v)
     } else {
-        Err(SearchError::InvalidSetting(
-            "alpha must be in (0, 1) and the CV factor at least 1",
-        ))
+        Err(RangeError::Alpha)
     }
+}
+
+/// A CV factor within [`CV_FACTOR_RANGE`].
+pub fn check_cv_factor(v: f64) -> Result<f64, RangeError> {
+    let (lo, hi) = CV_FACTOR_RANGE;
+    if (lo..=hi).contains(&v) {
+        Ok(v)
+    } else {
+        Err(RangeError::CvFactor)
+    }
+}
+
+/// Checks the two settings of the rule ([`check_alpha`], [`check_cv_factor`]); the error names
+/// the setting by its keyword (`alpha`, `cv_factor`).
+pub fn check_rule(alpha: f64, cv_factor: f64) -> Result<(), SearchError> {
+    let named = |name, value: f64, why| {
+        let e = SettingError {
+            name,
+            value: format!("{value:?}"),
+            why,
+        };
+        SearchError::InvalidSetting(e.to_string())
+    };
+    check_alpha(alpha).map_err(|why| named("alpha", alpha, why))?;
+    check_cv_factor(cv_factor).map_err(|why| named("cv_factor", cv_factor, why))?;
+    Ok(())
 }
 
 /// The numbers a parametric candidate (an effect block fitted jointly with the model) was
@@ -310,6 +347,16 @@ mod tests {
         assert!(check_rule(1.0, 1.1).is_err());
         assert!(check_rule(f64::NAN, 1.1).is_err());
         assert!(check_rule(0.01, 0.99).is_err());
+        // The ranges' ends are in, a step beyond them out, and the error names the setting.
+        assert!(check_rule(1e-6, 1.0).is_ok() && check_rule(0.5, 100.0).is_ok());
+        let tiny = check_rule(1e-300, 1.1).unwrap_err().to_string();
+        assert_eq!(
+            tiny,
+            "alpha = 1e-300: give a significance level from 0.000001 to 0.5"
+        );
+        assert!(check_rule(0.51, 1.1).is_err());
+        let big = check_rule(0.01, 1e300).unwrap_err().to_string();
+        assert_eq!(big, "cv_factor = 1e300: give a factor from 1 to 100");
     }
 
     #[test]

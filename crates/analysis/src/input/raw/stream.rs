@@ -23,6 +23,7 @@ use super::{
     Tally, TimePlan,
 };
 use crate::error::Result;
+use crate::input::bounded::HoldLimit;
 use crate::input::columns::LoadOptions;
 use crate::input::recording::Recording;
 use crate::input::table::WindowTable;
@@ -222,12 +223,26 @@ pub fn raw_epoch_table(
 /// vectors allocated once at their final length (no size cap: memory is the recording itself
 /// and one chunk of blocks).
 pub fn load_raw(path: &Path, format: RawFormat, opts: &LoadOptions) -> Result<Recording> {
+    load_raw_within(path, format, opts, None)
+}
+
+/// [`load_raw`] refused when the first pass counts more samples than `limit` (before the
+/// arrays are allocated: the memory is never taken).
+pub fn load_raw_within(
+    path: &Path,
+    format: RawFormat,
+    opts: &LoadOptions,
+    limit: Option<HoldLimit>,
+) -> Result<Recording> {
     let scan = scan(path, format)?;
     let cols = choose_channels(&scan.channels, opts)?;
     let left_out = scan.left_out();
     let n: usize = scan.spans.iter().flatten().map(|s| s.n as usize).sum();
     if n == 0 {
         return Err(no_data(&scan.tally, left_out).into());
+    }
+    if let Some(l) = limit {
+        l.check(n)?;
     }
     let mut rec = Recording {
         xyz: Vec::with_capacity(n),
