@@ -125,24 +125,10 @@ pub fn search_from(
     let used = vec![true; floors.len()];
     let base_fit = fit(&design(&[], None, n), data)?;
     let base = summary(&base_fit, data, 3);
-    let (mut chosen, mut effects, mut current) = (Vec::new(), Vec::new(), base_fit);
-    if let Some(c) = pre {
-        let f = fit(&design(&[], Some(c), n), data)?;
-        let sc = score(c, Some(&f), &current, &floors, &used);
-        let ctx = StepContext {
-            data,
-            chosen: &[],
-            current: &current,
-            // The step's standard errors from the model with it (the bias-only model's
-            // variance holds the step itself).
-            sigma2: reference_variance(f.rss, f.dof as f64, &floors, &used),
-            level: ALPHA,
-            floors: &floors,
-        };
-        effects.push(effect_report(&ctx, c, &f, &sc));
-        chosen.push(c);
-        current = f;
-    }
+    let (mut chosen, mut effects, mut current) = match pre {
+        Some(c) => pre_effect(data, c, &base_fit, &floors).map(|(f, r)| (vec![c], vec![r], f))?,
+        None => (Vec::new(), Vec::new(), base_fit),
+    };
     let mut steps = Vec::new();
     for _ in 0..MAX_EFFECTS {
         let open: Vec<&Candidate> = cands
@@ -214,6 +200,30 @@ pub fn search_from(
         steps,
         intercept_dps: std::array::from_fn(|a| current.beta[(0, a)]),
     })
+}
+
+/// The fit with `c` added to the bias-only model `base` and its effect row.
+fn pre_effect(
+    data: &WindowData,
+    c: &Candidate,
+    base: &Fit,
+    floors: &[f64],
+) -> Option<(Fit, GyroEffect)> {
+    let used = vec![true; floors.len()];
+    let f = fit(&design(&[], Some(c), data.rate_dps.len()), data)?;
+    let sc = score(c, Some(&f), base, floors, &used);
+    let ctx = StepContext {
+        data,
+        chosen: &[],
+        current: base,
+        // The step's standard errors from the model with it (the bias-only model's variance
+        // holds the step itself).
+        sigma2: reference_variance(f.rss, f.dof as f64, floors, &used),
+        level: ALPHA,
+        floors,
+    };
+    let row = effect_report(&ctx, c, &f, &sc);
+    Some((f, row))
 }
 
 /// Everything a step's rows are written from.
