@@ -32,6 +32,23 @@ pub(super) struct Fit {
     dof: usize,
 }
 
+impl Fit {
+    /// Residual sum of squares over all axes, (°/s)².
+    pub(super) fn rss(&self) -> f64 {
+        self.rss
+    }
+
+    /// Residual degrees of freedom over all axes.
+    pub(super) fn dof(&self) -> usize {
+        self.dof
+    }
+
+    /// Leave-one-window-out residuals, all axes, °/s.
+    pub(super) fn loo(&self) -> &[f64] {
+        &self.loo
+    }
+}
+
 pub(super) fn fit(x: &DMatrix<f64>, data: &WindowData) -> Option<Fit> {
     let (n, p) = x.shape();
     if n <= p {
@@ -93,14 +110,26 @@ pub struct Search {
 
 /// Runs the greedy search over `cands` on the window data.
 pub fn search(data: &WindowData, cands: &[Candidate]) -> Option<Search> {
+    search_from(data, cands, None)
+}
+
+/// [`search`] with `pre` (a bias step, [`super::bias_step`]) in the model before the first
+/// step: its row is the first effect, tested against the bias-only model.
+pub fn search_from(
+    data: &WindowData,
+    cands: &[Candidate],
+    pre: Option<&Candidate>,
+) -> Option<Search> {
     let n = data.rate_dps.len();
     let floors: Vec<f64> = data.mean_var.iter().flatten().map(|v| v.sqrt()).collect();
     let used = vec![true; floors.len()];
-    let mut chosen: Vec<&Candidate> = Vec::new();
     let base_fit = fit(&design(&[], None, n), data)?;
     let base = summary(&base_fit, data, 3);
-    let (mut effects, mut steps) = (Vec::new(), Vec::new());
-    let mut current = base_fit;
+    let (mut chosen, mut effects, mut current) = match pre {
+        Some(c) => pre_effect(data, c, &base_fit, &floors).map(|(f, r)| (vec![c], vec![r], f))?,
+        None => (Vec::new(), Vec::new(), base_fit),
+    };
+    let mut steps = Vec::new();
     for _ in 0..MAX_EFFECTS {
         let open: Vec<&Candidate> = cands
             .iter()
@@ -171,6 +200,30 @@ pub fn search(data: &WindowData, cands: &[Candidate]) -> Option<Search> {
         steps,
         intercept_dps: std::array::from_fn(|a| current.beta[(0, a)]),
     })
+}
+
+/// The fit with `c` added to the bias-only model `base` and its effect row.
+fn pre_effect(
+    data: &WindowData,
+    c: &Candidate,
+    base: &Fit,
+    floors: &[f64],
+) -> Option<(Fit, GyroEffect)> {
+    let used = vec![true; floors.len()];
+    let f = fit(&design(&[], Some(c), data.rate_dps.len()), data)?;
+    let sc = score(c, Some(&f), base, floors, &used);
+    let ctx = StepContext {
+        data,
+        chosen: &[],
+        current: base,
+        // The step's standard errors from the model with it (the bias-only model's variance
+        // holds the step itself).
+        sigma2: reference_variance(f.rss, f.dof as f64, floors, &used),
+        level: ALPHA,
+        floors,
+    };
+    let row = effect_report(&ctx, c, &f, &sc);
+    Some((f, row))
 }
 
 /// Everything a step's rows are written from.

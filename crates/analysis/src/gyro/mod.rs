@@ -24,6 +24,7 @@
 
 mod align;
 pub mod basis;
+pub mod bias_step;
 pub mod design;
 pub mod device;
 pub mod effects;
@@ -181,18 +182,52 @@ struct LoopPart {
     open_basis: Option<report::OpenBasis>,
 }
 
-/// The window basis after the named window effects ([`basis`]).
+/// The window basis after the named window effects ([`basis`]), with the bias step's column
+/// first when one was found.
 fn window_basis(
     search: &effects::Search,
     cands: &[effects::Candidate],
     data: &effects::WindowData,
+    step: Option<&bias_step::Found>,
 ) -> Option<report::OpenBasis> {
-    let chosen: Vec<&effects::Candidate> = search
-        .effects
-        .iter()
-        .filter_map(|e| cands.iter().find(|c| c.name == e.name))
-        .collect();
+    let mut chosen: Vec<&effects::Candidate> = step.map(|s| &s.candidate).into_iter().collect();
+    chosen.extend(
+        search
+            .effects
+            .iter()
+            .filter_map(|e| cands.iter().find(|c| c.name == e.name)),
+    );
     basis::search(data, &chosen, &basis::window_terms(cands))
+}
+
+/// The window search: a bias step first ([`bias_step`]), then the named candidates
+/// ([`effects`]) and the window basis ([`basis`]) on the kept windows.
+fn window_search(
+    seg: &segment::Segmentation,
+    data: &effects::WindowData,
+    cands: &[effects::Candidate],
+    kept: &[bool],
+) -> Result<(
+    effects::Search,
+    Option<report::OpenBasis>,
+    Option<bias_step::Found>,
+)> {
+    let times = pick(
+        seg.windows.iter().map(|w| (w.t_first, w.t_last)).collect(),
+        kept,
+    );
+    let step = bias_step::find(data, cands, &times);
+    let mut search = effects::search_from(data, cands, step.as_ref().map(|s| &s.candidate))
+        .ok_or(GyroError::GyroFitFailed(wiical_core::Error::NotConverged))?;
+    if let Some(s) = &step {
+        let chosen: Vec<&effects::Candidate> = search.effects[1..]
+            .iter()
+            .filter_map(|e| cands.iter().find(|c| c.name == e.name))
+            .collect();
+        bias_step::finish(&mut search.effects[0], s, data, &chosen);
+    }
+    let open_basis = window_basis(&search, cands, data, step.as_ref());
+    Ok((search, open_basis, step))
 }
 
 /// Noise floor, static-window candidates and verdict for the chosen calibration.
@@ -207,9 +242,7 @@ fn loop_part(
     let fl = floor::floors(&var, imu.gyro_is_integer(), seg, &fit.matrix, dt);
     let kept = still_windows(seg, &fl);
     let (data, cands) = keep_windows(window_data(col, fit, &fl), candidates(seg), &kept);
-    let search = effects::search(&data, &cands)
-        .ok_or(GyroError::GyroFitFailed(wiical_core::Error::NotConverged))?;
-    let open_basis = window_basis(&search, &cands, &data);
+    let (search, open_basis, step) = window_search(seg, &data, &cands, &kept)?;
     let fits_bias = matches!(fit.name, "bias" | "scale+bias" | "full+bias");
     let fits_scale = fit.name.starts_with("scale") || fit.name.starts_with("full");
     let ev = verdict::Evidence {
@@ -246,7 +279,14 @@ fn loop_part(
         diagnostics.push(format!("the motion candidates (scale asymmetry, nonlinearity, time offset) were not tried: their fit is linearised about the chosen calibration and needs {}", if far { "held-out angle errors within 30× the floor" } else { "samples at one rate" }));
         None
     } else {
-        let motions = motion_set(col, seg, fit, &fl, dt, (&search, &cands, &data));
+        let motions = motion_set(
+            col,
+            seg,
+            fit,
+            &fl,
+            dt,
+            (&search, &cands, &data, step.as_ref()),
+        );
         motion_search::search(&motions.0, motions.1)
     };
     let mut text = text;
@@ -403,13 +443,14 @@ fn motion_set(
     fit: &Fitted<'_>,
     fl: &floor::Floors,
     dt: f64,
-    (search, cands, data): (
+    (search, cands, data, step): (
         &effects::Search,
         &[effects::Candidate],
         &effects::WindowData,
+        Option<&bias_step::Found>,
     ),
 ) -> (motion::MotionSet, Vec<String>) {
-    let corr = window_correction(col, seg, search, cands, data.rate_dps.len());
+    let corr = window_correction(col, seg, (search, cands, step), data.rate_dps.len());
     let k = nalgebra::Matrix3::from_fn(|r, c| fit.matrix[r][c]);
     let b = nalgebra::Vector3::from(fit.bias);
     let (mut rates, mut span, mut gravity) = (Vec::new(), Vec::new(), Vec::new());
@@ -446,16 +487,24 @@ fn motion_set(
     (set, applied)
 }
 
+/// The window search's outcome the motions read: the search, its candidates, and the bias
+/// step when one was found.
+type WindowEffects<'a> = (
+    &'a effects::Search,
+    &'a [effects::Candidate],
+    Option<&'a bias_step::Found>,
+);
+
 /// The accepted window effects at sample `i` of a motion's kept samples, °/s: each
 /// regressor's deviation from its mean over the windows times the fitted coefficients (so the
 /// constant stays the calibration's bias). The regressors per sample are the windows': the
 /// calibrated specific force (g), the time from the windows' mean centre (h), the temperature
-/// from the windows' mean (°C).
+/// from the windows' mean (°C), the bias step's `H − 1` split at the middle of its gap
+/// ([`bias_step::Found::regressor`]).
 fn window_correction<'a>(
     col: &'a Collected,
     seg: &'a segment::Segmentation,
-    search: &'a effects::Search,
-    cands: &'a [effects::Candidate],
+    (search, cands, step): WindowEffects<'a>,
     windows: usize,
 ) -> impl Fn(&samples::Kept, usize) -> [f64; 3] + 'a {
     let t0 = seg.windows.iter().map(|w| w.t_centre).sum::<f64>() / seg.windows.len() as f64;
@@ -463,7 +512,10 @@ fn window_correction<'a>(
         .effects
         .iter()
         .filter_map(|e| {
-            let c = cands.iter().find(|c| c.name == e.name)?;
+            let step_c = step.filter(|_| e.name.starts_with(bias_step::NAME));
+            let c = step_c
+                .map(|s| &s.candidate)
+                .or_else(|| cands.iter().find(|c| c.name == e.name))?;
             let k = design::width(c);
             let mean = (0..k)
                 .map(|j| c.columns.iter().map(|r| r[j]).sum::<f64>() / windows.max(1) as f64)
@@ -483,6 +535,7 @@ fn window_correction<'a>(
                     .map(f64::from)
                     .to_vec(),
                 "bias-drift" => vec![(kept.t[i] - t0) / 3600.0],
+                bias_step::NAME => vec![step.map_or(0.0, |s| s.regressor(kept.t[i]))],
                 _ => vec![if col.has_temp {
                     kept.temp[i] - temp_mean
                 } else {

@@ -47,5 +47,8 @@ pub const TEMPERATURE_SCALE_SQUARED: &str = "temperature-scale-squared";
 pub const TEMPERATURE_SCALE_CUBED: &str = "temperature-scale-cubed";
 /// Bias linear in the temperature seen through a first-order lag of fitted time constant.
 pub const THERMAL_LAG: &str = "thermal-lag";
+/// A step of one axis's bias between two windows (a knock), searched before the candidates
+/// (`search::bias_step`).
+pub const BIAS_STEP: &str = "bias-step";
 /// Bias linear in the rate of change of the temperature, dT/dt.
 pub const TEMPERATURE_RATE: &str = "temperature-rate";

@@ -8,7 +8,9 @@
 //!    Levenberg–Marquardt).
 //! 2. The base model is refined in `f64` ([`crate::fit::model`]); each window's residual is
 //!    `‖a‖ − 1 g`, compared with the noise floor ([`crate::search::floor`]).
-//! 3. Candidate effects ([`crate::search::candidate`]) are tried greedily ([`crate::search::trial`],
+//! 3. A step of one axis's bias at a gap between windows (a knock, [`crate::search::bias_step`])
+//!    is searched first, so that a smooth candidate cannot stand in for it; then candidate
+//!    effects ([`crate::search::candidate`]) are tried greedily ([`crate::search::trial`],
 //!    [`crate::search::outliers`]) and one per step is added by the rule of [`crate::search::select`]; the
 //!    evidence is written by [`crate::search::evidence`].
 //! 4. The final model is stored in the core's `f32` [`Calibration`] (`effects`), so that
@@ -28,6 +30,7 @@ use crate::report::contract::{
     AnalyzeReport, CandidateReport, EffectReport, ModelSummary, StepReport, WindowInfo,
 };
 use crate::report::progress::{Progress, Stage};
+use crate::search::bias_step;
 use crate::search::candidate::Candidate;
 use crate::search::correlates::{residual_correlates, span_of, WindowPoint};
 use crate::search::evidence::{self as ev, TermContext};
@@ -125,9 +128,19 @@ fn analyze_in(samples: Samples<'_>, ws: Windows, opts: &AnalyzeOptions) -> Resul
     report(Stage::BaseFit, 1, 1);
     let mut search = Search::new(&ctx, &base);
     if base.loo.is_some() {
-        while search.effects.len() < opts.max_effects && search.step(&ctx) {}
-        // A restricted candidate list is the user's choice of effects: the open basis, which
-        // could stand in for a withheld candidate, runs only when every candidate is allowed.
+        // A restricted candidate list is the user's choice of effects: the bias step and the
+        // open basis, which could stand in for a withheld candidate, run only when every
+        // candidate is allowed.
+        let steps = match opts.candidates {
+            None => {
+                let sc = step_context(&ctx.nrm, &ctx.ws, ctx.temp_range, opts);
+                let (steps, rows) = bias_step::search(&sc, &mut search.state, &mut ctx.wins);
+                search.effects.extend(rows);
+                steps
+            }
+            Some(_) => Vec::new(),
+        };
+        while search.effects.len() < opts.max_effects + steps.len() && search.step(&ctx) {}
         if opts.candidates.is_none() {
             let spans = ctx.spans();
             let has_temp = ctx.temp_range > 0.05;
@@ -164,8 +177,30 @@ fn analyze_in(samples: Samples<'_>, ws: Windows, opts: &AnalyzeOptions) -> Resul
             search.effects.extend(open.effects);
             search.host_terms = open.host_terms;
         }
+        if !steps.is_empty() {
+            let sc = step_context(&ctx.nrm, &ctx.ws, ctx.temp_range, opts);
+            let rows = &mut search.effects[..steps.len()];
+            bias_step::refit_jointly(&sc, &mut search.state, &ctx.wins, &steps, rows);
+        }
     }
     ctx.report(samples.len(), &base, search)
+}
+
+/// What the bias-step search reads ([`bias_step::StepContext`]).
+fn step_context<'a>(
+    nrm: &'a Normalisation,
+    ws: &'a Windows,
+    temp_range: f64,
+    opts: &'a AnalyzeOptions,
+) -> bias_step::StepContext<'a> {
+    bias_step::StepContext {
+        nrm,
+        stats: &ws.stats,
+        units: ws.units,
+        has_temp: temp_range > 0.05,
+        opts,
+        model: opts.fit.model,
+    }
 }
 
 /// The thermal terms' per-window values from a pass over the streamed file.

@@ -4,9 +4,11 @@
 //! [`floor`] gives the noise floor the residual is compared with; [`candidate`] lists the
 //! effects, [`trial`] and [`outliers`] fit and test each one, [`select`] holds the rule that
 //! picks one, [`evidence`] says why, [`limits`] how large what was not found could be; [`six_contrasts`] is the residual analysis of a
-//! six-position file; [`options`] the settings.
+//! six-position file; [`options`] the settings; [`bias_step`] the knock searched before the
+//! candidates.
 
 pub mod analyze;
+pub mod bias_step;
 pub mod candidate;
 pub mod correlates;
 pub mod evidence;

@@ -357,7 +357,7 @@ fn fmt_tau(tau: f64) -> String {
 
 /// The terms' screening scores against the current model: each term's partial correlation
 /// with the residual (0 for a term inside the model's span), and how many were screened.
-fn screen(
+pub(crate) fn screen(
     terms: &[BasisTerm],
     state: &State,
     mask: &am::Mask,
@@ -410,20 +410,28 @@ fn screen(
 }
 
 /// A basis term fitted into the model.
-struct OpenTrial {
-    fit: Fit,
-    loo: Vec<Option<f64>>,
-    wins: Vec<Win>,
+pub(crate) struct OpenTrial {
+    /// The fit with the term.
+    pub(crate) fit: Fit,
+    /// Its held-out residuals.
+    pub(crate) loo: Vec<Option<f64>>,
+    /// The windows with the term in its slot.
+    pub(crate) wins: Vec<Win>,
+    /// The free parameters.
     mask: am::Mask,
-    slot: usize,
-    f: f64,
-    p: f64,
-    cv: f64,
+    /// The open slot the term took.
+    pub(crate) slot: usize,
+    /// Its F statistic and p-value against the model without it.
+    pub(crate) f: f64,
+    /// See `f`.
+    pub(crate) p: f64,
+    /// The held-out RMS with it, g.
+    pub(crate) cv: f64,
 }
 
 /// Fits `term` into the first free slot on top of `state`; `None` when no slot is free, the
 /// windows are too few, or the fit or its cross-validation fails.
-fn try_open(
+pub(crate) fn try_open(
     term: &BasisTerm,
     state: &State,
     model: MultiPosModel,
