@@ -170,7 +170,10 @@ fn tour_rows_sees_a_missing_and_an_extra_row() {
 #[test]
 fn readme_stays_short() {
     let n = read("README.md").lines().count();
-    assert!(n <= 150, "README.md has {n} lines; the aim is at most 150 (details go to docs/)");
+    assert!(
+        n <= 150,
+        "README.md has {n} lines; the aim is at most 150 (details go to docs/)"
+    );
 }
 
 #[test]

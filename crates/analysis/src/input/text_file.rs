@@ -780,7 +780,10 @@ mod tests {
             read_pieces(&path, &opts, 64, |_| true, None),
             Ok(Some(_))
         ));
-        assert!(matches!(read_pieces(&path, &opts, 64, |_| false, None), Ok(None)));
+        assert!(matches!(
+            read_pieces(&path, &opts, 64, |_| false, None),
+            Ok(None)
+        ));
         // Comment lines, a quoted header: read in pieces; a quote in a row: read whole.
         for (k, in_pieces) in [(10, true), (12, true), (13, true), (11, false)] {
             std::fs::write(&path, &texts[k]).unwrap();
