@@ -427,7 +427,8 @@ fn six_position(py: Python<'_>, path: PathBuf, estimator: &str) -> PyResult<Stri
 #[pyfunction]
 fn decode_cal(device: &str, hex: &str) -> PyResult<(String, bool)> {
     use wiical_factory::{self as factory, Device};
-    let err = |e: factory::FactoryError| py_err(e);
+    // The decoder's sentence as the CLI prints it (a FactoryError has no source chain).
+    let err = |e: factory::FactoryError| WiicalError::new_err(e.to_string());
     match device.parse::<Device>().map_err(err)? {
         Device::MotionPlus => {
             let bytes = factory::parse_hex(hex).map_err(err)?;
