@@ -11,7 +11,7 @@
 //!
 //! The rule, stricter than the open basis's (a step is an event, so it must win against the
 //! smooth explanations, not merely be significant):
-//! 1. the family is screened against the base model ([`open_basis_screening::screen`]) and its
+//! 1. the family is screened against the base model (`open_basis_screening::screen`) and its
 //!    best term fitted into a free open slot;
 //! 2. its F-test p must be below α divided by the number of step terms screened (Bonferroni
 //!    over axes × gaps), and its held-out RMS `cv_factor` lower than the model's;
