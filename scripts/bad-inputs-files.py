@@ -75,7 +75,7 @@ row("SIGKILL while standard input is copied, then another run",
 
 
 def rewritten(desc, extra_env):
-    """`wiical fit BIG` with the file rewritten in place 1 s after the start: the same size
+    """`wiical fit BIG` with the file rewritten in place 0.1 s after the start: the same size
     and times, the readings' digits 1 and 2 swapped (every row still parses), the
     modification time put back."""
     with open(BIG, "rb") as f:
@@ -90,8 +90,13 @@ def rewritten(desc, extra_env):
     p = subprocess.Popen([W, "fit", BIG], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
                          env=env)
 
+    ended_first = []
+
     def rewrite():
-        time.sleep(1.0)
+        # Early in the run (a 3 M-row fit takes a few tenths of a second in passes); a run that
+        # has already ended is said to be untested rather than counted either way.
+        time.sleep(0.1)
+        ended_first.append(p.poll() is not None)
         with open(BIG, "r+b") as f:
             f.write(other)
         os.utime(BIG, ns=(st.st_atime_ns, st.st_mtime_ns))
@@ -103,10 +108,12 @@ def rewritten(desc, extra_env):
     with open(BIG, "wb") as f:
         f.write(orig)
     what = " ".join(err.split()).replace(TMP + "/", "")
-    if p.returncode == 0:
+    if ended_first and ended_first[0]:
+        what = "(the run ended before the rewrite: not tested; use a larger file) " + what
+    elif p.returncode == 0:
         what = "**exit 0: an answer from a file that changed** " + what
     row(desc, f"wiical fit big.csv ({', '.join(f'{k}={v}' for k, v in extra_env.items()) or 'spill'}"
-        "; rewritten in place, same size and time, 1 s in)", p.returncode, what)
+        "; rewritten in place, same size and time, 0.1 s in)", p.returncode, what)
 
 
 rewritten("a file rewritten in place while read in passes (the spill)", {})
