@@ -31,7 +31,7 @@ use crate::detect::windows::WindowStats;
 use crate::fit::model::{self as am, Normalisation, Slot, Win};
 use crate::report::contract::EffectReport;
 use crate::report::effect_names as names;
-use crate::search::open_basis_screening::{screen, try_open, BasisTerm, OpenTrial};
+use crate::search::open_basis_screening::{screen, trial_row, try_open, BasisTerm, OpenTrial};
 use crate::search::options::AnalyzeOptions;
 use crate::search::select::cv_over;
 use crate::search::trial::{mask_for, State};
@@ -247,21 +247,7 @@ pub fn search(
             Slot::Bias { axis, .. } => axis as usize,
             _ => break,
         };
-        let row = EffectReport {
-            name: term.name(),
-            params: 1,
-            rms_mg: tr.fit.rms() * 1e3,
-            cv_rms_mg: Some(tr.cv * 1e3),
-            cv_rms_before_mg: cur_cv.map(|x| x * 1e3),
-            evidence,
-            f_stat: Some(tr.f),
-            p_value: Some(tr.p),
-            values: None,
-            std_errors: None,
-            unit: Some(term.unit.clone()),
-            rejected_windows: None,
-            cv_profile: None,
-        };
+        let row = trial_row(&term, &tr, cur_cv, evidence);
         steps.push(Step {
             slot: tr.slot,
             axis,

@@ -624,6 +624,22 @@ fn effect_row(
         ));
     }
     EffectReport {
+        values: Some(values),
+        std_errors: Some(errs),
+        ..trial_row(term, tr, cur_cv, evidence)
+    }
+}
+
+/// The report row of one open term's trial: its fit's RMS, held-out RMS against `cur_cv`
+/// (the model's before it, in g), F and p, unit and evidence line; no value yet (the accepted
+/// term's value is added by [`effect_row`], a bias step's after the joint refit).
+pub(crate) fn trial_row(
+    term: &BasisTerm,
+    tr: &OpenTrial,
+    cur_cv: Option<f64>,
+    evidence: String,
+) -> EffectReport {
+    EffectReport {
         name: term.name(),
         params: 1,
         rms_mg: tr.fit.rms() * 1e3,
@@ -632,8 +648,8 @@ fn effect_row(
         evidence,
         f_stat: Some(tr.f),
         p_value: Some(tr.p),
-        values: Some(values),
-        std_errors: Some(errs),
+        values: None,
+        std_errors: None,
         unit: Some(term.unit.clone()),
         rejected_windows: None,
         cv_profile: None,
