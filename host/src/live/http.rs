@@ -26,7 +26,7 @@ use std::future::Future;
 use std::io;
 use std::net::{IpAddr, Ipv4Addr, Ipv6Addr, SocketAddr};
 use std::pin::Pin;
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 use std::task::{Context, Poll};
 use std::time::Duration;
@@ -102,7 +102,12 @@ pub fn serve(
                 Err(_) => None,
             };
             // Every connection busy: the socket is dropped (closed) at once.
-            let Some(Admitted { id, busy, evicted }) = admitted else {
+            let Some(Admitted {
+                id,
+                activity,
+                evicted,
+            }) = admitted
+            else {
                 continue;
             };
             let _ = sock.set_nodelay(true);
@@ -114,11 +119,16 @@ pub fn serve(
             };
             let registry = registry.clone();
             tokio::spawn(async move {
-                until_evicted(conn.serve_counted(sock, busy), evicted).await;
+                until_evicted(conn.serve_counted(sock, activity), evicted).await;
                 if let Ok(mut r) = registry.lock() {
                     r.leave(id);
                 }
             });
+            // Let the new connection's task read what has already arrived (a viewer's whole
+            // request) before the next one is admitted: otherwise one poll of `accept` takes
+            // a whole backlog, and its admissions can drop connections whose requests were
+            // waiting unread (a CI failure of `live_hostile`).
+            tokio::task::yield_now().await;
         }
     })
 }
@@ -139,10 +149,17 @@ async fn until_evicted(work: impl Future<Output = ()>, mut evicted: oneshot::Rec
 /// The open connections, oldest first, for the caps of [`Limits`]. Why: a fixed number of
 /// slots taken first come, first served lets anyone who opens that many idle (or slowly
 /// sending) connections lock every viewer out for as long as they re-open them. Here a new
-/// connection beyond a cap takes the place of the oldest idle one (no request being
-/// answered: waiting for a head, half a head, or between keep-alive requests), so a viewer
-/// always gets in while any connection is idle; busy ones (a page being sent, an event
-/// stream) are never dropped for it.
+/// connection beyond a cap takes the place of an idle one (no request being answered:
+/// waiting for a head, half a head, or between keep-alive requests), so a viewer always gets
+/// in while any connection is idle; busy ones (a page being sent, an event stream) are never
+/// dropped for it.
+///
+/// Which idle one: the oldest that has sent something, then the oldest that has sent
+/// nothing. Why: a new viewer's connection is silent until its request arrives; dropped
+/// oldest-first among all, it went after as many newer half-sent connections (slowloris) as
+/// there are slots, so an attacker re-opening them fast enough dropped every viewer whose
+/// request was a moment late (a CI failure of `live_hostile`). Against connections that send
+/// nothing at all it is oldest-first as before.
 #[derive(Default)]
 pub struct Registry {
     next_id: u64,
@@ -153,18 +170,37 @@ pub struct Registry {
 struct Entry {
     id: u64,
     peer: IpAddr,
-    /// Responses of this connection not yet finished (0: idle).
-    busy: Arc<AtomicUsize>,
+    /// What its task reports.
+    activity: Activity,
     /// Fired to drop the connection.
     evict: oneshot::Sender<()>,
+}
+
+/// What a connection's task tells the [`Registry`] about it.
+#[derive(Clone, Default)]
+pub struct Activity {
+    /// Responses of this connection not yet finished (0: idle).
+    pub busy: Arc<AtomicUsize>,
+    /// Set once the client has sent any byte.
+    pub heard: Arc<AtomicBool>,
+}
+
+impl Activity {
+    fn idle(&self) -> bool {
+        self.busy.load(Ordering::SeqCst) == 0
+    }
+
+    fn heard(&self) -> bool {
+        self.heard.load(Ordering::SeqCst)
+    }
 }
 
 /// What an admitted connection's task gets.
 pub struct Admitted {
     /// Its number, to [`Registry::leave`] with.
     pub id: u64,
-    /// Its count of responses in progress.
-    pub busy: Arc<AtomicUsize>,
+    /// Its state, to keep up to date.
+    pub activity: Activity,
     /// Fires when it is dropped for a newer connection.
     pub evicted: oneshot::Receiver<()>,
 }
@@ -183,26 +219,31 @@ impl Registry {
             return None;
         }
         let (evict, evicted) = oneshot::channel();
-        let busy = Arc::new(AtomicUsize::new(0));
+        let activity = Activity::default();
         self.next_id += 1;
         self.open.push(Entry {
             id: self.next_id,
             peer,
-            busy: busy.clone(),
+            activity: activity.clone(),
             evict,
         });
         Some(Admitted {
             id: self.next_id,
-            busy,
+            activity,
             evicted,
         })
     }
 
-    /// Drops the oldest idle connection (of `peer` only, when given); false when none is idle.
+    /// Drops an idle connection (of `peer` only, when given): the oldest that has sent
+    /// something, else the oldest silent one (see the type's docs); false when none is idle.
     fn evict_oldest_idle(&mut self, peer: Option<IpAddr>) -> bool {
-        let idle =
-            |e: &Entry| peer.is_none_or(|p| e.peer == p) && e.busy.load(Ordering::SeqCst) == 0;
-        let Some(i) = self.open.iter().position(idle) else {
+        let idle = |e: &Entry| peer.is_none_or(|p| e.peer == p) && e.activity.idle();
+        let victim = self
+            .open
+            .iter()
+            .position(|e| idle(e) && e.activity.heard())
+            .or_else(|| self.open.iter().position(idle));
+        let Some(i) = victim else {
             return false;
         };
         let _ = self.open.remove(i).evict.send(());
@@ -312,17 +353,19 @@ impl Connection {
     where
         T: AsyncRead + AsyncWrite + Unpin + Send + 'static,
     {
-        self.serve_counted(io, Arc::new(AtomicUsize::new(0))).await;
+        self.serve_counted(io, Activity::default()).await;
     }
 
-    /// [`Connection::serve`], keeping in `busy` the number of its responses not yet finished
-    /// (a response's body holds one until it is dropped: sent, or the connection gone), which
-    /// tells the [`Registry`] whether the connection is idle.
-    pub async fn serve_counted<T>(self, io: T, busy: Arc<AtomicUsize>)
+    /// [`Connection::serve`], keeping in `activity` the number of its responses not yet
+    /// finished (a response's body holds one until it is dropped: sent, or the connection
+    /// gone) and whether the client has sent anything, which tell the [`Registry`] whether
+    /// the connection is idle and which idle one to drop first.
+    pub async fn serve_counted<T>(self, io: T, activity: Activity)
     where
         T: AsyncRead + AsyncWrite + Unpin + Send + 'static,
     {
         let limits = self.limits;
+        let Activity { busy, heard } = activity;
         let svc = hyper::service::service_fn(move |req| {
             let guard = BusyGuard::new(busy.clone());
             let resp = self.route(&req).map(|body| {
@@ -340,7 +383,10 @@ impl Connection {
             .max_buf_size(limits.max_head_bytes.max(8192))
             .max_header_size(limits.max_head_bytes)
             .max_headers(limits.max_headers)
-            .serve_connection(TokioIo::new(TimedIo::new(io, limits.write_timeout)), svc);
+            .serve_connection(
+                TokioIo::new(TimedIo::new(io, limits.write_timeout, heard)),
+                svc,
+            );
         // Errors (malformed requests, timeouts, a vanished client) end only this connection;
         // hyper has already answered what can be answered (400, 431).
         let _ = conn.await;
@@ -543,21 +589,24 @@ fn closing(mut resp: Response<BoxBody<Bytes, Infallible>>) -> Response<BoxBody<B
 }
 
 /// A connection whose writes fail with `TimedOut` after waiting `timeout` for the client to
-/// read. Written by hand because hyper bounds reading the head but has no write timeout, and
-/// tokio's `timeout` would bound the whole connection (an event stream is meant to last).
+/// read, and which sets `heard` at the first byte read. Written by hand because hyper bounds
+/// reading the head but has no write timeout, and tokio's `timeout` would bound the whole
+/// connection (an event stream is meant to last).
 pub struct TimedIo<T> {
     io: T,
     timeout: Duration,
     stalled: Option<Pin<Box<Sleep>>>,
+    heard: Arc<AtomicBool>,
 }
 
 impl<T> TimedIo<T> {
-    /// Wraps `io`.
-    pub fn new(io: T, timeout: Duration) -> Self {
+    /// Wraps `io`; `heard` is set once anything has been read from it.
+    pub fn new(io: T, timeout: Duration, heard: Arc<AtomicBool>) -> Self {
         Self {
             io,
             timeout,
             stalled: None,
+            heard,
         }
     }
 
@@ -588,7 +637,12 @@ impl<T: AsyncRead + Unpin> AsyncRead for TimedIo<T> {
         cx: &mut Context<'_>,
         buf: &mut ReadBuf<'_>,
     ) -> Poll<io::Result<()>> {
-        Pin::new(&mut self.io).poll_read(cx, buf)
+        let before = buf.filled().len();
+        let r = Pin::new(&mut self.io).poll_read(cx, buf);
+        if matches!(r, Poll::Ready(Ok(()))) && buf.filled().len() > before {
+            self.heard.store(true, Ordering::SeqCst);
+        }
+        r
     }
 }
 
