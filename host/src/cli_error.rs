@@ -62,6 +62,9 @@ pub fn cli_error(e: impl Into<Error>) -> anyhow::Error {
         e @ Error::Detect(DetectError::RateTooLow { .. }) => {
             anyhow!("{e} (a table of window means is read with --windows)")
         }
+        Error::Fit(FitError::AnotherSensor { evidence, fit }) => {
+            anyhow!("{evidence}; the accelerometer's fit: {:#}", cli_error(*fit))
+        }
         e @ Error::Fit(FitError::PoseTable { .. }) => {
             anyhow!("{e}: use `wiical six-position FILE` or `wiical analyze FILE`")
         }

@@ -36,7 +36,13 @@ pub fn fit_judged(input: &Input, opts: &FitOptions) -> Result<Judged<FitReport>>
             if rec.labels.is_some() {
                 return Err(crate::error::fit::FitError::PoseTable { rows: rec.len() }.into());
             }
-            crate::detect::windows::detect_windows_untimed(rec, &opts.detect)?
+            let ws = crate::detect::windows::detect_windows_untimed(rec, &opts.detect)?;
+            return crate::protocol::accel::fit_by_protocol(&ws, opts)
+                .map(|r| Judged {
+                    report: r.report,
+                    quality: r.quality,
+                })
+                .map_err(|e| crate::protocol::sensor_kind::explain(e, rec, &ws));
         }
         Input::Stream(src) => crate::detect::streamed::detect_windows_streamed(src, &opts.detect)?,
     };
@@ -61,7 +67,14 @@ fn judged_free(report: FitReport) -> Result<Judged<FitReport>> {
 pub fn analyze_judged(input: &Input, opts: &AnalyzeOptions) -> Result<Judged<AnalyzeReport>> {
     let report = match input {
         Input::Table(t) => analyze_table(t, opts)?,
-        Input::Samples(rec) => crate::analyze(rec, opts)?,
+        Input::Samples(rec) => crate::analyze(rec, opts).map_err(|e| {
+            // The windows again, only on the way out (a refusal): to say whether the samples
+            // look like another sensor's.
+            match crate::detect::windows::detect_windows_untimed(rec, &opts.fit.detect) {
+                Ok(ws) => crate::protocol::sensor_kind::explain(e, rec, &ws),
+                Err(_) => e,
+            }
+        })?,
         Input::Stream(src) => crate::search::analyze::analyze_streamed(src, opts)?,
     };
     let quality = match &report.six_position {

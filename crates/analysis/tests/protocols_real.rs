@@ -186,3 +186,25 @@ fn xsens_one_pose_gives_offsets_and_the_gyro_bias() {
     assert!(g.bias.iter().all(|b| b.abs() < 0.01), "{:?}", g.bias);
     assert!(matches!(rep.magnetometer, Some(Outcome::Error(_))));
 }
+
+/// Header-less files of other sensors (IMU-TK's Xsens gyro counts; ellipsoid_fit_python's
+/// magnetometer points, each SOURCE.md says which), taken for an accelerometer's by `fit`
+/// because nothing names them: the refusal names the sensor they look like and its command,
+/// not a pose advice.
+#[test]
+fn header_less_gyro_and_magnetometer_files_are_named_in_the_refusal() {
+    for (rel, says) in [
+        ("imu_tk_xsens/xsens_gyro.mat", "If this is a gyroscope"),
+        (
+            "mag_ellipsoid_fit_python/mag_out.txt",
+            "If this is a magnetometer, run `wiical magfit`",
+        ),
+    ] {
+        let rec = load(&data_dir().join(rel), &LoadOptions::default()).unwrap();
+        let err = fit_judged(&Input::Samples(rec), &Default::default())
+            .err()
+            .unwrap_or_else(|| panic!("{rel}: calibrated as an accelerometer"))
+            .to_string();
+        assert!(err.contains(says), "{rel}: {err}");
+    }
+}

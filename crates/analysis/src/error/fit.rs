@@ -34,6 +34,15 @@ pub enum FitError {
     /// The core's multi-position fit failed otherwise.
     #[error("multi-position fit failed: {0}")]
     FitFailed(wiical_core::Error),
+    /// The file does not name its sensor, the accelerometer's fit refused it, and its samples
+    /// look like another sensor's ([`crate::protocol::sensor_kind`]).
+    #[error("{evidence}; the accelerometer's fit: {fit}")]
+    AnotherSensor {
+        /// What the samples look like, measured, and the command for that sensor.
+        evidence: String,
+        /// The fit's own refusal.
+        fit: Box<FitError>,
+    },
     /// The recognised protocol's method cannot calibrate these windows.
     #[error("protocol: {summary}: {why}")]
     Protocol {

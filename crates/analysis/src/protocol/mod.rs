@@ -14,6 +14,10 @@
 //! | full turns between rests (Ferraris) | gyro scale and misalignment from a known angle; its g-sensitivity from the rests | [`rotations`], [`g_sensitivity`] |
 //! | constant known rates (rate table, turntable) | gyro scale, misalignment, bias from the rates | [`rates`] |
 //!
+//! When the accelerometer's fit refuses a file that does not name its sensor, [`sensor_kind`]
+//! says whether the samples look like a gyroscope's or a magnetometer's, and which command
+//! calibrates them.
+//!
 //! The free-pose protocol keeps today's pipeline unchanged (its outputs carry no `protocol`
 //! key); the others add a `protocol` object to the JSON and a `protocol:` line to the text.
 
@@ -26,6 +30,7 @@ pub mod labelled;
 pub mod offsets;
 pub mod rates;
 pub mod rotations;
+pub mod sensor_kind;
 pub mod vec3;
 
 use crate::detect::windows::Windows;
