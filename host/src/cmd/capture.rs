@@ -195,7 +195,11 @@ fn run_live(args: &CaptureArgs, ui: &mut dyn CaptureUi) -> Result<String> {
     out.flush()?;
     drop(out);
     eprintln!("wiical capture: the live view stays at http://{addr}/ (Ctrl-C stops)");
-    // The server serves until the process is interrupted.
-    let _ = server_thread.join();
-    Ok(String::new())
+    // The server serves until the process is interrupted; it returns only if its runtime
+    // could not start, and a panic of its thread is this command's error, not lost.
+    match server_thread.join() {
+        Ok(Ok(())) => Ok(String::new()),
+        Ok(Err(e)) => bail!("the live view's server stopped: {e}"),
+        Err(_) => bail!("the live view's server thread panicked (its message is above)"),
+    }
 }
