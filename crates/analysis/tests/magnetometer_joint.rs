@@ -27,15 +27,15 @@ fn run(k: [f64; 3], seed: u64) -> MagAnalysis {
     magnetometer::analyze(&inp, &fit, MagModel::Ellipsoid, ALPHA).expect("analysis")
 }
 
-/// Two magnitudes small against the field (the centre moving by up to 2 % and 4 % of R over the
-/// current's 0–10 A: the linearisation's domain, `magnetometer::design`) × 4 seeds × 3 axes:
-/// every coefficient within 3 σ of the truth and the RMS of the scaled errors between 0.5 and
-/// 2. (At 10 % of R the single linear step about the core's fit, which ignores the current, is
-/// biased by 2.5 %: 10 σ; docs/magnetometer.md.)
+/// Three magnitudes (the centre moving by up to 2 %, 4 % and 10 % of R over the current's
+/// 0–10 A) × 4 seeds × 3 axes: every coefficient within 3 σ of the truth and the RMS of the
+/// scaled errors between 0.5 and 2. At 10 % a single linear step about the core's fit (made
+/// without the current) was 2.5 % off, 10 σ; the loop's second pass about its first estimate
+/// (`magnetometer::KnownShift`) is what passes it (docs/magnetometer.md).
 #[test]
 fn interference_coefficients_are_within_three_sigma() {
     let mut z = Vec::new();
-    for (m, k) in [[1.0, -0.5, 0.75], [2.0, -1.0, 1.5]]
+    for (m, k) in [[1.0, -0.5, 0.75], [2.0, -1.0, 1.5], [5.0, 2.0, -3.0]]
         .into_iter()
         .enumerate()
     {

@@ -223,6 +223,22 @@ pub struct Scalar {
     value: Value,
 }
 
+impl Scalar {
+    /// The candidate's name (`interference:current`, `temperature`, …).
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    /// For a named column's scalar (`interference:<column>`): the column's index among the
+    /// followed columns and the mean taken from it.
+    pub fn follow_column(&self) -> Option<(usize, f64)> {
+        match self.value {
+            Value::Centred(Column::Follow(j), mean) => Some((j, mean)),
+            _ => None,
+        }
+    }
+}
+
 /// The scalars of a held recording ([`MagInput`]), as a pass over it gives them.
 pub fn scalars(inp: &MagInput, n: usize) -> Vec<Scalar> {
     let mut fold = ScalarFold::new(n, inp.temp.is_some());

@@ -44,7 +44,43 @@ pub fn analyze(
     check_spans(inp.xyz)?;
     let sigma = floor::axis_noise(inp.xyz);
     let n = inp.xyz.len();
-    let mut pass = LoopPass::new(rep, sigma, candidates::scalars(inp, n), model, inp.unit, n);
+    let scalars = candidates::scalars(inp, n);
+    let (has_temp, has_follow) = (inp.temp.is_some(), !inp.follow.is_empty());
+    let first = held_pass(inp, rep, sigma, scalars.clone(), model, &[]);
+    let first = first.finish(alpha, has_temp, has_follow);
+    let known = known_shifts(&scalars, &first);
+    if known.is_empty() {
+        return Ok(first);
+    }
+    let corrected: Vec<[f64; 3]> = (0..n)
+        .map(|i| shifted(&inp.xyz[i], &follow_at(inp, i), &known))
+        .collect();
+    let Ok(rep2) = fit_points(&corrected, model) else {
+        return Ok(first);
+    };
+    let second = held_pass(inp, &rep2, sigma, scalars, model, &known);
+    Ok(second.finish(alpha, has_temp, has_follow))
+}
+
+/// The followed columns' values at sample `i` (`NaN` past a column's end).
+fn follow_at(inp: &MagInput, i: usize) -> Vec<f64> {
+    inp.follow
+        .iter()
+        .map(|(_, v)| v.get(i).copied().unwrap_or(f64::NAN))
+        .collect()
+}
+
+/// One [`LoopPass`] over the held samples about `rep`, with the `known` shifts.
+fn held_pass<'r>(
+    inp: &MagInput,
+    rep: &'r MagFitReport,
+    sigma: [f64; 3],
+    scalars: Vec<candidates::Scalar>,
+    model: MagModel,
+    known: &[KnownShift],
+) -> LoopPass<'r> {
+    let n = inp.xyz.len();
+    let mut pass = LoopPass::new(rep, sigma, scalars, model, inp.unit, n).with_known(known);
     let mut follow = vec![0.0; inp.follow.len()];
     for (i, m) in inp.xyz.iter().enumerate() {
         for (slot, (_, v)) in follow.iter_mut().zip(inp.follow) {
@@ -53,7 +89,69 @@ pub fn analyze(
         let t = inp.t.map_or(i as f64, |t| t[i]);
         pass.push(m, t, inp.temp.map_or(f64::NAN, |v| v[i]), &follow);
     }
-    Ok(pass.finish(alpha, inp.temp.is_some(), !inp.follow.is_empty()))
+    pass
+}
+
+/// An `interference:<column>` effect a first pass accepted: the centre moves by
+/// `k·(g − mean)` with the followed column `g`.
+///
+/// Why a second pass: the loop's columns are a linearisation about the base fit, which the
+/// core made without the column, and the directions `n̂` are taken at samples that still hold
+/// the moved centre; when the centre moves far (10 % of the field) that cost the coefficient
+/// a bias of 10 standard errors (docs/magnetometer.md). The second pass is one Gauss–Newton
+/// step about the first pass's estimate: the base refitted on the samples with the shift
+/// taken out, each sample's geometry at its shifted place, and the shift's own linear term
+/// added back to the residual, so the loop fits the whole `k` again with the right `n̂`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct KnownShift {
+    /// The column's index among the followed columns.
+    pub column: usize,
+    /// The column's mean (the loop's column is `g − mean`).
+    pub mean: f64,
+    /// The first pass's coefficient per axis, field unit per column unit.
+    pub k: [f64; 3],
+}
+
+impl KnownShift {
+    /// The column's centred value in `follow` (0 where it is missing or not finite: no
+    /// shift, as the loop's own row has no value there either).
+    fn x(&self, follow: &[f64]) -> f64 {
+        let x = follow.get(self.column).map_or(0.0, |v| v - self.mean);
+        if x.is_finite() {
+            x
+        } else {
+            0.0
+        }
+    }
+}
+
+/// The accepted `interference:<column>` effects of `first` as shifts (`scalars`: the
+/// candidates the pass was given, which hold each column's index and mean).
+pub fn known_shifts(scalars: &[candidates::Scalar], first: &MagAnalysis) -> Vec<KnownShift> {
+    first
+        .effects
+        .iter()
+        .filter(|e| e.name.starts_with("interference:") && e.values.len() == 3)
+        .filter_map(|e| {
+            let s = scalars.iter().find(|s| s.name() == e.name)?;
+            let (column, mean) = s.follow_column()?;
+            Some(KnownShift {
+                column,
+                mean,
+                k: [e.values[0], e.values[1], e.values[2]],
+            })
+        })
+        .collect()
+}
+
+/// `m` with the `known` shifts taken out.
+pub fn shifted(m: &[f64; 3], follow: &[f64], known: &[KnownShift]) -> [f64; 3] {
+    let mut out = *m;
+    for s in known {
+        let x = s.x(follow);
+        (0..3).for_each(|a| out[a] -= s.k[a] * x);
+    }
+    out
 }
 
 /// The loop's pass over the samples once the fit and the axes' noise are known: each
@@ -67,6 +165,7 @@ pub struct LoopPass<'r> {
     n: usize,
     geo: floor::GeoFold,
     lay: candidates::LayoutFold,
+    known: Vec<KnownShift>,
 }
 
 impl<'r> LoopPass<'r> {
@@ -92,13 +191,28 @@ impl<'r> LoopPass<'r> {
             n,
             geo: floor::GeoFold::new(sigma),
             lay: candidates::LayoutFold::new(scalars, shape, unit, n),
+            known: Vec::new(),
         }
+    }
+
+    /// The same pass about a first pass's estimate of the column-following effects
+    /// ([`KnownShift`]: each sample's geometry at its shifted place, the shift's linear term
+    /// added back to its residual).
+    pub fn with_known(mut self, known: &[KnownShift]) -> Self {
+        self.known = known.to_vec();
+        self
     }
 
     /// The next sample `m`, its time (s, or the sample index), temperature (°C, `NaN`
     /// without a column) and the followed columns' values.
     pub fn push(&mut self, m: &[f64; 3], t: f64, temp: f64, follow: &[f64]) {
-        let g = design::geo(m, &self.rep.center, &self.rep.matrix, self.rep.radius);
+        let at = shifted(m, follow, &self.known);
+        let mut g = design::geo(&at, &self.rep.center, &self.rep.matrix, self.rep.radius);
+        for s in &self.known {
+            // The loop's own column for this effect is `x·Wᵀn̂` ([`design::follow_row`]).
+            let x = s.x(follow);
+            g.res += x * (0..3).map(|a| g.grad[a] * s.k[a]).sum::<f64>();
+        }
         self.geo.push(&g);
         self.lay.push(&g, t, temp, follow);
     }

@@ -152,6 +152,9 @@ pub fn fit_source_counting(
 
 /// The loop on `src` around `prep`'s fit (made with `model`) at family level `alpha`, with
 /// the `--follow` columns `follow` (each opened by [`open_follow`], as many rows as the field).
+/// When the loop accepts an `interference:<column>` effect, two more passes refit the base
+/// without it and a third runs the loop again about that estimate, as the held path does
+/// ([`super::KnownShift`]).
 pub fn analyze_source(
     src: &TextSource,
     prep: &Prepared,
@@ -174,22 +177,65 @@ pub fn analyze_source(
     };
     let unit = unit_of(src);
     let scalars = prep.scalars.scalars(&folds, unit, time_unit);
-    let mut pass = LoopPass::new(&prep.report, prep.sigma, scalars, model, unit, n);
+    let (has_temp, has_follow) = (src.has_temp(), !follow.is_empty());
+    let first = LoopPass::new(&prep.report, prep.sigma, scalars.clone(), model, unit, n);
+    let first = loop_pass(src, follow, first)?.finish(alpha, has_temp, has_follow);
+    let known = super::known_shifts(&scalars, &first);
+    if known.is_empty() {
+        return Ok(first);
+    }
+    let mut fit = FitFold::new(model);
+    each_row(src, follow, |_, row, values| {
+        fit.push(&super::shifted(&row.xyz, values, &known))
+    })?;
+    let Ok(solved) = fit.solve() else {
+        return Ok(first);
+    };
+    let mut quality = QualityFold::new(solved);
+    each_row(src, follow, |_, row, values| {
+        quality.push(&super::shifted(&row.xyz, values, &known))
+    })?;
+    let Ok(rep2) = quality.report(model, n) else {
+        return Ok(first);
+    };
+    let second = LoopPass::new(&rep2, prep.sigma, scalars, model, unit, n).with_known(&known);
+    Ok(loop_pass(src, follow, second)?.finish(alpha, has_temp, has_follow))
+}
+
+/// Every row of `src` into `pass` with its time, temperature and followed values.
+fn loop_pass<'r>(
+    src: &TextSource,
+    follow: &[(String, TextSource)],
+    mut pass: LoopPass<'r>,
+) -> Result<LoopPass<'r>> {
+    each_row(src, follow, |i, row, values| {
+        let temp = row.temp.unwrap_or(f64::NAN);
+        pass.push(&row.xyz, time_of(src, i, row), temp, values);
+    })?;
+    Ok(pass)
+}
+
+/// One pass over `src`'s rows, each with its index and the followed columns' values (`NaN`
+/// past a column's end); the files checked unchanged after it.
+fn each_row(
+    src: &TextSource,
+    follow: &[(String, TextSource)],
+    mut f: impl FnMut(usize, &Row, &[f64]),
+) -> Result<()> {
     let mut rows: Vec<_> = follow.iter().map(|(_, f)| f.rows()).collect();
     let mut values = vec![0.0; follow.len()];
     for (i, row) in src.rows().enumerate() {
         for (v, r) in values.iter_mut().zip(&mut rows) {
             *v = r.next().map_or(f64::NAN, |r| r.xyz[0]);
         }
-        let temp = row.temp.unwrap_or(f64::NAN);
-        pass.push(&row.xyz, time_of(src, i, &row), temp, &values);
+        f(i, &row, &values);
     }
     drop(rows);
     src.check()?;
     for (_, f) in follow {
         f.check()?;
     }
-    Ok(pass.finish(alpha, src.has_temp(), !follow.is_empty()))
+    Ok(())
 }
 
 /// One axis's |second differences| counted for their median: by value while they are few,
