@@ -194,10 +194,10 @@ fn xsens_one_pose_gives_offsets_and_the_gyro_bias() {
 #[test]
 fn header_less_gyro_and_magnetometer_files_are_named_in_the_refusal() {
     for (rel, says) in [
-        ("imu_tk_xsens/xsens_gyro.mat", "If this is a gyroscope"),
+        ("imu_tk_xsens/xsens_gyro.mat", "if this is a gyroscope"),
         (
             "mag_ellipsoid_fit_python/mag_out.txt",
-            "If this is a magnetometer, run `wiical magfit`",
+            "if this is a magnetometer, run `wiical magfit`",
         ),
     ] {
         let rec = load(&data_dir().join(rel), &LoadOptions::default()).unwrap();
