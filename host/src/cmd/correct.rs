@@ -27,6 +27,9 @@ pub struct Args {
     /// Header names of the x,y,z columns to use (e.g. ax,ay,az).
     #[arg(long, value_delimiter = ',')]
     pub columns: Option<Vec<String>>,
+    /// How the file is read (hidden flags).
+    #[command(flatten)]
+    pub read: super::ReadArgs,
     /// Sample rate when the file has no time column or Fs metadata, Hz.
     #[arg(long, default_value_t = 100.0, value_parser = super::rate_hz, allow_negative_numbers = true)]
     pub rate_hz: f64,
@@ -38,7 +41,7 @@ pub struct Args {
 pub fn run(a: &Args) -> Result<String> {
     check_outputs(&[&a.calibration, &a.recording], &[Some(&a.out)])?;
     let file = read_calibration_file(&a.calibration).map_err(cli_error)?;
-    let opts = load_options(a.columns.as_deref())?;
+    let opts = load_options(a.columns.as_deref(), &a.read)?;
     // Millions of rows take seconds to read: say so (hidden when stderr is not a terminal).
     let samples = with_spinner(&format!("reading {}", a.recording.display()), || {
         open_samples(&a.recording, &opts)

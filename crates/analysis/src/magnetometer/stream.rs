@@ -25,6 +25,7 @@ use super::floor::{blob, AxisSums, StepFold};
 use super::{LoopPass, MagAnalysis, MagModel, MagnetometerError};
 use crate::error::Result;
 use crate::input::columns::{triplet_unit, LoadOptions};
+use crate::input::read_options::ReadOptions;
 use crate::input::text_source::{Row, TextSource};
 use crate::stats::CountedKeys;
 use std::collections::HashMap;
@@ -52,13 +53,15 @@ pub fn open_field_from(
 
 /// How a `--follow` column `name` is read beside a field whose axes are `field_axes`: as the
 /// first of three columns, the other two the field's own (the loader reads a triplet, and
-/// refuses one column named for two axes), so that its rows are the field's rows.
-pub fn follow_options(name: &str, field_axes: &[String; 3]) -> LoadOptions {
+/// refuses one column named for two axes), so that its rows are the field's rows; the file
+/// read as `read` says.
+pub fn follow_options(name: &str, field_axes: &[String; 3], read: &ReadOptions) -> LoadOptions {
     let mut others = field_axes.iter().filter(|a| a.as_str() != name).cloned();
     let mut next = || others.next().unwrap_or_default();
     LoadOptions {
         columns: Some([name.to_string(), next(), next()]),
         sensor: None,
+        read: *read,
     }
 }
 
@@ -69,8 +72,9 @@ pub fn open_follow(
     path: &Path,
     name: &str,
     field_axes: &[String; 3],
+    read: &ReadOptions,
 ) -> Result<Option<TextSource>> {
-    let opts = follow_options(name, field_axes);
+    let opts = follow_options(name, field_axes, read);
     TextSource::open(path, &opts, |_| true).map_err(|e| e.in_file(path))
 }
 
