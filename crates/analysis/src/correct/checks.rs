@@ -237,9 +237,7 @@ pub fn bad_output(i: usize, t: f64, a: &[f32; 3], bounded: bool) -> Option<Corre
 /// `None` without one.
 pub fn median(mut v: Vec<f64>) -> Option<f64> {
     v.retain(|x| x.is_finite());
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    (n > 0).then(|| (v[(n - 1) / 2] + v[n / 2]) / 2.0)
+    (!v.is_empty()).then(|| crate::stats::median(&v))
 }
 
 /// Three significant figures, for a sentence.

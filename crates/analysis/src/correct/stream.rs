@@ -186,58 +186,22 @@ fn check_after(pass: Pass<'_>, src: &TextSource) -> Result<()> {
 
 /// The median of the finite values of `f` over the samples of `src` (the mean of the middle
 /// two for an even count, as [`super::checks::median`] takes it), selected by the bits of
-/// their order, none stored: a pass for the top 16 bits, three for the rest
-/// (`stats::kth_key_by_digits`), one for the next value up when the count is even.
+/// their order, none stored: a pass to count them, then [`crate::stats::OrderCounts::median`]
+/// (three passes for a middle value, one for the next value up when the count is even).
 fn streamed_median(src: &TextSource, f: impl Fn(&[f64; 3]) -> f64) -> Result<Option<f64>> {
-    // The `total_cmp` order as unsigned integers.
-    let key = |x: f64| {
-        let b = x.to_bits() as i64;
-        ((b ^ (((b >> 63) as u64) >> 1) as i64) as u64) ^ (1 << 63)
-    };
-    let value = |k: u64| {
-        let b = k ^ (1 << 63);
-        f64::from_bits(b ^ ((((b as i64) >> 63) as u64) >> 1))
-    };
-    let keys = || {
+    use crate::stats::{from_order_key, order_key, OrderCounts};
+    let keys = |key: &mut dyn FnMut(u64)| {
         src.rows()
             .map(|r| f(&r.xyz))
             .filter(|v| v.is_finite())
-            .map(key)
+            .for_each(|v| key(order_key(v)));
+        src.check()
     };
-    let mut top = vec![0usize; 1 << 16];
-    let mut n = 0usize;
-    for k in keys() {
-        top[(k >> 48) as usize] += 1;
-        n += 1;
-    }
-    src.check()?;
-    if n == 0 {
+    // No count by value: the norms of a recording are all distinct.
+    let mut counts = OrderCounts::new(0);
+    keys(&mut |k| counts.push(k))?;
+    if counts.len == 0 {
         return Ok(None);
     }
-    let lower = crate::stats::kth_key_by_digits(&top, (n - 1) / 2, |shift, prefix, hist| {
-        for k in keys().filter(|k| k >> (shift + 16) == prefix) {
-            hist[((k >> shift) & 0xffff) as usize] += 1;
-        }
-        src.check()
-    })?;
-    let upper = if n % 2 == 1 {
-        lower
-    } else {
-        // Rank n/2: the same value when more than n/2 keys are at most it, else the next one.
-        let (mut at_most, mut next) = (0usize, u64::MAX);
-        for k in keys() {
-            if k <= lower {
-                at_most += 1;
-            } else {
-                next = next.min(k);
-            }
-        }
-        src.check()?;
-        if at_most > n / 2 {
-            lower
-        } else {
-            next
-        }
-    };
-    Ok(Some((value(lower) + value(upper)) / 2.0))
+    counts.median(from_order_key, keys).map(Some)
 }
