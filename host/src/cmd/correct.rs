@@ -8,8 +8,8 @@ use anyhow::Result;
 use std::path::PathBuf;
 use wiical_analysis::correct::correct_recording;
 use wiical_analysis::correct::csv::write_corrected;
+use wiical_analysis::correct::pass::correct_streamed;
 use wiical_analysis::correct::source::{open_samples, Samples};
-use wiical_analysis::correct::stream::correct_streamed;
 use wiical_analysis::output::calfile::read_calibration_file;
 
 /// Arguments of `wiical correct`.
@@ -37,7 +37,7 @@ pub struct Args {
 
 /// Runs `wiical correct`; returns the summary line. A large plain text file (and standard
 /// input spooled to a temporary file) is corrected as it is read, in bounded memory
-/// (`wiical_analysis::correct::stream`); the output is the same file either way.
+/// (`wiical_analysis::correct::pass`); the output is the same file either way.
 pub fn run(a: &Args) -> Result<String> {
     check_outputs(&[&a.calibration, &a.recording], &[Some(&a.out)])?;
     let file = read_calibration_file(&a.calibration).map_err(cli_error)?;
@@ -51,7 +51,7 @@ pub fn run(a: &Args) -> Result<String> {
     let (n, applied) = match samples {
         Samples::Held(rec) => {
             let c = correct_recording(&file, &rec, a.rate_hz)
-                .map_err(|e| cli_error(wiical_analysis::Error::from(e).in_file(&a.recording)))?;
+                .map_err(|e| cli_error(e.in_file(&a.recording)))?;
             write_corrected(&a.out, &c).map_err(cli_error)?;
             (c.accel.len(), c.applied)
         }

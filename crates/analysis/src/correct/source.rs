@@ -3,7 +3,7 @@
 //! [`crate::input::read_options::ReadOptions::stream_from_bytes`], or standard input long enough to be
 //! spooled to a temporary file — read in passes from the file ([`Samples::Streamed`],
 //! [`crate::input::text_source::TextSource`]) and corrected as it is read
-//! ([`super::stream`]). The same threshold as `fit`, `analyze` and `noise`.
+//! ([`super::pass`]). The same threshold as `fit`, `analyze` and `noise`.
 
 use crate::error::Result;
 use crate::input::columns::LoadOptions;
