@@ -29,8 +29,8 @@ def copying(tmpdir):
     the copy exists. SIGINT as an interactive shell leaves it (a script's background job would
     have it ignored)."""
     os.makedirs(tmpdir, exist_ok=True)
-    env = dict(os.environ, TMPDIR=tmpdir, WIICAL_STREAM_FROM_BYTES="4096")
-    p = subprocess.Popen([W, "analyze", "-"], stdin=subprocess.PIPE, stdout=subprocess.DEVNULL,
+    env = dict(os.environ, TMPDIR=tmpdir)
+    p = subprocess.Popen([W, "analyze", "-", "--stream-from-bytes", "4096"], stdin=subprocess.PIPE, stdout=subprocess.DEVNULL,
                          stderr=subprocess.PIPE, env=env,
                          preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     with open(GOOD, "rb") as f:
@@ -64,9 +64,10 @@ p = copying(d)
 p.send_signal(signal.SIGKILL)
 p.wait(timeout=60)
 after_kill = left(d)
-env = dict(os.environ, TMPDIR=d, WIICAL_STREAM_FROM_BYTES="4096")
+env = dict(os.environ, TMPDIR=d)
 with open(GOOD, "rb") as f:
-    q = subprocess.run([W, "fit", "-"], stdin=f, capture_output=True, env=env)
+    q = subprocess.run([W, "fit", "-", "--stream-from-bytes", "4096"], stdin=f,
+                       capture_output=True, env=env)
 files = left(d)
 row("SIGKILL while standard input is copied, then another run",
     "wiical analyze - < rec.csv; kill -KILL; wiical fit - < rec.csv", q.returncode,
@@ -74,7 +75,7 @@ row("SIGKILL while standard input is copied, then another run",
     f"{len(files)} file(s) left" + (f" **({', '.join(files)})**" if files else ""))
 
 
-def rewritten(desc, extra_env):
+def rewritten(desc, extra_env, extra_args=()):
     """`wiical fit BIG` with the file rewritten in place 0.1 s after the start: the same size
     and times, the readings' digits 1 and 2 swapped (every row still parses), the
     modification time put back."""
@@ -86,8 +87,8 @@ def rewritten(desc, extra_env):
         for line in orig.split(b"\n"))
     assert len(other) == len(orig)
     st = os.stat(BIG)
-    env = dict(os.environ, WIICAL_STREAM_FROM_BYTES="0", **extra_env)
-    p = subprocess.Popen([W, "fit", BIG], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+    env = dict(os.environ, **extra_env)
+    p = subprocess.Popen([W, "fit", BIG, "--stream-from-bytes", "0", *extra_args], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
                          env=env)
 
     ended_first = []
@@ -112,11 +113,12 @@ def rewritten(desc, extra_env):
         what = "(the run ended before the rewrite: not tested; use a larger file) " + what
     elif p.returncode == 0:
         what = "**exit 0: an answer from a file that changed** " + what
-    row(desc, f"wiical fit big.csv ({', '.join(f'{k}={v}' for k, v in extra_env.items()) or 'spill'}"
+    given = [f"{k}={v}" for k, v in extra_env.items()] + [" ".join(extra_args)] * bool(extra_args)
+    row(desc, f"wiical fit big.csv ({', '.join(given) or 'spill'}"
         "; rewritten in place, same size and time, 0.1 s in)", p.returncode, what)
 
 
 rewritten("a file rewritten in place while read in passes (the spill)", {})
-rewritten("a file rewritten in place while read in passes (no spill)", {"WIICAL_SPILL": "0"})
+rewritten("a file rewritten in place while read in passes (no spill)", {}, ("--spill", "off"))
 rewritten("a file rewritten in place while read in passes (TMPDIR missing)",
           {"TMPDIR": "/nonexistent"})

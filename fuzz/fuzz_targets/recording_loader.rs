@@ -36,6 +36,7 @@ fuzz_target!(|data: &[u8]| {
     let opts = LoadOptions {
         columns: CHOICES[pick % CHOICES.len()].map(|c| c.map(String::from)),
         sensor: SENSORS[(pick / CHOICES.len()) % SENSORS.len()],
+        ..Default::default()
     };
     check_window_table(text, &opts, pick % 2 == 0);
     let Ok(rec) = parse(text, &opts) else {

@@ -41,7 +41,11 @@ fuzz_target!(|data: &[u8]| {
         }
     }
     // Standard input over 8 bytes is copied to a temporary file: the same bytes, deleted after.
-    if let Ok(Opened::Spooled(copy)) = open_input(&mut &rest[..], 8) {
+    if let Ok(Opened::Spooled(copy)) = open_input(
+        &mut &rest[..],
+        8,
+        wiical_analysis::input::front_door::MAX_SPOOL_BYTES,
+    ) {
         let mut got = Vec::new();
         let read = std::fs::File::open(&*copy).and_then(|mut f| f.read_to_end(&mut got));
         assert!(read.is_ok());

@@ -788,16 +788,17 @@ fn wiical_piped(args: &[&str], input: &[u8], env: &[(&str, &str)]) -> (bool, Str
 /// Standard input too long to hold (here: over 4 kB) is copied to a temporary file in
 /// `$TMPDIR` and read from there: the same report as held, the copy deleted after, errors
 /// naming `-` (not the copy), and bounded — text no recording starts with (no digit, not
-/// UTF-8) is refused before the copy, and the copy stops at `WIICAL_MAX_SPOOL_BYTES`.
+/// UTF-8) is refused before the copy, and the copy stops at `--max-spool-bytes`.
 #[test]
 fn standard_input_too_long_to_hold_is_spooled_within_bounds() {
     let tmp = tempfile::tempdir().unwrap();
     let tmpdir = tmp.path().to_str().unwrap();
-    let small = [("WIICAL_STREAM_FROM_BYTES", "4096"), ("TMPDIR", tmpdir)];
+    let small = [("TMPDIR", tmpdir)];
     let leftovers = || std::fs::read_dir(tmp.path()).unwrap().count();
     let xsens = std::fs::read(data_dir().join("imu_tk_xsens/xsens_acc.mat")).unwrap();
-    let args = ["fit", "-", "--json"];
-    let (ok, held, err) = wiical_piped(&args, &xsens, &[("TMPDIR", tmpdir)]);
+    let held_args = ["fit", "-", "--json"];
+    let args = ["fit", "-", "--json", "--stream-from-bytes", "4096"];
+    let (ok, held, err) = wiical_piped(&held_args, &xsens, &small);
     assert!(ok, "{err}");
     let (ok, spooled, err) = wiical_piped(&args, &xsens, &small);
     assert!(ok, "{err}");
@@ -822,9 +823,9 @@ fn standard_input_too_long_to_hold_is_spooled_within_bounds() {
         let (ok, _, err) = wiical_piped(&args, input, &small);
         assert!(!ok && err.contains(words), "{words}: {err}");
     }
-    let capped = [small[0], small[1], ("WIICAL_MAX_SPOOL_BYTES", "100000")];
-    let (ok, _, err) = wiical_piped(&args, &xsens, &capped);
-    assert!(!ok && err.contains("WIICAL_MAX_SPOOL_BYTES"), "{err}");
+    let capped = [&args[..], &["--max-spool-bytes", "100000"]].concat();
+    let (ok, _, err) = wiical_piped(&capped, &xsens, &small);
+    assert!(!ok && err.contains("--max-spool-bytes"), "{err}");
     assert_eq!(leftovers(), 0, "nothing left after a refusal");
 }
 

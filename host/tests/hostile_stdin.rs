@@ -32,18 +32,21 @@ fn copying(tmpdir: &Path, prelude: Option<&str>) -> Child {
     let mut cmd = match prelude {
         Some(p) => {
             let mut c = Command::new("sh");
-            c.args(["-c", &format!("{p}; exec \"$0\" analyze -"), bin]);
+            c.args([
+                "-c",
+                &format!("{p}; exec \"$0\" analyze - --stream-from-bytes 4096"),
+                bin,
+            ]);
             c
         }
         None => {
             let mut c = Command::new(bin);
-            c.args(["analyze", "-"]);
+            c.args(["analyze", "-", "--stream-from-bytes", "4096"]);
             c
         }
     };
     let mut child = cmd
         .env("TMPDIR", tmpdir)
-        .env("WIICAL_STREAM_FROM_BYTES", "4096")
         .stdin(Stdio::piped())
         .stdout(Stdio::null())
         .stderr(Stdio::piped())
@@ -105,9 +108,8 @@ fn a_copy_left_by_a_killed_run_is_deleted_by_the_next() {
         "{left:?}"
     );
     let out = Command::new(env!("CARGO_BIN_EXE_wiical"))
-        .args(["fit", "-", "--json"])
+        .args(["fit", "-", "--json", "--stream-from-bytes", "4096"])
         .env("TMPDIR", tmp.path())
-        .env("WIICAL_STREAM_FROM_BYTES", "4096")
         .stdin(std::fs::File::open(data_dir().join("imu_tk_xsens/xsens_acc.mat")).unwrap())
         .output()
         .unwrap();
@@ -149,9 +151,8 @@ fn a_tmpdir_that_cannot_take_the_copy_is_named() {
         (&file, "it is not a directory"),
     ] {
         let out = Command::new(env!("CARGO_BIN_EXE_wiical"))
-            .args(["fit", "-"])
+            .args(["fit", "-", "--stream-from-bytes", "4096"])
             .env("TMPDIR", dir)
-            .env("WIICAL_STREAM_FROM_BYTES", "4096")
             .stdin(std::fs::File::open(&rec).unwrap())
             .output()
             .unwrap();

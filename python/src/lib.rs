@@ -24,6 +24,7 @@ use wiical_analysis::arrays::ArrayError;
 use wiical_analysis::input::front_door::{load_input, Input};
 use wiical_analysis::input::raw::samples;
 use wiical_analysis::input::raw::stream::raw_file_format;
+use wiical_analysis::input::read_options::ReadOptions;
 use wiical_analysis::input::window_means::WindowInputOptions;
 use wiical_analysis::{
     input::columns::Sensor, AnalyzeOptions, Candidate, DetectOptions, FitOptions, LoadOptions,
@@ -116,7 +117,21 @@ fn load_options(columns: Option<Vec<String>>, sensor: Option<Sensor>) -> PyResul
             )))
         }
     };
-    Ok(LoadOptions { columns, sensor })
+    Ok(LoadOptions {
+        columns,
+        sensor,
+        ..Default::default()
+    })
+}
+
+/// How a file is read: plain text files of at least `stream_from_bytes` are streamed (read in
+/// passes), as the CLI's `--stream-from-bytes` says (`None`: 128 MiB, as the CLI).
+fn read_options(stream_from_bytes: Option<u64>) -> ReadOptions {
+    let d = ReadOptions::default();
+    ReadOptions {
+        stream_from_bytes: stream_from_bytes.unwrap_or(d.stream_from_bytes),
+        ..d
+    }
 }
 
 /// The input as `fit`/`analyze` read it: a file (samples or a window-mean table), or arrays.
@@ -125,12 +140,16 @@ fn input_of(
     source: Source<'_>,
     columns: Option<Vec<String>>,
     windows: bool,
+    read: ReadOptions,
     progress: &Reporter,
 ) -> PyResult<Input> {
     match source {
         Source::Path(path) => {
             let opts = WindowInputOptions {
-                load: load_options(columns, None)?,
+                load: LoadOptions {
+                    read,
+                    ..load_options(columns, None)?
+                },
                 force: windows,
             };
             progress.report("reading", 0, 0);
@@ -234,7 +253,8 @@ fn model_of(name: &str) -> PyResult<MultiPosModel> {
 
 /// `wiical fit --json`: static windows and the multi-position fit, with the quality verdict.
 #[pyfunction]
-#[pyo3(signature = (source, detect, columns=None, windows=false, model="full", progress=None))]
+#[pyo3(signature = (source, detect, columns=None, windows=false, model="full", progress=None, stream_from_bytes=None))]
+#[allow(clippy::too_many_arguments)]
 fn fit(
     py: Python<'_>,
     source: Source<'_>,
@@ -243,13 +263,15 @@ fn fit(
     windows: bool,
     model: &str,
     progress: Option<Py<PyAny>>,
+    stream_from_bytes: Option<u64>,
 ) -> PyResult<String> {
     let opts = FitOptions {
         detect: detect.options()?,
         model: model_of(model)?,
     };
     let progress = Reporter::new(progress);
-    let input = input_of(py, source, columns, windows, &progress)?;
+    let read = read_options(stream_from_bytes);
+    let input = input_of(py, source, columns, windows, read, &progress)?;
     progress.finish()?;
     progress.report("fitting", 0, 0);
     let judged = py
@@ -262,7 +284,7 @@ fn fit(
 
 /// `wiical analyze --json`: the residual analysis, with the quality verdict.
 #[pyfunction]
-#[pyo3(signature = (source, detect, columns=None, windows=false, alpha=None, cv_factor=None, candidates=None, progress=None))]
+#[pyo3(signature = (source, detect, columns=None, windows=false, alpha=None, cv_factor=None, candidates=None, progress=None, stream_from_bytes=None))]
 #[allow(clippy::too_many_arguments)]
 fn analyze(
     py: Python<'_>,
@@ -274,6 +296,7 @@ fn analyze(
     cv_factor: Option<f64>,
     candidates: Option<Vec<String>>,
     progress: Option<Py<PyAny>>,
+    stream_from_bytes: Option<u64>,
 ) -> PyResult<String> {
     let progress = Reporter::new(progress);
     let d = AnalyzeOptions::default();
@@ -294,7 +317,8 @@ fn analyze(
         progress: progress.hook(),
         ..d
     };
-    let input = input_of(py, source, columns, windows, &progress)?;
+    let read = read_options(stream_from_bytes);
+    let input = input_of(py, source, columns, windows, read, &progress)?;
     progress.finish()?;
     let judged = py
         .detach(|| wiical_analysis::pipeline::analyze_judged(&input, &opts))
@@ -760,12 +784,13 @@ fn span_times<'py>(
 /// `wiical noise --json`: the Allan deviation of a still recording and the IEEE 952 terms.
 /// A file's every sensor (as the CLI reads it), or arrays as one sensor.
 #[pyfunction]
-#[pyo3(signature = (source, rate_hz=100.0, columns=None))]
+#[pyo3(signature = (source, rate_hz=100.0, columns=None, stream_from_bytes=None))]
 fn noise(
     py: Python<'_>,
     source: Source<'_>,
     rate_hz: f64,
     columns: Option<Vec<String>>,
+    stream_from_bytes: Option<u64>,
 ) -> PyResult<String> {
     use wiical_analysis::noise::report::{noise_of, open_sensors, Sensors};
     let rate_hz = rate("rate_hz", rate_hz)?;
@@ -775,7 +800,9 @@ fn noise(
     let sensors = match source {
         Source::Path(path) => {
             let columns = load_options(columns, None)?.columns;
-            py.detach(|| open_sensors(&path, columns)).map_err(py_err)?
+            let read = read_options(stream_from_bytes);
+            py.detach(|| open_sensors(&path, columns, &read))
+                .map_err(py_err)?
         }
         Source::Arrays(xyz, t, temp) => Sensors::Held(vec![recording_from_arrays(
             &xyz,

@@ -261,18 +261,20 @@ def test_noise_equals_the_cli() -> None:
         wiical.noise(path, rate_hz=0)
 
 
-def test_noise_streams_a_large_file_as_the_cli_does(monkeypatch, tmp_path) -> None:
+def test_noise_streams_a_large_file_as_the_cli_does(tmp_path) -> None:
     # A plain text file from the size at which the CLI streams it (set to 0 here: every file;
-    # a 300 MB one by default) is streamed by Python too: the report says so, and equals the
+    # a 128 MiB one by default) is streamed by Python too: the report says so, and equals the
     # CLI's. Python used to hold such a file, and refused one over 256 MiB.
     import gzip
 
     plain = tmp_path / "imu1.csv"
     plain.write_bytes(gzip.decompress(pathlib.Path(data("adis16405_static_smac", "imu1.csv.gz")).read_bytes()))
-    monkeypatch.setenv("WIICAL_STREAM_FROM_BYTES", "0")
-    got = wiical.noise(str(plain))
+    got = wiical.noise(str(plain), stream_from_bytes=0)
     assert "streamed" in got, sorted(got)
-    assert got == cli_json("noise", str(plain))
+    assert got == cli_json("noise", str(plain), "--stream-from-bytes", "0")
+    assert "streamed" not in wiical.noise(str(plain)), "held by default"
+    with pytest.raises(TypeError, match="stream_from_bytes"):
+        wiical.noise(str(plain), stream_from_bytes=-1)
 
 
 def test_tempcal_equals_the_cli_and_checks_its_settings() -> None:

@@ -88,6 +88,15 @@ def _number(v: _t.Any, name: str) -> float:
     return float(v)
 
 
+def _opt_bytes(v: _t.Any, name: str) -> _t.Optional[int]:
+    """A byte count (an int ≥ 0) or None."""
+    if v is None:
+        return None
+    if isinstance(v, bool) or not isinstance(v, (int, _np.integer)) or v < 0:
+        raise TypeError(f"{name} must be a whole number of bytes ≥ 0, got {type(v).__name__} {v!r}")
+    return int(v)
+
+
 def _opt_number(v: _t.Any, name: str) -> _t.Optional[float]:
     return None if v is None else _number(v, name)
 
@@ -209,11 +218,14 @@ def fit(
     threshold: _t.Optional[float] = None,
     adc_range: _t.Optional[_t.Tuple[float, float]] = None,
     progress: _Progress = None,
+    stream_from_bytes: _t.Optional[int] = None,
 ) -> _t.Dict[str, _t.Any]:
     """Static windows and the multi-position fit (bias, scale, non-orthogonality), with the
     quality verdict: ``wiical fit --json``. Any of window_s, init_s, min_static_s, threshold
     switches from the adaptive detector to IMU-TK's, as the flags do; each is refused outside
-    its flag's range. ``progress(stage, done, total)`` is called as the work goes on."""
+    its flag's range. ``progress(stage, done, total)`` is called as the work goes on.
+    ``stream_from_bytes``: a plain text file of at least that many bytes is read in passes
+    rather than held (default 128 MiB, as the CLI's ``--stream-from-bytes``)."""
     out = _wiical.fit(
         _source(data, t, temp),
         _detect(rate_hz, window_s, init_s, min_static_s, threshold, adc_range),
@@ -221,6 +233,7 @@ def fit(
         _flag(windows, "windows"),
         model,
         _progress(progress),
+        _opt_bytes(stream_from_bytes, "stream_from_bytes"),
     )
     return _json.loads(out)
 
@@ -242,10 +255,12 @@ def analyze(
     threshold: _t.Optional[float] = None,
     adc_range: _t.Optional[_t.Tuple[float, float]] = None,
     progress: _Progress = None,
+    stream_from_bytes: _t.Optional[int] = None,
 ) -> _t.Dict[str, _t.Any]:
     """The residual analysis: what the linear model leaves, which effects explain it, the
     error before and after: ``wiical analyze --json``. ``progress(stage, done, total)`` is
-    called on reading, on detection, and once per candidate fitted."""
+    called on reading, on detection, and once per candidate fitted. ``stream_from_bytes`` as
+    for :func:`fit`."""
     out = _wiical.analyze(
         _source(data, t, temp),
         _detect(rate_hz, window_s, init_s, min_static_s, threshold, adc_range),
@@ -255,6 +270,7 @@ def analyze(
         _opt_number(cv_factor, "cv_factor"),
         _names(candidates, "candidates", "['bias_drift', 'cubic']"),
         _progress(progress),
+        _opt_bytes(stream_from_bytes, "stream_from_bytes"),
     )
     return _json.loads(out)
 
@@ -357,11 +373,16 @@ def noise(
     t: _t.Any = None,
     columns: _t.Optional[_t.Sequence[str]] = None,
     rate_hz: float = 100.0,
+    stream_from_bytes: _t.Optional[int] = None,
 ) -> _t.Dict[str, _t.Any]:
     """The Allan deviation of a still recording per axis and the IEEE 952 noise terms:
-    ``wiical noise --json``. A file gives every sensor it holds; arrays are one sensor."""
+    ``wiical noise --json``. A file gives every sensor it holds; arrays are one sensor.
+    ``stream_from_bytes`` as for :func:`fit`."""
     out = _wiical.noise(
-        _source(data, t), _number(rate_hz, "rate_hz"), _names(columns, "columns", _COLUMNS)
+        _source(data, t),
+        _number(rate_hz, "rate_hz"),
+        _names(columns, "columns", _COLUMNS),
+        _opt_bytes(stream_from_bytes, "stream_from_bytes"),
     )
     return _json.loads(out)
 

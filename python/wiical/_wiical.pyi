@@ -21,6 +21,7 @@ def fit(
     windows: bool = False,
     model: str = "full",
     progress: _Progress = None,
+    stream_from_bytes: Optional[int] = None,
 ) -> str: ...
 def analyze(
     source: _Source,
@@ -31,6 +32,7 @@ def analyze(
     cv_factor: Optional[float] = None,
     candidates: Optional[List[str]] = None,
     progress: _Progress = None,
+    stream_from_bytes: Optional[int] = None,
 ) -> str: ...
 def magfit(source: _Source, model: str = "ellipsoid", columns: Optional[List[str]] = None) -> str: ...
 def gyrofit(
@@ -46,7 +48,12 @@ def calibrate(
     path: str, table_rate: Optional[List[float]] = None, rotation_deg: float = 360.0
 ) -> str: ...
 def decode_cal(device: str, hex: str) -> Tuple[str, bool]: ...
-def noise(source: _Source, rate_hz: float = 100.0, columns: Optional[List[str]] = None) -> str: ...
+def noise(
+    source: _Source,
+    rate_hz: float = 100.0,
+    columns: Optional[List[str]] = None,
+    stream_from_bytes: Optional[int] = None,
+) -> str: ...
 def tempcal(
     source: _Source,
     tref: float,

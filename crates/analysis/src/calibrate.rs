@@ -12,6 +12,7 @@
 use crate::gyro::GyroOptions;
 use crate::input::columns::{all_named, column_sensor, Sensor};
 use crate::input::front_door::Input;
+use crate::input::read_options::ReadOptions;
 use crate::input::recording::Recording;
 use crate::magnetometer::{self, MagAnalysis, MagFitReport, MagInput, MagModel};
 use crate::pipeline::{fit_judged, Judged};
@@ -27,6 +28,8 @@ pub struct CalibrateOptions {
     pub fit: FitOptions,
     /// The gyro's protocol settings (turn angle, table rates).
     pub gyro: GyroProtocolOptions,
+    /// How the file is read (the accelerometer's input streamed from its size, as `fit`'s).
+    pub read: crate::input::read_options::ReadOptions,
 }
 
 /// One sensor's outcome: its report, or why it has none.
@@ -77,12 +80,13 @@ pub struct CalibrateReport {
 /// A sensor's triplet from `path`, when the header names one for `sensor`; the accelerometer
 /// is also the triplet of a file that names no sensor (`x,y,z`, a header-less `t x y z`),
 /// as for `fit`.
-fn triplet(path: &Path, sensor: Sensor) -> Option<Recording> {
+fn triplet(path: &Path, sensor: Sensor, read: &ReadOptions) -> Option<Recording> {
     // The accelerometer as `fit` reads it (the loader's default triplet: `x,y,z` beside
     // `gx,gy,gz` is the accelerometer); the others by their names.
     let opts = LoadOptions {
         columns: None,
         sensor: (sensor != Sensor::Accelerometer).then_some(sensor),
+        read: *read,
     };
     let rec = crate::load(path, &opts).ok()?;
     let named = all_named(&rec.axis_columns, sensor);
@@ -94,10 +98,17 @@ fn triplet(path: &Path, sensor: Sensor) -> Option<Recording> {
 
 /// The accelerometer's input as `fit` reads it (a window-mean table, a raw file's still
 /// epochs, or samples), when the file has an accelerometer.
-fn accel_input(path: &Path, acc: &Option<Recording>) -> Option<crate::Result<Input>> {
+fn accel_input(
+    path: &Path,
+    acc: &Option<Recording>,
+    read: &ReadOptions,
+) -> Option<crate::Result<Input>> {
     acc.as_ref()?;
     let opts = crate::input::window_means::WindowInputOptions {
-        load: LoadOptions::default(),
+        load: LoadOptions {
+            read: *read,
+            ..Default::default()
+        },
         force: false,
     };
     Some(crate::input::front_door::load_input(path, &opts))
@@ -123,9 +134,9 @@ pub fn calibrate(path: &Path, opts: &CalibrateOptions) -> crate::Result<Calibrat
             ));
         }
     }
-    let acc = triplet(path, Sensor::Accelerometer);
-    let gyro = triplet(path, Sensor::Gyroscope);
-    let mag = triplet(path, Sensor::Magnetometer);
+    let acc = triplet(path, Sensor::Accelerometer, &opts.read);
+    let gyro = triplet(path, Sensor::Gyroscope, &opts.read);
+    let mag = triplet(path, Sensor::Magnetometer, &opts.read);
     if acc.is_none() && gyro.is_none() && mag.is_none() {
         // Nothing named: the loader's own error for the accelerometer says why.
         crate::load(path, &LoadOptions::default())?;
@@ -143,7 +154,7 @@ pub fn calibrate(path: &Path, opts: &CalibrateOptions) -> crate::Result<Calibrat
     .collect();
     Ok(CalibrateReport {
         sensors,
-        accelerometer: accel_input(path, &acc)
+        accelerometer: accel_input(path, &acc, &opts.read)
             .map(|i| outcome(i.and_then(|i| fit_judged(&i, &opts.fit)))),
         gyroscope: gyro
             .as_ref()

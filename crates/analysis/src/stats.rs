@@ -215,6 +215,111 @@ pub fn kth_key_by_digits<E>(
     Ok(prefix)
 }
 
+/// An `f64` as a key whose unsigned order is `f64::total_cmp`'s (−NaN < −∞ < … < −0 < +0 <
+/// … < +∞ < NaN): the keys [`kth_key_by_digits`] selects among, for values of any sign. For
+/// non-negative values, whose bits already order as they do, the bits serve as well.
+pub fn order_key(x: f64) -> u64 {
+    let b = x.to_bits() as i64;
+    ((b ^ (((b >> 63) as u64) >> 1) as i64) as u64) ^ (1 << 63)
+}
+
+/// The value of an [`order_key`].
+pub fn from_order_key(k: u64) -> f64 {
+    let b = k ^ (1 << 63);
+    f64::from_bits(b ^ ((((b as i64) >> 63) as u64) >> 1))
+}
+
+/// The `k`-th smallest (from 0) of the keys each call of `pass` gives to its argument (one
+/// pass over values read afresh: a file's rows), none stored: [`kth_key_by_digits`] with
+/// `top` the keys' top-16-bit histogram, each further digit one pass. Errors are `pass`'s.
+pub fn kth_key_in_passes<E>(
+    top: &[usize],
+    k: usize,
+    mut pass: impl FnMut(&mut dyn FnMut(u64)) -> Result<(), E>,
+) -> Result<u64, E> {
+    kth_key_by_digits(top, k, |shift, prefix, hist| {
+        pass(&mut |key| {
+            if key >> (shift + 16) == prefix {
+                hist[((key >> shift) & 0xffff) as usize] += 1;
+            }
+        })
+    })
+}
+
+/// Keys counted in a first pass for their order statistics: how many, their top 16 bits
+/// (the selection's first digit) and, while few distinct ones are seen, by value
+/// ([`CountedKeys`]: the exact order statistic with no further pass).
+#[derive(Debug, Clone)]
+pub struct OrderCounts {
+    /// Counts by value, dropped past their cap.
+    pub by_value: CountedKeys,
+    /// Counts by the top 16 bits.
+    pub top: Vec<usize>,
+    /// Keys pushed.
+    pub len: usize,
+}
+
+impl OrderCounts {
+    /// Counts by value of at most `max_distinct` keys.
+    pub fn new(max_distinct: usize) -> Self {
+        Self {
+            by_value: CountedKeys::new(max_distinct),
+            top: vec![0; 1 << 16],
+            len: 0,
+        }
+    }
+
+    /// One more key.
+    pub fn push(&mut self, key: u64) {
+        self.top[(key >> 48) as usize] += 1;
+        self.by_value.push(key);
+        self.len += 1;
+    }
+
+    /// The median of the counted keys' values (`value` of a key; the mean of the middle two
+    /// for an even count, `NaN` for none), as [`median`] of the values gives it: each middle
+    /// key from the counts by value when they were kept, else in passes
+    /// ([`kth_key_in_passes`], `pass` giving every key again), the upper one of an even count
+    /// in one pass after the lower (the same key when more than `len / 2` are at most it,
+    /// else the next one up).
+    pub fn median<E>(
+        &self,
+        value: impl Fn(u64) -> f64,
+        mut pass: impl FnMut(&mut dyn FnMut(u64)) -> Result<(), E>,
+    ) -> Result<f64, E> {
+        let n = self.len;
+        if n == 0 {
+            return Ok(f64::NAN);
+        }
+        let lower = match self.by_value.kth((n - 1) / 2) {
+            Some(key) => key,
+            None => kth_key_in_passes(&self.top, (n - 1) / 2, &mut pass)?,
+        };
+        if n % 2 == 1 {
+            return Ok(value(lower));
+        }
+        let upper = match self.by_value.kth(n / 2) {
+            Some(key) => key,
+            None => {
+                let (mut at_most, mut next) = (0usize, u64::MAX);
+                pass(&mut |key| {
+                    if key <= lower {
+                        at_most += 1;
+                    } else {
+                        next = next.min(key);
+                    }
+                })?;
+                if at_most > n / 2 {
+                    lower
+                } else {
+                    next
+                }
+            }
+        };
+        Ok(0.5 * (value(lower) + value(upper)))
+    }
+}
+
 /// The bucket of a histogram holding the `k`-th value, and `k` within it.
 fn digit_of(hist: &[usize], mut k: usize) -> (u64, usize) {
     for (d, &c) in hist.iter().enumerate() {
@@ -442,6 +547,74 @@ impl CountedKeys {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The `k`-th smallest of `v` in `total_cmp` order by its definition, with no sort: the
+    /// value with at most `k` values below it and more than `k` at or below it.
+    fn kth_by_definition(v: &[f64], k: usize) -> f64 {
+        let below = |x: f64| v.iter().filter(|y| y.total_cmp(&x).is_lt()).count();
+        let at_most = |x: f64| v.iter().filter(|y| y.total_cmp(&x).is_le()).count();
+        *v.iter()
+            .find(|&&x| below(x) <= k && k < at_most(x))
+            .expect("k below the length")
+    }
+
+    /// The definition's checker on a hand example with ties: 1, 2, 2, 3.
+    #[test]
+    fn the_reference_kth_is_the_sorted_one_by_hand() {
+        let v = [3.0, 2.0, 1.0, 2.0];
+        let got: Vec<f64> = (0..4).map(|k| kth_by_definition(&v, k)).collect();
+        assert_eq!(got, [1.0, 2.0, 2.0, 3.0]);
+    }
+
+    /// Values with ties (a few small integers), both zeros, infinities, NaN and any bits.
+    fn values() -> impl proptest::strategy::Strategy<Value = Vec<f64>> {
+        use proptest::prelude::*;
+        let one = prop_oneof![
+            4 => (-3i32..4).prop_map(f64::from),
+            1 => Just(-0.0),
+            1 => Just(f64::INFINITY),
+            1 => Just(f64::NEG_INFINITY),
+            1 => Just(f64::NAN),
+            2 => any::<f64>(),
+        ];
+        proptest::collection::vec(one, 0..40)
+    }
+
+    proptest::proptest! {
+        /// Every selection gives the definition's order statistic, bit for bit: `median`
+        /// (sorting), the counts by value, and the selection by digits in passes — for the
+        /// lower middle value, the upper one, and `kth_key_in_passes` at every rank.
+        #[test]
+        fn every_selection_is_the_definitions(v in values(), cap in 0usize..50) {
+            let pass = |key: &mut dyn FnMut(u64)| {
+                v.iter().for_each(|&x| key(order_key(x)));
+                Ok::<(), ()>(())
+            };
+            let mut counts = OrderCounts::new(cap);
+            pass(&mut |k| counts.push(k)).unwrap();
+            let n = v.len();
+            let want = match n {
+                0 => f64::NAN,
+                _ if n % 2 == 1 => kth_by_definition(&v, n / 2),
+                _ => 0.5 * (kth_by_definition(&v, n / 2 - 1) + kth_by_definition(&v, n / 2)),
+            };
+            let got = counts.median(from_order_key, pass).unwrap();
+            let held = median(&v);
+            proptest::prop_assert!(got.to_bits() == want.to_bits() || got.is_nan() && want.is_nan(), "{got} {want}");
+            proptest::prop_assert!(held.to_bits() == want.to_bits() || held.is_nan() && want.is_nan(), "{held} {want}");
+            for k in 0..n {
+                let key = kth_key_in_passes(&counts.top, k, pass).unwrap();
+                proptest::prop_assert_eq!(from_order_key(key).to_bits(), kth_by_definition(&v, k).to_bits());
+            }
+        }
+
+        /// The keys order as `total_cmp` does, and give their value back bit for bit.
+        #[test]
+        fn order_keys_keep_the_total_order(a in proptest::num::f64::ANY, b in proptest::num::f64::ANY) {
+            proptest::prop_assert_eq!(order_key(a).cmp(&order_key(b)), a.total_cmp(&b));
+            proptest::prop_assert_eq!(from_order_key(order_key(a)).to_bits(), a.to_bits());
+        }
+    }
 
     /// The counts give the sorted list's `k`-th key for every `k`, and nothing once more
     /// distinct keys than the cap were pushed (the caller then selects by digits).

@@ -1,5 +1,5 @@
 //! `wiical correct` on a recording too large to hold: corrected as it is read
-//! (`correct::stream`), the output is the held path's file byte for byte, and every refusal
+//! (`correct::pass`), the output is the held path's file byte for byte, and every refusal
 //! is the held path's sentence with nothing written. A few-MiB recording with time and
 //! temperature columns (a warm-up, a 40 s gap, six poses) streamed by a zero threshold,
 //! with a calibration whose host terms need each regressor (time, temperature, the lagged
@@ -9,8 +9,8 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 use wiical_analysis::correct::correct_recording;
 use wiical_analysis::correct::csv::write_corrected;
+use wiical_analysis::correct::pass::correct_streamed;
 use wiical_analysis::correct::source::{open_samples_from, Samples};
-use wiical_analysis::correct::stream::correct_streamed;
 use wiical_analysis::output::calfile::CalibrationFile;
 use wiical_analysis::output::host_term_checks::{HostReference, HostTerm};
 use wiical_analysis::{Calibration, LoadOptions};
@@ -133,7 +133,7 @@ fn both(
 ) -> [Result<Vec<u8>, String>; 2] {
     let held = wiical_analysis::load(rec, opts).unwrap();
     let held = correct_recording(file, &held, 100.0)
-        .map_err(|e| sentence(&wiical_analysis::Error::from(e).in_file(rec)))
+        .map_err(|e| sentence(&e.in_file(rec)))
         .map(|c| {
             write_corrected(out_held, &c).unwrap();
             std::fs::read(out_held).unwrap()

@@ -31,6 +31,7 @@ fn opts(columns: Option<&str>) -> LoadOptions {
             [v[0].clone(), v[1].clone(), v[2].clone()]
         }),
         sensor: Some(Sensor::Magnetometer),
+        ..Default::default()
     }
 }
 
@@ -43,7 +44,7 @@ fn held(path: &Path, o: &LoadOptions, follow: &[&str], model: MagModel) -> Strin
         let cols: Vec<(String, Vec<f64>)> = follow
             .iter()
             .map(|name| {
-                let fo = stream::follow_options(name, &rec.axis_columns);
+                let fo = stream::follow_options(name, &rec.axis_columns, &Default::default());
                 let r = wiical_analysis::load(path, &fo).unwrap();
                 (name.to_string(), r.xyz.iter().map(|v| v[0]).collect())
             })
@@ -83,7 +84,7 @@ fn streamed(
             .map(|n| {
                 (
                     n.to_string(),
-                    stream::open_follow(path, n, &src.meta.axis_columns)
+                    stream::open_follow(path, n, &src.meta.axis_columns, &Default::default())
                         .unwrap()
                         .unwrap(),
                 )

@@ -10,8 +10,18 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 use std::fmt::Write as _;
 use std::path::Path;
-use wiical_analysis::noise::report::{noise_of, open_sensors_from, NoiseReport, Sensors};
+use wiical_analysis::input::read_options::ReadOptions;
+use wiical_analysis::noise::report::{noise_of, open_sensors, NoiseReport, Sensors};
 use wiical_analysis::noise::stream::FULL_OVERLAP_M;
+
+/// [`open_sensors`] streaming plain text files of at least `stream_from` bytes.
+fn open_sensors_from(path: &Path, stream_from: u64) -> wiical_analysis::Result<Sensors> {
+    let read = ReadOptions {
+        stream_from_bytes: stream_from,
+        ..Default::default()
+    };
+    open_sensors(path, None, &read)
+}
 
 const RATE: f64 = 100.0;
 const N_GYRO: f64 = 0.01; // °/s/√Hz
@@ -43,8 +53,8 @@ fn write_still(path: &Path, rows: usize, edit: impl Fn(usize, &mut [f64; 6])) {
 
 /// The file's report by both paths: (streamed, held).
 fn both(path: &Path) -> (NoiseReport, NoiseReport) {
-    let streamed = open_sensors_from(path, None, 0).unwrap();
-    let held = open_sensors_from(path, None, u64::MAX).unwrap();
+    let streamed = open_sensors_from(path, 0).unwrap();
+    let held = open_sensors_from(path, u64::MAX).unwrap();
     assert!(matches!(streamed, Sensors::Streamed(_)));
     assert!(matches!(held, Sensors::Held(_)));
     (
@@ -129,7 +139,7 @@ fn streamed_refusals_are_the_held_ones() {
     for (name, edit) in cases {
         write_still(&path, 40_000, edit);
         let err = |from: u64| {
-            let sensors = open_sensors_from(&path, None, from).unwrap();
+            let sensors = open_sensors_from(&path, from).unwrap();
             noise_of(&sensors, RATE).unwrap_err().to_string()
         };
         let (s, h) = (err(0), err(u64::MAX));

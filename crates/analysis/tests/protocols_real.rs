@@ -18,6 +18,7 @@ fn load_sensor(rel: &str, sensor: wiical_analysis::input::columns::Sensor) -> Re
     let opts = LoadOptions {
         columns: None,
         sensor: Some(sensor),
+        ..Default::default()
     };
     load(&data_dir().join(rel), &opts).unwrap_or_else(|e| panic!("{rel}: {e}"))
 }

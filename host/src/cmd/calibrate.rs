@@ -65,6 +65,7 @@ pub fn run(a: &Args) -> Result<String> {
         .fit_options(wiical_core::multipos::MultiPosModel::Full);
     let mut opts = CalibrateOptions {
         fit,
+        read: a.detect.read.options(),
         ..Default::default()
     };
     opts.gyro.rotation_deg = a.rotation_deg;

@@ -8,8 +8,8 @@ use anyhow::Result;
 use std::path::PathBuf;
 use wiical_analysis::correct::correct_recording;
 use wiical_analysis::correct::csv::write_corrected;
+use wiical_analysis::correct::pass::correct_streamed;
 use wiical_analysis::correct::source::{open_samples, Samples};
-use wiical_analysis::correct::stream::correct_streamed;
 use wiical_analysis::output::calfile::read_calibration_file;
 
 /// Arguments of `wiical correct`.
@@ -27,6 +27,9 @@ pub struct Args {
     /// Header names of the x,y,z columns to use (e.g. ax,ay,az).
     #[arg(long, value_delimiter = ',')]
     pub columns: Option<Vec<String>>,
+    /// How the file is read (hidden flags).
+    #[command(flatten)]
+    pub read: super::ReadArgs,
     /// Sample rate when the file has no time column or Fs metadata, Hz.
     #[arg(long, default_value_t = 100.0, value_parser = super::rate_hz, allow_negative_numbers = true)]
     pub rate_hz: f64,
@@ -34,11 +37,11 @@ pub struct Args {
 
 /// Runs `wiical correct`; returns the summary line. A large plain text file (and standard
 /// input spooled to a temporary file) is corrected as it is read, in bounded memory
-/// (`wiical_analysis::correct::stream`); the output is the same file either way.
+/// (`wiical_analysis::correct::pass`); the output is the same file either way.
 pub fn run(a: &Args) -> Result<String> {
     check_outputs(&[&a.calibration, &a.recording], &[Some(&a.out)])?;
     let file = read_calibration_file(&a.calibration).map_err(cli_error)?;
-    let opts = load_options(a.columns.as_deref())?;
+    let opts = load_options(a.columns.as_deref(), &a.read)?;
     // Millions of rows take seconds to read: say so (hidden when stderr is not a terminal).
     let samples = with_spinner(&format!("reading {}", a.recording.display()), || {
         open_samples(&a.recording, &opts)
@@ -48,7 +51,7 @@ pub fn run(a: &Args) -> Result<String> {
     let (n, applied) = match samples {
         Samples::Held(rec) => {
             let c = correct_recording(&file, &rec, a.rate_hz)
-                .map_err(|e| cli_error(wiical_analysis::Error::from(e).in_file(&a.recording)))?;
+                .map_err(|e| cli_error(e.in_file(&a.recording)))?;
             write_corrected(&a.out, &c).map_err(cli_error)?;
             (c.accel.len(), c.applied)
         }

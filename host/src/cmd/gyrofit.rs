@@ -7,7 +7,6 @@ use anyhow::{bail, Result};
 use std::path::PathBuf;
 use wiical_analysis::gyro::stream::{self, run_streamed, StreamedImu};
 use wiical_analysis::gyro::{nominal_from_columns, GyroOptions};
-use wiical_analysis::input::front_door::stream_from_bytes;
 use wiical_analysis::protocol::gyro::{GyroProtocolOptions, GyroProtocolReport};
 use wiical_analysis::Recording;
 
@@ -216,14 +215,17 @@ enum Pair {
 
 /// Reads FILE (and GYRO_FILE); notes on them go to stderr, each once.
 fn read(a: &Args, gyro_columns: Option<[String; 3]>) -> Result<Pair> {
-    let (acc_opts, gyro_opts) = (a.detect.load_options()?, load_options(None)?);
+    let (acc_opts, gyro_opts) = (
+        a.detect.load_options()?,
+        load_options(None, &a.detect.read)?,
+    );
     let gyro_file = a.gyro_file.as_deref().map(|g| (g, &gyro_opts));
     let streamed = super::with_spinner(&format!("reading {}", a.file.display()), || {
         stream::open(
             (&a.file, &acc_opts),
             gyro_file,
             gyro_columns.clone(),
-            stream_from_bytes(),
+            acc_opts.read.stream_from_bytes,
         )
     })
     .map_err(cli_error)?;

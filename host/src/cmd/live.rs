@@ -45,6 +45,9 @@ pub struct Args {
     /// Header names of the x,y,z columns to use.
     #[arg(long, value_delimiter = ',')]
     pub columns: Option<Vec<String>>,
+    /// How the file is read (hidden flags).
+    #[command(flatten)]
+    pub read: super::ReadArgs,
     /// Sample rate when the file has no time column or Fs metadata, Hz.
     #[arg(long, default_value_t = 100.0, value_parser = rate_hz, allow_negative_numbers = true)]
     pub rate_hz: f64,
@@ -107,7 +110,7 @@ fn replay_source(a: &Args, file: &Path) -> Result<(SourceFn, String)> {
     let mag_asked = a.sensor.as_deref() == Some("mag");
     let opts = wiical_analysis::LoadOptions {
         sensor: mag_asked.then_some(Sensor::Magnetometer),
-        ..load_options(a.columns.as_deref())?
+        ..load_options(a.columns.as_deref(), &a.read)?
     };
     let rec = load(file, &opts)?;
     let names_mag = rec

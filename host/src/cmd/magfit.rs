@@ -6,7 +6,6 @@ use crate::cli_error::cli_error;
 use crate::render;
 use anyhow::{anyhow, Result};
 use std::path::{Path, PathBuf};
-use wiical_analysis::input::front_door::stream_from_bytes;
 use wiical_analysis::input::text_source::TextSource;
 use wiical_analysis::magnetometer::{self, stream, MagAnalysis, MagFitReport, MagInput, MagModel};
 use wiical_analysis::search::select::ALPHA;
@@ -23,6 +22,9 @@ pub struct Args {
     /// Header names of the x,y,z columns to use.
     #[arg(long, value_delimiter = ',')]
     pub columns: Option<Vec<String>>,
+    /// How the file is read (hidden flags).
+    #[command(flatten)]
+    pub read: super::ReadArgs,
     /// Header names of columns the hard iron may follow (current, throttle, PWM): each is
     /// tested as an interference `offset = k × column` (ArduPilot COMPASS_MOT's model).
     #[arg(long, value_delimiter = ',')]
@@ -49,10 +51,10 @@ pub fn run(a: &Args) -> Result<String> {
     check_outputs(&[&a.file], &[a.out.as_deref()])?;
     let opts = wiical_analysis::LoadOptions {
         sensor: Some(wiical_analysis::input::columns::Sensor::Magnetometer),
-        ..load_options(a.columns.as_deref())?
+        ..load_options(a.columns.as_deref(), &a.read)?
     };
     let source = with_spinner(&format!("reading {}", a.file.display()), || {
-        stream::open_field_from(&a.file, &opts, stream_from_bytes())
+        stream::open_field_from(&a.file, &opts, opts.read.stream_from_bytes)
     })
     .map_err(cli_error)?;
     let (rep, analysis, unit) = match source {
@@ -88,7 +90,7 @@ fn held(
     magnetometer::check_spans(&rec.xyz).map_err(cli_error)?;
     let rep = magnetometer::fit_points(&rec.xyz, a.model).map_err(cli_error)?;
     let names = a.follow.as_deref().unwrap_or(&[]);
-    let follow = follow_columns(&a.file, names, &rec.axis_columns, rec.len())?;
+    let follow = follow_columns(a, names, &rec.axis_columns, rec.len())?;
     let times = rec
         .t
         .clone()
@@ -112,7 +114,7 @@ fn streamed(a: &Args, src: &TextSource) -> Result<(MagFitReport, MagAnalysis, &'
     let prep = stream::fit_source(src, a.model).map_err(cli_error)?;
     let mut follow = Vec::new();
     for name in a.follow.as_deref().unwrap_or(&[]) {
-        let col = stream::open_follow(&a.file, name, &src.meta.axis_columns);
+        let col = stream::open_follow(&a.file, name, &src.meta.axis_columns, &a.read.options());
         let Some(col) = col.map_err(cli_error)? else {
             return Err(anyhow!(
                 "--follow {name}: {} is no longer plain text (was it replaced while read?)",
@@ -141,7 +143,7 @@ fn check_rows(name: &str, got: usize, rows: usize, file: &Path) -> Result<()> {
 
 /// Each named column, read by the same loader as the field (so its rows are the field's).
 fn follow_columns(
-    file: &Path,
+    a: &Args,
     names: &[String],
     field_axes: &[String; 3],
     rows: usize,
@@ -149,7 +151,8 @@ fn follow_columns(
     names
         .iter()
         .map(|name| {
-            let opts = stream::follow_options(name, field_axes);
+            let file = a.file.as_path();
+            let opts = stream::follow_options(name, field_axes, &a.read.options());
             use wiical_analysis::input::front_door::{load_held, HoldLimit};
             let limit = HoldLimit::of("magfit", super::PLAIN_TEXT_IN_PASSES);
             let rec = load_held(file, &opts, limit).map_err(cli_error)?;

@@ -24,6 +24,7 @@ use anyhow::Result;
 use std::path::Path;
 use wiical_analysis::detect::windows;
 use wiical_analysis::input::front_door::{load_input, Input};
+use wiical_analysis::input::read_options::{ReadOptions, SpillMode};
 use wiical_analysis::input::window_means::WindowInputOptions;
 use wiical_analysis::report::verdict::Quality;
 use wiical_analysis::{DetectOptions, Error, FitOptions, LoadOptions};
@@ -60,12 +61,15 @@ pub struct DetectArgs {
     /// sd_x, x_sd, std_x, …) or a sample-count column (n, samples) are read so without it.
     #[arg(long)]
     pub windows: bool,
+    /// How the file is read (hidden flags).
+    #[command(flatten)]
+    pub read: ReadArgs,
 }
 
 impl DetectArgs {
-    /// The loader's options (`--columns`).
+    /// The loader's options (`--columns`, and how the file is read).
     pub fn load_options(&self) -> Result<LoadOptions> {
-        load_options(self.columns.as_deref())
+        load_options(self.columns.as_deref(), &self.read)
     }
 
     /// Reads `path` (once: it may be standard input) as a window-mean table when its header
@@ -124,8 +128,8 @@ impl DetectArgs {
     }
 }
 
-/// `--columns x,y,z`: exactly three header names.
-pub fn load_options(columns: Option<&[String]>) -> Result<LoadOptions> {
+/// `--columns x,y,z`: exactly three header names; the file read as `read` says.
+pub fn load_options(columns: Option<&[String]>, read: &ReadArgs) -> Result<LoadOptions> {
     let columns = match columns {
         None => None,
         Some([x, y, z]) => Some([x.clone(), y.clone(), z.clone()]),
@@ -133,8 +137,59 @@ pub fn load_options(columns: Option<&[String]>) -> Result<LoadOptions> {
     };
     Ok(LoadOptions {
         columns,
+        read: read.options(),
         ..Default::default()
     })
+}
+
+/// How a file is read ([`ReadOptions`]): flags hidden from `--help`, for tests and benchmarks
+/// that compare the held and the streamed paths on one file; without them every command
+/// reads as [`ReadOptions::default`] says.
+#[derive(clap::Args, Clone, Debug, Default)]
+pub struct ReadArgs {
+    /// Stream plain text files of at least BYTES (read in passes; standard input longer than
+    /// it is copied to a temporary file): 0 streams every one (default 128 MiB).
+    #[arg(long, hide = true, value_name = "BYTES")]
+    pub stream_from_bytes: Option<u64>,
+    /// The most bytes of standard input copied to a temporary file (default 64 GiB).
+    #[arg(long, hide = true, value_name = "BYTES")]
+    pub max_spool_bytes: Option<u64>,
+    /// Where a streamed file's first pass keeps its rows for the later passes: auto (memory,
+    /// else a temporary file), off (the later passes parse the text again), disk.
+    #[arg(long, hide = true, value_enum)]
+    pub spill: Option<SpillArg>,
+    /// Parse a streamed file's pieces on the pass's own thread, not one ahead of it.
+    #[arg(long, hide = true)]
+    pub no_parse_ahead: bool,
+}
+
+/// `--spill`: [`SpillMode`] on the command line.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SpillArg {
+    /// In memory while the rows fit, else a temporary file.
+    Auto,
+    /// Not kept: later passes parse the text again.
+    Off,
+    /// Always a temporary file.
+    Disk,
+}
+
+impl ReadArgs {
+    /// The library's options: each flag given, else its default.
+    pub fn options(&self) -> ReadOptions {
+        let d = ReadOptions::default();
+        ReadOptions {
+            stream_from_bytes: self.stream_from_bytes.unwrap_or(d.stream_from_bytes),
+            max_spool_bytes: self.max_spool_bytes.unwrap_or(d.max_spool_bytes),
+            spill: match self.spill {
+                None => d.spill,
+                Some(SpillArg::Auto) => SpillMode::Auto,
+                Some(SpillArg::Off) => SpillMode::Off,
+                Some(SpillArg::Disk) => SpillMode::Disk,
+            },
+            parse_ahead: !self.no_parse_ahead,
+        }
+    }
 }
 
 /// A finite number > 0 (rates, durations).

@@ -17,6 +17,9 @@ pub struct Args {
     /// Only these three columns.
     #[arg(long, value_delimiter = ',')]
     pub columns: Option<Vec<String>>,
+    /// How the file is read (hidden flags).
+    #[command(flatten)]
+    pub read: super::ReadArgs,
     /// Sample rate when the file has no time column or Fs metadata, Hz.
     #[arg(long, default_value_t = 100.0, value_parser = super::rate_hz, allow_negative_numbers = true)]
     pub rate_hz: f64,
@@ -31,11 +34,11 @@ pub struct Args {
 /// Runs `wiical noise`; returns what to print.
 pub fn run(a: &Args) -> Result<String> {
     check_outputs(&[&a.file], &[a.plot.as_deref()])?;
-    let columns = load_options(a.columns.as_deref())?.columns;
+    let opts = load_options(a.columns.as_deref(), &a.read)?;
     // A large plain text file is opened as sources read in passes (memory: a piece of the
     // file and the Allan sums, not the samples).
     let sensors = super::with_spinner(&format!("reading {}", a.file.display()), || {
-        open_sensors(&a.file, columns)
+        open_sensors(&a.file, opts.columns.clone(), &opts.read)
     })
     .map_err(cli_error)?;
     if let Some(first) = sensors.first() {

@@ -41,6 +41,9 @@ pub struct Args {
     /// Header names of the x,y,z columns to use.
     #[arg(long, value_delimiter = ',')]
     pub columns: Option<Vec<String>>,
+    /// How the file is read (hidden flags).
+    #[command(flatten)]
+    pub read: super::ReadArgs,
     /// Reference temperature T_ref of the polynomial, °C (ArduPilot's TCAL uses 35).
     #[arg(long, default_value_t = wiical_analysis::tempcal::TEMP_REF_C, allow_negative_numbers = true, value_parser = engine_range(wiical_analysis::tempcal::check_tref_c))]
     pub tref: f64,
@@ -113,7 +116,7 @@ pub fn run(a: &Args) -> Result<String> {
     let mut inputs = vec![a.file.as_path()];
     inputs.extend(a.calibration.as_deref());
     check_outputs(&inputs, &[a.plot.as_deref(), a.out.as_deref()])?;
-    let opts = load_options(a.columns.as_deref())?;
+    let opts = load_options(a.columns.as_deref(), &a.read)?;
     let rec = super::load_held(&a.file, &opts, "tempcal", super::CUT_IT_SHORTER)?;
     // The calibration `--format calfile` adds to: read and checked before anything is fitted
     // or written.

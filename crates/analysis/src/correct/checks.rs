@@ -1,16 +1,15 @@
 //! What `wiical correct` refuses ([`super`] module docs: units, a non-finite output, an
 //! implausible calibration, an output beyond ±16 g), each written once as a fold over the
-//! samples in their order ([`RangeFold`], [`UnitsCount`]) and a verdict on what it folded, so
-//! that the held path (every sample in memory) and the streamed one (samples read in passes
-//! from a file, [`super::stream`]) refuse the same files with the same sentence.
+//! samples in their order ([`RangeFold`], [`UnitsCount`]) and a verdict on what it folded, by
+//! the one pass every recording is corrected by ([`super::pass`]: held or read from a file).
 
 use super::{CorrectError, PLAUSIBLE_MEDIAN_G};
 use crate::input::recording::Recording;
 use wiical_core::acceptance::{Acceptance, ConditionRange};
 use wiical_core::Calibration;
 
-/// The recording's extremes that [`limits_for`] takes as the acceptance conditions, folded
-/// sample by sample with the operations (and in the order) of a fold over held columns.
+/// The recording's extremes the acceptance conditions are taken from, folded sample by
+/// sample.
 #[derive(Debug, Clone, Copy)]
 pub struct RangeFold {
     /// Smallest and largest finite reading (`f64::min`/`max` from ±∞).
@@ -50,7 +49,7 @@ impl RangeFold {
         }
     }
 
-    /// The acceptance limits ([`limits_for`]) for a recording of these extremes lasting
+    /// The acceptance limits for a recording of these extremes lasting
     /// `max_time_s` (s since its first sample, the last sample's); `None` without a finite
     /// reading.
     pub fn limits(&self, max_time_s: Option<f64>) -> Option<Acceptance> {
@@ -75,33 +74,12 @@ impl RangeFold {
     }
 }
 
-/// The acceptance limits `device put` uses ([`Acceptance::nunchuk`]: the ±16 g output bound
-/// and the `θ₀` range) with the sensor-specific ones (offset from 512 counts, sensitivity near
-/// 200 counts/g, cross-axis share) opened up and the input box and conditions taken from the
-/// recording: its readings' smallest and largest value, its duration (s since the first
-/// sample) and its temperature range, if it has one. `None` for a recording without a finite
-/// reading (refused by the loader before this).
-pub fn limits_for(rec: &Recording, since: &[f64]) -> Option<Acceptance> {
-    let mut fold = RangeFold::new();
-    rec.xyz.iter().for_each(|m| fold.push_reading(m));
-    for &x in rec.temp.iter().flatten() {
-        fold.push_temperature(x);
-    }
-    fold.limits(since.last().copied())
-}
-
-/// Refuses a calibration that fails the acceptance predicate over the recording
-/// ([`limits_for`]): corrected output beyond ±16 g somewhere in the recording's input
-/// range and conditions, or an implausible `θ₀`.
-pub fn check_plausible(
-    cal: &Calibration,
-    rec: &Recording,
-    since: &[f64],
-) -> Result<(), CorrectError> {
-    check_plausible_within(cal, limits_for(rec, since))
-}
-
-/// [`check_plausible`] with the limits already taken (`None`: nothing to check).
+/// Refuses a calibration that fails the acceptance predicate over the recording's limits
+/// (`None`: nothing to check): the ones `device put` uses ([`Acceptance::nunchuk`]: the ±16 g
+/// output bound and the `θ₀` range) with the sensor-specific ones (offset from 512 counts,
+/// sensitivity near 200 counts/g, cross-axis share) opened up and the input box and
+/// conditions taken from the recording ([`RangeFold::limits`]): corrected output beyond ±16 g
+/// somewhere in its input range and conditions, or an implausible `θ₀`.
 pub fn check_plausible_within(
     cal: &Calibration,
     limits: Option<Acceptance>,
@@ -198,20 +176,10 @@ impl UnitsCount {
     }
 }
 
-/// Refuses the first corrected value (1-based sample, its time) that is not finite, or,
-/// with `bounded`, beyond the ±16 g output bound of the acceptance limits (host terms can
-/// push a sample there, which the acceptance predicate does not see).
-pub fn check_output(times: &[f64], accel: &[[f32; 3]], bounded: bool) -> Result<(), CorrectError> {
-    for (i, a) in accel.iter().enumerate() {
-        let t = times.get(i).copied().unwrap_or(f64::NAN);
-        if let Some(e) = bad_output(i, t, a, bounded) {
-            return Err(e);
-        }
-    }
-    Ok(())
-}
-
-/// [`check_output`]'s refusal of the corrected sample `a` (0-based `i`, time `t`), if any.
+/// The refusal of the corrected sample `a` (0-based `i`, time `t`; the sentence says 1-based)
+/// when a value is not finite, or, with `bounded`, beyond the ±16 g output bound of the
+/// acceptance limits (host terms can push a sample there, which the acceptance predicate
+/// does not see).
 pub fn bad_output(i: usize, t: f64, a: &[f32; 3], bounded: bool) -> Option<CorrectError> {
     let bound = Acceptance::nunchuk().output_bound;
     for (j, v) in a.iter().enumerate() {
@@ -237,9 +205,7 @@ pub fn bad_output(i: usize, t: f64, a: &[f32; 3], bounded: bool) -> Option<Corre
 /// `None` without one.
 pub fn median(mut v: Vec<f64>) -> Option<f64> {
     v.retain(|x| x.is_finite());
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    (n > 0).then(|| (v[(n - 1) / 2] + v[n / 2]) / 2.0)
+    (!v.is_empty()).then(|| crate::stats::median(&v))
 }
 
 /// Three significant figures, for a sentence.

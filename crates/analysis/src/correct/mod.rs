@@ -8,13 +8,13 @@
 //! term's factor `1 + Σ value·X` multiplies row `j` of `matrix`, which scales
 //! `u_j = (K·(m − b))_j` before the temperature scale and the nonlinearities, exactly as the
 //! analysis model's scale slots scale `v_j` (`fit::model`). The regressors per sample
-//! ([`regressors`]): the time since the first sample; the temperature; the temperature
-//! through the first-order lag of the analysis ([`thermal::lagged`], started at the first
+//! ([`regress`]): the time since the first sample; the temperature; the temperature
+//! through the first-order lag of the analysis ([`crate::search::thermal::lagged`], started at the first
 //! sample); and dT/dt, the least-squares slope over ±15 s about the sample
-//! ([`thermal::sample_rates`]).
+//! ([`crate::search::thermal::sample_rates`]).
 //!
-//! **What is refused**, in this order ([`checks`]: [`check_units`], [`check_output`],
-//! [`check_plausible`]): readings whose linear correction has a median magnitude outside
+//! **What is refused**, in this order ([`checks`]: the units, [`checks::bad_output`],
+//! [`checks::check_plausible_within`]): readings whose linear correction has a median magnitude outside
 //! ½–2 g where gravity gives 1 g, which is what a calibration made in other units (counts,
 //! mg, m/s²) than the recording does; a corrected value that is not finite; a calibration
 //! that fails the acceptance predicate `device put` applies (`Acceptance::check`: usable, `θ₀` plausible,
@@ -24,26 +24,25 @@
 //! limits the adapter adds; and a corrected value beyond ±16 g at any sample (host terms
 //! included, which the predicate does not see).
 //!
-//! **Two paths, one output.** A recording held in memory is corrected by
-//! [`correct_recording`]; a large plain text file ([`source::open_samples`]) is corrected as
-//! it is read by [`stream::correct_streamed`], in memory bounded by a piece of the file and
-//! ±15 s of samples, written straight to a temporary file beside the output that replaces it
-//! only when every check passed. Both give the same file byte for byte ([`csv`]) and refuse
-//! the same recordings with the same sentence.
+//! **One path.** Every sample is corrected by one pass in order ([`pass::correct_pass`]):
+//! a large plain text file ([`source::open_samples`]) as it is read
+//! ([`pass::correct_streamed`]), in memory bounded by a piece of the file and ±15 s of
+//! samples, written straight to a temporary file beside the output that replaces it only when
+//! every check passed; a recording held in memory ([`correct_recording`]) as the one-chunk
+//! case of the same pass, its corrected samples kept. Both give the same file byte for byte
+//! ([`csv`]) and refuse the same recordings with the same sentence.
 
 pub mod checks;
 pub mod csv;
+pub mod pass;
 pub mod regress;
 pub mod source;
-pub mod stream;
 
 pub use crate::error::correct::CorrectError;
 use crate::input::recording::Recording;
 use crate::output::calfile::{adapter_terms, CalibrationFile};
 use crate::output::host_term_checks::{HostTerm, Regressor};
-use crate::search::thermal;
-pub use checks::{check_output, check_plausible, check_units, limits_for};
-use std::borrow::Cow;
+pub use checks::check_units;
 use wiical_core::{Calibration, Conditions};
 
 /// Corrected readings whose median magnitude lies outside this range (g) are taken for a
@@ -104,43 +103,6 @@ pub fn needs(r: Regressor) -> &'static str {
     }
 }
 
-/// The host terms' regressors per sample, one column per term (module docs), from the
-/// sample times (s since the first sample) and temperatures.
-pub fn regressors<'a>(
-    terms: &[HostTerm],
-    times: &'a [f64],
-    temp: Option<&'a [f64]>,
-) -> Result<Vec<Cow<'a, [f64]>>, CorrectError> {
-    let mut rates: Option<Vec<Option<f64>>> = None;
-    let mut out = Vec::with_capacity(terms.len());
-    for t in terms {
-        let needs_temp = || CorrectError::NeedsTemperature {
-            term: t.name.clone(),
-        };
-        let Some((regressor, _, _)) = t.shape() else {
-            out.push(Cow::Owned(vec![0.0; times.len()]));
-            continue;
-        };
-        out.push(match regressor {
-            Regressor::Time => Cow::Borrowed(times),
-            Regressor::Temperature => Cow::Borrowed(temp.ok_or_else(needs_temp)?),
-            Regressor::LaggedTemperature(tau) => {
-                Cow::Owned(thermal::lagged(times, temp.ok_or_else(needs_temp)?, tau))
-            }
-            Regressor::TemperatureRate => {
-                let temp = temp.ok_or_else(needs_temp)?;
-                let r = rates.get_or_insert_with(|| thermal::sample_rates(times, temp));
-                let col: Option<Vec<f64>> = r.iter().copied().collect();
-                Cow::Owned(col.ok_or_else(|| CorrectError::RateUndefined {
-                    term: t.name.clone(),
-                    sample: r.iter().position(Option::is_none).unwrap_or(0),
-                })?)
-            }
-        });
-    }
-    Ok(out)
-}
-
 /// A recording corrected by [`correct_recording`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct Corrected {
@@ -157,36 +119,21 @@ pub struct Corrected {
 /// times are the time column, else `i / rate` (the file's rate, else `default_rate_hz`,
 /// as the analysis takes them); `Conditions::time_s` counts from the first sample. A term
 /// that needs a temperature the recording lacks, the core's `bias_temp` / `scale_temp`
-/// included, is refused, naming the term (the core would silently skip it).
+/// included, is refused, naming the term (the core would silently skip it). The one-chunk
+/// case of the pass a large file is corrected by ([`pass::correct_pass`]): the same code,
+/// the corrected samples kept instead of written. Errors are [`CorrectError`]s.
 pub fn correct_recording(
     file: &CalibrationFile,
     rec: &Recording,
     default_rate_hz: f64,
-) -> Result<Corrected, CorrectError> {
-    let times = rec.times(default_rate_hz);
-    let t0 = *times.first().ok_or(CorrectError::Empty)?;
-    let since: Vec<f64> = times.iter().map(|t| t - t0).collect();
-    let temp = rec.temp.as_deref();
-    check_core_temperature(file, temp.is_some())?;
-    let cols = regressors(&file.host_terms, &since, temp)?;
-    check_units(&file.calibration, rec)?;
-    let mut xs = vec![0.0; cols.len()];
-    let accel: Vec<[f32; 3]> = rec
-        .xyz
-        .iter()
-        .enumerate()
-        .map(|(i, m)| {
-            for (x, c) in xs.iter_mut().zip(&cols) {
-                *x = c[i];
-            }
-            let theta = temp.map(|t| t[i]);
-            correct_at(file, m.map(|v| v as f32), since[i], theta, &xs)
-        })
-        .collect();
-    // Units first (they explain everything else), then what no calibration may give.
-    check_output(&times, &accel, false)?;
-    check_plausible(&file.calibration, rec, &since)?;
-    check_output(&times, &accel, true)?;
+) -> crate::Result<Corrected> {
+    let (mut times, mut accel) = (Vec::with_capacity(rec.len()), Vec::with_capacity(rec.len()));
+    let mut keep = |t: f64, a: &[f32; 3]| -> crate::Result<()> {
+        times.push(t);
+        accel.push(*a);
+        Ok(())
+    };
+    pass::correct_pass(file, rec, default_rate_hz, &mut keep)?;
     Ok(Corrected {
         times,
         accel,
@@ -292,8 +239,19 @@ mod tests {
             )
         );
         // Without a temperature a temperature term is refused, naming it.
-        let e = regressors(&file.host_terms, &[0.0, 1.0], None).unwrap_err();
+        let e = correct_recording(&file, &still(&[0.0, 1.0], None), 100.0).unwrap_err();
         assert!(e.to_string().contains("temperature-squared (1)"), "{e}");
+    }
+
+    /// A recording lying still at 1 g on z (raw counts of the default calibration) at the
+    /// times `t` (s), with the temperatures `temp` (°C).
+    fn still(t: &[f64], temp: Option<&[f64]>) -> Recording {
+        Recording {
+            xyz: vec![[0.0, 0.0, 1.0]; t.len()],
+            t: Some(t.to_vec()),
+            temp: temp.map(<[f64]>::to_vec),
+            ..Default::default()
+        }
     }
 
     /// A temperature-rate term at a sample with no neighbour within ±15 s is refused naming
@@ -310,22 +268,29 @@ mod tests {
                 ..Default::default()
             },
         );
-        // Samples 0 and 1 are 1 s apart (a slope), sample 2 is alone 100 s later.
-        let (times, temp) = ([0.0, 1.0, 101.0], [20.0, 20.5, 21.0]);
-        let e = regressors(std::slice::from_ref(&rate), &times, Some(&temp)).unwrap_err();
-        assert!(
-            matches!(&e, CorrectError::RateUndefined { sample: 2, term } if term == &rate.name),
-            "{e:?}"
-        );
-        assert!(e.to_string().contains("sample 2"), "{e}");
-        let ok = regressors(std::slice::from_ref(&rate), &times[..2], Some(&temp[..2])).unwrap();
-        assert!((ok[0][0] - 0.5).abs() < 1e-12, "{:?}", ok[0]);
         let file = CalibrationFile {
             calibration: Calibration::default(),
             quality: None,
-            host_terms: vec![rate],
+            host_terms: vec![rate.clone()],
         };
+        // Samples 0 and 1 are 1 s apart (a slope), sample 2 is alone 100 s later.
+        let (times, temp) = ([0.0, 1.0, 101.0], [20.0, 20.5, 21.0]);
+        let e = correct_recording(&file, &still(&times, Some(&temp)), 100.0).unwrap_err();
+        assert!(
+            matches!(&e, crate::Error::Correct(CorrectError::RateUndefined { sample: 2, term }) if term == &rate.name),
+            "{e:?}"
+        );
+        assert!(e.to_string().contains("sample 2"), "{e}");
+        // Two samples: the rate is 0.5 °C/s at both (the slope through them).
+        let ok = correct_recording(&file, &still(&times[..2], Some(&temp[..2])), 100.0).unwrap();
+        for (i, a) in ok.accel.iter().enumerate() {
+            let want = correct_at(&file, [0.0, 0.0, 1.0], times[i], Some(temp[i]), &[0.5]);
+            assert_eq!(a, &want, "sample {i}");
+        }
         let e = correct_recording(&file, &Recording::default(), 100.0).unwrap_err();
-        assert!(matches!(e, CorrectError::Empty), "{e:?}");
+        assert!(
+            matches!(e, crate::Error::Correct(CorrectError::Empty)),
+            "{e:?}"
+        );
     }
 }

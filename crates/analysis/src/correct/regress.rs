@@ -1,7 +1,7 @@
 //! The host terms' regressors sample by sample, for a recording read once in order
-//! ([`super::stream`]): the same values, bit for bit, as [`super::regressors`] computes from
-//! held columns — the same operations in the same order — with memory bounded by ±15 s of
-//! samples.
+//! ([`super::pass`]): the same values, bit for bit, as the analysis's columns
+//! ([`thermal::lagged`], [`thermal::sample_rates`]) — the same operations in the same order —
+//! with memory bounded by ±15 s of samples.
 //!
 //! * Time and temperature are the sample's own.
 //! * The lagged temperature ([`thermal::lagged`]) is a recursion: one state per term.
@@ -65,8 +65,8 @@ pub struct Regressors {
 
 impl Regressors {
     /// The regressors of `terms` for a recording with a temperature column or not
-    /// (`has_temp`); a term needing the temperature without one is refused as
-    /// [`super::regressors`] refuses it (the first such term, named).
+    /// (`has_temp`); a term needing the temperature without one is refused (the first such
+    /// term, named).
     pub fn new(terms: &[HostTerm], has_temp: bool) -> Result<Self, CorrectError> {
         let mut kinds = Vec::with_capacity(terms.len());
         let mut rate_term = None;
@@ -174,6 +174,8 @@ pub struct Ready<P> {
 #[derive(Debug)]
 pub struct RateRing<P> {
     rates: bool,
+    /// Most samples held ([`MAX_RATE_SPAN_SAMPLES`], or none for samples held already).
+    max: usize,
     entries: VecDeque<Entry<P>>,
     /// Global index of `entries[0]`.
     base: usize,
@@ -194,6 +196,7 @@ impl<P: Copy> RateRing<P> {
     pub fn new(rates: bool) -> Self {
         Self {
             rates,
+            max: MAX_RATE_SPAN_SAMPLES,
             entries: VecDeque::new(),
             base: 0,
             pushed: 0,
@@ -204,9 +207,18 @@ impl<P: Copy> RateRing<P> {
         }
     }
 
+    /// [`RateRing::new`] without a bound on the samples held: for a recording held in memory
+    /// already, which the ring's copies of ±15 s cannot outgrow.
+    pub fn unbounded(rates: bool) -> Self {
+        Self {
+            max: usize::MAX,
+            ..Self::new(rates)
+        }
+    }
+
     /// The next sample: `since` s after the first, temperature `temp` °C (used only with
-    /// rates). Refused when the ring would hold more than [`MAX_RATE_SPAN_SAMPLES`]: the
-    /// sentence names `term`.
+    /// rates). Refused when the ring would hold more than its bound
+    /// ([`MAX_RATE_SPAN_SAMPLES`]): the sentence names `term`.
     pub fn push(
         &mut self,
         since: f64,
@@ -220,7 +232,7 @@ impl<P: Copy> RateRing<P> {
             let (t, y) = (since - t0, temp - y0);
             let add = [1.0, t, y, t * t, t * y];
             self.total = std::array::from_fn(|k| before[k] + add[k]);
-            if self.entries.len() >= MAX_RATE_SPAN_SAMPLES {
+            if self.entries.len() >= self.max {
                 return Err(CorrectError::RateSpanTooDense {
                     term: term(),
                     sample: self.next,

@@ -1,14 +1,13 @@
 //! Which path a recording to correct takes: held in memory ([`Samples::Held`], the loader's
 //! [`crate::load`]), or — a plain text file (gzip'd too) of at least
-//! [`crate::input::front_door::stream_from_bytes`], or standard input long enough to be
+//! [`crate::input::read_options::ReadOptions::stream_from_bytes`], or standard input long enough to be
 //! spooled to a temporary file — read in passes from the file ([`Samples::Streamed`],
 //! [`crate::input::text_source::TextSource`]) and corrected as it is read
-//! ([`super::stream`]). The same threshold as `fit`, `analyze` and `noise`
-//! (`WIICAL_STREAM_FROM_BYTES`).
+//! ([`super::pass`]). The same threshold as `fit`, `analyze` and `noise`.
 
 use crate::error::Result;
 use crate::input::columns::LoadOptions;
-use crate::input::front_door::{self, is_text_file_from, stream_from_bytes, Opened};
+use crate::input::front_door::{self, is_text_file_from, Opened};
 use crate::input::recording::Recording;
 use crate::input::text::parse;
 use crate::input::text_source::TextSource;
@@ -36,7 +35,7 @@ impl Samples {
     }
 }
 
-/// [`open_samples_from`] with the threshold of `WIICAL_STREAM_FROM_BYTES` (default 128 MiB).
+/// [`open_samples_from`] with the threshold of `opts.read` (default 128 MiB).
 /// A recording that must be held (a raw file) is refused beyond
 /// [`front_door::MAX_HELD_SAMPLES`] ([`front_door::load_held`]).
 pub fn open_samples(path: &Path, opts: &LoadOptions) -> Result<Samples> {
@@ -44,7 +43,7 @@ pub fn open_samples(path: &Path, opts: &LoadOptions) -> Result<Samples> {
         "correct",
         "a text file (plain or gzip'd) of any length is read in passes: cut the raw recording shorter or convert it to text",
     );
-    open_samples_within(path, opts, stream_from_bytes(), Some(limit))
+    open_samples_within(path, opts, opts.read.stream_from_bytes, Some(limit))
 }
 
 /// Opens `path` (`-`: standard input) as [`Samples`]: streamed when it is a regular text file
@@ -81,7 +80,7 @@ fn open_stdin(
     opts: &LoadOptions,
     limit: Option<front_door::HoldLimit>,
 ) -> Result<Samples> {
-    Ok(Samples::Held(match front_door::open(path)? {
+    Ok(Samples::Held(match front_door::open(path, &opts.read)? {
         Opened::Spooled(tmp) => {
             // Errors name `-`, the input the user gave, not the copy's temporary name.
             let src = TextSource::open(&tmp, opts, |_| true).map_err(|e| e.in_file(path))?;

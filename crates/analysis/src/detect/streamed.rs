@@ -341,33 +341,19 @@ fn detect_fixed(
 }
 
 /// `stats::median` of the `n` values `values` yields afresh on every call, selected by the
-/// bits of their total order 16 at a time (four passes per order statistic), none stored.
+/// bits of their total order 16 at a time ([`crate::stats::OrderCounts::median`]: a pass to
+/// count them, three for the lower middle value, one for the upper), none stored.
 fn median_of<I: Iterator<Item = f64>>(values: impl Fn() -> I, n: usize) -> f64 {
-    if n == 0 {
-        return f64::NAN;
-    }
-    // The `total_cmp` order as unsigned integers.
-    let key = |x: f64| {
-        let b = x.to_bits() as i64;
-        ((b ^ (((b >> 63) as u64) >> 1) as i64) as u64) ^ (1 << 63)
+    use crate::stats::{from_order_key, order_key, OrderCounts};
+    let keys = |key: &mut dyn FnMut(u64)| {
+        values().for_each(|v| key(order_key(v)));
+        Ok::<(), std::convert::Infallible>(())
     };
-    let kth = |k: usize| {
-        let mut top = vec![0usize; 1 << 16];
-        values().for_each(|x| top[(key(x) >> 48) as usize] += 1);
-        let Ok(b) = crate::stats::kth_key_by_digits(&top, k, |shift, prefix, hist| {
-            for b in values().map(key).filter(|b| b >> (shift + 16) == prefix) {
-                hist[((b >> shift) & 0xffff) as usize] += 1;
-            }
-            Ok::<(), std::convert::Infallible>(())
-        });
-        let b = b ^ (1 << 63);
-        f64::from_bits(b ^ ((((b as i64) >> 63) as u64) >> 1))
-    };
-    if n % 2 == 1 {
-        kth(n / 2)
-    } else {
-        0.5 * (kth(n / 2 - 1) + kth(n / 2))
-    }
+    let mut counts = OrderCounts::new(0);
+    let Ok(()) = keys(&mut |k| counts.push(k));
+    debug_assert_eq!(counts.len, n, "the values of every call");
+    let Ok(m) = counts.median(from_order_key, keys);
+    m
 }
 
 /// One window's sums as the passes fold them.

@@ -85,6 +85,7 @@ pub fn open(
     let same_file = LoadOptions {
         columns: gyro_columns,
         sensor: Some(Sensor::Gyroscope),
+        read: acc.1.read,
     };
     let (gyro_path, gyro_opts) = gyro_file.unwrap_or((acc.0, &same_file));
     let paths = [acc.0, gyro_path];

@@ -49,6 +49,9 @@ pub struct LoadOptions {
     /// Which sensor's triplet to take from a header naming several (`None`: the
     /// accelerometer).
     pub sensor: Option<Sensor>,
+    /// How the file is read (streaming threshold, standard input's copy, spill): not which
+    /// columns, but every loader takes it from here so that it reaches each reader.
+    pub read: crate::input::read_options::ReadOptions,
 }
 
 /// One axis triplet found in a header.

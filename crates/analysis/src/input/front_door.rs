@@ -18,6 +18,7 @@ use crate::input::bounded::{
 };
 use crate::input::columns::{LoadOptions, Sensor};
 use crate::input::raw::{self, RawFile, RawFormat};
+pub use crate::input::read_options::{ReadOptions, MAX_SPOOL_BYTES, STREAM_FROM_BYTES};
 use crate::input::recording::Recording;
 use crate::input::table::WindowTable;
 use crate::input::temp_files::{self, OwnTemp};
@@ -54,11 +55,11 @@ pub enum Opened {
 /// Sniffs `path` (`-`: standard input, read once) and reads what its kind needs up front: a
 /// regular raw file only its first bytes, anything else whole, at most
 /// [`MAX_RECORDING_BYTES`] (gzip decompressed to the same limit). Standard input longer than
-/// [`stream_from_bytes`] (or than its content may be held, gzip'd) is copied to a temporary
-/// file ([`Opened::Spooled`]).
-pub fn open(path: &Path) -> Result<Opened> {
+/// [`ReadOptions::stream_from_bytes`] (or than its content may be held, gzip'd) is copied to a
+/// temporary file ([`Opened::Spooled`]) of at most [`ReadOptions::max_spool_bytes`].
+pub fn open(path: &Path, read: &ReadOptions) -> Result<Opened> {
     if path.as_os_str() == "-" {
-        return open_stdin();
+        return open_stdin(read);
     }
     if let Some(format) = raw::stream::raw_file_format(path) {
         return Ok(Opened::RawFile(format));
@@ -112,19 +113,19 @@ fn whole_of(path: &Path, bytes: Vec<u8>) -> Result<Whole> {
 }
 
 /// Standard input read once: held as any file read whole when it ends within
-/// [`stream_from_bytes`] (at most [`MAX_RECORDING_BYTES`]) and its content may be held;
+/// [`ReadOptions::stream_from_bytes`] (at most [`MAX_RECORDING_BYTES`]) and its content may be held;
 /// else copied to a temporary file ([`spool`]) and read from there as a regular file — a
 /// week's recording piped in (`zcat week.csv.gz | wiical fit -`) is streamed as the file
 /// itself would be, where holding it would take memory in proportion to it.
-fn open_stdin() -> Result<Opened> {
-    let hold = stream_from_bytes().min(MAX_RECORDING_BYTES);
-    open_input(&mut std::io::stdin().lock(), hold)
+fn open_stdin(read: &ReadOptions) -> Result<Opened> {
+    let hold = read.stream_from_bytes.min(MAX_RECORDING_BYTES);
+    open_input(&mut std::io::stdin().lock(), hold, read.max_spool_bytes)
 }
 
-/// [`open_stdin`] of `stdin`, held when it ends within `hold` bytes (the fuzz target
-/// `streamed_reader` drives the copy with it).
+/// [`open_stdin`] of `stdin`, held when it ends within `hold` bytes, else copied (at most
+/// `most_copied` bytes; the fuzz target `streamed_reader` drives the copy with it).
 #[doc(hidden)]
-pub fn open_input(stdin: &mut dyn std::io::Read, hold: u64) -> Result<Opened> {
+pub fn open_input(stdin: &mut dyn std::io::Read, hold: u64, most_copied: u64) -> Result<Opened> {
     use std::io::Read;
     let path = Path::new("-");
     let mut bytes = Vec::new();
@@ -134,13 +135,13 @@ pub fn open_input(stdin: &mut dyn std::io::Read, hold: u64) -> Result<Opened> {
         source,
     })?;
     if bytes.len() as u64 > hold {
-        return spool(bytes, stdin).map(Opened::Spooled);
+        return spool(bytes, stdin, most_copied).map(Opened::Spooled);
     }
     // Gzip'd input whose content passes the limit is spooled (its content streamed) too.
     let gzip = bytes.starts_with(&GZIP_MAGIC);
     let content = match decompressed(path, bytes.clone(), MAX_RECORDING_BYTES) {
         Err(e) if gzip && gzip_too_large(&e) => {
-            return spool(bytes, &mut std::io::empty()).map(Opened::Spooled)
+            return spool(bytes, &mut std::io::empty(), most_copied).map(Opened::Spooled)
         }
         other => other?,
     };
@@ -151,36 +152,24 @@ pub fn open_input(stdin: &mut dyn std::io::Read, hold: u64) -> Result<Opened> {
     })
 }
 
-/// The most of standard input copied to a temporary file ([`Opened::Spooled`]), bytes
-/// (64 GiB: a month of 100 Hz CSV is ~9 GB), unless [`MAX_SPOOL_BYTES_VAR`] says otherwise:
-/// an endless stream (`yes 1,2,3`) must end in a sentence, not in a full disk.
-pub const MAX_SPOOL_BYTES: u64 = 64 << 30;
-
-/// Environment variable that sets [`MAX_SPOOL_BYTES`] (bytes).
-pub const MAX_SPOOL_BYTES_VAR: &str = "WIICAL_MAX_SPOOL_BYTES";
+/// The CLI flag that sets [`ReadOptions::max_spool_bytes`], named when the copy passes it.
+const MAX_SPOOL_BYTES_FLAG: &str = "--max-spool-bytes";
 
 /// Free space the copy of standard input ([`Opened::Spooled`]) leaves on the temporary
 /// directory's disk, bytes: the copy stops before the disk is full, for this command's own
 /// output and for everything else on it.
 pub const SPOOL_RESERVE_BYTES: u64 = KEEP_FREE_BYTES;
 
-/// [`MAX_SPOOL_BYTES`], or the value of [`MAX_SPOOL_BYTES_VAR`] when it is a number.
-fn max_spool_bytes() -> u64 {
-    std::env::var(MAX_SPOOL_BYTES_VAR)
-        .ok()
-        .and_then(|v| v.trim().parse().ok())
-        .unwrap_or(MAX_SPOOL_BYTES)
-}
-
 /// `head` and the rest of `input` copied to a temporary file in the temporary directory
 /// (`$TMPDIR`, named `wiical-stdin-<pid>-…`), deleted when the returned path is dropped (when
 /// the command ends, or the stream reading it is dropped) or by the binary's signal handler;
 /// the copies a killed run left there are deleted first ([`temp_files::remove_stale`]).
 /// Bounded: text that no recording starts with is refused before a byte is copied
-/// ([`check_text_head`]), and the copy stops at [`max_spool_bytes`] or when the disk would
-/// keep less than [`SPOOL_RESERVE_BYTES`]. A directory that cannot take the copy is named
-/// with what is wrong with it ([`InputError::StdinCopy`]).
-fn spool(head: Vec<u8>, input: &mut dyn std::io::Read) -> Result<OwnTemp> {
+/// ([`check_text_head`]), and the copy stops past `most` bytes
+/// ([`ReadOptions::max_spool_bytes`]) or when the disk would keep less than
+/// [`SPOOL_RESERVE_BYTES`]. A directory that cannot take the copy is named with what is wrong
+/// with it ([`InputError::StdinCopy`]).
+fn spool(head: Vec<u8>, input: &mut dyn std::io::Read, most: u64) -> Result<OwnTemp> {
     if !head.starts_with(&GZIP_MAGIC) && !is_raw(&head) {
         check_text_head(Path::new("-"), &head)?;
     }
@@ -189,7 +178,7 @@ fn spool(head: Vec<u8>, input: &mut dyn std::io::Read) -> Result<OwnTemp> {
     let (copy, mut file) = OwnTemp::stdin_copy_in(&dir).map_err(|e| stdin_copy_error(&dir, &e))?;
     let bound = SpoolBound {
         dir,
-        most: max_spool_bytes(),
+        most,
         reserve: SPOOL_RESERVE_BYTES,
     };
     bound.check(&file, head.len() as u64)?;
@@ -264,7 +253,7 @@ impl SpoolBound {
         };
         let why = if copied > self.most {
             format!(
-                "it passed {}, the most copied ({MAX_SPOOL_BYTES_VAR} sets it)",
+                "it passed {}, the most copied ({MAX_SPOOL_BYTES_FLAG} sets it)",
                 size(self.most)
             )
         } else {
@@ -379,18 +368,18 @@ const GZIP_MAGIC: [u8; 2] = [0x1f, 0x8b];
 
 /// The file whole, for readers that need every sample: `Ok(raw file)` (a [`Opened::RawFile`]
 /// decoded now, as any other raw file, within the size limit) or `Err(text)`.
-pub fn open_whole(path: &Path) -> Result<Whole> {
-    whole_from(open(path)?, path)
+pub fn open_whole(path: &Path, read: &ReadOptions) -> Result<Whole> {
+    whole_from(open(path, read)?, path, read)
 }
 
 /// [`open_whole`] of a file opened already.
-fn whole_from(opened: Opened, path: &Path) -> Result<Whole> {
+fn whole_from(opened: Opened, path: &Path, read: &ReadOptions) -> Result<Whole> {
     Ok(match opened {
         Opened::RawFile(_) => Ok(raw::read(path)?),
         Opened::Raw(raw) => Ok(*raw),
         Opened::Text(text) => Err(text),
         Opened::TextFile => read_whole(path)?,
-        Opened::Spooled(tmp) => open_whole(&tmp).map_err(|e| e.renaming(&tmp, path))?,
+        Opened::Spooled(tmp) => open_whole(&tmp, read).map_err(|e| e.renaming(&tmp, path))?,
     })
 }
 
@@ -414,7 +403,7 @@ pub fn load_held(path: &Path, opts: &LoadOptions, limit: HoldLimit) -> Result<Re
 
 /// [`load`] within `limit` (`None`: no bound).
 pub fn load_within(path: &Path, opts: &LoadOptions, limit: Option<HoldLimit>) -> Result<Recording> {
-    let whole = match open(path)? {
+    let whole = match open(path, &opts.read)? {
         Opened::RawFile(format) => {
             // Read block by block into a recording allocated once (no size cap).
             return raw::stream::load_raw_within(path, format, opts, limit)
@@ -486,7 +475,10 @@ pub fn load_imu_within(
     limit: Option<HoldLimit>,
 ) -> Result<(Recording, Recording)> {
     // Standard input once, and when it was spooled, the file it was spooled to (in pieces).
-    let stdin = match (path.as_os_str() == "-").then(|| open(path)).transpose()? {
+    let stdin = match (path.as_os_str() == "-")
+        .then(|| open(path, &acc.read))
+        .transpose()?
+    {
         Some(Opened::Spooled(tmp)) => {
             return load_imu_within(&tmp, acc, gyro_columns, limit)
                 .map_err(|e| e.renaming(&tmp, path))
@@ -497,6 +489,7 @@ pub fn load_imu_within(
     let gyro_opts = LoadOptions {
         columns: gyro_columns,
         sensor: Some(Sensor::Gyroscope),
+        read: acc.read,
     };
     if let Some(accel) = load_in_pieces(path, acc, limit)? {
         if let Some(gyro) = load_in_pieces(path, &gyro_opts, limit)? {
@@ -504,8 +497,8 @@ pub fn load_imu_within(
         }
     }
     let whole = match stdin {
-        Some(opened) => whole_from(opened, path)?,
-        None => open_whole(path)?,
+        Some(opened) => whole_from(opened, path, &acc.read)?,
+        None => open_whole(path, &acc.read)?,
     };
     let text = match whole {
         Ok(raw) => {
@@ -592,25 +585,6 @@ impl Input {
     }
 }
 
-/// Plain text files at least this large are streamed by [`load_input`] ([`Input::Stream`]):
-/// `fit` and `analyze` read them in passes with memory bounded by a piece and the windows,
-/// where holding the rows would take ~1.5× the file. Smaller files are held: one read,
-/// no re-parse per pass.
-pub const STREAM_FROM_BYTES: u64 = 128 << 20;
-
-/// Environment variable that sets the size (bytes) from which [`load_input`] streams a plain
-/// text file, in place of [`STREAM_FROM_BYTES`]: `0` streams every one, a huge value none
-/// (for benchmarks and tests that compare the two paths on one file).
-pub const STREAM_FROM_BYTES_VAR: &str = "WIICAL_STREAM_FROM_BYTES";
-
-/// [`STREAM_FROM_BYTES`], or the value of [`STREAM_FROM_BYTES_VAR`] when it is a number.
-pub fn stream_from_bytes() -> u64 {
-    std::env::var(STREAM_FROM_BYTES_VAR)
-        .ok()
-        .and_then(|v| v.trim().parse().ok())
-        .unwrap_or(STREAM_FROM_BYTES)
-}
-
 /// Reads `path` once (standard input can be read only once) as a window-mean table when its
 /// header says so or `opts.force`, else as an ordinary recording ([`load`]).
 ///
@@ -618,8 +592,10 @@ pub fn stream_from_bytes() -> u64 {
 /// 10-s epochs ([`crate::input::raw::epochs`]: GGIR's free-living autocalibration input); too
 /// few of them is an error saying how many were found and needed. A regular raw file is
 /// read block by block: memory is the still epochs, not the file (no size cap).
+/// Plain text files of at least [`ReadOptions::stream_from_bytes`] (of `opts.load.read`) are
+/// streamed ([`Input::Stream`]).
 pub fn load_input(path: &Path, opts: &WindowInputOptions) -> Result<Input> {
-    load_input_from(path, opts, stream_from_bytes())
+    load_input_from(path, opts, opts.load.read.stream_from_bytes)
 }
 
 /// [`load_input`], streaming plain text files of at least `stream_from` bytes
@@ -649,7 +625,7 @@ pub fn load_input_in(
             return Ok(input);
         }
     }
-    let whole = match open(path)? {
+    let whole = match open(path, &opts.load.read)? {
         Opened::RawFile(format) => {
             let table = raw::stream::raw_epoch_table(path, format, &opts.load, &Default::default());
             return table.map(Input::Table).map_err(|e| e.in_file(path));
@@ -732,7 +708,7 @@ mod tests {
         assert!(bound(1000, 0).check(&file, 1000).is_ok());
         let capped = bound(1000, 0).check(&file, 1001).unwrap_err().to_string();
         assert!(capped.contains("passed 1000 bytes"), "{capped}");
-        assert!(capped.contains(MAX_SPOOL_BYTES_VAR), "{capped}");
+        assert!(capped.contains("--max-spool-bytes"), "{capped}");
         let full = bound(u64::MAX, u64::MAX).check(&file, 3 << 20).unwrap_err();
         let full = full.to_string();
         assert!(

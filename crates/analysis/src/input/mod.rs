@@ -16,6 +16,7 @@ pub mod columns;
 pub mod front_door;
 pub mod grt;
 pub mod raw;
+pub mod read_options;
 pub mod recording;
 pub mod sample_summary;
 pub mod table;

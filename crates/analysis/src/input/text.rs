@@ -620,6 +620,7 @@ mod tests {
         let cols = |c: [&str; 3]| LoadOptions {
             columns: Some(c.map(String::from)),
             sensor: None,
+            ..Default::default()
         };
         let text = "t,x,y,z,temp\n0,1,2,3,20\n0.01,1,2,3,20\n";
         let e = parse(text, &cols(["t", "x", "y"])).unwrap_err();

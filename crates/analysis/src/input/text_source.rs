@@ -14,7 +14,7 @@
 //! The first pass also keeps the rows it parsed (`input::text_spill`: in memory when they
 //! fit, else in a temporary file), and every later pass reads them back from there instead
 //! of parsing the text again: the same values bit for bit, at the cost of a copy instead of a
-//! parse. Without it (no temporary directory, a full disk, or [`SPILL_VAR`] set to `0`) the
+//! parse. Without it (no temporary directory, a full disk, or [`SpillMode::Off`]) the
 //! passes re-read the text as described above. The first pass parses each piece while the
 //! one before is folded and written, on threads of their own.
 
@@ -22,6 +22,7 @@ use crate::error::input::InputError;
 use crate::error::{Error, Result};
 use crate::input::bounded::check_largest_reading;
 use crate::input::columns::LoadOptions;
+use crate::input::read_options::SpillMode;
 use crate::input::recording::Recording;
 use crate::input::sample_summary::{SampleSummary, SummaryFold};
 use crate::input::text::{check_axis_columns, CsvState, Delimiter};
@@ -123,12 +124,10 @@ pub struct TextSource {
     spill: Option<Spill>,
     /// Set when the spill could not be read back: later passes re-read the text.
     spill_failed: AtomicBool,
+    /// A later pass parses its next piece on a thread of its own ([`Feed`];
+    /// [`crate::input::read_options::ReadOptions::parse_ahead`]).
+    parse_ahead: bool,
 }
-
-/// Environment variable that, set to `0`, has the later passes re-read and re-parse the text
-/// rather than the rows the first pass kept, and set to `disk`, has those rows kept in the
-/// temporary file whatever their size (for benchmarks that compare the three).
-pub const SPILL_VAR: &str = "WIICAL_SPILL";
 
 /// Where the first pass writes its rows ([`crate::input::text_spill`]).
 #[derive(Debug, Clone)]
@@ -145,16 +144,18 @@ pub(crate) struct SpillTo {
 }
 
 impl SpillTo {
-    /// In memory up to [`MEMORY_SPILL_BYTES`], else the system's temporary directory; unless
-    /// [`SPILL_VAR`] is `0` (no spill) or `disk` (none in memory).
-    fn from_env() -> Self {
-        let var = std::env::var_os(SPILL_VAR);
-        let disk = var.as_ref().is_some_and(|v| v == "disk");
+    /// In memory up to [`MEMORY_SPILL_BYTES`], else the system's temporary directory; none
+    /// with [`SpillMode::Off`], none in memory with [`SpillMode::Disk`].
+    fn of(spill: SpillMode) -> Self {
         Self {
-            on: var.is_none_or(|v| v != "0"),
+            on: spill != SpillMode::Off,
             dir: None,
             limit: u64::MAX,
-            memory: if disk { 0 } else { MEMORY_SPILL_BYTES },
+            memory: if spill == SpillMode::Disk {
+                0
+            } else {
+                MEMORY_SPILL_BYTES
+            },
         }
     }
 
@@ -194,7 +195,13 @@ impl TextSource {
         piece_bytes: usize,
         head_ok: impl Fn(&str) -> bool,
     ) -> Result<Option<Self>> {
-        Self::open_with(path, opts, piece_bytes, &SpillTo::from_env(), head_ok)
+        Self::open_with(
+            path,
+            opts,
+            piece_bytes,
+            &SpillTo::of(opts.read.spill),
+            head_ok,
+        )
     }
 
     /// [`TextSource::open_in`] writing the first pass's rows as `spill_to` says.
@@ -253,6 +260,7 @@ impl TextSource {
             shown: None,
             spill: writer.map(SpillWriter::finish),
             spill_failed: AtomicBool::new(false),
+            parse_ahead: opts.read.parse_ahead,
         };
         if let Some(i) = src.layout.time {
             let steps = tally
@@ -539,7 +547,7 @@ impl TextSource {
             prev_t: None,
         };
         Ok(Reader {
-            feed: Feed::start(parser, &self.path)?,
+            feed: Feed::start(parser, &self.path, self.parse_ahead)?,
             cols: Columns::default(),
             at: 0,
         })
@@ -759,10 +767,6 @@ impl Parser {
     }
 }
 
-/// Environment variable that, set to `0`, has every pass parse its pieces itself, one after
-/// another (for benchmarks that compare the two).
-pub const PARSE_AHEAD_VAR: &str = "WIICAL_PARSE_AHEAD";
-
 /// Where a pass's parsed pieces come from: a thread of its own that parses the next piece
 /// while the pass goes through the rows of the one before (a pass's consumer — the detector,
 /// the window sums — runs on one thread, and the parse would otherwise wait for it), handing
@@ -786,11 +790,10 @@ enum Feed {
 }
 
 impl Feed {
-    /// The feed of `parser`'s pieces; an error when no thread could be started (reading
-    /// `path`).
-    fn start(mut parser: Parser, path: &Path) -> Result<Self> {
-        let off = std::env::var_os(PARSE_AHEAD_VAR).is_some_and(|v| v == "0");
-        if off || rayon::current_thread_index().is_some() {
+    /// The feed of `parser`'s pieces, parsed ahead on a thread when `ahead` (and this is not a
+    /// thread of the parse's pool); an error when no thread could be started (reading `path`).
+    fn start(mut parser: Parser, path: &Path, ahead: bool) -> Result<Self> {
+        if !ahead || rayon::current_thread_index().is_some() {
             return Ok(Feed::Inline(Box::new(parser)));
         }
         let (tx, rx) = std::sync::mpsc::sync_channel(0);
@@ -1021,7 +1024,7 @@ mod tests {
             line: 1,
             prev_t: None,
         };
-        let mut feed = Feed::start(parser, Path::new("r.csv")).unwrap();
+        let mut feed = Feed::start(parser, Path::new("r.csv"), true).unwrap();
         let raised = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
             feed.next().map(|cols| cols.map(|c| c.xyz.len()))
         }));

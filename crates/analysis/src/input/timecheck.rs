@@ -396,19 +396,16 @@ fn pairs<I: Iterator<Item = f64>>(mut it: I) -> impl Iterator<Item = (f64, f64)>
     })
 }
 
-/// The `k`-th smallest (0-based) positive step of the times `times` yields: a radix selection
-/// on the steps' bits (for positive floats their order as integers), four levels of a 2¹⁶
-/// histogram, so no step is stored; `top`, the histogram of the top 16 bits, was made by the
-/// caller's pass over the times.
+/// The `k`-th smallest (0-based) positive step of the times `times` yields, selected by the
+/// steps' bits (for positive floats their order as integers) in passes
+/// ([`crate::stats::kth_key_in_passes`]), so no step is stored; `top`, the histogram of the
+/// top 16 bits, was made by the caller's pass over the times.
 fn kth_positive_step(steps: &impl Steps, k: usize, top: Vec<usize>) -> f64 {
-    let Ok(bits) = crate::stats::kth_key_by_digits(&top, k, |shift, prefix, hist| {
+    let Ok(bits) = crate::stats::kth_key_in_passes(&top, k, |key| {
         steps.each(|a, b| {
             let d = b - a;
             if d > 0.0 {
-                let bits = d.to_bits();
-                if bits >> (shift + 16) == prefix {
-                    hist[((bits >> shift) & 0xffff) as usize] += 1;
-                }
+                key(d.to_bits());
             }
         });
         Ok::<(), std::convert::Infallible>(())

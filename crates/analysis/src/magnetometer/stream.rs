@@ -25,8 +25,9 @@ use super::floor::{blob, AxisSums, StepFold};
 use super::{LoopPass, MagAnalysis, MagModel, MagnetometerError};
 use crate::error::Result;
 use crate::input::columns::{triplet_unit, LoadOptions};
+use crate::input::read_options::ReadOptions;
 use crate::input::text_source::{Row, TextSource};
-use crate::stats::CountedKeys;
+use crate::stats::OrderCounts;
 use std::collections::HashMap;
 use std::path::Path;
 
@@ -52,13 +53,15 @@ pub fn open_field_from(
 
 /// How a `--follow` column `name` is read beside a field whose axes are `field_axes`: as the
 /// first of three columns, the other two the field's own (the loader reads a triplet, and
-/// refuses one column named for two axes), so that its rows are the field's rows.
-pub fn follow_options(name: &str, field_axes: &[String; 3]) -> LoadOptions {
+/// refuses one column named for two axes), so that its rows are the field's rows; the file
+/// read as `read` says.
+pub fn follow_options(name: &str, field_axes: &[String; 3], read: &ReadOptions) -> LoadOptions {
     let mut others = field_axes.iter().filter(|a| a.as_str() != name).cloned();
     let mut next = || others.next().unwrap_or_default();
     LoadOptions {
         columns: Some([name.to_string(), next(), next()]),
         sensor: None,
+        read: *read,
     }
 }
 
@@ -69,8 +72,9 @@ pub fn open_follow(
     path: &Path,
     name: &str,
     field_axes: &[String; 3],
+    read: &ReadOptions,
 ) -> Result<Option<TextSource>> {
-    let opts = follow_options(name, field_axes);
+    let opts = follow_options(name, field_axes, read);
     TextSource::open(path, &opts, |_| true).map_err(|e| e.in_file(path))
 }
 
@@ -113,13 +117,13 @@ pub fn fit_source_counting(
     let n = src.len();
     let mut fit = FitFold::new(model);
     let mut steps = StepFold::new();
-    let mut counts: [Counts; 3] = std::array::from_fn(|_| Counts::new(max_counted));
+    let mut counts: [OrderCounts; 3] = std::array::from_fn(|_| OrderCounts::new(max_counted));
     let mut sums = AxisSums::new();
     let mut scalars = ScalarFold::new(n, src.has_temp());
     for (i, row) in src.rows().enumerate() {
         fit.push(&row.xyz);
         if let Some(d) = steps.push(&row.xyz) {
-            (0..3).for_each(|a| counts[a].push(d[a]));
+            (0..3).for_each(|a| counts[a].push(d[a].to_bits()));
         }
         sums.push(&row.xyz);
         scalars.push(time_of(src, i, &row), row.temp.unwrap_or(f64::NAN));
@@ -238,35 +242,6 @@ fn each_row(
     Ok(())
 }
 
-/// One axis's |second differences| counted for their median: by value while they are few,
-/// and by their top 16 bits (the selection's first digit) always.
-#[derive(Debug)]
-struct Counts {
-    by_value: CountedKeys,
-    top: Vec<usize>,
-}
-
-impl Counts {
-    fn new(max: usize) -> Self {
-        Self {
-            by_value: CountedKeys::new(max),
-            top: vec![0; 1 << 16],
-        }
-    }
-
-    /// A non-negative value: its bits order as it does.
-    fn push(&mut self, d: f64) {
-        let bits = d.to_bits();
-        self.top[(bits >> 48) as usize] += 1;
-        self.by_value.push(bits);
-    }
-
-    /// The `k`-th smallest (0-based) key from the counts by value, when they were kept.
-    fn kth_counted(&self, k: usize) -> Option<u64> {
-        self.by_value.kth(k)
-    }
-}
-
 /// One order statistic to select: axis, rank, and its key once known.
 struct Want {
     axis: usize,
@@ -280,7 +255,7 @@ struct Want {
 /// (there is always one).
 fn medians(
     src: &TextSource,
-    counts: &[Counts; 3],
+    counts: &[OrderCounts; 3],
     len: usize,
     mut first: impl FnMut(&Row),
 ) -> Result<[f64; 3]> {
@@ -294,7 +269,7 @@ fn medians(
         .map(|(axis, k)| Want {
             axis,
             k,
-            key: counts[axis].kth_counted(k),
+            key: counts[axis].by_value.kth(k),
         })
         .collect();
     let mut cache: HashMap<(usize, u32, u64), Vec<usize>> = HashMap::new();
@@ -341,7 +316,7 @@ fn medians(
 /// or the `(want, shift, prefix)` histogram it needs next.
 fn next_digits(
     wants: &mut [Want],
-    counts: &[Counts; 3],
+    counts: &[OrderCounts; 3],
     cache: &HashMap<(usize, u32, u64), Vec<usize>>,
 ) -> Vec<(usize, u32, u64)> {
     let mut needs = Vec::new();

@@ -9,7 +9,8 @@ use crate::detect::polled::{distinct_samples, judge, runs_of, Polling};
 use crate::error::noise::NoiseError;
 use crate::error::Result;
 use crate::input::columns::{column_sensor, unit_of, Sensor};
-use crate::input::front_door::{open_whole, stream_from_bytes};
+use crate::input::front_door::open_whole;
+use crate::input::read_options::ReadOptions;
 use crate::input::recording::Recording;
 use crate::input::text::{parse, LoadOptions};
 use crate::input::text_source::TextSource;
@@ -100,9 +101,14 @@ fn curves_of(rec: &Recording, rate: f64, polling: Option<&Polling>) -> [AllanCur
 }
 
 /// The sensors of a still recording, read once: every triplet the header names (accelerometer,
-/// gyroscope, magnetometer; plain `x,y,z` when it names none), or `columns` alone.
-pub fn load_sensors(path: &Path, columns: Option<[String; 3]>) -> Result<Vec<Recording>> {
-    let text = match open_whole(path)? {
+/// gyroscope, magnetometer; plain `x,y,z` when it names none), or `columns` alone. `read`:
+/// how standard input is read.
+pub fn load_sensors(
+    path: &Path,
+    columns: Option<[String; 3]>,
+    read: &ReadOptions,
+) -> Result<Vec<Recording>> {
+    let text = match open_whole(path, read)? {
         Ok(raw) => return raw_sensors(&raw, columns, path),
         Err(text) => text,
     };
@@ -110,6 +116,7 @@ pub fn load_sensors(path: &Path, columns: Option<[String; 3]>) -> Result<Vec<Rec
         let opts = LoadOptions {
             columns,
             sensor: None,
+            read: *read,
         };
         return Ok(vec![parse(&text, &opts).map_err(|e| e.in_file(path))?]);
     }
@@ -124,6 +131,7 @@ pub fn load_sensors(path: &Path, columns: Option<[String; 3]>) -> Result<Vec<Rec
         let opts = LoadOptions {
             columns: None,
             sensor: Some(sensor),
+            read: *read,
         };
         let probe = match parse(head, &opts) {
             Ok(rec) => rec.axis_columns,
@@ -162,7 +170,8 @@ fn takes(sensor: Sensor, probe: &[String; 3], taken: &[[String; 3]]) -> bool {
 }
 
 /// The sensors of a still recording: held as recordings, or (a plain text file of at least
-/// [`stream_from_bytes`] bytes) opened as sources streamed by [`crate::noise::stream`].
+/// [`ReadOptions::stream_from_bytes`] bytes) opened as sources streamed by
+/// [`crate::noise::stream`].
 #[derive(Debug)]
 pub enum Sensors {
     /// Every sample held ([`load_sensors`]).
@@ -182,36 +191,36 @@ impl Sensors {
 }
 
 /// [`load_sensors`], or the same sensors streamed when `path` is a plain text file of at least
-/// [`stream_from_bytes`] bytes (`WIICAL_STREAM_FROM_BYTES` sets it, as for `fit`).
-pub fn open_sensors(path: &Path, columns: Option<[String; 3]>) -> Result<Sensors> {
-    open_sensors_from(path, columns, stream_from_bytes())
-}
-
-/// [`open_sensors`], streaming plain text files of at least `stream_from` bytes.
-pub fn open_sensors_from(
+/// [`ReadOptions::stream_from_bytes`] bytes (as for `fit`).
+pub fn open_sensors(
     path: &Path,
     columns: Option<[String; 3]>,
-    stream_from: u64,
+    read: &ReadOptions,
 ) -> Result<Sensors> {
     let large = path.as_os_str() != "-"
-        && std::fs::metadata(path).is_ok_and(|m| m.is_file() && m.len() >= stream_from);
+        && std::fs::metadata(path).is_ok_and(|m| m.is_file() && m.len() >= read.stream_from_bytes);
     if large {
-        if let Some(srcs) = stream_sensors(path, columns.clone())? {
+        if let Some(srcs) = stream_sensors(path, columns.clone(), read)? {
             return Ok(Sensors::Streamed(srcs));
         }
     }
-    load_sensors(path, columns).map(Sensors::Held)
+    load_sensors(path, columns, read).map(Sensors::Held)
 }
 
 /// [`load_sensors`]'s choice of triplets, each opened as a [`TextSource`]; `None` when the
 /// file is not plain delimited text (gzip, raw, a pose column: read whole instead).
-fn stream_sensors(path: &Path, columns: Option<[String; 3]>) -> Result<Option<Vec<TextSource>>> {
+fn stream_sensors(
+    path: &Path,
+    columns: Option<[String; 3]>,
+    read: &ReadOptions,
+) -> Result<Option<Vec<TextSource>>> {
     let open =
         |opts: &LoadOptions| TextSource::open(path, opts, |_| true).map_err(|e| e.in_file(path));
     if columns.is_some() {
         let opts = LoadOptions {
             columns,
             sensor: None,
+            read: *read,
         };
         return Ok(open(&opts)?.map(|s| vec![s]));
     }
@@ -221,6 +230,7 @@ fn stream_sensors(path: &Path, columns: Option<[String; 3]>) -> Result<Option<Ve
         let opts = LoadOptions {
             columns: None,
             sensor: Some(sensor),
+            read: *read,
         };
         // The header decides, as in load_sensors: the first lines alone when they parse.
         let (probe, opened) = match parse(&head, &opts) {
@@ -239,7 +249,11 @@ fn stream_sensors(path: &Path, columns: Option<[String; 3]>) -> Result<Option<Ve
         }
     }
     if out.is_empty() {
-        match open(&LoadOptions::default())? {
+        let opts = LoadOptions {
+            read: *read,
+            ..Default::default()
+        };
+        match open(&opts)? {
             Some(src) => out.push(src),
             None => return Ok(None),
         }
@@ -272,13 +286,13 @@ fn raw_sensors(
         raw,
         &LoadOptions {
             columns,
-            sensor: None,
+            ..Default::default()
         },
     )
     .map_err(|e| e.in_file(path))?];
     let gyro = LoadOptions {
         columns: Some(["gx".into(), "gy".into(), "gz".into()]),
-        sensor: None,
+        ..Default::default()
     };
     if let (Ok(g), None) = (crate::input::raw::to_recording(raw, &gyro), &out[0].labels) {
         if g.axis_columns != out[0].axis_columns {

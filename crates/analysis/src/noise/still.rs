@@ -128,7 +128,10 @@ pub fn decide_still(
     if means.len() < 2 {
         return Ok(());
     }
-    let centre: [f64; 3] = std::array::from_fn(|a| median(means.iter().map(|m| m[a])));
+    let centre: [f64; 3] = std::array::from_fn(|a| {
+        let axis: Vec<f64> = means.iter().map(|m| m[a]).collect();
+        crate::stats::median(&axis)
+    });
     let turn = means
         .iter()
         .map(|m| angle_deg(m, &centre))
@@ -177,11 +180,6 @@ pub fn decide_still(
 fn mean(v: &[[f64; 3]]) -> [f64; 3] {
     let n = v.len().max(1) as f64;
     std::array::from_fn(|a| v.iter().map(|s| s[a]).sum::<f64>() / n)
-}
-
-fn median(it: impl Iterator<Item = f64>) -> f64 {
-    let v: Vec<f64> = it.collect();
-    crate::stats::median(&v)
 }
 
 fn angle_deg(a: &[f64; 3], b: &[f64; 3]) -> f64 {

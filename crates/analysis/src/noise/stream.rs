@@ -25,7 +25,7 @@ use crate::input::columns::Sensor;
 use crate::input::text_source::TextSource;
 use crate::noise::allan::{AllanCurve, MIN_CLUSTERS};
 use crate::noise::still::{decide_still, scatter_of, window_of, CounterFold};
-use crate::stats::CountedKeys;
+use crate::stats::OrderCounts;
 use std::collections::VecDeque;
 
 /// Largest cluster size (samples) at which every overlapping cluster is used; beyond it the
@@ -132,10 +132,8 @@ impl AllanStream {
 /// |First differences| of one axis counted for their median (module docs).
 #[derive(Debug)]
 struct StepCounts {
-    /// Counts by bits (non-negative floats order as their bits), dropped once too many.
-    by_value: CountedKeys,
-    /// Counts by the top 16 bits (the selection's first digit).
-    top: Vec<usize>,
+    /// Counted by their bits (non-negative floats order as their bits).
+    order: OrderCounts,
     sum_sq: f64,
     count: usize,
 }
@@ -143,24 +141,16 @@ struct StepCounts {
 impl StepCounts {
     fn new() -> Self {
         Self {
-            by_value: CountedKeys::new(MAX_COUNTED_STEPS),
-            top: vec![0; 1 << 16],
+            order: OrderCounts::new(MAX_COUNTED_STEPS),
             sum_sq: 0.0,
             count: 0,
         }
     }
 
     fn push(&mut self, d: f64) {
-        let bits = d.to_bits();
-        self.top[(bits >> 48) as usize] += 1;
         self.sum_sq += d * d;
         self.count += 1;
-        self.by_value.push(bits);
-    }
-
-    /// The `k`-th smallest (0-based) from the counts by value, when they were kept.
-    fn kth_counted(&self, k: usize) -> Option<f64> {
-        self.by_value.kth(k).map(f64::from_bits)
+        self.order.push(d.to_bits());
     }
 }
 
@@ -219,52 +209,23 @@ impl SensorFold {
     }
 }
 
-/// The median |first difference| of each axis, as `crate::stats::median` of them gives it.
+/// The median |first difference| of each axis, as `crate::stats::median` of them gives it:
+/// from the counts by value, else selected by their bits in passes over `src`
+/// ([`OrderCounts::median`]).
 fn median_steps(src: &TextSource, steps: &[StepCounts; 3]) -> Result<[f64; 3]> {
-    let len = steps[0].count;
-    if len == 0 {
-        return Ok([f64::NAN; 3]);
-    }
-    // The two middle ranks (one when odd), each axis.
-    let ranks: Vec<usize> = if len % 2 == 1 {
-        vec![len / 2]
-    } else {
-        vec![len / 2 - 1, len / 2]
-    };
     let mut out = [0.0; 3];
     for (a, counts) in steps.iter().enumerate() {
-        let mut vals = Vec::new();
-        for &k in &ranks {
-            vals.push(match counts.kth_counted(k) {
-                Some(v) => v,
-                None => select_by_bits(src, a, k, &counts.top)?,
-            });
-        }
-        out[a] = if vals.len() == 1 {
-            vals[0]
-        } else {
-            0.5 * (vals[0] + vals[1])
-        };
-    }
-    Ok(out)
-}
-
-/// The `k`-th smallest |first difference| of axis `a` (`stats::kth_key_by_digits`, by their
-/// bits): the first digit from `top` (made in the first pass), each further one a pass.
-fn select_by_bits(src: &TextSource, a: usize, k: usize, top: &[usize]) -> Result<f64> {
-    let bits = crate::stats::kth_key_by_digits(top, k, |shift, prefix, hist| {
-        let mut prev: Option<f64> = None;
-        for row in src.rows() {
-            if let Some(p) = prev.replace(row.xyz[a]) {
-                let bits = (row.xyz[a] - p).abs().to_bits();
-                if bits >> (shift + 16) == prefix {
-                    hist[((bits >> shift) & 0xffff) as usize] += 1;
+        out[a] = counts.order.median(f64::from_bits, |key| {
+            let mut prev: Option<f64> = None;
+            for row in src.rows() {
+                if let Some(p) = prev.replace(row.xyz[a]) {
+                    key((row.xyz[a] - p).abs().to_bits());
                 }
             }
-        }
-        src.check()
-    })?;
-    Ok(f64::from_bits(bits))
+            src.check()
+        })?;
+    }
+    Ok(out)
 }
 
 /// One sensor of a streamed file: its three curves and its mean, or the still check's refusal.

@@ -1,10 +1,12 @@
-//! A recording too large to hold ([`super::source`]) corrected as it is read: one pass over
-//! the file ([`crate::input::text_source::TextSource::rows`]) corrects every sample and writes
-//! its line to a temporary file beside the output ([`AtomicWriter`]), folding on the way what
+//! The correction, written once: one pass over a recording's samples in order ([`Readings`]:
+//! a large file's rows read from it, [`crate::input::text_source::TextSource::rows`], or a
+//! recording held in memory, the one-chunk case [`super::correct_recording`] takes) corrects
+//! every sample and gives it out — for a file, its line to a temporary file beside the
+//! output ([`AtomicWriter`]) —, folding on the way what
 //! the checks need ([`super::checks`]: the readings' and temperatures' extremes, where the
 //! linear correction's magnitudes lie against ½–2 g, the first corrected value that is not
 //! finite or beyond ±16 g). The temporary file replaces the output only when every check
-//! passed, in the held path's order; nothing is written where the held path refuses.
+//! passed, in the order of [`super`]'s module docs; nothing is written where they refuse.
 //!
 //! Memory: a piece of the file and its parsed rows (`TextSource`), the write buffer and,
 //! with a temperature-rate term, the samples of ±15 s ([`RateRing`]) — not the samples.
@@ -18,6 +20,7 @@ use super::checks::{
 use super::regress::{RateRing, Ready, Regressors};
 use super::{applied, check_core_temperature, correct_at, csv, CorrectError, PLAUSIBLE_MEDIAN_G};
 use crate::error::{Error, Result};
+use crate::input::recording::Recording;
 use crate::input::text_source::TextSource;
 use crate::output::calfile::CalibrationFile;
 use crate::output::write::AtomicWriter;
@@ -50,7 +53,13 @@ pub fn correct_streamed(
         other => other.in_file(named),
     };
     let mut w = AtomicWriter::create(out)?;
-    let samples = correct_into(file, src, default_rate_hz, &mut w).map_err(in_file)?;
+    w.write_all(csv::HEADER).map_err(|e| w.error(e))?;
+    let samples = {
+        let mut write = |t: f64, a: &[f32; 3]| -> Result<()> {
+            csv::write_row(&mut w, t, a).map_err(|e| w.error(e))
+        };
+        correct_pass(file, src, default_rate_hz, &mut write).map_err(in_file)?
+    };
     w.commit()?;
     Ok(StreamedCorrection {
         samples,
@@ -83,9 +92,9 @@ struct Pass<'a> {
 }
 
 impl Pass<'_> {
-    /// One sample given out by the ring: corrected, folded, written while nothing is refused
-    /// yet (once a sample is, the file is never committed).
-    fn take(&mut self, r: Ready<Sample>, w: &mut AtomicWriter) -> Result<()> {
+    /// One sample given out by the ring: corrected, folded, given to `out` while nothing is
+    /// refused yet (once a sample is, the output is never used).
+    fn take(&mut self, r: Ready<Sample>, out: &mut Sink<'_>) -> Result<()> {
         let Sample { t, xyz, temp } = r.payload;
         let since = t - self.t0.unwrap_or(t);
         self.regressors
@@ -103,29 +112,104 @@ impl Pass<'_> {
         if self.unbounded.is_none() {
             self.unbounded = bad_output(r.index, t, &a, true);
             if self.unbounded.is_none() {
-                csv::write_row(w, t, &a).map_err(|e| w.error(e))?;
+                out(t, &a)?;
             }
         }
         Ok(())
     }
 }
 
-/// The pass ([`correct_streamed`]) into `w`, then the checks in the held path's order;
-/// returns the samples written.
-fn correct_into(
+/// Where the pass gives each corrected sample: its time (s, as the recording gives it) and
+/// acceleration (g).
+pub(crate) type Sink<'a> = dyn FnMut(f64, &[f32; 3]) -> Result<()> + 'a;
+
+/// What [`Readings::each`] gives every sample to: its time column's value, readings and
+/// temperature.
+pub(crate) type EachSample<'a> = dyn FnMut(Option<f64>, &[f64; 3], Option<f64>) -> Result<()> + 'a;
+
+/// A recording's samples in order, for [`correct_pass`]: read from a file in passes
+/// ([`TextSource`]) or held ([`Recording`]).
+pub(crate) trait Readings {
+    /// Samples.
+    fn len(&self) -> usize;
+    /// True with a temperature column.
+    fn has_temp(&self) -> bool;
+    /// The recording's sample rate, Hz, when it states one.
+    fn rate_hz(&self) -> Option<f64>;
+    /// True when the samples are in memory already (no bound on the ±15 s held for a rate).
+    fn held(&self) -> bool;
+    /// Every sample in order to `f` (its time column's value, readings, temperature),
+    /// stopping at `f`'s first error.
+    fn each(&self, f: &mut EachSample<'_>) -> Result<()>;
+    /// Refuses a source that changed since its first pass (a file rewritten).
+    fn check(&self) -> Result<()>;
+}
+
+impl Readings for TextSource {
+    fn len(&self) -> usize {
+        TextSource::len(self)
+    }
+    fn has_temp(&self) -> bool {
+        TextSource::has_temp(self)
+    }
+    fn rate_hz(&self) -> Option<f64> {
+        self.meta.sample_rate_hz
+    }
+    fn held(&self) -> bool {
+        false
+    }
+    fn each(&self, f: &mut EachSample<'_>) -> Result<()> {
+        self.rows().try_for_each(|row| f(row.t, &row.xyz, row.temp))
+    }
+    fn check(&self) -> Result<()> {
+        TextSource::check(self)
+    }
+}
+
+impl Readings for Recording {
+    fn len(&self) -> usize {
+        Recording::len(self)
+    }
+    fn has_temp(&self) -> bool {
+        self.temp.is_some()
+    }
+    fn rate_hz(&self) -> Option<f64> {
+        self.sample_rate_hz
+    }
+    fn held(&self) -> bool {
+        true
+    }
+    fn each(&self, f: &mut EachSample<'_>) -> Result<()> {
+        let at = |c: &Option<Vec<f64>>, i: usize| c.as_ref().and_then(|c| c.get(i).copied());
+        (self.xyz.iter().enumerate()).try_for_each(|(i, m)| f(at(&self.t, i), m, at(&self.temp, i)))
+    }
+    fn check(&self) -> Result<()> {
+        Ok(())
+    }
+}
+
+/// The correction of every sample of `src` with `file`, each given to `out`, then the checks
+/// in the order of [`super`]'s module docs; returns the samples corrected. Sample times as
+/// [`super::correct_recording`] takes them (the time column, else `i / rate` with the
+/// recording's rate, else `default_rate_hz`).
+pub(crate) fn correct_pass(
     file: &CalibrationFile,
-    src: &TextSource,
+    src: &impl Readings,
     default_rate_hz: f64,
-    w: &mut AtomicWriter,
+    out: &mut Sink<'_>,
 ) -> Result<usize> {
-    if src.is_empty() {
+    if src.len() == 0 {
         return Err(CorrectError::Empty.into());
     }
     check_core_temperature(file, src.has_temp())?;
     let regressors = Regressors::new(&file.host_terms, src.has_temp())?;
     let rate_term = regressors.rate_term().unwrap_or_default().to_string();
     let rate_term = || rate_term.clone();
-    let mut ring: RateRing<Sample> = RateRing::new(regressors.needs_rate());
+    let rates = regressors.needs_rate();
+    let mut ring: RateRing<Sample> = match src.held() {
+        true => RateRing::unbounded(rates),
+        false => RateRing::new(rates),
+    };
     let mut pass = Pass {
         file,
         xs: vec![0.0; regressors.len()],
@@ -137,23 +221,21 @@ fn correct_into(
         not_finite: None,
         unbounded: None,
     };
-    w.write_all(csv::HEADER).map_err(|e| w.error(e))?;
-    let fs = src.meta.sample_rate_hz.unwrap_or(default_rate_hz);
-    for (i, row) in src.rows().enumerate() {
-        let t = row.t.unwrap_or_else(|| i as f64 / fs);
+    let fs = src.rate_hz().unwrap_or(default_rate_hz);
+    let mut i = 0usize;
+    src.each(&mut |t, xyz, temp| {
+        let t = t.unwrap_or_else(|| i as f64 / fs);
+        i += 1;
         let t0 = *pass.t0.get_or_insert(t);
-        let s = Sample {
-            t,
-            xyz: row.xyz,
-            temp: row.temp,
-        };
-        ring.push(t - t0, row.temp.unwrap_or(0.0), s, &rate_term)?;
+        let s = Sample { t, xyz: *xyz, temp };
+        ring.push(t - t0, temp.unwrap_or(0.0), s, &rate_term)?;
         while let Some(r) = ring.pop(false) {
-            pass.take(r, w)?;
+            pass.take(r, out)?;
         }
-    }
+        Ok(())
+    })?;
     while let Some(r) = ring.pop(true) {
-        pass.take(r, w)?;
+        pass.take(r, out)?;
     }
     src.check()?;
     let n = src.len();
@@ -163,7 +245,7 @@ fn correct_into(
 
 /// The checks on what the pass folded, in the held path's order: units, a value that is not
 /// finite, the acceptance predicate, a value beyond ±16 g.
-fn check_after(pass: Pass<'_>, src: &TextSource) -> Result<()> {
+fn check_after(pass: Pass<'_>, src: &impl Readings) -> Result<()> {
     let cal = &pass.file.calibration;
     if !pass.units.surely_passes() {
         let median_g = streamed_median(src, |m| linear_norm(cal, m))?;
@@ -186,58 +268,25 @@ fn check_after(pass: Pass<'_>, src: &TextSource) -> Result<()> {
 
 /// The median of the finite values of `f` over the samples of `src` (the mean of the middle
 /// two for an even count, as [`super::checks::median`] takes it), selected by the bits of
-/// their order, none stored: a pass for the top 16 bits, three for the rest
-/// (`stats::kth_key_by_digits`), one for the next value up when the count is even.
-fn streamed_median(src: &TextSource, f: impl Fn(&[f64; 3]) -> f64) -> Result<Option<f64>> {
-    // The `total_cmp` order as unsigned integers.
-    let key = |x: f64| {
-        let b = x.to_bits() as i64;
-        ((b ^ (((b >> 63) as u64) >> 1) as i64) as u64) ^ (1 << 63)
+/// their order, none stored: a pass to count them, then [`crate::stats::OrderCounts::median`]
+/// (three passes for a middle value, one for the next value up when the count is even).
+fn streamed_median(src: &impl Readings, f: impl Fn(&[f64; 3]) -> f64) -> Result<Option<f64>> {
+    use crate::stats::{from_order_key, order_key, OrderCounts};
+    let keys = |key: &mut dyn FnMut(u64)| {
+        src.each(&mut |_, xyz, _| {
+            let v = f(xyz);
+            if v.is_finite() {
+                key(order_key(v));
+            }
+            Ok(())
+        })?;
+        src.check()
     };
-    let value = |k: u64| {
-        let b = k ^ (1 << 63);
-        f64::from_bits(b ^ ((((b as i64) >> 63) as u64) >> 1))
-    };
-    let keys = || {
-        src.rows()
-            .map(|r| f(&r.xyz))
-            .filter(|v| v.is_finite())
-            .map(key)
-    };
-    let mut top = vec![0usize; 1 << 16];
-    let mut n = 0usize;
-    for k in keys() {
-        top[(k >> 48) as usize] += 1;
-        n += 1;
-    }
-    src.check()?;
-    if n == 0 {
+    // No count by value: the norms of a recording are all distinct.
+    let mut counts = OrderCounts::new(0);
+    keys(&mut |k| counts.push(k))?;
+    if counts.len == 0 {
         return Ok(None);
     }
-    let lower = crate::stats::kth_key_by_digits(&top, (n - 1) / 2, |shift, prefix, hist| {
-        for k in keys().filter(|k| k >> (shift + 16) == prefix) {
-            hist[((k >> shift) & 0xffff) as usize] += 1;
-        }
-        src.check()
-    })?;
-    let upper = if n % 2 == 1 {
-        lower
-    } else {
-        // Rank n/2: the same value when more than n/2 keys are at most it, else the next one.
-        let (mut at_most, mut next) = (0usize, u64::MAX);
-        for k in keys() {
-            if k <= lower {
-                at_most += 1;
-            } else {
-                next = next.min(k);
-            }
-        }
-        src.check()?;
-        if at_most > n / 2 {
-            lower
-        } else {
-            next
-        }
-    };
-    Ok(Some((value(lower) + value(upper)) / 2.0))
+    counts.median(from_order_key, keys).map(Some)
 }

@@ -1,0 +1,77 @@
+//! How the front door reads a file: the size from which plain text is streamed, the bound on
+//! a copy of standard input, and how a streamed file's later passes get their rows. These
+//! were environment variables; they are options now, set by the CLI's (hidden) flags and the
+//! Python package's keyword arguments, so that a library call does what its arguments say and
+//! nothing in the environment changes it. The defaults are the reading every command does.
+
+/// Plain text files at least this large (bytes) are streamed ([`ReadOptions::stream_from_bytes`]):
+/// `fit` and `analyze` read them in passes with memory bounded by a piece and the windows,
+/// where holding the rows would take ~1.5× the file. Smaller files are held: one read,
+/// no re-parse per pass.
+pub const STREAM_FROM_BYTES: u64 = 128 << 20;
+
+/// The most of standard input copied to a temporary file (bytes; 64 GiB: a month of 100 Hz
+/// CSV is ~9 GB): an endless stream (`yes 1,2,3`) must end in a sentence, not in a full disk.
+pub const MAX_SPOOL_BYTES: u64 = 64 << 30;
+
+/// Where the first pass over a streamed text file keeps the rows it parsed, for the later
+/// passes to read back instead of parsing the text again (the same values bit for bit).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum SpillMode {
+    /// In memory while they fit (`text_spill`'s memory bound), else in a temporary file;
+    /// with no temporary directory or a full disk, the later passes re-parse the text.
+    #[default]
+    Auto,
+    /// Not kept: every later pass re-reads and re-parses the text (benchmarks compare the two;
+    /// a test rewrites the file under a pass).
+    Off,
+    /// Always in the temporary file, whatever their size (benchmarks).
+    Disk,
+}
+
+/// How [`crate::input::front_door`] reads: carried by [`crate::LoadOptions::read`] to every
+/// reader. `ReadOptions::default()` is what every command does unless told otherwise.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ReadOptions {
+    /// Size, in bytes, from which a plain text file is streamed (read in passes) rather than
+    /// held, and up to which standard input is held (at most the size limit of files read
+    /// whole) rather than copied to a temporary file. `0` streams every plain text file,
+    /// `u64::MAX` none (tests and benchmarks that compare the two paths on one file).
+    /// Default [`STREAM_FROM_BYTES`] (128 MiB).
+    pub stream_from_bytes: u64,
+    /// The most bytes of standard input copied to a temporary file before the read is
+    /// refused with a sentence. Default [`MAX_SPOOL_BYTES`] (64 GiB).
+    pub max_spool_bytes: u64,
+    /// Where a streamed file's first pass keeps its rows. Default [`SpillMode::Auto`].
+    pub spill: SpillMode,
+    /// Parse a streamed file's next piece on a thread of its own while a pass goes through
+    /// the one before (`false`: every pass parses its pieces itself, one after another; for
+    /// benchmarks). Default `true`.
+    pub parse_ahead: bool,
+}
+
+impl Default for ReadOptions {
+    fn default() -> Self {
+        Self {
+            stream_from_bytes: STREAM_FROM_BYTES,
+            max_spool_bytes: MAX_SPOOL_BYTES,
+            spill: SpillMode::Auto,
+            parse_ahead: true,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The defaults are the values the environment variables fell back to.
+    #[test]
+    fn defaults_are_todays_reading() {
+        let d = ReadOptions::default();
+        assert_eq!(d.stream_from_bytes, 128 * 1024 * 1024);
+        assert_eq!(d.max_spool_bytes, 64 * 1024 * 1024 * 1024);
+        assert_eq!(d.spill, SpillMode::Auto);
+        assert!(d.parse_ahead);
+    }
+}
