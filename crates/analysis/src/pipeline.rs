@@ -11,6 +11,7 @@ use crate::detect::windows::Windows;
 use crate::error::Result;
 use crate::input::front_door::Input;
 use crate::input::table::WindowTable;
+use crate::protocol::sensor_kind::explain;
 use crate::report::verdict::Quality;
 use crate::{AnalyzeOptions, AnalyzeReport, FitOptions, FitReport};
 use serde::Serialize;
@@ -30,27 +31,28 @@ pub struct Judged<R> {
 /// `wiical fit`: static windows (or the table's rows) → the 9- or 6-parameter calibration,
 /// judged on its poses.
 pub fn fit_judged(input: &Input, opts: &FitOptions) -> Result<Judged<FitReport>> {
-    let ws = match input {
-        Input::Table(table) => return judged_free(fit_table(table, opts)?),
+    let judged = |r: crate::protocol::accel::AccelResult| Judged {
+        report: r.report,
+        quality: r.quality,
+    };
+    match input {
+        Input::Table(table) => judged_free(fit_table(table, opts)?),
         Input::Samples(rec) => {
             if rec.labels.is_some() {
                 return Err(crate::error::fit::FitError::PoseTable { rows: rec.len() }.into());
             }
             let ws = crate::detect::windows::detect_windows_untimed(rec, &opts.detect)?;
-            return crate::protocol::accel::fit_by_protocol(&ws, opts)
-                .map(|r| Judged {
-                    report: r.report,
-                    quality: r.quality,
-                })
-                .map_err(|e| crate::protocol::sensor_kind::explain(e, rec, &ws));
+            crate::protocol::accel::fit_by_protocol(&ws, opts)
+                .map(judged)
+                .map_err(|e| explain(e, &rec.axis_columns, rec.xyz.as_slice(), &ws))
         }
-        Input::Stream(src) => crate::detect::streamed::detect_windows_streamed(src, &opts.detect)?,
-    };
-    let r = crate::protocol::accel::fit_by_protocol(&ws, opts)?;
-    Ok(Judged {
-        report: r.report,
-        quality: r.quality,
-    })
+        Input::Stream(src) => {
+            let ws = crate::detect::streamed::detect_windows_streamed(src, &opts.detect)?;
+            crate::protocol::accel::fit_by_protocol(&ws, opts)
+                .map(judged)
+                .map_err(|e| explain(e, &src.meta.axis_columns, &**src, &ws))
+        }
+    }
 }
 
 /// A free-pose fit report judged on its poses by the default coverage rule.
@@ -67,15 +69,20 @@ fn judged_free(report: FitReport) -> Result<Judged<FitReport>> {
 pub fn analyze_judged(input: &Input, opts: &AnalyzeOptions) -> Result<Judged<AnalyzeReport>> {
     let report = match input {
         Input::Table(t) => analyze_table(t, opts)?,
+        // On a refusal, the windows again (only then) to say whether the samples look like
+        // another sensor's.
         Input::Samples(rec) => crate::analyze(rec, opts).map_err(|e| {
-            // The windows again, only on the way out (a refusal): to say whether the samples
-            // look like another sensor's.
             match crate::detect::windows::detect_windows_untimed(rec, &opts.fit.detect) {
-                Ok(ws) => crate::protocol::sensor_kind::explain(e, rec, &ws),
+                Ok(ws) => explain(e, &rec.axis_columns, rec.xyz.as_slice(), &ws),
                 Err(_) => e,
             }
         })?,
-        Input::Stream(src) => crate::search::analyze::analyze_streamed(src, opts)?,
+        Input::Stream(src) => crate::search::analyze::analyze_streamed(src, opts).map_err(|e| {
+            match crate::detect::streamed::detect_windows_streamed(src, &opts.fit.detect) {
+                Ok(ws) => explain(e, &src.meta.axis_columns, &**src, &ws),
+                Err(_) => e,
+            }
+        })?,
     };
     let quality = match &report.six_position {
         Some(six) => Quality::assess_with(

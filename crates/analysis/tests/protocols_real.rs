@@ -194,11 +194,17 @@ fn xsens_one_pose_gives_offsets_and_the_gyro_bias() {
 /// not a pose advice.
 #[test]
 fn header_less_gyro_and_magnetometer_files_are_named_in_the_refusal() {
+    let mut streamed_some = false;
     for (rel, says) in [
         ("imu_tk_xsens/xsens_gyro.mat", "if this is a gyroscope"),
         (
             "mag_ellipsoid_fit_python/mag_out.txt",
             "if this is a magnetometer, run `wiical magfit`",
+        ),
+        // A CSV naming only a magnetometer (taken for the accelerometer): it also streams.
+        (
+            "freeimucal_gearvr/mag_sphere.csv",
+            "if this is a magnetometer",
         ),
     ] {
         let rec = load(&data_dir().join(rel), &LoadOptions::default()).unwrap();
@@ -207,5 +213,36 @@ fn header_less_gyro_and_magnetometer_files_are_named_in_the_refusal() {
             .unwrap_or_else(|| panic!("{rel}: calibrated as an accelerometer"))
             .to_string();
         assert!(err.contains(says), "{rel}: {err}");
+        // Read in passes (as a file of 128 MiB and more is), the same words, for `fit` and
+        // `analyze` alike.
+        use wiical_analysis::input::front_door::load_input_from;
+        use wiical_analysis::pipeline::analyze_judged;
+        let opts = wiical_analysis::input::window_means::WindowInputOptions::default();
+        let path = data_dir().join(rel);
+        let streamed = load_input_from(&path, &opts, 0).unwrap();
+        if !matches!(streamed, Input::Stream(_)) {
+            // Whitespace text (`.mat`, `.txt`) is read whole at any size.
+            continue;
+        }
+        streamed_some = true;
+        let held = load_input_from(&path, &opts, u64::MAX).unwrap();
+        let fit_err = |i: &Input| {
+            fit_judged(i, &Default::default())
+                .err()
+                .map(|e| e.to_string())
+        };
+        assert_eq!(fit_err(&streamed), Some(err.clone()), "{rel}");
+        let analyze_err = |i: &Input| {
+            analyze_judged(i, &Default::default())
+                .err()
+                .map(|e| e.to_string())
+        };
+        let held_analyze = analyze_err(&held);
+        assert!(
+            held_analyze.as_ref().is_some_and(|e| e.contains(says)),
+            "{rel}: {held_analyze:?}"
+        );
+        assert_eq!(analyze_err(&streamed), held_analyze, "{rel}");
     }
+    assert!(streamed_some, "no file was read in passes");
 }

@@ -10,8 +10,8 @@
 //! - **A gyroscope**: every still window reads the same vector (its zero rate) while the
 //!   signal between them moves far from it. An accelerometer turned between rests reads
 //!   gravity in a new direction at each: its rests differ by up to 2 g, as far as it moves.
-//!   Rule: at least [`MIN_RESTS`] windows, and the samples' 99th-percentile distance from the
-//!   rests' median at least [`GYRO_REACH_RATIO`] times the rests' largest distance from it;
+//!   Rule: at least [`MIN_RESTS`] windows, and at least [`MIN_FAR_FRACTION`] of the samples
+//!   farther from the rests' median than [`GYRO_REACH_RATIO`] times the farthest rest;
 //!   and the rests do not read 1 g (units judged `g` or `m/s^2` mean that they do: an
 //!   accelerometer shaken between rests in one pose, as the GRT's Wii Remote shake log).
 //! - **A magnetometer**: the samples lie on one ellipsoid, and it rests in fewer than
@@ -19,21 +19,29 @@
 //!   for calibration rests in many; one in motion reads its own acceleration as well, off the
 //!   ellipsoid. Rule: at least [`MIN_SAMPLES`] samples, the rotated ellipsoid's fit error
 //!   (MATLAB `magcal`'s, as `magfit` prints it) under [`MAX_ELLIPSOID_ERROR_PCT`] % of its
-//!   radius, and fewer than [`MIN_RESTS`] still windows whose mean lies on it (within that
-//!   share of the radius; the detector may call a stretch of sparse points "still", whose
-//!   mean then lies inside the ellipsoid, not on it).
+//!   radius, the samples around it in every direction (each axis of `n̂` beyond ±0.5: a blob
+//!   in one pose fits an ellipsoid of its noise, not of a field), and fewer than
+//!   [`MIN_RESTS`] still windows whose mean lies on it (within that share of the radius; the
+//!   detector may call a stretch of sparse points "still", whose mean then lies inside the
+//!   ellipsoid, not on it).
+//!
+//! Both read the samples in passes ([`SampleSource`]: a held recording's slice or a large
+//! file's rows), so that a file read in passes is refused with the held path's words.
 
 use crate::detect::windows::Windows;
 use crate::error::fit::FitError;
 use crate::input::columns::{all_named, Sensor};
-use crate::input::recording::Recording;
-use crate::magnetometer::fit::fit_points;
+use crate::input::text_source::TextSource;
+use crate::magnetometer::fit::{FitFold, QualityFold};
 use crate::magnetometer::model::MagModel;
+use wiical_core::magfit::MagFit;
 
 /// Still windows needed to say that the rests read alike.
 pub const MIN_RESTS: usize = 3;
-/// How much farther the samples must reach than the rests spread (a factor).
+/// How much farther than the farthest rest the far samples lie (a factor).
 pub const GYRO_REACH_RATIO: f64 = 20.0;
+/// Share of the samples that must lie that far.
+pub const MIN_FAR_FRACTION: f64 = 0.01;
 /// Fewest samples for the magnetometer's signature (an ellipsoid has 9 parameters).
 pub const MIN_SAMPLES: usize = 50;
 /// Largest ellipsoid fit error (percent of the radius) for the magnetometer's signature.
@@ -50,8 +58,8 @@ pub enum OtherSensor {
         rests: usize,
         /// Largest distance of a rest from the rests' median, in the file's units.
         rest_spread: f64,
-        /// 99th percentile of the samples' distance from that median, same units.
-        reach: f64,
+        /// Share of the samples farther than [`GYRO_REACH_RATIO`] × `rest_spread` from it.
+        far_fraction: f64,
     },
     /// On one ellipsoid, resting on it in fewer than [`MIN_RESTS`] orientations.
     Magnetometer {
@@ -73,11 +81,12 @@ impl OtherSensor {
                 units,
                 rests,
                 rest_spread,
-                reach,
+                far_fraction,
             } => format!(
-                "{taken}; all {rests} still windows read the same (within {} {units}) while the samples between them reach {} {units} away: a gyroscope reads its zero rate at every rest, an accelerometer turned between rests reads gravity in a new direction at each; if this is a gyroscope, calibrate it with `wiical gyrofit` (one file with accelerometer and gyroscope columns, or the accelerometer's file and this one)",
+                "{taken}; all {rests} still windows read the same (within {} {units}) while {:.0} % of the samples lie more than {} {units} ({GYRO_REACH_RATIO}×) away: a gyroscope reads its zero rate at every rest, an accelerometer turned between rests reads gravity in a new direction at each; if this is a gyroscope, calibrate it with `wiical gyrofit` (one file with accelerometer and gyroscope columns, or the accelerometer's file and this one)",
                 sig3(*rest_spread),
-                sig3(*reach)
+                100.0 * far_fraction,
+                sig3(GYRO_REACH_RATIO * rest_spread)
             ),
             OtherSensor::Magnetometer {
                 samples,
@@ -90,24 +99,54 @@ impl OtherSensor {
     }
 }
 
-/// The sensor `rec` looks like when its axis columns do not name the accelerometer (`None`
-/// when they do, or when neither signature holds). `ws`: its still windows.
-pub fn other_sensor(rec: &Recording, ws: &Windows) -> Option<OtherSensor> {
-    if all_named(&rec.axis_columns, Sensor::Accelerometer) || rec.xyz.is_empty() {
-        return None;
-    }
-    gyroscope(rec, ws).or_else(|| magnetometer(rec, ws))
+/// The samples the signatures read, in passes: a held recording's, or a large file's rows.
+pub trait SampleSource {
+    /// Calls `f` with every sample in order; a file's error (changed, unreadable) ends it.
+    fn each(&self, f: &mut dyn FnMut(&[f64; 3])) -> crate::Result<()>;
 }
 
-/// `err` (the accelerometer's fit refusing `rec`) with the other sensor's evidence in front,
-/// when there is some ([`other_sensor`]); otherwise `err` unchanged.
-pub fn explain(err: crate::Error, rec: &Recording, ws: &Windows) -> crate::Error {
+impl SampleSource for [[f64; 3]] {
+    fn each(&self, f: &mut dyn FnMut(&[f64; 3])) -> crate::Result<()> {
+        self.iter().for_each(f);
+        Ok(())
+    }
+}
+
+impl SampleSource for TextSource {
+    fn each(&self, f: &mut dyn FnMut(&[f64; 3])) -> crate::Result<()> {
+        self.rows().for_each(|r| f(&r.xyz));
+        self.check()
+    }
+}
+
+/// The sensor the samples `src` (columns `columns`, still windows `ws`) look like when the
+/// columns do not name the accelerometer (`None` when they do, or when neither signature
+/// holds, or when the file cannot be read again).
+pub fn other_sensor(
+    columns: &[String; 3],
+    src: &(impl SampleSource + ?Sized),
+    ws: &Windows,
+) -> Option<OtherSensor> {
+    if all_named(columns, Sensor::Accelerometer) {
+        return None;
+    }
+    gyroscope(src, ws).or_else(|| magnetometer(src, ws))
+}
+
+/// `err` (the accelerometer's fit refusing the samples `src`) with the other sensor's
+/// evidence in front, when there is some ([`other_sensor`]); otherwise `err` unchanged.
+pub fn explain(
+    err: crate::Error,
+    columns: &[String; 3],
+    src: &(impl SampleSource + ?Sized),
+    ws: &Windows,
+) -> crate::Error {
     let crate::Error::Fit(fit) = err else {
         return err;
     };
-    match other_sensor(rec, ws) {
+    match other_sensor(columns, src, ws) {
         Some(other) => FitError::AnotherSensor {
-            evidence: other.sentence(&rec.axis_columns),
+            evidence: other.sentence(columns),
             fit: Box::new(fit),
         }
         .into(),
@@ -130,7 +169,7 @@ fn taken(columns: &[String; 3]) -> String {
     }
 }
 
-fn gyroscope(rec: &Recording, ws: &Windows) -> Option<OtherSensor> {
+fn gyroscope(src: &(impl SampleSource + ?Sized), ws: &Windows) -> Option<OtherSensor> {
     if ws.stats.len() < MIN_RESTS || crate::protocol::offsets::one_g(ws.units).is_some() {
         return None;
     }
@@ -138,32 +177,77 @@ fn gyroscope(rec: &Recording, ws: &Windows) -> Option<OtherSensor> {
         let v: Vec<f64> = ws.stats.iter().map(|w| w.mean[k]).collect();
         crate::stats::median(&v)
     });
-    let dist = |p: &[f64; 3]| {
-        let d = [p[0] - centre[0], p[1] - centre[1], p[2] - centre[2]];
-        (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt()
-    };
-    let rest_spread = ws.stats.iter().map(|w| dist(&w.mean)).fold(0.0, f64::max);
-    let mut reach: Vec<f64> = rec.xyz.iter().map(dist).collect();
-    let k = (reach.len() - 1) * 99 / 100;
-    let (_, p99, _) = reach.select_nth_unstable_by(k, f64::total_cmp);
-    let reach = *p99;
-    (reach.is_finite() && reach > 0.0 && reach >= GYRO_REACH_RATIO * rest_spread).then_some(
+    let rest_spread = ws
+        .stats
+        .iter()
+        .map(|w| distance(&w.mean, &centre))
+        .fold(0.0, f64::max);
+    let far = GYRO_REACH_RATIO * rest_spread;
+    let (mut n, mut beyond) = (0usize, 0usize);
+    src.each(&mut |m| {
+        n += 1;
+        beyond += usize::from(distance(m, &centre) > far);
+    })
+    .ok()?;
+    let far_fraction = beyond as f64 / n.max(1) as f64;
+    (rest_spread.is_finite() && n > 0 && far_fraction >= MIN_FAR_FRACTION).then_some(
         OtherSensor::Gyroscope {
             units: ws.units,
             rests: ws.stats.len(),
             rest_spread,
-            reach,
+            far_fraction,
         },
     )
 }
 
-fn magnetometer(rec: &Recording, ws: &Windows) -> Option<OtherSensor> {
-    let samples = rec.xyz.len();
+fn distance(a: &[f64; 3], b: &[f64; 3]) -> f64 {
+    let d = [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
+    (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt()
+}
+
+/// Which directions of `n̂ = W(m − c)/‖W(m − c)‖` the samples reach: per axis, beyond +0.5
+/// and beyond −0.5.
+#[derive(Default)]
+struct Directions([[bool; 2]; 3]);
+
+impl Directions {
+    fn push(&mut self, fit: &MagFit, m: &[f64; 3]) {
+        let v = fit.apply(m.map(|x| x as f32)).map(f64::from);
+        let norm = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+        if norm > 0.0 && norm.is_finite() {
+            for a in 0..3 {
+                self.0[a][0] |= v[a] / norm > 0.5;
+                self.0[a][1] |= v[a] / norm < -0.5;
+            }
+        }
+    }
+
+    fn all(&self) -> bool {
+        self.0.iter().flatten().all(|x| *x)
+    }
+}
+
+fn magnetometer(src: &(impl SampleSource + ?Sized), ws: &Windows) -> Option<OtherSensor> {
+    let mut fold = FitFold::new(MagModel::Ellipsoid);
+    let mut samples = 0usize;
+    src.each(&mut |m| {
+        samples += 1;
+        fold.push(m);
+    })
+    .ok()?;
     if samples < MIN_SAMPLES {
         return None;
     }
-    let fit = fit_points(&rec.xyz, MagModel::Ellipsoid).ok()?;
-    if !(fit.fit_error_pct < MAX_ELLIPSOID_ERROR_PCT && fit.radius > 0.0) {
+    let solved = fold.solve().ok()?;
+    let mut quality = QualityFold::new(solved);
+    let mut directions = Directions::default();
+    src.each(&mut |m| {
+        quality.push(m);
+        directions.push(&solved, m);
+    })
+    .ok()?;
+    let fit = quality.report(MagModel::Ellipsoid, samples).ok()?;
+    if !(fit.fit_error_pct < MAX_ELLIPSOID_ERROR_PCT && fit.radius > 0.0 && directions.all()) {
         return None;
     }
     let on_surface = |m: &[f64; 3]| {
@@ -193,6 +277,7 @@ fn sig3(x: f64) -> String {
 mod tests {
     use super::*;
     use crate::detect::windows::detect_windows_untimed;
+    use crate::input::recording::Recording;
     use rand::{Rng, SeedableRng};
     use rand_distr::{Distribution, Normal};
 
@@ -208,7 +293,7 @@ mod tests {
     fn judged(xyz: Vec<[f64; 3]>) -> Option<OtherSensor> {
         let rec = recording(xyz);
         let ws = detect_windows_untimed(&rec, &Default::default()).expect("windows");
-        other_sensor(&rec, &ws)
+        other_sensor(&rec.axis_columns, rec.xyz.as_slice(), &ws)
     }
 
     /// `n` samples of `f(i)` plus white noise of `sd`.
@@ -248,7 +333,10 @@ mod tests {
         let ws = detect_windows_untimed(&rec, &Default::default()).expect("windows");
         // The rests were found (so the gyroscope's rule was put to the test) ...
         assert!(ws.stats.len() >= MIN_RESTS, "{} windows", ws.stats.len());
-        assert_eq!(other_sensor(&rec, &ws), None);
+        assert_eq!(
+            other_sensor(&rec.axis_columns, rec.xyz.as_slice(), &ws),
+            None
+        );
     }
 
     /// An accelerometer (g) shaken between rests in one pose (the GRT's Wii Remote shake
@@ -272,7 +360,10 @@ mod tests {
             ws.stats.len(),
             ws.units
         );
-        assert_eq!(other_sensor(&rec, &ws), None);
+        assert_eq!(
+            other_sensor(&rec.axis_columns, rec.xyz.as_slice(), &ws),
+            None
+        );
     }
 
     /// A gyroscope (counts about a zero rate of 32768): 3-s rests at the zero rate, 1-s turns
@@ -292,14 +383,14 @@ mod tests {
         match judged(xyz) {
             Some(OtherSensor::Gyroscope {
                 rests,
-                reach,
+                far_fraction,
                 rest_spread,
                 ..
             }) => {
                 assert!(rests >= 10, "{rests} rests");
                 assert!(
-                    reach > 1000.0 && rest_spread < 20.0,
-                    "{reach} {rest_spread}"
+                    far_fraction > 0.1 && rest_spread < 20.0,
+                    "{far_fraction} {rest_spread}"
                 );
             }
             other => panic!("{other:?}"),
@@ -357,10 +448,13 @@ mod tests {
         let mut rec = recording(xyz);
         let ws = detect_windows_untimed(&rec, &Default::default()).expect("windows");
         assert!(
-            other_sensor(&rec, &ws).is_some(),
+            other_sensor(&rec.axis_columns, rec.xyz.as_slice(), &ws).is_some(),
             "the unnamed file shows the signature"
         );
         rec.axis_columns = ["ax".into(), "ay".into(), "az".into()];
-        assert_eq!(other_sensor(&rec, &ws), None);
+        assert_eq!(
+            other_sensor(&rec.axis_columns, rec.xyz.as_slice(), &ws),
+            None
+        );
     }
 }
