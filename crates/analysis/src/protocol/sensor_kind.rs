@@ -215,9 +215,9 @@ impl Directions {
         let v = fit.apply(m.map(|x| x as f32)).map(f64::from);
         let norm = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
         if norm > 0.0 && norm.is_finite() {
-            for a in 0..3 {
-                self.0[a][0] |= v[a] / norm > 0.5;
-                self.0[a][1] |= v[a] / norm < -0.5;
+            for (seen, x) in self.0.iter_mut().zip(v) {
+                seen[0] |= x / norm > 0.5;
+                seen[1] |= x / norm < -0.5;
             }
         }
     }
