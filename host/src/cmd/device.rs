@@ -315,6 +315,23 @@ fn checked_for_put(path: &std::path::Path, force: bool) -> Result<CalibrationFil
     Ok(file)
 }
 
+/// The file `put` / `commit` uploads, read and judged: an accelerometer calibration, or a
+/// gyro calibration (told by its content, [`device_gyro::is_gyro_file`]); neither for the
+/// other actions.
+fn read_upload(
+    action: &DeviceAction,
+) -> Result<(Option<CalibrationFile>, Option<device_gyro::GyroPut>)> {
+    let (DeviceAction::Put { file, force, .. } | DeviceAction::Commit { file, force }) = action
+    else {
+        return Ok((None, None));
+    };
+    Ok(if device_gyro::is_gyro_file(file) {
+        (None, Some(device_gyro::checked_for_put(file, *force)?))
+    } else {
+        (Some(checked_for_put(file, *force)?), None)
+    })
+}
+
 /// Run `wiical device …`. Streamed samples are written to `out` as they arrive; the
 /// returned text is printed afterwards.
 pub fn run(args: &DeviceArgs, out: &mut dyn Write) -> Result<String> {
@@ -328,17 +345,7 @@ pub fn run(args: &DeviceArgs, out: &mut dyn Write) -> Result<String> {
     };
     // A calibration file is read and judged before the adapter is even opened; a gyro file
     // (told by its content) goes its own way.
-    let mut to_put = None;
-    let mut gyro = None;
-    if let DeviceAction::Put { file, force, .. } | DeviceAction::Commit { file, force } =
-        &args.action
-    {
-        if device_gyro::is_gyro_file(file) {
-            gyro = Some(device_gyro::checked_for_put(file, *force)?);
-        } else {
-            to_put = Some(checked_for_put(file, *force)?);
-        }
-    }
+    let (to_put, gyro) = read_upload(&args.action)?;
     let (mut dev, hello) = Device::connect(port, opts)?;
     let json = args.json;
     if let Some(g) = &gyro {
