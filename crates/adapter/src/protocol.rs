@@ -42,6 +42,8 @@
 //! boot. A staged gyro calibration belongs to its session as the accelerometer's does. The
 //! live one is for the MotionPlus's corrector ([`crate::GyroCorrector::set_calibration`]),
 //! which the firmware does not run yet ([`Protocol::gyro_calibration`] hands it over).
+//! Without the crate's `gyro-calibration` feature (default on; the RP2040 firmware leaves it
+//! out for its flash budget) the three requests answer `UnsupportedRequest`.
 //!
 //! ## Background recalibration (protocol 5)
 //! Every report outside a C + Z session also ticks the background recalibration
@@ -73,7 +75,7 @@ use crate::error::{Error, RecordError};
 use crate::poller::{NunchukInfo, PollEvent};
 use crate::selfcal::{SelfCal, SelfCalConfig, SelfCalResult, SelfCalStatus};
 use crate::settings::StoredSettings;
-use crate::store::{CalibrationStore, Loaded, LoadedGyro};
+use crate::store::{CalibrationStore, Loaded};
 
 /// Identity and timing of the adapter, reported in the Hello exchange.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -183,6 +185,8 @@ pub struct Protocol<F: NorFlash> {
 }
 
 /// The MotionPlus's gyro calibration as the protocol keeps it (protocol 7).
+// Without the `gyro-calibration` feature nothing is ever staged.
+#[cfg_attr(not(feature = "gyro-calibration"), allow(dead_code))]
 struct GyroState {
     /// The committed one in force (`None`: the rates pass through uncorrected).
     live: Option<GyroCorrection<f32>>,
@@ -195,7 +199,9 @@ struct GyroState {
 impl GyroState {
     /// Reads the stored gyro record and judges it again with the MotionPlus limits: a
     /// damaged, unknown or implausible record leaves no gyro calibration.
+    #[cfg(feature = "gyro-calibration")]
     async fn boot<F: NorFlash>(store: &mut CalibrationStore<F>) -> Self {
+        use crate::store::LoadedGyro;
         let (live, boot) = match store.load_gyro().await {
             Ok(LoadedGyro::Empty) => (None, BootLoad::Empty),
             Ok(LoadedGyro::Calibration(cal)) => match Acceptance::motionplus().check_gyro(&cal) {
@@ -212,6 +218,16 @@ impl GyroState {
             live,
             staged: None,
             boot,
+        }
+    }
+
+    /// Without the `gyro-calibration` feature: no gyro calibration, the record not read.
+    #[cfg(not(feature = "gyro-calibration"))]
+    async fn boot<F: NorFlash>(_: &mut CalibrationStore<F>) -> Self {
+        Self {
+            live: None,
+            staged: None,
+            boot: BootLoad::Empty,
         }
     }
 }

@@ -171,8 +171,9 @@ pub fn encode_gyro_record(cal: &GyroCorrection<f32>) -> [u8; GYRO_RECORD_LEN] {
     out
 }
 
-/// Parse and check a gyro record: length, magic, version, payload length, CRC, then
-/// `GyroCorrection::validate`. Any failure is an error (the caller then runs without a gyro
+/// Parse and check a gyro record: length, magic, version, payload length, CRC, then usable
+/// (finite, `K` invertible: what `GyroCorrection::validate` checks of a calibration without
+/// terms). Any failure is an error (the caller then runs without a gyro
 /// calibration: the MotionPlus's rates pass through). Never panics, whatever the bytes.
 pub fn decode_gyro_record(bytes: &[u8]) -> Result<GyroCorrection<f32>, RecordError> {
     if bytes.len() < 8 {
@@ -198,7 +199,15 @@ pub fn decode_gyro_record(bytes: &[u8]) -> Result<GyroCorrection<f32>, RecordErr
         *x = f32::from_le_bytes([chunk[0], chunk[1], chunk[2], chunk[3]]);
     }
     let cal = GyroCorrection::from_floats(&f);
-    cal.validate().map_err(RecordError::Invalid)?;
+    // Usable: finite, `K` invertible (checked as the accelerometer's `K` is, with the code the
+    // firmware links for it; the record holds no g-sensitivity to bound).
+    Calibration {
+        bias: cal.bias,
+        matrix: cal.matrix,
+        effects: Calibration::identity().effects,
+    }
+    .validate()
+    .map_err(RecordError::Invalid)?;
     Ok(cal)
 }
 

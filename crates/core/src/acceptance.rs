@@ -185,8 +185,8 @@ impl Acceptance {
     }
 
     /// Accept or refuse a gyro calibration for a device that applies `K·(m − b)` only: usable
-    /// (finite, `K` invertible, each g-sensitivity coefficient within its bound,
-    /// [`GyroCorrection::validate`]), then the linear part judged as [`Self::check`] judges
+    /// (finite, `K` invertible, each g-sensitivity coefficient within its bound: what
+    /// `GyroCorrection::validate` checks), then the linear part judged as [`Self::check`] judges
     /// an accelerometer's (offsets in counts, the forward matrix `K⁻¹`'s diagonal against
     /// [`Self::nominal_sensitivity`] in counts per rad/s, its cross-axis terms, the output
     /// bound in rad/s). The g-sensitivity is not part of what such a device applies, so it is
@@ -195,7 +195,16 @@ impl Acceptance {
         &self,
         cal: &crate::gyro_correct::GyroCorrection<f32>,
     ) -> Result<(), Rejection> {
-        cal.validate().map_err(Rejection::Unusable)?;
+        // `GyroCorrection::validate`'s checks, the invertibility left to `check`'s own
+        // (`Calibration::validate`): one inversion code in a firmware that links both.
+        if !cal.floats().iter().all(|x| x.is_finite()) {
+            return Err(Rejection::Unusable(Error::NonFinite));
+        }
+        let bound = crate::gyro_correct::G_SENSITIVITY_MAX as f32;
+        let g = &cal.effects.g_sensitivity;
+        if g.as_flattened().iter().any(|x| libm::fabsf(*x) > bound) {
+            return Err(Rejection::Unusable(Error::InvalidParameter));
+        }
         let linear = Calibration {
             bias: cal.bias,
             matrix: cal.matrix,

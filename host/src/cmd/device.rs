@@ -602,8 +602,7 @@ fn get(dev: &mut Device, port: &str, file: Option<&std::path::Path>, json: bool)
     };
     // The MotionPlus's gyro calibration (protocol 7), shown only when the adapter holds one
     // (or refused its record): otherwise the output is what it was before it existed.
-    let g = dev.get_gyro_calibration()?;
-    let gyro = device_gyro::has_news(&g).then_some(g);
+    let gyro = device_gyro::state(dev)?.filter(device_gyro::has_news);
     if json {
         // Without a gyro calibration the JSON is byte for byte what it was.
         let Some(g) = &gyro else {

@@ -15,10 +15,10 @@ use anyhow::{bail, Result};
 use wiical_analysis::input::bounded::{read_text, MAX_CALIBRATION_BYTES};
 use wiical_analysis::output::gyrocal::{self, MotionPlusGyro};
 use wiical_core::acceptance::Acceptance;
-use wiical_wire::{BootRecord, GyroCalibrationState, WireGyroCalibration};
+use wiical_wire::{BootRecord, ErrorCode, GyroCalibrationState, WireGyroCalibration};
 
 use crate::cli_error::cli_error;
-use crate::client::{same_gyro_bits, Device};
+use crate::client::{same_gyro_bits, ClientError, Device};
 use crate::cmd::to_json;
 
 /// The names of the count axes, in report order.
@@ -189,6 +189,19 @@ fn fmt_gyro(o: &mut String, title: &str, w: &WireGyroCalibration) -> Result<()> 
         )?;
     }
     Ok(())
+}
+
+/// The adapter's gyro calibration state; `None` from an adapter built without it (the RP2040
+/// firmware, whose flash has no room for it, answers `UnsupportedRequest`).
+pub fn state(dev: &mut Device) -> Result<Option<GyroCalibrationState>> {
+    match dev.get_gyro_calibration() {
+        Ok(s) => Ok(Some(s)),
+        Err(ClientError::Refused {
+            code: ErrorCode::UnsupportedRequest,
+            ..
+        }) => Ok(None),
+        Err(e) => Err(e.into()),
+    }
 }
 
 /// True when `device get` has something to say about the gyro: a calibration live or staged,

@@ -8,8 +8,10 @@
 
 use embedded_storage_async::nor_flash::NorFlash;
 
+#[cfg(feature = "gyro-calibration")]
 use wiical_core::acceptance::Acceptance;
 use wiical_core::acceptance::Rejection;
+#[cfg(feature = "gyro-calibration")]
 use wiical_core::gyro_correct::GyroCorrection;
 use wiical_core::Calibration;
 use wiical_wire::endpoints::{
@@ -158,6 +160,7 @@ impl<F: NorFlash> AnswerAsync<SetBackground> for Protocol<F> {
     }
 }
 
+#[cfg(feature = "gyro-calibration")]
 impl<F: NorFlash> Answer<GetGyroCalibration> for Protocol<F> {
     fn answer(&mut self, _: GetGyroCalibration) -> Result<GyroCalibrationState, ErrorCode> {
         Ok(GyroCalibrationState {
@@ -168,6 +171,7 @@ impl<F: NorFlash> Answer<GetGyroCalibration> for Protocol<F> {
     }
 }
 
+#[cfg(feature = "gyro-calibration")]
 impl<F: NorFlash> Answer<PutGyroCalibration> for Protocol<F> {
     /// Staged when usable and plausible for a MotionPlus (`Acceptance::check_gyro`); the
     /// staged and live ones are unchanged otherwise.
@@ -184,6 +188,7 @@ impl<F: NorFlash> Answer<PutGyroCalibration> for Protocol<F> {
     }
 }
 
+#[cfg(feature = "gyro-calibration")]
 impl<F: NorFlash> AnswerAsync<CommitGyroCalibration> for Protocol<F> {
     /// Stores the staged gyro calibration (power-loss safe), reads it back, and only then
     /// makes it live; a storage failure or a read-back that differs keeps the old one live
@@ -201,5 +206,28 @@ impl<F: NorFlash> AnswerAsync<CommitGyroCalibration> for Protocol<F> {
         self.gyro.live = Some(cal);
         self.gyro.staged = None;
         Ok(())
+    }
+}
+
+// Without the `gyro-calibration` feature (the RP2040 firmware: its flash budget) the three
+// gyro requests are refused, and none of their code is linked.
+#[cfg(not(feature = "gyro-calibration"))]
+impl<F: NorFlash> Answer<GetGyroCalibration> for Protocol<F> {
+    fn answer(&mut self, _: GetGyroCalibration) -> Result<GyroCalibrationState, ErrorCode> {
+        Err(ErrorCode::UnsupportedRequest)
+    }
+}
+
+#[cfg(not(feature = "gyro-calibration"))]
+impl<F: NorFlash> Answer<PutGyroCalibration> for Protocol<F> {
+    fn answer(&mut self, _: PutGyroCalibration) -> Result<(), ErrorCode> {
+        Err(ErrorCode::UnsupportedRequest)
+    }
+}
+
+#[cfg(not(feature = "gyro-calibration"))]
+impl<F: NorFlash> AnswerAsync<CommitGyroCalibration> for Protocol<F> {
+    async fn answer(&mut self, _: CommitGyroCalibration) -> Result<(), ErrorCode> {
+        Err(ErrorCode::UnsupportedRequest)
     }
 }
