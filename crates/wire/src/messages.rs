@@ -306,7 +306,8 @@ impl From<WireCalibration> for Calibration {
 /// MotionPlus's count axes (yaw, roll, pitch; positive where the counts rise), so that a
 /// plausible `K` has a positive diagonal. The host turns a `gyrofit` file (rad/s in the
 /// accelerometer's frame) into these axes before sending it (`wiical_analysis`'s
-/// `gyro_device`); the adapter re-encodes the corrected rates as counts at its ideal scale.
+/// `output::gyrocal::for_motionplus`); the adapter re-encodes the corrected rates as counts at
+/// its ideal scale.
 ///
 /// The fields are the terms of the core's gyro table (`wiical_core::terms::GYRO_TERMS`) the
 /// device applies: today only the linear part. The g-sensitivity (`G`, rad/s per g) needs the

@@ -141,16 +141,6 @@ struct StateJson {
     damaged_records: u16,
 }
 
-/// What the adapter found in storage at boot, as JSON text.
-pub(crate) fn boot_word(b: &BootRecord) -> String {
-    match b {
-        BootRecord::Empty => "empty".into(),
-        BootRecord::Loaded => "loaded".into(),
-        BootRecord::Rejected(p) => format!("rejected: {}", p.description()),
-        BootRecord::StorageError => "storage error".into(),
-    }
-}
-
 /// The sentence to add when the adapter refused its stored record at boot, skipped damaged
 /// records, or could not read its storage (alone, "committed, stored" or "none committed"
 /// would hide it).
@@ -597,7 +587,7 @@ fn get(dev: &mut Device, port: &str, file: Option<&std::path::Path>, json: bool)
         live,
         staged: s.staged.map(Calibration::from),
         stored: s.stored,
-        boot: boot_word(&s.boot),
+        boot: render::boot_word(&s.boot),
         damaged_records: s.damaged_records,
     };
     // The MotionPlus's gyro calibration (protocol 7), shown only when the adapter holds one

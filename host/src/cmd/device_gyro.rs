@@ -255,6 +255,6 @@ pub fn state_json(s: &GyroCalibrationState) -> serde_json::Value {
     serde_json::json!({
         "live": s.live.as_ref().map(calibration_json),
         "staged": s.staged.as_ref().map(calibration_json),
-        "boot": super::device::boot_word(&s.boot),
+        "boot": crate::render::device::boot_word(&s.boot),
     })
 }
