@@ -84,10 +84,10 @@ fn near_motionplus(bytes: &[u8]) -> GyroCorrection<f64> {
     let s = std::f64::consts::PI / 180.0 / 18.618;
     let mut kc = [[0.0; 3]; 3];
     let mut bias = [0.0; 3];
-    for i in 0..3 {
-        bias[i] = 8192.0 + 10.0 * next();
-        for j in 0..3 {
-            kc[i][j] = if i == j {
+    for (i, (row, b)) in kc.iter_mut().zip(bias.iter_mut()).enumerate() {
+        *b = 8192.0 + 10.0 * next();
+        for (j, x) in row.iter_mut().enumerate() {
+            *x = if i == j {
                 s * (1.0 + next() / 200.0)
             } else {
                 s * next() / 400.0
