@@ -452,3 +452,140 @@ fn a_killed_hosts_upload_dies_with_its_hang_up() {
     assert!(!std::path::Path::new("-").exists());
     sim.stop().unwrap();
 }
+
+/// A MotionPlus gyro file as `gyrofit --out` writes it (the real writer; version 2 with a
+/// g-sensitivity), in a Wii Remote accelerometer's frame: count axis yaw turns about −z, roll
+/// about +y, pitch about −x, with 18.2 counts per °/s and 0.4–1.2 % misalignment (written
+/// out here). Returns the file's calibration and the count-axes mounting (axis, sign).
+fn motionplus_gyro_file(
+    path: &std::path::Path,
+    bias: [f64; 3],
+) -> (
+    wiical_core::gyro_correct::GyroCorrection<f64>,
+    [(usize, f64); 3],
+) {
+    use wiical_analysis::output::gyrocal::{write_gyro_calibration, GyroCalFile};
+    use wiical_core::gyro_correct::{GyroCorrection, GyroEffects};
+    let s = std::f64::consts::PI / 180.0 / 18.2;
+    let kc = [
+        [s, 0.012 * s, -0.004 * s],
+        [-0.008 * s, 1.015 * s, 0.0],
+        [0.006 * s, 0.0, 0.985 * s],
+    ];
+    let mount = [(2usize, -1.0), (1, 1.0), (0, -1.0)];
+    let mut k = [[0.0; 3]; 3];
+    for (i, (a, sign)) in mount.iter().enumerate() {
+        k[*a] = kc[i].map(|x| sign * x);
+    }
+    let mut correction = GyroCorrection {
+        bias,
+        matrix: k,
+        effects: GyroEffects::default(),
+    };
+    correction.effects.g_sensitivity[0] = [1.5e-3, 0.0, -2e-4];
+    let file = GyroCalFile {
+        model: "full+bias".into(),
+        correction,
+        cv_rms_deg: 0.3,
+    };
+    write_gyro_calibration(path, &file).unwrap();
+    (correction, mount)
+}
+
+/// Issue 50 item 2 end to end on the simulated adapter: `device put GYRO.json` (told from an
+/// accelerometer file by its content) stages the count-axes calibration for the session
+/// only, `device commit` stores it, `device get` reports it, and the live one equals the file
+/// turned into the count axes (`K_c[i] = sign_i · K[axis_i]`, computed here in f64) within
+/// f32 rounding; the g-sensitivity is named as kept on the host. An implausible file (an
+/// MPU's zero near 0 counts) is refused in one sentence naming the parameter, before the
+/// port is opened, and nothing changes on the adapter.
+#[test]
+fn a_gyro_file_is_put_committed_and_reported_by_device_get() {
+    let (path, sim) = spawn(SimOptions::default()).unwrap();
+    let p = port(&path);
+    let run = |args: &[&str]| -> anyhow::Result<String> {
+        let mut full = vec!["device"];
+        full.extend_from_slice(args);
+        full.extend_from_slice(&["--port", &p]);
+        device::run(&device_args(&full), &mut Vec::new())
+    };
+    // No gyro calibration: `get` prints what it printed before the gyro existed.
+    let before = run(&["get", "--json"]).unwrap();
+    assert!(!before.contains("gyro"), "{before}");
+    let file = temp_path("gyro.json");
+    let (cal, mount) = motionplus_gyro_file(&file, [8100.5, 8230.0, 8150.25]);
+    let f = file.to_str().unwrap();
+    let text = run(&["put", f]).unwrap();
+    assert!(text.contains("staged the gyro calibration"), "{text}");
+    assert!(
+        text.contains(
+            "count axes from the file's accelerometer frame: yaw = -z, roll = +y, pitch = -x"
+        ),
+        "{text}"
+    );
+    assert!(
+        text.contains("kept for hosts, not on the adapter: g_sensitivity"),
+        "{text}"
+    );
+    // The upload belonged to that session.
+    let get = run(&["get"]).unwrap();
+    assert!(!get.contains("gyro"), "{get}");
+    let text = run(&["commit", f]).unwrap();
+    assert!(text.contains("it is live and stored"), "{text}");
+    let get = run(&["get"]).unwrap();
+    assert!(
+        get.contains("live gyro calibration (MotionPlus, committed, stored on the adapter):"),
+        "{get}"
+    );
+    assert!(get.contains("no gyro calibration staged"), "{get}");
+    let state: serde_json::Value = serde_json::from_str(&run(&["get", "--json"]).unwrap()).unwrap();
+    let live = &state["gyro"]["live"];
+    assert_eq!(live["axes"], serde_json::json!(["yaw", "roll", "pitch"]));
+    for i in 0..3 {
+        let b = live["bias"][i].as_f64().unwrap();
+        assert_eq!(b, f64::from(cal.bias[i] as f32), "bias {i}");
+        let (a, sign) = mount[i];
+        for j in 0..3 {
+            let got = live["matrix"][i][j].as_f64().unwrap();
+            let want = sign * cal.matrix[a][j];
+            // Within the f32 rounding of the value (plus serde's last digit of the file).
+            assert!(
+                (got - want).abs() <= 1.0 * f64::from(f32::EPSILON) * want.abs(),
+                "K[{i}][{j}]: {got} vs {want}"
+            );
+        }
+    }
+    // An accelerometer file still goes the accelerometer's way beside it.
+    let acc = temp_path("acc-beside-gyro.json");
+    wiical_analysis::output::calfile::write_calibration(&acc, &true_calibration()).unwrap();
+    let text = run(&["commit", acc.to_str().unwrap()]).unwrap();
+    assert!(text.contains("live and stored"), "{text}");
+    let state: serde_json::Value = serde_json::from_str(&run(&["get", "--json"]).unwrap()).unwrap();
+    assert_eq!(state["stored"], true);
+    assert!(state["gyro"]["live"].is_object(), "{state}");
+
+    // Implausible: fitted to an MPU (zero near 0 counts). One sentence naming the offset.
+    let bad = temp_path("gyro-mpu.json");
+    motionplus_gyro_file(&bad, [-31.0, 12.5, 7.25]);
+    let err = run(&["commit", bad.to_str().unwrap()])
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("not plausible for a MotionPlus: x offset -8223 counts from nominal is beyond the limit"),
+        "{err}"
+    );
+    assert_eq!(err.lines().count(), 1, "{err}");
+    let after: serde_json::Value = serde_json::from_str(&run(&["get", "--json"]).unwrap()).unwrap();
+    assert_eq!(after["gyro"], state["gyro"]);
+    // With --force the adapter refuses it too, and still nothing changes.
+    let err = run(&["commit", bad.to_str().unwrap(), "--force"])
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("implausible"), "{err}");
+    let after: serde_json::Value = serde_json::from_str(&run(&["get", "--json"]).unwrap()).unwrap();
+    assert_eq!(after["gyro"], state["gyro"]);
+    for f in [&file, &acc, &bad] {
+        let _ = std::fs::remove_file(f);
+    }
+    sim.stop().unwrap();
+}

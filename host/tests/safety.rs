@@ -419,6 +419,69 @@ fn flash_mirror_power_cut_at_every_write_leaves_old_or_new() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// The gyro record (issue 50 item 2) on the same file-mirrored flash, beside an accelerometer
+/// calibration, cut at every mirror write of a gyro commit: a restart from the file finds the
+/// old gyro calibration or the new one, and the accelerometer's calibration unchanged.
+#[test]
+fn flash_mirror_power_cut_during_a_gyro_commit_leaves_old_or_new_and_the_accelerometers() {
+    use wiical_adapter::LoadedGyro;
+    use wiical_core::gyro_correct::GyroCorrection;
+    let dir = scratch("gyro-powercut");
+    let path = dir.join("flash.bin");
+    let k = std::f32::consts::PI / 180.0 / 18.6;
+    let gyro = |zero: f32| GyroCorrection {
+        bias: [zero, zero + 50.0, zero - 20.0],
+        matrix: [[k, 0.0, 0.0], [0.0, k, 0.0], [0.0, 0.0, k]],
+        effects: Default::default(),
+    };
+    let (old, new) = (gyro(8150.0), gyro(8230.5));
+    let acc = nunchuk_cal();
+    let range = 0..FLASH_SIZE as u32;
+    let prepare = |commits: u32| {
+        let _ = std::fs::remove_file(&path);
+        let flash = SimFlash::file(&path).unwrap();
+        let mut store = CalibrationStore::new(flash, range.clone()).unwrap();
+        block_on(store.save(&acc)).unwrap();
+        for _ in 0..commits {
+            block_on(store.save_gyro(&old)).unwrap();
+        }
+    };
+    let mut checked = 0;
+    for commits in [1u32, 3] {
+        let mut cut = 0u32;
+        loop {
+            prepare(commits);
+            let mut flash = SimFlash::file(&path).unwrap();
+            flash.cut_power_after(cut);
+            let mut store = CalibrationStore::new(flash, range.clone()).unwrap();
+            let finished = block_on(store.save_gyro(&new)).is_ok();
+            drop(store);
+            let flash = SimFlash::file(&path).unwrap();
+            let mut store = CalibrationStore::new(flash, range.clone()).unwrap();
+            let g = block_on(store.load_gyro()).unwrap();
+            match g {
+                LoadedGyro::Calibration(c) if c == old || c == new => {}
+                other => panic!("cut after {cut} writes ({commits} before): {other:?}"),
+            }
+            assert_eq!(
+                block_on(store.load()).unwrap(),
+                Loaded::Calibration(acc),
+                "cut {cut}"
+            );
+            checked += 1;
+            if finished {
+                assert_eq!(g, LoadedGyro::Calibration(new));
+                break;
+            }
+            cut += 1;
+            assert!(cut < 1000, "a gyro commit never finishes");
+        }
+        assert!(cut >= 2, "a commit takes several flash writes, got {cut}");
+    }
+    assert!(checked > 4);
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 #[test]
 fn standard_input_is_read_when_asked_for_with_a_dash() {
     let dir = scratch("stdin");

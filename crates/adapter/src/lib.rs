@@ -59,4 +59,4 @@ pub use protocol::{BootLoad, DeviceInfo, Protocol, Status};
 pub use selfcal::{
     SelfCal, SelfCalConfig, SelfCalFailure, SelfCalResult, SelfCalStatus, StaleEstimate,
 };
-pub use store::{CalibrationStore, Loaded};
+pub use store::{CalibrationStore, Loaded, LoadedGyro};

@@ -33,6 +33,18 @@
 //! self-calibration session runs on the adapter, `PutCalibration` and `CommitCalibration`
 //! answer `Busy`.
 //!
+//! ## The MotionPlus's gyro calibration (protocol 7)
+//! `PutGyroCalibration` stages a gyro calibration judged by the core's MotionPlus limits
+//! ([`Acceptance::motionplus`], [`Acceptance::check_gyro`]; `InvalidCalibration` or
+//! `ImplausibleCalibration` otherwise, nothing changed), `CommitGyroCalibration` stores it
+//! beside the accelerometer's (the store's gyro record, power-loss safe), reads it back and
+//! only then makes it live, `GetGyroCalibration` reports live, staged and what was found at
+//! boot. A staged gyro calibration belongs to its session as the accelerometer's does. The
+//! live one is for the MotionPlus's corrector ([`crate::GyroCorrector::set_calibration`]),
+//! which the firmware does not run yet ([`Protocol::gyro_calibration`] hands it over).
+//! Without the crate's `gyro-calibration` feature (default on; the RP2040 firmware leaves it
+//! out for its flash budget) the three requests answer `UnsupportedRequest`.
+//!
 //! ## Background recalibration (protocol 5)
 //! Every report outside a C + Z session also ticks the background recalibration
 //! ([`crate::background`], wired in the `recal` child module); `GetBackgroundStatus` reports
@@ -48,6 +60,7 @@ use core::future::Future;
 use embedded_storage_async::nor_flash::NorFlash;
 
 use wiical_core::acceptance::Acceptance;
+use wiical_core::gyro_correct::GyroCorrection;
 use wiical_core::Calibration;
 use wiical_extbus::NunchukReport;
 use wiical_wire::{
@@ -168,6 +181,55 @@ pub struct Protocol<F: NorFlash> {
     selfcal: SelfCal,
     background: Background,
     settings: StoredSettings,
+    gyro: GyroState,
+}
+
+/// The MotionPlus's gyro calibration as the protocol keeps it (protocol 7).
+// Without the `gyro-calibration` feature nothing is ever staged.
+#[cfg_attr(not(feature = "gyro-calibration"), allow(dead_code))]
+struct GyroState {
+    /// The committed one in force (`None`: the rates pass through uncorrected).
+    live: Option<GyroCorrection<f32>>,
+    /// Staged by this session, awaiting commit.
+    staged: Option<GyroCorrection<f32>>,
+    /// What the store held at boot.
+    boot: BootLoad,
+}
+
+impl GyroState {
+    /// Reads the stored gyro record and judges it again with the MotionPlus limits: a
+    /// damaged, unknown or implausible record leaves no gyro calibration.
+    #[cfg(feature = "gyro-calibration")]
+    async fn boot<F: NorFlash>(store: &mut CalibrationStore<F>) -> Self {
+        use crate::store::LoadedGyro;
+        let (live, boot) = match store.load_gyro().await {
+            Ok(LoadedGyro::Empty) => (None, BootLoad::Empty),
+            Ok(LoadedGyro::Calibration(cal)) => match Acceptance::motionplus().check_gyro(&cal) {
+                Ok(()) => (Some(cal), BootLoad::Loaded),
+                Err(_) => (
+                    None,
+                    BootLoad::Rejected(RecordError::Invalid(wiical_core::Error::InvalidParameter)),
+                ),
+            },
+            Ok(LoadedGyro::Rejected(e)) => (None, BootLoad::Rejected(e)),
+            Err(_) => (None, BootLoad::StorageError),
+        };
+        Self {
+            live,
+            staged: None,
+            boot,
+        }
+    }
+
+    /// Without the `gyro-calibration` feature: no gyro calibration, the record not read.
+    #[cfg(not(feature = "gyro-calibration"))]
+    async fn boot<F: NorFlash>(_: &mut CalibrationStore<F>) -> Self {
+        Self {
+            live: None,
+            staged: None,
+            boot: BootLoad::Empty,
+        }
+    }
 }
 
 impl<F: NorFlash> Protocol<F> {
@@ -199,6 +261,7 @@ impl<F: NorFlash> Protocol<F> {
             BootLoad::Loaded => settings.origin,
             _ => LiveOrigin::Factory,
         };
+        let gyro = GyroState::boot(&mut store).await;
         let emulated = EmulatedNunchuk::new(&corrector.calibration_block_bytes());
         let rate_hz = info.base_rate_mhz / 1000;
         Self {
@@ -219,6 +282,7 @@ impl<F: NorFlash> Protocol<F> {
             selfcal: SelfCal::new(SelfCalConfig::nunchuk(rate_hz)),
             background: recal::background_for(rate_hz, &settings, origin),
             settings,
+            gyro,
         }
     }
 
@@ -338,6 +402,7 @@ impl<F: NorFlash> Protocol<F> {
         self.session_open = false;
         self.stream = None;
         self.staged = None;
+        self.gyro.staged = None;
     }
 
     /// Feed one poll result. `still_connected` is
@@ -450,6 +515,17 @@ impl<F: NorFlash> Protocol<F> {
     /// The staged calibration, if any.
     pub fn staged(&self) -> Option<&Calibration> {
         self.staged.as_ref()
+    }
+
+    /// The committed gyro calibration in force (for the MotionPlus's corrector,
+    /// [`crate::GyroCorrector::set_calibration`]); `None`: the rates pass through.
+    pub fn gyro_calibration(&self) -> Option<&GyroCorrection<f32>> {
+        self.gyro.live.as_ref()
+    }
+
+    /// What the store held for the gyro record at boot.
+    pub fn gyro_boot(&self) -> BootLoad {
+        self.gyro.boot
     }
 
     /// State snapshot.

@@ -25,6 +25,24 @@
 //! before a firmware update stays live after it. This firmware writes version 2 only; an
 //! older firmware finds a version-2 record unsupported and runs uncalibrated (pass-through),
 //! as it does for any record it refuses.
+//!
+//! ## The gyro record (key [`GYRO_RECORD_KEY`], version 1, [`GYRO_RECORD_LEN`] bytes)
+//! The MotionPlus's gyro calibration (`wiical_wire::WireGyroCalibration`: `K·(m − b)` in
+//! slow-range counts → rad/s along the count axes) is a third item of the same map, beside
+//! the accelerometer's and the settings, written and read with the same power-loss safety,
+//! its own magic and CRC:
+//!
+//! | offset | content |
+//! |---|---|
+//! | 0 | magic `"WGYR"` |
+//! | 4 | version `u16` = [`GYRO_RECORD_VERSION`] |
+//! | 6 | payload length `u16` = 48 |
+//! | 8 | 12 × `f32`: bias\[3\] (counts), `K` row-major\[9\] (rad/s per count) — the first 12 of `GyroCorrection::floats`; the host-only terms of `GYRO_TERMS` (g-sensitivity) are not stored |
+//! | 56 | CRC-32/ISO-HDLC of bytes 0..56 |
+//!
+//! A gyro record is judged again at boot by `Acceptance::check_gyro` (MotionPlus limits) and
+//! refused like a damaged one when it fails; the accelerometer's record and the gyro's are
+//! independent (either may be absent, damaged or refused without touching the other).
 
 use core::ops::Range;
 
@@ -32,6 +50,7 @@ use crc::{Crc, CRC_32_ISO_HDLC};
 use embedded_storage_async::nor_flash::NorFlash;
 use sequential_storage::cache::{Cache, Uncached};
 use sequential_storage::map::{MapConfig, MapStorage};
+use wiical_core::gyro_correct::GyroCorrection;
 use wiical_core::Calibration;
 
 use crate::error::{RecordError, StoreError};
@@ -57,6 +76,18 @@ const PAYLOAD_FLOATS: usize = wiical_core::terms::CALIBRATION_FLOATS;
 pub const RECORD_LEN: usize = 8 + 4 * PAYLOAD_FLOATS + 4;
 /// Length of a version-1 record, bytes.
 pub const RECORD_LEN_V1: usize = 8 + 4 * PAYLOAD_FLOATS_V1 + 4;
+
+/// Map key of the gyro calibration record (see the module docs).
+pub const GYRO_RECORD_KEY: u8 = 0x03;
+/// Magic bytes at the start of a gyro record.
+pub const GYRO_RECORD_MAGIC: [u8; 4] = *b"WGYR";
+/// Version of the gyro record written and read by this firmware.
+pub const GYRO_RECORD_VERSION: u16 = 1;
+/// Number of `f32` in a gyro record: bias and `K` (what the wire's `WireGyroCalibration`
+/// carries).
+const GYRO_FLOATS: usize = 12;
+/// Length of a gyro record, bytes.
+pub const GYRO_RECORD_LEN: usize = 8 + 4 * GYRO_FLOATS + 4;
 
 static CRC32: Crc<u32> = Crc::<u32>::new(&CRC_32_ISO_HDLC);
 
@@ -121,6 +152,76 @@ pub fn decode_record(bytes: &[u8]) -> Result<Calibration, RecordError> {
     Ok(cal)
 }
 
+/// Serialize a gyro calibration's linear part (bias, `K`) as a gyro record (see the module
+/// docs); bit-exact. Its effect terms (host-only) are not stored.
+pub fn encode_gyro_record(cal: &GyroCorrection<f32>) -> [u8; GYRO_RECORD_LEN] {
+    let mut out = [0u8; GYRO_RECORD_LEN];
+    out[..4].copy_from_slice(&GYRO_RECORD_MAGIC);
+    out[4..6].copy_from_slice(&GYRO_RECORD_VERSION.to_le_bytes());
+    out[6..8].copy_from_slice(&((4 * GYRO_FLOATS) as u16).to_le_bytes());
+    let floats = cal.floats();
+    for (chunk, x) in out[8..8 + 4 * GYRO_FLOATS]
+        .chunks_exact_mut(4)
+        .zip(&floats[..GYRO_FLOATS])
+    {
+        chunk.copy_from_slice(&x.to_le_bytes());
+    }
+    let crc = CRC32.checksum(&out[..GYRO_RECORD_LEN - 4]);
+    out[GYRO_RECORD_LEN - 4..].copy_from_slice(&crc.to_le_bytes());
+    out
+}
+
+/// Parse and check a gyro record: length, magic, version, payload length, CRC, then usable
+/// (finite, `K` invertible: what `GyroCorrection::validate` checks of a calibration without
+/// terms). Any failure is an error (the caller then runs without a gyro
+/// calibration: the MotionPlus's rates pass through). Never panics, whatever the bytes.
+pub fn decode_gyro_record(bytes: &[u8]) -> Result<GyroCorrection<f32>, RecordError> {
+    if bytes.len() < 8 {
+        return Err(RecordError::WrongLength(bytes.len()));
+    }
+    if bytes[..4] != GYRO_RECORD_MAGIC {
+        return Err(RecordError::BadMagic);
+    }
+    let version = u16::from_le_bytes([bytes[4], bytes[5]]);
+    if version != GYRO_RECORD_VERSION {
+        return Err(RecordError::UnsupportedVersion(version));
+    }
+    let payload_len = usize::from(u16::from_le_bytes([bytes[6], bytes[7]]));
+    if bytes.len() != GYRO_RECORD_LEN || payload_len != 4 * GYRO_FLOATS {
+        return Err(RecordError::WrongLength(bytes.len()));
+    }
+    let (body, crc) = bytes.split_at(GYRO_RECORD_LEN - 4);
+    if CRC32.checksum(body).to_le_bytes() != [crc[0], crc[1], crc[2], crc[3]] {
+        return Err(RecordError::BadCrc);
+    }
+    let mut f = [0f32; GYRO_FLOATS];
+    for (x, chunk) in f.iter_mut().zip(body[8..].chunks_exact(4)) {
+        *x = f32::from_le_bytes([chunk[0], chunk[1], chunk[2], chunk[3]]);
+    }
+    let cal = GyroCorrection::from_floats(&f);
+    // Usable: finite, `K` invertible (checked as the accelerometer's `K` is, with the code the
+    // firmware links for it; the record holds no g-sensitivity to bound).
+    Calibration {
+        bias: cal.bias,
+        matrix: cal.matrix,
+        effects: Calibration::identity().effects,
+    }
+    .validate()
+    .map_err(RecordError::Invalid)?;
+    Ok(cal)
+}
+
+/// What [`CalibrationStore::load_gyro`] found.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum LoadedGyro {
+    /// No gyro record stored.
+    Empty,
+    /// A valid gyro calibration.
+    Calibration(GyroCorrection<f32>),
+    /// A record was found but refused; run without a gyro calibration.
+    Rejected(RecordError),
+}
+
 /// What [`CalibrationStore::load`] found.
 // no_std without an allocator: the calibration cannot be boxed; a `Loaded` is short-lived.
 #[allow(clippy::large_enum_variant)]
@@ -157,7 +258,10 @@ impl<F: NorFlash> CalibrationStore<F> {
         // Each page must also have room for the small settings record beside a calibration.
         let settings_item = MapStorage::<u8, F, MapCache>::item_overhead_size()
             + (1 + SETTINGS_LEN as u32).next_multiple_of(F::WRITE_SIZE.max(1) as u32);
-        let per_page = usable.saturating_sub(settings_item) / item.max(1);
+        // And for the gyro record (issue 50), the third item of the map.
+        let gyro_item = MapStorage::<u8, F, MapCache>::item_overhead_size()
+            + (1 + GYRO_RECORD_LEN as u32).next_multiple_of(F::WRITE_SIZE.max(1) as u32);
+        let per_page = usable.saturating_sub(settings_item + gyro_item) / item.max(1);
         // The map keeps one page erased for migration, so with only two pages each must
         // hold two records, or a second commit would find the storage full.
         if per_page == 0 || (pages < 3 && per_page < 2) {
@@ -270,6 +374,38 @@ impl<F: NorFlash> CalibrationStore<F> {
         let record = encode_record(cal);
         self.map
             .store_item(&mut self.buf.0, &RECORD_KEY, &&record[..])
+            .await
+            .map_err(StoreError::Flash)
+    }
+
+    /// Read the committed gyro calibration ([`decode_gyro_record`]): a damaged or unknown
+    /// record gives [`LoadedGyro::Rejected`], never a calibration; `Err` only when the flash
+    /// cannot be read.
+    pub async fn load_gyro(&mut self) -> Result<LoadedGyro, StoreError<F::Error>> {
+        let item: Option<&[u8]> = self
+            .map
+            .fetch_item(&mut self.buf.0, &GYRO_RECORD_KEY)
+            .await
+            .map_err(StoreError::Flash)?;
+        Ok(match item {
+            None => LoadedGyro::Empty,
+            Some(bytes) => match decode_gyro_record(bytes) {
+                Ok(cal) => LoadedGyro::Calibration(cal),
+                Err(e) => LoadedGyro::Rejected(e),
+            },
+        })
+    }
+
+    /// Store the gyro calibration, power-loss safe as [`Self::save`]: afterwards, or after an
+    /// interruption at any point, [`Self::load_gyro`] gives the previous one or `cal`; the
+    /// accelerometer's record and the settings are untouched either way.
+    pub async fn save_gyro(
+        &mut self,
+        cal: &GyroCorrection<f32>,
+    ) -> Result<(), StoreError<F::Error>> {
+        let record = encode_gyro_record(cal);
+        self.map
+            .store_item(&mut self.buf.0, &GYRO_RECORD_KEY, &&record[..])
             .await
             .map_err(StoreError::Flash)
     }

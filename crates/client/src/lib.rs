@@ -166,13 +166,15 @@ pub enum ClientError {
 pub type Result<T, E = ClientError> = std::result::Result<T, E>;
 use serde::Serialize;
 use serialport::SerialPort;
+use wiical_core::gyro_correct::GyroCorrection;
 use wiical_core::Calibration;
 /// The centre direction of the adapter's background-recalibration bin `i` (bins as
 /// [`wiical_wire::BackgroundReport::bin_moments`] numbers them), for drawing the grid.
 pub use wiical_wire::bins::bin_centre as background_bin_centre;
 use wiical_wire::{
-    encode_frame, CalibrationState, DefaultFrameDecoder, ErrorCode, FrameError, Hello,
-    HelloResponse, Request, Response, Sample, MAX_FRAME_LEN, PROTOCOL_VERSION, SCHEMA_KEY,
+    encode_frame, CalibrationState, DefaultFrameDecoder, ErrorCode, FrameError,
+    GyroCalibrationState, Hello, HelloResponse, Request, Response, Sample, WireGyroCalibration,
+    MAX_FRAME_LEN, PROTOCOL_VERSION, SCHEMA_KEY,
 };
 use wiical_wire::{endpoints, Endpoint};
 
@@ -553,6 +555,48 @@ impl Device {
         }
     }
 
+    /// (Protocol 7.) The MotionPlus gyro calibration: live, staged, what was found at boot.
+    pub fn get_gyro_calibration(&mut self) -> Result<GyroCalibrationState> {
+        self.call(endpoints::GetGyroCalibration)
+    }
+
+    /// (Protocol 7.) Stage a gyro calibration in the MotionPlus's count axes (the host's
+    /// conversion of a `gyrofit` file, `wiical_analysis::output::gyrocal::for_motionplus`),
+    /// checked locally for validity; the adapter judges it with the core's MotionPlus limits
+    /// (`Acceptance::check_gyro`), which a caller applies first to name a refusal's reason.
+    pub fn put_gyro_judged(&mut self, cal: &GyroCorrection<f32>) -> Result<()> {
+        cal.validate().map_err(ClientError::InvalidCalibration)?;
+        self.call(endpoints::PutGyroCalibration((*cal).into()))
+    }
+
+    /// (Protocol 7.) Commit the staged gyro calibration, confirmed by reading the state back
+    /// when the acknowledgement was lost (as [`Device::commit`]).
+    pub fn commit_gyro(&mut self) -> Result<()> {
+        let before = self.get_gyro_calibration()?;
+        let Some(staged) = before.staged else {
+            return Err(ClientError::NothingStaged {
+                port: self.name.clone(),
+            });
+        };
+        let (resp, attempts) = self.transact(&Request::CommitGyroCalibration)?;
+        match resp {
+            Response::Ack => Ok(()),
+            Response::Error(ErrorCode::NothingStaged) if attempts > 1 => {
+                let after = self.get_gyro_calibration()?;
+                if after.staged.is_none() && after.live.is_some_and(|l| same_gyro_bits(&l, &staged))
+                {
+                    Ok(())
+                } else {
+                    Err(ClientError::CommitUnconfirmed {
+                        port: self.name.clone(),
+                    })
+                }
+            }
+            Response::Error(code) => Err(ClientError::CommitRefused { code }),
+            other => Err(unexpected(&Request::CommitGyroCalibration, &other)),
+        }
+    }
+
     /// Start streaming; returns the sample rate in mHz.
     pub fn start_stream(&mut self, rate_divider: u16) -> Result<u32> {
         self.call(endpoints::StartStream { rate_divider })
@@ -592,6 +636,11 @@ impl Drop for Device {
             let _ = self.port.flush();
         }
     }
+}
+
+/// Bitwise equality of two wire gyro calibrations (the core's canonical bit encoding).
+pub fn same_gyro_bits(a: &WireGyroCalibration, b: &WireGyroCalibration) -> bool {
+    GyroCorrection::from(*a).bits() == GyroCorrection::from(*b).bits()
 }
 
 /// Bitwise equality of two wire calibrations (the core's canonical bit encoding).

@@ -153,6 +153,66 @@ impl Acceptance {
         Ok(())
     }
 
+    /// Limits for the Wii MotionPlus's gyroscope as the adapter holds its calibration: `K`
+    /// maps **slow-range counts** (14-bit, the fast range mapped onto the slow scale by the
+    /// adapter's `GyroCorrector`) to rad/s along the MotionPlus's count axes (yaw, roll,
+    /// pitch; positive where the counts rise), so the forward matrix's diagonal is positive.
+    /// Nominal zero 8192 and 8192 counts per 440 °/s (the hid-wiimote driver's slow scale,
+    /// 18.618 counts per °/s = 1066.7 counts per rad/s); sensitivity 0.75–1.3 of it (Dolphin's
+    /// emulated block, 16.1 counts per °/s, is 0.865; WiiBrew's "20 per °/s" 1.074); zero
+    /// within 1000 counts (≈ 54 °/s) of 8192; cross-axis ≤ 0.2 (≈ 11° of misalignment);
+    /// corrected output within ±20 rad/s (≈ 1150 °/s, 2.6× the slow range) over the slow
+    /// counts 0–16383. None of these was measured on a MotionPlus (there is no recording of
+    /// one in the data): they are loose bounds around the documented scales that refuse a
+    /// file fitted to another gyro (an MPU's zero near 0 counts, a scale off by 10×) or in
+    /// the wrong frame (a negative diagonal). No time or temperature terms.
+    pub const fn motionplus() -> Self {
+        Self {
+            input_range: (0.0, 16383.0),
+            output_bound: 20.0,
+            conditions: ConditionRange {
+                max_time_s: 0.0,
+                temperature_c: None,
+            },
+            nominal_zero: 8192.0,
+            max_offset: 1000.0,
+            nominal_sensitivity: 8192.0 / 440.0 * (180.0 / core::f32::consts::PI),
+            sensitivity_ratio: (0.75, 1.3),
+            max_cross_axis: 0.2,
+            max_fit_rms: f32::INFINITY,
+            temp_ref_range_c: (-40.0, 125.0),
+        }
+    }
+
+    /// Accept or refuse a gyro calibration for a device that applies `K·(m − b)` only: usable
+    /// (finite, `K` invertible, each g-sensitivity coefficient within its bound: what
+    /// `GyroCorrection::validate` checks), then the linear part judged as [`Self::check`] judges
+    /// an accelerometer's (offsets in counts, the forward matrix `K⁻¹`'s diagonal against
+    /// [`Self::nominal_sensitivity`] in counts per rad/s, its cross-axis terms, the output
+    /// bound in rad/s). The g-sensitivity is not part of what such a device applies, so it is
+    /// bounded by validation alone.
+    pub fn check_gyro(
+        &self,
+        cal: &crate::gyro_correct::GyroCorrection<f32>,
+    ) -> Result<(), Rejection> {
+        // `GyroCorrection::validate`'s checks, the invertibility left to `check`'s own
+        // (`Calibration::validate`): one inversion code in a firmware that links both.
+        if !cal.floats().iter().all(|x| x.is_finite()) {
+            return Err(Rejection::Unusable(Error::NonFinite));
+        }
+        let bound = crate::gyro_correct::G_SENSITIVITY_MAX as f32;
+        let g = &cal.effects.g_sensitivity;
+        if g.as_flattened().iter().any(|x| libm::fabsf(*x) > bound) {
+            return Err(Rejection::Unusable(Error::InvalidParameter));
+        }
+        let linear = Calibration {
+            bias: cal.bias,
+            matrix: cal.matrix,
+            effects: Calibration::identity().effects,
+        };
+        self.check(&linear, None)
+    }
+
     fn limits_valid(&self) -> bool {
         let pos = |x: f32| x.is_finite() && x > 0.0;
         let (i0, i1) = self.input_range;
@@ -888,5 +948,51 @@ mod tests {
         let a = angle_between(&[1.0, 0.0, 0.0], &[0.0, 2.0, 0.0]);
         assert!((a - core::f32::consts::FRAC_PI_2).abs() < 1e-6);
         assert_eq!(angle_between(&[0.0; 3], &[1.0, 0.0, 0.0]), 0.0);
+    }
+
+    /// A MotionPlus calibration in slow counts: 18.0 counts per °/s (0.967 of nominal), zeros
+    /// 8100–8300, 1 % misalignment.
+    fn motionplus_like() -> crate::gyro_correct::GyroCorrection<f32> {
+        let k = core::f32::consts::PI / 180.0 / 18.0;
+        crate::gyro_correct::GyroCorrection {
+            bias: [8100.0, 8300.0, 8192.0],
+            matrix: [[k, 0.01 * k, 0.0], [0.0, k, -0.01 * k], [0.0, 0.0, k]],
+            effects: Default::default(),
+        }
+    }
+
+    /// The gyro check accepts a MotionPlus-like calibration and refuses, with the reason a
+    /// host prints, one fitted to another gyro (an MPU's zero near 0), one in a frame with a
+    /// flipped axis, one ten times off in scale, and an unusable one.
+    #[test]
+    fn the_motionplus_limits_judge_a_gyro_calibration() {
+        let acc = Acceptance::motionplus();
+        // 8192 counts per 440 °/s, in counts per rad/s.
+        let nominal = 8192.0 / 440.0 * 180.0 / core::f64::consts::PI;
+        assert!((f64::from(acc.nominal_sensitivity) - nominal).abs() < 1e-3);
+        let good = motionplus_like();
+        assert_eq!(acc.check_gyro(&good), Ok(()));
+        let mut mpu = good;
+        mpu.bias = [-31.0, 12.5, 7.25];
+        assert!(matches!(
+            acc.check_gyro(&mpu),
+            Err(Rejection::Offset { axis: 0, .. })
+        ));
+        let mut flipped = good;
+        flipped.matrix[2] = flipped.matrix[2].map(|x| -x);
+        let e = acc.check_gyro(&flipped).unwrap_err();
+        assert!(matches!(e, Rejection::Sensitivity { axis: 2, ratio } if ratio < 0.0));
+        let mut tenfold = good;
+        tenfold.matrix[1] = tenfold.matrix[1].map(|x| x * 10.0);
+        assert!(matches!(
+            acc.check_gyro(&tenfold),
+            Err(Rejection::Sensitivity { axis: 1, .. })
+        ));
+        let mut nan = good;
+        nan.bias[1] = f32::NAN;
+        assert!(matches!(acc.check_gyro(&nan), Err(Rejection::Unusable(_))));
+        let mut g = good;
+        g.effects.g_sensitivity[0][0] = 1.0;
+        assert!(matches!(acc.check_gyro(&g), Err(Rejection::Unusable(_))));
     }
 }

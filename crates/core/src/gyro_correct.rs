@@ -20,9 +20,9 @@
 //! ([`Real`]): `f32` on a device, `f64` in the analysis, one algorithm.
 //!
 //! The terms are the rows of [`crate::terms::GYRO_TERMS`]; [`GyroEffects::field`] is the one
-//! place a field is tied to its row. The adapter holds no gyro calibration (the Nunchuk has no
-//! gyro; the MotionPlus's rates pass through uncorrected), so these are applied by an embedded
-//! user or a host that has the accelerometer reading beside the gyro.
+//! place a field is tied to its row. The adapter holds the linear part for a MotionPlus
+//! (protocol 7, judged by `acceptance::Acceptance::check_gyro`), not the terms: they are
+//! applied by an embedded user or a host that has the accelerometer reading beside the gyro.
 
 use crate::model::Real;
 use crate::terms::{TermId, GYRO_CALIBRATION_FLOATS, GYRO_EFFECT_FLOATS, GYRO_TERMS};

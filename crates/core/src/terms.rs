@@ -20,8 +20,11 @@
 //! [`TermSpec`] rows: the gyro's coefficient order
 //! (`gyro_correct::GyroEffects::coefficients`) and the gyro calibration file's keys
 //! and version are derived from it. The accelerometer's formats (wire, flash record,
-//! calibration file) read [`TERMS`] alone and do not change when a gyro term is added; the
-//! adapter holds no gyro calibration, so no gyro row has a flash record (`since_record` 0).
+//! calibration file) read [`TERMS`] alone and do not change when a gyro term is added. The
+//! adapter's gyro record (`wiical_adapter::store`) and the wire's `WireGyroCalibration` hold
+//! only the linear part and the rows with `device_applies` (none today), so the g-sensitivity
+//! has no flash record (`since_record` 0): it needs the accelerometer fixed to the gyro, which
+//! the adapter does not see, and stays on the host.
 
 /// Which effect term a row of [`TERMS`] describes (one per field of `Effects`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -127,7 +130,7 @@ pub struct TermSpec {
     /// Which acceptance check bounds it.
     pub bound: Bound,
     /// Flash record version that added it (`wiical_adapter::store`); 0 for a term no flash
-    /// record holds (the gyro's: the adapter keeps no gyro calibration).
+    /// record holds (the g-sensitivity: the adapter's gyro record keeps the linear part only).
     pub since_record: u16,
     /// Calibration file schema version that added it (`wiical-calibration/N` for [`TERMS`],
     /// `wiical-gyro-calibration/N` for [`GYRO_TERMS`]); a file is written with the highest

@@ -4,7 +4,8 @@
 //! The same code as the firmware runs here: a [`NunchukPoller`] polls a simulated Nunchuk
 //! (the [`NunchukRegisters`] state machine behind a simulated I²C bus) at 200 Hz, a
 //! [`Protocol`] corrects the reports, fills the emulated register map and answers requests,
-//! and a [`CalibrationStore`] keeps the committed calibration in a simulated NOR flash
+//! and a [`CalibrationStore`] keeps the committed calibration (and the MotionPlus's gyro
+//! calibration, protocol 7) in a simulated NOR flash
 //! (in memory, or mirrored to a file with `--flash` so that it survives a restart).
 //!
 //! The simulated sensor has a known forward model ([`TRUE_D`], [`TRUE_BIAS`]) with 0.6-count

@@ -38,6 +38,9 @@
 //! 6. (Protocol 5.) `GetBackgroundStatus` reads the background recalibration's grid, candidate,
 //!    last adoption and last refusal; `SetBackground` stores its settings (adoption on/off,
 //!    whether a host upload may be replaced) in the adapter's flash.
+//! 7. (Protocol 7.) `GetGyroCalibration`, `PutGyroCalibration` and `CommitGyroCalibration`
+//!    read, stage and store the MotionPlus's gyro calibration ([`WireGyroCalibration`]) as
+//!    the three calibration requests do the accelerometer's.
 //!
 //! ## Declared once
 //! [`Request`] and [`Response`] are declared in one place, [`protocol`]: each request with
@@ -78,9 +81,10 @@ pub use frame::{
 pub use messages::{
     AdapterStatus, AdoptionReport, BackgroundPhase, BackgroundReport, BackgroundSettings,
     BackgroundSettingsField, BootRecord, CalibrationOrigin, CalibrationState, CandidateReport,
-    CoverageGapReport, ErrorCode, Hello, HelloResponse, RecordProblem, RefusalReport, Sample,
-    SelfCalOutcome, SelfCalPhase, WireCalibration, WireEffects, BACKGROUND_BINS,
-    FIRMWARE_VERSION_CAP, SELFCAL_MESSAGE_CAP,
+    CoverageGapReport, ErrorCode, GyroCalibrationState, Hello, HelloResponse, RecordProblem,
+    RefusalReport, Sample, SelfCalOutcome, SelfCalPhase, WireCalibration, WireEffects,
+    WireGyroCalibration, BACKGROUND_BINS, FIRMWARE_VERSION_CAP, GYRO_DEVICE_FLOATS,
+    SELFCAL_MESSAGE_CAP,
 };
 pub use protocol::{dispatch, endpoints, Answer, AnswerAsync, Endpoint, Request, Response, Serve};
 pub use schema::{

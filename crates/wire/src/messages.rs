@@ -6,6 +6,7 @@
 //! [`Sample`]s while a stream is running.
 
 use serde::{Deserialize, Serialize};
+use wiical_core::gyro_correct::{GyroCorrection, GyroEffects};
 use wiical_core::terms::EFFECT_FLOATS;
 use wiical_core::{Calibration, Effects};
 
@@ -297,6 +298,84 @@ impl From<WireCalibration> for Calibration {
             effects: c.effects.into(),
         }
     }
+}
+
+/// (Protocol 7.) Wire form of the gyroscope calibration the adapter applies to the Wii
+/// MotionPlus: `ω = K·(m − b)`, `m` the MotionPlus's **slow-range counts** (14-bit; the fast
+/// range mapped onto the slow scale by the adapter's `GyroCorrector`), `ω` rad/s along the
+/// MotionPlus's count axes (yaw, roll, pitch; positive where the counts rise), so that a
+/// plausible `K` has a positive diagonal. The host turns a `gyrofit` file (rad/s in the
+/// accelerometer's frame) into these axes before sending it (`wiical_analysis`'s
+/// `output::gyrocal::for_motionplus`); the adapter re-encodes the corrected rates as counts at
+/// its ideal scale.
+///
+/// The fields are the terms of the core's gyro table (`wiical_core::terms::GYRO_TERMS`) the
+/// device applies: today only the linear part. The g-sensitivity (`G`, rad/s per g) needs the
+/// accelerometer fixed to the gyro, which is in the Wii Remote and never seen by the adapter;
+/// it stays in the host's file, and the schema's `WireGyroCalibration` line names it as
+/// host-only ([`crate::SCHEMA`], rendered from the table). A gyro term a device could apply
+/// would need a field here: a compile-time check refuses the table until it has one.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct WireGyroCalibration {
+    /// Bias `b`, slow-range counts.
+    pub bias: [f32; 3],
+    /// `K`, rad/s per slow-range count, row-major (row = count axis yaw, roll, pitch).
+    pub matrix: [[f32; 3]; 3],
+}
+
+/// Number of coefficients of the gyro terms a device applies (those of
+/// [`wiical_core::terms::GYRO_TERMS`] with `device_applies`).
+pub const GYRO_DEVICE_FLOATS: usize = {
+    let t = &wiical_core::terms::GYRO_TERMS;
+    let mut n = 0;
+    let mut i = 0;
+    while i < t.len() {
+        if t[i].device_applies {
+            n += t[i].len();
+        }
+        i += 1;
+    }
+    n
+};
+
+const _: () = assert!(
+    GYRO_DEVICE_FLOATS == 0,
+    "a gyro term the device applies needs its field in WireGyroCalibration (and its record)"
+);
+
+impl From<GyroCorrection<f32>> for WireGyroCalibration {
+    /// The linear part; the host-only terms (g-sensitivity) are left out.
+    fn from(c: GyroCorrection<f32>) -> Self {
+        Self {
+            bias: c.bias,
+            matrix: c.matrix,
+        }
+    }
+}
+
+impl From<WireGyroCalibration> for GyroCorrection<f32> {
+    /// Plain field copy with every effect term zero. Untrusted: judge it
+    /// (`Acceptance::check_gyro`) before using it.
+    fn from(c: WireGyroCalibration) -> Self {
+        Self {
+            bias: c.bias,
+            matrix: c.matrix,
+            effects: GyroEffects::default(),
+        }
+    }
+}
+
+/// (Protocol 7.) The gyro calibration state reported by
+/// [`Request::GetGyroCalibration`](crate::Request::GetGyroCalibration).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct GyroCalibrationState {
+    /// The committed (stored) gyro calibration in force; `None`: none, the MotionPlus's
+    /// rates pass through uncorrected.
+    pub live: Option<WireGyroCalibration>,
+    /// The staged gyro calibration awaiting commit, if any.
+    pub staged: Option<WireGyroCalibration>,
+    /// What the adapter found in storage at boot for the gyro record.
+    pub boot: BootRecord,
 }
 
 /// One streamed sample.

@@ -30,8 +30,8 @@
 use serde::{Deserialize, Serialize};
 
 use crate::messages::{
-    AdapterStatus, BackgroundReport, BackgroundSettings, CalibrationState, ErrorCode, Hello,
-    HelloResponse, Sample, WireCalibration,
+    AdapterStatus, BackgroundReport, BackgroundSettings, CalibrationState, ErrorCode,
+    GyroCalibrationState, Hello, HelloResponse, Sample, WireCalibration, WireGyroCalibration,
 };
 
 /// A request kind and the reply it gets.
@@ -146,6 +146,18 @@ crate::declare::wire_protocol! {
         /// for a field outside its bounds ([`BackgroundSettings::out_of_bounds`]) or
         /// [`ErrorCode::StorageFailure`] (the old settings stay either way).
         9 SetBackground(BackgroundSettings) -> Ack async,
+        /// (Protocol 7.) Ask for the MotionPlus gyro calibration (live, staged, what was found
+        /// at boot): answered by [`Response::GyroCalibration`].
+        10 GetGyroCalibration -> GyroCalibration,
+        /// (Protocol 7.) Stage a gyro calibration (judged by the core's MotionPlus limits,
+        /// `Acceptance::check_gyro`; not yet used nor stored): [`Response::Ack`],
+        /// [`ErrorCode::InvalidCalibration`] or [`ErrorCode::ImplausibleCalibration`] (the
+        /// staged and live ones unchanged).
+        11 PutGyroCalibration(WireGyroCalibration) -> Ack,
+        /// (Protocol 7.) Store the staged gyro calibration (power-loss safe, beside the
+        /// accelerometer's) and make it live: [`Response::Ack`], or
+        /// [`ErrorCode::NothingStaged`] / [`ErrorCode::StorageFailure`].
+        12 CommitGyroCalibration -> Ack async,
     }
 
     /// Adapter → host.
@@ -177,6 +189,8 @@ crate::declare::wire_protocol! {
         6 Status(AdapterStatus),
         /// (Protocol 5.) Answer to [`Request::GetBackgroundStatus`].
         7 Background(BackgroundReport),
+        /// (Protocol 7.) Answer to [`Request::GetGyroCalibration`].
+        8 GyroCalibration(GyroCalibrationState),
     }
 }
 
@@ -203,7 +217,7 @@ mod tests {
     }
 
     /// One response of every kind.
-    fn responses() -> [Response; 8] {
+    fn responses() -> [Response; 9] {
         let hello = HelloResponse {
             protocol_version: 1,
             schema_key: 2,
@@ -260,12 +274,17 @@ mod tests {
                 last_adoption: None,
                 last_refusal: None,
             }),
+            Response::GyroCalibration(GyroCalibrationState {
+                live: None,
+                staged: None,
+                boot: crate::messages::BootRecord::Empty,
+            }),
         ]
     }
 
     /// The pairing the protocol documents on each `Request` variant, written out
     /// independently: (request, index of its success answer in `responses()`).
-    fn documented_pairs() -> [(Request, usize); 10] {
+    fn documented_pairs() -> [(Request, usize); 13] {
         [
             (Request::Hello(Hello::CURRENT), 0),
             (Request::GetCalibration, 3),
@@ -286,6 +305,15 @@ mod tests {
                 }),
                 2,
             ),
+            (Request::GetGyroCalibration, 8),
+            (
+                Request::PutGyroCalibration(WireGyroCalibration {
+                    bias: [8192.0; 3],
+                    matrix: [[1e-3, 0.0, 0.0], [0.0, 1e-3, 0.0], [0.0, 0.0, 1e-3]],
+                }),
+                2,
+            ),
+            (Request::CommitGyroCalibration, 2),
         ]
     }
 

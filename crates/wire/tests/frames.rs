@@ -27,6 +27,10 @@ fn calibration() -> impl Strategy<Value = WireCalibration> {
     })
 }
 
+fn gyro_calibration() -> impl Strategy<Value = WireGyroCalibration> {
+    (v3(), [v3(), v3(), v3()]).prop_map(|(bias, matrix)| WireGyroCalibration { bias, matrix })
+}
+
 fn sample() -> impl Strategy<Value = Sample> {
     (
         any::<u32>(),
@@ -73,6 +77,9 @@ fn request() -> impl Strategy<Value = Request> {
                     fit_interval_ms: fit,
                 })
             }),
+        Just(Request::GetGyroCalibration),
+        gyro_calibration().prop_map(Request::PutGyroCalibration),
+        Just(Request::CommitGyroCalibration),
     ]
 }
 
@@ -263,6 +270,22 @@ fn response() -> impl Strategy<Value = Response> {
         sample().prop_map(Response::Sample),
         status().prop_map(Response::Status),
         background().prop_map(Response::Background),
+        (
+            proptest::option::of(gyro_calibration()),
+            proptest::option::of(gyro_calibration()),
+            any::<bool>()
+        )
+            .prop_map(|(live, staged, loaded)| {
+                Response::GyroCalibration(GyroCalibrationState {
+                    live,
+                    staged,
+                    boot: if loaded {
+                        BootRecord::Loaded
+                    } else {
+                        BootRecord::Rejected(RecordProblem::BadCrc)
+                    },
+                })
+            }),
     ]
 }
 
@@ -542,6 +565,32 @@ fn golden_encodings() {
     assert_eq!(
         hex(&enc(&Response::Background(bg))),
         "07010100880e08e0d40303ac02050203020102010000803f000001010000803f0000803f0107ac02"
+    );
+    // Protocol 7 additions, at the end of each enum: the gyro calibration, 12 floats (bias,
+    // then K row-major) and no effect terms (the g-sensitivity stays on the host).
+    assert_eq!(hex(&enc(&Request::GetGyroCalibration)), "0a");
+    assert_eq!(hex(&enc(&Request::CommitGyroCalibration)), "0c");
+    let gyro = WireGyroCalibration {
+        bias: [1.0, 0.0, 0.0],
+        matrix: [[0.0, 0.0, 2.0], [0.0; 3], [0.0; 3]],
+    };
+    let gyro_hex = format!(
+        "0000803f{}00000040{}",
+        "00".repeat(4 * 4),
+        "00".repeat(4 * 6)
+    );
+    assert_eq!(
+        hex(&enc(&Request::PutGyroCalibration(gyro))),
+        format!("0b{gyro_hex}")
+    );
+    // 08 GyroCalibration, Some live, None staged, Rejected (2) of BadCrc (3).
+    assert_eq!(
+        hex(&enc(&Response::GyroCalibration(GyroCalibrationState {
+            live: Some(gyro),
+            staged: None,
+            boot: BootRecord::Rejected(RecordProblem::BadCrc),
+        }))),
+        format!("0801{gyro_hex}000203")
     );
 }
 
@@ -884,8 +933,8 @@ fn a_protocol_2_calibration_frame_is_refused() {
     assert_eq!(got.len(), 1);
     assert!(got[0].is_err(), "{got:?}");
     // The Hello exchange refuses every earlier protocol's key (3: the first with these
-    // cross terms; 5: the newest before this one).
-    for (k, v) in [(2, 3), (1, 4), (0, 5)] {
+    // cross terms; 6: the newest before this one).
+    for (k, v) in [(3, 3), (2, 4), (1, 5), (0, 6)] {
         assert_eq!(protocol_of_key(PREVIOUS_SCHEMA_KEYS[k].1), Some(v));
         assert_eq!(
             check_schema_key(PREVIOUS_SCHEMA_KEYS[k].1),

@@ -6,7 +6,7 @@ use std::time::Duration;
 
 use crate::cli_error::cli_error;
 use crate::client::{same_bits, ClientOptions, Device};
-use crate::cmd::to_json;
+use crate::cmd::{device_gyro, to_json};
 use crate::render::device as render;
 use anyhow::{anyhow, bail, Result};
 use serde::Serialize;
@@ -52,23 +52,26 @@ pub enum DeviceAction {
         #[arg(long)]
         out: Option<PathBuf>,
     },
-    /// Upload a calibration (JSON from `wiical fit --out`) and verify it; with `--commit`
+    /// Upload a calibration (JSON from `wiical fit --out`, or a gyro calibration from
+    /// `wiical gyrofit --out`, told apart by its content) and verify it; with `--commit`
     /// also make it live and store it. Without `--commit` the adapter discards the upload
     /// when this command closes the port (a staged calibration belongs to its session).
     Put {
-        /// Calibration JSON.
+        /// Calibration JSON (accelerometer or gyro).
         file: PathBuf,
         /// Commit in the same session.
         #[arg(long)]
         commit: bool,
         /// Upload even when the fit's quality verdict is poor or the calibration is not
-        /// plausible for a Nunchuk (the adapter still refuses an implausible one).
+        /// plausible for a Nunchuk (a gyro one: a MotionPlus); the adapter still refuses an
+        /// implausible one.
         #[arg(long)]
         force: bool,
     },
-    /// Upload FILE, verify it and make it live and stored, in one session.
+    /// Upload FILE (an accelerometer or a gyro calibration), verify it and make it live and
+    /// stored, in one session.
     Commit {
-        /// Calibration JSON.
+        /// Calibration JSON (accelerometer or gyro).
         file: PathBuf,
         /// As for `put`: upload even when the quality verdict is poor.
         #[arg(long)]
@@ -136,16 +139,6 @@ struct StateJson {
     boot: String,
     /// Damaged or interrupted records the adapter skipped at boot.
     damaged_records: u16,
-}
-
-/// What the adapter found in storage at boot, as JSON text.
-fn boot_word(b: &BootRecord) -> String {
-    match b {
-        BootRecord::Empty => "empty".into(),
-        BootRecord::Loaded => "loaded".into(),
-        BootRecord::Rejected(p) => format!("rejected: {}", p.description()),
-        BootRecord::StorageError => "storage error".into(),
-    }
 }
 
 /// The sentence to add when the adapter refused its stored record at boot, skipped damaged
@@ -312,6 +305,23 @@ fn checked_for_put(path: &std::path::Path, force: bool) -> Result<CalibrationFil
     Ok(file)
 }
 
+/// The file `put` / `commit` uploads, read and judged: an accelerometer calibration, or a
+/// gyro calibration (told by its content, [`device_gyro::is_gyro_file`]); neither for the
+/// other actions.
+fn read_upload(
+    action: &DeviceAction,
+) -> Result<(Option<CalibrationFile>, Option<device_gyro::GyroPut>)> {
+    let (DeviceAction::Put { file, force, .. } | DeviceAction::Commit { file, force }) = action
+    else {
+        return Ok((None, None));
+    };
+    Ok(if device_gyro::is_gyro_file(file) {
+        (None, Some(device_gyro::checked_for_put(file, *force)?))
+    } else {
+        (Some(checked_for_put(file, *force)?), None)
+    })
+}
+
 /// Run `wiical device …`. Streamed samples are written to `out` as they arrive; the
 /// returned text is printed afterwards.
 pub fn run(args: &DeviceArgs, out: &mut dyn Write) -> Result<String> {
@@ -323,15 +333,18 @@ pub fn run(args: &DeviceArgs, out: &mut dyn Write) -> Result<String> {
         timeout: Duration::from_millis(args.timeout_ms.max(1)),
         retries: args.retries,
     };
-    // A calibration file is read and judged before the adapter is even opened.
-    let to_put = match &args.action {
-        DeviceAction::Put { file, force, .. } | DeviceAction::Commit { file, force } => {
-            Some(checked_for_put(file, *force)?)
-        }
-        _ => None,
-    };
+    // A calibration file is read and judged before the adapter is even opened; a gyro file
+    // (told by its content) goes its own way.
+    let (to_put, gyro) = read_upload(&args.action)?;
     let (mut dev, hello) = Device::connect(port, opts)?;
     let json = args.json;
+    if let Some(g) = &gyro {
+        let commit = matches!(
+            args.action,
+            DeviceAction::Put { commit: true, .. } | DeviceAction::Commit { .. }
+        );
+        return device_gyro::put(&mut dev, port, g, commit, json);
+    }
     match &args.action {
         DeviceAction::Info => info(&mut dev, &hello, port, json),
         DeviceAction::Get { out: file } => get(&mut dev, port, file.as_deref(), json),
@@ -574,14 +587,26 @@ fn get(dev: &mut Device, port: &str, file: Option<&std::path::Path>, json: bool)
         live,
         staged: s.staged.map(Calibration::from),
         stored: s.stored,
-        boot: boot_word(&s.boot),
+        boot: render::boot_word(&s.boot),
         damaged_records: s.damaged_records,
     };
+    // The MotionPlus's gyro calibration (protocol 7), shown only when the adapter holds one
+    // (or refused its record): otherwise the output is what it was before it existed.
+    let gyro = device_gyro::state(dev)?.filter(device_gyro::has_news);
     if json {
-        return to_json(&j);
+        // Without a gyro calibration the JSON is byte for byte what it was.
+        let Some(g) = &gyro else {
+            return to_json(&j);
+        };
+        let mut v = serde_json::to_value(&j)?;
+        v["gyro"] = device_gyro::state_json(g);
+        return to_json(&v);
     }
     let mut o = render::state_text(&j.live, j.staged.as_ref(), j.stored)?;
     o.extend(boot_note(&s));
+    if let Some(g) = &gyro {
+        o.push_str(&device_gyro::state_text(g)?);
+    }
     Ok(o)
 }
 

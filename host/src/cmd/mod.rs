@@ -8,6 +8,7 @@ pub mod capture;
 pub mod correct;
 pub mod decode_cal;
 pub mod device;
+pub mod device_gyro;
 pub mod device_sim;
 pub mod fit;
 pub mod gyrofit;

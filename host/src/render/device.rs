@@ -7,8 +7,8 @@ use std::fmt::Write as _;
 use std::path::Path;
 use wiical_core::Calibration;
 use wiical_wire::{
-    AdapterStatus, BackgroundPhase, BackgroundReport, BackgroundSettings, CalibrationOrigin,
-    CoverageGapReport, RefusalReport, SelfCalOutcome, SelfCalPhase,
+    AdapterStatus, BackgroundPhase, BackgroundReport, BackgroundSettings, BootRecord,
+    CalibrationOrigin, CoverageGapReport, RefusalReport, SelfCalOutcome, SelfCalPhase,
 };
 
 /// A calibration under a title: bias and `K = D⁻¹` (g per count, shown ×1e-3).
@@ -299,4 +299,14 @@ pub fn fmt_background(o: &mut String, b: &BackgroundReport) -> Result<()> {
     let refusal = b.last_refusal.as_ref().map_or("none".into(), refusal_text);
     row(o, "last refusal", &refusal)?;
     Ok(())
+}
+
+/// What the adapter found in storage at boot, as JSON text.
+pub fn boot_word(b: &BootRecord) -> String {
+    match b {
+        BootRecord::Empty => "empty".into(),
+        BootRecord::Loaded => "loaded".into(),
+        BootRecord::Rejected(p) => format!("rejected: {}", p.description()),
+        BootRecord::StorageError => "storage error".into(),
+    }
 }

@@ -8,15 +8,20 @@
 
 use embedded_storage_async::nor_flash::NorFlash;
 
+#[cfg(feature = "gyro-calibration")]
+use wiical_core::acceptance::Acceptance;
 use wiical_core::acceptance::Rejection;
+#[cfg(feature = "gyro-calibration")]
+use wiical_core::gyro_correct::GyroCorrection;
 use wiical_core::Calibration;
 use wiical_wire::endpoints::{
-    CommitCalibration, EndSession, GetBackgroundStatus, GetCalibration, GetStatus, Hello,
-    PutCalibration, SetBackground, StartStream, StopStream,
+    CommitCalibration, CommitGyroCalibration, EndSession, GetBackgroundStatus, GetCalibration,
+    GetGyroCalibration, GetStatus, Hello, PutCalibration, PutGyroCalibration, SetBackground,
+    StartStream, StopStream,
 };
 use wiical_wire::{
     AdapterStatus, Answer, AnswerAsync, BackgroundReport, CalibrationState, ErrorCode,
-    HelloResponse, Request, Serve, PROTOCOL_VERSION,
+    GyroCalibrationState, HelloResponse, Request, Serve, PROTOCOL_VERSION,
 };
 
 use super::recal::CommitError;
@@ -39,6 +44,7 @@ impl<F: NorFlash> Answer<Hello> for Protocol<F> {
     /// to commit. The stream keeps running (see the module docs).
     fn answer(&mut self, Hello(h): Hello) -> Result<HelloResponse, ErrorCode> {
         self.staged = None;
+        self.gyro.staged = None;
         self.session_open = h.schema_key == self.schema_key;
         Ok(HelloResponse {
             protocol_version: PROTOCOL_VERSION,
@@ -55,6 +61,7 @@ impl<F: NorFlash> Answer<EndSession> for Protocol<F> {
     fn answer(&mut self, _: EndSession) -> Result<(), ErrorCode> {
         self.session_open = false;
         self.staged = None;
+        self.gyro.staged = None;
         Ok(())
     }
 }
@@ -150,5 +157,77 @@ impl<F: NorFlash> AnswerAsync<SetBackground> for Protocol<F> {
             CommitError::OutOfBounds => ErrorCode::InvalidParameter,
             _ => ErrorCode::StorageFailure,
         })
+    }
+}
+
+#[cfg(feature = "gyro-calibration")]
+impl<F: NorFlash> Answer<GetGyroCalibration> for Protocol<F> {
+    fn answer(&mut self, _: GetGyroCalibration) -> Result<GyroCalibrationState, ErrorCode> {
+        Ok(GyroCalibrationState {
+            live: self.gyro.live.map(Into::into),
+            staged: self.gyro.staged.map(Into::into),
+            boot: self.gyro.boot.to_wire(),
+        })
+    }
+}
+
+#[cfg(feature = "gyro-calibration")]
+impl<F: NorFlash> Answer<PutGyroCalibration> for Protocol<F> {
+    /// Staged when usable and plausible for a MotionPlus (`Acceptance::check_gyro`); the
+    /// staged and live ones are unchanged otherwise.
+    fn answer(&mut self, PutGyroCalibration(w): PutGyroCalibration) -> Result<(), ErrorCode> {
+        let cal = GyroCorrection::from(w);
+        match Acceptance::motionplus().check_gyro(&cal) {
+            Ok(()) => {
+                self.gyro.staged = Some(cal);
+                Ok(())
+            }
+            Err(Rejection::Unusable(_)) => Err(ErrorCode::InvalidCalibration),
+            Err(_) => Err(ErrorCode::ImplausibleCalibration),
+        }
+    }
+}
+
+#[cfg(feature = "gyro-calibration")]
+impl<F: NorFlash> AnswerAsync<CommitGyroCalibration> for Protocol<F> {
+    /// Stores the staged gyro calibration (power-loss safe), reads it back, and only then
+    /// makes it live; a storage failure or a read-back that differs keeps the old one live
+    /// and the upload staged.
+    async fn answer(&mut self, _: CommitGyroCalibration) -> Result<(), ErrorCode> {
+        let cal = self.gyro.staged.ok_or(ErrorCode::NothingStaged)?;
+        self.store
+            .save_gyro(&cal)
+            .await
+            .map_err(|_| ErrorCode::StorageFailure)?;
+        match self.store.load_gyro().await {
+            Ok(crate::store::LoadedGyro::Calibration(back)) if back.bits() == cal.bits() => {}
+            _ => return Err(ErrorCode::StorageFailure),
+        }
+        self.gyro.live = Some(cal);
+        self.gyro.staged = None;
+        Ok(())
+    }
+}
+
+// Without the `gyro-calibration` feature (the RP2040 firmware: its flash budget) the three
+// gyro requests are refused, and none of their code is linked.
+#[cfg(not(feature = "gyro-calibration"))]
+impl<F: NorFlash> Answer<GetGyroCalibration> for Protocol<F> {
+    fn answer(&mut self, _: GetGyroCalibration) -> Result<GyroCalibrationState, ErrorCode> {
+        Err(ErrorCode::UnsupportedRequest)
+    }
+}
+
+#[cfg(not(feature = "gyro-calibration"))]
+impl<F: NorFlash> Answer<PutGyroCalibration> for Protocol<F> {
+    fn answer(&mut self, _: PutGyroCalibration) -> Result<(), ErrorCode> {
+        Err(ErrorCode::UnsupportedRequest)
+    }
+}
+
+#[cfg(not(feature = "gyro-calibration"))]
+impl<F: NorFlash> AnswerAsync<CommitGyroCalibration> for Protocol<F> {
+    async fn answer(&mut self, _: CommitGyroCalibration) -> Result<(), ErrorCode> {
+        Err(ErrorCode::UnsupportedRequest)
     }
 }

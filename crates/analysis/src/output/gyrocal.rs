@@ -213,6 +213,76 @@ pub fn read_gyro_calibration(path: &Path) -> Result<GyroCalFile> {
     })
 }
 
+/// A gyro file's calibration as the adapter holds it for a Wii MotionPlus (issue 50 item 2):
+/// the linear part turned from the accelerometer's frame into the MotionPlus's count axes.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MotionPlusGyro {
+    /// What the adapter applies, `ω_c = K_c·(m − b)`: `m` the MotionPlus's slow-range counts
+    /// (the file's gyro columns, which must be them, in report order yaw, roll, pitch), `ω_c`
+    /// rad/s along the count axes (positive where each count rises), `K_c = R·K`. No effect
+    /// terms (see [`Self::host_only`]).
+    pub device: GyroCorrection<f32>,
+    /// `R` row by row: count axis `i` measures the accelerometer frame's axis `axes[i].0`
+    /// with the sign `axes[i].1` (±1): `ω_c[i] = axes[i].1 · ω[axes[i].0]`.
+    pub axes: [(usize, f64); 3],
+    /// The file's non-zero terms that the adapter does not apply (rows of
+    /// [`GYRO_TERMS`] without `device_applies`: the g-sensitivity needs the accelerometer
+    /// fixed to the gyro, which is in the Wii Remote); they stay in the file for hosts.
+    pub host_only: Vec<&'static str>,
+}
+
+/// Turns a gyro file's calibration (`ω = K·(m − b)`, rad/s in the accelerometer's frame, as
+/// `gyrofit` fits it) into the MotionPlus's count axes, which the adapter's corrector works
+/// in: for each count column `i` the accelerometer axis it turns about most (the largest
+/// `|K[a][i]|`) and that entry's sign give row `i` of a signed permutation `R`, and
+/// `K_c = R·K`, `b` unchanged. `R` is orthogonal, so `ω_c = R·ω` exactly (no rate changes
+/// but its axes), `K_c`'s diagonal is positive (each count rises with its own rate) and the
+/// misalignment stays in its off-diagonal terms. Units stay rad/s and counts; the adapter
+/// re-encodes the corrected rates as counts at its ideal scale (18.618 counts per °/s slow).
+/// `Err` (one sentence) when two count columns turn about the same accelerometer axis: the
+/// file is then no MotionPlus's in a Wii Remote.
+pub fn for_motionplus(c: &GyroCorrection<f64>) -> std::result::Result<MotionPlusGyro, String> {
+    const AXES: [&str; 3] = ["x", "y", "z"];
+    const COUNTS: [&str; 3] = ["yaw", "roll", "pitch"];
+    let k = &c.matrix;
+    let mut axes = [(0usize, 1.0f64); 3];
+    for (i, axis) in axes.iter_mut().enumerate() {
+        let a = (0..3)
+            .max_by(|&p, &q| k[p][i].abs().total_cmp(&k[q][i].abs()))
+            .unwrap_or(0);
+        *axis = (a, if k[a][i] < 0.0 { -1.0 } else { 1.0 });
+    }
+    for i in 0..3 {
+        for j in i + 1..3 {
+            if axes[i].0 == axes[j].0 {
+                return Err(format!(
+                    "the gyro's count columns {} and {} both turn mostly about the accelerometer's {} axis, so they cannot be the MotionPlus's count axes",
+                    COUNTS[i], COUNTS[j], AXES[axes[i].0]
+                ));
+            }
+        }
+    }
+    let kc: [[f64; 3]; 3] = core::array::from_fn(|i| {
+        let (a, sign) = axes[i];
+        k[a].map(|x| sign * x)
+    });
+    let device = GyroCorrection {
+        bias: c.bias.map(|x| x as f32),
+        matrix: kc.map(|row| row.map(|x| x as f32)),
+        effects: GyroEffects::default(),
+    };
+    let host_only = GYRO_TERMS
+        .iter()
+        .filter(|t| !t.device_applies && c.effects.field(t.id).iter().any(|x| *x != 0.0))
+        .map(|t| t.name)
+        .collect();
+    Ok(MotionPlusGyro {
+        device,
+        axes,
+        host_only,
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -280,5 +350,71 @@ mod tests {
         assert!(to_text(&huge).is_err());
         let extra = with_g.replacen("\"units\"", "\"unit\": 1, \"units\"", 1);
         assert!(parse(&extra).is_err());
+    }
+
+    /// The count-axes conversion against a mounting written out here: the MotionPlus's yaw
+    /// count turns about the accelerometer's −z, roll about +y, pitch about −x (a left-handed
+    /// count frame, as Dolphin says the block is). The file's `K` is built as `Rᵀ·K_c` from a
+    /// known `K_c` (positive diagonal, 1–2 % misalignment); the conversion gives `R` and
+    /// `K_c` back, and rates from random counts agree (`ω_c = R·ω`) within f32 rounding.
+    #[test]
+    fn a_motionplus_file_is_turned_into_its_count_axes() {
+        let s = std::f64::consts::PI / 180.0 / 18.4;
+        let kc = [
+            [s, 0.012 * s, -0.004 * s],
+            [-0.008 * s, 1.02 * s, 0.0],
+            [0.02 * s, 0.0, 0.98 * s],
+        ];
+        // Rows of R: (accelerometer axis, sign) for yaw, roll, pitch.
+        let r = [(2usize, -1.0), (1, 1.0), (0, -1.0)];
+        let mut k = [[0.0; 3]; 3];
+        for (i, (a, sign)) in r.iter().enumerate() {
+            k[*a] = kc[i].map(|x| sign * x);
+        }
+        let mut file = GyroCorrection {
+            bias: [8100.5, 8230.0, 8150.25],
+            matrix: k,
+            effects: GyroEffects::default(),
+        };
+        file.effects.g_sensitivity[1][2] = 1e-3;
+        let m = for_motionplus(&file).unwrap();
+        assert_eq!(m.axes, r);
+        assert_eq!(m.host_only, vec!["g_sensitivity"]);
+        assert!(m.device.effects.is_none());
+        assert_eq!(m.device.bias, file.bias.map(|x| x as f32));
+        for (row, want) in m.device.matrix.iter().zip(&kc) {
+            for (got, want) in row.iter().zip(want) {
+                assert!(
+                    (f64::from(*got) - want).abs() <= want.abs() * 1e-7,
+                    "{got} {want}"
+                );
+            }
+        }
+        let mut rng = 0x2545_f491_u64;
+        for _ in 0..100 {
+            let counts: [f64; 3] = core::array::from_fn(|_| {
+                rng = rng.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
+                (rng >> 33) as f64 % 16384.0
+            });
+            let w = file.correct_linear(counts);
+            let wc = m.device.correct_linear(counts.map(|x| x as f32));
+            for i in 0..3 {
+                let want = r[i].1 * w[r[i].0];
+                let bound = 8.0 * f64::from(f32::EPSILON) * (w[r[i].0].abs() + 16384.0 * 2.0 * s);
+                assert!(
+                    (f64::from(wc[i]) - want).abs() <= bound,
+                    "{i}: {} vs {want}",
+                    wc[i]
+                );
+            }
+        }
+        // Two count columns about one accelerometer axis: refused, naming them.
+        let mut twice = file;
+        twice.matrix[0][0] = 2.0 * s;
+        let e = for_motionplus(&twice).unwrap_err();
+        assert!(
+            e.contains("yaw and pitch both turn mostly about the accelerometer's x axis"),
+            "{e}"
+        );
     }
 }
