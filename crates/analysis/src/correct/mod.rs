@@ -24,7 +24,7 @@
 //! limits the adapter adds; and a corrected value beyond ±16 g at any sample (host terms
 //! included, which the predicate does not see).
 //!
-//! **One path.** Every sample is corrected by one pass in order ([`pass::correct_pass`]):
+//! **One path.** Every sample is corrected by one pass in order (`pass::correct_pass`):
 //! a large plain text file ([`source::open_samples`]) as it is read
 //! ([`pass::correct_streamed`]), in memory bounded by a piece of the file and ±15 s of
 //! samples, written straight to a temporary file beside the output that replaces it only when
@@ -120,7 +120,7 @@ pub struct Corrected {
 /// as the analysis takes them); `Conditions::time_s` counts from the first sample. A term
 /// that needs a temperature the recording lacks, the core's `bias_temp` / `scale_temp`
 /// included, is refused, naming the term (the core would silently skip it). The one-chunk
-/// case of the pass a large file is corrected by ([`pass::correct_pass`]): the same code,
+/// case of the pass a large file is corrected by (`pass::correct_pass`): the same code,
 /// the corrected samples kept instead of written. Errors are [`CorrectError`]s.
 pub fn correct_recording(
     file: &CalibrationFile,

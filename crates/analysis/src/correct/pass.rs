@@ -1,4 +1,4 @@
-//! The correction, written once: one pass over a recording's samples in order ([`Readings`]:
+//! The correction, written once: one pass over a recording's samples in order (`Readings`:
 //! a large file's rows read from it, [`crate::input::text_source::TextSource::rows`], or a
 //! recording held in memory, the one-chunk case [`super::correct_recording`] takes) corrects
 //! every sample and gives it out — for a file, its line to a temporary file beside the
