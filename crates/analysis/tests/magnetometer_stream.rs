@@ -147,17 +147,15 @@ fn real_recordings_stream_as_held() {
     assert!(streamed_files >= 5, "{streamed_files} streamed");
 }
 
-/// A simulated recording with a centre drift and a temperature column, written as text:
-/// every model's JSON in passes is the held one, the medians selected by bits.
-#[test]
-fn simulation_streams_as_held() {
+/// A simulated magnetometer recording with `effect` (seed `seed`) written in `dir` as
+/// `mag.csv`: `t,mx,my,mz,temp,current`.
+fn simulated_csv(dir: &Path, effect: MagEffectTruth, seed: u64) -> PathBuf {
     let sim = simulate_mag(&MagSimConfig {
-        effect: MagEffectTruth::Drift([0.2, -0.1, 0.15]),
-        seed: 7,
+        effect,
+        seed,
         ..Default::default()
     });
-    let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("mag.csv");
+    let path = dir.join("mag.csv");
     let mut text = String::from("t,mx,my,mz,temp,current\n");
     for i in 0..sim.xyz.len() {
         let [x, y, z] = sim.xyz[i];
@@ -167,6 +165,15 @@ fn simulation_streams_as_held() {
         );
     }
     std::fs::write(&path, text).unwrap();
+    path
+}
+
+/// A simulated recording with a centre drift and a temperature column, written as text:
+/// every model's JSON in passes is the held one, the medians selected by bits.
+#[test]
+fn simulation_streams_as_held() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = simulated_csv(dir.path(), MagEffectTruth::Drift([0.2, -0.1, 0.15]), 7);
     let o = opts(None);
     for model in MagModel::ALL {
         let want = held(&path, &o, &[], model);
@@ -190,22 +197,12 @@ fn simulation_streams_as_held() {
 /// effect.
 #[test]
 fn relinearised_interference_streams_as_held() {
-    let sim = simulate_mag(&MagSimConfig {
-        effect: MagEffectTruth::Interference([5.0, 2.0, -3.0]),
-        seed: 11,
-        ..Default::default()
-    });
     let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("mag.csv");
-    let mut text = String::from("t,mx,my,mz,temp,current\n");
-    for i in 0..sim.xyz.len() {
-        let [x, y, z] = sim.xyz[i];
-        text += &format!(
-            "{},{x},{y},{z},{},{}\n",
-            sim.t[i], sim.temp[i], sim.current[i]
-        );
-    }
-    std::fs::write(&path, text).unwrap();
+    let path = simulated_csv(
+        dir.path(),
+        MagEffectTruth::Interference([5.0, 2.0, -3.0]),
+        11,
+    );
     let o = opts(None);
     let want = held(&path, &o, &["current"], MagModel::Ellipsoid);
     assert!(want.contains("\"name\":\"interference:current\""), "{want}");
