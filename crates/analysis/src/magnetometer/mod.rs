@@ -52,9 +52,10 @@ pub fn analyze(
     if known.is_empty() {
         return Ok(first);
     }
-    let corrected: Vec<[f64; 3]> = (0..n)
-        .map(|i| shifted(&inp.xyz[i], &follow_at(inp, i), &known))
-        .collect();
+    let mut corrected = Vec::with_capacity(n);
+    each_held(inp, |_, m, follow| {
+        corrected.push(shifted(m, follow, &known))
+    });
     let Ok(rep2) = fit_points(&corrected, model) else {
         return Ok(first);
     };
@@ -62,12 +63,16 @@ pub fn analyze(
     Ok(second.finish(alpha, has_temp, has_follow))
 }
 
-/// The followed columns' values at sample `i` (`NaN` past a column's end).
-fn follow_at(inp: &MagInput, i: usize) -> Vec<f64> {
-    inp.follow
-        .iter()
-        .map(|(_, v)| v.get(i).copied().unwrap_or(f64::NAN))
-        .collect()
+/// Every held sample in order with its index and the followed columns' values (`NaN` past a
+/// column's end), in one buffer (the held twin of `stream::each_row`).
+fn each_held(inp: &MagInput, mut f: impl FnMut(usize, &[f64; 3], &[f64])) {
+    let mut follow = vec![0.0; inp.follow.len()];
+    for (i, m) in inp.xyz.iter().enumerate() {
+        for (slot, (_, v)) in follow.iter_mut().zip(inp.follow) {
+            *slot = v.get(i).copied().unwrap_or(f64::NAN);
+        }
+        f(i, m, &follow);
+    }
 }
 
 /// One [`LoopPass`] over the held samples about `rep`, with the `known` shifts.
@@ -81,14 +86,10 @@ fn held_pass<'r>(
 ) -> LoopPass<'r> {
     let n = inp.xyz.len();
     let mut pass = LoopPass::new(rep, sigma, scalars, model, inp.unit, n).with_known(known);
-    let mut follow = vec![0.0; inp.follow.len()];
-    for (i, m) in inp.xyz.iter().enumerate() {
-        for (slot, (_, v)) in follow.iter_mut().zip(inp.follow) {
-            *slot = v.get(i).copied().unwrap_or(f64::NAN);
-        }
+    each_held(inp, |i, m, follow| {
         let t = inp.t.map_or(i as f64, |t| t[i]);
-        pass.push(m, t, inp.temp.map_or(f64::NAN, |v| v[i]), &follow);
-    }
+        pass.push(m, t, inp.temp.map_or(f64::NAN, |v| v[i]), follow);
+    });
     pass
 }
 

@@ -34,6 +34,7 @@ use crate::input::columns::{all_named, Sensor};
 use crate::input::text_source::TextSource;
 use crate::magnetometer::fit::{FitFold, QualityFold};
 use crate::magnetometer::model::MagModel;
+use crate::protocol::vec3::{mat_vec, norm, sub};
 use wiical_core::magfit::MagFit;
 
 /// Still windows needed to say that the rests read alike.
@@ -180,13 +181,13 @@ fn gyroscope(src: &(impl SampleSource + ?Sized), ws: &Windows) -> Option<OtherSe
     let rest_spread = ws
         .stats
         .iter()
-        .map(|w| distance(&w.mean, &centre))
+        .map(|w| norm(sub(w.mean, centre)))
         .fold(0.0, f64::max);
     let far = GYRO_REACH_RATIO * rest_spread;
     let (mut n, mut beyond) = (0usize, 0usize);
     src.each(&mut |m| {
         n += 1;
-        beyond += usize::from(distance(m, &centre) > far);
+        beyond += usize::from(norm(sub(*m, centre)) > far);
     })
     .ok()?;
     let far_fraction = beyond as f64 / n.max(1) as f64;
@@ -200,11 +201,6 @@ fn gyroscope(src: &(impl SampleSource + ?Sized), ws: &Windows) -> Option<OtherSe
     )
 }
 
-fn distance(a: &[f64; 3], b: &[f64; 3]) -> f64 {
-    let d = [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
-    (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt()
-}
-
 /// Which directions of `n̂ = W(m − c)/‖W(m − c)‖` the samples reach: per axis, beyond +0.5
 /// and beyond −0.5.
 #[derive(Default)]
@@ -213,11 +209,11 @@ struct Directions([[bool; 2]; 3]);
 impl Directions {
     fn push(&mut self, fit: &MagFit, m: &[f64; 3]) {
         let v = fit.apply(m.map(|x| x as f32)).map(f64::from);
-        let norm = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-        if norm > 0.0 && norm.is_finite() {
+        let len = norm(v);
+        if len > 0.0 && len.is_finite() {
             for (seen, x) in self.0.iter_mut().zip(v) {
-                seen[0] |= x / norm > 0.5;
-                seen[1] |= x / norm < -0.5;
+                seen[0] |= x / len > 0.5;
+                seen[1] |= x / len < -0.5;
             }
         }
     }
@@ -251,10 +247,8 @@ fn magnetometer(src: &(impl SampleSource + ?Sized), ws: &Windows) -> Option<Othe
         return None;
     }
     let on_surface = |m: &[f64; 3]| {
-        let d: [f64; 3] = std::array::from_fn(|k| m[k] - fit.center[k]);
-        let wd: [f64; 3] = std::array::from_fn(|r| (0..3).map(|k| fit.matrix[r][k] * d[k]).sum());
-        let norm = (wd[0] * wd[0] + wd[1] * wd[1] + wd[2] * wd[2]).sqrt();
-        (norm - fit.radius).abs() <= MAX_ELLIPSOID_ERROR_PCT / 100.0 * fit.radius
+        let radius = norm(mat_vec(&fit.matrix, sub(*m, fit.center)));
+        (radius - fit.radius).abs() <= MAX_ELLIPSOID_ERROR_PCT / 100.0 * fit.radius
     };
     let rests_on = ws.stats.iter().filter(|w| on_surface(&w.mean)).count();
     (rests_on < MIN_RESTS).then_some(OtherSensor::Magnetometer {
