@@ -5,7 +5,9 @@
 //!
 //! The adapter sits between a Nunchuk and a Wii Remote: it polls the Nunchuk as I²C
 //! controller, corrects its accelerometer with the stored calibration and presents the
-//! result to the Wii Remote as an emulated Nunchuk (I²C target at `0x52`), while a host
+//! result to the Wii Remote as an emulated Nunchuk (I²C target at `0x52`). With a MotionPlus
+//! in place of the Nunchuk it corrects the gyro rates with the stored gyro calibration and
+//! presents an emulated MotionPlus (`0x53` inactive, `0x52` once activated), while a host
 //! reads, uploads and commits calibrations and streams samples over USB serial
 //! (COBS frames, `wiical-wire`). All decisions are made by the hardware-independent
 //! `wiical-adapter` crate; this firmware only wires embassy's drivers to it.
@@ -16,8 +18,8 @@
 //!
 //! | task | concern |
 //! |---|---|
-//! | [`nunchuk::nunchuk_task`] | I²C0 controller, 400 kHz: init, poll at 200 Hz, correct, feed the emulated map |
-//! | [`wiimote::wiimote_task`] | I²C1 target `0x52`: the Wii Remote's reads and writes of the emulated map |
+//! | [`extension::extension_task`] | I²C0 controller, 400 kHz: find a MotionPlus or a Nunchuk, init, poll at 200 Hz, correct, feed the emulated map |
+//! | [`wiimote::wiimote_task`] | I²C1 target (`0x52`, or `0x53` for an inactive MotionPlus): the Wii Remote's reads and writes of the emulated map |
 //! | [`wiimote::ext_detect_task`] | the extension-detect line towards the Wii Remote |
 //! | [`serial::usb_task`] | the USB device stack |
 //! | [`serial::serial_task`] | CDC-ACM: request frames in, responses and samples out |
@@ -25,7 +27,7 @@
 //! | [`temperature::temperature_task`] | the on-chip temperature sensor every 5 s: the background recalibration's covariate |
 //!
 //! The background recalibration (still moments of play re-fit the calibration) runs inside the
-//! adapter logic on every report of [`nunchuk::nunchuk_task`], one bounded slice at a time; an
+//! adapter logic on every Nunchuk report of [`extension::extension_task`], one bounded slice at a time; an
 //! adoption is stored by the same `service` call that stores a finished self-calibration.
 //!
 //! Storage is not a task of its own: [`storage::open`] loads the calibration at boot, and a
@@ -37,7 +39,7 @@
 #![no_main]
 
 mod board;
-mod nunchuk;
+mod extension;
 mod serial;
 mod shared;
 mod status;
@@ -69,16 +71,17 @@ async fn main(spawner: Spawner) {
     static ADAPTER: StaticCell<Adapter> = StaticCell::new();
     let adapter: &'static Adapter = ADAPTER.init(Mutex::new(protocol));
 
-    // Nunchuk side: I²C0 controller on GP4 (SDA) / GP5 (SCL), 400 kHz, external pull-ups.
+    // Extension side (Nunchuk or MotionPlus): I²C0 controller on GP4 (SDA) / GP5 (SCL), 400 kHz,
+    // external pull-ups.
     let mut cfg = i2c::Config::default();
     cfg.frequency = 400_000;
     cfg.sda_pullup = false;
     cfg.scl_pullup = false;
     let nunchuk_bus = i2c::I2c::new_async(p.I2C0, p.PIN_5, p.PIN_4, Irqs, cfg);
-    spawner.spawn(unwrap!(nunchuk::nunchuk_task(nunchuk_bus, adapter)));
+    spawner.spawn(unwrap!(extension::extension_task(nunchuk_bus, adapter)));
 
-    // Wii Remote side: I²C1 target at 0x52 on GP2 (SDA) / GP3 (SCL); the Wii Remote has the
-    // pull-ups. Extension-detect output on GP6.
+    // Wii Remote side: I²C1 target at 0x52 on GP2 (SDA) / GP3 (SCL) (the task moves it to 0x53
+    // for an inactive MotionPlus); the Wii Remote has the pull-ups. Extension-detect output on GP6.
     let mut tcfg = i2c_slave::Config::default();
     tcfg.addr = u16::from(wiical_extbus::nunchuk::I2C_ADDRESS);
     tcfg.general_call = false;

@@ -1,10 +1,11 @@
 //! What the tasks share with each other: the adapter state behind one mutex, and the channel
-//! that carries stream samples from the Nunchuk task to the serial task. Each task imports
+//! that carries stream samples from the extension task to the serial task. Each task imports
 //! these from here rather than from another task.
 
 use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
 use embassy_sync::channel::Channel;
 use embassy_sync::mutex::Mutex;
+use embassy_sync::signal::Signal;
 use wiical_adapter::Protocol;
 use wiical_wire::Sample;
 
@@ -18,3 +19,8 @@ pub type Adapter = Mutex<CriticalSectionRawMutex, Protocol<StoreFlash>>;
 /// Samples on their way from the Nunchuk task to the host (dropped when full: the host sees
 /// a gap in `seq`).
 pub static SAMPLES: Channel<CriticalSectionRawMutex, Sample, 16> = Channel::new();
+
+/// Signalled by the extension task when the address the Wii Remote side must answer at
+/// changed without a transaction of the Wii Remote (another extension connected), so that
+/// the Wii Remote task moves there without waiting for a transaction at the old address.
+pub static ADDRESS_CHANGED: Signal<CriticalSectionRawMutex, ()> = Signal::new();

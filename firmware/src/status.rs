@@ -1,4 +1,4 @@
-//! Adapter status shared without locks (written by the Nunchuk task after every poll), and
+//! Adapter status shared without locks (written by the extension task after every poll), and
 //! the status-LED task.
 
 use core::sync::atomic::{AtomicBool, AtomicU32, AtomicU8, Ordering};
@@ -33,16 +33,17 @@ fn phase_code(s: &SelfCalStatus) -> u8 {
 }
 
 /// Publishes the self-calibration status and the stale monitor's suggestion (called by the
-/// Nunchuk task after every poll).
+/// extension task after every poll).
 pub fn publish_selfcal(s: &SelfCalStatus, recalibration_suggested: bool) {
     SELFCAL.store(phase_code(s), Ordering::Relaxed);
     RECALIBRATE.store(recalibration_suggested, Ordering::Relaxed);
 }
 
-/// Publishes the adapter's state (called by the Nunchuk task).
-pub fn publish(st: &Status, block_generation: u32) {
+/// Publishes the adapter's state (called by the extension task); `detect` is the
+/// extension-detect line's level (`Protocol::extension_detect`).
+pub fn publish(st: &Status, block_generation: u32, detect: bool) {
     let mut f = 0;
-    if st.connected {
+    if detect {
         f |= CONNECTED;
     }
     if st.mode == CorrectionMode::Calibrated {
@@ -55,7 +56,8 @@ pub fn publish(st: &Status, block_generation: u32) {
     BLOCK_GENERATION.store(block_generation, Ordering::Relaxed);
 }
 
-/// A Nunchuk is connected and answering.
+/// The extension-detect line should be high: a Nunchuk connected and answering, or a
+/// MotionPlus connected and activated by the Wii Remote.
 pub fn connected() -> bool {
     FLAGS.load(Ordering::Relaxed) & CONNECTED != 0
 }

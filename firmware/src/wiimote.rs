@@ -1,30 +1,46 @@
-//! The Wii Remote side: I²C1 target at `0x52` serving the emulated Nunchuk register map,
-//! and the extension-detect line.
+//! The Wii Remote side: I²C1 target serving the emulated extension's register map (a Nunchuk
+//! at `0x52`; a MotionPlus at `0x53` while inactive and `0x52` once activated), and the
+//! extension-detect line.
 
 use defmt::warn;
+use embassy_futures::select::{select, Either};
 use embassy_rp::gpio::Output;
 use embassy_rp::i2c_slave::{Command, I2cSlave, ReadStatus};
 use embassy_rp::peripherals::I2C1;
 use embassy_time::Timer;
 
-use crate::shared::Adapter;
+use crate::shared::{Adapter, ADDRESS_CHANGED};
 use crate::status;
 
 /// Bytes handed to the I²C FIFO per lock of the adapter: one whole report, so that the Wii
 /// Remote never reads half of an old and half of a new report.
 const READ_CHUNK: usize = 6;
 
-/// Answers the Wii Remote: writes go to the register map (pointer, init, key), reads are
-/// served from it in [`READ_CHUNK`]-byte pieces for as long as the Wii Remote clocks.
+/// Answers the Wii Remote: writes go to the register map (pointer, init, key, the
+/// MotionPlus's activation), reads are served from it in [`READ_CHUNK`]-byte pieces for as
+/// long as the Wii Remote clocks. Before each transaction is awaited, the target address is
+/// set to the one the adapter logic answers at now ([`set_address`]).
 #[embassy_executor::task]
 pub async fn wiimote_task(mut dev: I2cSlave<'static, I2C1>, adapter: &'static Adapter) -> ! {
     let mut rx = [0u8; 64];
+    let mut address = wiical_extbus::nunchuk::I2C_ADDRESS;
     loop {
-        match dev.listen(&mut rx).await {
-            Ok(Command::Write(n)) => adapter.lock().await.emulated().on_write(&rx[..n]),
+        let wanted = adapter.lock().await.target_address();
+        if wanted != address {
+            set_address(wanted);
+            address = wanted;
+        }
+        // Woken also when the extension changes (another address, while the Wii Remote is
+        // silent): dropping `listen` between transactions loses nothing.
+        let command = match select(dev.listen(&mut rx), ADDRESS_CHANGED.wait()).await {
+            Either::First(c) => c,
+            Either::Second(()) => continue,
+        };
+        match command {
+            Ok(Command::Write(n)) => adapter.lock().await.target_write(&rx[..n]),
             Ok(Command::WriteRead(n)) => {
                 // A repeated start (a real Nunchuk needs a stop, but tolerate it).
-                adapter.lock().await.emulated().on_write(&rx[..n]);
+                adapter.lock().await.target_write(&rx[..n]);
                 serve_reads(&mut dev, adapter).await;
             }
             Ok(Command::Read) => serve_reads(&mut dev, adapter).await,
@@ -32,6 +48,20 @@ pub async fn wiimote_task(mut dev: I2cSlave<'static, I2C1>, adapter: &'static Ad
             Err(e) => warn!("Wii Remote bus: {}", e),
         }
     }
+}
+
+/// Moves the I²C1 target to another 7-bit address. The DW_apb_i2c block takes a new
+/// `IC_SAR` only while disabled (RP2040 datasheet 4.3.10.3, RP2350 12.2): disable, wait for
+/// `IC_ENABLE_STATUS.IC_EN` to clear, write, enable. embassy-rp's `I2cSlave` keeps its address
+/// in a private config written only by `new`/`reset` (embassy-rp 0.10), so the register is
+/// written here, between transactions (the interrupt mask and FIFO thresholds the driver set
+/// are kept by the block across a disable).
+fn set_address(address: u8) {
+    let i2c = embassy_rp::pac::I2C1;
+    i2c.ic_enable().write(|w| w.set_enable(false));
+    while i2c.ic_enable_status().read().ic_en() {}
+    i2c.ic_sar().write(|w| w.set_ic_sar(u16::from(address)));
+    i2c.ic_enable().write(|w| w.set_enable(true));
 }
 
 /// How a read of the Wii Remote ended.
@@ -68,7 +98,7 @@ async fn serve_reads(dev: &mut I2cSlave<'static, I2C1>, adapter: &'static Adapte
                 (entry.dat(), entry.first_data_byte())
             })
         });
-        guard.emulated().on_received(received);
+        guard.target_received(received);
     }
 }
 
@@ -83,13 +113,13 @@ async fn serve_reads(dev: &mut I2cSlave<'static, I2C1>, adapter: &'static Adapte
 /// emulate`). After bytes were sent, it is this read's rest: [`ReadEnd::Overtaken`].
 async fn respond(dev: &mut I2cSlave<'static, I2C1>, adapter: &'static Adapter) -> ReadEnd {
     let mut chunk = [0u8; READ_CHUNK];
-    adapter.lock().await.emulated().on_read(&mut chunk);
+    adapter.lock().await.target_read(&mut chunk);
     let mut sent_any = false;
     loop {
         match dev.respond_to_read(&chunk).await {
             Ok(ReadStatus::NeedMoreBytes) => {
                 sent_any = true;
-                adapter.lock().await.emulated().on_read(&mut chunk);
+                adapter.lock().await.target_read(&mut chunk);
             }
             Ok(ReadStatus::LeftoverBytes(_)) if !sent_any => {
                 // Stale bytes of the previous read were flushed; send this piece again.
@@ -105,7 +135,8 @@ async fn respond(dev: &mut I2cSlave<'static, I2C1>, adapter: &'static Adapter) -
     }
 }
 
-/// Drives the extension-detect line: high while a Nunchuk is connected. When the emulated
+/// Drives the extension-detect line: high while a Nunchuk is connected, or a MotionPlus is
+/// connected and activated. When the emulated
 /// calibration block changes (a commit, or a different Nunchuk), the line drops for 100 ms
 /// so that the Wii Remote re-initialises the extension and re-reads the block.
 #[embassy_executor::task]

@@ -19,6 +19,25 @@ use wiical_extbus::{NunchukRegisters, NunchukReport};
 /// received bytes [`EmulatedNunchuk::on_received`] takes at once.
 pub const RX_FIFO_DEPTH: usize = 16;
 
+/// RX FIFO entries `(data, first data byte of a transaction)` split into the write
+/// transactions they were, each handed to `write` in order; at most [`RX_FIFO_DEPTH`] entries
+/// are taken (see [`EmulatedNunchuk::on_received`]).
+pub fn split_writes(entries: impl IntoIterator<Item = (u8, bool)>, mut write: impl FnMut(&[u8])) {
+    let mut buf = [0u8; RX_FIFO_DEPTH];
+    let mut len = 0;
+    for (byte, first) in entries.into_iter().take(RX_FIFO_DEPTH) {
+        if first && len > 0 {
+            write(&buf[..len]);
+            len = 0;
+        }
+        buf[len] = byte;
+        len += 1;
+    }
+    if len > 0 {
+        write(&buf[..len]);
+    }
+}
+
 /// The emulated Nunchuk register map; see the module docs.
 #[derive(Debug, Clone, PartialEq, Eq, Default)]
 pub struct EmulatedNunchuk {
@@ -60,19 +79,7 @@ impl EmulatedNunchuk {
     /// firmware/src/wiimote.rs). At most [`RX_FIFO_DEPTH`] entries are taken; bytes of one
     /// write beyond that many are dropped (the FIFO cannot hold more).
     pub fn on_received(&mut self, entries: impl IntoIterator<Item = (u8, bool)>) {
-        let mut write = [0u8; RX_FIFO_DEPTH];
-        let mut len = 0;
-        for (byte, first) in entries.into_iter().take(RX_FIFO_DEPTH) {
-            if first && len > 0 {
-                self.on_write(&write[..len]);
-                len = 0;
-            }
-            write[len] = byte;
-            len += 1;
-        }
-        if len > 0 {
-            self.on_write(&write[..len]);
-        }
+        split_writes(entries, |w| self.on_write(w));
     }
 
     /// Read transaction from the Wii Remote: fills `buf` from the register pointer on,

@@ -18,6 +18,9 @@ pub enum Error<E> {
     Garbage,
     /// The device at `0x52` answered but is not a Nunchuk; these are its (decrypted) ID bytes.
     NotANunchuk([u8; 6]),
+    /// The device at `0x53` (or, after the activation, at `0x52`) answered but is not a
+    /// MotionPlus; these are its ID bytes.
+    NotAMotionPlus([u8; 6]),
 }
 
 impl<E: fmt::Debug> fmt::Display for Error<E> {
@@ -26,6 +29,7 @@ impl<E: fmt::Debug> fmt::Display for Error<E> {
             Error::Bus(e) => write!(f, "I2C bus error: {e:?}"),
             Error::Garbage => f.write_str("extension returned all-0x00/0xFF bytes"),
             Error::NotANunchuk(id) => write!(f, "extension is not a Nunchuk (ID {id:02X?})"),
+            Error::NotAMotionPlus(id) => write!(f, "device is not a MotionPlus (ID {id:02X?})"),
         }
     }
 }

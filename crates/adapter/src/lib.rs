@@ -15,6 +15,8 @@
 //! | [`poller`] | [`NunchukPoller`]: init (plain, else legacy encrypted), ID, factory block, report polling, unplug/replug with back-off |
 //! | [`corrector`] | [`Corrector`]: live calibration → g → counts on an ideal 10-bit scale; pass-through when uncalibrated |
 //! | [`emulated`] | [`EmulatedNunchuk`]: the register map the Wii Remote reads |
+//! | [`motionplus_poller`] | [`MotionPlusPoller`]: a real MotionPlus found at `0x53`, its block read, activated, polled at `0x52` |
+//! | [`extension`] | [`ExtensionPoller`]: which extension is connected (MotionPlus looked for first), [`Extension`] |
 //! | [`motionplus`] | [`EmulatedMotionPlus`], [`GyroCorrector`]: the adapter as a MotionPlus, its gyro rates corrected and re-encoded (slow/fast ranges), the Nunchuk passed through corrected |
 //! | [`store`] | [`CalibrationStore`]: versioned, CRC-checked record in a power-loss-safe `sequential-storage` map |
 //! | [`settings`] | [`settings::StoredSettings`]: background adoption on/off, host uploads protected, the stored calibration's origin |
@@ -42,7 +44,9 @@ pub mod background;
 pub mod corrector;
 pub mod emulated;
 mod error;
+pub mod extension;
 pub mod motionplus;
+pub mod motionplus_poller;
 pub mod poller;
 pub mod protocol;
 pub mod selfcal;
@@ -53,7 +57,9 @@ pub mod store;
 pub use corrector::{Corrected, CorrectionMode, Corrector, IdealScale};
 pub use emulated::EmulatedNunchuk;
 pub use error::{Error, RecordError, StoreError};
+pub use extension::{Extension, ExtensionEvent, ExtensionPoller};
 pub use motionplus::{EmulatedMotionPlus, GyroCorrector, IdealGyroScale};
+pub use motionplus_poller::{MotionPlusEvent, MotionPlusInfo, MotionPlusPoller};
 pub use poller::{NunchukInfo, NunchukPoller, PollEvent, PollerConfig, DEFAULT_POLL_HZ};
 pub use protocol::{BootLoad, DeviceInfo, Protocol, Status};
 pub use selfcal::{

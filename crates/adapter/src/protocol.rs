@@ -40,8 +40,8 @@
 //! beside the accelerometer's (the store's gyro record, power-loss safe), reads it back and
 //! only then makes it live, `GetGyroCalibration` reports live, staged and what was found at
 //! boot. A staged gyro calibration belongs to its session as the accelerometer's does. The
-//! live one is for the MotionPlus's corrector ([`crate::GyroCorrector::set_calibration`]),
-//! which the firmware does not run yet ([`Protocol::gyro_calibration`] hands it over).
+//! live one is installed in the MotionPlus's corrector at boot and after every commit
+//! ([`Protocol::motionplus`]; the `extension` child module serves the MotionPlus).
 //! Without the crate's `gyro-calibration` feature (default on; the RP2040 firmware leaves it
 //! out for its flash budget) the three requests answer `UnsupportedRequest`.
 //!
@@ -52,6 +52,7 @@
 //! ([`crate::settings`]).
 
 mod answers;
+mod extension;
 mod recal;
 mod recal_wire;
 
@@ -72,6 +73,8 @@ use crate::background::{Background, LiveOrigin};
 use crate::corrector::{CorrectionMode, Corrector, IdealScale};
 use crate::emulated::EmulatedNunchuk;
 use crate::error::{Error, RecordError};
+use crate::extension::Extension;
+use crate::motionplus::{EmulatedMotionPlus, GyroCorrector};
 use crate::poller::{NunchukInfo, PollEvent};
 use crate::selfcal::{SelfCal, SelfCalConfig, SelfCalResult, SelfCalStatus};
 use crate::settings::StoredSettings;
@@ -182,6 +185,10 @@ pub struct Protocol<F: NorFlash> {
     background: Background,
     settings: StoredSettings,
     gyro: GyroState,
+    /// The extension presented to the Wii Remote.
+    extension: Extension,
+    /// The emulated MotionPlus (its corrector holds the live gyro calibration).
+    motionplus: EmulatedMotionPlus,
 }
 
 /// The MotionPlus's gyro calibration as the protocol keeps it (protocol 7).
@@ -264,7 +271,7 @@ impl<F: NorFlash> Protocol<F> {
         let gyro = GyroState::boot(&mut store).await;
         let emulated = EmulatedNunchuk::new(&corrector.calibration_block_bytes());
         let rate_hz = info.base_rate_mhz / 1000;
-        Self {
+        let mut proto = Self {
             info,
             schema_key: SCHEMA_KEY,
             session_open: false,
@@ -283,7 +290,11 @@ impl<F: NorFlash> Protocol<F> {
             background: recal::background_for(rate_hz, &settings, origin),
             settings,
             gyro,
-        }
+            extension: Extension::Nunchuk,
+            motionplus: EmulatedMotionPlus::new(GyroCorrector::default()),
+        };
+        proto.install_gyro();
+        proto
     }
 
     /// Use other self-calibration settings (tests, other sensors). Also sets the
@@ -517,8 +528,8 @@ impl<F: NorFlash> Protocol<F> {
         self.staged.as_ref()
     }
 
-    /// The committed gyro calibration in force (for the MotionPlus's corrector,
-    /// [`crate::GyroCorrector::set_calibration`]); `None`: the rates pass through.
+    /// The committed gyro calibration in force (installed in the MotionPlus's corrector,
+    /// [`Protocol::motionplus`]); `None`: the rates pass through.
     pub fn gyro_calibration(&self) -> Option<&GyroCorrection<f32>> {
         self.gyro.live.as_ref()
     }

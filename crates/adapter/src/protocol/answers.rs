@@ -205,6 +205,7 @@ impl<F: NorFlash> AnswerAsync<CommitGyroCalibration> for Protocol<F> {
         }
         self.gyro.live = Some(cal);
         self.gyro.staged = None;
+        self.install_gyro();
         Ok(())
     }
 }
