@@ -16,6 +16,7 @@ import { Board, FLASH_SIZE } from './src/board.js';
 import { parseElf } from './src/elf.js';
 import { parseUf2, Uf2Error } from './src/uf2.js';
 import { decodeReport, calibrationBlock } from './src/nunchuk.js';
+import { crc32, decodeMotionPlusReport } from './src/motionplus.js';
 import { selfCalScenarios } from './src/selfcal-scenarios.js';
 import { backgroundScenarios } from './src/background-scenarios.js';
 import { mulberry32 } from './src/pose-nunchuk.js';
@@ -569,6 +570,34 @@ const scenarios = [
     const err = checkReports(rig, hs + 1, (a) => a);
     rig.close();
     return err ? fail(err) : 'unplug: detect dropped; replug: re-initialised, handshake, reports pass through again';
+  }],
+  ['motionplus-activation', async () => {
+    // A MotionPlus instead of the Nunchuk, uncalibrated (no gyro calibration stored): the
+    // adapter must find it at 0x53, activate it, and answer the Wii Remote's whole dance as
+    // the MotionPlus does, its rates and block passed through unchanged.
+    const truth = [30, -60, 120];
+    const rig = newRig(null, { motionplus: { rates: () => truth } });
+    await rig.board.runUntilTrue(() => rig.remote.reports.length > 40, 3000);
+    if (rig.board.fault) return fail(`firmware fault: ${rig.board.fault}`);
+    const mp = rig.motionplus;
+    if (mp.activations < 1) return fail('the firmware never activated the MotionPlus');
+    const hs = rig.remote.handshakes[0];
+    if (!hs) return fail(`no Wii Remote handshake (bus errors: ${JSON.stringify(rig.remote.errors.slice(-3))})`);
+    if (!sameBytes(hs.id, [0x00, 0x00, 0xa6, 0x20, 0x00, 0x05])) return fail(`inactive ID ${hs.id} is not a MotionPlus's`);
+    if (!sameBytes(hs.activeId, [0x00, 0x00, 0xa4, 0x20, 0x04, 0x05])) return fail(`active ID ${hs.activeId} is not an active MotionPlus's (mode 4)`);
+    if (!sameBytes(hs.block, mp.block)) return fail(`pass-through block ${hs.block} differs from the MotionPlus's ${mp.block}`);
+    const crc = crc32([...hs.block.slice(0, 14), ...hs.block.slice(16, 30)]);
+    const stored = ((hs.block[14] << 24) | (hs.block[15] << 16) | (hs.block[30] << 8) | hs.block[31]) >>> 0;
+    if (crc !== stored) return fail(`the block read has a bad CRC (${stored.toString(16)} vs ${crc.toString(16)})`);
+    // Without noise every latched report is the same; each report the Wii Remote reads must be it.
+    const want = mp.measure(truth);
+    const reports = rig.remote.reports.map((r) => decodeMotionPlusReport(r.bytes));
+    const bad = reports.find((r) => !r.motionPlusData || !sameBytes(r.rate, want.rate) || !sameBytes(r.slow, want.slow));
+    if (bad) return fail(`a report ${JSON.stringify(bad)} is not the MotionPlus's ${JSON.stringify(want)}`);
+    const errorsAfter = rig.remote.errors.filter((e) => e.tNs > hs.tNs);
+    rig.close();
+    if (errorsAfter.length) return fail(`bus errors after the activation: ${JSON.stringify(errorsAfter.slice(0, 3))}`);
+    return `found at 0x53 (${rig.remote.errors.length} NAKs before the adapter moved there), activated: active ID, the 32-byte block (CRC ok) and ${reports.length} reports passed through at 0x52`;
   }],
   ['usb-garbage-disconnect', async () => {
     const rig = newRig();

@@ -4,6 +4,7 @@
 import { spawn } from 'node:child_process';
 import { Board } from './board.js';
 import { Nunchuk } from './nunchuk.js';
+import { MotionPlus } from './motionplus.js';
 import { WiiRemote } from './wiimote.js';
 import { UsbCdcHost } from './usb-host.js';
 import { PtyBridge } from './pty.js';
@@ -28,10 +29,16 @@ export function scriptedMotion({ zero = [508, 516, 520], perG = [204, 200, 204],
 }
 
 export class Rig {
-  constructor({ elfBytes = null, uf2Bytes = null, flashImage = null, wiical, link, nunchuk = {}, remote = {} }) {
+  /** `motionplus` (its options): a MotionPlus on I²C0 instead of the Nunchuk, and a Wii Remote
+   * that does the MotionPlus's activation dance. */
+  constructor({ elfBytes = null, uf2Bytes = null, flashImage = null, wiical, link, nunchuk = {}, remote = {}, motionplus = null }) {
     this.board = new Board({ elfBytes, uf2Bytes, flashImage });
-    this.nunchuk = new Nunchuk(this.board, { motion: scriptedMotion(), ...nunchuk });
-    this.remote = new WiiRemote(this.board, remote);
+    if (motionplus) {
+      this.motionplus = new MotionPlus(this.board, motionplus);
+    } else {
+      this.nunchuk = new Nunchuk(this.board, { motion: scriptedMotion(), ...nunchuk });
+    }
+    this.remote = new WiiRemote(this.board, { motionplus: !!motionplus, ...remote });
     this.remote.start();
     this.usb = new UsbCdcHost(this.board);
     this.pty = new PtyBridge(this.usb, link);

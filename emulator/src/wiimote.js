@@ -4,6 +4,10 @@
 // identifier (0xFA, 6 bytes) and the calibration block (0x20, 16 bytes), then poll 6-byte
 // reports from 0x00 at `pollHz`. When detect drops it stops, and re-initialises (and re-reads
 // the calibration block) when it comes back.
+// With `motionplus` it does what a real one does to use a MotionPlus instead: look for it at
+// 0x53 every 50 ms (ID at 0xFA, the 32-byte calibration block at 0x20), activate it alone
+// (0x55 → 0xF0, 0x04 → 0xFE at 0x53), wait 20 ms, read the active ID at 0x52 and poll 6-byte
+// reports from 0x00 there; three failed reads in a row start the search over.
 //
 // Every transfer is: START + address (10 bit times), bytes (9 bit times each), STOP; a held
 // clock (the target stretching SCL) is waited for in 1 µs steps and measured. A transfer whose
@@ -14,8 +18,11 @@ const BIT_NS = 2500; // 400 kHz
 const POLL_STEP_NS = 1000;
 
 export class WiiRemote {
-  constructor(board, { pollHz = 200, stretchTimeoutNs = 200e6 } = {}) {
+  constructor(board, { pollHz = 200, stretchTimeoutNs = 200e6, motionplus = false } = {}) {
     this.board = board;
+    this.motionplus = motionplus;
+    /** The address transfers go to. */
+    this.addr = 0x52;
     this.target = board.i2c1;
     this.pollHz = pollHz;
     this.stretchTimeoutNs = stretchTimeoutNs;
@@ -40,7 +47,7 @@ export class WiiRemote {
 
   start() {
     this.running = true;
-    this.gen = this.main();
+    this.gen = this.motionplus ? this.mainMotionPlus() : this.main();
     this.schedule(0);
   }
 
@@ -91,6 +98,35 @@ export class WiiRemote {
     }
   }
 
+  *mainMotionPlus() {
+    const period = 1e9 / this.pollHz;
+    for (;;) {
+      this.addr = 0x53;
+      const id = yield* this.readRegisters(0xfa, 6);
+      const block = id && (yield* this.readRegisters(0x20, 32));
+      if (!block) {
+        yield 50e6;
+        continue;
+      }
+      if (!(yield* this.writeBytes([0xf0, 0x55]))) continue;
+      yield 1e6;
+      if (!(yield* this.writeBytes([0xfe, 0x04]))) continue;
+      yield 20e6;
+      this.addr = 0x52;
+      const activeId = yield* this.readRegisters(0xfa, 6);
+      if (!activeId) continue;
+      this.handshakes.push({ tNs: this.board.nanos, id, block, activeId });
+      let failures = 0;
+      while (failures < 3) {
+        const t = this.board.nanos;
+        const bytes = yield* this.readRegisters(0x00, 6, true);
+        if (bytes) this.reports.push({ tNs: t, bytes, handshake: this.handshakes.length });
+        failures = bytes ? 0 : failures + 1;
+        yield Math.max(BIT_NS, period - (this.board.nanos - t));
+      }
+    }
+  }
+
   *handshake() {
     if (!(yield* this.writeBytes([0xf0, 0x55]))) return false;
     yield 1e6;
@@ -118,7 +154,7 @@ export class WiiRemote {
 
   *address(read) {
     yield 10 * BIT_NS;
-    return this.target.busStart(0x52, read);
+    return this.target.busStart(this.addr, read);
   }
 
   *writeBytes(bytes) {

@@ -38,10 +38,10 @@
 //! commit writes the calibration first and its origin second. Either way the worst outcome of
 //! a cut is a calibration that the background recalibration treats as a host upload.
 
-use crc::{Crc, CRC_32_ISO_HDLC};
 
 use crate::background::adopt::MAX_DAILY;
 use crate::background::{BudgetRecord, LiveOrigin};
+use crate::store::CRC32;
 
 /// Map key of the settings record (the calibration's is [`crate::store::RECORD_KEY`]).
 pub const SETTINGS_KEY: u8 = 0x02;
@@ -60,7 +60,6 @@ const SETTINGS_VERSION_V1: u16 = 1;
 /// Length of a version-1 record.
 const SETTINGS_LEN_V1: usize = 12;
 
-static CRC32: Crc<u32> = Crc::<u32>::new(&CRC_32_ISO_HDLC);
 
 /// What the settings record holds.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

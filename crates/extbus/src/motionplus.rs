@@ -306,10 +306,14 @@ pub struct MotionPlusCalibration {
     pub uid: [u8; 2],
 }
 
+/// Bitwise (no table): 28 bytes once per connection; a table would cost 1 KiB of flash (and
+/// `Crc::new` called at run time builds it on the stack).
+static CALIBRATION_CRC: crc::Crc<u32, crc::NoTable> =
+    crc::Crc::<u32, crc::NoTable>::new(&crc::CRC_32_ISO_HDLC);
+
 /// CRC-32 of the calibration data bytes (`0x00`–`0x0D` then `0x10`–`0x1D`).
 pub fn calibration_crc(block: &[u8; 32]) -> u32 {
-    let crc = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
-    let mut digest = crc.digest();
+    let mut digest = CALIBRATION_CRC.digest();
     digest.update(&block[0x00..0x0E]);
     digest.update(&block[0x10..0x1E]);
     digest.finalize()
