@@ -1,6 +1,6 @@
 #!/usr/bin/env node
 // Scenarios for the real RP2040 firmware in rp2040js (see README.md and firmware/README.md).
-// usage: node run.js --elf FIRMWARE.elf [--uf2 FIRMWARE.uf2] --wiical target/debug/wiical
+// usage: node run.js --elf FIRMWARE.elf [--uf2 FIRMWARE.uf2] [--elf-motionplus MP.elf] --wiical target/debug/wiical
 //                    --expect XTASK [NAME…]
 // With --uf2 every scenario's board boots from the UF2 file (the file a user drops on the
 // Pico's drive, read into flash as the boot ROM writes it) instead of the ELF's segments.
@@ -32,6 +32,9 @@ function option(name) {
 }
 const elfBytes = readFileSync(option('--elf'));
 const uf2Path = args.includes('--uf2') ? option('--uf2') : null;
+// The RP2040 image with the MotionPlus path (firmware feature `motionplus`; over the flash
+// budget, so not the image a user flashes): the MotionPlus scenarios boot it from its ELF.
+const mpElfBytes = args.includes('--elf-motionplus') ? readFileSync(option('--elf-motionplus')) : elfBytes;
 const uf2Bytes = uf2Path ? readFileSync(uf2Path) : null;
 const wiical = option('--wiical');
 const expectBin = option('--expect');
@@ -163,6 +166,7 @@ async function getState(rig) {
   return JSON.parse(r.stdout);
 }
 function newRig(flashImage = null, options = {}) {
+  if (options.motionplus) return new Rig({ elfBytes: mpElfBytes, uf2Bytes: null, flashImage, wiical, link, ...options });
   return new Rig({ elfBytes, uf2Bytes, flashImage, wiical, link, ...options });
 }
 async function putCommit(rig, calPath, extra = []) {
@@ -328,6 +332,62 @@ function checkUf2Image() {
   }
   return { detail: `${pages} pages (${uf2Bytes.length} B) hold the ELF's ${elfCount} flash bytes at their load addresses, plus ${padding} bytes of zero padding; refused ${refusals.join('; ')}` };
 }
+
+
+/** MotionPlus turns: 1.5-s segments of constant true rate °/s [yaw, roll, pitch], both ranges
+ * (the device switches to its fast range above 350 °/s). */
+const TURNS = [
+  [0, 0, 0], [120, -80, 40], [-300, 250, -150], [700, -600, 0], [-900, 0, 800], [0, 0, 0],
+];
+const TURN_S = 1.5;
+/** The simulated MotionPlus: its own zero (a bias of several °/s) and sensitivity (+10 % / +3 %
+ * / −6 % against the nominal 8192/440 counts per °/s its block states), 2 counts of noise. */
+const MP_DEVICE = {
+  zero: [8192 + 150, 8192 - 90, 8192 + 60],
+  perDps: [20.5, 19.2, 17.5],
+  noiseCounts: 2,
+  slowLimitDps: 350,
+  fastRatio: 440 / 2000,
+};
+/** The gyro calibration file of that device, as `gyrofit --out` writes one (version 1): bias in
+ * slow counts, K in rad/s per count, along the count axes (so the host's frame conversion is
+ * the identity). */
+function writeGyroCal() {
+  const k = (s) => Math.PI / 180 / s;
+  const p = MP_DEVICE.perDps;
+  const path = join(work, 'gyro.json');
+  writeFileSync(path, JSON.stringify({
+    format: 'wiical-gyro-calibration/1', model: 'full+bias', bias: MP_DEVICE.zero,
+    matrix: [[k(p[0]), 0, 0], [0, k(p[1]), 0], [0, 0, k(p[2])]], units: 'rad/s', cv_rms_deg: 0.5,
+  }));
+  return path;
+}
+/** A report's rates °/s along the count axes as a reader of `block` computes them (each range's
+ * span taken by its magnitude: positive where the count rises). */
+function blockRates(block, report) {
+  const u16 = (i) => (block[i] << 8) | block[i + 1];
+  return [0, 1, 2].map((i) => {
+    const o = report.slow[i] ? 0x10 : 0x00;
+    const zero = u16(o + 2 * i);
+    const span = Math.abs(u16(o + 6 + 2 * i) - zero);
+    return ((report.rate[i] * 4 - zero) / span) * block[o + 12] * 6;
+  });
+}
+/** Runs the turns once from now; per segment and axis the 1-s mean (0.25..1.25 s into the
+ * segment) of the rates the Wii Remote read, decoded with `block`, minus the truth. */
+async function turnErrors(rig, block) {
+  const t0 = rig.board.nanos;
+  rig.turnsFrom = t0;
+  await rig.board.run(TURNS.length * TURN_S * 1000);
+  return TURNS.map((truth, k) => {
+    const from = t0 + (k * TURN_S + 0.25) * 1e9;
+    const rs = rig.remote.reports.filter((r) => r.tNs >= from && r.tNs < from + 1e9);
+    const rates = rs.map((r) => blockRates(block, decodeMotionPlusReport(r.bytes)));
+    const mean = [0, 1, 2].map((i) => rates.reduce((a, r) => a + r[i], 0) / Math.max(1, rates.length));
+    return { truth, n: rates.length, error: mean.map((m, i) => m - truth[i]) };
+  });
+}
+const IDEAL_MP_BLOCK_RANGES = { slow: [24576, 55], fast: [12288, 125] };
 
 const scenarios = [
   ['uf2-image', async () => {
@@ -599,6 +659,55 @@ const scenarios = [
     if (errorsAfter.length) return fail(`bus errors after the activation: ${JSON.stringify(errorsAfter.slice(0, 3))}`);
     return `found at 0x53 (${rig.remote.errors.length} NAKs before the adapter moved there), activated: active ID, the 32-byte block (CRC ok) and ${reports.length} reports passed through at 0x52`;
   }],
+  ['motionplus-turns', async () => {
+    // Turns at known rates in both ranges, read by the Wii Remote through the adapter, first
+    // uncorrected, then with the device's gyro calibration uploaded and committed with the real
+    // CLI: the corrected 1-s means must be within 2× the simulated noise of the truth.
+    let rig = null;
+    const rates = (t) => {
+      if (rig?.turnsFrom === undefined) return [0, 0, 0];
+      const k = Math.floor((t - rig.turnsFrom) / (TURN_S * 1e9));
+      return TURNS[Math.max(0, Math.min(TURNS.length - 1, k))];
+    };
+    rig = newRig(null, { motionplus: { rates, ...MP_DEVICE } });
+    await rig.board.runUntilTrue(() => rig.remote.reports.length > 20, 3000);
+    if (rig.board.fault) return fail(`firmware fault: ${rig.board.fault}`);
+    const hs = rig.remote.handshakes[0];
+    if (!hs) return fail(`no Wii Remote handshake (bus errors: ${JSON.stringify(rig.remote.errors.slice(-3))})`);
+    const before = await turnErrors(rig, hs.block);
+    const err = await putCommit(rig, writeGyroCal());
+    if (err) return fail(err);
+    rig.remote.rereadBlock = true;
+    await rig.board.runUntilTrue(() => rig.remote.blocks.length > 0, 500);
+    const block = rig.remote.blocks[0]?.block;
+    if (!block) return fail('the Wii Remote could not read the block again after the commit');
+    const crc = crc32([...block.slice(0, 14), ...block.slice(16, 30)]);
+    if (crc !== (((block[14] << 24) | (block[15] << 16) | (block[30] << 8) | block[31]) >>> 0)) return fail('the block after the commit has a bad CRC');
+    for (const [o, [span, d6]] of [[0x10, IDEAL_MP_BLOCK_RANGES.slow], [0x00, IDEAL_MP_BLOCK_RANGES.fast]]) {
+      const zero = (block[o] << 8) | block[o + 1];
+      const sc = (block[o + 6] << 8) | block[o + 7];
+      if (zero !== 32768 || Math.abs(sc - zero) !== span || block[o + 12] !== d6) return fail(`the block after the commit is not the ideal scale's: ${block}`);
+    }
+    const phase2 = rig.board.nanos;
+    const after = await turnErrors(rig, block);
+    // Busy cycles per 5-ms poll period (between two reports latched from the MotionPlus) while
+    // the corrected turns ran: the correction, the tracker and serving the Wii Remote.
+    const latched = rig.motionplus.served.filter((r) => r.tNs >= phase2);
+    const busy = latched.slice(1).map((r, i) => r.busy - latched[i].busy).sort((a, b) => a - b);
+    const errorsAfter = rig.remote.errors.filter((e) => e.tNs > hs.tNs);
+    rig.close();
+    const sigma = MP_DEVICE.perDps.map((p) => MP_DEVICE.noiseCounts / p); // °/s per sample
+    const worst = (segs) => Math.max(...segs.flatMap((s) => s.error.map(Math.abs)));
+    measurements.motionplusTurns = { before, after, sigma, busy };
+    if (errorsAfter.length) return fail(`bus errors after the activation: ${JSON.stringify(errorsAfter.slice(0, 3))}`);
+    const few = after.find((s) => s.n < 150);
+    if (few) return fail(`only ${few.n} reports in a 1-s window`);
+    for (const s of after) {
+      const bad = s.error.findIndex((e, i) => Math.abs(e) > 2 * sigma[i]);
+      if (bad >= 0) return fail(`truth ${s.truth}: corrected 1-s mean off by ${s.error[bad].toFixed(3)} °/s on axis ${bad} (2σ = ${(2 * sigma[bad]).toFixed(3)})`);
+    }
+    return `6 segments, slow and fast range: worst 1-s mean error ${worst(before).toFixed(2)} °/s uncorrected -> ${worst(after).toFixed(3)} °/s corrected (2σ of the noise ${(2 * Math.min(...sigma)).toFixed(3)}-${(2 * Math.max(...sigma)).toFixed(3)} °/s)`;
+  }],
   ['usb-garbage-disconnect', async () => {
     const rig = newRig();
     await rig.board.runUntilTrue(() => rig.remote.reports.length > 5, 2000);
@@ -739,6 +848,15 @@ for (const key of ['background-drift', 'background-drift-2h']) {
   if (!m) continue;
   const c = m.cycles;
   console.log(`measure ${key} on the RP2040 (Cortex-M0+ at 125 MHz, rp2040js's cycle counts): ${m.emulatedS.toFixed(0)} s emulated in ${m.playWallS.toFixed(0)} s wall; busy cycles per 5-ms poll period (625000 cycles) over ${c.periods} periods: median ${c.median}, 99.9 % ${c.p999}, worst ${c.worst} at ${(c.worstAtNs / 1e9).toFixed(2)} s; the ${c.commitPeriods} periods holding an adoption's flash writes: worst ${c.commitWorst}`);
+}
+if (measurements.motionplusTurns) {
+  const m = measurements.motionplusTurns;
+  const f = (e) => e.map((x) => x.toFixed(3)).join(' ');
+  m.before.forEach((b, k) => {
+    console.log(`measure motionplus-turns truth [${b.truth}] °/s: 1-s mean error [yaw roll pitch] uncorrected ${f(b.error)}, corrected ${f(m.after[k].error)} °/s (n=${m.after[k].n})`);
+  });
+  const b = m.busy;
+  if (b.length) console.log(`measure motionplus-turns on the RP2040 (rp2040js cycle counts, 125 MHz): busy cycles per 5-ms poll period (625000 cycles) with the gyro correction and the tracker, over ${b.length} periods: median ${b[b.length >> 1]}, worst ${b[b.length - 1]}`);
 }
 if (measurements.bootToFirstReportNs) {
   const ns = measurements.bootToFirstReportNs;

@@ -97,7 +97,7 @@ export class MotionPlus {
     this.switchNs = 20e6;
     this.plugged = true;
     this.reset();
-    /** Every report latched: { tNs, truth, rate, slow }; activations and reads. */
+    /** Every report latched: { tNs, busy (the board's busy cycles then), truth, rate, slow }. */
     this.served = [];
     this.activations = 0;
     const i2c = board.rp2040.i2c[0];
@@ -159,7 +159,7 @@ export class MotionPlus {
       const truth = this.rates(this.board.nanos);
       const m = this.measure(truth);
       this.regs.set(motionPlusReportBytes(m.rate, m.slow), 0);
-      this.served.push({ tNs: this.board.nanos, truth, ...m });
+      this.served.push({ tNs: this.board.nanos, busy: this.board.busyCycles, truth, ...m });
     }
     this.i2c.completeConnect(ack);
   }

@@ -21,6 +21,9 @@ export class WiiRemote {
   constructor(board, { pollHz = 200, stretchTimeoutNs = 200e6, motionplus = false } = {}) {
     this.board = board;
     this.motionplus = motionplus;
+    /** MotionPlus: set to read the calibration block again at 0x52; the blocks read so. */
+    this.rereadBlock = false;
+    this.blocks = [];
     /** The address transfers go to. */
     this.addr = 0x52;
     this.target = board.i2c1;
@@ -118,6 +121,12 @@ export class WiiRemote {
       this.handshakes.push({ tNs: this.board.nanos, id, block, activeId });
       let failures = 0;
       while (failures < 3) {
+        if (this.rereadBlock) {
+          // Asked by a scenario (e.g. after a commit changed the block): read it again at 0x52.
+          this.rereadBlock = false;
+          const again = yield* this.readRegisters(0x20, 32);
+          if (again) this.blocks.push({ tNs: this.board.nanos, block: again });
+        }
         const t = this.board.nanos;
         const bytes = yield* this.readRegisters(0x00, 6, true);
         if (bytes) this.reports.push({ tNs: t, bytes, handshake: this.handshakes.length });

@@ -4,11 +4,76 @@ use defmt::{info, warn};
 use embassy_rp::i2c::{Async, I2c};
 use embassy_rp::peripherals::I2C0;
 use embassy_time::{Delay, Duration, Instant, Ticker};
-use wiical_adapter::{CorrectionMode, ExtensionEvent, ExtensionPoller, MotionPlusEvent, PollEvent};
+use wiical_adapter::{CorrectionMode, ExtensionEvent, MotionPlusEvent, PollEvent, Protocol};
+use wiical_wire::Sample;
 
-use crate::board::POLL_HZ;
-use crate::shared::{Adapter, ADDRESS_CHANGED, SAMPLES};
+use crate::board::{StoreFlash, POLL_HZ};
+use crate::shared::{Adapter, SAMPLES};
 use crate::status;
+
+/// The controller side's poller: a MotionPlus (then a Nunchuk) with the `motionplus` feature
+/// (the RP2350's; the RP2040's flash budget leaves it out), else a Nunchuk.
+#[cfg(feature = "motionplus")]
+type Poller = wiical_adapter::ExtensionPoller;
+/// The controller side's poller: a Nunchuk (without the `motionplus` feature).
+#[cfg(not(feature = "motionplus"))]
+type Poller = wiical_adapter::NunchukPoller;
+
+/// One poll of whichever extension is connected, or a search for one.
+#[cfg(feature = "motionplus")]
+async fn poll(p: &mut Poller, bus: &mut Bus) -> ExtensionEvent<embassy_rp::i2c::Error> {
+    p.poll(bus, &mut Delay, Instant::now().as_millis()).await
+}
+
+/// One poll of the Nunchuk.
+#[cfg(not(feature = "motionplus"))]
+async fn poll(p: &mut Poller, bus: &mut Bus) -> ExtensionEvent<embassy_rp::i2c::Error> {
+    ExtensionEvent::Nunchuk(p.poll(bus, &mut Delay, Instant::now().as_millis()).await)
+}
+
+type Bus = I2c<'static, I2C0, Async>;
+
+/// Feeds one poll to the adapter logic; with the MotionPlus path, wakes the Wii Remote task
+/// when the address it must answer at changed (another extension connected).
+#[cfg(feature = "motionplus")]
+fn feed<E>(
+    a: &mut Protocol<StoreFlash>,
+    event: &ExtensionEvent<E>,
+    poller: &Poller,
+) -> Option<Sample> {
+    let address = a.target_address();
+    let sample = a.on_extension_poll(event, poller);
+    if a.target_address() != address {
+        crate::shared::ADDRESS_CHANGED.signal(());
+    }
+    sample
+}
+
+/// The extension-detect line's level: a Nunchuk connected, or a MotionPlus connected and
+/// activated.
+#[cfg(feature = "motionplus")]
+fn detect(a: &Protocol<StoreFlash>) -> bool {
+    a.extension_detect()
+}
+
+/// The extension-detect line's level: a Nunchuk connected.
+#[cfg(not(feature = "motionplus"))]
+fn detect(a: &Protocol<StoreFlash>) -> bool {
+    a.status().connected
+}
+
+/// Feeds one poll to the adapter logic (a Nunchuk's: no MotionPlus is looked for).
+#[cfg(not(feature = "motionplus"))]
+fn feed<E>(
+    a: &mut Protocol<StoreFlash>,
+    event: &ExtensionEvent<E>,
+    poller: &Poller,
+) -> Option<Sample> {
+    match event {
+        ExtensionEvent::Nunchuk(r) => a.on_poll(r, poller.is_connected()),
+        ExtensionEvent::MotionPlus(_) => None,
+    }
+}
 
 /// Polls the extension (the poller looks for a MotionPlus, then a Nunchuk, and re-initialises
 /// after an unplug, with back-off), feeds every result to the adapter logic (correction →
@@ -17,31 +82,24 @@ use crate::status;
 /// self-calibration or a background adoption (`service`: a flash write, during which this
 /// task holds the adapter, as a host commit does), and publishes the status.
 #[embassy_executor::task]
-pub async fn extension_task(mut bus: I2c<'static, I2C0, Async>, adapter: &'static Adapter) -> ! {
-    let mut poller = ExtensionPoller::default();
-    let mut delay = Delay;
+pub async fn extension_task(mut bus: Bus, adapter: &'static Adapter) -> ! {
+    let mut poller = Poller::default();
     let mut ticker = Ticker::every(Duration::from_hz(u64::from(POLL_HZ)));
     let mut was_connected = false;
     let mut dropped: u32 = 0;
     loop {
         ticker.next().await;
-        let event = poller
-            .poll(&mut bus, &mut delay, Instant::now().as_millis())
-            .await;
+        let event = poll(&mut poller, &mut bus).await;
         let (sample, st, generation, detect, selfcal, stale) = {
             let mut a = adapter.lock().await;
-            let address = a.target_address();
-            let sample = a.on_extension_poll(&event, &poller);
-            if a.target_address() != address {
-                ADDRESS_CHANGED.signal(());
-            }
+            let sample = feed(&mut a, &event, &poller);
             a.service().await;
             let sc = a.selfcal();
             (
                 sample,
                 a.status(),
                 a.block_generation(),
-                a.extension_detect(),
+                detect(&a),
                 sc.status(),
                 sc.stale(),
             )

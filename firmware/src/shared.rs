@@ -5,6 +5,7 @@
 use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
 use embassy_sync::channel::Channel;
 use embassy_sync::mutex::Mutex;
+#[cfg(feature = "motionplus")]
 use embassy_sync::signal::Signal;
 use wiical_adapter::Protocol;
 use wiical_wire::Sample;
@@ -23,4 +24,5 @@ pub static SAMPLES: Channel<CriticalSectionRawMutex, Sample, 16> = Channel::new(
 /// Signalled by the extension task when the address the Wii Remote side must answer at
 /// changed without a transaction of the Wii Remote (another extension connected), so that
 /// the Wii Remote task moves there without waiting for a transaction at the old address.
+#[cfg(feature = "motionplus")]
 pub static ADDRESS_CHANGED: Signal<CriticalSectionRawMutex, ()> = Signal::new();

@@ -3,13 +3,19 @@
 //! extension-detect line.
 
 use defmt::warn;
+#[cfg(feature = "motionplus")]
 use embassy_futures::select::{select, Either};
 use embassy_rp::gpio::Output;
 use embassy_rp::i2c_slave::{Command, I2cSlave, ReadStatus};
 use embassy_rp::peripherals::I2C1;
 use embassy_time::Timer;
 
-use crate::shared::{Adapter, ADDRESS_CHANGED};
+use wiical_adapter::Protocol;
+
+use crate::board::StoreFlash;
+use crate::shared::Adapter;
+#[cfg(feature = "motionplus")]
+use crate::shared::ADDRESS_CHANGED;
 use crate::status;
 
 /// Bytes handed to the I²C FIFO per lock of the adapter: one whole report, so that the Wii
@@ -23,24 +29,30 @@ const READ_CHUNK: usize = 6;
 #[embassy_executor::task]
 pub async fn wiimote_task(mut dev: I2cSlave<'static, I2C1>, adapter: &'static Adapter) -> ! {
     let mut rx = [0u8; 64];
+    #[cfg(feature = "motionplus")]
     let mut address = wiical_extbus::nunchuk::I2C_ADDRESS;
     loop {
-        let wanted = adapter.lock().await.target_address();
-        if wanted != address {
-            set_address(wanted);
-            address = wanted;
-        }
-        // Woken also when the extension changes (another address, while the Wii Remote is
-        // silent): dropping `listen` between transactions loses nothing.
-        let command = match select(dev.listen(&mut rx), ADDRESS_CHANGED.wait()).await {
-            Either::First(c) => c,
-            Either::Second(()) => continue,
+        #[cfg(feature = "motionplus")]
+        let command = {
+            let wanted = adapter.lock().await.target_address();
+            if wanted != address {
+                set_address(wanted);
+                address = wanted;
+            }
+            // Woken also when the extension changes (another address, while the Wii Remote
+            // is silent): dropping `listen` between transactions loses nothing.
+            match select(dev.listen(&mut rx), ADDRESS_CHANGED.wait()).await {
+                Either::First(c) => c,
+                Either::Second(()) => continue,
+            }
         };
+        #[cfg(not(feature = "motionplus"))]
+        let command = dev.listen(&mut rx).await;
         match command {
-            Ok(Command::Write(n)) => adapter.lock().await.target_write(&rx[..n]),
+            Ok(Command::Write(n)) => write(&mut *adapter.lock().await, &rx[..n]),
             Ok(Command::WriteRead(n)) => {
                 // A repeated start (a real Nunchuk needs a stop, but tolerate it).
-                adapter.lock().await.target_write(&rx[..n]);
+                write(&mut *adapter.lock().await, &rx[..n]);
                 serve_reads(&mut dev, adapter).await;
             }
             Ok(Command::Read) => serve_reads(&mut dev, adapter).await,
@@ -50,12 +62,37 @@ pub async fn wiimote_task(mut dev: I2cSlave<'static, I2C1>, adapter: &'static Ad
     }
 }
 
+/// The Wii Remote's write to the extension presented (a MotionPlus or a Nunchuk).
+#[cfg(feature = "motionplus")]
+fn write(a: &mut Protocol<StoreFlash>, bytes: &[u8]) {
+    a.target_write(bytes);
+}
+
+/// The Wii Remote's write to the emulated Nunchuk.
+#[cfg(not(feature = "motionplus"))]
+fn write(a: &mut Protocol<StoreFlash>, bytes: &[u8]) {
+    a.emulated().on_write(bytes);
+}
+
+/// The Wii Remote's read of the extension presented (a MotionPlus or a Nunchuk).
+#[cfg(feature = "motionplus")]
+fn read(a: &mut Protocol<StoreFlash>, buf: &mut [u8]) {
+    a.target_read(buf);
+}
+
+/// The Wii Remote's read of the emulated Nunchuk.
+#[cfg(not(feature = "motionplus"))]
+fn read(a: &mut Protocol<StoreFlash>, buf: &mut [u8]) {
+    a.emulated().on_read(buf);
+}
+
 /// Moves the I²C1 target to another 7-bit address. The DW_apb_i2c block takes a new
 /// `IC_SAR` only while disabled (RP2040 datasheet 4.3.10.3, RP2350 12.2): disable, wait for
 /// `IC_ENABLE_STATUS.IC_EN` to clear, write, enable. embassy-rp's `I2cSlave` keeps its address
 /// in a private config written only by `new`/`reset` (embassy-rp 0.10), so the register is
 /// written here, between transactions (the interrupt mask and FIFO thresholds the driver set
 /// are kept by the block across a disable).
+#[cfg(feature = "motionplus")]
 fn set_address(address: u8) {
     let i2c = embassy_rp::pac::I2C1;
     i2c.ic_enable().write(|w| w.set_enable(false));
@@ -98,7 +135,10 @@ async fn serve_reads(dev: &mut I2cSlave<'static, I2C1>, adapter: &'static Adapte
                 (entry.dat(), entry.first_data_byte())
             })
         });
+        #[cfg(feature = "motionplus")]
         guard.target_received(received);
+        #[cfg(not(feature = "motionplus"))]
+        guard.emulated().on_received(received);
     }
 }
 
@@ -113,13 +153,13 @@ async fn serve_reads(dev: &mut I2cSlave<'static, I2C1>, adapter: &'static Adapte
 /// emulate`). After bytes were sent, it is this read's rest: [`ReadEnd::Overtaken`].
 async fn respond(dev: &mut I2cSlave<'static, I2C1>, adapter: &'static Adapter) -> ReadEnd {
     let mut chunk = [0u8; READ_CHUNK];
-    adapter.lock().await.target_read(&mut chunk);
+    read(&mut *adapter.lock().await, &mut chunk);
     let mut sent_any = false;
     loop {
         match dev.respond_to_read(&chunk).await {
             Ok(ReadStatus::NeedMoreBytes) => {
                 sent_any = true;
-                adapter.lock().await.target_read(&mut chunk);
+                read(&mut *adapter.lock().await, &mut chunk);
             }
             Ok(ReadStatus::LeftoverBytes(_)) if !sent_any => {
                 // Stale bytes of the previous read were flushed; send this piece again.

@@ -49,6 +49,7 @@ pub mod motionplus;
 pub mod motionplus_poller;
 pub mod poller;
 pub mod protocol;
+mod record_crc;
 pub mod selfcal;
 pub mod settings;
 pub mod still;

@@ -52,6 +52,7 @@
 //! ([`crate::settings`]).
 
 mod answers;
+#[cfg(feature = "motionplus")]
 mod extension;
 mod recal;
 mod recal_wire;
@@ -73,7 +74,9 @@ use crate::background::{Background, LiveOrigin};
 use crate::corrector::{CorrectionMode, Corrector, IdealScale};
 use crate::emulated::EmulatedNunchuk;
 use crate::error::{Error, RecordError};
+#[cfg(feature = "motionplus")]
 use crate::extension::Extension;
+#[cfg(feature = "motionplus")]
 use crate::motionplus::{EmulatedMotionPlus, GyroCorrector};
 use crate::poller::{NunchukInfo, PollEvent};
 use crate::selfcal::{SelfCal, SelfCalConfig, SelfCalResult, SelfCalStatus};
@@ -186,8 +189,10 @@ pub struct Protocol<F: NorFlash> {
     settings: StoredSettings,
     gyro: GyroState,
     /// The extension presented to the Wii Remote.
+    #[cfg(feature = "motionplus")]
     extension: Extension,
     /// The emulated MotionPlus (its corrector holds the live gyro calibration).
+    #[cfg(feature = "motionplus")]
     motionplus: EmulatedMotionPlus,
 }
 
@@ -271,6 +276,7 @@ impl<F: NorFlash> Protocol<F> {
         let gyro = GyroState::boot(&mut store).await;
         let emulated = EmulatedNunchuk::new(&corrector.calibration_block_bytes());
         let rate_hz = info.base_rate_mhz / 1000;
+        #[cfg_attr(not(feature = "motionplus"), allow(unused_mut))]
         let mut proto = Self {
             info,
             schema_key: SCHEMA_KEY,
@@ -290,9 +296,12 @@ impl<F: NorFlash> Protocol<F> {
             background: recal::background_for(rate_hz, &settings, origin),
             settings,
             gyro,
+            #[cfg(feature = "motionplus")]
             extension: Extension::Nunchuk,
+            #[cfg(feature = "motionplus")]
             motionplus: EmulatedMotionPlus::new(GyroCorrector::default()),
         };
+        #[cfg(feature = "motionplus")]
         proto.install_gyro();
         proto
     }

@@ -38,10 +38,9 @@
 //! commit writes the calibration first and its origin second. Either way the worst outcome of
 //! a cut is a calibration that the background recalibration treats as a host upload.
 
-
 use crate::background::adopt::MAX_DAILY;
 use crate::background::{BudgetRecord, LiveOrigin};
-use crate::store::CRC32;
+use crate::record_crc::CRC32;
 
 /// Map key of the settings record (the calibration's is [`crate::store::RECORD_KEY`]).
 pub const SETTINGS_KEY: u8 = 0x02;
@@ -59,7 +58,6 @@ const SETTINGS_LEN_V2: usize = 16 + 4 * MAX_DAILY + 4;
 const SETTINGS_VERSION_V1: u16 = 1;
 /// Length of a version-1 record.
 const SETTINGS_LEN_V1: usize = 12;
-
 
 /// What the settings record holds.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

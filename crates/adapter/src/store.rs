@@ -46,7 +46,6 @@
 
 use core::ops::Range;
 
-use crc::{Crc, NoTable, CRC_32_ISO_HDLC};
 use embedded_storage_async::nor_flash::NorFlash;
 use sequential_storage::cache::{Cache, Uncached};
 use sequential_storage::map::{MapConfig, MapStorage};
@@ -54,6 +53,7 @@ use wiical_core::gyro_correct::GyroCorrection;
 use wiical_core::Calibration;
 
 use crate::error::{RecordError, StoreError};
+use crate::record_crc::CRC32;
 use crate::settings::{
     decode_settings, encode_settings, StoredSettings, SETTINGS_KEY, SETTINGS_LEN,
 };
@@ -88,10 +88,6 @@ pub const GYRO_RECORD_VERSION: u16 = 1;
 const GYRO_FLOATS: usize = 12;
 /// Length of a gyro record, bytes.
 pub const GYRO_RECORD_LEN: usize = 8 + 4 * GYRO_FLOATS + 4;
-
-/// The records' CRC-32, shared with [`crate::settings`]. Bitwise (no table): the records are
-/// checked at boot and on a commit only, and a 1 KiB table per user cost the RP2040's flash.
-pub(crate) static CRC32: Crc<u32, NoTable> = Crc::<u32, NoTable>::new(&CRC_32_ISO_HDLC);
 
 /// Size of the work buffer handed to `sequential-storage`: key + record, rounded up to the
 /// largest flash word it supports (32 bytes).

@@ -4,7 +4,7 @@
 //! found and never disturbed by the MotionPlus search; the Wii Remote side answers at 0x53
 //! while inactive and 0x52 once activated; and a gyro calibration committed over the wire is
 //! the one the emulated MotionPlus corrects with, after a reboot too.
-#![cfg(feature = "gyro-calibration")]
+#![cfg(feature = "motionplus")]
 
 mod common;
 

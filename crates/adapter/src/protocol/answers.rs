@@ -205,6 +205,7 @@ impl<F: NorFlash> AnswerAsync<CommitGyroCalibration> for Protocol<F> {
         }
         self.gyro.live = Some(cal);
         self.gyro.staged = None;
+        #[cfg(feature = "motionplus")]
         self.install_gyro();
         Ok(())
     }
