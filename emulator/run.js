@@ -341,9 +341,15 @@ const TURNS = [
 ];
 const TURN_S = 1.5;
 /** The simulated MotionPlus: its own zero (a bias of several °/s) and sensitivity (+10 % / +3 %
- * / −6 % against the nominal 8192/440 counts per °/s its block states), 2 counts of noise. */
+ * / −6 % against the nominal 8192/440 counts per °/s its block states), 2 counts of noise. The
+ * bias is a rate bias, the same °/s in both ranges (the fast range's zero off the block's by the
+ * slow offset × 440/2000): the one bias of a gyro calibration (slow counts) describes both
+ * ranges only so (crates/adapter/src/motionplus.rs). A fast zero off by the slow range's
+ * counts instead (`zeroFast = zero`) leaves 12-26 °/s in the fast range (measured). */
+const MP_ZERO = [8192 + 150, 8192 - 90, 8192 + 60];
 const MP_DEVICE = {
-  zero: [8192 + 150, 8192 - 90, 8192 + 60],
+  zero: MP_ZERO,
+  zeroFast: MP_ZERO.map((z) => 8192 + (z - 8192) * (440 / 2000)),
   perDps: [20.5, 19.2, 17.5],
   noiseCounts: 2,
   slowLimitDps: 350,

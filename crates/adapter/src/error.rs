@@ -18,8 +18,7 @@ pub enum Error<E> {
     Garbage,
     /// The device at `0x52` answered but is not a Nunchuk; these are its (decrypted) ID bytes.
     NotANunchuk([u8; 6]),
-    /// The device at `0x53` (or, after the activation, at `0x52`) answered but is not a
-    /// MotionPlus; these are its ID bytes.
+    /// The device at `0x53` answered but is not a MotionPlus; these are its ID bytes.
     NotAMotionPlus([u8; 6]),
 }
 

@@ -471,6 +471,14 @@ impl EmulatedMotionPlus {
         }
     }
 
+    /// A (re)connected real MotionPlus: its block installed as [`Self::set_device_block`]
+    /// does, and the register map back to a freshly powered MotionPlus's (inactive, pointer
+    /// 0, no frame yet); the corrector's calibration and tracker are kept.
+    pub fn restart(&mut self, device_block: &[u8; 32]) {
+        self.regs = MotionPlusRegisters::new();
+        self.set_device_block(device_block);
+    }
+
     /// Install the real device's block ([`GyroCorrector::set_device_block`]) and present the
     /// block that goes with it.
     pub fn set_device_block(&mut self, bytes: &[u8; 32]) {

@@ -4,12 +4,14 @@
 //! address it answers at now.
 //!
 //! The stored gyro calibration reaches the MotionPlus's corrector at boot and after every
-//! gyro commit ([`Protocol::install_gyro`]); without the `gyro-calibration` feature there is
-//! none, and the MotionPlus's rates and block pass through unchanged.
+//! gyro commit (`Protocol::install_gyro`); until one is committed the MotionPlus's rates and
+//! block pass through unchanged. (Only with the crate's `motionplus` feature, which brings
+//! `gyro-calibration` with it.)
 
 use embedded_storage_async::nor_flash::NorFlash;
 use wiical_extbus::motionplus::{ACTIVE_I2C_ADDRESS, INACTIVE_I2C_ADDRESS};
 use wiical_extbus::nunchuk::I2C_ADDRESS;
+use wiical_extbus::Frame;
 use wiical_wire::Sample;
 
 use super::Protocol;
@@ -53,15 +55,18 @@ impl<F: NorFlash> Protocol<F> {
             Ok(MotionPlusEvent::Connected(info)) => {
                 self.extension = Extension::MotionPlus;
                 self.connected = true;
-                let mut fresh = EmulatedMotionPlus::new(self.motionplus.gyro().clone());
-                fresh.set_device_block(&info.calibration_bytes);
-                self.motionplus = fresh;
+                self.motionplus.restart(&info.calibration_bytes);
                 self.block_generation = self.block_generation.wrapping_add(1);
                 None
             }
             // No stillness evidence of its own (the accelerometer is in the Wii Remote): the
-            // corrector's rest limit is the gate.
-            Ok(MotionPlusEvent::Frame(f)) => self.motionplus.on_frame(f, &self.corrector, true),
+            // corrector's rest limit is the gate. Only gyro frames: the poller activates the
+            // MotionPlus alone, so no extension frame is passed through (and the pass-through
+            // corrections are not linked into the firmware).
+            Ok(MotionPlusEvent::Frame(f @ Frame::MotionPlus(_))) => {
+                self.motionplus.on_frame(f, &self.corrector, true)
+            }
+            Ok(MotionPlusEvent::Frame(_)) => None,
             Ok(MotionPlusEvent::Idle) | Err(_) => {
                 if !still_connected && self.connected {
                     self.connected = false;
