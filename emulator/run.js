@@ -1,6 +1,6 @@
 #!/usr/bin/env node
 // Scenarios for the real RP2040 firmware in rp2040js (see README.md and firmware/README.md).
-// usage: node run.js --elf FIRMWARE.elf [--uf2 FIRMWARE.uf2] [--elf-motionplus MP.elf] --wiical target/debug/wiical
+// usage: node run.js --elf FIRMWARE.elf [--uf2 FIRMWARE.uf2] --wiical target/debug/wiical
 //                    --expect XTASK [NAME…]
 // With --uf2 every scenario's board boots from the UF2 file (the file a user drops on the
 // Pico's drive, read into flash as the boot ROM writes it) instead of the ELF's segments.
@@ -32,9 +32,6 @@ function option(name) {
 }
 const elfBytes = readFileSync(option('--elf'));
 const uf2Path = args.includes('--uf2') ? option('--uf2') : null;
-// The RP2040 image with the MotionPlus path (firmware feature `motionplus`; over the flash
-// budget, so not the image a user flashes): the MotionPlus scenarios boot it from its ELF.
-const mpElfBytes = args.includes('--elf-motionplus') ? readFileSync(option('--elf-motionplus')) : elfBytes;
 const uf2Bytes = uf2Path ? readFileSync(uf2Path) : null;
 const wiical = option('--wiical');
 const expectBin = option('--expect');
@@ -166,7 +163,6 @@ async function getState(rig) {
   return JSON.parse(r.stdout);
 }
 function newRig(flashImage = null, options = {}) {
-  if (options.motionplus) return new Rig({ elfBytes: mpElfBytes, uf2Bytes: null, flashImage, wiical, link, ...options });
   return new Rig({ elfBytes, uf2Bytes, flashImage, wiical, link, ...options });
 }
 async function putCommit(rig, calPath, extra = []) {

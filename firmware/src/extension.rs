@@ -12,7 +12,7 @@ use crate::shared::{Adapter, SAMPLES};
 use crate::status;
 
 /// The controller side's poller: a MotionPlus (then a Nunchuk) with the `motionplus` feature
-/// (the RP2350's; the RP2040's flash budget leaves it out), else a Nunchuk.
+/// (both chips'), else a Nunchuk.
 #[cfg(feature = "motionplus")]
 type Poller = wiical_adapter::ExtensionPoller;
 /// The controller side's poller: a Nunchuk (without the `motionplus` feature).

@@ -69,8 +69,7 @@ fn have(program: &str, arg: &str) -> bool {
         .is_ok_and(|o| o.status.success())
 }
 
-/// Builds the firmware (RP2040, with its UF2 image; and the RP2040 with the MotionPlus path,
-/// over the flash budget, for the MotionPlus scenarios) and the host CLI, installs the harness's
+/// Builds the firmware (RP2040, with its UF2 image) and the host CLI, installs the harness's
 /// npm packages from the lockfile if missing, runs the UF2 loader's tests, then the scenarios.
 /// The harness prints one line per scenario and a closing `N passed, M failed`.
 pub fn emulate(args: &[String]) -> Result<bool> {
@@ -88,7 +87,6 @@ pub fn emulate(args: &[String]) -> Result<bool> {
             .current_dir(&emulator)
             .args(["ci", "--no-audit", "--no-fund"]))?;
     }
-    let motionplus_elf = firmware::rp2040_motionplus_elf()?;
     if !firmware::firmware(Chip::Rp2040)? {
         return Err("the RP2040 firmware is over its budget".into());
     }
@@ -113,8 +111,6 @@ pub fn emulate(args: &[String]) -> Result<bool> {
         .arg(&elf)
         .arg("--uf2")
         .arg(Chip::Rp2040.uf2_path())
-        .arg("--elf-motionplus")
-        .arg(&motionplus_elf)
         .arg("--wiical")
         .arg(&wiical)
         .arg("--expect")

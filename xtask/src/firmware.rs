@@ -111,45 +111,6 @@ pub(crate) fn firmware(chip: Chip) -> Result<bool> {
     Ok(flash_ok && ram_ok)
 }
 
-/// Builds the RP2040 firmware with the `motionplus` feature (the adapter in front of a
-/// MotionPlus, which the RP2040's flash budget does not hold), prints its size against the
-/// budgets, and copies its ELF to the returned path for the emulator's MotionPlus scenarios.
-/// Call before [`firmware`]: both builds write the same ELF path.
-pub(crate) fn rp2040_motionplus_elf() -> Result<PathBuf> {
-    let chip = Chip::Rp2040;
-    ensure_target(chip.target())?;
-    let dir = root().join("firmware");
-    run(Command::new(cargo()).current_dir(&dir).args([
-        "build",
-        "--release",
-        "--no-default-features",
-        "--features",
-        "rp2040,motionplus",
-        "--target",
-        chip.target(),
-    ]))?;
-    let elf = dir
-        .join("target")
-        .join(chip.target())
-        .join("release")
-        .join("wiical-firmware");
-    let data = std::fs::read(&elf).map_err(|e| format!("cannot read {}: {e}", elf.display()))?;
-    let sizes = elfsize::measure(&data)?;
-    println!(
-        "rp2040 with the MotionPlus path (emulator only): flash {} B ({} B {} the 128 KiB budget), static RAM {} B",
-        sizes.flash(),
-        sizes.flash().abs_diff(FLASH_BUDGET),
-        if sizes.flash() <= FLASH_BUDGET { "within" } else { "OVER" },
-        sizes.ram()
-    );
-    let out = root().join("target/uf2/wiical-firmware-rp2040-motionplus.elf");
-    let parent = out.parent().ok_or("ELF path has no directory")?;
-    std::fs::create_dir_all(parent)
-        .map_err(|e| format!("cannot create {}: {e}", parent.display()))?;
-    std::fs::copy(&elf, &out).map_err(|e| format!("cannot copy {}: {e}", elf.display()))?;
-    Ok(out)
-}
-
 /// Writes the chip's UF2 image of the firmware ELF `elf` (atomically: a temporary file renamed
 /// over the old image), reads it back to check the round trip, and prints what it holds.
 fn write_uf2(chip: Chip, elf: &[u8]) -> Result<()> {
