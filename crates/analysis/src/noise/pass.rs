@@ -1,12 +1,15 @@
-//! `wiical noise` on a large plain text file ([`crate::input::text_source::TextSource`]): the
-//! samples pass once through folds whose memory does not grow with the recording, where the
-//! held path keeps every sample as f64 (24 B per sample and sensor, plus its θ copy).
+//! One sensor of a still recording through `wiical noise`'s folds, whatever holds its samples
+//! ([`SampleSource`]: a held recording's slice, or a large file's rows read in passes): the
+//! held and the large-file path are this one code, and differ only in how many overlapping
+//! Allan clusters a long cluster size keeps ([`Overlap`]).
 //!
 //! **The Allan deviation ([`AllanStream`]).** The overlapping estimator of
 //! [`crate::noise::allan::overlapping_adev`] needs `θₖ`, `θ_{k+m}` and `θ_{k+2m}` together: a
-//! stream keeps the last `2m + 1` values of `θ` per octave. Up to `m = FULL_OVERLAP_M`
-//! samples every `k` is used, in the held order, so those points are the held path's bit for
-//! bit. Beyond, `k` steps by `m / FULL_OVERLAP_M` (still `FULL_OVERLAP_M` cluster starts per
+//! stream keeps the last `2m + 1` values of `θ` per octave. Held samples use every `k` at every
+//! octave (memory of the order of the samples, as holding them takes anyway), in the order of
+//! `overlapping_adev`, so the curve is that estimator's bit for bit. A file read in passes uses
+//! every `k` up to `m = FULL_OVERLAP_M` samples (those points are the held ones bit for bit);
+//! beyond, `k` steps by `m / FULL_OVERLAP_M` (still `FULL_OVERLAP_M` cluster starts per
 //! `m`, where fully overlapping has `m`): memory `2·FULL_OVERLAP_M + 1` values per octave. The
 //! point's estimate then differs from the fully overlapping one by a small fraction of its
 //! uncertainty (`adev_rel_err`, which is kept as the held path's): overlapping clusters whose
@@ -14,17 +17,23 @@
 //! information (tested against the held path on simulated white noise and random walk).
 //!
 //! **The stillness checks** of [`crate::noise::still`] from the same pass: the constant-axis
-//! check, the 1-s window means (one per window: a week at 100 Hz is 604 800), the accelerometer
-//! mean, and the median |first difference| per axis exactly as a sort gives it — counted by
-//! value while there are few distinct values (quantised data: a handful), else selected by
-//! its bits, 16 at a time, in a few more passes over the file.
+//! and counter checks, the 1-s window means (one per window: a week at 100 Hz is 604 800), the
+//! accelerometer mean, and the median |first difference| per axis exactly as a sort gives it —
+//! counted by value while there are few distinct values (quantised data: a handful), else
+//! selected by its bits ([`OrderCounts`]) in a few more passes.
+//!
+//! **Polling** ([`crate::detect::polled`]): the runs of identical samples are counted in the
+//! same pass; a log polled faster than its sensor updates gets its curves from a second pass
+//! over its distinct samples, at the sensor's own rate.
 
+use crate::detect::polled::{judge, Polling, Runs};
 use crate::error::noise::NoiseError;
 use crate::error::Result;
 use crate::input::columns::Sensor;
-use crate::input::text_source::TextSource;
+use crate::input::timecheck::TimeSteps;
 use crate::noise::allan::{AllanCurve, MIN_CLUSTERS};
 use crate::noise::still::{decide_still, scatter_of, window_of, CounterFold};
+use crate::source::SampleSource;
 use crate::stats::OrderCounts;
 use std::collections::VecDeque;
 
@@ -154,6 +163,41 @@ impl StepCounts {
     }
 }
 
+/// How many of the overlapping Allan clusters a long cluster size keeps.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Overlap {
+    /// Every cluster at every size: the estimator of `overlapping_adev` bit for bit (held
+    /// samples: its rings hold about two values per sample and axis).
+    Full,
+    /// Every cluster up to [`FULL_OVERLAP_M`] samples, every `(m/FULL_OVERLAP_M)`-th beyond
+    /// (a file read in passes: memory bounded whatever its length).
+    Bounded,
+}
+
+impl Overlap {
+    /// The largest cluster size whose every cluster is used.
+    fn full_m(self) -> usize {
+        match self {
+            Overlap::Full => usize::MAX,
+            Overlap::Bounded => FULL_OVERLAP_M,
+        }
+    }
+}
+
+/// One sensor's samples and what is known of them besides.
+pub struct SensorSamples<'a, S: SampleSource + ?Sized> {
+    /// The samples, read in as many passes as the checks need.
+    pub samples: &'a S,
+    /// Their number.
+    pub len: usize,
+    /// The three columns (named in refusals).
+    pub columns: &'a [String; 3],
+    /// The time column's steps, when there is one (the evenness check).
+    pub steps: Option<TimeSteps>,
+    /// How many overlapping clusters the curves keep.
+    pub overlap: Overlap,
+}
+
 /// Everything one pass over a sensor's samples gives.
 struct SensorFold {
     allan: [AllanStream; 3],
@@ -167,12 +211,13 @@ struct SensorFold {
     prev: Option<[f64; 3]>,
     steps: [StepCounts; 3],
     counters: CounterFold,
+    runs: Runs,
 }
 
 impl SensorFold {
-    fn new(n: usize, rate_hz: f64) -> Self {
+    fn new(n: usize, rate_hz: f64, overlap: Overlap) -> Self {
         Self {
-            allan: std::array::from_fn(|_| AllanStream::new(n, rate_hz, FULL_OVERLAP_M)),
+            allan: std::array::from_fn(|_| AllanStream::new(n, rate_hz, overlap.full_m())),
             first: None,
             varies: [false; 3],
             win: window_of(rate_hz, n),
@@ -183,6 +228,7 @@ impl SensorFold {
             prev: None,
             steps: std::array::from_fn(|_| StepCounts::new()),
             counters: CounterFold::default(),
+            runs: Runs::default(),
         }
     }
 
@@ -195,6 +241,7 @@ impl SensorFold {
             self.total[a] += v[a];
         }
         self.counters.push(v);
+        self.runs.push(&v, &[0.0; 3]);
         self.in_win += 1;
         if self.in_win == self.win {
             let w = self.win as f64;
@@ -212,40 +259,43 @@ impl SensorFold {
 /// The median |first difference| of each axis, as `crate::stats::median` of them gives it:
 /// from the counts by value, else selected by their bits in passes over `src`
 /// ([`OrderCounts::median`]).
-fn median_steps(src: &TextSource, steps: &[StepCounts; 3]) -> Result<[f64; 3]> {
+fn median_steps(src: &(impl SampleSource + ?Sized), steps: &[StepCounts; 3]) -> Result<[f64; 3]> {
     let mut out = [0.0; 3];
     for (a, counts) in steps.iter().enumerate() {
         out[a] = counts.order.median(f64::from_bits, |key| {
             let mut prev: Option<f64> = None;
-            for row in src.rows() {
-                if let Some(p) = prev.replace(row.xyz[a]) {
-                    key((row.xyz[a] - p).abs().to_bits());
+            src.each(&mut |v| {
+                if let Some(p) = prev.replace(v[a]) {
+                    key((v[a] - p).abs().to_bits());
                 }
-            }
-            src.check()
+            })
         })?;
     }
     Ok(out)
 }
 
-/// One sensor of a streamed file: its three curves and its mean, or the still check's refusal.
-pub struct StreamedSensor {
-    /// Each axis's curve.
+/// One sensor's noise: its three curves, its mean, and how it was polled when it was.
+pub struct SensorNoise {
+    /// Each axis's curve (of the distinct samples at the sensor's rate when polled).
     pub curves: [AllanCurve; 3],
     /// The mean of each axis (the accelerometer's unit is read off its magnitude).
     pub mean: [f64; 3],
+    /// The log was polled faster than the sensor updates.
+    pub polling: Option<Polling>,
 }
 
-/// One pass over `src` (and, for data with many distinct steps, a few more for the median
-/// step): its curves, after the checks of [`crate::noise::still::check_still`].
-pub fn stream_sensor(src: &TextSource, sensor: Sensor, rate_hz: f64) -> Result<StreamedSensor> {
-    let n = src.len();
-    let mut fold = SensorFold::new(n, rate_hz);
-    for row in src.rows() {
-        fold.push(row.xyz);
-    }
-    src.check()?;
-    let columns = &src.meta.axis_columns;
+/// One pass over the samples (a few more for a median step of data with many distinct steps,
+/// one more for a polled log): the curves, after the checks of [`crate::noise::still`]
+/// (constant or counter axis, motion, uneven time), refused in their sentences.
+pub fn sensor_noise<S: SampleSource + ?Sized>(
+    input: &SensorSamples<'_, S>,
+    sensor: Sensor,
+    rate_hz: f64,
+) -> Result<SensorNoise> {
+    let (src, n, columns) = (input.samples, input.len, input.columns);
+    let mut fold = SensorFold::new(n, rate_hz, input.overlap);
+    src.each(&mut |v| fold.push(*v))?;
+    fold.runs.close();
     for a in 0..3 {
         if !fold.varies[a] {
             return Err(NoiseError::ConstantAxis {
@@ -256,23 +306,51 @@ pub fn stream_sensor(src: &TextSource, sensor: Sensor, rate_hz: f64) -> Result<S
         }
     }
     fold.counters.verdict(columns)?;
-    let median = median_steps(src, &fold.steps)?;
-    let per_axis = (0..3).map(|a| {
-        let s = &fold.steps[a];
-        let rms = if s.count == 0 {
-            0.0
-        } else {
-            (s.sum_sq / s.count as f64).sqrt()
-        };
-        (median[a], rms)
-    });
-    let scatter = scatter_of(per_axis, fold.win);
-    decide_still(&fold.means, scatter, columns, sensor, src.steps)?;
+    if fold.means.len() >= 2 {
+        let median = median_steps(src, &fold.steps)?;
+        let per_axis = (0..3).map(|a| {
+            let s = &fold.steps[a];
+            // The RMS step serves only where the median step is 0 (quantised, quiet data).
+            let rms = if s.count == 0 || median[a] > 0.0 {
+                0.0
+            } else {
+                (s.sum_sq / s.count as f64).sqrt()
+            };
+            (median[a], rms)
+        });
+        let scatter = scatter_of(per_axis, fold.win);
+        decide_still(&fold.means, scatter, columns, sensor, input.steps)?;
+    }
+    let polling = judge(&[&fold.runs], n, n as f64 / rate_hz);
+    let curves = match &polling {
+        Some(p) => distinct_curves(src, p, input.overlap)?,
+        None => fold.allan.map(|s| s.finish()),
+    };
     let nf = n.max(1) as f64;
-    Ok(StreamedSensor {
-        curves: std::array::from_fn(|a| fold.allan[a].finish()),
+    Ok(SensorNoise {
+        curves,
         mean: fold.total.map(|s| s / nf),
+        polling,
     })
+}
+
+/// The curves of a polled log's distinct samples (each run's first) at the sensor's own rate.
+fn distinct_curves(
+    src: &(impl SampleSource + ?Sized),
+    polling: &Polling,
+    overlap: Overlap,
+) -> Result<[AllanCurve; 3]> {
+    let mut allan: [AllanStream; 3] = std::array::from_fn(|_| {
+        AllanStream::new(polling.distinct, polling.sensor_hz, overlap.full_m())
+    });
+    let mut prev: Option<[f64; 3]> = None;
+    src.each(&mut |v| {
+        if prev.as_ref() != Some(v) {
+            prev = Some(*v);
+            (0..3).for_each(|a| allan[a].push(v[a]));
+        }
+    })?;
+    Ok(allan.map(|s| s.finish()))
 }
 
 #[cfg(test)]
