@@ -51,9 +51,10 @@ pub const MAX_COUNTED_STEPS: usize = 1 << 18;
 struct Octave {
     /// Cluster size, samples.
     m: usize,
-    /// Step between the cluster starts used (1 up to [`FULL_OVERLAP_M`]).
+    /// Step between the cluster starts used (1 up to the full-overlap size).
     stride: usize,
-    /// θ at the last `2m/stride + 1` multiples of the stride.
+    /// θ at the last `2m/stride + 1` multiples of the stride; empty for a stride of 1, whose
+    /// octaves read the stream's shared ring of recent θ instead.
     ring: VecDeque<f64>,
     sum: f64,
     terms: usize,
@@ -67,18 +68,36 @@ pub struct AllanStream {
     pushed: usize,
     theta: f64,
     octaves: Vec<Octave>,
+    /// θ of the recent samples, indexed by the sample number masked by `mask` (a power of two
+    /// of at least `2m + BLOCK` for the widest octave with a stride of 1): the fully
+    /// overlapping octaves read their three values from it.
+    recent: Vec<f64>,
+    mask: usize,
+    /// Samples pushed but not yet summed by the fully overlapping octaves: they are summed a
+    /// block at a time, octave by octave, so that each octave walks the ring in order (per
+    /// sample and octave, the ring's far ends missed the cache: 35 % of `noise`'s time).
+    pending: usize,
 }
+
+/// Samples summed at once by the fully overlapping octaves ([`AllanStream::pending`]).
+const BLOCK: usize = 4096;
 
 impl AllanStream {
     /// A stream for `n` samples at `rate_hz`, with full overlap up to `full_m` samples.
     pub fn new(n: usize, rate_hz: f64, full_m: usize) -> Self {
         let mut octaves = Vec::new();
         let mut m = 1usize;
+        let mut widest_full = 0;
         // The held path's octaves: τ doubles while at least MIN_CLUSTERS clusters remain.
         while n / m >= MIN_CLUSTERS && 2 * m <= n {
             let stride = (m / full_m.max(1)).max(1);
-            let mut ring = VecDeque::with_capacity(2 * m / stride + 1);
-            ring.push_back(0.0); // θ₀
+            let mut ring = VecDeque::new();
+            if stride == 1 {
+                widest_full = m;
+            } else {
+                ring.reserve(2 * m / stride + 1);
+                ring.push_back(0.0); // θ₀
+            }
             octaves.push(Octave {
                 m,
                 stride,
@@ -88,12 +107,17 @@ impl AllanStream {
             });
             m *= 2;
         }
+        // θ₀ = 0 sits at index 0 of the zeroed ring.
+        let len = (2 * widest_full + BLOCK + 1).next_power_of_two();
         Self {
             tau0: 1.0 / rate_hz,
             n,
             pushed: 0,
             theta: 0.0,
             octaves,
+            recent: vec![0.0; len],
+            mask: len - 1,
+            pending: 0,
         }
     }
 
@@ -102,7 +126,12 @@ impl AllanStream {
         self.theta += y * self.tau0;
         self.pushed += 1;
         let (i, theta) = (self.pushed, self.theta);
-        for o in &mut self.octaves {
+        self.recent[i & self.mask] = theta;
+        self.pending += 1;
+        if self.pending == BLOCK {
+            self.sum_pending();
+        }
+        for o in self.octaves.iter_mut().filter(|o| o.stride > 1) {
             if i % o.stride != 0 {
                 continue;
             }
@@ -119,9 +148,41 @@ impl AllanStream {
         }
     }
 
+    /// The pending samples summed by every fully overlapping octave, in sample order.
+    fn sum_pending(&mut self) {
+        let (r, mask) = (&self.recent, self.mask);
+        let last = self.pushed;
+        let first = last + 1 - self.pending;
+        for o in self.octaves.iter_mut().filter(|o| o.stride == 1) {
+            let m = o.m;
+            let mut i = first.max(2 * m);
+            // In runs where none of θᵢ, θᵢ₋ₘ, θᵢ₋₂ₘ wraps round the ring: three slices
+            // walked together, summed in sample order.
+            while i <= last {
+                let at = [i & mask, (i - m) & mask, (i - 2 * m) & mask];
+                let run = at.iter().fold(last + 1 - i, |n, a| n.min(r.len() - a));
+                let (now, mid, old) = (
+                    &r[at[0]..at[0] + run],
+                    &r[at[1]..at[1] + run],
+                    &r[at[2]..at[2] + run],
+                );
+                for ((x, y), z) in now.iter().zip(mid).zip(old) {
+                    let d = x - 2.0 * y + z;
+                    o.sum += d * d;
+                }
+                o.terms += run;
+                i += run;
+            }
+        }
+        self.pending = 0;
+    }
+
     /// The curve, as [`crate::noise::allan::overlapping_adev`] lays it out (the uncertainty
     /// of each point is the held path's formula).
-    pub fn finish(&self) -> AllanCurve {
+    pub fn finish(mut self) -> AllanCurve {
+        if self.pending > 0 {
+            self.sum_pending();
+        }
         let n = self.pushed.min(self.n);
         let mut curve = AllanCurve::default();
         for o in self.octaves.iter().filter(|o| o.terms > 0) {
