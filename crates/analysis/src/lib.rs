@@ -94,6 +94,7 @@ pub mod report;
 pub mod search;
 #[cfg(feature = "simulate")]
 pub mod simulate;
+pub mod source;
 pub mod stats;
 pub mod tempcal;
 
