@@ -1,7 +1,7 @@
 //! Reading input files with bounds: only regular files (or `-` for standard input), never
 //! more than a cap, so that `/dev/zero`, a FIFO that never ends or a 40 GB file give a clear
-//! error instead of filling the memory; gzip decompressed to the same cap; UTF-8 checked, the
-//! line and column of the first byte that is not named; lines bounded in length.
+//! error instead of filling the memory; gzip decompressed to the same cap; UTF-8 checked (the
+//! line and column of the first byte that is not UTF-8 named); lines bounded in length.
 
 use crate::error::input::InputError;
 use crate::error::{Error, Result};
@@ -228,7 +228,7 @@ pub fn not_utf8_after(bytes: &[u8], valid_up_to: usize, lines_before: usize) -> 
     )
 }
 
-/// `text` as quoted in an error message: at most [`MAX_QUOTED_CHARS`] characters, control
+/// Fills `buf` from `r` until it is full or the input ends; the bytes read (fewer only at the
 /// end). One `read` may give less than asked — a decompressor a few kB, a pipe what it holds —
 /// so the block, piece or head readers loop here rather than take a short read for the end.
 pub fn read_full(r: &mut impl Read, buf: &mut [u8]) -> std::io::Result<usize> {

@@ -10,6 +10,8 @@ use crate::error::Result;
 /// Longest piece of a field quoted back in an error message, characters.
 pub const MAX_QUOTED_CHARS: usize = 40;
 
+/// `text` as quoted in an error message: at most [`MAX_QUOTED_CHARS`] characters, control
+/// characters escaped, with the full length said when it was cut (a 10 MB bad field must not
 /// be echoed whole).
 pub fn quote(text: &str) -> String {
     quote_at_most(text, MAX_QUOTED_CHARS)
@@ -136,7 +138,6 @@ pub(crate) fn check_reading_scale(xyz: &[[f64; 3]]) -> Result<()> {
     check_largest_reading(true, largest)
 }
 
-/// Fills `buf` from `r` until it is full or the input ends; the bytes read (fewer only at the
 /// [`check_reading_scale`] given its fold: `any` sample, the `largest` |value|.
 pub(crate) fn check_largest_reading(any: bool, largest: f64) -> Result<()> {
     if any && largest < MIN_FULL_SCALE {
