@@ -19,7 +19,7 @@
 //! | fit | [`fit`] | window means → 9- (or 6-) parameter [`Calibration`] (core `f32` LM); the f64 effect model; PRESS; the six-position test |
 //! | search | [`search`] | base fit → candidate effects tried, tested, selected one per step, with evidence ([`analyze()`]) |
 //! | report | [`report`] | → [`AnalyzeReport`] (the JSON contract), effect names, quality verdict, progress |
-//! | output | [`output`] | [`Calibration`] ↔ calibration file; atomic writes |
+//! | output | [`output`] | [`Calibration`] ↔ calibration file; atomic writes (`wiical-io`'s, re-exported) |
 //! | correction | [`correct`] | calibration file (core + host terms) + recording → corrected samples, g (`wiical correct`) |
 //! | entries | [`pipeline`] | input (samples or window table) → report + quality verdict: what `fit`/`analyze --json` print |
 //! | many files | [`batch`] | files → one JSON line each (through [`pipeline`]), resumable results file |
@@ -94,6 +94,7 @@ pub mod report;
 pub mod search;
 #[cfg(feature = "simulate")]
 pub mod simulate;
+pub mod source;
 pub mod stats;
 pub mod tempcal;
 

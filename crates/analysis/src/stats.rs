@@ -501,7 +501,7 @@ pub fn sig3(x: f64) -> String {
 /// (memory bounded) and [`CountedKeys::kth`] says `None`, leaving the selection by digits.
 #[derive(Debug, Clone)]
 pub struct CountedKeys {
-    by_value: Option<std::collections::HashMap<u64, usize>>,
+    by_value: Option<rustc_hash::FxHashMap<u64, usize>>,
     max: usize,
 }
 
@@ -509,7 +509,7 @@ impl CountedKeys {
     /// Counts of at most `max` distinct keys.
     pub fn new(max: usize) -> Self {
         Self {
-            by_value: Some(std::collections::HashMap::new()),
+            by_value: Some(rustc_hash::FxHashMap::default()),
             max,
         }
     }

@@ -11,8 +11,8 @@ use rand_distr::{Distribution, StandardNormal};
 use std::fmt::Write as _;
 use std::path::Path;
 use wiical_analysis::input::read_options::ReadOptions;
+use wiical_analysis::noise::pass::FULL_OVERLAP_M;
 use wiical_analysis::noise::report::{noise_of, open_sensors, NoiseReport, Sensors};
-use wiical_analysis::noise::stream::FULL_OVERLAP_M;
 
 /// [`open_sensors`] streaming plain text files of at least `stream_from` bytes.
 fn open_sensors_from(path: &Path, stream_from: u64) -> wiical_analysis::Result<Sensors> {
@@ -150,5 +150,44 @@ fn streamed_refusals_are_the_held_ones() {
                 "{name}: {s}"
             );
         }
+    }
+}
+
+/// A still log written at 400 Hz from sensors that update at 100 Hz (each reading four times
+/// in a row): both paths find the polling and take the curves from the distinct samples at
+/// the sensors' own rate, bit for bit alike (the large-file path did not look for polling
+/// before the two were made one).
+#[test]
+fn a_polled_log_is_found_held_and_streamed_alike() {
+    let dir = tempfile::tempdir().unwrap();
+    let still = dir.path().join("still.csv");
+    write_still(&still, 20_000, |_, _| {});
+    let text = std::fs::read_to_string(&still).unwrap();
+    let mut lines = text.lines();
+    let mut polled = format!("{}\n", lines.next().unwrap());
+    for (i, line) in lines.enumerate() {
+        let values = line.split_once(',').unwrap().1;
+        for k in 0..4 {
+            let _ = writeln!(polled, "{:.4},{values}", (4 * i + k) as f64 / 400.0);
+        }
+    }
+    let path = dir.path().join("polled.csv");
+    std::fs::write(&path, polled).unwrap();
+    let (s, h) = both(&path);
+    assert_eq!(h.polled.len(), 2, "accelerometer and gyroscope polled");
+    assert_eq!(s.polled.len(), 2);
+    for (sp, hp) in s.polled.iter().zip(&h.polled) {
+        assert_eq!((&sp.columns, &sp.polling), (&hp.columns, &hp.polling));
+        assert_eq!(hp.polling.typical_run, 4);
+        assert!(
+            (hp.polling.sensor_hz / RATE - 1.0).abs() < 0.01,
+            "{:?}",
+            hp.polling
+        );
+    }
+    for (sa, ha) in s.axes.iter().zip(&h.axes) {
+        // 20 000 distinct samples: every point within FULL_OVERLAP_M, so bit for bit.
+        assert_eq!(sa.curve, ha.curve, "{}", sa.column);
+        assert!((sa.curve.tau_s[0] - 1.0 / RATE).abs() < 1e-3 / RATE);
     }
 }

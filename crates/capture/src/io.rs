@@ -274,10 +274,7 @@ impl LogReplay {
 
     /// Reads and parses a log file (a regular file of at most the recording size cap).
     pub fn load(path: &Path) -> Result<Self> {
-        let text = wiical_analysis::input::bounded::read_text(
-            path,
-            wiical_analysis::input::bounded::MAX_RECORDING_BYTES,
-        )?;
+        let text = wiical_io::bounded::read_text(path, wiical_io::bounded::MAX_RECORDING_BYTES)?;
         Self::parse(&text).with_context(|| format!("in {}", path.display()))
     }
 }

@@ -60,8 +60,8 @@ use session::{is_nunchuk_id, DeviceSetup, Session};
 use std::io::{BufWriter, IsTerminal};
 use std::path::PathBuf;
 use std::time::Duration;
-use wiical_analysis::output::write::PendingFile;
 use wiical_extbus::motionplus::{Frame, MotionPlusReport, PassthroughMode};
+use wiical_io::write::PendingFile;
 
 /// How long a capture runs.
 #[derive(Debug, Clone, PartialEq)]

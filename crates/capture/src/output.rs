@@ -106,8 +106,7 @@ impl CalFile {
     /// Writes the file (pretty JSON), atomically.
     pub fn write(&self, path: &Path) -> Result<()> {
         let text = serde_json::to_string_pretty(self)? + "\n";
-        wiical_analysis::output::write::write_file(path, text.as_bytes())
-            .map_err(anyhow::Error::new)
+        wiical_io::write::write_file(path, text.as_bytes()).map_err(anyhow::Error::new)
     }
 }
 

@@ -116,12 +116,9 @@ impl SimFlash {
     pub fn file(path: &Path) -> Result<Self> {
         let image = if path.exists() {
             // Bounded: `/dev/zero` or a huge file is refused, not read whole.
-            let data = match wiical_analysis::input::bounded::read_bounded(path, FLASH_SIZE as u64)
-            {
+            let data = match wiical_io::bounded::read_bounded(path, FLASH_SIZE as u64) {
                 Ok(d) => d,
-                Err(wiical_analysis::Error::Input(
-                    wiical_analysis::input::InputError::TooLarge { .. },
-                )) => bail!(
+                Err(wiical_io::Error::Input(wiical_io::InputError::TooLarge { .. })) => bail!(
                     "{} is not a device-sim flash image (larger than {FLASH_SIZE} bytes)",
                     path.display()
                 ),
@@ -137,7 +134,7 @@ impl SimFlash {
             data
         } else {
             let data = vec![0xFF; FLASH_SIZE];
-            wiical_analysis::output::write::write_file(path, &data)
+            wiical_io::write::write_file(path, &data)
                 .map_err(anyhow::Error::new)
                 .with_context(|| format!("cannot create {}", path.display()))?;
             data
@@ -178,7 +175,7 @@ impl SimFlash {
                 .fetch_update(Ordering::SeqCst, Ordering::SeqCst, |n| n.checked_sub(1))
                 .is_ok(),
         };
-        wiical_analysis::output::write::write_with(path, |w| {
+        wiical_io::write::write_with(path, |w| {
             if powered {
                 w.write_all(image)
             } else {

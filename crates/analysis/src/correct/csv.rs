@@ -27,4 +27,5 @@ pub fn write_corrected(path: &Path, c: &Corrected) -> Result<()> {
         }
         Ok(())
     })
+    .map_err(Into::into)
 }

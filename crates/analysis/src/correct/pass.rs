@@ -56,7 +56,7 @@ pub fn correct_streamed(
     w.write_all(csv::HEADER).map_err(|e| w.error(e))?;
     let samples = {
         let mut write = |t: f64, a: &[f32; 3]| -> Result<()> {
-            csv::write_row(&mut w, t, a).map_err(|e| w.error(e))
+            csv::write_row(&mut w, t, a).map_err(|e| w.error(e).into())
         };
         correct_pass(file, src, default_rate_hz, &mut write).map_err(in_file)?
     };

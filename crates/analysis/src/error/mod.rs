@@ -13,15 +13,16 @@ pub mod correct;
 pub mod detect;
 pub mod fit;
 pub mod gyro;
-pub mod input;
 pub mod magnetometer;
 pub mod noise;
-pub mod output;
 pub mod protocol;
 pub mod search;
 #[cfg(feature = "simulate")]
 pub mod simulate;
 pub mod six_position;
+
+// The I/O stages' errors are `wiical-io`'s (bounded reads, atomic writes), under their old paths.
+pub use wiical_io::error::{input, output};
 
 use std::path::{Path, PathBuf};
 
@@ -133,6 +134,18 @@ impl From<crate::error::gyro::GyroError> for Error {
             GyroError::Detect(e) => Error::Detect(e),
             GyroError::Fit(e) => Error::Fit(e),
             e => Error::Gyro(e),
+        }
+    }
+}
+
+impl From<wiical_io::Error> for Error {
+    /// An I/O error as the variant of the same name: `Error::Input`, `Error::Output` and
+    /// `Error::NotRegularFile` read the same whether the engine or `wiical-io` found them.
+    fn from(e: wiical_io::Error) -> Self {
+        match e {
+            wiical_io::Error::Input(e) => Error::Input(e),
+            wiical_io::Error::Output(e) => Error::Output(e),
+            wiical_io::Error::NotRegularFile { path } => Error::NotRegularFile { path },
         }
     }
 }

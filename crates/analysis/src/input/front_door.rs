@@ -90,16 +90,16 @@ type Whole = std::result::Result<RawFile, String>;
 /// its pieces, by line ([`text_file::why_not_in_pieces`]: a byte that is not UTF-8, a quote in
 /// a row…), where there is such a thing, rather than with its size alone.
 fn read_whole(path: &Path) -> Result<Whole> {
-    let bytes = read_bounded(path, MAX_RECORDING_BYTES).map_err(|e| match &e {
-        Error::Input(
+    let bytes = read_bounded(path, MAX_RECORDING_BYTES).map_err(|e| match Error::from(e) {
+        e @ Error::Input(
             InputError::TooLarge { limit_mib, .. } | InputError::GzipTooLarge { limit_mib, .. },
         ) => {
             let text = text_file_size(path).is_some();
-            text.then(|| text_file::why_not_in_pieces(path, *limit_mib))
+            text.then(|| text_file::why_not_in_pieces(path, limit_mib))
                 .flatten()
                 .unwrap_or(e)
         }
-        _ => e,
+        e => e,
     })?;
     whole_of(path, bytes)
 }
@@ -139,7 +139,8 @@ pub fn open_input(stdin: &mut dyn std::io::Read, hold: u64, most_copied: u64) ->
     }
     // Gzip'd input whose content passes the limit is spooled (its content streamed) too.
     let gzip = bytes.starts_with(&GZIP_MAGIC);
-    let content = match decompressed(path, bytes.clone(), MAX_RECORDING_BYTES) {
+    let content = decompressed(path, bytes.clone(), MAX_RECORDING_BYTES).map_err(Error::from);
+    let content = match content {
         Err(e) if gzip && gzip_too_large(&e) => {
             return spool(bytes, &mut std::io::empty(), most_copied).map(Opened::Spooled)
         }

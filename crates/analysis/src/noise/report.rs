@@ -5,7 +5,7 @@
 //! `joint_fit` (the same keys from the five-term fit to the whole curve, a cross-check), `tau_s`,
 //! `adev`, `adev_rel_err`.
 
-use crate::detect::polled::{distinct_samples, judge, runs_of, Polling};
+use crate::detect::polled::Polling;
 use crate::error::noise::NoiseError;
 use crate::error::Result;
 use crate::input::columns::{column_sensor, unit_of, Sensor};
@@ -14,9 +14,11 @@ use crate::input::read_options::ReadOptions;
 use crate::input::recording::Recording;
 use crate::input::text::{parse, LoadOptions};
 use crate::input::text_source::TextSource;
-use crate::noise::allan::{fit_terms, overlapping_adev, AllanCurve, NoiseTerms};
+use crate::input::timecheck::TimeSteps;
+use crate::noise::allan::{fit_terms, AllanCurve, NoiseTerms};
+use crate::noise::pass::{sensor_noise, Overlap, SensorSamples, FULL_OVERLAP_M};
 use crate::noise::reading::read_terms;
-use crate::noise::stream::{stream_sensor, FULL_OVERLAP_M};
+use crate::source::SampleSource;
 use serde::Serialize;
 use std::path::Path;
 
@@ -54,14 +56,13 @@ pub struct NoiseReport {
     /// Every axis of every sensor found.
     pub axes: Vec<NoiseAxis>,
     /// What the large-file path did differently from holding the samples (absent when they
-    /// were held): [`crate::noise::stream`].
+    /// were held): [`crate::noise::pass`].
     #[serde(skip_serializing_if = "Option::is_none")]
     pub streamed: Option<String>,
     /// The sensors whose log was polled faster than they update ([`crate::detect::polled`]):
     /// their Allan deviations are of the distinct samples at the sensor's own rate, not of
     /// the rows (a reading logged four times in a row flattens the curve's first points and
-    /// halves the white noise read off them). Absent when none was; the streamed path does
-    /// not look for it.
+    /// halves the white noise read off them). Absent when none was.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub polled: Vec<PolledSensor>,
 }
@@ -74,30 +75,6 @@ pub struct PolledSensor {
     /// The rates and runs.
     #[serde(flatten)]
     pub polling: Polling,
-}
-
-/// Whether the still recording `rec`, written at `rate` Hz, was polled faster than its sensor
-/// updates (all of it is one window of runs: [`crate::detect::polled::judge`]).
-fn polling_of(rec: &Recording, rate: f64) -> Option<Polling> {
-    let runs = runs_of(&rec.xyz, &[0.0; 3]);
-    judge(&[&runs], rec.len(), rec.len() as f64 / rate)
-}
-
-/// Each axis's Allan curve: of the samples at `rate`, or of a polled log's distinct samples at
-/// the sensor's own rate.
-fn curves_of(rec: &Recording, rate: f64, polling: Option<&Polling>) -> [AllanCurve; 3] {
-    let distinct;
-    let (xyz, hz) = match polling {
-        Some(p) => {
-            distinct = distinct_samples(&rec.xyz);
-            (&distinct, p.sensor_hz)
-        }
-        None => (&rec.xyz, rate),
-    };
-    std::array::from_fn(|a| {
-        let y: Vec<f64> = xyz.iter().map(|v| v[a]).collect();
-        overlapping_adev(&y, hz)
-    })
 }
 
 /// The sensors of a still recording, read once: every triplet the header names (accelerometer,
@@ -170,8 +147,8 @@ fn takes(sensor: Sensor, probe: &[String; 3], taken: &[[String; 3]]) -> bool {
 }
 
 /// The sensors of a still recording: held as recordings, or (a plain text file of at least
-/// [`ReadOptions::stream_from_bytes`] bytes) opened as sources streamed by
-/// [`crate::noise::stream`].
+/// [`ReadOptions::stream_from_bytes`] bytes) opened as sources read in
+/// passes ([`crate::noise::pass`]).
 #[derive(Debug)]
 pub enum Sensors {
     /// Every sample held ([`load_sensors`]).
@@ -314,51 +291,6 @@ fn sensor_of(column: &str) -> Sensor {
     column_sensor(column).unwrap_or(Sensor::Unnamed)
 }
 
-/// Each axis's Allan deviation and terms. `default_rate_hz` is used when the recording has no
-/// time column or `Fs`. Refused when a recording is too short for any τ, or is not still,
-/// varying and evenly sampled ([`crate::noise::still`]).
-pub fn noise(recs: &[Recording], default_rate_hz: f64) -> Result<NoiseReport, NoiseError> {
-    let first = recs.first().ok_or(NoiseError::NoSampleRate)?;
-    let rate = first.estimated_rate_hz().unwrap_or(default_rate_hz);
-    if !(rate.is_finite() && rate > 0.0) {
-        return Err(NoiseError::NoSampleRate);
-    }
-    let samples = first.len();
-    if samples < 2 * crate::noise::allan::MIN_CLUSTERS {
-        return Err(NoiseError::NoiseTooShort {
-            samples,
-            needed: 2 * crate::noise::allan::MIN_CLUSTERS,
-        });
-    }
-    for rec in recs {
-        crate::noise::still::check_still(rec, sensor_of(&rec.axis_columns[0]), rate)?;
-    }
-    let (mut axes, mut polled) = (Vec::new(), Vec::new());
-    for rec in recs {
-        let sensor = sensor_of(&rec.axis_columns[0]);
-        let accel_unit = (sensor == Sensor::Accelerometer || sensor == Sensor::Unnamed)
-            .then(|| accel_unit(rec))
-            .flatten();
-        let polling = polling_of(rec, rate);
-        let curves = curves_of(rec, rate, polling.as_ref());
-        push_axes(&mut axes, sensor, &rec.axis_columns, accel_unit, curves);
-        if let Some(polling) = polling {
-            polled.push(PolledSensor {
-                columns: rec.axis_columns.join(","),
-                polling,
-            });
-        }
-    }
-    Ok(NoiseReport {
-        samples,
-        sample_rate_hz: rate,
-        duration_s: samples as f64 / rate,
-        axes,
-        streamed: None,
-        polled,
-    })
-}
-
 /// One sensor's three axes, each with its reading and joint fit.
 fn push_axes(
     axes: &mut Vec<NoiseAxis>,
@@ -383,56 +315,92 @@ fn push_axes(
     }
 }
 
-/// [`noise`] of the sensors as [`open_sensors`] opened them: held, or streamed (one pass per
-/// sensor, [`crate::noise::stream`]; the report then says what that path does differently).
+/// Each axis's Allan deviation and terms of the sensors as [`open_sensors`] opened them, held
+/// or read in passes: one code ([`crate::noise::pass`]), the large-file path keeping fewer
+/// overlapping clusters at long τ (the report's `streamed` says so). `default_rate_hz` is used
+/// when the recording has no time column or `Fs`. Refused when a recording is too short for
+/// any τ, or is not still, varying and evenly sampled ([`crate::noise::still`]).
 pub fn noise_of(sensors: &Sensors, default_rate_hz: f64) -> Result<NoiseReport> {
-    let srcs = match sensors {
-        Sensors::Held(recs) => return Ok(noise(recs, default_rate_hz)?),
-        Sensors::Streamed(srcs) => srcs,
+    let inputs: Vec<(SensorSamples<'_, dyn SampleSource>, bool)> = match sensors {
+        Sensors::Held(recs) => recs.iter().map(held_samples).collect(),
+        Sensors::Streamed(srcs) => srcs.iter().map(streamed_samples).collect(),
     };
-    let first = srcs.first().ok_or(NoiseError::NoSampleRate)?;
-    let rate = first.estimated_rate_hz().unwrap_or(default_rate_hz);
+    let first_rate = match sensors {
+        Sensors::Held(recs) => recs.first().map(Recording::estimated_rate_hz),
+        Sensors::Streamed(srcs) => srcs.first().map(TextSource::estimated_rate_hz),
+    };
+    let rate = first_rate
+        .ok_or(NoiseError::NoSampleRate)?
+        .unwrap_or(default_rate_hz);
     if !(rate.is_finite() && rate > 0.0) {
         return Err(NoiseError::NoSampleRate.into());
     }
-    let samples = first.len();
+    let samples = inputs.first().map_or(0, |(i, _)| i.len);
     let needed = 2 * crate::noise::allan::MIN_CLUSTERS;
     if samples < needed {
         return Err(NoiseError::NoiseTooShort { samples, needed }.into());
     }
-    let mut axes = Vec::new();
-    for src in srcs {
-        let columns = &src.meta.axis_columns;
-        let sensor = sensor_of(&columns[0]);
-        let got = stream_sensor(src, sensor, rate)?;
+    let (mut axes, mut polled) = (Vec::new(), Vec::new());
+    for (input, integer) in &inputs {
+        let sensor = sensor_of(&input.columns[0]);
+        let got = sensor_noise(input, sensor, rate)?;
         let accel_unit = (sensor == Sensor::Accelerometer || sensor == Sensor::Unnamed)
-            .then(|| unit_of_mean(src.summary.integer, &got.mean))
+            .then(|| unit_of_mean(*integer, &got.mean))
             .flatten();
-        push_axes(&mut axes, sensor, columns, accel_unit, got.curves);
+        push_axes(&mut axes, sensor, input.columns, accel_unit, got.curves);
+        if let Some(polling) = got.polling {
+            polled.push(PolledSensor {
+                columns: input.columns.join(","),
+                polling,
+            });
+        }
     }
+    let streamed = matches!(sensors, Sensors::Streamed(_)).then(|| {
+        format!(
+            "read in passes from the file, never held: the points beyond τ = {FULL_OVERLAP_M} \
+             samples use every (m/{FULL_OVERLAP_M})-th of the overlapping clusters (the fully \
+             overlapping value differs by a small fraction of adev_rel_err); the others are \
+             the held path's"
+        )
+    });
     Ok(NoiseReport {
         samples,
         sample_rate_hz: rate,
         duration_s: samples as f64 / rate,
         axes,
-        streamed: Some(format!(
-            "read in passes from the file, never held: the points beyond τ = {FULL_OVERLAP_M} \
-             samples use every (m/{FULL_OVERLAP_M})-th of the overlapping clusters (the fully \
-             overlapping value differs by a small fraction of adev_rel_err); the others are \
-             the held path's"
-        )),
-        polled: Vec::new(),
+        streamed,
+        polled,
     })
 }
 
-/// g or m/s² when the mean acceleration's magnitude says so (≈ 1 or ≈ 9.81).
-fn accel_unit(rec: &Recording) -> Option<String> {
-    let n = rec.len().max(1) as f64;
-    let mean: [f64; 3] = std::array::from_fn(|a| rec.xyz.iter().map(|v| v[a]).sum::<f64>() / n);
-    unit_of_mean(rec.is_integer(), &mean)
+/// A held recording as the noise pass reads it (every overlapping cluster), and whether
+/// every value is an integer.
+fn held_samples(rec: &Recording) -> (SensorSamples<'_, dyn SampleSource>, bool) {
+    let input = SensorSamples {
+        samples: &rec.xyz as &dyn SampleSource,
+        len: rec.len(),
+        columns: &rec.axis_columns,
+        steps: rec.t.as_deref().and_then(TimeSteps::of),
+        overlap: Overlap::Full,
+    };
+    (input, rec.is_integer())
 }
 
-/// [`accel_unit`] from the mean and whether every value is an integer.
+/// A file read in passes as the noise pass reads it (bounded overlap), and whether every
+/// value is an integer.
+fn streamed_samples(src: &TextSource) -> (SensorSamples<'_, dyn SampleSource>, bool) {
+    let input = SensorSamples {
+        samples: src as &dyn SampleSource,
+        len: src.len(),
+        columns: &src.meta.axis_columns,
+        steps: src.steps,
+        overlap: Overlap::Bounded,
+    };
+    (input, src.summary.integer)
+}
+
+/// g or m/s² when the magnitude of the mean acceleration `mean` says so (≈ 1 or ≈ 9.81), from
+/// it and whether every value is an integer.
 fn unit_of_mean(integer: bool, mean: &[f64; 3]) -> Option<String> {
     let norm = mean.iter().map(|m| m * m).sum::<f64>().sqrt();
     match crate::input::recording::infer_units(integer, norm) {

@@ -5,7 +5,6 @@
 
 use crate::error::noise::NoiseError;
 use crate::input::columns::Sensor;
-use crate::input::recording::Recording;
 use crate::input::timecheck::TimeSteps;
 
 /// Largest departure of the mean time step from the median one: beyond it samples are
@@ -34,8 +33,8 @@ pub const COUNTER_REPEATS: f64 = 0.9;
 /// quiet sensor that drifts one step at a time, rarely, is not taken for a counter.
 pub const COUNTER_MIN_CHANGES: f64 = 0.25;
 
-/// The counter test ([`COUNTER_REPEATS`]) of three axes, fed sample by sample (the held path
-/// and the stream share it).
+/// The counter test ([`COUNTER_REPEATS`]) of three axes, fed sample by sample by the noise
+/// pass ([`crate::noise::pass`]).
 #[derive(Debug, Clone, Default)]
 pub struct CounterFold {
     prev: Option<[f64; 3]>,
@@ -84,38 +83,13 @@ impl CounterFold {
     }
 }
 
-/// Refuses `rec` when an axis is constant or a counter, it moved, or its time column is
-/// uneven.
-pub fn check_still(rec: &Recording, sensor: Sensor, rate_hz: f64) -> Result<(), NoiseError> {
-    for a in 0..3 {
-        let first = rec.xyz.first().map_or(0.0, |v| v[a]);
-        if rec.xyz.iter().all(|v| v[a] == first) {
-            return Err(NoiseError::ConstantAxis {
-                column: rec.axis_columns[a].clone(),
-                value: first,
-            });
-        }
-    }
-    let mut counters = CounterFold::default();
-    rec.xyz.iter().for_each(|v| counters.push(*v));
-    counters.verdict(&rec.axis_columns)?;
-    let win = window_of(rate_hz, rec.len());
-    let means: Vec<[f64; 3]> = rec.xyz.chunks_exact(win).map(mean).collect();
-    if means.len() < 2 {
-        return Ok(());
-    }
-    let scatter = window_scatter(rec, win);
-    let steps = rec.t.as_deref().and_then(TimeSteps::of);
-    decide_still(&means, scatter, &rec.axis_columns, sensor, steps)
-}
-
 /// The window of the motion check, samples: one second, at least 10 and at most an eighth of
 /// the `n` samples (so that a short recording still has eight windows).
 pub fn window_of(rate_hz: f64, n: usize) -> usize {
     (rate_hz.round() as usize).clamp(10, (n / 8).max(10))
 }
 
-/// The motion and time checks of [`check_still`] from what they need: the window means (in
+/// The motion and time checks from what they need: the window means (in
 /// order), the white-noise scatter of a window mean ([`scatter_of`]), the time column's steps.
 /// Fewer than two windows: nothing to compare, accepted.
 pub fn decide_still(
@@ -177,11 +151,6 @@ pub fn decide_still(
     Ok(())
 }
 
-fn mean(v: &[[f64; 3]]) -> [f64; 3] {
-    let n = v.len().max(1) as f64;
-    std::array::from_fn(|a| v.iter().map(|s| s[a]).sum::<f64>() / n)
-}
-
 fn angle_deg(a: &[f64; 3], b: &[f64; 3]) -> f64 {
     let dot: f64 = (0..3).map(|i| a[i] * b[i]).sum();
     let na = a.iter().map(|x| x * x).sum::<f64>().sqrt();
@@ -192,31 +161,10 @@ fn angle_deg(a: &[f64; 3], b: &[f64; 3]) -> f64 {
     (dot / (na * nb)).clamp(-1.0, 1.0).acos().to_degrees()
 }
 
-/// The white-noise standard deviation of a `win`-sample mean, largest over the axes: from
-/// the first differences (σ² = var(Δ)/2, robust: from their median absolute value), so that
-/// a slow motion or drift does not count as noise.
-fn window_scatter(rec: &Recording, win: usize) -> f64 {
-    let per_axis = (0..3).map(|a| {
-        let d: Vec<f64> = rec
-            .xyz
-            .windows(2)
-            .map(|w| (w[1][a] - w[0][a]).abs())
-            .collect();
-        let med = crate::stats::median(&d);
-        (
-            med,
-            if med > 0.0 {
-                0.0
-            } else {
-                crate::stats::rms(&d)
-            },
-        )
-    });
-    scatter_of(per_axis, win)
-}
-
-/// The scatter of `window_scatter` from each axis's median |first difference| and, used only
-/// where that median is 0, their RMS (the stream folds them without holding the differences).
+/// The white-noise standard deviation of a `win`-sample mean, largest over the axes, from each
+/// axis's median |first difference| and, used only where that median is 0, their RMS
+/// (σ² = var(Δ)/2, robust: a slow motion or drift does not count as noise; the noise pass
+/// folds the differences without holding them).
 pub fn scatter_of(per_axis: impl Iterator<Item = (f64, f64)>, win: usize) -> f64 {
     per_axis
         .map(|(med, rms)| {

@@ -438,7 +438,7 @@ pub fn write_calibration_with(
 ) -> Result<()> {
     cal.validate()
         .map_err(OutputError::RefuseInvalidCalibration)?;
-    write_file(path, to_json_with(cal, quality)?.as_bytes())
+    Ok(write_file(path, to_json_with(cal, quality)?.as_bytes())?)
 }
 
 /// Writes a calibration file (core calibration, quality, host terms) after checking the
@@ -448,7 +448,7 @@ pub fn write_calibration_file(path: &Path, f: &CalibrationFile) -> Result<()> {
         .validate()
         .map_err(OutputError::RefuseInvalidCalibration)?;
     host_terms::validate(&f.host_terms).map_err(OutputError::RefuseInvalidHostTerms)?;
-    write_file(path, to_json_file(f)?.as_bytes())
+    Ok(write_file(path, to_json_file(f)?.as_bytes())?)
 }
 
 /// Writes a calibration after checking it is valid (finite, invertible: what the adapter
@@ -459,7 +459,7 @@ pub fn write_calibration(path: &Path, cal: &Calibration) -> Result<()> {
 
 /// Writes a calibration as it is (e.g. one read back from a device, to be inspected).
 pub fn write_calibration_unchecked(path: &Path, cal: &Calibration) -> Result<()> {
-    write_file(path, to_json(cal)?.as_bytes())
+    Ok(write_file(path, to_json(cal)?.as_bytes())?)
 }
 
 /// Reads a calibration file (a regular file of at most [`MAX_CALIBRATION_BYTES`], or `-`),

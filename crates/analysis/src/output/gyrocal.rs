@@ -122,7 +122,7 @@ pub fn to_text(f: &GyroCalFile) -> Result<String> {
 
 /// Writes the file atomically (refusing a calibration that does not validate).
 pub fn write_gyro_calibration(path: &Path, f: &GyroCalFile) -> Result<()> {
-    write_file(path, to_text(f)?.as_bytes())
+    Ok(write_file(path, to_text(f)?.as_bytes())?)
 }
 
 /// The effect terms of a file's `effects` object, strictly: a key per row of the table, each

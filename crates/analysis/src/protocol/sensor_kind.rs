@@ -31,10 +31,10 @@
 use crate::detect::windows::Windows;
 use crate::error::fit::FitError;
 use crate::input::columns::{all_named, Sensor};
-use crate::input::text_source::TextSource;
 use crate::magnetometer::fit::{FitFold, QualityFold};
 use crate::magnetometer::model::MagModel;
 use crate::protocol::vec3::{mat_vec, norm, sub};
+use crate::source::SampleSource;
 use wiical_core::magfit::MagFit;
 
 /// Still windows needed to say that the rests read alike.
@@ -97,26 +97,6 @@ impl OtherSensor {
                 "{taken}; its {samples} samples lie on one ellipsoid (fit error {fit_error_pct:.2} % of its radius) and it rests in {rests_on} orientations on it: a magnetometer turned about reads so, an accelerometer in motion reads its own acceleration too; if this is a magnetometer, run `wiical magfit` on it; if it is an accelerometer turned slowly without stopping, hold it still for about a second in at least 9 orientations"
             ),
         }
-    }
-}
-
-/// The samples the signatures read, in passes: a held recording's, or a large file's rows.
-pub trait SampleSource {
-    /// Calls `f` with every sample in order; a file's error (changed, unreadable) ends it.
-    fn each(&self, f: &mut dyn FnMut(&[f64; 3])) -> crate::Result<()>;
-}
-
-impl SampleSource for [[f64; 3]] {
-    fn each(&self, f: &mut dyn FnMut(&[f64; 3])) -> crate::Result<()> {
-        self.iter().for_each(f);
-        Ok(())
-    }
-}
-
-impl SampleSource for TextSource {
-    fn each(&self, f: &mut dyn FnMut(&[f64; 3])) -> crate::Result<()> {
-        self.rows().for_each(|r| f(&r.xyz));
-        self.check()
     }
 }
 

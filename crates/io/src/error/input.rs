@@ -1,12 +1,13 @@
 //! The input stage's error: why a file could not be read or parsed into a recording (the file,
 //! line and column named in each sentence). Joined into [`super::Error`] as
-//! `Error::Input`; re-exported as `input::InputError`.
+//! `Error::Input` (and into `wiical_analysis::Error` as its `Error::Input`).
 
 use std::path::PathBuf;
 
 /// Why an input could not be loaded: reading it (size caps, gzip, UTF-8), a raw accelerometer
 /// file's blocks, or a field, line or header of a text/CSV/GRT/window-mean file. Joined into
-/// [`super::Error::Input`]; the file itself is named by the `Error::InFile` around it.
+/// [`super::Error::Input`]; the file itself is named by the `Error::InFile` around it (the
+/// analysis engine's).
 #[derive(Debug, thiserror::Error)]
 pub enum InputError {
     /// The file could not be read.
@@ -376,7 +377,7 @@ pub enum InputError {
         header: String,
     },
     /// More samples than a command that holds its whole recording keeps
-    /// ([`crate::input::front_door::HoldLimit`]): refused as they are read, before the memory
+    /// (`wiical_analysis::input::front_door::HoldLimit`): refused as they are read, before the memory
     /// they would take is taken.
     #[error("it holds more than {limit} samples, the most `wiical {command}` keeps in memory; {instead}")]
     TooManyToHold {
@@ -390,7 +391,7 @@ pub enum InputError {
 }
 
 impl InputError {
-    /// The file this error names, for [`super::Error::renaming`] (`None` for the errors
+    /// The file this error names, for `wiical_analysis::Error::renaming` (`None` for the errors
     /// about a file's content, which the `Error::InFile` around them names).
     pub fn file_mut(&mut self) -> Option<&mut PathBuf> {
         use InputError as E;

@@ -1,6 +1,6 @@
 //! The output stage's error: why a file was not written, or a calibration file (the format the
 //! output stage writes) not read back. Joined into [`super::Error`] as
-//! `Error::Output`; re-exported as `output::OutputError`.
+//! `Error::Output` (and into `wiical_analysis::Error` as its `Error::Output`).
 
 use std::path::PathBuf;
 
