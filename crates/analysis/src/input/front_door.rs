@@ -90,16 +90,20 @@ type Whole = std::result::Result<RawFile, String>;
 /// its pieces, by line ([`text_file::why_not_in_pieces`]: a byte that is not UTF-8, a quote in
 /// a row…), where there is such a thing, rather than with its size alone.
 fn read_whole(path: &Path) -> Result<Whole> {
-    let bytes = read_bounded(path, MAX_RECORDING_BYTES).map_err(|e| match Error::from(e) {
-        e @ Error::Input(
-            InputError::TooLarge { limit_mib, .. } | InputError::GzipTooLarge { limit_mib, .. },
-        ) => {
-            let text = text_file_size(path).is_some();
-            text.then(|| text_file::why_not_in_pieces(path, limit_mib))
-                .flatten()
-                .unwrap_or(e)
-        }
-        e => e,
+    let bytes = read_bounded(path, MAX_RECORDING_BYTES).map_err(|e| {
+        let e = Error::from(e);
+        // (Not `e @ …{ limit_mib, .. }`: the workspace's rust-version, 1.89, refuses a
+        // binding inside a pattern whose whole value `e @` moves.)
+        let limit_mib = match &e {
+            Error::Input(
+                InputError::TooLarge { limit_mib, .. } | InputError::GzipTooLarge { limit_mib, .. },
+            ) => *limit_mib,
+            _ => return e,
+        };
+        let text = text_file_size(path).is_some();
+        text.then(|| text_file::why_not_in_pieces(path, limit_mib))
+            .flatten()
+            .unwrap_or(e)
     })?;
     whole_of(path, bytes)
 }
