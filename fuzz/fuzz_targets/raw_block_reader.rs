@@ -1,0 +1,68 @@
+//! Arbitrary bytes as Axivity `.cwa` data blocks after a valid header, read from a file block
+//! by block (`wiical fit big.cwa`, `correct`, `six-position`: `input::raw::stream`, the reader
+//! whose clock places each block and leaves out a block stamped far ahead or back) against the
+//! same bytes parsed whole (`cwa::parse` + `to_recording`). Never a panic; when both read the
+//! file, they give the same samples and times bit for bit, and the same error otherwise
+//! (neither path may keep a block the other leaves out).
+#![no_main]
+
+use libfuzzer_sys::fuzz_target;
+use wiical_analysis::input::raw::stream::load_raw;
+use wiical_analysis::input::raw::{cwa, to_recording, RawFormat};
+
+fuzz_target!(|data: &[u8]| {
+    let Some((&pick, rest)) = data.split_first() else {
+        return;
+    };
+    let mut file = vec![0u8; cwa::HEADER_BYTES];
+    file[..2].copy_from_slice(b"MD");
+    file[2..4].copy_from_slice(&1020u16.to_le_bytes());
+    file[4] = if pick & 2 != 0 { 0x64 } else { 0 };
+    file[36] = pick >> 2;
+    // A short input is repeated into 1–8 whole blocks, so that a smoke run of seconds reaches
+    // the blocks' fields and the clock (the same bytes again: the same stamp, a step back).
+    if rest.len() >= cwa::BLOCK_BYTES || rest.is_empty() {
+        file.extend_from_slice(rest);
+    } else {
+        let blocks = 1 + usize::from(pick >> 5);
+        file.extend(rest.iter().cycle().take(blocks * cwa::BLOCK_BYTES));
+    }
+    // With the first byte odd every block's checksum is made to pass, so the clock is reached.
+    if pick & 1 == 1 {
+        for b in file[cwa::HEADER_BYTES..].chunks_exact_mut(cwa::BLOCK_BYTES) {
+            b[510] = 0;
+            b[511] = 0;
+            let s = b.chunks_exact(2).fold(0u16, |s, w| {
+                s.wrapping_add(u16::from_le_bytes([w[0], w[1]]))
+            });
+            b[510..512].copy_from_slice(&0u16.wrapping_sub(s).to_le_bytes());
+        }
+    }
+    // fuzz-smoke sets TMPDIR to a scratch directory of its own.
+    let path = std::env::temp_dir().join(format!("raw-blocks-{}.cwa", std::process::id()));
+    if std::fs::write(&path, &file).is_err() {
+        return;
+    }
+    let streamed = load_raw(&path, RawFormat::Cwa, &Default::default());
+    let whole = cwa::parse(&file)
+        .map_err(wiical_analysis::Error::from)
+        .and_then(|raw| to_recording(&raw, &Default::default()));
+    let _ = std::fs::remove_file(&path);
+    let bits =
+        |v: &[[f64; 3]]| -> Vec<[u64; 3]> { v.iter().map(|r| r.map(f64::to_bits)).collect() };
+    match (streamed, whole) {
+        (Ok(s), Ok(w)) => {
+            assert_eq!(bits(&s.xyz), bits(&w.xyz), "samples differ");
+            let t = |r: &wiical_analysis::input::recording::Recording| -> Vec<u64> {
+                r.t.iter().flatten().map(|x| x.to_bits()).collect()
+            };
+            assert_eq!(t(&s), t(&w), "times differ");
+        }
+        (Err(_), Err(_)) => {}
+        (s, w) => panic!(
+            "one path read the file, the other did not: streamed {:?}, whole {:?}",
+            s.map(|r| r.len()),
+            w.map(|r| r.len())
+        ),
+    }
+});
