@@ -6,28 +6,17 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
+
+#[path = "cwa_bytes.rs"]
+mod cwa_bytes;
+use cwa_bytes::cwa_file;
 use wiical_analysis::input::raw::{cwa, ggir, to_recording};
 
 fuzz_target!(|data: &[u8]| {
     let Some((&pick, rest)) = data.split_first() else {
         return;
     };
-    let mut file = vec![0u8; cwa::HEADER_BYTES];
-    file[..2].copy_from_slice(b"MD");
-    file[2..4].copy_from_slice(&1020u16.to_le_bytes());
-    file[4] = if pick & 2 != 0 { 0x64 } else { 0 };
-    file[36] = pick >> 2;
-    file.extend_from_slice(rest);
-    if pick & 1 == 1 {
-        for b in file[cwa::HEADER_BYTES..].chunks_exact_mut(cwa::BLOCK_BYTES) {
-            b[510] = 0;
-            b[511] = 0;
-            let s = b.chunks_exact(2).fold(0u16, |s, w| {
-                s.wrapping_add(u16::from_le_bytes([w[0], w[1]]))
-            });
-            b[510..512].copy_from_slice(&0u16.wrapping_sub(s).to_le_bytes());
-        }
-    }
+    let file = cwa_file(pick, rest.iter().copied());
     let Ok(raw) = cwa::parse(&file) else {
         return;
     };

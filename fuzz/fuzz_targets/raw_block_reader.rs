@@ -7,6 +7,10 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
+
+#[path = "cwa_bytes.rs"]
+mod cwa_bytes;
+use cwa_bytes::cwa_file;
 use wiical_analysis::input::raw::stream::load_raw;
 use wiical_analysis::input::raw::{cwa, to_recording, RawFormat};
 
@@ -14,30 +18,17 @@ fuzz_target!(|data: &[u8]| {
     let Some((&pick, rest)) = data.split_first() else {
         return;
     };
-    let mut file = vec![0u8; cwa::HEADER_BYTES];
-    file[..2].copy_from_slice(b"MD");
-    file[2..4].copy_from_slice(&1020u16.to_le_bytes());
-    file[4] = if pick & 2 != 0 { 0x64 } else { 0 };
-    file[36] = pick >> 2;
     // A short input is repeated into 1–8 whole blocks, so that a smoke run of seconds reaches
     // the blocks' fields and the clock (the same bytes again: the same stamp, a step back).
-    if rest.len() >= cwa::BLOCK_BYTES || rest.is_empty() {
-        file.extend_from_slice(rest);
+    let file = if rest.len() >= cwa::BLOCK_BYTES || rest.is_empty() {
+        cwa_file(pick, rest.iter().copied())
     } else {
         let blocks = 1 + usize::from(pick >> 5);
-        file.extend(rest.iter().cycle().take(blocks * cwa::BLOCK_BYTES));
-    }
-    // With the first byte odd every block's checksum is made to pass, so the clock is reached.
-    if pick & 1 == 1 {
-        for b in file[cwa::HEADER_BYTES..].chunks_exact_mut(cwa::BLOCK_BYTES) {
-            b[510] = 0;
-            b[511] = 0;
-            let s = b.chunks_exact(2).fold(0u16, |s, w| {
-                s.wrapping_add(u16::from_le_bytes([w[0], w[1]]))
-            });
-            b[510..512].copy_from_slice(&0u16.wrapping_sub(s).to_le_bytes());
-        }
-    }
+        cwa_file(
+            pick,
+            rest.iter().copied().cycle().take(blocks * cwa::BLOCK_BYTES),
+        )
+    };
     // fuzz-smoke sets TMPDIR to a scratch directory of its own.
     let path = std::env::temp_dir().join(format!("raw-blocks-{}.cwa", std::process::id()));
     if std::fs::write(&path, &file).is_err() {
