@@ -7,67 +7,16 @@
 #![no_main]
 
 use embassy_futures::block_on;
-use embedded_storage_async::nor_flash::{
-    ErrorType, NorFlash, NorFlashError, NorFlashErrorKind, ReadNorFlash,
-};
 use libfuzzer_sys::fuzz_target;
+
+#[path = "ram_flash.rs"]
+mod ram_flash;
+use ram_flash::{RamFlash, PAGE, PAGES};
 use wiical_adapter::{CalibrationStore, DeviceInfo, IdealScale, Protocol};
 use wiical_analysis::output::calfile;
 use wiical_core::acceptance::Acceptance;
 use wiical_core::Calibration;
 use wiical_wire::{Hello, Request, Response, WireCalibration};
-
-const PAGE: usize = 512;
-const PAGES: usize = 4;
-
-/// A RAM NOR flash (programming clears bits, erase sets a page to 0xFF).
-struct RamFlash(Vec<u8>);
-
-#[derive(Debug)]
-struct RamError;
-
-impl NorFlashError for RamError {
-    fn kind(&self) -> NorFlashErrorKind {
-        NorFlashErrorKind::Other
-    }
-}
-
-impl ErrorType for RamFlash {
-    type Error = RamError;
-}
-
-impl ReadNorFlash for RamFlash {
-    const READ_SIZE: usize = 1;
-    async fn read(&mut self, offset: u32, bytes: &mut [u8]) -> Result<(), RamError> {
-        let s = offset as usize;
-        let src = self.0.get(s..s + bytes.len()).ok_or(RamError)?;
-        bytes.copy_from_slice(src);
-        Ok(())
-    }
-    fn capacity(&self) -> usize {
-        self.0.len()
-    }
-}
-
-impl NorFlash for RamFlash {
-    const WRITE_SIZE: usize = 4;
-    const ERASE_SIZE: usize = PAGE;
-    async fn erase(&mut self, from: u32, to: u32) -> Result<(), RamError> {
-        self.0
-            .get_mut(from as usize..to as usize)
-            .ok_or(RamError)?
-            .fill(0xFF);
-        Ok(())
-    }
-    async fn write(&mut self, offset: u32, bytes: &[u8]) -> Result<(), RamError> {
-        let s = offset as usize;
-        let dst = self.0.get_mut(s..s + bytes.len()).ok_or(RamError)?;
-        for (d, b) in dst.iter_mut().zip(bytes) {
-            *d &= b;
-        }
-        Ok(())
-    }
-}
 
 /// A calibration near the Nunchuk's nominal one, each term perturbed by one input byte (so
 /// that accepted and refused calibrations both occur, many near the limits).
