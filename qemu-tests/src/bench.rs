@@ -160,6 +160,7 @@ fn main() -> ! {
     all_ok &= wiical_qemu_tests::background_bench::rows(sc.0);
     all_ok &= wiical_qemu_tests::background_bench::report_path_rows(sc.0);
     all_ok &= wiical_qemu_tests::gyro_bench::rows(sc.0);
+    all_ok &= wiical_qemu_tests::motionplus_bench::rows(sc.0);
 
     hprintln!();
     hprintln!(

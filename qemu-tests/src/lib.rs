@@ -14,6 +14,7 @@
 pub mod background_bench;
 pub mod cases;
 pub mod gyro_bench;
+pub mod motionplus_bench;
 pub mod rt;
 
 /// The real recordings, as the build script read them from `$WIICAL_DATA` (default
