@@ -16,7 +16,7 @@ import { Board, FLASH_SIZE } from './src/board.js';
 import { parseElf } from './src/elf.js';
 import { parseUf2, Uf2Error } from './src/uf2.js';
 import { decodeReport, calibrationBlock } from './src/nunchuk.js';
-import { crc32, decodeMotionPlusReport } from './src/motionplus.js';
+import { crc32, decodeMotionPlusReport, decodePassthroughNunchuk } from './src/motionplus.js';
 import { selfCalScenarios } from './src/selfcal-scenarios.js';
 import { backgroundScenarios } from './src/background-scenarios.js';
 import { mulberry32 } from './src/pose-nunchuk.js';
@@ -391,6 +391,85 @@ async function turnErrors(rig, block) {
 }
 const IDEAL_MP_BLOCK_RANGES = { slow: [24576, 55], fast: [12288, 125] };
 
+/** Power cut during a gyro commit (motionplus-powercut): the MotionPlus turns at this constant
+ * rate (°/s, slow range, above the tracker's 10 °/s rest limit so the bias stays put), and a
+ * second gyro calibration unlike the first (bias +25 counts, K 6 % larger) to commit over it. */
+const CUT_RATE = [40, -30, 25];
+function writeGyroCalB() {
+  const a = JSON.parse(readFileSync(writeGyroCal(), 'utf8'));
+  const path = join(work, 'gyro-b.json');
+  writeFileSync(path, JSON.stringify({ ...a, bias: a.bias.map((b) => b + 25), matrix: a.matrix.map((r) => r.map((v) => v * 1.06)) }));
+  return path;
+}
+/** The rates (°/s) a gyro calibration file makes of the device's slow counts at CUT_RATE. */
+function cutExpected(cal) {
+  return [0, 1, 2].map((i) => {
+    const m = MP_DEVICE.zero[i] + MP_DEVICE.perDps[i] * CUT_RATE[i];
+    return (cal.matrix[i][i] * (m - cal.bias[i]) * 180) / Math.PI;
+  });
+}
+/** Boots on `image`, asks `device get` and reads 0.5 s of rates: 'old' / 'new' / 'none' when
+ * both say the same calibration (or none), else what is wrong. */
+async function gyroAfterReboot(image, calOld, calNew) {
+  const rig = newRig(image, { motionplus: { rates: () => CUT_RATE, ...MP_DEVICE } });
+  await rig.board.runUntilTrue(() => rig.remote.reports.length > 20, 3000);
+  const state = await getState(rig);
+  const t0 = rig.board.nanos;
+  rig.remote.rereadBlock = true;
+  await rig.board.run(600);
+  const block = rig.remote.blocks.at(-1)?.block;
+  const rs = rig.remote.reports.filter((r) => r.tNs > t0 + 50e6);
+  rig.close();
+  if (rig.board.fault) return `firmware fault ${rig.board.fault}`;
+  if (state.error) return state.error;
+  if (!block || rs.length < 50) return `after the reboot the Wii Remote read ${rs.length} reports and ${block ? 'a' : 'no'} block`;
+  const rates = rs.map((r) => blockRates(block, decodeMotionPlusReport(r.bytes)));
+  const mean = [0, 1, 2].map((i) => rates.reduce((a, r) => a + r[i], 0) / rates.length);
+  const live = state.gyro?.live ?? null;
+  const same = (cal) => live && cal.bias.every((v, i) => f32eq(v, live.bias[i])) &&
+    cal.matrix.every((row, i) => row.every((v, j) => f32eq(v, live.matrix[i][j])));
+  const near = (want) => mean.every((m, i) => Math.abs(m - want[i]) < 0.25);
+  // Uncalibrated, the device's own (nominal) block is read: 8192/440 counts per °/s about 8192.
+  const rawRates = [0, 1, 2].map((i) => ((MP_DEVICE.zero[i] + MP_DEVICE.perDps[i] * CUT_RATE[i] - 8192) * 440) / 8192);
+  const says = live === null ? 'none' : same(calOld) ? 'old' : same(calNew) ? 'new' : 'other';
+  const reads = near(cutExpected(calOld)) ? 'old' : near(cutExpected(calNew)) ? 'new' : near(rawRates) ? 'none' : 'other';
+  if (says !== reads) return `device get says ${says}, the rates read ${reads} ([${mean.map((m) => m.toFixed(2))}] °/s)`;
+  return says === 'other' ? `neither calibration: ${JSON.stringify(live)}` : says;
+}
+
+/** The Nunchuk in the MotionPlus's port (motionplus-passthrough): zero and counts per g per
+ * axis (not the ideal 512 + 200·g), 2 counts of Gaussian noise, one pose (g) per turn segment. */
+const PT_NUNCHUK = { zero: [508, 516, 520], perG: [204, 200, 204], noiseCounts: 2 };
+const PT_POSES = [[0, 0, 1], [1, 0, 0], [0, -1, 0], [0.6, 0, 0.8], [0, 0.6, -0.8], [-1, 0, 0]];
+/** Its accelerometer calibration file (as `wiical fit --out` writes one). */
+function writeNunchukCal() {
+  const path = join(work, 'pt-nunchuk.json');
+  const p = PT_NUNCHUK.perG;
+  writeFileSync(path, JSON.stringify({ bias: PT_NUNCHUK.zero, matrix: [[1 / p[0], 0, 0], [0, 1 / p[1], 0], [0, 0, 1 / p[2]]] }));
+  return path;
+}
+/** Runs the turns and poses once from now; per segment the 1-s means (0.25..1.25 s into the
+ * segment) of what the Wii Remote read minus the truth: gyro frames decoded with `block`
+ * (°/s), Nunchuk frames on the ideal scale 512 + 200·g (g). */
+async function passthroughErrors(rig, block) {
+  const t0 = rig.board.nanos;
+  rig.turnsFrom = t0;
+  await rig.board.run(TURNS.length * TURN_S * 1000);
+  const mean = (xs) => [0, 1, 2].map((i) => xs.reduce((a, x) => a + x[i], 0) / Math.max(1, xs.length));
+  return TURNS.map((truth, k) => {
+    const from = t0 + (k * TURN_S + 0.25) * 1e9;
+    const rs = rig.remote.reports.filter((r) => r.tNs >= from && r.tNs < from + 1e9);
+    const gyro = rs.filter((r) => r.bytes[5] & 2).map((r) => blockRates(block, decodeMotionPlusReport(r.bytes)));
+    const acc = rs.filter((r) => !(r.bytes[5] & 2)).map((r) => decodePassthroughNunchuk(r.bytes).accel.map((c) => (c - 512) / 200));
+    const pose = PT_POSES[k];
+    return {
+      truth, pose, n: gyro.length, nAcc: acc.length,
+      error: mean(gyro).map((m, i) => m - truth[i]),
+      accError: mean(acc).map((m, i) => m - pose[i]),
+    };
+  });
+}
+
 const scenarios = [
   ['uf2-image', async () => {
     if (!uf2Bytes) return fail('no --uf2 file (cargo xtask emulate passes target/uf2/wiical-adapter-rp2040.uf2)');
@@ -716,6 +795,111 @@ const scenarios = [
     }
     return `6 segments, slow and fast range: worst 1-s mean error ${worst(before).toFixed(2)} °/s uncorrected -> ${worst(after).toFixed(3)} °/s corrected (2σ of the noise ${(2 * Math.min(...sigma)).toFixed(3)}-${(2 * Math.max(...sigma)).toFixed(3)} °/s)`;
   }],
+  ['motionplus-passthrough', async () => {
+    // A Nunchuk in the MotionPlus's port and a Wii Remote that activates the adapter in
+    // Nunchuk pass-through (0x05): the adapter must activate the real MotionPlus in that mode
+    // too, and answer with both kinds of frame, each corrected (the gyro with the gyro
+    // calibration, the Nunchuk with the accelerometer calibration), both uploaded and committed
+    // with the real CLI: the 1-s means within 2× the simulated noise of the truth.
+    let rig = null;
+    const segment = (t) => (rig?.turnsFrom === undefined ? -1 : Math.max(0, Math.min(TURNS.length - 1, Math.floor((t - rig.turnsFrom) / (TURN_S * 1e9)))));
+    const rates = (t) => (segment(t) < 0 ? [0, 0, 0] : TURNS[segment(t)]);
+    const random = mulberry32(77);
+    const gauss = () => Math.sqrt(-2 * Math.log(Math.max(random(), 1e-12))) * Math.cos(2 * Math.PI * random());
+    const motion = (t) => {
+      const g = segment(t) < 0 ? [0, 0, 1] : PT_POSES[segment(t)];
+      const accel = [0, 1, 2].map((i) => Math.round(PT_NUNCHUK.zero[i] + PT_NUNCHUK.perG[i] * g[i] + PT_NUNCHUK.noiseCounts * gauss()));
+      return { accel, stick: [0x80, 0x7f], c: false, z: false };
+    };
+    const nunchuk = { motion, zero: PT_NUNCHUK.zero, oneG: PT_NUNCHUK.zero.map((z, i) => z + PT_NUNCHUK.perG[i]) };
+    rig = newRig(null, { motionplus: { rates, ...MP_DEVICE, nunchuk }, remote: { motionplusMode: 0x05 } });
+    await rig.board.runUntilTrue(() => rig.remote.reports.length > 40, 3000);
+    if (rig.board.fault) return fail(`firmware fault: ${rig.board.fault}`);
+    const hs = rig.remote.handshakes[0];
+    if (!hs) return fail(`no Wii Remote handshake (bus errors: ${JSON.stringify(rig.remote.errors.slice(-3))})`);
+    if (!sameBytes(hs.activeId, [0x00, 0x00, 0xa4, 0x20, 0x05, 0x05])) return fail(`active ID ${hs.activeId} is not a MotionPlus's in Nunchuk pass-through`);
+    const before = await passthroughErrors(rig, hs.block);
+    const modes = rig.motionplus.modes.slice();
+    if (!before.some((s) => s.nAcc > 0)) return fail(`no Nunchuk frame reached the Wii Remote (the real MotionPlus was activated in modes ${modes})`);
+    for (const cal of [writeNunchukCal(), writeGyroCal()]) {
+      const err = await putCommit(rig, cal);
+      if (err) return fail(err);
+    }
+    rig.remote.rereadBlock = true;
+    await rig.board.runUntilTrue(() => rig.remote.blocks.length > 0, 500);
+    const block = rig.remote.blocks[0]?.block;
+    if (!block) return fail('the Wii Remote could not read the block again after the commits');
+    const after = await passthroughErrors(rig, block);
+    const errorsAfter = rig.remote.errors.filter((e) => e.tNs > hs.tNs);
+    rig.close();
+    const sigma = MP_DEVICE.perDps.map((p) => MP_DEVICE.noiseCounts / p); // °/s per sample
+    const accSigma = PT_NUNCHUK.perG.map((p) => PT_NUNCHUK.noiseCounts / p); // g per sample
+    measurements.motionplusPassthrough = { before, after, sigma, accSigma, modes };
+    if (errorsAfter.length) return fail(`bus errors after the activation: ${JSON.stringify(errorsAfter.slice(0, 3))}`);
+    const few = after.find((s) => s.n < 60 || s.nAcc < 60);
+    if (few) return fail(`only ${few.n} gyro and ${few.nAcc} Nunchuk frames in a 1-s window`);
+    for (const s of after) {
+      const bad = s.error.findIndex((e, i) => Math.abs(e) > 2 * sigma[i]);
+      if (bad >= 0) return fail(`truth ${s.truth}: corrected gyro 1-s mean off by ${s.error[bad].toFixed(3)} °/s on axis ${bad} (2σ = ${(2 * sigma[bad]).toFixed(3)})`);
+      const badAcc = s.accError.findIndex((e, i) => Math.abs(e) > 2 * accSigma[i]);
+      if (badAcc >= 0) return fail(`pose ${s.pose}: corrected Nunchuk 1-s mean off by ${(s.accError[badAcc] * 1000).toFixed(1)} mg on axis ${badAcc} (2σ = ${(2000 * accSigma[badAcc]).toFixed(1)} mg)`);
+    }
+    const worst = (segs, key) => Math.max(...segs.flatMap((s) => s[key].map(Math.abs)));
+    return `real MotionPlus activated in modes ${modes.join(',')}; 6 segments: gyro worst 1-s mean error ${worst(before, 'error').toFixed(2)} °/s uncorrected -> ${worst(after, 'error').toFixed(3)} °/s corrected (2σ ${(2 * Math.min(...sigma)).toFixed(3)}-${(2 * Math.max(...sigma)).toFixed(3)}); Nunchuk ${(1000 * worst(before, 'accError')).toFixed(1)} mg -> ${(1000 * worst(after, 'accError')).toFixed(1)} mg (2σ ${(2000 * Math.min(...accSigma)).toFixed(1)}-${(2000 * Math.max(...accSigma)).toFixed(1)} mg); ${after.reduce((a, s) => a + s.nAcc, 0)} Nunchuk and ${after.reduce((a, s) => a + s.n, 0)} gyro frames in the windows`;
+  }],
+  ['motionplus-powercut', async () => {
+    // Gyro commits with the real CLI (`device put/commit GYRO.json`) cut at each of their flash
+    // steps (before it and halfway through it), then a reboot: the adapter must hold the old or
+    // the new gyro calibration, as `device get` says and as the rates the Wii Remote reads show;
+    // never a mix, never none when one was there.
+    const gyroA = writeGyroCal();
+    const gyroB = writeGyroCalB();
+    const calA = JSON.parse(readFileSync(gyroA, 'utf8'));
+    const calB = JSON.parse(readFileSync(gyroB, 'utf8'));
+    const commitOver = async (image, path, cut) => {
+      const rig = newRig(image, { motionplus: { rates: () => CUT_RATE, ...MP_DEVICE } });
+      await rig.board.runUntilTrue(() => rig.usb.configured && rig.remote.reports.length > 5, 3000);
+      const put = await rig.wiical(['put', path]);
+      if (put.code !== 0) return { error: `device put: exit ${put.code}: ${put.stderr.trim()}` };
+      const n = rig.board.flashSteps.length;
+      if (cut) rig.board.onFlashStep = (_step, index) => index === n + cut.k && (cut.done > 0 ? { done: cut.done, random: mulberry32(cut.seed) } : true);
+      const commit = await rig.wiical(['commit', path]);
+      rig.close();
+      const kinds = rig.board.flashSteps.slice(n).map((x) => x.kind);
+      if (!cut && commit.code !== 0) return { error: `device commit: exit ${commit.code}: ${commit.stderr.trim()}` };
+      if (cut && !rig.board.powerCut) return { error: `the commit finished without reaching flash step ${cut.k}` };
+      return { image: rig.board.flashImage(), kinds };
+    };
+    const first = await commitOver(null, gyroA, null);
+    if (first.error) return fail(`committing the first gyro calibration: ${first.error}`);
+    if ((await gyroAfterReboot(first.image, calA, calB)) !== 'old') return fail('the first gyro calibration is not held after a reboot');
+    const commits = [
+      { name: 'B over A', image: first.image, path: gyroB, old: calA, next: calB, allowed: ['old', 'new'] },
+      { name: 'A over none', image: null, path: gyroA, old: calB, next: calA, allowed: ['none', 'new'] },
+    ];
+    const tally = {};
+    const bad = [];
+    let cuts = 0;
+    for (const c of commits) {
+      const probe = await commitOver(c.image, c.path, null);
+      if (probe.error || !probe.kinds.length) return fail(`${c.name}: the uninterrupted commit failed or wrote nothing (${probe.error ?? ''})`);
+      for (let k = 0; k < probe.kinds.length; k++) {
+        for (const done of [0, 0.5]) {
+          cuts += 1;
+          const cut = await commitOver(c.image, c.path, { k, done, seed: cuts * 7919 });
+          const outcome = cut.error ?? (await gyroAfterReboot(cut.image, c.old, c.next));
+          const key = `${c.name}, ${done ? 'during' : 'before'} ${probe.kinds[k]}`;
+          tally[key] ??= {};
+          tally[key][outcome] = (tally[key][outcome] ?? 0) + 1;
+          if (!c.allowed.includes(outcome)) bad.push(`${c.name}, ${done * 100} % into ${probe.kinds[k]} step ${k}: ${outcome}`);
+        }
+      }
+    }
+    const summary = Object.entries(tally).map(([k, t]) => `${k}: ${Object.entries(t).map(([o, n]) => `${n} ${o}`).join('/')}`).join('; ');
+    measurements.motionplusPowercut = summary;
+    if (bad.length) return fail(`${summary}; first: ${bad[0]}`);
+    return `${cuts} cuts in 2 gyro commits (${summary}); device get and the rates read agree every time`;
+  }],
   ['usb-garbage-disconnect', async () => {
     const rig = newRig();
     await rig.board.runUntilTrue(() => rig.remote.reports.length > 5, 2000);
@@ -865,6 +1049,15 @@ if (measurements.motionplusTurns) {
   });
   const b = m.busy;
   if (b.length) console.log(`measure motionplus-turns on the RP2040 (rp2040js cycle counts, 125 MHz): busy cycles per 5-ms poll period (625000 cycles) with the gyro correction and the tracker, over ${b.length} periods: median ${b[b.length >> 1]}, worst ${b[b.length - 1]}`);
+}
+if (measurements.motionplusPassthrough) {
+  const m = measurements.motionplusPassthrough;
+  const f = (e) => e.map((x) => x.toFixed(3)).join(' ');
+  const mg = (e) => e.map((x) => (1000 * x).toFixed(1)).join(' ');
+  m.before.forEach((b, k) => {
+    const a = m.after[k];
+    console.log(`measure motionplus-passthrough truth [${b.truth}] °/s, pose [${b.pose}] g: 1-s mean error gyro [yaw roll pitch] uncorrected ${f(b.error)}, corrected ${f(a.error)} °/s (n=${a.n}); Nunchuk [x y z] uncorrected ${mg(b.accError)}, corrected ${mg(a.accError)} mg (n=${a.nAcc})`);
+  });
 }
 if (measurements.bootToFirstReportNs) {
   const ns = measurements.bootToFirstReportNs;

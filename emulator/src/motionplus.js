@@ -10,7 +10,15 @@
 // * active, a read starting at 0x00 latches one report: per axis [yaw, roll, pitch] a 14-bit
 //   count and its slow bit (byte 3 bit 1 yaw, byte 4 bit 1 roll, byte 3 bit 0 pitch), byte 5
 //   bit 1 set (MotionPlus data), byte 4 bit 0 clear (nothing in its port);
-// * unplugged, nothing answers (address NAK). Pass-through of an extension is not modelled.
+// * unplugged, nothing answers (address NAK);
+// * with a Nunchuk in its port (`nunchuk`, nunchuk.js's model, not attached to the bus itself):
+//   inactive, every transaction at 0x52 is the Nunchuk's (so its init 0x55 → 0xF0, 0x00 → 0xFB
+//   reaches it there); active in Nunchuk pass-through (mode 0x05) and once the Nunchuk was
+//   initialised, the reads of 0x00 alternate its own report (first) with the Nunchuk's in the
+//   pass-through layout (crates/extbus motionplus.rs's table: accelerometer bit 0 dropped,
+//   byte 5 bit 1 clear); byte 4 bit 0 of every frame says a Nunchuk is plugged in (in mode
+//   0x04 too). The real MotionPlus reads its extension itself; here the Nunchuk's `motion` is
+//   sampled when the frame is latched.
 // The gyro itself: `rates(tNs)` gives the true rate °/s per axis; the counts are
 // `zero + perDps·rate + noise` in the slow range while |rate| ≤ `slowLimitDps`, else
 // `zeroFast + perDps·fastRatio·rate + noise`, rounded and clamped to 0..16383, noise Gaussian
@@ -65,6 +73,27 @@ export function motionPlusReportBytes(rate, slow, extension = false) {
   ];
 }
 
+/** A Nunchuk report ({ accel (10-bit), stick, c, z }) as a MotionPlus passes it through. */
+export function passthroughNunchukBytes({ accel, stick, c, z }, extension = true) {
+  const [x, y, zz] = accel.map((v) => Math.max(0, Math.min(1023, v)));
+  const bit = (v, n) => (v >> n) & 1;
+  return [
+    stick[0], stick[1], x >> 2, y >> 2, ((zz >> 3) << 1) | (extension ? 1 : 0),
+    (bit(zz, 2) << 7) | (bit(zz, 1) << 6) | (bit(y, 1) << 5) | (bit(x, 1) << 4) | ((c ? 0 : 1) << 3) | ((z ? 0 : 1) << 2),
+  ];
+}
+
+/** Inverse of {@link passthroughNunchukBytes} (accelerometer bit 0 is 0): { accel, stick, c, z }. */
+export function decodePassthroughNunchuk(b) {
+  const bit = (n) => (b[5] >> n) & 1;
+  return {
+    stick: [b[0], b[1]],
+    accel: [(b[2] << 2) | (bit(4) << 1), (b[3] << 2) | (bit(5) << 1), ((b[4] >> 1) << 3) | (bit(7) << 2) | (bit(6) << 1)],
+    c: (b[5] & 8) === 0,
+    z: (b[5] & 4) === 0,
+  };
+}
+
 /** Inverse of {@link motionPlusReportBytes}: { rate, slow, motionPlusData }. */
 export function decodeMotionPlusReport(b) {
   return {
@@ -84,9 +113,11 @@ export class MotionPlus {
    */
   constructor(board, {
     rates = () => [0, 0, 0], zero = [8192, 8192, 8192], zeroFast = null, perDps = [8192 / 440, 8192 / 440, 8192 / 440],
-    fastRatio = 440 / 2000, slowLimitDps = 400, noiseCounts = 0, seed = 50, block = null,
+    fastRatio = 440 / 2000, slowLimitDps = 400, noiseCounts = 0, seed = 50, block = null, nunchuk = null,
   } = {}) {
     this.board = board;
+    /** The Nunchuk in its port (nunchuk.js's model, `attach: false`), or null. */
+    this.nunchuk = nunchuk;
     Object.assign(this, { rates, zero, perDps, fastRatio, slowLimitDps, noiseCounts });
     this.zeroFast = zeroFast ?? zero;
     this.random = mulberry32(seed);
@@ -99,14 +130,19 @@ export class MotionPlus {
     this.reset();
     /** Every report latched: { tNs, busy (the board's busy cycles then), truth, rate, slow }. */
     this.served = [];
+    /** Every Nunchuk frame latched: { tNs, raw } (raw: the Nunchuk's full-precision report). */
+    this.servedNunchuk = [];
     this.activations = 0;
+    /** The mode of every activation, in order. */
+    this.modes = [];
     const i2c = board.rp2040.i2c[0];
     this.i2c = i2c;
     this.alarm = board.clock.createAlarm(() => this.pending?.());
     i2c.onStart = () => this.later(BYTE_NS / 9, () => i2c.completeStart());
     i2c.onConnect = (address, mode) => this.later(BYTE_NS, () => this.connect(address, mode));
-    i2c.onWriteByte = (value) => this.later(BYTE_NS, () => i2c.completeWrite(this.write(value)));
-    i2c.onReadByte = () => this.later(BYTE_NS, () => i2c.completeRead(this.read()));
+    // A transaction passed through to the Nunchuk is the Nunchuk's until its STOP.
+    i2c.onWriteByte = (value) => this.later(BYTE_NS, () => i2c.completeWrite(this.forward ? this.nunchuk.write(value) : this.write(value)));
+    i2c.onReadByte = () => this.later(BYTE_NS, () => i2c.completeRead(this.forward ? this.nunchuk.read() : this.read()));
     i2c.onStop = () => this.later(BYTE_NS / 9, () => this.stop());
   }
 
@@ -119,6 +155,9 @@ export class MotionPlus {
     this.switchedAtNs = -1e12;
     this.firstWrite = false;
     this.address = null;
+    this.forward = false;
+    this.lastWasGyro = false;
+    this.mode = 0;
   }
 
   later(ns, fn) {
@@ -128,6 +167,7 @@ export class MotionPlus {
 
   setPlugged(plugged) {
     if (!plugged) this.reset();
+    this.nunchuk?.setPlugged(plugged);
     this.plugged = plugged;
   }
 
@@ -153,15 +193,39 @@ export class MotionPlus {
 
   connect(address, mode) {
     const settled = this.board.nanos - this.switchedAtNs >= this.switchNs;
+    if (this.plugged && settled && !this.active && address === ACTIVE && this.nunchuk) {
+      this.forward = true;
+      this.nunchuk.connect(address, mode);
+      return;
+    }
     const ack = this.plugged && settled && address === (this.active ? ACTIVE : INACTIVE);
     if (ack && mode === 0) this.firstWrite = true;
-    if (ack && mode === 1 && this.active && this.pointer === 0) {
-      const truth = this.rates(this.board.nanos);
-      const m = this.measure(truth);
-      this.regs.set(motionPlusReportBytes(m.rate, m.slow), 0);
-      this.served.push({ tNs: this.board.nanos, busy: this.board.busyCycles, truth, ...m });
-    }
+    // rp2040js sends a read's address phase twice, 25 µs apart: one read latches one frame
+    // (else every read would skip the frame it latched first, and in pass-through the gyro
+    // frames would never be read).
+    const now = this.board.nanos;
+    const restarted = now - (this.lastReadAddressNs ?? -1e9) < 100e3;
+    if (ack && mode === 1) this.lastReadAddressNs = now;
+    if (ack && mode === 1 && this.active && this.pointer === 0 && !restarted) this.latch();
     this.i2c.completeConnect(ack);
+  }
+
+  /** A read of 0x00 while active: the next frame into registers 0..5 (see the header). */
+  latch() {
+    const tNs = this.board.nanos;
+    const plugged = !!this.nunchuk?.plugged;
+    if (this.mode === 5 && plugged && this.nunchuk.initialised && this.lastWasGyro) {
+      const raw = this.nunchuk.motion(tNs);
+      this.regs.set(passthroughNunchukBytes(raw, true), 0);
+      this.servedNunchuk.push({ tNs, raw });
+      this.lastWasGyro = false;
+      return;
+    }
+    const truth = this.rates(tNs);
+    const m = this.measure(truth);
+    this.regs.set(motionPlusReportBytes(m.rate, m.slow, plugged), 0);
+    this.served.push({ tNs, busy: this.board.busyCycles, truth, ...m });
+    this.lastWasGyro = true;
   }
 
   write(value) {
@@ -175,7 +239,12 @@ export class MotionPlus {
     this.pointer = (this.pointer + 1) & 0xff;
     if (register === 0xfe && [4, 5, 7].includes(value)) {
       this.regs[0xfe] = value;
-      if (!this.active) this.switchedAtNs = this.board.nanos;
+      this.mode = value;
+      this.modes.push(value);
+      if (!this.active) {
+        this.switchedAtNs = this.board.nanos;
+        this.lastWasGyro = false;
+      }
       this.active = true;
       this.activations += 1;
       this.regs[0xfc] = 0xa4;
@@ -198,6 +267,11 @@ export class MotionPlus {
 
   stop() {
     this.firstWrite = false;
+    if (this.forward) {
+      this.forward = false;
+      this.nunchuk.stop();
+      return;
+    }
     this.i2c.completeStop();
   }
 }

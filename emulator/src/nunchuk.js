@@ -45,7 +45,7 @@ export class Nunchuk {
    * `motion(tNs)` gives the report content at emulated time t: { accel:[3], stick:[2], c, z }.
    * `zero`/`oneG` are the factory calibration written into its block.
    */
-  constructor(board, { motion, zero = [508, 516, 520], oneG = [712, 716, 724], legacyOnly = false } = {}) {
+  constructor(board, { motion, zero = [508, 516, 520], oneG = [712, 716, 724], legacyOnly = false, attach = true } = {}) {
     this.board = board;
     this.motion = motion;
     this.legacyOnly = legacyOnly;
@@ -58,6 +58,9 @@ export class Nunchuk {
     this.pollTimes = [];
     const i2c = board.rp2040.i2c[0];
     this.i2c = i2c;
+    // Not attached (`attach: false`): it sits in a MotionPlus's port, which hands it the
+    // transactions it passes through (connect/write/read/stop, each completing the bus step).
+    if (!attach) return;
     this.alarm = board.clock.createAlarm(() => this.pending?.());
     i2c.onStart = () => this.later(BYTE_NS / 9, () => i2c.completeStart());
     i2c.onConnect = (address, mode) => this.later(BYTE_NS, () => this.connect(address, mode));

@@ -29,12 +29,16 @@ export function scriptedMotion({ zero = [508, 516, 520], perG = [204, 200, 204],
 }
 
 export class Rig {
-  /** `motionplus` (its options): a MotionPlus on I²C0 instead of the Nunchuk, and a Wii Remote
-   * that does the MotionPlus's activation dance. */
+  /** `motionplus` (its options): a MotionPlus on I²C0 instead of the Nunchuk (with
+   * `motionplus.nunchuk`, a Nunchuk in its port), and a Wii Remote that does the MotionPlus's
+   * activation dance (in the mode `remote.motionplusMode`, 0x04 unless told). */
   constructor({ elfBytes = null, uf2Bytes = null, flashImage = null, wiical, link, nunchuk = {}, remote = {}, motionplus = null }) {
     this.board = new Board({ elfBytes, uf2Bytes, flashImage });
     if (motionplus) {
-      this.motionplus = new MotionPlus(this.board, motionplus);
+      // `motionplus.nunchuk` (Nunchuk options): a Nunchuk in the MotionPlus's port.
+      const inPort = motionplus.nunchuk && new Nunchuk(this.board, { motion: scriptedMotion(), ...motionplus.nunchuk, attach: false });
+      this.motionplus = new MotionPlus(this.board, { ...motionplus, nunchuk: inPort || null });
+      this.nunchukInPort = inPort || null;
     } else {
       this.nunchuk = new Nunchuk(this.board, { motion: scriptedMotion(), ...nunchuk });
     }

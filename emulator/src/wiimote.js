@@ -6,7 +6,7 @@
 // the calibration block) when it comes back.
 // With `motionplus` it does what a real one does to use a MotionPlus instead: look for it at
 // 0x53 every 50 ms (ID at 0xFA, the 32-byte calibration block at 0x20), activate it alone
-// (0x55 → 0xF0, 0x04 → 0xFE at 0x53), wait 20 ms, read the active ID at 0x52 and poll 6-byte
+// (0x55 → 0xF0, 0x04 → 0xFE at 0x53; `motionplusMode` 0x05: in Nunchuk pass-through), wait 20 ms, read the active ID at 0x52 and poll 6-byte
 // reports from 0x00 there; three failed reads in a row start the search over.
 //
 // Every transfer is: START + address (10 bit times), bytes (9 bit times each), STOP; a held
@@ -18,9 +18,10 @@ const BIT_NS = 2500; // 400 kHz
 const POLL_STEP_NS = 1000;
 
 export class WiiRemote {
-  constructor(board, { pollHz = 200, stretchTimeoutNs = 200e6, motionplus = false } = {}) {
+  constructor(board, { pollHz = 200, stretchTimeoutNs = 200e6, motionplus = false, motionplusMode = 0x04 } = {}) {
     this.board = board;
     this.motionplus = motionplus;
+    this.motionplusMode = motionplusMode;
     /** MotionPlus: set to read the calibration block again at 0x52; the blocks read so. */
     this.rereadBlock = false;
     this.blocks = [];
@@ -113,7 +114,7 @@ export class WiiRemote {
       }
       if (!(yield* this.writeBytes([0xf0, 0x55]))) continue;
       yield 1e6;
-      if (!(yield* this.writeBytes([0xfe, 0x04]))) continue;
+      if (!(yield* this.writeBytes([0xfe, this.motionplusMode]))) continue;
       yield 20e6;
       this.addr = 0x52;
       const activeId = yield* this.readRegisters(0xfa, 6);

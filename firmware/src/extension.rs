@@ -34,17 +34,22 @@ async fn poll(p: &mut Poller, bus: &mut Bus) -> ExtensionEvent<embassy_rp::i2c::
 type Bus = I2c<'static, I2C0, Async>;
 
 /// Feeds one poll to the adapter logic; with the MotionPlus path, wakes the Wii Remote task
-/// when the address it must answer at changed (another extension connected).
+/// when the address it must answer at changed (another extension connected), and hands the
+/// poller the mode the Wii Remote activated the emulated MotionPlus in (the real one follows
+/// it on the next poll: Nunchuk pass-through or alone).
 #[cfg(feature = "motionplus")]
 fn feed<E>(
     a: &mut Protocol<StoreFlash>,
     event: &ExtensionEvent<E>,
-    poller: &Poller,
+    poller: &mut Poller,
 ) -> Option<Sample> {
     let address = a.target_address();
     let sample = a.on_extension_poll(event, poller);
     if a.target_address() != address {
         crate::shared::ADDRESS_CHANGED.signal(());
+    }
+    if let Some(mode) = a.motionplus_mode() {
+        poller.motionplus.set_mode(mode);
     }
     sample
 }
@@ -67,7 +72,7 @@ fn detect(a: &Protocol<StoreFlash>) -> bool {
 fn feed<E>(
     a: &mut Protocol<StoreFlash>,
     event: &ExtensionEvent<E>,
-    poller: &Poller,
+    poller: &mut Poller,
 ) -> Option<Sample> {
     match event {
         ExtensionEvent::Nunchuk(r) => a.on_poll(r, poller.is_connected()),
@@ -92,7 +97,7 @@ pub async fn extension_task(mut bus: Bus, adapter: &'static Adapter) -> ! {
         let event = poll(&mut poller, &mut bus).await;
         let (sample, st, generation, detect, selfcal, stale) = {
             let mut a = adapter.lock().await;
-            let sample = feed(&mut a, &event, &poller);
+            let sample = feed(&mut a, &event, &mut poller);
             a.service().await;
             let sc = a.selfcal();
             (
@@ -146,6 +151,9 @@ fn log_connection<E>(event: &ExtensionEvent<E>, mode: CorrectionMode) {
         }
         ExtensionEvent::MotionPlus(Ok(MotionPlusEvent::Connected(_))) => {
             info!("MotionPlus connected and activated");
+        }
+        ExtensionEvent::MotionPlus(Ok(MotionPlusEvent::Switched(mode))) => {
+            info!("MotionPlus activated again in mode {=u8}", *mode as u8);
         }
         _ => {}
     }

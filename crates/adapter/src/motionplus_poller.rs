@@ -8,14 +8,26 @@
 //!    `0x01` on a Wii Remote Plus's built-in one; byte 4 the last mode written);
 //! 2. read the 32-byte calibration block at `0x53`/`0x20` (its CRC is judged by the
 //!    corrector, [`crate::GyroCorrector::set_device_block`]);
-//! 3. write `0x55` → `0xF0`, then `0x04` → `0xFE` at `0x53` (activation, alone);
-//! 4. wait [`ACTIVATION_DELAY_US`] (a real MotionPlus does not answer for about 20 ms after an
+//! 3. in Nunchuk pass-through only: initialise the extension in the MotionPlus's own port, which
+//!    an inactive MotionPlus passes through at `0x52` (`0x55` → `0xF0`, `0x00` → `0xFB`, the
+//!    Nunchuk's plain init; a NAK, nothing plugged in, is not an error: the MotionPlus then
+//!    sends its own frames only);
+//! 4. write `0x55` → `0xF0`, then the mode byte → `0xFE` at `0x53` (activation in the mode
+//!    wanted, [`MotionPlusPoller::set_mode`]: alone, `0x04`, until told otherwise);
+//! 5. wait [`ACTIVATION_DELAY_US`] (a real MotionPlus does not answer for about 20 ms after an
 //!    activation).
 //!
-//! Then every poll reads one 6-byte frame at `0x52`/`0x00`.
+//! Then every poll reads one 6-byte frame at `0x52`/`0x00`, decoded in the mode activated (in
+//! Nunchuk pass-through the MotionPlus alternates its own frames with the Nunchuk's).
 //!
-//! Not done: the pass-through modes (a Nunchuk in the MotionPlus's own port is not read; the
-//! MotionPlus is activated alone).
+//! A mode change while connected (the Wii Remote activated the adapter in another mode) is
+//! made on the next poll: `0x55` → `0xF0` at `0x52` deactivates the MotionPlus, then, after
+//! [`ACTIVATION_DELAY_US`], steps 3–5 activate it in the new mode
+//! ([`MotionPlusEvent::Switched`]); its block is not read again.
+//!
+//! Not done: Classic Controller pass-through (`0x07`): its init is the Nunchuk's, but what the
+//! adapter would correct in it is nothing, and no emulator model of one exists; a request for
+//! it activates the MotionPlus alone.
 
 use embedded_hal_async::delay::DelayNs;
 use embedded_hal_async::i2c::I2c;
@@ -51,6 +63,9 @@ pub enum MotionPlusEvent {
     Connected(MotionPlusInfo),
     /// One frame of the active MotionPlus.
     Frame(Frame),
+    /// The connected MotionPlus was deactivated and activated again in this mode (the mode
+    /// wanted changed); no frame this call.
+    Switched(PassthroughMode),
     /// Disconnected and waiting for the back-off delay: no bus traffic this call.
     Idle,
 }
@@ -62,6 +77,10 @@ pub struct MotionPlusPoller {
     retry_at_ms: Option<u64>,
     failures: u8,
     backoff_ms: u32,
+    /// The mode to activate the MotionPlus in.
+    wanted: PassthroughMode,
+    /// The mode it was last activated in (meaningful while connected).
+    active: PassthroughMode,
 }
 
 impl Default for MotionPlusPoller {
@@ -84,7 +103,24 @@ impl MotionPlusPoller {
             retry_at_ms: Some(0),
             failures: 0,
             backoff_ms: backoff_min_ms,
+            wanted: PassthroughMode::None,
+            active: PassthroughMode::None,
         }
+    }
+
+    /// The mode to activate the MotionPlus in from the next poll on: alone or Nunchuk
+    /// pass-through (Classic pass-through is served as alone, see the module docs). While
+    /// connected in another mode, the next poll switches it.
+    pub fn set_mode(&mut self, mode: PassthroughMode) {
+        self.wanted = match mode {
+            PassthroughMode::Classic => PassthroughMode::None,
+            m => m,
+        };
+    }
+
+    /// The mode the MotionPlus was last activated in.
+    pub fn mode(&self) -> PassthroughMode {
+        self.active
     }
 
     /// True between a successful activation and the detection of an unplug.
@@ -119,10 +155,10 @@ impl MotionPlusPoller {
                     Err(e)
                 }
             },
-            None => match self.read_frame(bus, delay).await {
-                Ok(frame) => {
+            None => match self.step(bus, delay).await {
+                Ok(event) => {
                     self.failures = 0;
-                    Ok(MotionPlusEvent::Frame(frame))
+                    Ok(event)
                 }
                 Err(e) => {
                     self.failures = self.failures.saturating_add(1);
@@ -161,7 +197,26 @@ impl MotionPlusPoller {
             &mut calibration_bytes,
         )
         .await?;
-        for w in PassthroughMode::None.activation() {
+        self.activate(bus, delay).await?;
+        Ok(MotionPlusInfo { calibration_bytes })
+    }
+
+    /// Steps 3–5 of the module docs: the extension's init in Nunchuk pass-through, the
+    /// activation in the mode wanted, the pause.
+    async fn activate<B: I2c, D: DelayNs>(
+        &mut self,
+        bus: &mut B,
+        delay: &mut D,
+    ) -> Result<(), Error<B::Error>> {
+        let mode = self.wanted;
+        if mode == PassthroughMode::Nunchuk {
+            for w in [[0xF0, 0x55], [0xFB, 0x00]] {
+                // A NAK: nothing in the MotionPlus's port (its frames then say so).
+                let _ = bus.write(ACTIVE_I2C_ADDRESS, &w).await;
+                delay.delay_us(self.config.init_delay_us).await;
+            }
+        }
+        for w in mode.activation() {
             bus.write(INACTIVE_I2C_ADDRESS, &w.to_bytes())
                 .await
                 .map_err(Error::Bus)?;
@@ -171,7 +226,26 @@ impl MotionPlusPoller {
         // activation did not take (its failures then count towards an unplug), and one bus
         // phase less in this state machine is flash the RP2350's budget has not got.
         delay.delay_us(ACTIVATION_DELAY_US).await;
-        Ok(MotionPlusInfo { calibration_bytes })
+        self.active = mode;
+        Ok(())
+    }
+
+    /// One step while connected: a switch to the mode wanted, or one frame.
+    async fn step<B: I2c, D: DelayNs>(
+        &mut self,
+        bus: &mut B,
+        delay: &mut D,
+    ) -> Result<MotionPlusEvent, Error<B::Error>> {
+        if self.wanted == self.active {
+            return Ok(MotionPlusEvent::Frame(self.read_frame(bus, delay).await?));
+        }
+        // Any write to 0xF0 at 0x52 deactivates an active MotionPlus.
+        bus.write(ACTIVE_I2C_ADDRESS, &[0xF0, 0x55])
+            .await
+            .map_err(Error::Bus)?;
+        delay.delay_us(ACTIVATION_DELAY_US).await;
+        self.activate(bus, delay).await?;
+        Ok(MotionPlusEvent::Switched(self.active))
     }
 
     async fn read_frame<B: I2c, D: DelayNs>(
@@ -185,8 +259,9 @@ impl MotionPlusPoller {
         if is_garbage(&b) {
             return Err(Error::Garbage);
         }
-        // Alone, every frame is the MotionPlus's own (byte 5 bit 1 set).
-        Frame::decode(&b, PassthroughMode::None).map_err(|_| Error::Garbage)
+        // Alone, every frame is the MotionPlus's own (byte 5 bit 1 set); in Nunchuk
+        // pass-through, byte 5 bit 1 tells its own from the Nunchuk's.
+        Frame::decode(&b, self.active).map_err(|_| Error::Garbage)
     }
 
     /// Set the register pointer (1-byte write, stop), wait, then read `buf.len()` bytes.

@@ -9,9 +9,8 @@
 //! `gyro-calibration` with it.)
 
 use embedded_storage_async::nor_flash::NorFlash;
-use wiical_extbus::motionplus::{ACTIVE_I2C_ADDRESS, INACTIVE_I2C_ADDRESS};
+use wiical_extbus::motionplus::{PassthroughMode, ACTIVE_I2C_ADDRESS, INACTIVE_I2C_ADDRESS};
 use wiical_extbus::nunchuk::I2C_ADDRESS;
-use wiical_extbus::Frame;
 use wiical_wire::Sample;
 
 use super::Protocol;
@@ -60,14 +59,10 @@ impl<F: NorFlash> Protocol<F> {
                 None
             }
             // No stillness evidence of its own (the accelerometer is in the Wii Remote): the
-            // corrector's rest limit is the gate. Only gyro frames: the poller activates the
-            // MotionPlus alone, so no extension frame is passed through (and the pass-through
-            // corrections are not linked into the firmware).
-            Ok(MotionPlusEvent::Frame(f @ Frame::MotionPlus(_))) => {
-                self.motionplus.on_frame(f, &self.corrector, true)
-            }
-            Ok(MotionPlusEvent::Frame(_)) => None,
-            Ok(MotionPlusEvent::Idle) | Err(_) => {
+            // corrector's rest limit is the gate. A Nunchuk's pass-through frame is corrected
+            // with the stored accelerometer calibration, as a Nunchuk's own report is.
+            Ok(MotionPlusEvent::Frame(f)) => self.motionplus.on_frame(f, &self.corrector, true),
+            Ok(MotionPlusEvent::Switched(_) | MotionPlusEvent::Idle) | Err(_) => {
                 if !still_connected && self.connected {
                     self.connected = false;
                 }
@@ -84,6 +79,14 @@ impl<F: NorFlash> Protocol<F> {
         if self.motionplus.set_calibration(self.gyro.live).is_ok() {
             self.block_generation = self.block_generation.wrapping_add(1);
         }
+    }
+
+    /// The mode the Wii Remote activated the emulated MotionPlus in, `None` while it is
+    /// inactive: the mode the real MotionPlus should be in
+    /// ([`crate::MotionPlusPoller::set_mode`]; kept as it is while `None`, so that the Wii
+    /// Remote's re-activation after a detect pulse does not switch the real one twice).
+    pub fn motionplus_mode(&self) -> Option<PassthroughMode> {
+        self.motionplus.registers().active()
     }
 
     /// The extension presented to the Wii Remote.
