@@ -990,8 +990,8 @@ pub fn fit_detector_config() -> StaticDetectorConfig {
 }
 
 /// Runs the static detector over the IMU-TK Xsens accelerometer recording (raw 16-bit counts
-/// as `f32`, in file order) exactly as `wiical fit` does (`wiical_analysis::detect::windows::detect`: every sample
-/// pushed, then `finish`), calling `found` for each static interval. Returns the detector
+/// as `f32`, in file order) exactly as `wiical fit`'s fixed detector does (`wiical_analysis::detect::detector::fixed_intervals`:
+/// every sample pushed, then `finish`), calling `found` for each static interval. Returns the detector
 /// (for its reference variance) and the number of samples pushed.
 pub fn xsens_detect(
     mut found: impl FnMut(wiical_core::static_detect::StaticInterval) -> Result<(), Error>,

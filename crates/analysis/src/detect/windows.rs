@@ -1,784 +1,677 @@
-//! Window detection: the core's streaming static detector over a recording (the same `f32`
-//! code the adapter firmware runs), the ADC-saturation check, and the `f64` statistics of each
+//! Window detection, written once over a recording's rows ([`RowSource`]: held in memory, or
+//! a large text file re-read per pass, never held; a held recording is the case of one chunk
+//! in place, and a file's [`Windows`] are the held recording's bit for bit): the core's
+//! streaming static detector (the same `f32` code the adapter firmware runs,
+//! [`crate::detect::detector`]), the ADC-saturation check, and the `f64` statistics of each
 //! static window (mean, variance, batch means, centre time, temperature) that the analysis
 //! works from.
+//!
+//! The same functions run on the same values in the same order: the detector's view (the
+//! quantiser lattice from the distinct values, or the fixed detector's scale from the rest
+//! period and, only when that is constant, the median ‖a‖ selected exactly in passes), the
+//! core's detector over a pass per setting (samples in place — held, levels computed once,
+//! a spill's `f32` axes — on all cores as held pieces, else a piece at a time: blocks surveyed
+//! in parallel, the two detectors of a pair on two cores), the ADC range from the extremes.
+//! Then each window's rows read where they are kept (a held recording's slices, a spill's
+//! rows), windows on all cores: the first sweep sums the means, times, temperatures and
+//! batch means and checks saturation; the second, with the means known, the squared
+//! deviations. A file without a spill folds the same sums over two passes of every row.
+//! Times are kept per window (first, last, centre), not per sample.
 
-#![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x > 0.0)` is deliberately true for NaN.
-use crate::detect::held::{
-    both_or_first_error, feed_held, four_slices, piece_starts, samples_between, DetectorSample,
+use crate::detect::detector::{
+    adaptive_intervals, adaptive_rate, adc_range_of, axis_lattice, detector_scale, fixed_intervals,
+    run_pair_held, survey_held, to_levels, PairResult, Passes,
 };
+use crate::detect::held::both_or_first_error;
 use crate::detect::polled::{Polling, Runs};
-use crate::detect::spans;
-use crate::error::detect::{DetectError, Setting};
+use crate::error::detect::DetectError;
 use crate::input::recording::{infer_units, Recording};
-use crate::input::sample_summary::is_whole;
+use crate::input::text_source::{Row, TextSource};
+use crate::source::{RowBuf, RowSource};
 use crate::stats as st;
-use wiical_core::multipos::MultiPosConfig;
-use wiical_core::static_detect::adaptive;
+use wiical_core::static_detect::adaptive::{self, AdaptiveThresholds, NoiseSurvey};
 use wiical_core::static_detect::{StaticDetector, StaticDetectorConfig, StaticInterval};
 
-type Result<T, E = DetectError> = std::result::Result<T, E>;
-
-/// Settings of the static-window detection.
-#[derive(Debug, Clone)]
-pub struct DetectOptions {
-    /// Thresholds from the recording's own noise, no rest period needed, shorter holds when
-    /// the recording has no long ones (the core's `static_detect::adaptive`, the default);
-    /// false: the IMU-TK detector with the settings below (any detector flag turns it on).
-    pub adaptive: bool,
-    /// Variance window, seconds.
-    pub window_s: f64,
-    /// Initial rest period used as the noise reference, seconds.
-    pub init_s: f64,
-    /// Shortest static interval, seconds.
-    pub min_static_s: f64,
-    /// Static when window variance ≤ this × reference variance.
-    pub threshold_factor: f64,
-    /// Sample rate to assume when the file has neither a time column nor metadata.
-    pub default_rate_hz: f64,
-    /// ADC limits (lo, hi): a static interval touching them is refused as saturated.
-    /// `None`: inferred from the data (integer counts in 10-bit or 16-bit ranges).
-    pub adc_range: Option<(f64, f64)>,
-}
-
-impl DetectOptions {
-    /// The options a user's settings describe (the CLI's flags, the Python package's keyword
-    /// arguments): giving any of the four IMU-TK settings switches from the adaptive detector
-    /// to IMU-TK's, with the defaults for the ones not given.
-    pub fn from_settings(
-        window_s: Option<f64>,
-        init_s: Option<f64>,
-        min_static_s: Option<f64>,
-        threshold_factor: Option<f64>,
-        default_rate_hz: f64,
-        adc_range: Option<(f64, f64)>,
-    ) -> Self {
-        let d = Self::default();
-        Self {
-            adaptive: window_s.is_none()
-                && init_s.is_none()
-                && min_static_s.is_none()
-                && threshold_factor.is_none(),
-            window_s: window_s.unwrap_or(d.window_s),
-            init_s: init_s.unwrap_or(d.init_s),
-            min_static_s: min_static_s.unwrap_or(d.min_static_s),
-            threshold_factor: threshold_factor.unwrap_or(d.threshold_factor),
-            default_rate_hz,
-            adc_range,
-        }
-    }
-}
-
-impl Default for DetectOptions {
-    fn default() -> Self {
-        Self {
-            adaptive: true,
-            window_s: 1.0,
-            init_s: 2.0,
-            min_static_s: 2.0,
-            threshold_factor: 6.0,
-            default_rate_hz: 100.0,
-            adc_range: None,
-        }
-    }
-}
-
-/// Why a user's setting (a CLI flag, a Python keyword argument) is refused: one range per
-/// kind of setting, shared by every door so that none accepts what another refuses.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
-pub enum RangeError {
-    /// Zero, negative, NaN or infinite.
-    #[error("must be a finite number above 0")]
-    NotPositive,
-    /// A duration outside [`DURATION_RANGE_S`].
-    #[error("give a duration from 0.001 to 1000000 s")]
-    Duration,
-    /// A sample rate outside [`crate::input::bounded::MIN_RATE_HZ`] to
-    /// [`crate::input::bounded::MAX_RATE_HZ`].
-    #[error("give a sample rate from 0.001 to 1000000 Hz")]
-    Rate,
-    /// A family-wise significance level outside [`crate::search::select::ALPHA_RANGE`].
-    #[error("give a significance level from 0.000001 to 0.5")]
-    Alpha,
-    /// A CV factor outside [`crate::search::select::CV_FACTOR_RANGE`].
-    #[error("give a factor from 1 to 100")]
-    CvFactor,
-    /// A threshold outside (1, 10⁶].
-    #[error("give a threshold above 1 and at most 1000000 (times the rest variance)")]
-    Threshold,
-    /// An ADC range whose ends are not finite with LO < HI.
-    #[error("need finite LO < HI")]
-    AdcRange,
-}
-
-/// Durations a setting may take, s: a window of 1e-300 s would silently become the detector's
-/// 3-sample minimum, one of 1e300 s never ends.
-pub const DURATION_RANGE_S: (f64, f64) = (1e-3, 1e6);
-
-fn positive(v: f64) -> Result<f64, RangeError> {
-    if v.is_finite() && v > 0.0 {
-        Ok(v)
-    } else {
-        Err(RangeError::NotPositive)
-    }
-}
-
-/// A duration setting (window, rest, hold), s: within [`DURATION_RANGE_S`].
-pub fn check_duration_s(v: f64) -> Result<f64, RangeError> {
-    let v = positive(v)?;
-    let (lo, hi) = DURATION_RANGE_S;
-    if (lo..=hi).contains(&v) {
-        Ok(v)
-    } else {
-        Err(RangeError::Duration)
-    }
-}
-
-/// A sample rate, Hz: 1 mHz to 1 MHz (inertial sensors stop at a few kHz; 1e300 Hz would make
-/// every window one sample, and 1e-300 Hz turns `noise`'s averaging times into 1e232 s
-/// printed as results: no sensor is read once in more than 1000 s).
-pub fn check_rate_hz(v: f64) -> Result<f64, RangeError> {
-    use crate::input::bounded::{MAX_RATE_HZ, MIN_RATE_HZ};
-    if (MIN_RATE_HZ..=MAX_RATE_HZ).contains(&positive(v)?) {
-        Ok(v)
-    } else {
-        Err(RangeError::Rate)
-    }
-}
-
-/// A variance-ratio threshold: above 1 (at or below the rest variance nothing is ever still),
-/// at most 10⁶.
-pub fn check_threshold(v: f64) -> Result<f64, RangeError> {
-    if positive(v)? > 1.0 && v <= 1e6 {
-        Ok(v)
-    } else {
-        Err(RangeError::Threshold)
-    }
-}
-
-/// An ADC range `(lo, hi)` in counts: finite, lo < hi.
-pub fn check_adc_range((lo, hi): (f64, f64)) -> Result<(f64, f64), RangeError> {
-    if lo.is_finite() && hi.is_finite() && lo < hi {
-        Ok((lo, hi))
-    } else {
-        Err(RangeError::AdcRange)
-    }
-}
-
-/// A setting refused by its range check, named as the caller named it.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("{name} = {value}: {why}")]
-pub struct SettingError {
-    /// The setting's name (`window_s`, `rate_hz`, …).
-    pub name: &'static str,
-    /// The value given, as text.
-    pub value: String,
-    /// Its range.
-    pub why: RangeError,
-}
-
-impl DetectOptions {
-    /// [`DetectOptions::from_settings`] after every given setting passed its range check
-    /// (the checks the CLI's flag parsers make); the error names the setting by its keyword
-    /// (`window_s`, `init_s`, `min_static_s`, `threshold`, `rate_hz`, `adc_range`).
-    pub fn checked_settings(
-        window_s: Option<f64>,
-        init_s: Option<f64>,
-        min_static_s: Option<f64>,
-        threshold_factor: Option<f64>,
-        default_rate_hz: f64,
-        adc_range: Option<(f64, f64)>,
-    ) -> std::result::Result<Self, SettingError> {
-        fn check<T: Copy + std::fmt::Debug>(
-            name: &'static str,
-            v: Option<T>,
-            f: fn(T) -> Result<T, RangeError>,
-        ) -> std::result::Result<(), SettingError> {
-            if let Some(x) = v {
-                f(x).map_err(|why| SettingError {
-                    name,
-                    value: format!("{x:?}"),
-                    why,
-                })?;
-            }
-            Ok(())
-        }
-        check("window_s", window_s, check_duration_s)?;
-        check("init_s", init_s, check_duration_s)?;
-        check("min_static_s", min_static_s, check_duration_s)?;
-        check("threshold", threshold_factor, check_threshold)?;
-        check("rate_hz", Some(default_rate_hz), check_rate_hz)?;
-        check("adc_range", adc_range, check_adc_range)?;
-        Ok(Self::from_settings(
-            window_s,
-            init_s,
-            min_static_s,
-            threshold_factor,
-            default_rate_hz,
-            adc_range,
-        ))
-    }
-}
-
-/// Capacity of the detector's window ring (samples). At 100 Hz this allows windows up to 5 s.
-/// (The span pair's tests take the same ring.)
-pub const MAX_WINDOW: usize = 511;
-
-/// Detected static intervals plus the noise reference.
-pub struct Detection {
-    /// Intervals in sample indices.
-    pub intervals: Vec<StaticInterval>,
-    /// Per-axis reference variance (raw units²).
-    pub reference_variance: [f32; 3],
-    /// The sample rate the detection took, Hz: the clock of a recording without a time
-    /// column ([`Recording::times`] at this rate).
-    pub rate_hz: f64,
-}
-
-/// Windows the adaptive detection asks for before it settles on a hold length: the full
-/// model's 9 parameters plus 3 degrees of freedom.
-pub const ADAPTIVE_MIN_WINDOWS: u32 = 12;
-
-/// Below this rate (Hz) the adaptive detector's shortest hold (0.5 s) is a single sample: a
-/// recording of samples that slow is far more likely a time column in milliseconds, or a
-/// table of window means read as samples.
-pub const MIN_SAMPLE_RATE_HZ: f64 = 2.0;
-
-/// Window means the adaptive detection's fit check holds (a setting with more windows is
-/// accepted on its count).
-const ADAPTIVE_SCRATCH: usize = 4096;
-
-/// The core's adaptive detection (`static_detect::adaptive::detect_fitted_each`): the noise
-/// reference is a low quantile of the recording's block variances, and the hold lengths are
-/// tried from the IMU-TK defaults (1 s windows, 2 s holds) down to 0.25 s / 0.5 s until one
-/// gives at least [`ADAPTIVE_MIN_WINDOWS`] windows that a multi-position fit accepts.
-pub fn detect_adaptive(rec: &Recording, opts: &DetectOptions) -> Result<Detection> {
-    detect_adaptive_of(rec, opts, all_whole(&rec.xyz))
-}
-
-/// [`detect_adaptive`] on a recording whose values are all whole numbers or not (`integer`,
-/// [`Recording::is_integer`]), known to the caller.
-fn detect_adaptive_of(rec: &Recording, opts: &DetectOptions, integer: bool) -> Result<Detection> {
-    use rayon::prelude::*;
-    let rate = adaptive_rate(rec.estimated_rate_hz(), opts)?;
-    // Quantiser levels are computed once, in parallel, rather than on every pass; other
-    // values are cast as they are passed over (no copy of the recording).
-    let (intervals, reference_variance) = match lattice_of(&rec.xyz, integer) {
-        Some(l) => {
-            let levels: Vec<[f32; 3]> = rec
-                .xyz
-                .par_iter()
-                .map(|s| to_levels(s, &l).map(|v| v as f32))
-                .collect();
-            adaptive_intervals(&Held(&levels[..]), rec.len(), rate)?
-        }
-        None => adaptive_intervals(&Held(&rec.xyz[..]), rec.len(), rate)?,
-    };
-    Ok(Detection {
-        intervals,
-        reference_variance,
-        rate_hz: rate,
-    })
-}
-
-/// The sample rate the detection takes (`estimated`: the recording's, when known), refused
-/// when it is not a positive number or slower than [`MIN_SAMPLE_RATE_HZ`].
-pub(crate) fn adaptive_rate(estimated: Option<f64>, opts: &DetectOptions) -> Result<f64> {
-    let rate = estimated.unwrap_or(opts.default_rate_hz);
-    if !(rate.is_finite() && rate > 0.0) {
-        return Err(DetectError::NoSampleRate);
-    }
-    if rate < MIN_SAMPLE_RATE_HZ {
-        return Err(DetectError::RateTooLow {
-            rate_hz: (rate * 1e6).round() / 1e6,
-        });
-    }
-    Ok(rate)
-}
-
-/// The passes the adaptive detection makes over its samples (as the detector sees them:
-/// quantiser levels or values, `f32`): samples held in memory are passed over by both cores at
-/// once; samples streamed from a file (`detect::streamed`) a piece at a time, on all cores too.
-pub(crate) trait Passes {
-    /// One pass over the samples.
-    type Iter: Iterator<Item = [f32; 3]> + Clone;
-    /// A fresh pass.
-    fn pass(&self) -> Self::Iter;
-    /// The noise survey (`AdaptiveThresholds::from_samples`).
-    fn survey(&self, rate: f32) -> Result<adaptive::AdaptiveThresholds, CoreError> {
-        adaptive::AdaptiveThresholds::from_samples(self.pass(), rate)
-    }
-    /// The intervals of two detector settings with the same reference (`adaptive::run` of each).
-    fn run_pair(&self, cfgs: [StaticDetectorConfig; 2], reference: [f32; 3]) -> PairResult;
-}
-
-/// Intervals of two detector settings ([`Passes::run_pair`]).
-pub(crate) type PairResult = std::result::Result<[Vec<StaticInterval>; 2], CoreError>;
+pub use crate::detect::detector::{
+    all_whole, check_adc_range, check_duration_s, check_rate_hz, check_threshold, DetectOptions,
+    RangeError, SettingError, ADAPTIVE_MIN_WINDOWS, DURATION_RANGE_S, MAX_WINDOW,
+    MIN_SAMPLE_RATE_HZ,
+};
 
 type CoreError = wiical_core::Error;
+type Result<T, E = DetectError> = std::result::Result<T, E>;
 
-/// One setting's intervals (`adaptive::run`).
-fn run_one<I: Iterator<Item = [f32; 3]>>(
-    samples: I,
-    cfg: StaticDetectorConfig,
-    reference: [f32; 3],
-) -> std::result::Result<Vec<StaticInterval>, CoreError> {
-    let mut out = Vec::new();
-    adaptive::run::<MAX_WINDOW, _>(samples, cfg, reference, |iv| out.push(iv))?;
-    Ok(out)
+/// The time of sample `i` whose time column gives `t` (without one: `i / fs`, the metadata's
+/// rate else the detection's, as [`crate::input::recording::Recording::times`]).
+pub(crate) fn time_of(t: Option<f64>, i: usize, fs: f64) -> f64 {
+    t.unwrap_or_else(|| i as f64 / fs)
 }
 
-/// One setting's intervals over held samples, in consecutive pieces: [`run_one`] by slices
-/// (`StaticDetector::push_slice`, the same intervals and error, [`feed_held`]); the error with
-/// the index of the sample that met it.
-pub(crate) fn run_held<S: DetectorSample>(
-    pieces: &[&[S]],
-    cfg: StaticDetectorConfig,
-    reference: [f32; 3],
-) -> std::result::Result<Vec<StaticInterval>, (usize, CoreError)> {
-    let mut det =
-        StaticDetector::<MAX_WINDOW>::with_reference(cfg, reference).map_err(|e| (0, e))?;
-    let mut out = Vec::new();
-    feed_held(pieces, |xs| det.push_slice(xs, |iv| out.push(iv)))?;
-    out.extend(det.finish());
-    Ok(out)
+/// The time of sample `i` whose time column gives `t`, as the detection with `opts` takes it
+/// (`Recording::times` at the detection's rate).
+pub fn sample_clock<R: RowSource + ?Sized>(
+    src: &R,
+    opts: &DetectOptions,
+) -> impl Fn(Option<f64>, usize) -> f64 {
+    let rate = src.estimated_rate_hz().unwrap_or(opts.default_rate_hz);
+    let fs = src.metadata_rate_hz().unwrap_or(rate);
+    move |t, i| time_of(t, i, fs)
 }
 
-/// [`Passes::run_pair`] over held samples in consecutive pieces: by spans ([`spans::pair`]:
-/// the detector's result in about half its time) unless a sample is beyond their exact range,
-/// else the two detectors; the two settings on two cores at once, the error the one met first
-/// in sample order (the first setting's on the same sample).
-pub(crate) fn run_pair_held<S: DetectorSample>(
-    pieces: &[&[S]],
-    cfgs: [StaticDetectorConfig; 2],
-    reference: [f32; 3],
-) -> PairResult {
-    spans::pair::<MAX_WINDOW, S>(pieces, cfgs, reference).unwrap_or_else(|| {
-        let (a, b) = rayon::join(
-            || run_held(pieces, cfgs[0], reference),
-            || run_held(pieces, cfgs[1], reference),
-        );
-        both_or_first_error(a, b).map(|(a, b)| [a, b])
-    })
+/// The sum `Iterator::sum` starts from (its result on no values), so that sums folded by hand
+/// are the ones of `sum()` bit for bit.
+fn sum_start() -> f64 {
+    std::iter::empty::<f64>().sum()
 }
 
-/// [`Passes::survey`] of held samples in consecutive pieces: every complete block's variances
-/// measured on all cores, four blocks at a time (a block across two pieces gathered), added to
-/// the histogram in order, the last incomplete block pushed sample by sample (the survey of
-/// the samples pushed one by one, bit for bit).
-pub(crate) fn survey_held<S: DetectorSample>(
-    pieces: &[&[S]],
-    rate: f32,
-) -> Result<adaptive::AdaptiveThresholds, CoreError> {
+/// Intervals, reference variance and rate of the adaptive detection
+/// (`detector::adaptive_intervals` over the detector's view of `src`).
+pub(crate) fn detect_adaptive<R: RowSource + ?Sized>(
+    src: &R,
+    opts: &DetectOptions,
+    integer: bool,
+) -> Result<(Vec<StaticInterval>, [f32; 3], f64)> {
     use rayon::prelude::*;
-    let mut survey = adaptive::NoiseSurvey::for_rate(rate)?;
-    let block = survey.block_samples() as usize;
-    let starts = piece_starts(pieces);
-    let total = starts[pieces.len()];
-    let blocks = total / block;
-    let measured: Vec<_> = (0..blocks.div_ceil(4))
-        .into_par_iter()
-        .map_init(
-            || [(); 4].map(|_| Vec::new()),
-            |bufs, g| {
-                let js = g * 4..((g + 1) * 4).min(blocks);
-                let n = js.len();
-                let ranges = js.map(|j| (j * block, (j + 1) * block));
-                let slices = four_slices(pieces, &starts, ranges, bufs);
-                let four = adaptive::NoiseSurvey::measure_four_blocks(slices);
-                four.into_iter().take(n).collect::<Vec<_>>()
-            },
-        )
-        .flatten_iter()
-        .collect();
-    for m in measured {
-        survey.add_measured(m?);
-    }
-    for m in samples_between(pieces, &starts, blocks * block, total) {
-        survey.push(m.f32s())?;
-    }
-    survey.thresholds(adaptive::DEFAULT_QUANTILE)
+    let rate = adaptive_rate(src.estimated_rate_hz(), opts)?;
+    let lattice = lattice(src, integer);
+    // Held values on a lattice: their levels computed once, on all cores.
+    let levels: Option<Vec<[f32; 3]>> = lattice.and_then(|l| {
+        let xyz = src.held()?;
+        Some(xyz.par_iter().map(|x| view(x, &Some(l))).collect())
+    });
+    let passes = InPieces {
+        src,
+        lattice,
+        levels: levels.as_deref(),
+    };
+    let (intervals, reference) = adaptive_intervals(&passes, src.len(), rate)?;
+    Ok((intervals, reference, rate))
 }
 
-/// A pass over held samples, each in `f32`.
-#[derive(Clone)]
-pub(crate) struct AsF32<'a, S>(std::slice::Iter<'a, S>);
+/// A sample as the adaptive detector sees it: its quantiser levels on `lattice`, else its
+/// values, in `f32`.
+fn view(x: &[f64; 3], lattice: &Option<[(f64, f64); 3]>) -> [f32; 3] {
+    match lattice {
+        Some(l) => to_levels(x, l).map(|v| v as f32),
+        None => x.map(|v| v as f32),
+    }
+}
 
-impl<S: DetectorSample> Iterator for AsF32<'_, S> {
+/// One pass over the detector's view of every sample: in place (levels, held values), else
+/// viewed row by row.
+#[derive(Clone)]
+pub(crate) enum Pass<'a, I> {
+    /// Levels in place.
+    Levels(std::slice::Iter<'a, [f32; 3]>),
+    /// Held values on no lattice.
+    Values(std::slice::Iter<'a, [f64; 3]>),
+    /// Rows read, viewed on the lattice if any.
+    Rows(I, Option<[(f64, f64); 3]>),
+}
+
+impl<I: Iterator<Item = Row>> Iterator for Pass<'_, I> {
     type Item = [f32; 3];
 
     #[inline]
     fn next(&mut self) -> Option<[f32; 3]> {
-        self.0.next().map(S::f32s)
+        match self {
+            Pass::Levels(it) => it.next().copied(),
+            Pass::Values(it) => it.next().map(|x| x.map(|v| v as f32)),
+            Pass::Rows(rows, lattice) => rows.next().map(|r| view(&r.xyz, lattice)),
+        }
     }
 }
 
-/// Samples held in memory.
-pub(crate) struct Held<'a, S>(pub(crate) &'a [S]);
+/// The detector's view of every sample in place, in pieces.
+enum InPlace<'a> {
+    F32(Vec<&'a [[f32; 3]]>),
+    F64(&'a [[f64; 3]]),
+}
 
-impl<'a, S: DetectorSample> Passes for Held<'a, S> {
-    type Iter = AsF32<'a, S>;
+/// The adaptive detection's passes over `src`'s detector view: in place as held pieces
+/// ([`InPlace`]: a held recording, its levels, a spill's `f32` axes) by the held functions,
+/// else a piece at a time: the pieces' blocks surveyed on all cores and the two detectors of a
+/// pair fed each on its own core (the same values in the same order as one sample at a time:
+/// the same thresholds and intervals).
+struct InPieces<'a, R: RowSource + ?Sized> {
+    src: &'a R,
+    lattice: Option<[(f64, f64); 3]>,
+    /// A held recording's levels on `lattice`.
+    levels: Option<&'a [[f32; 3]]>,
+}
+
+impl<'a, R: RowSource + ?Sized> Passes for InPieces<'a, R> {
+    type Iter = Pass<'a, R::Rows<'a>>;
 
     fn pass(&self) -> Self::Iter {
-        AsF32(self.0.iter())
-    }
-
-    /// The blocks' variances measured on all cores ([`survey_held`]).
-    fn survey(&self, rate: f32) -> Result<adaptive::AdaptiveThresholds, CoreError> {
-        survey_held(&[self.0], rate)
-    }
-
-    /// The two settings on the two cores at once ([`run_pair_held`]).
-    fn run_pair(&self, cfgs: [StaticDetectorConfig; 2], reference: [f32; 3]) -> PairResult {
-        run_pair_held(&[self.0], cfgs, reference)
-    }
-}
-
-/// [`detect_adaptive`]'s intervals and reference variance from the `n` samples of `passes`.
-///
-/// The common case in two passes: the survey, then the first setting of the schedule and the
-/// gap-filling one ([`FILL_SETTING`]) together; when the first is accepted (the core's rule,
-/// [`accepted`]) its intervals filled from the second's are the result, when only the second
-/// is, the second's. Otherwise the core's whole schedule ([`adaptive_schedule`]), which
-/// decides every other case as it always has.
-pub(crate) fn adaptive_intervals(
-    passes: &impl Passes,
-    n: usize,
-    rate: f64,
-) -> Result<(Vec<StaticInterval>, [f32; 3])> {
-    let survey_error = |e| match e {
-        CoreError::TooFewSamples { needed, .. } => DetectError::TooShortForSurvey {
-            samples: n,
-            needed,
-            survey_s: f64::from(adaptive::SURVEY_BLOCK_S) * f64::from(adaptive::MIN_SURVEY_BLOCKS),
-            rate_hz: rate,
-        },
-        other => DetectError::DetectorSettings(other),
-    };
-    let thresholds = passes.survey(rate as f32).map_err(survey_error)?;
-    let cfg = |setting: usize| {
-        let (window_s, min_static_s) = adaptive::HOLD_SCHEDULE[setting];
-        thresholds.detector_config(rate as f32, window_s, min_static_s)
-    };
-    let cfgs = [cfg(0), cfg(FILL_SETTING)];
-    let reference = thresholds.reference_variance;
-    if cfgs.iter().all(|c| c.window as usize <= MAX_WINDOW) {
-        let [first, fill] = passes
-            .run_pair(cfgs, reference)
-            .map_err(DetectError::DetectorSettings)?;
-        if accepted(&first) {
-            return Ok((fill_holds(first, &fill), reference));
+        if let Some(l) = self.levels {
+            return Pass::Levels(l.iter());
         }
-        // The first rejected, the schedule's second setting is tried next: the fill setting.
-        if FILL_SETTING == 1 && accepted(&fill) {
-            return Ok((fill, reference));
+        match self.src.held() {
+            Some(xyz) if self.lattice.is_none() => Pass::Values(xyz.iter()),
+            _ => Pass::Rows(self.src.rows(), self.lattice),
         }
     }
-    adaptive_schedule(passes, rate).map_err(survey_error)
-}
 
-/// The core's acceptance of a setting's intervals (`adaptive::detect_fitted_each`): at least
-/// [`ADAPTIVE_MIN_WINDOWS`], and a multi-position fit of their means unless there are more of
-/// them than its scratch ([`ADAPTIVE_SCRATCH`]) holds.
-fn accepted(intervals: &[StaticInterval]) -> bool {
-    let n = intervals.len();
-    if (n as u32) < ADAPTIVE_MIN_WINDOWS {
-        return false;
-    }
-    if n > ADAPTIVE_SCRATCH {
-        return true;
-    }
-    let means: Vec<[f32; 3]> = intervals.iter().map(|iv| iv.mean).collect();
-    wiical_core::multipos::fit(&means, &MultiPosConfig::default()).is_ok()
-}
-
-/// The core's whole schedule (`adaptive::detect_fitted_each`), then the gap-filling pass when
-/// a longer setting was chosen.
-fn adaptive_schedule(
-    passes: &impl Passes,
-    rate: f64,
-) -> std::result::Result<(Vec<StaticInterval>, [f32; 3]), CoreError> {
-    let mut scratch = vec![[0.0f32; 3]; ADAPTIVE_SCRATCH];
-    // The intervals of every setting tried, kept as found: the chosen one's are the result,
-    // with no final pass over the samples (`detect_fitted_each`).
-    let mut per_setting = vec![Vec::new(); adaptive::HOLD_SCHEDULE.len()];
-    let (det, chosen) = adaptive::detect_fitted_each::<MAX_WINDOW, _>(
-        passes.pass(),
-        rate as f32,
-        ADAPTIVE_MIN_WINDOWS,
-        &MultiPosConfig::default(),
-        &mut scratch,
-        |setting, iv| per_setting[setting].push(iv),
-    )?;
-    let mut intervals = std::mem::take(&mut per_setting[chosen]);
-    if chosen < FILL_SETTING {
-        let (window_s, min_static_s) = adaptive::HOLD_SCHEDULE[FILL_SETTING];
-        let cfg = det
-            .thresholds
-            .detector_config(rate as f32, window_s, min_static_s);
-        let short = run_one(passes.pass(), cfg, det.thresholds.reference_variance)?;
-        intervals = fill_holds(intervals, &short);
-    }
-    Ok((intervals, det.thresholds.reference_variance))
-}
-
-/// The [`adaptive::HOLD_SCHEDULE`] setting (0.5 s windows, 1 s holds) whose holds fill the
-/// gaps of a longer chosen setting.
-const FILL_SETTING: usize = 1;
-
-/// The chosen setting's intervals plus every interval of the shorter setting `short` that
-/// overlaps none of them, in time order.
-///
-/// Why: the adaptive detection stops at the first setting that gives enough windows for a
-/// fit, which on most recordings is IMU-TK's 1 s window with 2 s holds. A centred 1 s window
-/// only calls a sample static when the whole second around it is still, so a hold must have
-/// 3 s of still samples to give a 2 s interval: on brisk recordings (holds of 2–4 s) a third
-/// of the holds were dropped although they average noise just as well per sample. The 0.5 s
-/// setting finds every hold with ≥ 1.5 s of still samples; where the long setting already has
-/// a window its window is kept (the same windows as before on recordings with long holds), and
-/// only holds it has none in are added. A short window's own noise (its variance over its
-/// sample count) is its noise floor in `analyze` (`noise::floors`), so it counts for what it is.
-///
-/// Both lists come from one detector pass each, so each is in time order without overlaps;
-/// one sweep through `chosen` for all of `short` finds the overlaps (linear, where a search of
-/// all of `chosen` for each short interval was quadratic: 0.03 s for 5,000 windows).
-fn fill_holds(mut chosen: Vec<StaticInterval>, short: &[StaticInterval]) -> Vec<StaticInterval> {
-    let overlaps = |a: &StaticInterval, b: &StaticInterval| a.start < b.end && b.start < a.end;
-    let in_order = |v: &[StaticInterval]| v.windows(2).all(|p| p[0].end <= p[1].start);
-    let extra: Vec<StaticInterval> = if in_order(&chosen) && in_order(short) {
-        let mut next = 0;
-        short
-            .iter()
-            .filter(|s| {
-                // Chosen intervals ending at or before this one's start overlap no later one.
-                while chosen.get(next).is_some_and(|c| c.end <= s.start) {
-                    next += 1;
+    /// Each piece's complete blocks measured on all cores and added in order, the rest carried
+    /// to the next piece; the last incomplete block pushed sample by sample
+    /// ([`survey_held`]'s survey, bit for bit).
+    fn survey(&self, rate: f32) -> Result<AdaptiveThresholds, CoreError> {
+        use rayon::prelude::*;
+        match self.in_place() {
+            Some(InPlace::F32(pieces)) => return survey_held(&pieces, rate),
+            Some(InPlace::F64(xyz)) => return survey_held(&[xyz], rate),
+            None => {}
+        }
+        let mut survey = NoiseSurvey::for_rate(rate)?;
+        let block = survey.block_samples() as usize;
+        let mut pending: Vec<[f32; 3]> = Vec::new();
+        let mut failed = None;
+        self.each_view(&mut |viewed| {
+            pending.extend_from_slice(viewed);
+            let full = pending.len() / block * block;
+            // Four blocks at a time (`NoiseSurvey::measure_four_blocks`), on all cores.
+            let measured: Vec<_> = pending[..full]
+                .par_chunks(4 * block)
+                .flat_map_iter(|four| {
+                    let mut blocks = four.chunks(block);
+                    let slices = [(); 4].map(|_| blocks.next().unwrap_or(&[]));
+                    let n = four.len() / block;
+                    NoiseSurvey::measure_four_blocks(slices).into_iter().take(n)
+                })
+                .collect();
+            pending.drain(..full);
+            for m in measured {
+                match m {
+                    Ok(m) => survey.add_measured(m),
+                    Err(e) => return fail_with(&mut failed, e),
                 }
-                !chosen.get(next).is_some_and(|c| overlaps(c, s))
-            })
-            .copied()
-            .collect()
-    } else {
-        short
-            .iter()
-            .filter(|s| !chosen.iter().any(|c| overlaps(c, s)))
-            .copied()
-            .collect()
-    };
-    chosen.extend(extra);
-    chosen.sort_by_key(|iv| iv.start);
-    chosen
+            }
+            true
+        });
+        if let Some(e) = failed {
+            return Err(e);
+        }
+        for m in pending {
+            survey.push(m)?;
+        }
+        survey.thresholds(adaptive::DEFAULT_QUANTILE)
+    }
+
+    /// Each piece fed to the two detectors on two cores at once; the error is the one met
+    /// first in sample order (the first setting's on the same sample).
+    fn run_pair(&self, cfgs: [StaticDetectorConfig; 2], reference: [f32; 3]) -> PairResult {
+        match self.in_place() {
+            Some(InPlace::F32(pieces)) => return run_pair_held(&pieces, cfgs, reference),
+            Some(InPlace::F64(xyz)) => return run_pair_held(&[xyz], cfgs, reference),
+            None => {}
+        }
+        let mut lanes = [
+            Lane::new(StaticDetector::with_reference(cfgs[0], reference)?),
+            Lane::new(StaticDetector::with_reference(cfgs[1], reference)?),
+        ];
+        let mut failed = None;
+        self.each_view(&mut |viewed| {
+            let [a, b] = &mut lanes;
+            let (ra, rb) = rayon::join(|| a.feed(viewed), || b.feed(viewed));
+            match both_or_first_error(ra, rb) {
+                Ok(_) => true,
+                Err(e) => fail_with(&mut failed, e),
+            }
+        });
+        if let Some(e) = failed {
+            return Err(e);
+        }
+        Ok(lanes.map(|Lane(mut det, mut out)| {
+            out.extend(det.finish());
+            out
+        }))
+    }
 }
 
-/// Most quantiser levels per axis [`lattice_view`] recognises: a 16-bit ADC has 65 536;
-/// beyond it the values are taken as continuous (and f32 still holds every level exactly).
-pub(crate) const MAX_LATTICE_LEVELS: usize = 1 << 17;
+/// One detector of a pair and its intervals, aligned to a cache line pair of its own: the two
+/// run on two cores at once, and side by side in one array the end of the first and the start
+/// of the second (each written on every sample) shared a line, which the cores then took from
+/// each other on every sample (the pass ran several times slower than the two detectors of
+/// the held path, each on its own thread's stack).
+#[repr(align(128))]
+struct Lane(StaticDetector<MAX_WINDOW>, Vec<StaticInterval>);
 
-/// How far (in steps) a value may sit from its lattice point and still count as on it: a
-/// count converted to g and printed with 7 significant digits is ~10⁻⁵ step off.
-const LATTICE_TOLERANCE: f64 = 1e-3;
+impl Lane {
+    fn new(det: StaticDetector<MAX_WINDOW>) -> Self {
+        Lane(det, Vec::new())
+    }
 
-/// The samples as quantiser levels (`round((v − v_min)/q)` per axis) when non-integer input
-/// lies on a lattice of step `q` per axis (counts converted to g or m/s² by a constant scale
-/// and offset); `None` for integer input (already levels) and for continuous values.
+    /// `samples` fed to the detector, its intervals kept; the error with the index of the
+    /// sample that met it.
+    fn feed(&mut self, samples: &[[f32; 3]]) -> std::result::Result<(), (usize, CoreError)> {
+        let Lane(det, out) = self;
+        det.push_slice(samples, |iv| out.push(iv))
+    }
+}
+
+impl<R: RowSource + ?Sized> InPieces<'_, R> {
+    /// The detector's view of every sample in place: the held levels, else on no lattice a
+    /// held recording's values or a spill's `f32` axes in memory
+    /// ([`RowSource::f32_in_place`]): the passes then run as over held samples, with no copy
+    /// and no step per piece.
+    fn in_place(&self) -> Option<InPlace<'_>> {
+        if let Some(l) = self.levels {
+            return Some(InPlace::F32(vec![l]));
+        }
+        if self.lattice.is_some() {
+            return None;
+        }
+        match self.src.held() {
+            Some(xyz) => Some(InPlace::F64(xyz)),
+            None => self.src.f32_in_place().map(InPlace::F32),
+        }
+    }
+
+    /// A pass over the detector's view of every sample, a piece at a time (`f` may stop it
+    /// by returning `false`): values on no lattice read straight to `f32`, else their levels.
+    fn each_view(&self, f: &mut dyn FnMut(&[[f32; 3]]) -> bool) {
+        use rayon::prelude::*;
+        if self.lattice.is_none() {
+            return self.src.each_piece_f32(f);
+        }
+        let mut viewed = Vec::new();
+        self.src.each_piece(&mut |xyz| {
+            let samples = xyz.par_iter().map(|x| view(x, &self.lattice));
+            samples.collect_into_vec(&mut viewed);
+            f(&viewed)
+        });
+    }
+}
+
+/// `e` kept as the pass's error; false (the pass stops).
+fn fail_with(failed: &mut Option<CoreError>, e: CoreError) -> bool {
+    *failed = Some(e);
+    false
+}
+
+/// The per-axis quantiser lattices `(origin, step)` of non-integer values on one (counts
+/// converted by a constant scale and offset; `windows::axis_lattice`): `None` for integers,
+/// continuous or non-finite values (`integer`: every value of `src` is whole).
 ///
 /// Why: the adaptive detector's noise survey bins block variances on a log scale at absolute
 /// positions and floors integer data at the quantisation variance 1/12, so the same recording
 /// in counts and in g would be detected with slightly different references (window edges a
 /// sample apart). In levels it is the counts recording up to an offset, which a variance
 /// does not see: the same windows, whatever unit or scale the counts were converted to.
-#[cfg(test)]
-fn lattice_view(xyz: &[[f64; 3]]) -> Option<Vec<[f64; 3]>> {
-    let lattice = lattice_of(xyz, all_whole(xyz))?;
-    Some(xyz.iter().map(|s| to_levels(s, &lattice)).collect())
-}
-
-/// [`lattice_view`]'s per-axis lattices `(origin, step)` of `xyz` (whose values are all
-/// whole numbers or not: `integer`), `None` when it has none. The checks and sorts run on all
-/// cores (a sort of values equal under `total_cmp` is the same stable or not: they are the
-/// same bits).
-fn lattice_of(xyz: &[[f64; 3]], integer: bool) -> Option<[(f64, f64); 3]> {
-    use rayon::prelude::*;
+pub(crate) fn lattice<R: RowSource + ?Sized>(src: &R, integer: bool) -> Option<[(f64, f64); 3]> {
     if integer {
         return None;
     }
-    let mut lattice = [(0.0, 0.0); 3];
-    for (a, axis) in lattice.iter_mut().enumerate() {
-        let mut v: Vec<f64> = xyz.par_iter().map(|s| s[a]).collect();
-        if v.par_iter().any(|x| !x.is_finite()) {
+    let distinct = src.distinct()?;
+    let mut out = [(0.0, 0.0); 3];
+    for (a, v) in distinct.iter().enumerate() {
+        if v.iter().any(|x| !x.is_finite()) {
             return None;
         }
-        v.par_sort_unstable_by(f64::total_cmp);
-        v.dedup();
-        *axis = axis_lattice(&v)?;
+        out[a] = axis_lattice(v)?;
     }
-    Some(lattice)
+    Some(out)
 }
 
-/// A sample as quantiser levels of the per-axis lattices `(origin, step)` ([`lattice_view`]).
-pub(crate) fn to_levels(s: &[f64; 3], lattice: &[(f64, f64); 3]) -> [f64; 3] {
-    std::array::from_fn(|a| ((s[a] - lattice[a].0) / lattice[a].1).round())
-}
-
-/// One axis's lattice `(origin, step)` from its distinct values `v` (finite, ascending, no
-/// repeats): `None` when they are too many levels ([`MAX_LATTICE_LEVELS`]) or off a lattice.
-pub(crate) fn axis_lattice(v: &[f64]) -> Option<(f64, f64)> {
-    if v.is_empty() || v.len() > MAX_LATTICE_LEVELS {
-        return None;
-    }
-    let span = v[v.len() - 1] - v[0];
-    // The smallest gap that is not float noise is the step candidate.
-    let q = v
-        .windows(2)
-        .map(|w| w[1] - w[0])
-        .filter(|g| *g > 1e-9 * span.max(v[0].abs()))
-        .fold(f64::INFINITY, f64::min);
-    let step = if q.is_finite() { q } else { 1.0 };
-    let on_lattice = v.iter().all(|x| {
-        let k = (x - v[0]) / step;
-        (k - k.round()).abs() <= LATTICE_TOLERANCE
-    });
-    if !on_lattice || span / step > MAX_LATTICE_LEVELS as f64 {
-        return None;
-    }
-    Some((v[0], step))
-}
-
-/// Runs the core's streaming static detector over a recording.
-pub fn detect(rec: &Recording, opts: &DetectOptions) -> Result<Detection> {
-    let rate = rec.estimated_rate_hz().unwrap_or(opts.default_rate_hz);
-    let samples = rec.xyz.iter().copied();
-    let (intervals, reference_variance) = fixed_intervals(samples, rec.len(), rate, opts)?;
-    Ok(Detection {
-        intervals,
-        reference_variance,
-        rate_hz: rate,
-    })
-}
-
-/// [`detect`]'s intervals and reference variance from the `n` samples `samples` yields (as
-/// the detector sees them), at `rate` Hz.
-pub(crate) fn fixed_intervals(
-    samples: impl Iterator<Item = [f64; 3]>,
-    n: usize,
-    rate: f64,
+/// Intervals, reference variance and rate of the fixed (IMU-TK) detector
+/// (`detector::fixed_intervals`) on the detector's view: non-integer values rescaled
+/// (`detector::detector_scale`; `integer`: every value of `src` is whole).
+pub(crate) fn detect_fixed<R: RowSource + ?Sized>(
+    src: &R,
     opts: &DetectOptions,
-) -> Result<(Vec<StaticInterval>, [f32; 3])> {
-    if !(rate.is_finite() && rate > 0.0) {
-        return Err(DetectError::NoSampleRate);
-    }
-    let mut cfg = StaticDetectorConfig::for_rate(
-        rate as f32,
-        opts.window_s as f32,
-        opts.init_s as f32,
-        opts.min_static_s as f32,
-    );
-    cfg.threshold_factor = opts.threshold_factor as f32;
-    if cfg.window as usize > MAX_WINDOW {
-        return Err(DetectError::WindowTooLong {
-            samples: cfg.window as usize,
-            max: MAX_WINDOW,
-        });
-    }
-    if (n as u32) < cfg.init_samples.max(cfg.window as u32) {
-        return Err(DetectError::TooShort {
-            samples: n,
-            needed: cfg.init_samples,
-            init_s: opts.init_s,
-            rate_hz: rate,
-        });
-    }
-    check_detector_settings(&cfg, rate)?;
-    let mut det: StaticDetector<MAX_WINDOW> =
-        StaticDetector::new(cfg).map_err(DetectError::DetectorSettings)?;
-    let mut intervals = Vec::new();
-    for (i, s) in samples.enumerate() {
-        let m = [s[0] as f32, s[1] as f32, s[2] as f32];
-        if let Some(iv) = det.push(m).map_err(|cause| DetectError::Sample {
-            index: i + 1,
-            cause,
-        })? {
-            intervals.push(iv);
+    integer: bool,
+) -> Result<(Vec<StaticInterval>, [f32; 3], f64)> {
+    let rate = src.estimated_rate_hz().unwrap_or(opts.default_rate_hz);
+    let n = src.len();
+    let k = (!integer).then(|| {
+        let rows = || src.rows().map(|r| r.xyz);
+        detector_scale(rows, n, rate, opts, || {
+            median_of(|| src.rows().map(|r| magnitude(&r.xyz)), n)
+        })
+    });
+    let samples = src.rows().map(|r| match k {
+        Some(k) => r.xyz.map(|v| v * k),
+        None => r.xyz,
+    });
+    let (intervals, reference) = fixed_intervals(samples, n, rate, opts)?;
+    Ok((intervals, reference, rate))
+}
+
+/// `stats::median` of the `n` values `values` yields afresh on every call, selected by the
+/// bits of their total order 16 at a time ([`crate::stats::OrderCounts::median`]: a pass to
+/// count them, three for the lower middle value, one for the upper), none stored.
+fn median_of<I: Iterator<Item = f64>>(values: impl Fn() -> I, n: usize) -> f64 {
+    use crate::stats::{from_order_key, order_key, OrderCounts};
+    let keys = |key: &mut dyn FnMut(u64)| {
+        values().for_each(|v| key(order_key(v)));
+        Ok::<(), std::convert::Infallible>(())
+    };
+    let mut counts = OrderCounts::new(0);
+    let Ok(()) = keys(&mut |k| counts.push(k));
+    debug_assert_eq!(counts.len, n, "the values of every call");
+    let Ok(m) = counts.median(from_order_key, keys);
+    m
+}
+
+/// One window's sums as the passes fold them.
+#[derive(Debug, Clone)]
+struct Acc {
+    span: (usize, usize),
+    sum: [f64; 3],
+    sq: [f64; 3],
+    t_sum: f64,
+    temp_sum: f64,
+    t_first: f64,
+    t_last: f64,
+    batches: [[f64; 3]; BATCHES],
+    /// Runs of identical samples, folded in the second pass (the mean known).
+    runs: Runs,
+}
+
+impl Acc {
+    /// No sample of the window `span` yet.
+    fn new(span: (usize, usize)) -> Self {
+        let zero = sum_start();
+        Acc {
+            span,
+            sum: [0.0; 3],
+            sq: [0.0; 3],
+            t_sum: zero,
+            temp_sum: zero,
+            t_first: f64::NAN,
+            t_last: f64::NAN,
+            batches: [[0.0; 3]; BATCHES],
+            runs: Runs::default(),
         }
     }
-    if let Some(iv) = det.finish() {
-        intervals.push(iv);
+
+    /// Sample `x` into the second pass's sums, the mean `m` known.
+    fn second(&mut self, x: &[f64; 3], m: &[f64; 3]) {
+        for ((q, x), m) in self.sq.iter_mut().zip(x).zip(m) {
+            *q += (x - m).powi(2);
+        }
+        self.runs.push(x, m);
     }
-    Ok((intervals, det.reference_variance().unwrap_or([0.0; 3])))
 }
 
-/// ADC limits inferred from integer-valued data: 10-bit (0..1023), 8-bit (0..255),
-/// signed 16-bit or unsigned 16-bit. `None` for non-integer (already scaled) data.
-pub fn infer_adc_range(rec: &Recording) -> Option<(f64, f64)> {
-    adc_range_if(&rec.xyz, all_whole(&rec.xyz))
-}
+/// A window's samples: the first and one past the last.
+type Span = (usize, usize);
 
-/// [`infer_adc_range`] of `xyz`, whose values are all whole numbers or not (`integer`). The
-/// extremes are found on all cores (`min`/`max` do not depend on the order; a `−0` for a `0`
-/// compares equal in [`adc_range_of`]).
-fn adc_range_if(xyz: &[[f64; 3]], integer: bool) -> Option<(f64, f64)> {
-    use rayon::prelude::*;
-    if !integer {
-        return None;
-    }
-    let (lo, hi) = xyz
-        .par_iter()
-        .fold(
-            || (f64::INFINITY, f64::NEG_INFINITY),
-            |(lo, hi), s| {
-                let (l, h) = s.iter().fold((lo, hi), |(l, h), v| (l.min(*v), h.max(*v)));
-                (l, h)
-            },
-        )
-        .reduce(
-            || (f64::INFINITY, f64::NEG_INFINITY),
-            |a, b| (a.0.min(b.0), a.1.max(b.1)),
-        );
-    adc_range_of(lo, hi)
-}
-
-/// [`Recording::is_integer`] of samples `xyz` (every value whole: `v.fract() == 0`), on all
-/// cores and without `fract`'s call to `trunc` (a library call on x86-64 without SSE4.1):
-/// the streamed summary's test of each value ([`is_whole`]).
-pub(crate) fn all_whole(xyz: &[[f64; 3]]) -> bool {
-    use rayon::prelude::*;
-    xyz.par_iter().all(|s| s.iter().all(|v| is_whole(*v)))
-}
-
-/// The ADC range holding every value from `lo` to `hi` ([`infer_adc_range`]).
-pub(crate) fn adc_range_of(lo: f64, hi: f64) -> Option<(f64, f64)> {
-    [
-        (0.0, 255.0),
-        (0.0, 1023.0),
-        (-32768.0, 32767.0),
-        (0.0, 65535.0),
-    ]
-    .into_iter()
-    .find(|(a, b)| lo >= *a && hi <= *b)
-}
-
-/// Refuses static intervals with a sample at an ADC limit: the first such sample of the first
-/// such window, in recording order. The windows are checked on all cores (each window's scan
-/// is independent), and the first failure in window order is the one reported, as a scan of
-/// the windows one after another would.
-pub fn check_saturation(
-    rec: &Recording,
+/// The windows of at least two samples of `intervals` and their statistics, `fs` the clock
+/// of rows without times, variances floored for `integer` counts; a sample of any interval
+/// at an ADC limit of `range` refused: the first such sample of the first such window, in
+/// recording order.
+pub(crate) fn window_stats<R: RowSource + ?Sized>(
+    src: &R,
     intervals: &[StaticInterval],
     range: Option<(f64, f64)>,
-) -> Result<()> {
-    use rayon::prelude::*;
-    let Some(range) = range else {
-        return Ok(());
+    fs: f64,
+    integer: bool,
+) -> Result<Vec<WindowStats>> {
+    let n = src.len();
+    let ends = |iv: &StaticInterval| (iv.start as usize, (iv.end as usize).min(n));
+    let checked: Vec<Span> = intervals.iter().map(ends).collect();
+    let spans: Vec<Span> = checked
+        .iter()
+        .copied()
+        .filter(|(s, e)| *e > s + 1)
+        .collect();
+    let accs = match sums_in_place(src, intervals, &checked, range, fs) {
+        Some(accs) => accs?,
+        None => sums_in_passes(src, intervals, (&checked, &spans), range, fs)?,
     };
-    let found = intervals
-        .par_iter()
-        .enumerate()
-        .filter_map(|(k, iv)| saturated_sample(rec, iv, range).map(|s| (k, s)))
-        .find_first(|_| true);
-    match found {
-        None => Ok(()),
-        Some((k, (i, a, value))) => Err(saturated_at(intervals, k, i, a, value)),
+    let t0 = time_of(src.time_ends().0, 0, fs);
+    let has_temp = src.has_temp();
+    Ok(accs
+        .iter()
+        .map(|a| finish(a, t0, integer, has_temp))
+        .collect())
+}
+
+/// [`window_stats`]' sums over two passes of every row, each sample added to the windows
+/// that hold it ([`Cover`]); `checked`: the intervals' spans, `spans`: those of two samples
+/// or more.
+fn sums_in_passes<R: RowSource + ?Sized>(
+    src: &R,
+    intervals: &[StaticInterval],
+    (checked, spans): (&[Span], &[Span]),
+    range: Option<(f64, f64)>,
+    fs: f64,
+) -> Result<Vec<Acc>> {
+    let mut accs: Vec<Acc> = spans.iter().map(|&span| Acc::new(span)).collect();
+    let mut saturated: Option<(usize, DetectError)> = None;
+    let (mut sat_cover, mut cover) = (Cover::new(checked), Cover::new(spans));
+    for (i, r) in src.rows().enumerate() {
+        if let Some((lo, hi)) = range {
+            for &k in sat_cover.at(i) {
+                if saturated.as_ref().is_some_and(|(first, _)| *first <= k) {
+                    continue;
+                }
+                if let Some(a) = (0..3).find(|&a| r.xyz[a] <= lo || r.xyz[a] >= hi) {
+                    saturated = Some((k, saturated_at(intervals, k, i, a, r.xyz[a])));
+                }
+            }
+        }
+        let t = time_of(r.t, i, fs);
+        for &k in cover.at(i) {
+            first_sums(&mut accs[k], i, &r.xyz, t, r.temp);
+        }
     }
+    if let Some((_, e)) = saturated {
+        return Err(e);
+    }
+    let mut cover = Cover::new(spans);
+    let means: Vec<[f64; 3]> = accs.iter().map(mean_of).collect();
+    for (i, r) in src.rows().enumerate() {
+        for &k in cover.at(i) {
+            accs[k].second(&r.xyz, &means[k]);
+        }
+    }
+    Ok(accs)
+}
+
+/// [`window_stats`]' sums from each window's rows read where they are kept
+/// ([`RowSource::span`]: a held recording's slices, a file's spill), on all cores, window by
+/// window (each window's sums in sample order as the passes fold them: the same values).
+/// `checked`: the intervals' sample spans. `None` when the rows cannot be read so (a file
+/// without a spill, a read that failed: the passes then read every sample).
+fn sums_in_place<R: RowSource + ?Sized>(
+    src: &R,
+    intervals: &[StaticInterval],
+    checked: &[Span],
+    range: Option<(f64, f64)>,
+    fs: f64,
+) -> Option<Result<Vec<Acc>>> {
+    use rayon::prelude::*;
+    let per_window = checked
+        .par_iter()
+        .map_init(RowBuf::default, |buf, &span| {
+            window(src, buf, span, range, fs)
+        })
+        .collect::<Option<Vec<_>>>()?;
+    let saturated = per_window
+        .iter()
+        .enumerate()
+        .find_map(|(k, (f, _))| f.map(|f| (k, f)));
+    if let Some((k, (i, a, value))) = saturated {
+        return Some(Err(saturated_at(intervals, k, i, a, value)));
+    }
+    // The windows of two samples or more, in order.
+    Some(Ok(per_window.into_iter().filter_map(|(_, a)| a).collect()))
+}
+
+/// A window's first sample at an ADC limit: its index, axis and value.
+type AtLimit = (usize, usize, f64);
+
+/// The window `span`'s first sample at an ADC limit of `range` (when given) and, when it has
+/// two samples or more, its sums: its rows read where they are kept, twice (a held slice, a
+/// spill's rows still in `buf` when they fit one read); `None` when a read failed.
+fn window<R: RowSource + ?Sized>(
+    src: &R,
+    buf: &mut RowBuf,
+    (s, e): Span,
+    range: Option<(f64, f64)>,
+    fs: f64,
+) -> Option<(Option<AtLimit>, Option<Acc>)> {
+    let e = e.max(s);
+    let at_limit = |i: usize, x: &[f64; 3]| {
+        let (lo, hi) = range?;
+        let a = (0..3).find(|&a| x[a] <= lo || x[a] >= hi)?;
+        Some((i, a, x[a]))
+    };
+    let mut found = None;
+    let mut acc = (e > s + 1).then(|| Acc::new((s, e)));
+    fold_span(src, buf, (s, e), |i, x, t, temp| {
+        if range.is_some() && found.is_none() {
+            found = at_limit(i, x);
+        }
+        if let Some(acc) = &mut acc {
+            first_sums(acc, i, x, time_of(t, i, fs), temp);
+        }
+    })?;
+    if let Some(acc) = &mut acc {
+        let m = mean_of(acc);
+        fold_span(src, buf, (s, e), |_, x, _, _| acc.second(x, &m))?;
+    }
+    Some((found, acc))
+}
+
+/// `f(i, values, time, temperature)` on each sample `i` of `span`, in order, read where kept
+/// ([`RowSource::span`]); `None` when a read failed.
+fn fold_span<R: RowSource + ?Sized>(
+    src: &R,
+    buf: &mut RowBuf,
+    (s, e): Span,
+    mut f: impl FnMut(usize, &[f64; 3], Option<f64>, Option<f64>),
+) -> Option<()> {
+    let mut from = s;
+    while from < e {
+        let c = src.span((from, e), buf)?;
+        if c.xyz.is_empty() {
+            return None;
+        }
+        for (j, x) in c.xyz.iter().enumerate() {
+            f(from + j, x, c.t.map(|t| t[j]), c.temp.map(|t| t[j]));
+        }
+        from += c.xyz.len();
+    }
+    Some(())
+}
+
+fn mean_of(a: &Acc) -> [f64; 3] {
+    let n = (a.span.1 - a.span.0) as f64;
+    a.sum.map(|v| v / n)
+}
+
+/// Sample `i` (values `x`, time `t`, temperature `temp`) into its window's first-pass sums.
+fn first_sums(a: &mut Acc, i: usize, x: &[f64; 3], t: f64, temp: Option<f64>) {
+    let (s, e) = a.span;
+    for (v, x) in a.sum.iter_mut().zip(x) {
+        *v += x;
+    }
+    a.t_sum += t;
+    if let Some(temp) = temp {
+        a.temp_sum += temp;
+    }
+    if i == s {
+        a.t_first = t;
+    }
+    if i + 1 == e {
+        a.t_last = t;
+    }
+    let len = (e - s) / BATCHES;
+    if e - s >= 5 * BATCHES && i < s + BATCHES * len {
+        let m = &mut a.batches[(i - s) / len];
+        for (v, x) in m.iter_mut().zip(x) {
+            *v += x / len as f64;
+        }
+    }
+}
+
+/// The window's statistics from its sums: mean, variance (floored for `integer` counts),
+/// batch means' spread, centre time from `t0`, mean temperature.
+fn finish(a: &Acc, t0: f64, integer: bool, has_temp: bool) -> WindowStats {
+    let (s, e) = a.span;
+    let n = (e - s) as f64;
+    WindowStats {
+        start: s,
+        end: e,
+        mean: mean_of(a),
+        var: variance_of(a.sq, n, integer),
+        batch_var_of_mean: (e - s >= 5 * BATCHES).then(|| batch_spread(&a.batches)),
+        t_centre: a.t_sum / n - t0,
+        t_first: a.t_first,
+        t_last: a.t_last,
+        temp: has_temp.then(|| a.temp_sum / n),
+        count: Some(e - s),
+        runs: Some({
+            let mut r = a.runs.clone();
+            r.close();
+            r
+        }),
+        distinct: None,
+    }
+}
+
+/// Detects the static windows (the core's detector on the detector's view), refuses
+/// saturated ones, computes their f64 statistics and infers the input units: every sample's
+/// time kept in [`Windows::times`] (`analyze`'s thermal regressors read them).
+pub fn detect_windows(rec: &Recording, opts: &DetectOptions) -> Result<Windows> {
+    detect_windows_of(rec, opts, true)
+}
+
+/// [`detect_windows`] without every sample's time in [`Windows::times`] (left empty, as for
+/// a large file): for `fit` and `gyrofit`, which read the windows' own times only.
+pub(crate) fn detect_windows_untimed(rec: &Recording, opts: &DetectOptions) -> Result<Windows> {
+    detect_windows_of(rec, opts, false)
+}
+
+/// [`detect_windows_untimed`] on a large text file read in passes, never held: the same
+/// windows bit for bit; a pass that found the file changed or unreadable says so.
+pub fn detect_windows_streamed(src: &TextSource, opts: &DetectOptions) -> crate::Result<Windows> {
+    let found = detect_windows_of(src, opts, false);
+    src.check()?;
+    Ok(found?)
+}
+
+/// The detection of [`detect_windows`] on the rows of `src` (held, or a file in passes: one
+/// code), keeping every sample's time when `keep_times`.
+pub fn detect_windows_of<R: RowSource + ?Sized>(
+    src: &R,
+    opts: &DetectOptions,
+    keep_times: bool,
+) -> Result<Windows> {
+    let integer = src.integer();
+    let (intervals, reference_variance, rate) = if opts.adaptive {
+        detect_adaptive(src, opts, integer)?
+    } else {
+        detect_fixed(src, opts, integer)?
+    };
+    let range = opts.adc_range.or_else(|| {
+        let (lo, hi) = integer.then(|| src.extremes())?;
+        adc_range_of(lo, hi)
+    });
+    let fs = src.metadata_rate_hz().unwrap_or(rate);
+    let mut stats = window_stats(src, &intervals, range, fs, integer)?;
+    let polling = judge_polling(&mut stats, integer);
+    let norms: Vec<f64> = stats.iter().map(|w| magnitude(&w.mean)).collect();
+    let n = src.len();
+    let (first, last) = src.time_ends();
+    let times = if keep_times {
+        let clock = |(i, r): (usize, Row)| time_of(r.t, i, fs);
+        src.rows().enumerate().map(clock).collect()
+    } else {
+        Vec::new()
+    };
+    Ok(Windows {
+        units: infer_units(integer, st::median(&norms)),
+        stats,
+        times,
+        clock: (n > 0).then(|| (time_of(first, 0, fs), time_of(last, n - 1, fs))),
+        reference_variance,
+        polling,
+    })
 }
 
 /// Window `k` of `intervals` refused for its sample `i` (from 0) whose axis `a` reads
@@ -799,20 +692,6 @@ pub(crate) fn saturated_at(
         value,
         sample: i + 1,
     }
-}
-
-/// The first sample of `iv` (its index, axis and value) at or beyond the ADC limits `(lo, hi)`.
-fn saturated_sample(
-    rec: &Recording,
-    iv: &StaticInterval,
-    (lo, hi): (f64, f64),
-) -> Option<(usize, usize, f64)> {
-    let span = iv.start as usize..(iv.end as usize).min(rec.len());
-    let xyz = rec.xyz.get(span.clone())?;
-    xyz.iter().zip(span).find_map(|(s, i)| {
-        let a = s.iter().position(|v| *v <= lo || *v >= hi)?;
-        Some((i, a, s[a]))
-    })
 }
 
 /// Statistics of one detected window, computed in f64 from the samples.
@@ -911,125 +790,13 @@ pub(crate) fn judge_polling(stats: &mut [WindowStats], integer: bool) -> Option<
     Some(polling)
 }
 
-/// The recording as the detector should see it. The detector floors variances at the
-/// quantisation variance of integer counts (1/12); non-integer input (already in g or m/s²)
-/// is therefore rescaled, for the detector only, so that the rest period's quietest axis has
-/// unit std and the floor sits well below the noise.
-fn detector_view(rec: &Recording, opts: &DetectOptions) -> Option<Recording> {
-    if rec.is_integer() {
-        return None;
-    }
-    let rate = rec.estimated_rate_hz().unwrap_or(opts.default_rate_hz);
-    let k = detector_scale(
-        || rec.xyz.iter().copied(),
-        rec.len(),
-        rate,
-        opts,
-        || {
-            let mags: Vec<f64> = rec.xyz.iter().map(magnitude).collect();
-            st::median(&mags)
-        },
-    );
-    Some(Recording {
-        xyz: rec.xyz.iter().map(|s| s.map(|v| v * k)).collect(),
-        t: rec.t.clone(),
-        temp: None,
-        labels: None,
-        sample_rate_hz: rec.sample_rate_hz,
-        axis_columns: rec.axis_columns.clone(),
-        skipped_empty_rows: rec.skipped_empty_rows,
-        notes: Vec::new(),
-        info: Vec::new(),
-    })
-}
-
 /// ‖s‖ of one sample.
 pub(crate) fn magnitude(s: &[f64; 3]) -> f64 {
     (s[0] * s[0] + s[1] * s[1] + s[2] * s[2]).sqrt()
 }
 
-/// [`detector_view`]'s scale for the `n` samples `samples` yields afresh on every call (only
-/// the rest period's head is read): one over the quietest axis's std over the rest period,
-/// else (a constant head) 10⁴ over the median ‖a‖ (`median_mag`, asked only then).
-pub(crate) fn detector_scale<I: Iterator<Item = [f64; 3]>>(
-    samples: impl Fn() -> I,
-    n: usize,
-    rate: f64,
-    opts: &DetectOptions,
-    median_mag: impl FnOnce() -> f64,
-) -> f64 {
-    let init = ((opts.init_s * rate) as usize).clamp(2, n.max(2));
-    let len = init.min(n);
-    let mut sd_min = f64::INFINITY;
-    for a in 0..3 {
-        let m = samples().take(len).map(|s| s[a]).sum::<f64>() / len.max(1) as f64;
-        let v =
-            samples().take(len).map(|s| (s[a] - m).powi(2)).sum::<f64>() / (len.max(2) - 1) as f64;
-        sd_min = sd_min.min(v.sqrt());
-    }
-    if sd_min > 0.0 && sd_min.is_finite() {
-        1.0 / sd_min
-    } else {
-        1e4 / median_mag().max(1e-30)
-    }
-}
-
-/// Names the setting the core's detector would refuse with a bare "invalid parameter": the
-/// rest period shorter than the window, a zero minimum static duration, a threshold that is
-/// not positive. At a sample rate under 2 Hz the message suggests millisecond times.
-fn check_detector_settings(cfg: &StaticDetectorConfig, rate: f64) -> Result<()> {
-    // Rounded for the message (a rate from a time column is 100.00000000000213 Hz).
-    let rate_hz = (rate * 1e6).round() / 1e6;
-    let hint = if rate < 2.0 {
-        format!(" (the sample rate is {rate_hz} Hz: is the time column in milliseconds rather than seconds?)")
-    } else {
-        String::new()
-    };
-    if cfg.init_samples < u32::from(cfg.window) {
-        return Err(DetectError::DetectorSetting {
-            setting: Setting::InitialRest,
-            why: format!(
-                "{} samples at {rate_hz} Hz, fewer than the {}-sample variance window{hint}",
-                cfg.init_samples, cfg.window
-            ),
-        });
-    }
-    if cfg.min_static_samples < 1 {
-        return Err(DetectError::DetectorSetting {
-            setting: Setting::MinStatic,
-            why: format!("less than one sample at {rate_hz} Hz{hint}"),
-        });
-    }
-    if !(cfg.threshold_factor.is_finite() && cfg.threshold_factor > 0.0) {
-        return Err(DetectError::DetectorSetting {
-            setting: Setting::Threshold,
-            why: format!("{} is not a positive number", cfg.threshold_factor),
-        });
-    }
-    Ok(())
-}
-
 /// Batch means per window: the window split into this many blocks.
 pub(crate) const BATCHES: usize = 10;
-
-/// Per-axis variance of the mean from [`BATCHES`] batch means (sees slow noise that var/n
-/// misses); `None` when the window is shorter than 5 samples per batch.
-fn batch_var_of_mean(xs: &[[f64; 3]]) -> Option<[f64; 3]> {
-    const B: usize = BATCHES;
-    if xs.len() < 5 * B {
-        return None;
-    }
-    let len = xs.len() / B;
-    let mut bm = [[0.0; 3]; B];
-    for (b, m) in bm.iter_mut().enumerate() {
-        for x in &xs[b * len..(b + 1) * len] {
-            for a in 0..3 {
-                m[a] += x[a] / len as f64;
-            }
-        }
-    }
-    Some(batch_spread(&bm))
-}
 
 /// Per-axis variance of the mean from the [`BATCHES`] batch means `bm`.
 pub(crate) fn batch_spread(bm: &[[f64; 3]; BATCHES]) -> [f64; 3] {
@@ -1056,169 +823,70 @@ pub(crate) fn variance_of(sq: [f64; 3], n: f64, integer: bool) -> [f64; 3] {
     })
 }
 
-/// The times of a held recording's samples as [`Recording::times`] gives them at the
-/// detection's rate, read where needed instead of copied whole (a week's time column is
-/// hundreds of megabytes; `fit` reads only the windows' times).
-#[derive(Clone, Copy)]
-struct Clock<'a> {
-    /// The time column, when the file has one.
-    t: Option<&'a [f64]>,
-    /// Otherwise sample `i` is at `i / fs` s.
-    fs: f64,
-    /// Samples.
-    n: usize,
+/// Which of a list of sample spans `(first, one past the last)` hold sample `i`, for `i`
+/// ascending: the spans in order of their first sample, those begun and not yet ended kept.
+pub(crate) struct Cover {
+    order: Vec<usize>,
+    spans: Vec<(usize, usize)>,
+    next: usize,
+    open: Vec<usize>,
 }
 
-impl<'a> Clock<'a> {
-    /// The clock of `rec` detected at `rate_hz`.
-    fn of(rec: &'a Recording, rate_hz: f64) -> Self {
-        Clock {
-            t: rec.t.as_deref(),
-            fs: rec.sample_rate_hz.unwrap_or(rate_hz),
-            n: rec.len(),
+impl Cover {
+    /// A cover of `spans` (any order, may overlap).
+    pub(crate) fn new(spans: &[(usize, usize)]) -> Self {
+        let mut order: Vec<usize> = (0..spans.len()).collect();
+        order.sort_by_key(|&k| spans[k].0);
+        Self {
+            order,
+            spans: spans.to_vec(),
+            next: 0,
+            open: Vec::new(),
         }
     }
 
-    /// Time of sample `i` (< `n`), s.
-    fn at(&self, i: usize) -> f64 {
-        match self.t {
-            Some(t) => t[i],
-            None => i as f64 / self.fs,
+    /// The spans holding sample `i` (ascending indices), `i` at least the last asked.
+    pub(crate) fn at(&mut self, i: usize) -> &[usize] {
+        let mut opened = false;
+        while let Some(&k) = self.order.get(self.next) {
+            if self.spans[k].0 > i {
+                break;
+            }
+            self.open.push(k);
+            self.next += 1;
+            opened = true;
         }
-    }
-
-    /// The sum of the times of samples `s..e`, added in order as `times[s..e].iter().sum()`.
-    fn sum(&self, (s, e): (usize, usize)) -> f64 {
-        match self.t {
-            Some(t) => t[s..e].iter().sum(),
-            None => (s..e).map(|i| i as f64 / self.fs).sum(),
+        if opened {
+            self.open.sort_unstable();
         }
+        let spans = &self.spans;
+        self.open.retain(|&k| spans[k].1 > i);
+        &self.open
     }
-
-    /// Times of the first and the last sample; `None` without samples.
-    fn ends(&self) -> Option<(f64, f64)> {
-        match self.t {
-            Some(t) => t.first().zip(t.last()).map(|(a, b)| (*a, *b)),
-            None => (self.n > 0).then(|| (self.at(0), self.at(self.n - 1))),
-        }
-    }
-
-    /// Every sample's time ([`Recording::times`]).
-    fn to_vec(self) -> Vec<f64> {
-        match self.t {
-            Some(t) => t.to_vec(),
-            None => (0..self.n).map(|i| self.at(i)).collect(),
-        }
-    }
-}
-
-/// The f64 statistics of samples `s..e` (at least two). `t0`: time of the first sample.
-fn window_stats(
-    rec: &Recording,
-    (s, e): (usize, usize),
-    clock: &Clock,
-    t0: f64,
-    integer: bool,
-) -> WindowStats {
-    let xs = &rec.xyz[s..e];
-    let n = xs.len() as f64;
-    let mut mean = [0.0; 3];
-    for x in xs {
-        for a in 0..3 {
-            mean[a] += x[a];
-        }
-    }
-    mean = mean.map(|v| v / n);
-    let mut var = [0.0; 3];
-    let mut runs = Runs::default();
-    for x in xs {
-        for a in 0..3 {
-            var[a] += (x[a] - mean[a]).powi(2);
-        }
-        runs.push(x, &mean);
-    }
-    runs.close();
-    var = variance_of(var, n, integer);
-    WindowStats {
-        start: s,
-        end: e,
-        mean,
-        var,
-        batch_var_of_mean: batch_var_of_mean(xs),
-        t_centre: clock.sum((s, e)) / n - t0,
-        t_first: clock.at(s),
-        t_last: clock.at(e - 1),
-        temp: rec.temp.as_ref().map(|tc| tc[s..e].iter().sum::<f64>() / n),
-        count: Some(e - s),
-        runs: Some(runs),
-        distinct: None,
-    }
-}
-
-/// Detects the static windows (the core's detector via [`detect`]), refuses saturated ones,
-/// computes their f64 statistics and infers the input units.
-pub fn detect_windows(rec: &Recording, opts: &DetectOptions) -> Result<Windows> {
-    detect_windows_timed(rec, opts, true)
-}
-
-/// [`detect_windows`] without every sample's time in [`Windows::times`] (left empty, as for
-/// a streamed file): for `fit` and `gyrofit`, which read the windows' own times only.
-pub(crate) fn detect_windows_untimed(rec: &Recording, opts: &DetectOptions) -> Result<Windows> {
-    detect_windows_timed(rec, opts, false)
-}
-
-/// [`detect_windows`], keeping every sample's time when `keep_times`.
-fn detect_windows_timed(
-    rec: &Recording,
-    opts: &DetectOptions,
-    keep_times: bool,
-) -> Result<Windows> {
-    let integer = all_whole(&rec.xyz);
-    let det = if opts.adaptive {
-        detect_adaptive_of(rec, opts, integer)?
-    } else {
-        match detector_view(rec, opts) {
-            None => detect(rec, opts)?,
-            Some(scaled) => detect(&scaled, opts)?,
-        }
-    };
-    let range = opts.adc_range.or_else(|| adc_range_if(&rec.xyz, integer));
-    check_saturation(rec, &det.intervals, range)?;
-    let clock = Clock::of(rec, det.rate_hz);
-    let t0 = clock.ends().map_or(0.0, |(first, _)| first);
-    // Each window's statistics depend on its samples alone: computed on all cores, kept in
-    // window order.
-    let mut stats: Vec<WindowStats> = {
-        use rayon::prelude::*;
-        det.intervals
-            .par_iter()
-            .map(|iv| (iv.start as usize, (iv.end as usize).min(rec.len())))
-            .filter(|(s, e)| *e > s + 1)
-            .map(|span| window_stats(rec, span, &clock, t0, integer))
-            .collect()
-    };
-    let polling = judge_polling(&mut stats, integer);
-    let norms: Vec<f64> = stats
-        .iter()
-        .map(|w| (w.mean[0].powi(2) + w.mean[1].powi(2) + w.mean[2].powi(2)).sqrt())
-        .collect();
-    Ok(Windows {
-        polling,
-        units: infer_units(integer, st::median(&norms)),
-        stats,
-        clock: clock.ends(),
-        times: if keep_times {
-            clock.to_vec()
-        } else {
-            Vec::new()
-        },
-        reference_variance: det.reference_variance,
-    })
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The samples as quantiser levels on their lattice ([`lattice`] of them held).
+    fn lattice_view(xyz: &[[f64; 3]]) -> Option<Vec<[f64; 3]>> {
+        let rec = Recording {
+            xyz: xyz.to_vec(),
+            ..Default::default()
+        };
+        let lattice = lattice(&rec, all_whole(xyz))?;
+        Some(xyz.iter().map(|s| to_levels(s, &lattice)).collect())
+    }
+
+    /// The windows' statistics of `rec` at 100 Hz, refused when saturated in `range`.
+    fn check_saturation(
+        rec: &Recording,
+        intervals: &[StaticInterval],
+        range: Option<(f64, f64)>,
+    ) -> Result<()> {
+        window_stats(rec, intervals, range, 100.0, true).map(|_| ())
+    }
 
     #[test]
     fn counts_converted_by_scale_and_offset_are_mapped_back_to_levels() {
@@ -1250,8 +918,6 @@ mod tests {
         assert_eq!(lattice_view(&ms2).unwrap(), levels);
     }
 
-    /// The chosen setting's windows are kept as they are; a shorter-setting interval is added
-    /// only where it overlaps none of them, and the result is in time order.
     /// The refusal names the first saturated sample of the first saturated window, as a scan
     /// of the windows in order would, although the windows are checked on all cores.
     #[test]
@@ -1284,93 +950,6 @@ mod tests {
         assert_eq!((window, sample, axis), (13, 1206, "y"));
         assert!(check_saturation(&rec, &many[..12], Some((0.0, 1023.0))).is_ok());
         assert!(check_saturation(&rec, &many, None).is_ok());
-    }
-
-    /// The sweep of [`fill_holds`] against the definition (every short interval overlapping no
-    /// chosen one), on many random pairs of ordered interval lists.
-    #[test]
-    fn fill_holds_sweep_keeps_exactly_the_short_holds_overlapping_nothing() {
-        let mut state = 0x2545_f491_4f6c_dd1du64;
-        let mut next = |m: u32| {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state % u64::from(m)) as u32
-        };
-        let ordered = |count: u32, next: &mut dyn FnMut(u32) -> u32| {
-            let mut at = 0;
-            (0..count)
-                .map(|_| {
-                    let start = at + next(40);
-                    at = start + 1 + next(60);
-                    StaticInterval {
-                        start,
-                        end: at,
-                        mean: [0.0; 3],
-                        variance: [0.0; 3],
-                    }
-                })
-                .collect::<Vec<_>>()
-        };
-        for _ in 0..500 {
-            let (c, s) = (next(12), next(20));
-            let (chosen, short) = (ordered(c, &mut next), ordered(s, &mut next));
-            let overlaps =
-                |a: &StaticInterval, b: &StaticInterval| a.start < b.end && b.start < a.end;
-            let mut want: Vec<StaticInterval> = chosen.clone();
-            want.extend(
-                short
-                    .iter()
-                    .filter(|s| !chosen.iter().any(|c| overlaps(c, s))),
-            );
-            want.sort_by_key(|iv| iv.start);
-            assert_eq!(fill_holds(chosen, &short), want);
-        }
-    }
-
-    #[test]
-    fn fill_holds_adds_only_the_holds_without_a_window() {
-        let iv = |start: u32, end: u32| StaticInterval {
-            start,
-            end,
-            mean: [start as f32; 3],
-            variance: [0.0; 3],
-        };
-        let chosen = vec![iv(0, 300), iv(600, 900)];
-        let short = [iv(10, 290), iv(350, 500), iv(550, 610), iv(950, 1100)];
-        let got = fill_holds(chosen, &short);
-        assert_eq!(
-            got,
-            vec![iv(0, 300), iv(350, 500), iv(600, 900), iv(950, 1100)]
-        );
-    }
-
-    /// The whole-number check is `fract() == 0` for every kind of value.
-    #[test]
-    fn whole_numbers_are_those_without_a_fraction() {
-        let two52 = 4_503_599_627_370_496.0f64;
-        let values = [
-            0.0,
-            -0.0,
-            1.0,
-            -32768.0,
-            0.5,
-            -1e-300,
-            two52 - 0.5,
-            two52,
-            -two52 - 2.0,
-            9.3e18,
-            1e300,
-            f64::MAX,
-            f64::MIN_POSITIVE,
-            f64::NAN,
-            f64::INFINITY,
-            f64::NEG_INFINITY,
-        ];
-        for v in values {
-            assert_eq!(all_whole(&[[0.0, v, 1.0]]), v.fract() == 0.0, "{v}");
-        }
-        assert!(all_whole(&[]));
     }
 
     #[test]
@@ -1423,5 +1002,260 @@ mod tests {
             "{e:?}"
         );
         assert!(e.to_string().contains("noise survey"), "{e}");
+    }
+
+    /// The median selected in passes is the sorted median, for odd and even counts, with
+    /// repeats, negative zero and values of every magnitude.
+    #[test]
+    fn the_median_in_passes_is_the_sorted_median() {
+        let sets: Vec<Vec<f64>> = vec![
+            vec![3.0],
+            vec![2.0, 1.0],
+            vec![1e-300, 5.0, 5.0, 1e300, -0.0, 0.0, 7.5],
+            (0..1001)
+                .map(|i| ((i * 7919) % 1001) as f64 * 0.37)
+                .collect(),
+            (0..1000).map(|i| (i as f64).sqrt()).collect(),
+        ];
+        for v in &sets {
+            let got = median_of(|| v.iter().copied(), v.len());
+            assert_eq!(got.to_bits(), crate::stats::median(v).to_bits(), "{v:?}");
+        }
+        assert!(median_of(std::iter::empty, 0).is_nan());
+    }
+
+    /// The cover lists exactly the spans holding each sample, for overlapping spans given
+    /// out of order.
+    #[test]
+    fn the_cover_holds_each_sample_in_its_spans() {
+        let spans = [(5, 9), (0, 3), (2, 6), (7, 8), (20, 21)];
+        let mut cover = Cover::new(&spans);
+        for i in 0..25 {
+            let want: Vec<usize> = (0..spans.len())
+                .filter(|&k| spans[k].0 <= i && i < spans[k].1)
+                .collect();
+            assert_eq!(cover.at(i), &want[..], "sample {i}");
+        }
+    }
+}
+
+/// A streamed file whose rows are kept in memory, on disk, or moved to disk as they are
+/// written, or cannot be written to a temporary file (no such directory, a disk full from the
+/// start or after a few blocks), or whose spill cannot be read back in the middle of a pass,
+/// gives the rows, the windows and the clones of the text parsed again.
+#[cfg(test)]
+mod spill_tests {
+    use crate::input::columns::LoadOptions;
+    use crate::input::text_source::{Row, SpillTo, TextSource};
+
+    /// A simulated recording of `cfg` written as CSV into a temporary directory (kept alive by
+    /// the first value): the directory, the file, its rows.
+    fn simulated_csv(
+        cfg: crate::simulate::SimConfig,
+    ) -> (tempfile::TempDir, std::path::PathBuf, usize) {
+        let out = crate::simulate::simulate(&cfg).unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("r.csv");
+        std::fs::write(&path, crate::simulate::to_csv(&out.recording)).unwrap();
+        (dir, path, out.recording.len())
+    }
+
+    fn rows_of(src: &TextSource) -> Vec<Row> {
+        let rows: Vec<Row> = src.rows().collect();
+        src.check().unwrap();
+        rows
+    }
+
+    fn windows_of(src: &TextSource) -> String {
+        let opts = crate::detect::windows::DetectOptions::default();
+        let w = crate::detect::windows::detect_windows_streamed(src, &opts).unwrap();
+        format!(
+            "{:?} {:?} {:?} {:?}",
+            w.stats, w.clock, w.units, w.reference_variance
+        )
+    }
+
+    #[test]
+    #[allow(clippy::too_many_lines, reason = "a test reads top to bottom")]
+    fn without_the_spill_the_text_is_read_again_alike() {
+        let (dir, path, rows) = simulated_csv(crate::simulate::SimConfig {
+            seed: 3,
+            poses: 12,
+            temp_column: true,
+            ..Default::default()
+        });
+        let opts = LoadOptions::default();
+        let open = |to: &SpillTo| {
+            TextSource::open_with(&path, &opts, 4096, to, |_| true)
+                .unwrap()
+                .unwrap()
+        };
+        let on = SpillTo {
+            on: true,
+            dir: None,
+            limit: u64::MAX,
+            memory: 0,
+        };
+        let text = open(&SpillTo {
+            on: false,
+            ..on.clone()
+        });
+        assert!(!text.is_spilled());
+        let (want_rows, want_windows) = (rows_of(&text), windows_of(&text));
+        assert_eq!(want_rows.len(), rows);
+        let spilled = open(&on);
+        assert!(spilled.is_spilled() && !spilled.is_spill_in_memory());
+        let no_dir = Some(dir.path().join("no such directory"));
+        // (where, spilled, in memory)
+        let cases = [
+            (on.clone(), true, false),
+            (
+                SpillTo {
+                    memory: u64::MAX,
+                    ..on.clone()
+                },
+                true,
+                true,
+            ),
+            // Moved to disk once past the memory kept.
+            (
+                SpillTo {
+                    memory: 20_000,
+                    ..on.clone()
+                },
+                true,
+                false,
+            ),
+            (
+                SpillTo {
+                    dir: no_dir.clone(),
+                    ..on.clone()
+                },
+                false,
+                false,
+            ),
+            (
+                SpillTo {
+                    dir: no_dir.clone(),
+                    memory: u64::MAX,
+                    ..on.clone()
+                },
+                true,
+                true,
+            ),
+            (
+                SpillTo {
+                    dir: no_dir.clone(),
+                    memory: 20_000,
+                    ..on.clone()
+                },
+                false,
+                false,
+            ),
+            (
+                SpillTo {
+                    limit: 0,
+                    ..on.clone()
+                },
+                false,
+                false,
+            ),
+            (
+                SpillTo {
+                    limit: 20_000,
+                    ..on.clone()
+                },
+                false,
+                false,
+            ),
+            (
+                SpillTo {
+                    limit: 20_000,
+                    memory: u64::MAX,
+                    ..on.clone()
+                },
+                false,
+                false,
+            ),
+        ];
+        for (to, is_spilled, in_memory) in &cases {
+            let src = open(to);
+            assert_eq!(src.is_spilled(), *is_spilled, "{to:?}");
+            assert_eq!(src.is_spill_in_memory(), *in_memory, "{to:?}");
+            assert_eq!(rows_of(&src), want_rows, "{to:?}");
+            assert_eq!(windows_of(&src), want_windows, "{to:?}");
+        }
+        // The spill emptied in the middle of a pass (and of a clone's): both go on from the
+        // text at the same row; every later pass reads the text.
+        let mut it = spilled.rows();
+        let head: Vec<Row> = it.by_ref().take(1000).collect();
+        let clone = it.clone();
+        spilled.truncate_spill();
+        let rest: Vec<Row> = it.collect();
+        assert_eq!([head.clone(), rest].concat(), want_rows);
+        assert_eq!([head, clone.collect()].concat(), want_rows);
+        assert!(!spilled.is_spilled());
+        assert_eq!(windows_of(&spilled), want_windows);
+        spilled.check().unwrap();
+    }
+
+    /// The detector's view read straight to `f32` is every row's values as `f32`, from memory,
+    /// from disk, from the text, and from a spill that fails in the middle of the pass (the
+    /// pass going on from the text at the same row).
+    #[test]
+    fn the_f32_view_is_the_rows_whatever_the_spill() {
+        let (_dir, path, rows) = simulated_csv(crate::simulate::SimConfig {
+            seed: 5,
+            poses: 9,
+            ..Default::default()
+        });
+        let opts = LoadOptions::default();
+        let disk = SpillTo {
+            on: true,
+            dir: None,
+            limit: u64::MAX,
+            memory: 0,
+        };
+        let cases = [
+            (disk.clone(), false),
+            (
+                SpillTo {
+                    memory: u64::MAX,
+                    ..disk.clone()
+                },
+                false,
+            ),
+            (
+                SpillTo {
+                    on: false,
+                    ..disk.clone()
+                },
+                false,
+            ),
+            (disk.clone(), true),
+        ];
+        for (to, fail) in cases {
+            let src = TextSource::open_with(&path, &opts, 4096, &to, |_| true)
+                .unwrap()
+                .unwrap();
+            let want: Vec<[u32; 3]> = rows_of(&src)
+                .iter()
+                .map(|r| r.xyz.map(|v| (v as f32).to_bits()))
+                .collect();
+            assert_eq!(want.len(), rows);
+            let (mut got, mut pieces) = (Vec::new(), 0);
+            src.each_piece_f32(|v| {
+                got.extend(v.iter().map(|x| x.map(f32::to_bits)));
+                pieces += 1;
+                if fail && pieces == 2 {
+                    src.truncate_spill();
+                }
+                true
+            });
+            src.check().unwrap();
+            assert!(pieces > 2, "{pieces} pieces");
+            assert_eq!(got, want, "{to:?}, failing: {fail}");
+            assert_eq!(src.is_spilled(), to.on && !fail);
+        }
     }
 }

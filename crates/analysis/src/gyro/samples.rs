@@ -9,7 +9,7 @@
 //! the rows.
 
 use super::options::Result;
-use crate::detect::streamed::Cover;
+use crate::detect::windows::Cover;
 use crate::detect::windows::{detect_windows_untimed, DetectOptions, Windows};
 use crate::input::recording::Recording;
 use crate::input::timecheck::TimeSteps;

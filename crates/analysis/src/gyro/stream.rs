@@ -18,7 +18,8 @@
 use super::options::{GyroError, GyroOptions};
 use super::samples::{ended_early, Imu, Row};
 use super::GyroReport;
-use crate::detect::streamed::{detect_windows_streamed, sample_clock};
+use crate::detect::windows::detect_windows_streamed;
+use crate::detect::windows::sample_clock;
 use crate::detect::windows::{DetectOptions, Windows};
 use crate::error::{Error, Result};
 use crate::input::columns::{all_named, LoadOptions, Sensor};

@@ -3,14 +3,14 @@
 //! value is an integer, the extremes, each axis's distinct values (the quantiser lattice's
 //! evidence, up to [`MAX_DISTINCT`]), and the time column's first and last values. Each is
 //! folded in sample order with the same operations as the whole-recording code
-//! ([`crate::input::recording::Recording::is_integer`], `detect::windows::infer_adc_range`,
+//! ([`crate::input::recording::Recording::is_integer`], `detect::detector::adc_range_of`,
 //! `bounded::check_reading_scale`), so it gives the same values bit for bit.
 
 use std::collections::HashSet;
 use std::hash::{BuildHasherDefault, Hasher};
 
 /// Most distinct values per axis kept: past it the values are not on a quantiser lattice the
-/// detector maps back to levels (`detect::windows::MAX_LATTICE_LEVELS`), so they are dropped.
+/// detector maps back to levels (`detect::detector::MAX_LATTICE_LEVELS`), so they are dropped.
 pub const MAX_DISTINCT: usize = 1 << 17;
 
 /// A hasher for float bits: one multiply and a shift (the set of distinct values sees every
@@ -161,7 +161,7 @@ pub struct SampleSummary {
 /// bound by the latency of `min`/`max`); whether every value of `xyz` is whole. The order
 /// does not change a result: `min`/`max` ignore NaN, and values that compare equal are the
 /// same bits but for `0`/`−0`, which only `lo`/`hi` can be and which their one use,
-/// `detect::windows::adc_range_of`, compares as equal (as the held path, whose fold runs on
+/// `detect::detector::adc_range_of`, compares as equal (as the held path, whose fold runs on
 /// all cores).
 fn fold_extremes(s: &mut SampleSummary, first: &[f64; 3], xyz: &[[f64; 3]]) -> bool {
     let (mut lo, mut hi, mut largest) = ([s.lo; 3], [s.hi; 3], [s.largest; 3]);

@@ -18,8 +18,7 @@
 //!    with `t₀` the time of the first sample ([`AnalyzeReport::time_origin_s`]).
 
 #![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x > 0.0)` is deliberately true for NaN.
-use crate::detect::streamed::detect_windows_streamed;
-use crate::detect::windows::{detect_windows, Windows};
+use crate::detect::windows::{detect_windows, detect_windows_streamed, Windows};
 use crate::error::search::SearchError;
 use crate::error::Result;
 use crate::fit::base::fit_means_named;
@@ -211,7 +210,7 @@ fn streamed_temps(
 ) -> Result<thermal::StreamedTemps> {
     let duration = ws.clock.map_or(0.0, |(first, last)| last - first);
     let taus = thermal::lag_grid(open_basis_screening::LAG_MAX_FRACTION * duration);
-    let time = crate::detect::streamed::sample_clock(src, detect);
+    let time = crate::detect::windows::sample_clock(src, detect);
     let rows = src.rows().enumerate();
     let samples = rows.map(|(i, r)| (time(r.t, i), r.temp.unwrap_or(f64::NAN)));
     let usable = src.summary.finite_t_temp;

@@ -59,7 +59,7 @@ pub fn fold(
         taus,
     };
     let mut rates = Rates::new(ws, &spans);
-    let mut cover = crate::detect::streamed::Cover::new(&spans);
+    let mut cover = crate::detect::windows::Cover::new(&spans);
     for (i, (t, x)) in samples.enumerate() {
         lag.push(i, t, x);
         for &k in cover.at(i) {
