@@ -7,8 +7,10 @@ use crate::render;
 use anyhow::{anyhow, Result};
 use std::path::{Path, PathBuf};
 use wiical_analysis::input::text_source::TextSource;
-use wiical_analysis::magnetometer::{self, stream, MagAnalysis, MagFitReport, MagInput, MagModel};
+use wiical_analysis::magnetometer::{self, pass, Follow, MagAnalysis, MagFitReport, MagModel};
 use wiical_analysis::search::select::ALPHA;
+use wiical_analysis::source::RowSource;
+use wiical_analysis::LoadOptions;
 use wiical_core::Calibration;
 
 /// Arguments of `wiical magfit`.
@@ -53,14 +55,12 @@ pub fn run(a: &Args) -> Result<String> {
         sensor: Some(wiical_analysis::input::columns::Sensor::Magnetometer),
         ..load_options(a.columns.as_deref(), &a.read)?
     };
-    let source = with_spinner(&format!("reading {}", a.file.display()), || {
-        stream::open_field_from(&a.file, &opts, opts.read.stream_from_bytes)
-    })
-    .map_err(cli_error)?;
-    let (rep, analysis, unit) = match source {
-        Some(src) => streamed(a, &src)?,
-        None => held(a, &opts)?,
-    };
+    let (src, in_passes) = open_field(a, &opts)?;
+    let prep = magnetometer::fit_source(&*src, a.model).map_err(cli_error)?;
+    let follow = follow_columns(a, &*src, in_passes)?;
+    let analysis =
+        magnetometer::analyze_source(&*src, &prep, &follow, a.model, ALPHA).map_err(cli_error)?;
+    let (rep, unit) = (prep.report, pass::unit_of(&*src));
     if let Some(path) = &a.out {
         let k = rep.matrix.map(|r| r.map(|x| (x / rep.radius) as f32));
         let cal = Calibration {
@@ -81,52 +81,24 @@ pub fn run(a: &Args) -> Result<String> {
     Ok(text)
 }
 
-/// The fit and the loop with every sample held.
-fn held(
-    a: &Args,
-    opts: &wiical_analysis::LoadOptions,
-) -> Result<(MagFitReport, MagAnalysis, &'static str)> {
-    let rec = super::load_held(&a.file, opts, "magfit", super::PLAIN_TEXT_IN_PASSES)?;
-    magnetometer::check_spans(&rec.xyz).map_err(cli_error)?;
-    let rep = magnetometer::fit_points(&rec.xyz, a.model).map_err(cli_error)?;
-    let names = a.follow.as_deref().unwrap_or(&[]);
-    let follow = follow_columns(a, names, &rec.axis_columns, rec.len())?;
-    let times = rec
-        .t
-        .clone()
-        .or_else(|| rec.sample_rate_hz.map(|_| rec.times(1.0)));
-    let unit = wiical_analysis::input::columns::triplet_unit(&rec.axis_columns).unwrap_or("raw");
-    let input = MagInput {
-        xyz: &rec.xyz,
-        t: times.as_deref(),
-        temp: rec.temp.as_deref(),
-        follow: &follow,
-        unit,
-    };
-    let analysis = magnetometer::analyze(&input, &rep, a.model, ALPHA).map_err(cli_error)?;
-    Ok((rep, analysis, unit))
-}
-
-/// The fit and the loop in passes over a large plain text file (the same numbers as
-/// [`held`], memory bounded: `magnetometer::stream`).
-fn streamed(a: &Args, src: &TextSource) -> Result<(MagFitReport, MagAnalysis, &'static str)> {
-    print_notes(&a.file, &src.meta);
-    let prep = stream::fit_source(src, a.model).map_err(cli_error)?;
-    let mut follow = Vec::new();
-    for name in a.follow.as_deref().unwrap_or(&[]) {
-        let col = stream::open_follow(&a.file, name, &src.meta.axis_columns, &a.read.options());
-        let Some(col) = col.map_err(cli_error)? else {
-            return Err(anyhow!(
-                "--follow {name}: {} is no longer plain text (was it replaced while read?)",
-                a.file.display()
-            ));
-        };
-        check_rows(name, col.len(), src.len(), &a.file)?;
-        follow.push((name.clone(), col));
+/// The field's rows: read in passes from the file (memory bounded) when it is a regular plain
+/// text file of at least `--stream-from-bytes`, else held whole; and which of the two.
+fn open_field(a: &Args, opts: &LoadOptions) -> Result<(Box<dyn RowSource>, bool)> {
+    let large = a.file.as_os_str() != "-"
+        && std::fs::metadata(&a.file)
+            .is_ok_and(|m| m.is_file() && m.len() >= opts.read.stream_from_bytes);
+    if large {
+        let src = with_spinner(&format!("reading {}", a.file.display()), || {
+            TextSource::open(&a.file, opts, |_| true).map_err(|e| e.in_file(&a.file))
+        })
+        .map_err(cli_error)?;
+        if let Some(src) = src {
+            print_notes(&a.file, &src.meta);
+            return Ok((Box::new(src), true));
+        }
     }
-    let analysis =
-        stream::analyze_source(src, &prep, &follow, a.model, ALPHA).map_err(cli_error)?;
-    Ok((prep.report, analysis, stream::unit_of(src)))
+    let rec = super::load_held(&a.file, opts, "magfit", super::PLAIN_TEXT_IN_PASSES)?;
+    Ok((Box::new(rec), false))
 }
 
 /// A followed column must have a value on every row the field has.
@@ -141,23 +113,29 @@ fn check_rows(name: &str, got: usize, rows: usize, file: &Path) -> Result<()> {
     Ok(())
 }
 
-/// Each named column, read by the same loader as the field (so its rows are the field's).
-fn follow_columns(
-    a: &Args,
-    names: &[String],
-    field_axes: &[String; 3],
-    rows: usize,
-) -> Result<Vec<(String, Vec<f64>)>> {
-    names
-        .iter()
-        .map(|name| {
-            let file = a.file.as_path();
-            let opts = stream::follow_options(name, field_axes, &a.read.options());
+/// Each named column, read as the field is (in passes or held: `in_passes`) by the same
+/// loader, so that its rows are the field's.
+fn follow_columns(a: &Args, field: &dyn RowSource, in_passes: bool) -> Result<Vec<Follow>> {
+    let file = a.file.as_path();
+    let mut out: Vec<Follow> = Vec::new();
+    for name in a.follow.as_deref().unwrap_or(&[]) {
+        let opts = pass::follow_options(name, field.axis_columns(), &a.read.options());
+        let col: Box<dyn RowSource> = if in_passes {
+            let col = TextSource::open(file, &opts, |_| true).map_err(|e| e.in_file(file));
+            let Some(col) = col.map_err(cli_error)? else {
+                return Err(anyhow!(
+                    "--follow {name}: {} is no longer plain text (was it replaced while read?)",
+                    file.display()
+                ));
+            };
+            Box::new(col)
+        } else {
             use wiical_analysis::input::front_door::{load_held, HoldLimit};
             let limit = HoldLimit::of("magfit", super::PLAIN_TEXT_IN_PASSES);
-            let rec = load_held(file, &opts, limit).map_err(cli_error)?;
-            check_rows(name, rec.len(), rows, file)?;
-            Ok((name.clone(), rec.xyz.iter().map(|v| v[0]).collect()))
-        })
-        .collect()
+            Box::new(load_held(file, &opts, limit).map_err(cli_error)?)
+        };
+        check_rows(name, col.len(), field.len(), file)?;
+        out.push((name.clone(), col));
+    }
+    Ok(out)
 }

@@ -81,6 +81,24 @@ pub struct MagSim {
     pub shape_rms: f64,
 }
 
+impl MagSim {
+    /// The samples with their time and temperature columns as a recording (unit `raw`), and
+    /// the current as a column the centre may follow (its first axis, as `--follow` reads one).
+    pub fn recording(&self) -> (crate::Recording, crate::magnetometer::Follow) {
+        let rec = crate::Recording {
+            t: Some(self.t.clone()),
+            xyz: self.xyz.clone(),
+            temp: Some(self.temp.clone()),
+            ..Default::default()
+        };
+        let current = crate::Recording {
+            xyz: self.current.iter().map(|&c| [c, 0.0, 0.0]).collect(),
+            ..Default::default()
+        };
+        (rec, ("current".into(), Box::new(current)))
+    }
+}
+
 /// Soft iron `W⁻¹`: symmetric, a few per cent from identity.
 const SOFT: [[f64; 3]; 3] = [[1.05, 0.03, -0.02], [0.03, 0.96, 0.04], [-0.02, 0.04, 1.0]];
 
