@@ -353,28 +353,15 @@ fn magfit(
     model: &str,
     columns: Option<Vec<String>>,
 ) -> PyResult<String> {
-    use wiical_analysis::magnetometer::{self as mag, MagInput};
+    use wiical_analysis::magnetometer as mag;
     let model: mag::MagModel = model.parse().map_err(arg_err)?;
     let rec = samples_of(py, source, columns, Some(Sensor::Magnetometer))?;
-    let times = rec
-        .t
-        .clone()
-        .or_else(|| rec.sample_rate_hz.map(|_| rec.times(1.0)));
-    let unit = wiical_analysis::input::columns::triplet_unit(&rec.axis_columns).unwrap_or("raw");
     let (rep, analysis) = py
         .detach(|| {
-            mag::check_spans(&rec.xyz)?;
-            let rep = mag::fit_points(&rec.xyz, model)?;
-            let input = MagInput {
-                xyz: &rec.xyz,
-                t: times.as_deref(),
-                temp: rec.temp.as_deref(),
-                follow: &[],
-                unit,
-            };
-            let analysis =
-                mag::analyze(&input, &rep, model, wiical_analysis::search::select::ALPHA)?;
-            Ok::<_, wiical_analysis::Error>((rep, analysis))
+            let prep = mag::fit_source(&rec, model)?;
+            let alpha = wiical_analysis::search::select::ALPHA;
+            let analysis = mag::analyze_source(&rec, &prep, &[], model, alpha)?;
+            Ok::<_, wiical_analysis::Error>((prep.report, analysis))
         })
         .map_err(py_err)?;
     // The CLI's `--json`: the fit's keys, then the loop's.

@@ -14,7 +14,7 @@ use crate::input::columns::{all_named, column_sensor, Sensor};
 use crate::input::front_door::Input;
 use crate::input::read_options::ReadOptions;
 use crate::input::recording::Recording;
-use crate::magnetometer::{self, MagAnalysis, MagFitReport, MagInput, MagModel};
+use crate::magnetometer::{self, MagAnalysis, MagFitReport, MagModel};
 use crate::pipeline::{fit_judged, Judged};
 use crate::protocol::gyro::{GyroProtocolOptions, GyroProtocolReport};
 use crate::{FitOptions, FitReport, LoadOptions};
@@ -209,24 +209,9 @@ fn gyro_of(
 
 /// The magnetometer: `magfit`'s default ellipsoid and its loop.
 fn mag_of(m: &Recording) -> crate::Result<MagOutcome> {
-    magnetometer::check_spans(&m.xyz)?;
-    let fit = magnetometer::fit_points(&m.xyz, MagModel::Ellipsoid)?;
-    let times =
-        m.t.clone()
-            .or_else(|| m.sample_rate_hz.map(|_| m.times(1.0)));
-    let unit = crate::input::columns::triplet_unit(&m.axis_columns).unwrap_or("raw");
-    let input = MagInput {
-        xyz: &m.xyz,
-        t: times.as_deref(),
-        temp: m.temp.as_deref(),
-        follow: &[],
-        unit,
-    };
-    let analysis = magnetometer::analyze(
-        &input,
-        &fit,
-        MagModel::Ellipsoid,
-        crate::search::select::ALPHA,
-    )?;
+    let prep = magnetometer::fit_source(m, MagModel::Ellipsoid)?;
+    let alpha = crate::search::select::ALPHA;
+    let analysis = magnetometer::analyze_source(m, &prep, &[], MagModel::Ellipsoid, alpha)?;
+    let fit = prep.report;
     Ok(MagOutcome { fit, analysis })
 }

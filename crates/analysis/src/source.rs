@@ -1,9 +1,9 @@
 //! The one way a pipeline reads a recording's samples: [`SampleSource`], in order and as often
 //! as it needs, whether they are held in memory (a slice) or read again from a large file in
 //! passes ([`TextSource`]); [`RowSource`], the rows with their time and temperature as the
-//! window detection reads them (a window's rows read where they are kept besides). A fold
-//! written against them is the held and the large-file path at once, so the two cannot drift
-//! apart.
+//! window detection and `magfit` read them (a window's rows read where they are kept
+//! besides). A fold written against them is the held and the large-file path at once, so the
+//! two cannot drift apart.
 
 use crate::detect::detector::all_whole;
 use crate::input::recording::Recording;
@@ -36,13 +36,14 @@ impl SampleSource for TextSource {
     }
 }
 
-/// A recording's rows as the static-window detection reads them ([`crate::detect::windows`]),
-/// whether held in memory or a large file read in passes ([`TextSource`]): the detection is
-/// written once against it, and a held recording is the case of one chunk in place (its
-/// passes read its slices; a window's rows are a slice of them).
+/// A recording's rows as the static-window detection ([`crate::detect::windows`]) and
+/// `magfit` ([`crate::magnetometer::pass`]) read them, whether held in memory or a large file
+/// read in passes ([`TextSource`]): each is written once against it, and a held recording is
+/// the case of one chunk in place (its passes read its slices; a window's rows are a slice of
+/// them).
 ///
-/// A file's pass may end early (changed, unreadable): the detection then goes on with what it
-/// read, and the file's [`TextSource::check`] after it says so.
+/// A file's pass may end early (changed, unreadable): the reader then goes on with what it
+/// read, and [`RowSource::check`] after it says so.
 pub trait RowSource: Sync {
     /// A pass over every row.
     type Rows<'a>: Iterator<Item = Row> + Clone
@@ -56,12 +57,21 @@ pub trait RowSource: Sync {
     fn is_empty(&self) -> bool {
         self.len() == 0
     }
+    /// The first failure of a pass (a file changed or unreadable), asked after it: held rows
+    /// never fail.
+    fn check(&self) -> crate::Result<()> {
+        Ok(())
+    }
+    /// The names of the axes' columns (a field's unit is read off them).
+    fn axis_columns(&self) -> &[String; 3];
     /// Every value a whole number (raw counts: levels of their own, ADC limits inferred).
     fn integer(&self) -> bool;
     /// The sample rate from the metadata, else the time column (`Recording::estimated_rate_hz`).
     fn estimated_rate_hz(&self) -> Option<f64>;
-    /// The metadata's sample rate alone: the clock of rows without a time column.
+    /// The metadata's sample rate alone (`Fs`, Hz): the clock of rows without a time column.
     fn metadata_rate_hz(&self) -> Option<f64>;
+    /// The rows carry a time (the file has a time column).
+    fn has_time(&self) -> bool;
     /// The file has a temperature column.
     fn has_temp(&self) -> bool;
     /// The time column's first and last values (`None` without one).
@@ -128,6 +138,10 @@ impl RowSource for Recording {
         self.xyz.len()
     }
 
+    fn axis_columns(&self) -> &[String; 3] {
+        &self.axis_columns
+    }
+
     fn integer(&self) -> bool {
         all_whole(&self.xyz)
     }
@@ -138,6 +152,10 @@ impl RowSource for Recording {
 
     fn metadata_rate_hz(&self) -> Option<f64> {
         self.sample_rate_hz
+    }
+
+    fn has_time(&self) -> bool {
+        self.t.is_some()
     }
 
     fn has_temp(&self) -> bool {
@@ -222,6 +240,14 @@ impl RowSource for TextSource {
         TextSource::len(self)
     }
 
+    fn check(&self) -> crate::Result<()> {
+        TextSource::check(self)
+    }
+
+    fn axis_columns(&self) -> &[String; 3] {
+        &self.meta.axis_columns
+    }
+
     fn integer(&self) -> bool {
         self.summary.integer
     }
@@ -232,6 +258,10 @@ impl RowSource for TextSource {
 
     fn metadata_rate_hz(&self) -> Option<f64> {
         self.meta.sample_rate_hz
+    }
+
+    fn has_time(&self) -> bool {
+        TextSource::has_time(self)
     }
 
     fn has_temp(&self) -> bool {

@@ -7,21 +7,15 @@
 //! every centre effect at 2× its limit) is `#[ignore]`d:
 //! `cargo test --release -p wiical-analysis --test magnetometer -- --ignored --nocapture`.
 
-use wiical_analysis::magnetometer::{self, MagAnalysis, MagInput, MagModel};
+use wiical_analysis::magnetometer::{self, MagAnalysis, MagModel};
 use wiical_analysis::search::select::ALPHA;
 use wiical_analysis::simulate::magnetometer::{simulate_mag, MagEffectTruth, MagSim, MagSimConfig};
 
 fn run(sim: &MagSim) -> MagAnalysis {
-    let follow = vec![("current".to_string(), sim.current.clone())];
-    let inp = MagInput {
-        xyz: &sim.xyz,
-        t: Some(&sim.t),
-        temp: Some(&sim.temp),
-        follow: &follow,
-        unit: "raw",
-    };
-    let fit = magnetometer::fit_points(&sim.xyz, MagModel::Ellipsoid).expect("fit");
-    magnetometer::analyze(&inp, &fit, MagModel::Ellipsoid, ALPHA).expect("analysis")
+    let (rec, current) = sim.recording();
+    let prep = magnetometer::fit_source(&rec, MagModel::Ellipsoid).expect("fit");
+    magnetometer::analyze_source(&rec, &prep, &[current], MagModel::Ellipsoid, ALPHA)
+        .expect("analysis")
 }
 
 fn sim(effect: MagEffectTruth, seed: u64) -> MagSim {
@@ -96,9 +90,10 @@ fn a_still_blob_is_refused_in_one_sentence() {
     s.xyz.iter_mut().enumerate().for_each(|(i, p)| {
         *p = first.map(|v| v + ((i * 7919) % 13) as f64 - 6.0);
     });
-    let e = magnetometer::check_spans(&s.xyz).unwrap_err().to_string();
+    let fit = |s: &MagSim| magnetometer::fit_source(&s.recording().0, MagModel::Ellipsoid);
+    let e = fit(&s).unwrap_err().to_string();
     assert!(e.contains("do not span the sphere"), "{e}");
-    assert!(magnetometer::check_spans(&sim(MagEffectTruth::None, 3).xyz).is_ok());
+    assert!(fit(&sim(MagEffectTruth::None, 3)).is_ok());
 }
 
 /// A centre drift in the worst direction at twice the clean recording's detection limit is

@@ -5,7 +5,7 @@
 //! coefficients sit within 3 of their standard errors of the truth, and the scaled errors
 //! scatter like a unit normal.
 
-use wiical_analysis::magnetometer::{self, MagAnalysis, MagInput, MagModel};
+use wiical_analysis::magnetometer::{self, MagAnalysis, MagModel};
 use wiical_analysis::search::select::ALPHA;
 use wiical_analysis::simulate::magnetometer::{simulate_mag, MagEffectTruth, MagSimConfig};
 
@@ -15,16 +15,10 @@ fn run(k: [f64; 3], seed: u64) -> MagAnalysis {
         seed,
         ..Default::default()
     });
-    let follow = vec![("current".to_string(), sim.current.clone())];
-    let inp = MagInput {
-        xyz: &sim.xyz,
-        t: Some(&sim.t),
-        temp: Some(&sim.temp),
-        follow: &follow,
-        unit: "raw",
-    };
-    let fit = magnetometer::fit_points(&sim.xyz, MagModel::Ellipsoid).expect("fit");
-    magnetometer::analyze(&inp, &fit, MagModel::Ellipsoid, ALPHA).expect("analysis")
+    let (rec, current) = sim.recording();
+    let prep = magnetometer::fit_source(&rec, MagModel::Ellipsoid).expect("fit");
+    magnetometer::analyze_source(&rec, &prep, &[current], MagModel::Ellipsoid, ALPHA)
+        .expect("analysis")
 }
 
 /// Three magnitudes (the centre moving by up to 2 %, 4 % and 10 % of R over the current's

@@ -7,8 +7,10 @@ use crate::render;
 use anyhow::{anyhow, Result};
 use std::path::{Path, PathBuf};
 use wiical_analysis::input::text_source::TextSource;
-use wiical_analysis::magnetometer::{self, stream, MagAnalysis, MagFitReport, MagInput, MagModel};
+use wiical_analysis::magnetometer::{self, pass, Follow, MagAnalysis, MagFitReport, MagModel};
 use wiical_analysis::search::select::ALPHA;
+use wiical_analysis::source::RowSource;
+use wiical_analysis::{LoadOptions, Recording};
 use wiical_core::Calibration;
 
 /// Arguments of `wiical magfit`.
@@ -53,13 +55,13 @@ pub fn run(a: &Args) -> Result<String> {
         sensor: Some(wiical_analysis::input::columns::Sensor::Magnetometer),
         ..load_options(a.columns.as_deref(), &a.read)?
     };
-    let source = with_spinner(&format!("reading {}", a.file.display()), || {
-        stream::open_field_from(&a.file, &opts, opts.read.stream_from_bytes)
-    })
-    .map_err(cli_error)?;
-    let (rep, analysis, unit) = match source {
-        Some(src) => streamed(a, &src)?,
-        None => held(a, &opts)?,
+    let file = a.file.as_path();
+    let (rep, analysis, unit) = match open_in_passes(a, &opts)? {
+        Some(src) => fit_and_loop(a, &src, |name, o| column_in_passes(file, name, o))?,
+        None => {
+            let rec = super::load_held(file, &opts, "magfit", super::PLAIN_TEXT_IN_PASSES)?;
+            fit_and_loop(a, &rec, |_, o| column_held(file, o))?
+        }
     };
     if let Some(path) = &a.out {
         let k = rep.matrix.map(|r| r.map(|x| (x / rep.radius) as f32));
@@ -81,52 +83,38 @@ pub fn run(a: &Args) -> Result<String> {
     Ok(text)
 }
 
-/// The fit and the loop with every sample held.
-fn held(
+/// The fit and the loop of `src` (the field's rows, held or read in passes: the same code),
+/// its `--follow` columns read as it is (`open_column` with a column's name and load options);
+/// the field's unit besides.
+fn fit_and_loop<R: RowSource>(
     a: &Args,
-    opts: &wiical_analysis::LoadOptions,
+    src: &R,
+    open_column: impl Fn(&str, &LoadOptions) -> Result<R>,
 ) -> Result<(MagFitReport, MagAnalysis, &'static str)> {
-    let rec = super::load_held(&a.file, opts, "magfit", super::PLAIN_TEXT_IN_PASSES)?;
-    magnetometer::check_spans(&rec.xyz).map_err(cli_error)?;
-    let rep = magnetometer::fit_points(&rec.xyz, a.model).map_err(cli_error)?;
-    let names = a.follow.as_deref().unwrap_or(&[]);
-    let follow = follow_columns(a, names, &rec.axis_columns, rec.len())?;
-    let times = rec
-        .t
-        .clone()
-        .or_else(|| rec.sample_rate_hz.map(|_| rec.times(1.0)));
-    let unit = wiical_analysis::input::columns::triplet_unit(&rec.axis_columns).unwrap_or("raw");
-    let input = MagInput {
-        xyz: &rec.xyz,
-        t: times.as_deref(),
-        temp: rec.temp.as_deref(),
-        follow: &follow,
-        unit,
-    };
-    let analysis = magnetometer::analyze(&input, &rep, a.model, ALPHA).map_err(cli_error)?;
-    Ok((rep, analysis, unit))
+    let prep = magnetometer::fit_source(src, a.model).map_err(cli_error)?;
+    let follow = follow_columns(a, src, open_column)?;
+    let analysis =
+        magnetometer::analyze_source(src, &prep, &follow, a.model, ALPHA).map_err(cli_error)?;
+    Ok((prep.report, analysis, pass::unit_of(src)))
 }
 
-/// The fit and the loop in passes over a large plain text file (the same numbers as
-/// [`held`], memory bounded: `magnetometer::stream`).
-fn streamed(a: &Args, src: &TextSource) -> Result<(MagFitReport, MagAnalysis, &'static str)> {
-    print_notes(&a.file, &src.meta);
-    let prep = stream::fit_source(src, a.model).map_err(cli_error)?;
-    let mut follow = Vec::new();
-    for name in a.follow.as_deref().unwrap_or(&[]) {
-        let col = stream::open_follow(&a.file, name, &src.meta.axis_columns, &a.read.options());
-        let Some(col) = col.map_err(cli_error)? else {
-            return Err(anyhow!(
-                "--follow {name}: {} is no longer plain text (was it replaced while read?)",
-                a.file.display()
-            ));
-        };
-        check_rows(name, col.len(), src.len(), &a.file)?;
-        follow.push((name.clone(), col));
+/// The field's rows read in passes from the file (memory bounded) when it is a regular plain
+/// text file of at least `--stream-from-bytes`; `None`: it is held whole.
+fn open_in_passes(a: &Args, opts: &LoadOptions) -> Result<Option<TextSource>> {
+    let large = a.file.as_os_str() != "-"
+        && std::fs::metadata(&a.file)
+            .is_ok_and(|m| m.is_file() && m.len() >= opts.read.stream_from_bytes);
+    if large {
+        let src = with_spinner(&format!("reading {}", a.file.display()), || {
+            TextSource::open(&a.file, opts, |_| true).map_err(|e| e.in_file(&a.file))
+        })
+        .map_err(cli_error)?;
+        if let Some(src) = src {
+            print_notes(&a.file, &src.meta);
+            return Ok(Some(src));
+        }
     }
-    let analysis =
-        stream::analyze_source(src, &prep, &follow, a.model, ALPHA).map_err(cli_error)?;
-    Ok((prep.report, analysis, stream::unit_of(src)))
+    Ok(None)
 }
 
 /// A followed column must have a value on every row the field has.
@@ -141,23 +129,38 @@ fn check_rows(name: &str, got: usize, rows: usize, file: &Path) -> Result<()> {
     Ok(())
 }
 
-/// Each named column, read by the same loader as the field (so its rows are the field's).
-fn follow_columns(
+/// Each named column, read as the field is (`open`: in passes or held) by the same loader, so
+/// that its rows are the field's.
+fn follow_columns<R: RowSource>(
     a: &Args,
-    names: &[String],
-    field_axes: &[String; 3],
-    rows: usize,
-) -> Result<Vec<(String, Vec<f64>)>> {
-    names
-        .iter()
-        .map(|name| {
-            let file = a.file.as_path();
-            let opts = stream::follow_options(name, field_axes, &a.read.options());
-            use wiical_analysis::input::front_door::{load_held, HoldLimit};
-            let limit = HoldLimit::of("magfit", super::PLAIN_TEXT_IN_PASSES);
-            let rec = load_held(file, &opts, limit).map_err(cli_error)?;
-            check_rows(name, rec.len(), rows, file)?;
-            Ok((name.clone(), rec.xyz.iter().map(|v| v[0]).collect()))
-        })
-        .collect()
+    field: &R,
+    open: impl Fn(&str, &LoadOptions) -> Result<R>,
+) -> Result<Vec<Follow<R>>> {
+    let mut out = Vec::new();
+    for name in a.follow.as_deref().unwrap_or(&[]) {
+        let opts = pass::follow_options(name, field.axis_columns(), &a.read.options());
+        let col = open(name, &opts)?;
+        check_rows(name, col.len(), field.len(), &a.file)?;
+        out.push((name.clone(), col));
+    }
+    Ok(out)
+}
+
+/// The followed column `name` of `file` read in passes (the field was: the file must still be
+/// plain text).
+fn column_in_passes(file: &Path, name: &str, opts: &LoadOptions) -> Result<TextSource> {
+    let col = TextSource::open(file, opts, |_| true).map_err(|e| e.in_file(file));
+    col.map_err(cli_error)?.ok_or_else(|| {
+        anyhow!(
+            "--follow {name}: {} is no longer plain text (was it replaced while read?)",
+            file.display()
+        )
+    })
+}
+
+/// A followed column of `file` held whole (the field was).
+fn column_held(file: &Path, opts: &LoadOptions) -> Result<Recording> {
+    use wiical_analysis::input::front_door::{load_held, HoldLimit};
+    let limit = HoldLimit::of("magfit", super::PLAIN_TEXT_IN_PASSES);
+    load_held(file, opts, limit).map_err(cli_error)
 }

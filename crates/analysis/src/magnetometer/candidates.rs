@@ -37,21 +37,6 @@ pub struct Cand {
     pub kind: Kind,
 }
 
-/// The recording as the loop reads it.
-#[derive(Debug, Clone, Copy)]
-pub struct MagInput<'a> {
-    /// Samples, file units.
-    pub xyz: &'a [[f64; 3]],
-    /// Times, s (`None`: the sample index is the time).
-    pub t: Option<&'a [f64]>,
-    /// Temperature, °C, one per sample.
-    pub temp: Option<&'a [f64]>,
-    /// Named columns the centre may follow (current, throttle, PWM), one value per sample.
-    pub follow: &'a [(String, Vec<f64>)],
-    /// The file's unit for the field (`gauss`, `uT`, or `raw`).
-    pub unit: &'a str,
-}
-
 /// The columns of one recording: the base model's, then each candidate's.
 pub struct Layout {
     /// Base columns `0..base`.
@@ -239,28 +224,7 @@ impl Scalar {
     }
 }
 
-/// The scalars of a held recording ([`MagInput`]), as a pass over it gives them.
-pub fn scalars(inp: &MagInput, n: usize) -> Vec<Scalar> {
-    let mut fold = ScalarFold::new(n, inp.temp.is_some());
-    for i in 0..n {
-        let t = inp.t.map_or(i as f64, |t| t[i]);
-        fold.push(t, inp.temp.map_or(f64::NAN, |v| v[i]));
-    }
-    let follow: Vec<(String, ColumnFold)> = inp
-        .follow
-        .iter()
-        .map(|(name, v)| {
-            let mut f = ColumnFold::new();
-            v.iter().for_each(|x| f.push(*x));
-            (name.clone(), f)
-        })
-        .collect();
-    let time_unit = if inp.t.is_some() { "s" } else { "sample" };
-    fold.scalars(&follow, inp.unit, time_unit)
-}
-
-/// The blocks' normal equations fed one sample's geometry at a time, in file order (the
-/// held slices and a streamed pass push the same rows in the same order: the same bits).
+/// The blocks' normal equations fed one sample's geometry at a time, in file order.
 pub struct LayoutFold {
     scalars: Vec<Scalar>,
     shape: Shape,

@@ -89,7 +89,7 @@ impl Acc {
 }
 
 /// The fit's accumulator fed one point at a time in file order (what [`fit_points`] does
-/// with a slice, and a streamed pass with a file's rows): each point converted to the
+/// with a slice, and [`super::pass`] with a recording's rows): each point converted to the
 /// core's `f32`; the first one that is not finite there, or the first the core refuses,
 /// ends the accumulation and is the error [`FitFold::solve`] gives.
 #[derive(Debug)]

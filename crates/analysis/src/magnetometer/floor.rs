@@ -9,24 +9,9 @@
 
 use super::design::Geo;
 
-/// Each axis's white-noise standard deviation, raw units (see the module docs).
-pub fn axis_noise(points: &[[f64; 3]]) -> [f64; 3] {
-    let mut steps = StepFold::new();
-    let mut d2: [Vec<f64>; 3] = Default::default();
-    for p in points {
-        if let Some(d) = steps.push(p) {
-            for a in 0..3 {
-                d2[a].push(d[a]);
-            }
-        }
-    }
-    steps.noise(d2.each_ref().map(|v| crate::stats::median(v)))
-}
-
-/// The sums behind [`axis_noise`] except the median, fed one point at a time in file order
-/// (the held and the streamed reading push the same points in the same order, so every sum
-/// has the same bits): the last two points, the squared second differences and the smallest
-/// non-zero first difference per axis.
+/// Each axis's white-noise standard deviation (see the module docs) but the median, one point
+/// at a time in file order: the last two points, the squared second differences and the
+/// smallest non-zero first difference per axis ([`StepFold::noise`] given the median).
 #[derive(Debug, Clone)]
 pub struct StepFold {
     last: Option<[f64; 3]>,
@@ -107,25 +92,8 @@ impl StepFold {
     }
 }
 
-/// The residual's noise floor, raw units: the axes' noise seen along each sample's radial
-/// direction (`Wᵀn̂`), as an RMS over the samples.
-pub fn residual_floor(geos: &[Geo], sigma: &[f64; 3]) -> f64 {
-    let mut f = GeoFold::new(*sigma);
-    geos.iter().for_each(|g| f.push(g));
-    f.floor()
-}
-
-/// How well the fitted directions cover the sphere: the smallest eigenvalue of the mean
-/// `n̂·n̂ᵀ` (1/3 for a full sphere, 0 for a plane or a line).
-pub fn coverage(geos: &[Geo]) -> f64 {
-    let mut f = GeoFold::new([0.0; 3]);
-    geos.iter().for_each(|g| f.push(g));
-    f.coverage()
-}
-
-/// The sums of [`residual_floor`] and [`coverage`], one point's geometry at a time (sums
-/// start at `-0.0`, as `Iterator::sum` does, so the held slices and a streamed pass agree in
-/// their bits).
+/// The residual's floor and the directions' coverage, one point's geometry at a time (sums
+/// start at `-0.0`, as `Iterator::sum` does).
 #[derive(Debug, Clone)]
 pub struct GeoFold {
     sigma: [f64; 3],
@@ -158,7 +126,8 @@ impl GeoFold {
         self.n += 1;
     }
 
-    /// [`residual_floor`].
+    /// The residual's noise floor, raw units: the axes' noise seen along each sample's radial
+    /// direction (`Wᵀn̂`), as an RMS over the samples.
     pub fn floor(&self) -> f64 {
         if self.n == 0 {
             return 0.0;
@@ -166,7 +135,8 @@ impl GeoFold {
         (self.radial / self.n as f64).sqrt()
     }
 
-    /// [`coverage`].
+    /// How well the fitted directions cover the sphere: the smallest eigenvalue of the mean
+    /// `n̂·n̂ᵀ` (1/3 for a full sphere, 0 for a plane or a line).
     pub fn coverage(&self) -> f64 {
         let n = self.n.max(1) as f64;
         let m = nalgebra::Matrix3::from_fn(|i, j| self.uu[i][j] / n);
@@ -180,21 +150,8 @@ impl GeoFold {
 pub const MIN_SPREAD_OVER_NOISE: f64 = 5.0;
 
 /// `(largest axis spread, its noise)` when the points never leave a blob of their own noise
-/// (the sensor was not rotated), `None` otherwise.
-pub fn still_blob(points: &[[f64; 3]]) -> Option<(f64, f64)> {
-    if points.len() < 3 {
-        return None;
-    }
-    let sigma = axis_noise(points);
-    let mut sums = AxisSums::new();
-    points.iter().for_each(|p| sums.push(p));
-    let mut dev = AxisSums::new();
-    let mean = sums.mean();
-    points.iter().for_each(|p| dev.push_dev(p, &mean));
-    blob(dev.spread(), sigma)
-}
-
-/// [`still_blob`]'s decision from each axis's standard deviation `spread` and noise `sigma`.
+/// (the sensor was not rotated), `None` otherwise, from each axis's standard deviation
+/// `spread` and noise `sigma`.
 pub fn blob(spread: [f64; 3], sigma: [f64; 3]) -> Option<(f64, f64)> {
     let (a, s) = spread.iter().enumerate().max_by(|x, y| {
         (x.1 / sigma[x.0].max(f64::MIN_POSITIVE))

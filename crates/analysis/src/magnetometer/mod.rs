@@ -3,7 +3,8 @@
 //! noise floor measured from the data ([`floor`]), the fit's residual linearised with every
 //! candidate's columns ([`design`], [`candidates`]), candidates accepted by F and held-out
 //! error ([`search`]) with a detection limit for each one not accepted, and a verdict
-//! ([`verdict`]) in `analyze`'s contract shape ([`contract`]).
+//! ([`verdict`]) in `analyze`'s contract shape ([`contract`]). One code reads a held
+//! recording and a large file alike, in passes over its rows ([`pass`]).
 //!
 //! **Detection limits.** For a candidate not accepted at the last step, the magnitude it
 //! would need to pass both rules there: the extra residual sum of squares it must explain is
@@ -19,79 +20,18 @@ pub mod design;
 pub mod fit;
 pub mod floor;
 pub mod model;
+pub mod pass;
 pub mod search;
-pub mod stream;
 pub mod verdict;
 
 pub use crate::error::magnetometer::MagnetometerError;
-pub use candidates::MagInput;
 pub use contract::MagAnalysis;
 pub use fit::{fit_points, MagFitReport};
 pub use model::MagModel;
+pub use pass::{analyze_source, fit_source, Follow, Prepared};
 
 use contract::MagModelSummary;
 use design::{Fit, Shape};
-
-/// The residual loop on `inp` around the fit `rep` (made with `model`) at family level
-/// `alpha` (the accelerometer's [`crate::search::select::ALPHA`] by default). Refused when
-/// the points are a still blob ([`floor::still_blob`]) or fewer than twice the columns.
-pub fn analyze(
-    inp: &MagInput,
-    rep: &MagFitReport,
-    model: MagModel,
-    alpha: f64,
-) -> Result<MagAnalysis, MagnetometerError> {
-    check_spans(inp.xyz)?;
-    let sigma = floor::axis_noise(inp.xyz);
-    let n = inp.xyz.len();
-    let scalars = candidates::scalars(inp, n);
-    let (has_temp, has_follow) = (inp.temp.is_some(), !inp.follow.is_empty());
-    let first = held_pass(inp, rep, sigma, scalars.clone(), model, &[]);
-    let first = first.finish(alpha, has_temp, has_follow);
-    let known = known_shifts(&scalars, &first);
-    if known.is_empty() {
-        return Ok(first);
-    }
-    let mut corrected = Vec::with_capacity(n);
-    each_held(inp, |_, m, follow| {
-        corrected.push(shifted(m, follow, &known))
-    });
-    let Ok(rep2) = fit_points(&corrected, model) else {
-        return Ok(first);
-    };
-    let second = held_pass(inp, &rep2, sigma, scalars, model, &known);
-    Ok(second.finish(alpha, has_temp, has_follow))
-}
-
-/// Every held sample in order with its index and the followed columns' values (`NaN` past a
-/// column's end), in one buffer (the held twin of `stream::each_row`).
-fn each_held(inp: &MagInput, mut f: impl FnMut(usize, &[f64; 3], &[f64])) {
-    let mut follow = vec![0.0; inp.follow.len()];
-    for (i, m) in inp.xyz.iter().enumerate() {
-        for (slot, (_, v)) in follow.iter_mut().zip(inp.follow) {
-            *slot = v.get(i).copied().unwrap_or(f64::NAN);
-        }
-        f(i, m, &follow);
-    }
-}
-
-/// One [`LoopPass`] over the held samples about `rep`, with the `known` shifts.
-fn held_pass<'r>(
-    inp: &MagInput,
-    rep: &'r MagFitReport,
-    sigma: [f64; 3],
-    scalars: Vec<candidates::Scalar>,
-    model: MagModel,
-    known: &[KnownShift],
-) -> LoopPass<'r> {
-    let n = inp.xyz.len();
-    let mut pass = LoopPass::new(rep, sigma, scalars, model, inp.unit, n).with_known(known);
-    each_held(inp, |i, m, follow| {
-        let t = inp.t.map_or(i as f64, |t| t[i]);
-        pass.push(m, t, inp.temp.map_or(f64::NAN, |v| v[i]), follow);
-    });
-    pass
-}
 
 /// An `interference:<column>` effect a first pass accepted: the centre moves by
 /// `k·(g − mean)` with the followed column `g`.
@@ -157,8 +97,7 @@ pub fn shifted(m: &[f64; 3], follow: &[f64], known: &[KnownShift]) -> [f64; 3] {
 
 /// The loop's pass over the samples once the fit and the axes' noise are known: each
 /// sample's geometry ([`design::geo`]) folded into the residual's floor, the coverage and the
-/// blocks' normal equations, and dropped (the held recording and a streamed file push the
-/// same samples in the same order: the same sums, bit for bit).
+/// blocks' normal equations, and dropped.
 pub struct LoopPass<'r> {
     rep: &'r MagFitReport,
     sigma: [f64; 3],
@@ -256,15 +195,6 @@ impl<'r> LoopPass<'r> {
             reasons,
             diagnostics,
         }
-    }
-}
-
-/// Refuses points that never leave a blob of their own noise: an ellipsoid fitted to them
-/// is a shape of the noise, not of the field.
-pub fn check_spans(points: &[[f64; 3]]) -> Result<(), MagnetometerError> {
-    match floor::still_blob(points) {
-        Some((spread, noise)) => Err(MagnetometerError::NotRotated { spread, noise }),
-        None => Ok(()),
     }
 }
 

@@ -9,6 +9,8 @@
 //! sets `c(t)` (drift, step, temperature, interference) or `h` (shape: `h = a·n̂ₓn̂ᵧn̂_z`, odd
 //! and cubic, so neither the centre nor the quadratic soft iron absorbs it).
 
+use crate::magnetometer::Follow;
+use crate::Recording;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal, Uniform};
@@ -79,6 +81,24 @@ pub struct MagSim {
     pub current: Vec<f64>,
     /// The shape effect's RMS contribution to the radius, file units (0 without one).
     pub shape_rms: f64,
+}
+
+impl MagSim {
+    /// The samples with their time and temperature columns as a recording (unit `raw`), and
+    /// the current as a column the centre may follow (its first axis, as `--follow` reads one).
+    pub fn recording(&self) -> (Recording, Follow<Recording>) {
+        let rec = Recording {
+            t: Some(self.t.clone()),
+            xyz: self.xyz.clone(),
+            temp: Some(self.temp.clone()),
+            ..Default::default()
+        };
+        let current = Recording {
+            xyz: self.current.iter().map(|&c| [c, 0.0, 0.0]).collect(),
+            ..Default::default()
+        };
+        (rec, ("current".into(), current))
+    }
 }
 
 /// Soft iron `W⁻¹`: symmetric, a few per cent from identity.

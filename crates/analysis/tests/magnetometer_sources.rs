@@ -1,14 +1,17 @@
-//! `magfit` in passes over a file (`magnetometer::stream`) against the held path (the whole
-//! recording loaded, `fit_points` and `analyze`, as the CLI did before): the whole JSON of
-//! the fit and the loop, or the refusal's sentence, must be equal — on every real
-//! magnetometer recording the stream takes, and on a simulated recording with a temperature
-//! column whose medians are selected by bits (none counted by value).
+//! `magfit`'s one pass driver (`magnetometer::pass`) on a file's rows read in passes
+//! (`TextSource`) against the same file loaded whole (a held `Recording`, its medians counted
+//! by value): the whole JSON of the fit and the loop, or the refusal's sentence, must be
+//! equal — on every real magnetometer recording the text reader takes, and on a simulated
+//! recording with a temperature column, with the medians counted by value and selected by
+//! bits (none counted by value).
 
 use std::path::{Path, PathBuf};
-use wiical_analysis::input::columns::{triplet_unit, Sensor};
-use wiical_analysis::magnetometer::{self, stream, MagInput, MagModel};
+use wiical_analysis::input::columns::Sensor;
+use wiical_analysis::input::text_source::TextSource;
+use wiical_analysis::magnetometer::{self, pass, Follow, MagModel};
 use wiical_analysis::search::select::ALPHA;
 use wiical_analysis::simulate::magnetometer::{simulate_mag, MagEffectTruth, MagSimConfig};
+use wiical_analysis::source::RowSource;
 use wiical_analysis::LoadOptions;
 
 fn data(rel: &str) -> PathBuf {
@@ -35,38 +38,34 @@ fn opts(columns: Option<&str>) -> LoadOptions {
     }
 }
 
-/// The held path, as the CLI runs it: the JSON of the fit and the loop, or the error.
-fn held(path: &Path, o: &LoadOptions, follow: &[&str], model: MagModel) -> String {
-    let run = || -> Result<String, String> {
-        let rec = wiical_analysis::load(path, o).map_err(|e| e.to_string())?;
-        magnetometer::check_spans(&rec.xyz).map_err(|e| e.to_string())?;
-        let rep = magnetometer::fit_points(&rec.xyz, model).map_err(|e| e.to_string())?;
-        let cols: Vec<(String, Vec<f64>)> = follow
-            .iter()
-            .map(|name| {
-                let fo = stream::follow_options(name, &rec.axis_columns, &Default::default());
-                let r = wiical_analysis::load(path, &fo).unwrap();
-                (name.to_string(), r.xyz.iter().map(|v| v[0]).collect())
-            })
-            .collect();
-        let times = rec
-            .t
-            .clone()
-            .or_else(|| rec.sample_rate_hz.map(|_| rec.times(1.0)));
-        let inp = MagInput {
-            xyz: &rec.xyz,
-            t: times.as_deref(),
-            temp: rec.temp.as_deref(),
-            follow: &cols,
-            unit: triplet_unit(&rec.axis_columns).unwrap_or("raw"),
-        };
-        let an = magnetometer::analyze(&inp, &rep, model, ALPHA).map_err(|e| e.to_string())?;
-        Ok(json(&rep, &an))
-    };
-    run().unwrap_or_else(|e| format!("error: {e}"))
+/// The fit and the loop of `src` with the columns `follow`, counting at most `counted`
+/// values by value: the JSON, or the error.
+fn run<R: RowSource>(
+    src: &R,
+    follow: Vec<Follow<R>>,
+    model: MagModel,
+    counted: usize,
+) -> Result<String, String> {
+    let prep = pass::fit_source_counting(src, model, counted).map_err(|e| e.to_string())?;
+    let an = magnetometer::analyze_source(src, &prep, &follow, model, ALPHA)
+        .map_err(|e| e.to_string())?;
+    Ok(json(&prep.report, &an))
 }
 
-/// The streamed path with every file streamed, counting at most `counted` values by value.
+/// The recording held whole, as the CLI holds a small file.
+fn held(path: &Path, o: &LoadOptions, follow: &[&str], model: MagModel) -> String {
+    let got = || -> Result<String, String> {
+        let rec = wiical_analysis::load(path, o).map_err(|e| e.to_string())?;
+        let cols = follow.iter().map(|name| {
+            let fo = pass::follow_options(name, &rec.axis_columns, &Default::default());
+            (name.to_string(), wiical_analysis::load(path, &fo).unwrap())
+        });
+        run(&rec, cols.collect(), model, pass::MAX_COUNTED)
+    };
+    got().unwrap_or_else(|e| format!("error: {e}"))
+}
+
+/// The file read in passes, counting at most `counted` values by value.
 fn streamed(
     path: &Path,
     o: &LoadOptions,
@@ -74,27 +73,15 @@ fn streamed(
     model: MagModel,
     counted: usize,
 ) -> String {
-    let Some(src) = stream::open_field_from(path, o, 0).unwrap() else {
+    let Some(src) = TextSource::open(path, o, |_| true).unwrap() else {
         return "read whole".into();
     };
-    let run = || -> Result<String, String> {
-        let prep = stream::fit_source_counting(&src, model, counted).map_err(|e| e.to_string())?;
-        let cols: Vec<_> = follow
-            .iter()
-            .map(|n| {
-                (
-                    n.to_string(),
-                    stream::open_follow(path, n, &src.meta.axis_columns, &Default::default())
-                        .unwrap()
-                        .unwrap(),
-                )
-            })
-            .collect();
-        let an =
-            stream::analyze_source(&src, &prep, &cols, model, ALPHA).map_err(|e| e.to_string())?;
-        Ok(json(&prep.report, &an))
-    };
-    run().unwrap_or_else(|e| format!("error: {e}"))
+    let cols = follow.iter().map(|name| {
+        let fo = pass::follow_options(name, &src.meta.axis_columns, &Default::default());
+        let col = TextSource::open(path, &fo, |_| true).unwrap().unwrap();
+        (name.to_string(), col)
+    });
+    run(&src, cols.collect(), model, counted).unwrap_or_else(|e| format!("error: {e}"))
 }
 
 fn json(rep: &magnetometer::MagFitReport, an: &magnetometer::MagAnalysis) -> String {
@@ -134,7 +121,7 @@ fn real_recordings_stream_as_held() {
         let o = opts(cols);
         let want = held(&path, &o, &[], MagModel::Ellipsoid);
         refused += usize::from(want.starts_with("error:"));
-        for counted in [stream::MAX_COUNTED, 0] {
+        for counted in [pass::MAX_COUNTED, 0] {
             let got = streamed(&path, &o, &[], MagModel::Ellipsoid, counted);
             if got != "read whole" {
                 assert_eq!(got, want, "{rel}, counting {counted} by value");

@@ -1,10 +1,10 @@
-//! `wiical magfit` on a large plain text file ([`TextSource`]): the same fit and loop as the
-//! held recording, in passes over the file, with memory that does not grow with it.
+//! `wiical magfit`'s fit and loop in passes over a recording's rows ([`RowSource`]: a held
+//! [`crate::Recording`], or a large plain text file read again each pass, with memory that does
+//! not grow with it): the held and the large-file path are this one code.
 //!
-//! Every sum is a fold that the held path feeds from its slices and a pass feeds from the
-//! file's rows, in the same order ([`super::fit::FitFold`], [`super::floor::StepFold`],
-//! [`super::floor::AxisSums`], [`super::candidates::ScalarFold`], [`super::LoopPass`]), so
-//! the two readings give the same bits. The passes after the source's own:
+//! Every sum is a fold fed the rows in file order ([`super::fit::FitFold`],
+//! [`super::floor::StepFold`], [`super::floor::AxisSums`], [`super::candidates::ScalarFold`],
+//! [`super::LoopPass`]). The passes:
 //!
 //! 1. the core's fit, the axes' differences, the means, the times and temperature;
 //! 2. the axes' spread about their means and the fit's quality (and the first digit of any
@@ -17,7 +17,7 @@
 //!    ([`super::design::Normal`]), dropped.
 //!
 //! The medians are exact order statistics either way (counted by value, or selected by bits),
-//! as the held path's sort gives them.
+//! as a sort gives them.
 
 use super::candidates::{ColumnFold, ScalarFold};
 use super::fit::{FitFold, MagFitReport, QualityFold};
@@ -26,30 +26,20 @@ use super::{LoopPass, MagAnalysis, MagModel, MagnetometerError};
 use crate::error::Result;
 use crate::input::columns::{triplet_unit, LoadOptions};
 use crate::input::read_options::ReadOptions;
-use crate::input::text_source::{Row, TextSource};
+use crate::input::text_source::Row;
+use crate::source::RowSource;
 use crate::stats::OrderCounts;
 use std::collections::HashMap;
-use std::path::Path;
+
+/// A column the field's centre may follow (`--follow`), read in step with the field's rows
+/// (the first axis of its rows: [`follow_options`]) and the way they are (held, or a large
+/// file in passes: the same [`RowSource`] `R`).
+pub type Follow<R> = (String, R);
 
 /// Most distinct |second differences| per axis counted by value before the median is
 /// selected by bits instead (2¹⁸ keys: a few MB per axis at most). Quantised sensors have a
 /// handful; a file in gauss with many decimals may pass it.
 pub const MAX_COUNTED: usize = 1 << 18;
-
-/// The field of `path` opened for passes when it is a regular plain text file of at least
-/// `stream_from` bytes (`None`: read it whole). `opts` are the held loader's.
-pub fn open_field_from(
-    path: &Path,
-    opts: &LoadOptions,
-    stream_from: u64,
-) -> Result<Option<TextSource>> {
-    let large = path.as_os_str() != "-"
-        && std::fs::metadata(path).is_ok_and(|m| m.is_file() && m.len() >= stream_from);
-    if !large {
-        return Ok(None);
-    }
-    TextSource::open(path, opts, |_| true).map_err(|e| e.in_file(path))
-}
 
 /// How a `--follow` column `name` is read beside a field whose axes are `field_axes`: as the
 /// first of three columns, the other two the field's own (the loader reads a triplet, and
@@ -65,52 +55,40 @@ pub fn follow_options(name: &str, field_axes: &[String; 3], read: &ReadOptions) 
     }
 }
 
-/// The column `name` of `path` opened for passes as the held loader reads a `--follow`
-/// column ([`follow_options`]; its rows are the field's when it is filled on every row);
-/// `None` when the file is not plain text.
-pub fn open_follow(
-    path: &Path,
-    name: &str,
-    field_axes: &[String; 3],
-    read: &ReadOptions,
-) -> Result<Option<TextSource>> {
-    let opts = follow_options(name, field_axes, read);
-    TextSource::open(path, &opts, |_| true).map_err(|e| e.in_file(path))
-}
-
-/// The field's unit as the held path names it (`raw` when the header does not say).
-pub fn unit_of(src: &TextSource) -> &'static str {
-    triplet_unit(&src.meta.axis_columns).unwrap_or("raw")
+/// The field's unit as its columns name it (`raw` when the header does not say).
+pub fn unit_of<R: RowSource + ?Sized>(src: &R) -> &'static str {
+    triplet_unit(src.axis_columns()).unwrap_or("raw")
 }
 
 /// The fit and what the loop needs from the first passes.
 #[derive(Debug)]
 pub struct Prepared {
-    /// The fit, as [`super::fit_points`] reports it.
+    /// The fit, as [`super::fit_points`] reports it for the same points.
     pub report: MagFitReport,
     sigma: [f64; 3],
     scalars: ScalarFold,
 }
 
-/// Sample `i`'s time as the held path takes it: the time column, else `i / Fs`, else `i`.
-fn time_of(src: &TextSource, i: usize, row: &Row) -> f64 {
-    match (row.t, src.meta.sample_rate_hz) {
+/// Sample `i`'s time: the time column, else `i / Fs`, else `i`.
+fn time_of<R: RowSource + ?Sized>(src: &R, i: usize, row: &Row) -> f64 {
+    match (row.t, src.metadata_rate_hz()) {
         (Some(t), _) => t,
         (None, Some(fs)) => i as f64 / fs,
         (None, None) => i as f64,
     }
 }
 
-/// The fit of `src` with `model` (passes 1–3 of the module docs), refused as the held path
-/// refuses: a still blob first ([`super::check_spans`]), then the fit's own errors.
-pub fn fit_source(src: &TextSource, model: MagModel) -> Result<Prepared> {
+/// The fit of `src` with `model` (passes 1–3 of the module docs), refused when the points
+/// never leave a blob of their own noise ([`super::floor::blob`]: an ellipsoid fitted to them
+/// would be a shape of the noise, not of the field), then for the fit's own errors.
+pub fn fit_source<R: RowSource + ?Sized>(src: &R, model: MagModel) -> Result<Prepared> {
     fit_source_counting(src, model, MAX_COUNTED)
 }
 
 /// [`fit_source`] counting at most `max_counted` distinct |second differences| per axis by
 /// value (tests: the selection by bits on a small file).
-pub fn fit_source_counting(
-    src: &TextSource,
+pub fn fit_source_counting<R: RowSource + ?Sized>(
+    src: &R,
     model: MagModel,
     max_counted: usize,
 ) -> Result<Prepared> {
@@ -155,14 +133,13 @@ pub fn fit_source_counting(
 }
 
 /// The loop on `src` around `prep`'s fit (made with `model`) at family level `alpha`, with
-/// the `--follow` columns `follow` (each opened by [`open_follow`], as many rows as the field).
-/// When the loop accepts an `interference:<column>` effect, two more passes refit the base
-/// without it and a third runs the loop again about that estimate, as the held path does
-/// ([`super::KnownShift`]).
-pub fn analyze_source(
-    src: &TextSource,
+/// the `--follow` columns `follow` (as many rows as the field). When the loop accepts an
+/// `interference:<column>` effect, two more passes refit the base without it and a third runs
+/// the loop again about that estimate ([`super::KnownShift`]).
+pub fn analyze_source<R: RowSource>(
+    src: &R,
     prep: &Prepared,
-    follow: &[(String, TextSource)],
+    follow: &[Follow<R>],
     model: MagModel,
     alpha: f64,
 ) -> Result<MagAnalysis> {
@@ -174,7 +151,7 @@ pub fn analyze_source(
         f.check()?;
         folds.push((name.clone(), fold));
     }
-    let time_unit = if src.has_time() || src.meta.sample_rate_hz.is_some() {
+    let time_unit = if src.has_time() || src.metadata_rate_hz().is_some() {
         "s"
     } else {
         "sample"
@@ -207,9 +184,9 @@ pub fn analyze_source(
 }
 
 /// Every row of `src` into `pass` with its time, temperature and followed values.
-fn loop_pass<'r>(
-    src: &TextSource,
-    follow: &[(String, TextSource)],
+fn loop_pass<'r, R: RowSource>(
+    src: &R,
+    follow: &[Follow<R>],
     mut pass: LoopPass<'r>,
 ) -> Result<LoopPass<'r>> {
     each_row(src, follow, |i, row, values| {
@@ -221,9 +198,9 @@ fn loop_pass<'r>(
 
 /// One pass over `src`'s rows, each with its index and the followed columns' values (`NaN`
 /// past a column's end); the files checked unchanged after it.
-fn each_row(
-    src: &TextSource,
-    follow: &[(String, TextSource)],
+fn each_row<R: RowSource>(
+    src: &R,
+    follow: &[Follow<R>],
     mut f: impl FnMut(usize, &Row, &[f64]),
 ) -> Result<()> {
     let mut rows: Vec<_> = follow.iter().map(|(_, f)| f.rows()).collect();
@@ -249,12 +226,12 @@ struct Want {
     key: Option<u64>,
 }
 
-/// The median |second difference| of each axis (`NaN` without any), as `stats::median` of
-/// them gives it: the middle ranks counted by value, or selected by bits in passes that
+/// The median |second difference| of each axis (`NaN` without any), as [`crate::stats::median`]
+/// of them gives it: the middle ranks counted by value, or selected by bits in passes that
 /// serve every axis and rank at once. `first` is given every row of the first pass made
 /// (there is always one).
-fn medians(
-    src: &TextSource,
+fn medians<R: RowSource + ?Sized>(
+    src: &R,
     counts: &[OrderCounts; 3],
     len: usize,
     mut first: impl FnMut(&Row),
