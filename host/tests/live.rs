@@ -406,7 +406,8 @@ fn live_shows_a_motionplus_corrected_by_the_committed_gyro_calibration() {
         }
     };
     // Uncalibrated: the rest reads the device's bias on the nominal 8192/440 counts per °/s,
-    // and the slow turn its rate times the device's sensitivity over the nominal one.
+    // and the slow turn its rate times the device's sensitivity over the nominal one, plus
+    // that bias (the raw counts are read against the nominal zero 8192).
     let nominal = 8192.0 / 440.0;
     {
         let live = start(&["--device", &pty, "--port", "0"]);
@@ -419,8 +420,9 @@ fn live_shows_a_motionplus_corrected_by_the_committed_gyro_calibration() {
                 "rest {rest:?} over {n}, axis {i}: {want}"
             );
         }
-        let want: [f64; 3] =
-            std::array::from_fn(|i| GYRO_TURN_SLOW_DPS[i] * GYRO_TRUE_CPD[i] / nominal);
+        let want: [f64; 3] = std::array::from_fn(|i| {
+            (GYRO_TRUE_BIAS[i] - 8192.0 + GYRO_TURN_SLOW_DPS[i] * GYRO_TRUE_CPD[i]) / nominal
+        });
         let (got, err) = turn_near(&v, want).unwrap();
         assert!(err < 0.3, "uncalibrated slow turn {got:?} vs {want:?}");
         assert!(v["gyro"]["line"]
