@@ -185,12 +185,12 @@ fn fit_and_check(csv: &std::path::Path) -> Value {
         .map(|x| x.as_f64().unwrap())
         .collect();
     let s = 1f64.to_radians() / SLOW_CPD;
-    let mut worst_k = 0f64;
-    for r in 0..3 {
-        for c in 0..3 {
-            worst_k = worst_k.max((k[r][c] - t.matrix[r][c]).abs() / s);
-        }
-    }
+    assert!(k.len() == 3 && k.iter().all(|r| r.len() == 3), "{k:?}");
+    let worst_k = k
+        .iter()
+        .zip(&t.matrix)
+        .flat_map(|(got, want)| got.iter().zip(want).map(|(g, w)| (g - w).abs() / s))
+        .fold(0f64, f64::max);
     let worst_b = (0..3)
         .map(|i| (b[i] - t.bias[i]).abs())
         .fold(0f64, f64::max);

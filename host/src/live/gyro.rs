@@ -253,7 +253,7 @@ mod tests {
         let mut v = GyroView::new(200.0);
         // 1 s at rest with a bias of 0.3 °/s on yaw and ±0.2 °/s of alternating noise, a
         // ramp, 1 s at 90 °/s yaw, a ramp down, 1 s at rest again at 0.1 °/s.
-        let noise = |k: usize| if k % 2 == 0 { 0.2 } else { -0.2 };
+        let noise = |k: usize| if k.is_multiple_of(2) { 0.2 } else { -0.2 };
         for k in 0..200 {
             v.push(&sample([0.3 + noise(k), noise(k), 0.0]));
         }
