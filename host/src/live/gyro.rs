@@ -272,13 +272,18 @@ mod tests {
         let s = v.snapshot();
         assert!(s.calibrated);
         assert_eq!(s.samples, 700);
+        // The wire carries f32 rad/s: 90 °/s comes back to within ≈ 1e-5 °/s.
+        let tol = 1e-4;
         let rest = s.rest.unwrap();
         assert_eq!(rest.samples, 200);
-        assert!((rest.mean_dps[0] - 0.1).abs() < 1e-9, "{rest:?}");
+        assert!((rest.mean_dps[0] - 0.1).abs() < tol, "{rest:?}");
         assert_eq!(s.steady_turns.len(), 1, "{:?}", s.steady_turns);
         let t = s.steady_turns[0];
         assert_eq!(t.samples, 200);
-        assert!((t.mean_dps[0] - 90.0).abs() < 1e-9 && (t.mean_dps[2] + 45.0).abs() < 1e-9);
+        assert!(
+            (t.mean_dps[0] - 90.0).abs() < tol && (t.mean_dps[2] + 45.0).abs() < tol,
+            "{t:?}"
+        );
         assert!(s.line.contains("at rest"), "{}", s.line);
     }
 
