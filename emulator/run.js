@@ -20,7 +20,7 @@ import { crc32, decodeMotionPlusReport, decodePassthroughNunchuk } from './src/m
 import { selfCalScenarios } from './src/selfcal-scenarios.js';
 import { backgroundScenarios } from './src/background-scenarios.js';
 import { mulberry32 } from './src/pose-nunchuk.js';
-import { decodeFrames, unitRequestFrame, REQUEST, RESPONSE, RawHost, frame, putFrame } from './src/wire.js';
+import { decodeFrames, unitRequestFrame, REQUEST, RESPONSE, RawHost, frame, putFrame, startStreamFrame, decodeGyroSample } from './src/wire.js';
 
 const args = process.argv.slice(2);
 function option(name) {
@@ -899,6 +899,40 @@ const scenarios = [
     measurements.motionplusPowercut = summary;
     if (bad.length) return fail(`${summary}; first: ${bad[0]}`);
     return `${cuts} cuts in 2 gyro commits (${summary}); device get and the rates read agree every time`;
+  }],
+  ['motionplus-stream', async () => {
+    // Protocol 8: a host streaming from the adapter while it serves a MotionPlus gets a
+    // GyroSample per gyro frame polled (the firmware's take_gyro_sample after each poll): one
+    // seq without gaps, the real report's counts and range bits (noise-free device: every one
+    // the model's measure of the truth), no correction while no gyro calibration is stored.
+    const truth = [30, -60, 600];
+    const rig = newRig(null, { motionplus: { rates: () => truth } });
+    await rig.board.runUntilTrue(() => rig.remote.reports.length > 20, 3000);
+    if (rig.board.fault) return fail(`firmware fault: ${rig.board.fault}`);
+    const host = new RawHost(rig);
+    if (!(await host.hello(8))) return fail('no Hello answer');
+    const started = await host.request(startStreamFrame(1));
+    if (started?.tag !== RESPONSE.streamStarted) return fail(`StartStream answered ${JSON.stringify(started)}`);
+    // The host's bytes start at the request's reply (a frame boundary); the stream is what
+    // follows StreamStarted.
+    await rig.board.run(250);
+    const all = decodeFrames(host.bytes);
+    const frames = all.slice(all.findIndex((f) => f.tag === RESPONSE.streamStarted) + 1);
+    rig.close();
+    if (rig.board.fault) return fail(`firmware fault: ${rig.board.fault}`);
+    const bad = frames.filter((f) => f.bad);
+    if (bad.length) return fail(`${bad.length} corrupt frames in the stream`);
+    const other = frames.filter((f) => f.tag !== RESPONSE.gyroSample);
+    if (other.length) return fail(`frames other than GyroSample in the stream: tags ${other.map((f) => f.tag)}`);
+    const gs = frames.map((f) => decodeGyroSample(f.body));
+    // 250 ms of 5-ms polls: 50 gyro frames (a frame cut at either end aside).
+    if (gs.length < 45) return fail(`only ${gs.length} GyroSamples in 250 ms`);
+    const gap = gs.findIndex((g, k) => k > 0 && g.seq !== gs[k - 1].seq + 1);
+    if (gap > 0) return fail(`seq jumps from ${gs[gap - 1].seq} to ${gs[gap].seq}`);
+    const want = rig.motionplus.measure(truth);
+    const wrong = gs.find((g) => !sameBytes(g.raw, want.rate) || g.slow.some((s, k) => s !== want.slow[k]) || g.corrected !== null);
+    if (wrong) return fail(`GyroSample ${JSON.stringify(wrong)}, want ${JSON.stringify(want)} and no correction`);
+    return `${gs.length} GyroSamples in 250 ms, seq ${gs[0].seq}..${gs[gs.length - 1].seq} without gaps, counts ${want.rate} and range bits ${want.slow.map(Number)} as the MotionPlus reported them, uncorrected (no gyro calibration)`;
   }],
   ['usb-garbage-disconnect', async () => {
     const rig = newRig();

@@ -60,9 +60,9 @@ export function unitRequestFrame(variantIndex) {
 }
 
 /** Response variant indices (crates/wire/src/schema.rs). */
-export const RESPONSE = { hello: 0, error: 1, ack: 2, calibration: 3, streamStarted: 4, sample: 5, status: 6, background: 7 };
+export const RESPONSE = { hello: 0, error: 1, ack: 2, calibration: 3, streamStarted: 4, sample: 5, status: 6, background: 7, gyroSample: 9 };
 /** Request variant indices. */
-export const REQUEST = { getCalibration: 1, getStatus: 6, getBackgroundStatus: 8, setBackground: 9 };
+export const REQUEST = { getCalibration: 1, startStream: 4, getStatus: 6, getBackgroundStatus: 8, setBackground: 9 };
 
 /**
  * Splits the adapter's byte stream, which starts at a frame boundary, at its 0x00 delimiters
@@ -144,6 +144,34 @@ function readVarint(body, i) {
   }
 }
 
+/** StartStream { rate_divider }. */
+export function startStreamFrame(rateDivider) {
+  return frame([REQUEST.startStream, ...varint(rateDivider)]);
+}
+
+/**
+ * A GyroSample response's body (protocol 8): { seq, raw: [yaw, roll, pitch] 14-bit counts,
+ * slow: [yaw, roll, pitch] range bits, corrected: rad/s or null (no gyro calibration) }.
+ */
+export function decodeGyroSample(body) {
+  let i = 1;
+  const v = () => {
+    const [x, j] = readVarint(body, i);
+    i = j;
+    return x;
+  };
+  const seq = v();
+  const raw = [v(), v(), v()];
+  const bits = body[i++];
+  const slow = [0, 1, 2].map((k) => ((bits >> k) & 1) === 1);
+  let corrected = null;
+  if (body[i++] === 1) {
+    const view = new DataView(Uint8Array.from(body.slice(i, i + 12)).buffer);
+    corrected = [0, 1, 2].map((k) => view.getFloat32(4 * k, true));
+  }
+  return { seq, raw, slow, corrected };
+}
+
 /**
  * SetBackground (protocol 6): adoption and host-upload flags, then the budget's commit
  * interval (s of play, varint), commits per day (u8) and the fit interval (ms, varint).
@@ -190,7 +218,8 @@ export function decodeBackgroundHead(body) {
 
 /**
  * Talks to the adapter over the emulated USB without the CLI (fast, for scripted set-ups such
- * as filling the calibration store): one request, then the first reply that is not a sample.
+ * as filling the calibration store): one request, then the first reply that is not a streamed
+ * sample (a Nunchuk's or a MotionPlus's).
  */
 export class RawHost {
   constructor(rig) {
@@ -208,7 +237,7 @@ export class RawHost {
     this.rig.usb.write(frameBytes);
     let reply = null;
     await this.rig.board.runUntilTrue(() => {
-      reply = decodeFrames(this.bytes).find((f) => f.tag !== RESPONSE.sample) ?? null;
+      reply = decodeFrames(this.bytes).find((f) => f.tag !== RESPONSE.sample && f.tag !== RESPONSE.gyroSample) ?? null;
       return reply !== null;
     }, ms, 1);
     return reply;

@@ -5,10 +5,9 @@ use embassy_rp::i2c::{Async, I2c};
 use embassy_rp::peripherals::I2C0;
 use embassy_time::{Delay, Duration, Instant, Ticker};
 use wiical_adapter::{CorrectionMode, ExtensionEvent, MotionPlusEvent, PollEvent, Protocol};
-use wiical_wire::Sample;
 
 use crate::board::{StoreFlash, POLL_HZ};
-use crate::shared::{Adapter, SAMPLES};
+use crate::shared::{Adapter, Streamed, SAMPLES};
 use crate::status;
 
 /// The controller side's poller: a MotionPlus (then a Nunchuk) with the `motionplus` feature
@@ -36,13 +35,14 @@ type Bus = I2c<'static, I2C0, Async>;
 /// Feeds one poll to the adapter logic; with the MotionPlus path, wakes the Wii Remote task
 /// when the address it must answer at changed (another extension connected), and hands the
 /// poller the mode the Wii Remote activated the emulated MotionPlus in (the real one follows
-/// it on the next poll: Nunchuk pass-through or alone).
+/// it on the next poll: Nunchuk pass-through or alone). The stream's sample is a Nunchuk
+/// report's or a MotionPlus gyro frame's (protocol 8's `GyroSample`), never both in one poll.
 #[cfg(feature = "motionplus")]
 fn feed<E>(
     a: &mut Protocol<StoreFlash>,
     event: &ExtensionEvent<E>,
     poller: &mut Poller,
-) -> Option<Sample> {
+) -> Option<Streamed> {
     let address = a.target_address();
     let sample = a.on_extension_poll(event, poller);
     if a.target_address() != address {
@@ -51,7 +51,10 @@ fn feed<E>(
     if let Some(mode) = a.motionplus_mode() {
         poller.motionplus.set_mode(mode);
     }
-    sample
+    match sample {
+        Some(s) => Some(Streamed::Sample(s)),
+        None => a.take_gyro_sample().map(Streamed::Gyro),
+    }
 }
 
 /// The extension-detect line's level: a Nunchuk connected, or a MotionPlus connected and
@@ -73,9 +76,9 @@ fn feed<E>(
     a: &mut Protocol<StoreFlash>,
     event: &ExtensionEvent<E>,
     poller: &mut Poller,
-) -> Option<Sample> {
+) -> Option<Streamed> {
     match event {
-        ExtensionEvent::Nunchuk(r) => a.on_poll(r, poller.is_connected()),
+        ExtensionEvent::Nunchuk(r) => a.on_poll(r, poller.is_connected()).map(Streamed::Sample),
         ExtensionEvent::MotionPlus(_) => None,
     }
 }

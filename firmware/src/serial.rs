@@ -98,10 +98,7 @@ pub async fn serial_task(class: CdcAcmClass<'static, UsbDriver>, adapter: &'stat
                 }
                 Either3::First(Err(_)) => break 'session,
                 Either3::Second(sample) => {
-                    if send(&mut tx, &Response::Sample(sample), &mut out)
-                        .await
-                        .is_err()
-                    {
+                    if send(&mut tx, &sample.response(), &mut out).await.is_err() {
                         break 'session;
                     }
                 }

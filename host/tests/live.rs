@@ -355,6 +355,107 @@ fn live_streams_the_device_simulator_and_survives_its_disconnect() {
     );
 }
 
+/// The gyro view's stretch `v` (`rest` or a steady turn) as °/s and samples.
+fn stretch(v: &serde_json::Value) -> ([f64; 3], u64) {
+    let m: Vec<f64> = serde_json::from_value(v["mean_dps"].clone()).unwrap();
+    ([m[0], m[1], m[2]], v["samples"].as_u64().unwrap())
+}
+
+/// The steady turn of the gyro view nearest `want` (°/s), and how far it is.
+fn turn_near(v: &serde_json::Value, want: [f64; 3]) -> Option<([f64; 3], f64)> {
+    v["gyro"]["steady_turns"]
+        .as_array()?
+        .iter()
+        .map(|t| stretch(t).0)
+        .map(|m| {
+            (
+                m,
+                (0..3).map(|i| (m[i] - want[i]).abs()).fold(0.0, f64::max),
+            )
+        })
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+}
+
+/// Issue 50 item 3: `wiical live` on an adapter serving a MotionPlus (the simulated one, with
+/// its known truth) shows the rates in °/s per axis, at rest the bias that remains, and each
+/// steady turn's rate: before a gyro calibration the raw counts on the nominal scales (the
+/// device's bias and scale errors show), after committing the calibration that inverts the
+/// simulated MotionPlus, zero at rest and the true rates.
+#[cfg(unix)]
+#[test]
+fn live_shows_a_motionplus_corrected_by_the_committed_gyro_calibration() {
+    use wiical::client::{ClientOptions, Device};
+    use wiical::device_sim::motionplus::{
+        true_gyro_calibration, GYRO_TRUE_BIAS, GYRO_TRUE_CPD, GYRO_TURN_FAST_DPS,
+        GYRO_TURN_SLOW_DPS,
+    };
+    use wiical::device_sim::{spawn, SimExtension, SimOptions};
+    let (pty, sim) = spawn(SimOptions {
+        extension: SimExtension::MotionPlus,
+        time_scale: 10.0,
+        ..Default::default()
+    })
+    .unwrap();
+    let pty = pty.to_str().unwrap().to_string();
+    let gyro_ready = |calibrated: bool| {
+        move |v: &serde_json::Value| {
+            let g = &v["gyro"];
+            g["calibrated"] == calibrated
+                && g["rest"]["samples"].as_u64().unwrap_or(0) >= 600
+                && g["steady_turns"].as_array().is_some_and(|t| t.len() >= 2)
+        }
+    };
+    // Uncalibrated: the rest reads the device's bias on the nominal 8192/440 counts per °/s,
+    // and the slow turn its rate times the device's sensitivity over the nominal one, plus
+    // that bias (the raw counts are read against the nominal zero 8192).
+    let nominal = 8192.0 / 440.0;
+    {
+        let live = start(&["--device", &pty, "--port", "0"]);
+        let v = wait_for(live.port, gyro_ready(false));
+        let (rest, n) = stretch(&v["gyro"]["rest"]);
+        for i in 0..3 {
+            let want = (GYRO_TRUE_BIAS[i] - 8192.0) / nominal;
+            assert!(
+                (rest[i] - want).abs() < 0.05,
+                "rest {rest:?} over {n}, axis {i}: {want}"
+            );
+        }
+        let want: [f64; 3] = std::array::from_fn(|i| {
+            (GYRO_TRUE_BIAS[i] - 8192.0 + GYRO_TURN_SLOW_DPS[i] * GYRO_TRUE_CPD[i]) / nominal
+        });
+        let (got, err) = turn_near(&v, want).unwrap();
+        assert!(err < 0.3, "uncalibrated slow turn {got:?} vs {want:?}");
+        assert!(v["gyro"]["line"]
+            .as_str()
+            .unwrap()
+            .contains("no gyro calibration"));
+    }
+    // Commit the calibration that inverts the simulated MotionPlus.
+    {
+        let (mut dev, _) = Device::connect(&pty, ClientOptions::default()).unwrap();
+        dev.put_gyro_judged(&true_gyro_calibration().into())
+            .unwrap();
+        dev.commit_gyro().unwrap();
+    }
+    let live = start(&["--device", &pty, "--port", "0"]);
+    let v = wait_for(live.port, gyro_ready(true));
+    let (rest, n) = stretch(&v["gyro"]["rest"]);
+    assert!(
+        rest.iter().all(|r| r.abs() < 0.02),
+        "rest {rest:?} over {n} samples"
+    );
+    let (slow, err) = turn_near(&v, GYRO_TURN_SLOW_DPS).unwrap();
+    assert!(err < 0.05, "slow turn {slow:?}");
+    let v = wait_for(live.port, |v| {
+        turn_near(v, GYRO_TURN_FAST_DPS).is_some_and(|(_, e)| e < 5.0)
+    });
+    let (fast, err) = turn_near(&v, GYRO_TURN_FAST_DPS).unwrap();
+    assert!(err < 0.15, "fast turn {fast:?}");
+    eprintln!("live gyro view: rest {rest:?}, slow turn {slow:?}, fast turn {fast:?} °/s");
+    drop(live);
+    sim.stop().unwrap();
+}
+
 /// Headless Chromium with the DevTools protocol on a free port, killed when dropped.
 struct Browser {
     child: Child,

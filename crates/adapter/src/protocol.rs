@@ -194,6 +194,10 @@ pub struct Protocol<F: NorFlash> {
     /// The emulated MotionPlus (its corrector holds the live gyro calibration).
     #[cfg(feature = "motionplus")]
     motionplus: EmulatedMotionPlus,
+    /// The stream's sample of the last MotionPlus gyro frame, until taken
+    /// ([`Protocol::take_gyro_sample`]; protocol 8).
+    #[cfg(feature = "motionplus")]
+    gyro_sample: Option<wiical_wire::GyroSample>,
 }
 
 /// The MotionPlus's gyro calibration as the protocol keeps it (protocol 7).
@@ -300,6 +304,8 @@ impl<F: NorFlash> Protocol<F> {
             extension: Extension::Nunchuk,
             #[cfg(feature = "motionplus")]
             motionplus: EmulatedMotionPlus::new(GyroCorrector::default()),
+            #[cfg(feature = "motionplus")]
+            gyro_sample: None,
         };
         #[cfg(feature = "motionplus")]
         proto.install_gyro();
@@ -423,6 +429,10 @@ impl<F: NorFlash> Protocol<F> {
         self.stream = None;
         self.staged = None;
         self.gyro.staged = None;
+        #[cfg(feature = "motionplus")]
+        {
+            self.gyro_sample = None;
+        }
     }
 
     /// Feed one poll result. `still_connected` is
@@ -477,14 +487,7 @@ impl<F: NorFlash> Protocol<F> {
             accel: c.counts,
             ..*report
         });
-        let stream = self.stream.as_mut()?;
-        let send = stream.phase == 0;
-        stream.phase = (stream.phase + 1) % stream.divider.max(1);
-        if !send {
-            return None;
-        }
-        let seq = self.seq;
-        self.seq = self.seq.wrapping_add(1);
+        let seq = self.stream_seq()?;
         let mut buttons = 0;
         if report.z {
             buttons |= Sample::BUTTON_Z;
@@ -499,6 +502,20 @@ impl<F: NorFlash> Protocol<F> {
             buttons,
             stick: report.stick,
         })
+    }
+
+    /// The sequence number of the stream's next sample when this report is one to send (every
+    /// `rate_divider`-th while streaming), `None` otherwise.
+    fn stream_seq(&mut self) -> Option<u32> {
+        let stream = self.stream.as_mut()?;
+        let send = stream.phase == 0;
+        stream.phase = (stream.phase + 1) % stream.divider.max(1);
+        if !send {
+            return None;
+        }
+        let seq = self.seq;
+        self.seq = self.seq.wrapping_add(1);
+        Some(seq)
     }
 
     fn refresh_block(&mut self) {

@@ -1065,7 +1065,7 @@ fn an_old_host_of_protocol(old_version: u16, old_key: u32) {
     let Response::Hello(h) = resp else {
         panic!("{resp:?}")
     };
-    assert_eq!(h.protocol_version, 7);
+    assert_eq!(h.protocol_version, 8);
     assert_eq!(h.check(), Ok(()));
     assert_eq!(
         wiical_wire::check_schema_key(old_key),

@@ -173,8 +173,8 @@ use wiical_core::Calibration;
 pub use wiical_wire::bins::bin_centre as background_bin_centre;
 use wiical_wire::{
     encode_frame, CalibrationState, DefaultFrameDecoder, ErrorCode, FrameError,
-    GyroCalibrationState, Hello, HelloResponse, Request, Response, Sample, WireGyroCalibration,
-    MAX_FRAME_LEN, PROTOCOL_VERSION, SCHEMA_KEY,
+    GyroCalibrationState, GyroSample, Hello, HelloResponse, Request, Response, Sample,
+    WireGyroCalibration, MAX_FRAME_LEN, PROTOCOL_VERSION, SCHEMA_KEY,
 };
 use wiical_wire::{endpoints, Endpoint};
 
@@ -495,7 +495,8 @@ impl Device {
     pub fn status_while_streaming(
         &mut self,
     ) -> Result<(Option<wiical_wire::AdapterStatus>, Vec<Sample>)> {
-        self.call_while_streaming(endpoints::GetStatus)
+        let (reply, streamed) = self.call_while_streaming(endpoints::GetStatus)?;
+        Ok((reply, self.accelerometer_only(streamed)))
     }
 
     /// (Protocol 5.) The background recalibration's state asked for while streaming, as
@@ -503,7 +504,35 @@ impl Device {
     pub fn background_while_streaming(
         &mut self,
     ) -> Result<(Option<wiical_wire::BackgroundReport>, Vec<Sample>)> {
+        let (reply, streamed) = self.call_while_streaming(endpoints::GetBackgroundStatus)?;
+        Ok((reply, self.accelerometer_only(streamed)))
+    }
+
+    /// [`Device::status_while_streaming`] keeping the gyro samples too (protocol 8), for a
+    /// reader of [`Device::next_streamed`].
+    pub fn status_while_streaming_all(
+        &mut self,
+    ) -> Result<(Option<wiical_wire::AdapterStatus>, Vec<Streamed>)> {
+        self.call_while_streaming(endpoints::GetStatus)
+    }
+
+    /// [`Device::background_while_streaming`] keeping the gyro samples too.
+    pub fn background_while_streaming_all(
+        &mut self,
+    ) -> Result<(Option<wiical_wire::BackgroundReport>, Vec<Streamed>)> {
         self.call_while_streaming(endpoints::GetBackgroundStatus)
+    }
+
+    /// The accelerometer's samples of `streamed`; the gyro's are counted as discarded.
+    fn accelerometer_only(&mut self, streamed: Vec<Streamed>) -> Vec<Sample> {
+        let mut out = Vec::with_capacity(streamed.len());
+        for s in streamed {
+            match s {
+                Streamed::Accelerometer(s) => out.push(s),
+                Streamed::Gyro(_) => self.stats.discarded += 1,
+            }
+        }
+        out
     }
 
     /// One request while streaming: its reply (`None`: refused, or none within the timeout)
@@ -511,13 +540,14 @@ impl Device {
     fn call_while_streaming<E: Endpoint>(
         &mut self,
         endpoint: E,
-    ) -> Result<(Option<E::Reply>, Vec<Sample>)> {
+    ) -> Result<(Option<E::Reply>, Vec<Streamed>)> {
         self.send(&endpoint.request())?;
         let deadline = Instant::now() + self.opts.timeout;
         let mut samples = Vec::new();
         loop {
             match self.recv(deadline)? {
-                Some(Ok(Response::Sample(s))) => samples.push(s),
+                Some(Ok(Response::Sample(s))) => samples.push(Streamed::Accelerometer(s)),
+                Some(Ok(Response::GyroSample(s))) => samples.push(Streamed::Gyro(s)),
                 Some(Ok(Response::Error(_))) | None => return Ok((None, samples)),
                 Some(Ok(r)) => match E::reply(&r) {
                     Some(reply) => return Ok((Some(reply), samples)),
@@ -620,6 +650,26 @@ impl Device {
         }
     }
 
+    /// The next streamed sample of either kind (protocol 8: a MotionPlus's [`GyroSample`]s
+    /// while the adapter serves one); corrupted frames are skipped and counted.
+    pub fn next_streamed(&mut self) -> Result<Streamed> {
+        let deadline = Instant::now() + self.opts.timeout;
+        loop {
+            match self.recv(deadline)? {
+                Some(Ok(Response::Sample(s))) => return Ok(Streamed::Accelerometer(s)),
+                Some(Ok(Response::GyroSample(s))) => return Ok(Streamed::Gyro(s)),
+                Some(Ok(_)) => self.stats.discarded += 1,
+                Some(Err(_)) => {}
+                None => {
+                    return Err(ClientError::NoSample {
+                        port: self.name.clone(),
+                        timeout_ms: self.opts.timeout.as_millis(),
+                    })
+                }
+            }
+        }
+    }
+
     /// Stop streaming.
     pub fn stop_stream(&mut self) -> Result<()> {
         self.call(endpoints::StopStream)
@@ -634,6 +684,26 @@ impl Drop for Device {
             self.session_open = false;
             let _ = self.send(&endpoints::EndSession.request());
             let _ = self.port.flush();
+        }
+    }
+}
+
+/// One streamed sample: the accelerometer's (a Nunchuk's) or, while the adapter serves a
+/// MotionPlus, the gyro's (protocol 8).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Streamed {
+    /// A [`Sample`].
+    Accelerometer(Sample),
+    /// A [`GyroSample`].
+    Gyro(GyroSample),
+}
+
+impl Streamed {
+    /// The stream's sequence number (one count for both kinds).
+    pub fn seq(&self) -> u32 {
+        match self {
+            Streamed::Accelerometer(s) => s.seq,
+            Streamed::Gyro(g) => g.seq,
         }
     }
 }

@@ -19,10 +19,16 @@
 //! a hang-up) closes the session and stops the stream, as a real adapter does when the port
 //! is closed.
 //!
+//! With [`SimExtension::MotionPlus`] the bus holds a simulated MotionPlus instead ([`motionplus`]:
+//! a known truth turned by a known program), found, activated and polled by the adapter's
+//! `ExtensionPoller` as on the board; its corrected rates stream as `GyroSample`s (protocol 8).
+//!
 //! For tests, [`spawn`] returns the pty path and a [`SimHandle`] that can unplug the
 //! Nunchuk, inject raw bytes towards the host, and stop the simulator (giving back the flash
 //! so that a new simulator can boot from it).
 #![cfg(unix)] // pseudo-terminals
+
+pub mod motionplus;
 
 use std::io::{self, Read, Write};
 use std::path::{Path, PathBuf};
@@ -37,12 +43,14 @@ use embedded_hal_async::i2c::{ErrorKind, ErrorType, I2c, NoAcknowledgeSource, Op
 use embedded_storage_async::nor_flash::{
     ErrorType as FlashErrorType, NorFlash, NorFlashError, NorFlashErrorKind, ReadNorFlash,
 };
+use motionplus::SimMotionPlus;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 use serialport::{SerialPort, TTYPort};
 use wiical_adapter::{
-    CalibrationStore, DeviceInfo, IdealScale, NunchukPoller, PollerConfig, Protocol,
+    CalibrationStore, DeviceInfo, ExtensionPoller, IdealScale, NunchukPoller, PollerConfig,
+    Protocol,
 };
 use wiical_extbus::nunchuk::StickAxisCalibration;
 use wiical_extbus::{CalibrationBlock, NunchukRegisters, NunchukReport};
@@ -285,10 +293,11 @@ fn fresh_nunchuk() -> NunchukRegisters {
     n
 }
 
-/// The simulated extension port: a Nunchuk when plugged, NAKs otherwise. A replug powers
-/// up a fresh, uninitialised Nunchuk.
+/// The simulated extension port: a Nunchuk (or, when `motionplus` is set, a MotionPlus
+/// alone) when plugged, NAKs otherwise. A replug powers up a fresh, uninitialised device.
 struct SimBus {
     nunchuk: NunchukRegisters,
+    motionplus: Option<SimMotionPlus>,
     plugged: Arc<AtomicBool>,
     was_plugged: bool,
 }
@@ -304,6 +313,17 @@ impl I2c for SimBus {
         operations: &mut [Operation<'_>],
     ) -> Result<(), SimNak> {
         let plugged = self.plugged.load(Ordering::Relaxed);
+        if let Some(mp) = self.motionplus.as_mut() {
+            if plugged && !self.was_plugged {
+                mp.power_up();
+            }
+            self.was_plugged = plugged;
+            return if plugged && mp.transaction(address, operations) {
+                Ok(())
+            } else {
+                Err(SimNak)
+            };
+        }
         if plugged && !self.was_plugged {
             let mut fresh = fresh_nunchuk();
             let mut report = [0u8; 6];
@@ -489,6 +509,18 @@ impl Motion {
 // ------------------------------------------------------------------------------------------
 // The simulator
 
+/// Which extension is on the simulated adapter's bus.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+pub enum SimExtension {
+    /// A Nunchuk making the [`SimMotion`].
+    #[default]
+    Nunchuk,
+    /// A MotionPlus alone ([`motionplus`]): its known truth and motion program, from boot.
+    #[cfg_attr(feature = "clap", value(name = "motionplus"))]
+    MotionPlus,
+}
+
 /// Simulator settings.
 #[derive(Debug, Clone)]
 pub struct SimOptions {
@@ -502,6 +534,8 @@ pub struct SimOptions {
     pub poll_hz: u32,
     /// What the simulated Nunchuk does.
     pub motion: SimMotion,
+    /// The extension on the bus.
+    pub extension: SimExtension,
     /// The simulated clock runs this many times faster than the wall clock (polls, and so
     /// samples, come this many times more often; the adapter still announces `poll_hz`, so
     /// a host timing samples by their sequence number sees simulated time). At least 1.
@@ -516,6 +550,7 @@ impl Default for SimOptions {
             schema_key: None,
             poll_hz: wiical_adapter::DEFAULT_POLL_HZ,
             motion: SimMotion::Sweep,
+            extension: SimExtension::Nunchuk,
             time_scale: 1.0,
         }
     }
@@ -653,8 +688,11 @@ pub fn spawn(opts: SimOptions) -> Result<(PathBuf, SimHandle)> {
     }
 
     let stop = Arc::new(AtomicBool::new(false));
-    // The `poses` motion plugs the Nunchuk in when a host first opens the port.
-    let plugged = Arc::new(AtomicBool::new(opts.motion == SimMotion::Sweep));
+    // The `poses` motion plugs the Nunchuk in when a host first opens the port; a MotionPlus
+    // is plugged in from the start.
+    let mp = opts.extension == SimExtension::MotionPlus;
+    let from_boot = opts.motion == SimMotion::Sweep || mp;
+    let plugged = Arc::new(AtomicBool::new(from_boot));
     let counters = Arc::new(SimCounters::default());
     let corrupt = Arc::new(AtomicU32::new(0));
     let corrupt_acks = Arc::new(AtomicU32::new(0));
@@ -662,9 +700,14 @@ pub fn spawn(opts: SimOptions) -> Result<(PathBuf, SimHandle)> {
     let worker = Worker {
         master,
         proto,
-        poller: NunchukPoller::new(PollerConfig::default()),
+        poller: if mp {
+            Poller::Extension(ExtensionPoller::default())
+        } else {
+            Poller::Nunchuk(NunchukPoller::new(PollerConfig::default()))
+        },
         bus: SimBus {
             nunchuk: fresh_nunchuk(),
+            motionplus: mp.then(|| SimMotionPlus::new(opts.seed)),
             plugged: plugged.clone(),
             was_plugged: true,
         },
@@ -675,7 +718,7 @@ pub fn spawn(opts: SimOptions) -> Result<(PathBuf, SimHandle)> {
         ),
         plugged: plugged.clone(),
         ticks: 0,
-        motion_start: (opts.motion == SimMotion::Sweep).then_some(0),
+        motion_start: from_boot.then_some(0),
         stop: stop.clone(),
         inject: rx,
         corrupt: corrupt.clone(),
@@ -705,10 +748,17 @@ pub fn spawn(opts: SimOptions) -> Result<(PathBuf, SimHandle)> {
 /// Most polls made in a row before the port is read again.
 const MAX_BURST: u32 = 64;
 
+/// The firmware's poller: the Nunchuk's alone (the adapter's original path, as before the
+/// MotionPlus), or both extensions' (`ExtensionPoller`, MotionPlus first) for a MotionPlus.
+enum Poller {
+    Nunchuk(NunchukPoller),
+    Extension(ExtensionPoller),
+}
+
 struct Worker {
     master: TTYPort,
     proto: Protocol<SimFlash>,
-    poller: NunchukPoller,
+    poller: Poller,
     bus: SimBus,
     motion: Motion,
     /// Simulated poll rate, Hz.
@@ -804,11 +854,29 @@ impl Worker {
             .motion_start
             .map_or(0.0, |s| self.ticks.saturating_sub(s) as f64 / self.poll_hz);
         self.ticks += 1;
-        self.bus.nunchuk.set_report(&self.motion.report(motion_t));
         let now_ms = (t * 1000.0) as u64;
-        let r = embassy_futures::block_on(self.poller.poll(&mut self.bus, &mut NoDelay, now_ms));
-        if let Some(sample) = self.proto.on_poll(&r, self.poller.is_connected()) {
-            if self.send(&Response::Sample(sample)) {
+        let streamed = match &mut self.poller {
+            Poller::Nunchuk(poller) => {
+                self.bus.nunchuk.set_report(&self.motion.report(motion_t));
+                let r = embassy_futures::block_on(poller.poll(&mut self.bus, &mut NoDelay, now_ms));
+                self.proto
+                    .on_poll(&r, poller.is_connected())
+                    .map(Response::Sample)
+            }
+            Poller::Extension(poller) => {
+                if let Some(mp) = self.bus.motionplus.as_mut() {
+                    let report = mp.report(motion_t);
+                    mp.set_report(&report);
+                }
+                let e = embassy_futures::block_on(poller.poll(&mut self.bus, &mut NoDelay, now_ms));
+                let sample = self.proto.on_extension_poll(&e, poller);
+                sample
+                    .map(Response::Sample)
+                    .or_else(|| self.proto.take_gyro_sample().map(Response::GyroSample))
+            }
+        };
+        if let Some(resp) = streamed {
+            if self.send(&resp) {
                 self.counters.samples.fetch_add(1, Ordering::Relaxed);
             }
         }
@@ -825,7 +893,7 @@ impl Worker {
                         .is_ok()
                 };
                 let damage = match resp {
-                    Response::Sample(_) => false,
+                    Response::Sample(_) | Response::GyroSample(_) => false,
                     Response::Ack => take(&self.corrupt_acks) || take(&self.corrupt),
                     _ => take(&self.corrupt),
                 };

@@ -41,6 +41,8 @@
 //! 7. (Protocol 7.) `GetGyroCalibration`, `PutGyroCalibration` and `CommitGyroCalibration`
 //!    read, stage and store the MotionPlus's gyro calibration ([`WireGyroCalibration`]) as
 //!    the three calibration requests do the accelerometer's.
+//! 8. (Protocol 8.) While a MotionPlus is the extension served, the stream carries
+//!    [`GyroSample`]s (its raw rates, range bits and corrected rates) instead of `Sample`s.
 //!
 //! ## Declared once
 //! [`Request`] and [`Response`] are declared in one place, [`protocol`]: each request with
@@ -81,9 +83,9 @@ pub use frame::{
 pub use messages::{
     AdapterStatus, AdoptionReport, BackgroundPhase, BackgroundReport, BackgroundSettings,
     BackgroundSettingsField, BootRecord, CalibrationOrigin, CalibrationState, CandidateReport,
-    CoverageGapReport, ErrorCode, GyroCalibrationState, Hello, HelloResponse, RecordProblem,
-    RefusalReport, Sample, SelfCalOutcome, SelfCalPhase, WireCalibration, WireEffects,
-    WireGyroCalibration, BACKGROUND_BINS, FIRMWARE_VERSION_CAP, GYRO_DEVICE_FLOATS,
+    CoverageGapReport, ErrorCode, GyroCalibrationState, GyroSample, Hello, HelloResponse,
+    RecordProblem, RefusalReport, Sample, SelfCalOutcome, SelfCalPhase, WireCalibration,
+    WireEffects, WireGyroCalibration, BACKGROUND_BINS, FIRMWARE_VERSION_CAP, GYRO_DEVICE_FLOATS,
     SELFCAL_MESSAGE_CAP,
 };
 pub use protocol::{dispatch, endpoints, Answer, AnswerAsync, Endpoint, Request, Response, Serve};

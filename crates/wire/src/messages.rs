@@ -400,6 +400,42 @@ impl Sample {
     pub const BUTTON_C: u16 = 1 << 1;
 }
 
+/// (Protocol 8.) One streamed MotionPlus sample: what the adapter's MotionPlus poller read and
+/// what its corrector made of it (`wiical_adapter::motionplus::GyroCorrector`), sent in the
+/// stream [`Request::StartStream`](crate::Request::StartStream) started, at its divider,
+/// instead of [`Sample`]s while a MotionPlus is the extension served.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct GyroSample {
+    /// Sequence number, counted with [`Sample::seq`] (one stream): +1 per sample sent
+    /// (wrapping); gaps mean lost samples.
+    pub seq: u32,
+    /// Raw 14-bit rates `[yaw, roll, pitch]` as the real MotionPlus reported them.
+    pub raw: [u16; 3],
+    /// Range bits of `raw`: bit `i` set = axis `i` in the slow (high-resolution) range
+    /// ([`GyroSample::SLOW_YAW`], [`GyroSample::SLOW_ROLL`], [`GyroSample::SLOW_PITCH`]).
+    pub slow: u8,
+    /// `raw` corrected with the committed gyro calibration: rad/s along the count axes
+    /// `[yaw, roll, pitch]` (positive where the counts rise), fast counts first mapped onto the
+    /// slow scale with the device's block, the zero-rate tracker's bias in force, the
+    /// g-sensitivity not applied. `None`: no gyro calibration committed (the rates pass
+    /// through to the Wii Remote as they came).
+    pub corrected: Option<[f32; 3]>,
+}
+
+impl GyroSample {
+    /// Yaw in the slow range, in [`GyroSample::slow`].
+    pub const SLOW_YAW: u8 = 1 << 0;
+    /// Roll in the slow range.
+    pub const SLOW_ROLL: u8 = 1 << 1;
+    /// Pitch in the slow range.
+    pub const SLOW_PITCH: u8 = 1 << 2;
+
+    /// The range bits as `[yaw, roll, pitch]`.
+    pub fn slow_axes(&self) -> [bool; 3] {
+        core::array::from_fn(|i| self.slow >> i & 1 == 1)
+    }
+}
+
 /// Capacity of [`SelfCalOutcome::Failed::message`], bytes of UTF-8.
 pub const SELFCAL_MESSAGE_CAP: usize = 96;
 

@@ -31,7 +31,8 @@ use serde::{Deserialize, Serialize};
 
 use crate::messages::{
     AdapterStatus, BackgroundReport, BackgroundSettings, CalibrationState, ErrorCode,
-    GyroCalibrationState, Hello, HelloResponse, Sample, WireCalibration, WireGyroCalibration,
+    GyroCalibrationState, GyroSample, Hello, HelloResponse, Sample, WireCalibration,
+    WireGyroCalibration,
 };
 
 /// A request kind and the reply it gets.
@@ -191,13 +192,17 @@ crate::declare::wire_protocol! {
         7 Background(BackgroundReport),
         /// (Protocol 7.) Answer to [`Request::GetGyroCalibration`].
         8 GyroCalibration(GyroCalibrationState),
+        /// (Protocol 8.) One streamed MotionPlus sample (answers nothing, like
+        /// [`Response::Sample`]).
+        9 GyroSample(GyroSample),
     }
 }
 
 impl Request {
     /// True when `response` is an answer this request can get: its endpoint's reply, or an
     /// [`Response::Error`] (except for `Hello`, which the adapter always answers with
-    /// [`Response::Hello`]). A streamed [`Response::Sample`] answers nothing.
+    /// [`Response::Hello`]). A streamed [`Response::Sample`] or [`Response::GyroSample`] answers
+    /// nothing.
     pub fn is_answered_by(&self, response: &Response) -> bool {
         if matches!(response, Response::Error(_)) {
             return !matches!(self, Request::Hello(_));
@@ -217,7 +222,7 @@ mod tests {
     }
 
     /// One response of every kind.
-    fn responses() -> [Response; 9] {
+    fn responses() -> [Response; 10] {
         let hello = HelloResponse {
             protocol_version: 1,
             schema_key: 2,
@@ -278,6 +283,12 @@ mod tests {
                 live: None,
                 staged: None,
                 boot: crate::messages::BootRecord::Empty,
+            }),
+            Response::GyroSample(GyroSample {
+                seq: 0,
+                raw: [8192; 3],
+                slow: 0b111,
+                corrected: None,
             }),
         ]
     }

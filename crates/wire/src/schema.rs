@@ -16,11 +16,11 @@ use crate::protocol::{Request, Response};
 
 /// Human-facing protocol version, shown by the host. Compatibility is decided by
 /// [`SCHEMA_KEY`], not by this number.
-pub const PROTOCOL_VERSION: u16 = 7;
+pub const PROTOCOL_VERSION: u16 = 8;
 
 /// The schema text before the `Request` line.
 const SCHEMA_PRELUDE: &str = "\
-wiical-wire schema v7
+wiical-wire schema v8
 frame: cobs(postcard(msg) ++ le16(crc16_ibm_3740(postcard(msg)))) ++ 0x00
 ";
 
@@ -184,6 +184,7 @@ const fn put_gyro(buf: &mut [u8], at: usize) -> usize {
 /// The schema text after the `WireGyroCalibration` line.
 const SCHEMA_GYRO_STATE: &str = "\
 GyroCalibrationState: live:Option<WireGyroCalibration>, staged:Option<WireGyroCalibration>, boot:BootRecord
+GyroSample: seq:u32, raw:[u16;3], slow:u8, corrected:Option<[f32;3]>
 ";
 
 /// Length of [`SCHEMA`], bytes.
@@ -208,7 +209,8 @@ pub const SCHEMA: &str = match core::str::from_utf8(&SCHEMA_BYTES) {
 /// Schema keys of earlier protocol versions, newest first, so that either side can say
 /// *which* older build it is talking to ("host speaks protocol 1, adapter 2: update the
 /// host") instead of only "mismatch". Frozen: append when [`PROTOCOL_VERSION`] is bumped.
-pub const PREVIOUS_SCHEMA_KEYS: [(u16, u32); 6] = [
+pub const PREVIOUS_SCHEMA_KEYS: [(u16, u32); 7] = [
+    (7, 0x1178_DF7F),
     (6, 0xBAC3_B81A),
     (5, 0x1C56_6B18),
     (4, 0x2FCE_88CF),
@@ -467,8 +469,39 @@ RefusalReport: 0 Coverage(CoverageGapReport) | 1 TooFewHeldOut{needed:u8, got:u8
         assert_eq!(SCHEMA_V6, v6);
     }
 
+    /// The text of protocol 7's schema, verbatim from its release (before the streamed gyro
+    /// sample).
+    const SCHEMA_V7: &str = "\
+wiical-wire schema v7
+frame: cobs(postcard(msg) ++ le16(crc16_ibm_3740(postcard(msg)))) ++ 0x00
+Request: 0 Hello(Hello) | 1 GetCalibration | 2 PutCalibration(WireCalibration) | 3 CommitCalibration | 4 StartStream{rate_divider:u16} | 5 StopStream | 6 GetStatus | 7 EndSession | 8 GetBackgroundStatus | 9 SetBackground(BackgroundSettings) | 10 GetGyroCalibration | 11 PutGyroCalibration(WireGyroCalibration) | 12 CommitGyroCalibration
+Hello: protocol_version:u16, schema_key:u32
+Response: 0 Hello(HelloResponse) | 1 Error(ErrorCode) | 2 Ack | 3 Calibration(CalibrationState) | 4 StreamStarted{sample_rate_mhz:u32} | 5 Sample(Sample) | 6 Status(AdapterStatus) | 7 Background(BackgroundReport) | 8 GyroCalibration(GyroCalibrationState)
+HelloResponse: protocol_version:u16, schema_key:u32, firmware_version:String<32>, device_id:[u8;8]
+ErrorCode(u8): 1 SchemaMismatch | 2 BadFrame | 3 UnsupportedRequest | 4 InvalidCalibration | 5 NothingStaged | 6 StorageFailure | 7 Busy | 8 InvalidParameter | 9 NoSensor | 10 Internal | 11 ImplausibleCalibration
+CalibrationState: live:WireCalibration, staged:Option<WireCalibration>, stored:bool, boot:BootRecord, damaged_records:u16
+BootRecord: 0 Empty | 1 Loaded | 2 Rejected(RecordProblem) | 3 StorageError
+RecordProblem: 0 WrongLength | 1 BadMagic | 2 UnsupportedVersion(u16) | 3 BadCrc | 4 Invalid
+WireCalibration: bias:[f32;3], matrix:[[f32;3];3], effects:WireEffects
+WireEffects: quadratic:[f32;3], cubic:[f32;3], bias_drift:[f32;3], temp_ref_c:f32, bias_temp:[f32;3], scale_temp:[f32;3], cross_quadratic:[[f32;5];3], cross_cubic:[[f32;9];3]
+Sample: seq:u32, raw:[u16;3], corrected:[f32;3], buttons:u16, stick:[u8;2]
+AdapterStatus: phase:SelfCalPhase, poses:u8, last_result:Option<SelfCalOutcome>, stale_moments:u32, stale_rms_mg:f32, recalibration_suggested:bool
+SelfCalPhase: 0 Off | 1 Arming | 2 WaitingForStillness | 3 PoseTaken | 4 MoveToNewOrientation | 5 Committing | 6 Done | 7 Failed
+SelfCalOutcome: 0 Done{rms_mg:f32, poses:u8} | 1 Failed{message:String<96>}
+BackgroundSettings: adopt:bool, replace_uploaded:bool, commit_interval_s:u32, commits_per_day:u8, fit_interval_ms:u32
+BackgroundReport: phase:BackgroundPhase, settings:BackgroundSettings, origin:CalibrationOrigin, play_s:u32, moments:u32, bins_filled:u8, fresh_bins:u64, bin_moments:Vec<u8,54>, temperature_c:Option<f32>, coverage_gap:Option<CoverageGapReport>, candidate:Option<CandidateReport>, last_adoption:Option<AdoptionReport>, last_refusal:Option<RefusalReport>
+BackgroundPhase: 0 Collecting | 1 Fitting | 2 Committing | 3 Invalid
+CalibrationOrigin: 0 Factory | 1 SelfCal | 2 Background | 3 Host
+CoverageGapReport: 0 TooFewBins{needed:u8, got:u8} | 1 MissingDirection{axis:u8, positive:bool} | 2 Flat | 3 BadDirection
+CandidateReport: candidate_mg:f32, live_mg:f32, fit_rms_mg:f32, full_model:bool, temperature:bool, training_bins:u8, heldout_bins:u8
+AdoptionReport: at_s:u32, before_mg:f32, after_mg:f32
+RefusalReport: 0 Coverage(CoverageGapReport) | 1 TooFewHeldOut{needed:u8, got:u8} | 2 Fit | 3 Implausible | 4 NotBetter{candidate_mg:f32, live_mg:f32} | 5 MonitorOnly{candidate_mg:f32, live_mg:f32} | 6 HostCalibration | 7 Budget{wait_s:u32} | 8 UnsupportedLive | 9 Interrupted | 10 Storage
+WireGyroCalibration: bias:[f32;3], matrix:[[f32;3];3], host only: g_sensitivity
+GyroCalibrationState: live:Option<WireGyroCalibration>, staged:Option<WireGyroCalibration>, boot:BootRecord
+";
+
     #[test]
-    fn the_built_schema_is_protocol_7s() {
+    fn protocol_7s_schema_is_protocol_6s_with_the_gyro_calibration() {
         // Protocol 6's text, the gyro calibration's requests and response added to the
         // Request and Response lines (at their ends: additive) and its two types appended.
         let mut v7 = String::from(SCHEMA_V6)
@@ -485,19 +518,34 @@ RefusalReport: 0 Coverage(CoverageGapReport) | 1 TooFewHeldOut{needed:u8, got:u8
             "WireGyroCalibration: bias:[f32;3], matrix:[[f32;3];3], host only: g_sensitivity\n",
         );
         v7.push_str("GyroCalibrationState: live:Option<WireGyroCalibration>, staged:Option<WireGyroCalibration>, boot:BootRecord\n");
-        assert_eq!(SCHEMA, v7);
-        assert_eq!(SCHEMA_KEY, fnv1a_32(v7.as_bytes()));
+        assert_eq!(SCHEMA_V7, v7);
+    }
+
+    #[test]
+    fn the_built_schema_is_protocol_8s() {
+        // Protocol 7's text, the streamed gyro sample added at the end of the Response line
+        // (additive) and its type appended.
+        let mut v8 = String::from(SCHEMA_V7)
+            .replace("schema v7", "schema v8")
+            .replace(
+                "8 GyroCalibration(GyroCalibrationState)\n",
+                "8 GyroCalibration(GyroCalibrationState) | 9 GyroSample(GyroSample)\n",
+            );
+        v8.push_str("GyroSample: seq:u32, raw:[u16;3], slow:u8, corrected:Option<[f32;3]>\n");
+        assert_eq!(SCHEMA, v8);
+        assert_eq!(SCHEMA_KEY, fnv1a_32(v8.as_bytes()));
     }
 
     #[test]
     fn previous_keys_are_the_hashes_of_the_previous_schemas() {
-        assert_eq!(PREVIOUS_SCHEMA_KEYS[5], (1, fnv1a_32(SCHEMA_V1.as_bytes())));
-        assert_eq!(PREVIOUS_SCHEMA_KEYS[4], (2, fnv1a_32(SCHEMA_V2.as_bytes())));
-        assert_eq!(PREVIOUS_SCHEMA_KEYS[3], (3, fnv1a_32(SCHEMA_V3.as_bytes())));
-        assert_eq!(PREVIOUS_SCHEMA_KEYS[2], (4, fnv1a_32(SCHEMA_V4.as_bytes())));
-        assert_eq!(PREVIOUS_SCHEMA_KEYS[1], (5, fnv1a_32(SCHEMA_V5.as_bytes())));
-        assert_eq!(PREVIOUS_SCHEMA_KEYS[0], (6, fnv1a_32(SCHEMA_V6.as_bytes())));
-        for (k, v) in [(5, 1), (4, 2), (3, 3), (2, 4), (1, 5), (0, 6)] {
+        assert_eq!(PREVIOUS_SCHEMA_KEYS[6], (1, fnv1a_32(SCHEMA_V1.as_bytes())));
+        assert_eq!(PREVIOUS_SCHEMA_KEYS[5], (2, fnv1a_32(SCHEMA_V2.as_bytes())));
+        assert_eq!(PREVIOUS_SCHEMA_KEYS[4], (3, fnv1a_32(SCHEMA_V3.as_bytes())));
+        assert_eq!(PREVIOUS_SCHEMA_KEYS[3], (4, fnv1a_32(SCHEMA_V4.as_bytes())));
+        assert_eq!(PREVIOUS_SCHEMA_KEYS[2], (5, fnv1a_32(SCHEMA_V5.as_bytes())));
+        assert_eq!(PREVIOUS_SCHEMA_KEYS[1], (6, fnv1a_32(SCHEMA_V6.as_bytes())));
+        assert_eq!(PREVIOUS_SCHEMA_KEYS[0], (7, fnv1a_32(SCHEMA_V7.as_bytes())));
+        for (k, v) in [(6, 1), (5, 2), (4, 3), (3, 4), (2, 5), (1, 6), (0, 7)] {
             assert_eq!(protocol_of_key(PREVIOUS_SCHEMA_KEYS[k].1), Some(v));
         }
         assert_eq!(protocol_of_key(SCHEMA_KEY), Some(PROTOCOL_VERSION));

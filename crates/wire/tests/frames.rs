@@ -268,6 +268,20 @@ fn response() -> impl Strategy<Value = Response> {
             }),
         any::<u32>().prop_map(|sample_rate_mhz| Response::StreamStarted { sample_rate_mhz }),
         sample().prop_map(Response::Sample),
+        (
+            any::<u32>(),
+            any::<[u16; 3]>(),
+            0u8..8,
+            proptest::option::of(v3())
+        )
+            .prop_map(|(seq, raw, slow, corrected)| {
+                Response::GyroSample(GyroSample {
+                    seq,
+                    raw,
+                    slow,
+                    corrected,
+                })
+            }),
         status().prop_map(Response::Status),
         background().prop_map(Response::Background),
         (
@@ -591,6 +605,26 @@ fn golden_encodings() {
             boot: BootRecord::Rejected(RecordProblem::BadCrc),
         }))),
         format!("0801{gyro_hex}000203")
+    );
+    // Protocol 8 addition, at the end of Response: 09 GyroSample, seq 300 (varint ac 02), raw
+    // 8192 (varint 80 40), 1, 16383 (ff 7f), slow 0b101, Some 1.0, 0.0, -2.0.
+    assert_eq!(
+        hex(&enc(&Response::GyroSample(GyroSample {
+            seq: 300,
+            raw: [8192, 1, 16383],
+            slow: GyroSample::SLOW_YAW | GyroSample::SLOW_PITCH,
+            corrected: Some([1.0, 0.0, -2.0]),
+        }))),
+        "09ac02804001ff7f05010000803f00000000000000c0"
+    );
+    assert_eq!(
+        hex(&enc(&Response::GyroSample(GyroSample {
+            seq: 0,
+            raw: [0; 3],
+            slow: 0,
+            corrected: None,
+        }))),
+        "09000000000000"
     );
 }
 
@@ -933,8 +967,8 @@ fn a_protocol_2_calibration_frame_is_refused() {
     assert_eq!(got.len(), 1);
     assert!(got[0].is_err(), "{got:?}");
     // The Hello exchange refuses every earlier protocol's key (3: the first with these
-    // cross terms; 6: the newest before this one).
-    for (k, v) in [(3, 3), (2, 4), (1, 5), (0, 6)] {
+    // cross terms; 7: the newest before this one).
+    for (k, v) in [(4, 3), (3, 4), (2, 5), (1, 6), (0, 7)] {
         assert_eq!(protocol_of_key(PREVIOUS_SCHEMA_KEYS[k].1), Some(v));
         assert_eq!(
             check_schema_key(PREVIOUS_SCHEMA_KEYS[k].1),

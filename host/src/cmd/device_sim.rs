@@ -6,7 +6,7 @@ use std::io::{self, Write};
 use std::path::PathBuf;
 use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
-use wiical_device_sim::{spawn, SimFlash, SimMotion, SimOptions};
+use wiical_device_sim::{spawn, SimExtension, SimFlash, SimMotion, SimOptions};
 
 /// Arguments of `wiical device-sim`.
 #[derive(clap::Args, Debug, Clone)]
@@ -29,6 +29,12 @@ pub struct SimArgs {
     /// at plug-in for the adapter's self-calibration; starts when a host opens the port).
     #[arg(long, value_enum, default_value_t = SimMotion::Sweep)]
     pub motion: SimMotion,
+    /// The extension on the simulated adapter's bus: nunchuk (making --motion), or motionplus
+    /// (a MotionPlus alone with a known truth, at rest then turned at 90 °/s yaw and −45 °/s
+    /// pitch, at rest, then −600 °/s roll, every 12 s; its corrected rates stream for
+    /// `wiical live` once a gyro calibration is committed).
+    #[arg(long, value_enum, default_value_t = SimExtension::Nunchuk)]
+    pub extension: SimExtension,
     /// Run the simulated clock this many times faster than real time (1 to 50): samples
     /// come that much more often, timed (by their sequence number) in simulated time.
     #[arg(long, default_value_t = 1.0, value_parser = time_scale)]
@@ -68,6 +74,7 @@ pub fn run(args: &SimArgs) -> Result<String> {
         seed: args.seed,
         schema_key: args.schema_key,
         motion: args.motion,
+        extension: args.extension,
         time_scale: args.time_scale,
         ..Default::default()
     })?;

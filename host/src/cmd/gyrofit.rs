@@ -3,7 +3,7 @@
 
 use super::{check_outputs, load_held, load_options, to_json, DetectArgs, PLAIN_TEXT_IN_PASSES};
 use crate::cli_error::cli_error;
-use anyhow::{bail, Result};
+use anyhow::{bail, Context, Result};
 use std::path::PathBuf;
 use wiical_analysis::gyro::stream::{self, run_streamed, StreamedImu};
 use wiical_analysis::gyro::{nominal_from_columns, GyroOptions};
@@ -219,6 +219,11 @@ fn read(a: &Args, gyro_columns: Option<[String; 3]>) -> Result<Pair> {
         a.detect.load_options()?,
         load_options(None, &a.detect.read)?,
     );
+    if a.gyro_file.is_none() && gyro_columns.is_none() {
+        if let Some(block) = super::gyrofit_motionplus::detect(&a.file)? {
+            return read_motionplus(a, &acc_opts, &block);
+        }
+    }
     let gyro_file = a.gyro_file.as_deref().map(|g| (g, &gyro_opts));
     let streamed = super::with_spinner(&format!("reading {}", a.file.display()), || {
         stream::open(
@@ -271,6 +276,45 @@ fn read(a: &Args, gyro_columns: Option<[String; 3]>) -> Result<Pair> {
             (acc, gyro)
         }
     };
+    Ok(Pair::Held(acc, gyro))
+}
+
+/// A `wiical capture` of a MotionPlus: its gyro rows in slow-range counts
+/// ([`super::gyrofit_motionplus`]), held (a capture is at most a few hours at 100 Hz).
+fn read_motionplus(
+    a: &Args,
+    acc_opts: &wiical_analysis::LoadOptions,
+    block: &[u8; 32],
+) -> Result<Pair> {
+    use wiical_analysis::input::columns::Sensor;
+    use wiical_analysis::input::front_door::open_whole;
+    let Err(text) = open_whole(&a.file, &acc_opts.read).map_err(cli_error)? else {
+        bail!("{} is not a text capture", a.file.display());
+    };
+    let slow = super::gyrofit_motionplus::to_slow_counts(&text, block)
+        .with_context(|| format!("reading the MotionPlus capture {}", a.file.display()))?;
+    eprintln!(
+        "note: in {}: a MotionPlus capture: {} gyro rows with an axis in the fast range mapped onto the slow scale with {}; {} rows without gyro data (a Nunchuk passed through) left out",
+        a.file.display(),
+        slow.fast_rows,
+        if slow.block_used {
+            "its calibration block"
+        } else {
+            "the nominal ranges (its calibration block fails its CRC or is implausible)"
+        },
+        slow.without_gyro
+    );
+    let parse = |opts: &wiical_analysis::LoadOptions| {
+        wiical_analysis::input::text::parse(&slow.text, opts)
+            .map_err(|e| cli_error(e.in_file(&a.file)))
+    };
+    let acc = parse(acc_opts)?;
+    let gyro = parse(&wiical_analysis::LoadOptions {
+        columns: None,
+        sensor: Some(Sensor::Gyroscope),
+        read: acc_opts.read,
+    })?;
+    super::print_notes(&a.file, &acc);
     Ok(Pair::Held(acc, gyro))
 }
 

@@ -12,6 +12,7 @@ pub mod device_gyro;
 pub mod device_sim;
 pub mod fit;
 pub mod gyrofit;
+pub mod gyrofit_motionplus;
 pub mod kalman_demo;
 pub mod live;
 pub mod magfit;

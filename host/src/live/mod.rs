@@ -9,6 +9,7 @@
 //! [`Snapshot`]: wiical_analysis::live::Snapshot
 
 pub mod capture;
+pub mod gyro;
 pub mod http;
 pub mod source;
 
@@ -58,6 +59,9 @@ pub struct Shared {
     /// An adapter's background-recalibration grid, published with every snapshot as
     /// `adapter_grid` (set by the device source; `None` for a replay).
     grid: std::sync::Mutex<Option<serde_json::Value>>,
+    /// A MotionPlus's rates ([`gyro::GyroSnapshot`]), published with every snapshot as
+    /// `gyro` (set by the device source while the adapter streams gyro samples).
+    gyro: std::sync::Mutex<Option<serde_json::Value>>,
 }
 
 impl Default for Shared {
@@ -65,6 +69,7 @@ impl Default for Shared {
         Self {
             tx: watch::channel(Published::default()).0,
             grid: std::sync::Mutex::new(None),
+            gyro: std::sync::Mutex::new(None),
         }
     }
 }
@@ -80,10 +85,16 @@ impl Shared {
     /// Publishes a snapshot (serialised once, shared by every viewer).
     pub fn publish(&self, snap: &Snapshot) {
         let grid = self.grid.lock().map(|g| g.clone()).unwrap_or(None);
-        let mut json = match grid {
-            None => serde_json::to_string(snap),
-            Some(g) => serde_json::to_value(snap).map(|mut v| {
-                v["adapter_grid"] = g;
+        let gyro = self.gyro.lock().map(|g| g.clone()).unwrap_or(None);
+        let mut json = match (grid, gyro) {
+            (None, None) => serde_json::to_string(snap),
+            (grid, gyro) => serde_json::to_value(snap).map(|mut v| {
+                if let Some(g) = grid {
+                    v["adapter_grid"] = g;
+                }
+                if let Some(g) = gyro {
+                    v["gyro"] = g;
+                }
                 v.to_string()
             }),
         }
@@ -105,6 +116,13 @@ impl Shared {
     pub fn set_adapter_grid(&self, grid: serde_json::Value) {
         if let Ok(mut g) = self.grid.lock() {
             *g = Some(grid);
+        }
+    }
+
+    /// Sets the gyro view published with the next snapshots (see the `gyro` field).
+    pub fn set_gyro(&self, gyro: serde_json::Value) {
+        if let Ok(mut g) = self.gyro.lock() {
+            *g = Some(gyro);
         }
     }
 

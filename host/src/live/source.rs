@@ -4,15 +4,17 @@
 //! published at most every [`PUBLISH_EVERY`] of wall time, on every new pose and at the end.
 //! An adapter's stream state and self-calibration status (the C + Z mode, protocol 2's
 //! `GetStatus`) become the page's source status line; its background recalibration's grid
-//! (protocol 5's `GetBackgroundStatus`) is drawn on the page's hemispheres.
+//! (protocol 5's `GetBackgroundStatus`) is drawn on the page's hemispheres. A MotionPlus's
+//! gyro samples (protocol 8) feed the gyro view ([`super::gyro`]), published as `gyro`.
 
+use super::gyro::GyroView;
 use super::Shared;
-use crate::client::{ClientOptions, Device};
+use crate::client::{ClientOptions, Device, Streamed};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 use wiical_analysis::live::{LiveSensor, LiveSession, Snapshot};
 use wiical_analysis::Recording;
-use wiical_wire::{AdapterStatus, Sample, SelfCalOutcome, SelfCalPhase};
+use wiical_wire::{AdapterStatus, SelfCalOutcome, SelfCalPhase};
 
 /// Snapshots a second at most (besides one per pose and the last).
 pub const PUBLISH_EVERY: Duration = Duration::from_millis(100);
@@ -99,6 +101,8 @@ pub fn device(path: &str, shared: &Arc<Shared>) -> Option<Snapshot> {
             first_seq: None,
             last_seq: 0,
             received: 0,
+            gyro: GyroView::new(rate_hz),
+            gyro_seen: false,
         },
         Err(e) => return fail(e.to_string()),
     };
@@ -107,7 +111,7 @@ pub fn device(path: &str, shared: &Arc<Shared>) -> Option<Snapshot> {
     let why = loop {
         if last_status.elapsed() >= STATUS_EVERY {
             last_status = Instant::now();
-            match dev.status_while_streaming() {
+            match dev.status_while_streaming_all() {
                 Ok((status, samples)) => {
                     if let Some(e) = samples.iter().find_map(|s| feed.push(s).err()) {
                         break e;
@@ -116,7 +120,7 @@ pub fn device(path: &str, shared: &Arc<Shared>) -> Option<Snapshot> {
                 }
                 Err(e) => break e.to_string(),
             }
-            match dev.background_while_streaming() {
+            match dev.background_while_streaming_all() {
                 Ok((grid, samples)) => {
                     if let Some(g) = &grid {
                         shared.set_adapter_grid(grid_json(g));
@@ -128,7 +132,7 @@ pub fn device(path: &str, shared: &Arc<Shared>) -> Option<Snapshot> {
                 Err(e) => break e.to_string(),
             }
         }
-        let pushed = match dev.next_sample() {
+        let pushed = match dev.next_streamed() {
             Ok(s) => feed.push(&s),
             Err(e) => break e.to_string(),
         };
@@ -151,15 +155,30 @@ struct Feed {
     first_seq: Option<u32>,
     last_seq: u32,
     received: u64,
+    /// The MotionPlus's rates (fed while the adapter serves one).
+    gyro: GyroView,
+    gyro_seen: bool,
 }
 
 impl Feed {
-    /// One sample; the session's refusal as a sentence.
-    fn push(&mut self, s: &Sample) -> Result<(), String> {
+    /// One streamed sample (an accelerometer's into the session, a gyro's into the gyro
+    /// view); the session's refusal as a sentence.
+    fn push(&mut self, s: &Streamed) -> Result<(), String> {
         // Sequence numbers wrap at 2³²; the wrapping difference keeps time monotonic.
-        let seq0 = *self.first_seq.get_or_insert(s.seq);
-        self.last_seq = s.seq;
+        let seq0 = *self.first_seq.get_or_insert(s.seq());
+        self.last_seq = s.seq();
         self.received += 1;
+        let s = match s {
+            Streamed::Accelerometer(s) => s,
+            Streamed::Gyro(g) => {
+                self.gyro.push(g);
+                self.gyro_seen = true;
+                if self.last_publish.elapsed() >= PUBLISH_EVERY {
+                    self.publish();
+                }
+                return Ok(());
+            }
+        };
         let t = f64::from(s.seq.wrapping_sub(seq0)) / self.rate_hz;
         let new_pose = self
             .session
@@ -172,6 +191,14 @@ impl Feed {
     }
 
     fn publish(&mut self) {
+        if self.gyro_seen {
+            match serde_json::to_value(self.gyro.snapshot()) {
+                Ok(v) => self.shared.set_gyro(v),
+                Err(e) => self
+                    .shared
+                    .set_gyro(serde_json::json!({ "error": e.to_string() })),
+            }
+        }
         self.shared.publish(&self.session.snapshot());
         self.last_publish = Instant::now();
     }

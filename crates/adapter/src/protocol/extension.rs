@@ -11,7 +11,8 @@
 use embedded_storage_async::nor_flash::NorFlash;
 use wiical_extbus::motionplus::{PassthroughMode, ACTIVE_I2C_ADDRESS, INACTIVE_I2C_ADDRESS};
 use wiical_extbus::nunchuk::I2C_ADDRESS;
-use wiical_wire::Sample;
+use wiical_extbus::{Frame, MotionPlusReport};
+use wiical_wire::{GyroSample, Sample};
 
 use super::Protocol;
 use crate::error::Error;
@@ -21,8 +22,8 @@ use crate::motionplus_poller::MotionPlusEvent;
 
 impl<F: NorFlash> Protocol<F> {
     /// Feed one poll of [`ExtensionPoller`] (`poller` as it is after the poll). Returns the
-    /// sample to send when streaming (Nunchuk reports only: the wire's samples are an
-    /// accelerometer's).
+    /// sample to send when streaming (Nunchuk reports only: a `Sample` is an accelerometer's);
+    /// a MotionPlus's stream sample is [`Protocol::take_gyro_sample`]'s.
     pub fn on_extension_poll<E>(
         &mut self,
         event: &ExtensionEvent<E>,
@@ -60,8 +61,16 @@ impl<F: NorFlash> Protocol<F> {
             }
             // No stillness evidence of its own (the accelerometer is in the Wii Remote): the
             // corrector's rest limit is the gate. A Nunchuk's pass-through frame is corrected
-            // with the stored accelerometer calibration, as a Nunchuk's own report is.
-            Ok(MotionPlusEvent::Frame(f)) => self.motionplus.on_frame(f, &self.corrector, true),
+            // with the stored accelerometer calibration, as a Nunchuk's own report is. Only a
+            // gyro frame gives the stream a sample (protocol 8 streams a pass-through Nunchuk's
+            // frames to the Wii Remote only, not to the host).
+            Ok(MotionPlusEvent::Frame(f)) => {
+                let c = self.motionplus.on_frame(f, &self.corrector, true)?;
+                if let Frame::MotionPlus(raw) = f {
+                    self.gyro_sample = self.stream_seq().map(|seq| gyro_sample(seq, raw, &c));
+                }
+                Some(c)
+            }
             Ok(MotionPlusEvent::Switched(_) | MotionPlusEvent::Idle) | Err(_) => {
                 if !still_connected && self.connected {
                     self.connected = false;
@@ -69,6 +78,13 @@ impl<F: NorFlash> Protocol<F> {
                 None
             }
         }
+    }
+
+    /// (Protocol 8.) The stream's sample of the last MotionPlus gyro frame (every
+    /// `rate_divider`-th while streaming, counted with the Nunchuk's samples), once: send it
+    /// as [`wiical_wire::Response::GyroSample`] after feeding a poll.
+    pub fn take_gyro_sample(&mut self) -> Option<GyroSample> {
+        self.gyro_sample.take()
     }
 
     /// Hand the committed gyro calibration (or none) to the MotionPlus's corrector; the
@@ -155,5 +171,21 @@ impl<F: NorFlash> Protocol<F> {
                 crate::emulated::split_writes(entries, |w| self.target_write(w));
             }
         }
+    }
+}
+
+/// The wire's sample of a gyro frame: the real report's counts and range bits, and the
+/// corrector's rates.
+fn gyro_sample(seq: u32, raw: &MotionPlusReport, c: &GyroCorrected) -> GyroSample {
+    let bits = [
+        GyroSample::SLOW_YAW,
+        GyroSample::SLOW_ROLL,
+        GyroSample::SLOW_PITCH,
+    ];
+    GyroSample {
+        seq,
+        raw: raw.rate,
+        slow: (0..3).filter(|&i| raw.slow[i]).map(|i| bits[i]).sum(),
+        corrected: c.rate,
     }
 }
