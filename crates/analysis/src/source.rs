@@ -297,7 +297,7 @@ impl RowSource for TextSource {
         TextSource::each_piece_f32(self, f);
     }
 
-    /// From the spill, [`SPAN_READ_ROWS`] at a time (rows `buf` holds already not read again).
+    /// From the spill, `SPAN_READ_ROWS` at a time (rows `buf` holds already not read again).
     fn span<'a>(&'a self, (s, e): (usize, usize), buf: &'a mut RowBuf) -> Option<RowChunk<'a>> {
         let span = (s, e.min(s + SPAN_READ_ROWS));
         if buf.at != Some(span) {

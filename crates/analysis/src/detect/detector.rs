@@ -1,7 +1,7 @@
 //! The static-window detector: its settings ([`DetectOptions`], the ranges every door checks
 //! them against), the core's detectors over the detector's view of the samples (the adaptive
 //! one's survey and hold schedule, the fixed IMU-TK one), over samples in place (held pieces:
-//! the pair by spans where exact, the survey four blocks at a time) or any pass ([`Passes`]),
+//! the pair by spans where exact, the survey four blocks at a time) or any pass (`Passes`),
 //! and the view's lattice and scale. [`crate::detect::windows`] runs them over a recording's
 //! rows.
 
@@ -581,7 +581,7 @@ pub(crate) fn fixed_intervals(
 
 /// [`crate::input::recording::Recording::is_integer`] of samples `xyz` (every value whole: `v.fract() == 0`), on all
 /// cores and without `fract`'s call to `trunc` (a library call on x86-64 without SSE4.1):
-/// the streamed summary's test of each value ([`is_whole`]).
+/// the streamed summary's test of each value (`is_whole`).
 pub fn all_whole(xyz: &[[f64; 3]]) -> bool {
     use rayon::prelude::*;
     xyz.par_iter().all(|s| s.iter().all(|v| is_whole(*v)))

@@ -627,7 +627,7 @@ pub(crate) fn detect_windows_untimed(rec: &Recording, opts: &DetectOptions) -> R
     detect_windows_of(rec, opts, false)
 }
 
-/// [`detect_windows_untimed`] on a large text file read in passes, never held: the same
+/// `detect_windows_untimed` on a large text file read in passes, never held: the same
 /// windows bit for bit; a pass that found the file changed or unreadable says so.
 pub fn detect_windows_streamed(src: &TextSource, opts: &DetectOptions) -> crate::Result<Windows> {
     let found = detect_windows_of(src, opts, false);
@@ -743,7 +743,7 @@ pub struct Windows {
     pub stats: Vec<WindowStats>,
     /// Sample times (recording clock), s: every sample's for a recording held in memory
     /// ([`detect_windows`]: `analyze`'s thermal regressors read them); empty for samples
-    /// streamed from a file ([`crate::detect::streamed`]) and for `fit` and `gyrofit`, which
+    /// streamed from a file ([`detect_windows_streamed`]) and for `fit` and `gyrofit`, which
     /// read the windows' own times.
     pub times: Vec<f64>,
     /// Times of the recording's first and last sample, s (recording clock); `None` without

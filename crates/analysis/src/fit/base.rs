@@ -99,7 +99,7 @@ pub fn run(rec: &Recording, opts: &FitOptions) -> Result<FitReport> {
 }
 
 /// [`run`] on a large text file streamed in passes ([`TextSource`]: the samples are never
-/// held): the same windows ([`crate::detect::streamed`]) and the same fit.
+/// held): the same windows ([`crate::detect::windows::detect_windows_streamed`]) and the same fit.
 pub fn run_streamed(src: &TextSource, opts: &FitOptions) -> Result<FitReport> {
     let ws = crate::detect::windows::detect_windows_streamed(src, &opts.detect)?;
     Ok(run_windows(&ws, opts)?)

@@ -1,7 +1,7 @@
 //! `gyrofit` on large plain text files in bounded memory: the accelerometer's and the gyro's
 //! triplets each a [`TextSource`] (the file read in passes, never held; for one file, two
 //! sources of it with different columns), the windows found by `fit`'s streamed detection
-//! ([`crate::detect::streamed`]), and every other stage reading the rows through the same
+//! ([`crate::detect::windows::detect_windows_streamed`]), and every other stage reading the rows through the same
 //! passes as the held recording (`gyro/samples.rs`): the report is the held one's, bit for
 //! bit.
 //!

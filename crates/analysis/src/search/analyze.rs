@@ -66,7 +66,7 @@ pub fn analyze(rec: &Recording, opts: &AnalyzeOptions) -> Result<AnalyzeReport> 
 }
 
 /// [`analyze`] on a large text file streamed in passes ([`TextSource`]: the samples are never
-/// held): the same windows ([`crate::detect::streamed`]) and the same report.
+/// held): the same windows ([`crate::detect::windows::detect_windows_streamed`]) and the same report.
 pub fn analyze_streamed(src: &TextSource, opts: &AnalyzeOptions) -> Result<AnalyzeReport> {
     check_rule(opts.alpha, opts.cv_factor)?;
     let report = |stage, done, total| opts.progress.report(Progress { stage, done, total });
