@@ -19,6 +19,7 @@ import { decodeReport, calibrationBlock } from './src/nunchuk.js';
 import { crc32, decodeMotionPlusReport, decodePassthroughNunchuk } from './src/motionplus.js';
 import { selfCalScenarios } from './src/selfcal-scenarios.js';
 import { backgroundScenarios } from './src/background-scenarios.js';
+import { motionplusDriftScenarios } from './src/motionplus-drift.js';
 import { mulberry32 } from './src/pose-nunchuk.js';
 import { decodeFrames, unitRequestFrame, REQUEST, RESPONSE, RawHost, frame, putFrame, startStreamFrame, decodeGyroSample } from './src/wire.js';
 
@@ -795,6 +796,9 @@ const scenarios = [
     }
     return `6 segments, slow and fast range: worst 1-s mean error ${worst(before).toFixed(2)} °/s uncorrected -> ${worst(after).toFixed(3)} °/s corrected (2σ of the noise ${(2 * Math.min(...sigma)).toFixed(3)}-${(2 * Math.max(...sigma)).toFixed(3)} °/s)`;
   }],
+  ...motionplusDriftScenarios({
+    newRig, fail, putCommit, getState, measurements, work, blockRates, device: MP_DEVICE, f32eq,
+  }),
   ['motionplus-passthrough', async () => {
     // A Nunchuk in the MotionPlus's port and a Wii Remote that activates the adapter in
     // Nunchuk pass-through (0x05): the adapter must activate the real MotionPlus in that mode
@@ -1083,6 +1087,13 @@ if (measurements.motionplusTurns) {
   });
   const b = m.busy;
   if (b.length) console.log(`measure motionplus-turns on the RP2040 (rp2040js cycle counts, 125 MHz): busy cycles per 5-ms poll period (625000 cycles) with the gyro correction and the tracker, over ${b.length} periods: median ${b[b.length >> 1]}, worst ${b[b.length - 1]}`);
+}
+if (measurements.motionplusDrift) {
+  const m = measurements.motionplusDrift;
+  const f = (e) => `[${e.map((x) => x.toFixed(3)).join(' ')}]`;
+  for (const w of m.win) {
+    console.log(`measure motionplus-drift ${w.name} ${w.from.toFixed(2)}-${w.to.toFixed(2)} s truth [${w.truth}] °/s${w.checked ? '' : ' (not checked)'}: 1-s mean error [yaw roll pitch] uncorrected ${f(w.uncorrected)}, calibration only ${f(w.calOnly)}, corrected ${f(w.corrected)} °/s (n=${w.n})`);
+  }
 }
 if (measurements.motionplusPassthrough) {
   const m = measurements.motionplusPassthrough;

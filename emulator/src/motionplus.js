@@ -24,6 +24,12 @@
 // `zeroFast + perDps·fastRatio·rate + noise`, rounded and clamped to 0..16383, noise Gaussian
 // with `noiseCounts` sd (slow counts; scaled by the range's sensitivity in the fast range),
 // from a seeded generator.
+// Optionally (motionplus-drift) a misaligned gyro and a drifting bias: with `sensitivity`, a
+// full 3×3 matrix S of slow counts per °/s (row: count axis, column: true rate axis; off the
+// diagonal each count axis also sees the other axes' rates), the slow counts are
+// `zero + S·rate + drift(t) + noise`; with `drift(tNs)` (slow counts per axis, e.g. a warming
+// MotionPlus's zero moving), the zero moves by it in both ranges as a rate bias does
+// (`fastRatio·drift` fast counts). The range is chosen per axis by its own true rate as above.
 
 import { mulberry32 } from './pose-nunchuk.js';
 
@@ -114,11 +120,12 @@ export class MotionPlus {
   constructor(board, {
     rates = () => [0, 0, 0], zero = [8192, 8192, 8192], zeroFast = null, perDps = [8192 / 440, 8192 / 440, 8192 / 440],
     fastRatio = 440 / 2000, slowLimitDps = 400, noiseCounts = 0, seed = 50, block = null, nunchuk = null,
+    sensitivity = null, drift = null,
   } = {}) {
     this.board = board;
     /** The Nunchuk in its port (nunchuk.js's model, `attach: false`), or null. */
     this.nunchuk = nunchuk;
-    Object.assign(this, { rates, zero, perDps, fastRatio, slowLimitDps, noiseCounts });
+    Object.assign(this, { rates, zero, perDps, fastRatio, slowLimitDps, noiseCounts, sensitivity, drift });
     this.zeroFast = zeroFast ?? zero;
     this.random = mulberry32(seed);
     this.block = block ?? motionPlusBlock({
@@ -176,8 +183,9 @@ export class MotionPlus {
     return Math.sqrt(-2 * Math.log(u)) * Math.cos(2 * Math.PI * this.random());
   }
 
-  /** Counts and slow bits of the true rates at time t (see the header). */
-  measure(truth) {
+  /** Counts and slow bits of the true rates at time `tNs` (see the header). */
+  measure(truth, tNs = 0) {
+    if (this.sensitivity || this.drift) return this.measureMisaligned(truth, tNs);
     const rate = [];
     const slow = [];
     for (let i = 0; i < 3; i++) {
@@ -186,6 +194,24 @@ export class MotionPlus {
       const z = s ? this.zero[i] : this.zeroFast[i];
       const noise = this.noiseCounts * this.gauss() * (s ? 1 : this.fastRatio);
       rate.push(Math.max(0, Math.min(16383, Math.round(z + per * truth[i] + noise))));
+      slow.push(s);
+    }
+    return { rate, slow };
+  }
+
+  /** {@link measure} with the full sensitivity S and the drifting zero (see the header). */
+  measureMisaligned(truth, tNs) {
+    const S = this.sensitivity ?? this.perDps.map((p, i) => [0, 1, 2].map((j) => (i === j ? p : 0)));
+    const d = this.drift?.(tNs) ?? [0, 0, 0];
+    const rate = [];
+    const slow = [];
+    for (let i = 0; i < 3; i++) {
+      const s = Math.abs(truth[i]) <= this.slowLimitDps;
+      const slowCounts = S[i].reduce((a, v, j) => a + v * truth[j], 0) + d[i];
+      const ratio = s ? 1 : this.fastRatio;
+      const z = s ? this.zero[i] : this.zeroFast[i];
+      const noise = this.noiseCounts * this.gauss() * ratio;
+      rate.push(Math.max(0, Math.min(16383, Math.round(z + ratio * slowCounts + noise))));
       slow.push(s);
     }
     return { rate, slow };
@@ -222,7 +248,7 @@ export class MotionPlus {
       return;
     }
     const truth = this.rates(tNs);
-    const m = this.measure(truth);
+    const m = this.measure(truth, tNs);
     this.regs.set(motionPlusReportBytes(m.rate, m.slow, plugged), 0);
     this.served.push({ tNs, busy: this.board.busyCycles, truth, ...m });
     this.lastWasGyro = true;
