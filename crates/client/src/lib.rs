@@ -634,31 +634,32 @@ impl Device {
 
     /// The next streamed sample (corrupted frames are skipped and counted).
     pub fn next_sample(&mut self) -> Result<Sample> {
-        let deadline = Instant::now() + self.opts.timeout;
-        loop {
-            match self.recv(deadline)? {
-                Some(Ok(Response::Sample(s))) => return Ok(s),
-                Some(Ok(_)) => self.stats.discarded += 1,
-                Some(Err(_)) => {}
-                None => {
-                    return Err(ClientError::NoSample {
-                        port: self.name.clone(),
-                        timeout_ms: self.opts.timeout.as_millis(),
-                    })
-                }
-            }
-        }
+        self.next_taken(|r| match r {
+            Response::Sample(s) => Some(s),
+            _ => None,
+        })
     }
 
     /// The next streamed sample of either kind (protocol 8: a MotionPlus's [`GyroSample`]s
     /// while the adapter serves one); corrupted frames are skipped and counted.
     pub fn next_streamed(&mut self) -> Result<Streamed> {
+        self.next_taken(|r| match r {
+            Response::Sample(s) => Some(Streamed::Accelerometer(s)),
+            Response::GyroSample(s) => Some(Streamed::Gyro(s)),
+            _ => None,
+        })
+    }
+
+    /// The first response `take` accepts within one timeout; the ones it refuses are counted
+    /// as discarded, corrupted frames skipped.
+    fn next_taken<T>(&mut self, take: impl Fn(Response) -> Option<T>) -> Result<T> {
         let deadline = Instant::now() + self.opts.timeout;
         loop {
             match self.recv(deadline)? {
-                Some(Ok(Response::Sample(s))) => return Ok(Streamed::Accelerometer(s)),
-                Some(Ok(Response::GyroSample(s))) => return Ok(Streamed::Gyro(s)),
-                Some(Ok(_)) => self.stats.discarded += 1,
+                Some(Ok(r)) => match take(r) {
+                    Some(t) => return Ok(t),
+                    None => self.stats.discarded += 1,
+                },
                 Some(Err(_)) => {}
                 None => {
                     return Err(ClientError::NoSample {
