@@ -28,7 +28,9 @@ fn direction(i: u32, n: u32) -> [f32; 3] {
     [r * libm::cosf(phi), r * libm::sinf(phi), z]
 }
 
-fn print_row(name: &str, unit: &str, instr: f64, stack: Option<usize>, ok: bool) {
+/// One row of the QEMU benchmark table (the per-5-ms-poll budget verdict); the MotionPlus bench
+/// prints its rows with it too.
+pub(crate) fn print_row(name: &str, unit: &str, instr: f64, stack: Option<usize>, ok: bool) {
     let verdict = if ok {
         "<= 750000 instr (5 ms at 150 MHz): met"
     } else {

@@ -18,6 +18,7 @@ use wiical_adapter::{Corrector, IdealScale};
 use wiical_core::gyro_correct::GyroCorrection;
 use wiical_extbus::{Frame, MotionPlusReport, PassthroughMode};
 
+use crate::background_bench::print_row;
 use crate::rt;
 
 /// Instructions per report a 5 ms poll period allows at 150 MHz (see the module docs).
@@ -77,32 +78,6 @@ fn on_report(emu: &mut EmulatedMotionPlus, nunchuk: &Corrector, bytes: &[u8; 6])
     }
 }
 
-fn print_row(name: &str, instr: f64, stack: Option<usize>, ok: bool) {
-    let verdict = if ok {
-        "<= 750000 instr (5 ms at 150 MHz): met"
-    } else {
-        "<= 750000 instr (5 ms at 150 MHz): MISSED"
-    };
-    match stack {
-        Some(s) => hprintln!(
-            "| {:<58} | {:<10} | {:>12.0} | {:>10} | {} |",
-            name,
-            "report",
-            instr,
-            s,
-            verdict
-        ),
-        None => hprintln!(
-            "| {:<58} | {:<10} | {:>12.0} | {:>10} | {} |",
-            name,
-            "report",
-            instr,
-            "> 64 KiB",
-            verdict
-        ),
-    }
-}
-
 /// The rows; returns whether the budget was met and the tracker moved the bias (the worst
 /// case was exercised). `per_tick`: instructions per SysTick tick.
 pub fn rows(per_tick: f64) -> bool {
@@ -133,12 +108,14 @@ pub fn rows(per_tick: f64) -> bool {
     let ok = worst_instr <= POLL_BUDGET && updates > 0 && served == REPORTS;
     print_row(
         "MotionPlus report: decode, correct, track, encode (mean)",
+        "report",
         mean,
         st,
         ok,
     );
     print_row(
         "MotionPlus report: worst single report",
+        "report",
         worst_instr,
         st,
         ok,
