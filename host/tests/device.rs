@@ -541,10 +541,9 @@ fn a_gyro_file_is_put_committed_and_reported_by_device_get() {
     let state: serde_json::Value = serde_json::from_str(&run(&["get", "--json"]).unwrap()).unwrap();
     let live = &state["gyro"]["live"];
     assert_eq!(live["axes"], serde_json::json!(["yaw", "roll", "pitch"]));
-    for i in 0..3 {
+    for (i, &(a, sign)) in mount.iter().enumerate() {
         let b = live["bias"][i].as_f64().unwrap();
         assert_eq!(b, f64::from(cal.bias[i] as f32), "bias {i}");
-        let (a, sign) = mount[i];
         for j in 0..3 {
             let got = live["matrix"][i][j].as_f64().unwrap();
             let want = sign * cal.matrix[a][j];

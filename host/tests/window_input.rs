@@ -104,12 +104,12 @@ fn simulated_table_fit_and_analyze_agree_and_recover_the_truth() {
         .iter()
         .find(|e| e["name"] == "temperature")
         .unwrap_or_else(|| panic!("temperature not named: {:#}", an["verdict"]));
-    for j in 0..3 {
+    for (j, coef) in TEMP_COEF.iter().enumerate() {
         let (v, se) = (
             temp["values"][j].as_f64().unwrap(),
             temp["std_errors"][j].as_f64().unwrap(),
         );
-        assert!((v + TEMP_COEF[j] * 1e3).abs() < 4.0 * se + 1e-3, "{temp:#}");
+        assert!((v + coef * 1e3).abs() < 4.0 * se + 1e-3, "{temp:#}");
     }
     // The GGIR method on the same windows, iterated to its fixed point: the truth within
     // 4 standard errors. With GGIR's own stop (a tolerance on a per-epoch average, reached

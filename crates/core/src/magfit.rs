@@ -365,13 +365,13 @@ impl Moments {
         }
         let hv = |x: &[f32; 10], y: &[f32; 10]| -> f32 {
             let mut acc = 0.0f32;
-            for p in 0..10 {
-                if x[p] == 0.0 {
+            for (&xp, hp) in x.iter().zip(&h) {
+                if xp == 0.0 {
                     continue;
                 }
-                for q in 0..10 {
-                    if y[q] != 0.0 {
-                        acc += x[p] * y[q] * h[p][q];
+                for (&yq, &hpq) in y.iter().zip(hp) {
+                    if yq != 0.0 {
+                        acc += xp * yq * hpq;
                     }
                 }
             }

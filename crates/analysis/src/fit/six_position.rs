@@ -108,9 +108,8 @@ pub(crate) fn check_poses(rec: &Recording, means: &[[f32; 3]; 6]) -> Result<()> 
     let mut acc = [[(0.0f64, 0.0f64, 0.0f64); 3]; 6];
     for (l, v) in labels.iter().zip(&rec.xyz) {
         if let Some(p) = Pose::from_label(l) {
-            for a in 0..3 {
-                let e = &mut acc[p as usize][a];
-                *e = (e.0 + 1.0, e.1 + v[a], e.2 + v[a] * v[a]);
+            for (e, &va) in acc[p as usize].iter_mut().zip(v) {
+                *e = (e.0 + 1.0, e.1 + va, e.2 + va * va);
             }
         }
     }
