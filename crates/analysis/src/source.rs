@@ -1,14 +1,15 @@
 //! The one way a pipeline reads a recording's samples: [`SampleSource`], in order and as often
 //! as it needs, whether they are held in memory (a slice) or read again from a large file in
 //! passes ([`TextSource`]); [`RowSource`], the rows with their time and temperature as the
-//! window detection and `magfit` read them (a window's rows read where they are kept
-//! besides). A fold written against them is the held and the large-file path at once, so the
+//! window detection, `magfit` and `gyrofit` read them (a window's rows read where they are
+//! kept besides). A fold written against them is the held and the large-file path at once, so the
 //! two cannot drift apart.
 
 use crate::detect::detector::all_whole;
 use crate::input::recording::Recording;
 use crate::input::sample_summary::{Distinct, SummaryFold};
 use crate::input::text_source::{Columns, Row, TextSource, Want};
+use crate::input::timecheck::TimeSteps;
 
 /// Samples read in passes: a held recording's, or a large file's rows.
 pub trait SampleSource {
@@ -36,11 +37,11 @@ impl SampleSource for TextSource {
     }
 }
 
-/// A recording's rows as the static-window detection ([`crate::detect::windows`]) and
-/// `magfit` ([`crate::magnetometer::pass`]) read them, whether held in memory or a large file
-/// read in passes ([`TextSource`]): each is written once against it, and a held recording is
-/// the case of one chunk in place (its passes read its slices; a window's rows are a slice of
-/// them).
+/// A recording's rows as the static-window detection ([`crate::detect::windows`]), `magfit`
+/// ([`crate::magnetometer::pass`]) and `gyrofit` ([`crate::gyro`]) read them, whether held in
+/// memory or a large file read in passes ([`TextSource`]): each is written once against it,
+/// and a held recording is the case of one chunk in place (its passes read its slices; a
+/// window's rows are a slice of them).
 ///
 /// A file's pass may end early (changed, unreadable): the reader then goes on with what it
 /// read, and [`RowSource::check`] after it says so.
@@ -76,6 +77,13 @@ pub trait RowSource: Sync {
     fn has_temp(&self) -> bool;
     /// The time column's first and last values (`None` without one).
     fn time_ends(&self) -> (Option<f64>, Option<f64>);
+    /// The time column's steps (`None` without a time column or a usable step).
+    fn time_steps(&self) -> Option<TimeSteps>;
+    /// Per axis, one value on every row (all compare equal: `−0` and `0` do, NaN does not),
+    /// when known without a pass (a file's first pass): held rows say `None`.
+    fn constant(&self) -> Option<[bool; 3]> {
+        None
+    }
     /// The smallest and the largest value of any axis (asked of whole numbers only).
     fn extremes(&self) -> (f64, f64);
     /// Each axis's distinct values, ascending (`total_cmp`, deduplicated); `None` when an
@@ -165,6 +173,10 @@ impl RowSource for Recording {
     fn time_ends(&self) -> (Option<f64>, Option<f64>) {
         let t = self.t.as_deref().unwrap_or(&[]);
         (t.first().copied(), t.last().copied())
+    }
+
+    fn time_steps(&self) -> Option<TimeSteps> {
+        TimeSteps::of(self.t.as_deref()?)
     }
 
     /// On all cores (`min`/`max` do not depend on the order; a `−0` for a `0` compares equal
@@ -270,6 +282,14 @@ impl RowSource for TextSource {
 
     fn time_ends(&self) -> (Option<f64>, Option<f64>) {
         (self.summary.t_first, self.summary.t_last)
+    }
+
+    fn time_steps(&self) -> Option<TimeSteps> {
+        self.has_time().then_some(self.steps).flatten()
+    }
+
+    fn constant(&self) -> Option<[bool; 3]> {
+        Some(self.summary.constant)
     }
 
     fn extremes(&self) -> (f64, f64) {

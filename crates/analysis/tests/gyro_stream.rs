@@ -1,4 +1,4 @@
-//! `gyrofit` on text files streamed in passes (`gyro::stream`: the rows never held) gives the
+//! `gyrofit` on text files streamed in passes (`gyro::open_text`, `gyro::run_text`: the rows never held) gives the
 //! report of the same files held in memory, bit for bit: the whole JSON compared, on every real
 //! recording `gyrofit` reads as plain text (the MPU-9150 units, sunsided's MPU-6050 logs, and
 //! IMU-TK's Xsens pair when its text is streamed), on a few-MiB file made of an MPU-9150 log
@@ -7,8 +7,7 @@
 mod common;
 
 use std::path::{Path, PathBuf};
-use wiical_analysis::gyro::stream::{open, run_streamed};
-use wiical_analysis::gyro::{self, GyroOptions};
+use wiical_analysis::gyro::{self, open_text as open, run_text, GyroOptions};
 use wiical_analysis::input::columns::LoadOptions;
 use wiical_analysis::input::front_door::load_imu;
 
@@ -45,7 +44,7 @@ fn both(acc: &Path, gyro_file: Option<&Path>, opts: &GyroOptions) -> (String, St
     let imu = open((acc, &load), gyro_file.map(|g| (g, &load)), None, 0)
         .unwrap()
         .unwrap_or_else(|| panic!("{acc:?} not streamed"));
-    (held, outcome(run_streamed(&imu, opts)))
+    (held, outcome(run_text(&imu, opts)))
 }
 
 fn data(rel: &str) -> PathBuf {
@@ -152,7 +151,7 @@ fn unnamed_gyro_columns_and_a_changed_file_are_refused() {
         .unwrap();
     let text = std::fs::read_to_string(&log).unwrap();
     std::fs::write(&log, text.replace("0.00,", "0.000,")).unwrap();
-    let e = run_streamed(&imu, &options(Some(16.384))).unwrap_err();
+    let e = run_text(&imu, &options(Some(16.384))).unwrap_err();
     assert!(e.to_string().contains("imu.csv"), "{e}");
 }
 

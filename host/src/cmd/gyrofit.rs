@@ -5,8 +5,7 @@ use super::{check_outputs, load_held, load_options, to_json, DetectArgs, PLAIN_T
 use crate::cli_error::cli_error;
 use anyhow::{bail, Context, Result};
 use std::path::PathBuf;
-use wiical_analysis::gyro::stream::{self, run_streamed, StreamedImu};
-use wiical_analysis::gyro::{nominal_from_columns, GyroOptions};
+use wiical_analysis::gyro::{nominal_from_columns, open_text, run_text, GyroOptions, TextImu};
 use wiical_analysis::protocol::gyro::{GyroProtocolOptions, GyroProtocolReport};
 use wiical_analysis::Recording;
 
@@ -130,7 +129,7 @@ pub fn run(a: &Args) -> Result<String> {
                 Err(e) => return Err(cli_error(e)),
             }
         }
-        Pair::Streamed(imu) => run_streamed(imu, &opts).map_err(cli_error)?,
+        Pair::Streamed(imu) => run_text(imu, &opts).map_err(cli_error)?,
     };
     if let Some(path) = &a.out {
         save(path, &rep)?;
@@ -205,12 +204,12 @@ fn save_protocol(path: &std::path::Path, rep: &GyroProtocolReport) -> Result<()>
 }
 
 /// The two recordings: held, or (a plain text file of at least the streaming size) streamed
-/// in passes ([`wiical_analysis::gyro::stream`]).
+/// in passes ([`wiical_analysis::gyro::TextImu`]).
 /// One value per run: the variants' sizes do not matter.
 #[allow(clippy::large_enum_variant)]
 enum Pair {
     Held(Recording, Recording),
-    Streamed(StreamedImu),
+    Streamed(TextImu),
 }
 
 /// Reads FILE (and GYRO_FILE); notes on them go to stderr, each once.
@@ -226,7 +225,7 @@ fn read(a: &Args, gyro_columns: Option<[String; 3]>) -> Result<Pair> {
     }
     let gyro_file = a.gyro_file.as_deref().map(|g| (g, &gyro_opts));
     let streamed = super::with_spinner(&format!("reading {}", a.file.display()), || {
-        stream::open(
+        open_text(
             (&a.file, &acc_opts),
             gyro_file,
             gyro_columns.clone(),

@@ -1,36 +1,33 @@
-//! Pairing the accelerometer's rows with the gyro's: by position when both files have the same
-//! samples, by time when the gyro's rows are a subset (a capture whose rows alternate).
+//! Pairing the accelerometer's rows with the gyro's: held recordings by position when both
+//! have the same samples, by time when the gyro's rows are a subset (a capture whose rows
+//! alternate); large plain text files ([`TextImu`], read in passes, never held) by position
+//! only.
 
 use super::options::{GyroError, Result};
+use crate::error::Error;
+use crate::input::columns::{all_named, LoadOptions, Sensor};
 use crate::input::recording::Recording;
-use crate::input::timecheck::TimeSteps;
+use crate::input::text_source::TextSource;
+use std::borrow::Cow;
+use std::path::{Path, PathBuf};
 
-/// Rows of `acc` and `gyro` that belong together: all of them when the lengths agree (`None`),
-/// else (a capture whose rows alternate between gyro and other data, so the loader skipped the
-/// rows without gyro values) the accelerometer rows at the gyro rows' times, with those times.
-type Aligned = (Vec<[f64; 3]>, Option<Vec<f64>>);
+/// Two held recordings of the same samples, row by row: the accelerometer's and the gyro's,
+/// and whether they were paired by time (a subset of the accelerometer's rows).
+pub(super) type Paired<'a> = (Cow<'a, Recording>, Cow<'a, Recording>, bool);
 
-pub(super) fn align(acc: &Recording, gyro: &Recording) -> Result<Aligned> {
+/// `acc` and `gyro` paired: by position when the lengths agree (each with the other's
+/// temperature and sample rate where it states none, so the pair read the other way round is
+/// the same rows), else (a capture whose rows alternate between gyro and other data, so the
+/// loader skipped the rows without gyro values) the accelerometer rows at the gyro rows'
+/// times, with those times (their rate from them, not from the file's Fs).
+pub(super) fn pair<'a>(acc: &'a Recording, gyro: &'a Recording) -> Result<Paired<'a>> {
+    if acc.len() == gyro.len() {
+        return Ok((filled(acc, gyro), filled(gyro, acc), false));
+    }
     let mismatch = || GyroError::GyroRowsMismatch {
         accel: acc.len(),
         gyro: gyro.len(),
     };
-    if acc.len() == gyro.len() {
-        // Rows pair by position, but only when both clocks agree on them (a shifted copy of
-        // the gyro log must not be paired silently).
-        if let (Some(ta), Some(tg)) = (&acc.t, &gyro.t) {
-            let worst = ta
-                .iter()
-                .zip(tg)
-                .map(|(a, g)| (a - g).abs())
-                .fold(0.0, f64::max);
-            let step = TimeSteps::of(ta).map_or(f64::INFINITY, |s| s.median_s);
-            if worst > 0.5 * step {
-                return Err(GyroError::GyroClocksDiffer { offset_s: worst });
-            }
-        }
-        return Ok((acc.xyz.clone(), None));
-    }
     let (Some(ta), Some(tg)) = (&acc.t, &gyro.t) else {
         return Err(mismatch());
     };
@@ -60,25 +57,133 @@ pub(super) fn align(acc: &Recording, gyro: &Recording) -> Result<Aligned> {
         }
         out.push(acc.xyz[i]);
     }
-    Ok((out, Some(tg.clone())))
+    let acc = Recording {
+        xyz: out,
+        t: Some(tg.clone()),
+        ..Default::default()
+    };
+    Ok((Cow::Owned(acc), Cow::Borrowed(gyro), true))
 }
 
-/// The accelerometer rows that belong to the gyro's, as a recording with its clock.
-pub(super) fn paired_accelerometer(acc: &Recording, gyro: &Recording) -> Result<Recording> {
-    let (acc_xyz, subset_times) = align(acc, gyro)?;
-    Ok(match subset_times {
-        // A subset of the rows: the rate comes from their times, not from the file's Fs.
-        Some(t) => Recording {
-            xyz: acc_xyz,
-            t: Some(t),
-            ..Default::default()
-        },
-        None => Recording {
-            xyz: acc_xyz,
-            t: acc.t.clone(),
-            temp: acc.temp.clone().or_else(|| gyro.temp.clone()),
-            sample_rate_hz: acc.sample_rate_hz.or(gyro.sample_rate_hz),
-            ..Default::default()
-        },
+/// `rec` with `other`'s temperature and sample rate where it states none (either file of a
+/// pair may state them).
+fn filled<'a>(rec: &'a Recording, other: &Recording) -> Cow<'a, Recording> {
+    let temp = rec.temp.is_none() && other.temp.is_some();
+    let rate = rec.sample_rate_hz.is_none() && other.sample_rate_hz.is_some();
+    if !(temp || rate) {
+        return Cow::Borrowed(rec);
+    }
+    Cow::Owned(Recording {
+        temp: rec.temp.clone().or_else(|| other.temp.clone()),
+        sample_rate_hz: rec.sample_rate_hz.or(other.sample_rate_hz),
+        ..rec.clone()
     })
+}
+
+/// The accelerometer's and the gyro's samples of large plain text files, each a
+/// [`TextSource`] opened for passes (for one file, two sources of it with different columns).
+///
+/// Memory is a piece of each file in flight, the windows, and the motions' samples with a
+/// second either side (what the fit integrates, dozens of times: a pass over the file per
+/// integration would cost hundreds of passes); on a multi-position recording those are a
+/// small fraction of the rows (docs/gyro.md, "Large files").
+#[derive(Debug)]
+pub struct TextImu {
+    pub(super) acc: TextSource,
+    pub(super) gyro: TextSource,
+    pub(super) acc_path: PathBuf,
+    pub(super) gyro_path: PathBuf,
+}
+
+impl TextImu {
+    /// The accelerometer's recording without its samples (columns, notes, rate).
+    pub fn accelerometer(&self) -> &Recording {
+        &self.acc.meta
+    }
+
+    /// The gyro's recording without its samples.
+    pub fn gyroscope(&self) -> &Recording {
+        &self.gyro.meta
+    }
+
+    /// Rows.
+    pub fn len(&self) -> usize {
+        self.acc.len()
+    }
+
+    /// True without rows (never, once opened).
+    pub fn is_empty(&self) -> bool {
+        self.acc.is_empty()
+    }
+
+    /// The largest difference of the two clocks on one row ([`super::samples::clocks`]),
+    /// without a pass when the rows are the same (one file's, none skipped in either triplet).
+    pub(super) fn worst_clock_s(&self) -> Result<f64> {
+        let same_rows = self.acc_path == self.gyro_path
+            && self.acc.meta.skipped_empty_rows == 0
+            && self.gyro.meta.skipped_empty_rows == 0;
+        if same_rows {
+            return Ok(0.0);
+        }
+        super::samples::clocks(&self.acc, &self.gyro)
+    }
+}
+
+/// True when `path` is a regular file (not standard input) of at least `min_bytes`.
+fn large(path: &Path, min_bytes: u64) -> bool {
+    path.as_os_str() != "-"
+        && std::fs::metadata(path).is_ok_and(|m| m.is_file() && m.len() >= min_bytes)
+}
+
+/// `path` opened as a source of `opts`'s triplet; `None` when it is not plain delimited text.
+fn source(path: &Path, opts: &LoadOptions) -> crate::Result<Option<TextSource>> {
+    TextSource::open(path, opts, |_| true).map_err(|e| e.in_file(path))
+}
+
+/// The accelerometer (`acc`: its file and columns) and the gyro — of the file `gyro_file`
+/// (its columns), else of the accelerometer's file (`gyro_columns`, else the triplet the
+/// header names as a gyroscope's, as [`crate::input::front_door::load_imu`] takes it) —
+/// opened as sources when one of the files is a regular plain text file of at least
+/// `stream_from` bytes and the paired rows would be the held pair's: the same number of rows
+/// in both, and the rate and temperature from the accelerometer's file as from the gyro's
+/// (always for one file). `None` (a capture whose gyro rows are a subset, two files of which
+/// only one states a rate): read them whole.
+pub fn open_text(
+    acc: (&Path, &LoadOptions),
+    gyro_file: Option<(&Path, &LoadOptions)>,
+    gyro_columns: Option<[String; 3]>,
+    stream_from: u64,
+) -> crate::Result<Option<TextImu>> {
+    let named = gyro_file.is_none() && gyro_columns.is_none();
+    let same_file = LoadOptions {
+        columns: gyro_columns,
+        sensor: Some(Sensor::Gyroscope),
+        read: acc.1.read,
+    };
+    let (gyro_path, gyro_opts) = gyro_file.unwrap_or((acc.0, &same_file));
+    let paths = [acc.0, gyro_path];
+    if !paths.iter().any(|p| large(p, stream_from)) || !paths.iter().all(|p| large(p, 0)) {
+        return Ok(None);
+    }
+    let (a, g) = std::thread::scope(|s| {
+        let g = s.spawn(|| source(gyro_path, gyro_opts));
+        (source(acc.0, acc.1), g.join())
+    });
+    let g = g.unwrap_or_else(|p| std::panic::resume_unwind(p));
+    let (Some(a), Some(g)) = (a?, g?) else {
+        return Ok(None);
+    };
+    if named && !all_named(&g.meta.axis_columns, Sensor::Gyroscope) {
+        let taken = g.meta.axis_columns.join(",");
+        return Err(Error::from(GyroError::NoGyroColumns { taken }).in_file(acc.0));
+    }
+    let pairs = a.len() == g.len()
+        && a.meta.sample_rate_hz.is_some() == g.meta.sample_rate_hz.is_some()
+        && a.has_temp() == g.has_temp();
+    Ok(pairs.then(|| TextImu {
+        acc: a,
+        gyro: g,
+        acc_path: acc.0.to_path_buf(),
+        gyro_path: gyro_path.to_path_buf(),
+    }))
 }

@@ -18,6 +18,7 @@
 
 use super::options::Result;
 use super::samples::Imu;
+use crate::source::RowSource;
 
 /// Length of a block both sensors are averaged over, s (the lag's resolution).
 pub const BLOCK_S: f64 = 0.1;
@@ -75,7 +76,11 @@ impl Lag {
 
 /// The lag of `imu`'s gyro behind its accelerometer at `rate` Hz (one pass); `None` when the
 /// recording is too short for a block series or either sensor never moves.
-pub(super) fn estimate(imu: &impl Imu, rate: f64, default_rate: f64) -> Result<Option<Lag>> {
+pub(super) fn estimate(
+    imu: &Imu<'_, impl RowSource>,
+    rate: f64,
+    default_rate: f64,
+) -> Result<Option<Lag>> {
     let n = imu.len();
     let per_block = ((rate * BLOCK_S).round() as usize)
         .max(1)

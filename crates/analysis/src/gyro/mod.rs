@@ -40,13 +40,15 @@ mod options;
 pub mod report;
 mod samples;
 mod segment;
-pub mod stream;
 mod verdict;
 
 pub use crate::error::gyro::GyroError;
 use crate::input::recording::Recording;
+use crate::source::RowSource;
 use crate::stats as st;
+pub use align::{open_text, TextImu};
 use samples::{Collected, Imu};
+use std::cell::RefCell;
 use wiical_core::gyro::GyroCalibration;
 
 pub use models::{GyroModelRow, MotionRow};
@@ -73,12 +75,38 @@ fn check_nominal_scale(opts: &GyroOptions) -> Result<()> {
 /// samples.
 pub fn run(acc: &Recording, gyro: &Recording, opts: &GyroOptions) -> Result<GyroReport> {
     check_nominal_scale(opts)?;
-    run_on(&samples::Held::pair(acc, gyro)?, opts)
+    let (acc, gyro, by_time) = align::pair(acc, gyro)?;
+    let worst_clock_s = if by_time {
+        None
+    } else {
+        Some(samples::clocks(&*acc, &*gyro)?)
+    };
+    run_on(
+        &Imu::new((&*acc, &*gyro), worst_clock_s, &RefCell::default()),
+        opts,
+    )
 }
 
-/// [`run`] on the paired recording `imu`, held or streamed: every stage reads the samples
-/// through [`Imu`]'s passes, so both give the same report.
-fn run_on(imu: &impl Imu, opts: &GyroOptions) -> Result<GyroReport> {
+/// [`run`] on large text files read in passes ([`open_text`]): the same report as for their
+/// recordings held. A file that changed or could not be read during a pass is that file's
+/// error.
+pub fn run_text(imu: &TextImu, opts: &GyroOptions) -> crate::Result<GyroReport> {
+    check_nominal_scale(opts)?;
+    let failed = RefCell::new(None);
+    let out = imu
+        .worst_clock_s()
+        .and_then(|worst| run_on(&Imu::new((&imu.acc, &imu.gyro), Some(worst), &failed), opts));
+    if let Some(e) = failed.take() {
+        return Err(e.in_file(&imu.acc_path));
+    }
+    imu.acc.check().map_err(|e| e.in_file(&imu.acc_path))?;
+    imu.gyro.check().map_err(|e| e.in_file(&imu.gyro_path))?;
+    Ok(out?)
+}
+
+/// [`run`] on the paired rows `imu`, held or a large file's (one code: every stage reads the
+/// samples through [`Imu`]'s passes, so both give the same report).
+fn run_on(imu: &Imu<'_, impl RowSource>, opts: &GyroOptions) -> Result<GyroReport> {
     let default_rate = opts.detect.default_rate_hz;
     segment::check_gyro_reads(imu, default_rate)?;
     let rate = imu.rate_hz().unwrap_or(default_rate);
@@ -232,7 +260,7 @@ fn window_search(
 
 /// Noise floor, static-window candidates and verdict for the chosen calibration.
 fn loop_part(
-    imu: &impl Imu,
+    imu: &Imu<'_, impl RowSource>,
     col: &Collected,
     seg: &segment::Segmentation,
     fit: &Fitted<'_>,

@@ -1,18 +1,18 @@
-//! The recording as the gyro fit reads it: both sensors' samples row by row, in passes
-//! ([`Imu`]), held in memory ([`Held`]) or read from a file per pass
-//! ([`super::stream::Streamed`]). What the fit needs of the samples is folded here, by one
-//! code for both, in sample order with the same operations as before: the gyro's mean and
-//! per-sample variance over each static window (its bias at rest and its noise), the samples
-//! of each motion with [`super::MOTION_MARGIN_S`] either side (the only samples the
-//! fit integrates, [`Kept`]), the dead-axis check, the static-log test. So a streamed file
-//! gives the held file's report bit for bit, and memory is the windows and the motions, not
-//! the rows.
+//! The recording as the gyro fit reads it: both sensors' rows paired ([`Imu`]), each a
+//! [`RowSource`] (held in memory: one chunk read in place; a large text file: read in passes),
+//! read by one code. What the fit needs of the samples is folded here in sample order: the
+//! gyro's mean and per-sample variance over each static window (its bias at rest and its
+//! noise), the samples of each motion with [`super::MOTION_MARGIN_S`] either side (the only
+//! samples the fit integrates, [`Kept`]), the dead-axis check, the static-log test. So a large
+//! file gives the held file's report bit for bit, and memory is the windows and the motions,
+//! not the rows.
 
-use super::options::Result;
-use crate::detect::windows::Cover;
-use crate::detect::windows::{detect_windows_untimed, DetectOptions, Windows};
-use crate::input::recording::Recording;
+use super::options::{GyroError, Result};
+use crate::detect::windows::{detect_windows_of, sample_clock, Cover, DetectOptions, Windows};
+use crate::error::Error;
 use crate::input::timecheck::TimeSteps;
+use crate::source::RowSource;
+use std::cell::RefCell;
 use wiical_core::gyro_fit::MotionSpan;
 use wiical_core::static_detect::StaticInterval;
 
@@ -30,106 +30,162 @@ pub(super) struct Row {
     pub(super) temp: Option<f64>,
 }
 
-/// The paired recording of the two sensors as the fit passes over it.
-pub(super) trait Imu: Sized {
-    /// Rows (samples of each sensor).
-    fn len(&self) -> usize;
-    /// The sample rate the paired accelerometer recording states or its clock gives.
-    fn rate_hz(&self) -> Option<f64>;
-    /// The gyro's column names.
-    fn gyro_columns(&self) -> &[String; 3];
-    /// Every gyro value an integer (raw counts: a variance is at least 1/12 count²).
-    fn gyro_is_integer(&self) -> bool;
-    /// The accelerometer's static windows, as `wiical fit` finds them on the same samples.
-    fn windows(&self, opts: &DetectOptions) -> Result<Windows>;
-    /// The steps of the accelerometer's time column (`None` without one).
-    fn time_steps(&self) -> Option<TimeSteps>;
-    /// The gyro axes reading one value on every row, when known without a pass.
-    fn constant_axes(&self) -> Option<Vec<usize>> {
-        None
-    }
-    /// One pass over the rows in order, `visit(i, row)`; the clock without a time column
-    /// runs at the stated rate, else `default_rate_hz`.
-    fn pass(&self, default_rate_hz: f64, visit: &mut dyn FnMut(usize, &Row)) -> Result<()>;
-    /// One pass over the gyro's samples only.
-    fn gyro_pass(&self, visit: &mut dyn FnMut(usize, &[f64; 3])) -> Result<()>;
-    /// The same rows with the two sensors' roles swapped (`None` when they cannot be paired
-    /// that way).
-    fn swapped(&self) -> Option<Self>;
+/// The paired recording of the two sensors as the fit passes over it: the accelerometer's
+/// rows and the gyro's of the same samples, row by row.
+pub(super) struct Imu<'a, R> {
+    acc: &'a R,
+    gyro: &'a R,
+    /// The largest difference between the two time columns on one row, s (0 without both,
+    /// [`clocks`]); `None` when the rows were paired by their times (a subset of the
+    /// accelerometer's), which does not pair the other way round.
+    worst_clock_s: Option<f64>,
+    /// A source's failure (a file changed or unreadable) that the detection found, kept for
+    /// the caller: the check that finds it clears it.
+    failed: &'a RefCell<Option<Error>>,
 }
 
-/// The two recordings held in memory.
-pub(super) struct Held<'a> {
-    /// The accelerometer's rows that belong to the gyro's, with its clock.
-    acc: Recording,
-    /// The accelerometer as given.
-    acc_given: &'a Recording,
-    gyro: &'a Recording,
-}
-
-impl<'a> Held<'a> {
-    /// The accelerometer's rows paired with the gyro's ([`super::align`]).
-    pub(super) fn pair(acc: &'a Recording, gyro: &'a Recording) -> Result<Self> {
-        Ok(Self {
-            acc: super::align::paired_accelerometer(acc, gyro)?,
-            acc_given: acc,
+impl<'a, R: RowSource> Imu<'a, R> {
+    /// The accelerometer's rows `acc` and the gyro's `gyro`, the same samples in order.
+    pub(super) fn new(
+        (acc, gyro): (&'a R, &'a R),
+        worst_clock_s: Option<f64>,
+        failed: &'a RefCell<Option<Error>>,
+    ) -> Self {
+        Self {
+            acc,
             gyro,
+            worst_clock_s,
+            failed,
+        }
+    }
+
+    /// Rows (samples of each sensor).
+    pub(super) fn len(&self) -> usize {
+        self.acc.len()
+    }
+
+    /// The sample rate the accelerometer's rows state or their clock gives.
+    pub(super) fn rate_hz(&self) -> Option<f64> {
+        self.acc.estimated_rate_hz()
+    }
+
+    /// The gyro's column names.
+    pub(super) fn gyro_columns(&self) -> &[String; 3] {
+        self.gyro.axis_columns()
+    }
+
+    /// Every gyro value an integer (raw counts: a variance is at least 1/12 count²).
+    pub(super) fn gyro_is_integer(&self) -> bool {
+        self.gyro.integer()
+    }
+
+    /// The accelerometer's static windows, as `wiical fit` finds them on the same samples; a
+    /// pass that ended early keeps the file's error for the caller.
+    pub(super) fn windows(&self, opts: &DetectOptions) -> Result<Windows> {
+        let found = detect_windows_of(self.acc, opts, false);
+        if let Err(e) = self.acc.check() {
+            self.failed.borrow_mut().get_or_insert(e);
+            return Err(ended_early());
+        }
+        Ok(found?)
+    }
+
+    /// The steps of the accelerometer's time column (`None` without one).
+    pub(super) fn time_steps(&self) -> Option<TimeSteps> {
+        self.acc.time_steps()
+    }
+
+    /// One pass over the rows in order, `visit(i, row)`; the clock without a time column
+    /// runs at the stated rate, else `default_rate_hz` (the detection's [`sample_clock`]).
+    pub(super) fn pass(
+        &self,
+        default_rate_hz: f64,
+        visit: &mut dyn FnMut(usize, &Row),
+    ) -> Result<()> {
+        let opts = DetectOptions {
+            default_rate_hz,
+            ..Default::default()
+        };
+        let clock = sample_clock(self.acc, &opts);
+        let mut rows = 0;
+        for (i, (a, g)) in self.acc.rows().zip(self.gyro.rows()).enumerate() {
+            let row = Row {
+                acc: a.xyz,
+                gyro: g.xyz,
+                t: clock(a.t, i),
+                temp: a.temp,
+            };
+            visit(i, &row);
+            rows += 1;
+        }
+        self.whole(rows)
+    }
+
+    /// One pass over the gyro's samples only.
+    pub(super) fn gyro_pass(&self, visit: &mut dyn FnMut(usize, &[f64; 3])) -> Result<()> {
+        let mut rows = 0;
+        for (i, g) in self.gyro.rows().enumerate() {
+            visit(i, &g.xyz);
+            rows += 1;
+        }
+        self.whole(rows)
+    }
+
+    /// Counts a pass's rows: short of the rows, the pass ended early.
+    fn whole(&self, rows: usize) -> Result<()> {
+        if rows == self.len() {
+            Ok(())
+        } else {
+            Err(ended_early())
+        }
+    }
+
+    /// The same rows with the two sensors' roles swapped; `None` when the rows were paired by
+    /// time or the clocks differ by more than the gyro's [`clock_tolerance`].
+    pub(super) fn swapped(&self) -> Option<Self> {
+        (self.worst_clock_s? <= clock_tolerance(self.gyro)).then_some(Self {
+            acc: self.gyro,
+            gyro: self.acc,
+            ..*self
         })
     }
 }
 
-impl Imu for Held<'_> {
-    fn len(&self) -> usize {
-        self.acc.len()
+impl<R> Clone for Imu<'_, R> {
+    fn clone(&self) -> Self {
+        *self
     }
+}
 
-    fn rate_hz(&self) -> Option<f64> {
-        self.acc.estimated_rate_hz()
-    }
+impl<R> Copy for Imu<'_, R> {}
 
-    fn gyro_columns(&self) -> &[String; 3] {
-        &self.gyro.axis_columns
-    }
+/// Half the median step of `src`'s time column, s: the most the two clocks may differ on a
+/// row (infinite without a step).
+fn clock_tolerance(src: &impl RowSource) -> f64 {
+    0.5 * src.time_steps().map_or(f64::INFINITY, |s| s.median_s)
+}
 
-    fn gyro_is_integer(&self) -> bool {
-        self.gyro.is_integer()
+/// The largest difference of the two time columns on one row, s (0 unless both have one),
+/// in a pass; refused above the accelerometer's [`clock_tolerance`]: a shifted copy of the
+/// gyro log must not be paired silently.
+pub(super) fn clocks<R: RowSource>(acc: &R, gyro: &R) -> Result<f64> {
+    if !(acc.has_time() && gyro.has_time()) {
+        return Ok(0.0);
     }
-
-    fn windows(&self, opts: &DetectOptions) -> Result<Windows> {
-        Ok(detect_windows_untimed(&self.acc, opts)?)
+    let mut rows = 0;
+    let worst = acc
+        .rows()
+        .zip(gyro.rows())
+        .inspect(|_| rows += 1)
+        .map(|(a, g)| (a.t.unwrap_or(f64::NAN) - g.t.unwrap_or(f64::NAN)).abs())
+        .fold(0.0, f64::max);
+    if rows != acc.len() {
+        return Err(ended_early());
     }
-
-    fn time_steps(&self) -> Option<TimeSteps> {
-        TimeSteps::of(self.acc.t.as_deref()?)
+    if worst > clock_tolerance(acc) {
+        return Err(GyroError::GyroClocksDiffer { offset_s: worst });
     }
-
-    fn pass(&self, default_rate_hz: f64, visit: &mut dyn FnMut(usize, &Row)) -> Result<()> {
-        let fs = self.acc.sample_rate_hz.unwrap_or(default_rate_hz);
-        let (t, temp) = (self.acc.t.as_deref(), self.acc.temp.as_deref());
-        for (i, (acc, gyro)) in self.acc.xyz.iter().zip(&self.gyro.xyz).enumerate() {
-            let row = Row {
-                acc: *acc,
-                gyro: *gyro,
-                t: t.map_or(i as f64 / fs, |t| t[i]),
-                temp: temp.map(|t| t[i]),
-            };
-            visit(i, &row);
-        }
-        Ok(())
-    }
-
-    fn gyro_pass(&self, visit: &mut dyn FnMut(usize, &[f64; 3])) -> Result<()> {
-        self.gyro
-            .xyz
-            .iter()
-            .enumerate()
-            .for_each(|(i, g)| visit(i, g));
-        Ok(())
-    }
-
-    fn swapped(&self) -> Option<Self> {
-        Held::pair(self.gyro, self.acc_given).ok()
-    }
+    Ok(worst)
 }
 
 /// The sum `Iterator::sum` starts from, so that sums folded by hand are `sum()`'s bit for bit.
@@ -202,7 +258,7 @@ fn window_ranges(intervals: &[StaticInterval]) -> Vec<(usize, usize)> {
 /// samples of each motion of `spans` with `margin` rows either side; a pass that ended early
 /// (a file changed while read) is an error.
 pub(super) fn collect(
-    imu: &impl Imu,
+    imu: &Imu<'_, impl RowSource>,
     (intervals, spans): (&[StaticInterval], &[MotionSpan]),
     margin: usize,
     default_rate_hz: f64,
@@ -219,7 +275,7 @@ pub(super) fn collect(
     let samples: usize = ranges.iter().map(|(lo, hi)| hi - lo).sum();
     let limit = crate::input::front_door::MAX_HELD_SAMPLES;
     if samples > limit {
-        return Err(crate::error::gyro::GyroError::GyroMotionsTooLong { samples, limit });
+        return Err(GyroError::GyroMotionsTooLong { samples, limit });
     }
     let zero = sum_start();
     let mut sums = vec![[zero; 3]; windows.len()];
@@ -268,7 +324,7 @@ pub(super) fn collect(
 /// The gyro's per-sample variance over each static window, raw counts² per axis (sum of
 /// squared deviations from the window's `means` over n − 1), in a pass over the gyro.
 pub(super) fn window_variances(
-    imu: &impl Imu,
+    imu: &Imu<'_, impl RowSource>,
     intervals: &[StaticInterval],
     means: &[[f64; 3]],
 ) -> Result<Vec<[f64; 3]>> {
@@ -302,9 +358,9 @@ pub(super) struct Reads {
 }
 
 /// [`Reads`] in a pass over the rows; `None` when no axis is constant (known without a pass
-/// when `imu` knows it).
-pub(super) fn reads(imu: &impl Imu, default_rate_hz: f64) -> Result<Option<Reads>> {
-    if imu.constant_axes().is_some_and(|d| d.is_empty()) {
+/// when the gyro's source knows it: [`RowSource::constant`]).
+pub(super) fn reads(imu: &Imu<'_, impl RowSource>, default_rate_hz: f64) -> Result<Option<Reads>> {
+    if imu.gyro.constant().is_some_and(|c| !c.contains(&true)) {
         return Ok(None);
     }
     let mut first = None;
@@ -329,7 +385,7 @@ pub(super) fn reads(imu: &impl Imu, default_rate_hz: f64) -> Result<Option<Reads
 /// The accelerometer's mean direction over each block of `block` rows (the last one
 /// possibly shorter), those that have one, in a pass.
 pub(super) fn block_directions(
-    imu: &impl Imu,
+    imu: &Imu<'_, impl RowSource>,
     block: usize,
     default_rate_hz: f64,
 ) -> Result<Vec<nalgebra::Vector3<f64>>> {
@@ -365,7 +421,7 @@ pub(super) fn motion_samples<'c>(
 }
 
 /// Stands in for the error of a pass that ended early (a file changed or unreadable while
-/// read): the streamed run returns the file's own error, which its source keeps, instead.
-pub(super) fn ended_early() -> super::options::GyroError {
-    super::options::GyroError::GyroFitFailed(wiical_core::Error::InvalidParameter)
+/// read): the run on large files returns the file's own error, which its source keeps.
+pub(super) fn ended_early() -> GyroError {
+    GyroError::GyroFitFailed(wiical_core::Error::InvalidParameter)
 }

@@ -6,6 +6,7 @@ use super::samples::{self, Collected, Imu};
 use crate::detect::windows::WindowStats;
 use crate::fit::base::{run_windows, FitOptions};
 use crate::input::timecheck::TimeSteps;
+use crate::source::RowSource;
 use wiical_core::gyro_fit;
 use wiical_core::static_detect::StaticInterval;
 use wiical_core::Calibration;
@@ -49,7 +50,7 @@ impl Segmentation {
     }
 }
 
-pub(super) fn segment(imu: &impl Imu, opts: &GyroOptions) -> Result<Segmentation> {
+pub(super) fn segment(imu: &Imu<'_, impl RowSource>, opts: &GyroOptions) -> Result<Segmentation> {
     let ws = imu.windows(&opts.detect)?;
     let fit_opts = FitOptions {
         detect: opts.detect.clone(),
@@ -119,7 +120,7 @@ pub(super) fn check_not_gravity(
 /// a gyro that was never enabled, a column the logger leaves empty) cannot be integrated, and
 /// saying so is clearer than what the fit would say later. The accelerometer's mean magnitude
 /// is quoted so that the sentence shows the other sensor was working.
-pub(super) fn check_gyro_reads(imu: &impl Imu, default_rate_hz: f64) -> Result<()> {
+pub(super) fn check_gyro_reads(imu: &Imu<'_, impl RowSource>, default_rate_hz: f64) -> Result<()> {
     let Some(r) = samples::reads(imu, default_rate_hz)? else {
         return Ok(());
     };
@@ -142,7 +143,7 @@ pub(super) fn check_gyro_reads(imu: &impl Imu, default_rate_hz: f64) -> Result<(
 /// gravity): whether the two recordings were given in swapped order, i.e. the "gyro" has the
 /// poses of an accelerometer and the "accelerometer" passes the gyro's gravity check. Returns
 /// the error that says so, or `None` (then the original error stands).
-pub(super) fn swapped(imu: &impl Imu, opts: &GyroOptions) -> Option<GyroError> {
+pub(super) fn swapped(imu: &Imu<'_, impl RowSource>, opts: &GyroOptions) -> Option<GyroError> {
     let as_acc = imu.swapped()?;
     let seg = segment(&as_acc, opts).ok()?;
     let col = samples::collect(
@@ -164,7 +165,11 @@ pub(super) const STATIC_TILT_DEG: f64 = 5.0;
 
 /// The static-only refusal, when the accelerometer's 1-s means (at `rate` Hz) all point within
 /// [`STATIC_TILT_DEG`] of their overall mean direction.
-pub(super) fn static_only(imu: &impl Imu, rate: f64, default_rate_hz: f64) -> Option<GyroError> {
+pub(super) fn static_only(
+    imu: &Imu<'_, impl RowSource>,
+    rate: f64,
+    default_rate_hz: f64,
+) -> Option<GyroError> {
     let block = (rate.max(1.0).round() as usize).max(1);
     let means = samples::block_directions(imu, block, default_rate_hz).ok()?;
     let all = means
