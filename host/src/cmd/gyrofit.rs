@@ -220,7 +220,7 @@ fn read(a: &Args, gyro_columns: Option<[String; 3]>) -> Result<Pair> {
         load_options(None, &a.detect.read)?,
     );
     if a.gyro_file.is_none() && gyro_columns.is_none() {
-        if let Some(block) = super::gyrofit_motionplus::detect(&a.file)? {
+        if let Some(block) = wiical_capture::motionplus::detect(&a.file)? {
             return read_motionplus(a, &acc_opts, &block);
         }
     }
@@ -280,7 +280,7 @@ fn read(a: &Args, gyro_columns: Option<[String; 3]>) -> Result<Pair> {
 }
 
 /// A `wiical capture` of a MotionPlus: its gyro rows in slow-range counts
-/// ([`super::gyrofit_motionplus`]), held (a capture is at most a few hours at 100 Hz).
+/// ([`wiical_capture::motionplus`]), held (a capture is at most a few hours at 100 Hz).
 fn read_motionplus(
     a: &Args,
     acc_opts: &wiical_analysis::LoadOptions,
@@ -291,7 +291,7 @@ fn read_motionplus(
     let Err(text) = open_whole(&a.file, &acc_opts.read).map_err(cli_error)? else {
         bail!("{} is not a text capture", a.file.display());
     };
-    let slow = super::gyrofit_motionplus::to_slow_counts(&text, block)
+    let slow = wiical_capture::motionplus::to_slow_counts(&text, block)
         .with_context(|| format!("reading the MotionPlus capture {}", a.file.display()))?;
     eprintln!(
         "note: in {}: a MotionPlus capture: {} gyro rows with an axis in the fast range mapped onto the slow scale with {}; {} rows without gyro data (a Nunchuk passed through) left out",
