@@ -6,9 +6,10 @@ use crate::cli_error::cli_error;
 use anyhow::{bail, Context, Result};
 use std::path::PathBuf;
 use wiical_analysis::gyro::stream::{self, run_streamed, StreamedImu};
-use wiical_analysis::gyro::{nominal_from_columns, GyroOptions};
+use wiical_analysis::gyro::GyroOptions;
 use wiical_analysis::protocol::gyro::{GyroProtocolOptions, GyroProtocolReport};
-use wiical_analysis::Recording;
+use wiical_analysis::{GyrofitRequest, Recording};
+use wiical_core::multipos::MultiPosModel;
 
 /// Arguments of `wiical gyrofit`.
 #[derive(clap::Args, Debug)]
@@ -53,45 +54,26 @@ pub struct Args {
     pub detect: DetectArgs,
 }
 
-/// Three values from one or three given.
-fn per_axis(v: &[f64], flag: &str) -> Result<[f64; 3]> {
-    match v {
-        [a] => Ok([*a; 3]),
-        [a, b, c] => Ok([*a, *b, *c]),
-        _ => bail!("{flag} takes one value or three (x,y,z), got {}", v.len()),
+impl Args {
+    /// The engine's request from the flags (the one translation of them; `--table-rate`,
+    /// `--rotation-deg` and `--out` are the command line's own).
+    fn request(&self) -> GyrofitRequest {
+        GyrofitRequest {
+            file: self.file.clone(),
+            gyro_file: self.gyro_file.clone(),
+            gyro_columns: self.gyro_columns.clone(),
+            scale: self.scale.clone(),
+            counts_per_dps: self.counts_per_dps.clone(),
+            detect: self.detect.fit_options(MultiPosModel::Full).detect,
+            exact_held_out: self.exact_held_out,
+        }
     }
-}
-
-/// The nominal sensitivity in rad/s per count and where it came from: `--scale` or
-/// `--counts-per-dps`, else the gyro columns' unit (`gyro_x_dps`: 1 count = 1 °/s); `None`:
-/// neither, the engine estimates it from the motions.
-fn nominal(a: &Args, gyro: &Recording) -> Result<Option<([f64; 3], String)>> {
-    let (s, source) = match (&a.scale, &a.counts_per_dps) {
-        (Some(s), None) => (per_axis(s, "--scale")?, "--scale".to_string()),
-        (None, Some(c)) => (
-            per_axis(c, "--counts-per-dps")?.map(|c| 1f64.to_radians() / c),
-            "--counts-per-dps".to_string(),
-        ),
-        (Some(_), Some(_)) => bail!("give either --scale or --counts-per-dps, not both"),
-        (None, None) => return Ok(nominal_from_columns(gyro)),
-    };
-    if !wiical_analysis::gyro::nominal_given_usable(&s) {
-        bail!("the nominal sensitivity must be finite and non-zero on every axis");
-    }
-    Ok(Some((s, source)))
 }
 
 /// Runs `wiical gyrofit`; returns what to print.
 pub fn run(a: &Args) -> Result<String> {
-    let gyro_columns = match a.gyro_columns.as_deref() {
-        None => None,
-        Some([x, y, z]) => Some([x.clone(), y.clone(), z.clone()]),
-        Some(other) => bail!(
-            "--gyro-columns needs exactly three names (e.g. gx,gy,gz), got {}: {}",
-            other.len(),
-            other.join(",")
-        ),
-    };
+    let req = a.request();
+    let gyro_columns = req.gyro_columns().map_err(cli_error)?;
     let mut inputs = vec![a.file.as_path()];
     inputs.extend(a.gyro_file.as_deref());
     check_outputs(&inputs, &[a.out.as_deref()])?;
@@ -100,12 +82,7 @@ pub fn run(a: &Args) -> Result<String> {
         Pair::Held(_, gyro) => gyro,
         Pair::Streamed(imu) => imu.gyroscope(),
     };
-    let mut opts = GyroOptions::of_nominal(nominal(a, gyro)?);
-    opts.detect = a
-        .detect
-        .fit_options(wiical_core::multipos::MultiPosModel::Full)
-        .detect;
-    opts.exact_held_out = a.exact_held_out;
+    let opts = req.options(gyro).map_err(cli_error)?;
     let rep = match &pair {
         Pair::Held(acc, gyro) => {
             // A gyro-only file (the loader took the gyro for the accelerometer) or known
