@@ -4,6 +4,8 @@
 use anyhow::anyhow;
 use wiical_analysis::detect::{DetectError, Setting};
 use wiical_analysis::fit::FitError;
+use wiical_analysis::gyro::request::{GyroArgError, NominalSetting};
+use wiical_analysis::gyro::GyroError;
 use wiical_analysis::input::InputError;
 use wiical_analysis::Error;
 
@@ -68,7 +70,28 @@ pub fn cli_error(e: impl Into<Error>) -> anyhow::Error {
         e @ Error::Fit(FitError::PoseTable { .. }) => {
             anyhow!("{e}: use `wiical six-position FILE` or `wiical analyze FILE`")
         }
+        Error::Gyro(GyroError::Arg(e)) => gyro_arg_error(e),
         other => anyhow::Error::new(other),
+    }
+}
+
+/// A `gyrofit` request's argument error, naming the flags.
+fn gyro_arg_error(e: GyroArgError) -> anyhow::Error {
+    match e {
+        GyroArgError::ColumnsNotThree(names) => anyhow!(
+            "--gyro-columns needs exactly three names (e.g. gx,gy,gz), got {}: {}",
+            names.len(),
+            names.join(",")
+        ),
+        GyroArgError::NotPerAxis { setting, given } => {
+            let flag = match setting {
+                NominalSetting::Scale => "--scale",
+                NominalSetting::CountsPerDps => "--counts-per-dps",
+            };
+            anyhow!("{flag} takes one value or three (x,y,z), got {given}")
+        }
+        GyroArgError::BothNominals => anyhow!("give either --scale or --counts-per-dps, not both"),
+        e @ GyroArgError::NominalUnusable => anyhow::Error::new(e),
     }
 }
 

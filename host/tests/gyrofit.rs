@@ -86,11 +86,17 @@ fn readable_errors() {
         .unwrap()
         .starts_with("estimated from the motions"));
     let (ok, _, err) = wiical(&["gyrofit", f, "--scale", "1e-3,2e-3"]);
-    assert!(!ok && err.contains("one value or three"), "{err}");
+    assert!(
+        !ok && err.contains("--scale takes one value or three"),
+        "{err}"
+    );
     let (ok, _, err) = wiical(&["gyrofit", f, "--scale", "0"]);
     assert!(!ok && err.contains("non-zero"), "{err}");
     let (ok, _, err) = wiical(&["gyrofit", f, "--scale", "1e-3", "--counts-per-dps", "16"]);
-    assert!(!ok && err.contains("not both"), "{err}");
+    assert!(
+        !ok && err.contains("give either --scale or --counts-per-dps, not both"),
+        "{err}"
+    );
     let (ok, _, err) = wiical(&["gyrofit", f, "--scale", "1e-3", "--gyro-columns", "a,b,c"]);
     assert!(!ok && err.contains("column 'a' not found"), "{err}");
     let (ok, _, err) = wiical(&["gyrofit", f, "--scale", "1e-3", "--gyro-columns", "gx,gy"]);

@@ -457,7 +457,8 @@ fn decode_cal(device: &str, hex: &str) -> PyResult<(String, bool)> {
 /// static windows `fit` finds. `gyro_path`: the gyro file of a pair (IMU-TK); else the gyro
 /// columns of `path` (named in the header, or `gyro_columns`). The nominal: `scale` (rad/s per
 /// count, one or three values) or `counts_per_dps`, else the columns' unit, else estimated
-/// from the motions — the CLI's order.
+/// from the motions — the CLI's order, in the engine's one request
+/// ([`wiical_analysis::GyrofitRequest`]); its argument errors are `ValueError`s.
 #[pyfunction]
 #[pyo3(signature = (path, detect, gyro_path=None, gyro_columns=None, scale=None, counts_per_dps=None))]
 fn gyrofit(
@@ -469,62 +470,21 @@ fn gyrofit(
     scale: Option<Vec<f64>>,
     counts_per_dps: Option<Vec<f64>>,
 ) -> PyResult<String> {
-    use wiical_analysis::gyro::{nominal_from_columns, GyroOptions};
-    let three = |v: Vec<f64>, what: &str| -> PyResult<[f64; 3]> {
-        match v.as_slice() {
-            [a] => Ok([*a; 3]),
-            [a, b, c] => Ok([*a, *b, *c]),
-            _ => Err(arg_err(format!(
-                "{what} takes one value or three, got {}",
-                v.len()
-            ))),
-        }
+    use wiical_analysis::{gyro::GyroError, Error, GyrofitRequest};
+    let req = GyrofitRequest {
+        gyro_file: gyro_path,
+        gyro_columns,
+        scale,
+        counts_per_dps,
+        detect: detect.options()?,
+        ..GyrofitRequest::new(path)
     };
-    let gyro_columns = match gyro_columns.as_deref() {
-        None => None,
-        Some([x, y, z]) => Some([x.clone(), y.clone(), z.clone()]),
-        Some(o) => {
-            return Err(arg_err(format!(
-                "gyro_columns needs three names, got {}",
-                o.len()
-            )))
-        }
-    };
-    let (acc, gyro) = py
-        .detach(|| match &gyro_path {
-            Some(g) => Ok((
-                wiical_analysis::load(&path, &LoadOptions::default())?,
-                wiical_analysis::load(g, &LoadOptions::default())?,
-            )),
-            None => wiical_analysis::input::front_door::load_imu(
-                &path,
-                &LoadOptions::default(),
-                gyro_columns,
-            ),
-        })
-        .map_err(py_err)?;
-    let given = match (scale, counts_per_dps) {
-        (Some(s), None) => Some((three(s, "scale")?, "--scale".to_string())),
-        (None, Some(c)) => Some((
-            three(c, "counts_per_dps")?.map(|c| 1f64.to_radians() / c),
-            "--counts-per-dps".to_string(),
-        )),
-        (Some(_), Some(_)) => return Err(arg_err("give scale or counts_per_dps, not both".into())),
-        (None, None) => nominal_from_columns(&gyro),
-    };
-    if given
-        .as_ref()
-        .is_some_and(|(s, _)| !wiical_analysis::gyro::nominal_given_usable(s))
-    {
-        return Err(arg_err(
-            "the nominal sensitivity must be finite and non-zero on every axis".into(),
-        ));
-    }
-    let mut opts = GyroOptions::of_nominal(given);
-    opts.detect = detect.options()?;
     let rep = py
-        .detach(|| wiical_analysis::gyro::run(&acc, &gyro, &opts))
-        .map_err(py_err)?;
+        .detach(|| wiical_analysis::gyrofit(&req))
+        .map_err(|e| match e {
+            Error::Gyro(GyroError::Arg(e)) => arg_err(e.to_string()),
+            e => py_err(e),
+        })?;
     to_json(&rep)
 }
 

@@ -101,6 +101,7 @@ pub mod tempcal;
 pub use detect::windows::DetectOptions;
 pub use error::{Error, Result};
 pub use fit::base::{FitOptions, FitReport};
+pub use gyro::request::{gyrofit, GyrofitRequest};
 pub use input::front_door::load;
 pub use input::recording::Recording;
 pub use input::text::{parse, LoadOptions};

@@ -45,6 +45,7 @@
 pub mod guided;
 pub mod hid;
 pub mod io;
+pub mod motionplus;
 pub mod output;
 pub mod replay;
 pub mod session;

@@ -5,9 +5,10 @@ use super::{check_outputs, load_held, load_options, to_json, DetectArgs, PLAIN_T
 use crate::cli_error::cli_error;
 use anyhow::{bail, Context, Result};
 use std::path::PathBuf;
-use wiical_analysis::gyro::{nominal_from_columns, open_text, run_text, GyroOptions, TextImu};
+use wiical_analysis::gyro::{open_text, run_text, GyroOptions, TextImu};
 use wiical_analysis::protocol::gyro::{GyroProtocolOptions, GyroProtocolReport};
-use wiical_analysis::Recording;
+use wiical_analysis::{GyrofitRequest, Recording};
+use wiical_core::multipos::MultiPosModel;
 
 /// Arguments of `wiical gyrofit`.
 #[derive(clap::Args, Debug)]
@@ -52,45 +53,26 @@ pub struct Args {
     pub detect: DetectArgs,
 }
 
-/// Three values from one or three given.
-fn per_axis(v: &[f64], flag: &str) -> Result<[f64; 3]> {
-    match v {
-        [a] => Ok([*a; 3]),
-        [a, b, c] => Ok([*a, *b, *c]),
-        _ => bail!("{flag} takes one value or three (x,y,z), got {}", v.len()),
+impl Args {
+    /// The engine's request from the flags (the one translation of them; `--table-rate`,
+    /// `--rotation-deg` and `--out` are the command line's own).
+    fn request(&self) -> GyrofitRequest {
+        GyrofitRequest {
+            file: self.file.clone(),
+            gyro_file: self.gyro_file.clone(),
+            gyro_columns: self.gyro_columns.clone(),
+            scale: self.scale.clone(),
+            counts_per_dps: self.counts_per_dps.clone(),
+            detect: self.detect.fit_options(MultiPosModel::Full).detect,
+            exact_held_out: self.exact_held_out,
+        }
     }
-}
-
-/// The nominal sensitivity in rad/s per count and where it came from: `--scale` or
-/// `--counts-per-dps`, else the gyro columns' unit (`gyro_x_dps`: 1 count = 1 °/s); `None`:
-/// neither, the engine estimates it from the motions.
-fn nominal(a: &Args, gyro: &Recording) -> Result<Option<([f64; 3], String)>> {
-    let (s, source) = match (&a.scale, &a.counts_per_dps) {
-        (Some(s), None) => (per_axis(s, "--scale")?, "--scale".to_string()),
-        (None, Some(c)) => (
-            per_axis(c, "--counts-per-dps")?.map(|c| 1f64.to_radians() / c),
-            "--counts-per-dps".to_string(),
-        ),
-        (Some(_), Some(_)) => bail!("give either --scale or --counts-per-dps, not both"),
-        (None, None) => return Ok(nominal_from_columns(gyro)),
-    };
-    if !wiical_analysis::gyro::nominal_given_usable(&s) {
-        bail!("the nominal sensitivity must be finite and non-zero on every axis");
-    }
-    Ok(Some((s, source)))
 }
 
 /// Runs `wiical gyrofit`; returns what to print.
 pub fn run(a: &Args) -> Result<String> {
-    let gyro_columns = match a.gyro_columns.as_deref() {
-        None => None,
-        Some([x, y, z]) => Some([x.clone(), y.clone(), z.clone()]),
-        Some(other) => bail!(
-            "--gyro-columns needs exactly three names (e.g. gx,gy,gz), got {}: {}",
-            other.len(),
-            other.join(",")
-        ),
-    };
+    let req = a.request();
+    let gyro_columns = req.gyro_columns().map_err(cli_error)?;
     let mut inputs = vec![a.file.as_path()];
     inputs.extend(a.gyro_file.as_deref());
     check_outputs(&inputs, &[a.out.as_deref()])?;
@@ -99,12 +81,7 @@ pub fn run(a: &Args) -> Result<String> {
         Pair::Held(_, gyro) => gyro,
         Pair::Streamed(imu) => imu.gyroscope(),
     };
-    let mut opts = GyroOptions::of_nominal(nominal(a, gyro)?);
-    opts.detect = a
-        .detect
-        .fit_options(wiical_core::multipos::MultiPosModel::Full)
-        .detect;
-    opts.exact_held_out = a.exact_held_out;
+    let opts = req.options(gyro).map_err(cli_error)?;
     let rep = match &pair {
         Pair::Held(acc, gyro) => {
             // A gyro-only file (the loader took the gyro for the accelerometer) or known
@@ -219,7 +196,7 @@ fn read(a: &Args, gyro_columns: Option<[String; 3]>) -> Result<Pair> {
         load_options(None, &a.detect.read)?,
     );
     if a.gyro_file.is_none() && gyro_columns.is_none() {
-        if let Some(block) = super::gyrofit_motionplus::detect(&a.file)? {
+        if let Some(block) = wiical_capture::motionplus::detect(&a.file)? {
             return read_motionplus(a, &acc_opts, &block);
         }
     }
@@ -279,7 +256,7 @@ fn read(a: &Args, gyro_columns: Option<[String; 3]>) -> Result<Pair> {
 }
 
 /// A `wiical capture` of a MotionPlus: its gyro rows in slow-range counts
-/// ([`super::gyrofit_motionplus`]), held (a capture is at most a few hours at 100 Hz).
+/// ([`wiical_capture::motionplus`]), held (a capture is at most a few hours at 100 Hz).
 fn read_motionplus(
     a: &Args,
     acc_opts: &wiical_analysis::LoadOptions,
@@ -290,7 +267,7 @@ fn read_motionplus(
     let Err(text) = open_whole(&a.file, &acc_opts.read).map_err(cli_error)? else {
         bail!("{} is not a text capture", a.file.display());
     };
-    let slow = super::gyrofit_motionplus::to_slow_counts(&text, block)
+    let slow = wiical_capture::motionplus::to_slow_counts(&text, block)
         .with_context(|| format!("reading the MotionPlus capture {}", a.file.display()))?;
     eprintln!(
         "note: in {}: a MotionPlus capture: {} gyro rows with an axis in the fast range mapped onto the slow scale with {}; {} rows without gyro data (a Nunchuk passed through) left out",

@@ -12,7 +12,6 @@ pub mod device_gyro;
 pub mod device_sim;
 pub mod fit;
 pub mod gyrofit;
-pub mod gyrofit_motionplus;
 pub mod kalman_demo;
 pub mod live;
 pub mod magfit;

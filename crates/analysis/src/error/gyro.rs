@@ -139,6 +139,51 @@ pub enum GyroError {
         /// The bound.
         limit: usize,
     },
+    /// A request's arguments cannot be used (the caller's mistake, not the data's).
+    #[error(transparent)]
+    Arg(#[from] GyroArgError),
+}
+
+/// Why the arguments of a `gyrofit` request ([`crate::gyro::request::GyrofitRequest`]) cannot
+/// be used. The messages name no flag or keyword argument: the command line names its flags
+/// for them, Python raises them as `ValueError`.
+#[derive(Debug, thiserror::Error)]
+pub enum GyroArgError {
+    /// The gyro columns must be three names.
+    #[error("the gyro columns need exactly three names (e.g. gx,gy,gz), got {}: {}", .0.len(), .0.join(","))]
+    ColumnsNotThree(Vec<String>),
+    /// A nominal sensitivity given with neither one value nor three.
+    #[error("the nominal {setting} takes one value or three (x,y,z), got {given}")]
+    NotPerAxis {
+        /// Which way the nominal was given.
+        setting: NominalSetting,
+        /// How many values were given.
+        given: usize,
+    },
+    /// The nominal given both as a scale and as counts per °/s.
+    #[error("give the nominal either as a scale (rad/s per count) or as counts per °/s, not both")]
+    BothNominals,
+    /// A given nominal that is zero or not finite on some axis.
+    #[error("the nominal sensitivity must be finite and non-zero on every axis")]
+    NominalUnusable,
+}
+
+/// The two ways a nominal gyro sensitivity is given.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum NominalSetting {
+    /// rad/s per count (`--scale`, `scale=`).
+    Scale,
+    /// Counts per °/s, datasheet style (`--counts-per-dps`, `counts_per_dps=`).
+    CountsPerDps,
+}
+
+impl std::fmt::Display for NominalSetting {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            NominalSetting::Scale => "scale (rad/s per count)",
+            NominalSetting::CountsPerDps => "counts per °/s",
+        })
+    }
 }
 
 impl GyroError {

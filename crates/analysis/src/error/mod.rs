@@ -138,6 +138,13 @@ impl From<crate::error::gyro::GyroError> for Error {
     }
 }
 
+impl From<crate::error::gyro::GyroArgError> for Error {
+    /// A `gyrofit` request's argument error as `Error::Gyro`, where the gyro fit's are.
+    fn from(e: crate::error::gyro::GyroArgError) -> Self {
+        Error::Gyro(e.into())
+    }
+}
+
 impl From<wiical_io::Error> for Error {
     /// An I/O error as the variant of the same name: `Error::Input`, `Error::Output` and
     /// `Error::NotRegularFile` read the same whether the engine or `wiical-io` found them.

@@ -38,6 +38,7 @@ pub mod motion_search;
 mod nominal;
 mod options;
 pub mod report;
+pub mod request;
 mod samples;
 mod segment;
 mod verdict;

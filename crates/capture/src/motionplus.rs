@@ -1,6 +1,7 @@
-//! `gyrofit` on a `wiical capture` of a MotionPlus: the gyro columns as the adapter sees them.
+//! A `wiical capture` of a MotionPlus read back for `wiical gyrofit`: the gyro columns as the
+//! adapter sees them.
 //!
-//! A capture of a MotionPlus (`wiical_capture::output`) writes per axis the raw 14-bit count
+//! A capture of a MotionPlus ([`crate::output`]) writes per axis the raw 14-bit count
 //! and its range bit (`gx,gy,gz`, `gx_slow,gy_slow,gz_slow`; `gx,gy,gz` = pitch, roll, yaw),
 //! the 32-byte calibration block in the `# motionplus_cal:` header line, and empty gyro cells
 //! in the rows that carry a Nunchuk passed through. A count in the fast range is about 4.5
@@ -20,7 +21,7 @@ use std::path::Path;
 use wiical_adapter::motionplus::{IdealGyroScale, RangeMap};
 use wiical_extbus::{MotionPlusCalibration, MotionPlusReport};
 
-/// The header comment that carries the block (`wiical_capture::output::CsvOut::start`).
+/// The header comment that carries the block ([`crate::output::CsvOut::start`]).
 const CAL_LINE: &str = "# motionplus_cal: ";
 /// How much of a file's start is searched for the header, bytes (a capture's comments and
 /// column header take about 1 KiB).
