@@ -1,7 +1,7 @@
 //! `wiical capture` of a Wii Remote with a MotionPlus, then `wiical gyrofit` on the capture's CSV,
 //! against a simulation with known truth (issue 50, item 3).
 //!
-//! The body (`wiical_analysis::simulate::gyro`: rests and smooth turns, the gyro's true matrix
+//! The body (`wiical_sim::gyro`: rests and smooth turns, the gyro's true matrix
 //! and bias in **slow-range counts**) is played through the scripted fake remote
 //! (`wiical_capture::replay`): the remote's accelerometer as 10-bit counts (`REMOTE`'s model of
 //! the shared capture fixtures), the MotionPlus's three rates as 14-bit counts, each axis in the
@@ -21,12 +21,12 @@ mod support;
 use common::wiical;
 use serde_json::Value;
 use support::{real_blocks, tmp, REMOTE};
-use wiical_analysis::simulate::gyro::{simulate_gyro, GyroSimOptions, GyroTruth};
 use wiical_capture::replay::{report_0x35_ext, EndOfScript, ReplayWiimote};
 use wiical_capture::{capture, CaptureMode, CaptureOptions, CollectUi};
 use wiical_extbus::motionplus::PassthroughNunchuk;
 use wiical_extbus::motionplus::{MotionPlusCalibration, MotionPlusReport, RangeCalibration};
 use wiical_extbus::NunchukReport;
+use wiical_sim::gyro::{simulate_gyro, GyroSimOptions, GyroTruth};
 
 /// Slow-range sensitivity of the simulated MotionPlus, counts per °/s (WiiBrew's ≈ 20, the
 /// driver's 18.6).

@@ -1,8 +1,8 @@
 //! Rendering of an analysis: the text report and the SVG plot (numbers from the engine).
 
 use wiical::render;
-use wiical_analysis::simulate::{simulate, Device, EffectSpec, SimConfig, SimEffect};
 use wiical_analysis::{analyze, AnalyzeOptions};
+use wiical_sim::{simulate, Device, EffectSpec, SimConfig, SimEffect};
 
 #[test]
 fn text_report_and_plot_render() {

@@ -5,8 +5,8 @@
 use criterion::{criterion_group, criterion_main, Criterion};
 use std::hint::black_box;
 use wiical_analysis::fit::base::{self as fit, FitOptions};
-use wiical_analysis::simulate::{simulate, EffectSpec, SimConfig, SimEffect};
 use wiical_analysis::{analyze, AnalyzeOptions};
+use wiical_sim::{simulate, EffectSpec, SimConfig, SimEffect};
 
 fn bench(c: &mut Criterion) {
     // A simulated Wiimote recording with a quadratic nonlinearity, ≥ 50,000 samples.

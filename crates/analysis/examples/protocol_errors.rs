@@ -9,16 +9,17 @@
 //! (median and 95th percentile of |error|, refusals, coverage of the stated standard errors),
 //! the table of `docs/protocols-sim.md`.
 //!
-//! `cargo run --release -p wiical-analysis --features simulate --example protocol_errors [-- SEEDS]`
+//! `cargo run --release -p wiical-analysis --example protocol_errors [-- SEEDS]` (the simulator,
+//! `wiical-sim`, is a dev-dependency)
 
 use nalgebra::{Matrix3, Vector3};
 use wiical_analysis::detect::windows::{detect_windows, DetectOptions};
 use wiical_analysis::protocol::accel::fit_by_protocol;
 use wiical_analysis::protocol::gyro::{run, GyroProtocolOptions, GyroProtocolReport};
-use wiical_analysis::simulate::protocols::{
+use wiical_analysis::FitOptions;
+use wiical_sim::protocols::{
     simulate_protocol, AxesTruth, ProtocolSim, ProtocolSimOptions, SimProtocol,
 };
-use wiical_analysis::FitOptions;
 
 /// Seeds per protocol unless given on the command line.
 const SEEDS: u64 = 50;

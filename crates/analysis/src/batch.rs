@@ -108,7 +108,7 @@ pub struct Expanded {
 
 /// The files of `inputs`: a directory gives every regular, non-hidden file below it
 /// (sorted, recursively, links followed) but the simulator's truth files (`FILE.truth.json`
-/// beside its recording `FILE`: [`crate::simulate::truth_path`]), which are no
+/// beside its recording `FILE`: [`truth_path`]), which are no
 /// recordings; a file is taken as is; a pattern with `*`, `?` or `[` is expanded (sorted).
 /// `exclude` (the results file) is never taken. Duplicates (by canonical path) are dropped.
 pub fn expand_inputs(inputs: &[PathBuf], exclude: &Path) -> Result<Expanded> {
@@ -199,6 +199,15 @@ fn walk(dir: &Path, out: &mut Expanded) {
     }
 }
 
+/// Where the truth of a recording written to `path` goes: `path` + `.truth.json`. The
+/// simulator (`wiical-sim`, `wiical simulate`) writes it there; [`expand_inputs`] leaves such
+/// a file out of a folder when its recording is beside it.
+pub fn truth_path(path: &Path) -> PathBuf {
+    let mut p = path.as_os_str().to_owned();
+    p.push(".truth.json");
+    PathBuf::from(p)
+}
+
 /// True for `FILE.truth.json` when `FILE` is a regular file beside it: what `wiical simulate`
 /// writes next to each recording (the known truth, JSON), which would otherwise be one
 /// failure line per recording in a batch over a simulated folder.
@@ -208,7 +217,7 @@ fn is_truth_beside_its_recording(path: &Path) -> bool {
         return false;
     };
     !stem.is_empty()
-        && crate::simulate::truth_path(&path.with_file_name(stem)) == path
+        && truth_path(&path.with_file_name(stem)) == path
         && path.with_file_name(stem).is_file()
 }
 
@@ -493,7 +502,7 @@ pub fn run(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::simulate::{simulate, to_csv, SimConfig};
+    use wiical_sim::{simulate, to_csv, SimConfig};
 
     /// `n` simulated recordings and one file that is not a recording, in a new directory.
     fn inputs(n: usize) -> (tempfile::TempDir, Vec<PathBuf>) {
@@ -655,7 +664,7 @@ mod tests {
         })
         .unwrap();
         let rec = dir.path().join("rec.csv");
-        let truth = crate::simulate::write(&sim, &rec).unwrap();
+        let truth = wiical_sim::write(&sim, &rec).unwrap();
         let orphan = dir.path().join("gone.csv.truth.json");
         std::fs::copy(&truth, &orphan).unwrap();
         let found = expand_inputs(&[dir.path().to_path_buf()], &out).unwrap();

@@ -34,7 +34,6 @@
 //! | noise | [`noise`] | still recording → overlapping Allan deviation per axis and the IEEE 952 terms (`wiical noise`) |
 //! | temperature | [`tempcal`] | still warm-up + temperature → bias polynomial in T − T_ref; ArduPilot / PX4 parameter files (`wiical tempcal`) |
 //! | live session | [`live`] | samples as they come → poses, refit and verdict after each pose (`wiical live`) |
-//! | simulator (feature `simulate`) | [`simulate`] | settings → recording with known truth |
 //!
 //! Shared below them all: [`error`] (the error type) and [`stats`] (distribution functions).
 //!
@@ -47,8 +46,9 @@
 //! use wiical_analysis::{analyze, AnalyzeOptions, Recording};
 //!
 //! // Stand-in for samples your program recorded: a simulated Wii Remote held still, then
-//! // turned through 30 poses, 100 Hz, raw 10-bit counts.
-//! let sim = wiical_analysis::simulate::simulate(&Default::default())?;
+//! // turned through 30 poses, 100 Hz, raw 10-bit counts (the simulator, `wiical-sim`, is a
+//! // crate of its own, built on this one).
+//! let sim = wiical_sim::simulate(&Default::default())?;
 //! let samples: Vec<[f64; 3]> = sim.recording.xyz.clone();
 //!
 //! let rec = Recording {
@@ -68,7 +68,7 @@
 //! );
 //! let norm = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt();
 //! assert!((norm - 1.0).abs() < 0.02);
-//! # Ok::<(), wiical_analysis::Error>(())
+//! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
 #![forbid(unsafe_code)]
@@ -92,8 +92,6 @@ pub mod pipeline;
 pub mod protocol;
 pub mod report;
 pub mod search;
-#[cfg(feature = "simulate")]
-pub mod simulate;
 pub mod source;
 pub mod stats;
 pub mod tempcal;

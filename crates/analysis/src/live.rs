@@ -462,10 +462,10 @@ fn unit(v: [f64; 3]) -> Option<[f64; 3]> {
     (n.is_finite() && n > 0.0).then(|| v.map(|x| x / n))
 }
 
-#[cfg(all(test, feature = "simulate"))]
+#[cfg(test)]
 mod tests {
     use super::*;
-    use crate::simulate::{simulate, SimConfig};
+    use wiical_sim::{simulate, SimConfig};
 
     fn run(cfg: &SimConfig) -> (LiveSession, Vec<usize>) {
         let out = simulate(cfg).unwrap();

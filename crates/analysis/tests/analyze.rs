@@ -6,16 +6,15 @@ use common::data_dir;
 
 use wiical_analysis::fit::base as fit;
 use wiical_analysis::input::{front_door as load, text};
-use wiical_analysis::simulate;
 use wiical_analysis::Recording;
 
-use simulate::{Device, EffectSpec, SimConfig, SimEffect, SimOutput};
 use wiical_analysis::{analyze as run_analyze, AnalyzeOptions, AnalyzeReport, Candidate};
+use wiical_sim::{Device, EffectSpec, SimConfig, SimEffect, SimOutput};
 
 use wiical_core::Conditions;
 
 fn sim(effect: SimEffect, mag: f64, seed: u64, device: Device) -> SimOutput {
-    simulate::simulate(&SimConfig {
+    wiical_sim::simulate(&SimConfig {
         effects: vec![EffectSpec::new(effect, Some(mag))],
         seed,
         device,
@@ -312,7 +311,7 @@ fn input_in_g_is_detected_and_analysed() {
 /// is not offered when the recording has no temperature column.
 #[test]
 fn temperature_candidates_need_a_temperature_column() {
-    let s = simulate::simulate(&SimConfig {
+    let s = wiical_sim::simulate(&SimConfig {
         effects: vec![EffectSpec::new(SimEffect::BiasDrift, Some(10.0))],
         seed: 51,
         temp_column: false,
@@ -369,7 +368,7 @@ fn simulate_writes_recording_and_truth() {
         .join(format!("wiical-sim-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let path = dir.join("rec.csv");
-    let tp = simulate::write(&s, &path).unwrap();
+    let tp = wiical_sim::write(&s, &path).unwrap();
     assert_eq!(tp, dir.join("rec.csv.truth.json"));
     let rec = load::load(&path, &Default::default()).unwrap();
     assert_eq!(rec.xyz, s.recording.xyz);
@@ -522,7 +521,7 @@ fn six_position_blocks_test_the_pair_contrasts() {
 
 /// Rates over seeds and magnitudes (blind): detection (right effect named, alone) per effect
 /// and magnitude, false positives on clean data. A modest sweep here; the bigger one is the
-/// ignored test below. Magnitudes are in mg as defined in `simulate`.
+/// ignored test below. Magnitudes are in mg as defined in `wiical_sim`.
 fn sweep(seeds: std::ops::Range<u64>, mags: &[(SimEffect, &[f64])]) -> String {
     let mut out = String::from(
         "| effect | magnitude (mg) | runs | right alone | right + extra | wrong | nothing | median CV cut | right with CV cut ≥ 2 | wrong/extra names | wrong but flagged inseparable |\n|---|---|---|---|---|---|---|---|---|---|---|\n",
@@ -685,7 +684,7 @@ mod no_panic {
 /// span, one note says how many rows repeat, the windows are the same.
 #[test]
 fn coarse_timestamps_are_read_and_analysed_like_exact_ones() {
-    use wiical_analysis::simulate::{simulate, to_csv, SimConfig};
+    use wiical_sim::{simulate, to_csv, SimConfig};
     let sim = simulate(&SimConfig {
         seed: 19,
         poses: 20,
@@ -720,7 +719,7 @@ fn coarse_timestamps_are_read_and_analysed_like_exact_ones() {
 fn untested_candidates_are_named_and_an_unexplained_residual_is_not_good() {
     use wiical_analysis::input::front_door::Input;
     use wiical_analysis::report::verdict::Verdict;
-    use wiical_analysis::simulate::{simulate, EffectSpec, SimConfig, SimEffect};
+    use wiical_sim::{simulate, EffectSpec, SimConfig, SimEffect};
     let rec = simulate(&SimConfig {
         effects: vec![EffectSpec::new(SimEffect::Quadratic, Some(20.0))],
         poses: 13,

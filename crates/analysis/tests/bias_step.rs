@@ -8,8 +8,8 @@ mod common;
 
 use common::data_dir;
 use common::sim::sim;
-use wiical_analysis::simulate::Device;
 use wiical_analysis::{analyze, load, AnalyzeOptions, AnalyzeReport, LoadOptions, Recording};
+use wiical_sim::Device;
 
 /// Adds `step` (file units) to axis `axis` of every sample at or after `t0` (s, the
 /// recording's clock).

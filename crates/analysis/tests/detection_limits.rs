@@ -4,8 +4,8 @@
 //! twice that size must name it. The sweep behind the table of docs/residuals.md
 //! ("Detection limits") is the ignored test at the end.
 
-use wiical_analysis::simulate::{self, EffectSpec, SimConfig, SimEffect};
 use wiical_analysis::{analyze, AnalyzeOptions, AnalyzeReport};
+use wiical_sim::{EffectSpec, SimConfig, SimEffect};
 
 /// The simulator's effects that are candidates of `analyze`, each with the name of its
 /// candidate row.
@@ -18,8 +18,8 @@ const KINDS: [(SimEffect, &str); 6] = [
     (SimEffect::Outliers, "outliers"),
 ];
 
-fn run(effects: Vec<EffectSpec>, seed: u64) -> (AnalyzeReport, simulate::SimOutput) {
-    let sim = simulate::simulate(&SimConfig {
+fn run(effects: Vec<EffectSpec>, seed: u64) -> (AnalyzeReport, wiical_sim::SimOutput) {
+    let sim = wiical_sim::simulate(&SimConfig {
         effects,
         seed,
         ..Default::default()
@@ -47,7 +47,7 @@ fn limit_of(r: &AnalyzeReport, name: &str) -> (f64, String) {
 /// `limit` in the candidate's unit: the same number for the nonlinearities (largest axis,
 /// mg/g² or mg/g³), the bias drift (mg over the recording) and outliers (mg in one pose's
 /// ‖a‖); mg/°C and ppm/°C times the temperature range the simulator scales by.
-fn magnitude(effect: SimEffect, limit: f64, sim: &simulate::SimOutput) -> f64 {
+fn magnitude(effect: SimEffect, limit: f64, sim: &wiical_sim::SimOutput) -> f64 {
     let temps: Vec<f64> = sim.conditions.iter().map(|c| c.temperature_c).collect();
     let lo = temps.iter().copied().fold(f64::INFINITY, f64::min);
     let hi = temps.iter().copied().fold(f64::NEG_INFINITY, f64::max);

@@ -1,5 +1,5 @@
 //! The gyro's bias step (a knock between two rests, `gyro::bias_step`): put into a simulated
-//! recording (`simulate::gyro`) and into a real one (MPU-9150 unit 0) during a turn, it is named
+//! recording (`wiical_sim::gyro`) and into a real one (MPU-9150 unit 0) during a turn, it is named
 //! as a step at the gap between the rests around it, its three components within 3 of their
 //! stated standard errors of the truth (the raw step through the true scale, °/s), and not
 //! taken for a drift; clean recordings name no step.
@@ -8,8 +8,8 @@ mod common;
 
 use common::data_dir;
 use wiical_analysis::gyro::{run, GyroOptions, GyroReport};
-use wiical_analysis::simulate::gyro::{simulate_gyro, GyroSimOptions};
 use wiical_analysis::{LoadOptions, Recording};
+use wiical_sim::gyro::{simulate_gyro, GyroSimOptions};
 
 /// The true nominal of the default simulated gyro (16.4 counts per °/s).
 fn nominal() -> GyroOptions {

@@ -7,9 +7,9 @@ mod common;
 
 use wiical_analysis::gyro::{run, GyroOptions, GyroReport};
 use wiical_analysis::output::gyrocal::{parse, to_text, GyroCalFile};
-use wiical_analysis::simulate::gyro::{simulate_gyro, GyroSim, GyroSimOptions, GyroTruth};
 use wiical_core::gyro_correct::GyroCorrection;
 use wiical_core::Real;
+use wiical_sim::gyro::{simulate_gyro, GyroSim, GyroSimOptions, GyroTruth};
 
 /// The simulated gyro's true nominal (16.4 counts per °/s).
 fn nominal() -> GyroOptions {

@@ -1,5 +1,5 @@
 //! `gyrofit`'s loop: noise floor, static-window candidates with detection limits, verdict, on
-//! simulations with known truth (`simulate::gyro`) and on the degenerate inputs a user can
+//! simulations with known truth (`wiical_sim::gyro`) and on the degenerate inputs a user can
 //! give (wrong-sign nominal, swapped files, a gyro that reads nothing).
 //!
 //! The sweep (`#[ignore]`d, minutes):
@@ -9,8 +9,8 @@ mod common;
 use common::data_dir;
 
 use wiical_analysis::gyro::{run, GyroError, GyroOptions, GyroQuality, GyroReport};
-use wiical_analysis::simulate::gyro::{simulate_gyro, GyroSimOptions, GyroTruth};
 use wiical_analysis::{load, LoadOptions, Recording};
+use wiical_sim::gyro::{simulate_gyro, GyroSimOptions, GyroTruth};
 
 /// The true nominal of the default simulated gyro (16.4 counts per °/s).
 fn nominal() -> GyroOptions {

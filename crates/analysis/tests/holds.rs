@@ -2,11 +2,11 @@
 //! 2–4 s, moves of 1–2 s with hand bumps) the default detector finds at least 95 % of the holds
 //! with ≥ 1.5 s of still samples, for a Nunchuk (10-bit, ~200 counts/g, 100 Hz), a Wii Remote
 //! (~105 counts/g, 200 Hz) and a 16-bit MEMS written in m/s² at 400 Hz. The truth is the
-//! simulator's (`simulate::score_holds` defines found / present); no window lies outside a hold.
+//! simulator's (`wiical_sim::score_holds` defines found / present); no window lies outside a hold.
 
 use wiical_analysis::detect::windows::detect_windows;
-use wiical_analysis::simulate::{self, score_holds, Device, Profile, SimConfig};
 use wiical_analysis::DetectOptions;
+use wiical_sim::{score_holds, Device, Profile, SimConfig};
 
 const SEEDS: std::ops::RangeInclusive<u64> = 1..=6;
 
@@ -19,7 +19,7 @@ fn score(
 ) -> (usize, usize, usize, usize) {
     let mut total = (0, 0, 0, 0);
     for seed in seeds {
-        let sim = simulate::simulate(&SimConfig {
+        let sim = wiical_sim::simulate(&SimConfig {
             device,
             rate_hz,
             profile,
@@ -98,7 +98,7 @@ fn calm_recordings_keep_one_window_per_hold() {
 /// tolerance) and long enough finds it; a short one or one reaching into a move does not.
 #[test]
 fn score_holds_counts_inside_and_long_enough() {
-    let pose = |a: f64, b: f64| simulate::TruePose {
+    let pose = |a: f64, b: f64| wiical_sim::TruePose {
         t_start: a,
         t_end: b,
         direction: [0.0, 0.0, 1.0],
@@ -117,7 +117,7 @@ fn score_holds_counts_inside_and_long_enough() {
 /// comes from the span (one note naming the repeats), and every hold still gets a window.
 #[test]
 fn coarse_timestamps_at_200_hz_are_read_and_every_hold_found() {
-    let sim = simulate::simulate(&SimConfig {
+    let sim = wiical_sim::simulate(&SimConfig {
         device: Device::Wiimote,
         rate_hz: 200.0,
         profile: Profile::Brisk,

@@ -11,13 +11,13 @@ use wiical_analysis::detect::windows::detect_windows;
 use wiical_analysis::output::calfile::{parse, to_json_file, CalibrationFile, SCHEMA_V3};
 use wiical_analysis::output::host_term_checks::{HostTerm, Regressor};
 use wiical_analysis::search::thermal::{HeldTemps, SampleTemps};
-use wiical_analysis::simulate::{self, Device, EffectSpec, SimConfig, SimEffect, SimOutput};
 use wiical_analysis::{analyze, AnalyzeOptions, AnalyzeReport};
+use wiical_sim::{Device, EffectSpec, SimConfig, SimEffect, SimOutput};
 
 /// A 16-bit MEMS recording at its usual rate with `effect` at `mg`.
 fn sim(effect: SimEffect, mg: f64, seed: u64) -> SimOutput {
     let device = Device::Mems16;
-    simulate::simulate(&SimConfig {
+    wiical_sim::simulate(&SimConfig {
         effects: vec![EffectSpec::new(effect, Some(mg))],
         seed,
         device,

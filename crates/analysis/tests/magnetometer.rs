@@ -1,5 +1,5 @@
 //! The magnetometer loop against simulations with known truth
-//! (`wiical_analysis::simulate::magnetometer`): clean recordings gain no effect and come out
+//! (`wiical_sim::magnetometer`): clean recordings gain no effect and come out
 //! good, each effect is named with its held-out error brought down, a still blob is refused,
 //! and a drift injected at twice its detection limit is found.
 //!
@@ -9,7 +9,7 @@
 
 use wiical_analysis::magnetometer::{self, MagAnalysis, MagModel};
 use wiical_analysis::search::select::ALPHA;
-use wiical_analysis::simulate::magnetometer::{simulate_mag, MagEffectTruth, MagSim, MagSimConfig};
+use wiical_sim::magnetometer::{simulate_mag, MagEffectTruth, MagSim, MagSimConfig};
 
 fn run(sim: &MagSim) -> MagAnalysis {
     let (rec, current) = sim.recording();

@@ -7,7 +7,7 @@
 
 use wiical_analysis::magnetometer::{self, MagAnalysis, MagModel};
 use wiical_analysis::search::select::ALPHA;
-use wiical_analysis::simulate::magnetometer::{simulate_mag, MagEffectTruth, MagSimConfig};
+use wiical_sim::magnetometer::{simulate_mag, MagEffectTruth, MagSimConfig};
 
 fn run(k: [f64; 3], seed: u64) -> MagAnalysis {
     let sim = simulate_mag(&MagSimConfig {

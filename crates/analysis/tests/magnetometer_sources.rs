@@ -10,9 +10,9 @@ use wiical_analysis::input::columns::Sensor;
 use wiical_analysis::input::text_source::TextSource;
 use wiical_analysis::magnetometer::{self, pass, Follow, MagModel};
 use wiical_analysis::search::select::ALPHA;
-use wiical_analysis::simulate::magnetometer::{simulate_mag, MagEffectTruth, MagSimConfig};
 use wiical_analysis::source::RowSource;
 use wiical_analysis::LoadOptions;
+use wiical_sim::magnetometer::{simulate_mag, MagEffectTruth, MagSimConfig};
 
 fn data(rel: &str) -> PathBuf {
     let root = std::env::var("WIICAL_DATA").unwrap_or_else(|_| {

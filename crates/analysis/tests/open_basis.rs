@@ -9,10 +9,8 @@ mod common;
 use common::correlates::{correlates_run, correlates_sim, strongest};
 use common::sim::sim;
 use wiical_analysis::search::candidate::Candidate;
-use wiical_analysis::simulate::{
-    Device, EffectSpec, SimEffect, SimOutput, Truth, THERMAL_LAG_TAU_S,
-};
 use wiical_analysis::{analyze, AnalyzeOptions, AnalyzeReport};
+use wiical_sim::{Device, EffectSpec, SimEffect, SimOutput, Truth, THERMAL_LAG_TAU_S};
 
 /// What one count is written as (the truth's device).
 fn unit_per_count(t: &Truth) -> f64 {

@@ -7,8 +7,8 @@ mod common;
 use common::sim::sim;
 use wiical_analysis::report::contract::EffectReport;
 use wiical_analysis::search::thermal::LAG_GRID_LEN;
-use wiical_analysis::simulate::{Device, SimEffect, SimOutput, THERMAL_LAG_TAU_S};
 use wiical_analysis::{analyze, AnalyzeOptions, AnalyzeReport};
+use wiical_sim::{Device, SimEffect, SimOutput, THERMAL_LAG_TAU_S};
 
 fn run(effects: &[(SimEffect, f64)], seed: u64) -> (SimOutput, AnalyzeReport) {
     let s = sim(effects, seed, Device::Mems16);

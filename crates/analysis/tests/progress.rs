@@ -3,7 +3,7 @@
 
 use std::sync::{Arc, Mutex};
 use wiical_analysis::report::progress::{Progress, ProgressHook, Stage};
-use wiical_analysis::simulate::{simulate, EffectSpec, SimConfig, SimEffect};
+use wiical_sim::{simulate, EffectSpec, SimConfig, SimEffect};
 
 /// An analysis reports its stages in order — detection, base fit, then each step's
 /// candidates counted from 0 to the step's total — and the same result as without a hook.

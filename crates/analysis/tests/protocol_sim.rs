@@ -17,10 +17,10 @@ use nalgebra::{Matrix3, Vector3};
 use wiical_analysis::detect::windows::{detect_windows, DetectOptions};
 use wiical_analysis::protocol::accel::fit_by_protocol;
 use wiical_analysis::protocol::gyro::{run, GyroProtocolOptions, GyroProtocolReport};
-use wiical_analysis::simulate::protocols::{
+use wiical_analysis::{Calibration, FitOptions};
+use wiical_sim::protocols::{
     simulate_protocol, AxesTruth, ProtocolSim, ProtocolSimOptions, SimProtocol,
 };
-use wiical_analysis::{Calibration, FitOptions};
 
 fn sim(protocol: SimProtocol, seed: u64) -> ProtocolSim {
     simulate_protocol(&ProtocolSimOptions {

@@ -7,7 +7,7 @@ mod common;
 
 use common::correlates::{correlates_run, strongest};
 use wiical_analysis::search::candidate::Candidate;
-use wiical_analysis::simulate::{EffectSpec, SimEffect};
+use wiical_sim::{EffectSpec, SimEffect};
 
 const AXES: [&str; 3] = ["x", "y", "z"];
 

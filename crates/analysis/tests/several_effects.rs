@@ -4,8 +4,8 @@
 //! the ignored tests at the end (run once in release, commands in their doc comments).
 
 use std::collections::BTreeMap;
-use wiical_analysis::simulate::{self, Device, EffectSpec, SimConfig, SimEffect};
 use wiical_analysis::{analyze, AnalyzeOptions, AnalyzeReport};
+use wiical_sim::{Device, EffectSpec, SimConfig, SimEffect};
 
 /// The effects a recording can carry (everything but `none`).
 const EFFECTS: [SimEffect; 6] = [
@@ -19,7 +19,7 @@ const EFFECTS: [SimEffect; 6] = [
 
 /// A default-size recording with `effects` at their default magnitudes.
 fn run(effects: &[SimEffect], seed: u64, device: Device, temp: bool) -> AnalyzeReport {
-    let sim = simulate::simulate(&SimConfig {
+    let sim = wiical_sim::simulate(&SimConfig {
         effects: effects.iter().map(|e| EffectSpec::new(*e, None)).collect(),
         seed,
         device,

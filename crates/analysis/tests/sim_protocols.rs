@@ -5,7 +5,7 @@
 //! rates have the speeds' magnitudes; and the files carry what the brief says they carry.
 
 use nalgebra::{Matrix3, Rotation3, Vector3};
-use wiical_analysis::simulate::protocols::{
+use wiical_sim::protocols::{
     simulate_protocol, write_protocol, AxesTruth, Face, ProtocolSim, ProtocolSimOptions,
     SegmentKind, SimProtocol, TrueSegment,
 };
@@ -224,7 +224,7 @@ fn turntable_is_gyro_only_at_known_rate_magnitudes() {
     let t = &s.truth;
     assert!(s.t.is_none() && s.accel.is_none() && t.accel.is_none());
     assert_eq!(t.columns, ["gx", "gy", "gz"]);
-    let csv = wiical_analysis::simulate::protocols::protocol_csv(&s);
+    let csv = wiical_sim::protocols::protocol_csv(&s);
     assert!(csv.starts_with("gx,gy,gz\n"));
     let steady: Vec<&TrueSegment> = t.segments_of(SegmentKind::Steady).collect();
     assert_eq!(steady.len(), 16);

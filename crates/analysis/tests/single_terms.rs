@@ -3,8 +3,8 @@
 //! term in the same `Effects` field with the other axes zero, and invents nothing on clean
 //! recordings. The sweep behind the table of docs/residuals.md is the ignored test at the end.
 
-use wiical_analysis::simulate::{self, Device, EffectSpec, SimConfig, SimEffect};
 use wiical_analysis::{analyze, AnalyzeOptions, AnalyzeReport};
+use wiical_sim::{Device, EffectSpec, SimConfig, SimEffect};
 
 /// `windows` windows (the initial rest and `windows − 1` poses) with `effect` of `magnitude`
 /// mg on axis `axis` alone.
@@ -14,8 +14,8 @@ fn run(
     axis: usize,
     windows: usize,
     seed: u64,
-) -> (AnalyzeReport, simulate::SimOutput) {
-    let sim = simulate::simulate(&SimConfig {
+) -> (AnalyzeReport, wiical_sim::SimOutput) {
+    let sim = wiical_sim::simulate(&SimConfig {
         effects: vec![EffectSpec::on_axis(effect, Some(magnitude), axis)],
         seed,
         device: device(seed),
@@ -98,7 +98,7 @@ fn a_one_axis_quadratic_is_found_in_fourteen_windows() {
 #[test]
 fn clean_short_recordings_invent_nothing() {
     for seed in 0..12u64 {
-        let sim = simulate::simulate(&SimConfig {
+        let sim = wiical_sim::simulate(&SimConfig {
             seed: 7000 + seed,
             device: device(seed),
             poses: 13,
@@ -120,7 +120,7 @@ fn clean_short_recordings_invent_nothing() {
 #[test]
 fn a_whole_block_is_still_named_as_the_block() {
     for seed in 1..=2u64 {
-        let sim = simulate::simulate(&SimConfig {
+        let sim = wiical_sim::simulate(&SimConfig {
             effects: vec![EffectSpec::new(SimEffect::Quadratic, None)],
             seed,
             device: device(seed),

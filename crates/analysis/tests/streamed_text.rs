@@ -11,8 +11,8 @@ use std::path::Path;
 use wiical_analysis::input::front_door::{load_input_from, Input};
 use wiical_analysis::input::window_means::WindowInputOptions;
 use wiical_analysis::pipeline::{analyze_judged, fit_judged};
-use wiical_analysis::simulate::{self, Device, EffectSpec, SimConfig, SimEffect};
 use wiical_analysis::{AnalyzeOptions, FitOptions};
+use wiical_sim::{Device, EffectSpec, SimConfig, SimEffect};
 
 /// The file read both ways: (streamed, held).
 fn both(path: &Path) -> (Input, Input) {
@@ -46,8 +46,12 @@ fn json<T: serde::Serialize>(v: &T) -> String {
     serde_json::to_string(v).unwrap()
 }
 
-fn sim_csv(dir: &Path, name: &str, temp_effect: bool) -> (std::path::PathBuf, simulate::SimOutput) {
-    let out = simulate::simulate(&SimConfig {
+fn sim_csv(
+    dir: &Path,
+    name: &str,
+    temp_effect: bool,
+) -> (std::path::PathBuf, wiical_sim::SimOutput) {
+    let out = wiical_sim::simulate(&SimConfig {
         effects: if temp_effect {
             vec![EffectSpec::new(SimEffect::Temperature, Some(20.0))]
         } else {
@@ -61,7 +65,7 @@ fn sim_csv(dir: &Path, name: &str, temp_effect: bool) -> (std::path::PathBuf, si
     })
     .unwrap();
     let path = dir.join(name);
-    std::fs::write(&path, simulate::to_csv(&out.recording)).unwrap();
+    std::fs::write(&path, wiical_sim::to_csv(&out.recording)).unwrap();
     (path, out)
 }
 

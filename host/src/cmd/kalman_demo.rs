@@ -4,7 +4,7 @@ use super::to_json;
 use crate::cli_error::cli_error;
 use crate::render;
 use anyhow::Result;
-use wiical_analysis::simulate::kalman::{self, KalmanDemoConfig, MAX_RUNS};
+use wiical_sim::kalman::{self, KalmanDemoConfig, MAX_RUNS};
 
 /// Arguments of `wiical kalman-demo`.
 #[derive(clap::Args, Debug)]

@@ -1,13 +1,10 @@
 //! `wiical simulate`: a recording with known truth.
 
-use crate::cli_error::cli_error;
 use anyhow::Result;
 use std::fmt::Write as _;
 use std::path::PathBuf;
-use wiical_analysis::simulate::protocols::{
-    simulate_protocol, write_protocol, ProtocolSimOptions, SimProtocol,
-};
-use wiical_analysis::simulate::{self, Device, EffectSpec, Profile, SimConfig, SimEffect};
+use wiical_sim::protocols::{simulate_protocol, write_protocol, ProtocolSimOptions, SimProtocol};
+use wiical_sim::{Device, EffectSpec, Profile, SimConfig, SimEffect};
 
 /// Arguments of `wiical simulate`.
 #[derive(clap::Args, Debug)]
@@ -20,7 +17,7 @@ pub struct Args {
     /// `thermal-lag`, …). An unknown name is answered with the list of names.
     #[arg(long, default_value = "none", value_parser = parse_effect, value_delimiter = ',')]
     pub effect: Vec<SimEffect>,
-    /// Size of the effect in milli-g (meaning per effect: see `wiical_analysis::simulate`):
+    /// Size of the effect in milli-g (meaning per effect: see `wiical_sim`):
     /// one value for every effect, or one per effect (comma-separated, same order).
     #[arg(long, value_delimiter = ',')]
     pub magnitude: Vec<f64>,
@@ -54,7 +51,7 @@ pub struct Args {
     /// Instead, a calibration protocol with an IMU (accelerometer and gyro in raw 16-bit
     /// counts): six-faces | one-pose | ferraris | rate-table | turntable | face-missing,
     /// written as t,ax,ay,az,gx,gy,gz (the turntable: gx,gy,gz, no clock), the truth in
-    /// FILE.truth.json (see `wiical_analysis::simulate::protocols`).
+    /// FILE.truth.json (see `wiical_sim::protocols`).
     #[arg(
         long,
         value_parser = parse_protocol,
@@ -163,8 +160,10 @@ pub fn run(a: &Args) -> Result<String> {
         temp_column: !a.no_temp,
         ..Default::default()
     };
-    let sim = simulate::simulate(&cfg).map_err(cli_error)?;
-    let truth = simulate::write(&sim, &a.out).map_err(cli_error)?;
+    // The simulator's errors are its own (a setting, a write, a self-check) and read as they
+    // are: no engine setting behind them that `cli_error` would name a flag for.
+    let sim = wiical_sim::simulate(&cfg)?;
+    let truth = wiical_sim::write(&sim, &a.out)?;
     let mut o = String::new();
     writeln!(
         o,
@@ -206,7 +205,7 @@ fn run_protocol(a: &Args, protocol: SimProtocol) -> Result<String> {
         ..defaults
     };
     let sim = simulate_protocol(&o);
-    let truth = write_protocol(&sim, &a.out).map_err(cli_error)?;
+    let truth = write_protocol(&sim, &a.out)?;
     Ok(format!(
         "wrote {} ({} samples at {} Hz, protocol {}, columns {}) and the truth {}\n",
         a.out.display(),

@@ -3,7 +3,7 @@
 
 use std::path::Path;
 use wiical_analysis::noise::report::AccelNoise;
-use wiical_analysis::simulate::kalman::KalmanDemoReport;
+use wiical_sim::kalman::KalmanDemoReport;
 
 /// The report as text; `source` is the noise file σ_a and the bias walk came from, with the
 /// axis read from it.

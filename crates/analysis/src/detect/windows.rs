@@ -1050,13 +1050,11 @@ mod spill_tests {
 
     /// A simulated recording of `cfg` written as CSV into a temporary directory (kept alive by
     /// the first value): the directory, the file, its rows.
-    fn simulated_csv(
-        cfg: crate::simulate::SimConfig,
-    ) -> (tempfile::TempDir, std::path::PathBuf, usize) {
-        let out = crate::simulate::simulate(&cfg).unwrap();
+    fn simulated_csv(cfg: wiical_sim::SimConfig) -> (tempfile::TempDir, std::path::PathBuf, usize) {
+        let out = wiical_sim::simulate(&cfg).unwrap();
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("r.csv");
-        std::fs::write(&path, crate::simulate::to_csv(&out.recording)).unwrap();
+        std::fs::write(&path, wiical_sim::to_csv(&out.recording)).unwrap();
         (dir, path, out.recording.len())
     }
 
@@ -1078,7 +1076,7 @@ mod spill_tests {
     #[test]
     #[allow(clippy::too_many_lines, reason = "a test reads top to bottom")]
     fn without_the_spill_the_text_is_read_again_alike() {
-        let (dir, path, rows) = simulated_csv(crate::simulate::SimConfig {
+        let (dir, path, rows) = simulated_csv(wiical_sim::SimConfig {
             seed: 3,
             poses: 12,
             temp_column: true,
@@ -1204,7 +1202,7 @@ mod spill_tests {
     /// pass going on from the text at the same row).
     #[test]
     fn the_f32_view_is_the_rows_whatever_the_spill() {
-        let (_dir, path, rows) = simulated_csv(crate::simulate::SimConfig {
+        let (_dir, path, rows) = simulated_csv(wiical_sim::SimConfig {
             seed: 5,
             poses: 9,
             ..Default::default()

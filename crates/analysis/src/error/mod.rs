@@ -17,8 +17,6 @@ pub mod magnetometer;
 pub mod noise;
 pub mod protocol;
 pub mod search;
-#[cfg(feature = "simulate")]
-pub mod simulate;
 pub mod six_position;
 
 // The I/O stages' errors are `wiical-io`'s (bounded reads, atomic writes), under their old paths.
@@ -115,11 +113,7 @@ pub enum Error {
         why: String,
     },
 
-    // ---- internal consistency (bugs, not bad input) ----
-    /// The simulator's self-checks ([`crate::error::simulate::SimulateError`]).
-    #[cfg(feature = "simulate")]
-    #[error(transparent)]
-    Simulate(#[from] crate::error::simulate::SimulateError),
+    // ---- serialisation ----
     /// JSON (de)serialisation.
     #[error(transparent)]
     Json(#[from] serde_json::Error),

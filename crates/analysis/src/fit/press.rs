@@ -143,8 +143,8 @@ mod tests {
     /// reads within 1 %.
     #[test]
     fn press_matches_exact_refits_on_a_simulated_recording() {
-        use crate::simulate::{simulate, EffectSpec, SimConfig, SimEffect};
-        let rec = simulate(&SimConfig {
+        use wiical_sim::{simulate, EffectSpec, SimConfig, SimEffect};
+        let sim = simulate(&SimConfig {
             effects: vec![EffectSpec::new(SimEffect::Quadratic, None)],
             poses: 60,
             seed: 21,
@@ -152,6 +152,19 @@ mod tests {
         })
         .unwrap()
         .recording;
+        // The simulator's `Recording` is the engine's library's type, not this test build's:
+        // the same samples, handed over field by field.
+        let rec = crate::Recording {
+            t: sim.t,
+            xyz: sim.xyz,
+            temp: sim.temp,
+            labels: sim.labels,
+            sample_rate_hz: sim.sample_rate_hz,
+            axis_columns: sim.axis_columns,
+            skipped_empty_rows: sim.skipped_empty_rows,
+            notes: sim.notes,
+            info: sim.info,
+        };
         let ws = crate::detect::windows::detect_windows(&rec, &Default::default()).unwrap();
         let means: Vec<[f64; 3]> = ws.stats.iter().map(|w| w.mean).collect();
         let times: Vec<f64> = ws.stats.iter().map(|w| w.t_centre).collect();

@@ -299,10 +299,10 @@ mod tests {
     }
 }
 
-#[cfg(all(test, feature = "simulate"))]
+#[cfg(test)]
 mod simulated {
     use super::*;
-    use crate::noise::sim::{simulate_noise, NoiseTruth};
+    use wiical_sim::noise::{simulate_noise, NoiseTruth};
 
     /// White + flicker + rate random walk with known coefficients, 2²² samples at 10 Hz
     /// (116 h, so that the +½ slope spans several octaves): N, B and K come back within 10 %

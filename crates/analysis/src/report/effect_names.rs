@@ -1,6 +1,6 @@
 //! The effect names of the JSON contract, in one table: the analysis's candidates
 //! ([`crate::search::candidate::Candidate`]), the model's parameter blocks ([`crate::fit::model::Term`]), the
-//! simulator's effects (`crate::simulate::SimEffect`), the CLI's flags and messages all take
+//! simulator's effects (`wiical_sim::SimEffect`), the CLI's flags and messages all take
 //! them from here, so that a name cannot differ between the one that puts an effect into a
 //! simulation and the one that reports it found.
 

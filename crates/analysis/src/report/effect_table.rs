@@ -1,7 +1,7 @@
 //! Every effect the accelerometer analysis names, one row each: the analysis's candidates
 //! ([`crate::search::candidate::Candidate`]), the open basis's families
 //! ([`crate::search::open_basis_screening`]) and the simulator's effects
-//! ([`crate::simulate::SimEffect`]) are one enum, [`Effect`], whose names and properties
+//! (`wiical_sim::SimEffect`) are one enum, [`Effect`], whose names and properties
 //! come from [`EFFECTS`]. A row that is a term of the core's calibration names its
 //! [`TermId`], and what the core's table ([`wiical_core::terms::TERMS`]) says of that term
 //! (what it needs besides the reading) is taken from there, not restated; the rows that are
@@ -303,7 +303,7 @@ impl Effect {
     pub const SIMULATED_CANDIDATES: [Effect; 7] = select(Selection::SimulatedCandidates);
 
     /// The open basis's families ([`crate::search::open_basis_screening`]; the simulator's
-    /// [`crate::simulate::open_basis_terms`]).
+    /// `wiical_sim::open_basis_terms`).
     pub const OPEN_BASIS: [Effect; 10] = select(Selection::OpenBasis);
 
     /// This effect's row.

@@ -4,12 +4,12 @@
 
 use wiical_analysis::report::correlate::ResidualCorrelate;
 use wiical_analysis::search::candidate::Candidate;
-use wiical_analysis::simulate::{self, Device, EffectSpec, SimConfig, SimOutput};
 use wiical_analysis::{analyze, AnalyzeOptions, AnalyzeReport};
+use wiical_sim::{Device, EffectSpec, SimConfig, SimOutput};
 
 /// The recording of [`correlates_run`] (the temperature column changes no draw).
 pub fn correlates_sim(effects: Vec<EffectSpec>, seed: u64, temp: bool) -> SimOutput {
-    simulate::simulate(&SimConfig {
+    wiical_sim::simulate(&SimConfig {
         effects,
         seed,
         device: Device::Mems16,

@@ -2,7 +2,7 @@
 //! conditions of every sample (time, temperature, lagged temperature, rate) and the holds'
 //! statistics the open-basis magnitudes and references use.
 
-use super::motion::{Seg, SegKind};
+use crate::motion::{Seg, SegKind};
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;

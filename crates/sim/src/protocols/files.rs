@@ -4,10 +4,10 @@
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-use super::super::files::truth_path;
 use super::ProtocolSim;
 use crate::error::Result;
-use crate::output::write::write_file;
+use crate::files::truth_path;
+use wiical_io::write::write_file;
 
 /// The recording as CSV text: a header of the truth's columns (`t,ax,ay,az,gx,gy,gz`, no `t`
 /// without a clock, `gx,gy,gz` for the turntable), then one row per sample, times to the

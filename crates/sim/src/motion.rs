@@ -1,8 +1,8 @@
 //! The sensor's motion: the poses' directions, the timeline of holds and moves (the
 //! profile's durations, hand wobble and bumps) and the specific force at any time.
 
-use super::config::Profile;
-use super::geometry::{random_unit, slerp, tilt};
+use crate::config::Profile;
+use crate::geometry::{random_unit, slerp, tilt};
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 

@@ -1,5 +1,8 @@
-//! The simulator: Wiimote- / Nunchuk-like multi-position recordings with known truth and,
-//! optionally, one or several effects the linear model lacks, for testing `wiical analyze` blind.
+//! `wiical-sim`, the recording simulator of wiical: Wiimote- / Nunchuk-like multi-position
+//! recordings with known truth and, optionally, one or several effects the linear model lacks,
+//! for testing `wiical analyze` blind (`wiical simulate`, the engine's tests and benchmarks).
+//! It builds on the analysis engine (`wiical-analysis`: the `Recording` it gives, the effect
+//! table it draws from, the atomic writes); the engine does not depend on it.
 //!
 //! What a recording looks like:
 //! * 10-bit counts (bias near 512; ~105 counts/g for the Wiimote's ADXL330, ~200 counts/g for
@@ -77,12 +80,17 @@
 //! and this module runs them in that order. [`gyro`], [`magnetometer`] and [`kalman`]
 //! simulate the other sensors and the Kalman demo; [`protocols`] simulates the calibration
 //! protocols (six faces, one pose, Ferraris, rate table, turntable, a face missing) with an
-//! IMU's accelerometer and gyro.
+//! IMU's accelerometer and gyro; [`noise`] a still sensor's noise with known IEEE 952 terms.
+//! [`error`] holds the errors of them all.
+
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
 
 mod conditions;
 mod config;
 mod device;
 mod draw;
+pub mod error;
 mod files;
 mod geometry;
 pub mod gyro;
@@ -90,21 +98,21 @@ mod hold_score;
 pub mod kalman;
 pub mod magnetometer;
 mod motion;
+pub mod noise;
 pub mod open_basis_terms;
 pub mod protocols;
 mod sensor;
 mod truth;
 
-pub use crate::error::simulate::SimulateError;
 pub use conditions::{SampleConditions, TempModel, THERMAL_LAG_TAU_S};
 pub use config::{EffectSpec, Profile, SimConfig, SimEffect};
 pub use device::Device;
 pub use draw::TrueOutlier;
+pub use error::{Error, Result, SimulateError};
 pub use files::{to_csv, truth_path, write, SimOutput};
 pub use hold_score::{score_holds, HoldScore, FOUND_EDGE_S, FOUND_MIN_S, HOLD_MIN_STILL_S};
 pub use truth::{TruePose, Truth};
 
-use crate::error::Result;
 use conditions::{hold_stats, sample_conditions, temperatures};
 use config::check_config;
 use draw::effect_terms;
@@ -114,7 +122,7 @@ use rand_chacha::ChaCha8Rng;
 use sensor::Scene;
 use truth::{check_truth, truth};
 
-/// Simulates a recording (see the module docs).
+/// Simulates a recording (see the crate docs).
 pub fn simulate(cfg: &SimConfig) -> Result<SimOutput> {
     let (effects, noise) = check_config(cfg)?;
     let mut rng = ChaCha8Rng::seed_from_u64(cfg.seed);
@@ -180,7 +188,7 @@ mod tests {
         let b = simulate(&cfg).unwrap();
         assert_eq!(a.recording.xyz, b.recording.xyz);
         let text = to_csv(&a.recording);
-        let back = crate::input::text::parse(&text, &Default::default()).unwrap();
+        let back = wiical_analysis::input::text::parse(&text, &Default::default()).unwrap();
         assert_eq!(back.xyz, a.recording.xyz);
         assert_eq!(back.temp.as_ref().unwrap().len(), a.recording.len());
         assert!(a.recording.xyz.iter().flatten().all(|v| v.fract() == 0.0));
@@ -212,7 +220,7 @@ mod tests {
             .flatten()
             .all(|v| ((v / q) - (v / q).round()).abs() < 1e-6));
         let text = to_csv(&a.recording);
-        let back = crate::input::text::parse(&text, &Default::default()).unwrap();
+        let back = wiical_analysis::input::text::parse(&text, &Default::default()).unwrap();
         assert!((back.estimated_rate_hz().unwrap() - 400.0).abs() < 1e-6);
         // Brisk: holds of 2–4 s after the rest.
         for p in &a.truth.poses[1..] {

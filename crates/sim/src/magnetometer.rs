@@ -1,6 +1,6 @@
-//! Magnetometer recordings with known truth (feature `simulate`): a sensor turned smoothly
-//! over the whole sphere several times, seen through hard iron `c`, soft iron `W⁻¹` and white
-//! noise, plus one effect the magnetometer loop ([`crate::magnetometer`]) looks for.
+//! Magnetometer recordings with known truth: a sensor turned smoothly over the whole sphere
+//! several times, seen through hard iron `c`, soft iron `W⁻¹` and white noise, plus one effect
+//! the magnetometer loop ([`wiical_analysis::magnetometer`]) looks for.
 //!
 //! Trajectory: the field's direction in the sensor frame is `(sin θ cos φ, sin θ sin φ, cos θ)`
 //! with `cos θ = cos(2π·5s)` and `φ = 2π·41s` (`s` the fraction of the recording): five passes
@@ -9,11 +9,11 @@
 //! sets `c(t)` (drift, step, temperature, interference) or `h` (shape: `h = a·n̂ₓn̂ᵧn̂_z`, odd
 //! and cubic, so neither the centre nor the quadratic soft iron absorbs it).
 
-use crate::magnetometer::Follow;
-use crate::Recording;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal, Uniform};
+use wiical_analysis::magnetometer::Follow;
+use wiical_analysis::Recording;
 
 /// The one effect a simulated recording carries.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -22,7 +22,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 
-use crate::input::recording::Recording;
+use wiical_analysis::Recording;
 
 /// What is simulated.
 #[derive(Debug, Clone)]
@@ -249,7 +249,7 @@ fn motion_effects(t: &GyroTruth, rates: &[Vector3<f64>], x: f64) -> Vector3<f64>
     let i = (x.floor() as usize).min(last);
     let f = x - i as f64;
     let w = rates[i] * (1.0 - f) + rates[(i + 1).min(last)] * f;
-    let r = crate::gyro::motion::RATE_REF;
+    let r = wiical_analysis::gyro::motion::RATE_REF;
     let w = w - quadratic(&t.rate_product, &w) / r;
     Vector3::from_fn(|k, _| {
         let (a, c, target) = (t.asymmetry[k], t.nonlinearity[k], w[k]);

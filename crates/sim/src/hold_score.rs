@@ -1,7 +1,7 @@
 //! Scoring a detection against the simulation's true holds: how many holds a detected window
 //! lies inside, and how many windows lie inside no hold.
 
-use super::truth::TruePose;
+use crate::truth::TruePose;
 
 /// A hold with at least this many seconds of still samples must be found ([`score_holds`]).
 pub const HOLD_MIN_STILL_S: f64 = 1.5;

@@ -6,10 +6,10 @@ use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use std::f64::consts::{PI, TAU};
 
-use super::super::geometry::{random_unit, tilt};
 use super::imu::uniform;
 use super::path::{Path, Profile, SegmentKind};
 use super::{Face, ProtocolSimOptions, SimProtocol};
+use crate::geometry::{random_unit, tilt};
 
 /// Largest tilt of a fixture's face from level (a table that is not quite level), degrees.
 pub const FIXTURE_TILT_DEG: f64 = 0.5;

@@ -1,11 +1,12 @@
 //! The simulator's settings: the effects to put in (which effect, one enum with the
-//! analysis's candidates, [`crate::report::effect_table::Effect`]; its size and axis), the
-//! recording's profile (how poses are held and changed), the settings and their checks.
+//! analysis's candidates, [`wiical_analysis::report::effect_table::Effect`]; its size and
+//! axis), the recording's profile (how poses are held and changed), the settings and their
+//! checks.
 
 #![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x > 0.0)` is deliberately true for NaN.
-use super::device::Device;
+use crate::device::Device;
 use crate::error::{Error, Result};
-use crate::report::effect_table::Effect;
+use wiical_analysis::report::effect_table::Effect;
 
 /// The effect put into a simulated recording: an [`Effect`] the simulator can put in
 /// ([`Effect::simulated`]: [`Effect::SIMULATED_CANDIDATES`], `none` first, then
@@ -17,7 +18,7 @@ pub type SimEffect = Effect;
 pub struct EffectSpec {
     /// Which effect.
     pub effect: SimEffect,
-    /// Its size in milli-g (see the module docs); `None`: [`SimEffect::default_magnitude_mg`].
+    /// Its size in milli-g (see the crate docs); `None`: [`SimEffect::default_magnitude_mg`].
     pub magnitude_mg: Option<f64>,
     /// On one sensor axis only (0, 1, 2 = x, y, z), with the whole magnitude there and the
     /// other axes zero; `None`: on every axis as drawn. Not for `outliers` (no axis).

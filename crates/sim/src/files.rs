@@ -1,12 +1,16 @@
 //! The simulation's output: the recording, its truth and every sample's true conditions; the
 //! recording as CSV text and its truth as JSON, written next to it.
 
-use super::conditions::SampleConditions;
-use super::truth::Truth;
+use crate::conditions::SampleConditions;
 use crate::error::Result;
-use crate::input::recording::Recording;
-use crate::output::write::write_file;
+use crate::truth::Truth;
 use std::path::{Path, PathBuf};
+use wiical_analysis::Recording;
+use wiical_io::write::write_file;
+
+/// Where the truth of a recording written to `path` goes (`path` + `.truth.json`): the
+/// engine's rule, which `wiical batch` reads to leave the truth files out of a folder.
+pub use wiical_analysis::batch::truth_path;
 
 /// A simulated recording and its truth.
 #[derive(Debug, Clone)]
@@ -20,7 +24,8 @@ pub struct SimOutput {
     pub conditions: Vec<SampleConditions>,
 }
 
-/// The recording as CSV text (`t,x,y,z[,temp]`), readable by [`crate::input::front_door::load`].
+/// The recording as CSV text (`t,x,y,z[,temp]`), readable by
+/// [`wiical_analysis::input::front_door::load`].
 pub fn to_csv(rec: &Recording) -> String {
     let mut s = String::with_capacity(rec.len() * 24 + 32);
     s.push_str(if rec.temp.is_some() {
@@ -47,13 +52,6 @@ pub fn to_csv(rec: &Recording) -> String {
         s.push('\n');
     }
     s
-}
-
-/// Where the truth of a recording written to `path` goes: `path` + `.truth.json`.
-pub fn truth_path(path: &Path) -> PathBuf {
-    let mut p = path.as_os_str().to_owned();
-    p.push(".truth.json");
-    PathBuf::from(p)
 }
 
 /// Writes the recording (CSV) and its truth (JSON, [`truth_path`]); returns the truth's path.

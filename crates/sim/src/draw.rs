@@ -2,13 +2,13 @@
 //! order given, each as if it were alone), its coefficients, the outlier poses for
 //! `outliers`, the open-basis cross, time and temperature terms.
 
-use super::conditions::HoldStats;
-use super::config::{SimDraw, SimEffect};
-use super::geometry::random_unit;
-use super::motion::{Seg, SegKind};
-use super::open_basis_terms::{self, Acts, Cross, ExtraTerm};
-use crate::error::simulate::SimulateError;
+use crate::conditions::HoldStats;
+use crate::config::{SimDraw, SimEffect};
 use crate::error::Result;
+use crate::error::SimulateError;
+use crate::geometry::random_unit;
+use crate::motion::{Seg, SegKind};
+use crate::open_basis_terms::{self, Acts, Cross, ExtraTerm};
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;

@@ -11,7 +11,7 @@
 //! | `turntable` | `turntable_orientations` random orientations on a record player's platter, each at the speeds `turntable_rates_dps` (`turntable_hold_s` each, ramps between); the re-orientations are not recorded | `gx,gy,gz` only: no clock, no accelerometer |
 //! | `face-missing` | `six-faces` with `missing_face` left out and `repeated_face` held in its place (default: z+ missing, z− twice) | as `six-faces` |
 //!
-//! Conventions (those of [`super::Truth`] and [`super::gyro::GyroTruth`]): the fixture's
+//! Conventions (those of [`crate::Truth`] and [`crate::gyro::GyroTruth`]): the fixture's
 //! frame is the reference ("the faces", "the axes"); the accelerometer reads
 //! `m = D·a + b` (`a` the specific force in g, 1 g up at rest), the gyro `m = K⁻¹·(ω + G·a) + b`
 //! (`ω` rad/s, right-handed, `G` rad/s per g), both in counts rounded to whole numbers, see
@@ -40,9 +40,9 @@ pub use plans::{
 };
 pub use truth::{ProtocolTruth, TrueSegment};
 
-use crate::input::recording::Recording;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
+use wiical_analysis::Recording;
 
 /// The calibration protocols simulated (module docs).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

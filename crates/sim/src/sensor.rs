@@ -2,13 +2,13 @@
 //! the push of a pose that was not still), its noiseless reading (the correction-side model
 //! inverted) and the recorded counts (noise, rounding, ADC range).
 
-use super::conditions::{SampleConditions, TempModel};
-use super::draw::EffectTerms;
-use super::motion::{self, Seg, SegKind};
-use super::open_basis_terms::{self, Acts};
-use crate::input::recording::Recording;
+use crate::conditions::{SampleConditions, TempModel};
+use crate::draw::EffectTerms;
+use crate::motion::{self, Seg, SegKind};
+use crate::open_basis_terms::{self, Acts};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
+use wiical_analysis::Recording;
 
 /// Everything a sample depends on.
 pub(super) struct Scene {

@@ -4,8 +4,8 @@
 //!
 //! Conventions (the same as the rest of the simulator): for the accelerometer
 //! `m = D·a + b` (`a` in g, fixture frame; `m`, `b` in counts; `K = D⁻¹`), as in
-//! [`crate::simulate::Truth`]; for the gyro `m = K⁻¹·(ω + G·a) + b` (`ω` in rad/s, fixture
-//! frame; `G` rad/s per g; `K` raw → rad/s), as in [`crate::simulate::gyro::GyroTruth`], so
+//! [`crate::Truth`]; for the gyro `m = K⁻¹·(ω + G·a) + b` (`ω` in rad/s, fixture
+//! frame; `G` rad/s per g; `K` raw → rad/s), as in [`crate::gyro::GyroTruth`], so
 //! that `ω = K·(m − b) − G·a` (`wiical_core::gyro_correct`'s correction).
 
 use nalgebra::{Matrix3, Vector3};
@@ -13,7 +13,7 @@ use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
-use super::super::geometry::random_unit;
+use crate::geometry::random_unit;
 
 /// One three-axis sensor's linear truth, `m = D·x + b`.
 #[derive(Debug, Clone, Serialize)]

@@ -4,12 +4,12 @@
 
 use serde::Serialize;
 
-use super::super::gyro::GyroTruth;
 use super::imu::AxesTruth;
 use super::path::SegmentKind;
 use super::plans::Plan;
 use super::record::Imu;
 use super::{Face, ProtocolSimOptions};
+use crate::gyro::GyroTruth;
 
 /// One segment of the motion.
 #[derive(Debug, Clone, Serialize)]

@@ -11,7 +11,7 @@
 //!   the core's: a *bias* term adds `c_i·r` (file units) to the bias subtracted from the
 //!   reading, a *scale* term multiplies `u_i = (K·(m − b_eff))_i` by `1 + s_i·r` (applied
 //!   with the core's `1 + scale_temp_i·Δθ`). `r` is the family's regressor at the sample
-//!   ([`Regressor`]). [`crate::simulate::Truth::calibration_at`] folds them into a
+//!   ([`Regressor`]). [`crate::Truth::calibration_at`] folds them into a
 //!   per-sample [`Calibration`](wiical_core::Calibration), so the truth is checked with the
 //!   core's own `correct`.
 //!
@@ -19,10 +19,10 @@
 //! the holds: what the windows see.
 
 #![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x > 0.0)` is deliberately true for NaN.
-use super::conditions::{HoldStats, SampleConditions, THERMAL_LAG_TAU_S};
-use super::config::SimEffect;
-use crate::report::effect_names as names;
+use crate::conditions::{HoldStats, SampleConditions, THERMAL_LAG_TAU_S};
+use crate::config::SimEffect;
 use serde::Serialize;
+use wiical_analysis::report::effect_names as names;
 use wiical_core::model::{CROSS2, CROSS3, DEGREE2, DEGREE3};
 
 /// What a time or temperature term multiplies (see the module docs).

@@ -1,16 +1,16 @@
 //! What the simulation knows: the true poses, outliers, calibration (correction side, with the
 //! time and temperature terms the core cannot hold folded in per sample), and its self-check.
 
-use super::conditions::{SampleConditions, TempModel};
-use super::config::{SimConfig, SimDraw};
-use super::draw::TrueOutlier;
-use super::motion::SegKind;
-use super::open_basis_terms::{self, Acts, ExtraTerm, OpenTerm};
-use super::sensor::Scene;
-use crate::error::simulate::SimulateError;
+use crate::conditions::{SampleConditions, TempModel};
+use crate::config::{SimConfig, SimDraw};
+use crate::draw::TrueOutlier;
 use crate::error::Result;
-use crate::report::effect_names as names;
+use crate::error::SimulateError;
+use crate::motion::SegKind;
+use crate::open_basis_terms::{self, Acts, ExtraTerm, OpenTerm};
+use crate::sensor::Scene;
 use serde::Serialize;
+use wiical_analysis::report::effect_names as names;
 use wiical_core::{Calibration, Conditions, Effects};
 
 /// One simulated pose (the true hold, not what a detector finds).

@@ -1,6 +1,5 @@
-//! Still-sensor noise with known IEEE 952 coefficients (feature `simulate`): white rate noise
-//! `N`, bias instability (flicker) `B` and rate random walk `K`, the truth `wiical noise` is
-//! checked against.
+//! Still-sensor noise with known IEEE 952 coefficients: white rate noise `N`, bias instability
+//! (flicker) `B` and rate random walk `K`, the truth `wiical noise` is checked against.
 //!
 //! * White: independent samples of standard deviation `N·√fs` (two-sided PSD `N²`).
 //! * Flicker: Gaussian noise shaped in the frequency domain to the one-sided PSD
