@@ -8,7 +8,7 @@
 mod common;
 use common::data_dir;
 use std::io::Write;
-use std::os::unix::process::ExitStatusExt;
+use std::os::unix::process::{CommandExt, ExitStatusExt};
 use std::path::Path;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
@@ -45,6 +45,18 @@ fn copying(tmpdir: &Path, prelude: Option<&str>) -> Child {
             c
         }
     };
+    // The signals this file sends start at their default action in the child, whatever the
+    // test runner inherited (under `nohup` SIGHUP arrives ignored, and an ignored signal stays
+    // ignored: `an_ignored_signal_stays_ignored`). SAFETY: signal(2) is async-signal-safe, so
+    // it may run between fork and exec.
+    unsafe {
+        cmd.pre_exec(|| {
+            for s in [libc::SIGHUP, libc::SIGINT, libc::SIGTERM] {
+                libc::signal(s, libc::SIG_DFL);
+            }
+            Ok(())
+        });
+    }
     let mut child = cmd
         .env("TMPDIR", tmpdir)
         .stdin(Stdio::piped())
