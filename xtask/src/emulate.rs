@@ -90,14 +90,11 @@ pub fn emulate(args: &[String]) -> Result<bool> {
     if !firmware::firmware(Chip::Rp2040)? {
         return Err("the RP2040 firmware is over its budget".into());
     }
-    run(Command::new(cargo())
-        .current_dir(&root)
-        .args(["build", "--locked", "-p", "wiical"]))?;
+    let wiical = host_binary(&root)?;
     let elf = root
         .join("firmware/target")
         .join(Chip::Rp2040.target())
         .join("release/wiical-firmware");
-    let wiical = root.join("target/debug/wiical");
     let me = std::env::current_exe().map_err(|e| e.to_string())?;
     run(Command::new("node").current_dir(&emulator).args([
         "--test",
@@ -119,4 +116,17 @@ pub fn emulate(args: &[String]) -> Result<bool> {
         .status()
         .map_err(|e| format!("cannot run node: {e}"))?;
     Ok(status.success())
+}
+
+/// The host CLI the emulated board talks to: `$WIICAL_BIN` when set (scripts/test passes the
+/// binary `cargo test` built, so that it is not built a second time with the other feature
+/// set of a plain `cargo build`), else `target/debug/wiical`, built here.
+fn host_binary(root: &Path) -> Result<std::path::PathBuf> {
+    if let Some(bin) = std::env::var_os("WIICAL_BIN") {
+        return Ok(bin.into());
+    }
+    run(Command::new(cargo())
+        .current_dir(root)
+        .args(["build", "--locked", "-p", "wiical"]))?;
+    Ok(root.join("target/debug/wiical"))
 }
