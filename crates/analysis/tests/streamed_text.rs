@@ -242,7 +242,10 @@ fn the_rows_read_back_from_disk_give_the_windows_of_the_rows_in_memory() {
         let (Input::Stream(s), Input::Stream(m)) = (&spilled, &in_memory) else {
             panic!("{path:?} not streamed")
         };
-        assert!(!s.is_spill_in_memory() && m.is_spill_in_memory(), "{path:?}");
+        assert!(
+            !s.is_spill_in_memory() && m.is_spill_in_memory(),
+            "{path:?}"
+        );
         let in_memory_read = in_memory;
         let mut fixed = AnalyzeOptions::default();
         fixed.fit.detect.adaptive = false;

@@ -147,12 +147,12 @@ impl SpillTo {
         }
     }
 
-    /// [`InputError::RowsNotKept`]: `doing` (writing, reading back) the rows failed with `e`.
+    /// [`InputError::RowsNotKept`]: `doing` (writing the rows, reading them back) failed with `e`.
     fn error(&self, doing: &str, e: &std::io::Error) -> Error {
         InputError::RowsNotKept {
             dir: self.dir.clone().unwrap_or_else(std::env::temp_dir),
             from_tmpdir: self.dir.is_none() && std::env::var_os("TMPDIR").is_some(),
-            why: format!("{doing} them failed ({e})"),
+            why: format!("{doing} failed ({e})"),
         }
         .into()
     }
@@ -319,7 +319,7 @@ impl TextSource {
         let (mut cols, mut scratch) = (Columns::default(), Vec::new());
         for (from, to) in self.spill.block_rows() {
             if let Err(e) = (self.spill).read_rows(from, to, want, &mut cols, &mut scratch) {
-                return self.fail(self.spill_to.error("reading back", &e));
+                return self.fail(self.spill_to.error("reading them back", &e));
             }
             if !f(&cols) {
                 return;
@@ -337,7 +337,7 @@ impl TextSource {
                 Some(axes) => axes,
                 None => match self.spill.read_f32(from, to, &mut view, &mut scratch) {
                     Ok(()) => &view,
-                    Err(e) => return self.fail(self.spill_to.error("reading back", &e)),
+                    Err(e) => return self.fail(self.spill_to.error("reading them back", &e)),
                 },
             };
             if !f(axes) {
@@ -371,7 +371,7 @@ impl TextSource {
         match self.spill.read_rows(from, to, Want::ALL, cols, scratch) {
             Ok(()) => true,
             Err(e) => {
-                self.fail(self.spill_to.error("reading back", &e));
+                self.fail(self.spill_to.error("reading them back", &e));
                 false
             }
         }
@@ -431,7 +431,7 @@ fn first_pass(
             source,
         }))
     };
-    let kept_error = |e: std::io::Error| Pass::Kept(spill_to.error("writing", &e));
+    let kept_error = |e: std::io::Error| Pass::Kept(spill_to.error("writing them", &e));
     let mut spill = SpillWriter::create(spill_to.dir.as_deref(), spill_to.limit, spill_to.memory)
         .map_err(kept_error)?;
     std::thread::scope(|s| {
@@ -556,7 +556,7 @@ impl Rows<'_> {
         let (cols, scratch) = (&mut self.cols, &mut self.scratch);
         (self.src.spill)
             .read_rows(from, to, Want::ALL, cols, scratch)
-            .map_err(|e| self.src.spill_to.error("reading back", &e))?;
+            .map_err(|e| self.src.spill_to.error("reading them back", &e))?;
         self.next += 1;
         self.at = std::mem::take(&mut self.skip);
         Ok(true)
