@@ -119,6 +119,5 @@ def rewritten(desc, extra_env, extra_args=()):
 
 
 rewritten("a file rewritten in place while read in passes (the spill)", {})
-rewritten("a file rewritten in place while read in passes (no spill)", {}, ("--spill", "off"))
 rewritten("a file rewritten in place while read in passes (TMPDIR missing)",
           {"TMPDIR": "/nonexistent"})

@@ -107,8 +107,7 @@ pub trait RowSource: Sync {
         self.each_piece(&mut |xyz| f(&xyz.iter().map(|s| s.map(|v| v as f32)).collect::<Vec<_>>()));
     }
     /// Rows `from..to`, or their first part, read where they are kept (`buf` holds them when
-    /// not in place); `None` when this source cannot read rows out of a pass (a file without
-    /// a spill) or the read failed.
+    /// not in place); `None` when the read failed (which [`RowSource::check`] then says).
     fn span<'a>(&'a self, from_to: (usize, usize), buf: &'a mut RowBuf) -> Option<RowChunk<'a>>;
 }
 

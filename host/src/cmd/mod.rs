@@ -156,12 +156,9 @@ pub struct ReadArgs {
     #[arg(long, hide = true, value_name = "BYTES")]
     pub max_spool_bytes: Option<u64>,
     /// Where a streamed file's first pass keeps its rows for the later passes: auto (memory,
-    /// else a temporary file), off (the later passes parse the text again), disk.
+    /// else a temporary file), disk.
     #[arg(long, hide = true, value_enum)]
     pub spill: Option<SpillArg>,
-    /// Parse a streamed file's pieces on the pass's own thread, not one ahead of it.
-    #[arg(long, hide = true)]
-    pub no_parse_ahead: bool,
 }
 
 /// `--spill`: [`SpillMode`] on the command line.
@@ -169,8 +166,6 @@ pub struct ReadArgs {
 pub enum SpillArg {
     /// In memory while the rows fit, else a temporary file.
     Auto,
-    /// Not kept: later passes parse the text again.
-    Off,
     /// Always a temporary file.
     Disk,
 }
@@ -185,10 +180,8 @@ impl ReadArgs {
             spill: match self.spill {
                 None => d.spill,
                 Some(SpillArg::Auto) => SpillMode::Auto,
-                Some(SpillArg::Off) => SpillMode::Off,
                 Some(SpillArg::Disk) => SpillMode::Disk,
             },
-            parse_ahead: !self.no_parse_ahead,
         }
     }
 }

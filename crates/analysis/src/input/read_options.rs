@@ -1,5 +1,5 @@
 //! How the front door reads a file: the size from which plain text is streamed, the bound on
-//! a copy of standard input, and how a streamed file's later passes get their rows. These
+//! a copy of standard input, and where a streamed file's rows are kept for its later passes. These
 //! were environment variables; they are options now, set by the CLI's (hidden) flags and the
 //! Python package's keyword arguments, so that a library call does what its arguments say and
 //! nothing in the environment changes it. The defaults are the reading every command does.
@@ -15,17 +15,15 @@ pub const STREAM_FROM_BYTES: u64 = 128 << 20;
 pub const MAX_SPOOL_BYTES: u64 = 64 << 30;
 
 /// Where the first pass over a streamed text file keeps the rows it parsed, for the later
-/// passes to read back instead of parsing the text again (the same values bit for bit).
+/// passes to read back (the text is parsed once). When they are bound for the temporary
+/// directory and it cannot take them (none, not writable, a full disk), the file is refused
+/// with a sentence naming it and the directory, saying to set `TMPDIR` or free space.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum SpillMode {
-    /// In memory while they fit (`text_spill`'s memory bound), else in a temporary file;
-    /// with no temporary directory or a full disk, the later passes re-parse the text.
+    /// In memory while they fit (`text_spill`'s memory bound), else in a temporary file.
     #[default]
     Auto,
-    /// Not kept: every later pass re-reads and re-parses the text (benchmarks compare the two;
-    /// a test rewrites the file under a pass).
-    Off,
-    /// Always in the temporary file, whatever their size (benchmarks).
+    /// Always in the temporary file, whatever their size (benchmarks, tests).
     Disk,
 }
 
@@ -44,10 +42,6 @@ pub struct ReadOptions {
     pub max_spool_bytes: u64,
     /// Where a streamed file's first pass keeps its rows. Default [`SpillMode::Auto`].
     pub spill: SpillMode,
-    /// Parse a streamed file's next piece on a thread of its own while a pass goes through
-    /// the one before (`false`: every pass parses its pieces itself, one after another; for
-    /// benchmarks). Default `true`.
-    pub parse_ahead: bool,
 }
 
 impl Default for ReadOptions {
@@ -56,7 +50,6 @@ impl Default for ReadOptions {
             stream_from_bytes: STREAM_FROM_BYTES,
             max_spool_bytes: MAX_SPOOL_BYTES,
             spill: SpillMode::Auto,
-            parse_ahead: true,
         }
     }
 }
@@ -72,6 +65,5 @@ mod tests {
         assert_eq!(d.stream_from_bytes, 128 * 1024 * 1024);
         assert_eq!(d.max_spool_bytes, 64 * 1024 * 1024 * 1024);
         assert_eq!(d.spill, SpillMode::Auto);
-        assert!(d.parse_ahead);
     }
 }

@@ -5,7 +5,10 @@
 //!
 //! Each piece's rows are parsed by the same functions as a text held whole
 //! (`text_rows`: in parallel chunks, the time check joined to the piece
-//! before), so the recording is the whole-text path's, bit for bit. Only text that path
+//! before), so the recording is the whole-text path's, bit for bit. The pieces, the head
+//! ([`read_head`]) and the loop over the pieces ([`parse_pieces`]) are those of a streamed
+//! file's pass (`text_source`) too: only where the rows go differs (here one set of columns,
+//! there a summary and the rows kept for the later passes). Only text that path
 //! reads by its fast splitter is read this way: a file with a quote, a lone carriage return,
 //! a `#` or `%` comment, a byte that is not UTF-8, a line over the limit, no header in its
 //! first piece (or a GRT or header-less whitespace file) is handed back
@@ -21,7 +24,7 @@ use crate::input::recording::Recording;
 use crate::input::text::{
     blank_comments, check_axis_columns, is_comment_or_blank, CsvState, Delimiter,
 };
-use crate::input::text_rows::Columns;
+use crate::input::text_rows::{Columns, RowLayout};
 use std::io::Read;
 use std::path::Path;
 
@@ -375,7 +378,8 @@ pub fn load_pieces_within(
     read_pieces(path, opts, PIECE_BYTES, head_ok, limit)
 }
 
-/// [`load_pieces`] with pieces of `piece_bytes`: `Ok(None)` to read the file whole.
+/// [`load_pieces`] with pieces of `piece_bytes`: `Ok(None)` to read the file whole. The
+/// pieces' rows are parsed onto one set of columns (no copy), `limit` checked after each.
 fn read_pieces(
     path: &Path,
     opts: &LoadOptions,
@@ -386,46 +390,111 @@ fn read_pieces(
     let Ok(mut pieces) = Pieces::open(path, piece_bytes) else {
         return Ok(None);
     };
-    let Some((head, delim, plain)) = first_piece_head(&mut pieces, head_ok) else {
-        return Ok(None);
-    };
-    let mut st = CsvState::new(opts, delim);
-    let (offset, header_line) = match read_piece_head(&mut st, head, delim, plain) {
-        Ok(Some(at)) => at,
+    let head = match read_head(&mut pieces, opts, head_ok) {
+        Ok(Some(head)) => head,
         Ok(None) => return Ok(None),
         Err(e) => return finish_checks(&mut pieces, Err(e)),
     };
-    let Some(layout) = st.layout.clone() else {
-        return Ok(None); // no header in the first piece: the whole-text path says what is wrong
-    };
-    let mut line = header_line + 1;
     let mut cols = Columns::default();
-    let Some(mut piece) = pieces.data_after_bom(offset) else {
-        return Ok(None);
-    };
-    loop {
-        match layout.read_plain_onto(&mut cols, piece, line, delim.byte()) {
-            Ok(newlines) => line += newlines,
-            Err(e) => return finish_checks(&mut pieces, Err(e)),
+    let mut over = None;
+    let read = parse_pieces(&mut pieces, &head, |text, line, _| {
+        let newlines = (head.layout).read_plain_onto(&mut cols, text, line, head.delim.byte())?;
+        match limit.map(|l| l.check(cols.xyz.len())) {
+            Some(Err(e)) => over = Some(e),
+            _ => return Ok(Some(newlines)),
         }
-        if let Some(l) = limit {
-            l.check(cols.xyz.len())?;
-        }
-        piece = match pieces.next_piece() {
-            Ok(Some(_)) => match pieces.plain() {
-                Some(text) => text,
-                None => return Ok(None),
-            },
-            Ok(None) => break,
-            Err(()) => return Ok(None),
-        };
+        Ok(None)
+    });
+    match read {
+        Ok(true) => {}
+        Ok(false) => return Ok(None),
+        Err(e) => return finish_checks(&mut pieces, Err(e)),
     }
-    let rec = st.finish(Some(cols)).and_then(|rec| {
+    if let Some(e) = over {
+        return Err(e.into());
+    }
+    let rec = head.st.finish(Some(cols)).and_then(|rec| {
         check_axis_columns(&rec)?;
         crate::input::bounded::check_reading_scale(&rec.xyz)?;
         Ok(rec)
     });
     rec.map(Some)
+}
+
+/// The head of a file read in pieces, from its first piece: the reader's state after the
+/// header (its metadata, its choices), the rows' layout and delimiter, and where the data
+/// rows start.
+pub(crate) struct Head<'o> {
+    pub st: CsvState<'o>,
+    pub layout: RowLayout,
+    pub delim: Delimiter,
+    /// Byte offset of the first data row in the first piece (its byte-order mark removed).
+    pub data_offset: usize,
+    /// Line number of the first data row's line.
+    pub data_line: usize,
+}
+
+/// The header read from the first piece ([`first_piece_head`], [`read_piece_head`]);
+/// `Ok(None)` hands the file back to be read whole (no header in the first piece, marks the
+/// fast splitter does not read past its head, …).
+pub(crate) fn read_head<'o>(
+    pieces: &mut Pieces,
+    opts: &'o LoadOptions,
+    head_ok: impl Fn(&str) -> bool,
+) -> Result<Option<Head<'o>>> {
+    let Some((head, delim, plain)) = first_piece_head(pieces, head_ok) else {
+        return Ok(None);
+    };
+    let mut st = CsvState::new(opts, delim);
+    let Some((offset, header_line)) = read_piece_head(&mut st, head, delim, plain)? else {
+        return Ok(None);
+    };
+    let Some(layout) = st.layout.clone() else {
+        return Ok(None); // no header in the first piece: the whole-text path says what is wrong
+    };
+    if pieces.data_after_bom(offset).is_none() {
+        return Ok(None); // marks past the head: read whole
+    }
+    Ok(Some(Head {
+        st,
+        layout,
+        delim,
+        data_offset: offset,
+        data_line: header_line + 1,
+    }))
+}
+
+/// The one loop over a file's pieces, whatever keeps their rows (a held recording's columns,
+/// a streamed file's summary and spill): `parse` is given each piece's data text in order
+/// (the first piece's after its head) with its first line number and the bytes of the file
+/// read up to its end, and returns the piece's line ends, or `None` to stop. `Ok(false)`
+/// when a piece is not plain text (the file is to be read whole); a row's error is `parse`'s.
+pub(crate) fn parse_pieces(
+    pieces: &mut Pieces,
+    head: &Head<'_>,
+    mut parse: impl FnMut(&str, usize, u64) -> Result<Option<usize>>,
+) -> Result<bool> {
+    let mut line = head.data_line;
+    let mut done = pieces.current().len() as u64;
+    // The first piece again, from its data rows (its head was read by `read_head`).
+    let mut text = pieces.data_after_bom(head.data_offset);
+    loop {
+        let Some(piece) = text else {
+            return Ok(false);
+        };
+        match parse(piece, line, done)? {
+            Some(newlines) => line += newlines,
+            None => return Ok(true),
+        }
+        text = match pieces.next_piece() {
+            Ok(Some(p)) => {
+                done += p.len() as u64;
+                pieces.plain()
+            }
+            Ok(None) => return Ok(true),
+            Err(()) => None,
+        };
+    }
 }
 
 /// The first piece as text (after a UTF-8 byte-order mark, its comment lines blanked), its

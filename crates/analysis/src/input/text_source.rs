@@ -1,22 +1,25 @@
-//! A large plain text file as a re-readable source of samples: memory is one piece of text
-//! and its parsed rows, never the file's rows, whatever its length.
+//! A large plain text file as a re-readable source of samples, never held as a recording:
+//! memory is one piece of text and its parsed rows, and the rows kept for the later passes.
 //!
-//! [`TextSource::open`] is the first pass: the file read in pieces exactly as
-//! [`crate::input::text_file`] reads it (the same pieces, the same row parser, the time check
-//! joined across pieces, the same sentences with line and column, the same files handed back
-//! to be read whole), but each piece's rows are folded into a [`SampleSummary`] and a
-//! [`StepTally`] and dropped. [`TextSource::rows`] is every later pass: the file reopened and
-//! its pieces parsed again, as an iterator whose clone reads the file afresh from the same
-//! row (the core's detector takes an `Iterator + Clone` and passes over it several times).
-//! A file whose size or modification time differs from the first pass's, or whose pieces no
-//! longer parse, stops the pass; [`TextSource::check`] then says so in one sentence.
+//! [`TextSource::open`] is the one pass over the text: the file read in pieces by the loop
+//! that reads a held file in pieces ([`crate::input::text_file::parse_pieces`]: the same
+//! pieces, the same row parser, the time check joined across pieces, the same sentences with
+//! line and column, the same files handed back to be read whole), each piece's rows folded
+//! into a [`SampleSummary`] and a [`StepTally`] and kept (`input::text_spill`: in memory while
+//! they fit, else in a temporary file). Every later pass ([`TextSource::rows`],
+//! [`TextSource::each_piece`], …) reads the kept rows back: the values the text gave, bit
+//! for bit; the text is never parsed again. A pass is an iterator whose clone goes on from
+//! the same row (the core's detector takes an `Iterator + Clone` and passes over it several
+//! times).
 //!
-//! The first pass also keeps the rows it parsed (`input::text_spill`: in memory when they
-//! fit, else in a temporary file), and every later pass reads them back from there instead
-//! of parsing the text again: the same values bit for bit, at the cost of a copy instead of a
-//! parse. Without it (no temporary directory, a full disk, or [`SpillMode::Off`]) the
-//! passes re-read the text as described above. The first pass parses each piece while the
-//! one before is folded and written, on threads of their own.
+//! A file whose size, modification time or sampled content differ after the first pass from
+//! before it is refused (its summary may mix two versions); a change after it changes
+//! nothing (the passes read the rows it kept). When the rows cannot be kept — they are bound
+//! for the temporary directory and it does not exist, is not writable or its disk is full —
+//! the file is refused with one sentence naming it and the directory, saying to set
+//! `TMPDIR` or free space ([`InputError::RowsNotKept`]); a kept file that cannot be read back
+//! ends the pass with the same sentence, which [`TextSource::check`] gives. The pass parses
+//! each piece while the one before is folded and written, on threads of their own.
 
 use crate::error::input::InputError;
 use crate::error::{Error, Result};
@@ -25,15 +28,13 @@ use crate::input::columns::LoadOptions;
 use crate::input::read_options::SpillMode;
 use crate::input::recording::Recording;
 use crate::input::sample_summary::{SampleSummary, SummaryFold};
-use crate::input::text::{check_axis_columns, CsvState, Delimiter};
-use crate::input::text_file::{first_piece_head, read_piece_head, Pieces, PIECE_BYTES};
+use crate::input::text::check_axis_columns;
+use crate::input::text_file::{parse_pieces, read_head, Head, Pieces, PIECE_BYTES};
 pub(crate) use crate::input::text_rows::Columns;
-use crate::input::text_rows::RowLayout;
 pub(crate) use crate::input::text_spill::Want;
 use crate::input::text_spill::{Spill, SpillWriter, MEMORY_SPILL_BYTES};
 use crate::input::timecheck::{time_notes_given, StepTally, TimeSteps};
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Mutex;
 
 /// One sample as a pass reads it.
@@ -47,10 +48,10 @@ pub struct Row {
     pub temp: Option<f64>,
 }
 
-/// What identifies the file's content between passes, cheaply: its size, its modification
-/// time, and a checksum of [`SAMPLED_PIECES`] pieces of [`SAMPLED_PIECE_BYTES`] spread over
-/// it (the first and the last among them). The size and time catch a file still being
-/// written; the checksum a rewrite in place that keeps the size within the time's
+/// What identifies the file's content across the first pass, cheaply: its size, its
+/// modification time, and a checksum of [`SAMPLED_PIECES`] pieces of [`SAMPLED_PIECE_BYTES`]
+/// spread over it (the first and the last among them). The size and time catch a file still
+/// being written; the checksum a rewrite in place that keeps the size within the time's
 /// resolution, or puts the time back. A change between the sampled pieces with the time put
 /// back passes: the identity is a check on accidents (a logger still writing, a file
 /// replaced), not a proof.
@@ -61,8 +62,8 @@ struct Stamp {
     sampled: u64,
 }
 
-/// Pieces of the file read for [`Stamp`]'s checksum (at every check: before each pass and
-/// after it, a few dozen kilobytes from the page cache against the pass's whole file).
+/// Pieces of the file read for [`Stamp`]'s checksum (before and after the first pass, a few
+/// dozen kilobytes from the page cache against the pass's whole file).
 const SAMPLED_PIECES: u64 = 16;
 
 /// Bytes of each piece read for [`Stamp`]'s checksum.
@@ -93,18 +94,13 @@ fn stamp_of(path: &Path) -> Option<Stamp> {
     })
 }
 
-/// A large plain text file read once for its summary, re-read for every later pass.
+/// A large plain text file read once for its summary and its rows, which every later pass
+/// reads back.
 #[derive(Debug)]
 pub struct TextSource {
     path: PathBuf,
-    stamp: Stamp,
-    layout: RowLayout,
-    delim: u8,
-    piece_bytes: usize,
-    /// Byte offset of the first data row in the first piece (its byte-order mark removed).
-    data_offset: usize,
-    /// Line number of the first data row's line.
-    data_line: usize,
+    has_time: bool,
+    has_temp: bool,
     /// The recording without its samples: rate, axis columns, notes, the loader's choices,
     /// skipped rows (`t`, `temp` and `labels` are `None`, `xyz` empty).
     pub meta: Recording,
@@ -119,24 +115,18 @@ pub struct TextSource {
     spool: Option<crate::input::temp_files::OwnTemp>,
     /// The name the user gave the file, when it is not `path` (`-`: standard input).
     shown: Option<PathBuf>,
-    /// The rows of the first pass, for the later passes to read back (`None`: they re-read
-    /// the text).
-    spill: Option<Spill>,
-    /// Set when the spill could not be read back: later passes re-read the text.
-    spill_failed: AtomicBool,
-    /// A later pass parses its next piece on a thread of its own ([`Feed`];
-    /// [`crate::input::read_options::ReadOptions::parse_ahead`]).
-    parse_ahead: bool,
+    /// The rows of the first pass, which the later passes read.
+    spill: Spill,
+    /// Where they were kept (named when they cannot be read back).
+    spill_to: SpillTo,
 }
 
-/// Where the first pass writes its rows ([`crate::input::text_spill`]).
+/// Where the first pass keeps its rows ([`crate::input::text_spill`]).
 #[derive(Debug, Clone)]
 pub(crate) struct SpillTo {
-    /// Write them at all.
-    pub on: bool,
     /// The temporary directory (`None`: the system's, `$TMPDIR`).
     pub dir: Option<PathBuf>,
-    /// Most bytes written (past it the spill is dropped, as on a full disk).
+    /// Most bytes written (past it a write fails, as on a full disk).
     pub limit: u64,
     /// Most bytes kept in memory (past them, or when the file's size says they will pass
     /// them, the rows go to the temporary directory).
@@ -145,34 +135,27 @@ pub(crate) struct SpillTo {
 
 impl SpillTo {
     /// In memory up to [`MEMORY_SPILL_BYTES`], else the system's temporary directory; none
-    /// with [`SpillMode::Off`], none in memory with [`SpillMode::Disk`].
+    /// in memory with [`SpillMode::Disk`].
     fn of(spill: SpillMode) -> Self {
         Self {
-            on: spill != SpillMode::Off,
             dir: None,
             limit: u64::MAX,
-            memory: if spill == SpillMode::Disk {
-                0
-            } else {
-                MEMORY_SPILL_BYTES
+            memory: match spill {
+                SpillMode::Auto => MEMORY_SPILL_BYTES,
+                SpillMode::Disk => 0,
             },
         }
     }
 
-    fn writer(&self) -> Option<SpillWriter> {
-        self.on
-            .then(|| SpillWriter::create(self.dir.as_deref(), self.limit, self.memory))
-            .flatten()
+    /// [`InputError::RowsNotKept`]: `doing` (writing the rows, reading them back) failed with `e`.
+    fn error(&self, doing: &str, e: &std::io::Error) -> Error {
+        InputError::RowsNotKept {
+            dir: self.dir.clone().unwrap_or_else(std::env::temp_dir),
+            from_tmpdir: self.dir.is_none() && std::env::var_os("TMPDIR").is_some(),
+            why: format!("{doing} failed ({e})"),
+        }
+        .into()
     }
-}
-
-/// The first pass's reading of the head: `None` hands the file back to be read whole.
-struct Head {
-    layout: RowLayout,
-    delim: Delimiter,
-    state_meta: Recording,
-    data_offset: usize,
-    data_line: usize,
 }
 
 impl TextSource {
@@ -195,16 +178,11 @@ impl TextSource {
         piece_bytes: usize,
         head_ok: impl Fn(&str) -> bool,
     ) -> Result<Option<Self>> {
-        Self::open_with(
-            path,
-            opts,
-            piece_bytes,
-            &SpillTo::of(opts.read.spill),
-            head_ok,
-        )
+        let spill_to = SpillTo::of(opts.read.spill);
+        Self::open_with(path, opts, piece_bytes, &spill_to, head_ok)
     }
 
-    /// [`TextSource::open_in`] writing the first pass's rows as `spill_to` says.
+    /// [`TextSource::open_in`] keeping the first pass's rows as `spill_to` says.
     pub(crate) fn open_with(
         path: &Path,
         opts: &LoadOptions,
@@ -219,21 +197,23 @@ impl TextSource {
             return Ok(None);
         };
         let head = match read_head(&mut pieces, opts, head_ok) {
+            // A pose table: read in memory (six-position files are short).
+            Ok(Some(h)) if h.layout.label.is_some() => return Ok(None),
             Ok(Some(h)) => h,
             Ok(None) => return Ok(None),
             Err(e) => return pieces.rest_is_plain().then_some(Err(e)).transpose(),
         };
-        let mut writer = spill_to.writer();
-        let (fold, tally, skipped) =
-            match first_pass(&mut pieces, (&head, path), &mut writer, stamp.len) {
-                Ok(Some(x)) => x,
-                Ok(None) => return Ok(None),
-                // A row that does not parse in a file that changed meanwhile is the change's.
-                Err(_) if stamp_of(path) != Some(stamp) => {
-                    return Err(InputError::ChangedWhileRead.into())
-                }
-                Err(e) => return pieces.rest_is_plain().then_some(Err(e)).transpose(),
-            };
+        let (fold, tally, spill) = match first_pass(&mut pieces, (&head, path), spill_to, stamp.len)
+        {
+            Ok(Some(x)) => x,
+            Ok(None) => return Ok(None),
+            // A row that does not parse in a file that changed meanwhile is the change's.
+            Err(_) if stamp_of(path) != Some(stamp) => {
+                return Err(InputError::ChangedWhileRead.into())
+            }
+            Err(Pass::Rows(e)) => return pieces.rest_is_plain().then_some(Err(e)).transpose(),
+            Err(Pass::Kept(e)) => return Err(e),
+        };
         let summary = fold.finish();
         if summary.count == 0 {
             return Err(InputError::HeaderOnly.into());
@@ -242,31 +222,27 @@ impl TextSource {
             // Changed during the first pass: its summary may mix two versions.
             return Err(InputError::ChangedWhileRead.into());
         }
-        let mut meta = head.state_meta;
-        meta.skipped_empty_rows = skipped;
+        let Head { st, layout, .. } = head;
+        let mut meta = st.into_meta();
+        meta.skipped_empty_rows = tally.1;
         let mut src = Self {
             path: path.to_path_buf(),
-            stamp,
-            layout: head.layout,
-            delim: head.delim.byte(),
-            piece_bytes,
-            data_offset: head.data_offset,
-            data_line: head.data_line,
+            has_time: layout.time.is_some(),
+            has_temp: layout.temp.is_some(),
             meta,
             summary,
             steps: None,
             failed: Mutex::new(None),
             spool: None,
             shown: None,
-            spill: writer.map(SpillWriter::finish),
-            spill_failed: AtomicBool::new(false),
-            parse_ahead: opts.read.parse_ahead,
+            spill,
+            spill_to: spill_to.clone(),
         };
-        if let Some(i) = src.layout.time {
-            let steps = tally
+        if let Some(i) = layout.time {
+            let steps = (tally.0)
                 .finish()
                 .unwrap_or_else(|| TimeSteps::of_times(|| src.times()));
-            let notes = time_notes_given(&src.layout.names[i], steps, || src.times());
+            let notes = time_notes_given(&layout.names[i], steps, || src.times());
             src.check()?;
             src.steps = steps;
             src.meta.notes = notes;
@@ -282,39 +258,25 @@ impl TextSource {
         self.shown = Some(shown.to_path_buf());
     }
 
-    /// Whether the later passes read the first pass's rows back, from memory or a temporary
-    /// file (else they parse the text again).
-    pub fn is_spilled(&self) -> bool {
-        self.spill.is_some() && !self.spill_failed.load(Ordering::Relaxed)
-    }
-
-    /// Whether the first pass's rows are kept in memory (else on disk, or not at all).
+    /// Whether the first pass's rows are kept in memory (else in a temporary file).
     pub fn is_spill_in_memory(&self) -> bool {
-        self.is_spilled() && self.spill.as_ref().is_some_and(Spill::in_memory)
-    }
-
-    /// Drops the first pass's rows: every later pass parses the text again (the same values:
-    /// for comparisons).
-    pub fn forget_spill(&mut self) {
-        self.spill = None;
+        self.spill.in_memory()
     }
 
     /// Empties the spill's file: a spill that can no longer be read back.
     #[cfg(test)]
     pub(crate) fn truncate_spill(&self) {
-        if let Some(s) = &self.spill {
-            s.truncate();
-        }
+        self.spill.truncate();
     }
 
     /// Whether the file has a time column.
     pub fn has_time(&self) -> bool {
-        self.layout.time.is_some()
+        self.has_time
     }
 
     /// Whether the file has a temperature column.
     pub fn has_temp(&self) -> bool {
-        self.layout.temp.is_some()
+        self.has_temp
     }
 
     /// Samples in the file.
@@ -335,279 +297,143 @@ impl TextSource {
             .or_else(|| self.steps.map(|s| s.rate_hz()))
     }
 
-    /// A pass over every sample, from the file (see the module docs); it ends early when the
-    /// file changed or could not be read: [`TextSource::check`] after the pass says so.
+    /// A pass over every sample, from the kept rows; it ends early when they cannot be read
+    /// back: [`TextSource::check`] after the pass says so.
     pub fn rows(&self) -> Rows<'_> {
         Rows {
             src: self,
-            reader: None,
+            next: 0,
+            cols: Columns::default(),
+            at: 0,
             skip: 0,
-            consumed: 0,
+            scratch: Vec::new(),
             done: false,
-            want: Want::ALL,
         }
     }
 
-    /// A pass over every sample a piece (or a block of the spill) at a time: `f` is given
-    /// each piece's rows in order, and may stop the pass by returning `false`. As
-    /// [`TextSource::rows`], the pass ends early when the file changed or could not be read:
+    /// A pass over every sample a block of the kept rows (a piece's) at a time, with the
+    /// columns `want` asks for (and the axes): `f` may stop it by returning `false`. As
+    /// [`TextSource::rows`], it ends early when the rows cannot be read back:
     /// [`TextSource::check`] after it says so.
-    /// Read from the spill, the rows hold the columns `want` asks for (and the axes); from
-    /// the text, all of them.
-    pub(crate) fn each_piece(&self, want: Want, f: impl FnMut(&Columns) -> bool) {
-        let mut rows = self.rows();
-        rows.want = want;
-        self.pieces_from(rows, f);
-    }
-
-    /// [`TextSource::each_piece`] from the row `rows` is at.
-    fn pieces_from(&self, mut rows: Rows<'_>, mut f: impl FnMut(&Columns) -> bool) {
-        loop {
-            match rows.next_piece() {
-                Ok(true) => {}
-                Ok(false) => break,
-                Err(e) => return self.fail(e),
+    pub(crate) fn each_piece(&self, want: Want, mut f: impl FnMut(&Columns) -> bool) {
+        let (mut cols, mut scratch) = (Columns::default(), Vec::new());
+        for (from, to) in self.spill.block_rows() {
+            if let Err(e) = (self.spill).read_rows(from, to, want, &mut cols, &mut scratch) {
+                return self.fail(self.spill_to.error("reading them back", &e));
             }
-            let Some(r) = rows.reader.as_mut() else {
-                break;
-            };
-            if rows.skip > 0 {
-                // Rows given before the spill failed and the pass went on from the text.
-                let k = rows.skip.min(r.cols.xyz.len());
-                r.cols.xyz.drain(..k);
-                r.cols.t.drain(..k.min(r.cols.t.len()));
-                r.cols.temp.drain(..k.min(r.cols.temp.len()));
-                rows.skip -= k;
-            }
-            rows.consumed += r.cols.xyz.len();
-            if !f(&r.cols) {
+            if !f(&cols) {
                 return;
             }
-        }
-        if rows.consumed != self.summary.count {
-            self.fail(self.changed());
         }
     }
 
     /// A pass over every sample's axes as `f32` (`v as f32`: the detector's view of values on
-    /// no lattice), a piece (or a block of the spill, read straight to `f32`) at a time, as
-    /// [`TextSource::each_piece`]: `f` may stop it by returning `false`; a spill that cannot
-    /// be read back ends its use, the pass going on from the text at the same row.
+    /// no lattice), a block at a time (read straight to `f32`, or as they lie in memory), as
+    /// [`TextSource::each_piece`].
     pub(crate) fn each_piece_f32(&self, mut f: impl FnMut(&[[f32; 3]]) -> bool) {
-        let mut view = Vec::new();
-        let mut consumed = 0;
-        if let Some(spill) = self.spill.as_ref().filter(|_| self.is_spilled()) {
-            if !self.unchanged() {
-                return self.fail(self.changed());
-            }
-            let mut scratch = Vec::new();
-            for (k, (from, to)) in spill.block_rows().enumerate() {
-                let axes = match spill.axes_f32(k) {
-                    Some(axes) => axes,
-                    None if spill.read_f32(from, to, &mut view, &mut scratch).is_ok() => &view,
-                    None => {
-                        self.spill_failed.store(true, Ordering::Relaxed);
-                        break;
-                    }
-                };
-                consumed = to;
-                if !f(axes) {
-                    return;
-                }
-            }
-            if self.is_spilled() {
-                if consumed != self.summary.count {
-                    self.fail(self.changed());
-                }
+        let (mut view, mut scratch) = (Vec::new(), Vec::new());
+        for (k, (from, to)) in self.spill.block_rows().enumerate() {
+            let axes = match self.spill.axes_f32(k) {
+                Some(axes) => axes,
+                None => match self.spill.read_f32(from, to, &mut view, &mut scratch) {
+                    Ok(()) => &view,
+                    Err(e) => return self.fail(self.spill_to.error("reading them back", &e)),
+                },
+            };
+            if !f(axes) {
                 return;
             }
         }
-        let mut rows = self.rows();
-        (rows.want, rows.skip, rows.consumed) = (Want::AXES, consumed, consumed);
-        self.pieces_from(rows, |cols| {
-            view.clear();
-            view.extend(cols.xyz.iter().map(|x| x.map(|v| v as f32)));
-            f(&view)
-        });
     }
 
     /// Every sample's axes as `f32` in place, a block of the spill after another, when the
     /// spill is in memory and every block's axes are `f32` ([`Spill::axes_f32`]): a pass over
-    /// them with no copy, in pieces any core may read at once. `None` otherwise, and when the
-    /// file has changed since the first pass (a pass then goes by
-    /// [`TextSource::each_piece_f32`], which says so).
+    /// them with no copy, in pieces any core may read at once. `None` otherwise (a pass then
+    /// goes by [`TextSource::each_piece_f32`]).
     pub(crate) fn axes_f32_in_place(&self) -> Option<Vec<&[[f32; 3]]>> {
-        let spill = self.spill.as_ref().filter(|_| self.is_spilled())?;
-        if !self.unchanged() {
-            return None;
-        }
-        let blocks = spill.block_rows().count();
-        let axes: Option<Vec<_>> = (0..blocks).map(|k| spill.axes_f32(k)).collect();
+        let blocks = self.spill.block_rows().count();
+        let axes: Option<Vec<_>> = (0..blocks).map(|k| self.spill.axes_f32(k)).collect();
         axes.filter(|a| a.iter().map(|b| b.len()).sum::<usize>() == self.summary.count)
     }
 
-    /// Whether the file is still the one of the first pass ([`Stamp`]: its size, modification
-    /// time and sampled pieces).
-    pub(crate) fn unchanged(&self) -> bool {
-        stamp_of(&self.path) == Some(self.stamp)
-    }
-
-    /// Rows `from..to` of the spill into `cols` (with `scratch` for the bytes read), when the
-    /// later passes read it; `false` (nothing read) otherwise, or when it could not be read.
+    /// Rows `from..to` of the spill into `cols` (with `scratch` for the bytes read); `false`
+    /// (nothing read) when they are past its end or could not be read back (which
+    /// [`TextSource::check`] then says).
     pub(crate) fn read_spilled(
         &self,
         (from, to): (usize, usize),
         cols: &mut Columns,
         scratch: &mut Vec<u8>,
     ) -> bool {
-        let Some(spill) = self.spill.as_ref().filter(|_| self.is_spilled()) else {
-            return false;
-        };
-        if to > spill.len() || spill.read_rows(from, to, Want::ALL, cols, scratch).is_err() {
+        if to > self.spill.len() {
             return false;
         }
-        true
+        match self.spill.read_rows(from, to, Want::ALL, cols, scratch) {
+            Ok(()) => true,
+            Err(e) => {
+                self.fail(self.spill_to.error("reading them back", &e));
+                false
+            }
+        }
     }
 
-    /// The time column, from the file.
+    /// The time column, from the kept rows.
     pub fn times(&self) -> impl Iterator<Item = f64> + '_ {
         self.rows().filter_map(|r| r.t)
     }
 
-    /// The first failure of a pass since the file was opened (`Ok` when every pass read the
-    /// whole file as the first did).
-    ///
-    /// The file's identity is checked here too, after the pass: a pass that read every row
-    /// as many as the first did may still have read some of them from a rewrite in place (same
-    /// size), an answer mixed from two versions.
+    /// The first failure of a pass since the file was opened (`Ok` when every pass read every
+    /// row the first pass kept), the file named as the user gave it (`-` for standard input
+    /// copied to a temporary file).
     pub fn check(&self) -> Result<()> {
-        if !self.unchanged() {
-            self.fail(self.changed());
-        }
         match self.failed.lock().map(|mut f| f.take()) {
-            Ok(Some(e)) => Err(e),
+            Ok(Some(e)) => Err(e.in_file(self.shown.as_deref().unwrap_or(&self.path))),
             _ => Ok(()),
         }
     }
 
-    /// [`InputError::ChangedWhileRead`] in this file (by the name the user gave it: `-` for
-    /// standard input copied to a temporary file).
-    fn changed(&self) -> Error {
-        let shown = self.shown.as_deref().unwrap_or(&self.path);
-        Error::from(InputError::ChangedWhileRead).in_file(shown)
-    }
-
-    /// Keeps `e` as the first failure (a file that changed named, as the user gave it).
+    /// Keeps `e` as the first failure.
     fn fail(&self, e: Error) {
-        let e = match e {
-            Error::Input(InputError::ChangedWhileRead) => self.changed(),
-            e => e,
-        };
         if let Ok(mut f) = self.failed.lock() {
             f.get_or_insert(e);
         }
     }
-
-    /// A pass's reader, at the block holding row `*skip` of the spill (`*skip` then counted
-    /// from the block's first row), else at the text's first data row ([`TextSource::reopen`]).
-    /// A file changed since the first pass is refused either way (a pass of the spill would
-    /// read the rows it had).
-    fn reader_at(&self, skip: &mut usize) -> Result<Reader> {
-        if let Some(spill) = self.spill.as_ref().filter(|_| self.is_spilled()) {
-            if !self.unchanged() {
-                return Err(self.changed());
-            }
-            let (k, first) = spill.block_holding(*skip);
-            *skip -= first;
-            return Ok(Reader {
-                feed: Feed::Spilled {
-                    next: k,
-                    scratch: Vec::new(),
-                },
-                cols: Columns::default(),
-                at: 0,
-            });
-        }
-        self.reopen()
-    }
-
-    /// The file reopened at its first data row, when it is still the file of the first pass:
-    /// its pieces parsed ahead of the pass ([`Feed`]).
-    fn reopen(&self) -> Result<Reader> {
-        if !self.unchanged() {
-            return Err(self.changed());
-        }
-        let pieces = Pieces::open(&self.path, self.piece_bytes)?;
-        let parser = Parser {
-            pieces,
-            layout: self.layout.clone(),
-            delim: self.delim,
-            data_offset: Some(self.data_offset),
-            line: self.data_line,
-            prev_t: None,
-        };
-        Ok(Reader {
-            feed: Feed::start(parser, &self.path, self.parse_ahead)?,
-            cols: Columns::default(),
-            at: 0,
-        })
-    }
 }
 
-/// The header read from the first piece as [`crate::input::text_file`] reads it.
-fn read_head(
-    pieces: &mut Pieces,
-    opts: &LoadOptions,
-    head_ok: impl Fn(&str) -> bool,
-) -> Result<Option<Head>> {
-    let Some((head, delim, plain)) = first_piece_head(pieces, head_ok) else {
-        return Ok(None);
-    };
-    let mut st = CsvState::new(opts, delim);
-    let Some((offset, header_line)) = read_piece_head(&mut st, head, delim, plain)? else {
-        return Ok(None);
-    };
-    if pieces.data_after_bom(offset).is_none() {
-        return Ok(None); // marks past the head: read whole
-    }
-    let Some(layout) = st.layout.clone() else {
-        return Ok(None);
-    };
-    if layout.label.is_some() {
-        return Ok(None); // a pose table: read in memory (six-position files are short)
-    }
-    Ok(Some(Head {
-        layout,
-        delim,
-        state_meta: st.into_meta(),
-        data_offset: offset,
-        data_line: header_line + 1,
-    }))
+/// Why the first pass failed: a row's error (the file may still be handed back to be read
+/// whole, when a later piece is not plain text), or the rows could not be kept.
+enum Pass {
+    Rows(Error),
+    Kept(Error),
 }
 
-/// The summary folds of the first pass; `Ok(None)` when a piece is not plain text.
-type Folds = (SummaryFold, StepTally, usize);
+/// The summary folds of the first pass and its rows kept: the summary, the time steps with
+/// the rows skipped, and the spill.
+type Folds = (SummaryFold, (StepTally, usize), Spill);
 
-/// Every piece's rows (the first piece's after the header) folded, written to `spill` (which
-/// is dropped when a write fails, and moved to disk when the file's `file_bytes` say its rows
-/// will not fit in memory) and dropped. The pieces are parsed (on the pool's cores) while the
-/// piece before is folded into the summary on a thread of its own and tallied and written on
-/// another: the same folds in the same order as one piece after another. A thread the system
-/// cannot start is an error reading `path` (as for a pass's parse-ahead thread), not a panic.
+/// Every piece's rows (the first piece's after the header) folded and kept in a spill as
+/// `spill_to` says (moved to disk when the file's `file_bytes` say its rows will not fit in
+/// memory); `Ok(None)` when a piece is not plain text. The pieces are parsed (on the pool's
+/// cores) while the piece before is folded into the summary on a thread of its own and
+/// tallied and written on another: the same folds in the same order as one piece after
+/// another. A thread the system cannot start is an error reading `path`, not a panic.
 fn first_pass(
     pieces: &mut Pieces,
-    (head, path): (&Head, &Path),
-    spill: &mut Option<SpillWriter>,
+    (head, path): (&Head<'_>, &Path),
+    spill_to: &SpillTo,
     file_bytes: u64,
-) -> Result<Option<Folds>> {
+) -> std::result::Result<Option<Folds>, Pass> {
     use std::sync::{mpsc::sync_channel, Arc};
     let thread = |name: &str| std::thread::Builder::new().name(format!("wiical-{name}"));
     let not_started = |source| {
-        Error::from(InputError::Read {
+        Pass::Kept(Error::from(InputError::Read {
             path: path.into(),
             source,
-        })
+        }))
     };
+    let kept_error = |e: std::io::Error| Pass::Kept(spill_to.error("writing them", &e));
+    let mut spill = SpillWriter::create(spill_to.dir.as_deref(), spill_to.limit, spill_to.memory)
+        .map_err(kept_error)?;
     std::thread::scope(|s| {
         // Each thread takes a piece when done with the one before (no piece waits in a queue):
         // at most three pieces' rows held.
@@ -623,18 +449,27 @@ fn first_pass(
                 fold
             })
             .map_err(not_started)?;
+        let spill = &mut spill;
         let writer = thread("spill")
             .spawn_scoped(s, move || write_pieces(write_rx, spill, file_bytes))
             .map_err(not_started)?;
-        let parsed = parse_pieces(pieces, head, |cols, done| {
+        let (delim, mut prev) = (head.delim.byte(), None);
+        let parsed = parse_pieces(pieces, head, |text, line, done| {
+            let (cols, newlines) = (head.layout).read_plain_after(text, line, delim, prev)?;
+            prev = cols.t.last().copied().or(prev);
             let cols = Arc::new(cols);
-            to_fold.send(Arc::clone(&cols)).is_ok() && to_write.send((cols, done)).is_ok()
+            let sent =
+                to_fold.send(Arc::clone(&cols)).is_ok() && to_write.send((cols, done)).is_ok();
+            Ok(sent.then_some(newlines))
         });
         drop((to_fold, to_write));
         let fold = joined(folder);
-        let (tally, skipped) = joined(writer);
-        Ok(parsed?.then_some((fold, tally, skipped)))
+        let written = joined(writer);
+        let parsed = parsed.map_err(Pass::Rows)?;
+        let tally = written.map_err(kept_error)?;
+        Ok(parsed.then_some((fold, tally)))
     })
+    .map(|folds| folds.map(|(fold, tally)| (fold, tally, spill.finish())))
 }
 
 /// What the thread `h` returned (its panic resumed).
@@ -643,71 +478,24 @@ fn joined<T>(h: std::thread::ScopedJoinHandle<'_, T>) -> T {
         .unwrap_or_else(|panic| std::panic::resume_unwind(panic))
 }
 
-/// The rows of every piece handed to `give` in order with the text bytes read up to their end
-/// (`give` returns false to stop); `Ok(false)` when a piece is not plain text.
-fn parse_pieces(
-    pieces: &mut Pieces,
-    head: &Head,
-    mut give: impl FnMut(Columns, u64) -> bool,
-) -> Result<bool> {
-    let mut line = head.data_line;
-    let mut prev: Option<f64> = None;
-    let mut first = true;
-    let mut done = 0u64;
-    loop {
-        let text = if std::mem::take(&mut first) {
-            // The first piece again, from its data rows (its head was read above).
-            done += pieces.current().len() as u64;
-            match pieces.data_after_bom(head.data_offset) {
-                Some(t) => t,
-                None => return Ok(false),
-            }
-        } else {
-            match pieces.next_piece() {
-                Ok(Some(p)) => done += p.len() as u64,
-                Ok(None) => break,
-                Err(()) => return Ok(false),
-            }
-            match pieces.plain() {
-                Some(t) => t,
-                None => return Ok(false),
-            }
-        };
-        let (cols, newlines) = head
-            .layout
-            .read_plain_after(text, line, head.delim.byte(), prev)?;
-        line += newlines;
-        prev = cols.t.last().copied().or(prev);
-        if !give(cols, done) {
-            break;
-        }
-    }
-    Ok(true)
-}
-
 /// The pieces' rows from `rx` tallied (their time steps and skipped rows) and written to
-/// `spill` (see [`first_pass`]), until the sender is dropped; `done` with each piece: the bytes
-/// of text up to its end.
+/// `spill` (see [`first_pass`]), until the sender is dropped or a write fails (which ends
+/// the pass); `done` with each piece: the bytes of text up to its end.
 fn write_pieces(
     rx: std::sync::mpsc::Receiver<(std::sync::Arc<Columns>, u64)>,
-    spill: &mut Option<SpillWriter>,
+    spill: &mut SpillWriter,
     file_bytes: u64,
-) -> (StepTally, usize) {
+) -> std::io::Result<(StepTally, usize)> {
     let (mut tally, mut skipped) = (StepTally::new(), 0usize);
     for (cols, done) in rx {
         tally.push_all(&cols.t);
         skipped += cols.skipped;
-        let written = spill.as_mut().is_some_and(|w| {
-            w.push(&cols).is_ok()
-                && (!w.in_memory()
-                    || fits_in_memory(w.bytes(), done, file_bytes, w.memory())
-                    || w.move_to_disk().is_ok())
-        });
-        if !written {
-            *spill = None;
+        spill.push(&cols)?;
+        if spill.in_memory() && !fits_in_memory(spill.bytes(), done, file_bytes, spill.memory()) {
+            spill.move_to_disk()?;
         }
     }
-    (tally, skipped)
+    Ok((tally, skipped))
 }
 
 /// Whether a spill of `written` bytes for `done` bytes of the file's `file_bytes` will fit in
@@ -719,198 +507,59 @@ fn fits_in_memory(written: u64, done: u64, file_bytes: u64, memory: u64) -> bool
     projected <= u128::from(memory)
 }
 
-/// A pass's position in the file.
-struct Reader {
-    feed: Feed,
-    cols: Columns,
-    at: usize,
-}
-
-/// A pass's pieces, parsed one after another from the file: the time check joined across
-/// them, line numbers counted on.
-struct Parser {
-    pieces: Pieces,
-    layout: RowLayout,
-    delim: u8,
-    /// Where the first piece's data rows start (`None` once it is read).
-    data_offset: Option<usize>,
-    /// Line number of the next piece's first line.
-    line: usize,
-    /// The last time read (the next piece's time check is joined to it).
-    prev_t: Option<f64>,
-}
-
-impl Parser {
-    /// The next piece's rows (`None` at the end of the file). Anything the first pass did not
-    /// find (a piece that is not plain text, a row that does not parse) means the file changed.
-    fn next(&mut self) -> Option<Result<Columns>> {
-        let changed = || Error::from(InputError::ChangedWhileRead);
-        match self.pieces.next_piece() {
-            Ok(Some(_)) => {}
-            Ok(None) if self.data_offset.is_none() => return None,
-            _ => return Some(Err(changed())),
-        };
-        let text = match self.data_offset.take() {
-            Some(offset) => self.pieces.data_after_bom(offset),
-            None => self.pieces.plain(),
-        };
-        let Some(text) = text else {
-            return Some(Err(changed()));
-        };
-        let read = (self.layout).read_plain_after(text, self.line, self.delim, self.prev_t);
-        let Ok((cols, newlines)) = read else {
-            return Some(Err(changed()));
-        };
-        self.line += newlines;
-        self.prev_t = cols.t.last().copied().or(self.prev_t);
-        Some(Ok(cols))
-    }
-}
-
-/// Where a pass's parsed pieces come from: a thread of its own that parses the next piece
-/// while the pass goes through the rows of the one before (a pass's consumer — the detector,
-/// the window sums — runs on one thread, and the parse would otherwise wait for it), handing
-/// them over one at a time (at most two pieces' rows held, in order); or, on a thread of
-/// the parse's own pool (which a parse started from there could wait for), the pass itself.
-/// Or, with a spill, its blocks read back one at a time (`next`: the next block).
-///
-/// `Ahead` keeps its thread's handle until the thread has hung up: a parse that panicked
-/// there is raised again on the pass's thread ([`Feed::next`]), as it would be `Inline`,
-/// never taken for the end of the file.
-enum Feed {
-    Ahead(
-        std::sync::mpsc::Receiver<Result<Columns>>,
-        Option<std::thread::JoinHandle<()>>,
-    ),
-    Inline(Box<Parser>),
-    Spilled {
-        next: usize,
-        scratch: Vec<u8>,
-    },
-}
-
-impl Feed {
-    /// The feed of `parser`'s pieces, parsed ahead on a thread when `ahead` (and this is not a
-    /// thread of the parse's pool); an error when no thread could be started (reading `path`).
-    fn start(mut parser: Parser, path: &Path, ahead: bool) -> Result<Self> {
-        if !ahead || rayon::current_thread_index().is_some() {
-            return Ok(Feed::Inline(Box::new(parser)));
-        }
-        let (tx, rx) = std::sync::mpsc::sync_channel(0);
-        let spawned = std::thread::Builder::new()
-            .name("wiical-pieces".into())
-            .spawn(move || {
-                // Ends at the end of the file, or when the pass is dropped (send fails).
-                while let Some(cols) = parser.next() {
-                    if tx.send(cols).is_err() {
-                        break;
-                    }
-                }
-            });
-        match spawned {
-            Ok(thread) => Ok(Feed::Ahead(rx, Some(thread))),
-            Err(source) => Err(InputError::Read {
-                path: path.into(),
-                source,
-            }
-            .into()),
-        }
-    }
-
-    /// The next parsed piece (not for [`Feed::Spilled`], read by [`Rows::next_block`]).
-    fn next(&mut self) -> Option<Result<Columns>> {
-        match self {
-            Feed::Ahead(rx, thread) => match rx.recv() {
-                Ok(cols) => Some(cols),
-                // The thread hung up: at the end of the file, or in a panic, raised here.
-                Err(_) => {
-                    if let Some(Err(panic)) = thread.take().map(std::thread::JoinHandle::join) {
-                        std::panic::resume_unwind(panic);
-                    }
-                    None
-                }
-            },
-            Feed::Inline(p) => p.next(),
-            Feed::Spilled { .. } => None,
-        }
-    }
-}
-
-/// Every sample of a [`TextSource`], read from the file; a clone reads the file afresh to the
-/// same row.
+/// Every sample of a [`TextSource`], read back from its kept rows a block at a time; a clone
+/// goes on from the same row.
 pub struct Rows<'a> {
     src: &'a TextSource,
-    reader: Option<Reader>,
-    /// Rows to pass over before the first one given (a clone's position).
+    /// The next block to read.
+    next: usize,
+    /// The block read last.
+    cols: Columns,
+    /// The next row of `cols`.
+    at: usize,
+    /// Rows of the next block to pass over (a clone's position in it).
     skip: usize,
-    consumed: usize,
+    scratch: Vec<u8>,
     done: bool,
-    /// The columns a block of the spill is read with.
-    want: Want,
 }
 
 impl Clone for Rows<'_> {
     fn clone(&self) -> Self {
+        // At the next row: the block holding it read again, from that row.
+        let row = self.next_row();
+        let (next, first) = self.src.spill.block_holding(row);
         Rows {
             src: self.src,
-            reader: None,
-            skip: self.consumed,
-            consumed: self.consumed,
+            next,
+            cols: Columns::default(),
+            at: 0,
+            skip: row - first,
+            scratch: Vec::new(),
             done: self.done,
-            want: self.want,
         }
     }
 }
 
 impl Rows<'_> {
-    /// The next parsed piece (or block of the spill) into the reader; false at the end of the
-    /// file.
-    fn next_piece(&mut self) -> Result<bool> {
-        if self.reader.is_none() {
-            self.reader = Some(self.src.reader_at(&mut self.skip)?);
-        }
-        let Some(r) = self.reader.as_mut() else {
-            return Ok(false);
-        };
-        if let Feed::Spilled { .. } = r.feed {
-            return self.next_block();
-        }
-        match r.feed.next() {
-            None => Ok(false),
-            Some(cols) => {
-                r.cols = cols?;
-                r.at = 0;
-                Ok(true)
-            }
-        }
+    /// The number of the row `next` gives.
+    fn next_row(&self) -> usize {
+        let read = self.src.spill.block_rows().nth(self.next);
+        read.map_or(self.src.spill.len(), |(first, _)| first) + self.skip
+            - (self.cols.xyz.len() - self.at)
     }
-}
 
-impl Rows<'_> {
-    /// The next block of the spill into the reader; false after the last. A block that cannot
-    /// be read back ends the spill's use: this pass goes on from the text, at the same row.
+    /// The next block into `cols` (from its row `skip`); false after the last.
     fn next_block(&mut self) -> Result<bool> {
-        let (Some(r), Some(spill)) = (self.reader.as_mut(), self.src.spill.as_ref()) else {
+        let Some((from, to)) = self.src.spill.block_rows().nth(self.next) else {
             return Ok(false);
         };
-        let Feed::Spilled { next, scratch } = &mut r.feed else {
-            return Ok(false);
-        };
-        let Some((from, to)) = spill.block_rows().nth(*next) else {
-            return Ok(false);
-        };
-        if spill
-            .read_rows(from, to, self.want, &mut r.cols, scratch)
-            .is_ok()
-        {
-            *next += 1;
-            r.at = 0;
-            return Ok(true);
-        }
-        self.src.spill_failed.store(true, Ordering::Relaxed);
-        self.reader = None;
-        self.skip = self.consumed;
-        self.next_piece()
+        let (cols, scratch) = (&mut self.cols, &mut self.scratch);
+        (self.src.spill)
+            .read_rows(from, to, Want::ALL, cols, scratch)
+            .map_err(|e| self.src.spill_to.error("reading them back", &e))?;
+        self.next += 1;
+        self.at = std::mem::take(&mut self.skip);
+        Ok(true)
     }
 }
 
@@ -922,31 +571,18 @@ impl Iterator for Rows<'_> {
             if self.done {
                 return None;
             }
-            if let Some(r) = self.reader.as_mut() {
-                if r.at < r.cols.xyz.len() {
-                    let i = r.at;
-                    r.at += 1;
-                    let row = Row {
-                        t: r.cols.t.get(i).copied(),
-                        xyz: r.cols.xyz[i],
-                        temp: r.cols.temp.get(i).copied(),
-                    };
-                    if self.skip > 0 {
-                        self.skip -= 1;
-                        continue;
-                    }
-                    self.consumed += 1;
-                    return Some(row);
-                }
+            if self.at < self.cols.xyz.len() {
+                let (i, c) = (self.at, &self.cols);
+                self.at += 1;
+                return Some(Row {
+                    t: c.t.get(i).copied(),
+                    xyz: c.xyz[i],
+                    temp: c.temp.get(i).copied(),
+                });
             }
-            match self.next_piece() {
+            match self.next_block() {
                 Ok(true) => {}
-                Ok(false) => {
-                    self.done = true;
-                    if self.consumed != self.src.summary.count {
-                        self.src.fail(self.src.changed());
-                    }
-                }
+                Ok(false) => self.done = true,
                 Err(e) => {
                     self.done = true;
                     self.src.fail(e);
@@ -995,53 +631,12 @@ mod tests {
         out
     }
 
-    /// A parse that panics on the thread that parses ahead of a pass is raised on the pass's
-    /// thread, as it is when the pass parses the pieces itself (`Feed::Inline`): never taken
-    /// for the end of the file (a recording silently cut short) nor for a file that changed.
-    /// The panic comes from the pieces' own reading thread, raised on the parse's thread by
-    /// [`Pieces::next_piece`] and from there on the pass's by [`Feed::next`]: without either,
-    /// `next` returns instead of raising it.
+    /// A file rewritten in place — the same size, its modification time put back, so that
+    /// only the sampled pieces' checksum tells — during the first pass is refused, named;
+    /// rewritten after it, every later pass still reads the rows the first pass kept (never
+    /// rows mixed from two versions), in memory or on disk.
     #[test]
-    fn a_panic_ahead_of_the_pass_is_raised_on_its_thread() {
-        struct Panicking;
-        impl std::io::Read for Panicking {
-            fn read(&mut self, _: &mut [u8]) -> std::io::Result<usize> {
-                panic!("a parse that panics")
-            }
-        }
-        let parser = Parser {
-            pieces: Pieces::reading(Box::new(Panicking), 64).unwrap(),
-            layout: RowLayout {
-                names: vec!["x".into(), "y".into(), "z".into()],
-                time: None,
-                xyz: [0, 1, 2],
-                temp: None,
-                label: None,
-                decimal_comma: false,
-            },
-            delim: b',',
-            data_offset: Some(0),
-            line: 1,
-            prev_t: None,
-        };
-        let mut feed = Feed::start(parser, Path::new("r.csv"), true).unwrap();
-        let raised = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-            feed.next().map(|cols| cols.map(|c| c.xyz.len()))
-        }));
-        let payload = match raised {
-            Ok(got) => panic!("the parse's panic became {got:?}"),
-            Err(payload) => payload,
-        };
-        assert_eq!(payload.downcast_ref::<&str>(), Some(&"a parse that panics"));
-    }
-
-    /// A file rewritten in place during a pass — the same size, its modification time put back,
-    /// so that only the sampled pieces' checksum tells — is refused after that pass (and
-    /// before any later one), named, whether the passes read the spill or the text again;
-    /// never taken with rows mixed from two versions. Untouched, the same file passes: the
-    /// check is not one that always fails.
-    #[test]
-    fn a_file_rewritten_in_place_is_refused_whatever_the_spill() {
+    fn a_file_rewritten_in_place_is_refused_or_read_as_it_was() {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("r.csv");
         // The same times and length, other readings (three digits each in both): a version
@@ -1056,47 +651,41 @@ mod tests {
         };
         let (text, other) = (text_of(100), text_of(500));
         assert_eq!(text.len(), other.len());
-        let opts = LoadOptions::default();
-        for spill in [false, true] {
-            std::fs::write(&path, &text).unwrap();
-            let to = SpillTo {
-                on: spill,
-                dir: None,
-                limit: u64::MAX,
-                memory: u64::MAX,
-            };
-            let src = TextSource::open_with(&path, &opts, 4096, &to, |_| true)
-                .unwrap()
-                .unwrap();
-            assert_eq!(src.is_spilled(), spill);
-            let first: Vec<Row> = src.rows().collect();
-            assert_eq!(first.len(), 20_000);
-            src.check().unwrap();
-            let mut rows = src.rows();
-            let head: Vec<Row> = rows.by_ref().take(10).collect();
+        let rewrite = || {
             let modified = std::fs::metadata(&path).unwrap().modified().unwrap();
             let file = std::fs::OpenOptions::new().write(true).open(&path).unwrap();
             (&file).write_all(other.as_bytes()).unwrap();
             file.set_modified(modified).unwrap();
-            drop(file);
-            let meta = std::fs::metadata(&path).unwrap();
-            assert_eq!(
-                (meta.len(), meta.modified().unwrap()),
-                (text.len() as u64, modified)
-            );
-            let rest: Vec<Row> = rows.collect();
-            let got = [head, rest].concat();
-            // Read on to the end: from the spill the first version's rows, from the text the
-            // other version's after the pieces parsed ahead (the mix the check must catch).
-            assert_eq!(got.len(), first.len());
-            assert_eq!(got == first, spill);
-            let e = src.check().unwrap_err().full_message();
-            assert!(
-                e.contains("r.csv") && e.contains("changed while it was being read"),
-                "{e}"
-            );
-            assert_eq!(src.rows().count(), 0, "a later pass read rows");
-            assert!(src.check().is_err());
+        };
+        let opts = LoadOptions::default();
+        for memory in [0, u64::MAX] {
+            let to = SpillTo {
+                dir: None,
+                limit: u64::MAX,
+                memory,
+            };
+            // During the first pass: `head_ok` is asked once its first piece is read.
+            std::fs::write(&path, &text).unwrap();
+            let during = TextSource::open_with(&path, &opts, 4096, &to, |_| {
+                rewrite();
+                true
+            });
+            let e = during.unwrap_err().to_string();
+            assert!(e.contains("changed while it was being read"), "{e}");
+            // After it.
+            std::fs::write(&path, &text).unwrap();
+            let src = TextSource::open_with(&path, &opts, 4096, &to, |_| true)
+                .unwrap()
+                .unwrap();
+            assert_eq!(src.is_spill_in_memory(), memory > 0);
+            let first: Vec<Row> = src.rows().collect();
+            assert_eq!(first.len(), 20_000);
+            let mut rows = src.rows();
+            let head: Vec<Row> = rows.by_ref().take(10).collect();
+            rewrite();
+            assert_eq!([head, rows.collect()].concat(), first);
+            assert_eq!(src.rows().collect::<Vec<_>>(), first);
+            src.check().unwrap();
         }
     }
 

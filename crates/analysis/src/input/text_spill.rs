@@ -12,8 +12,8 @@
 //! temperature). When all three axes are `f32` they are stored row by row (x, y, z of a row
 //! together), and a block in memory is kept in 4-byte words: its axes are then the
 //! detector's `[f32; 3]` samples as they lie ([`Spill::axes_f32`]), read with no copy. A
-//! spill that cannot be written (no temporary directory, a full disk) is dropped, and the
-//! passes parse the text again: the same values either way.
+//! spill that cannot be written (no temporary directory, a full disk) is an error the reader
+//! names (`text_source`): the text is never parsed again.
 
 use crate::input::bounded::{free_bytes, KEEP_FREE_BYTES};
 use crate::input::text_rows::Columns;
@@ -168,31 +168,30 @@ pub(crate) struct SpillWriter {
 }
 
 /// A temporary file in `dir` (`None`: the system's) and the bytes it may take: `limit`, and
-/// what leaves [`KEEP_FREE_BYTES`] free on its disk (never down to a full disk: past it the
-/// spill is dropped, the text parsed again, as on a full disk).
-fn temp_file(dir: Option<&Path>, limit: u64) -> Option<(File, u64)> {
+/// what leaves [`KEEP_FREE_BYTES`] free on its disk (never down to a full disk: past it a
+/// write fails as on a full disk).
+fn temp_file(dir: Option<&Path>, limit: u64) -> std::io::Result<(File, u64)> {
     let file = match dir {
         Some(d) => tempfile::tempfile_in(d),
         None => tempfile::tempfile(),
-    };
-    let file = file.ok()?;
+    }?;
     let free = free_bytes(&file).map_or(u64::MAX, |f| f.saturating_sub(KEEP_FREE_BYTES));
-    Some((file, limit.min(free)))
+    Ok((file, limit.min(free)))
 }
 
 impl SpillWriter {
     /// A spill of at most `limit` bytes, its first `memory` bytes kept in memory, the rest of
     /// it in a file in the temporary directory `dir` (`None`: the system's; of what leaves
-    /// [`KEEP_FREE_BYTES`] free on its disk); `None` when it is to be on disk and no file can
-    /// be made there.
-    pub(crate) fn create(dir: Option<&Path>, limit: u64, memory: u64) -> Option<Self> {
+    /// [`KEEP_FREE_BYTES`] free on its disk); an error when it is to be on disk and no file
+    /// can be made there.
+    pub(crate) fn create(dir: Option<&Path>, limit: u64, memory: u64) -> std::io::Result<Self> {
         let (store, limit) = if memory > 0 {
             (Store::Memory(Vec::new()), limit)
         } else {
             let (file, limit) = temp_file(dir, limit)?;
             (Store::File(file), limit)
         };
-        Some(Self {
+        Ok(Self {
             store,
             blocks: Vec::new(),
             at: 0,
@@ -225,8 +224,7 @@ impl SpillWriter {
         let Store::Memory(blocks) = &mut self.store else {
             return Ok(());
         };
-        let no_file = || std::io::Error::other("no temporary file");
-        let (mut file, limit) = temp_file(self.dir.as_deref(), self.limit).ok_or_else(no_file)?;
+        let (mut file, limit) = temp_file(self.dir.as_deref(), self.limit)?;
         if self.at > limit {
             return Err(std::io::ErrorKind::StorageFull.into());
         }

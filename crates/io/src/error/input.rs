@@ -101,6 +101,17 @@ pub enum InputError {
         /// What is wrong with it.
         why: String,
     },
+    /// The rows a file read in passes keeps for its later passes (in a temporary file once
+    /// they pass the memory kept for them) could not be written or read back there.
+    #[error("its rows are kept in a temporary file in {} ({}) for the passes that read them, but {why}: set TMPDIR to a writable directory with room for them, or free space there", dir.display(), if *from_tmpdir { "TMPDIR" } else { "the system's temporary directory: TMPDIR is not set" })]
+    RowsNotKept {
+        /// The temporary directory.
+        dir: PathBuf,
+        /// Whether `TMPDIR` named it.
+        from_tmpdir: bool,
+        /// What failed, in words.
+        why: String,
+    },
     /// A file named or shaped like a raw format that is not one (wrong magic, bad header).
     #[error("not a readable {format} file: {why}")]
     RawHeader {
