@@ -575,7 +575,7 @@ pub enum Times {
 /// The samples' times as each kept block's span: sample `i` of block `k` (row `rows[k] + i`,
 /// of `n = rows[k + 1] − rows[k]`) at `start_s[k] + i · dur_s[k] / n` seconds, evaluated in
 /// that order in f64 (the block's `n / dur_s[k]` is its rate, Hz, as the device's own clock
-/// sets it: see [`TimePlan`](super::TimePlan)).
+/// sets it: see [`TimePlan`]).
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Spans {
     /// Each block's first sample's time, s.
