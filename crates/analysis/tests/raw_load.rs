@@ -10,14 +10,13 @@ mod common;
 
 use std::path::{Path, PathBuf};
 use wiical_analysis::input::columns::LoadOptions;
-use wiical_analysis::input::raw::load::{self as stream, Blocks};
+use wiical_analysis::input::raw::load::{self, Blocks};
 use wiical_analysis::input::raw::{self, RawFormat};
 
 /// The recording and still-epoch table (or its error) of `blocks`.
 fn read_as(blocks: Blocks<'_>, opts: &LoadOptions) -> (String, String) {
-    let rec = stream::load_raw(blocks, opts).map_err(|e| e.to_string());
-    let table =
-        stream::raw_epoch_table(blocks, opts, &Default::default()).map_err(|e| e.to_string());
+    let rec = load::load_raw(blocks, opts).map_err(|e| e.to_string());
+    let table = load::raw_epoch_table(blocks, opts, &Default::default()).map_err(|e| e.to_string());
     (format!("{rec:?}"), format!("{table:?}"))
 }
 
@@ -28,7 +27,7 @@ fn whole(path: &Path, opts: &LoadOptions) -> (String, String) {
 
 /// The file read from disk a chunk of blocks at a time.
 fn streamed(path: &Path, opts: &LoadOptions) -> (String, String) {
-    let format = stream::raw_file_format(path).expect("a raw file");
+    let format = load::raw_file_format(path).expect("a raw file");
     read_as(Blocks::File(path, format), opts)
 }
 
@@ -57,7 +56,7 @@ fn real_raw_files_stream_as_they_read_whole() {
     let mut seen = 0;
     for entry in std::fs::read_dir(&dir).unwrap() {
         let path = entry.unwrap().path();
-        if stream::raw_file_format(&path).is_none() {
+        if load::raw_file_format(&path).is_none() {
             continue;
         }
         assert_same(&path, &LoadOptions::default());
@@ -225,7 +224,7 @@ fn a_year_ahead(b: &mut [u8]) {
 /// `read`'s one-pass (`.cwa`) or two-pass (`.bin`) samples are `load_raw`'s: values, times,
 /// notes.
 fn assert_read_is_load_raw(path: &Path, format: RawFormat) -> wiical_analysis::Recording {
-    let rec = stream::load_raw(Blocks::File(path, format), &LoadOptions::default()).unwrap();
+    let rec = load::load_raw(Blocks::File(path, format), &LoadOptions::default()).unwrap();
     let got = raw::samples::read::<f64>(
         path,
         format,
@@ -251,7 +250,7 @@ fn assert_read_is_load_raw(path: &Path, format: RawFormat) -> wiical_analysis::R
 /// empty, not as a clock that steps back.
 #[test]
 fn one_block_stamped_ahead_costs_that_block_only() {
-    let clean = stream::load_raw(
+    let clean = load::load_raw(
         Blocks::File(&scratch("clean3.cwa", &cwa_file(false)), RawFormat::Cwa),
         &LoadOptions::default(),
     )
@@ -340,10 +339,10 @@ fn raw_file_format_reads_the_first_bytes() {
     let bin = scratch("f.bin", &bin_file());
     let cwa = scratch("f.cwa", &cwa_file(false));
     let csv = scratch("f.csv", b"t,x,y,z\n0,0,0,1\n");
-    assert_eq!(stream::raw_file_format(&bin), Some(RawFormat::GeneActiv));
-    assert_eq!(stream::raw_file_format(&cwa), Some(RawFormat::Cwa));
-    assert_eq!(stream::raw_file_format(&csv), None);
-    assert_eq!(stream::raw_file_format(Path::new("-")), None);
+    assert_eq!(load::raw_file_format(&bin), Some(RawFormat::GeneActiv));
+    assert_eq!(load::raw_file_format(&cwa), Some(RawFormat::Cwa));
+    assert_eq!(load::raw_file_format(&csv), None);
+    assert_eq!(load::raw_file_format(Path::new("-")), None);
 }
 
 /// Hostile `.bin` text: a data line of 20 000 digits skips its page by name (only its first
@@ -359,8 +358,8 @@ fn overlong_lines_and_missing_pages_are_named() {
     assert_same(&path, &LoadOptions::default());
     let header = &text[..text.find("Recorded Data").unwrap()];
     let path = scratch("nopages.bin", header.as_bytes());
-    let format = stream::raw_file_format(&path).unwrap();
-    let e = stream::load_raw(Blocks::File(&path, format), &LoadOptions::default()).unwrap_err();
+    let format = load::raw_file_format(&path).unwrap();
+    let e = load::load_raw(Blocks::File(&path, format), &LoadOptions::default()).unwrap_err();
     assert!(
         e.to_string().contains("ends before its first data block"),
         "{e}"
