@@ -1,7 +1,8 @@
 //! Arbitrary bytes as Axivity `.cwa` data blocks after a valid header, read from a file block
-//! by block (`wiical fit big.cwa`, `correct`, `six-position`: `input::raw::stream`, the reader
+//! by block (`wiical fit big.cwa`, `correct`, `six-position`: `input::raw::load`, the reader
 //! whose clock places each block and leaves out a block stamped far ahead or back) against the
-//! same bytes parsed whole (`cwa::parse` + `to_recording`). Never a panic; when both read the
+//! same bytes parsed whole (`cwa::parse` + `to_recording`, the same reader given the blocks as
+//! one chunk). Never a panic; when both read the
 //! file, they give the same samples and times bit for bit, and the same error otherwise
 //! (neither path may keep a block the other leaves out).
 #![no_main]
@@ -11,7 +12,7 @@ use libfuzzer_sys::fuzz_target;
 #[path = "cwa_bytes.rs"]
 mod cwa_bytes;
 use cwa_bytes::cwa_file;
-use wiical_analysis::input::raw::stream::load_raw;
+use wiical_analysis::input::raw::load::{load_raw, Blocks};
 use wiical_analysis::input::raw::{cwa, to_recording, RawFormat};
 
 fuzz_target!(|data: &[u8]| {
@@ -34,7 +35,7 @@ fuzz_target!(|data: &[u8]| {
     if std::fs::write(&path, &file).is_err() {
         return;
     }
-    let streamed = load_raw(&path, RawFormat::Cwa, &Default::default());
+    let streamed = load_raw(Blocks::File(&path, RawFormat::Cwa), &Default::default());
     let whole = cwa::parse(&file)
         .map_err(wiical_analysis::Error::from)
         .and_then(|raw| to_recording(&raw, &Default::default()));

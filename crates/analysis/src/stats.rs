@@ -191,32 +191,43 @@ pub fn f_critical(level: f64, d1: f64, d2: f64) -> f64 {
     0.5 * (lo + hi)
 }
 
-/// The `k`-th smallest (from 0, below the number of values) of values given by their order
-/// keys — `u64`s whose integer order is the values' order (an `f64`'s bits for non-negative
-/// values, or its `total_cmp` order mapped to unsigned) —, selected 16 bits at a time so that
-/// no value is stored: `top` counts the keys' top 16 bits (made in a pass the caller makes
-/// anyway), and `count(shift, prefix, hist)` adds to `hist` the 16 bits at `shift` of every key
-/// whose bits above `shift + 16` are `prefix`: one pass over the values, three in all. The
-/// exact order statistic, as a sort gives it. Errors are `count`'s (a re-read file that
-/// changed).
-pub fn kth_key_by_digits<E>(
-    top: &[usize],
-    k: usize,
-    mut count: impl FnMut(u32, u64, &mut [usize]) -> Result<(), E>,
-) -> Result<u64, E> {
-    let (mut prefix, mut k) = digit_of(top, k);
-    let mut hist = vec![0usize; 1 << 16];
-    for shift in [32u32, 16, 0] {
-        hist.iter_mut().for_each(|c| *c = 0);
-        count(shift, prefix, &mut hist)?;
-        let (digit, rest) = digit_of(&hist, k);
-        (prefix, k) = ((prefix << 16) | digit, rest);
+/// The keys of the ranks `wants` asks for — `(stream, k)`: the `k`-th smallest (from 0, below
+/// the stream's count) of stream `stream`'s keys — among keys given by their order keys
+/// (`u64`s whose integer order is the values' order: an `f64`'s bits for non-negative values,
+/// or [`order_key`] for any), selected together 16 bits at a time so that no key is stored:
+/// `tops[s]` counts stream `s`'s keys by their top 16 bits (the caller's first pass), and
+/// each call of `pass` gives every key again with its stream; three passes in all, whatever
+/// the number of ranks. The exact order statistic, as a sort gives it. Errors are `pass`'s
+/// (a re-read file that changed).
+pub fn select_keys<E>(
+    tops: &[&[usize]],
+    wants: &[(usize, usize)],
+    mut pass: impl FnMut(&mut dyn FnMut(usize, u64)) -> Result<(), E>,
+) -> Result<Vec<u64>, E> {
+    if wants.is_empty() {
+        return Ok(Vec::new());
     }
-    Ok(prefix)
+    let mut state: Vec<(u64, usize)> = wants.iter().map(|&(s, k)| digit_of(tops[s], k)).collect();
+    let mut hists = vec![vec![0usize; 1 << 16]; wants.len()];
+    for shift in [32u32, 16, 0] {
+        hists.iter_mut().for_each(|h| h.fill(0));
+        pass(&mut |stream, key| {
+            for ((&(s, _), &(prefix, _)), h) in wants.iter().zip(&state).zip(&mut hists) {
+                if s == stream && key >> (shift + 16) == prefix {
+                    h[((key >> shift) & 0xffff) as usize] += 1;
+                }
+            }
+        })?;
+        for ((prefix, k), h) in state.iter_mut().zip(&hists) {
+            let (digit, rest) = digit_of(h, *k);
+            (*prefix, *k) = ((*prefix << 16) | digit, rest);
+        }
+    }
+    Ok(state.into_iter().map(|(key, _)| key).collect())
 }
 
 /// An `f64` as a key whose unsigned order is `f64::total_cmp`'s (−NaN < −∞ < … < −0 < +0 <
-/// … < +∞ < NaN): the keys [`kth_key_by_digits`] selects among, for values of any sign. For
+/// … < +∞ < NaN): the keys [`select_keys`] selects among, for values of any sign. For
 /// non-negative values, whose bits already order as they do, the bits serve as well.
 pub fn order_key(x: f64) -> u64 {
     let b = x.to_bits() as i64;
@@ -229,32 +240,16 @@ pub fn from_order_key(k: u64) -> f64 {
     f64::from_bits(b ^ ((((b as i64) >> 63) as u64) >> 1))
 }
 
-/// The `k`-th smallest (from 0) of the keys each call of `pass` gives to its argument (one
-/// pass over values read afresh: a file's rows), none stored: [`kth_key_by_digits`] with
-/// `top` the keys' top-16-bit histogram, each further digit one pass. Errors are `pass`'s.
-pub fn kth_key_in_passes<E>(
-    top: &[usize],
-    k: usize,
-    mut pass: impl FnMut(&mut dyn FnMut(u64)) -> Result<(), E>,
-) -> Result<u64, E> {
-    kth_key_by_digits(top, k, |shift, prefix, hist| {
-        pass(&mut |key| {
-            if key >> (shift + 16) == prefix {
-                hist[((key >> shift) & 0xffff) as usize] += 1;
-            }
-        })
-    })
-}
-
-/// Keys counted in a first pass for their order statistics: how many, their top 16 bits
-/// (the selection's first digit) and, while few distinct ones are seen, by value
-/// ([`CountedKeys`]: the exact order statistic with no further pass).
+/// Keys counted in a first pass for their order statistics ([`OrderCounts::keys`],
+/// [`medians`]): by value while at most `max_distinct` distinct ones are seen (the exact order
+/// statistic then comes from the counts, with no further pass), else by their top 16 bits,
+/// the first digit of [`select_keys`] (memory bounded whatever the number of keys).
 #[derive(Debug, Clone)]
 pub struct OrderCounts {
-    /// Counts by value, dropped past their cap.
-    pub by_value: CountedKeys,
-    /// Counts by the top 16 bits.
-    pub top: Vec<usize>,
+    by_value: Option<rustc_hash::FxHashMap<u64, usize>>,
+    max_distinct: usize,
+    /// Counts by the top 16 bits, once the counts by value are dropped (empty before).
+    top: Vec<usize>,
     /// Keys pushed.
     pub len: usize,
 }
@@ -262,62 +257,131 @@ pub struct OrderCounts {
 impl OrderCounts {
     /// Counts by value of at most `max_distinct` keys.
     pub fn new(max_distinct: usize) -> Self {
-        Self {
-            by_value: CountedKeys::new(max_distinct),
-            top: vec![0; 1 << 16],
+        let mut counts = Self {
+            by_value: Some(rustc_hash::FxHashMap::default()),
+            max_distinct,
+            top: Vec::new(),
             len: 0,
+        };
+        if max_distinct == 0 {
+            counts.drop_values();
         }
+        counts
     }
 
     /// One more key.
     pub fn push(&mut self, key: u64) {
-        self.top[(key >> 48) as usize] += 1;
-        self.by_value.push(key);
         self.len += 1;
+        match &mut self.by_value {
+            Some(map) => {
+                *map.entry(key).or_insert(0) += 1;
+                if map.len() > self.max_distinct {
+                    self.drop_values();
+                }
+            }
+            None => self.top[(key >> 48) as usize] += 1,
+        }
+    }
+
+    /// Past `max_distinct` keys: the counts by value become counts by the top 16 bits.
+    fn drop_values(&mut self) {
+        self.top = vec![0; 1 << 16];
+        for (key, c) in self.by_value.take().into_iter().flatten() {
+            self.top[(key >> 48) as usize] += c;
+        }
+    }
+
+    /// The distinct keys and their counts in rising order, while counted by value.
+    pub fn sorted(&self) -> Option<Vec<(u64, usize)>> {
+        let mut counts: Vec<(u64, usize)> = self
+            .by_value
+            .as_ref()?
+            .iter()
+            .map(|(k, c)| (*k, *c))
+            .collect();
+        counts.sort_unstable();
+        Some(counts)
+    }
+
+    /// The keys of `ranks` (each below [`OrderCounts::len`]): from the counts by value when
+    /// they were kept, else selected in passes ([`select_keys`], `pass` giving every key
+    /// again).
+    pub fn keys<E>(
+        &self,
+        ranks: &[usize],
+        mut pass: impl FnMut(&mut dyn FnMut(u64)) -> Result<(), E>,
+    ) -> Result<Vec<u64>, E> {
+        if let Some(sorted) = self.sorted() {
+            return Ok(ranks.iter().map(|&k| kth_counted(&sorted, k)).collect());
+        }
+        let wants: Vec<(usize, usize)> = ranks.iter().map(|&k| (0, k)).collect();
+        select_keys(&[&self.top], &wants, |key| pass(&mut |k| key(0, k)))
     }
 
     /// The median of the counted keys' values (`value` of a key; the mean of the middle two
-    /// for an even count, `NaN` for none), as [`median`] of the values gives it: each middle
-    /// key from the counts by value when they were kept, else in passes
-    /// ([`kth_key_in_passes`], `pass` giving every key again), the upper one of an even count
-    /// in one pass after the lower (the same key when more than `len / 2` are at most it,
-    /// else the next one up).
+    /// for an even count, `NaN` for none): [`medians`] of this one stream.
     pub fn median<E>(
         &self,
         value: impl Fn(u64) -> f64,
         mut pass: impl FnMut(&mut dyn FnMut(u64)) -> Result<(), E>,
     ) -> Result<f64, E> {
-        let n = self.len;
-        if n == 0 {
-            return Ok(f64::NAN);
-        }
-        let lower = match self.by_value.kth((n - 1) / 2) {
-            Some(key) => key,
-            None => kth_key_in_passes(&self.top, (n - 1) / 2, &mut pass)?,
-        };
-        if n % 2 == 1 {
-            return Ok(value(lower));
-        }
-        let upper = match self.by_value.kth(n / 2) {
-            Some(key) => key,
-            None => {
-                let (mut at_most, mut next) = (0usize, u64::MAX);
-                pass(&mut |key| {
-                    if key <= lower {
-                        at_most += 1;
-                    } else {
-                        next = next.min(key);
-                    }
-                })?;
-                if at_most > n / 2 {
-                    lower
-                } else {
-                    next
-                }
-            }
-        };
-        Ok(0.5 * (value(lower) + value(upper)))
+        let m = medians(&[self], value, |key| pass(&mut |k| key(0, k)))?;
+        Ok(m[0])
     }
+}
+
+/// The `k`-th smallest key of keys counted by value (`sorted`: distinct keys in rising order
+/// with their counts); `u64::MAX` past the last (a rank below the count always has one).
+pub fn kth_counted(sorted: &[(u64, usize)], mut k: usize) -> u64 {
+    for &(key, c) in sorted {
+        if k < c {
+            return key;
+        }
+        k -= c;
+    }
+    u64::MAX
+}
+
+/// The median of each stream of keys counted in `counts` (`value` of a key; the mean of the
+/// middle two for an even count, `NaN` for none): the middle keys from the counts by value
+/// where they were kept, the others selected together in the same passes ([`select_keys`],
+/// each call of `pass` giving every key again with its stream's index in `counts`).
+pub fn medians<E>(
+    counts: &[&OrderCounts],
+    value: impl Fn(u64) -> f64,
+    pass: impl FnMut(&mut dyn FnMut(usize, u64)) -> Result<(), E>,
+) -> Result<Vec<f64>, E> {
+    let middle = |n: usize| match n {
+        0 => vec![],
+        _ if n % 2 == 1 => vec![n / 2],
+        _ => vec![n / 2 - 1, n / 2],
+    };
+    let sorted: Vec<_> = counts.iter().map(|c| c.sorted()).collect();
+    let wants: Vec<(usize, usize)> = (0..counts.len())
+        .filter(|&s| sorted[s].is_none())
+        .flat_map(|s| middle(counts[s].len).into_iter().map(move |k| (s, k)))
+        .collect();
+    let tops: Vec<&[usize]> = counts.iter().map(|c| c.top.as_slice()).collect();
+    let mut selected = select_keys(&tops, &wants, pass)?.into_iter();
+    Ok((0..counts.len())
+        .map(|s| {
+            let keys: Vec<u64> = match &sorted[s] {
+                Some(by_value) => middle(counts[s].len)
+                    .into_iter()
+                    .map(|k| kth_counted(by_value, k))
+                    .collect(),
+                None => selected
+                    .by_ref()
+                    .take(middle(counts[s].len).len())
+                    .collect(),
+            };
+            match keys.as_slice() {
+                [m] => value(*m),
+                [lo, hi] => 0.5 * (value(*lo) + value(*hi)),
+                _ => f64::NAN,
+            }
+        })
+        .collect())
 }
 
 /// The bucket of a histogram holding the `k`-th value, and `k` within it.
@@ -453,20 +517,24 @@ pub fn correlation(a: &[f64], b: &[f64]) -> f64 {
     }
 }
 
-/// Median of a slice (NaN-free input assumed; empty gives NaN).
+/// Median of a slice (the mean of the middle two for an even count; empty gives NaN; NaN
+/// ordered as `f64::total_cmp` orders it): the values held are the one-chunk case of
+/// [`OrderCounts::median`], counted by value while few are distinct, else selected in passes
+/// over the slice (memory bounded, no copy of the values).
 pub fn median(v: &[f64]) -> f64 {
-    if v.is_empty() {
-        return f64::NAN;
-    }
-    let mut s = v.to_vec();
-    s.sort_by(|a, b| a.total_cmp(b));
-    let n = s.len();
-    if n % 2 == 1 {
-        s[n / 2]
-    } else {
-        0.5 * (s[n / 2 - 1] + s[n / 2])
-    }
+    let pass = |key: &mut dyn FnMut(u64)| {
+        v.iter().for_each(|&x| key(order_key(x)));
+        Ok::<(), std::convert::Infallible>(())
+    };
+    let mut counts = OrderCounts::new(v.len().min(HELD_DISTINCT));
+    let Ok(()) = pass(&mut |k| counts.push(k));
+    let Ok(m) = counts.median(from_order_key, pass);
+    m
 }
+
+/// Most distinct values [`median`] counts by value before it selects in passes (a map of
+/// this many keys is smaller than the passes' histograms).
+const HELD_DISTINCT: usize = 1 << 12;
 
 /// Root mean square (0 for an empty slice).
 pub fn rms(v: &[f64]) -> f64 {
@@ -493,55 +561,6 @@ pub fn sig3(x: f64) -> String {
     }
     let d = (2 - x.abs().log10().floor() as i32).max(0) as usize;
     format!("{x:.d$}")
-}
-
-/// Keys (the bits of non-negative floats, which order as the floats do) counted by value
-/// while at most `max` distinct ones are seen: the exact `k`-th smallest then comes from the
-/// counts, without the passes of [`kth_key_by_digits`]; past `max` the counts are dropped
-/// (memory bounded) and [`CountedKeys::kth`] says `None`, leaving the selection by digits.
-#[derive(Debug, Clone)]
-pub struct CountedKeys {
-    by_value: Option<rustc_hash::FxHashMap<u64, usize>>,
-    max: usize,
-}
-
-impl CountedKeys {
-    /// Counts of at most `max` distinct keys.
-    pub fn new(max: usize) -> Self {
-        Self {
-            by_value: Some(rustc_hash::FxHashMap::default()),
-            max,
-        }
-    }
-
-    /// One more `key`.
-    pub fn push(&mut self, key: u64) {
-        if let Some(map) = &mut self.by_value {
-            *map.entry(key).or_insert(0) += 1;
-            if map.len() > self.max {
-                self.by_value = None;
-            }
-        }
-    }
-
-    /// The `k`-th smallest (0-based) key counted, when the counts were kept and hold it.
-    pub fn kth(&self, k: usize) -> Option<u64> {
-        let mut counts: Vec<(u64, usize)> = self
-            .by_value
-            .as_ref()?
-            .iter()
-            .map(|(b, c)| (*b, *c))
-            .collect();
-        counts.sort_unstable();
-        let mut k = k;
-        for (key, c) in counts {
-            if k < c {
-                return Some(key);
-            }
-            k -= c;
-        }
-        None
-    }
 }
 
 #[cfg(test)]
@@ -580,32 +599,52 @@ mod tests {
         proptest::collection::vec(one, 0..40)
     }
 
+    /// The definition's median: the middle value, or the mean of the middle two.
+    fn median_by_definition(v: &[f64]) -> f64 {
+        match v.len() {
+            0 => f64::NAN,
+            n if n % 2 == 1 => kth_by_definition(v, n / 2),
+            n => 0.5 * (kth_by_definition(v, n / 2 - 1) + kth_by_definition(v, n / 2)),
+        }
+    }
+
+    fn same(a: f64, b: f64) -> bool {
+        a.to_bits() == b.to_bits() || a.is_nan() && b.is_nan()
+    }
+
     proptest::proptest! {
-        /// Every selection gives the definition's order statistic, bit for bit: `median`
-        /// (sorting), the counts by value, and the selection by digits in passes — for the
-        /// lower middle value, the upper one, and `kth_key_in_passes` at every rank.
+        /// The one selection gives the definition's order statistic, bit for bit, for odd and
+        /// even counts, ties, both zeros, negatives, infinities and NaN: held (`median`), from
+        /// the counts by value (`cap` at least the distinct values) or in passes (below), at
+        /// every rank (`OrderCounts::keys`), and for several streams at once (`medians`: the
+        /// values and their negations, whatever each one's cap).
         #[test]
-        fn every_selection_is_the_definitions(v in values(), cap in 0usize..50) {
+        fn the_selection_is_the_definitions(v in values(), cap in 0usize..50, cap2 in 0usize..50) {
             let pass = |key: &mut dyn FnMut(u64)| {
                 v.iter().for_each(|&x| key(order_key(x)));
                 Ok::<(), ()>(())
             };
             let mut counts = OrderCounts::new(cap);
             pass(&mut |k| counts.push(k)).unwrap();
-            let n = v.len();
-            let want = match n {
-                0 => f64::NAN,
-                _ if n % 2 == 1 => kth_by_definition(&v, n / 2),
-                _ => 0.5 * (kth_by_definition(&v, n / 2 - 1) + kth_by_definition(&v, n / 2)),
-            };
+            let want = median_by_definition(&v);
             let got = counts.median(from_order_key, pass).unwrap();
-            let held = median(&v);
-            proptest::prop_assert!(got.to_bits() == want.to_bits() || got.is_nan() && want.is_nan(), "{got} {want}");
-            proptest::prop_assert!(held.to_bits() == want.to_bits() || held.is_nan() && want.is_nan(), "{held} {want}");
-            for k in 0..n {
-                let key = kth_key_in_passes(&counts.top, k, pass).unwrap();
+            proptest::prop_assert!(same(got, want), "{got} {want}");
+            proptest::prop_assert!(same(median(&v), want), "{} {want}", median(&v));
+            let ranks: Vec<usize> = (0..v.len()).collect();
+            for (k, key) in counts.keys(&ranks, pass).unwrap().into_iter().enumerate() {
                 proptest::prop_assert_eq!(from_order_key(key).to_bits(), kth_by_definition(&v, k).to_bits());
             }
+            let neg: Vec<f64> = v.iter().map(|x| -x).collect();
+            let mut counts2 = OrderCounts::new(cap2);
+            neg.iter().for_each(|&x| counts2.push(order_key(x)));
+            let both = medians(&[&counts, &counts2], from_order_key, |key| {
+                v.iter().for_each(|&x| key(0, order_key(x)));
+                neg.iter().for_each(|&x| key(1, order_key(x)));
+                Ok::<(), ()>(())
+            })
+            .unwrap();
+            proptest::prop_assert!(same(both[0], want));
+            proptest::prop_assert!(same(both[1], median_by_definition(&neg)));
         }
 
         /// The keys order as `total_cmp` does, and give their value back bit for bit.
@@ -616,26 +655,48 @@ mod tests {
         }
     }
 
-    /// The counts give the sorted list's `k`-th key for every `k`, and nothing once more
-    /// distinct keys than the cap were pushed (the caller then selects by digits).
+    /// Many values (more distinct than the held median counts by value): selected in passes
+    /// over the slice, the sorted middle.
     #[test]
-    fn counted_keys_give_the_sorted_kth_within_their_cap() {
+    fn a_long_held_median_is_the_sorted_middle() {
+        for n in [HELD_DISTINCT * 3, HELD_DISTINCT * 3 + 1] {
+            let v: Vec<f64> = (0..n)
+                .map(|i| ((i * 7919) % 10007) as f64 * 0.37 - 900.0)
+                .collect();
+            let mut sorted = v.clone();
+            sorted.sort_by(f64::total_cmp);
+            let want = if n % 2 == 1 {
+                sorted[n / 2]
+            } else {
+                0.5 * (sorted[n / 2 - 1] + sorted[n / 2])
+            };
+            assert_eq!(median(&v).to_bits(), want.to_bits(), "n = {n}");
+        }
+    }
+
+    /// The counts by value give the sorted list's `k`-th key for every `k`; once more
+    /// distinct keys than the cap were pushed they are dropped (the selection then runs in
+    /// passes).
+    #[test]
+    fn counts_by_value_give_the_sorted_kth_within_their_cap() {
         let values = [3.5f64, 0.0, 1.25, 3.5, 7.0, 1.25, 1.25, 0.5];
-        let mut counted = CountedKeys::new(8);
+        let mut counted = OrderCounts::new(8);
         for v in values {
             counted.push(v.to_bits());
         }
         let mut sorted = values;
         sorted.sort_by(f64::total_cmp);
+        let by_value = counted.sorted().unwrap();
         for (k, v) in sorted.iter().enumerate() {
-            assert_eq!(counted.kth(k), Some(v.to_bits()), "k = {k}");
+            assert_eq!(kth_counted(&by_value, k), v.to_bits(), "k = {k}");
         }
-        assert_eq!(counted.kth(values.len()), None);
-        let mut capped = CountedKeys::new(2);
+        assert_eq!(kth_counted(&by_value, values.len()), u64::MAX);
+        let mut capped = OrderCounts::new(2);
         for v in [1.0f64, 2.0, 3.0] {
             capped.push(v.to_bits());
         }
-        assert_eq!(capped.kth(0), None);
+        assert!(capped.sorted().is_none());
+        assert_eq!(capped.top.iter().sum::<usize>(), 3);
     }
 
     #[test]
@@ -668,30 +729,22 @@ mod tests {
     /// and for signed ones by their `total_cmp` order.
     #[test]
     fn digits_select_the_kth_value() {
-        let keys = |vals: &[f64], key: fn(f64) -> u64| -> Vec<u64> {
-            vals.iter().map(|v| key(*v)).collect()
-        };
-        let total = |x: f64| {
-            let b = x.to_bits() as i64;
-            ((b ^ (((b >> 63) as u64) >> 1) as i64) as u64) ^ (1 << 63)
-        };
         let bits = |x: f64| x.to_bits();
         let positive: Vec<f64> = (0..1000).map(|i| (i * 31 % 997) as f64 * 0.37).collect();
         let signed: Vec<f64> = positive.iter().map(|v| v - 150.0).collect();
-        for (vals, key) in [(&positive, bits as fn(f64) -> u64), (&signed, total)] {
-            let ks = keys(vals, key);
+        for (vals, key) in [(&positive, bits as fn(f64) -> u64), (&signed, order_key)] {
             let mut top = vec![0usize; 1 << 16];
-            ks.iter().for_each(|b| top[(b >> 48) as usize] += 1);
+            vals.iter().for_each(|&v| top[(key(v) >> 48) as usize] += 1);
             let mut sorted = vals.clone();
             sorted.sort_by(f64::total_cmp);
-            for k in [0, 1, 499, 500, 999] {
-                let Ok(got) = kth_key_by_digits(&top, k, |shift, prefix, hist| {
-                    for b in ks.iter().filter(|b| *b >> (shift + 16) == prefix) {
-                        hist[((b >> shift) & 0xffff) as usize] += 1;
-                    }
-                    Ok::<(), std::convert::Infallible>(())
-                });
-                assert_eq!(got, key(sorted[k]), "k = {k}");
+            let ranks = [0, 1, 499, 500, 999];
+            let wants: Vec<(usize, usize)> = ranks.iter().map(|&k| (0, k)).collect();
+            let Ok(got) = select_keys(&[&top], &wants, |f| {
+                vals.iter().for_each(|&v| f(0, key(v)));
+                Ok::<(), std::convert::Infallible>(())
+            });
+            for (k, g) in ranks.iter().zip(got) {
+                assert_eq!(g, key(sorted[*k]), "k = {k}");
             }
         }
     }

@@ -9,7 +9,8 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 use wiical_analysis::input::front_door::{load_input, Input};
-use wiical_analysis::input::raw::epochs::{epoch_table, still_epochs, EpochOptions};
+use wiical_analysis::input::raw::epochs::{still_epochs, EpochOptions};
+use wiical_analysis::input::raw::load::{raw_epoch_table, raw_file_format, Blocks};
 use wiical_analysis::input::table::WindowTable;
 use wiical_analysis::input::window_means::WindowInputOptions;
 use wiical_analysis::input::InputError;
@@ -91,36 +92,6 @@ fn still_epochs_of_a_simulated_recording_are_the_holds() {
     }
 }
 
-/// The still epochs run through the window-mean pipeline's autocalibration and recover the
-/// simulated offset, scale and temperature coefficient.
-#[test]
-fn autocalibration_from_simulated_raw_recovers_the_truth() {
-    let rec = simulate();
-    let table = epoch_table(&rec, "a simulation", &EpochOptions::default()).unwrap();
-    assert_eq!(table.info.rows, 6 * HOLDS);
-    assert!(table.info.description.contains("240 still 10-s epochs"));
-    let fit = wiical_analysis::autocal::autocalibrate(
-        &table.recording.xyz,
-        table.recording.temp.as_deref(),
-        &wiical_analysis::autocal::AutocalOptions::converged(),
-    )
-    .unwrap();
-    for a in 0..3 {
-        assert!((fit.offset[a] - OFFSET[a]).abs() < 1e-3, "{:?}", fit.offset);
-        assert!((fit.scale[a] - SCALE[a]).abs() < 1e-3, "{:?}", fit.scale);
-        assert!(
-            (fit.temp_coef[a] - TEMP_COEF[a]).abs() < 2e-4,
-            "{:?}",
-            fit.temp_coef
-        );
-    }
-    // And the whole `analyze` pipeline runs on the table.
-    let rep = wiical_analysis::pipeline::analyze_judged(&Input::Table(table), &Default::default())
-        .unwrap()
-        .report;
-    assert!(rep.autocalibration.is_some());
-}
-
 /// GGIRread's test files last minutes: the raw path says how many still epochs it found and
 /// how many it needs, in one sentence, instead of analysing nothing.
 #[test]
@@ -153,7 +124,8 @@ fn short_raw_files_say_too_few_epochs() {
     }
 }
 
-/// A too-short simulated raw recording is refused the same way, with the numbers.
+/// A too-short simulated raw recording (written as a `.cwa` file) is refused the same way,
+/// with the numbers.
 #[test]
 fn too_few_epochs_in_a_simulation_are_counted() {
     let mut rec = simulate();
@@ -161,7 +133,11 @@ fn too_few_epochs_in_a_simulation_are_counted() {
     rec.xyz.truncate(keep);
     rec.t.as_mut().unwrap().truncate(keep);
     rec.temp.as_mut().unwrap().truncate(keep);
-    let err = epoch_table(&rec, "a simulation", &EpochOptions::default()).unwrap_err();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("short.cwa");
+    write_cwa(&rec, &path);
+    let blocks = Blocks::File(&path, raw_file_format(&path).unwrap());
+    let err = raw_epoch_table(blocks, &Default::default(), &EpochOptions::default()).unwrap_err();
     assert!(
         matches!(
             err,
@@ -290,16 +266,14 @@ fn simulated_cwa_file_runs_the_autocalibration() {
     }
 }
 
-/// The whole-file path: every sample in memory, then the epochs.
+/// The file read whole (`raw::read`), its blocks given to the reader as one chunk.
 fn whole_file_table(path: &std::path::Path) -> wiical_analysis::Result<WindowTable> {
     let raw = wiical_analysis::input::raw::read(path)?;
-    let rec = wiical_analysis::input::raw::to_recording(&raw, &Default::default())?;
-    let source = rec.info[0]
-        .strip_prefix("read as ")
-        .and_then(|s| s.split(':').next())
-        .unwrap()
-        .to_string();
-    epoch_table(&rec, &source, &EpochOptions::default())
+    raw_epoch_table(
+        Blocks::Held(&raw),
+        &Default::default(),
+        &EpochOptions::default(),
+    )
 }
 
 fn assert_same_table(a: &WindowTable, b: &WindowTable) {

@@ -11,7 +11,7 @@ mod common;
 use std::path::{Path, PathBuf};
 use wiical_analysis::input::columns::LoadOptions;
 use wiical_analysis::input::raw::samples::{self, RawMeta, Real};
-use wiical_analysis::input::raw::{self, cwa, stream, RawFormat};
+use wiical_analysis::input::raw::{self, cwa, load, RawFormat};
 use wiical_analysis::Recording;
 
 /// The whole-file path's recording of `path`.
@@ -25,7 +25,7 @@ fn filled<T: Real + Default>(
     opts: &LoadOptions,
     with_t: bool,
 ) -> (Vec<T>, Vec<T>, Vec<f64>, RawMeta) {
-    let format = stream::raw_file_format(path).expect("a raw file");
+    let format = load::raw_file_format(path).expect("a raw file");
     let plan = samples::plan(path, format, opts).unwrap();
     let n = plan.rows();
     let (mut xyz, mut temp) = (vec![T::default(); 3 * n], vec![T::default(); n]);
@@ -64,7 +64,7 @@ fn assert_same(path: &Path, opts: &LoadOptions) {
     let temp_cast: Vec<f32> = temp.iter().map(|&v| v as f32).collect();
     assert!(temp32 == temp_cast, "{name}: f32 temperatures differ");
     assert_read(path, opts, &rec, &meta);
-    if stream::raw_file_format(path) == Some(RawFormat::Cwa) {
+    if load::raw_file_format(path) == Some(RawFormat::Cwa) {
         let back: Vec<f64> = xyz32.iter().map(|&v| f64::from(v)).collect();
         assert!(back == flat, "{name}: a .cwa value is not exact in f32");
         assert!(temp32
@@ -79,7 +79,7 @@ fn assert_same(path: &Path, opts: &LoadOptions) {
 /// times in full, left out, or as block spans that expand to the same times.
 fn assert_read(path: &Path, opts: &LoadOptions, rec: &Recording, meta: &RawMeta) {
     let name = path.display();
-    let format = stream::raw_file_format(path).expect("a raw file");
+    let format = load::raw_file_format(path).expect("a raw file");
     let full = samples::read::<f64>(path, format, opts, samples::Times::Full).unwrap();
     let flat: Vec<f64> = rec.xyz.iter().flatten().copied().collect();
     assert!(full.xyz == flat, "{name}: read's values differ");
@@ -141,7 +141,7 @@ fn real_raw_files_fill_as_they_read_whole() {
     let mut seen = 0;
     for entry in std::fs::read_dir(&dir).unwrap() {
         let path = entry.unwrap().path();
-        if stream::raw_file_format(&path).is_none() {
+        if load::raw_file_format(&path).is_none() {
             continue;
         }
         assert_same(&path, &LoadOptions::default());

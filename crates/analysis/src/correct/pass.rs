@@ -11,8 +11,8 @@
 //! Memory: a piece of the file and its parsed rows (`TextSource`), the write buffer and,
 //! with a temperature-rate term, the samples of ±15 s ([`RateRing`]) — not the samples.
 //! Cost: the source's first pass plus this one; a units check the counts cannot settle
-//! (a recording in other units: it is refused) selects the exact median by its bits in five
-//! more passes per median (`stats::kth_key_by_digits`).
+//! (a recording in other units: it is refused) selects the exact median by its bits in four
+//! more passes per median (`stats::OrderCounts::median`).
 
 use super::checks::{
     bad_output, check_plausible_within, linear_norm, norm, units_verdict, RangeFold, UnitsCount,
@@ -269,7 +269,7 @@ fn check_after(pass: Pass<'_>, src: &impl Readings) -> Result<()> {
 /// The median of the finite values of `f` over the samples of `src` (the mean of the middle
 /// two for an even count, as [`super::checks::median`] takes it), selected by the bits of
 /// their order, none stored: a pass to count them, then [`crate::stats::OrderCounts::median`]
-/// (three passes for a middle value, one for the next value up when the count is even).
+/// (three passes for both middle values).
 fn streamed_median(src: &impl Readings, f: impl Fn(&[f64; 3]) -> f64) -> Result<Option<f64>> {
     use crate::stats::{from_order_key, order_key, OrderCounts};
     let keys = |key: &mut dyn FnMut(u64)| {

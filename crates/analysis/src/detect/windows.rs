@@ -340,7 +340,7 @@ pub(crate) fn detect_fixed<R: RowSource + ?Sized>(
 
 /// `stats::median` of the `n` values `values` yields afresh on every call, selected by the
 /// bits of their total order 16 at a time ([`crate::stats::OrderCounts::median`]: a pass to
-/// count them, three for the lower middle value, one for the upper), none stored.
+/// count them, three for both middle values), none stored.
 fn median_of<I: Iterator<Item = f64>>(values: impl Fn() -> I, n: usize) -> f64 {
     use crate::stats::{from_order_key, order_key, OrderCounts};
     let keys = |key: &mut dyn FnMut(u64)| {

@@ -34,7 +34,7 @@ use std::sync::Arc;
 #[derive(Debug)]
 pub enum Opened {
     /// A regular file starting with a raw format's magic (Axivity `.cwa`, GENEActiv `.bin`):
-    /// read block by block ([`raw::stream`]), never held whole: its still epochs, or every
+    /// read block by block ([`raw::load`]), never held whole: its still epochs, or every
     /// sample into arrays allocated once.
     RawFile(RawFormat),
     /// A raw file decoded whole (a `.cwa` or `.bin` from gzip or standard input).
@@ -61,7 +61,7 @@ pub fn open(path: &Path, read: &ReadOptions) -> Result<Opened> {
     if path.as_os_str() == "-" {
         return open_stdin(read);
     }
-    if let Some(format) = raw::stream::raw_file_format(path) {
+    if let Some(format) = raw::load::raw_file_format(path) {
         return Ok(Opened::RawFile(format));
     }
     if is_large_text_file(path) {
@@ -411,7 +411,7 @@ pub fn load_within(path: &Path, opts: &LoadOptions, limit: Option<HoldLimit>) ->
     let whole = match open(path, &opts.read)? {
         Opened::RawFile(format) => {
             // Read block by block into a recording allocated once (no size cap).
-            return raw::stream::load_raw_within(path, format, opts, limit)
+            return raw::load::load_raw_within(raw::load::Blocks::File(path, format), opts, limit)
                 .map_err(|e| e.in_file(path));
         }
         Opened::TextFile => match pieces(path, opts, |_| true, limit)? {
@@ -632,7 +632,8 @@ pub fn load_input_in(
     }
     let whole = match open(path, &opts.load.read)? {
         Opened::RawFile(format) => {
-            let table = raw::stream::raw_epoch_table(path, format, &opts.load, &Default::default());
+            let blocks = raw::load::Blocks::File(path, format);
+            let table = raw::load::raw_epoch_table(blocks, &opts.load, &Default::default());
             return table.map(Input::Table).map_err(|e| e.in_file(path));
         }
         Opened::TextFile => {
@@ -664,7 +665,12 @@ pub fn load_input_in(
         Opened::Text(text) => Err(text),
     };
     let parsed = match whole {
-        Ok(raw) => raw_epochs(&raw, &opts.load),
+        Ok(raw) => raw::load::raw_epoch_table(
+            raw::load::Blocks::Held(&raw),
+            &opts.load,
+            &Default::default(),
+        )
+        .map(Input::Table),
         Err(text) => match parse_window_table(&text, opts) {
             Ok(Some(table)) => Ok(Input::Table(table)),
             Ok(None) => parse(&text, &opts.load).map(Input::Samples),
@@ -672,28 +678,6 @@ pub fn load_input_in(
         },
     };
     parsed.map_err(|e| e.in_file(path))
-}
-
-/// A raw file's still epochs as a table.
-fn raw_epochs(raw: &RawFile, opts: &LoadOptions) -> Result<Input> {
-    let rec = raw::to_recording(raw, opts)?;
-    let source = raw::source_of(rec.info.first().map_or("", String::as_str));
-    let table = raw::epochs::epoch_table(&rec, &source, &Default::default());
-    let table = table.map_err(|e| {
-        let tally = raw::Tally::of(raw);
-        let times = raw::sample_times(raw);
-        let left_out = times.iter().filter(|t| t.is_none()).count();
-        let measured = rec.estimated_rate_hz();
-        raw::explain_too_few(
-            e,
-            raw.format,
-            &tally,
-            left_out,
-            measured,
-            raw.header_rate_hz,
-        )
-    })?;
-    Ok(Input::Table(table))
 }
 
 #[cfg(test)]

@@ -12,6 +12,7 @@ use crate::error::input::InputError;
 /// This module's errors are all the input stage's.
 type Result<T, E = InputError> = std::result::Result<T, E>;
 use crate::input::bounded::quote;
+use crate::stats::OrderCounts;
 
 /// A gap is a step longer than this many median steps.
 pub const GAP_FACTOR: f64 = 5.0;
@@ -101,10 +102,12 @@ impl TimeSteps {
 
     /// [`TimeSteps::of`] over the steps `steps` visits (a few passes, memory constant).
     fn of_steps(steps: &impl Steps) -> Option<Self> {
-        let (mut rows, mut positive) = (0usize, 0usize);
+        let mut rows = 0usize;
         let (mut first, mut last) = (f64::NAN, f64::NAN);
-        // The selection's first histogram is made in this pass (it needs no count).
-        let mut top = vec![0usize; 1 << 16];
+        // The positive steps, by their bits (for positive floats their order as integers),
+        // counted in this pass for their median ([`OrderCounts`]: selected in passes, none
+        // stored; `few_steps` counted by value already).
+        let mut counts = OrderCounts::new(0);
         steps.each(|prev, t| {
             if rows == 0 {
                 first = prev;
@@ -113,15 +116,23 @@ impl TimeSteps {
             last = t;
             let d = t - prev;
             if d > 0.0 {
-                positive += 1;
-                top[(d.to_bits() >> 48) as usize] += 1;
+                counts.push(d.to_bits());
             }
         });
-        let all = rows;
+        let (all, positive) = (rows, counts.len);
         if all < 2 || positive == 0 {
             return None;
         }
-        let median_s = kth_positive_step(steps, positive / 2, top);
+        let Ok(median) = counts.keys(&[positive / 2], |key| {
+            steps.each(|a, b| {
+                let d = b - a;
+                if d > 0.0 {
+                    key(d.to_bits());
+                }
+            });
+            Ok::<(), std::convert::Infallible>(())
+        });
+        let median_s = f64::from_bits(median[0]);
         if !(median_s.is_finite() && median_s > 0.0) {
             return None;
         }
@@ -248,15 +259,7 @@ impl StepTally {
             Tallied::Many(many) => many.into_iter().collect(),
         };
         counts.sort_unstable();
-        let mut k = self.positive / 2;
-        let mut median_s = f64::NAN;
-        for &(bits, c) in &counts {
-            if k < c {
-                median_s = f64::from_bits(bits);
-                break;
-            }
-            k -= c;
-        }
+        let median_s = f64::from_bits(crate::stats::kth_counted(&counts, self.positive / 2));
         if !(median_s.is_finite() && median_s > 0.0) {
             return Some(None);
         }
@@ -394,23 +397,6 @@ fn pairs<I: Iterator<Item = f64>>(mut it: I) -> impl Iterator<Item = (f64, f64)>
         let p = prev.replace(t)?;
         Some((p, t))
     })
-}
-
-/// The `k`-th smallest (0-based) positive step of the times `times` yields, selected by the
-/// steps' bits (for positive floats their order as integers) in passes
-/// ([`crate::stats::kth_key_in_passes`]), so no step is stored; `top`, the histogram of the
-/// top 16 bits, was made by the caller's pass over the times.
-fn kth_positive_step(steps: &impl Steps, k: usize, top: Vec<usize>) -> f64 {
-    let Ok(bits) = crate::stats::kth_key_in_passes(&top, k, |key| {
-        steps.each(|a, b| {
-            let d = b - a;
-            if d > 0.0 {
-                key(d.to_bits());
-            }
-        });
-        Ok::<(), std::convert::Infallible>(())
-    });
-    f64::from_bits(bits)
 }
 
 /// Rounded for messages (a median of 0.009999999999990905 s reads as 0.01 s).

@@ -11,7 +11,7 @@
 //!    median still to select);
 //! 3. up to two more for the medians of the |second differences| when an axis has more
 //!    than [`MAX_COUNTED`] distinct values: selected by their bits, 16 at a time
-//!    ([`crate::stats::kth_key_by_digits`]), every axis and both middle ranks in one pass;
+//!    ([`crate::stats::medians`]), every axis and both middle ranks in the same passes;
 //! 4. each `--follow` column's own pass (its mean), then the loop's pass: each sample's
 //!    geometry into the floor, the coverage and the blocks' normal equations
 //!    ([`super::design::Normal`]), dropped.
@@ -29,7 +29,6 @@ use crate::input::read_options::ReadOptions;
 use crate::input::text_source::Row;
 use crate::source::RowSource;
 use crate::stats::OrderCounts;
-use std::collections::HashMap;
 
 /// A column the field's centre may follow (`--follow`), read in step with the field's rows
 /// (the first axis of its rows: [`follow_options`]) and the way they are (held, or a large
@@ -111,7 +110,7 @@ pub fn fit_source_counting<R: RowSource + ?Sized>(
     let mean = sums.mean();
     let mut dev = AxisSums::new();
     let mut quality = fit.as_ref().ok().map(|f| QualityFold::new(*f));
-    let median = medians(src, &counts, steps.count, |row| {
+    let median = medians(src, &counts, |row| {
         dev.push_dev(&row.xyz, &mean);
         if let Some(q) = &mut quality {
             q.push(&row.xyz);
@@ -219,103 +218,33 @@ fn each_row<R: RowSource>(
     Ok(())
 }
 
-/// One order statistic to select: axis, rank, and its key once known.
-struct Want {
-    axis: usize,
-    k: usize,
-    key: Option<u64>,
-}
-
 /// The median |second difference| of each axis (`NaN` without any), as [`crate::stats::median`]
-/// of them gives it: the middle ranks counted by value, or selected by bits in passes that
-/// serve every axis and rank at once. `first` is given every row of the first pass made
-/// (there is always one).
+/// of them gives it ([`crate::stats::medians`]): the middle ranks counted by value, or
+/// selected by bits in passes that serve every axis and rank at once. `first` is given every
+/// row of the first pass made (there is always one).
 fn medians<R: RowSource + ?Sized>(
     src: &R,
     counts: &[OrderCounts; 3],
-    len: usize,
     mut first: impl FnMut(&Row),
 ) -> Result<[f64; 3]> {
-    let ranks: Vec<usize> = match len {
-        0 => vec![],
-        _ if len % 2 == 1 => vec![len / 2],
-        _ => vec![len / 2 - 1, len / 2],
-    };
-    let mut wants: Vec<Want> = (0..3)
-        .flat_map(|axis| ranks.iter().map(move |&k| (axis, k)))
-        .map(|(axis, k)| Want {
-            axis,
-            k,
-            key: counts[axis].by_value.kth(k),
-        })
-        .collect();
-    let mut cache: HashMap<(usize, u32, u64), Vec<usize>> = HashMap::new();
-    let mut passes = 0;
-    loop {
-        let needs = next_digits(&mut wants, counts, &cache);
-        if needs.is_empty() && passes > 0 {
-            break;
-        }
-        let mut hists: Vec<Vec<usize>> = needs.iter().map(|_| vec![0; 1 << 16]).collect();
+    let passes = std::cell::Cell::new(0);
+    let mut pass = |key: &mut dyn FnMut(usize, u64)| {
         let mut steps = StepFold::new();
         for row in src.rows() {
-            if passes == 0 {
+            if passes.get() == 0 {
                 first(&row);
             }
-            let Some(d) = steps.push(&row.xyz) else {
-                continue;
-            };
-            for (&(w, shift, prefix), h) in needs.iter().zip(&mut hists) {
-                let bits = d[wants[w].axis].to_bits();
-                if bits >> (shift + 16) == prefix {
-                    h[((bits >> shift) & 0xffff) as usize] += 1;
-                }
+            if let Some(d) = steps.push(&row.xyz) {
+                (0..3).for_each(|a| key(a, d[a].to_bits()));
             }
         }
-        src.check()?;
-        passes += 1;
-        for (need, h) in needs.into_iter().zip(hists) {
-            cache.insert(need, h);
-        }
+        passes.set(passes.get() + 1);
+        src.check()
+    };
+    let axes = [&counts[0], &counts[1], &counts[2]];
+    let m = crate::stats::medians(&axes, f64::from_bits, &mut pass)?;
+    if passes.get() == 0 {
+        pass(&mut |_, _| {})?;
     }
-    let value = |w: &Want| w.key.map_or(f64::NAN, f64::from_bits);
-    Ok(std::array::from_fn(|a| {
-        let v: Vec<f64> = wants.iter().filter(|w| w.axis == a).map(value).collect();
-        match v.as_slice() {
-            [m] => *m,
-            [lo, hi] => 0.5 * (lo + hi),
-            _ => f64::NAN,
-        }
-    }))
-}
-
-/// Each selection not finished replayed from the histograms made so far: the keys it gives,
-/// or the `(want, shift, prefix)` histogram it needs next.
-fn next_digits(
-    wants: &mut [Want],
-    counts: &[OrderCounts; 3],
-    cache: &HashMap<(usize, u32, u64), Vec<usize>>,
-) -> Vec<(usize, u32, u64)> {
-    let mut needs = Vec::new();
-    for (w, want) in wants.iter_mut().enumerate() {
-        if want.key.is_some() {
-            continue;
-        }
-        let got = crate::stats::kth_key_by_digits(
-            &counts[want.axis].top,
-            want.k,
-            |shift, prefix, hist| match cache.get(&(w, shift, prefix)) {
-                Some(h) => {
-                    hist.copy_from_slice(h);
-                    Ok(())
-                }
-                None => Err((shift, prefix)),
-            },
-        );
-        match got {
-            Ok(key) => want.key = Some(key),
-            Err((shift, prefix)) => needs.push((w, shift, prefix)),
-        }
-    }
-    needs
+    Ok([m[0], m[1], m[2]])
 }

@@ -1,6 +1,6 @@
 //! What a raw file is made of, at the bottom of `raw/`: its format, its blocks (pages) decoded
 //! or skipped, the file as read, and the civil-date arithmetic both formats' timestamps need.
-//! The readers (`cwa`, `geneactiv`) build these; `mod.rs` and `stream` use them.
+//! The readers (`cwa`, `geneactiv`) build these; `mod.rs` and `load` use them.
 
 /// Which raw format a file is.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

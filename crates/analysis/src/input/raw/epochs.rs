@@ -107,7 +107,7 @@ impl Acc {
 
 /// The still-epoch search fed one sample at a time, in time order: memory is the still
 /// epochs found (a few per minute of wear), never the samples, so a week-long raw file is
-/// searched while it is read ([`crate::input::raw::stream`]).
+/// searched while it is read ([`crate::input::raw::load`]).
 pub struct EpochScan {
     t0: f64,
     needed: usize,
@@ -170,7 +170,7 @@ impl EpochScan {
 }
 
 /// The still epochs of samples `xyz` (g) at times `t` (s, rising) sampled at `rate_hz`, with
-/// their temperatures when given.
+/// their temperatures when given: [`EpochScan`] over samples held in memory.
 pub fn still_epochs(
     t: &[f64],
     xyz: &[[f64; 3]],
@@ -186,23 +186,6 @@ pub fn still_epochs(
         scan.push(ti, x, temp.map_or(f64::NAN, |tp| tp[i]));
     }
     scan.finish(t_end, rate_hz)
-}
-
-/// The still epochs of a raw recording (in g, with times) as a window-mean table; too few for
-/// the autocalibration is the error [`InputError::TooFewStillEpochs`]. `source` describes the file
-/// for the table's description (e.g. "an Axivity AX3 .cwa file").
-pub fn epoch_table(rec: &Recording, source: &str, opts: &EpochOptions) -> Result<WindowTable> {
-    let t = rec.times(100.0);
-    let rate = rec.estimated_rate_hz().unwrap_or(100.0);
-    let found = still_epochs(&t, &rec.xyz, rec.temp.as_deref(), rate, opts);
-    let like = Recording {
-        temp: rec.temp.as_ref().map(|_| Vec::new()),
-        axis_columns: rec.axis_columns.clone(),
-        notes: rec.notes.clone(),
-        info: rec.info.clone(),
-        ..Recording::default()
-    };
-    table_of(found, like, source, opts)
 }
 
 /// The window-mean table of the still epochs `found`; `like` carries what the table keeps of

@@ -2,12 +2,13 @@
 //! `.bin`, read from their published format descriptions (OpenMovement's `cwa.h` /
 //! AX3 technical documentation; Activinsights' "Decoding .bin files").
 //!
-//! A raw file is read into [`RawFile`]: its data blocks (pages) in file order, each either
-//! decoded ([`GoodBlock`]: start time, temperature, samples in g and °/s) or skipped with the
-//! reason counted (a failed checksum, an impossible field). [`to_recording`] turns it into the
-//! [`Recording`] every command analyses, with the samples' times taken from the blocks' own
-//! timestamps (no resampling), the block temperature per sample, and the accelerometer or
-//! gyroscope triplet chosen by the load options. [`ggir`] reproduces GGIRread's resampling
+//! A raw file is a sequence of data blocks (pages) in file order, each either decoded
+//! ([`GoodBlock`]: start time, temperature, samples in g and °/s) or skipped with the reason
+//! counted (a failed checksum, an impossible field). [`load`] reads them a chunk at a time (a
+//! file held whole, [`RawFile`], is its one-chunk case) into the [`Recording`] every command
+//! analyses, with the samples' times taken from the blocks' own timestamps (no resampling),
+//! the block temperature per sample, and the accelerometer or gyroscope triplet chosen by the
+//! load options, or into its still epochs' table. [`ggir`] reproduces GGIRread's resampling
 //! onto a regular grid (the values GGIRread's tests assert), [`epochs`] finds GGIR's still
 //! 10-s epochs for the free-living autocalibration.
 //!
@@ -25,8 +26,8 @@ pub mod cwa;
 pub mod epochs;
 pub mod geneactiv;
 pub mod ggir;
+pub mod load;
 pub mod samples;
-pub mod stream;
 
 pub use block::{Block, GoodBlock, RawFile, RawFormat};
 
@@ -87,42 +88,10 @@ pub fn read(path: &Path) -> Result<RawFile> {
     }
 }
 
-/// The recording every command analyses: the chosen triplet of every decoded sample, its time
-/// and the block's temperature. See [`sample_times`] for the times.
+/// The recording every command analyses of a file read whole: [`load::load_raw`] of its
+/// blocks as one chunk.
 pub fn to_recording(raw: &RawFile, opts: &LoadOptions) -> Result<Recording> {
-    let cols = choose_channels(&raw.channels, opts)?;
-    let nch = raw.n_channels();
-    let times = sample_times(raw);
-    let mut rec = Recording::default();
-    let (mut t, mut temp) = (Vec::new(), Vec::new());
-    for (b, bt) in raw.good().zip(&times) {
-        let Some(bt) = bt else { continue };
-        for (i, &ti) in bt.iter().enumerate() {
-            let row = &b.data[i * nch..(i + 1) * nch];
-            rec.xyz.push(cols.map(|c| row[c]));
-            t.push(ti);
-            temp.push(b.temp_c);
-        }
-    }
-    let tally = Tally::of(raw);
-    let left_out = times.iter().filter(|t| t.is_none()).count();
-    if rec.xyz.is_empty() {
-        return Err(no_data(&tally, left_out).into());
-    }
-    rec.axis_columns = cols.map(|c| raw.channels[c].clone());
-    rec.notes = skip_notes(raw.format, &raw.notes, &tally, left_out);
-    rec.notes
-        .extend(crate::input::timecheck::time_notes("time", &t));
-    rec.info.push(describe(
-        raw.format,
-        &raw.device,
-        raw.blocks.len(),
-        raw.header_rate_hz,
-        &raw.channels,
-    ));
-    rec.t = Some(t);
-    rec.temp = Some(temp);
-    Ok(rec)
+    load::load_raw(load::Blocks::Held(raw), opts)
 }
 
 /// The file as a table's description names it ("an Axivity AX3 .cwa file"), from the
@@ -203,21 +172,6 @@ impl Tally {
         }
         self.first_invalid_why
             .get_or_insert_with(|| why.to_string());
-    }
-
-    /// The counts of a file read whole (its blocks' times planned as [`sample_times`] does).
-    pub fn of(raw: &RawFile) -> Self {
-        let mut t = Self::default();
-        for b in &raw.blocks {
-            t.push(b, raw.n_channels());
-        }
-        let mut plan = TimePlan::default();
-        for b in raw.good() {
-            plan.push(b.index, b.start_s, b.rate_hz, b.len(raw.n_channels()));
-        }
-        plan.finish();
-        t.note_ahead(&plan);
-        t
     }
 
     /// Takes the blocks `plan` left out for standing ahead of their neighbours (once the plan
@@ -411,7 +365,7 @@ pub(crate) fn choose_channels(channels: &[String], opts: &LoadOptions) -> Result
 }
 
 /// The sample times of one decoded block: `n` samples spread evenly over `dur` seconds from
-/// `start_s` (see [`sample_times`]).
+/// `start_s` (see [`TimePlan`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct BlockSpan {
     /// Time of the first sample, s.
@@ -454,8 +408,16 @@ pub struct Ahead {
     pub by_s: f64,
 }
 
-/// [`sample_times`] one block at a time: a block's span is known once the next decoded block
-/// is (its start ends the block), so each push returns the previous block's span.
+/// The sample times of the decoded blocks, one block at a time: a block's span is known once
+/// the next decoded block is (its start ends the block), so each push returns the previous
+/// block's span. A block is left out (`None`) when it holds no sample, when its start is not
+/// after the previous block's last sample (a clock step back), or when it starts a block's
+/// length or more after the next block, which resumes after the blocks before it (one block
+/// stamped ahead). A block's samples are spread evenly from its start to the next block's
+/// start when the next block follows it in the file and starts within half to twice the
+/// nominal block duration later (the devices' own clocks set the rate, as GGIRread and
+/// OpenMovement's converters do); otherwise (last block, a gap of skipped blocks, a time jump)
+/// at the block's nominal rate.
 #[derive(Debug, Clone)]
 pub struct TimePlan {
     pending: Option<Pending>,
@@ -554,29 +516,6 @@ impl TimePlan {
         self.last_t = span.time(span.n - 1);
         Some(span)
     }
-}
-
-/// Each decoded block's sample times (`None`: the block is left out because it holds no
-/// sample, its start is not after the previous block's last sample, a clock step back, or it
-/// starts a block's length or more after the next block, which resumes after the blocks
-/// before it: one block stamped ahead). A
-/// block's samples are spread evenly from its start to the next block's start when the next
-/// block follows it in the file and starts within half to twice the nominal block duration
-/// later (the devices' own clocks set the rate, as GGIRread and OpenMovement's converters
-/// do); otherwise (last block, a gap of skipped blocks, a time jump) at the block's nominal
-/// rate.
-pub fn sample_times(raw: &RawFile) -> Vec<Option<Vec<f64>>> {
-    let nch = raw.n_channels();
-    let mut plan = TimePlan::default();
-    let mut spans = Vec::new();
-    for b in raw.good() {
-        spans.extend(plan.push(b.index, b.start_s, b.rate_hz, b.len(nch)));
-    }
-    spans.extend(plan.finish());
-    spans
-        .into_iter()
-        .map(|s| s.map(|s| s.times().collect()))
-        .collect()
 }
 
 /// Warnings on skipped blocks: counted, the first few named. `out_of_order`: decoded blocks

@@ -1,10 +1,10 @@
 //! Every sample of a raw file (`.cwa`, `.bin`) written once into arrays the caller allocates,
 //! for callers that want them all (`wiical.read`): the [`Recording`](crate::Recording) path
-//! ([`load_raw`](super::stream::load_raw)) pushes rows of f64 one by one, 40 bytes a sample with
+//! ([`load_raw`](super::load::load_raw)) pushes rows of f64 one by one, 40 bytes a sample with
 //! the time and the temperature, which for a week of wear is gigabytes of memory written in
 //! order on one core.
 //!
-//! Two passes, as [`super::stream`]: the first ([`plan`]) checks every block and keeps, per
+//! Two passes, as [`super::load`]: the first ([`plan`]) checks every block and keeps, per
 //! block whose samples are kept, its index in the file and its times' span, so that the
 //! output's length and each block's rows are known; the caller allocates the arrays (the
 //! Python package: vectors that numpy then takes over without a copy), and the second
@@ -14,7 +14,7 @@
 //! chunk (the blocks checked, placed, then decoded), into output it allocates at the file's
 //! upper bound of samples, and can give the times as block spans ([`Spans`]) instead of a
 //! value a sample. The samples, times, temperatures and notes are the ones
-//! [`load_raw`](super::stream::load_raw) gives, value for value.
+//! [`load_raw`](super::load::load_raw) gives, value for value.
 //!
 //! The values can be written as f32: every `.cwa` value is exact in f32 (a 16-bit count, or
 //! a 10-bit one shifted by at most 3, times a power of two for the accelerometer; the
@@ -25,7 +25,7 @@
 //! seconds since 1970 need its 53 bits to resolve a millisecond.
 
 use super::cwa::{self, Checked, Head, BLOCK_BYTES};
-use super::stream::Reader;
+use super::load::Reader;
 use super::{
     choose_channels, describe, no_data, skip_notes, Block, BlockSpan, RawFormat, Tally, TimePlan,
 };
@@ -125,7 +125,7 @@ pub struct RawPlan {
 pub struct RawMeta {
     /// The chosen channels' names (`ax, ay, az`, or the gyroscope's).
     pub columns: [String; 3],
-    /// The notes [`load_raw`](super::stream::load_raw) gives (skipped blocks, time gaps).
+    /// The notes [`load_raw`](super::load::load_raw) gives (skipped blocks, time gaps).
     pub notes: Vec<String>,
     /// The reader's sentence on the file.
     pub info: String,
@@ -135,8 +135,8 @@ pub struct RawMeta {
 }
 
 /// First pass over the raw file at `path` (in `format`, see
-/// [`raw_file_format`](super::stream::raw_file_format)): every block checked and counted,
-/// the channels chosen by `opts`. Errors as [`load_raw`](super::stream::load_raw)'s (without
+/// [`raw_file_format`](super::load::raw_file_format)): every block checked and counted,
+/// the channels chosen by `opts`. Errors as [`load_raw`](super::load::load_raw)'s (without
 /// the file's name: the caller adds it).
 pub fn plan(path: &Path, format: RawFormat, opts: &LoadOptions) -> Result<RawPlan> {
     let mut planner = Planner::default();
@@ -355,7 +355,7 @@ impl RawPlan {
         Ok(steps)
     }
 
-    /// The notes, description and rate, as [`load_raw`](super::stream::load_raw) computes
+    /// The notes, description and rate, as [`load_raw`](super::load::load_raw) computes
     /// them: the times' summary from the blocks' `steps` (else, when a block's steps were too
     /// varied to count, from the times `t` when they were written, or regenerated from the
     /// spans), the times themselves only to list gaps.
@@ -575,7 +575,7 @@ pub enum Times {
 /// The samples' times as each kept block's span: sample `i` of block `k` (row `rows[k] + i`,
 /// of `n = rows[k + 1] − rows[k]`) at `start_s[k] + i · dur_s[k] / n` seconds, evaluated in
 /// that order in f64 (the block's `n / dur_s[k]` is its rate, Hz, as the device's own clock
-/// sets it: see [`sample_times`](super::sample_times)).
+/// sets it: see [`TimePlan`]).
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Spans {
     /// Each block's first sample's time, s.

@@ -1,26 +1,25 @@
-//! A raw file (`.cwa` or `.bin`) read block by block, never whole: what `fit`, `analyze` and
-//! `batch` need of a raw file is its still 10-s epochs ([`crate::input::raw::epochs`]), what
-//! `read` needs is every sample once, and a week of wear is hundreds of MB of blocks and tens
-//! of millions of samples.
+//! Every raw file (`.cwa` or `.bin`) is read by this one path, a chunk of blocks at a time:
+//! what `fit`, `analyze` and `batch` need of a raw file is its still 10-s epochs
+//! ([`crate::input::raw::epochs`]), what `read` needs is every sample once, and a week of wear
+//! is hundreds of MB of blocks and tens of millions of samples. A file read whole (standard
+//! input, a gzip file: [`RawFile`]) is the one-chunk case of the same code ([`Blocks::Held`]),
+//! so a held file and one read from disk give the same recording and table by construction.
 //!
-//! Two passes over the file, one chunk of blocks in memory at a time ([`BlockReader`],
+//! Two passes over the blocks, one chunk in memory at a time ([`BlockReader`],
 //! [`geneactiv::PageReader`]; each chunk decoded on all cores): the first decodes every block
 //! and keeps, per decoded block, only its time span ([`BlockSpan`], 24 bytes for a block of up
 //! to 300 samples) and the counts of skipped blocks ([`Tally`]); the times' statistics (median
 //! step, gaps: the rate and the notes) are then computed from the spans by regenerating the
-//! times; the second pass decodes the blocks again and feeds each sample to the epoch search
-//! ([`EpochScan`]) or into a recording allocated once at its final length. Every number is
-//! computed as the whole-file path computes it (same functions, same order), so the table is
-//! the one [`crate::input::raw::to_recording`] +
-//! [`epoch_table`](crate::input::raw::epochs::epoch_table) give, bit for bit, and the
-//! recording is [`crate::input::raw::to_recording`]'s.
+//! times; the second pass decodes the blocks again (a held file's are decoded already) and
+//! feeds each sample to the epoch search ([`EpochScan`]) or into a recording allocated once at
+//! its final length.
 
 use super::cwa::BlockReader;
 use super::epochs::{table_of, EpochOptions, EpochScan};
 use super::geneactiv::{self, PageReader};
 use super::{
-    choose_channels, describe, explain_too_few, no_data, skip_notes, Block, BlockSpan, RawFormat,
-    Tally, TimePlan,
+    choose_channels, describe, explain_too_few, no_data, skip_notes, Block, BlockSpan, RawFile,
+    RawFormat, Tally, TimePlan,
 };
 use crate::error::Result;
 use crate::input::bounded::HoldLimit;
@@ -50,13 +49,41 @@ pub fn raw_file_format(path: &Path) -> Option<RawFormat> {
     }
 }
 
-/// A raw file's blocks a chunk at a time, whatever its format.
-pub(super) enum Reader {
-    Cwa(BlockReader),
-    Bin(Box<PageReader<std::io::BufReader<std::fs::File>>>),
+/// Where a raw file's blocks come from.
+#[derive(Debug, Clone, Copy)]
+pub enum Blocks<'a> {
+    /// The regular file at this path, in this format ([`raw_file_format`]): read a chunk of
+    /// blocks at a time, never whole.
+    File(&'a Path, RawFormat),
+    /// A file read whole (standard input, a gzip file): its blocks are the one chunk.
+    Held(&'a RawFile),
 }
 
-impl Reader {
+impl<'a> Blocks<'a> {
+    /// A reader at the first block (each pass opens its own).
+    fn open(self) -> Result<Reader<'a>> {
+        match self {
+            Self::File(path, format) => Reader::open(path, format),
+            Self::Held(raw) => Ok(Reader::Held(raw)),
+        }
+    }
+
+    fn format(self) -> RawFormat {
+        match self {
+            Self::File(_, format) => format,
+            Self::Held(raw) => raw.format,
+        }
+    }
+}
+
+/// A raw file's blocks a chunk at a time, whatever its format (a held file: one chunk).
+pub(super) enum Reader<'a> {
+    Cwa(BlockReader),
+    Bin(Box<PageReader<std::io::BufReader<std::fs::File>>>),
+    Held(&'a RawFile),
+}
+
+impl Reader<'_> {
     pub(super) fn open(path: &Path, format: RawFormat) -> Result<Self> {
         Ok(match format {
             RawFormat::Cwa => Self::Cwa(BlockReader::open(path)?),
@@ -64,18 +91,12 @@ impl Reader {
         })
     }
 
-    pub(super) fn next_chunk(&mut self, out: &mut Vec<Block>) -> Result<bool> {
-        match self {
-            Self::Cwa(r) => r.next_chunk(out),
-            Self::Bin(r) => r.next_chunk(out),
-        }
-    }
-
     /// The channel names (a `.cwa` file's are known once its first block is decoded).
     pub(super) fn channels(&self) -> Vec<String> {
         match self {
             Self::Cwa(r) => r.channels(),
             Self::Bin(_) => geneactiv::CHANNELS.iter().map(|s| s.to_string()).collect(),
+            Self::Held(raw) => raw.channels.clone(),
         }
     }
 
@@ -83,6 +104,7 @@ impl Reader {
         match self {
             Self::Cwa(r) => r.notes(),
             Self::Bin(r) => r.notes(),
+            Self::Held(raw) => raw.notes.clone(),
         }
     }
 
@@ -90,6 +112,7 @@ impl Reader {
         match self {
             Self::Cwa(r) => r.header.device.to_string(),
             Self::Bin(r) => r.device(),
+            Self::Held(raw) => raw.device.clone(),
         }
     }
 
@@ -97,14 +120,23 @@ impl Reader {
         match self {
             Self::Cwa(r) => r.header.rate_hz,
             Self::Bin(r) => r.header_rate_hz(),
+            Self::Held(raw) => raw.header_rate_hz,
         }
     }
 
     /// Every chunk of blocks in file order through `each`.
     pub(super) fn for_each_chunk(&mut self, mut each: impl FnMut(&Self, &[Block])) -> Result<()> {
+        if let Self::Held(raw) = *self {
+            each(self, &raw.blocks);
+            return Ok(());
+        }
         let mut chunk = Vec::new();
         loop {
-            let more = self.next_chunk(&mut chunk)?;
+            let more = match self {
+                Self::Cwa(r) => r.next_chunk(&mut chunk)?,
+                Self::Bin(r) => r.next_chunk(&mut chunk)?,
+                Self::Held(_) => false,
+            };
             each(self, &chunk);
             if !more {
                 return Ok(());
@@ -149,8 +181,9 @@ impl Scan {
 }
 
 /// First pass: every block decoded and counted, the decoded blocks' spans kept.
-fn scan(path: &Path, format: RawFormat) -> Result<Scan> {
-    let mut reader = Reader::open(path, format)?;
+fn scan(blocks: Blocks<'_>) -> Result<Scan> {
+    let format = blocks.format();
+    let mut reader = blocks.open()?;
     let mut tally = Tally::default();
     let mut plan = TimePlan::default();
     let mut spans = Vec::new();
@@ -177,16 +210,14 @@ fn scan(path: &Path, format: RawFormat) -> Result<Scan> {
     })
 }
 
-/// The still-epoch table of the raw file at `path` (in `format`, [`raw_file_format`]), read
-/// block by block; errors as the whole-file path's (without the file's name: the caller adds
-/// it).
+/// The still-epoch table of a raw file (errors without the file's name: the caller adds it).
 pub fn raw_epoch_table(
-    path: &Path,
-    format: RawFormat,
+    blocks: Blocks<'_>,
     opts: &LoadOptions,
     epochs: &EpochOptions,
 ) -> Result<WindowTable> {
-    let scan = scan(path, format)?;
+    let scan = scan(blocks)?;
+    let format = scan.format;
     let cols = choose_channels(&scan.channels, opts)?;
     let left_out = scan.left_out();
     let (Some(t0), Some(t_end)) = (scan.times().next(), scan.spans.iter().flatten().last()) else {
@@ -200,7 +231,7 @@ pub fn raw_epoch_table(
     let measured = steps.map(|s| s.rate_hz());
     let rate = measured.unwrap_or(100.0);
     let mut found = EpochScan::new(t0, rate, epochs);
-    feed(path, &scan, |t, row, temp| {
+    feed(blocks, &scan, |t, row, temp| {
         found.push(t, cols.map(|c| row[c]), temp)
     })?;
     let found = found.finish(t_end, rate);
@@ -218,23 +249,22 @@ pub fn raw_epoch_table(
     })
 }
 
-/// Every sample of the raw file at `path` (in `format`, [`raw_file_format`]), read block by
-/// block: the recording [`crate::input::raw::to_recording`] gives for the whole file, its
-/// vectors allocated once at their final length (no size cap: memory is the recording itself
-/// and one chunk of blocks).
-pub fn load_raw(path: &Path, format: RawFormat, opts: &LoadOptions) -> Result<Recording> {
-    load_raw_within(path, format, opts, None)
+/// Every sample of a raw file, with the samples' times taken from the blocks' own timestamps
+/// (no resampling, [`TimePlan`]), the block temperature per sample, and the triplet chosen by
+/// `opts`: its vectors allocated once at their final length (no size cap: memory is the
+/// recording itself and one chunk of blocks).
+pub fn load_raw(blocks: Blocks<'_>, opts: &LoadOptions) -> Result<Recording> {
+    load_raw_within(blocks, opts, None)
 }
 
 /// [`load_raw`] refused when the first pass counts more samples than `limit` (before the
 /// arrays are allocated: the memory is never taken).
 pub fn load_raw_within(
-    path: &Path,
-    format: RawFormat,
+    blocks: Blocks<'_>,
     opts: &LoadOptions,
     limit: Option<HoldLimit>,
 ) -> Result<Recording> {
-    let scan = scan(path, format)?;
+    let scan = scan(blocks)?;
     let cols = choose_channels(&scan.channels, opts)?;
     let left_out = scan.left_out();
     let n: usize = scan.spans.iter().flatten().map(|s| s.n as usize).sum();
@@ -249,13 +279,13 @@ pub fn load_raw_within(
         ..Recording::default()
     };
     let (mut t, mut temp) = (Vec::with_capacity(n), Vec::with_capacity(n));
-    feed(path, &scan, |ti, row, tc| {
+    feed(blocks, &scan, |ti, row, tc| {
         rec.xyz.push(cols.map(|c| row[c]));
         t.push(ti);
         temp.push(tc);
     })?;
     rec.axis_columns = cols.map(|c| scan.channels[c].clone());
-    rec.notes = skip_notes(format, &scan.notes, &scan.tally, left_out);
+    rec.notes = skip_notes(scan.format, &scan.notes, &scan.tally, left_out);
     rec.notes
         .extend(crate::input::timecheck::time_notes("time", &t));
     rec.info.push(scan.describe());
@@ -266,8 +296,8 @@ pub fn load_raw_within(
 
 /// Second pass: every kept sample's time, values (all channels) and block temperature into
 /// `each`, in file order.
-fn feed(path: &Path, scan: &Scan, mut each: impl FnMut(f64, &[f64], f64)) -> Result<()> {
-    let mut reader = Reader::open(path, scan.format)?;
+fn feed(blocks: Blocks<'_>, scan: &Scan, mut each: impl FnMut(f64, &[f64], f64)) -> Result<()> {
+    let mut reader = blocks.open()?;
     let nch = scan.channels.len();
     let mut spans = scan.spans.iter();
     reader.for_each_chunk(|_, chunk| {

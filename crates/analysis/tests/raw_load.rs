@@ -1,7 +1,7 @@
-//! The block-by-block raw readers (`input::raw::stream`) against the whole-file path they
-//! replace for long files: the recording `load_raw` gives and the still-epoch table
-//! `raw_epoch_table` gives must be bit for bit what `raw::read` + `to_recording` (+
-//! `epoch_table`) give, on every raw file of the shared data and on files written here with
+//! The raw reader (`input::raw::load`) on a file read block by block from disk against the
+//! same file read whole (`raw::read`: `cwa::parse`, `geneactiv::parse`) and given as one
+//! chunk: the recording `load_raw` gives and the still-epoch table `raw_epoch_table` gives
+//! must be bit for bit the same, on every raw file of the shared data and on files written here with
 //! enough still epochs to be fitted (GENEActiv `.bin` with a bad and a cut-off page, AX3 and
 //! AX6 `.cwa` with a corrupt block). Values are compared through their `Debug` text, which
 //! prints every `f64` exactly (shortest round-trip form).
@@ -10,29 +10,25 @@ mod common;
 
 use std::path::{Path, PathBuf};
 use wiical_analysis::input::columns::LoadOptions;
-use wiical_analysis::input::raw::{self, epochs, stream, RawFormat};
+use wiical_analysis::input::raw::load::{self, Blocks};
+use wiical_analysis::input::raw::{self, RawFormat};
 
-/// The whole-file path's recording and still-epoch table (or its error) of `path`.
-fn whole(path: &Path, opts: &LoadOptions) -> (String, String) {
-    let raw = raw::read(path).unwrap();
-    let rec = raw::to_recording(&raw, opts);
-    let table = rec.as_ref().map_err(|e| e.to_string()).and_then(|rec| {
-        let source = raw::source_of(rec.info.first().map_or("", String::as_str));
-        epochs::epoch_table(rec, &source, &Default::default()).map_err(|e| e.to_string())
-    });
-    (
-        format!("{:?}", rec.map_err(|e| e.to_string())),
-        format!("{table:?}"),
-    )
+/// The recording and still-epoch table (or its error) of `blocks`.
+fn read_as(blocks: Blocks<'_>, opts: &LoadOptions) -> (String, String) {
+    let rec = load::load_raw(blocks, opts).map_err(|e| e.to_string());
+    let table = load::raw_epoch_table(blocks, opts, &Default::default()).map_err(|e| e.to_string());
+    (format!("{rec:?}"), format!("{table:?}"))
 }
 
-/// The streaming path's recording and still-epoch table (or its error) of `path`.
+/// The file read whole, its blocks given as one chunk.
+fn whole(path: &Path, opts: &LoadOptions) -> (String, String) {
+    read_as(Blocks::Held(&raw::read(path).unwrap()), opts)
+}
+
+/// The file read from disk a chunk of blocks at a time.
 fn streamed(path: &Path, opts: &LoadOptions) -> (String, String) {
-    let format = stream::raw_file_format(path).expect("a raw file");
-    let rec = stream::load_raw(path, format, opts).map_err(|e| e.to_string());
-    let table =
-        stream::raw_epoch_table(path, format, opts, &Default::default()).map_err(|e| e.to_string());
-    (format!("{rec:?}"), format!("{table:?}"))
+    let format = load::raw_file_format(path).expect("a raw file");
+    read_as(Blocks::File(path, format), opts)
 }
 
 fn assert_same(path: &Path, opts: &LoadOptions) {
@@ -60,7 +56,7 @@ fn real_raw_files_stream_as_they_read_whole() {
     let mut seen = 0;
     for entry in std::fs::read_dir(&dir).unwrap() {
         let path = entry.unwrap().path();
-        if stream::raw_file_format(&path).is_none() {
+        if load::raw_file_format(&path).is_none() {
             continue;
         }
         assert_same(&path, &LoadOptions::default());
@@ -228,7 +224,7 @@ fn a_year_ahead(b: &mut [u8]) {
 /// `read`'s one-pass (`.cwa`) or two-pass (`.bin`) samples are `load_raw`'s: values, times,
 /// notes.
 fn assert_read_is_load_raw(path: &Path, format: RawFormat) -> wiical_analysis::Recording {
-    let rec = stream::load_raw(path, format, &LoadOptions::default()).unwrap();
+    let rec = load::load_raw(Blocks::File(path, format), &LoadOptions::default()).unwrap();
     let got = raw::samples::read::<f64>(
         path,
         format,
@@ -254,9 +250,8 @@ fn assert_read_is_load_raw(path: &Path, format: RawFormat) -> wiical_analysis::R
 /// empty, not as a clock that steps back.
 #[test]
 fn one_block_stamped_ahead_costs_that_block_only() {
-    let clean = stream::load_raw(
-        &scratch("clean3.cwa", &cwa_file(false)),
-        RawFormat::Cwa,
+    let clean = load::load_raw(
+        Blocks::File(&scratch("clean3.cwa", &cwa_file(false)), RawFormat::Cwa),
         &LoadOptions::default(),
     )
     .unwrap();
@@ -344,10 +339,10 @@ fn raw_file_format_reads_the_first_bytes() {
     let bin = scratch("f.bin", &bin_file());
     let cwa = scratch("f.cwa", &cwa_file(false));
     let csv = scratch("f.csv", b"t,x,y,z\n0,0,0,1\n");
-    assert_eq!(stream::raw_file_format(&bin), Some(RawFormat::GeneActiv));
-    assert_eq!(stream::raw_file_format(&cwa), Some(RawFormat::Cwa));
-    assert_eq!(stream::raw_file_format(&csv), None);
-    assert_eq!(stream::raw_file_format(Path::new("-")), None);
+    assert_eq!(load::raw_file_format(&bin), Some(RawFormat::GeneActiv));
+    assert_eq!(load::raw_file_format(&cwa), Some(RawFormat::Cwa));
+    assert_eq!(load::raw_file_format(&csv), None);
+    assert_eq!(load::raw_file_format(Path::new("-")), None);
 }
 
 /// Hostile `.bin` text: a data line of 20 000 digits skips its page by name (only its first
@@ -363,8 +358,8 @@ fn overlong_lines_and_missing_pages_are_named() {
     assert_same(&path, &LoadOptions::default());
     let header = &text[..text.find("Recorded Data").unwrap()];
     let path = scratch("nopages.bin", header.as_bytes());
-    let format = stream::raw_file_format(&path).unwrap();
-    let e = stream::load_raw(&path, format, &LoadOptions::default()).unwrap_err();
+    let format = load::raw_file_format(&path).unwrap();
+    let e = load::load_raw(Blocks::File(&path, format), &LoadOptions::default()).unwrap_err();
     assert!(
         e.to_string().contains("ends before its first data block"),
         "{e}"
