@@ -344,13 +344,16 @@ fn span_means<R: RowSource + ?Sized>(src: &R, spans: &[(usize, usize)]) -> (Vec<
     (means, integer)
 }
 
+/// A gyro offset (raw) from the accelerometer's reading beside it.
+type Offset<'a> = dyn Fn([f64; 3]) -> [f64; 3] + 'a;
+
 /// The gyro's samples as the turns integrate them ([`TurnSample`]): the time of each row
 /// (`fs` without a time column), and `off` of the accelerometer's row beside it (of zeros past
 /// the accelerometer's rows; no offset without `off`).
 fn samples<'a, R: RowSource + ?Sized>(
     gyro: &'a R,
     fs: f64,
-    off: Option<(&'a R, &'a dyn Fn([f64; 3]) -> [f64; 3])>,
+    off: Option<(&'a R, &'a Offset<'a>)>,
 ) -> impl Iterator<Item = TurnSample> + 'a {
     let acc = off.map(|(a, _)| a.rows()).into_iter().flatten();
     let acc = acc.map(|r| r.xyz).chain(std::iter::repeat([0.0; 3]));
