@@ -47,7 +47,7 @@ pub fn fit_judged(input: &Input, opts: &FitOptions) -> Result<Judged<FitReport>>
                 .map_err(|e| explain(e, &rec.axis_columns, rec.xyz.as_slice(), &ws))
         }
         Input::Stream(src) => {
-            let ws = crate::detect::windows::detect_windows_streamed(src, &opts.detect)?;
+            let ws = crate::detect::windows::detect_windows_untimed(&**src, &opts.detect)?;
             crate::protocol::accel::fit_by_protocol(&ws, opts)
                 .map(judged)
                 .map_err(|e| explain(e, &src.meta.axis_columns, &**src, &ws))
@@ -78,7 +78,7 @@ pub fn analyze_judged(input: &Input, opts: &AnalyzeOptions) -> Result<Judged<Ana
             }
         })?,
         Input::Stream(src) => crate::search::analyze::analyze_streamed(src, opts).map_err(|e| {
-            match crate::detect::windows::detect_windows_streamed(src, &opts.fit.detect) {
+            match crate::detect::windows::detect_windows_untimed(&**src, &opts.fit.detect) {
                 Ok(ws) => explain(e, &src.meta.axis_columns, &**src, &ws),
                 Err(_) => e,
             }

@@ -181,3 +181,54 @@ fn a_two_file_pair_streams_to_the_held_report_and_swapped_is_refused_alike() {
     assert!(held.contains("swapped"), "{held}");
     assert_eq!(held, streamed);
 }
+
+/// `gyrofit`'s library entry ([`wiical_analysis::gyrofit`], held) and [`gyrofit_of`] on the
+/// same file streamed: the JSON of each, or its error.
+fn entry_both(rel: &str, table_rates_dps: Option<Vec<f64>>) -> (String, String) {
+    use wiical_analysis::gyro::request::{gyrofit_of, GyroInput, Gyrofit};
+    let path = data(rel);
+    let req = wiical_analysis::GyrofitRequest {
+        table_rates_dps,
+        ..wiical_analysis::GyrofitRequest::new(&path)
+    };
+    let text = |r: wiical_analysis::Result<Gyrofit>| match r {
+        Ok(f) => serde_json::to_string(&f).unwrap(),
+        Err(e) => format!("error: {e}"),
+    };
+    let load = LoadOptions::default();
+    let imu = open((&path, &load), None, None, 0)
+        .unwrap()
+        .expect("streamed");
+    let streamed = text(gyrofit_of(&req, &GyroInput::Streamed(imu)));
+    (text(wiical_analysis::gyrofit(&req)), streamed)
+}
+
+/// The protocols' methods, which `gyrofit` falls back to when the motions between poses say
+/// the recording is another protocol's (or runs for a gyro-only file, or given table rates),
+/// read a large file in passes to the held report: imucal's Ferraris session (its turns and
+/// g-sensitivity), the BMI160 rate table with and without its 25 °/s (`rate-table`, else the
+/// rests' bias alone), and a still ADIS16405 log (the bias alone).
+#[test]
+fn the_protocol_fallback_streams_to_the_held_report() {
+    for (rel, rates, method) in [
+        (
+            "imucal_nilspod_ferraris/ferraris_session.csv",
+            None,
+            "ferraris",
+        ),
+        (
+            "apophis_bmi160_table/rate_table.csv",
+            Some(vec![25.0]),
+            "rate-table",
+        ),
+        ("apophis_bmi160_table/rate_table.csv", None, "rest-bias"),
+        ("adis16405_static_smac/imu1.csv.gz", None, "rest-bias"),
+    ] {
+        let (held, streamed) = entry_both(rel, rates);
+        assert!(
+            held.contains(&format!("\"method\":\"{method}\"")),
+            "{rel}: {held}"
+        );
+        assert_eq!(held, streamed, "{rel}");
+    }
+}

@@ -210,7 +210,7 @@ fn windows_text(input: &Input, opts: &wiical_analysis::detect::windows::DetectOp
     let Input::Stream(src) = input else {
         panic!("not streamed")
     };
-    let w = wiical_analysis::detect::windows::detect_windows_streamed(src, opts).unwrap();
+    let w = wiical_analysis::detect::windows::detect_windows_untimed(&**src, opts).unwrap();
     format!(
         "{:?} {:?} {:?} {} {:?}",
         w.stats, w.times, w.clock, w.units, w.reference_variance

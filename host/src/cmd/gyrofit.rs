@@ -5,8 +5,10 @@ use super::{check_outputs, load_held, load_options, to_json, DetectArgs, PLAIN_T
 use crate::cli_error::cli_error;
 use anyhow::{bail, Context, Result};
 use std::path::PathBuf;
-use wiical_analysis::gyro::{open_text, run_text, GyroOptions, TextImu};
-use wiical_analysis::protocol::gyro::{GyroProtocolOptions, GyroProtocolReport};
+use wiical_analysis::calibrate::GyroOutcome;
+use wiical_analysis::gyro::open_text;
+use wiical_analysis::gyro::request::{gyrofit_of, GyroInput};
+use wiical_analysis::protocol::gyro::GyroProtocolReport;
 use wiical_analysis::{GyrofitRequest, Recording};
 use wiical_core::multipos::MultiPosModel;
 
@@ -54,8 +56,8 @@ pub struct Args {
 }
 
 impl Args {
-    /// The engine's request from the flags (the one translation of them; `--table-rate`,
-    /// `--rotation-deg` and `--out` are the command line's own).
+    /// The engine's request from the flags (the one translation of them; `--out` is the
+    /// command line's own).
     fn request(&self) -> GyrofitRequest {
         GyrofitRequest {
             file: self.file.clone(),
@@ -65,6 +67,8 @@ impl Args {
             counts_per_dps: self.counts_per_dps.clone(),
             detect: self.detect.fit_options(MultiPosModel::Full).detect,
             exact_held_out: self.exact_held_out,
+            table_rates_dps: self.table_rate.clone(),
+            rotation_deg: self.rotation_deg,
         }
     }
 }
@@ -76,96 +80,34 @@ pub fn run(a: &Args) -> Result<String> {
     let mut inputs = vec![a.file.as_path()];
     inputs.extend(a.gyro_file.as_deref());
     check_outputs(&inputs, &[a.out.as_deref()])?;
-    let pair = read(a, gyro_columns)?;
-    let gyro = match &pair {
-        Pair::Held(_, gyro) => gyro,
-        Pair::Streamed(imu) => imu.gyroscope(),
-    };
-    let opts = req.options(gyro).map_err(cli_error)?;
-    let rep = match &pair {
-        Pair::Held(acc, gyro) => {
-            // A gyro-only file (the loader took the gyro for the accelerometer) or known
-            // table rates: the protocol's methods; otherwise the motions between poses, and
-            // the protocol's methods when those give nothing.
-            // The loader took the gyro's named columns for the accelerometer: the file has
-            // none (the same triplet given as both by hand stays the motion fit's to judge).
-            use wiical_analysis::input::columns::{all_named, Sensor};
-            let named_gyro = all_named(&gyro.axis_columns, Sensor::Gyroscope);
-            let gyro_only =
-                a.gyro_file.is_none() && acc.axis_columns == gyro.axis_columns && named_gyro;
-            let popts = protocol_options(a, &opts);
-            if gyro_only || a.table_rate.is_some() {
-                let acc = (!gyro_only).then_some(acc);
-                return protocol_run(a, acc, gyro, &popts, None);
-            }
-            match wiical_analysis::gyro::run(acc, gyro, &opts) {
-                Ok(rep) => rep,
-                Err(e) if e.says_another_protocol() => {
-                    return protocol_run(a, Some(acc), gyro, &popts, Some(e))
-                }
-                Err(e) => return Err(cli_error(e)),
-            }
-        }
-        Pair::Streamed(imu) => run_text(imu, &opts).map_err(cli_error)?,
-    };
-    if let Some(path) = &a.out {
-        save(path, &rep)?;
-    }
-    if a.json {
-        return to_json(&rep);
-    }
-    Ok(crate::render::gyrofit::text(
-        &rep,
-        &a.file.display().to_string(),
-    ))
-}
-
-/// The protocol methods' settings from the flags.
-fn protocol_options(a: &Args, opts: &GyroOptions) -> GyroProtocolOptions {
-    GyroProtocolOptions {
-        rotation_deg: a.rotation_deg,
-        table_rates_dps: a.table_rate.clone(),
-        detect: opts.detect.clone(),
-        nominal_rad_per_raw: (!opts.estimate_nominal).then_some(opts.nominal_rad_per_count),
-    }
-}
-
-/// The gyro's protocol method (`wiical_analysis::protocol::gyro`); `motion_error`: why the
-/// motion fit gave nothing, printed as a note when the protocol's method gives something, and
-/// returned as the error when it does not either.
-fn protocol_run(
-    a: &Args,
-    acc: Option<&Recording>,
-    gyro: &Recording,
-    popts: &GyroProtocolOptions,
-    motion_error: Option<wiical_analysis::gyro::GyroError>,
-) -> Result<String> {
-    let rep = match wiical_analysis::protocol::gyro::run(acc, gyro, popts) {
-        Ok(rep) => rep,
-        Err(e) => {
-            let e: wiical_analysis::Error = match motion_error {
-                Some(m) => m.into(),
-                None => e.into(),
-            };
-            return Err(cli_error(e));
-        }
-    };
-    if let Some(e) = motion_error {
+    let input = read(a, gyro_columns)?;
+    let found = gyrofit_of(&req, &input).map_err(cli_error)?;
+    let file = a.file.display().to_string();
+    if let Some(e) = &found.motion_error {
         eprintln!(
-            "note: in {}: the motions between poses gave no calibration ({e}); the recognised protocol's method was used",
-            a.file.display()
+            "note: in {file}: the motions between poses gave no calibration ({e}); the recognised protocol's method was used"
         );
     }
-    if let Some(path) = &a.out {
-        save_protocol(path, &rep)?;
+    match &found.report {
+        GyroOutcome::Motions(rep) => {
+            if let Some(path) = &a.out {
+                save(path, rep)?;
+            }
+            if a.json {
+                return to_json(rep);
+            }
+            Ok(crate::render::gyrofit::text(rep, &file))
+        }
+        GyroOutcome::Protocol(rep) => {
+            if let Some(path) = &a.out {
+                save_protocol(path, rep)?;
+            }
+            if a.json {
+                return to_json(rep);
+            }
+            Ok(crate::render::protocol::gyro_text(rep, &file))
+        }
     }
-    if a.json {
-        return to_json(&rep);
-    }
-    Ok(crate::render::protocol::gyro_text(
-        &rep,
-        &a.file.display().to_string(),
-    ))
 }
 
 /// Writes `--out` for a protocol's gyro calibration (no held-out error: the file has no
@@ -180,17 +122,8 @@ fn save_protocol(path: &std::path::Path, rep: &GyroProtocolReport) -> Result<()>
     wiical_analysis::output::gyrocal::write_gyro_calibration(path, &file).map_err(cli_error)
 }
 
-/// The two recordings: held, or (a plain text file of at least the streaming size) streamed
-/// in passes ([`wiical_analysis::gyro::TextImu`]).
-/// One value per run: the variants' sizes do not matter.
-#[allow(clippy::large_enum_variant)]
-enum Pair {
-    Held(Recording, Recording),
-    Streamed(TextImu),
-}
-
 /// Reads FILE (and GYRO_FILE); notes on them go to stderr, each once.
-fn read(a: &Args, gyro_columns: Option<[String; 3]>) -> Result<Pair> {
+fn read(a: &Args, gyro_columns: Option<[String; 3]>) -> Result<GyroInput> {
     let (acc_opts, gyro_opts) = (
         a.detect.load_options()?,
         load_options(None, &a.detect.read)?,
@@ -216,7 +149,7 @@ fn read(a: &Args, gyro_columns: Option<[String; 3]>) -> Result<Pair> {
             Some(g) => super::print_notes(g, imu.gyroscope()),
             None => gyro_info(a, imu.accelerometer(), imu.gyroscope()),
         }
-        return Ok(Pair::Streamed(imu));
+        return Ok(GyroInput::Streamed(imu));
     }
     let (acc, gyro) = match &a.gyro_file {
         Some(g) => {
@@ -252,7 +185,7 @@ fn read(a: &Args, gyro_columns: Option<[String; 3]>) -> Result<Pair> {
             (acc, gyro)
         }
     };
-    Ok(Pair::Held(acc, gyro))
+    Ok(GyroInput::Held(acc, gyro))
 }
 
 /// A `wiical capture` of a MotionPlus: its gyro rows in slow-range counts
@@ -261,7 +194,7 @@ fn read_motionplus(
     a: &Args,
     acc_opts: &wiical_analysis::LoadOptions,
     block: &[u8; 32],
-) -> Result<Pair> {
+) -> Result<GyroInput> {
     use wiical_analysis::input::columns::Sensor;
     use wiical_analysis::input::front_door::open_whole;
     let Err(text) = open_whole(&a.file, &acc_opts.read).map_err(cli_error)? else {
@@ -291,7 +224,7 @@ fn read_motionplus(
         read: acc_opts.read,
     })?;
     super::print_notes(&a.file, &acc);
-    Ok(Pair::Held(acc, gyro))
+    Ok(GyroInput::Held(acc, gyro))
 }
 
 /// The bound on the samples `gyrofit` holds (a file it cannot read in passes).

@@ -26,7 +26,7 @@ use crate::detect::held::both_or_first_error;
 use crate::detect::polled::{Polling, Runs};
 use crate::error::detect::DetectError;
 use crate::input::recording::{infer_units, Recording};
-use crate::input::text_source::{Row, TextSource};
+use crate::input::text_source::Row;
 use crate::source::{RowBuf, RowSource};
 use crate::stats as st;
 use wiical_core::static_detect::adaptive::{self, AdaptiveThresholds, NoiseSurvey};
@@ -621,15 +621,14 @@ pub fn detect_windows(rec: &Recording, opts: &DetectOptions) -> Result<Windows> 
     detect_windows_of(rec, opts, true)
 }
 
-/// [`detect_windows`] without every sample's time in [`Windows::times`] (left empty, as for
-/// a large file): for `fit` and `gyrofit`, which read the windows' own times only.
-pub(crate) fn detect_windows_untimed(rec: &Recording, opts: &DetectOptions) -> Result<Windows> {
-    detect_windows_of(rec, opts, false)
-}
-
-/// `detect_windows_untimed` on a large text file read in passes, never held: the same
-/// windows bit for bit; a pass that found the file changed or unreadable says so.
-pub fn detect_windows_streamed(src: &TextSource, opts: &DetectOptions) -> crate::Result<Windows> {
+/// [`detect_windows`] without every sample's time in [`Windows::times`] (left empty): for
+/// `fit` and `gyrofit`, which read the windows' own times only, on held rows or a large text
+/// file read in passes, never held (one code: the same windows bit for bit); a pass that
+/// found the file changed or unreadable says so.
+pub fn detect_windows_untimed<R: RowSource + ?Sized>(
+    src: &R,
+    opts: &DetectOptions,
+) -> crate::Result<Windows> {
     let found = detect_windows_of(src, opts, false);
     src.check()?;
     Ok(found?)
@@ -742,9 +741,9 @@ pub struct Windows {
     /// The windows.
     pub stats: Vec<WindowStats>,
     /// Sample times (recording clock), s: every sample's for a recording held in memory
-    /// ([`detect_windows`]: `analyze`'s thermal regressors read them); empty for samples
-    /// streamed from a file ([`detect_windows_streamed`]) and for `fit` and `gyrofit`, which
-    /// read the windows' own times.
+    /// ([`detect_windows`]: `analyze`'s thermal regressors read them); empty from
+    /// [`detect_windows_untimed`] (samples streamed from a file, `fit` and `gyrofit`, which
+    /// read the windows' own times).
     pub times: Vec<f64>,
     /// Times of the recording's first and last sample, s (recording clock); `None` without
     /// samples.
@@ -1067,7 +1066,7 @@ mod spill_tests {
 
     fn windows_of(src: &TextSource) -> String {
         let opts = crate::detect::windows::DetectOptions::default();
-        let w = crate::detect::windows::detect_windows_streamed(src, &opts).unwrap();
+        let w = crate::detect::windows::detect_windows_untimed(src, &opts).unwrap();
         format!(
             "{:?} {:?} {:?} {:?}",
             w.stats, w.clock, w.units, w.reference_variance

@@ -5,7 +5,6 @@ use crate::detect::windows::{detect_windows_untimed, DetectOptions, Windows};
 use crate::error::fit::FitError;
 use crate::error::Result;
 use crate::input::recording::Recording;
-use crate::input::text_source::TextSource;
 use serde::Serialize;
 use wiical_core::multipos::{self, MultiPosConfig, MultiPosFit, MultiPosModel};
 use wiical_core::Calibration;
@@ -96,13 +95,6 @@ pub fn run(rec: &Recording, opts: &FitOptions) -> Result<FitReport> {
         &detect_windows_untimed(rec, &opts.detect)?,
         opts,
     )?)
-}
-
-/// [`run`] on a large text file streamed in passes ([`TextSource`]: the samples are never
-/// held): the same windows ([`crate::detect::windows::detect_windows_streamed`]) and the same fit.
-pub fn run_streamed(src: &TextSource, opts: &FitOptions) -> Result<FitReport> {
-    let ws = crate::detect::windows::detect_windows_streamed(src, &opts.detect)?;
-    Ok(run_windows(&ws, opts)?)
 }
 
 /// The fit of windows already found: detected by [`run`], or read from a window-mean table

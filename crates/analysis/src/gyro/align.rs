@@ -116,6 +116,13 @@ impl TextImu {
         self.acc.is_empty()
     }
 
+    /// Whether the passes read both files whole (a file changed or unreadable during one is
+    /// that file's error).
+    pub(super) fn check(&self) -> crate::Result<()> {
+        self.acc.check().map_err(|e| e.in_file(&self.acc_path))?;
+        self.gyro.check().map_err(|e| e.in_file(&self.gyro_path))
+    }
+
     /// The largest difference of the two clocks on one row ([`super::samples::clocks`]),
     /// without a pass when the rows are the same (one file's, none skipped in either triplet).
     pub(super) fn worst_clock_s(&self) -> Result<f64> {

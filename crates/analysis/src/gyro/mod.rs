@@ -92,17 +92,21 @@ pub fn run(acc: &Recording, gyro: &Recording, opts: &GyroOptions) -> Result<Gyro
 /// recordings held. A file that changed or could not be read during a pass is that file's
 /// error.
 pub fn run_text(imu: &TextImu, opts: &GyroOptions) -> crate::Result<GyroReport> {
-    check_nominal_scale(opts)?;
+    Ok(run_passes(imu, opts)??)
+}
+
+/// [`run_text`] with a file's failure (outside) apart from the fit's own error (inside: what
+/// the fallback to the protocol's methods reads, [`GyroError::says_another_protocol`]).
+fn run_passes(imu: &TextImu, opts: &GyroOptions) -> crate::Result<Result<GyroReport>> {
     let failed = RefCell::new(None);
-    let out = imu
-        .worst_clock_s()
+    let out = check_nominal_scale(opts)
+        .and_then(|()| imu.worst_clock_s())
         .and_then(|worst| run_on(&Imu::new((&imu.acc, &imu.gyro), Some(worst), &failed), opts));
     if let Some(e) = failed.take() {
         return Err(e.in_file(&imu.acc_path));
     }
-    imu.acc.check().map_err(|e| e.in_file(&imu.acc_path))?;
-    imu.gyro.check().map_err(|e| e.in_file(&imu.gyro_path))?;
-    Ok(out?)
+    imu.check()?;
+    Ok(out)
 }
 
 /// [`run`] on the paired rows `imu`, held or a large file's (one code: every stage reads the

@@ -8,10 +8,15 @@
 use super::nominal::{nominal_from_columns, nominal_given_usable};
 use super::options::GyroOptions;
 use super::report::GyroReport;
+use super::{GyroError, TextImu};
+use crate::calibrate::GyroOutcome;
 use crate::detect::windows::DetectOptions;
 pub use crate::error::gyro::{GyroArgError, NominalSetting};
+use crate::input::columns::{all_named, Sensor};
 use crate::input::recording::Recording;
 use crate::input::text::LoadOptions;
+use crate::protocol::gyro::GyroProtocolReport;
+use crate::protocol::gyro::{self as protocol, GyroProtocolError, GyroProtocolOptions};
 use std::path::PathBuf;
 
 /// A `gyrofit` request: the recording (one file with accelerometer and gyro columns, or the
@@ -38,6 +43,11 @@ pub struct GyrofitRequest {
     /// Held-out errors by a refit per motion instead of one Gauss–Newton step
     /// ([`GyroOptions::exact_held_out`]).
     pub exact_held_out: bool,
+    /// Known table rates, °/s (0 for a rest part): the protocol's known-rate method instead
+    /// of the motions ([`crate::protocol::rates`]).
+    pub table_rates_dps: Option<Vec<f64>>,
+    /// The angle of each full turn between rests (Ferraris), degrees.
+    pub rotation_deg: f64,
 }
 
 impl GyrofitRequest {
@@ -51,6 +61,8 @@ impl GyrofitRequest {
             counts_per_dps: None,
             detect: DetectOptions::default(),
             exact_held_out: false,
+            table_rates_dps: None,
+            rotation_deg: 360.0,
         }
     }
 
@@ -105,19 +117,131 @@ fn per_axis(v: &[f64], setting: NominalSetting) -> Result<[f64; 3], GyroArgError
     }
 }
 
+/// The recording `gyrofit` reads: held, or large plain text files read in passes
+/// ([`super::open_text`]).
+/// One value per run: the variants' sizes do not matter.
+#[allow(clippy::large_enum_variant)]
+#[derive(Debug)]
+pub enum GyroInput {
+    /// The accelerometer's recording and the gyro's, held.
+    Held(Recording, Recording),
+    /// Both read in passes, never held.
+    Streamed(TextImu),
+}
+
+impl GyroInput {
+    /// The accelerometer's recording (without its samples when streamed: columns, notes).
+    pub fn accelerometer(&self) -> &Recording {
+        match self {
+            GyroInput::Held(acc, _) => acc,
+            GyroInput::Streamed(imu) => imu.accelerometer(),
+        }
+    }
+
+    /// The gyro's recording (without its samples when streamed).
+    pub fn gyroscope(&self) -> &Recording {
+        match self {
+            GyroInput::Held(_, gyro) => gyro,
+            GyroInput::Streamed(imu) => imu.gyroscope(),
+        }
+    }
+
+    /// The motion fit ([`super::run`], [`super::run_text`]); a file's failure outside, the
+    /// fit's own error inside.
+    fn motions(&self, opts: &GyroOptions) -> crate::Result<Result<GyroReport, GyroError>> {
+        match self {
+            GyroInput::Held(acc, gyro) => Ok(super::run(acc, gyro, opts)),
+            GyroInput::Streamed(imu) => super::run_passes(imu, opts),
+        }
+    }
+
+    /// The protocol's method on the gyro (with the accelerometer when `with_acc`), held or
+    /// in passes: one code ([`crate::protocol::gyro::run`]).
+    fn protocol(
+        &self,
+        with_acc: bool,
+        opts: &GyroProtocolOptions,
+    ) -> crate::Result<Result<GyroProtocolReport, GyroProtocolError>> {
+        Ok(match self {
+            GyroInput::Held(acc, gyro) => protocol::run(with_acc.then_some(acc), gyro, opts),
+            GyroInput::Streamed(imu) => {
+                let rep = protocol::run(with_acc.then_some(&imu.acc), &imu.gyro, opts);
+                imu.check()?;
+                rep
+            }
+        })
+    }
+}
+
+/// What `gyrofit` found: the motion fit's report, or the recognised protocol's method's
+/// (its JSON is the report's).
+#[derive(Debug)]
+pub struct Gyrofit {
+    /// The report.
+    pub report: GyroOutcome,
+    /// Why the motions between poses gave no calibration, when the protocol's method was
+    /// used because of it (a note beside the report).
+    pub motion_error: Option<GyroError>,
+}
+
+impl serde::Serialize for Gyrofit {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        self.report.serialize(s)
+    }
+}
+
 /// Runs `gyrofit` as the library call: reads the file (or the pair) whole with the loader's
-/// defaults, then the gyro loop ([`super::run`]). The command line reads on its own (large
-/// files in passes, a MotionPlus capture, the protocol methods' fallback) and shares the
-/// request's checks and options.
-pub fn gyrofit(req: &GyrofitRequest) -> crate::Result<GyroReport> {
+/// defaults, then [`gyrofit_of`]. The command line reads on its own (large files in passes, a
+/// MotionPlus capture) and calls [`gyrofit_of`].
+pub fn gyrofit(req: &GyrofitRequest) -> crate::Result<Gyrofit> {
     let gyro_columns = req.gyro_columns()?;
     let load = LoadOptions::default();
     let (acc, gyro) = match &req.gyro_file {
         Some(g) => (crate::load(&req.file, &load)?, crate::load(g, &load)?),
         None => crate::input::front_door::load_imu(&req.file, &load, gyro_columns)?,
     };
-    let opts = req.options(&gyro)?;
-    Ok(super::run(&acc, &gyro, &opts)?)
+    gyrofit_of(req, &GyroInput::Held(acc, gyro))
+}
+
+/// `gyrofit` on the recording `input`: a gyro-only file (the loader took the gyro's named
+/// columns for the accelerometer: the file has none) or known table rates go to the
+/// protocol's methods ([`crate::protocol::gyro`]); otherwise the motions between poses, and
+/// the protocol's methods when those say the recording is another protocol's. When neither
+/// gives a calibration, the motion fit's error is the one returned.
+pub fn gyrofit_of(req: &GyrofitRequest, input: &GyroInput) -> crate::Result<Gyrofit> {
+    let (acc, gyro) = (input.accelerometer(), input.gyroscope());
+    let opts = req.options(gyro)?;
+    let popts = GyroProtocolOptions {
+        rotation_deg: req.rotation_deg,
+        table_rates_dps: req.table_rates_dps.clone(),
+        detect: opts.detect.clone(),
+        nominal_rad_per_raw: (!opts.estimate_nominal).then_some(opts.nominal_rad_per_count),
+    };
+    // The same triplet given as both by hand stays the motion fit's to judge.
+    let gyro_only = req.gyro_file.is_none()
+        && acc.axis_columns == gyro.axis_columns
+        && all_named(&gyro.axis_columns, Sensor::Gyroscope);
+    let motion_error = if gyro_only || req.table_rates_dps.is_some() {
+        None
+    } else {
+        match input.motions(&opts)? {
+            Ok(rep) => {
+                return Ok(Gyrofit {
+                    report: GyroOutcome::Motions(Box::new(rep)),
+                    motion_error: None,
+                })
+            }
+            Err(e) if e.says_another_protocol() => Some(e),
+            Err(e) => return Err(e.into()),
+        }
+    };
+    match input.protocol(!gyro_only, &popts)? {
+        Ok(rep) => Ok(Gyrofit {
+            report: GyroOutcome::Protocol(Box::new(rep)),
+            motion_error,
+        }),
+        Err(e) => Err(motion_error.map_or_else(|| e.into(), Into::into)),
+    }
 }
 
 #[cfg(test)]

@@ -9,10 +9,10 @@
 use super::faces::{window_face, zero_reading};
 use super::g_sensitivity::{fit_g_sensitivity, GSensitivityFit, GyroRest};
 use super::rates::{fit_rates, steady_runs, RateFit, SteadyMean};
-use super::rotations::{fit_turns, turns, Turn, TurnFit, TurnInput};
+use super::rotations::{fit_turns, turns, Turn, TurnFit, TurnInput, TurnSample};
 use super::vec3::{norm, sub};
-use crate::detect::windows::{detect_windows, DetectOptions, Windows};
-use crate::input::recording::Recording;
+use crate::detect::windows::{detect_windows_of, time_of, DetectOptions, Windows};
+use crate::source::RowSource;
 use serde::Serialize;
 
 impl GyroProtocolReport {
@@ -134,13 +134,14 @@ impl Pooled {
 }
 
 /// Runs the gyro's protocol method on `gyro` (and the accelerometer `acc` of the same samples,
-/// when the file has one).
-pub fn run(
-    acc: Option<&Recording>,
-    gyro: &Recording,
+/// when the file has one): held recordings or large files read in passes, one code (whether
+/// a file's pass failed is for the caller to ask after it: [`RowSource::check`]).
+pub fn run<R: RowSource + ?Sized>(
+    acc: Option<&R>,
+    gyro: &R,
     opts: &GyroProtocolOptions,
 ) -> Result<GyroProtocolReport> {
-    let gws = detect_windows(gyro, &opts.detect).map_err(GyroProtocolError::Detect)?;
+    let gws = detect_windows_of(gyro, &opts.detect, false).map_err(GyroProtocolError::Detect)?;
     let rest_idx = rests_of(&gws);
     if let Some(rates) = &opts.table_rates_dps {
         return Ok(rate_table(gyro, &gws, &rest_idx, rates, opts));
@@ -151,7 +152,7 @@ pub fn run(
     let mut rep = rest_report(&gws, &rest_idx, opts);
     let bias = rep.bias;
     let levels = turning_levels(&gws, &rest_idx, bias);
-    match (acc, gyro.t.is_some() || gyro.sample_rate_hz.is_some()) {
+    match (acc, gyro.has_time() || gyro.metadata_rate_hz().is_some()) {
         (Some(acc), true) => ferraris(acc, gyro, (&gws, &rest_idx), bias, opts, &mut rep),
         (_, false) => rep.notes.push(
             "the file has no clock (no time column, no Fs): turns between rests cannot be \
@@ -261,9 +262,9 @@ fn rest_only_notes(rep: &mut GyroProtocolReport, levels: Vec<f64>) {
 }
 
 /// Full turns between the accelerometer's rests, and the Ferraris fit when x, y, z turned.
-fn ferraris(
-    acc: &Recording,
-    gyro: &Recording,
+fn ferraris<R: RowSource + ?Sized>(
+    acc: &R,
+    gyro: &R,
     (gws, rest_idx): (&Windows, &[usize]),
     bias: [f64; 3],
     opts: &GyroProtocolOptions,
@@ -278,33 +279,26 @@ fn ferraris(
         .filter(|(s, e)| e > s)
         .collect();
     rests.sort_unstable();
-    let means: Vec<[f64; 3]> = rests
-        .iter()
-        .map(|(s, e)| {
-            let n = (e - s) as f64;
-            std::array::from_fn(|a| acc.xyz[*s..*e].iter().map(|x| x[a]).sum::<f64>() / n)
-        })
-        .collect();
-    let units = if acc.is_integer() { "raw" } else { "g" };
+    let (means, integer) = span_means(acc, &rests);
+    let units = if integer { "raw" } else { "g" };
     let zero = zero_reading(&means, units);
     let dirs: Vec<[f64; 3]> = means
         .iter()
         .map(|m| window_face(*m, zero).direction)
         .collect();
-    let times = gyro.times(opts.detect.default_rate_hz);
     let raw_per_dps = opts
         .nominal_rad_per_raw
         .map(|s| 1f64.to_radians() / s[0].abs());
     let inp = TurnInput {
-        gyro: &gyro.xyz,
-        times: &times,
         rests: &rests,
         rest_directions: Some(&dirs),
         bias,
         raw_per_dps,
-        offset: None,
     };
-    rep.turns = turns(&inp);
+    let fs = gyro
+        .metadata_rate_hz()
+        .unwrap_or(opts.detect.default_rate_hz);
+    rep.turns = turns(samples(gyro, fs, None), gyro.len(), &inp);
     let full: Vec<&Turn> = rep.turns.iter().filter(|t| t.full_turn).collect();
     let axes: Vec<String> = full.iter().filter_map(|t| t.axis.clone()).collect();
     let full = full.len();
@@ -317,12 +311,56 @@ fn ferraris(
                 axes.join(", "),
                 opts.rotation_deg
             );
-            let fit = with_g_sensitivity(acc, (gws, rest_idx), &inp, fit, opts, rep);
+            let rests = (gws, rest_idx, means.as_slice());
+            let fit = with_g_sensitivity((acc, gyro, fs), rests, &inp, fit, opts, rep);
             ferraris_verdict(fit, opts, rep);
         }
         Err(e) if full > 0 => rep.notes.push(e.to_string()),
         Err(_) => {}
     }
+}
+
+/// The mean of `src`'s rows over each of the sorted, disjoint `spans` (one pass, each sum in
+/// row order), and whether every value is a whole number.
+fn span_means<R: RowSource + ?Sized>(src: &R, spans: &[(usize, usize)]) -> (Vec<[f64; 3]>, bool) {
+    // A sum of no terms as `Iterator::sum` starts it (the sign of an all-zero sum kept).
+    let zero: f64 = std::iter::empty::<f64>().sum();
+    let mut sums = vec![[zero; 3]; spans.len()];
+    let (mut k, mut integer) = (0, true);
+    for (i, r) in src.rows().enumerate() {
+        integer &= r.xyz.iter().all(|v| v.fract() == 0.0);
+        while spans.get(k).is_some_and(|s| s.1 <= i) {
+            k += 1;
+        }
+        if spans.get(k).is_some_and(|s| s.0 <= i) {
+            (0..3).for_each(|a| sums[k][a] += r.xyz[a]);
+        }
+    }
+    let means = spans
+        .iter()
+        .zip(sums)
+        .map(|((s, e), sum)| sum.map(|v| v / (e - s) as f64))
+        .collect();
+    (means, integer)
+}
+
+/// A gyro offset (raw) from the accelerometer's reading beside it.
+type Offset<'a> = dyn Fn([f64; 3]) -> [f64; 3] + 'a;
+
+/// The gyro's samples as the turns integrate them ([`TurnSample`]): the time of each row
+/// (`fs` without a time column), and `off` of the accelerometer's row beside it (of zeros past
+/// the accelerometer's rows; no offset without `off`).
+fn samples<'a, R: RowSource + ?Sized>(
+    gyro: &'a R,
+    fs: f64,
+    off: Option<(&'a R, &'a Offset<'a>)>,
+) -> impl Iterator<Item = TurnSample> + 'a {
+    let acc = off.map(|(a, _)| a.rows()).into_iter().flatten();
+    let acc = acc.map(|r| r.xyz).chain(std::iter::repeat([0.0; 3]));
+    gyro.rows().zip(acc).enumerate().map(move |(i, (r, a))| {
+        let o = off.map_or([0.0; 3], |(_, f)| f(a));
+        (time_of(r.t, i, fs), r.xyz, o)
+    })
 }
 
 /// The Ferraris fit into the report, with its verdict.
@@ -359,12 +397,13 @@ fn ferraris_verdict(fit: TurnFit, opts: &GyroProtocolOptions, rep: &mut GyroProt
 }
 
 /// Ferraris: the gyro's g-sensitivity from its rests against the accelerometer's calibrated
-/// reading ([`super::g_sensitivity`]), then the turns integrated again without it (each
-/// sample less `b + H·a(t)`, as imucal integrates them) and `K` fitted again. When the rests
-/// or the accelerometer cannot give it, `fit` is kept and a note says why.
-fn with_g_sensitivity(
-    acc: &Recording,
-    (gws, rest_idx): (&Windows, &[usize]),
+/// reading ([`super::g_sensitivity`]; the rests' accelerometer means as [`span_means`] took
+/// them), then the turns integrated again without it (each sample less `b + H·a(t)`, as
+/// imucal integrates them) and `K` fitted again. When the rests or the accelerometer cannot
+/// give it, `fit` is kept and a note says why.
+fn with_g_sensitivity<R: RowSource + ?Sized>(
+    (acc, gyro, fs): (&R, &R, f64),
+    (gws, rest_idx, means): (&Windows, &[usize], &[[f64; 3]]),
     inp: &TurnInput,
     fit: TurnFit,
     opts: &GyroProtocolOptions,
@@ -378,22 +417,17 @@ fn with_g_sensitivity(
         );
         return fit;
     };
-    let force = |s: usize, e: usize| -> [f64; 3] {
-        let e = e.min(acc.len());
-        let n = e.saturating_sub(s).max(1) as f64;
-        let m: [f64; 3] =
-            std::array::from_fn(|a| acc.xyz[s..e].iter().map(|x| x[a]).sum::<f64>() / n);
-        apply(&cal, m)
-    };
+    // The rests with accelerometer rows, in time order: the ones `means` was taken over.
     let rests: Vec<GyroRest> = rest_idx
         .iter()
         .map(|i| &gws.stats[*i])
         .filter(|w| w.start < acc.len())
-        .map(|w| GyroRest {
+        .zip(means)
+        .map(|(w, m)| GyroRest {
             mean: w.mean,
             var: w.var,
             samples: w.n().unwrap_or(1),
-            specific_force_g: force(w.start, w.end),
+            specific_force_g: apply(&cal, *m),
         })
         .collect();
     let gf = match fit_g_sensitivity(&rests) {
@@ -404,16 +438,15 @@ fn with_g_sensitivity(
         }
     };
     let h = gf.raw_per_g;
-    let offset = |i: usize| -> [f64; 3] {
-        let a = apply(&cal, acc.xyz.get(i).copied().unwrap_or([0.0; 3]));
+    let offset = |m: [f64; 3]| -> [f64; 3] {
+        let a = apply(&cal, m);
         std::array::from_fn(|r| (0..3).map(|c| h[r][c] * a[c]).sum())
     };
     let again = TurnInput {
         bias: gf.bias,
-        offset: Some(&offset),
         ..*inp
     };
-    let turned = turns(&again);
+    let turned = turns(samples(gyro, fs, Some((acc, &offset))), gyro.len(), &again);
     let Ok(refit) = fit_turns(&turned, gf.bias, opts.rotation_deg) else {
         return fit;
     };
@@ -426,11 +459,11 @@ fn with_g_sensitivity(
 
 /// The accelerometer's calibration by its own protocol's method (the six faces of a Ferraris
 /// session: the six-position method), `None` when it gives none.
-fn accel_calibration(
-    acc: &Recording,
+fn accel_calibration<R: RowSource + ?Sized>(
+    acc: &R,
     opts: &GyroProtocolOptions,
 ) -> Option<wiical_core::Calibration> {
-    let ws = detect_windows(acc, &opts.detect).ok()?;
+    let ws = detect_windows_of(acc, &opts.detect, false).ok()?;
     let fit_opts = crate::fit::base::FitOptions {
         detect: opts.detect.clone(),
         ..Default::default()
@@ -446,8 +479,8 @@ fn apply(cal: &wiical_core::Calibration, m: [f64; 3]) -> [f64; 3] {
 }
 
 /// The known-rate method on the gyro's steady windows.
-fn rate_table(
-    gyro: &Recording,
+fn rate_table<R: RowSource + ?Sized>(
+    gyro: &R,
     gws: &Windows,
     rests: &[usize],
     rates: &[f64],
@@ -456,7 +489,7 @@ fn rate_table(
     let mut rep = rest_report(gws, rests, opts);
     rep.method = "rate-table";
     let rest_sd = Pooled::of(gws, rests).var.map(f64::sqrt);
-    let steady: Vec<SteadyMean> = steady_runs(&gyro.xyz, rep.bias, rest_sd);
+    let steady: Vec<SteadyMean> = steady_runs(gyro.rows().map(|r| r.xyz), rep.bias, rest_sd);
     match fit_rates(&steady, rates) {
         Ok(fit) => {
             let turning = fit.windows.iter().filter(|w| w.rate_dps > 0.0).count();

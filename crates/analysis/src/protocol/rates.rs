@@ -118,20 +118,31 @@ pub const STEADY_BLOCK: usize = 32;
 /// (a turntable's spin shakes the sensor: its noise grows with the rate, which the still-window
 /// detector, tuned on the quietest blocks, refuses), joined while their means agree within
 /// 1 % of the rate (or the rest's noise); the interior of runs of at least 3 blocks is kept.
-pub fn steady_runs(xyz: &[[f64; 3]], bias: [f64; 3], rest_sd: [f64; 3]) -> Vec<SteadyMean> {
-    let blocks: Vec<Option<[f64; 3]>> = xyz
-        .chunks_exact(STEADY_BLOCK)
-        .map(|b| {
-            let n = b.len() as f64;
-            let mean: [f64; 3] = std::array::from_fn(|a| b.iter().map(|s| s[a]).sum::<f64>() / n);
-            let rate = norm(sub(mean, bias));
-            let steady = (0..3).all(|a| {
-                let v = b.iter().map(|s| (s[a] - mean[a]).powi(2)).sum::<f64>() / (n - 1.0);
-                v.sqrt() <= (4.0 * rest_sd[a]).max(0.06 * rate)
-            });
-            steady.then_some(mean)
-        })
-        .collect();
+/// `xyz`: the gyro's samples in one pass, in order (held or a large file's rows alike).
+pub fn steady_runs(
+    xyz: impl Iterator<Item = [f64; 3]>,
+    bias: [f64; 3],
+    rest_sd: [f64; 3],
+) -> Vec<SteadyMean> {
+    let block = |b: &[[f64; 3]]| {
+        let n = b.len() as f64;
+        let mean: [f64; 3] = std::array::from_fn(|a| b.iter().map(|s| s[a]).sum::<f64>() / n);
+        let rate = norm(sub(mean, bias));
+        let steady = (0..3).all(|a| {
+            let v = b.iter().map(|s| (s[a] - mean[a]).powi(2)).sum::<f64>() / (n - 1.0);
+            v.sqrt() <= (4.0 * rest_sd[a]).max(0.06 * rate)
+        });
+        steady.then_some(mean)
+    };
+    let mut blocks: Vec<Option<[f64; 3]>> = Vec::new();
+    let mut buf = Vec::with_capacity(STEADY_BLOCK);
+    for s in xyz {
+        buf.push(s);
+        if buf.len() == STEADY_BLOCK {
+            blocks.push(block(&buf));
+            buf.clear();
+        }
+    }
     let mut runs: Vec<Vec<[f64; 3]>> = Vec::new();
     let mut open: Vec<[f64; 3]> = Vec::new();
     for b in blocks {

@@ -40,12 +40,8 @@ pub struct Turn {
     pub full_turn: bool,
 }
 
-/// The gyro's readings around the rests: what a turn needs.
+/// The rests and what a turn between two of them is judged by.
 pub struct TurnInput<'a> {
-    /// Gyro samples, raw.
-    pub gyro: &'a [[f64; 3]],
-    /// Sample times, s.
-    pub times: &'a [f64],
     /// Rests: sample ranges `[start, end)`, in time order.
     pub rests: &'a [(usize, usize)],
     /// The accelerometer's direction in each rest (unit), when there is one.
@@ -54,25 +50,59 @@ pub struct TurnInput<'a> {
     pub bias: [f64; 3],
     /// Nominal raw units per °/s, when known.
     pub raw_per_dps: Option<f64>,
-    /// A further offset of sample `i`, raw, taken off beside the bias: the g-sensitivity's
-    /// `H·a(t)` once it is known ([`super::g_sensitivity`]); `None`: the bias alone.
-    pub offset: Option<&'a dyn Fn(usize) -> [f64; 3]>,
 }
 
-/// The motions between consecutive rests, integrated by the trapezoid rule; full turns
-/// marked ([`Turn::full_turn`]).
-pub fn turns(inp: &TurnInput) -> Vec<Turn> {
-    let mut out: Vec<Turn> = inp
+/// One gyro sample as a turn integrates it: its time (s), its reading (raw), and a further
+/// offset (raw) taken off beside the bias — the g-sensitivity's `H·a(t)` once it is known
+/// ([`super::g_sensitivity`]), else zero.
+pub type TurnSample = (f64, [f64; 3], [f64; 3]);
+
+/// The motions between consecutive rests of the `n` samples `samples` (one pass, in order:
+/// held or a large file's rows alike), integrated by the trapezoid rule; full turns marked
+/// ([`Turn::full_turn`]).
+pub fn turns(samples: impl Iterator<Item = TurnSample>, n: usize, inp: &TurnInput) -> Vec<Turn> {
+    // (rest pair, first sample, last sample) of each motion: the last of a rest to the first
+    // of the next.
+    let spans: Vec<(usize, usize, usize)> = inp
         .rests
         .windows(2)
         .enumerate()
-        .filter_map(|(k, pair)| {
-            let (s, e) = (
-                pair[0].1.saturating_sub(1),
-                pair[1].0.min(inp.gyro.len() - 1),
-            );
-            (e > s).then(|| turn(inp, k, s, e))
-        })
+        .map(|(k, p)| (k, p[0].1.saturating_sub(1), p[1].0.min(n.saturating_sub(1))))
+        .filter(|(_, s, e)| e > s)
+        .collect();
+    let mut found: Vec<([f64; 3], f64, f64)> = vec![([0.0; 3], 0.0, 0.0); spans.len()];
+    let last = spans.last().map_or(0, |s| s.2);
+    let (mut first, mut prev): (usize, Option<(f64, [f64; 3])>) = (0, None);
+    for (i, (t, m, o)) in samples.enumerate().take(last + 1) {
+        let y: [f64; 3] = std::array::from_fn(|a| m[a] - inp.bias[a] - o[a]);
+        while spans.get(first).is_some_and(|s| s.2 < i) {
+            first += 1;
+        }
+        // At most two motions touch a sample: one ends at it, the next starts at it.
+        for (j, &(_, s, e)) in spans.iter().enumerate().skip(first) {
+            if s > i {
+                break;
+            }
+            let f = &mut found[j];
+            if i == s {
+                f.1 = t;
+            }
+            if let (true, Some((t0, y0))) = (i > s, prev) {
+                let dt = t - t0;
+                for (a, acc) in f.0.iter_mut().enumerate() {
+                    *acc += 0.5 * (y0[a] + y[a]) * dt;
+                }
+            }
+            if i == e {
+                f.2 = t;
+            }
+        }
+        prev = Some((t, y));
+    }
+    let mut out: Vec<Turn> = spans
+        .iter()
+        .zip(found)
+        .map(|(&(k, _, _), (integral, t_start, t_end))| turn(inp, k, integral, (t_start, t_end)))
         .collect();
     drop_small_turns(&mut out);
     out
@@ -94,18 +124,8 @@ fn drop_small_turns(turns: &mut [Turn]) {
     }
 }
 
-fn turn(inp: &TurnInput, k: usize, s: usize, e: usize) -> Turn {
-    let mut integral = [0.0; 3];
-    let off = |i: usize| inp.offset.map_or([0.0; 3], |f| f(i));
-    for i in s..e {
-        let dt = inp.times[i + 1] - inp.times[i];
-        let (o0, o1) = (off(i), off(i + 1));
-        for (a, acc) in integral.iter_mut().enumerate() {
-            let y0 = inp.gyro[i][a] - inp.bias[a] - o0[a];
-            let y1 = inp.gyro[i + 1][a] - inp.bias[a] - o1[a];
-            *acc += 0.5 * (y0 + y1) * dt;
-        }
-    }
+/// The motion after rest `k`, from its integral `∫(m − b)dt` (raw × s) and its times.
+fn turn(inp: &TurnInput, k: usize, integral: [f64; 3], (t_start, t_end): (f64, f64)) -> Turn {
     let pose_change_deg = inp.rest_directions.map(|d| angle_deg(d[k], d[k + 1]));
     let axis = axis_of(integral);
     let angle_deg = inp.raw_per_dps.map(|s| norm(integral) / s);
@@ -114,8 +134,8 @@ fn turn(inp: &TurnInput, k: usize, s: usize, e: usize) -> Turn {
         && angle_deg.is_none_or(|a| a >= 180.0);
     Turn {
         after_rest: k,
-        t_start: inp.times[s],
-        t_end: inp.times[e],
+        t_start,
+        t_end,
         integral,
         angle_deg,
         pose_change_deg,
@@ -235,18 +255,18 @@ mod tests {
             }
             rest(&mut gyro, &mut rests);
         }
-        let times: Vec<f64> = (0..gyro.len()).map(|i| i as f64 / 100.0).collect();
         let dirs = vec![[0.0, 0.0, 1.0]; rests.len()];
         let inp = TurnInput {
-            gyro: &gyro,
-            times: &times,
             rests: &rests,
             rest_directions: Some(&dirs),
             bias: b,
             raw_per_dps: Some(1.0),
-            offset: None,
         };
-        let ts = turns(&inp);
+        let samples = gyro
+            .iter()
+            .enumerate()
+            .map(|(i, m)| (i as f64 / 100.0, *m, [0.0; 3]));
+        let ts = turns(samples, gyro.len(), &inp);
         assert_eq!(ts.len(), 3);
         assert!(ts.iter().all(|t| t.full_turn), "{ts:?}");
         let fit = fit_turns(&ts, b, 360.0).unwrap();

@@ -18,7 +18,7 @@
 //!    with `t₀` the time of the first sample ([`AnalyzeReport::time_origin_s`]).
 
 #![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x > 0.0)` is deliberately true for NaN.
-use crate::detect::windows::{detect_windows, detect_windows_streamed, Windows};
+use crate::detect::windows::{detect_windows, detect_windows_untimed, Windows};
 use crate::error::search::SearchError;
 use crate::error::Result;
 use crate::fit::base::fit_means_named;
@@ -66,12 +66,12 @@ pub fn analyze(rec: &Recording, opts: &AnalyzeOptions) -> Result<AnalyzeReport> 
 }
 
 /// [`analyze`] on a large text file streamed in passes ([`TextSource`]: the samples are never
-/// held): the same windows ([`crate::detect::windows::detect_windows_streamed`]) and the same report.
+/// held): the same windows ([`crate::detect::windows::detect_windows_untimed`]) and the same report.
 pub fn analyze_streamed(src: &TextSource, opts: &AnalyzeOptions) -> Result<AnalyzeReport> {
     check_rule(opts.alpha, opts.cv_factor)?;
     let report = |stage, done, total| opts.progress.report(Progress { stage, done, total });
     report(Stage::Windows, 0, 0);
-    let ws = detect_windows_streamed(src, &opts.fit.detect)?;
+    let ws = detect_windows_untimed(src, &opts.fit.detect)?;
     let recognised = crate::protocol::recognise(&ws);
     if crate::protocol::labelled::six_faces_or_free(&recognised)? {
         // The six-position contrasts read every face's samples, which a streamed file does
