@@ -30,7 +30,7 @@ use wiical_analysis::{
     input::columns::Sensor, AnalyzeOptions, Candidate, DetectOptions, FitOptions, LoadOptions,
     Recording,
 };
-use wiical_analysis::{Progress, ProgressHook};
+use wiical_analysis::{Progress, ProgressHook, SampleInput};
 use wiical_core::multipos::MultiPosModel;
 
 create_exception!(
@@ -327,16 +327,28 @@ fn analyze(
     to_json(&judged)
 }
 
-/// Samples of a file as `read` returns them (the magnetometer's triplet for `magfit`).
+/// The samples of a request: a file (read by the engine, as the CLI reads it), or arrays
+/// (checked here as the loader checks a file's rows).
+fn sample_input(source: Source<'_>) -> PyResult<SampleInput> {
+    match source {
+        Source::Path(path) => Ok(SampleInput::File(path)),
+        Source::Arrays(xyz, t, temp) => Ok(SampleInput::from(recording_from_arrays(
+            &xyz,
+            t.as_ref(),
+            temp.as_ref(),
+        )?)),
+    }
+}
+
+/// Samples of a file as `read` returns them.
 fn samples_of(
     py: Python<'_>,
     source: Source<'_>,
     columns: Option<Vec<String>>,
-    sensor: Option<Sensor>,
 ) -> PyResult<Recording> {
     match source {
         Source::Path(path) => {
-            let opts = load_options(columns, sensor)?;
+            let opts = load_options(columns, None)?;
             py.detach(|| wiical_analysis::load(&path, &opts))
                 .map_err(py_err)
         }
@@ -344,7 +356,8 @@ fn samples_of(
     }
 }
 
-/// `wiical magfit --json`: hard/soft-iron fit of magnetometer points.
+/// `wiical magfit --json`: hard/soft-iron fit of magnetometer points and the residual loop,
+/// by the engine's one request ([`wiical_analysis::MagfitRequest`]).
 #[pyfunction]
 #[pyo3(signature = (source, model="ellipsoid", columns=None))]
 fn magfit(
@@ -353,29 +366,15 @@ fn magfit(
     model: &str,
     columns: Option<Vec<String>>,
 ) -> PyResult<String> {
-    use wiical_analysis::magnetometer as mag;
-    let model: mag::MagModel = model.parse().map_err(arg_err)?;
-    let rec = samples_of(py, source, columns, Some(Sensor::Magnetometer))?;
-    let (rep, analysis) = py
-        .detach(|| {
-            let prep = mag::fit_source(&rec, model)?;
-            let alpha = wiical_analysis::search::select::ALPHA;
-            let analysis = mag::analyze_source(&rec, &prep, &[], model, alpha)?;
-            Ok::<_, wiical_analysis::Error>((prep.report, analysis))
-        })
+    let req = wiical_analysis::MagfitRequest {
+        model: model.parse().map_err(arg_err)?,
+        columns,
+        ..wiical_analysis::MagfitRequest::new(sample_input(source)?)
+    };
+    let out = py
+        .detach(|| wiical_analysis::magfit(&req))
         .map_err(py_err)?;
-    // The CLI's `--json`: the fit's keys, then the loop's.
-    #[derive(serde::Serialize)]
-    struct Json<'a> {
-        #[serde(flatten)]
-        fit: &'a mag::MagFitReport,
-        #[serde(flatten)]
-        analysis: &'a mag::MagAnalysis,
-    }
-    to_json(&Json {
-        fit: &rep,
-        analysis: &analysis,
-    })
+    to_json(&out)
 }
 
 /// `wiical calibrate --json`: every sensor of a recording with its recognised protocol's
@@ -739,25 +738,16 @@ fn noise(
     columns: Option<Vec<String>>,
     stream_from_bytes: Option<u64>,
 ) -> PyResult<String> {
-    use wiical_analysis::noise::report::{noise_of, open_sensors, Sensors};
-    let rate_hz = rate("rate_hz", rate_hz)?;
+    let req = wiical_analysis::NoiseRequest {
+        columns,
+        read: read_options(stream_from_bytes),
+        rate_hz: rate("rate_hz", rate_hz)?,
+        ..wiical_analysis::NoiseRequest::new(sample_input(source)?)
+    };
     // A file as `wiical noise` reads it: a large plain text file streamed in passes (memory: a
     // piece of it and the Allan sums), not held — which stops at the size cap of files read
     // whole (256 MiB) where the command line reads on.
-    let sensors = match source {
-        Source::Path(path) => {
-            let columns = load_options(columns, None)?.columns;
-            let read = read_options(stream_from_bytes);
-            py.detach(|| open_sensors(&path, columns, &read))
-                .map_err(py_err)?
-        }
-        Source::Arrays(xyz, t, temp) => Sensors::Held(vec![recording_from_arrays(
-            &xyz,
-            t.as_ref(),
-            temp.as_ref(),
-        )?]),
-    };
-    let rep = py.detach(|| noise_of(&sensors, rate_hz)).map_err(py_err)?;
+    let rep = py.detach(|| wiical_analysis::noise(req)).map_err(py_err)?;
     to_json(&rep)
 }
 
@@ -777,21 +767,26 @@ fn tempcal(
     columns: Option<Vec<String>>,
 ) -> PyResult<String> {
     use wiical_analysis::tempcal::{TempcalError, TempcalOptions};
-    let opts = TempcalOptions {
-        t_ref_c: tref,
-        segments,
-        block_s,
-        pose_deg,
-        default_rate_hz: rate("rate_hz", rate_hz)?,
+    use wiical_analysis::{TempcalRequest, TempcalRunError};
+    let req = TempcalRequest {
+        columns,
+        options: TempcalOptions {
+            t_ref_c: tref,
+            segments,
+            block_s,
+            pose_deg,
+            default_rate_hz: rate("rate_hz", rate_hz)?,
+        },
+        ..TempcalRequest::new(sample_input(source)?)
     };
-    let rec = samples_of(py, source, columns, None)?;
     let rep = py
-        .detach(|| wiical_analysis::tempcal::tempcal(&rec, &opts))
+        .detach(|| wiical_analysis::tempcal(&req))
         .map_err(|e| match e {
-            TempcalError::Setting { what } => {
+            TempcalRunError::Read(e) => py_err(e),
+            TempcalRunError::Tempcal(TempcalError::Setting { what }) => {
                 arg_err(format!("{what} (tref, segments, block_s, pose_deg)"))
             }
-            other => WiicalError::new_err(other.to_string()),
+            TempcalRunError::Tempcal(other) => WiicalError::new_err(other.to_string()),
         })?;
     to_json(&rep)
 }
@@ -814,7 +809,7 @@ fn correct<'py>(
     let file = py
         .detach(|| read_calibration_file(&calibration))
         .map_err(py_err)?;
-    let rec = samples_of(py, source, columns, None)?;
+    let rec = samples_of(py, source, columns)?;
     let c = py
         .detach(|| wiical_analysis::correct::correct_recording(&file, &rec, rate_hz))
         .map_err(py_err)?;

@@ -31,14 +31,26 @@
 //! | autocalibration | [`autocal`] | still-epoch means (g) + temperature → van Hees et al. 2014 offset / scale / temperature (GGIR's method) |
 //! | gyroscope | [`gyro`] | accelerometer + gyro recordings → gyro scale / misalignment / bias by held-out error ([`gyro::run`]) |
 //! | magnetometer | [`magnetometer`] | points → sphere / ellipsoid hard/soft-iron fit, then its residual loop: noise floor, candidate effects, detection limits, verdict |
-//! | noise | [`noise`] | still recording → overlapping Allan deviation per axis and the IEEE 952 terms (`wiical noise`) |
-//! | temperature | [`tempcal`] | still warm-up + temperature → bias polynomial in T − T_ref; ArduPilot / PX4 parameter files (`wiical tempcal`) |
+//! | noise | [`noise`](mod@noise) | still recording → overlapping Allan deviation per axis and the IEEE 952 terms (`wiical noise`) |
+//! | temperature | [`tempcal`](mod@tempcal) | still warm-up + temperature → bias polynomial in T − T_ref; ArduPilot / PX4 parameter files (`wiical tempcal`) |
 //! | live session | [`live`] | samples as they come → poses, refit and verdict after each pose (`wiical live`) |
 //!
-//! Shared below them all: [`error`] (the error type) and [`stats`] (distribution functions).
+//! Shared below them all: [`error`] (the error type) and `stats` (distribution functions).
 //!
 //! [`pipeline::fit_judged`] and [`pipeline::analyze_judged`] are the entries of `wiical fit` and `wiical
 //! analyze`; [`analyze()`] runs the analysis on a [`Recording`] you hold.
+//!
+//! # One request, one function per pipeline
+//!
+//! The command line and the Python package build the same typed request and call the same
+//! function, so that the translation of what a user gives into the pipeline's settings exists
+//! once and argument errors are typed (they name no flag or keyword; each door names its own):
+//! [`gyrofit()`] with [`GyrofitRequest`], [`magfit()`] with [`MagfitRequest`], [`noise()`] with
+//! [`NoiseRequest`], [`tempcal()`] with [`TempcalRequest`]; the samples of a request are a file
+//! or samples held ([`SampleInput`]). The rooms' internals (statistics, folds, trials,
+//! designs) are the crate's own; the public items are listed in
+//! `docs/public-api/wiical-analysis.txt`, checked by `scripts/test`, so that the surface only
+//! grows on purpose.
 //!
 //! # Example: analysing samples from your own program
 //!
@@ -73,6 +85,7 @@
 
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
+#![warn(unnameable_types)]
 
 pub mod arrays;
 pub mod autocal;
@@ -91,9 +104,10 @@ pub mod output;
 pub mod pipeline;
 pub mod protocol;
 pub mod report;
+pub(crate) mod request;
 pub mod search;
 pub mod source;
-pub mod stats;
+pub(crate) mod stats;
 pub mod tempcal;
 
 pub use detect::windows::DetectOptions;
@@ -103,9 +117,13 @@ pub use gyro::request::{gyrofit, GyrofitRequest};
 pub use input::front_door::load;
 pub use input::recording::Recording;
 pub use input::text::{parse, LoadOptions};
+pub use magnetometer::request::{magfit, MagfitOutput, MagfitRequest};
+pub use noise::request::{noise, NoiseRequest};
 pub use report::contract::AnalyzeReport;
 pub use report::progress::{Progress, ProgressHook, Stage};
+pub use request::SampleInput;
 pub use search::analyze::analyze;
 pub use search::candidate::Candidate;
 pub use search::options::AnalyzeOptions;
+pub use tempcal::request::{tempcal, TempcalRequest, TempcalRunError};
 pub use wiical_core::Calibration;

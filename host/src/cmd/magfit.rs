@@ -1,16 +1,15 @@
 //! `wiical magfit`: magnetometer hard/soft-iron fit, and the residual loop around it (noise
 //! floor, candidate effects, detection limits, verdict).
 
-use super::{check_outputs, load_options, print_notes, to_json, with_spinner, write_calibration};
+use super::{check_outputs, print_notes, to_json, with_spinner, write_calibration};
 use crate::cli_error::cli_error;
 use crate::render;
 use anyhow::{anyhow, Result};
 use std::path::{Path, PathBuf};
 use wiical_analysis::input::text_source::TextSource;
-use wiical_analysis::magnetometer::{self, pass, Follow, MagAnalysis, MagFitReport, MagModel};
-use wiical_analysis::search::select::ALPHA;
+use wiical_analysis::magnetometer::MagModel;
 use wiical_analysis::source::RowSource;
-use wiical_analysis::{LoadOptions, Recording};
+use wiical_analysis::{LoadOptions, MagfitOutput, MagfitRequest, Recording};
 use wiical_core::Calibration;
 
 /// Arguments of `wiical magfit`.
@@ -39,31 +38,35 @@ pub struct Args {
     pub out: Option<PathBuf>,
 }
 
-/// The JSON: the fit's keys, then the loop's.
-#[derive(serde::Serialize)]
-struct Json<'a> {
-    #[serde(flatten)]
-    fit: &'a MagFitReport,
-    #[serde(flatten)]
-    analysis: &'a MagAnalysis,
+impl Args {
+    /// The engine's request from the flags (`--out`, `--json` and the reading in passes are
+    /// the command line's own).
+    fn request(&self) -> MagfitRequest {
+        MagfitRequest {
+            model: self.model,
+            columns: self.columns.clone(),
+            follow: self.follow.clone().unwrap_or_default(),
+            read: self.read.options(),
+            ..MagfitRequest::new(self.file.as_path())
+        }
+    }
 }
 
 /// Runs `wiical magfit`; returns what to print.
 pub fn run(a: &Args) -> Result<String> {
     check_outputs(&[&a.file], &[a.out.as_deref()])?;
-    let opts = wiical_analysis::LoadOptions {
-        sensor: Some(wiical_analysis::input::columns::Sensor::Magnetometer),
-        ..load_options(a.columns.as_deref(), &a.read)?
-    };
+    let req = a.request();
+    let opts = req.load_options().map_err(cli_error)?;
     let file = a.file.as_path();
-    let (rep, analysis, unit) = match open_in_passes(a, &opts)? {
-        Some(src) => fit_and_loop(a, &src, |name, o| column_in_passes(file, name, o))?,
+    let out = match open_in_passes(a, &opts)? {
+        Some(src) => fit_and_loop(a, &req, &src, |name, o| column_in_passes(file, name, o))?,
         None => {
             let rec = super::load_held(file, &opts, "magfit", super::PLAIN_TEXT_IN_PASSES)?;
-            fit_and_loop(a, &rec, |_, o| column_held(file, o))?
+            fit_and_loop(a, &req, &rec, |_, o| column_held(file, o))?
         }
     };
     if let Some(path) = &a.out {
+        let rep = &out.fit;
         let k = rep.matrix.map(|r| r.map(|x| (x / rep.radius) as f32));
         let cal = Calibration {
             bias: rep.center.map(|x| x as f32),
@@ -73,29 +76,57 @@ pub fn run(a: &Args) -> Result<String> {
         write_calibration(path, &cal)?;
     }
     if a.json {
-        return to_json(&Json {
-            fit: &rep,
-            analysis: &analysis,
-        });
+        return to_json(&out);
     }
-    let mut text = render::magfit_text(&rep, &a.file.display().to_string());
-    text.push_str(&render::magfit::analysis_text(&analysis, unit));
+    let mut text = render::magfit_text(&out.fit, &a.file.display().to_string());
+    text.push_str(&render::magfit::analysis_text(&out.analysis, out.unit));
     Ok(text)
 }
 
-/// The fit and the loop of `src` (the field's rows, held or read in passes: the same code),
-/// its `--follow` columns read as it is (`open_column` with a column's name and load options);
-/// the field's unit besides.
+/// The request run on `src` (the field's rows, held or read in passes: the same code), its
+/// `--follow` columns read as it is (`open_column` with a column's name and load options).
 fn fit_and_loop<R: RowSource>(
     a: &Args,
+    req: &MagfitRequest,
     src: &R,
     open_column: impl Fn(&str, &LoadOptions) -> Result<R>,
-) -> Result<(MagFitReport, MagAnalysis, &'static str)> {
-    let prep = magnetometer::fit_source(src, a.model).map_err(cli_error)?;
-    let follow = follow_columns(a, src, open_column)?;
-    let analysis =
-        magnetometer::analyze_source(src, &prep, &follow, a.model, ALPHA).map_err(cli_error)?;
-    Ok((prep.report, analysis, pass::unit_of(src)))
+) -> Result<MagfitOutput> {
+    req.run(src, |name, o| open_column(name, o).map_err(Followed::Door))
+        .map_err(|e| follow_error(e, &a.file))
+}
+
+/// Why the request gave nothing: the command line's reading of a followed column, or the
+/// engine's refusal (of the fit, the loop, or a followed column with empty rows).
+enum Followed {
+    /// The command line's reading of the column failed (its message already told).
+    Door(anyhow::Error),
+    /// The engine refused.
+    Engine(wiical_analysis::Error),
+}
+
+impl From<wiical_analysis::Error> for Followed {
+    fn from(e: wiical_analysis::Error) -> Self {
+        Followed::Engine(e)
+    }
+}
+
+/// The request's error, told the command line's way (`--follow` and the file named for a
+/// followed column with empty rows).
+fn follow_error(e: Followed, file: &Path) -> anyhow::Error {
+    use wiical_analysis::magnetometer::MagnetometerError;
+    match e {
+        Followed::Door(e) => e,
+        Followed::Engine(wiical_analysis::Error::Magnetometer(MagnetometerError::FollowRows {
+            column,
+            got,
+            rows,
+        })) => anyhow!(
+            "--follow {column}: {got} rows in {} against {rows} of the field (a row where one \
+             is empty): give a column filled on every row",
+            file.display()
+        ),
+        Followed::Engine(e) => cli_error(e),
+    }
 }
 
 /// The field's rows read in passes from the file (memory bounded) when it is a regular plain
@@ -115,35 +146,6 @@ fn open_in_passes(a: &Args, opts: &LoadOptions) -> Result<Option<TextSource>> {
         }
     }
     Ok(None)
-}
-
-/// A followed column must have a value on every row the field has.
-fn check_rows(name: &str, got: usize, rows: usize, file: &Path) -> Result<()> {
-    if got != rows {
-        return Err(anyhow!(
-            "--follow {name}: {got} rows in {} against {rows} of the field (a row where one \
-             is empty): give a column filled on every row",
-            file.display()
-        ));
-    }
-    Ok(())
-}
-
-/// Each named column, read as the field is (`open`: in passes or held) by the same loader, so
-/// that its rows are the field's.
-fn follow_columns<R: RowSource>(
-    a: &Args,
-    field: &R,
-    open: impl Fn(&str, &LoadOptions) -> Result<R>,
-) -> Result<Vec<Follow<R>>> {
-    let mut out = Vec::new();
-    for name in a.follow.as_deref().unwrap_or(&[]) {
-        let opts = pass::follow_options(name, field.axis_columns(), &a.read.options());
-        let col = open(name, &opts)?;
-        check_rows(name, col.len(), field.len(), &a.file)?;
-        out.push((name.clone(), col));
-    }
-    Ok(out)
 }
 
 /// The followed column `name` of `file` read in passes (the field was: the file must still be

@@ -1,12 +1,13 @@
 //! `wiical noise`: the Allan deviation of a still recording, per axis, and the IEEE 952 noise
 //! terms (engine: [`wiical_analysis::noise::allan`], [`wiical_analysis::noise::report`]).
 
-use super::{check_outputs, load_options, to_json};
+use super::{check_outputs, to_json};
 use crate::cli_error::cli_error;
 use crate::render;
 use anyhow::Result;
 use std::path::PathBuf;
-use wiical_analysis::noise::report::{noise_of, open_sensors};
+use wiical_analysis::noise::report::noise_of;
+use wiical_analysis::NoiseRequest;
 
 /// Arguments of `wiical noise`.
 #[derive(clap::Args, Debug)]
@@ -31,23 +32,34 @@ pub struct Args {
     pub plot: Option<PathBuf>,
 }
 
+impl Args {
+    /// The engine's request from the flags (`--plot` and `--json` are the command line's).
+    fn request(&self) -> NoiseRequest {
+        NoiseRequest {
+            columns: self.columns.clone(),
+            read: self.read.options(),
+            rate_hz: self.rate_hz,
+            ..NoiseRequest::new(self.file.as_path())
+        }
+    }
+}
+
 /// Runs `wiical noise`; returns what to print.
 pub fn run(a: &Args) -> Result<String> {
     check_outputs(&[&a.file], &[a.plot.as_deref()])?;
-    let opts = load_options(a.columns.as_deref(), &a.read)?;
+    let req = a.request();
+    let rate_hz = req.rate_hz;
     // A large plain text file is opened as sources read in passes (memory: a piece of the
     // file and the Allan sums, not the samples).
     let sensors = super::with_spinner(&format!("reading {}", a.file.display()), || {
-        open_sensors(&a.file, opts.columns.clone(), &opts.read)
+        req.into_sensors()
     })
     .map_err(cli_error)?;
     if let Some(first) = sensors.first() {
         super::print_notes(&a.file, first);
     }
-    let rep = super::with_spinner("computing Allan deviations", || {
-        noise_of(&sensors, a.rate_hz)
-    })
-    .map_err(cli_error)?;
+    let rep = super::with_spinner("computing Allan deviations", || noise_of(&sensors, rate_hz))
+        .map_err(cli_error)?;
     if let Some(how) = &rep.streamed {
         eprintln!("note: in {}: {how}", a.file.display());
     }

@@ -1,15 +1,15 @@
 //! `wiical tempcal`: the bias of a still warm-up against temperature, per axis, and the
-//! autopilots' parameter files (engine: [`wiical_analysis::tempcal`]).
+//! autopilots' parameter files (engine: [`wiical_analysis::tempcal()`] with a
+//! [`wiical_analysis::TempcalRequest`]).
 
-use super::{check_outputs, load_options, to_json};
+use super::{check_outputs, to_json};
 use crate::cli_error::cli_error;
 use crate::render;
 use anyhow::{anyhow, bail, Result};
 use std::path::PathBuf;
 use wiical_analysis::output::calfile::CalibrationFile;
-use wiical_analysis::tempcal::{
-    params, tempcal, TempcalError, TempcalOptions, TempcalReport, STILL_RATIO,
-};
+use wiical_analysis::tempcal::{params, TempcalError, TempcalOptions, TempcalReport, STILL_RATIO};
+use wiical_analysis::TempcalRequest;
 
 /// What `--format` writes.
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
@@ -98,6 +98,25 @@ fn engine_range(
     }
 }
 
+impl Args {
+    /// The engine's request from the flags (`--format`, `--calibration`, `--units`, `--out`,
+    /// `--plot` and `--json` are the command line's own).
+    fn request(&self) -> TempcalRequest {
+        TempcalRequest {
+            columns: self.columns.clone(),
+            read: self.read.options(),
+            options: TempcalOptions {
+                t_ref_c: self.tref,
+                segments: self.segments.into(),
+                block_s: self.block_s,
+                pose_deg: self.pose_deg,
+                default_rate_hz: self.rate_hz,
+            },
+            ..TempcalRequest::new(self.file.as_path())
+        }
+    }
+}
+
 /// Runs `wiical tempcal`; returns what to print.
 pub fn run(a: &Args) -> Result<String> {
     if a.out.is_some() && a.format.is_none() {
@@ -116,7 +135,8 @@ pub fn run(a: &Args) -> Result<String> {
     let mut inputs = vec![a.file.as_path()];
     inputs.extend(a.calibration.as_deref());
     check_outputs(&inputs, &[a.plot.as_deref(), a.out.as_deref()])?;
-    let opts = load_options(a.columns.as_deref(), &a.read)?;
+    let req = a.request();
+    let opts = req.load_options().map_err(cli_error)?;
     let rec = super::load_held(&a.file, &opts, "tempcal", super::CUT_IT_SHORTER)?;
     // The calibration `--format calfile` adds to: read and checked before anything is fitted
     // or written.
@@ -124,14 +144,7 @@ pub fn run(a: &Args) -> Result<String> {
         Some(path) => Some(suited_calibration(a, path, &rec)?),
         None => None,
     };
-    let opts = TempcalOptions {
-        t_ref_c: a.tref,
-        segments: a.segments.into(),
-        block_s: a.block_s,
-        pose_deg: a.pose_deg,
-        default_rate_hz: a.rate_hz,
-    };
-    let rep = super::with_spinner("fitting bias against temperature", || tempcal(&rec, &opts))
+    let rep = super::with_spinner("fitting bias against temperature", || req.run(&rec))
         .map_err(|e| tempcal_error(e).context(format!("in {}", a.file.display())))?;
     warn_not_still(&rep, &a.file);
     if let Some(path) = &a.plot {

@@ -8,13 +8,13 @@
 //! term's factor `1 + Σ value·X` multiplies row `j` of `matrix`, which scales
 //! `u_j = (K·(m − b))_j` before the temperature scale and the nonlinearities, exactly as the
 //! analysis model's scale slots scale `v_j` (`fit::model`). The regressors per sample
-//! ([`regress`]): the time since the first sample; the temperature; the temperature
+//! (`regress`): the time since the first sample; the temperature; the temperature
 //! through the first-order lag of the analysis ([`crate::search::thermal::lagged`], started at the first
 //! sample); and dT/dt, the least-squares slope over ±15 s about the sample
 //! ([`crate::search::thermal::sample_rates`]).
 //!
-//! **What is refused**, in this order ([`checks`]: the units, [`checks::bad_output`],
-//! [`checks::check_plausible_within`]): readings whose linear correction has a median magnitude outside
+//! **What is refused**, in this order (`checks`: the units, `checks::bad_output`,
+//! `checks::check_plausible_within`): readings whose linear correction has a median magnitude outside
 //! ½–2 g where gravity gives 1 g, which is what a calibration made in other units (counts,
 //! mg, m/s²) than the recording does; a corrected value that is not finite; a calibration
 //! that fails the acceptance predicate `device put` applies (`Acceptance::check`: usable, `θ₀` plausible,
@@ -32,10 +32,10 @@
 //! case of the same pass, its corrected samples kept. Both give the same file byte for byte
 //! ([`csv`]) and refuse the same recordings with the same sentence.
 
-pub mod checks;
+pub(crate) mod checks;
 pub mod csv;
 pub mod pass;
-pub mod regress;
+pub(crate) mod regress;
 pub mod source;
 
 pub use crate::error::correct::CorrectError;

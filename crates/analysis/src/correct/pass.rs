@@ -3,13 +3,13 @@
 //! recording held in memory, the one-chunk case [`super::correct_recording`] takes) corrects
 //! every sample and gives it out — for a file, its line to a temporary file beside the
 //! output ([`AtomicWriter`]) —, folding on the way what
-//! the checks need ([`super::checks`]: the readings' and temperatures' extremes, where the
+//! the checks need (`super::checks`: the readings' and temperatures' extremes, where the
 //! linear correction's magnitudes lie against ½–2 g, the first corrected value that is not
 //! finite or beyond ±16 g). The temporary file replaces the output only when every check
 //! passed, in the order of [`super`]'s module docs; nothing is written where they refuse.
 //!
 //! Memory: a piece of the file and its parsed rows (`TextSource`), the write buffer and,
-//! with a temperature-rate term, the samples of ±15 s ([`RateRing`]) — not the samples.
+//! with a temperature-rate term, the samples of ±15 s (`RateRing`) — not the samples.
 //! Cost: the source's first pass plus this one; a units check the counts cannot settle
 //! (a recording in other units: it is refused) selects the exact median by its bits in four
 //! more passes per median (`stats::OrderCounts::median`).

@@ -138,11 +138,6 @@ impl Regressors {
     pub fn len(&self) -> usize {
         self.kinds.len()
     }
-
-    /// True without terms.
-    pub fn is_empty(&self) -> bool {
-        self.kinds.is_empty()
-    }
 }
 
 /// One sample in the ring: its time since the first sample, the running sums before it

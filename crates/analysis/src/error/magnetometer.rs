@@ -37,4 +37,17 @@ pub enum MagnetometerError {
         #[source]
         source: wiical_core::Error,
     },
+    /// A followed column without a value on some row of the field.
+    #[error("column {column}: {got} rows against {rows} of the field (a row where one is empty): give a column filled on every row")]
+    FollowRows {
+        /// The followed column.
+        column: String,
+        /// Its rows.
+        got: usize,
+        /// The field's rows.
+        rows: usize,
+    },
+    /// Followed columns asked of samples given without a file (they are read from the file).
+    #[error("followed columns are read from the recording's file: give the samples as a file")]
+    FollowNeedsFile,
 }

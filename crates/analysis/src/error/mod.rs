@@ -9,15 +9,15 @@
 //! neighbours here ([`gyro::GyroError`] holds a [`detect::DetectError`] and a
 //! [`fit::FitError`]), and every stage re-exports its own type from its module.
 
-pub mod correct;
-pub mod detect;
-pub mod fit;
-pub mod gyro;
-pub mod magnetometer;
-pub mod noise;
-pub mod protocol;
-pub mod search;
-pub mod six_position;
+pub(crate) mod correct;
+pub(crate) mod detect;
+pub(crate) mod fit;
+pub(crate) mod gyro;
+pub(crate) mod magnetometer;
+pub(crate) mod noise;
+pub(crate) mod protocol;
+pub(crate) mod search;
+pub(crate) mod six_position;
 
 // The I/O stages' errors are `wiical-io`'s (bounded reads, atomic writes), under their old paths.
 pub use wiical_io::error::{input, output};

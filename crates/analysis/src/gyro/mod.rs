@@ -23,18 +23,18 @@
 //! report says so.
 
 mod align;
-pub mod basis;
+pub(crate) mod basis;
 pub mod bias_step;
-pub mod design;
+pub(crate) mod design;
 pub mod device;
 pub mod effects;
-pub mod floor;
+pub(crate) mod floor;
 mod lag;
 pub mod limits;
 mod models;
 pub mod motion;
-pub mod motion_basis;
-pub mod motion_search;
+pub(crate) mod motion_basis;
+pub(crate) mod motion_search;
 mod nominal;
 mod options;
 pub mod report;

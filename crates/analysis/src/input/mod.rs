@@ -6,7 +6,7 @@
 //! Every reader goes through [`bounded`] (caps on size and line length, one sentence per bad
 //! field); the time column is checked by [`timecheck`], axis triplets are found by
 //! [`columns`], and the formats are text/CSV ([`text`], its data rows parsed in parallel
-//! chunks by `text_rows`), GRT ([`grt`]), raw Axivity /
+//! chunks by `text_rows`), GRT (`grt`), raw Axivity /
 //! GENEActiv files ([`raw`]) and window-mean text tables ([`window_means`]). Standard input too
 //! long to hold is copied to a named temporary file that [`temp_files`] deletes on every exit
 //! it can see (and on the next run, after one it could not).
@@ -14,7 +14,7 @@
 pub mod bounded;
 pub mod columns;
 pub mod front_door;
-pub mod grt;
+pub(crate) mod grt;
 pub mod raw;
 pub mod read_options;
 pub mod recording;

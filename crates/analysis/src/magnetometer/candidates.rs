@@ -92,11 +92,6 @@ impl ColumnFold {
     pub fn len(&self) -> usize {
         self.n
     }
-
-    /// True before any value.
-    pub fn is_empty(&self) -> bool {
-        self.n == 0
-    }
 }
 
 /// The field pass's share of the scalars: the times (the time column, `i / Fs`, or the

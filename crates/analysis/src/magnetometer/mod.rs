@@ -1,9 +1,9 @@
-//! Magnetometers: the hard/soft-iron fit of `wiical magfit` ([`fit`], on the core's streaming
+//! Magnetometers: the hard/soft-iron fit of `wiical magfit` (`fit`, on the core's streaming
 //! `f32` fits) and the residual loop around it, as `analyze` has for the accelerometer: a
-//! noise floor measured from the data ([`floor`]), the fit's residual linearised with every
-//! candidate's columns ([`design`], [`candidates`]), candidates accepted by F and held-out
-//! error ([`search`]) with a detection limit for each one not accepted, and a verdict
-//! ([`verdict`]) in `analyze`'s contract shape ([`contract`]). One code reads a held
+//! noise floor measured from the data (`floor`), the fit's residual linearised with every
+//! candidate's columns (`design`, `candidates`), candidates accepted by F and held-out
+//! error (`search`) with a detection limit for each one not accepted, and a verdict
+//! (`verdict`) in `analyze`'s contract shape (`contract`). One code reads a held
 //! recording and a large file alike, in passes over its rows ([`pass`]).
 //!
 //! **Detection limits.** For a candidate not accepted at the last step, the magnitude it
@@ -14,23 +14,23 @@
 //! limit is `√(need/λ_min(S))`, the worst direction; for a scanned step the worst position.
 //! Shape is measured as the RMS it adds, `√(need/n)`.
 
-pub mod candidates;
-pub mod contract;
-pub mod design;
-pub mod fit;
-pub mod floor;
-pub mod model;
+pub(crate) mod candidates;
+pub(crate) mod contract;
+pub(crate) mod design;
+pub(crate) mod fit;
+pub(crate) mod floor;
+pub(crate) mod model;
 pub mod pass;
-pub mod search;
-pub mod verdict;
+pub(crate) mod request;
+pub(crate) mod search;
+pub(crate) mod verdict;
 
 pub use crate::error::magnetometer::MagnetometerError;
-pub use contract::MagAnalysis;
+pub use contract::{MagAnalysis, MagCandidate, MagEffect, MagModelSummary, MagStep};
 pub use fit::{fit_points, MagFitReport};
 pub use model::MagModel;
 pub use pass::{analyze_source, fit_source, Follow, Prepared};
 
-use contract::MagModelSummary;
 use design::{Fit, Shape};
 
 /// An `interference:<column>` effect a first pass accepted: the centre moves by
@@ -44,7 +44,7 @@ use design::{Fit, Shape};
 /// taken out, each sample's geometry at its shifted place, and the shift's own linear term
 /// added back to the residual, so the loop fits the whole `k` again with the right `n̂`.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct KnownShift {
+pub(crate) struct KnownShift {
     /// The column's index among the followed columns.
     pub column: usize,
     /// The column's mean (the loop's column is `g − mean`).
@@ -68,7 +68,7 @@ impl KnownShift {
 
 /// The accepted `interference:<column>` effects of `first` as shifts (`scalars`: the
 /// candidates the pass was given, which hold each column's index and mean).
-pub fn known_shifts(scalars: &[candidates::Scalar], first: &MagAnalysis) -> Vec<KnownShift> {
+pub(crate) fn known_shifts(scalars: &[candidates::Scalar], first: &MagAnalysis) -> Vec<KnownShift> {
     first
         .effects
         .iter()
@@ -86,7 +86,7 @@ pub fn known_shifts(scalars: &[candidates::Scalar], first: &MagAnalysis) -> Vec<
 }
 
 /// `m` with the `known` shifts taken out.
-pub fn shifted(m: &[f64; 3], follow: &[f64], known: &[KnownShift]) -> [f64; 3] {
+pub(crate) fn shifted(m: &[f64; 3], follow: &[f64], known: &[KnownShift]) -> [f64; 3] {
     let mut out = *m;
     for s in known {
         let x = s.x(follow);
@@ -98,7 +98,7 @@ pub fn shifted(m: &[f64; 3], follow: &[f64], known: &[KnownShift]) -> [f64; 3] {
 /// The loop's pass over the samples once the fit and the axes' noise are known: each
 /// sample's geometry ([`design::geo`]) folded into the residual's floor, the coverage and the
 /// blocks' normal equations, and dropped.
-pub struct LoopPass<'r> {
+pub(crate) struct LoopPass<'r> {
     rep: &'r MagFitReport,
     sigma: [f64; 3],
     unit: String,

@@ -2,19 +2,19 @@
 //! [`crate::Recording`], or a large plain text file read again each pass, with memory that does
 //! not grow with it): the held and the large-file path are this one code.
 //!
-//! Every sum is a fold fed the rows in file order ([`super::fit::FitFold`],
-//! [`super::floor::StepFold`], [`super::floor::AxisSums`], [`super::candidates::ScalarFold`],
-//! [`super::LoopPass`]). The passes:
+//! Every sum is a fold fed the rows in file order (`super::fit::FitFold`,
+//! `super::floor::StepFold`, `super::floor::AxisSums`, `super::candidates::ScalarFold`,
+//! `super::LoopPass`). The passes:
 //!
 //! 1. the core's fit, the axes' differences, the means, the times and temperature;
 //! 2. the axes' spread about their means and the fit's quality (and the first digit of any
 //!    median still to select);
 //! 3. up to two more for the medians of the |second differences| when an axis has more
 //!    than [`MAX_COUNTED`] distinct values: selected by their bits, 16 at a time
-//!    ([`crate::stats::medians`]), every axis and both middle ranks in the same passes;
+//!    (`crate::stats::medians`), every axis and both middle ranks in the same passes;
 //! 4. each `--follow` column's own pass (its mean), then the loop's pass: each sample's
 //!    geometry into the floor, the coverage and the blocks' normal equations
-//!    ([`super::design::Normal`]), dropped.
+//!    (`super::design::Normal`), dropped.
 //!
 //! The medians are exact order statistics either way (counted by value, or selected by bits),
 //! as a sort gives them.
@@ -78,7 +78,7 @@ fn time_of<R: RowSource + ?Sized>(src: &R, i: usize, row: &Row) -> f64 {
 }
 
 /// The fit of `src` with `model` (passes 1–3 of the module docs), refused when the points
-/// never leave a blob of their own noise ([`super::floor::blob`]: an ellipsoid fitted to them
+/// never leave a blob of their own noise (`super::floor::blob`: an ellipsoid fitted to them
 /// would be a shape of the noise, not of the field), then for the fit's own errors.
 pub fn fit_source<R: RowSource + ?Sized>(src: &R, model: MagModel) -> Result<Prepared> {
     fit_source_counting(src, model, MAX_COUNTED)
@@ -134,7 +134,7 @@ pub fn fit_source_counting<R: RowSource + ?Sized>(
 /// The loop on `src` around `prep`'s fit (made with `model`) at family level `alpha`, with
 /// the `--follow` columns `follow` (as many rows as the field). When the loop accepts an
 /// `interference:<column>` effect, two more passes refit the base without it and a third runs
-/// the loop again about that estimate ([`super::KnownShift`]).
+/// the loop again about that estimate (`super::KnownShift`).
 pub fn analyze_source<R: RowSource>(
     src: &R,
     prep: &Prepared,

@@ -5,8 +5,9 @@
 
 pub mod allan;
 pub mod pass;
-pub mod reading;
+pub(crate) mod reading;
 pub mod report;
+pub(crate) mod request;
 pub mod still;
 
 pub use crate::error::noise::NoiseError;

@@ -20,7 +20,7 @@
 //! and counter checks, the 1-s window means (one per window: a week at 100 Hz is 604 800), the
 //! accelerometer mean, and the median |first difference| per axis exactly as a sort gives it —
 //! counted by value while there are few distinct values (quantised data: a handful), else
-//! selected by its bits ([`OrderCounts`]) in a few more passes.
+//! selected by its bits (`OrderCounts`) in a few more passes.
 //!
 //! **Polling** ([`crate::detect::polled`]): the runs of identical samples are counted in the
 //! same pass; a log polled faster than its sensor updates gets its curves from a second pass

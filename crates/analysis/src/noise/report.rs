@@ -1,7 +1,7 @@
 //! `wiical noise`: which sensors a still recording holds, each axis's Allan deviation and its
 //! IEEE 952 terms ([`crate::noise::allan`]), as the report whose JSON is the command's contract:
 //! `axes` = one object per column with `column`, `unit`, `n`, `b`, `b_tau_s`, `k`, `q`, `r`
-//! (IEEE 952's reading, [`crate::noise::reading`]; null where the term's slope is not seen),
+//! (IEEE 952's reading, `crate::noise::reading`; null where the term's slope is not seen),
 //! `joint_fit` (the same keys from the five-term fit to the whole curve, a cross-check), `tau_s`,
 //! `adev`, `adev_rel_err`.
 

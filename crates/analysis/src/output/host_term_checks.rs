@@ -1,5 +1,5 @@
 //! Checks of the calibration file's host-only terms when a file is read or
-//! written: the types and their formulas are the report's ([`crate::report::host_term`]),
+//! written: the types and their formulas are the report's (`crate::report::host_term`),
 //! re-exported here.
 
 use crate::report::effect_names as names;

@@ -26,12 +26,12 @@ pub mod face_fit;
 pub mod faces;
 pub mod g_sensitivity;
 pub mod gyro;
-pub mod labelled;
+pub(crate) mod labelled;
 pub mod offsets;
 pub mod rates;
 pub mod rotations;
 pub mod sensor_kind;
-pub mod vec3;
+pub(crate) mod vec3;
 
 use crate::detect::windows::Windows;
 use faces::{face_set, one_pose, window_face, zero_reading, FaceSet, WindowFace};

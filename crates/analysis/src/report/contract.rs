@@ -188,7 +188,7 @@ pub struct AnalyzeReport {
     pub calibration: Calibration,
     /// The open basis's accepted time and temperature terms, which the core calibration has
     /// no field for (`--out` writes them as the file's `host_terms`, schema
-    /// `wiical-calibration/3`; the terms in [`crate::report::host_term`]); absent when there are none.
+    /// `wiical-calibration/3`; the terms in `crate::report::host_term`); absent when there are none.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub host_terms: Vec<crate::report::host_term::HostTerm>,
     /// The windows.

@@ -1,5 +1,5 @@
 //! What the pipelines give: the report types of the JSON contract ([`contract`], with the
-//! residual's correlates in [`correlate`] and the time and temperature terms in [`host_term`]),
+//! residual's correlates in [`correlate`] and the time and temperature terms in `host_term`),
 //! the effect names that contract uses
 //! ([`effect_names`]), the quality verdict `device put` checks ([`verdict`]) and the progress
 //! hook a long analysis calls ([`progress`]).
@@ -8,6 +8,6 @@ pub mod contract;
 pub mod correlate;
 pub mod effect_names;
 pub mod effect_table;
-pub mod host_term;
+pub(crate) mod host_term;
 pub mod progress;
 pub mod verdict;

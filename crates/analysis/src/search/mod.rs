@@ -4,23 +4,23 @@
 //! [`floor`] gives the noise floor the residual is compared with; [`candidate`] lists the
 //! effects, [`trial`] and [`outliers`] fit and test each one, [`select`] holds the rule that
 //! picks one, [`evidence`] says why, [`limits`] how large what was not found could be; [`six_contrasts`] is the residual analysis of a
-//! six-position file; [`options`] the settings; [`bias_step`] the knock searched before the
+//! six-position file; `options` the settings; `bias_step` the knock searched before the
 //! candidates.
 
-pub mod analyze;
-pub mod bias_step;
+pub(crate) mod analyze;
+pub(crate) mod bias_step;
 pub mod candidate;
 pub mod correlates;
 pub mod evidence;
 pub mod floor;
 pub mod limits;
 pub mod open_basis_screening;
-pub mod options;
+pub(crate) mod options;
 pub mod outliers;
 pub mod select;
 pub mod six_contrasts;
 pub mod thermal;
-pub mod thermal_stream;
+pub(crate) mod thermal_stream;
 pub mod trial;
 
 pub use crate::error::search::SearchError;

@@ -1,5 +1,5 @@
 //! The open basis: after the greedy search over the candidates
-//! ([`crate::search::analyze`]), single terms of physically motivated families are added one
+//! (`crate::search::analyze`), single terms of physically motivated families are added one
 //! at a time, each by the same rule as a candidate (an F-test at a Bonferroni level and the
 //! leave-one-window-out RMS at least `cv_factor` lower).
 //!

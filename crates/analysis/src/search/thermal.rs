@@ -28,7 +28,7 @@ pub struct HeldTemps<'a> {
 }
 
 /// The thermal regressors' per-window values from a pass over samples streamed from a file
-/// ([`crate::search::thermal_stream`]).
+/// (`crate::search::thermal_stream`).
 #[derive(Debug, Clone)]
 pub struct StreamedTemps {
     /// [`SampleTemps::usable`] of the samples.

@@ -24,8 +24,9 @@
 //! Range check as TCAL (`TEMP_RANGE_MIN` = 10 °C): a record spanning less is refused, saying
 //! how much was seen.
 
-pub mod fit;
+pub(crate) mod fit;
 pub mod params;
+pub(crate) mod request;
 
 use crate::input::recording::{infer_units, Recording};
 use fit::{fit_axis, heldout_rms, segment_of};
@@ -52,7 +53,7 @@ pub const STILL_RATIO: f64 = 2.0;
 /// Most blocks used (a day at 1 block/s); more would only cost time.
 pub const MAX_BLOCKS: usize = 200_000;
 
-/// Settings of [`tempcal`].
+/// Settings of [`fit_warmup`].
 #[derive(Debug, Clone)]
 pub struct TempcalOptions {
     /// Reference temperature `T_ref`, °C.
@@ -235,7 +236,7 @@ struct Blocks {
 }
 
 /// Fits the bias against temperature of a still (one or more poses) warm-up recording.
-pub fn tempcal(
+pub fn fit_warmup(
     rec: &Recording,
     opts: &TempcalOptions,
 ) -> std::result::Result<TempcalReport, TempcalError> {

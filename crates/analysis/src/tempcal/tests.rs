@@ -100,7 +100,7 @@ fn assert_within_3se(rep: &TempcalReport, truth: &[[f64; 3]; 3]) {
 #[test]
 fn cubic_truth_is_recovered_within_three_standard_errors_and_order_3_chosen() {
     for seed in [1, 2, 3] {
-        let rep = tempcal(&Sim::new(seed, CUBIC).recording(), &Default::default()).unwrap();
+        let rep = fit_warmup(&Sim::new(seed, CUBIC).recording(), &Default::default()).unwrap();
         assert_within_3se(&rep, &CUBIC);
         assert_eq!(rep.poses, 1);
         assert!(rep.t_max_c - rep.t_min_c > 18.0, "{rep:?}");
@@ -126,7 +126,7 @@ fn several_poses_share_the_polynomial() {
         [-0.1, 0.9937, 0.05],
     ];
     sim.minutes = 45.0;
-    let rep = tempcal(&sim.recording(), &Default::default()).unwrap();
+    let rep = fit_warmup(&sim.recording(), &Default::default()).unwrap();
     assert_eq!(rep.poses, 3, "{rep:?}");
     assert!(rep.blocks_moving >= 2, "the motions are left out: {rep:?}");
     assert_within_3se(&rep, &CUBIC);
@@ -144,10 +144,10 @@ fn pose_labels_give_the_poses() {
             .map(|i| if i < half { "a" } else { "b" }.to_string())
             .collect(),
     );
-    let rep = tempcal(&rec, &Default::default()).unwrap();
+    let rep = fit_warmup(&rec, &Default::default()).unwrap();
     assert_eq!(rep.poses, 2, "{rep:?}");
     assert_within_3se(&rep, &CUBIC);
-    let unlabelled = tempcal(&sim.recording(), &Default::default()).unwrap();
+    let unlabelled = fit_warmup(&sim.recording(), &Default::default()).unwrap();
     assert_eq!(unlabelled.poses, 1);
 }
 
@@ -156,7 +156,7 @@ fn linear_truth_chooses_order_1() {
     let linear = [[1.0e-3, 0.0, 0.0], [-0.7e-3, 0.0, 0.0], [0.4e-3, 0.0, 0.0]];
     let mut chosen = [0usize; 4];
     for seed in 10..20 {
-        let rep = tempcal(&Sim::new(seed, linear).recording(), &Default::default()).unwrap();
+        let rep = fit_warmup(&Sim::new(seed, linear).recording(), &Default::default()).unwrap();
         for (j, a) in rep.axes.iter().enumerate() {
             chosen[a.order] += 1;
             if a.order == 1 {
@@ -174,7 +174,7 @@ fn a_small_range_is_refused_saying_how_much_was_seen() {
     let mut sim = Sim::new(3, CUBIC);
     sim.t_from = 25.0;
     sim.t_to = 33.0;
-    let e = tempcal(&sim.recording(), &Default::default()).unwrap_err();
+    let e = fit_warmup(&sim.recording(), &Default::default()).unwrap_err();
     let text = e.to_string();
     assert!(
         matches!(e, TempcalError::RangeTooSmall { seen_c, .. } if seen_c < 8.0 && seen_c > 7.0),
@@ -192,7 +192,7 @@ fn a_temperature_column_in_kelvin_is_refused() {
     for t in rec.temp.as_mut().unwrap() {
         *t += 273.15;
     }
-    let e = tempcal(&rec, &Default::default()).unwrap_err();
+    let e = fit_warmup(&rec, &Default::default()).unwrap_err();
     let text = e.to_string();
     assert!(matches!(e, TempcalError::Kelvin { .. }), "{text}");
     assert!(text.contains("from 291.1 to 311.1"), "{text}");
@@ -203,7 +203,7 @@ fn a_temperature_column_in_kelvin_is_refused() {
 fn no_temperature_column_is_refused() {
     let mut rec = Sim::new(3, CUBIC).recording();
     rec.temp = None;
-    let e = tempcal(&rec, &Default::default()).unwrap_err();
+    let e = fit_warmup(&rec, &Default::default()).unwrap_err();
     assert!(matches!(e, TempcalError::NoTemperature), "{e}");
 }
 
@@ -226,7 +226,7 @@ fn reexpansion_keeps_the_polynomial_up_to_a_constant() {
 
 #[test]
 fn parameter_files_read_back_with_the_autopilots_names_and_units() {
-    let rep = tempcal(&Sim::new(1, CUBIC).recording(), &Default::default()).unwrap();
+    let rep = fit_warmup(&Sim::new(1, CUBIC).recording(), &Default::default()).unwrap();
     assert_eq!(rep.units, "g");
     let ap = parse(&ardupilot(&rep, G)).unwrap();
     let names: Vec<&str> = ap.iter().map(|(n, _)| n.as_str()).collect();
@@ -303,7 +303,7 @@ proptest::proptest! {
             ..Default::default()
         };
         let opts = TempcalOptions { block_s, pose_deg, ..Default::default() };
-        if let Ok(rep) = tempcal(&rec, &opts) {
+        if let Ok(rep) = fit_warmup(&rec, &opts) {
             for a in &rep.axes {
                 proptest::prop_assert!(a.coefficients.iter().all(|c| c.is_finite()));
             }

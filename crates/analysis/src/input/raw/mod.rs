@@ -21,7 +21,7 @@ use crate::input::columns::LoadOptions;
 use crate::input::recording::Recording;
 use std::path::Path;
 
-pub mod block;
+pub(crate) mod block;
 pub mod cwa;
 pub mod epochs;
 pub mod geneactiv;
