@@ -22,8 +22,8 @@ use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
 use wiical_analysis::arrays::ArrayError;
 use wiical_analysis::input::front_door::{load_input, Input};
-use wiical_analysis::input::raw::samples;
 use wiical_analysis::input::raw::load::raw_file_format;
+use wiical_analysis::input::raw::samples;
 use wiical_analysis::input::read_options::ReadOptions;
 use wiical_analysis::input::window_means::WindowInputOptions;
 use wiical_analysis::{
