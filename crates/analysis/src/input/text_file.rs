@@ -6,7 +6,7 @@
 //! Each piece's rows are parsed by the same functions as a text held whole
 //! (`text_rows`: in parallel chunks, the time check joined to the piece
 //! before), so the recording is the whole-text path's, bit for bit. The pieces, the head
-//! ([`read_head`]) and the loop over the pieces ([`parse_pieces`]) are those of a streamed
+//! (`read_head`) and the loop over the pieces (`parse_pieces`) are those of a streamed
 //! file's pass (`text_source`) too: only where the rows go differs (here one set of columns,
 //! there a summary and the rows kept for the later passes). Only text that path
 //! reads by its fast splitter is read this way: a file with a quote, a lone carriage return,

@@ -2,12 +2,12 @@
 //! memory is one piece of text and its parsed rows, and the rows kept for the later passes.
 //!
 //! [`TextSource::open`] is the one pass over the text: the file read in pieces by the loop
-//! that reads a held file in pieces ([`crate::input::text_file::parse_pieces`]: the same
+//! that reads a held file in pieces (`text_file::parse_pieces`: the same
 //! pieces, the same row parser, the time check joined across pieces, the same sentences with
 //! line and column, the same files handed back to be read whole), each piece's rows folded
 //! into a [`SampleSummary`] and a [`StepTally`] and kept (`input::text_spill`: in memory while
 //! they fit, else in a temporary file). Every later pass ([`TextSource::rows`],
-//! [`TextSource::each_piece`], …) reads the kept rows back: the values the text gave, bit
+//! `TextSource::each_piece`, …) reads the kept rows back: the values the text gave, bit
 //! for bit; the text is never parsed again. A pass is an iterator whose clone goes on from
 //! the same row (the core's detector takes an `Iterator + Clone` and passes over it several
 //! times).
