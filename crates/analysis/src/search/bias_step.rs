@@ -31,7 +31,7 @@ use crate::detect::windows::WindowStats;
 use crate::fit::model::{self as am, Normalisation, Slot, Win};
 use crate::report::contract::EffectReport;
 use crate::report::effect_names as names;
-use crate::search::open_basis_screening::{screen, trial_row, try_open, BasisTerm, OpenTrial};
+use crate::search::open_basis_screening::{trial_row, try_open, BasisTerm, OpenTrial, Screening};
 use crate::search::options::AnalyzeOptions;
 use crate::search::select::cv_over;
 use crate::search::trial::{mask_for, State};
@@ -78,36 +78,61 @@ pub struct Step {
     pub after: usize,
 }
 
-/// The step terms: per gap with [`MIN_SIDE`] windows each side, per axis.
-fn step_terms(sc: &StepContext<'_>) -> Vec<(BasisTerm, usize)> {
+/// The gaps a step may sit at (the index of the first window after it): [`MIN_SIDE`]
+/// windows each side.
+fn gaps(n: usize) -> std::ops::RangeInclusive<usize> {
+    MIN_SIDE..=n.saturating_sub(MIN_SIDE)
+}
+
+/// The step term at gap `k` on `axis`: the bias regressor −1 before the gap, 0 after. Made
+/// when it is scored and dropped after, not held for every gap (3·n terms of n values each
+/// were 48·n² bytes: 1 GiB at 4,700 windows).
+fn step_term(sc: &StepContext<'_>, k: usize, axis: u8) -> BasisTerm {
     let n = sc.stats.len();
-    let mut out = Vec::new();
-    for k in MIN_SIDE..=n.saturating_sub(MIN_SIDE) {
-        let xs: Vec<f64> = (0..n).map(|i| if i < k { -1.0 } else { 0.0 }).collect();
-        let (before, after) = (&sc.stats[k - 1], &sc.stats[k]);
+    let (before, after) = (&sc.stats[k - 1], &sc.stats[k]);
+    let target = format!(
+        "{}, between windows {k} and {} (t = {:.1}–{:.1} s)",
+        names::AXES[axis as usize],
+        k + 1,
+        before.t_last,
+        after.t_first
+    );
+    BasisTerm {
+        family: names::BIAS_STEP,
+        target,
+        slot: Slot::Bias { axis, x: 0.0 },
+        unit: sc.units.to_string(),
+        same_pattern: Vec::new(),
+        xs: Some((0..n).map(|i| if i < k { -1.0 } else { 0.0 }).collect()),
+        factor: sc.nrm.scale,
+        time_constant_s: None,
+        reference: None,
+    }
+}
+
+/// The step term with the largest positive screening score (the last of equals, in gap then
+/// axis order), its gap and score, and how many were screened.
+fn strongest_step(
+    sc: &StepContext<'_>,
+    screening: &Screening,
+) -> (Option<(BasisTerm, usize, f64)>, usize) {
+    let mut best: Option<(usize, u8, f64)> = None;
+    let mut screened = 0;
+    for k in gaps(sc.stats.len()) {
         for axis in 0..3u8 {
-            let target = format!(
-                "{}, between windows {k} and {} (t = {:.1}–{:.1} s)",
-                names::AXES[axis as usize],
-                k + 1,
-                before.t_last,
-                after.t_first
-            );
-            let term = BasisTerm {
-                family: names::BIAS_STEP,
-                target,
-                slot: Slot::Bias { axis, x: 0.0 },
-                unit: sc.units.to_string(),
-                same_pattern: Vec::new(),
-                xs: Some(xs.clone()),
-                factor: sc.nrm.scale,
-                time_constant_s: None,
-                reference: None,
+            let Some(score) = screening.score(&step_term(sc, k, axis)) else {
+                continue;
             };
-            out.push((term, k));
+            screened += 1;
+            if score > 0.0 && best.is_none_or(|(.., b)| score.total_cmp(&b).is_ge()) {
+                best = Some((k, axis, score));
+            }
         }
     }
-    out
+    (
+        best.map(|(k, axis, score)| (step_term(sc, k, axis), k, score)),
+        screened,
+    )
 }
 
 /// The smooth alternatives to a step on `axis`: each a list of bias terms fitted together
@@ -179,20 +204,16 @@ fn round(
     state: &State,
     wins: &[Win],
 ) -> Option<(OpenTrial, BasisTerm, usize, String)> {
-    let terms = step_terms(sc);
-    let basis: Vec<BasisTerm> = terms.iter().map(|(t, _)| t.clone()).collect();
     let mask = am::with_open(mask_for(sc.model, &state.parts), wins);
-    let (scores, screened) = screen(&basis, state, &mask, wins)?;
-    let b = (0..basis.len())
-        .filter(|&t| scores[t] > 0.0)
-        .max_by(|&x, &y| scores[x].total_cmp(&scores[y]))?;
+    let (best, screened) = strongest_step(sc, &Screening::new(state, &mask, wins)?);
+    let (term, after, score) = best?;
     let level = sc.opts.alpha / screened.max(1) as f64;
     let cur_cv = cv_over(&state.loo, &state.used)?;
-    let tr = try_open(&basis[b], state, sc.model, wins)?;
+    let tr = try_open(&term, state, sc.model, wins)?;
     if !(tr.p < level && tr.cv * sc.opts.cv_factor <= cur_cv) {
         return None;
     }
-    let axis = match basis[b].slot {
+    let axis = match term.slot {
         Slot::Bias { axis, .. } => axis,
         _ => return None,
     };
@@ -212,7 +233,7 @@ fn round(
         "bias step: strongest of {screened} step terms screened (partial r = {:.2} with the \
          residual); F = {:.1}, p {} < {level:.1e} (α/{screened}); CV {:.3} → {:.3} mg, against \
          {} mg with a smooth bias in its place ({})",
-        scores[b],
+        score,
         tr.f,
         st::fmt_p(tr.p),
         cur_cv * 1e3,
@@ -224,8 +245,7 @@ fn round(
             "time, time²"
         }
     );
-    let after = terms[b].1;
-    Some((tr, basis[b].clone(), after, evidence))
+    Some((tr, term, after, evidence))
 }
 
 /// Searches for up to [`MAX_STEPS`] bias steps on top of `state` (the base model): each

@@ -363,50 +363,85 @@ pub(crate) fn screen(
     mask: &am::Mask,
     wins: &[Win],
 ) -> Option<(Vec<f64>, usize)> {
-    let used: Vec<usize> = (0..wins.len()).filter(|&i| state.used[i]).collect();
-    let dirs: Vec<[f64; 3]> = used
-        .iter()
-        .map(|&i| {
-            let a = am::corrected(&state.fit.p, &wins[i]);
-            let n = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt().max(1e-300);
-            a.map(|x| x / n)
-        })
-        .collect();
-    let spans: Vec<Vec<f64>> = used
-        .iter()
-        .zip(&dirs)
-        .map(|(&i, g)| span_of(mask, *g, &wins[i]))
-        .collect();
-    let refs: Vec<&[f64]> = spans.iter().map(|s| s.as_slice()).collect();
-    let proj = Projector::new(&refs)?;
-    let res = proj.project(
-        used.iter()
-            .map(|&i| am::residual(&state.fit.p, &wins[i]))
-            .collect(),
-    );
-    let ss_res: f64 = res.iter().map(|x| x * x).sum();
+    let screening = Screening::new(state, mask, wins)?;
     let mut screened = 0;
     let scores = terms
         .iter()
         .map(|t| {
-            let xs: Vec<f64> = used
-                .iter()
-                .zip(&dirs)
-                .map(|(&i, g)| slot_pattern(&t.slot_at(i), *g))
-                .collect();
-            let mean = xs.iter().sum::<f64>() / xs.len().max(1) as f64;
-            let total: f64 = xs.iter().map(|x| (x - mean).powi(2)).sum();
-            let xp = proj.project(xs);
-            let ss_x: f64 = xp.iter().map(|x| x * x).sum();
-            if !(ss_x > 1e-6 * total && ss_res > 0.0) {
-                return 0.0;
-            }
-            screened += 1;
-            let sxy: f64 = xp.iter().zip(&res).map(|(x, y)| x * y).sum();
-            (sxy / (ss_x * ss_res).sqrt()).abs()
+            let s = screening.score(t);
+            screened += usize::from(s.is_some());
+            s.unwrap_or(0.0)
         })
         .collect();
     Some((scores, screened))
+}
+
+/// What scoring a term against the current model needs, made once for any number of terms:
+/// the windows in use, their gravity directions, the projector off the model's span and the
+/// residual projected. Terms are then scored one at a time ([`Screening::score`]), so a
+/// caller with many terms (the bias step's, one per gap and axis: 3·n of n values each) can
+/// make each when it scores it instead of holding them all (memory O(n), not O(n²)).
+pub(crate) struct Screening {
+    used: Vec<usize>,
+    dirs: Vec<[f64; 3]>,
+    proj: Projector,
+    res: Vec<f64>,
+    ss_res: f64,
+}
+
+impl Screening {
+    /// `None` when the projector off the model's span cannot be made.
+    pub(crate) fn new(state: &State, mask: &am::Mask, wins: &[Win]) -> Option<Self> {
+        let used: Vec<usize> = (0..wins.len()).filter(|&i| state.used[i]).collect();
+        let dirs: Vec<[f64; 3]> = used
+            .iter()
+            .map(|&i| {
+                let a = am::corrected(&state.fit.p, &wins[i]);
+                let n = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt().max(1e-300);
+                a.map(|x| x / n)
+            })
+            .collect();
+        let spans: Vec<Vec<f64>> = used
+            .iter()
+            .zip(&dirs)
+            .map(|(&i, g)| span_of(mask, *g, &wins[i]))
+            .collect();
+        let refs: Vec<&[f64]> = spans.iter().map(|s| s.as_slice()).collect();
+        let proj = Projector::new(&refs)?;
+        let res = proj.project(
+            used.iter()
+                .map(|&i| am::residual(&state.fit.p, &wins[i]))
+                .collect(),
+        );
+        let ss_res: f64 = res.iter().map(|x| x * x).sum();
+        Some(Self {
+            used,
+            dirs,
+            proj,
+            res,
+            ss_res,
+        })
+    }
+
+    /// A term's partial correlation with the residual; `None` when it is not screened (inside
+    /// the model's span, or no residual).
+    pub(crate) fn score(&self, t: &BasisTerm) -> Option<f64> {
+        let xs: Vec<f64> = self
+            .used
+            .iter()
+            .zip(&self.dirs)
+            .map(|(&i, g)| slot_pattern(&t.slot_at(i), *g))
+            .collect();
+        let mean = xs.iter().sum::<f64>() / xs.len().max(1) as f64;
+        let total: f64 = xs.iter().map(|x| (x - mean).powi(2)).sum();
+        let xp = self.proj.project(xs);
+        let ss_x: f64 = xp.iter().map(|x| x * x).sum();
+        if !(ss_x > 1e-6 * total && self.ss_res > 0.0) {
+            return None;
+        }
+        let sxy: f64 = xp.iter().zip(&self.res).map(|(x, y)| x * y).sum();
+        Some((sxy / (ss_x * self.ss_res).sqrt()).abs())
+    }
 }
 
 /// A basis term fitted into the model.
