@@ -137,29 +137,7 @@ fn assert_same_samples<T: Real + PartialEq>(
 /// its gyroscope, GENEActiv), accelerometer and (AX6) gyroscope.
 #[test]
 fn real_raw_files_fill_as_they_read_whole() {
-    let dir = common::data_dir().join("ggirread_testfiles");
-    let mut seen = 0;
-    for entry in std::fs::read_dir(&dir).unwrap() {
-        let path = entry.unwrap().path();
-        if load::raw_file_format(&path).is_none() {
-            continue;
-        }
-        assert_same(&path, &LoadOptions::default());
-        if path.to_string_lossy().contains("ax6") {
-            let gyro = LoadOptions {
-                columns: Some(["gx", "gy", "gz"].map(String::from)),
-                ..Default::default()
-            };
-            assert_same(&path, &gyro);
-        }
-        seen += 1;
-    }
-    assert_eq!(
-        seen,
-        4,
-        "GGIRread's 3 .cwa and 1 .bin files in {}",
-        dir.display()
-    );
+    common::each_ggirread_raw_file(assert_same);
 }
 
 fn scratch(name: &str, bytes: &[u8]) -> PathBuf {

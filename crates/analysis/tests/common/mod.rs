@@ -8,6 +8,8 @@ pub mod correlates;
 pub mod sim;
 
 use std::path::{Path, PathBuf};
+use wiical_analysis::input::columns::LoadOptions;
+use wiical_analysis::input::raw::load;
 
 /// The shared recordings: `$WIICAL_DATA`, else `<workspace>/../shared/data`. Fails loudly when
 /// missing, so a test on real data can never pass by skipping its data.
@@ -21,4 +23,33 @@ pub fn data_dir() -> PathBuf {
         dir.display()
     );
     dir
+}
+
+/// Calls `f` with every raw file of GGIRread's test set (3 `.cwa`, 1 `.bin`) and the load
+/// options to read it with: the accelerometer, and for the AX6 its gyroscope too. Fails unless
+/// all 4 files were there, so a reader's test cannot pass on fewer.
+pub fn each_ggirread_raw_file(mut f: impl FnMut(&Path, &LoadOptions)) {
+    let dir = data_dir().join("ggirread_testfiles");
+    let mut seen = 0;
+    for entry in std::fs::read_dir(&dir).unwrap() {
+        let path = entry.unwrap().path();
+        if load::raw_file_format(&path).is_none() {
+            continue;
+        }
+        f(&path, &LoadOptions::default());
+        if path.to_string_lossy().contains("ax6") {
+            let gyro = LoadOptions {
+                columns: Some(["gx", "gy", "gz"].map(String::from)),
+                ..Default::default()
+            };
+            f(&path, &gyro);
+        }
+        seen += 1;
+    }
+    assert_eq!(
+        seen,
+        4,
+        "GGIRread's 3 .cwa and 1 .bin files in {}",
+        dir.display()
+    );
 }
