@@ -75,11 +75,7 @@ fn holds(rate_hz: f64, counts_per_g: f64) -> Vec<[i32; 3]> {
 }
 
 fn scratch(name: &str, bytes: &[u8]) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("wiical-raw-stream-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let path = dir.join(name);
-    std::fs::write(&path, bytes).unwrap();
-    path
+    common::scratch("raw-stream", name, bytes)
 }
 
 /// A GENEActiv file at 50 Hz: the holds in pages of 300 samples, page 3 with a non-hex

@@ -141,11 +141,7 @@ fn real_raw_files_fill_as_they_read_whole() {
 }
 
 fn scratch(name: &str, bytes: &[u8]) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("wiical-raw-samples-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let path = dir.join(name);
-    std::fs::write(&path, bytes).unwrap();
-    path
+    common::scratch("raw-samples", name, bytes)
 }
 
 /// A block with its checksum word set so that the 256 words sum to 0.

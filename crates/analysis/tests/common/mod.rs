@@ -53,3 +53,13 @@ pub fn each_ggirread_raw_file(mut f: impl FnMut(&Path, &LoadOptions)) {
         dir.display()
     );
 }
+
+/// Writes `bytes` to `name` in this test binary's scratch folder `wiical-<folder>-<pid>` under
+/// the temporary directory (scripts/test points it at a folder it deletes) and returns the path.
+pub fn scratch(folder: &str, name: &str, bytes: &[u8]) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("wiical-{folder}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join(name);
+    std::fs::write(&path, bytes).unwrap();
+    path
+}
