@@ -26,7 +26,7 @@ fn filled<T: Real + Default>(
     with_t: bool,
 ) -> (Vec<T>, Vec<T>, Vec<f64>, RawMeta) {
     let format = load::raw_file_format(path).expect("a raw file");
-    let plan = samples::plan(path, format, opts).unwrap();
+    let plan = samples::plan(load::Blocks::File(path, format), opts).unwrap();
     let n = plan.rows();
     let (mut xyz, mut temp) = (vec![T::default(); 3 * n], vec![T::default(); n]);
     let mut t = vec![0.0; if with_t { n } else { 0 }];
@@ -263,7 +263,11 @@ fn a_cut_cwa_reads_from_its_bytes_as_from_the_file() {
 fn a_file_cut_between_the_passes_is_refused() {
     let bytes = long_cwa();
     let path = scratch("shrinks.cwa", &bytes);
-    let plan = samples::plan(&path, RawFormat::Cwa, &LoadOptions::default()).unwrap();
+    let plan = samples::plan(
+        load::Blocks::File(&path, RawFormat::Cwa),
+        &LoadOptions::default(),
+    )
+    .unwrap();
     std::fs::write(&path, &bytes[..1024 + 512 * 8500]).unwrap();
     let n = plan.rows();
     let (mut xyz, mut temp) = (vec![0f32; 3 * n], vec![0f32; n]);

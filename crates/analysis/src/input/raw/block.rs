@@ -11,6 +11,16 @@ pub enum RawFormat {
     GeneActiv,
 }
 
+impl RawFormat {
+    /// What the format's notes call one of its blocks ("data block", "page").
+    pub(crate) fn unit(self) -> &'static str {
+        match self {
+            Self::Cwa => "data block",
+            Self::GeneActiv => "page",
+        }
+    }
+}
+
 /// One decoded data block (Axivity) or page (GENEActiv).
 #[derive(Debug, Clone)]
 pub struct GoodBlock {

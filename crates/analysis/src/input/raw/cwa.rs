@@ -282,11 +282,6 @@ impl BlockReader {
         )
     }
 
-    /// The channel layout (channels, packed) of the first good block, once read.
-    pub(crate) fn layout(&self) -> Option<(u8, bool)> {
-        self.layout
-    }
-
     /// The channel names (known once the first block is decoded).
     pub fn channels(&self) -> Vec<String> {
         channel_names(self.layout)

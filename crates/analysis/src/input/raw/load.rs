@@ -6,27 +6,22 @@
 //! so a held file and one read from disk give the same recording and table by construction.
 //!
 //! Two passes over the blocks, one chunk in memory at a time ([`BlockReader`],
-//! [`geneactiv::PageReader`]; each chunk decoded on all cores): the first decodes every block
-//! and keeps, per decoded block, only its time span ([`BlockSpan`], 24 bytes for a block of up
-//! to 300 samples) and the counts of skipped blocks ([`Tally`]); the times' statistics (median
-//! step, gaps: the rate and the notes) are then computed from the spans by regenerating the
-//! times; the second pass decodes the blocks again (a held file's are decoded already) and
-//! feeds each sample to the epoch search ([`EpochScan`]) or into a recording allocated once at
-//! its final length.
+//! [`geneactiv::PageReader`]; each chunk decoded on all cores), both in [`samples`]: the first
+//! ([`samples::plan`]) checks every block and keeps, per kept block, only its index and time
+//! span (32 bytes for a block of up to 300 samples) and the counts of skipped blocks; the
+//! second reads the blocks again (a held file's are decoded already) into a sink: the
+//! recording's arrays, allocated once at their final length, or the epoch search
+//! ([`EpochScan`]) sample by sample.
 
 use super::cwa::BlockReader;
 use super::epochs::{table_of, EpochOptions, EpochScan};
 use super::geneactiv::{self, PageReader};
-use super::{
-    choose_channels, describe, explain_too_few, no_data, skip_notes, Block, BlockSpan, RawFile,
-    RawFormat, Tally, TimePlan,
-};
+use super::{explain_too_few, samples, Block, RawFile, RawFormat};
 use crate::error::Result;
 use crate::input::bounded::HoldLimit;
 use crate::input::columns::LoadOptions;
 use crate::input::recording::Recording;
 use crate::input::table::WindowTable;
-use crate::input::timecheck::{time_notes_given, TimeSteps};
 use std::path::Path;
 
 /// The raw format of the regular file at `path` by its first bytes (`.cwa`: `MD`, length
@@ -39,14 +34,8 @@ pub fn raw_file_format(path: &Path) -> Option<RawFormat> {
     let mut head = [0u8; 15];
     let mut file = std::fs::File::open(path).ok()?;
     let got = crate::input::bounded::read_full(&mut file, &mut head).ok()?;
-    let head = &head[..got];
-    if head.len() >= 4 && &head[..2] == b"MD" && u16::from_le_bytes([head[2], head[3]]) == 1020 {
-        Some(RawFormat::Cwa)
-    } else if head == b"Device Identity" {
-        Some(RawFormat::GeneActiv)
-    } else {
-        None
-    }
+    // No extension given: bytes of neither format are `None`, not an error.
+    super::detect(&head[..got], Path::new("")).ok().flatten()
 }
 
 /// Where a raw file's blocks come from.
@@ -61,14 +50,14 @@ pub enum Blocks<'a> {
 
 impl<'a> Blocks<'a> {
     /// A reader at the first block (each pass opens its own).
-    fn open(self) -> Result<Reader<'a>> {
+    pub(super) fn open(self) -> Result<Reader<'a>> {
         match self {
             Self::File(path, format) => Reader::open(path, format),
             Self::Held(raw) => Ok(Reader::Held(raw)),
         }
     }
 
-    fn format(self) -> RawFormat {
+    pub(super) fn format(self) -> RawFormat {
         match self {
             Self::File(_, format) => format,
             Self::Held(raw) => raw.format,
@@ -145,114 +134,57 @@ impl Reader<'_> {
     }
 }
 
-/// What the first pass learnt.
-struct Scan {
-    format: RawFormat,
-    device: String,
-    header_rate_hz: f64,
-    channels: Vec<String>,
-    tally: Tally,
-    notes: Vec<String>,
-    /// One entry per decoded block, in file order (`None`: left out).
-    spans: Vec<Option<BlockSpan>>,
-}
-
-impl Scan {
-    /// Every sample's time in file order, regenerated from the spans.
-    fn times(&self) -> impl Iterator<Item = f64> + '_ {
-        self.spans.iter().flatten().flat_map(|s| s.times())
-    }
-
-    /// Decoded blocks left out (no sample, a clock step back, or stamped ahead).
-    fn left_out(&self) -> usize {
-        self.spans.iter().filter(|s| s.is_none()).count()
-    }
-
-    /// The reader's sentence on the file ([`describe`]).
-    fn describe(&self) -> String {
-        describe(
-            self.format,
-            &self.device,
-            self.tally.blocks,
-            self.header_rate_hz,
-            &self.channels,
-        )
-    }
-}
-
-/// First pass: every block decoded and counted, the decoded blocks' spans kept.
-fn scan(blocks: Blocks<'_>) -> Result<Scan> {
-    let format = blocks.format();
-    let mut reader = blocks.open()?;
-    let mut tally = Tally::default();
-    let mut plan = TimePlan::default();
-    let mut spans = Vec::new();
-    reader.for_each_chunk(|reader, chunk| {
-        // The channel count is the first good block's, as the whole-file reader's.
-        let nch = reader.channels().len();
-        for b in chunk {
-            tally.push(b, nch);
-            if let Block::Good(g) = b {
-                spans.extend(plan.push(g.index, g.start_s, g.rate_hz, g.len(nch)));
-            }
-        }
-    })?;
-    spans.extend(plan.finish());
-    tally.note_ahead(&plan);
-    Ok(Scan {
-        format,
-        device: reader.device(),
-        header_rate_hz: reader.header_rate_hz(),
-        channels: reader.channels(),
-        tally,
-        notes: reader.notes(),
-        spans,
-    })
-}
-
-/// The still-epoch table of a raw file (errors without the file's name: the caller adds it).
+/// The still-epoch table of a raw file (errors without the file's name: the caller adds it):
+/// the plan's kept samples fed one by one to the epoch search.
 pub fn raw_epoch_table(
     blocks: Blocks<'_>,
     opts: &LoadOptions,
     epochs: &EpochOptions,
 ) -> Result<WindowTable> {
-    let scan = scan(blocks)?;
-    let format = scan.format;
-    let cols = choose_channels(&scan.channels, opts)?;
-    let left_out = scan.left_out();
-    let (Some(t0), Some(t_end)) = (scan.times().next(), scan.spans.iter().flatten().last()) else {
-        return Err(no_data(&scan.tally, left_out).into());
-    };
-    let t_end = t_end.time(t_end.n - 1);
-    let mut notes = skip_notes(format, &scan.notes, &scan.tally, left_out);
-    let steps = TimeSteps::of_times(|| scan.times());
-    notes.extend(time_notes_given("time", steps, || scan.times()));
-    let info = scan.describe();
-    let measured = steps.map(|s| s.rate_hz());
-    let rate = measured.unwrap_or(100.0);
-    let mut found = EpochScan::new(t0, rate, epochs);
-    feed(blocks, &scan, |t, row, temp| {
-        found.push(t, cols.map(|c| row[c]), temp)
+    let plan = samples::plan(blocks, opts)?;
+    // The times' summary regenerated from the spans (no per-block steps held: memory is the
+    // plan and one chunk of blocks).
+    let meta = plan.meta(None, None);
+    // The plan keeps a block at least (else it is the no-data error).
+    let (first, last) = (plan.kept[0].span, plan.kept[plan.kept.len() - 1].span);
+    let rate = meta.rate_hz.unwrap_or(100.0);
+    let mut found = EpochScan::new(first.time(0), rate, epochs);
+    let nch = plan.channels.len();
+    plan.pass(|mine| {
+        for (g, k) in mine {
+            for (i, t) in k.span.times().enumerate() {
+                let row = &g.data[i * nch..(i + 1) * nch];
+                found.push(t, plan.cols.map(|c| row[c]), g.temp_c);
+            }
+        }
     })?;
-    let found = found.finish(t_end, rate);
-    let source = super::source_of(&info);
+    let found = found.finish(last.time(last.n - 1), rate);
+    let source = super::source_of(&meta.info);
     let like = Recording {
         temp: Some(Vec::new()),
-        axis_columns: cols.map(|c| scan.channels[c].clone()),
-        notes,
-        info: vec![info],
+        axis_columns: meta.columns,
+        notes: meta.notes,
+        info: vec![meta.info],
         ..Recording::default()
     };
     table_of(found, like, &source, epochs).map_err(|e| {
-        let (tally, header_hz) = (&scan.tally, scan.header_rate_hz);
-        explain_too_few(e, format, tally, left_out, measured, header_hz)
+        let (tally, header_hz) = (&plan.tally, plan.header_rate_hz);
+        explain_too_few(
+            e,
+            blocks.format(),
+            tally,
+            plan.left_out,
+            meta.rate_hz,
+            header_hz,
+        )
     })
 }
 
 /// Every sample of a raw file, with the samples' times taken from the blocks' own timestamps
-/// (no resampling, [`TimePlan`]), the block temperature per sample, and the triplet chosen by
-/// `opts`: its vectors allocated once at their final length (no size cap: memory is the
-/// recording itself and one chunk of blocks).
+/// (no resampling, [`TimePlan`](super::TimePlan)), the block temperature per sample, and the
+/// triplet chosen by `opts`: the f64 case of the array sink ([`samples::RawPlan::fill`]), its
+/// vectors allocated once at their final length (no size cap: memory is the recording itself
+/// and one chunk of blocks).
 pub fn load_raw(blocks: Blocks<'_>, opts: &LoadOptions) -> Result<Recording> {
     load_raw_within(blocks, opts, None)
 }
@@ -264,51 +196,20 @@ pub fn load_raw_within(
     opts: &LoadOptions,
     limit: Option<HoldLimit>,
 ) -> Result<Recording> {
-    let scan = scan(blocks)?;
-    let cols = choose_channels(&scan.channels, opts)?;
-    let left_out = scan.left_out();
-    let n: usize = scan.spans.iter().flatten().map(|s| s.n as usize).sum();
-    if n == 0 {
-        return Err(no_data(&scan.tally, left_out).into());
-    }
+    let plan = samples::plan(blocks, opts)?;
+    let n = plan.rows();
     if let Some(l) = limit {
         l.check(n)?;
     }
-    let mut rec = Recording {
-        xyz: Vec::with_capacity(n),
+    let (mut xyz, mut t, mut temp) = (vec![[0.0; 3]; n], vec![0.0; n], vec![0.0; n]);
+    let meta = plan.fill(xyz.as_flattened_mut(), &mut temp, Some(&mut t))?;
+    Ok(Recording {
+        xyz,
+        t: Some(t),
+        temp: Some(temp),
+        axis_columns: meta.columns,
+        notes: meta.notes,
+        info: vec![meta.info],
         ..Recording::default()
-    };
-    let (mut t, mut temp) = (Vec::with_capacity(n), Vec::with_capacity(n));
-    feed(blocks, &scan, |ti, row, tc| {
-        rec.xyz.push(cols.map(|c| row[c]));
-        t.push(ti);
-        temp.push(tc);
-    })?;
-    rec.axis_columns = cols.map(|c| scan.channels[c].clone());
-    rec.notes = skip_notes(scan.format, &scan.notes, &scan.tally, left_out);
-    rec.notes
-        .extend(crate::input::timecheck::time_notes("time", &t));
-    rec.info.push(scan.describe());
-    rec.t = Some(t);
-    rec.temp = Some(temp);
-    Ok(rec)
-}
-
-/// Second pass: every kept sample's time, values (all channels) and block temperature into
-/// `each`, in file order.
-fn feed(blocks: Blocks<'_>, scan: &Scan, mut each: impl FnMut(f64, &[f64], f64)) -> Result<()> {
-    let mut reader = blocks.open()?;
-    let nch = scan.channels.len();
-    let mut spans = scan.spans.iter();
-    reader.for_each_chunk(|_, chunk| {
-        for b in chunk {
-            let Block::Good(g) = b else { continue };
-            let Some(Some(span)) = spans.next() else {
-                continue;
-            };
-            for (i, t) in span.times().enumerate() {
-                each(t, &g.data[i * nch..(i + 1) * nch], g.temp_c);
-            }
-        }
     })
 }

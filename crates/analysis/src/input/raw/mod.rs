@@ -142,9 +142,7 @@ impl Tally {
                 let index = self.blocks;
                 self.blocks += 1;
                 self.corrupt += 1;
-                if self.corrupt_first.len() < LISTED_BLOCKS {
-                    self.corrupt_first.push(index);
-                }
+                list_first(&mut self.corrupt_first, index);
             }
             Block::Invalid(why) => self.push_invalid(why),
         }
@@ -156,9 +154,7 @@ impl Tally {
         self.blocks += 1;
         if samples == 0 {
             self.empty += 1;
-            if self.empty_first.len() < LISTED_BLOCKS {
-                self.empty_first.push(index);
-            }
+            list_first(&mut self.empty_first, index);
         }
     }
 
@@ -167,9 +163,7 @@ impl Tally {
         let index = self.blocks;
         self.blocks += 1;
         self.invalid += 1;
-        if self.invalid_first.len() < LISTED_BLOCKS {
-            self.invalid_first.push(index);
-        }
+        list_first(&mut self.invalid_first, index);
         self.first_invalid_why
             .get_or_insert_with(|| why.to_string());
     }
@@ -189,24 +183,24 @@ impl Tally {
 
     /// "#30 at 2027-06-01 10:00:00 (365 days ahead)", … for the blocks stamped ahead.
     fn ahead_list(&self) -> String {
-        let shown: Vec<String> = self
-            .ahead_first
-            .iter()
-            .map(|a| {
-                format!(
-                    "#{} at {} ({} ahead)",
-                    a.index,
-                    block::civil_text(a.start_s),
-                    span_text(a.by_s)
-                )
-            })
-            .collect();
-        let more = if self.ahead > LISTED_BLOCKS {
-            ", …"
-        } else {
-            ""
-        };
-        format!("{}{more}", shown.join(", "))
+        let shown = self.ahead_first.iter().map(|a| {
+            let at = block::civil_text(a.start_s);
+            format!("#{} at {at} ({} ahead)", a.index, span_text(a.by_s))
+        });
+        listed(shown, self.ahead)
+    }
+}
+
+/// The first blocks of `count` listed, ", …" after them when there are more.
+fn listed(shown: impl Iterator<Item = String>, count: usize) -> String {
+    let more = if count > LISTED_BLOCKS { ", …" } else { "" };
+    format!("{}{more}", shown.collect::<Vec<_>>().join(", "))
+}
+
+/// `block` listed in `first` while it holds fewer than `LISTED_BLOCKS`.
+fn list_first<T>(first: &mut Vec<T>, block: T) {
+    if first.len() < LISTED_BLOCKS {
+        first.push(block);
     }
 }
 
@@ -285,10 +279,7 @@ pub(crate) fn explain_too_few(
     else {
         return e;
     };
-    let unit = match format {
-        RawFormat::Cwa => "data blocks",
-        RawFormat::GeneActiv => "pages",
-    };
+    let unit = format.unit();
     let stepped_back = tally.stepped_back(left_out);
     let lost = tally.corrupt + tally.invalid + stepped_back + tally.ahead;
     let cause = if lost > 0 && 2 * lost >= tally.blocks {
@@ -310,7 +301,7 @@ pub(crate) fn explain_too_few(
             }
         }
         format!(
-            "{lost} of its {} {unit} could not be used ({}): the file is damaged, not too short",
+            "{lost} of its {} {unit}s could not be used ({}): the file is damaged, not too short",
             tally.blocks,
             parts.join(", ")
         )
@@ -488,13 +479,16 @@ impl TimePlan {
             .filter(|nx| nx.n > 0 && nx.start_s > self.last_t && b.start_s - nx.start_s >= nominal)
         {
             self.ahead += 1;
-            if self.ahead_first.len() < LISTED_BLOCKS {
-                self.ahead_first.push(Ahead {
-                    index: b.index,
-                    start_s: b.start_s,
-                    by_s: b.start_s - nx.start_s,
-                });
-            }
+            let by_s = b.start_s - nx.start_s;
+            let (index, start_s) = (b.index, b.start_s);
+            list_first(
+                &mut self.ahead_first,
+                Ahead {
+                    index,
+                    start_s,
+                    by_s,
+                },
+            );
             return None;
         }
         let dur = match next {
@@ -527,15 +521,8 @@ pub(crate) fn skip_notes(
     out_of_order: usize,
 ) -> Vec<String> {
     let mut notes = reader_notes.to_vec();
-    let unit = match format {
-        RawFormat::Cwa => "data block",
-        RawFormat::GeneActiv => "page",
-    };
-    let list = |idx: &[usize], count: usize| {
-        let shown: Vec<String> = idx.iter().map(|i| format!("#{i}")).collect();
-        let more = if count > LISTED_BLOCKS { ", …" } else { "" };
-        format!("{}{more}", shown.join(", "))
-    };
+    let unit = format.unit();
+    let list = |idx: &[usize], count: usize| listed(idx.iter().map(|i| format!("#{i}")), count);
     if tally.corrupt > 0 {
         notes.push(format!(
             "skipped {} corrupt {unit}(s) of {} (checksum failed): {}",
@@ -585,9 +572,9 @@ pub(crate) fn describe(
     header_rate_hz: f64,
     channels: &[String],
 ) -> String {
-    let (what, unit) = match format {
-        RawFormat::Cwa => (format!("an Axivity {device} .cwa file"), "data blocks"),
-        RawFormat::GeneActiv => (format!("a {device} .bin file"), "pages"),
+    let what = match format {
+        RawFormat::Cwa => format!("an Axivity {device} .cwa file"),
+        RawFormat::GeneActiv => format!("a {device} .bin file"),
     };
     let units = if channels.iter().any(|c| c.starts_with('g')) {
         "g and °/s"
@@ -595,7 +582,8 @@ pub(crate) fn describe(
         "g"
     };
     format!(
-        "read as {what}: {blocks} {unit} at {header_rate_hz} Hz, channels {} ({units}), times from the device clock",
+        "read as {what}: {blocks} {}s at {header_rate_hz} Hz, channels {} ({units}), times from the device clock",
+        format.unit(),
         channels.join(",")
     )
 }

@@ -1,20 +1,19 @@
-//! Every sample of a raw file (`.cwa`, `.bin`) written once into arrays the caller allocates,
-//! for callers that want them all (`wiical.read`): the [`Recording`](crate::Recording) path
-//! ([`load_raw`](super::load::load_raw)) pushes rows of f64 one by one, 40 bytes a sample with
-//! the time and the temperature, which for a week of wear is gigabytes of memory written in
-//! order on one core.
+//! The one pass structure every raw file (`.cwa`, `.bin`, or one held whole) is read by, and
+//! its array sink for callers that want every sample (`wiical.read`): the
+//! [`Recording`](crate::Recording) ([`load_raw`](super::load::load_raw)) is the f64 case of
+//! the same arrays, the still-epoch table ([`raw_epoch_table`](super::load::raw_epoch_table))
+//! a sink fed sample by sample from the same second pass.
 //!
-//! Two passes, as [`super::load`]: the first ([`plan`]) checks every block and keeps, per
-//! block whose samples are kept, its index in the file and its times' span, so that the
-//! output's length and each block's rows are known; the caller allocates the arrays (the
-//! Python package: vectors that numpy then takes over without a copy), and the second
-//! ([`RawPlan::fill`]) decodes the blocks again, each into its own rows, on all cores. A
-//! `.cwa` block's first pass only checks it (checksum and fields), its samples are decoded
-//! once, straight into the output. [`read`] does both for a `.cwa` in one pass, chunk by
-//! chunk (the blocks checked, placed, then decoded), into output it allocates at the file's
-//! upper bound of samples, and can give the times as block spans ([`Spans`]) instead of a
-//! value a sample. The samples, times, temperatures and notes are the ones
-//! [`load_raw`](super::load::load_raw) gives, value for value.
+//! Two passes: the first ([`plan`]) checks every block and keeps, per block whose samples are
+//! kept, its index in the file and its times' span, so that the output's length and each
+//! block's rows are known (a `.cwa` file's blocks are only checked, checksum and fields, not
+//! decoded); the caller allocates the arrays (the Python package: vectors that numpy then
+//! takes over without a copy), and the second ([`RawPlan::fill`]) reads the blocks again, a
+//! chunk at a time, each kept block copied into its own rows on all cores. [`read`] of a
+//! `.cwa` fuses both in one pass, chunk by chunk (the blocks checked, placed, then decoded
+//! straight into the output), into output it allocates at the file's upper bound of samples,
+//! and can give the times as block spans ([`Spans`]) instead of a value a sample: the same
+//! samples, times, temperatures and notes as the two passes, value for value.
 //!
 //! The values can be written as f32: every `.cwa` value is exact in f32 (a 16-bit count, or
 //! a 10-bit one shifted by at most 3, times a power of two for the accelerometer; the
@@ -25,9 +24,10 @@
 //! seconds since 1970 need its 53 bits to resolve a millisecond.
 
 use super::cwa::{self, Checked, Head, BLOCK_BYTES};
-use super::load::Reader;
+use super::load::{Blocks, Reader};
 use super::{
-    choose_channels, describe, no_data, skip_notes, Block, BlockSpan, RawFormat, Tally, TimePlan,
+    choose_channels, describe, no_data, skip_notes, Block, BlockSpan, GoodBlock, RawFormat, Tally,
+    TimePlan,
 };
 use crate::error::input::InputError;
 use crate::error::Result;
@@ -35,7 +35,7 @@ use crate::input::columns::LoadOptions;
 use crate::input::timecheck::{time_notes_given, TimeSteps, GAP_FACTOR};
 use rayon::prelude::*;
 use std::collections::HashMap;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 /// The value types the samples can be written as (f32, f64), cast from the decoder's f64.
 pub trait Real: Copy + Send + Sync + Default {
@@ -57,17 +57,19 @@ impl Real for f64 {
 
 /// A block whose samples are kept: where it is in the file and its samples' times.
 #[derive(Debug, Clone, Copy)]
-struct Kept {
+pub(super) struct Kept {
     /// Its index among the file's data blocks (pages).
     index: usize,
     /// Its samples' times.
-    span: BlockSpan,
+    pub(super) span: BlockSpan,
 }
 
-/// The blocks' spans as [`TimePlan`] closes them, each with its block's index.
+/// The first pass's state: the blocks counted ([`Tally`]) and their spans as [`TimePlan`]
+/// closes them, each with its block's index.
 #[derive(Default)]
 struct Planner {
     times: TimePlan,
+    tally: Tally,
     /// The index of the block [`TimePlan`] holds open.
     open: Option<usize>,
     kept: Vec<Kept>,
@@ -76,8 +78,26 @@ struct Planner {
 }
 
 impl Planner {
-    /// The next decoded block.
-    fn push(&mut self, index: usize, start_s: f64, rate_hz: f64, n: usize) {
+    /// The next block, decoded (its samples of `nch` channels).
+    fn block(&mut self, b: &Block, nch: usize) {
+        match b {
+            Block::Good(g) => self.good(g.index, g.start_s, g.rate_hz, g.len(nch)),
+            skipped => self.tally.push(skipped, nch),
+        }
+    }
+
+    /// The next `.cwa` block, checked only (at `index` in the file).
+    fn checked(&mut self, index: usize, c: &Checked) {
+        match c {
+            Checked::Good(h) => self.good(index, h.start_s, h.rate_hz, h.n),
+            Checked::Corrupt => self.tally.push(&Block::Corrupt, 0),
+            Checked::Invalid(why) => self.tally.push_invalid(why),
+        }
+    }
+
+    /// The next readable block: counted, its span planned.
+    fn good(&mut self, index: usize, start_s: f64, rate_hz: f64, n: usize) {
+        self.tally.push_good(n);
         if let Some(closed) = self.times.push(index, start_s, rate_hz, n) {
             self.close(closed);
         }
@@ -94,30 +114,52 @@ impl Planner {
         }
     }
 
-    fn finish(&mut self) {
+    /// The plan once `reader` has given every block of `blocks`: the channels chosen by
+    /// `opts`, then an error for a file without one kept sample.
+    fn plan<'a>(
+        mut self,
+        blocks: Blocks<'a>,
+        reader: &Reader<'_>,
+        opts: &LoadOptions,
+    ) -> Result<RawPlan<'a>> {
         if let Some(closed) = self.times.finish() {
             self.close(closed);
         }
+        self.tally.note_ahead(&self.times);
+        let channels = reader.channels();
+        let cols = choose_channels(&channels, opts)?;
+        if self.rows == 0 {
+            return Err(no_data(&self.tally, self.left_out).into());
+        }
+        Ok(RawPlan {
+            blocks,
+            cols,
+            channels,
+            tally: self.tally,
+            reader_notes: reader.notes(),
+            device: reader.device(),
+            header_rate_hz: reader.header_rate_hz(),
+            kept: self.kept,
+            rows: self.rows,
+            left_out: self.left_out,
+        })
     }
 }
 
 /// What the first pass learnt of a raw file: the output's length and where each kept block's
 /// samples go.
-pub struct RawPlan {
-    path: PathBuf,
-    format: RawFormat,
+pub struct RawPlan<'a> {
+    blocks: Blocks<'a>,
     /// The chosen channels among the file's.
-    cols: [usize; 3],
-    channels: Vec<String>,
-    /// The `.cwa` channel layout (channels, packed).
-    layout: Option<(u8, bool)>,
-    tally: Tally,
+    pub(super) cols: [usize; 3],
+    pub(super) channels: Vec<String>,
+    pub(super) tally: Tally,
     reader_notes: Vec<String>,
     device: String,
-    header_rate_hz: f64,
-    kept: Vec<Kept>,
+    pub(super) header_rate_hz: f64,
+    pub(super) kept: Vec<Kept>,
     rows: usize,
-    left_out: usize,
+    pub(super) left_out: usize,
 }
 
 /// What the second pass gives besides the arrays: the recording's description.
@@ -134,15 +176,11 @@ pub struct RawMeta {
     pub rate_hz: Option<f64>,
 }
 
-/// First pass over the raw file at `path` (in `format`, see
-/// [`raw_file_format`](super::load::raw_file_format)): every block checked and counted,
-/// the channels chosen by `opts`. Errors as [`load_raw`](super::load::load_raw)'s (without
-/// the file's name: the caller adds it).
-pub fn plan(path: &Path, format: RawFormat, opts: &LoadOptions) -> Result<RawPlan> {
+/// First pass over a raw file's `blocks`: every block checked and counted, the channels
+/// chosen by `opts`. Errors without the file's name (the caller adds it).
+pub fn plan<'a>(blocks: Blocks<'a>, opts: &LoadOptions) -> Result<RawPlan<'a>> {
     let mut planner = Planner::default();
-    let mut tally = Tally::default();
-    let mut reader = Reader::open(path, format)?;
-    let mut layout = None;
+    let mut reader = blocks.open()?;
     if let Reader::Cwa(cwa) = &mut reader {
         let mut checked = Vec::new();
         loop {
@@ -153,57 +191,25 @@ pub fn plan(path: &Path, format: RawFormat, opts: &LoadOptions) -> Result<RawPla
                 });
             })?;
             for (k, c) in checked.iter().enumerate() {
-                match c {
-                    Checked::Good(h) => {
-                        tally.push_good(h.n);
-                        planner.push(first + k, h.start_s, h.rate_hz, h.n);
-                    }
-                    Checked::Corrupt => tally.push(&Block::Corrupt, 0),
-                    Checked::Invalid(why) => tally.push_invalid(why),
-                }
+                planner.checked(first + k, c);
             }
             if !more {
                 break;
             }
         }
-        layout = cwa.layout();
     } else {
         reader.for_each_chunk(|reader, chunk| {
+            // The channel count is the first good block's, as the whole-file reader's.
             let nch = reader.channels().len();
-            for b in chunk {
-                tally.push(b, nch);
-                if let Block::Good(g) = b {
-                    planner.push(g.index, g.start_s, g.rate_hz, g.len(nch));
-                }
-            }
+            chunk.iter().for_each(|b| planner.block(b, nch));
         })?;
     }
-    planner.finish();
-    tally.note_ahead(&planner.times);
-    let channels = reader.channels();
-    let cols = choose_channels(&channels, opts)?;
-    if planner.rows == 0 {
-        return Err(no_data(&tally, planner.left_out).into());
-    }
-    Ok(RawPlan {
-        path: path.into(),
-        format,
-        cols,
-        layout,
-        tally,
-        reader_notes: reader.notes(),
-        device: reader.device(),
-        header_rate_hz: reader.header_rate_hz(),
-        channels,
-        kept: planner.kept,
-        rows: planner.rows,
-        left_out: planner.left_out,
-    })
+    planner.plan(blocks, &reader, opts)
 }
 
 /// One kept block's share of the output: its rows of values, temperatures and times.
 struct Rows<'a, T> {
-    kept: Kept,
+    span: BlockSpan,
     xyz: &'a mut [T],
     temp: &'a mut [T],
     t: &'a mut [f64],
@@ -225,7 +231,7 @@ fn cut<'a, T>(mut out: &'a mut [T], kept: &[Kept], width: usize) -> Vec<&'a mut 
         .collect()
 }
 
-impl RawPlan {
+impl RawPlan<'_> {
     /// Samples the file holds after the first pass: the rows to allocate.
     pub fn rows(&self) -> usize {
         self.rows
@@ -233,7 +239,7 @@ impl RawPlan {
 
     /// Second pass: the chosen triplet of every kept sample into `xyz` (`3·rows`, row-major),
     /// its block's temperature (°C) into `temp` (`rows`), and its time (s) into `t` when
-    /// given (`rows`), each block's rows decoded on all cores.
+    /// given (`rows`), each chunk's blocks copied into their rows on all cores.
     ///
     /// # Panics
     /// When the slices' lengths are not the plan's (a caller's mistake, not the file's).
@@ -248,18 +254,35 @@ impl RawPlan {
         let t: &mut [f64] = t.unwrap_or_default();
         assert!(t.is_empty() || t.len() == self.rows, "t holds a time a row");
         let with_t = !t.is_empty();
-        let shares: Vec<Rows<'_, T>> = cut(xyz, &self.kept, 3)
+        let mut shares = cut(xyz, &self.kept, 3)
             .into_iter()
             .zip(cut(temp, &self.kept, 1))
             .zip(cut(&mut *t, &self.kept, 1))
             .zip(&self.kept)
-            .map(|(((xyz, temp), t), &kept)| Rows { kept, xyz, temp, t })
-            .collect();
-        let steps = match self.format {
-            RawFormat::Cwa => self.fill_cwa(shares)?,
-            RawFormat::GeneActiv => self.fill_pages(shares)?,
-        };
-        Ok(self.meta(&steps, with_t.then_some(&*t)))
+            .map(|(((xyz, temp), t), k)| Rows {
+                span: k.span,
+                xyz,
+                temp,
+                t,
+            });
+        let (nch, cols) = (self.channels.len(), self.cols);
+        let (mut steps, mut got) = (Vec::with_capacity(self.kept.len()), Vec::new());
+        self.pass(|mine| {
+            let mine: Vec<_> = mine.into_iter().zip(shares.by_ref()).collect();
+            mine.into_par_iter()
+                .map(|((g, _), s)| {
+                    for (row, out) in g.data.chunks_exact(nch).zip(s.xyz.chunks_exact_mut(3)) {
+                        for k in 0..3 {
+                            out[k] = T::of(row[cols[k]]);
+                        }
+                    }
+                    s.temp.fill(T::of(g.temp_c));
+                    times_into(s.span, s.t)
+                })
+                .collect_into_vec(&mut got);
+            steps.append(&mut got);
+        })?;
+        Ok(self.meta(Some(&steps), with_t.then_some(&*t)))
     }
 
     /// Every kept sample's time into `t` when given (`rows`), each block's on all cores; the
@@ -274,98 +297,53 @@ impl RawPlan {
             .collect()
     }
 
-    /// The `.cwa` blocks read again a chunk at a time, each kept one decoded into its rows.
-    fn fill_cwa<T: Real>(&self, shares: Vec<Rows<'_, T>>) -> Result<Vec<Steps>> {
-        let mut reader = cwa::BlockReader::open(&self.path)?;
-        let mut shares = shares.into_iter().peekable();
-        let layout = self.layout;
-        let changed = |index: usize| InputError::RawHeader {
-            format: "Axivity .cwa",
-            why: format!(
-                "data block #{index} changed while the file was read (is it still being written?)"
-            ),
-        };
-        let mut steps = Vec::with_capacity(self.kept.len());
-        loop {
-            let mut mine = Vec::new();
-            let mut got = Vec::new();
-            let (_, more) = reader.next_bytes(|first, bytes, _| {
-                let end = first + bytes.len() / BLOCK_BYTES;
-                while let Some(s) = shares.next_if(|s| s.kept.index < end) {
-                    mine.push(s);
-                }
-                mine.par_iter_mut()
-                    .map(|s| {
-                        let at = (s.kept.index - first) * BLOCK_BYTES;
-                        decode_into(&bytes[at..at + BLOCK_BYTES], layout, self.cols, s)
-                            .map_err(|()| s.kept.index)
-                    })
-                    .collect_into_vec(&mut got);
-            })?;
-            for r in got {
-                steps.push(r.map_err(changed)?);
-            }
-            if !more {
-                return match shares.next() {
-                    Some(s) => Err(changed(s.kept.index).into()),
-                    None => Ok(steps),
-                };
-            }
-        }
-    }
-
-    /// The `.bin` pages read again a chunk at a time (decoded by the page reader), each kept
-    /// one's values copied into its rows.
-    fn fill_pages<T: Real>(&self, shares: Vec<Rows<'_, T>>) -> Result<Vec<Steps>> {
-        let mut reader = Reader::open(&self.path, self.format)?;
-        let mut shares = shares.into_iter().peekable();
+    /// The second pass: the blocks read again a chunk at a time, each chunk's kept blocks
+    /// (decoded) with their plan given to `each` in file order; an error, naming the block,
+    /// when one is no longer the block the first pass kept (the file changed in between).
+    pub(super) fn pass(&self, mut each: impl FnMut(Vec<(&GoodBlock, Kept)>)) -> Result<()> {
+        let mut reader = self.blocks.open()?;
+        let mut kept = self.kept.iter().peekable();
         let nch = self.channels.len();
-        let cols = self.cols;
-        let mut steps = Vec::with_capacity(self.kept.len());
-        let mut got = Vec::new();
+        let mut changed = None;
         reader.for_each_chunk(|_, chunk| {
             let mut mine = Vec::new();
             for b in chunk {
                 let Block::Good(g) = b else { continue };
-                if let Some(s) = shares.next_if(|s| s.kept.index == g.index) {
-                    mine.push((g, s));
+                if let Some(&k) = kept.next_if(|k| k.index == g.index) {
+                    if g.len(nch) == k.span.n as usize && g.start_s == k.span.start_s {
+                        mine.push((g, k));
+                    } else {
+                        changed.get_or_insert(k.index);
+                    }
                 }
             }
-            mine.par_iter_mut()
-                .map(|(g, s)| {
-                    for (row, out) in g.data.chunks_exact(nch).zip(s.xyz.chunks_exact_mut(3)) {
-                        for k in 0..3 {
-                            out[k] = T::of(row[cols[k]]);
-                        }
-                    }
-                    s.temp.fill(T::of(g.temp_c));
-                    times_into(s.kept.span, s.t)
-                })
-                .collect_into_vec(&mut got);
-            steps.append(&mut got);
+            each(mine);
         })?;
-        if steps.len() != self.kept.len() {
-            return Err(InputError::RawHeader {
-                format: "GENEActiv .bin",
-                why: "its pages changed while the file was read (is it still being written?)"
-                    .into(),
-            }
-            .into());
-        }
-        Ok(steps)
+        let Some(index) = changed.or_else(|| kept.next().map(|k| k.index)) else {
+            return Ok(());
+        };
+        let (format, why) = match self.blocks.format() {
+            RawFormat::Cwa => ("Axivity .cwa", format!("data block #{index} changed")),
+            RawFormat::GeneActiv => ("GENEActiv .bin", "its pages changed".into()),
+        };
+        let why = format!("{why} while the file was read (is it still being written?)");
+        Err(InputError::RawHeader { format, why }.into())
     }
 
     /// The notes, description and rate, as [`load_raw`](super::load::load_raw) computes
-    /// them: the times' summary from the blocks' `steps` (else, when a block's steps were too
-    /// varied to count, from the times `t` when they were written, or regenerated from the
-    /// spans), the times themselves only to list gaps.
-    fn meta(&self, steps: &[Steps], t: Option<&[f64]>) -> RawMeta {
-        let mut notes = skip_notes(self.format, &self.reader_notes, &self.tally, self.left_out);
+    /// them: the times' summary from the blocks' `steps` (else, without them or when a
+    /// block's steps were too varied to count, from the times `t` when they were written, or
+    /// regenerated from the spans), the times themselves only to list gaps.
+    pub(super) fn meta(&self, steps: Option<&[Steps]>, t: Option<&[f64]>) -> RawMeta {
+        let format = self.blocks.format();
+        let mut notes = skip_notes(format, &self.reader_notes, &self.tally, self.left_out);
         let regenerated = || self.kept.iter().flat_map(|k| k.span.times());
-        let summary = self.time_steps(steps).unwrap_or_else(|| match t {
-            Some(t) => TimeSteps::of(t),
-            None => TimeSteps::of_times(regenerated),
-        });
+        let summary = steps
+            .and_then(|s| self.time_steps(s))
+            .unwrap_or_else(|| match t {
+                Some(t) => TimeSteps::of(t),
+                None => TimeSteps::of_times(regenerated),
+            });
         // Without gaps or repeated times the notes' own pass over the times finds nothing.
         let quiet = summary.is_none_or(|s| s.gaps == 0 && s.repeats == 0);
         if !quiet {
@@ -378,7 +356,7 @@ impl RawPlan {
             columns: self.cols.map(|c| self.channels[c].clone()),
             notes,
             info: describe(
-                self.format,
+                format,
                 &self.device,
                 self.tally.blocks,
                 self.header_rate_hz,
@@ -435,7 +413,7 @@ impl RawPlan {
     }
 }
 
-impl RawPlan {
+impl RawPlan<'_> {
     /// How often each distinct step between consecutive kept times occurs (keyed by its
     /// bits), the blocks' own steps and those between blocks, counted on all cores: a few
     /// distinct values however long the file, where listing every block's (four a block) and
@@ -469,7 +447,7 @@ impl RawPlan {
 /// A block's steps between consecutive times: the distinct ones (at most four; rounding
 /// makes two or three of a block's even spacing) and how often each occurs.
 #[derive(Debug, Clone, Copy, Default)]
-struct Steps {
+pub(super) struct Steps {
     vals: [(f64, u32); 4],
     len: usize,
     /// More than four distinct steps: not counted.
@@ -505,23 +483,6 @@ impl Steps {
             counted += c as usize;
         }
     }
-}
-
-/// One `.cwa` block's samples, temperature and times into its rows; `Err` when the block is
-/// no longer the one the first pass kept (its fields or sample count changed).
-fn decode_into<T: Real>(
-    b: &[u8],
-    layout: Option<(u8, bool)>,
-    cols: [usize; 3],
-    s: &mut Rows<'_, T>,
-) -> std::result::Result<Steps, ()> {
-    let head = match cwa::head_block(b, &mut { layout }) {
-        Checked::Good(h) if h.n == s.kept.span.n as usize && h.start_s == s.kept.span.start_s => h,
-        _ => return Err(()),
-    };
-    head.samples_into(b, cols, T::of, s.xyz);
-    s.temp.fill(T::of(Head::temp_c(b)));
-    Ok(times_into(s.kept.span, s.t))
 }
 
 /// A block's sample times into `t` (nothing stored when `t` is empty: times not asked for);
@@ -697,11 +658,11 @@ fn read_from<T: Real>(
             let (plan, xyz, temp) = Sweep::run(reader, path, opts)?;
             let mut t = full.then(|| vec![0.0; plan.rows]);
             let steps = plan.times_into(t.as_deref_mut());
-            let meta = plan.meta(&steps, t.as_deref());
+            let meta = plan.meta(Some(&steps), t.as_deref());
             (plan, xyz, temp, t, meta)
         }
         RawFormat::GeneActiv => {
-            let plan = plan(path, format, opts)?;
+            let plan = plan(Blocks::File(path, format), opts)?;
             let n = plan.rows;
             let (mut xyz, mut temp) = (vec![T::default(); 3 * n], vec![T::default(); n]);
             let mut t = full.then(|| vec![0.0; n]);
@@ -721,7 +682,6 @@ fn read_from<T: Real>(
 /// One pass over a `.cwa`: the first pass's planning and the second's decoding per chunk.
 struct Sweep<T> {
     planner: Planner,
-    tally: Tally,
     /// The chosen channels, once the layout is known.
     cols: Option<[usize; 3]>,
     xyz: Vec<T>,
@@ -736,15 +696,14 @@ struct Sweep<T> {
 type Job<'a, T> = (&'a [u8], Head, &'a mut [T], &'a mut [T]);
 
 impl<T: Real> Sweep<T> {
-    fn run(
+    fn run<'a>(
         mut reader: cwa::BlockReader,
-        path: &Path,
+        path: &'a Path,
         opts: &LoadOptions,
-    ) -> Result<(RawPlan, Vec<T>, Vec<T>)> {
+    ) -> Result<(RawPlan<'a>, Vec<T>, Vec<T>)> {
         let blocks = reader.data_blocks()?;
         let mut sweep = Self {
             planner: Planner::default(),
-            tally: Tally::default(),
             cols: None,
             xyz: Vec::new(),
             temp: Vec::new(),
@@ -762,35 +721,11 @@ impl<T: Real> Sweep<T> {
                 break;
             }
         }
-        sweep.planner.finish();
-        sweep.tally.note_ahead(&sweep.planner.times);
-        let layout = reader.layout();
-        let channels = cwa::channel_names(layout);
-        let cols = match sweep.cols {
-            Some(c) => c,
-            None => choose_channels(&channels, opts)?,
-        };
-        if sweep.planner.rows == 0 {
-            return Err(no_data(&sweep.tally, sweep.planner.left_out).into());
-        }
-        debug_assert_eq!(sweep.planner.rows, sweep.rows, "every kept block placed");
-        let n = sweep.rows;
-        sweep.xyz.truncate(3 * n);
-        sweep.temp.truncate(n);
-        let plan = RawPlan {
-            path: path.into(),
-            format: RawFormat::Cwa,
-            cols,
-            layout,
-            tally: sweep.tally,
-            reader_notes: reader.notes(),
-            device: reader.header.device.into(),
-            header_rate_hz: reader.header.rate_hz,
-            channels,
-            kept: sweep.planner.kept,
-            rows: n,
-            left_out: sweep.planner.left_out,
-        };
+        let blocks = Blocks::File(path, RawFormat::Cwa);
+        let plan = sweep.planner.plan(blocks, &Reader::Cwa(reader), opts)?;
+        debug_assert_eq!(plan.rows, sweep.rows, "every kept block placed");
+        sweep.xyz.truncate(3 * plan.rows);
+        sweep.temp.truncate(plan.rows);
         Ok((plan, sweep.xyz, sweep.temp))
     }
 
@@ -811,25 +746,19 @@ impl<T: Real> Sweep<T> {
         });
         let mut placed = Vec::new();
         for (k, c) in checked.iter().enumerate() {
-            match c {
-                Checked::Good(h) => {
-                    self.tally.push_good(h.n);
-                    let ahead = self.planner.times.ahead;
-                    self.planner.push(first + k, h.start_s, h.rate_hz, h.n);
-                    if self.planner.times.ahead > ahead {
-                        // The block placed last stands ahead of this one: its rows are given
-                        // back (in this chunk, before they are placed; else they are written
-                        // over by the blocks that follow).
-                        if placed.pop().is_none() {
-                            self.rows -= self.last_placed;
-                        }
-                    }
-                    if self.planner.times.keeps_pending() {
-                        placed.push((k, *h));
-                    }
+            let ahead = self.planner.times.ahead;
+            self.planner.checked(first + k, c);
+            let Checked::Good(h) = c else { continue };
+            if self.planner.times.ahead > ahead {
+                // The block placed last stands ahead of this one: its rows are given back (in
+                // this chunk, before they are placed; else they are written over by the blocks
+                // that follow).
+                if placed.pop().is_none() {
+                    self.rows -= self.last_placed;
                 }
-                Checked::Corrupt => self.tally.push(&Block::Corrupt, 0),
-                Checked::Invalid(why) => self.tally.push_invalid(why),
+            }
+            if self.planner.times.keeps_pending() {
+                placed.push((k, *h));
             }
         }
         let (Some(l), false) = (*layout, placed.is_empty()) else {
