@@ -271,15 +271,21 @@ impl OrderCounts {
 
     /// One more key.
     pub fn push(&mut self, key: u64) {
-        self.len += 1;
+        self.push_n(key, 1);
+    }
+
+    /// `n` more of one key (as `n` pushes of it).
+    #[inline]
+    pub fn push_n(&mut self, key: u64, n: usize) {
+        self.len += n;
         match &mut self.by_value {
             Some(map) => {
-                *map.entry(key).or_insert(0) += 1;
+                *map.entry(key).or_insert(0) += n;
                 if map.len() > self.max_distinct {
                     self.drop_values();
                 }
             }
-            None => self.top[(key >> 48) as usize] += 1,
+            None => self.top[(key >> 48) as usize] += n,
         }
     }
 

@@ -87,9 +87,11 @@ pub struct TimeSteps {
 
 impl TimeSteps {
     /// The summary of `t` (`None` with fewer than 3 rows or no time elapsed). With repeated
-    /// times the step statistics are those of the positive steps.
+    /// times the step statistics are those of the positive steps. One pass while the positive
+    /// steps take few distinct values (a time column printed to fixed decimals has a few dozen
+    /// to a few hundred), else the selection's passes over the slice.
     pub fn of(t: &[f64]) -> Option<Self> {
-        few_steps(t).unwrap_or_else(|| Self::of_steps(&Slice(t)))
+        Self::of_times(|| t.iter().copied())
     }
 
     /// [`TimeSteps::of`] on times that `times` yields afresh on every call (the times of a
@@ -97,54 +99,18 @@ impl TimeSteps {
     /// The median is selected exactly (by the bits of the positive steps, 16 at a time), so
     /// the result is the one of a sort.
     pub fn of_times<I: Iterator<Item = f64>>(times: impl Fn() -> I) -> Option<Self> {
-        Self::of_steps(&Regenerated(times))
-    }
-
-    /// [`TimeSteps::of`] over the steps `steps` visits (a few passes, memory constant).
-    fn of_steps(steps: &impl Steps) -> Option<Self> {
-        let mut rows = 0usize;
-        let (mut first, mut last) = (f64::NAN, f64::NAN);
-        // The positive steps, by their bits (for positive floats their order as integers),
-        // counted in this pass for their median ([`OrderCounts`]: selected in passes, none
-        // stored; `few_steps` counted by value already).
-        let mut counts = OrderCounts::new(0);
-        steps.each(|prev, t| {
-            if rows == 0 {
-                first = prev;
-            }
-            rows += 1;
-            last = t;
-            let d = t - prev;
-            if d > 0.0 {
-                counts.push(d.to_bits());
-            }
-        });
-        let (all, positive) = (rows, counts.len);
-        if all < 2 || positive == 0 {
-            return None;
-        }
-        let Ok(median) = counts.keys(&[positive / 2], |key| {
-            steps.each(|a, b| {
-                let d = b - a;
-                if d > 0.0 {
-                    key(d.to_bits());
+        let mut tally = StepTally::counting(0);
+        times().for_each(|t| tally.push(t));
+        let pass = |key: &mut dyn FnMut(u64)| {
+            for (a, b) in pairs(times()) {
+                if b - a > 0.0 {
+                    key((b - a).to_bits());
                 }
-            });
+            }
             Ok::<(), std::convert::Infallible>(())
-        });
-        let median_s = f64::from_bits(median[0]);
-        if !(median_s.is_finite() && median_s > 0.0) {
-            return None;
-        }
-        let mut gaps = 0usize;
-        steps.each(|a, b| gaps += usize::from(b - a > GAP_FACTOR * median_s));
-        Some(Self {
-            median_s,
-            mean_s: (last - first) / all as f64,
-            gaps,
-            steps: all,
-            repeats: all - positive,
-        })
+        };
+        let Ok(steps) = tally.summary(pass);
+        steps
     }
 
     /// True when the timestamps come in bursts ([`BURST_GAP_FRACTION`]): the median step is
@@ -165,48 +131,55 @@ impl TimeSteps {
     }
 }
 
-/// Most distinct positive steps a [`StepTally`] counts before it gives up (a time column
-/// printed to fixed decimals has a few dozen; 2¹⁸ keys are ~10 MB).
+/// Most distinct positive steps a [`StepTally`] counts by value before it gives up (a time
+/// column printed to fixed decimals has a few dozen; 2¹⁸ keys are ~10 MB).
 pub const MAX_TALLIED_STEPS: usize = 1 << 18;
 
 /// [`TimeSteps::of`] in one pass over times fed one at a time (a file read in pieces, never
 /// held): the positive steps are counted by value, so the median is selected exactly as a
 /// sort would, and the gap count follows from the counts. Gives up (`finish` → `None`) past
 /// [`MAX_TALLIED_STEPS`] distinct steps; [`TimeSteps::of_times`] then re-reads the times.
-#[derive(Debug, Default)]
+#[derive(Debug)]
 pub struct StepTally {
     prev: Option<f64>,
     first: f64,
     last: f64,
     steps: usize,
     positive: usize,
-    /// Positive steps by their bits (for positive floats their order as integers); `None`
-    /// once too many. Every row of a streamed file is counted: in the small table of
-    /// [`few_steps`] while the steps take few values (a multiply, a shift and a compare per
-    /// step), then in a map hashed by a multiply and a shift (std's SipHash cost a tenth of
-    /// the first pass; the map's entry a tenth of the spill's thread).
-    counts: Option<Tallied>,
+    /// Positive steps by their bits while they take few values ([`FewTable`]: a multiply, a
+    /// shift and a compare per step, where a general map costs several times the whole
+    /// pass); `None` past its room.
+    few: Option<Box<FewTable>>,
+    /// The positive steps past the table's room ([`OrderCounts`]: by value up to its
+    /// `max_distinct`, then by their top bits for the selection's passes).
+    many: Option<OrderCounts>,
+    max_distinct: usize,
 }
 
-/// [`StepTally`]'s counts: few distinct steps, or many.
-#[derive(Debug)]
-enum Tallied {
-    Few(Box<FewTable>),
-    Many(StepCounts),
+impl Default for StepTally {
+    fn default() -> Self {
+        Self::new()
+    }
 }
-
-type StepCounts = std::collections::HashMap<
-    u64,
-    usize,
-    std::hash::BuildHasherDefault<crate::input::sample_summary::BitsHasher>,
->;
 
 impl StepTally {
     /// An empty tally.
     pub fn new() -> Self {
+        Self::counting(MAX_TALLIED_STEPS)
+    }
+
+    /// An empty tally, counting in the small table, then by value up to `max_distinct`
+    /// distinct steps (0: at once by their top bits, for the selection's passes).
+    fn counting(max_distinct: usize) -> Self {
         Self {
-            counts: Some(Tallied::Few(Box::new(FewTable::new()))),
-            ..Default::default()
+            prev: None,
+            first: f64::NAN,
+            last: f64::NAN,
+            steps: 0,
+            positive: 0,
+            few: Some(Box::new(FewTable::new())),
+            many: None,
+            max_distinct,
         }
     }
 
@@ -226,20 +199,18 @@ impl StepTally {
         }
     }
 
-    /// One more positive step of these bits: in the small table while it has room, then in
-    /// the map (the table's counts moved into it once), until that holds too many.
+    /// One more positive step of these bits: in the small table while it has room, then
+    /// (the table's counts moved over once) in the order counts.
     fn count(&mut self, bits: u64) {
-        if let Some(Tallied::Few(few)) = &mut self.counts {
+        if let Some(few) = &mut self.few {
             if few.add(bits) {
                 return;
             }
-            self.counts = Some(Tallied::Many(few.counted().collect()));
+            self.many = Some(few.into_counts(self.max_distinct));
+            self.few = None;
         }
-        if let Some(Tallied::Many(many)) = &mut self.counts {
-            *many.entry(bits).or_insert(0) += 1;
-            if many.len() > MAX_TALLIED_STEPS {
-                self.counts = None;
-            }
+        if let Some(many) = &mut self.many {
+            many.push(bits);
         }
     }
 
@@ -251,24 +222,38 @@ impl StepTally {
     /// What [`TimeSteps::of`] gives for the times pushed (`Some(None)`: no summary), or
     /// `None` when the tally gave up.
     pub fn finish(self) -> Option<Option<TimeSteps>> {
+        self.summary(|_| Err(())).ok()
+    }
+
+    /// The summary of the times pushed, `pass` giving every positive step's bits again when
+    /// the counts by value were given up (the median then selected in passes,
+    /// [`OrderCounts::keys`]).
+    fn summary<E>(
+        self,
+        mut pass: impl FnMut(&mut dyn FnMut(u64)) -> Result<(), E>,
+    ) -> Result<Option<TimeSteps>, E> {
         if self.steps < 2 || self.positive == 0 {
-            return Some(None);
+            return Ok(None);
         }
-        let mut counts: Vec<(u64, usize)> = match self.counts? {
-            Tallied::Few(few) => few.counted().collect(),
-            Tallied::Many(many) => many.into_iter().collect(),
+        let counts = match (self.few, self.many) {
+            (Some(few), _) => few.into_counts(usize::MAX),
+            (None, many) => many.unwrap_or_else(|| OrderCounts::new(0)),
         };
-        counts.sort_unstable();
-        let median_s = f64::from_bits(crate::stats::kth_counted(&counts, self.positive / 2));
+        let median_s = f64::from_bits(counts.keys(&[self.positive / 2], &mut pass)?[0]);
         if !(median_s.is_finite() && median_s > 0.0) {
-            return Some(None);
+            return Ok(None);
         }
-        let gaps = counts
-            .iter()
-            .filter(|(bits, _)| f64::from_bits(*bits) > GAP_FACTOR * median_s)
-            .map(|(_, c)| c)
-            .sum();
-        Some(Some(TimeSteps {
+        let mut gaps = 0usize;
+        let mut gap = |bits: u64, c: usize| {
+            if f64::from_bits(bits) > GAP_FACTOR * median_s {
+                gaps += c;
+            }
+        };
+        match counts.sorted() {
+            Some(sorted) => sorted.into_iter().for_each(|(bits, c)| gap(bits, c)),
+            None => pass(&mut |bits| gap(bits, 1))?,
+        }
+        Ok(Some(TimeSteps {
             median_s,
             mean_s: (self.last - self.first) / self.steps as f64,
             gaps,
@@ -278,38 +263,9 @@ impl StepTally {
     }
 }
 
-/// Slots of [`few_steps`]'s table (a power of two; 8 KB of keys, 4 KB of counts at most
-/// in use: it stays in the first-level cache).
+/// Slots of [`FewTable`] (a power of two; 8 KB of keys, 4 KB of counts at most in use: it
+/// stays in the first-level cache).
 const FEW_SLOTS: usize = 512;
-
-/// [`TimeSteps::of`] in one pass when the positive steps take few distinct values (a time
-/// column printed to fixed decimals has a few dozen to a few hundred): each value counted in
-/// a small open-addressing table, the median and the gap count then follow from the counts as
-/// [`StepTally::finish`] takes them, exactly as from the selection. `None` past
-/// three quarters of [`FEW_SLOTS`] distinct values (the selection's passes then run).
-///
-/// Why by hand: a general hash map costs several times the whole pass per step; this table is
-/// a multiply, a shift and a compare.
-fn few_steps(t: &[f64]) -> Option<Option<TimeSteps>> {
-    let mut few = FewTable::new();
-    let mut positive = 0usize;
-    // Only positive steps are counted (not zero, negative or NaN).
-    for d in t.windows(2).map(|w| w[1] - w[0]).filter(|d| *d > 0.0) {
-        positive += 1;
-        if !few.add(d.to_bits()) {
-            return None;
-        }
-    }
-    let tally = StepTally {
-        prev: t.last().copied(),
-        first: t.first().copied().unwrap_or(f64::NAN),
-        last: t.last().copied().unwrap_or(f64::NAN),
-        steps: t.len().saturating_sub(1),
-        positive,
-        counts: Some(Tallied::Few(Box::new(few))),
-    };
-    tally.finish()
-}
 
 /// Counts of up to three quarters of [`FEW_SLOTS`] distinct positive steps (their bits), in
 /// an open-addressing table.
@@ -352,41 +308,15 @@ impl FewTable {
         }
     }
 
-    /// Each step counted and its count.
-    fn counted(&self) -> impl Iterator<Item = (u64, usize)> + '_ {
-        self.keys
-            .iter()
-            .zip(self.counts)
-            .filter(|(k, _)| **k != 0)
-            .map(|(k, c)| (*k, c))
-    }
-}
-
-/// A pass over consecutive times `(t[i], t[i+1])`, as often as the statistics need.
-trait Steps {
-    /// Calls `f` on every pair, in order.
-    fn each<F: FnMut(f64, f64)>(&self, f: F);
-}
-
-/// The times of a slice (a tight loop over its pairs).
-struct Slice<'a>(&'a [f64]);
-
-impl Steps for Slice<'_> {
-    fn each<F: FnMut(f64, f64)>(&self, mut f: F) {
-        for w in self.0.windows(2) {
-            f(w[0], w[1]);
+    /// The counts as [`OrderCounts`] counting by value up to `max_distinct` keys.
+    fn into_counts(&self, max_distinct: usize) -> OrderCounts {
+        let mut counts = OrderCounts::new(max_distinct);
+        for (&k, &c) in self.keys.iter().zip(&self.counts) {
+            if k != 0 {
+                counts.push_n(k, c);
+            }
         }
-    }
-}
-
-/// Times generated afresh for every pass (see [`TimeSteps::of_times`]).
-struct Regenerated<G>(G);
-
-impl<I: Iterator<Item = f64>, G: Fn() -> I> Steps for Regenerated<G> {
-    fn each<F: FnMut(f64, f64)>(&self, mut f: F) {
-        for (a, b) in pairs((self.0)()) {
-            f(a, b);
-        }
+        counts
     }
 }
 
@@ -411,14 +341,9 @@ pub fn time_notes(column: &str, t: &[f64]) -> Vec<String> {
     time_notes_given(column, TimeSteps::of(t), || t.iter().copied())
 }
 
-/// [`time_notes`] on times that `times` yields afresh on every call (see
-/// [`TimeSteps::of_times`]).
-pub fn time_notes_of<I: Iterator<Item = f64>>(column: &str, times: impl Fn() -> I) -> Vec<String> {
-    time_notes_given(column, TimeSteps::of_times(&times), times)
-}
-
-/// [`time_notes_of`] with the steps' summary already computed (`TimeSteps::of_times` of the
-/// same times): a caller that needs the rate too regenerates the times once less.
+/// [`time_notes`] on times that `times` yields afresh on every call, with the steps' summary
+/// already computed ([`TimeSteps::of_times`] of the same times): a caller that needs the rate
+/// too regenerates the times once less.
 pub fn time_notes_given<I: Iterator<Item = f64>>(
     column: &str,
     steps: Option<TimeSteps>,
@@ -475,9 +400,28 @@ pub fn time_notes_given<I: Iterator<Item = f64>>(
 mod tests {
     use super::*;
 
-    /// The one-pass count of few distinct steps gives what the selection gives: regular,
-    /// with gaps, with repeats, bursts, times going back, NaN, too short; and gives up (the
-    /// selection runs) when the steps take too many values.
+    /// The summary as a sort of the positive steps gives it.
+    fn sorted(t: &[f64]) -> Option<TimeSteps> {
+        let steps = t.len().checked_sub(1)?;
+        let mut pos: Vec<f64> = t
+            .windows(2)
+            .map(|w| w[1] - w[0])
+            .filter(|d| *d > 0.0)
+            .collect();
+        pos.sort_by(f64::total_cmp);
+        let median_s = *pos.get(pos.len() / 2)?;
+        (steps >= 2 && median_s.is_finite()).then(|| TimeSteps {
+            median_s,
+            mean_s: (t[steps] - t[0]) / steps as f64,
+            gaps: pos.iter().filter(|d| **d > GAP_FACTOR * median_s).count(),
+            steps,
+            repeats: steps - pos.len(),
+        })
+    }
+
+    /// The one-pass count of few distinct steps gives what a sort gives: regular,
+    /// with gaps, with repeats, bursts, times going back, NaN, too short; and so do the
+    /// selection's passes when the steps take too many values.
     #[test]
     fn few_steps_agree_with_the_selection() {
         let regular: Vec<f64> = (0..5000).map(|i| i as f64 * 0.01).collect();
@@ -508,14 +452,14 @@ mod tests {
             &[],
         ];
         for t in cases {
-            let want = TimeSteps::of_steps(&Slice(t));
-            match few_steps(t) {
-                Some(got) => assert_eq!(got, want, "{:?}", &t[..t.len().min(5)]),
-                None => assert!(std::ptr::eq(t, &jitter[..]), "gave up on few steps"),
-            }
-            assert_eq!(TimeSteps::of(t), want);
+            assert_eq!(TimeSteps::of(t), sorted(t), "{:?}", &t[..t.len().min(5)]);
         }
-        assert!(few_steps(&jitter).is_none());
+        let mut few = StepTally::counting(0);
+        few.push_all(&jitter);
+        assert!(
+            few.few.is_none(),
+            "the table gave up on many distinct steps"
+        );
     }
 
     /// A 200 Hz log with times printed to 10 ms (each time twice): read, the rate
@@ -576,9 +520,10 @@ mod tests {
         assert_eq!(s.median_s.to_bits(), pos[pos.len() / 2].to_bits());
         assert_eq!(Some(s), TimeSteps::of_times(|| t.iter().copied()));
         assert_eq!(s.repeats, (1..5000).filter(|i| i % 17 == 0).count());
+        let regenerated = || t.iter().copied();
         assert_eq!(
             time_notes("t", &t),
-            time_notes_of("t", || t.iter().copied())
+            time_notes_given("t", TimeSteps::of_times(regenerated), regenerated)
         );
     }
 
