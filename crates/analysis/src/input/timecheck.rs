@@ -206,7 +206,7 @@ impl StepTally {
             if few.add(bits) {
                 return;
             }
-            self.many = Some(few.into_counts(self.max_distinct));
+            self.many = Some(few.counts(self.max_distinct));
             self.few = None;
         }
         if let Some(many) = &mut self.many {
@@ -236,7 +236,7 @@ impl StepTally {
             return Ok(None);
         }
         let counts = match (self.few, self.many) {
-            (Some(few), _) => few.into_counts(usize::MAX),
+            (Some(few), _) => few.counts(usize::MAX),
             (None, many) => many.unwrap_or_else(|| OrderCounts::new(0)),
         };
         let median_s = f64::from_bits(counts.keys(&[self.positive / 2], &mut pass)?[0]);
@@ -309,7 +309,7 @@ impl FewTable {
     }
 
     /// The counts as [`OrderCounts`] counting by value up to `max_distinct` keys.
-    fn into_counts(&self, max_distinct: usize) -> OrderCounts {
+    fn counts(&self, max_distinct: usize) -> OrderCounts {
         let mut counts = OrderCounts::new(max_distinct);
         for (&k, &c) in self.keys.iter().zip(&self.counts) {
             if k != 0 {
