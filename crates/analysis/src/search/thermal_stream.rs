@@ -1,16 +1,18 @@
-//! The thermal regressors of [`crate::search::thermal`] folded in one pass over samples
-//! streamed from a file, never held: per window the mean of each lagged temperature (the
-//! first-order lag run over every sample for each time constant, summed over the window's
-//! samples in order) and the temperature rate (the samples of the window's widened span
-//! buffered while the pass is inside it, then the same least-squares slope). The same
-//! operations on the same values in the same order as the per-sample code, so the same
-//! numbers bit for bit; memory is the windows and the spans open at once.
+//! The thermal regressors of [`crate::search::thermal`] folded in one pass over a
+//! recording's rows, held or read from a large file alike: per window the mean of each lagged
+//! temperature (the first-order lag run over every sample for each time constant, summed over
+//! the window's samples in order, from the sum `Iterator::sum` starts from) and the temperature
+//! rate (the samples of the window's widened span buffered while the pass is inside it, then
+//! the least-squares slope). Memory is the windows and the spans open at once.
 
-#![allow(clippy::neg_cmp_op_on_partial_ord)] // The span bounds are the partition points'
-                                             // predicates negated, as the per-sample code.
+#![allow(clippy::neg_cmp_op_on_partial_ord)] // The span bounds are a partition point's
+                                             // predicate negated.
 
-use crate::detect::windows::WindowStats;
-use crate::search::thermal::{slope, StreamedTemps, RATE_SPAN_S};
+use crate::search::thermal::{slope, SampleTemps, RATE_SPAN_S};
+
+/// A window as the fold reads it: its sample span (first, one past the last) and the times
+/// of its first and last samples, s.
+pub type Span = ((usize, usize), (f64, f64));
 
 /// A window's widened span for the rate ([`crate::search::thermal`]): its samples are those
 /// from the first whose time reaches `lo_t` (or the window's first sample) to the last whose
@@ -29,28 +31,25 @@ const WAITING: u8 = 0;
 const OPEN: u8 = 1;
 const DONE: u8 = 2;
 
-/// Folds the samples' `(time s, temperature °C)` (`n` of them, in order) over the windows
-/// `ws` for the time constants `taus`. `usable`: every time and temperature finite (the
-/// first pass knows); when not, nothing is folded (the regressors are not used).
+/// Folds the samples' `(time s, temperature °C)` (`n` of them, in time order) over the
+/// windows `ws` for the time constants `taus`. Not [`SampleTemps::usable`] (nothing folded)
+/// when a window lies outside the samples or holds fewer than two (a window-mean table's
+/// rows), or when a time or temperature is not finite.
 pub fn fold(
     samples: impl Iterator<Item = (f64, f64)>,
     n: usize,
-    ws: &[WindowStats],
+    ws: &[Span],
     taus: &[f64],
-    (usable, duration): (bool, f64),
-) -> StreamedTemps {
-    let spans: Vec<(usize, usize)> = ws.iter().map(|w| (w.start, w.end)).collect();
-    let usable = usable && !spans.is_empty() && spans.iter().all(|&(s, e)| e >= s + 2 && e <= n);
-    let mut out = StreamedTemps {
-        usable,
-        duration,
-        windows: ws.len(),
+) -> SampleTemps {
+    let mut out = SampleTemps {
+        usable: !ws.is_empty() && ws.iter().all(|&((s, e), _)| e >= s + 2 && e <= n),
         lagged: Vec::new(),
         rates: None,
     };
-    if !usable {
+    if !out.usable {
         return out;
     }
+    let spans: Vec<(usize, usize)> = ws.iter().map(|w| w.0).collect();
     let zero: f64 = std::iter::empty::<f64>().sum();
     let mut sums = vec![vec![zero; ws.len()]; taus.len()];
     let mut lag = Lag {
@@ -58,9 +57,11 @@ pub fn fold(
         prev_t: 0.0,
         taus,
     };
-    let mut rates = Rates::new(ws, &spans);
+    let mut rates = Rates::new(ws);
     let mut cover = crate::detect::windows::Cover::new(&spans);
+    let mut finite = true;
     for (i, (t, x)) in samples.enumerate() {
+        finite &= t.is_finite() && x.is_finite();
         lag.push(i, t, x);
         for &k in cover.at(i) {
             for (j, v) in lag.y.iter().enumerate() {
@@ -68,6 +69,10 @@ pub fn fold(
             }
         }
         rates.push(i, t, x);
+    }
+    if !finite {
+        out.usable = false;
+        return out;
     }
     out.lagged = taus
         .iter()
@@ -118,10 +123,10 @@ struct Rates {
 }
 
 impl Rates {
-    fn new(ws: &[WindowStats], spans: &[(usize, usize)]) -> Self {
+    fn new(ws: &[Span]) -> Self {
         let rate_spans: Vec<RateSpan> = ws.iter().map(rate_span).collect();
         let mut by_start: Vec<usize> = (0..ws.len()).collect();
-        by_start.sort_by_key(|&k| spans[k].0);
+        by_start.sort_by_key(|&k| ws[k].0 .0);
         let mut by_time: Vec<usize> = (0..ws.len()).collect();
         by_time.sort_by(|&a, &b| rate_spans[a].lo_t.total_cmp(&rate_spans[b].lo_t));
         Self {
@@ -183,14 +188,15 @@ fn rate_of(buf: &[(f64, f64)]) -> Option<f64> {
     slope(&ts, &temps)
 }
 
-/// The widened span of window `w` (as [`crate::search::thermal`] widens it).
-fn rate_span(w: &WindowStats) -> RateSpan {
-    let centre = 0.5 * (w.t_first + w.t_last);
-    let half = (0.5 * (w.t_last - w.t_first)).max(0.5 * RATE_SPAN_S);
+/// The widened span of window `w`: at least [`RATE_SPAN_S`] about its centre
+/// ([`crate::search::thermal`]).
+fn rate_span(&(span, (t_first, t_last)): &Span) -> RateSpan {
+    let centre = 0.5 * (t_first + t_last);
+    let half = (0.5 * (t_last - t_first)).max(0.5 * RATE_SPAN_S);
     RateSpan {
         lo_t: centre - half,
         hi_t: centre + half,
-        span: (w.start, w.end),
+        span,
         buf: Vec::new(),
         state: WAITING,
         slope: None,
