@@ -38,7 +38,7 @@ use crate::search::open_basis_screening::{self, LAG_MAX_FRACTION};
 use crate::search::options::AnalyzeOptions;
 use crate::search::outliers::{find_outliers, OutlierTrial};
 use crate::search::select::{check_rule, cv_over, select, Choice, OutlierScore, TermScore};
-use crate::search::thermal::SampleTemps;
+use crate::search::thermal::{self, SampleTemps};
 use crate::search::trial::{
     base_mask, block_weight, bonferroni_weights, drop_tests, mask_for, term_note, try_term,
     CandSpec, State, TermTrial,
@@ -113,13 +113,9 @@ pub(crate) fn analyze_windows<R: RowSource + ?Sized>(
             let has_temp = ctx.temp_range > 0.05;
             // The rows' temperature history, read only when the open basis will use it (it
             // needs a temperature spread).
+            let taus = thermal::lag_grid(LAG_MAX_FRACTION * ctx.duration);
             let temps = match has_temp && src.has_temp() {
-                true => Some(SampleTemps::of(
-                    src,
-                    &ctx.ws,
-                    &opts.fit.detect,
-                    LAG_MAX_FRACTION,
-                )?),
+                true => Some(SampleTemps::of(src, &ctx.ws, &opts.fit.detect, &taus)?),
                 false => None,
             };
             let hc = open_basis_screening::HostContext {
