@@ -49,7 +49,8 @@ use wiical_core::multipos::MultiPosModel;
 use wiical_core::Calibration;
 
 /// Runs the analysis on a recording you hold: a `pose` column's six faces by
-/// [`crate::search::six_contrasts`], everything else by [`analyze_rows`].
+/// [`crate::search::six_contrasts`], everything else by the analysis of its rows that a large
+/// file read in passes gets too (one code).
 pub fn analyze(rec: &Recording, opts: &AnalyzeOptions) -> Result<AnalyzeReport> {
     if rec.labels.is_some() {
         check_rule(opts.alpha, opts.cv_factor)?;
