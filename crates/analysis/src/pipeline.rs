@@ -7,12 +7,14 @@
 //! `device put` checks ([`Judged`]: the report's own keys, then `quality`).
 
 use crate::autocal;
-use crate::detect::windows::Windows;
+use crate::detect::windows::{detect_windows_untimed, Windows};
 use crate::error::Result;
 use crate::input::front_door::Input;
 use crate::input::table::WindowTable;
 use crate::protocol::sensor_kind::explain;
 use crate::report::verdict::Quality;
+use crate::search::analyze::{analyze_rows, analyze_windows};
+use crate::source::{RowSource, SampleSource};
 use crate::{AnalyzeOptions, AnalyzeReport, FitOptions, FitReport};
 use serde::Serialize;
 use wiical_core::acceptance::CoverageRule;
@@ -31,27 +33,47 @@ pub struct Judged<R> {
 /// `wiical fit`: static windows (or the table's rows) → the 9- or 6-parameter calibration,
 /// judged on its poses.
 pub fn fit_judged(input: &Input, opts: &FitOptions) -> Result<Judged<FitReport>> {
-    let judged = |r: crate::protocol::accel::AccelResult| Judged {
-        report: r.report,
-        quality: r.quality,
-    };
     match input {
         Input::Table(table) => judged_free(fit_table(table, opts)?),
-        Input::Samples(rec) => {
-            if rec.labels.is_some() {
-                return Err(crate::error::fit::FitError::PoseTable { rows: rec.len() }.into());
-            }
-            let ws = crate::detect::windows::detect_windows_untimed(rec, &opts.detect)?;
-            crate::protocol::accel::fit_by_protocol(&ws, opts)
-                .map(judged)
-                .map_err(|e| explain(e, &rec.axis_columns, rec.xyz.as_slice(), &ws))
+        Input::Samples(rec) if rec.labels.is_some() => {
+            Err(crate::error::fit::FitError::PoseTable { rows: rec.len() }.into())
         }
-        Input::Stream(src) => {
-            let ws = crate::detect::windows::detect_windows_untimed(&**src, &opts.detect)?;
-            crate::protocol::accel::fit_by_protocol(&ws, opts)
-                .map(judged)
-                .map_err(|e| explain(e, &src.meta.axis_columns, &**src, &ws))
-        }
+        Input::Samples(rec) => fit_rows(rec, opts),
+        Input::Stream(src) => fit_rows(&**src, opts),
+    }
+}
+
+/// [`fit_judged`] on the rows of `src`, held or a large file read in passes (one code).
+fn fit_rows<R: RowSource + ?Sized>(src: &R, opts: &FitOptions) -> Result<Judged<FitReport>> {
+    let ws = detect_windows_untimed(src, &opts.detect)?;
+    let r = crate::protocol::accel::fit_by_protocol(&ws, opts)
+        .map_err(|e| explain(e, src.axis_columns(), &Axes(src), &ws))?;
+    Ok(Judged {
+        report: r.report,
+        quality: r.quality,
+    })
+}
+
+/// `result` of the analysis of the rows of `src`, a refusal with the windows found again
+/// (only then) to say whether the rows look like another sensor's ([`explain`]).
+fn explained<R: RowSource + ?Sized>(
+    src: &R,
+    opts: &AnalyzeOptions,
+    result: Result<AnalyzeReport>,
+) -> Result<AnalyzeReport> {
+    result.map_err(|e| match detect_windows_untimed(src, &opts.fit.detect) {
+        Ok(ws) => explain(e, src.axis_columns(), &Axes(src), &ws),
+        Err(_) => e,
+    })
+}
+
+/// The axes of the rows of `src` as [`explain`] reads them (a [`SampleSource`]).
+struct Axes<'a, R: ?Sized>(&'a R);
+
+impl<R: RowSource + ?Sized> SampleSource for Axes<'_, R> {
+    fn each(&self, f: &mut dyn FnMut(&[f64; 3])) -> Result<()> {
+        self.0.rows().for_each(|r| f(&r.xyz));
+        self.0.check()
     }
 }
 
@@ -69,20 +91,8 @@ fn judged_free(report: FitReport) -> Result<Judged<FitReport>> {
 pub fn analyze_judged(input: &Input, opts: &AnalyzeOptions) -> Result<Judged<AnalyzeReport>> {
     let report = match input {
         Input::Table(t) => analyze_table(t, opts)?,
-        // On a refusal, the windows again (only then) to say whether the samples look like
-        // another sensor's.
-        Input::Samples(rec) => crate::analyze(rec, opts).map_err(|e| {
-            match crate::detect::windows::detect_windows_untimed(rec, &opts.fit.detect) {
-                Ok(ws) => explain(e, &rec.axis_columns, rec.xyz.as_slice(), &ws),
-                Err(_) => e,
-            }
-        })?,
-        Input::Stream(src) => crate::search::analyze::analyze_streamed(src, opts).map_err(|e| {
-            match crate::detect::windows::detect_windows_untimed(&**src, &opts.fit.detect) {
-                Ok(ws) => explain(e, &src.meta.axis_columns, &**src, &ws),
-                Err(_) => e,
-            }
-        })?,
+        Input::Samples(rec) => explained(rec, opts, crate::analyze(rec, opts))?,
+        Input::Stream(src) => explained(&**src, opts, analyze_rows(&**src, opts))?,
     };
     let quality = match &report.six_position {
         Some(six) => Quality::assess_with(
@@ -121,7 +131,7 @@ fn analyze_table(
 ) -> Result<crate::AnalyzeReport> {
     let ws = Windows::of_table(table);
     let units = ws.units;
-    let mut rep = crate::search::analyze::analyze_windows(&table.recording, ws, opts)?;
+    let mut rep = analyze_windows(&table.recording, ws, opts)?;
     rep.window_input = Some(table.info.clone());
     let rec = &table.recording;
     let run = |opts: &autocal::AutocalOptions| {

@@ -29,11 +29,7 @@ fn score(
         })
         .unwrap();
         let ws = detect_windows(&sim.recording, &DetectOptions::default()).unwrap();
-        let spans: Vec<(f64, f64)> = ws
-            .stats
-            .iter()
-            .map(|w| (ws.times[w.start], ws.times[w.end - 1]))
-            .collect();
+        let spans: Vec<(f64, f64)> = ws.stats.iter().map(|w| (w.t_first, w.t_last)).collect();
         let s = score_holds(&sim.truth.poses, &spans);
         eprintln!(
             "{} {rate_hz} Hz {profile:?} seed {seed}: {}/{} holds, {} stray, missed {:?}",

@@ -10,7 +10,7 @@ use wiical_analysis::correct::{correct_at, correct_recording};
 use wiical_analysis::detect::windows::detect_windows;
 use wiical_analysis::output::calfile::{parse, to_json_file, CalibrationFile, SCHEMA_V3};
 use wiical_analysis::output::host_term_checks::{HostTerm, Regressor};
-use wiical_analysis::search::thermal::{HeldTemps, SampleTemps};
+use wiical_analysis::search::thermal::SampleTemps;
 use wiical_analysis::{analyze, AnalyzeOptions, AnalyzeReport};
 use wiical_sim::{Device, EffectSpec, SimConfig, SimEffect, SimOutput};
 
@@ -49,14 +49,17 @@ fn rms(v: &[f64]) -> f64 {
 
 /// Each host term's regressor per window, as the analysis took it: the mean window time and
 /// temperature, the window mean of the lagged temperature, the window's rate.
-fn window_regressors(terms: &[HostTerm], r: &AnalyzeReport, st: &SampleTemps<'_>) -> Vec<Vec<f64>> {
+fn window_regressors(terms: &[HostTerm], r: &AnalyzeReport, st: &SampleTemps) -> Vec<Vec<f64>> {
     terms
         .iter()
         .map(|t| match t.shape().unwrap().0 {
             Regressor::Time => r.windows.iter().map(|w| w.t_centre).collect(),
             Regressor::Temperature => r.windows.iter().map(|w| w.temp.unwrap()).collect(),
-            Regressor::LaggedTemperature(tau) => st.lagged_means(tau),
-            Regressor::TemperatureRate => st.rates().unwrap(),
+            Regressor::LaggedTemperature(tau) => {
+                let lagged = st.lagged.iter().find(|l| l.0.to_bits() == tau.to_bits());
+                lagged.unwrap().1.clone()
+            }
+            Regressor::TemperatureRate => st.rates.clone().unwrap(),
         })
         .collect()
 }
@@ -94,13 +97,14 @@ fn check(effect: SimEffect, mg: f64) -> [f64; 4] {
     let opts = AnalyzeOptions::default();
     let ws = detect_windows(&s.recording, &opts.fit.detect).unwrap();
     assert_eq!(ws.stats.len(), r.windows.len());
-    let spans: Vec<(usize, usize)> = ws.stats.iter().map(|w| (w.start, w.end)).collect();
-    let temp = s.recording.temp.clone().unwrap_or_default();
-    let st = SampleTemps::Held(HeldTemps {
-        times: &ws.times,
-        temp: &temp,
-        spans: &spans,
-    });
+    // The lagged temperature at each term's time constant as the file gives it.
+    let taus: Vec<f64> = (file.host_terms.iter())
+        .filter_map(|t| match t.shape().unwrap().0 {
+            Regressor::LaggedTemperature(tau) => Some(tau),
+            _ => None,
+        })
+        .collect();
+    let st = SampleTemps::of(&s.recording, &ws, &opts.fit.detect, &taus).unwrap();
     let xs = window_regressors(&file.host_terms, &r, &st);
     let core_only = CalibrationFile {
         host_terms: Vec::new(),
@@ -120,11 +124,11 @@ fn check(effect: SimEffect, mg: f64) -> [f64; 4] {
     }
     // Per sample: the corrected samples' hold means.
     let c = correct_recording(&file, &s.recording, 100.0).unwrap();
-    let held: Vec<f64> = spans
-        .iter()
+    let held: Vec<f64> = (ws.stats.iter())
         .zip(&r.windows)
         .filter(|(_, w)| !w.rejected)
-        .map(|(&(a, b), _)| {
+        .map(|(s, _)| {
+            let (a, b) = (s.start, s.end);
             let mut mean = [0.0f64; 3];
             for v in &c.accel[a..b] {
                 for j in 0..3 {

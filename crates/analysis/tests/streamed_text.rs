@@ -212,8 +212,8 @@ fn windows_text(input: &Input, opts: &wiical_analysis::detect::windows::DetectOp
     };
     let w = wiical_analysis::detect::windows::detect_windows_untimed(&**src, opts).unwrap();
     format!(
-        "{:?} {:?} {:?} {} {:?}",
-        w.stats, w.times, w.clock, w.units, w.reference_variance
+        "{:?} {:?} {} {:?}",
+        w.stats, w.clock, w.units, w.reference_variance
     )
 }
 

@@ -52,7 +52,6 @@ impl Windows {
             units: infer_units(rec.is_integer(), st::median(&norms)),
             stats,
             clock: times.first().zip(times.last()).map(|(a, b)| (*a, *b)),
-            times,
             reference_variance,
             polling: None,
         }

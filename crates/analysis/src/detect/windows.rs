@@ -615,32 +615,26 @@ fn finish(a: &Acc, t0: f64, integer: bool, has_temp: bool) -> WindowStats {
 }
 
 /// Detects the static windows (the core's detector on the detector's view), refuses
-/// saturated ones, computes their f64 statistics and infers the input units: every sample's
-/// time kept in [`Windows::times`] (`analyze`'s thermal regressors read them).
+/// saturated ones, computes their f64 statistics and infers the input units.
 pub fn detect_windows(rec: &Recording, opts: &DetectOptions) -> Result<Windows> {
-    detect_windows_of(rec, opts, true)
+    detect_windows_of(rec, opts)
 }
 
-/// [`detect_windows`] without every sample's time in [`Windows::times`] (left empty): for
-/// `fit` and `gyrofit`, which read the windows' own times only, on held rows or a large text
-/// file read in passes, never held (one code: the same windows bit for bit); a pass that
-/// found the file changed or unreadable says so.
+/// [`detect_windows`] on held rows or a large text file read in passes, never held (one
+/// code: the same windows bit for bit); a pass that found the file changed or unreadable
+/// says so.
 pub fn detect_windows_untimed<R: RowSource + ?Sized>(
     src: &R,
     opts: &DetectOptions,
 ) -> crate::Result<Windows> {
-    let found = detect_windows_of(src, opts, false);
+    let found = detect_windows_of(src, opts);
     src.check()?;
     Ok(found?)
 }
 
 /// The detection of [`detect_windows`] on the rows of `src` (held, or a file in passes: one
-/// code), keeping every sample's time when `keep_times`.
-pub fn detect_windows_of<R: RowSource + ?Sized>(
-    src: &R,
-    opts: &DetectOptions,
-    keep_times: bool,
-) -> Result<Windows> {
+/// code).
+pub fn detect_windows_of<R: RowSource + ?Sized>(src: &R, opts: &DetectOptions) -> Result<Windows> {
     let integer = src.integer();
     let (intervals, reference_variance, rate) = if opts.adaptive {
         detect_adaptive(src, opts, integer)?
@@ -657,16 +651,9 @@ pub fn detect_windows_of<R: RowSource + ?Sized>(
     let norms: Vec<f64> = stats.iter().map(|w| magnitude(&w.mean)).collect();
     let n = src.len();
     let (first, last) = src.time_ends();
-    let times = if keep_times {
-        let clock = |(i, r): (usize, Row)| time_of(r.t, i, fs);
-        src.rows().enumerate().map(clock).collect()
-    } else {
-        Vec::new()
-    };
     Ok(Windows {
         units: infer_units(integer, st::median(&norms)),
         stats,
-        times,
         clock: (n > 0).then(|| (time_of(first, 0, fs), time_of(last, n - 1, fs))),
         reference_variance,
         polling,
@@ -740,11 +727,6 @@ impl WindowStats {
 pub struct Windows {
     /// The windows.
     pub stats: Vec<WindowStats>,
-    /// Sample times (recording clock), s: every sample's for a recording held in memory
-    /// ([`detect_windows`]: `analyze`'s thermal regressors read them); empty from
-    /// [`detect_windows_untimed`] (samples streamed from a file, `fit` and `gyrofit`, which
-    /// read the windows' own times).
-    pub times: Vec<f64>,
     /// Times of the recording's first and last sample, s (recording clock); `None` without
     /// samples.
     pub clock: Option<(f64, f64)>,

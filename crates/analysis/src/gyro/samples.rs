@@ -82,7 +82,7 @@ impl<'a, R: RowSource> Imu<'a, R> {
     /// The accelerometer's static windows, as `wiical fit` finds them on the same samples; a
     /// pass that ended early keeps the file's error for the caller.
     pub(super) fn windows(&self, opts: &DetectOptions) -> Result<Windows> {
-        let found = detect_windows_of(self.acc, opts, false);
+        let found = detect_windows_of(self.acc, opts);
         if let Err(e) = self.acc.check() {
             self.failed.borrow_mut().get_or_insert(e);
             return Err(ended_early());

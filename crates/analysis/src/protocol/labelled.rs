@@ -7,6 +7,7 @@ use super::{recognise, AccelProtocol, AccelRecognition};
 use crate::detect::windows::Windows;
 use crate::error::fit::FitError;
 use crate::input::recording::Recording;
+use crate::source::{RowBuf, RowSource};
 use wiical_core::six_position::Pose;
 
 /// Whether the residual analysis can take windows recognised as `r`: `Ok(false)` for free
@@ -25,35 +26,48 @@ pub fn six_faces_or_free(r: &AccelRecognition) -> Result<bool, FitError> {
     }
 }
 
-/// The labelled recording of `rec`'s face windows `ws` when they are the six faces; `None`
-/// for free poses (today's pipeline); an error naming the protocol when the windows are one
-/// pose or an incomplete set of faces, which the residual analysis cannot take.
-pub fn faces_recording(rec: &Recording, ws: &Windows) -> Result<Option<Recording>, FitError> {
+/// The labelled recording of the face windows `ws` of the rows of `src` (held, or a large
+/// file whose windows' rows are read from where it keeps them) when they are the six faces;
+/// `None` for free poses (today's pipeline); an error naming the protocol when the windows are
+/// one pose or an incomplete set of faces, which the residual analysis cannot take. A failed
+/// read ends the rows early, which [`RowSource::check`] then says.
+pub fn faces_recording<R: RowSource + ?Sized>(
+    src: &R,
+    ws: &Windows,
+) -> Result<Option<Recording>, FitError> {
     let r = recognise(ws);
     if !six_faces_or_free(&r)? {
         return Ok(None);
     }
     let mut out = Recording {
-        axis_columns: rec.axis_columns.clone(),
-        sample_rate_hz: rec.sample_rate_hz,
+        axis_columns: src.axis_columns().clone(),
+        sample_rate_hz: src.metadata_rate_hz(),
+        temp: src.has_temp().then(Vec::new),
         ..Default::default()
     };
     let mut labels = Vec::new();
-    let mut temp = rec.temp.as_ref().map(|_| Vec::new());
+    let mut buf = RowBuf::default();
     for pose in Pose::ALL {
-        for (w, f) in ws.stats.iter().zip(&r.faces) {
-            if f.pose != Some(pose) {
-                continue;
-            }
-            let span = w.start..w.end.min(rec.len());
-            out.xyz.extend_from_slice(&rec.xyz[span.clone()]);
-            labels.extend(std::iter::repeat_n(pose.label().to_string(), span.len()));
-            if let (Some(t), Some(src)) = (temp.as_mut(), rec.temp.as_ref()) {
-                t.extend_from_slice(&src[span]);
+        let faces = ws.stats.iter().zip(&r.faces);
+        for (w, _) in faces.filter(|(_, f)| f.pose == Some(pose)) {
+            let (mut at, end) = (w.start, w.end.min(src.len()));
+            while let Some(rows) = (at < end).then(|| src.span((at, end), &mut buf)).flatten() {
+                out.xyz.extend_from_slice(rows.xyz);
+                if let (Some(t), Some(read)) = (out.temp.as_mut(), rows.temp) {
+                    t.extend_from_slice(read);
+                }
+                labels.extend(std::iter::repeat_n(
+                    pose.label().to_string(),
+                    rows.xyz.len(),
+                ));
+                at = if rows.xyz.is_empty() {
+                    end
+                } else {
+                    at + rows.xyz.len()
+                };
             }
         }
     }
     out.labels = Some(labels);
-    out.temp = temp;
     Ok(Some(out))
 }

@@ -18,13 +18,12 @@
 //!    with `t₀` the time of the first sample ([`AnalyzeReport::time_origin_s`]).
 
 #![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x > 0.0)` is deliberately true for NaN.
-use crate::detect::windows::{detect_windows, detect_windows_untimed, Windows};
+use crate::detect::windows::{detect_windows_untimed, Windows};
 use crate::error::search::SearchError;
 use crate::error::Result;
 use crate::fit::base::fit_means_named;
 use crate::fit::model::{self as am, Fit, Normalisation, Part, Term, Win};
 use crate::input::recording::Recording;
-use crate::input::text_source::TextSource;
 use crate::report::contract::{
     AnalyzeReport, CandidateReport, EffectReport, ModelSummary, StepReport, WindowInfo,
 };
@@ -35,90 +34,61 @@ use crate::search::correlates::{residual_correlates, span_of, WindowPoint};
 use crate::search::evidence::{self as ev, TermContext};
 use crate::search::floor::{chi2_summary, floors, reference_variance};
 use crate::search::limits;
-use crate::search::open_basis_screening;
+use crate::search::open_basis_screening::{self, LAG_MAX_FRACTION};
 use crate::search::options::AnalyzeOptions;
 use crate::search::outliers::{find_outliers, OutlierTrial};
 use crate::search::select::{check_rule, cv_over, select, Choice, OutlierScore, TermScore};
-use crate::search::thermal;
-use crate::search::thermal_stream;
+use crate::search::thermal::{self, SampleTemps};
 use crate::search::trial::{
     base_mask, block_weight, bonferroni_weights, drop_tests, mask_for, term_note, try_term,
     CandSpec, State, TermTrial,
 };
+use crate::source::RowSource;
 use crate::stats as st;
 use wiical_core::multipos::MultiPosModel;
 use wiical_core::Calibration;
 
-/// Runs the analysis: six-position files (a `pose` column) by [`crate::search::six_contrasts`], everything else
-/// by the multi-position pipeline of this module.
+/// Runs the analysis on a recording you hold: a `pose` column's six faces by
+/// [`crate::search::six_contrasts`], everything else by the analysis of its rows that a large
+/// file read in passes gets too (one code).
 pub fn analyze(rec: &Recording, opts: &AnalyzeOptions) -> Result<AnalyzeReport> {
-    check_rule(opts.alpha, opts.cv_factor)?;
     if rec.labels.is_some() {
+        check_rule(opts.alpha, opts.cv_factor)?;
         return Ok(crate::search::six_contrasts::analyze_six(rec, opts)?);
     }
-    let report = |stage, done, total| opts.progress.report(Progress { stage, done, total });
-    report(Stage::Windows, 0, 0);
-    let ws = detect_windows(rec, &opts.fit.detect)?;
-    if let Some(labelled) = crate::protocol::labelled::faces_recording(rec, &ws)? {
+    analyze_rows(rec, opts)
+}
+
+/// The analysis of the rows of `src`, held or a large file read in passes (one code, so the
+/// same report): the windows detected and their protocol recognised; six faces by
+/// [`crate::search::six_contrasts`] on each face's rows (read where they are kept), free
+/// poses by the multi-position pipeline of this module ([`analyze_windows`]).
+pub(crate) fn analyze_rows<R: RowSource + ?Sized>(
+    src: &R,
+    opts: &AnalyzeOptions,
+) -> Result<AnalyzeReport> {
+    check_rule(opts.alpha, opts.cv_factor)?;
+    opts.progress.report(Progress {
+        stage: Stage::Windows,
+        done: 0,
+        total: 0,
+    });
+    let ws = detect_windows_untimed(src, &opts.fit.detect)?;
+    if let Some(labelled) = crate::protocol::labelled::faces_recording(src, &ws)? {
+        src.check()?;
         return Ok(crate::search::six_contrasts::analyze_six(&labelled, opts)?);
     }
-    analyze_windows(rec, ws, opts)
+    analyze_windows(src, ws, opts)
 }
 
-/// [`analyze`] on a large text file streamed in passes ([`TextSource`]: the samples are never
-/// held): the same windows ([`crate::detect::windows::detect_windows_untimed`]) and the same report.
-pub fn analyze_streamed(src: &TextSource, opts: &AnalyzeOptions) -> Result<AnalyzeReport> {
-    check_rule(opts.alpha, opts.cv_factor)?;
-    let report = |stage, done, total| opts.progress.report(Progress { stage, done, total });
-    report(Stage::Windows, 0, 0);
-    let ws = detect_windows_untimed(src, &opts.fit.detect)?;
-    let recognised = crate::protocol::recognise(&ws);
-    if crate::protocol::labelled::six_faces_or_free(&recognised)? {
-        // The six-position contrasts read every face's samples, which a streamed file does
-        // not hold: said, with the command that calibrates it.
-        return Err(crate::error::fit::FitError::Protocol {
-            summary: recognised.summary(),
-            why: "a file this large is not held in memory, which the six-position residual \
-                  analysis needs; `wiical fit` gives its six-position calibration"
-                .into(),
-        }
-        .into());
-    }
-    analyze_in(Samples::Streamed(src), ws, opts)
-}
-
-/// What the analysis reads of the samples beyond their windows: their count and, for the
-/// open basis's thermal terms, their temperature history.
-#[derive(Clone, Copy)]
-enum Samples<'a> {
-    /// A recording held in memory.
-    Held(&'a Recording),
-    /// A file streamed in passes.
-    Streamed(&'a TextSource),
-}
-
-impl Samples<'_> {
-    fn len(&self) -> usize {
-        match self {
-            Samples::Held(rec) => rec.len(),
-            Samples::Streamed(src) => src.len(),
-        }
-    }
-}
-
-/// The multi-position analysis of windows already found: detected by [`analyze`], or read
-/// from a window-mean table ([`crate::input::window_means`]); everything after the detection is the
-/// same pipeline.
-pub fn analyze_windows(
-    rec: &Recording,
+/// The multi-position analysis of windows already found in the rows of `src`: detected by
+/// [`analyze_rows`], or read from a window-mean table ([`crate::input::window_means`]);
+/// everything after the detection is the same pipeline.
+pub(crate) fn analyze_windows<R: RowSource + ?Sized>(
+    src: &R,
     ws: Windows,
     opts: &AnalyzeOptions,
 ) -> Result<AnalyzeReport> {
-    analyze_in(Samples::Held(rec), ws, opts)
-}
-
-/// [`analyze_windows`] on the windows of `samples`.
-fn analyze_in(samples: Samples<'_>, ws: Windows, opts: &AnalyzeOptions) -> Result<AnalyzeReport> {
     check_rule(opts.alpha, opts.cv_factor)?;
     let report = |stage, done, total| opts.progress.report(Progress { stage, done, total });
     let mut ctx = Context::new(ws, opts)?;
@@ -141,30 +111,20 @@ fn analyze_in(samples: Samples<'_>, ws: Windows, opts: &AnalyzeOptions) -> Resul
         };
         while search.effects.len() < opts.max_effects + steps.len() && search.step(&ctx) {}
         if opts.candidates.is_none() {
-            let spans = ctx.spans();
             let has_temp = ctx.temp_range > 0.05;
-            let streamed;
-            let temps = match samples {
-                Samples::Held(rec) => rec.temp.as_deref().map(|temp| {
-                    thermal::SampleTemps::Held(thermal::HeldTemps {
-                        times: &ctx.ws.times,
-                        temp,
-                        spans: &spans,
-                    })
-                }),
-                // Only read when the open basis will use it (it needs a temperature spread).
-                Samples::Streamed(src) if has_temp && src.has_temp() => {
-                    streamed = streamed_temps(src, &ctx.ws, &opts.fit.detect)?;
-                    Some(thermal::SampleTemps::Streamed(&streamed))
-                }
-                Samples::Streamed(_) => None,
+            // The rows' temperature history, read only when the open basis will use it (it
+            // needs a temperature spread).
+            let taus = thermal::lag_grid(LAG_MAX_FRACTION * ctx.duration);
+            let temps = match has_temp && src.has_temp() {
+                true => Some(SampleTemps::of(src, &ctx.ws, &opts.fit.detect, &taus)?),
+                false => None,
             };
             let hc = open_basis_screening::HostContext {
                 nrm: &ctx.nrm,
                 has_time: ctx.duration > 0.0,
                 has_temp,
                 units: ctx.ws.units,
-                samples: temps,
+                samples: temps.as_ref(),
             };
             let open = open_basis_screening::extend(
                 &mut search.state,
@@ -182,7 +142,7 @@ fn analyze_in(samples: Samples<'_>, ws: Windows, opts: &AnalyzeOptions) -> Resul
             bias_step::refit_jointly(&sc, &mut search.state, &ctx.wins, &steps, rows);
         }
     }
-    ctx.report(samples.len(), &base, search)
+    ctx.report(src.len(), &base, search)
 }
 
 /// What the bias-step search reads ([`bias_step::StepContext`]).
@@ -200,23 +160,6 @@ fn step_context<'a>(
         opts,
         model: opts.fit.model,
     }
-}
-
-/// The thermal terms' per-window values from a pass over the streamed file.
-fn streamed_temps(
-    src: &TextSource,
-    ws: &Windows,
-    detect: &crate::detect::windows::DetectOptions,
-) -> Result<thermal::StreamedTemps> {
-    let duration = ws.clock.map_or(0.0, |(first, last)| last - first);
-    let taus = thermal::lag_grid(open_basis_screening::LAG_MAX_FRACTION * duration);
-    let time = crate::detect::windows::sample_clock(src, detect);
-    let rows = src.rows().enumerate();
-    let samples = rows.map(|(i, r)| (time(r.t, i), r.temp.unwrap_or(f64::NAN)));
-    let usable = src.summary.finite_t_temp;
-    let temps = thermal_stream::fold(samples, src.len(), &ws.stats, &taus, (usable, duration));
-    src.check()?;
-    Ok(temps)
 }
 
 /// What the analysis knows about the recording once the windows are found.
@@ -379,11 +322,6 @@ impl<'a> Context<'a> {
             duration: self.duration,
             cv_factor: self.opts.cv_factor,
         }
-    }
-
-    /// Sample spans (first, one past the last) of the windows.
-    fn spans(&self) -> Vec<(usize, usize)> {
-        self.ws.stats.iter().map(|w| (w.start, w.end)).collect()
     }
 
     /// Times of the windows' first and last samples, s.

@@ -20,7 +20,6 @@ pub mod outliers;
 pub mod select;
 pub mod six_contrasts;
 pub mod thermal;
-pub(crate) mod thermal_stream;
 pub mod trial;
 
 pub use crate::error::search::SearchError;

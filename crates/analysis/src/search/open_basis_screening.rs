@@ -174,7 +174,7 @@ pub struct HostContext<'a> {
     pub units: &'static str,
     /// The per-sample temperature for the thermal-lag and temperature-rate terms (`None`, or
     /// not [`thermal::SampleTemps::usable`], leaves them out).
-    pub samples: Option<thermal::SampleTemps<'a>>,
+    pub samples: Option<&'a thermal::SampleTemps>,
 }
 
 /// A polynomial host family: (family, scale term?, power, on temperature?, factor to the
@@ -274,8 +274,8 @@ pub fn host_terms(wins: &[Win], hc: &HostContext<'_>) -> Vec<BasisTerm> {
         }
     }
     if hc.has_temp {
-        if let Some(st) = hc.samples.filter(|s| s.usable()) {
-            out.extend(thermal_terms(&st, hc));
+        if let Some(st) = hc.samples.filter(|s| s.usable) {
+            out.extend(thermal_terms(st, hc));
         }
     }
     out
@@ -286,7 +286,7 @@ pub fn host_terms(wins: &[Win], hc: &HostContext<'_>) -> Vec<BasisTerm> {
 /// per-sample temperature. The lagged window temperature is centred and scaled like ϑ (the
 /// value is in raw units/°C like `temperature`); the rate is centred and scaled by its RMS
 /// spread over the windows.
-fn thermal_terms(st: &thermal::SampleTemps<'_>, hc: &HostContext<'_>) -> Vec<BasisTerm> {
+fn thermal_terms(st: &thermal::SampleTemps, hc: &HostContext<'_>) -> Vec<BasisTerm> {
     let (th, s, u) = (hc.nrm.temp_scale, hc.nrm.scale, hc.units);
     let bias =
         |family, target: String, (xs, r): (Vec<f64>, HostReference), factor, unit: String, tau| {
@@ -303,12 +303,11 @@ fn thermal_terms(st: &thermal::SampleTemps<'_>, hc: &HostContext<'_>) -> Vec<Bas
             })
         };
     let mut out = Vec::new();
-    for tau in thermal::lag_grid(LAG_MAX_FRACTION * st.duration()) {
-        let lagged = st.lagged_means(tau);
-        if let Some(xs) = thermal::centred(&lagged, th) {
+    for &(tau, ref lagged) in &st.lagged {
+        if let Some(xs) = thermal::centred(lagged, th) {
             let target = format!(", τ = {} s", fmt_tau(tau));
             let r = HostReference {
-                temperature_c: Some(thermal::mean(&lagged)),
+                temperature_c: Some(thermal::mean(lagged)),
                 ..Default::default()
             };
             out.extend(bias(
@@ -321,12 +320,12 @@ fn thermal_terms(st: &thermal::SampleTemps<'_>, hc: &HostContext<'_>) -> Vec<Bas
             ));
         }
     }
-    if let Some(rates) = st.rates() {
-        let r = thermal::rms_spread(&rates);
-        if let Some(xs) = thermal::centred(&rates, r) {
+    if let Some(rates) = &st.rates {
+        let r = thermal::rms_spread(rates);
+        if let Some(xs) = thermal::centred(rates, r) {
             let unit = format!("{u}/(°C/s)");
             let origin = HostReference {
-                rate_c_per_s: Some(thermal::mean(&rates)),
+                rate_c_per_s: Some(thermal::mean(rates)),
                 ..Default::default()
             };
             out.extend(bias(

@@ -8,6 +8,13 @@
 //!   times, started at the first sample's temperature), for every τ of [`lag_grid`].
 //! * **Temperature rate**: dT/dt in °C/s, the least-squares slope of the temperature over the
 //!   window widened to at least [`RATE_SPAN_S`] about its centre (clamped to the recording).
+//!
+//! Both are folded in one pass over the recording's rows, held or read from a large file
+//! alike ([`SampleTemps::of`]): per window the mean of each lagged temperature (the lag run
+//! over every sample for each time constant, summed over the window's samples in order, from
+//! the sum `Iterator::sum` starts from) and the rate (the samples of the window's widened span
+//! buffered while the pass is inside it, then the least-squares slope). Memory is the windows
+//! and the spans open at once.
 
 /// Number of time constants tried.
 pub const LAG_GRID_LEN: usize = 10;
@@ -16,123 +23,42 @@ pub const LAG_MIN_S: f64 = 10.0;
 /// Shortest span over which dT/dt is fitted, s.
 pub const RATE_SPAN_S: f64 = 30.0;
 
-/// The recording's per-sample time and temperature and the windows' sample spans.
-#[derive(Debug, Clone, Copy)]
-pub struct HeldTemps<'a> {
-    /// Sample times, s.
-    pub times: &'a [f64],
-    /// Sample temperatures, °C (same length as `times`).
-    pub temp: &'a [f64],
-    /// Windows' sample spans (first, one past the last).
-    pub spans: &'a [(usize, usize)],
-}
+use crate::detect::windows::{sample_clock, DetectOptions, Windows};
+use crate::source::RowSource;
 
-/// The thermal regressors' per-window values from a pass over samples streamed from a file
-/// (`crate::search::thermal_stream`).
+/// The thermal regressors' per-window values, folded in one pass over the recording's rows
+/// (module docs) whether they are held or read from a large file.
 #[derive(Debug, Clone)]
-pub struct StreamedTemps {
-    /// [`SampleTemps::usable`] of the samples.
+pub struct SampleTemps {
+    /// Every window lies in the samples and holds at least two (windows read from a
+    /// window-mean table are single rows: no per-sample temperature history), and every time
+    /// and temperature is finite; when not, nothing else is filled (the terms are left out).
     pub usable: bool,
-    /// Recording duration, s.
-    pub duration: f64,
-    /// Windows.
-    pub windows: usize,
-    /// Per time constant (s): the window means of the lagged temperature.
+    /// Per time constant of [`lag_grid`] (s): the window means of the lagged temperature.
     pub lagged: Vec<(f64, Vec<f64>)>,
-    /// dT/dt per window, °C/s (`None` when a window's span has no time spread).
+    /// dT/dt per window, °C/s (`None` when a window's widened span has no time spread).
     pub rates: Option<Vec<f64>>,
 }
 
-/// What the thermal regressors are computed from: the samples held in memory, or their
-/// per-window aggregates folded in a pass over a file streamed from disk ([`StreamedTemps`]).
-#[derive(Debug, Clone, Copy)]
-pub enum SampleTemps<'a> {
-    /// Every sample's time and temperature.
-    Held(HeldTemps<'a>),
-    /// The aggregates of a pass.
-    Streamed(&'a StreamedTemps),
-}
-
-impl SampleTemps<'_> {
-    /// Whether the spans lie in the samples, each holds at least two (windows read from a
-    /// window-mean table are single rows: no per-sample temperature history) and every value
-    /// is finite.
-    pub fn usable(&self) -> bool {
-        match self {
-            Self::Held(h) => h.usable(),
-            Self::Streamed(s) => s.usable,
-        }
-    }
-
-    /// Recording duration, s.
-    pub fn duration(&self) -> f64 {
-        match self {
-            Self::Held(h) => h.duration(),
-            Self::Streamed(s) => s.duration,
-        }
-    }
-
-    /// Window means of the temperature through a first-order lag of `tau_s` ([`lagged`]);
-    /// for streamed samples only the time constants of [`StreamedTemps::lagged`] (NaN
-    /// otherwise: never asked, the grid is the same).
-    pub fn lagged_means(&self, tau_s: f64) -> Vec<f64> {
-        match self {
-            Self::Held(h) => h.lagged_means(tau_s),
-            Self::Streamed(s) => s
-                .lagged
-                .iter()
-                .find(|(t, _)| t.to_bits() == tau_s.to_bits())
-                .map_or_else(|| vec![f64::NAN; s.windows], |(_, m)| m.clone()),
-        }
-    }
-
-    /// dT/dt per window, °C/s (`None` where the widened span has no time spread).
-    pub fn rates(&self) -> Option<Vec<f64>> {
-        match self {
-            Self::Held(h) => h.rates(),
-            Self::Streamed(s) => s.rates.clone(),
-        }
-    }
-}
-
-impl HeldTemps<'_> {
-    fn usable(&self) -> bool {
-        self.times.len() == self.temp.len()
-            && !self.spans.is_empty()
-            && self
-                .spans
-                .iter()
-                .all(|&(s, e)| e >= s + 2 && e <= self.times.len())
-            && self.times.iter().chain(self.temp).all(|x| x.is_finite())
-    }
-
-    fn duration(&self) -> f64 {
-        match (self.times.first(), self.times.last()) {
-            (Some(a), Some(b)) => b - a,
-            _ => 0.0,
-        }
-    }
-
-    fn lagged_means(&self, tau_s: f64) -> Vec<f64> {
-        let lagged = lagged(self.times, self.temp, tau_s);
-        self.spans
-            .iter()
-            .map(|&(s, e)| lagged[s..e].iter().sum::<f64>() / (e - s) as f64)
-            .collect()
-    }
-
-    fn rates(&self) -> Option<Vec<f64>> {
-        self.spans
-            .iter()
-            .map(|&(s, e)| {
-                let centre = 0.5 * (self.times[s] + self.times[e - 1]);
-                let half = (0.5 * (self.times[e - 1] - self.times[s])).max(0.5 * RATE_SPAN_S);
-                // Sample times ascend in a recording; the partition points bound the span.
-                let lo = self.times.partition_point(|&t| t < centre - half).min(s);
-                let hi = self.times.partition_point(|&t| t <= centre + half).max(e);
-                slope(&self.times[lo..hi], &self.temp[lo..hi])
-            })
-            .collect()
+impl SampleTemps {
+    /// The regressors of the windows `ws` from the rows of `src` (times as the detection with
+    /// `detect` took them) for the time constants `taus` (s); a pass that found the file
+    /// changed or unreadable says so.
+    pub fn of<R: RowSource + ?Sized>(
+        src: &R,
+        ws: &Windows,
+        detect: &DetectOptions,
+        taus: &[f64],
+    ) -> crate::Result<Self> {
+        let time = sample_clock(src, detect);
+        let rows = src.rows().enumerate();
+        let samples = rows.map(|(i, r)| (time(r.t, i), r.temp.unwrap_or(f64::NAN)));
+        let spans: Vec<Span> = (ws.stats.iter())
+            .map(|w| ((w.start, w.end), (w.t_first, w.t_last)))
+            .collect();
+        let temps = fold(samples, src.len(), &spans, taus);
+        src.check()?;
+        Ok(temps)
     }
 }
 
@@ -153,8 +79,8 @@ pub fn lagged(times: &[f64], temp: &[f64], tau_s: f64) -> Vec<f64> {
 }
 
 /// dT/dt per sample, °C/s: the least-squares slope of the temperature over the samples
-/// within ±[`RATE_SPAN_S`]/2 of each (clamped to the recording), what [`SampleTemps::rates`]
-/// fits for a one-sample window; `None` where that span has no time spread. From running
+/// within ±[`RATE_SPAN_S`]/2 of each (clamped to the recording), the window rates'
+/// ([`SampleTemps::rates`]) span for a window of one sample; `None` where that span has no time spread. From running
 /// sums (about the first sample, so that they stay small), not one fit per sample: a
 /// 400-Hz recording has 12 000 samples in a span. The sums' rounding leaves ~1e-8 relative
 /// on a 5-minute recording (tested), far below the `f32` correction it feeds.
@@ -224,12 +150,223 @@ pub fn rms_spread(v: &[f64]) -> f64 {
     (v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / v.len().max(1) as f64).sqrt()
 }
 
+/// A window as the fold reads it: its sample span (first, one past the last) and the times
+/// of its first and last samples, s.
+type Span = ((usize, usize), (f64, f64));
+
+/// A window's widened span for the rate ([`crate::search::thermal`]): its samples are those
+/// from the first whose time reaches `lo_t` (or the window's first sample) to the last whose
+/// time is within `hi_t` (or the window's last sample).
+struct RateSpan {
+    lo_t: f64,
+    hi_t: f64,
+    span: (usize, usize),
+    buf: Vec<(f64, f64)>,
+    state: u8,
+    /// The slope, once the span is done.
+    slope: Option<f64>,
+}
+
+const WAITING: u8 = 0;
+const OPEN: u8 = 1;
+const DONE: u8 = 2;
+
+/// Folds the samples' `(time s, temperature °C)` (`n` of them, in time order) over the
+/// windows `ws` for the time constants `taus`. Not [`SampleTemps::usable`] (nothing folded)
+/// when a window lies outside the samples or holds fewer than two (a window-mean table's
+/// rows), or when a time or temperature is not finite.
+fn fold(
+    samples: impl Iterator<Item = (f64, f64)>,
+    n: usize,
+    ws: &[Span],
+    taus: &[f64],
+) -> SampleTemps {
+    let mut out = SampleTemps {
+        usable: !ws.is_empty() && ws.iter().all(|&((s, e), _)| e >= s + 2 && e <= n),
+        lagged: Vec::new(),
+        rates: None,
+    };
+    if !out.usable {
+        return out;
+    }
+    let spans: Vec<(usize, usize)> = ws.iter().map(|w| w.0).collect();
+    let zero: f64 = std::iter::empty::<f64>().sum();
+    let mut sums = vec![vec![zero; ws.len()]; taus.len()];
+    let mut lag = Lag {
+        y: vec![0.0f64; taus.len()],
+        prev_t: 0.0,
+        taus,
+    };
+    let mut rates = Rates::new(ws);
+    let mut cover = crate::detect::windows::Cover::new(&spans);
+    let mut finite = true;
+    for (i, (t, x)) in samples.enumerate() {
+        finite &= t.is_finite() && x.is_finite();
+        lag.push(i, t, x);
+        for &k in cover.at(i) {
+            for (j, v) in lag.y.iter().enumerate() {
+                sums[j][k] += v;
+            }
+        }
+        rates.push(i, t, x);
+    }
+    if !finite {
+        out.usable = false;
+        return out;
+    }
+    out.lagged = taus
+        .iter()
+        .zip(sums)
+        .map(|(&tau, s)| {
+            let means = s
+                .iter()
+                .zip(&spans)
+                .map(|(v, &(a, b))| v / (b - a) as f64)
+                .collect();
+            (tau, means)
+        })
+        .collect();
+    out.rates = rates.finish();
+    out
+}
+
+/// The lagged temperature of every time constant, sample by sample
+/// ([`crate::search::thermal::lagged`]).
+struct Lag<'a> {
+    y: Vec<f64>,
+    prev_t: f64,
+    taus: &'a [f64],
+}
+
+impl Lag<'_> {
+    fn push(&mut self, i: usize, t: f64, x: f64) {
+        if i == 0 {
+            self.y.iter_mut().for_each(|v| *v = x);
+            self.prev_t = t;
+        }
+        let dt = (t - self.prev_t).max(0.0);
+        for (v, tau) in self.y.iter_mut().zip(self.taus) {
+            *v += (1.0 - (-dt / tau).exp()) * (x - *v);
+        }
+        self.prev_t = t;
+    }
+}
+
+/// The rate spans of every window, filled as the pass goes through them.
+struct Rates {
+    spans: Vec<RateSpan>,
+    by_start: Vec<usize>,
+    by_time: Vec<usize>,
+    next_start: usize,
+    next_time: usize,
+    open: Vec<usize>,
+}
+
+impl Rates {
+    fn new(ws: &[Span]) -> Self {
+        let rate_spans: Vec<RateSpan> = ws.iter().map(rate_span).collect();
+        let mut by_start: Vec<usize> = (0..ws.len()).collect();
+        by_start.sort_by_key(|&k| ws[k].0 .0);
+        let mut by_time: Vec<usize> = (0..ws.len()).collect();
+        by_time.sort_by(|&a, &b| rate_spans[a].lo_t.total_cmp(&rate_spans[b].lo_t));
+        Self {
+            spans: rate_spans,
+            by_start,
+            by_time,
+            next_start: 0,
+            next_time: 0,
+            open: Vec::new(),
+        }
+    }
+
+    /// Sample `i` (time `t`, temperature `x`) into the spans holding it.
+    #[allow(clippy::neg_cmp_op_on_partial_ord)] // The span's end: a partition point's
+                                                // predicate negated (true for NaN).
+    fn push(&mut self, i: usize, t: f64, x: f64) {
+        // Spans that begin here: by their first sample, or by time.
+        while let Some(&k) = self.by_start.get(self.next_start) {
+            if self.spans[k].span.0 > i {
+                break;
+            }
+            open_span(&mut self.spans[k], k, &mut self.open);
+            self.next_start += 1;
+        }
+        while let Some(&k) = self.by_time.get(self.next_time) {
+            if t < self.spans[k].lo_t {
+                break;
+            }
+            open_span(&mut self.spans[k], k, &mut self.open);
+            self.next_time += 1;
+        }
+        let spans = &mut self.spans;
+        self.open.retain(|&k| {
+            let r = &mut spans[k];
+            if i >= r.span.1 && !(t <= r.hi_t) {
+                // Its samples are all in: the slope now, the buffer freed.
+                r.state = DONE;
+                r.slope = rate_of(&std::mem::take(&mut r.buf));
+                return false;
+            }
+            r.buf.push((t, x));
+            true
+        });
+    }
+
+    /// The slope over each span (those open at the end of the samples end there).
+    fn finish(self) -> Option<Vec<f64>> {
+        self.spans
+            .iter()
+            .map(|r| match r.state {
+                DONE => r.slope,
+                _ => rate_of(&r.buf),
+            })
+            .collect()
+    }
+}
+
+/// The least-squares slope of the buffered `(time, temperature)` samples.
+fn rate_of(buf: &[(f64, f64)]) -> Option<f64> {
+    let (ts, temps): (Vec<f64>, Vec<f64>) = buf.iter().copied().unzip();
+    slope(&ts, &temps)
+}
+
+/// The widened span of window `w`: at least [`RATE_SPAN_S`] about its centre
+/// ([`crate::search::thermal`]).
+fn rate_span(&(span, (t_first, t_last)): &Span) -> RateSpan {
+    let centre = 0.5 * (t_first + t_last);
+    let half = (0.5 * (t_last - t_first)).max(0.5 * RATE_SPAN_S);
+    RateSpan {
+        lo_t: centre - half,
+        hi_t: centre + half,
+        span,
+        buf: Vec::new(),
+        state: WAITING,
+        slope: None,
+    }
+}
+
+fn open_span(r: &mut RateSpan, k: usize, open: &mut Vec<usize>) {
+    if r.state == WAITING {
+        r.state = OPEN;
+        open.push(k);
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
 
+    /// The fold over `times` and `temp` of windows `spans`, for the time constants `taus`.
+    fn fold_of(times: &[f64], temp: &[f64], spans: &[(usize, usize)], taus: &[f64]) -> SampleTemps {
+        let ws: Vec<Span> = (spans.iter())
+            .map(|&(s, e)| ((s, e), (times[s], times[e - 1])))
+            .collect();
+        let samples = times.iter().copied().zip(temp.iter().copied());
+        fold(samples, times.len(), &ws, taus)
+    }
+
     /// A step of 1 °C at t = 0 through the lag: at t = τ the lagged value is 1 − 1/e,
-    /// whatever the (uneven) sample times.
+    /// whatever the (uneven) sample times; a window's value is its samples' mean.
     #[test]
     fn the_lag_follows_a_step_exactly_on_uneven_times() {
         let mut times = vec![-1.0];
@@ -243,34 +380,32 @@ mod tests {
             .iter()
             .map(|&t| if t < 0.0 { 0.0 } else { 1.0 })
             .collect();
-        let n = times.len();
-        let spans = [(n - 1, n), (0, 2)];
-        let s = SampleTemps::Held(HeldTemps {
-            times: &times,
-            temp: &temp,
-            spans: &spans,
-        });
-        let m = s.lagged_means(100.0);
+        let last = *lagged(&times, &temp, 100.0).last().unwrap();
         // The step reaches the filter at the first sample after it (t = 0, Δt = 1 s).
         let expect = 1.0 - (-101.0f64 / 100.0).exp();
-        assert!((m[0] - expect).abs() < 1e-12, "{} vs {expect}", m[0]);
+        assert!((last - expect).abs() < 1e-12, "{last} vs {expect}");
+        let s = fold_of(&times, &temp, &[(0, 2)], &[100.0]);
+        assert!(s.usable);
+        let first_two = 0.5 * (1.0 - (-1.0f64 / 100.0).exp());
+        assert!((s.lagged[0].1[0] - first_two).abs() < 1e-15);
     }
 
     /// A temperature ramp of 0.01 °C/s with a 2 s window: the rate is the ramp's slope, fitted
-    /// over the 30 s about the window.
+    /// over the 30 s about the window; a window of one sample, or a temperature not finite,
+    /// leaves the terms out.
     #[test]
     fn the_rate_of_a_ramp_is_its_slope() {
         let times: Vec<f64> = (0..1000).map(|i| i as f64 * 0.1).collect();
-        let temp: Vec<f64> = times.iter().map(|t| 20.0 + 0.01 * t).collect();
-        let spans = [(500, 520), (0, 20)];
-        let s = SampleTemps::Held(HeldTemps {
-            times: &times,
-            temp: &temp,
-            spans: &spans,
-        });
-        for r in s.rates().unwrap() {
+        let mut temp: Vec<f64> = times.iter().map(|t| 20.0 + 0.01 * t).collect();
+        for r in fold_of(&times, &temp, &[(500, 520), (0, 20)], &[])
+            .rates
+            .unwrap()
+        {
             assert!((r - 0.01).abs() < 1e-12, "{r}");
         }
+        assert!(!fold_of(&times, &temp, &[(500, 501)], &[]).usable);
+        temp[900] = f64::NAN;
+        assert!(!fold_of(&times, &temp, &[(500, 520)], &[]).usable);
         let g = lag_grid(200.0);
         assert_eq!(g.len(), LAG_GRID_LEN);
         assert!((g[0] - 10.0).abs() < 1e-9 && (g[9] - 200.0).abs() < 1e-9);
@@ -303,14 +438,9 @@ mod tests {
         // One sample: no spread in time.
         assert_eq!(sample_rates(&[0.0], &[20.0]), vec![None]);
         // The per-sample lag is the one the window means are taken of.
-        let spans = [(0, 15_000)];
-        let s = SampleTemps::Held(HeldTemps {
-            times: &times,
-            temp: &temp,
-            spans: &spans,
-        });
+        let s = fold_of(&times, &temp, &[(0, 15_000)], &[60.0]);
         let l = lagged(&times, &temp, 60.0);
         let m = l.iter().sum::<f64>() / l.len() as f64;
-        assert_eq!(s.lagged_means(60.0), vec![m]);
+        assert_eq!(s.lagged, vec![(60.0, vec![m])]);
     }
 }
