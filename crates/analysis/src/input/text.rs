@@ -21,6 +21,7 @@ use crate::input::bounded::{
 };
 use crate::input::columns::Sensor;
 use crate::input::recording::Recording;
+use crate::input::text_file::{hold, Pieces};
 use crate::input::text_rows::{Columns, Fields, RowLayout};
 use crate::input::timecheck::{time_notes, TimeCheck};
 
@@ -43,7 +44,19 @@ pub fn parse(text: &str, opts: &LoadOptions) -> Result<Recording> {
         return crate::input::grt::parse(text);
     }
     let rec = match Delimiter::of_first_line(first) {
-        Some(delim) => parse_csv(&blank_comments(text), opts, delim)?,
+        Some(delim) => {
+            let text = blank_comments(text);
+            // Plain text (most files) is the one piece of the loop a file read in pieces goes
+            // through: the same head, rows and checks. Text with quotes (or another byte-order
+            // mark) is read by the `csv` reader.
+            if plain_csv(&text) && !text.starts_with('\u{feff}') {
+                let mut pieces = Pieces::held(&text);
+                if let Some(rec) = hold(&mut pieces, opts, |_| true, None)? {
+                    return Ok(rec);
+                }
+            }
+            parse_csv(&text, opts, delim)?
+        }
         None => {
             if opts.columns.is_some() {
                 return Err(InputError::ColumnsNeedHeader.into());
@@ -225,53 +238,30 @@ pub(crate) fn plain_csv(text: &str) -> bool {
     memchr::memchr_iter(b'\r', b).all(|i| b.get(i + 1) == Some(&b'\n'))
 }
 
+/// Text the fast splitter does not read (quotes, lone carriage returns) by the `csv` reader:
+/// metadata and the header record by record, then the data rows by [`RowLayout`].
 fn parse_csv(text: &str, opts: &LoadOptions, delim: Delimiter) -> Result<Recording> {
-    parse_csv_by(text, opts, delim, plain_csv(text))
-}
-
-/// [`parse_csv`] by the fast splitter (`plain`) or the `csv` reader. Metadata and the header
-/// are read line by line; the data rows after them by [`RowLayout`] (in parallel chunks on the
-/// fast path).
-fn parse_csv_by(
-    text: &str,
-    opts: &LoadOptions,
-    delim: Delimiter,
-    plain: bool,
-) -> Result<Recording> {
     let mut st = CsvState::new(opts, delim);
-    let cols = if plain {
-        // The fast path (most files): no copy of any record (reading speed: BENCHMARKS.md).
-        let (offset, line_no) = st.read_head(text, delim)?;
-        match &st.layout {
-            Some(layout) => Some(layout.read_plain(&text[offset..], line_no + 1, delim.byte())?),
-            None => None,
-        }
-    } else {
-        let mut reader = csv::ReaderBuilder::new()
-            .has_headers(false)
-            .flexible(true)
-            // Fields are trimmed where read: the reader's own trimming copies each record.
-            .delimiter(delim.byte())
-            .from_reader(text.as_bytes());
-        // One record reused for every row: no allocation per line.
-        let mut record = csv::StringRecord::new();
-        while st.layout.is_none()
-            && reader
-                .read_record(&mut record)
-                .map_err(InputError::MalformedCsv)?
-        {
-            let line_no = record.position().map(|p| p.line() as usize).unwrap_or(0);
-            st.before_header(&record, line_no)?;
-        }
-        // A record ends at a line end or a lone CR: the records left are at most these plus one.
-        let bytes = text.as_bytes();
-        let max_rows = memchr::memchr2_iter(b'\n', b'\r', bytes).count() + 1;
-        match &st.layout {
-            Some(layout) => Some(layout.read_records(&mut reader, max_rows)?),
-            None => None,
-        }
+    let mut reader = csv_reader(text, delim);
+    st.read_records_head(&mut reader)?;
+    // A record ends at a line end or a lone CR: the records left are at most these plus one.
+    let max_rows = memchr::memchr2_iter(b'\n', b'\r', text.as_bytes()).count() + 1;
+    let cols = match &st.layout {
+        Some(layout) => Some(layout.read_records(&mut reader, max_rows)?),
+        None => None,
     };
     st.finish(cols)
+}
+
+/// The `csv` reader of `text` (no header of its own: the loader reads it; records may differ
+/// in length: a ragged row is named by the loader).
+pub(crate) fn csv_reader(text: &str, delim: Delimiter) -> csv::Reader<&[u8]> {
+    csv::ReaderBuilder::new()
+        .has_headers(false)
+        .flexible(true)
+        // Fields are trimmed where read: the reader's own trimming copies each record.
+        .delimiter(delim.byte())
+        .from_reader(text.as_bytes())
 }
 
 /// What [`parse_csv`] has read before the data rows: metadata, then the header.
@@ -315,6 +305,21 @@ impl<'o> CsvState<'o> {
             self.before_header(&fields[..], line_no)?;
         }
         Ok((offset, line_no))
+    }
+
+    /// The `csv` reader's records up to and including the header (metadata before it), one
+    /// record reused for every line.
+    pub(crate) fn read_records_head(&mut self, reader: &mut csv::Reader<&[u8]>) -> Result<()> {
+        let mut record = csv::StringRecord::new();
+        while self.layout.is_none()
+            && reader
+                .read_record(&mut record)
+                .map_err(InputError::MalformedCsv)?
+        {
+            let line_no = record.position().map_or(0, |p| p.line() as usize);
+            self.before_header(&record, line_no)?;
+        }
+        Ok(())
     }
 
     /// Before the header: metadata `key,value` lines, or the header itself (a blank record
@@ -544,11 +549,12 @@ mod tests {
             "x,y,z\n1,2,3,\n",
             ",,\nx,y,z\n1,2,3\n",
         ];
+        let opts = LoadOptions::default();
+        let fast = |text| hold(&mut Pieces::held(text), &opts, |_| true, None).map(Option::unwrap);
         for text in texts {
             let delim = Delimiter::of_first_line(text.lines().next().unwrap()).unwrap();
-            let opts = LoadOptions::default();
-            let fast = parse_csv_by(text, &opts, delim, true);
-            let slow = parse_csv_by(text, &opts, delim, false);
+            let slow = parse_csv(text, &opts, delim);
+            let fast = fast(text);
             match (fast, slow) {
                 (Ok(a), Ok(b)) => {
                     assert_eq!(a.xyz, b.xyz, "{text:?}");
@@ -563,13 +569,7 @@ mod tests {
         }
         // After an empty line the fast splitter names the true line (4); the csv reader does
         // not count empty lines and said line 3.
-        let e = parse_csv_by(
-            "t,x,y,z\n0,1,2,3\n\n-1,1,2,3\n",
-            &LoadOptions::default(),
-            Delimiter::Comma,
-            true,
-        )
-        .unwrap_err();
+        let e = fast("t,x,y,z\n0,1,2,3\n\n-1,1,2,3\n").unwrap_err();
         assert!(
             matches!(
                 e,

@@ -3,13 +3,14 @@
 //! size cap for files read whole ([`crate::input::bounded::MAX_RECORDING_BYTES`]) does not
 //! apply; the limits are per piece and per line ([`crate::input::bounded::MAX_LINE_BYTES`]).
 //!
-//! Each piece's rows are parsed by the same functions as a text held whole
-//! (`text_rows`: in parallel chunks, the time check joined to the piece
-//! before), so the recording is the whole-text path's, bit for bit. The pieces, the head
-//! (`read_head`) and the loop over the pieces (`parse_pieces`) are those of a streamed
-//! file's pass (`text_source`) too: only where the rows go differs (here one set of columns,
-//! there a summary and the rows kept for the later passes). Only text that path
-//! reads by its fast splitter is read this way: a file with a quote, a lone carriage return,
+//! A text held whole is the one piece of the same loop (`Pieces::held`, no copy): plain
+//! text of every size is read by one head (`read_head`), one loop over the pieces
+//! (`parse_pieces`) and one row parser (`text_rows`: in parallel chunks, the time check joined
+//! to the piece before), so a file reads the same values and sentences whatever its size.
+//! A streamed file's pass (`text_source`) is that loop too: only where the rows go differs
+//! (here one set of columns, there a summary and the rows kept for the later passes).
+//!
+//! Only text the fast splitter reads is read this way: a file with a quote, a lone carriage return,
 //! a `#` or `%` comment, a byte that is not UTF-8, a line over the limit, no header in its
 //! first piece (or a GRT or header-less whitespace file) is handed back
 //! and read whole as before, so every such file keeps its sentence. A bad row is reported
@@ -22,7 +23,7 @@ use crate::input::bounded::{check_line_lengths, MAX_LINE_BYTES};
 use crate::input::columns::LoadOptions;
 use crate::input::recording::Recording;
 use crate::input::text::{
-    blank_comments, check_axis_columns, is_comment_or_blank, CsvState, Delimiter,
+    blank_comments, check_axis_columns, csv_reader, is_comment_or_blank, CsvState, Delimiter,
 };
 use crate::input::text_rows::{Columns, RowLayout};
 use std::io::Read;
@@ -45,11 +46,13 @@ pub const PIECES_FROM_BYTES: u64 = 64 << 20;
 /// piece at a time, and on the thread that parses they left the other cores idle for about a
 /// sixth of a read. Two pieces are held at once (the one handed out, the next), their buffers
 /// used again from piece to piece.
-pub(crate) struct Pieces {
+pub(crate) struct Pieces<'a> {
     cuts: std::sync::mpsc::Receiver<Cut>,
     spent: std::sync::mpsc::Sender<Vec<u8>>,
     /// The piece handed out last.
-    current: Text,
+    current: Text<'a>,
+    /// A held text's one piece, until it is handed out ([`Pieces::held`]).
+    held: Option<&'a str>,
     /// How the pieces ended, once they have (every later call says it again).
     ended: Option<std::result::Result<(), ()>>,
     reader: Option<std::thread::JoinHandle<()>>,
@@ -60,30 +63,34 @@ pub(crate) struct Pieces {
 /// passed ([`plain_piece`], which for text holds the UTF-8 check too), as UTF-8 text that did
 /// not (its first piece may still be read when the quotes are in its head:
 /// [`Pieces::data_after_bom`]), else as bytes.
-enum Text {
-    Plain(String),
+/// A held text's one piece ([`Pieces::held`]) is plain text borrowed, never copied.
+enum Text<'a> {
+    Plain(std::borrow::Cow<'a, str>),
     Utf8(String),
     Bytes(Vec<u8>),
 }
 
-impl Text {
+impl Text<'_> {
     fn bytes(&self) -> &[u8] {
         match self {
-            Text::Plain(s) | Text::Utf8(s) => s.as_bytes(),
+            Text::Plain(s) => s.as_bytes(),
+            Text::Utf8(s) => s.as_bytes(),
             Text::Bytes(b) => b,
         }
     }
 
-    fn into_bytes(self) -> Vec<u8> {
+    /// The piece's buffer, to be used again (`None` for a held text's, which is borrowed).
+    fn into_buffer(self) -> Option<Vec<u8>> {
         match self {
-            Text::Plain(s) | Text::Utf8(s) => s.into_bytes(),
-            Text::Bytes(b) => b,
+            Text::Plain(std::borrow::Cow::Owned(s)) | Text::Utf8(s) => Some(s.into_bytes()),
+            Text::Plain(std::borrow::Cow::Borrowed(_)) => None,
+            Text::Bytes(b) => Some(b),
         }
     }
 }
 
 /// What the reading thread sends: the next piece, the end, or a line too long to carry.
-type Cut = std::result::Result<Option<Text>, ()>;
+type Cut = std::result::Result<Option<Text<'static>>, ()>;
 
 /// The reading half of [`Pieces`]: the file cut into pieces at line ends.
 struct Cutter {
@@ -147,7 +154,7 @@ impl Cutter {
 /// A piece as [`Text`]: its comment lines blanked (a piece holds whole lines, so they are
 /// the whole text's comment lines), then plain text when [`plain_piece`] passes it (its UTF-8
 /// check made once, by the conversion to a `String`).
-fn checked(piece: Vec<u8>) -> Text {
+fn checked(piece: Vec<u8>) -> Text<'static> {
     match String::from_utf8(piece) {
         Ok(text) => {
             let text = match blank_comments(&text) {
@@ -155,7 +162,7 @@ fn checked(piece: Vec<u8>) -> Text {
                 std::borrow::Cow::Owned(blanked) => blanked,
             };
             if is_plain(&text) {
-                Text::Plain(text)
+                Text::Plain(text.into())
             } else {
                 Text::Utf8(text)
             }
@@ -164,7 +171,7 @@ fn checked(piece: Vec<u8>) -> Text {
     }
 }
 
-impl Pieces {
+impl Pieces<'static> {
     pub(crate) fn open(path: &Path, piece_bytes: usize) -> Result<Self> {
         use std::io::BufRead;
         let read_err = |source| {
@@ -206,9 +213,29 @@ impl Pieces {
             cuts,
             spent,
             current: Text::Bytes(Vec::new()),
+            held: None,
             ended: None,
             reader: Some(reader),
         })
+    }
+}
+
+impl<'a> Pieces<'a> {
+    /// Text held whole as the one piece of itself (no thread, no copy): a held text is read
+    /// by the same head and piece loop as a file in pieces. `text` must be plain text with
+    /// its comment lines blanked ([`crate::input::text::plain_csv`]).
+    pub(crate) fn held(text: &'a str) -> Self {
+        // The end of the pieces is said once the one piece has been handed out.
+        let (to_pieces, cuts) = std::sync::mpsc::sync_channel(1);
+        let _ = to_pieces.send(Ok(None));
+        Self {
+            cuts,
+            spent: std::sync::mpsc::channel().0,
+            current: Text::Bytes(Vec::new()),
+            held: Some(text),
+            ended: None,
+            reader: None,
+        }
     }
 
     /// The piece handed out last (empty before the first).
@@ -220,7 +247,7 @@ impl Pieces {
     /// checked when it was read), else `None`.
     pub(crate) fn plain(&self) -> Option<&str> {
         match &self.current {
-            Text::Plain(text) => Some(text),
+            Text::Plain(text) => Some(&**text),
             Text::Utf8(_) | Text::Bytes(_) => None,
         }
     }
@@ -229,10 +256,8 @@ impl Pieces {
     /// blanked), plain or not; `None` when it is not UTF-8.
     pub(crate) fn text_after_bom(&self) -> Option<&str> {
         match &self.current {
-            Text::Plain(text) | Text::Utf8(text) => {
-                Some(text.strip_prefix('\u{feff}').unwrap_or(text))
-            }
-            Text::Bytes(_) => self.plain_after_bom(),
+            Text::Utf8(text) => Some(text.strip_prefix('\u{feff}').unwrap_or(text)),
+            Text::Plain(_) | Text::Bytes(_) => self.plain_after_bom(),
         }
     }
 
@@ -280,8 +305,14 @@ impl Pieces {
             return end.map(|()| None);
         }
         let spent = std::mem::replace(&mut self.current, Text::Bytes(Vec::new()));
+        if let Some(text) = self.held.take() {
+            self.current = Text::Plain(text.into());
+            return Ok(Some(self.current.bytes()));
+        }
         // The reader may have ended: the buffer is then dropped here.
-        let _ = self.spent.send(spent.into_bytes());
+        if let Some(buffer) = spent.into_buffer() {
+            let _ = self.spent.send(buffer);
+        }
         match self.cuts.recv() {
             Ok(Ok(Some(text))) => {
                 self.current = text;
@@ -309,7 +340,7 @@ impl Pieces {
     }
 }
 
-impl Pieces {
+impl Pieces<'_> {
     /// Waits for the reading thread and raises its panic, if it panicked, on this thread.
     fn raise_reader_panic(&mut self) {
         if let Some(Err(panic)) = self.reader.take().map(std::thread::JoinHandle::join) {
@@ -318,7 +349,7 @@ impl Pieces {
     }
 }
 
-impl Drop for Pieces {
+impl Drop for Pieces<'_> {
     /// Stops the reading thread (it ends when its piece finds no taker) and waits for it, so
     /// that no file is left open behind a finished read. A panic of the thread not seen yet is
     /// raised here (unless this thread is already unwinding): a bug never passes unseen.
@@ -358,17 +389,8 @@ fn is_plain(text: &str) -> bool {
 /// [`crate::input::text::parse`] reads its whole text; `head_ok` is asked about the first
 /// piece's text (cut at a line end) before any row is read (a window-mean table is read
 /// whole). `Ok(None)`: the file is to be read whole (see the module docs). Errors carry no
-/// file name (the caller adds it).
-pub fn load_pieces(
-    path: &Path,
-    opts: &LoadOptions,
-    head_ok: impl Fn(&str) -> bool,
-) -> Result<Option<Recording>> {
-    read_pieces(path, opts, PIECE_BYTES, head_ok, None)
-}
-
-/// [`load_pieces`] refused as soon as the rows read pass `limit` (checked after each piece, so
-/// at most one piece's rows beyond it are ever held).
+/// file name (the caller adds it). Refused as soon as the rows read pass `limit` (checked after each piece, so at most one
+/// piece's rows beyond it are ever held).
 pub fn load_pieces_within(
     path: &Path,
     opts: &LoadOptions,
@@ -378,7 +400,7 @@ pub fn load_pieces_within(
     read_pieces(path, opts, PIECE_BYTES, head_ok, limit)
 }
 
-/// [`load_pieces`] with pieces of `piece_bytes`: `Ok(None)` to read the file whole. The
+/// [`load_pieces_within`] with pieces of `piece_bytes`: `Ok(None)` to read the file whole. The
 /// pieces' rows are parsed onto one set of columns (no copy), `limit` checked after each.
 fn read_pieces(
     path: &Path,
@@ -390,14 +412,26 @@ fn read_pieces(
     let Ok(mut pieces) = Pieces::open(path, piece_bytes) else {
         return Ok(None);
     };
-    let head = match read_head(&mut pieces, opts, head_ok) {
+    hold(&mut pieces, opts, head_ok, limit)
+}
+
+/// The recording of `pieces` (a file's, or a held text's one piece), the rows parsed onto one
+/// set of columns (no copy), `limit` checked after each piece: `Ok(None)` when the text is to
+/// be read whole (see the module docs).
+pub(crate) fn hold(
+    pieces: &mut Pieces<'_>,
+    opts: &LoadOptions,
+    head_ok: impl Fn(&str) -> bool,
+    limit: Option<HoldLimit>,
+) -> Result<Option<Recording>> {
+    let head = match read_head(pieces, opts, head_ok) {
         Ok(Some(head)) => head,
         Ok(None) => return Ok(None),
-        Err(e) => return finish_checks(&mut pieces, Err(e)),
+        Err(e) => return row_error(pieces, e),
     };
     let mut cols = Columns::default();
     let mut over = None;
-    let read = parse_pieces(&mut pieces, &head, |text, line, _| {
+    let read = parse_pieces(pieces, &head, |text, line, _| {
         let newlines = (head.layout).read_plain_onto(&mut cols, text, line, head.delim.byte())?;
         match limit.map(|l| l.check(cols.xyz.len())) {
             Some(Err(e)) => over = Some(e),
@@ -408,7 +442,7 @@ fn read_pieces(
     match read {
         Ok(true) => {}
         Ok(false) => return Ok(None),
-        Err(e) => return finish_checks(&mut pieces, Err(e)),
+        Err(e) => return row_error(pieces, e),
     }
     if let Some(e) = over {
         return Err(e.into());
@@ -438,7 +472,7 @@ pub(crate) struct Head<'o> {
 /// `Ok(None)` hands the file back to be read whole (no header in the first piece, marks the
 /// fast splitter does not read past its head, …).
 pub(crate) fn read_head<'o>(
-    pieces: &mut Pieces,
+    pieces: &mut Pieces<'_>,
     opts: &'o LoadOptions,
     head_ok: impl Fn(&str) -> bool,
 ) -> Result<Option<Head<'o>>> {
@@ -470,7 +504,7 @@ pub(crate) fn read_head<'o>(
 /// read up to its end, and returns the piece's line ends, or `None` to stop. `Ok(false)`
 /// when a piece is not plain text (the file is to be read whole); a row's error is `parse`'s.
 pub(crate) fn parse_pieces(
-    pieces: &mut Pieces,
+    pieces: &mut Pieces<'_>,
     head: &Head<'_>,
     mut parse: impl FnMut(&str, usize, u64) -> Result<Option<usize>>,
 ) -> Result<bool> {
@@ -502,19 +536,19 @@ pub(crate) fn parse_pieces(
 /// line that `head_ok` accepts; `None`: the whole-text path reads the file and says what it
 /// finds. (A piece that is not plain still has its rows read in pieces when the marks are all
 /// in its head: [`read_piece_head`], [`Pieces::data_after_bom`].)
-pub(crate) fn first_piece_head(
-    pieces: &mut Pieces,
+pub(crate) fn first_piece_head<'p>(
+    pieces: &'p mut Pieces<'_>,
     head_ok: impl Fn(&str) -> bool,
-) -> Option<(&str, Delimiter, bool)> {
+) -> Option<(&'p str, Delimiter, bool)> {
     pieces.next_piece().ok()??;
     head_of_current(pieces, head_ok)
 }
 
 /// [`first_piece_head`] of the piece handed out last.
-fn head_of_current(
-    pieces: &Pieces,
+fn head_of_current<'p>(
+    pieces: &'p Pieces<'_>,
     head_ok: impl Fn(&str) -> bool,
-) -> Option<(&str, Delimiter, bool)> {
+) -> Option<(&'p str, Delimiter, bool)> {
     let plain = pieces.plain().is_some();
     let head = (pieces.text_after_bom()).filter(|h| !h.starts_with('\u{feff}'))?;
     let first_line = head.lines().find(|l| !is_comment_or_blank(l))?;
@@ -541,20 +575,9 @@ pub(crate) fn read_piece_head(
     if plain {
         return st.read_head(head, delim).map(Some);
     }
-    let mut reader = csv::ReaderBuilder::new()
-        .has_headers(false)
-        .flexible(true)
-        .delimiter(delim.byte())
-        .from_reader(head.as_bytes());
-    let mut record = csv::StringRecord::new();
-    while st.layout.is_none() {
-        if !matches!(reader.read_record(&mut record), Ok(true)) {
-            return Ok(None);
-        }
-        let line_no = record.position().map_or(0, |p| p.line() as usize);
-        if st.before_header(&record, line_no).is_err() {
-            return Ok(None);
-        }
+    let mut reader = csv_reader(head, delim);
+    if st.read_records_head(&mut reader).is_err() || st.layout.is_none() {
+        return Ok(None);
     }
     let offset = usize::try_from(reader.position().byte()).unwrap_or(usize::MAX);
     let Some(read) = head.as_bytes().get(..offset) else {
@@ -631,7 +654,7 @@ fn why_not_in(path: &Path, limit_mib: u64, piece_bytes: usize) -> Option<Error> 
 }
 
 /// Where the first piece's data rows start, when its head reads ([`read_piece_head`]); else 0.
-fn first_data_offset(pieces: &Pieces) -> usize {
+fn first_data_offset(pieces: &Pieces<'_>) -> usize {
     let opts = LoadOptions::default();
     let Some((head, delim, plain)) = head_of_current(pieces, |_| true) else {
         return 0;
@@ -684,14 +707,10 @@ fn first_mark(rows: &str) -> Option<(usize, &'static str)> {
         .min_by_key(|m| m.0)
 }
 
-/// `result` (an error in the rows) once the rest of the file is known to be plain text (else
-/// `Ok(None)`: the whole-text path reports what it finds first).
-fn finish_checks(pieces: &mut Pieces, result: Result<Recording>) -> Result<Option<Recording>> {
-    if pieces.rest_is_plain() {
-        result.map(Some)
-    } else {
-        Ok(None)
-    }
+/// `e` (an error in the rows) once the rest of the file is known to be plain text, else
+/// `Ok(None)`: the file is read whole, and the whole-text path reports what it finds first.
+pub(crate) fn row_error<T>(pieces: &mut Pieces<'_>, e: Error) -> Result<Option<T>> {
+    pieces.rest_is_plain().then_some(Err(e)).transpose()
 }
 
 #[cfg(test)]

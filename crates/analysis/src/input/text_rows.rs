@@ -199,14 +199,8 @@ impl RowLayout {
     }
 
     /// The rows of `text` (plain delimited text: no quotes, no lone CR), whose first line is
-    /// line `first_line` of the file, parsed in chunks on all cores (see the module docs).
-    pub(crate) fn read_plain(&self, text: &str, first_line: usize, delim: u8) -> Result<Columns> {
-        self.read_plain_after(text, first_line, delim, None)
-            .map(|(cols, _)| cols)
-    }
-
-    /// [`RowLayout::read_plain`] on a piece of a file that continues rows read before, whose
-    /// last time was `prev_time`: the time check is joined to it as between two chunks. With
+    /// line `first_line` of the file, parsed in chunks on all cores (see the module docs), on
+    /// a piece of a file that continues rows read before, whose last time was `prev_time`: the time check is joined to it as between two chunks. With
     /// the rows, the number of line ends in `text` (counted on all cores with the chunks: the
     /// next piece's first line number, with no other pass over the text).
     pub(crate) fn read_plain_after(

@@ -29,7 +29,7 @@ use crate::input::read_options::SpillMode;
 use crate::input::recording::Recording;
 use crate::input::sample_summary::{SampleSummary, SummaryFold};
 use crate::input::text::check_axis_columns;
-use crate::input::text_file::{parse_pieces, read_head, Head, Pieces, PIECE_BYTES};
+use crate::input::text_file::{parse_pieces, read_head, row_error, Head, Pieces, PIECE_BYTES};
 pub(crate) use crate::input::text_rows::Columns;
 pub(crate) use crate::input::text_spill::Want;
 use crate::input::text_spill::{Spill, SpillWriter, MEMORY_SPILL_BYTES};
@@ -160,7 +160,7 @@ impl SpillTo {
 
 impl TextSource {
     /// The first pass over the regular text file `path` (see the module docs); `head_ok` is
-    /// asked about the first piece's text as by [`crate::input::text_file::load_pieces`].
+    /// asked about the first piece's text as by [`crate::input::text_file::load_pieces_within`].
     /// `Ok(None)`: the file is to be read whole (not plain text, a pose-label column, …).
     /// Errors carry no file name (the caller adds it).
     pub fn open(
@@ -201,7 +201,7 @@ impl TextSource {
             Ok(Some(h)) if h.layout.label.is_some() => return Ok(None),
             Ok(Some(h)) => h,
             Ok(None) => return Ok(None),
-            Err(e) => return pieces.rest_is_plain().then_some(Err(e)).transpose(),
+            Err(e) => return row_error(&mut pieces, e),
         };
         let (fold, tally, spill) = match first_pass(&mut pieces, (&head, path), spill_to, stamp.len)
         {
@@ -211,7 +211,7 @@ impl TextSource {
             Err(_) if stamp_of(path) != Some(stamp) => {
                 return Err(InputError::ChangedWhileRead.into())
             }
-            Err(Pass::Rows(e)) => return pieces.rest_is_plain().then_some(Err(e)).transpose(),
+            Err(Pass::Rows(e)) => return row_error(&mut pieces, e),
             Err(Pass::Kept(e)) => return Err(e),
         };
         let summary = fold.finish();
