@@ -9,7 +9,7 @@
 //! (the ellipsoid and its loop) — or the one sentence saying why it gave none. A sensor's
 //! failure never hides the others'.
 
-use crate::gyro::GyroOptions;
+use crate::gyro::request::{gyrofit_of, GyroInput, GyrofitRequest};
 use crate::input::columns::{all_named, column_sensor, Sensor};
 use crate::input::front_door::Input;
 use crate::input::read_options::ReadOptions;
@@ -26,7 +26,8 @@ use std::path::Path;
 pub struct CalibrateOptions {
     /// The accelerometer's fit (detector and model).
     pub fit: FitOptions,
-    /// The gyro's protocol settings (turn angle, table rates).
+    /// The gyro's settings (turn angle, table rates, nominal: [`gyro_of`]); its detector is
+    /// `fit`'s.
     pub gyro: GyroProtocolOptions,
     /// How the file is read (the accelerometer's input streamed from its size, as `fit`'s).
     pub read: crate::input::read_options::ReadOptions,
@@ -50,6 +51,17 @@ pub enum GyroOutcome {
     Motions(Box<crate::gyro::GyroReport>),
     /// A recognised protocol's method ([`crate::protocol::gyro`]).
     Protocol(Box<GyroProtocolReport>),
+}
+
+impl GyroOutcome {
+    /// The gyro calibration file of the report; `None` when a protocol's method measured only
+    /// the bias and no nominal scale is known ([`GyroProtocolReport::cal_file`]).
+    pub fn cal_file(&self) -> Option<crate::output::gyrocal::GyroCalFile> {
+        match self {
+            GyroOutcome::Motions(rep) => Some(rep.cal_file()),
+            GyroOutcome::Protocol(rep) => rep.cal_file(),
+        }
+    }
 }
 
 /// The magnetometer's fit and loop.
@@ -152,13 +164,12 @@ pub fn calibrate(path: &Path, opts: &CalibrateOptions) -> crate::Result<Calibrat
             .map(|r| format!("{n}: {}", r.axis_columns.join(",")))
     })
     .collect();
+    let accelerometer = accel_input(path, &acc, &opts.read)
+        .map(|i| outcome(i.and_then(|i| fit_judged(&i, &opts.fit))));
     Ok(CalibrateReport {
         sensors,
-        accelerometer: accel_input(path, &acc, &opts.read)
-            .map(|i| outcome(i.and_then(|i| fit_judged(&i, &opts.fit)))),
-        gyroscope: gyro
-            .as_ref()
-            .map(|g| outcome(gyro_of(acc.as_ref(), g, opts))),
+        accelerometer,
+        gyroscope: gyro.map(|g| outcome(gyro_of(path, acc, g, opts))),
         magnetometer: mag.as_ref().map(|m| outcome(mag_of(m))),
     })
 }
@@ -185,26 +196,26 @@ fn sentence(e: &crate::Error) -> String {
     s
 }
 
-/// The gyro: the motions between free poses when they calibrate it, else the protocol's.
+/// The gyro as `gyrofit` decides ([`gyrofit_of`]): the motions between free poses when they
+/// calibrate it, else the protocol's method. A file without an accelerometer gives its gyro's
+/// triplet as both, as the loader does for `gyrofit` (a gyro-only file: the protocol's method
+/// on the gyro alone). `opts.gyro.nominal_rad_per_raw`, when given, is both methods' nominal
+/// (as `gyrofit --scale`); else the gyro columns' unit, if they state one.
 fn gyro_of(
-    acc: Option<&Recording>,
-    gyro: &Recording,
+    path: &Path,
+    acc: Option<Recording>,
+    gyro: Recording,
     opts: &CalibrateOptions,
 ) -> crate::Result<GyroOutcome> {
-    let nominal = crate::gyro::nominal_from_columns(gyro);
-    let mut popts = opts.gyro.clone();
-    popts.nominal_rad_per_raw = popts.nominal_rad_per_raw.or(nominal.as_ref().map(|n| n.0));
-    if let (Some(acc), None) = (acc, &popts.table_rates_dps) {
-        let mut gopts = GyroOptions::of_nominal(nominal);
-        gopts.detect = opts.fit.detect.clone();
-        match crate::gyro::run(acc, gyro, &gopts) {
-            Ok(rep) => return Ok(GyroOutcome::Motions(Box::new(rep))),
-            Err(e) if !e.says_another_protocol() => return Err(e.into()),
-            Err(_) => {}
-        }
-    }
-    let rep = crate::protocol::gyro::run(acc, gyro, &popts)?;
-    Ok(GyroOutcome::Protocol(Box::new(rep)))
+    let req = GyrofitRequest {
+        scale: opts.gyro.nominal_rad_per_raw.map(Vec::from),
+        detect: opts.fit.detect.clone(),
+        table_rates_dps: opts.gyro.table_rates_dps.clone(),
+        rotation_deg: opts.gyro.rotation_deg,
+        ..GyrofitRequest::new(path)
+    };
+    let acc = acc.unwrap_or_else(|| gyro.clone());
+    Ok(gyrofit_of(&req, &GyroInput::Held(acc, gyro))?.report)
 }
 
 /// The magnetometer: `magfit`'s default ellipsoid and its loop.
