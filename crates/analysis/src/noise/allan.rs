@@ -41,38 +41,13 @@ pub struct AllanCurve {
 }
 
 /// The overlapping Allan deviation of `y` sampled at `rate_hz`, at octave-spaced `τ` (see the
-/// module docs). Fewer than `2·MIN_CLUSTERS` samples give an empty curve.
+/// module docs). Fewer than `2·MIN_CLUSTERS` samples give an empty curve. The noise pass's
+/// stream with every cluster kept ([`crate::noise::pass::AllanStream`]): one estimator, fed
+/// from a slice.
 pub fn overlapping_adev(y: &[f64], rate_hz: f64) -> AllanCurve {
-    let n = y.len();
-    let tau0 = 1.0 / rate_hz;
-    let mut theta = Vec::with_capacity(n + 1);
-    let mut acc = 0.0;
-    theta.push(0.0);
-    for v in y {
-        acc += v * tau0;
-        theta.push(acc);
-    }
-    let mut curve = AllanCurve::default();
-    let mut m = 1usize;
-    while n / m >= MIN_CLUSTERS && 2 * m <= n {
-        let terms = n - 2 * m + 1;
-        let sum: f64 = (0..terms)
-            .map(|k| {
-                let d = theta[k + 2 * m] - 2.0 * theta[k + m] + theta[k];
-                d * d
-            })
-            .sum();
-        let tau = m as f64 * tau0;
-        curve.tau_s.push(tau);
-        curve
-            .adev
-            .push((sum / (2.0 * tau * tau * terms as f64)).sqrt());
-        curve
-            .adev_rel_err
-            .push(1.0 / (2.0 * ((n / m) as f64 - 1.0)).sqrt());
-        m *= 2;
-    }
-    curve
+    let mut stream = crate::noise::pass::AllanStream::new(y.len(), rate_hz, usize::MAX);
+    y.iter().for_each(|v| stream.push(*v));
+    stream.finish()
 }
 
 /// The IEEE 952 coefficients fitted to a curve; `None` where the term's slope is not seen.

@@ -6,8 +6,8 @@
 //! **The Allan deviation ([`AllanStream`]).** The overlapping estimator of
 //! [`crate::noise::allan::overlapping_adev`] needs `θₖ`, `θ_{k+m}` and `θ_{k+2m}` together: a
 //! stream keeps the last `2m + 1` values of `θ` per octave. Held samples use every `k` at every
-//! octave (memory of the order of the samples, as holding them takes anyway), in the order of
-//! `overlapping_adev`, so the curve is that estimator's bit for bit. A file read in passes uses
+//! octave (memory of the order of the samples, as holding them takes anyway): the estimator
+//! itself (`overlapping_adev` is this stream fed from a slice). A file read in passes uses
 //! every `k` up to `m = FULL_OVERLAP_M` samples (those points are the held ones bit for bit);
 //! beyond, `k` steps by `m / FULL_OVERLAP_M` (still `FULL_OVERLAP_M` cluster starts per
 //! `m`, where fully overlapping has `m`): memory `2·FULL_OVERLAP_M + 1` values per octave. The
@@ -419,10 +419,10 @@ mod tests {
     use super::*;
     use crate::noise::allan::overlapping_adev;
 
-    /// With full overlap at every octave the stream is the held estimator bit for bit; with
-    /// a small `full_m` the strided points stay within a fraction of their uncertainty.
+    /// With a small `full_m` the strided points are the fully overlapping ones up to it bit
+    /// for bit, and within a fraction of their uncertainty beyond.
     #[test]
-    fn the_stream_is_the_held_estimator() {
+    fn the_strided_stream_is_near_the_full_one() {
         let y: Vec<f64> = (0..5000)
             .map(|i| ((i * 7919 % 104_729) as f64).sin() + (i as f64 * 1e-3).cos())
             .collect();
@@ -432,7 +432,6 @@ mod tests {
             y.iter().for_each(|v| s.push(*v));
             s.finish()
         };
-        assert_eq!(run(1 << 20), held);
         let strided = run(8);
         assert_eq!(strided.tau_s, held.tau_s);
         assert_eq!(strided.adev_rel_err, held.adev_rel_err);
