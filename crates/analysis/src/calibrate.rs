@@ -9,6 +9,7 @@
 //! (the ellipsoid and its loop) — or the one sentence saying why it gave none. A sensor's
 //! failure never hides the others'.
 
+pub use crate::gyro::request::GyroOutcome;
 use crate::gyro::request::{gyrofit_of, GyroInput, GyrofitRequest};
 use crate::input::columns::{all_named, column_sensor, Sensor};
 use crate::input::front_door::Input;
@@ -16,7 +17,7 @@ use crate::input::read_options::ReadOptions;
 use crate::input::recording::Recording;
 use crate::magnetometer::{self, MagAnalysis, MagFitReport, MagModel};
 use crate::pipeline::{fit_judged, Judged};
-use crate::protocol::gyro::{GyroProtocolOptions, GyroProtocolReport};
+use crate::protocol::gyro::GyroProtocolOptions;
 use crate::{FitOptions, FitReport, LoadOptions};
 use serde::Serialize;
 use std::path::Path;
@@ -41,27 +42,6 @@ pub enum Outcome<T> {
     Ok(T),
     /// The one sentence saying why it gave none.
     Error(String),
-}
-
-/// The gyro's report: the motion fit's (`gyrofit`'s today) or a protocol's.
-#[derive(Debug, Clone, Serialize)]
-#[serde(untagged)]
-pub enum GyroOutcome {
-    /// The motions between free poses ([`crate::gyro::run`]).
-    Motions(Box<crate::gyro::GyroReport>),
-    /// A recognised protocol's method ([`crate::protocol::gyro`]).
-    Protocol(Box<GyroProtocolReport>),
-}
-
-impl GyroOutcome {
-    /// The gyro calibration file of the report; `None` when a protocol's method measured only
-    /// the bias and no nominal scale is known ([`GyroProtocolReport::cal_file`]).
-    pub fn cal_file(&self) -> Option<crate::output::gyrocal::GyroCalFile> {
-        match self {
-            GyroOutcome::Motions(rep) => Some(rep.cal_file()),
-            GyroOutcome::Protocol(rep) => rep.cal_file(),
-        }
-    }
 }
 
 /// The magnetometer's fit and loop.

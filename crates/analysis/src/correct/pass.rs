@@ -160,8 +160,12 @@ pub(crate) fn correct_pass(
     for (i, row) in src.rows().enumerate() {
         let t = row.t.unwrap_or_else(|| i as f64 / fs);
         let t0 = *pass.t0.get_or_insert(t);
-        let (xyz, temp) = (row.xyz, row.temp);
-        ring.push(t - t0, temp.unwrap_or(0.0), Sample { t, xyz, temp }, &rate_term)?;
+        let s = Sample {
+            t,
+            xyz: row.xyz,
+            temp: row.temp,
+        };
+        ring.push(t - t0, row.temp.unwrap_or(0.0), s, &rate_term)?;
         while let Some(r) = ring.pop(false) {
             pass.take(r, out)?;
         }

@@ -192,8 +192,9 @@ pub fn open_sensors(
     let large = path.as_os_str() != "-"
         && std::fs::metadata(path).is_ok_and(|m| m.is_file() && m.len() >= read.stream_from_bytes);
     if large {
-        let open =
-            |opts: &LoadOptions| TextSource::open(path, opts, |_| true).map_err(|e| e.in_file(path));
+        let open = |opts: &LoadOptions| {
+            TextSource::open(path, opts, |_| true).map_err(|e| e.in_file(path))
+        };
         let head = first_lines(path, 64);
         let axes = |s: &TextSource| s.meta.axis_columns.clone();
         if let Some(srcs) = pick_sensors(&head, columns.clone(), read, open, axes)? {
