@@ -27,7 +27,7 @@ use std::path::Path;
 pub struct CalibrateOptions {
     /// The accelerometer's fit (detector and model).
     pub fit: FitOptions,
-    /// The gyro's settings (turn angle, table rates, nominal: [`gyro_of`]); its detector is
+    /// The gyro's settings (turn angle, table rates, nominal: `gyrofit`'s, as `--scale`); its detector is
     /// `fit`'s.
     pub gyro: GyroProtocolOptions,
     /// How the file is read (the accelerometer's input streamed from its size, as `fit`'s).
