@@ -27,8 +27,8 @@ use std::path::Path;
 pub struct CalibrateOptions {
     /// The accelerometer's fit (detector and model).
     pub fit: FitOptions,
-    /// The gyro's settings (turn angle, table rates, nominal: `gyrofit`'s, as `--scale`); its detector is
-    /// `fit`'s.
+    /// The gyro's settings (turn angle, table rates, nominal: `gyrofit`'s, as `--scale`); its
+    /// detector is `fit`'s.
     pub gyro: GyroProtocolOptions,
     /// How the file is read (the accelerometer's input streamed from its size, as `fit`'s).
     pub read: crate::input::read_options::ReadOptions,
