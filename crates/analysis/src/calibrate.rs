@@ -9,14 +9,15 @@
 //! (the ellipsoid and its loop) — or the one sentence saying why it gave none. A sensor's
 //! failure never hides the others'.
 
-use crate::gyro::GyroOptions;
+pub use crate::gyro::request::GyroOutcome;
+use crate::gyro::request::{gyrofit_of, GyroInput, GyrofitRequest};
 use crate::input::columns::{all_named, column_sensor, Sensor};
 use crate::input::front_door::Input;
 use crate::input::read_options::ReadOptions;
 use crate::input::recording::Recording;
 use crate::magnetometer::{self, MagAnalysis, MagFitReport, MagModel};
 use crate::pipeline::{fit_judged, Judged};
-use crate::protocol::gyro::{GyroProtocolOptions, GyroProtocolReport};
+use crate::protocol::gyro::GyroProtocolOptions;
 use crate::{FitOptions, FitReport, LoadOptions};
 use serde::Serialize;
 use std::path::Path;
@@ -26,7 +27,8 @@ use std::path::Path;
 pub struct CalibrateOptions {
     /// The accelerometer's fit (detector and model).
     pub fit: FitOptions,
-    /// The gyro's protocol settings (turn angle, table rates).
+    /// The gyro's settings (turn angle, table rates, nominal: `gyrofit`'s, as `--scale`); its
+    /// detector is `fit`'s.
     pub gyro: GyroProtocolOptions,
     /// How the file is read (the accelerometer's input streamed from its size, as `fit`'s).
     pub read: crate::input::read_options::ReadOptions,
@@ -40,16 +42,6 @@ pub enum Outcome<T> {
     Ok(T),
     /// The one sentence saying why it gave none.
     Error(String),
-}
-
-/// The gyro's report: the motion fit's (`gyrofit`'s today) or a protocol's.
-#[derive(Debug, Clone, Serialize)]
-#[serde(untagged)]
-pub enum GyroOutcome {
-    /// The motions between free poses ([`crate::gyro::run`]).
-    Motions(Box<crate::gyro::GyroReport>),
-    /// A recognised protocol's method ([`crate::protocol::gyro`]).
-    Protocol(Box<GyroProtocolReport>),
 }
 
 /// The magnetometer's fit and loop.
@@ -152,13 +144,12 @@ pub fn calibrate(path: &Path, opts: &CalibrateOptions) -> crate::Result<Calibrat
             .map(|r| format!("{n}: {}", r.axis_columns.join(",")))
     })
     .collect();
+    let accelerometer = accel_input(path, &acc, &opts.read)
+        .map(|i| outcome(i.and_then(|i| fit_judged(&i, &opts.fit))));
     Ok(CalibrateReport {
         sensors,
-        accelerometer: accel_input(path, &acc, &opts.read)
-            .map(|i| outcome(i.and_then(|i| fit_judged(&i, &opts.fit)))),
-        gyroscope: gyro
-            .as_ref()
-            .map(|g| outcome(gyro_of(acc.as_ref(), g, opts))),
+        accelerometer,
+        gyroscope: gyro.map(|g| outcome(gyro_of(path, acc, g, opts))),
         magnetometer: mag.as_ref().map(|m| outcome(mag_of(m))),
     })
 }
@@ -185,26 +176,26 @@ fn sentence(e: &crate::Error) -> String {
     s
 }
 
-/// The gyro: the motions between free poses when they calibrate it, else the protocol's.
+/// The gyro as `gyrofit` decides ([`gyrofit_of`]): the motions between free poses when they
+/// calibrate it, else the protocol's method. A file without an accelerometer gives its gyro's
+/// triplet as both, as the loader does for `gyrofit` (a gyro-only file: the protocol's method
+/// on the gyro alone). `opts.gyro.nominal_rad_per_raw`, when given, is both methods' nominal
+/// (as `gyrofit --scale`); else the gyro columns' unit, if they state one.
 fn gyro_of(
-    acc: Option<&Recording>,
-    gyro: &Recording,
+    path: &Path,
+    acc: Option<Recording>,
+    gyro: Recording,
     opts: &CalibrateOptions,
 ) -> crate::Result<GyroOutcome> {
-    let nominal = crate::gyro::nominal_from_columns(gyro);
-    let mut popts = opts.gyro.clone();
-    popts.nominal_rad_per_raw = popts.nominal_rad_per_raw.or(nominal.as_ref().map(|n| n.0));
-    if let (Some(acc), None) = (acc, &popts.table_rates_dps) {
-        let mut gopts = GyroOptions::of_nominal(nominal);
-        gopts.detect = opts.fit.detect.clone();
-        match crate::gyro::run(acc, gyro, &gopts) {
-            Ok(rep) => return Ok(GyroOutcome::Motions(Box::new(rep))),
-            Err(e) if !e.says_another_protocol() => return Err(e.into()),
-            Err(_) => {}
-        }
-    }
-    let rep = crate::protocol::gyro::run(acc, gyro, &popts)?;
-    Ok(GyroOutcome::Protocol(Box::new(rep)))
+    let req = GyrofitRequest {
+        scale: opts.gyro.nominal_rad_per_raw.map(Vec::from),
+        detect: opts.fit.detect.clone(),
+        table_rates_dps: opts.gyro.table_rates_dps.clone(),
+        rotation_deg: opts.gyro.rotation_deg,
+        ..GyrofitRequest::new(path)
+    };
+    let acc = acc.unwrap_or_else(|| gyro.clone());
+    Ok(gyrofit_of(&req, &GyroInput::Held(acc, gyro))?.report)
 }
 
 /// The magnetometer: `magfit`'s default ellipsoid and its loop.

@@ -30,6 +30,12 @@ impl SampleSource for Vec<[f64; 3]> {
     }
 }
 
+impl SampleSource for Recording {
+    fn each(&self, f: &mut dyn FnMut(&[f64; 3])) -> crate::Result<()> {
+        self.xyz.each(f)
+    }
+}
+
 impl SampleSource for TextSource {
     fn each(&self, f: &mut dyn FnMut(&[f64; 3])) -> crate::Result<()> {
         self.rows().for_each(|r| f(&r.xyz));

@@ -8,7 +8,6 @@ use std::path::PathBuf;
 use wiical_analysis::calibrate::GyroOutcome;
 use wiical_analysis::gyro::open_text;
 use wiical_analysis::gyro::request::{gyrofit_of, GyroInput};
-use wiical_analysis::protocol::gyro::GyroProtocolReport;
 use wiical_analysis::{GyrofitRequest, Recording};
 use wiical_core::multipos::MultiPosModel;
 
@@ -88,38 +87,16 @@ pub fn run(a: &Args) -> Result<String> {
             "note: in {file}: the motions between poses gave no calibration ({e}); the recognised protocol's method was used"
         );
     }
-    match &found.report {
-        GyroOutcome::Motions(rep) => {
-            if let Some(path) = &a.out {
-                save(path, rep)?;
-            }
-            if a.json {
-                return to_json(rep);
-            }
-            Ok(crate::render::gyrofit::text(rep, &file))
-        }
-        GyroOutcome::Protocol(rep) => {
-            if let Some(path) = &a.out {
-                save_protocol(path, rep)?;
-            }
-            if a.json {
-                return to_json(rep);
-            }
-            Ok(crate::render::protocol::gyro_text(rep, &file))
-        }
+    if let Some(path) = &a.out {
+        save(path, &found.report)?;
     }
-}
-
-/// Writes `--out` for a protocol's gyro calibration (no held-out error: the file has no
-/// `cv_rms_deg`); refused when only the bias was measured and no nominal scale is known.
-fn save_protocol(path: &std::path::Path, rep: &GyroProtocolReport) -> Result<()> {
-    let Some(file) = rep.cal_file() else {
-        bail!(
-            "--out {}: only the gyro's bias was measured and no nominal scale is known (give --scale or --counts-per-dps, or known rates with --table-rate)",
-            path.display()
-        );
-    };
-    wiical_analysis::output::gyrocal::write_gyro_calibration(path, &file).map_err(cli_error)
+    if a.json {
+        return to_json(&found.report);
+    }
+    Ok(match &found.report {
+        GyroOutcome::Motions(rep) => crate::render::gyrofit::text(rep, &file),
+        GyroOutcome::Protocol(rep) => crate::render::protocol::gyro_text(rep, &file),
+    })
 }
 
 /// Reads FILE (and GYRO_FILE); notes on them go to stderr, each once.
@@ -240,11 +217,21 @@ fn gyro_info(a: &Args, acc: &Recording, gyro: &Recording) {
     }
 }
 
-/// Writes `--out` (`wiical_analysis::output::gyrocal`): the chosen calibration with the
-/// accepted g-sensitivity; accepted effects the file cannot hold are named on stderr.
-fn save(path: &std::path::Path, rep: &wiical_analysis::gyro::GyroReport) -> Result<()> {
-    wiical_analysis::output::gyrocal::write_gyro_calibration(path, &rep.cal_file())
-        .map_err(cli_error)?;
+/// Writes `--out` (`wiical_analysis::output::gyrocal`): the chosen calibration (the motion
+/// fit's with the accepted g-sensitivity; accepted effects the file cannot hold are named on
+/// stderr). Refused when a protocol's method measured only the bias and no nominal scale is
+/// known (the file would have no scale).
+fn save(path: &std::path::Path, outcome: &GyroOutcome) -> Result<()> {
+    let Some(file) = outcome.cal_file() else {
+        bail!(
+            "--out {}: only the gyro's bias was measured and no nominal scale is known (give --scale or --counts-per-dps, or known rates with --table-rate)",
+            path.display()
+        );
+    };
+    wiical_analysis::output::gyrocal::write_gyro_calibration(path, &file).map_err(cli_error)?;
+    let GyroOutcome::Motions(rep) = outcome else {
+        return Ok(());
+    };
     for name in rep
         .effects
         .iter()

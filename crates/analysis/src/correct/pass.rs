@@ -1,4 +1,4 @@
-//! The correction, written once: one pass over a recording's samples in order (`Readings`:
+//! The correction, written once: one pass over a recording's rows in order ([`RowSource`]:
 //! a large file's rows read from it, [`crate::input::text_source::TextSource::rows`], or a
 //! recording held in memory, the one-chunk case [`super::correct_recording`] takes) corrects
 //! every sample and gives it out — for a file, its line to a temporary file beside the
@@ -20,10 +20,10 @@ use super::checks::{
 use super::regress::{RateRing, Ready, Regressors};
 use super::{applied, check_core_temperature, correct_at, csv, CorrectError, PLAUSIBLE_MEDIAN_G};
 use crate::error::{Error, Result};
-use crate::input::recording::Recording;
 use crate::input::text_source::TextSource;
 use crate::output::calfile::CalibrationFile;
 use crate::output::write::AtomicWriter;
+use crate::source::RowSource;
 use std::io::Write;
 use std::path::Path;
 
@@ -123,78 +123,13 @@ impl Pass<'_> {
 /// acceleration (g).
 pub(crate) type Sink<'a> = dyn FnMut(f64, &[f32; 3]) -> Result<()> + 'a;
 
-/// What [`Readings::each`] gives every sample to: its time column's value, readings and
-/// temperature.
-pub(crate) type EachSample<'a> = dyn FnMut(Option<f64>, &[f64; 3], Option<f64>) -> Result<()> + 'a;
-
-/// A recording's samples in order, for [`correct_pass`]: read from a file in passes
-/// ([`TextSource`]) or held ([`Recording`]).
-pub(crate) trait Readings {
-    /// Samples.
-    fn len(&self) -> usize;
-    /// True with a temperature column.
-    fn has_temp(&self) -> bool;
-    /// The recording's sample rate, Hz, when it states one.
-    fn rate_hz(&self) -> Option<f64>;
-    /// True when the samples are in memory already (no bound on the ±15 s held for a rate).
-    fn held(&self) -> bool;
-    /// Every sample in order to `f` (its time column's value, readings, temperature),
-    /// stopping at `f`'s first error.
-    fn each(&self, f: &mut EachSample<'_>) -> Result<()>;
-    /// Refuses a source that changed since its first pass (a file rewritten).
-    fn check(&self) -> Result<()>;
-}
-
-impl Readings for TextSource {
-    fn len(&self) -> usize {
-        TextSource::len(self)
-    }
-    fn has_temp(&self) -> bool {
-        TextSource::has_temp(self)
-    }
-    fn rate_hz(&self) -> Option<f64> {
-        self.meta.sample_rate_hz
-    }
-    fn held(&self) -> bool {
-        false
-    }
-    fn each(&self, f: &mut EachSample<'_>) -> Result<()> {
-        self.rows().try_for_each(|row| f(row.t, &row.xyz, row.temp))
-    }
-    fn check(&self) -> Result<()> {
-        TextSource::check(self)
-    }
-}
-
-impl Readings for Recording {
-    fn len(&self) -> usize {
-        Recording::len(self)
-    }
-    fn has_temp(&self) -> bool {
-        self.temp.is_some()
-    }
-    fn rate_hz(&self) -> Option<f64> {
-        self.sample_rate_hz
-    }
-    fn held(&self) -> bool {
-        true
-    }
-    fn each(&self, f: &mut EachSample<'_>) -> Result<()> {
-        let at = |c: &Option<Vec<f64>>, i: usize| c.as_ref().and_then(|c| c.get(i).copied());
-        (self.xyz.iter().enumerate()).try_for_each(|(i, m)| f(at(&self.t, i), m, at(&self.temp, i)))
-    }
-    fn check(&self) -> Result<()> {
-        Ok(())
-    }
-}
-
 /// The correction of every sample of `src` with `file`, each given to `out`, then the checks
 /// in the order of [`super`]'s module docs; returns the samples corrected. Sample times as
 /// [`super::correct_recording`] takes them (the time column, else `i / rate` with the
 /// recording's rate, else `default_rate_hz`).
 pub(crate) fn correct_pass(
     file: &CalibrationFile,
-    src: &impl Readings,
+    src: &impl RowSource,
     default_rate_hz: f64,
     out: &mut Sink<'_>,
 ) -> Result<usize> {
@@ -207,8 +142,8 @@ pub(crate) fn correct_pass(
     let rate_term = || rate_term.clone();
     let rates = regressors.needs_rate();
     let mut ring: RateRing<Sample> = match src.held() {
-        true => RateRing::unbounded(rates),
-        false => RateRing::new(rates),
+        Some(_) => RateRing::unbounded(rates),
+        None => RateRing::new(rates),
     };
     let mut pass = Pass {
         file,
@@ -221,19 +156,20 @@ pub(crate) fn correct_pass(
         not_finite: None,
         unbounded: None,
     };
-    let fs = src.rate_hz().unwrap_or(default_rate_hz);
-    let mut i = 0usize;
-    src.each(&mut |t, xyz, temp| {
-        let t = t.unwrap_or_else(|| i as f64 / fs);
-        i += 1;
+    let fs = src.metadata_rate_hz().unwrap_or(default_rate_hz);
+    for (i, row) in src.rows().enumerate() {
+        let t = row.t.unwrap_or_else(|| i as f64 / fs);
         let t0 = *pass.t0.get_or_insert(t);
-        let s = Sample { t, xyz: *xyz, temp };
-        ring.push(t - t0, temp.unwrap_or(0.0), s, &rate_term)?;
+        let s = Sample {
+            t,
+            xyz: row.xyz,
+            temp: row.temp,
+        };
+        ring.push(t - t0, row.temp.unwrap_or(0.0), s, &rate_term)?;
         while let Some(r) = ring.pop(false) {
             pass.take(r, out)?;
         }
-        Ok(())
-    })?;
+    }
     while let Some(r) = ring.pop(true) {
         pass.take(r, out)?;
     }
@@ -245,7 +181,7 @@ pub(crate) fn correct_pass(
 
 /// The checks on what the pass folded, in the held path's order: units, a value that is not
 /// finite, the acceptance predicate, a value beyond ±16 g.
-fn check_after(pass: Pass<'_>, src: &impl Readings) -> Result<()> {
+fn check_after(pass: Pass<'_>, src: &impl RowSource) -> Result<()> {
     let cal = &pass.file.calibration;
     if !pass.units.surely_passes() {
         let median_g = streamed_median(src, |m| linear_norm(cal, m))?;
@@ -270,16 +206,15 @@ fn check_after(pass: Pass<'_>, src: &impl Readings) -> Result<()> {
 /// two for an even count, as [`super::checks::median`] takes it), selected by the bits of
 /// their order, none stored: a pass to count them, then [`crate::stats::OrderCounts::median`]
 /// (three passes for both middle values).
-fn streamed_median(src: &impl Readings, f: impl Fn(&[f64; 3]) -> f64) -> Result<Option<f64>> {
+fn streamed_median(src: &impl RowSource, f: impl Fn(&[f64; 3]) -> f64) -> Result<Option<f64>> {
     use crate::stats::{from_order_key, order_key, OrderCounts};
     let keys = |key: &mut dyn FnMut(u64)| {
-        src.each(&mut |_, xyz, _| {
-            let v = f(xyz);
+        for row in src.rows() {
+            let v = f(&row.xyz);
             if v.is_finite() {
                 key(order_key(v));
             }
-            Ok(())
-        })?;
+        }
         src.check()
     };
     // No count by value: the norms of a recording are all distinct.

@@ -9,7 +9,6 @@ use super::nominal::{nominal_from_columns, nominal_given_usable};
 use super::options::GyroOptions;
 use super::report::GyroReport;
 use super::{GyroError, TextImu};
-use crate::calibrate::GyroOutcome;
 use crate::detect::windows::DetectOptions;
 pub use crate::error::gyro::{GyroArgError, NominalSetting};
 use crate::input::columns::{all_named, Sensor};
@@ -17,6 +16,7 @@ use crate::input::recording::Recording;
 use crate::input::text::LoadOptions;
 use crate::protocol::gyro::GyroProtocolReport;
 use crate::protocol::gyro::{self as protocol, GyroProtocolError, GyroProtocolOptions};
+use serde::Serialize;
 use std::path::PathBuf;
 
 /// A `gyrofit` request: the recording (one file with accelerometer and gyro columns, or the
@@ -170,6 +170,27 @@ impl GyroInput {
                 rep
             }
         })
+    }
+}
+
+/// The gyro's report (`gyrofit`'s, `calibrate`'s gyroscope): the motion fit's or a protocol's.
+#[derive(Debug, Clone, Serialize)]
+#[serde(untagged)]
+pub enum GyroOutcome {
+    /// The motions between free poses ([`crate::gyro::run`]).
+    Motions(Box<crate::gyro::GyroReport>),
+    /// A recognised protocol's method ([`crate::protocol::gyro`]).
+    Protocol(Box<GyroProtocolReport>),
+}
+
+impl GyroOutcome {
+    /// The gyro calibration file of the report; `None` when a protocol's method measured only
+    /// the bias and no nominal scale is known ([`GyroProtocolReport::cal_file`]).
+    pub fn cal_file(&self) -> Option<crate::output::gyrocal::GyroCalFile> {
+        match self {
+            GyroOutcome::Motions(rep) => Some(rep.cal_file()),
+            GyroOutcome::Protocol(rep) => rep.cal_file(),
+        }
     }
 }
 

@@ -3,11 +3,11 @@
 //! held and the large-file path are this one code, and differ only in how many overlapping
 //! Allan clusters a long cluster size keeps ([`Overlap`]).
 //!
-//! **The Allan deviation ([`AllanStream`]).** The overlapping estimator of
+//! **The Allan deviation ([`AllanStream`], [`crate::noise::allan`]).** The overlapping estimator of
 //! [`crate::noise::allan::overlapping_adev`] needs `θₖ`, `θ_{k+m}` and `θ_{k+2m}` together: a
 //! stream keeps the last `2m + 1` values of `θ` per octave. Held samples use every `k` at every
-//! octave (memory of the order of the samples, as holding them takes anyway), in the order of
-//! `overlapping_adev`, so the curve is that estimator's bit for bit. A file read in passes uses
+//! octave (memory of the order of the samples, as holding them takes anyway): the estimator
+//! itself (`overlapping_adev` is this stream fed from a slice). A file read in passes uses
 //! every `k` up to `m = FULL_OVERLAP_M` samples (those points are the held ones bit for bit);
 //! beyond, `k` steps by `m / FULL_OVERLAP_M` (still `FULL_OVERLAP_M` cluster starts per
 //! `m`, where fully overlapping has `m`): memory `2·FULL_OVERLAP_M + 1` values per octave. The
@@ -31,11 +31,10 @@ use crate::error::noise::NoiseError;
 use crate::error::Result;
 use crate::input::columns::Sensor;
 use crate::input::timecheck::TimeSteps;
-use crate::noise::allan::{AllanCurve, MIN_CLUSTERS};
+use crate::noise::allan::{AllanCurve, AllanStream};
 use crate::noise::still::{decide_still, scatter_of, window_of, CounterFold};
 use crate::source::SampleSource;
 use crate::stats::OrderCounts;
-use std::collections::VecDeque;
 
 /// Largest cluster size (samples) at which every overlapping cluster is used; beyond it the
 /// cluster starts step by `m / FULL_OVERLAP_M` (module docs). 2¹³: 16 385 values of θ per
@@ -45,159 +44,6 @@ pub const FULL_OVERLAP_M: usize = 1 << 13;
 /// Most distinct |first differences| per axis counted by value before the median is selected
 /// by bits instead (2¹⁸ keys: ~10 MB per axis at most).
 pub const MAX_COUNTED_STEPS: usize = 1 << 18;
-
-/// One octave's running sum.
-#[derive(Debug)]
-struct Octave {
-    /// Cluster size, samples.
-    m: usize,
-    /// Step between the cluster starts used (1 up to the full-overlap size).
-    stride: usize,
-    /// θ at the last `2m/stride + 1` multiples of the stride; empty for a stride of 1, whose
-    /// octaves read the stream's shared ring of recent θ instead.
-    ring: VecDeque<f64>,
-    sum: f64,
-    terms: usize,
-}
-
-/// The overlapping Allan deviation of one axis, fed sample by sample (module docs).
-#[derive(Debug)]
-pub struct AllanStream {
-    tau0: f64,
-    n: usize,
-    pushed: usize,
-    theta: f64,
-    octaves: Vec<Octave>,
-    /// θ of the recent samples, indexed by the sample number masked by `mask` (a power of two
-    /// of at least `2m + BLOCK` for the widest octave with a stride of 1): the fully
-    /// overlapping octaves read their three values from it.
-    recent: Vec<f64>,
-    mask: usize,
-    /// Samples pushed but not yet summed by the fully overlapping octaves: they are summed a
-    /// block at a time, octave by octave, so that each octave walks the ring in order (per
-    /// sample and octave, the ring's far ends missed the cache: 35 % of `noise`'s time).
-    pending: usize,
-}
-
-/// Samples summed at once by the fully overlapping octaves ([`AllanStream::pending`]).
-const BLOCK: usize = 4096;
-
-impl AllanStream {
-    /// A stream for `n` samples at `rate_hz`, with full overlap up to `full_m` samples.
-    pub fn new(n: usize, rate_hz: f64, full_m: usize) -> Self {
-        let mut octaves = Vec::new();
-        let mut m = 1usize;
-        let mut widest_full = 0;
-        // The held path's octaves: τ doubles while at least MIN_CLUSTERS clusters remain.
-        while n / m >= MIN_CLUSTERS && 2 * m <= n {
-            let stride = (m / full_m.max(1)).max(1);
-            let mut ring = VecDeque::new();
-            if stride == 1 {
-                widest_full = m;
-            } else {
-                ring.reserve(2 * m / stride + 1);
-                ring.push_back(0.0); // θ₀
-            }
-            octaves.push(Octave {
-                m,
-                stride,
-                ring,
-                sum: 0.0,
-                terms: 0,
-            });
-            m *= 2;
-        }
-        // θ₀ = 0 sits at index 0 of the zeroed ring.
-        let len = (2 * widest_full + BLOCK + 1).next_power_of_two();
-        Self {
-            tau0: 1.0 / rate_hz,
-            n,
-            pushed: 0,
-            theta: 0.0,
-            octaves,
-            recent: vec![0.0; len],
-            mask: len - 1,
-            pending: 0,
-        }
-    }
-
-    /// The next sample.
-    pub fn push(&mut self, y: f64) {
-        self.theta += y * self.tau0;
-        self.pushed += 1;
-        let (i, theta) = (self.pushed, self.theta);
-        self.recent[i & self.mask] = theta;
-        self.pending += 1;
-        if self.pending == BLOCK {
-            self.sum_pending();
-        }
-        for o in self.octaves.iter_mut().filter(|o| o.stride > 1) {
-            if i % o.stride != 0 {
-                continue;
-            }
-            let span = 2 * o.m / o.stride;
-            if o.ring.len() > span {
-                o.ring.pop_front();
-            }
-            o.ring.push_back(theta);
-            if o.ring.len() == span + 1 {
-                let d = o.ring[span] - 2.0 * o.ring[span / 2] + o.ring[0];
-                o.sum += d * d;
-                o.terms += 1;
-            }
-        }
-    }
-
-    /// The pending samples summed by every fully overlapping octave, in sample order.
-    fn sum_pending(&mut self) {
-        let (r, mask) = (&self.recent, self.mask);
-        let last = self.pushed;
-        let first = last + 1 - self.pending;
-        for o in self.octaves.iter_mut().filter(|o| o.stride == 1) {
-            let m = o.m;
-            let mut i = first.max(2 * m);
-            // In runs where none of θᵢ, θᵢ₋ₘ, θᵢ₋₂ₘ wraps round the ring: three slices
-            // walked together, summed in sample order.
-            while i <= last {
-                let at = [i & mask, (i - m) & mask, (i - 2 * m) & mask];
-                let run = at.iter().fold(last + 1 - i, |n, a| n.min(r.len() - a));
-                let (now, mid, old) = (
-                    &r[at[0]..at[0] + run],
-                    &r[at[1]..at[1] + run],
-                    &r[at[2]..at[2] + run],
-                );
-                for ((x, y), z) in now.iter().zip(mid).zip(old) {
-                    let d = x - 2.0 * y + z;
-                    o.sum += d * d;
-                }
-                o.terms += run;
-                i += run;
-            }
-        }
-        self.pending = 0;
-    }
-
-    /// The curve, as [`crate::noise::allan::overlapping_adev`] lays it out (the uncertainty
-    /// of each point is the held path's formula).
-    pub fn finish(mut self) -> AllanCurve {
-        if self.pending > 0 {
-            self.sum_pending();
-        }
-        let n = self.pushed.min(self.n);
-        let mut curve = AllanCurve::default();
-        for o in self.octaves.iter().filter(|o| o.terms > 0) {
-            let tau = o.m as f64 * self.tau0;
-            curve.tau_s.push(tau);
-            curve
-                .adev
-                .push((o.sum / (2.0 * tau * tau * o.terms as f64)).sqrt());
-            curve
-                .adev_rel_err
-                .push(1.0 / (2.0 * ((n / o.m) as f64 - 1.0)).sqrt());
-        }
-        curve
-    }
-}
 
 /// |First differences| of one axis counted for their median (module docs).
 #[derive(Debug)]
@@ -412,36 +258,4 @@ fn distinct_curves(
         }
     })?;
     Ok(allan.map(|s| s.finish()))
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::noise::allan::overlapping_adev;
-
-    /// With full overlap at every octave the stream is the held estimator bit for bit; with
-    /// a small `full_m` the strided points stay within a fraction of their uncertainty.
-    #[test]
-    fn the_stream_is_the_held_estimator() {
-        let y: Vec<f64> = (0..5000)
-            .map(|i| ((i * 7919 % 104_729) as f64).sin() + (i as f64 * 1e-3).cos())
-            .collect();
-        let held = overlapping_adev(&y, 50.0);
-        let run = |full_m: usize| {
-            let mut s = AllanStream::new(y.len(), 50.0, full_m);
-            y.iter().for_each(|v| s.push(*v));
-            s.finish()
-        };
-        assert_eq!(run(1 << 20), held);
-        let strided = run(8);
-        assert_eq!(strided.tau_s, held.tau_s);
-        assert_eq!(strided.adev_rel_err, held.adev_rel_err);
-        for i in 0..held.adev.len() {
-            let rel = strided.adev[i] / held.adev[i] - 1.0;
-            if held.tau_s[i] * 50.0 <= 8.0 {
-                assert_eq!(strided.adev[i], held.adev[i]);
-            }
-            assert!(rel.abs() < 0.5 * held.adev_rel_err[i], "{i}: {rel}");
-        }
-    }
 }

@@ -14,11 +14,10 @@ use crate::input::read_options::ReadOptions;
 use crate::input::recording::Recording;
 use crate::input::text::{parse, LoadOptions};
 use crate::input::text_source::TextSource;
-use crate::input::timecheck::TimeSteps;
 use crate::noise::allan::{fit_terms, AllanCurve, NoiseTerms};
 use crate::noise::pass::{sensor_noise, Overlap, SensorSamples, FULL_OVERLAP_M};
 use crate::noise::reading::read_terms;
-use crate::source::SampleSource;
+use crate::source::{RowSource, SampleSource};
 use serde::Serialize;
 use std::path::Path;
 
@@ -89,45 +88,61 @@ pub fn load_sensors(
         Ok(raw) => return raw_sensors(&raw, columns, path),
         Err(text) => text,
     };
-    if columns.is_some() {
-        let opts = LoadOptions {
-            columns,
-            sensor: None,
-            read: *read,
-        };
-        return Ok(vec![parse(&text, &opts).map_err(|e| e.in_file(path))?]);
-    }
-    let mut out: Vec<Recording> = Vec::new();
-    // Which triplet each sensor picks is decided by the header: read it from the first lines,
-    // then parse the whole text once per wanted triplet, so that memory holds the text and the
+    // Each wanted triplet parsed from the whole text once: memory holds the text and the
     // kept recordings only (not a discarded full parse beside them: 200 MB of x,y,z took
-    // 820 MB that way). A head that does not parse on its own is parsed in full instead.
+    // 820 MB that way).
+    let open = |opts: &LoadOptions| parse(&text, opts).map(Some).map_err(|e| e.in_file(path));
     let head = head_lines(&text, 64);
-    let mut taken: Vec<[String; 3]> = Vec::new();
+    let picked = pick_sensors(head, columns, read, open, |r| r.axis_columns.clone())?;
+    Ok(picked.unwrap_or_default())
+}
+
+/// The triplets of a still recording [`load_sensors`] and [`open_sensors`] read, each opened
+/// by `open` (`None`: the file cannot be read that way, and then none is): `columns` alone,
+/// else each sensor's triplet that the header names ([`takes`]; decided from its first lines
+/// `head`, from the whole file when they do not parse on their own), else the loader's own
+/// choice when it names none.
+fn pick_sensors<T>(
+    head: &str,
+    columns: Option<[String; 3]>,
+    read: &ReadOptions,
+    open: impl Fn(&LoadOptions) -> Result<Option<T>>,
+    axes: impl Fn(&T) -> [String; 3],
+) -> Result<Option<Vec<T>>> {
+    let opts = |columns, sensor| LoadOptions {
+        columns,
+        sensor,
+        read: *read,
+    };
+    if columns.is_some() {
+        return Ok(open(&opts(columns, None))?.map(|s| vec![s]));
+    }
+    let (mut out, mut taken) = (Vec::new(), Vec::<[String; 3]>::new());
     for sensor in SENSORS {
-        let opts = LoadOptions {
-            columns: None,
-            sensor: Some(sensor),
-            read: *read,
-        };
-        let probe = match parse(head, &opts) {
-            Ok(rec) => rec.axis_columns,
-            Err(_) => {
-                parse(&text, &opts)
-                    .map_err(|e| e.in_file(path))?
-                    .axis_columns
-            }
+        let o = opts(None, Some(sensor));
+        let (probe, opened) = match parse(head, &o) {
+            Ok(rec) => (rec.axis_columns, None),
+            Err(_) => match open(&o)? {
+                Some(s) => (axes(&s), Some(s)),
+                None => return Ok(None),
+            },
         };
         if takes(sensor, &probe, &taken) {
-            out.push(parse(&text, &opts).map_err(|e| e.in_file(path))?);
+            match opened.map_or_else(|| open(&o), |s| Ok(Some(s)))? {
+                Some(s) => out.push(s),
+                None => return Ok(None),
+            }
             taken.push(probe);
         }
     }
     if out.is_empty() {
         // No sensor named at all: the loader's own choice.
-        out.push(parse(&text, &LoadOptions::default()).map_err(|e| e.in_file(path))?);
+        match open(&opts(None, None))? {
+            Some(s) => out.push(s),
+            None => return Ok(None),
+        }
     }
-    Ok(out)
+    Ok(Some(out))
 }
 
 /// The sensors asked for in turn, each the triplet the loader picks for it.
@@ -147,8 +162,8 @@ fn takes(sensor: Sensor, probe: &[String; 3], taken: &[[String; 3]]) -> bool {
 }
 
 /// The sensors of a still recording: held as recordings, or (a plain text file of at least
-/// [`ReadOptions::stream_from_bytes`] bytes) opened as sources read in
-/// passes ([`crate::noise::pass`]).
+/// [`ReadOptions::stream_from_bytes`] bytes) opened as sources read in passes. One code reads
+/// either ([`noise_of`]); the two variants only carry the sources' type.
 #[derive(Debug)]
 pub enum Sensors {
     /// Every sample held ([`load_sensors`]).
@@ -168,7 +183,7 @@ impl Sensors {
 }
 
 /// [`load_sensors`], or the same sensors streamed when `path` is a plain text file of at least
-/// [`ReadOptions::stream_from_bytes`] bytes (as for `fit`).
+/// [`ReadOptions::stream_from_bytes`] bytes (as for `fit`; gzip, raw or a pose column: held).
 pub fn open_sensors(
     path: &Path,
     columns: Option<[String; 3]>,
@@ -177,65 +192,16 @@ pub fn open_sensors(
     let large = path.as_os_str() != "-"
         && std::fs::metadata(path).is_ok_and(|m| m.is_file() && m.len() >= read.stream_from_bytes);
     if large {
-        if let Some(srcs) = stream_sensors(path, columns.clone(), read)? {
+        let open = |opts: &LoadOptions| {
+            TextSource::open(path, opts, |_| true).map_err(|e| e.in_file(path))
+        };
+        let head = first_lines(path, 64);
+        let axes = |s: &TextSource| s.meta.axis_columns.clone();
+        if let Some(srcs) = pick_sensors(&head, columns.clone(), read, open, axes)? {
             return Ok(Sensors::Streamed(srcs));
         }
     }
     load_sensors(path, columns, read).map(Sensors::Held)
-}
-
-/// [`load_sensors`]'s choice of triplets, each opened as a [`TextSource`]; `None` when the
-/// file is not plain delimited text (gzip, raw, a pose column: read whole instead).
-fn stream_sensors(
-    path: &Path,
-    columns: Option<[String; 3]>,
-    read: &ReadOptions,
-) -> Result<Option<Vec<TextSource>>> {
-    let open =
-        |opts: &LoadOptions| TextSource::open(path, opts, |_| true).map_err(|e| e.in_file(path));
-    if columns.is_some() {
-        let opts = LoadOptions {
-            columns,
-            sensor: None,
-            read: *read,
-        };
-        return Ok(open(&opts)?.map(|s| vec![s]));
-    }
-    let head = first_lines(path, 64);
-    let (mut out, mut taken) = (Vec::new(), Vec::<[String; 3]>::new());
-    for sensor in SENSORS {
-        let opts = LoadOptions {
-            columns: None,
-            sensor: Some(sensor),
-            read: *read,
-        };
-        // The header decides, as in load_sensors: the first lines alone when they parse.
-        let (probe, opened) = match parse(&head, &opts) {
-            Ok(rec) => (rec.axis_columns, None),
-            Err(_) => match open(&opts)? {
-                Some(src) => (src.meta.axis_columns.clone(), Some(src)),
-                None => return Ok(None),
-            },
-        };
-        if takes(sensor, &probe, &taken) {
-            match opened.map_or_else(|| open(&opts), |s| Ok(Some(s)))? {
-                Some(src) => out.push(src),
-                None => return Ok(None),
-            }
-            taken.push(probe);
-        }
-    }
-    if out.is_empty() {
-        let opts = LoadOptions {
-            read: *read,
-            ..Default::default()
-        };
-        match open(&opts)? {
-            Some(src) => out.push(src),
-            None => return Ok(None),
-        }
-    }
-    Ok(Some(out))
 }
 
 /// The first `n` lines of a file (at most its first MiB, cut at a character boundary).
@@ -316,46 +282,63 @@ fn push_axes(
 }
 
 /// Each axis's Allan deviation and terms of the sensors as [`open_sensors`] opened them, held
-/// or read in passes: one code ([`crate::noise::pass`]), the large-file path keeping fewer
-/// overlapping clusters at long τ (the report's `streamed` says so). `default_rate_hz` is used
-/// when the recording has no time column or `Fs`. Refused when a recording is too short for
-/// any τ, or is not still, varying and evenly sampled ([`crate::noise::still`]).
+/// or read in passes: one code ([`sensors_noise`]). `default_rate_hz` is used when the
+/// recording has no time column or `Fs`.
 pub fn noise_of(sensors: &Sensors, default_rate_hz: f64) -> Result<NoiseReport> {
-    let inputs: Vec<(SensorSamples<'_, dyn SampleSource>, bool)> = match sensors {
-        Sensors::Held(recs) => recs.iter().map(held_samples).collect(),
-        Sensors::Streamed(srcs) => srcs.iter().map(streamed_samples).collect(),
-    };
-    let first_rate = match sensors {
-        Sensors::Held(recs) => recs.first().map(Recording::estimated_rate_hz),
-        Sensors::Streamed(srcs) => srcs.first().map(TextSource::estimated_rate_hz),
-    };
-    let rate = first_rate
+    match sensors {
+        Sensors::Held(recs) => sensors_noise(recs, default_rate_hz),
+        Sensors::Streamed(srcs) => sensors_noise(srcs, default_rate_hz),
+    }
+}
+
+/// [`noise_of`] on the sensors `srcs`, held or read in passes ([`crate::noise::pass`]): a
+/// large file keeps fewer overlapping clusters at long τ ([`Overlap::Bounded`], which the
+/// report's `streamed` says), held samples every one. Refused when a recording is too short
+/// for any τ, or is not still, varying and evenly sampled ([`crate::noise::still`]).
+pub fn sensors_noise<S: RowSource + SampleSource>(
+    srcs: &[S],
+    default_rate_hz: f64,
+) -> Result<NoiseReport> {
+    let rate = srcs
+        .first()
         .ok_or(NoiseError::NoSampleRate)?
+        .estimated_rate_hz()
         .unwrap_or(default_rate_hz);
     if !(rate.is_finite() && rate > 0.0) {
         return Err(NoiseError::NoSampleRate.into());
     }
-    let samples = inputs.first().map_or(0, |(i, _)| i.len);
+    let samples = srcs.first().map_or(0, RowSource::len);
     let needed = 2 * crate::noise::allan::MIN_CLUSTERS;
     if samples < needed {
         return Err(NoiseError::NoiseTooShort { samples, needed }.into());
     }
     let (mut axes, mut polled) = (Vec::new(), Vec::new());
-    for (input, integer) in &inputs {
-        let sensor = sensor_of(&input.columns[0]);
-        let got = sensor_noise(input, sensor, rate)?;
+    for src in srcs {
+        let columns = src.axis_columns();
+        let input = SensorSamples {
+            samples: src,
+            len: src.len(),
+            columns,
+            steps: src.time_steps(),
+            overlap: match src.held() {
+                Some(_) => Overlap::Full,
+                None => Overlap::Bounded,
+            },
+        };
+        let sensor = sensor_of(&columns[0]);
+        let got = sensor_noise(&input, sensor, rate)?;
         let accel_unit = (sensor == Sensor::Accelerometer || sensor == Sensor::Unnamed)
-            .then(|| unit_of_mean(*integer, &got.mean))
+            .then(|| unit_of_mean(src.integer(), &got.mean))
             .flatten();
-        push_axes(&mut axes, sensor, input.columns, accel_unit, got.curves);
+        push_axes(&mut axes, sensor, columns, accel_unit, got.curves);
         if let Some(polling) = got.polling {
             polled.push(PolledSensor {
-                columns: input.columns.join(","),
+                columns: columns.join(","),
                 polling,
             });
         }
     }
-    let streamed = matches!(sensors, Sensors::Streamed(_)).then(|| {
+    let streamed = srcs.iter().any(|s| s.held().is_none()).then(|| {
         format!(
             "read in passes from the file, never held: the points beyond τ = {FULL_OVERLAP_M} \
              samples use every (m/{FULL_OVERLAP_M})-th of the overlapping clusters (the fully \
@@ -371,32 +354,6 @@ pub fn noise_of(sensors: &Sensors, default_rate_hz: f64) -> Result<NoiseReport> 
         streamed,
         polled,
     })
-}
-
-/// A held recording as the noise pass reads it (every overlapping cluster), and whether
-/// every value is an integer.
-fn held_samples(rec: &Recording) -> (SensorSamples<'_, dyn SampleSource>, bool) {
-    let input = SensorSamples {
-        samples: &rec.xyz as &dyn SampleSource,
-        len: rec.len(),
-        columns: &rec.axis_columns,
-        steps: rec.t.as_deref().and_then(TimeSteps::of),
-        overlap: Overlap::Full,
-    };
-    (input, rec.is_integer())
-}
-
-/// A file read in passes as the noise pass reads it (bounded overlap), and whether every
-/// value is an integer.
-fn streamed_samples(src: &TextSource) -> (SensorSamples<'_, dyn SampleSource>, bool) {
-    let input = SensorSamples {
-        samples: src as &dyn SampleSource,
-        len: src.len(),
-        columns: &src.meta.axis_columns,
-        steps: src.steps,
-        overlap: Overlap::Bounded,
-    };
-    (input, src.summary.integer)
 }
 
 /// g or m/s² when the magnitude of the mean acceleration `mean` says so (≈ 1 or ≈ 9.81), from
