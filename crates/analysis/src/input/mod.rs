@@ -22,6 +22,7 @@ pub mod sample_summary;
 pub mod table;
 pub mod temp_files;
 pub mod text;
+pub(crate) mod text_csv;
 pub mod text_file;
 pub(crate) mod text_rows;
 pub mod text_source;

@@ -22,7 +22,7 @@ use crate::input::bounded::HoldLimit;
 use crate::input::bounded::{check_line_lengths, MAX_LINE_BYTES};
 use crate::input::columns::LoadOptions;
 use crate::input::recording::Recording;
-use crate::input::text::{
+use crate::input::text_csv::{
     blank_comments, check_axis_columns, csv_reader, is_comment_or_blank, CsvState, Delimiter,
 };
 use crate::input::text_rows::{Columns, RowLayout};
@@ -223,7 +223,7 @@ impl Pieces<'static> {
 impl<'a> Pieces<'a> {
     /// Text held whole as the one piece of itself (no thread, no copy): a held text is read
     /// by the same head and piece loop as a file in pieces. `text` must be plain text with
-    /// its comment lines blanked ([`crate::input::text::plain_csv`]).
+    /// its comment lines blanked ([`crate::input::text_csv::plain_csv`]).
     pub(crate) fn held(text: &'a str) -> Self {
         // The end of the pieces is said once the one piece has been handed out.
         let (to_pieces, cuts) = std::sync::mpsc::sync_channel(1);
@@ -402,7 +402,7 @@ pub fn load_pieces_within(
 
 /// [`load_pieces_within`] with pieces of `piece_bytes`: `Ok(None)` to read the file whole. The
 /// pieces' rows are parsed onto one set of columns (no copy), `limit` checked after each.
-fn read_pieces(
+pub(crate) fn read_pieces(
     path: &Path,
     opts: &LoadOptions,
     piece_bytes: usize,
@@ -805,79 +805,6 @@ mod tests {
         let raised = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| drop(pieces)));
         let payload = raised.expect_err("the reader's panic is raised by the drop");
         assert_eq!(message(payload.as_ref()), Some("a reader that panics"));
-    }
-
-    /// Every text, read in pieces of every size, gives what the whole-text parse gives: the
-    /// values bit for bit or the same sentence — or is handed back to be read whole.
-    #[test]
-    fn pieces_read_as_the_whole_text() {
-        let mut rows = String::from("Fs,100\nt,x,y,z,temp\n");
-        for i in 0..400 {
-            let t = i as f64 * 0.01;
-            rows += &format!(
-                "{t},{},{}.{},-{}e-{},2{}.5\n",
-                i % 97,
-                i % 13,
-                i * 31 % 1000,
-                i % 7,
-                i % 3,
-                i % 9
-            );
-        }
-        let bad_time = rows.replace("\n2.5,", "\n1.5,");
-        let bad_cell = rows.replace("\n3.01,", "\n3.01,x");
-        let ragged = rows.clone() + "1,2\n";
-        let semicolon = "t;x;y;z\n0;1,5;2;3\n0,01;4;5;6\n".to_string();
-        let no_header = "1,2,3\n4,5,6\n".to_string();
-        let texts = [
-            rows.clone(),
-            rows.trim_end().to_string(),
-            rows.replace('\n', "\r\n"),
-            bad_time,
-            bad_cell,
-            ragged,
-            semicolon,
-            no_header,
-            "x,y,z\n".to_string(),
-            format!("\u{feff}{rows}"),
-            rows.clone() + "# a comment\n",
-            rows.replace("2.5,", "\"2.5\","),
-            rows.replace("t,x,y,z,temp", "\"t\",\"x\",\"y\",\"z\",\"temp\""),
-            format!("# logger\n% 100 Hz, 16 bit\n{rows}").replace("\n2.5,", "\n% pause\n2.5,"),
-        ];
-        let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("r.csv");
-        let opts = LoadOptions::default();
-        for text in &texts {
-            std::fs::write(&path, text).unwrap();
-            let whole = crate::input::text::parse(text.trim_start_matches('\u{feff}'), &opts);
-            let whole = whole.map(|r| format!("{:?} {:?} {:?} {:?}", r.xyz, r.t, r.temp, r.notes));
-            let whole = whole.map_err(|e| e.to_string());
-            for size in [1, 7, 64, 300, 4096, 1 << 20] {
-                let got = match read_pieces(&path, &opts, size, |_| true, None) {
-                    Ok(None) => continue, // read whole by the caller
-                    Ok(Some(r)) => Ok(format!("{:?} {:?} {:?} {:?}", r.xyz, r.t, r.temp, r.notes)),
-                    Err(e) => Err(e.to_string()),
-                };
-                assert_eq!(got, whole, "{text:?} in pieces of {size}");
-            }
-        }
-        // The plain file is read in pieces, not handed back.
-        std::fs::write(&path, &texts[0]).unwrap();
-        assert!(matches!(
-            read_pieces(&path, &opts, 64, |_| true, None),
-            Ok(Some(_))
-        ));
-        assert!(matches!(
-            read_pieces(&path, &opts, 64, |_| false, None),
-            Ok(None)
-        ));
-        // Comment lines, a quoted header: read in pieces; a quote in a row: read whole.
-        for (k, in_pieces) in [(10, true), (12, true), (13, true), (11, false)] {
-            std::fs::write(&path, &texts[k]).unwrap();
-            let got = read_pieces(&path, &opts, 64, |_| true, None);
-            assert_eq!(matches!(got, Ok(Some(_))), in_pieces, "{k}: {got:?}");
-        }
     }
 
     /// What stopped a file's pieces is named by line: a byte that is not UTF-8 on the last

@@ -28,7 +28,7 @@ use crate::input::columns::LoadOptions;
 use crate::input::read_options::SpillMode;
 use crate::input::recording::Recording;
 use crate::input::sample_summary::{SampleSummary, SummaryFold};
-use crate::input::text::check_axis_columns;
+use crate::input::text_csv::check_axis_columns;
 use crate::input::text_file::{parse_pieces, read_head, row_error, Head, Pieces, PIECE_BYTES};
 pub(crate) use crate::input::text_rows::Columns;
 pub(crate) use crate::input::text_spill::Want;

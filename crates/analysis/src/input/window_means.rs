@@ -20,7 +20,8 @@ use crate::error::input::InputError;
 use crate::error::Result;
 use crate::input::bounded::{parse_number, quote, read_text, MAX_RECORDING_BYTES};
 pub use crate::input::table::WindowTable;
-use crate::input::text::{self, blank_comments, is_comment_or_blank, Delimiter};
+use crate::input::text;
+use crate::input::text_csv::{blank_comments, is_comment_or_blank, Delimiter};
 pub use crate::report::contract::WindowInputInfo;
 use std::path::Path;
 
