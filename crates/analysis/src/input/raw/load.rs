@@ -1,22 +1,22 @@
-//! Every raw file (`.cwa` or `.bin`) is read by this one path, a chunk of blocks at a time:
-//! what `fit`, `analyze` and `batch` need of a raw file is its still 10-s epochs
-//! ([`crate::input::raw::epochs`]), what `read` needs is every sample once, and a week of wear
-//! is hundreds of MB of blocks and tens of millions of samples. A file read whole (standard
-//! input, a gzip file: [`RawFile`]) is the one-chunk case of the same code ([`Blocks::Held`]),
-//! so a held file and one read from disk give the same recording and table by construction.
+//! Every raw file (`.cwa` or `.bin`) is read by this one path, a chunk of blocks at a time: what
+//! `fit`, `analyze` and `batch` need of a raw file is its still 10-s epochs
+//! ([`crate::input::raw::epochs`]), what `read` needs is every sample once, and a week of wear is
+//! hundreds of MB of blocks and tens of millions of samples. A file read whole (standard input, a
+//! gzip file: [`RawFile`](super::RawFile)) is the one-chunk case of the same code
+//! ([`Blocks::Held`]), so a held file and one read from disk give the same recording and table by
+//! construction.
 //!
-//! Two passes over the blocks, one chunk in memory at a time ([`BlockReader`],
-//! [`geneactiv::PageReader`]; each chunk decoded on all cores), both in [`samples`]: the first
-//! ([`samples::plan`]) checks every block and keeps, per kept block, only its index and time
-//! span (32 bytes for a block of up to 300 samples) and the counts of skipped blocks; the
-//! second reads the blocks again (a held file's are decoded already) into a sink: the
-//! recording's arrays, allocated once at their final length, or the epoch search
-//! ([`EpochScan`]) sample by sample.
+//! Two passes over the blocks, one chunk in memory at a time
+//! ([`BlockReader`](super::cwa::BlockReader), [`PageReader`](super::geneactiv::PageReader); each
+//! chunk decoded on all cores), both in [`samples`]: the first ([`samples::plan`]) checks every
+//! block and keeps, per kept block, only its index and time span (32 bytes for a block of up to 300
+//! samples) and the counts of skipped blocks; the second reads the blocks again (a held file's are
+//! decoded already) into a sink: the recording's arrays, allocated once at their final length, or
+//! the epoch search ([`EpochScan`]) sample by sample.
 
-use super::cwa::BlockReader;
+pub use super::blocks::Blocks;
 use super::epochs::{table_of, EpochOptions, EpochScan};
-use super::geneactiv::{self, PageReader};
-use super::{explain_too_few, samples, Block, RawFile, RawFormat};
+use super::{explain_too_few, samples, RawFormat};
 use crate::error::Result;
 use crate::input::bounded::HoldLimit;
 use crate::input::columns::LoadOptions;
@@ -36,102 +36,6 @@ pub fn raw_file_format(path: &Path) -> Option<RawFormat> {
     let got = crate::input::bounded::read_full(&mut file, &mut head).ok()?;
     // No extension given: bytes of neither format are `None`, not an error.
     super::detect(&head[..got], Path::new("")).ok().flatten()
-}
-
-/// Where a raw file's blocks come from.
-#[derive(Debug, Clone, Copy)]
-pub enum Blocks<'a> {
-    /// The regular file at this path, in this format ([`raw_file_format`]): read a chunk of
-    /// blocks at a time, never whole.
-    File(&'a Path, RawFormat),
-    /// A file read whole (standard input, a gzip file): its blocks are the one chunk.
-    Held(&'a RawFile),
-}
-
-impl<'a> Blocks<'a> {
-    /// A reader at the first block (each pass opens its own).
-    pub(super) fn open(self) -> Result<Reader<'a>> {
-        match self {
-            Self::File(path, format) => Reader::open(path, format),
-            Self::Held(raw) => Ok(Reader::Held(raw)),
-        }
-    }
-
-    pub(super) fn format(self) -> RawFormat {
-        match self {
-            Self::File(_, format) => format,
-            Self::Held(raw) => raw.format,
-        }
-    }
-}
-
-/// A raw file's blocks a chunk at a time, whatever its format (a held file: one chunk).
-pub(super) enum Reader<'a> {
-    Cwa(BlockReader),
-    Bin(Box<PageReader<std::io::BufReader<std::fs::File>>>),
-    Held(&'a RawFile),
-}
-
-impl Reader<'_> {
-    pub(super) fn open(path: &Path, format: RawFormat) -> Result<Self> {
-        Ok(match format {
-            RawFormat::Cwa => Self::Cwa(BlockReader::open(path)?),
-            RawFormat::GeneActiv => Self::Bin(Box::new(PageReader::open(path)?)),
-        })
-    }
-
-    /// The channel names (a `.cwa` file's are known once its first block is decoded).
-    pub(super) fn channels(&self) -> Vec<String> {
-        match self {
-            Self::Cwa(r) => r.channels(),
-            Self::Bin(_) => geneactiv::CHANNELS.iter().map(|s| s.to_string()).collect(),
-            Self::Held(raw) => raw.channels.clone(),
-        }
-    }
-
-    pub(super) fn notes(&self) -> Vec<String> {
-        match self {
-            Self::Cwa(r) => r.notes(),
-            Self::Bin(r) => r.notes(),
-            Self::Held(raw) => raw.notes.clone(),
-        }
-    }
-
-    pub(super) fn device(&self) -> String {
-        match self {
-            Self::Cwa(r) => r.header.device.to_string(),
-            Self::Bin(r) => r.device(),
-            Self::Held(raw) => raw.device.clone(),
-        }
-    }
-
-    pub(super) fn header_rate_hz(&self) -> f64 {
-        match self {
-            Self::Cwa(r) => r.header.rate_hz,
-            Self::Bin(r) => r.header_rate_hz(),
-            Self::Held(raw) => raw.header_rate_hz,
-        }
-    }
-
-    /// Every chunk of blocks in file order through `each`.
-    pub(super) fn for_each_chunk(&mut self, mut each: impl FnMut(&Self, &[Block])) -> Result<()> {
-        if let Self::Held(raw) = *self {
-            each(self, &raw.blocks);
-            return Ok(());
-        }
-        let mut chunk = Vec::new();
-        loop {
-            let more = match self {
-                Self::Cwa(r) => r.next_chunk(&mut chunk)?,
-                Self::Bin(r) => r.next_chunk(&mut chunk)?,
-                Self::Held(_) => false,
-            };
-            each(self, &chunk);
-            if !more {
-                return Ok(());
-            }
-        }
-    }
 }
 
 /// The still-epoch table of a raw file (errors without the file's name: the caller adds it):

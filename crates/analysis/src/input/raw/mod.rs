@@ -22,6 +22,7 @@ use crate::input::recording::Recording;
 use std::path::Path;
 
 pub(crate) mod block;
+pub(crate) mod blocks;
 pub mod cwa;
 pub mod epochs;
 pub mod geneactiv;

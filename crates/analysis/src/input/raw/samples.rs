@@ -23,8 +23,8 @@
 //! header's gain and offset) and its page temperature are rounded to f32's 24 bits (7 significant digits). Times are f64:
 //! seconds since 1970 need its 53 bits to resolve a millisecond.
 
+use super::blocks::{Blocks, Reader};
 use super::cwa::{self, Checked, Head, BLOCK_BYTES};
-use super::load::{Blocks, Reader};
 use super::{
     choose_channels, describe, no_data, skip_notes, Block, BlockSpan, GoodBlock, RawFormat, Tally,
     TimePlan,
