@@ -7,7 +7,7 @@
 //! `device put` checks ([`Judged`]: the report's own keys, then `quality`).
 
 use crate::autocal;
-use crate::detect::windows::{detect_windows_untimed, Windows};
+use crate::detect::windows::{detect_windows, Windows};
 use crate::error::Result;
 use crate::input::front_door::Input;
 use crate::input::table::WindowTable;
@@ -45,7 +45,9 @@ pub fn fit_judged(input: &Input, opts: &FitOptions) -> Result<Judged<FitReport>>
 
 /// [`fit_judged`] on the rows of `src`, held or a large file read in passes (one code).
 fn fit_rows<R: RowSource + ?Sized>(src: &R, opts: &FitOptions) -> Result<Judged<FitReport>> {
-    let ws = detect_windows_untimed(src, &opts.detect)?;
+    let ws = detect_windows(src, &opts.detect);
+    src.check()?;
+    let ws = ws?;
     let r = crate::protocol::accel::fit_by_protocol(&ws, opts)
         .map_err(|e| explain(e, src.axis_columns(), &Axes(src), &ws))?;
     Ok(Judged {
@@ -61,9 +63,9 @@ fn explained<R: RowSource + ?Sized>(
     opts: &AnalyzeOptions,
     result: Result<AnalyzeReport>,
 ) -> Result<AnalyzeReport> {
-    result.map_err(|e| match detect_windows_untimed(src, &opts.fit.detect) {
-        Ok(ws) => explain(e, src.axis_columns(), &Axes(src), &ws),
-        Err(_) => e,
+    result.map_err(|e| match detect_windows(src, &opts.fit.detect) {
+        Ok(ws) if src.check().is_ok() => explain(e, src.axis_columns(), &Axes(src), &ws),
+        _ => e,
     })
 }
 

@@ -210,7 +210,8 @@ fn windows_text(input: &Input, opts: &wiical_analysis::detect::windows::DetectOp
     let Input::Stream(src) = input else {
         panic!("not streamed")
     };
-    let w = wiical_analysis::detect::windows::detect_windows_untimed(&**src, opts).unwrap();
+    let w = wiical_analysis::detect::windows::detect_windows(&**src, opts).unwrap();
+    src.check().unwrap();
     format!(
         "{:?} {:?} {} {:?}",
         w.stats, w.clock, w.units, w.reference_variance

@@ -181,17 +181,6 @@ pub fn judge(runs: &[&Runs], samples: usize, seconds: f64) -> Option<Polling> {
     })
 }
 
-/// The distinct samples of `xs` (each run's first), in order.
-pub fn distinct_samples(xs: &[[f64; 3]]) -> Vec<[f64; 3]> {
-    let mut out: Vec<[f64; 3]> = Vec::new();
-    for x in xs {
-        if out.last() != Some(x) {
-            out.push(*x);
-        }
-    }
-    out
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -231,7 +220,9 @@ mod tests {
         assert!((p.sensor_hz / 100.0 - 1.0).abs() < 0.01, "{p:?}");
         assert!((p.repeated_share - 0.75).abs() < 0.01, "{p:?}");
         let v = r.sq_about_own_mean().map(|q| q / (r.distinct - 1) as f64);
-        let want = distinct_samples(&xs);
+        // The distinct samples: each run's first, in order.
+        let mut want = xs.clone();
+        want.dedup();
         assert_eq!(r.distinct, want.len());
         let m = mean(&want);
         for a in 0..3 {

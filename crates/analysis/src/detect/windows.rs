@@ -25,7 +25,7 @@ use crate::detect::detector::{
 use crate::detect::held::both_or_first_error;
 use crate::detect::polled::{Polling, Runs};
 use crate::error::detect::DetectError;
-use crate::input::recording::{infer_units, Recording};
+use crate::input::recording::infer_units;
 use crate::input::text_source::Row;
 use crate::source::{RowBuf, RowSource};
 use crate::stats as st;
@@ -614,27 +614,11 @@ fn finish(a: &Acc, t0: f64, integer: bool, has_temp: bool) -> WindowStats {
     }
 }
 
-/// Detects the static windows (the core's detector on the detector's view), refuses
-/// saturated ones, computes their f64 statistics and infers the input units.
-pub fn detect_windows(rec: &Recording, opts: &DetectOptions) -> Result<Windows> {
-    detect_windows_of(rec, opts)
-}
-
-/// [`detect_windows`] on held rows or a large text file read in passes, never held (one
-/// code: the same windows bit for bit); a pass that found the file changed or unreadable
-/// says so.
-pub fn detect_windows_untimed<R: RowSource + ?Sized>(
-    src: &R,
-    opts: &DetectOptions,
-) -> crate::Result<Windows> {
-    let found = detect_windows_of(src, opts);
-    src.check()?;
-    Ok(found?)
-}
-
-/// The detection of [`detect_windows`] on the rows of `src` (held, or a file in passes: one
-/// code).
-pub fn detect_windows_of<R: RowSource + ?Sized>(src: &R, opts: &DetectOptions) -> Result<Windows> {
+/// Detects the static windows of the rows of `src` (held, or a large text file read in
+/// passes: one code, the same windows bit for bit; the core's detector on the detector's
+/// view), refuses saturated ones, computes their f64 statistics and infers the input units.
+/// A file's pass that ended early is for the caller to ask after ([`RowSource::check`]).
+pub fn detect_windows<R: RowSource + ?Sized>(src: &R, opts: &DetectOptions) -> Result<Windows> {
     let integer = src.integer();
     let (intervals, reference_variance, rate) = if opts.adaptive {
         detect_adaptive(src, opts, integer)?
@@ -849,6 +833,7 @@ impl Cover {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::input::recording::Recording;
 
     /// The samples as quantiser levels on their lattice ([`lattice`] of them held).
     fn lattice_view(xyz: &[[f64; 3]]) -> Option<Vec<[f64; 3]>> {
@@ -1048,7 +1033,8 @@ mod spill_tests {
 
     fn windows_of(src: &TextSource) -> String {
         let opts = crate::detect::windows::DetectOptions::default();
-        let w = crate::detect::windows::detect_windows_untimed(src, &opts).unwrap();
+        let w = crate::detect::windows::detect_windows(src, &opts).unwrap();
+        src.check().unwrap();
         format!(
             "{:?} {:?} {:?} {:?}",
             w.stats, w.clock, w.units, w.reference_variance

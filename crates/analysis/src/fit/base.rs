@@ -1,7 +1,7 @@
 //! The base fit: static-interval detection followed by the multi-position fit, all in the
 //! core's `f32` code (the same code the adapter firmware runs).
 
-use crate::detect::windows::{detect_windows_untimed, DetectOptions, Windows};
+use crate::detect::windows::{detect_windows, DetectOptions, Windows};
 use crate::error::fit::FitError;
 use crate::error::Result;
 use crate::input::recording::Recording;
@@ -91,10 +91,7 @@ pub fn run(rec: &Recording, opts: &FitOptions) -> Result<FitReport> {
     if rec.labels.is_some() {
         return Err(FitError::PoseTable { rows: rec.len() }.into());
     }
-    Ok(run_windows(
-        &detect_windows_untimed(rec, &opts.detect)?,
-        opts,
-    )?)
+    Ok(run_windows(&detect_windows(rec, &opts.detect)?, opts)?)
 }
 
 /// The fit of windows already found: detected by [`run`], or read from a window-mean table

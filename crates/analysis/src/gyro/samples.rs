@@ -8,7 +8,7 @@
 //! not the rows.
 
 use super::options::{GyroError, Result};
-use crate::detect::windows::{detect_windows_of, sample_clock, Cover, DetectOptions, Windows};
+use crate::detect::windows::{detect_windows, sample_clock, Cover, DetectOptions, Windows};
 use crate::error::Error;
 use crate::input::timecheck::TimeSteps;
 use crate::source::RowSource;
@@ -82,7 +82,7 @@ impl<'a, R: RowSource> Imu<'a, R> {
     /// The accelerometer's static windows, as `wiical fit` finds them on the same samples; a
     /// pass that ended early keeps the file's error for the caller.
     pub(super) fn windows(&self, opts: &DetectOptions) -> Result<Windows> {
-        let found = detect_windows_of(self.acc, opts);
+        let found = detect_windows(self.acc, opts);
         if let Err(e) = self.acc.check() {
             self.failed.borrow_mut().get_or_insert(e);
             return Err(ended_early());

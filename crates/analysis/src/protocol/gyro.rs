@@ -11,7 +11,7 @@ use super::g_sensitivity::{fit_g_sensitivity, GSensitivityFit, GyroRest};
 use super::rates::{fit_rates, steady_runs, RateFit, SteadyMean};
 use super::rotations::{fit_turns, turns, Turn, TurnFit, TurnInput, TurnSample};
 use super::vec3::{norm, sub};
-use crate::detect::windows::{detect_windows_of, time_of, DetectOptions, Windows};
+use crate::detect::windows::{detect_windows, time_of, DetectOptions, Windows};
 use crate::source::RowSource;
 use serde::Serialize;
 
@@ -141,7 +141,7 @@ pub fn run<R: RowSource + ?Sized>(
     gyro: &R,
     opts: &GyroProtocolOptions,
 ) -> Result<GyroProtocolReport> {
-    let gws = detect_windows_of(gyro, &opts.detect).map_err(GyroProtocolError::Detect)?;
+    let gws = detect_windows(gyro, &opts.detect).map_err(GyroProtocolError::Detect)?;
     let rest_idx = rests_of(&gws);
     if let Some(rates) = &opts.table_rates_dps {
         return Ok(rate_table(gyro, &gws, &rest_idx, rates, opts));
@@ -463,7 +463,7 @@ fn accel_calibration<R: RowSource + ?Sized>(
     acc: &R,
     opts: &GyroProtocolOptions,
 ) -> Option<wiical_core::Calibration> {
-    let ws = detect_windows_of(acc, &opts.detect).ok()?;
+    let ws = detect_windows(acc, &opts.detect).ok()?;
     let fit_opts = crate::fit::base::FitOptions {
         detect: opts.detect.clone(),
         ..Default::default()

@@ -250,7 +250,7 @@ fn sig3(x: f64) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::detect::windows::detect_windows_untimed;
+    use crate::detect::windows::detect_windows;
     use crate::input::recording::Recording;
     use rand::{Rng, SeedableRng};
     use rand_distr::{Distribution, Normal};
@@ -266,7 +266,7 @@ mod tests {
 
     fn judged(xyz: Vec<[f64; 3]>) -> Option<OtherSensor> {
         let rec = recording(xyz);
-        let ws = detect_windows_untimed(&rec, &Default::default()).expect("windows");
+        let ws = detect_windows(&rec, &Default::default()).expect("windows");
         other_sensor(&rec.axis_columns, rec.xyz.as_slice(), &ws)
     }
 
@@ -304,7 +304,7 @@ mod tests {
             std::array::from_fn(|k| v[k] / n * (1.0 + 0.3 * (s * 6.0).sin()))
         });
         let rec = recording(xyz);
-        let ws = detect_windows_untimed(&rec, &Default::default()).expect("windows");
+        let ws = detect_windows(&rec, &Default::default()).expect("windows");
         // The rests were found (so the gyroscope's rule was put to the test) ...
         assert!(ws.stats.len() >= MIN_RESTS, "{} windows", ws.stats.len());
         assert_eq!(
@@ -327,7 +327,7 @@ mod tests {
             [0.05 + shake, -0.02 - 0.5 * shake, 0.99 + 0.3 * shake]
         });
         let rec = recording(xyz);
-        let ws = detect_windows_untimed(&rec, &Default::default()).expect("windows");
+        let ws = detect_windows(&rec, &Default::default()).expect("windows");
         assert!(
             ws.stats.len() >= MIN_RESTS && ws.units == "g",
             "{} {}",
@@ -420,7 +420,7 @@ mod tests {
             })
             .collect();
         let mut rec = recording(xyz);
-        let ws = detect_windows_untimed(&rec, &Default::default()).expect("windows");
+        let ws = detect_windows(&rec, &Default::default()).expect("windows");
         assert!(
             other_sensor(&rec.axis_columns, rec.xyz.as_slice(), &ws).is_some(),
             "the unnamed file shows the signature"

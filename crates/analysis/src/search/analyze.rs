@@ -18,7 +18,7 @@
 //!    with `t₀` the time of the first sample ([`AnalyzeReport::time_origin_s`]).
 
 #![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x > 0.0)` is deliberately true for NaN.
-use crate::detect::windows::{detect_windows_untimed, Windows};
+use crate::detect::windows::{detect_windows, Windows};
 use crate::error::search::SearchError;
 use crate::error::Result;
 use crate::fit::base::fit_means_named;
@@ -73,7 +73,9 @@ pub(crate) fn analyze_rows<R: RowSource + ?Sized>(
         done: 0,
         total: 0,
     });
-    let ws = detect_windows_untimed(src, &opts.fit.detect)?;
+    let ws = detect_windows(src, &opts.fit.detect);
+    src.check()?;
+    let ws = ws?;
     if let Some(labelled) = crate::protocol::labelled::faces_recording(src, &ws)? {
         src.check()?;
         return Ok(crate::search::six_contrasts::analyze_six(&labelled, opts)?);
