@@ -15,7 +15,8 @@
 //! Then each window's rows read where they are kept (a held recording's slices, a spill's
 //! rows), windows on all cores: the first sweep sums the means, times, temperatures and
 //! batch means and checks saturation; the second, with the means known, the squared
-//! deviations. A file without a spill folds the same sums over two passes of every row.
+//! deviations. A read of a file's spill that failed gives no windows (the failure is kept for
+//! [`RowSource::check`], which every caller asks after the detection).
 //! Times are kept per window (first, last, centre), not per sample.
 
 use crate::detect::detector::{
@@ -401,7 +402,10 @@ type Span = (usize, usize);
 /// The windows of at least two samples of `intervals` and their statistics, `fs` the clock
 /// of rows without times, variances floored for `integer` counts; a sample of any interval
 /// at an ADC limit of `range` refused: the first such sample of the first such window, in
-/// recording order.
+/// recording order. Each window's rows are read where they are kept ([`RowSource::span`]: a
+/// held recording's slices, a file's spill), on all cores, window by window (each window's
+/// sums in sample order). A read that failed gives no windows: the failure is kept for
+/// [`RowSource::check`], which the callers ask after the detection.
 pub(crate) fn window_stats<R: RowSource + ?Sized>(
     src: &R,
     intervals: &[StaticInterval],
@@ -409,96 +413,34 @@ pub(crate) fn window_stats<R: RowSource + ?Sized>(
     fs: f64,
     integer: bool,
 ) -> Result<Vec<WindowStats>> {
+    use rayon::prelude::*;
     let n = src.len();
     let ends = |iv: &StaticInterval| (iv.start as usize, (iv.end as usize).min(n));
     let checked: Vec<Span> = intervals.iter().map(ends).collect();
-    let spans: Vec<Span> = checked
-        .iter()
-        .copied()
-        .filter(|(s, e)| *e > s + 1)
-        .collect();
-    let accs = match sums_in_place(src, intervals, &checked, range, fs) {
-        Some(accs) => accs?,
-        None => sums_in_passes(src, intervals, (&checked, &spans), range, fs)?,
-    };
-    let t0 = time_of(src.time_ends().0, 0, fs);
-    let has_temp = src.has_temp();
-    Ok(accs
-        .iter()
-        .map(|a| finish(a, t0, integer, has_temp))
-        .collect())
-}
-
-/// [`window_stats`]' sums over two passes of every row, each sample added to the windows
-/// that hold it ([`Cover`]); `checked`: the intervals' spans, `spans`: those of two samples
-/// or more.
-fn sums_in_passes<R: RowSource + ?Sized>(
-    src: &R,
-    intervals: &[StaticInterval],
-    (checked, spans): (&[Span], &[Span]),
-    range: Option<(f64, f64)>,
-    fs: f64,
-) -> Result<Vec<Acc>> {
-    let mut accs: Vec<Acc> = spans.iter().map(|&span| Acc::new(span)).collect();
-    let mut saturated: Option<(usize, DetectError)> = None;
-    let (mut sat_cover, mut cover) = (Cover::new(checked), Cover::new(spans));
-    for (i, r) in src.rows().enumerate() {
-        if let Some((lo, hi)) = range {
-            for &k in sat_cover.at(i) {
-                if saturated.as_ref().is_some_and(|(first, _)| *first <= k) {
-                    continue;
-                }
-                if let Some(a) = (0..3).find(|&a| r.xyz[a] <= lo || r.xyz[a] >= hi) {
-                    saturated = Some((k, saturated_at(intervals, k, i, a, r.xyz[a])));
-                }
-            }
-        }
-        let t = time_of(r.t, i, fs);
-        for &k in cover.at(i) {
-            first_sums(&mut accs[k], i, &r.xyz, t, r.temp);
-        }
-    }
-    if let Some((_, e)) = saturated {
-        return Err(e);
-    }
-    let mut cover = Cover::new(spans);
-    let means: Vec<[f64; 3]> = accs.iter().map(mean_of).collect();
-    for (i, r) in src.rows().enumerate() {
-        for &k in cover.at(i) {
-            accs[k].second(&r.xyz, &means[k]);
-        }
-    }
-    Ok(accs)
-}
-
-/// [`window_stats`]' sums from each window's rows read where they are kept
-/// ([`RowSource::span`]: a held recording's slices, a file's spill), on all cores, window by
-/// window (each window's sums in sample order as the passes fold them: the same values).
-/// `checked`: the intervals' sample spans. `None` when the rows cannot be read so (a file
-/// without a spill, a read that failed: the passes then read every sample).
-fn sums_in_place<R: RowSource + ?Sized>(
-    src: &R,
-    intervals: &[StaticInterval],
-    checked: &[Span],
-    range: Option<(f64, f64)>,
-    fs: f64,
-) -> Option<Result<Vec<Acc>>> {
-    use rayon::prelude::*;
-    let per_window = checked
+    let Some(per_window) = checked
         .par_iter()
         .map_init(RowBuf::default, |buf, &span| {
             window(src, buf, span, range, fs)
         })
-        .collect::<Option<Vec<_>>>()?;
+        .collect::<Option<Vec<_>>>()
+    else {
+        return Ok(Vec::new());
+    };
     let saturated = per_window
         .iter()
         .enumerate()
         .find_map(|(k, (f, _))| f.map(|f| (k, f)));
     if let Some((k, (i, a, value))) = saturated {
-        return Some(Err(saturated_at(intervals, k, i, a, value)));
+        return Err(saturated_at(intervals, k, i, a, value));
     }
+    let t0 = time_of(src.time_ends().0, 0, fs);
+    let has_temp = src.has_temp();
     // The windows of two samples or more, in order.
-    Some(Ok(per_window.into_iter().filter_map(|(_, a)| a).collect()))
+    Ok(per_window
+        .iter()
+        .filter_map(|(_, a)| a.as_ref())
+        .map(|a| finish(a, t0, integer, has_temp))
+        .collect())
 }
 
 /// A window's first sample at an ADC limit: its index, axis and value.
