@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 use wiical_analysis::correct::correct_recording;
 use wiical_analysis::correct::csv::write_corrected;
 use wiical_analysis::correct::pass::correct_streamed;
-use wiical_analysis::correct::source::{open_samples_from, Samples};
+use wiical_analysis::input::front_door::{load_samples, Input};
 use wiical_analysis::output::calfile::CalibrationFile;
 use wiical_analysis::output::host_term_checks::{HostReference, HostTerm};
 use wiical_analysis::{Calibration, LoadOptions};
@@ -138,7 +138,9 @@ fn both(
             write_corrected(out_held, &c).unwrap();
             std::fs::read(out_held).unwrap()
         });
-    let Samples::Streamed(src) = open_samples_from(rec, opts, 0).unwrap() else {
+    let mut streamed = opts.clone();
+    streamed.read.stream_from_bytes = 0;
+    let Input::Stream(src) = load_samples(rec, &streamed, None).unwrap() else {
         panic!("{} was not streamed", rec.display());
     };
     let streamed = correct_streamed(file, &src, 100.0, out_stream, rec)

@@ -215,17 +215,19 @@ fn header_less_gyro_and_magnetometer_files_are_named_in_the_refusal() {
         assert!(err.contains(says), "{rel}: {err}");
         // Read in passes (as a file of 128 MiB and more is), the same words, for `fit` and
         // `analyze` alike.
-        use wiical_analysis::input::front_door::load_input_from;
+        use wiical_analysis::input::front_door::load_input;
         use wiical_analysis::pipeline::analyze_judged;
-        let opts = wiical_analysis::input::window_means::WindowInputOptions::default();
+        let mut opts = wiical_analysis::input::window_means::WindowInputOptions::default();
         let path = data_dir().join(rel);
-        let streamed = load_input_from(&path, &opts, 0).unwrap();
+        opts.load.read.stream_from_bytes = 0;
+        let streamed = load_input(&path, &opts).unwrap();
         if !matches!(streamed, Input::Stream(_)) {
             // Whitespace text (`.mat`, `.txt`) is read whole at any size.
             continue;
         }
         streamed_some = true;
-        let held = load_input_from(&path, &opts, u64::MAX).unwrap();
+        opts.load.read.stream_from_bytes = u64::MAX;
+        let held = load_input(&path, &opts).unwrap();
         let fit_err = |i: &Input| {
             fit_judged(i, &Default::default())
                 .err()

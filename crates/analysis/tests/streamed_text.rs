@@ -8,17 +8,24 @@
 //! file: the same windows and reports either way.
 
 use std::path::Path;
-use wiical_analysis::input::front_door::{load_input_from, Input};
+use wiical_analysis::input::front_door::{load_input, Input};
 use wiical_analysis::input::window_means::WindowInputOptions;
 use wiical_analysis::pipeline::{analyze_judged, fit_judged};
 use wiical_analysis::{AnalyzeOptions, FitOptions};
 use wiical_sim::{Device, EffectSpec, SimConfig, SimEffect};
 
+/// `path` read with plain text files of at least `stream_from` bytes streamed.
+fn load_input_from(path: &Path, opts: &WindowInputOptions, stream_from: u64) -> Input {
+    let mut opts = opts.clone();
+    opts.load.read.stream_from_bytes = stream_from;
+    load_input(path, &opts).unwrap()
+}
+
 /// The file read both ways: (streamed, held).
 fn both(path: &Path) -> (Input, Input) {
     let opts = WindowInputOptions::default();
-    let streamed = load_input_from(path, &opts, 0).unwrap();
-    let held = load_input_from(path, &opts, u64::MAX).unwrap();
+    let streamed = load_input_from(path, &opts, 0);
+    let held = load_input_from(path, &opts, u64::MAX);
     assert!(
         matches!(streamed, Input::Stream(_)),
         "{path:?} not streamed"
@@ -183,9 +190,9 @@ fn a_gzip_file_is_streamed_and_gives_the_plain_file_reports() {
     let gz = dir.path().join("ms2.csv.gz");
     std::fs::write(&gz, gzip_members(&std::fs::read(&path).unwrap(), 3)).unwrap();
     let opts = WindowInputOptions::default();
-    let held = load_input_from(&path, &opts, u64::MAX).unwrap();
+    let held = load_input_from(&path, &opts, u64::MAX);
     let streamed = load_input_in(&gz, &opts, 0, 64 << 10).unwrap();
-    let gz_held = load_input_from(&gz, &opts, u64::MAX).unwrap();
+    let gz_held = load_input_from(&gz, &opts, u64::MAX);
     assert!(matches!(held, Input::Samples(_)));
     assert!(matches!(streamed, Input::Stream(_)), "gzip not streamed");
     assert!(matches!(gz_held, Input::Samples(_)));
@@ -286,7 +293,7 @@ fn a_lattice_after_whole_first_rows_is_found_and_gives_the_held_reports() {
     };
     assert!(!src.summary.integer);
     assert_eq!(src.summary.distinct, Distinct::NotKept);
-    let held = load_input_from(&path, &opts, u64::MAX).unwrap();
+    let held = load_input_from(&path, &opts, u64::MAX);
     let mut fixed = AnalyzeOptions::default();
     fixed.fit.detect.adaptive = false;
     for analyze in [AnalyzeOptions::default(), fixed] {

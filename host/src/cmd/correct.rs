@@ -9,7 +9,7 @@ use std::path::PathBuf;
 use wiical_analysis::correct::correct_recording;
 use wiical_analysis::correct::csv::write_corrected;
 use wiical_analysis::correct::pass::correct_streamed;
-use wiical_analysis::correct::source::{open_samples, Samples};
+use wiical_analysis::input::front_door::{load_samples, HoldLimit, Input};
 use wiical_analysis::output::calfile::read_calibration_file;
 
 /// Arguments of `wiical correct`.
@@ -43,24 +43,29 @@ pub fn run(a: &Args) -> Result<String> {
     let file = read_calibration_file(&a.calibration).map_err(cli_error)?;
     let opts = load_options(a.columns.as_deref(), &a.read)?;
     // Millions of rows take seconds to read: say so (hidden when stderr is not a terminal).
+    // A recording that must be held (a raw file) is refused beyond the held bound.
+    let limit = HoldLimit::of(
+        "correct",
+        "a text file (plain or gzip'd) of any length is read in passes: cut the raw recording shorter or convert it to text",
+    );
     let samples = with_spinner(&format!("reading {}", a.recording.display()), || {
-        open_samples(&a.recording, &opts)
+        load_samples(&a.recording, &opts, Some(limit))
     })
     .map_err(cli_error)?;
     print_notes(&a.recording, samples.recording());
     let (n, applied) = match samples {
-        Samples::Held(rec) => {
-            let c = correct_recording(&file, &rec, a.rate_hz)
-                .map_err(|e| cli_error(e.in_file(&a.recording)))?;
-            write_corrected(&a.out, &c).map_err(cli_error)?;
-            (c.accel.len(), c.applied)
-        }
-        Samples::Streamed(src) => {
+        Input::Stream(src) => {
             let c = with_spinner(&format!("correcting {}", a.recording.display()), || {
                 correct_streamed(&file, &src, a.rate_hz, &a.out, &a.recording)
             })
             .map_err(cli_error)?;
             (c.samples, c.applied)
+        }
+        held => {
+            let c = correct_recording(&file, held.recording(), a.rate_hz)
+                .map_err(|e| cli_error(e.in_file(&a.recording)))?;
+            write_corrected(&a.out, &c).map_err(cli_error)?;
+            (c.accel.len(), c.applied)
         }
     };
     Ok(format!(

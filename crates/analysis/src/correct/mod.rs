@@ -25,7 +25,7 @@
 //! included, which the predicate does not see).
 //!
 //! **One path.** Every sample is corrected by one pass in order (`pass::correct_pass`):
-//! a large plain text file ([`source::open_samples`]) as it is read
+//! a large plain text file (streamed by [`crate::input::front_door::load_samples`]) as it is read
 //! ([`pass::correct_streamed`]), in memory bounded by a piece of the file and ±15 s of
 //! samples, written straight to a temporary file beside the output that replaces it only when
 //! every check passed; a recording held in memory ([`correct_recording`]) as the one-chunk
@@ -36,7 +36,6 @@ pub(crate) mod checks;
 pub mod csv;
 pub mod pass;
 pub(crate) mod regress;
-pub mod source;
 
 pub use crate::error::correct::CorrectError;
 use crate::input::recording::Recording;

@@ -4,7 +4,9 @@
 //! each kind has one reader: [`load`] (every sample), [`load_imu`] (an accelerometer and a
 //! gyroscope from one read), [`load_input`] (what `fit`, `analyze` and `batch` need: samples,
 //! or a table whose rows are windows already — a window-mean text table or a raw file's still
-//! epochs; a large plain text file streamed, [`Input::Stream`]).
+//! epochs; a large plain text file streamed, [`Input::Stream`]), [`load_samples`] (the same
+//! reading for `correct`: samples only). A regular text file of any size is read by one piece
+//! loop ([`crate::input::text_file`]: a small file is its one piece), not held as a string first.
 //!
 //! Why one door: the kind decides the reader, and each door used to decide it again (and
 //! standard input can be read only once). Errors are the readers' own, with the file named.
@@ -23,7 +25,7 @@ use crate::input::recording::Recording;
 use crate::input::table::WindowTable;
 use crate::input::temp_files::{self, OwnTemp};
 use crate::input::text::parse;
-use crate::input::text_file::{self, PIECES_FROM_BYTES};
+use crate::input::text_file;
 use crate::input::text_source::TextSource;
 use crate::input::window_means::{parse_window_table, WindowInputOptions};
 use std::ops::Not;
@@ -39,12 +41,13 @@ pub enum Opened {
     RawFile(RawFormat),
     /// A raw file decoded whole (a `.cwa` or `.bin` from gzip or standard input).
     Raw(Box<RawFile>),
-    /// UTF-8 text (byte-order mark removed): CSV, whitespace-separated numbers, GRT, or a
-    /// window-mean table; the text reader tells them apart by the first lines.
+    /// UTF-8 text held whole (byte-order mark removed): standard input, or a file that is not
+    /// a regular one. The text reader tells CSV, whitespace-separated numbers, GRT and a
+    /// window-mean table apart by the first lines.
     Text(String),
-    /// A regular file of at least [`PIECES_FROM_BYTES`] of text that is not raw (a gzip file's
-    /// content counted, its trailer's size): read in pieces by [`crate::input::text_file`]
-    /// when it is plain delimited text, else whole.
+    /// A regular text file (plain, or gzip'd text) of any size: read in pieces by
+    /// [`crate::input::text_file`] when it is plain delimited text (a small file is its one
+    /// piece), else whole.
     TextFile,
     /// Standard input too long to hold, copied to a temporary file (deleted when this is
     /// dropped, or by the binary's signal handler: [`crate::input::temp_files`]): read from
@@ -53,7 +56,7 @@ pub enum Opened {
 }
 
 /// Sniffs `path` (`-`: standard input, read once) and reads what its kind needs up front: a
-/// regular raw file only its first bytes, anything else whole, at most
+/// regular file only its first bytes, anything else whole, at most
 /// [`MAX_RECORDING_BYTES`] (gzip decompressed to the same limit). Standard input longer than
 /// [`ReadOptions::stream_from_bytes`] (or than its content may be held, gzip'd) is copied to a
 /// temporary file ([`Opened::Spooled`]) of at most [`ReadOptions::max_spool_bytes`].
@@ -64,15 +67,12 @@ pub fn open(path: &Path, read: &ReadOptions) -> Result<Opened> {
     if let Some(format) = raw::load::raw_file_format(path) {
         return Ok(Opened::RawFile(format));
     }
-    if is_large_text_file(path) {
+    if text_file_size(path).is_some() {
         return Ok(Opened::TextFile);
     }
-    Ok(match read_whole(path) {
-        Ok(Ok(raw)) => Opened::Raw(Box::new(raw)),
-        Ok(Err(text)) => Opened::Text(text),
-        // Its trailer said less than it holds (several members, or 4 GiB and more).
-        Err(e) if gzip_too_large(&e) && text_file_size(path).is_some() => Opened::TextFile,
-        Err(e) => return Err(e),
+    Ok(match read_whole(path)? {
+        Ok(raw) => Opened::Raw(Box::new(raw)),
+        Err(text) => Opened::Text(text),
     })
 }
 
@@ -305,12 +305,6 @@ fn copy_bounded(
     }
 }
 
-/// True when `path` is a regular file of at least [`PIECES_FROM_BYTES`] whose first bytes are
-/// neither gzip's nor a raw format's magic.
-fn is_large_text_file(path: &Path) -> bool {
-    is_text_file_from(path, PIECES_FROM_BYTES)
-}
-
 /// True when `path` is a regular text file (plain, or gzip'd) of at least `min_bytes`
 /// ([`text_file_size`]).
 pub(crate) fn is_text_file_from(path: &Path, min_bytes: u64) -> bool {
@@ -320,10 +314,9 @@ pub(crate) fn is_text_file_from(path: &Path, min_bytes: u64) -> bool {
 /// The size of a regular file's text, bytes, when the file is not raw: a plain file's
 /// length; for a gzip file whose content is not raw, the larger of its length and the
 /// content's size its trailer gives (ISIZE, RFC 1952: the last member's size modulo 2³²).
-/// That is a hint only (a file of several members, or of 4 GiB or more, may say less):
-/// a gzip file read whole that passes the size limit is streamed after all
-/// ([`load_input_from`]). `None` for standard input, anything not a regular file, raw
-/// files.
+/// That is a hint only (a file of several members, or of 4 GiB or more, may say less, and is
+/// then read in pieces, not streamed). `None` for standard input, anything not a regular
+/// file, raw files.
 fn text_file_size(path: &Path) -> Option<u64> {
     use std::io::{Read, Seek, SeekFrom};
     let meta = std::fs::metadata(path).ok()?;
@@ -356,16 +349,6 @@ fn text_file_size(path: &Path) -> Option<u64> {
 /// True when `head` starts as a raw format does.
 fn is_raw(head: &[u8]) -> bool {
     !raw::detect(head, Path::new("")).is_ok_and(|f| f.is_none())
-}
-
-/// True when `path` starts with gzip's magic.
-fn is_gzip(path: &Path) -> bool {
-    use std::io::Read;
-    let mut head = [0u8; 2];
-    std::fs::File::open(path)
-        .and_then(|mut f| f.read_exact(&mut head))
-        .is_ok()
-        && head == GZIP_MAGIC
 }
 
 /// The first two bytes of a gzip member (RFC 1952).
@@ -406,37 +389,17 @@ pub fn load_held(path: &Path, opts: &LoadOptions, limit: HoldLimit) -> Result<Re
     load_within(path, opts, Some(limit))
 }
 
-/// [`load`] within `limit` (`None`: no bound).
+/// [`load`] within `limit` (`None`: no bound): [`load_samples`] that streams no file.
 pub fn load_within(path: &Path, opts: &LoadOptions, limit: Option<HoldLimit>) -> Result<Recording> {
-    let whole = match open(path, &opts.read)? {
-        Opened::RawFile(format) => {
-            // Read block by block into a recording allocated once (no size cap).
-            return raw::load::load_raw_within(raw::load::Blocks::File(path, format), opts, limit)
-                .map_err(|e| e.in_file(path));
-        }
-        Opened::TextFile => match pieces(path, opts, |_| true, limit)? {
-            Some(rec) => return Ok(rec),
-            None => read_whole(path)?,
-        },
-        Opened::Spooled(tmp) => {
-            return load_within(&tmp, opts, limit).map_err(|e| e.renaming(&tmp, path))
-        }
-        Opened::Raw(raw) => Ok(*raw),
-        Opened::Text(text) => Err(text),
-    };
-    let rec = match whole {
-        Ok(raw) => raw::to_recording(&raw, opts),
-        Err(text) => parse(&text, opts),
-    };
-    // Read whole (at most 256 MiB): checked at the end, so that every reader refuses alike.
-    let rec = rec.and_then(|r| match limit {
-        Some(l) => l.check(r.len()).map(|()| r).map_err(Into::into),
-        None => Ok(r),
-    });
-    rec.map_err(|e| e.in_file(path))
+    match samples_from(path, opts, u64::MAX, limit)? {
+        Input::Samples(rec) => Ok(rec),
+        // Neither is read here (no file is streamed from u64::MAX bytes, nor a table for
+        // samples); their recording is what they hold.
+        other => Ok(other.recording().clone()),
+    }
 }
 
-/// A large plain text file's recording read in pieces (`head_ok` asked about its first
+/// A plain text file's recording read in pieces (`head_ok` asked about its first
 /// piece), `None` when the file is to be read whole; refused beyond `limit`.
 fn pieces(
     path: &Path,
@@ -447,13 +410,13 @@ fn pieces(
     text_file::load_pieces_within(path, opts, head_ok, limit).map_err(|e| e.in_file(path))
 }
 
-/// [`pieces`] when `path` is a large plain text file, else `None`.
+/// [`pieces`] when `path` is a regular text file, else `None`.
 fn load_in_pieces(
     path: &Path,
     opts: &LoadOptions,
     limit: Option<HoldLimit>,
 ) -> Result<Option<Recording>> {
-    if !is_large_text_file(path) {
+    if text_file_size(path).is_none() {
         return Ok(None);
     }
     pieces(path, opts, |_| true, limit)
@@ -598,86 +561,156 @@ impl Input {
 /// few of them is an error saying how many were found and needed. A regular raw file is
 /// read block by block: memory is the still epochs, not the file (no size cap).
 /// Plain text files of at least [`ReadOptions::stream_from_bytes`] (of `opts.load.read`) are
-/// streamed ([`Input::Stream`]).
+/// streamed ([`Input::Stream`]; a file the stream declines — not plain text, a pose column —
+/// is read as a smaller one is).
 pub fn load_input(path: &Path, opts: &WindowInputOptions) -> Result<Input> {
-    load_input_from(path, opts, opts.load.read.stream_from_bytes)
-}
-
-/// [`load_input`], streaming plain text files of at least `stream_from` bytes
-/// ([`Input::Stream`]; a file the stream declines — not plain text, a pose column — is read
-/// as [`load_input`] reads it).
-pub fn load_input_from(path: &Path, opts: &WindowInputOptions, stream_from: u64) -> Result<Input> {
+    let stream_from = opts.load.read.stream_from_bytes;
     load_input_in(path, opts, stream_from, text_file::PIECE_BYTES)
 }
 
-/// [`load_input_from`] reading a streamed file in pieces of `piece_bytes` (tests: many
-/// pieces, and pieces in flight, from a small file).
+/// [`load_input`], streaming plain text files of at least `stream_from` bytes in pieces of
+/// `piece_bytes` (tests: many pieces, and pieces in flight, from a small file).
 pub fn load_input_in(
     path: &Path,
     opts: &WindowInputOptions,
     stream_from: u64,
     piece_bytes: usize,
 ) -> Result<Input> {
-    let stream = |samples: &dyn Fn(&str) -> bool| {
-        let src = TextSource::open_in(path, &opts.load, piece_bytes, samples);
-        src.map(|s| s.map(|s| Input::Stream(Arc::new(s))))
-            .map_err(|e| e.in_file(path))
+    let how = How {
+        load: &opts.load,
+        want: Want::Windows(opts),
+        stream_from,
+        piece_bytes,
     };
-    // A window-mean table is small: only samples are read in pieces.
-    let samples = |head: &str| !opts.force && matches!(parse_window_table(head, opts), Ok(None));
-    if is_text_file_from(path, stream_from) {
-        if let Some(input) = stream(&samples)? {
-            return Ok(input);
+    read_input(path, &how)
+}
+
+/// [`load_input`] for a reader of samples only (`wiical correct`): a plain text file of at
+/// least [`ReadOptions::stream_from_bytes`] (of `opts.read`; or standard input spooled to a
+/// temporary file, which lives as long as the stream) streamed ([`Input::Stream`]), else every sample held
+/// ([`Input::Samples`], as [`load`] reads them, refused beyond `limit`) — a raw file's
+/// samples, not its still epochs, and never a window-mean table.
+pub fn load_samples(path: &Path, opts: &LoadOptions, limit: Option<HoldLimit>) -> Result<Input> {
+    samples_from(path, opts, opts.read.stream_from_bytes, limit)
+}
+
+/// [`load_samples`], streaming plain text files of at least `stream_from` bytes.
+fn samples_from(
+    path: &Path,
+    opts: &LoadOptions,
+    stream_from: u64,
+    limit: Option<HoldLimit>,
+) -> Result<Input> {
+    let how = How {
+        load: opts,
+        want: Want::Samples(limit),
+        stream_from,
+        piece_bytes: text_file::PIECE_BYTES,
+    };
+    read_input(path, &how)
+}
+
+/// What a file read by [`read_input`] becomes when it is held.
+#[derive(Clone, Copy)]
+enum Want<'a> {
+    /// A window-mean table when its header says so (or `force`), a raw file's still epochs,
+    /// else samples ([`load_input`]).
+    Windows(&'a WindowInputOptions),
+    /// Samples only, refused beyond the limit ([`load_samples`]).
+    Samples(Option<HoldLimit>),
+}
+
+/// How [`read_input`] reads a file.
+struct How<'a> {
+    load: &'a LoadOptions,
+    want: Want<'a>,
+    /// Plain text files of at least this many bytes are streamed.
+    stream_from: u64,
+    /// A streamed file's piece size.
+    piece_bytes: usize,
+}
+
+/// The one reading of [`load_input`] and [`load_samples`]: streamed when `path` is a plain
+/// text file of at least `how.stream_from` bytes that the stream takes, else opened once
+/// ([`open`]) and held as `how.want` says. Errors name the file.
+fn read_input(path: &Path, how: &How<'_>) -> Result<Input> {
+    let samples = |head: &str| match how.want {
+        // A window-mean table is small: only samples are read in pieces.
+        Want::Windows(o) => !o.force && matches!(parse_window_table(head, o), Ok(None)),
+        Want::Samples(_) => true,
+    };
+    let limit = match how.want {
+        Want::Samples(limit) => limit,
+        Want::Windows(_) => None,
+    };
+    if is_text_file_from(path, how.stream_from) {
+        let src = TextSource::open_in(path, how.load, how.piece_bytes, samples);
+        if let Some(src) = src.map_err(|e| e.in_file(path))? {
+            return Ok(Input::Stream(Arc::new(src)));
         }
     }
-    let whole = match open(path, &opts.load.read)? {
+    let whole = match open(path, &how.load.read)? {
         Opened::RawFile(format) => {
             let blocks = raw::load::Blocks::File(path, format);
-            let table = raw::load::raw_epoch_table(blocks, &opts.load, &Default::default());
-            return table.map(Input::Table).map_err(|e| e.in_file(path));
+            return raw_input(blocks, how).map_err(|e| e.in_file(path));
         }
-        Opened::TextFile => {
-            if is_gzip(path) && !is_large_text_file(path) {
-                // A gzip file larger than its trailer said: streamed after all.
-                if let Some(input) = stream(&samples)? {
-                    return Ok(input);
-                }
-            }
-            match pieces(path, &opts.load, samples, None)? {
-                Some(rec) => return Ok(Input::Samples(rec)),
-                None => read_whole(path)?,
-            }
-        }
-        Opened::Spooled(tmp) => {
-            let input = load_input_in(&tmp, opts, stream_from, piece_bytes);
-            return Ok(match input.map_err(|e| e.renaming(&tmp, path))? {
-                Input::Stream(mut src) => {
-                    // The temporary file lives as long as the stream reading it.
-                    if let Some(s) = Arc::get_mut(&mut src) {
-                        s.keep(tmp, path);
-                    }
-                    Input::Stream(src)
-                }
-                held => held,
-            });
-        }
+        Opened::TextFile => match pieces(path, how.load, samples, limit)? {
+            Some(rec) => return Ok(Input::Samples(rec)),
+            None => read_whole(path)?,
+        },
+        Opened::Spooled(tmp) => return spooled_input(tmp, path, how),
         Opened::Raw(raw) => Ok(*raw),
         Opened::Text(text) => Err(text),
     };
-    let parsed = match whole {
-        Ok(raw) => raw::load::raw_epoch_table(
-            raw::load::Blocks::Held(&raw),
-            &opts.load,
-            &Default::default(),
-        )
-        .map(Input::Table),
-        Err(text) => match parse_window_table(&text, opts) {
+    let parsed = match (whole, how.want) {
+        (Ok(raw), _) => raw_input(raw::load::Blocks::Held(&raw), how),
+        (Err(text), Want::Windows(o)) => match parse_window_table(&text, o) {
             Ok(Some(table)) => Ok(Input::Table(table)),
-            Ok(None) => parse(&text, &opts.load).map(Input::Samples),
+            Ok(None) => parse(&text, how.load).map(Input::Samples),
             Err(e) => Err(e),
         },
+        // Read whole (at most 256 MiB): checked at the end, so that every reader refuses alike.
+        (Err(text), Want::Samples(limit)) => parse(&text, how.load)
+            .and_then(|rec| within(rec, limit))
+            .map(Input::Samples),
     };
     parsed.map_err(|e| e.in_file(path))
+}
+
+/// A raw file's input: its still epochs' table ([`Want::Windows`]), or its samples.
+fn raw_input(blocks: raw::load::Blocks<'_>, how: &How<'_>) -> Result<Input> {
+    match how.want {
+        Want::Windows(_) => {
+            raw::load::raw_epoch_table(blocks, how.load, &Default::default()).map(Input::Table)
+        }
+        Want::Samples(limit) => {
+            raw::load::load_raw_within(blocks, how.load, limit).map(Input::Samples)
+        }
+    }
+}
+
+/// `rec` unless it holds more samples than `limit`.
+fn within(rec: Recording, limit: Option<HoldLimit>) -> Result<Recording> {
+    match limit {
+        Some(l) => l.check(rec.len()).map(|()| rec).map_err(Into::into),
+        None => Ok(rec),
+    }
+}
+
+/// Standard input copied to `tmp`, read as a regular file: errors name `-`, the input the user
+/// gave, and the temporary file lives as long as the stream reading it.
+fn spooled_input(tmp: OwnTemp, path: &Path, how: &How<'_>) -> Result<Input> {
+    Ok(
+        match read_input(&tmp, how).map_err(|e| e.renaming(&tmp, path))? {
+            Input::Stream(mut src) => {
+                if let Some(s) = Arc::get_mut(&mut src) {
+                    s.keep(tmp, path);
+                }
+                Input::Stream(src)
+            }
+            held => held,
+        },
+    )
 }
 
 #[cfg(test)]

@@ -1,4 +1,4 @@
-//! A large regular delimited text file read in line-aligned pieces of [`PIECE_BYTES`], never
+//! A regular delimited text file (of any size) read in line-aligned pieces of [`PIECE_BYTES`], never
 //! held whole: memory is the rows read (and one piece), not the text beside them, and the
 //! size cap for files read whole ([`crate::input::bounded::MAX_RECORDING_BYTES`]) does not
 //! apply; the limits are per piece and per line ([`crate::input::bounded::MAX_LINE_BYTES`]).
@@ -32,10 +32,6 @@ use std::path::Path;
 /// Bytes read per piece (plus the unfinished line carried over from the piece before): the
 /// parse splits a piece again into chunks for every core.
 pub const PIECE_BYTES: usize = 16 << 20;
-
-/// Regular files at least this large are read in pieces; smaller ones whole (one read is
-/// simplest where the text is no burden).
-pub const PIECES_FROM_BYTES: u64 = 64 << 20;
 
 /// The file's pieces, each ending at a line end (the last at the end of the file). A gzip
 /// file (by its magic) gives its content's pieces, decompressed as they are read (every
