@@ -47,7 +47,7 @@ pub use crate::error::gyro::GyroError;
 use crate::input::recording::Recording;
 use crate::source::RowSource;
 use crate::stats as st;
-pub use align::{open_text, TextImu};
+pub use align::{open_text, ImuPair, ImuSide, TextImu};
 use samples::{Collected, Imu};
 use std::cell::RefCell;
 use wiical_core::gyro::GyroCalibration;
@@ -88,29 +88,8 @@ pub fn run(acc: &Recording, gyro: &Recording, opts: &GyroOptions) -> Result<Gyro
     )
 }
 
-/// [`run`] on large text files read in passes ([`open_text`]): the same report as for their
-/// recordings held. A file that changed or could not be read during a pass is that file's
-/// error.
-pub fn run_text(imu: &TextImu, opts: &GyroOptions) -> crate::Result<GyroReport> {
-    Ok(run_passes(imu, opts)??)
-}
-
-/// [`run_text`] with a file's failure (outside) apart from the fit's own error (inside: what
-/// the fallback to the protocol's methods reads, [`GyroError::says_another_protocol`]).
-fn run_passes(imu: &TextImu, opts: &GyroOptions) -> crate::Result<Result<GyroReport>> {
-    let failed = RefCell::new(None);
-    let out = check_nominal_scale(opts)
-        .and_then(|()| imu.worst_clock_s())
-        .and_then(|worst| run_on(&Imu::new((&imu.acc, &imu.gyro), Some(worst), &failed), opts));
-    if let Some(e) = failed.take() {
-        return Err(e.in_file(&imu.acc_path));
-    }
-    imu.check()?;
-    Ok(out)
-}
-
-/// [`run`] on the paired rows `imu`, held or a large file's (one code: every stage reads the
-/// samples through [`Imu`]'s passes, so both give the same report).
+/// [`run`] on the paired rows `imu`, held or a large file's ([`ImuPair::motions`]; one code:
+/// every stage reads the samples through [`Imu`]'s passes, so both give the same report).
 fn run_on(imu: &Imu<'_, impl RowSource>, opts: &GyroOptions) -> Result<GyroReport> {
     let default_rate = opts.detect.default_rate_hz;
     segment::check_gyro_reads(imu, default_rate)?;
