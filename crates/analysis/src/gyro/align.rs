@@ -3,16 +3,13 @@
 //! alternate); large plain text files ([`TextImu`], read in passes, never held) by position
 //! only. Both are an [`ImuPair`].
 
-use super::options::{GyroError, GyroOptions, Result};
-use super::report::GyroReport;
-use super::samples::Imu;
+use super::options::{GyroError, Result};
 use crate::error::Error;
 use crate::input::columns::{all_named, LoadOptions, Sensor};
 use crate::input::recording::Recording;
 use crate::input::text_source::{large, TextSource};
 use crate::source::RowSource;
 use std::borrow::Cow;
-use std::cell::RefCell;
 use std::path::{Path, PathBuf};
 
 /// Two held recordings of the same samples, row by row: the accelerometer's and the gyro's,
@@ -105,56 +102,12 @@ pub struct ImuPair<S> {
 /// Large plain text files read in passes ([`open_text`]).
 pub type TextImu = ImuPair<TextSource>;
 
-/// One side of an [`ImuPair`]: a held recording or a large file's source.
-pub trait ImuSide: RowSource + Sized {
-    /// The side's recording (without its samples when read in passes: columns, notes, rate).
-    fn recording(&self) -> &Recording;
-    /// The motion fit on the pair ([`super::run`]); a pass's failure is left in `failed`.
-    fn motions(
-        imu: &ImuPair<Self>,
-        opts: &GyroOptions,
-        failed: &RefCell<Option<Error>>,
-    ) -> Result<GyroReport>;
-}
-
-impl ImuSide for Recording {
-    fn recording(&self) -> &Recording {
-        self
-    }
-
-    /// Paired by position or by time ([`pair`]): held rows may be a subset of the other's.
-    fn motions(
-        imu: &ImuPair<Self>,
-        opts: &GyroOptions,
-        _: &RefCell<Option<Error>>,
-    ) -> Result<GyroReport> {
-        super::run(&imu.acc, &imu.gyro, opts)
-    }
-}
-
-impl ImuSide for TextSource {
-    fn recording(&self) -> &Recording {
-        &self.meta
-    }
-
-    /// By position ([`open_text`] opens only files whose rows pair so); the two clocks'
-    /// largest difference on one row ([`super::samples::clocks`]) without a pass when the
-    /// rows are the same (one file's, none skipped in either triplet).
-    fn motions(
-        imu: &ImuPair<Self>,
-        opts: &GyroOptions,
-        failed: &RefCell<Option<Error>>,
-    ) -> Result<GyroReport> {
-        super::check_nominal_scale(opts)?;
-        let same_rows = imu.acc_path == imu.gyro_path
-            && imu.acc.meta.skipped_empty_rows == 0
-            && imu.gyro.meta.skipped_empty_rows == 0;
-        let worst = if same_rows {
-            0.0
-        } else {
-            super::samples::clocks(&imu.acc, &imu.gyro)?
-        };
-        super::run_on(&Imu::new((&imu.acc, &imu.gyro), Some(worst), failed), opts)
+impl<S: RowSource> ImuPair<S> {
+    /// Whether the passes read both files whole (a file changed or unreadable during one is
+    /// that file's error).
+    pub(super) fn check(&self) -> crate::Result<()> {
+        self.acc.check().map_err(|e| e.in_file(&self.acc_path))?;
+        self.gyro.check().map_err(|e| e.in_file(&self.gyro_path))
     }
 }
 
@@ -167,38 +120,6 @@ impl ImuPair<Recording> {
             acc_path: PathBuf::new(),
             gyro_path: PathBuf::new(),
         }
-    }
-}
-
-impl<S: ImuSide> ImuPair<S> {
-    /// The accelerometer's recording (without its samples when read in passes).
-    pub fn accelerometer(&self) -> &Recording {
-        self.acc.recording()
-    }
-
-    /// The gyro's recording (without its samples when read in passes).
-    pub fn gyroscope(&self) -> &Recording {
-        self.gyro.recording()
-    }
-
-    /// Whether the passes read both files whole (a file changed or unreadable during one is
-    /// that file's error).
-    pub(super) fn check(&self) -> crate::Result<()> {
-        self.acc.check().map_err(|e| e.in_file(&self.acc_path))?;
-        self.gyro.check().map_err(|e| e.in_file(&self.gyro_path))
-    }
-
-    /// The motion fit ([`super::run`]): the same report held or read in passes; a file's
-    /// failure outside, the fit's own error inside (what the fallback to the protocol's
-    /// methods reads, [`GyroError::says_another_protocol`]).
-    pub fn motions(&self, opts: &GyroOptions) -> crate::Result<Result<GyroReport>> {
-        let failed = RefCell::new(None);
-        let out = S::motions(self, opts, &failed);
-        if let Some(e) = failed.take() {
-            return Err(e.in_file(&self.acc_path));
-        }
-        self.check()?;
-        Ok(out)
     }
 }
 
