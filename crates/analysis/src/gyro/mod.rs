@@ -189,7 +189,7 @@ impl ImuSide for Recording {
         self
     }
 
-    /// Paired by position or by time ([`align::pair`]): held rows may be a subset of the
+    /// Paired by position or by time (`align::pair`): held rows may be a subset of the
     /// other's.
     fn motions(
         imu: &ImuPair<Self>,
@@ -206,7 +206,7 @@ impl ImuSide for TextSource {
     }
 
     /// By position ([`open_text`] opens only files whose rows pair so); the two clocks'
-    /// largest difference on one row ([`samples::clocks`]) without a pass when the
+    /// largest difference on one row (`samples::clocks`) without a pass when the
     /// rows are the same (one file's, none skipped in either triplet).
     fn motions(
         imu: &ImuPair<Self>,
