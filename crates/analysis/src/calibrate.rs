@@ -10,7 +10,8 @@
 //! failure never hides the others'.
 
 pub use crate::gyro::request::GyroOutcome;
-use crate::gyro::request::{gyrofit_of, GyroInput, GyrofitRequest};
+use crate::gyro::request::{gyrofit_of, GyrofitRequest};
+use crate::gyro::ImuPair;
 use crate::input::columns::{all_named, column_sensor, Sensor};
 use crate::input::front_door::Input;
 use crate::input::read_options::ReadOptions;
@@ -195,7 +196,7 @@ fn gyro_of(
         ..GyrofitRequest::new(path)
     };
     let acc = acc.unwrap_or_else(|| gyro.clone());
-    Ok(gyrofit_of(&req, &GyroInput::Held(acc, gyro))?.report)
+    Ok(gyrofit_of(&req, &ImuPair::held(acc, gyro))?.report)
 }
 
 /// The magnetometer: `magfit`'s default ellipsoid and its loop.

@@ -258,11 +258,6 @@ impl LiveSession {
         self.source_status = Some(line[..end].to_string());
     }
 
-    /// True once [`LiveSession::finish`] was called.
-    pub fn is_ended(&self) -> bool {
-        self.ended.is_some()
-    }
-
     fn add_pose(&mut self, iv: &StaticInterval) -> bool {
         self.pose_count += 1;
         if self.poses.len() >= MAX_POSES {

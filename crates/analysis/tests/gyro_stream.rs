@@ -1,4 +1,4 @@
-//! `gyrofit` on text files streamed in passes (`gyro::open_text`, `gyro::run_text`: the rows never held) gives the
+//! `gyrofit` on text files streamed in passes (`gyro::open_text`, `ImuPair::motions`: the rows never held) gives the
 //! report of the same files held in memory, bit for bit: the whole JSON compared, on every real
 //! recording `gyrofit` reads as plain text (the MPU-9150 units, sunsided's MPU-6050 logs, and
 //! IMU-TK's Xsens pair when its text is streamed), on a few-MiB file made of an MPU-9150 log
@@ -7,7 +7,7 @@
 mod common;
 
 use std::path::{Path, PathBuf};
-use wiical_analysis::gyro::{self, open_text as open, run_text, GyroOptions};
+use wiical_analysis::gyro::{self, open_text as open, GyroOptions, TextImu};
 use wiical_analysis::input::columns::LoadOptions;
 use wiical_analysis::input::front_door::load_imu;
 
@@ -25,6 +25,12 @@ fn outcome<E: std::fmt::Display>(r: Result<gyro::GyroReport, E>) -> String {
         Ok(rep) => serde_json::to_string(&rep).unwrap(),
         Err(e) => format!("error: {e}"),
     }
+}
+
+/// The motion fit on the files `imu` read in passes ([`TextImu::motions`]): a file's failure
+/// and the fit's own error as one.
+fn run_text(imu: &TextImu, opts: &GyroOptions) -> wiical_analysis::Result<gyro::GyroReport> {
+    Ok(imu.motions(opts)??)
 }
 
 /// Held and streamed outcomes of `acc` (and `gyro_file`), asserted streamed.
@@ -185,7 +191,7 @@ fn a_two_file_pair_streams_to_the_held_report_and_swapped_is_refused_alike() {
 /// `gyrofit`'s library entry ([`wiical_analysis::gyrofit`], held) and [`gyrofit_of`] on the
 /// same file streamed: the JSON of each, or its error.
 fn entry_both(rel: &str, table_rates_dps: Option<Vec<f64>>) -> (String, String) {
-    use wiical_analysis::gyro::request::{gyrofit_of, GyroInput, Gyrofit};
+    use wiical_analysis::gyro::request::{gyrofit_of, Gyrofit};
     let path = data(rel);
     let req = wiical_analysis::GyrofitRequest {
         table_rates_dps,
@@ -199,7 +205,7 @@ fn entry_both(rel: &str, table_rates_dps: Option<Vec<f64>>) -> (String, String) 
     let imu = open((&path, &load), None, None, 0)
         .unwrap()
         .expect("streamed");
-    let streamed = text(gyrofit_of(&req, &GyroInput::Streamed(imu)));
+    let streamed = text(gyrofit_of(&req, &imu));
     (text(wiical_analysis::gyrofit(&req)), streamed)
 }
 

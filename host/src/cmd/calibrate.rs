@@ -5,9 +5,7 @@ use super::{check_outputs, to_json, write_calibration_with, DetectArgs};
 use crate::cli_error::cli_error;
 use anyhow::Result;
 use std::path::{Path, PathBuf};
-use wiical_analysis::calibrate::{
-    calibrate, CalibrateOptions, CalibrateReport, GyroOutcome, Outcome,
-};
+use wiical_analysis::calibrate::{calibrate, CalibrateOptions, CalibrateReport, Outcome};
 
 /// Arguments of `wiical calibrate`.
 #[derive(clap::Args, Debug)]
@@ -70,7 +68,6 @@ pub fn run(a: &Args) -> Result<String> {
     };
     opts.gyro.rotation_deg = a.rotation_deg;
     opts.gyro.table_rates_dps = a.table_rate.clone();
-    opts.gyro.detect = opts.fit.detect.clone();
     let rep = super::with_spinner("recognising the protocol and calibrating", || {
         calibrate(&a.file, &opts)
     })
@@ -99,12 +96,8 @@ fn save(path: &Path, gyro_path: Option<&Path>, rep: &CalibrateReport) -> Result<
     let (Some(gp), Some(Outcome::Ok(g))) = (gyro_path, &rep.gyroscope) else {
         return Ok(());
     };
-    let file = match g {
-        GyroOutcome::Motions(r) => r.cal_file(),
-        GyroOutcome::Protocol(r) => match r.cal_file() {
-            Some(file) => file,
-            None => return Ok(()),
-        },
+    let Some(file) = g.cal_file() else {
+        return Ok(());
     };
     wiical_analysis::output::gyrocal::write_gyro_calibration(gp, &file).map_err(cli_error)
 }

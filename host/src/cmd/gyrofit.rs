@@ -7,7 +7,8 @@ use anyhow::{bail, Context, Result};
 use std::path::PathBuf;
 use wiical_analysis::calibrate::GyroOutcome;
 use wiical_analysis::gyro::open_text;
-use wiical_analysis::gyro::request::{gyrofit_of, GyroInput};
+use wiical_analysis::gyro::request::{gyrofit_of, Gyrofit};
+use wiical_analysis::gyro::ImuPair;
 use wiical_analysis::{GyrofitRequest, Recording};
 use wiical_core::multipos::MultiPosModel;
 
@@ -79,8 +80,7 @@ pub fn run(a: &Args) -> Result<String> {
     let mut inputs = vec![a.file.as_path()];
     inputs.extend(a.gyro_file.as_deref());
     check_outputs(&inputs, &[a.out.as_deref()])?;
-    let input = read(a, gyro_columns)?;
-    let found = gyrofit_of(&req, &input).map_err(cli_error)?;
+    let found = read_and_fit(a, &req, gyro_columns)?;
     let file = a.file.display().to_string();
     if let Some(e) = &found.motion_error {
         eprintln!(
@@ -99,15 +99,20 @@ pub fn run(a: &Args) -> Result<String> {
     })
 }
 
-/// Reads FILE (and GYRO_FILE); notes on them go to stderr, each once.
-fn read(a: &Args, gyro_columns: Option<[String; 3]>) -> Result<GyroInput> {
+/// Reads FILE (and GYRO_FILE) — notes on them go to stderr, each once — and runs `gyrofit`
+/// on them ([`gyrofit_of`]: one code for the rows held and read in passes).
+fn read_and_fit(
+    a: &Args,
+    req: &GyrofitRequest,
+    gyro_columns: Option<[String; 3]>,
+) -> Result<Gyrofit> {
     let (acc_opts, gyro_opts) = (
         a.detect.load_options()?,
         load_options(None, &a.detect.read)?,
     );
     if a.gyro_file.is_none() && gyro_columns.is_none() {
         if let Some(block) = wiical_capture::motionplus::detect(&a.file)? {
-            return read_motionplus(a, &acc_opts, &block);
+            return fit(req, &read_motionplus(a, &acc_opts, &block)?);
         }
     }
     let gyro_file = a.gyro_file.as_deref().map(|g| (g, &gyro_opts));
@@ -126,7 +131,7 @@ fn read(a: &Args, gyro_columns: Option<[String; 3]>) -> Result<GyroInput> {
             Some(g) => super::print_notes(g, imu.gyroscope()),
             None => gyro_info(a, imu.accelerometer(), imu.gyroscope()),
         }
-        return Ok(GyroInput::Streamed(imu));
+        return fit(req, &imu);
     }
     let (acc, gyro) = match &a.gyro_file {
         Some(g) => {
@@ -162,7 +167,15 @@ fn read(a: &Args, gyro_columns: Option<[String; 3]>) -> Result<GyroInput> {
             (acc, gyro)
         }
     };
-    Ok(GyroInput::Held(acc, gyro))
+    fit(req, &ImuPair::held(acc, gyro))
+}
+
+/// `gyrofit` on the rows `imu`, its error as the command line says it.
+fn fit<S: wiical_analysis::gyro::ImuSide>(
+    req: &GyrofitRequest,
+    imu: &ImuPair<S>,
+) -> Result<Gyrofit> {
+    gyrofit_of(req, imu).map_err(cli_error)
 }
 
 /// A `wiical capture` of a MotionPlus: its gyro rows in slow-range counts
@@ -171,7 +184,7 @@ fn read_motionplus(
     a: &Args,
     acc_opts: &wiical_analysis::LoadOptions,
     block: &[u8; 32],
-) -> Result<GyroInput> {
+) -> Result<ImuPair<Recording>> {
     use wiical_analysis::input::columns::Sensor;
     use wiical_analysis::input::front_door::open_whole;
     let Err(text) = open_whole(&a.file, &acc_opts.read).map_err(cli_error)? else {
@@ -201,7 +214,7 @@ fn read_motionplus(
         read: acc_opts.read,
     })?;
     super::print_notes(&a.file, &acc);
-    Ok(GyroInput::Held(acc, gyro))
+    Ok(ImuPair::held(acc, gyro))
 }
 
 /// The bound on the samples `gyrofit` holds (a file it cannot read in passes).

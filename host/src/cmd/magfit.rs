@@ -6,7 +6,7 @@ use crate::cli_error::cli_error;
 use crate::render;
 use anyhow::{anyhow, Result};
 use std::path::{Path, PathBuf};
-use wiical_analysis::input::text_source::TextSource;
+use wiical_analysis::input::text_source::{large, TextSource};
 use wiical_analysis::magnetometer::MagModel;
 use wiical_analysis::source::RowSource;
 use wiical_analysis::{LoadOptions, MagfitOutput, MagfitRequest, Recording};
@@ -132,20 +132,17 @@ fn follow_error(e: Followed, file: &Path) -> anyhow::Error {
 /// The field's rows read in passes from the file (memory bounded) when it is a regular plain
 /// text file of at least `--stream-from-bytes`; `None`: it is held whole.
 fn open_in_passes(a: &Args, opts: &LoadOptions) -> Result<Option<TextSource>> {
-    let large = a.file.as_os_str() != "-"
-        && std::fs::metadata(&a.file)
-            .is_ok_and(|m| m.is_file() && m.len() >= opts.read.stream_from_bytes);
-    if large {
-        let src = with_spinner(&format!("reading {}", a.file.display()), || {
-            TextSource::open(&a.file, opts, |_| true).map_err(|e| e.in_file(&a.file))
-        })
-        .map_err(cli_error)?;
-        if let Some(src) = src {
-            print_notes(&a.file, &src.meta);
-            return Ok(Some(src));
-        }
+    if !large(&a.file, opts.read.stream_from_bytes) {
+        return Ok(None);
     }
-    Ok(None)
+    let src = with_spinner(&format!("reading {}", a.file.display()), || {
+        TextSource::open_from(&a.file, opts, 0)
+    })
+    .map_err(cli_error)?;
+    if let Some(src) = &src {
+        print_notes(&a.file, &src.meta);
+    }
+    Ok(src)
 }
 
 /// The followed column `name` of `file` read in passes (the field was: the file must still be

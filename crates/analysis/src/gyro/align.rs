@@ -1,13 +1,14 @@
 //! Pairing the accelerometer's rows with the gyro's: held recordings by position when both
 //! have the same samples, by time when the gyro's rows are a subset (a capture whose rows
 //! alternate); large plain text files ([`TextImu`], read in passes, never held) by position
-//! only.
+//! only. Both are an [`ImuPair`].
 
 use super::options::{GyroError, Result};
 use crate::error::Error;
 use crate::input::columns::{all_named, LoadOptions, Sensor};
 use crate::input::recording::Recording;
-use crate::input::text_source::TextSource;
+use crate::input::text_source::{large, TextSource};
+use crate::source::RowSource;
 use std::borrow::Cow;
 use std::path::{Path, PathBuf};
 
@@ -80,71 +81,46 @@ fn filled<'a>(rec: &'a Recording, other: &Recording) -> Cow<'a, Recording> {
     })
 }
 
-/// The accelerometer's and the gyro's samples of large plain text files, each a
-/// [`TextSource`] opened for passes (for one file, two sources of it with different columns).
+/// The accelerometer's and the gyro's rows of one recording, as `gyrofit` reads them: held
+/// recordings ([`ImuPair::held`]) or large plain text files read in passes ([`open_text`]:
+/// for one file, two sources of it with different columns). Everything `gyrofit` does with
+/// them is written once, for both ([`crate::gyro::request::gyrofit_of`]).
 ///
-/// Memory is a piece of each file in flight, the windows, and the motions' samples with a
-/// second either side (what the fit integrates, dozens of times: a pass over the file per
-/// integration would cost hundreds of passes); on a multi-position recording those are a
-/// small fraction of the rows (docs/gyro.md, "Large files").
+/// Memory, read in passes, is a piece of each file in flight, the windows, and the motions'
+/// samples with a second either side (what the fit integrates, dozens of times: a pass over
+/// the file per integration would cost hundreds of passes); on a multi-position recording
+/// those are a small fraction of the rows (docs/gyro.md, "Large files").
 #[derive(Debug)]
-pub struct TextImu {
-    pub(super) acc: TextSource,
-    pub(super) gyro: TextSource,
+pub struct ImuPair<S> {
+    pub(super) acc: S,
+    pub(super) gyro: S,
+    /// The files a failed pass is reported in (held rows never fail).
     pub(super) acc_path: PathBuf,
     pub(super) gyro_path: PathBuf,
 }
 
-impl TextImu {
-    /// The accelerometer's recording without its samples (columns, notes, rate).
-    pub fn accelerometer(&self) -> &Recording {
-        &self.acc.meta
-    }
+/// Large plain text files read in passes ([`open_text`]).
+pub type TextImu = ImuPair<TextSource>;
 
-    /// The gyro's recording without its samples.
-    pub fn gyroscope(&self) -> &Recording {
-        &self.gyro.meta
-    }
-
-    /// Rows.
-    pub fn len(&self) -> usize {
-        self.acc.len()
-    }
-
-    /// True without rows (never, once opened).
-    pub fn is_empty(&self) -> bool {
-        self.acc.is_empty()
-    }
-
+impl<S: RowSource> ImuPair<S> {
     /// Whether the passes read both files whole (a file changed or unreadable during one is
     /// that file's error).
     pub(super) fn check(&self) -> crate::Result<()> {
         self.acc.check().map_err(|e| e.in_file(&self.acc_path))?;
         self.gyro.check().map_err(|e| e.in_file(&self.gyro_path))
     }
+}
 
-    /// The largest difference of the two clocks on one row ([`super::samples::clocks`]),
-    /// without a pass when the rows are the same (one file's, none skipped in either triplet).
-    pub(super) fn worst_clock_s(&self) -> Result<f64> {
-        let same_rows = self.acc_path == self.gyro_path
-            && self.acc.meta.skipped_empty_rows == 0
-            && self.gyro.meta.skipped_empty_rows == 0;
-        if same_rows {
-            return Ok(0.0);
+impl ImuPair<Recording> {
+    /// The accelerometer's recording and the gyro's, held.
+    pub fn held(acc: Recording, gyro: Recording) -> Self {
+        Self {
+            acc,
+            gyro,
+            acc_path: PathBuf::new(),
+            gyro_path: PathBuf::new(),
         }
-        super::samples::clocks(&self.acc, &self.gyro)
     }
-}
-
-/// True when `path` is a regular file (not standard input) of at least `min_bytes`.
-fn large(path: &Path, min_bytes: u64) -> bool {
-    path.as_os_str() != "-"
-        && std::fs::metadata(path).is_ok_and(|m| m.is_file() && m.len() >= min_bytes)
-}
-
-/// `path` opened as a source of `opts`'s triplet; `None` when it is not plain delimited text.
-fn source(path: &Path, opts: &LoadOptions) -> crate::Result<Option<TextSource>> {
-    TextSource::open(path, opts, |_| true).map_err(|e| e.in_file(path))
 }
 
 /// The accelerometer (`acc`: its file and columns) and the gyro — of the file `gyro_file`
@@ -173,8 +149,8 @@ pub fn open_text(
         return Ok(None);
     }
     let (a, g) = std::thread::scope(|s| {
-        let g = s.spawn(|| source(gyro_path, gyro_opts));
-        (source(acc.0, acc.1), g.join())
+        let g = s.spawn(|| TextSource::open_from(gyro_path, gyro_opts, 0));
+        (TextSource::open_from(acc.0, acc.1, 0), g.join())
     });
     let g = g.unwrap_or_else(|p| std::panic::resume_unwind(p));
     let (Some(a), Some(g)) = (a?, g?) else {

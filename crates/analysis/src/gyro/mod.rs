@@ -44,10 +44,12 @@ mod segment;
 mod verdict;
 
 pub use crate::error::gyro::GyroError;
+use crate::error::Error;
 use crate::input::recording::Recording;
+use crate::input::text_source::TextSource;
 use crate::source::RowSource;
 use crate::stats as st;
-pub use align::{open_text, TextImu};
+pub use align::{open_text, ImuPair, TextImu};
 use samples::{Collected, Imu};
 use std::cell::RefCell;
 use wiical_core::gyro::GyroCalibration;
@@ -88,29 +90,8 @@ pub fn run(acc: &Recording, gyro: &Recording, opts: &GyroOptions) -> Result<Gyro
     )
 }
 
-/// [`run`] on large text files read in passes ([`open_text`]): the same report as for their
-/// recordings held. A file that changed or could not be read during a pass is that file's
-/// error.
-pub fn run_text(imu: &TextImu, opts: &GyroOptions) -> crate::Result<GyroReport> {
-    Ok(run_passes(imu, opts)??)
-}
-
-/// [`run_text`] with a file's failure (outside) apart from the fit's own error (inside: what
-/// the fallback to the protocol's methods reads, [`GyroError::says_another_protocol`]).
-fn run_passes(imu: &TextImu, opts: &GyroOptions) -> crate::Result<Result<GyroReport>> {
-    let failed = RefCell::new(None);
-    let out = check_nominal_scale(opts)
-        .and_then(|()| imu.worst_clock_s())
-        .and_then(|worst| run_on(&Imu::new((&imu.acc, &imu.gyro), Some(worst), &failed), opts));
-    if let Some(e) = failed.take() {
-        return Err(e.in_file(&imu.acc_path));
-    }
-    imu.check()?;
-    Ok(out)
-}
-
-/// [`run`] on the paired rows `imu`, held or a large file's (one code: every stage reads the
-/// samples through [`Imu`]'s passes, so both give the same report).
+/// [`run`] on the paired rows `imu`, held or a large file's ([`ImuPair::motions`]; one code:
+/// every stage reads the samples through [`Imu`]'s passes, so both give the same report).
 fn run_on(imu: &Imu<'_, impl RowSource>, opts: &GyroOptions) -> Result<GyroReport> {
     let default_rate = opts.detect.default_rate_hz;
     segment::check_gyro_reads(imu, default_rate)?;
@@ -189,6 +170,85 @@ fn run_on(imu: &Imu<'_, impl RowSource>, opts: &GyroOptions) -> Result<GyroRepor
         motion_loop: lp.motion_loop,
         open_basis: lp.open_basis,
     })
+}
+
+/// One side of an [`ImuPair`]: a held recording or a large file's source.
+pub trait ImuSide: RowSource + Sized {
+    /// The side's recording (without its samples when read in passes: columns, notes, rate).
+    fn recording(&self) -> &Recording;
+    /// The motion fit on the pair ([`run`]); a pass's failure is left in `failed`.
+    fn motions(
+        imu: &ImuPair<Self>,
+        opts: &GyroOptions,
+        failed: &RefCell<Option<Error>>,
+    ) -> Result<GyroReport>;
+}
+
+impl ImuSide for Recording {
+    fn recording(&self) -> &Recording {
+        self
+    }
+
+    /// Paired by position or by time (`align::pair`): held rows may be a subset of the
+    /// other's.
+    fn motions(
+        imu: &ImuPair<Self>,
+        opts: &GyroOptions,
+        _: &RefCell<Option<Error>>,
+    ) -> Result<GyroReport> {
+        run(&imu.acc, &imu.gyro, opts)
+    }
+}
+
+impl ImuSide for TextSource {
+    fn recording(&self) -> &Recording {
+        &self.meta
+    }
+
+    /// By position ([`open_text`] opens only files whose rows pair so); the two clocks'
+    /// largest difference on one row (`samples::clocks`) without a pass when the
+    /// rows are the same (one file's, none skipped in either triplet).
+    fn motions(
+        imu: &ImuPair<Self>,
+        opts: &GyroOptions,
+        failed: &RefCell<Option<Error>>,
+    ) -> Result<GyroReport> {
+        check_nominal_scale(opts)?;
+        let same_rows = imu.acc_path == imu.gyro_path
+            && imu.acc.meta.skipped_empty_rows == 0
+            && imu.gyro.meta.skipped_empty_rows == 0;
+        let worst = if same_rows {
+            0.0
+        } else {
+            samples::clocks(&imu.acc, &imu.gyro)?
+        };
+        run_on(&Imu::new((&imu.acc, &imu.gyro), Some(worst), failed), opts)
+    }
+}
+
+impl<S: ImuSide> ImuPair<S> {
+    /// The accelerometer's recording (without its samples when read in passes).
+    pub fn accelerometer(&self) -> &Recording {
+        self.acc.recording()
+    }
+
+    /// The gyro's recording (without its samples when read in passes).
+    pub fn gyroscope(&self) -> &Recording {
+        self.gyro.recording()
+    }
+
+    /// The motion fit ([`run`]): the same report held or read in passes; a file's
+    /// failure outside, the fit's own error inside (what the fallback to the protocol's
+    /// methods reads, [`GyroError::says_another_protocol`]).
+    pub fn motions(&self, opts: &GyroOptions) -> crate::Result<Result<GyroReport>> {
+        let failed = RefCell::new(None);
+        let out = S::motions(self, opts, &failed);
+        if let Some(e) = failed.take() {
+            return Err(e.in_file(&self.acc_path));
+        }
+        self.check()?;
+        Ok(out)
+    }
 }
 
 /// The chosen calibration, as the loop needs it.

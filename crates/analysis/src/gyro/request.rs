@@ -7,8 +7,7 @@
 
 use super::nominal::{nominal_from_columns, nominal_given_usable};
 use super::options::GyroOptions;
-use super::report::GyroReport;
-use super::{GyroError, TextImu};
+use super::{GyroError, ImuPair, ImuSide};
 use crate::detect::windows::DetectOptions;
 pub use crate::error::gyro::{GyroArgError, NominalSetting};
 use crate::input::columns::{all_named, Sensor};
@@ -117,59 +116,18 @@ fn per_axis(v: &[f64], setting: NominalSetting) -> Result<[f64; 3], GyroArgError
     }
 }
 
-/// The recording `gyrofit` reads: held, or large plain text files read in passes
-/// ([`super::open_text`]).
-/// One value per run: the variants' sizes do not matter.
-#[allow(clippy::large_enum_variant)]
-#[derive(Debug)]
-pub enum GyroInput {
-    /// The accelerometer's recording and the gyro's, held.
-    Held(Recording, Recording),
-    /// Both read in passes, never held.
-    Streamed(TextImu),
-}
-
-impl GyroInput {
-    /// The accelerometer's recording (without its samples when streamed: columns, notes).
-    pub fn accelerometer(&self) -> &Recording {
-        match self {
-            GyroInput::Held(acc, _) => acc,
-            GyroInput::Streamed(imu) => imu.accelerometer(),
-        }
-    }
-
-    /// The gyro's recording (without its samples when streamed).
-    pub fn gyroscope(&self) -> &Recording {
-        match self {
-            GyroInput::Held(_, gyro) => gyro,
-            GyroInput::Streamed(imu) => imu.gyroscope(),
-        }
-    }
-
-    /// The motion fit ([`super::run`], [`super::run_text`]); a file's failure outside, the
-    /// fit's own error inside.
-    fn motions(&self, opts: &GyroOptions) -> crate::Result<Result<GyroReport, GyroError>> {
-        match self {
-            GyroInput::Held(acc, gyro) => Ok(super::run(acc, gyro, opts)),
-            GyroInput::Streamed(imu) => super::run_passes(imu, opts),
-        }
-    }
-
+impl<S: ImuSide> ImuPair<S> {
     /// The protocol's method on the gyro (with the accelerometer when `with_acc`), held or
-    /// in passes: one code ([`crate::protocol::gyro::run`]).
+    /// in passes ([`crate::protocol::gyro::run`]); a file's failure outside, the method's own
+    /// error inside.
     fn protocol(
         &self,
         with_acc: bool,
         opts: &GyroProtocolOptions,
     ) -> crate::Result<Result<GyroProtocolReport, GyroProtocolError>> {
-        Ok(match self {
-            GyroInput::Held(acc, gyro) => protocol::run(with_acc.then_some(acc), gyro, opts),
-            GyroInput::Streamed(imu) => {
-                let rep = protocol::run(with_acc.then_some(&imu.acc), &imu.gyro, opts);
-                imu.check()?;
-                rep
-            }
-        })
+        let rep = protocol::run(with_acc.then_some(&self.acc), &self.gyro, opts);
+        self.check()?;
+        Ok(rep)
     }
 }
 
@@ -221,7 +179,7 @@ pub fn gyrofit(req: &GyrofitRequest) -> crate::Result<Gyrofit> {
         Some(g) => (crate::load(&req.file, &load)?, crate::load(g, &load)?),
         None => crate::input::front_door::load_imu(&req.file, &load, gyro_columns)?,
     };
-    gyrofit_of(req, &GyroInput::Held(acc, gyro))
+    gyrofit_of(req, &ImuPair::held(acc, gyro))
 }
 
 /// `gyrofit` on the recording `input`: a gyro-only file (the loader took the gyro's named
@@ -229,7 +187,7 @@ pub fn gyrofit(req: &GyrofitRequest) -> crate::Result<Gyrofit> {
 /// protocol's methods ([`crate::protocol::gyro`]); otherwise the motions between poses, and
 /// the protocol's methods when those say the recording is another protocol's. When neither
 /// gives a calibration, the motion fit's error is the one returned.
-pub fn gyrofit_of(req: &GyrofitRequest, input: &GyroInput) -> crate::Result<Gyrofit> {
+pub fn gyrofit_of<S: ImuSide>(req: &GyrofitRequest, input: &ImuPair<S>) -> crate::Result<Gyrofit> {
     let (acc, gyro) = (input.accelerometer(), input.gyroscope());
     let opts = req.options(gyro)?;
     let popts = GyroProtocolOptions {

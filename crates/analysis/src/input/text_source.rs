@@ -158,6 +158,12 @@ impl SpillTo {
     }
 }
 
+/// True when `path` is a regular file (not standard input) of at least `min_bytes`.
+pub fn large(path: &Path, min_bytes: u64) -> bool {
+    path.as_os_str() != "-"
+        && std::fs::metadata(path).is_ok_and(|m| m.is_file() && m.len() >= min_bytes)
+}
+
 impl TextSource {
     /// The first pass over the regular text file `path` (see the module docs); `head_ok` is
     /// asked about the first piece's text as by [`crate::input::text_file::load_pieces_within`].
@@ -169,6 +175,16 @@ impl TextSource {
         head_ok: impl Fn(&str) -> bool,
     ) -> Result<Option<Self>> {
         Self::open_in(path, opts, PIECE_BYTES, head_ok)
+    }
+
+    /// [`TextSource::open`] of `path` when it is a regular file (not standard input) of at
+    /// least `min_bytes` (what a command reads in passes, `--stream-from-bytes`), every head
+    /// taken, errors naming the file; `Ok(None)`: it is to be read whole.
+    pub fn open_from(path: &Path, opts: &LoadOptions, min_bytes: u64) -> Result<Option<Self>> {
+        if !large(path, min_bytes) {
+            return Ok(None);
+        }
+        Self::open(path, opts, |_| true).map_err(|e| e.in_file(path))
     }
 
     /// [`TextSource::open`] with pieces of `piece_bytes`.

@@ -189,12 +189,8 @@ pub fn open_sensors(
     columns: Option<[String; 3]>,
     read: &ReadOptions,
 ) -> Result<Sensors> {
-    let large = path.as_os_str() != "-"
-        && std::fs::metadata(path).is_ok_and(|m| m.is_file() && m.len() >= read.stream_from_bytes);
-    if large {
-        let open = |opts: &LoadOptions| {
-            TextSource::open(path, opts, |_| true).map_err(|e| e.in_file(path))
-        };
+    if crate::input::text_source::large(path, read.stream_from_bytes) {
+        let open = |opts: &LoadOptions| TextSource::open_from(path, opts, 0);
         let head = first_lines(path, 64);
         let axes = |s: &TextSource| s.meta.axis_columns.clone();
         if let Some(srcs) = pick_sensors(&head, columns.clone(), read, open, axes)? {
