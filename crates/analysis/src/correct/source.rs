@@ -91,7 +91,7 @@ fn open_stdin(
             front_door::load_within(&tmp, opts, limit).map_err(|e| e.renaming(&tmp, path))?
         }
         Opened::Raw(raw) => {
-            crate::input::raw::to_recording(&raw, opts).map_err(|e| e.in_file(path))?
+            crate::input::raw::load::load_raw(raw.blocks(), opts).map_err(|e| e.in_file(path))?
         }
         Opened::Text(text) => parse(&text, opts).map_err(|e| e.in_file(path))?,
         // A regular file's kinds: not standard input's.
