@@ -605,10 +605,13 @@ mod tests {
 
     /// A file held in memory as the one reader gives it: its blocks, notes and header rate.
     fn read(bytes: &[u8]) -> crate::error::Result<(Vec<Block>, Vec<String>, f64)> {
-        use crate::input::raw::{Blocks, RawFormat};
-        let mut reader = Blocks::Bytes(bytes, RawFormat::Cwa).open()?;
-        let blocks = reader.all_blocks()?;
-        Ok((blocks, reader.notes(), reader.header_rate_hz()))
+        let mut reader = BlockReader::of_bytes(std::path::Path::new(""), Box::new(bytes))?;
+        let (mut blocks, mut chunk) = (Vec::new(), Vec::new());
+        while reader.next_chunk(&mut chunk)? {
+            blocks.append(&mut chunk);
+        }
+        blocks.append(&mut chunk);
+        Ok((blocks, reader.notes(), reader.header.rate_hz))
     }
 
     /// The first decoded block.
