@@ -1,8 +1,8 @@
 //! Arbitrary bytes as Axivity `.cwa` data blocks after a valid header, read from a file block
 //! by block (`wiical fit big.cwa`, `correct`, `six-position`: `input::raw::load`, the reader
 //! whose clock places each block and leaves out a block stamped far ahead or back) against the
-//! same bytes parsed whole (`cwa::parse` + `to_recording`, the same reader given the blocks as
-//! one chunk). Never a panic; when both read the
+//! same bytes held in memory (`Blocks::Bytes`: standard input's, a gzip file's, read by the
+//! same block reader from memory). Never a panic; when both read the
 //! file, they give the same samples and times bit for bit, and the same error otherwise
 //! (neither path may keep a block the other leaves out).
 #![no_main]
@@ -13,7 +13,7 @@ use libfuzzer_sys::fuzz_target;
 mod cwa_bytes;
 use cwa_bytes::cwa_file;
 use wiical_analysis::input::raw::load::{load_raw, Blocks};
-use wiical_analysis::input::raw::{cwa, to_recording, RawFormat};
+use wiical_analysis::input::raw::{cwa, RawFormat};
 
 fuzz_target!(|data: &[u8]| {
     let Some((&pick, rest)) = data.split_first() else {
@@ -36,9 +36,7 @@ fuzz_target!(|data: &[u8]| {
         return;
     }
     let streamed = load_raw(Blocks::File(&path, RawFormat::Cwa), &Default::default());
-    let whole = cwa::parse(&file)
-        .map_err(wiical_analysis::Error::from)
-        .and_then(|raw| to_recording(&raw, &Default::default()));
+    let whole = load_raw(Blocks::Bytes(&file, RawFormat::Cwa), &Default::default());
     let _ = std::fs::remove_file(&path);
     let bits =
         |v: &[[f64; 3]]| -> Vec<[u64; 3]> { v.iter().map(|r| r.map(f64::to_bits)).collect() };

@@ -266,11 +266,12 @@ fn simulated_cwa_file_runs_the_autocalibration() {
     }
 }
 
-/// The file read whole (`raw::read`), its blocks given to the reader as one chunk.
+/// The file's bytes held in memory, read by the same readers.
 fn whole_file_table(path: &std::path::Path) -> wiical_analysis::Result<WindowTable> {
-    let raw = wiical_analysis::input::raw::read(path)?;
+    let format = wiical_analysis::input::raw::load::raw_file_format(path).expect("a raw file");
+    let bytes = std::fs::read(path).unwrap();
     raw_epoch_table(
-        Blocks::Held(&raw),
+        Blocks::Bytes(&bytes, format),
         &Default::default(),
         &EpochOptions::default(),
     )

@@ -1,6 +1,6 @@
 //! The raw reader (`input::raw::load`) on a file read block by block from disk against the
-//! same file read whole (`raw::read`: `cwa::parse`, `geneactiv::parse`) and given as one
-//! chunk: the recording `load_raw` gives and the still-epoch table `raw_epoch_table` gives
+//! same file's bytes held in memory (`Blocks::Bytes`: standard input's, a gzip file's), read
+//! by the same readers: the recording `load_raw` gives and the still-epoch table `raw_epoch_table` gives
 //! must be bit for bit the same, on every raw file of the shared data and on files written here with
 //! enough still epochs to be fitted (GENEActiv `.bin` with a bad and a cut-off page, AX3 and
 //! AX6 `.cwa` with a corrupt block). Values are compared through their `Debug` text, which
@@ -11,7 +11,7 @@ mod common;
 use std::path::{Path, PathBuf};
 use wiical_analysis::input::columns::LoadOptions;
 use wiical_analysis::input::raw::load::{self, Blocks};
-use wiical_analysis::input::raw::{self, RawFormat};
+use wiical_analysis::input::raw::{self, Block, RawFormat};
 
 /// The recording and still-epoch table (or its error) of `blocks`.
 fn read_as(blocks: Blocks<'_>, opts: &LoadOptions) -> (String, String) {
@@ -20,9 +20,10 @@ fn read_as(blocks: Blocks<'_>, opts: &LoadOptions) -> (String, String) {
     (format!("{rec:?}"), format!("{table:?}"))
 }
 
-/// The file read whole, its blocks given as one chunk.
+/// The file's bytes held in memory.
 fn whole(path: &Path, opts: &LoadOptions) -> (String, String) {
-    read_as(Blocks::Held(&raw::read(path).unwrap()), opts)
+    let format = load::raw_file_format(path).expect("a raw file");
+    read_as(Blocks::Bytes(&std::fs::read(path).unwrap(), format), opts)
 }
 
 /// The file read from disk a chunk of blocks at a time.
@@ -354,8 +355,10 @@ fn a_bad_last_page_is_not_a_cut_one() {
         "{whole}Recorded Data\r\nPage Time:2013-05-30 11:00:00:000\r\nTemperature:1e300\r\n100\r\n"
     );
     let path = scratch("badlast.bin", bad.as_bytes());
-    let raw = raw::read(&path).unwrap();
-    assert_eq!(raw.invalid_blocks().len(), 2, "{:?}", raw.notes);
-    assert!(raw.notes.is_empty(), "{:?}", raw.notes);
+    let mut reader = Blocks::File(&path, RawFormat::GeneActiv).open().unwrap();
+    let pages = reader.all_blocks().unwrap();
+    let invalid = pages.iter().filter(|b| matches!(b, Block::Invalid(_)));
+    assert_eq!(invalid.count(), 2, "{:?}", reader.notes());
+    assert!(reader.notes().is_empty(), "{:?}", reader.notes());
     assert_same(&path, &LoadOptions::default());
 }

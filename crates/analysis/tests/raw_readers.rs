@@ -11,8 +11,8 @@
 
 mod common;
 
-use std::path::PathBuf;
-use wiical_analysis::input::raw::{self, ggir, Block, RawFile};
+use std::path::{Path, PathBuf};
+use wiical_analysis::input::raw::{self, geneactiv, ggir, Block, Blocks, RawFormat};
 
 /// Europe/Berlin in February and December, Europe/London in May: UTC+1 h.
 const UTC_PLUS_1: f64 = 3600.0;
@@ -21,20 +21,49 @@ fn file(name: &str) -> PathBuf {
     common::data_dir().join("ggirread_testfiles").join(name)
 }
 
-fn read(name: &str) -> RawFile {
-    raw::read(&file(name)).unwrap()
+/// A file's blocks as the one reader gives them, and what the reader says of the file.
+struct Read {
+    blocks: Vec<Block>,
+    notes: Vec<String>,
+    device: String,
+    header_rate_hz: f64,
 }
 
-fn ax3() -> RawFile {
-    read("ax3_testfile.cwa")
+impl Read {
+    /// Indices of the blocks for which `which` holds.
+    fn indices(&self, which: impl Fn(&Block) -> bool) -> Vec<usize> {
+        (0..self.blocks.len())
+            .filter(|&i| which(&self.blocks[i]))
+            .collect()
+    }
 }
 
-fn corrupt() -> RawFile {
-    read("ax3_testfile_corrupt_blocks_0_13_14_142_143_144.cwa")
+fn read(path: &Path, format: RawFormat) -> Read {
+    let mut reader = Blocks::File(path, format).open().unwrap();
+    let blocks = reader.all_blocks().unwrap();
+    Read {
+        blocks,
+        notes: reader.notes(),
+        device: reader.device(),
+        header_rate_hz: reader.header_rate_hz(),
+    }
 }
 
-fn ax6() -> RawFile {
-    read("ax6_testfile.cwa")
+/// GGIRread's grid of blocks `start..end` of the `.cwa` file at `path`.
+fn grid(path: &Path, start: usize, end: usize) -> wiical_analysis::Result<ggir::Grid> {
+    ggir::grid(Blocks::File(path, RawFormat::Cwa), start, end)
+}
+
+fn ax3() -> PathBuf {
+    file("ax3_testfile.cwa")
+}
+
+fn corrupt() -> PathBuf {
+    file("ax3_testfile_corrupt_blocks_0_13_14_142_143_144.cwa")
+}
+
+fn ax6() -> PathBuf {
+    file("ax6_testfile.cwa")
 }
 
 /// ⌊Σ|v|⌋ over channels `cols` of every row (GGIRread: `floor(sum(abs(data[, cols])))`).
@@ -53,7 +82,7 @@ fn close(a: f64, b: f64, tol: f64) {
 // ---- ax3_testfile.cwa, blocks 1–4 (EXPECTED.md "ax3_testfile.cwa", first bullet) ----
 
 fn ax3_1_4() -> ggir::Grid {
-    ggir::grid(&ax3(), 1, 4).unwrap()
+    grid(&ax3(), 1, 4).unwrap()
 }
 
 /// EXPECTED.md: AX3 blocks 1–4 give 364 rows.
@@ -107,7 +136,7 @@ fn ax3_blocks_1_4_no_qc_log() {
 // ---- ax3_testfile.cwa, whole file (start 0, end 1000) ----
 
 fn ax3_all() -> ggir::Grid {
-    ggir::grid(&ax3(), 0, 1000).unwrap()
+    grid(&ax3(), 0, 1000).unwrap()
 }
 
 /// EXPECTED.md: the whole AX3 file gives 17,599 rows.
@@ -140,13 +169,13 @@ fn ax3_whole_abs_sum() {
 /// same rows and sum as reading 1–12 of the good file.
 #[test]
 fn corrupt_block_0_is_skipped_with_a_warning() {
-    let c = ggir::grid(&corrupt(), 0, 12).unwrap();
+    let c = grid(&corrupt(), 0, 12).unwrap();
     assert!(
         c.warnings.iter().any(|w| w == "Skipping corrupt block #0"),
         "{:?}",
         c.warnings
     );
-    let good = ggir::grid(&ax3(), 1, 12).unwrap();
+    let good = grid(&ax3(), 1, 12).unwrap();
     assert_eq!(c.rows(), good.rows());
     assert_eq!(floor_abs_sum(&c, 0..3), floor_abs_sum(&good, 0..3));
     // GGIRread's log: one entry, block 0 → 1, checksum failed, not imputed.
@@ -162,13 +191,13 @@ fn corrupt_block_0_is_skipped_with_a_warning() {
 /// EXPECTED.md: blocks 1–20 of the corrupt file give 2,306 rows.
 #[test]
 fn corrupt_blocks_1_20_rows() {
-    assert_eq!(ggir::grid(&corrupt(), 1, 20).unwrap().rows(), 2306);
+    assert_eq!(grid(&corrupt(), 1, 20).unwrap().rows(), 2306);
 }
 
 /// EXPECTED.md: blocks 1–20 of the corrupt file: ⌊Σ|a|⌋ = 3,244.
 #[test]
 fn corrupt_blocks_1_20_abs_sum() {
-    let g = ggir::grid(&corrupt(), 1, 20).unwrap();
+    let g = grid(&corrupt(), 1, 20).unwrap();
     assert_eq!(floor_abs_sum(&g, 0..3), 3244.0);
 }
 
@@ -176,7 +205,7 @@ fn corrupt_blocks_1_20_abs_sum() {
 /// imputation from block 12 up to 15, filled with the last good sample's direction at 1 g.
 #[test]
 fn corrupt_blocks_1_20_log_and_imputation() {
-    let g = ggir::grid(&corrupt(), 1, 20).unwrap();
+    let g = grid(&corrupt(), 1, 20).unwrap();
     let failed: Vec<u64> = g
         .log
         .iter()
@@ -212,7 +241,7 @@ fn corrupt_blocks_1_20_log_and_imputation() {
 fn corrupt_only_ranges_are_an_error() {
     let c = corrupt();
     for (s, e) in [(13, 14), (14, 15), (13, 15), (142, 145)] {
-        let err = ggir::grid(&c, s, e).unwrap_err().to_string();
+        let err = grid(&c, s, e).unwrap_err().to_string();
         assert!(
             err.contains("all requested blocks are corrupt"),
             "{s}–{e}: {err}"
@@ -225,9 +254,9 @@ fn corrupt_only_ranges_are_an_error() {
 #[test]
 fn ranges_starting_in_corrupt_blocks() {
     let c = corrupt();
-    let base = ggir::grid(&c, 15, 20).unwrap();
+    let base = grid(&c, 15, 20).unwrap();
     for s in [13, 14] {
-        let g = ggir::grid(&c, s, 20).unwrap();
+        let g = grid(&c, s, 20).unwrap();
         assert_eq!(g.rows(), base.rows());
         assert_eq!(g.values, base.values);
     }
@@ -238,10 +267,10 @@ fn ranges_starting_in_corrupt_blocks() {
 #[test]
 fn ranges_ending_in_corrupt_blocks() {
     let c = corrupt();
-    let base = ggir::grid(&c, 140, 141).unwrap();
+    let base = grid(&c, 140, 141).unwrap();
     assert!(base.rows() > 0);
     for e in 142..=145 {
-        let g = ggir::grid(&c, 140, e).unwrap();
+        let g = grid(&c, 140, e).unwrap();
         assert_eq!(g.rows(), base.rows(), "140–{e}");
         assert_eq!(g.values, base.values, "140–{e}");
     }
@@ -251,9 +280,10 @@ fn ranges_ending_in_corrupt_blocks() {
 /// six corrupt blocks, counts them, and the loaded recording warns naming them.
 #[test]
 fn corrupt_file_loads_with_a_counted_skip() {
-    let c = corrupt();
-    assert_eq!(c.corrupt_blocks(), vec![0, 13, 14, 142, 143, 144]);
-    assert!(c.invalid_blocks().is_empty());
+    let c = read(&corrupt(), RawFormat::Cwa);
+    let corrupt_blocks = c.indices(|b| matches!(b, Block::Corrupt));
+    assert_eq!(corrupt_blocks, vec![0, 13, 14, 142, 143, 144]);
+    assert!(c.indices(|b| matches!(b, Block::Invalid(_))).is_empty());
     let rec = wiical_analysis::load(
         &file("ax3_testfile_corrupt_blocks_0_13_14_142_143_144.cwa"),
         &Default::default(),
@@ -273,7 +303,7 @@ fn corrupt_file_loads_with_a_counted_skip() {
 // ---- ax6_testfile.cwa ----
 
 fn ax6_1_4() -> ggir::Grid {
-    ggir::grid(&ax6(), 1, 4).unwrap()
+    grid(&ax6(), 1, 4).unwrap()
 }
 
 /// EXPECTED.md: AX6 blocks 1–4 give 121 rows.
@@ -336,26 +366,26 @@ fn ax6_blocks_1_4_row_30_fourth_channel() {
 #[test]
 fn ax6_no_qc_log() {
     assert!(ax6_1_4().log.is_empty());
-    assert!(ggir::grid(&ax6(), 0, 1000).unwrap().log.is_empty());
+    assert!(grid(&ax6(), 0, 1000).unwrap().log.is_empty());
 }
 
 /// EXPECTED.md: the whole AX6 file gives 11,428 rows.
 #[test]
 fn ax6_whole_rows() {
-    assert_eq!(ggir::grid(&ax6(), 0, 1000).unwrap().rows(), 11_428);
+    assert_eq!(grid(&ax6(), 0, 1000).unwrap().rows(), 11_428);
 }
 
 /// EXPECTED.md: whole AX6 file time[5] = 1577131446.740 (tolerance 0.001 s).
 #[test]
 fn ax6_whole_time_5() {
-    let g = ggir::grid(&ax6(), 0, 1000).unwrap();
+    let g = grid(&ax6(), 0, 1000).unwrap();
     close(g.time[4] - UTC_PLUS_1, 1_577_131_446.740, 0.001);
 }
 
 /// EXPECTED.md: whole AX6 file temp[3] = 27.34375 °C.
 #[test]
 fn ax6_whole_temp_3() {
-    let g = ggir::grid(&ax6(), 0, 1000).unwrap();
+    let g = grid(&ax6(), 0, 1000).unwrap();
     close(g.temp[2], 27.34375, 27.34375 * 1e-4);
 }
 
@@ -363,7 +393,7 @@ fn ax6_whole_temp_3() {
 /// [`ax6_blocks_1_4_abs_sums`]).
 #[test]
 fn ax6_whole_abs_sum() {
-    let g = ggir::grid(&ax6(), 0, 1000).unwrap();
+    let g = grid(&ax6(), 0, 1000).unwrap();
     assert_eq!(floor_abs_sum(&g, 0..3), 960_046.0);
 }
 
@@ -389,11 +419,11 @@ fn ax6_loads_accelerometer_or_gyroscope() {
 
 // ---- GENEActiv_testfile.bin ----
 
-fn gene() -> RawFile {
-    read("GENEActiv_testfile.bin")
+fn gene() -> Read {
+    read(&file("GENEActiv_testfile.bin"), RawFormat::GeneActiv)
 }
 
-fn page(raw: &RawFile, i: usize) -> &raw::GoodBlock {
+fn page(raw: &Read, i: usize) -> &raw::GoodBlock {
     match &raw.blocks[i] {
         Block::Good(g) => g,
         other => panic!("page {i}: {other:?}"),
@@ -405,8 +435,8 @@ fn page(raw: &RawFile, i: usize) -> &raw::GoodBlock {
 #[test]
 fn geneactiv_reads_without_errors() {
     let g = gene();
-    assert!(g.invalid_blocks().is_empty() && g.corrupt_blocks().is_empty());
-    assert!(g.good().count() >= 2);
+    assert!(g.indices(|b| !matches!(b, Block::Good(_))).is_empty());
+    assert!(g.blocks.len() >= 2);
     assert_eq!(g.notes.len(), 1, "{:?}", g.notes);
     assert!(g.notes[0].contains("cut short"), "{:?}", g.notes);
 }
@@ -422,7 +452,8 @@ fn geneactiv_sample_rate() {
 /// EXPECTED.md: 222,048 blocks declared in the header.
 #[test]
 fn geneactiv_declared_pages() {
-    assert_eq!(gene().declared_blocks, Some(222_048));
+    let reader = geneactiv::PageReader::open(&file("GENEActiv_testfile.bin")).unwrap();
+    assert_eq!(reader.declared_pages(), Some(222_048));
 }
 
 /// EXPECTED.md: 300 samples in page 1.
@@ -435,8 +466,7 @@ fn geneactiv_page_samples() {
 /// the page start, truncated to an integer): sample 300 is 299/85.7 s after the first.
 #[test]
 fn geneactiv_page_times_ms() {
-    let g = gene();
-    let rec = wiical_analysis::input::raw::to_recording(&g, &Default::default()).unwrap();
+    let rec = wiical_analysis::load(&file("GENEActiv_testfile.bin"), &Default::default()).unwrap();
     let t = rec.t.unwrap();
     assert_eq!(((t[0] - t[0]) * 1000.0).floor(), 0.0);
     assert_eq!(((t[299] - t[0]) * 1000.0).floor(), 3488.0);
@@ -480,8 +510,7 @@ fn geneactiv_start_time() {
 /// continued clock.
 #[test]
 fn geneactiv_time_600() {
-    let g = gene();
-    let rec = wiical_analysis::input::raw::to_recording(&g, &Default::default()).unwrap();
+    let rec = wiical_analysis::load(&file("GENEActiv_testfile.bin"), &Default::default()).unwrap();
     let t600 = rec.t.unwrap()[599] - UTC_PLUS_1;
     close(t600, 1_369_905_181.0, 0.5);
     close(t600, 1_369_905_174.5 + 599.0 / 85.7, 0.01);
@@ -528,16 +557,20 @@ fn mutated_test_files_never_panic() {
                 bytes[i] = rng.random();
             }
             bytes.truncate(rng.random_range(0..=bytes.len()));
-            let Ok(Some(raw)) = raw::parse_bytes(&bytes, std::path::Path::new(name)) else {
+            let Ok(Some(format)) = raw::detect(&bytes, Path::new(name)) else {
                 continue;
             };
-            if let Ok(rec) = raw::to_recording(&raw, &Default::default()) {
+            let blocks = Blocks::Bytes(&bytes, format);
+            let Ok(all) = blocks.open().and_then(|mut r| r.all_blocks()) else {
+                continue;
+            };
+            if let Ok(rec) = raw::load::load_raw(blocks, &Default::default()) {
                 let t = rec.t.unwrap();
                 assert!(t.windows(2).all(|w| w[0] < w[1]), "{name}");
                 assert!(rec.xyz.iter().flatten().all(|v| v.is_finite()), "{name}");
             }
-            let n = raw.blocks.len();
-            let _ = ggir::grid(&raw, rng.random_range(0..=n), n + 1);
+            let n = all.len();
+            let _ = ggir::grid(blocks, rng.random_range(0..=n), n + 1);
         }
     }
 }

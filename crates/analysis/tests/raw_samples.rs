@@ -1,5 +1,5 @@
 //! Every sample of a raw file written into caller-allocated arrays (`input::raw::samples`)
-//! against the whole-file path (`raw::read` + `to_recording`, f64 rows pushed in order): the
+//! against the recording path (`load::load_raw` of the file's bytes held in memory): the
 //! same samples, times, temperatures, notes and rate, on every raw file of the shared data
 //! and on a `.cwa` written here that spans two read chunks with a corrupt, an unreadable and
 //! a clock-step-back block and a cut-off tail. As f64 the values are bit for bit the
@@ -11,12 +11,14 @@ mod common;
 use std::path::{Path, PathBuf};
 use wiical_analysis::input::columns::LoadOptions;
 use wiical_analysis::input::raw::samples::{self, RawMeta, Real};
-use wiical_analysis::input::raw::{self, cwa, load, RawFormat};
+use wiical_analysis::input::raw::{cwa, load, RawFormat};
 use wiical_analysis::Recording;
 
-/// The whole-file path's recording of `path`.
+/// The recording of `path`'s bytes held in memory.
 fn whole(path: &Path, opts: &LoadOptions) -> Recording {
-    raw::to_recording(&raw::read(path).unwrap(), opts).unwrap()
+    let format = load::raw_file_format(path).expect("a raw file");
+    let bytes = std::fs::read(path).unwrap();
+    load::load_raw(load::Blocks::Bytes(&bytes, format), opts).unwrap()
 }
 
 /// `(xyz, temp, t, meta)` through the plan and the fill, times asked for or not.

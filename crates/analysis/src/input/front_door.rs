@@ -19,7 +19,7 @@ use crate::input::bounded::{
     MAX_RECORDING_BYTES,
 };
 use crate::input::columns::{LoadOptions, Sensor};
-use crate::input::raw::{self, RawFile, RawFormat};
+use crate::input::raw::{self, Raw, RawFormat};
 pub use crate::input::read_options::{ReadOptions, MAX_SPOOL_BYTES, STREAM_FROM_BYTES};
 use crate::input::recording::Recording;
 use crate::input::table::WindowTable;
@@ -39,8 +39,9 @@ pub enum Opened {
     /// read block by block ([`raw::load`]), never held whole: its still epochs, or every
     /// sample into arrays allocated once.
     RawFile(RawFormat),
-    /// A raw file decoded whole (a `.cwa` or `.bin` from gzip or standard input).
-    Raw(Box<RawFile>),
+    /// A raw file held in memory (a `.cwa` or `.bin` from gzip or standard input:
+    /// [`Raw::Held`]), its header read.
+    Raw(Raw),
     /// UTF-8 text held whole (byte-order mark removed): standard input, or a file that is not
     /// a regular one. The text reader tells CSV, whitespace-separated numbers, GRT and a
     /// window-mean table apart by the first lines.
@@ -71,7 +72,7 @@ pub fn open(path: &Path, read: &ReadOptions) -> Result<Opened> {
         return Ok(Opened::TextFile);
     }
     Ok(match read_whole(path)? {
-        Ok(raw) => Opened::Raw(Box::new(raw)),
+        Ok(raw) => Opened::Raw(raw),
         Err(text) => Opened::Text(text),
     })
 }
@@ -82,7 +83,7 @@ fn gzip_too_large(e: &Error) -> bool {
 }
 
 /// A file read whole: `Ok(raw file)` or `Err(text)`.
-type Whole = std::result::Result<RawFile, String>;
+type Whole = std::result::Result<Raw, String>;
 
 /// The file read whole (capped) and sniffed: gzip decompressed, a raw format by its magic,
 /// else UTF-8 text.
@@ -110,8 +111,8 @@ fn read_whole(path: &Path) -> Result<Whole> {
 
 /// The content of `path` (decompressed) sniffed: a raw format by its magic, else UTF-8 text.
 fn whole_of(path: &Path, bytes: Vec<u8>) -> Result<Whole> {
-    if let Some(raw) = raw::parse_bytes(&bytes, path).map_err(|e| e.in_file(path))? {
-        return Ok(Ok(raw));
+    if let Some(format) = raw::detect(&bytes, path).map_err(|e| e.in_file(path))? {
+        return Ok(Ok(header_read(Raw::Held(bytes, format), path)?));
     }
     Ok(Err(text_of(path, bytes)?))
 }
@@ -152,7 +153,7 @@ pub fn open_input(stdin: &mut dyn std::io::Read, hold: u64, most_copied: u64) ->
     };
     drop(bytes);
     Ok(match whole_of(path, content)? {
-        Ok(raw) => Opened::Raw(Box::new(raw)),
+        Ok(raw) => Opened::Raw(raw),
         Err(text) => Opened::Text(text),
     })
 }
@@ -354,8 +355,15 @@ fn is_raw(head: &[u8]) -> bool {
 /// The first two bytes of a gzip member (RFC 1952).
 const GZIP_MAGIC: [u8; 2] = [0x1f, 0x8b];
 
+/// `raw` once its header is read (a header's error is told where the file is opened, as the
+/// text's are); its blocks are read by whoever loads it.
+fn header_read(raw: Raw, path: &Path) -> Result<Raw> {
+    raw.blocks().open().map_err(|e| e.in_file(path))?;
+    Ok(raw)
+}
+
 /// The file whole, for readers that need every sample: `Ok(raw file)` (a [`Opened::RawFile`]
-/// decoded now, as any other raw file, within the size limit) or `Err(text)`.
+/// its header read, its blocks read block by block by whoever loads it) or `Err(text)`.
 pub fn open_whole(path: &Path, read: &ReadOptions) -> Result<Whole> {
     whole_from(open(path, read)?, path, read)
 }
@@ -363,8 +371,8 @@ pub fn open_whole(path: &Path, read: &ReadOptions) -> Result<Whole> {
 /// [`open_whole`] of a file opened already.
 fn whole_from(opened: Opened, path: &Path, read: &ReadOptions) -> Result<Whole> {
     Ok(match opened {
-        Opened::RawFile(_) => Ok(raw::read(path)?),
-        Opened::Raw(raw) => Ok(*raw),
+        Opened::RawFile(format) => Ok(header_read(Raw::File(path.into(), format), path)?),
+        Opened::Raw(raw) => Ok(raw),
         Opened::Text(text) => Err(text),
         Opened::TextFile => read_whole(path)?,
         Opened::Spooled(tmp) => open_whole(&tmp, read).map_err(|e| e.renaming(&tmp, path))?,
@@ -480,12 +488,13 @@ pub fn load_imu_within(
                 ),
                 ..gyro_opts
             };
-            let accel = raw::to_recording(&raw, acc).map_err(|e| e.in_file(path))?;
+            let accel = raw::load::load_raw(raw.blocks(), acc).map_err(|e| e.in_file(path))?;
             if let Some(l) = limit {
                 l.check(accel.len())
                     .map_err(|e| Error::from(e).in_file(path))?;
             }
-            let gyro = raw::to_recording(&raw, &gyro_opts).map_err(|e| e.in_file(path))?;
+            let gyro =
+                raw::load::load_raw(raw.blocks(), &gyro_opts).map_err(|e| e.in_file(path))?;
             return Ok((accel, gyro));
         }
         Err(text) => text,
@@ -659,11 +668,11 @@ fn read_input(path: &Path, how: &How<'_>) -> Result<Input> {
             None => read_whole(path)?,
         },
         Opened::Spooled(tmp) => return spooled_input(tmp, path, how),
-        Opened::Raw(raw) => Ok(*raw),
+        Opened::Raw(raw) => Ok(raw),
         Opened::Text(text) => Err(text),
     };
     let parsed = match (whole, how.want) {
-        (Ok(raw), _) => raw_input(raw::load::Blocks::Held(&raw), how),
+        (Ok(raw), _) => raw_input(raw.blocks(), how),
         (Err(text), Want::Windows(o)) => match parse_window_table(&text, o) {
             Ok(Some(table)) => Ok(Input::Table(table)),
             Ok(None) => parse(&text, how.load).map(Input::Samples),

@@ -217,23 +217,21 @@ fn first_lines(path: &Path, n: usize) -> String {
 
 /// [`load_sensors`] of a raw file: the accelerometer (or `columns`), and an AX6's gyroscope.
 fn raw_sensors(
-    raw: &crate::input::raw::RawFile,
+    raw: &crate::input::raw::Raw,
     columns: Option<[String; 3]>,
     path: &Path,
 ) -> Result<Vec<Recording>> {
-    let mut out = vec![crate::input::raw::to_recording(
-        raw,
-        &LoadOptions {
-            columns,
-            ..Default::default()
-        },
-    )
-    .map_err(|e| e.in_file(path))?];
+    let load = |opts: &LoadOptions| crate::input::raw::load::load_raw(raw.blocks(), opts);
+    let accel = LoadOptions {
+        columns,
+        ..Default::default()
+    };
+    let mut out = vec![load(&accel).map_err(|e| e.in_file(path))?];
     let gyro = LoadOptions {
         columns: Some(["gx".into(), "gy".into(), "gz".into()]),
         ..Default::default()
     };
-    if let (Ok(g), None) = (crate::input::raw::to_recording(raw, &gyro), &out[0].labels) {
+    if let (Ok(g), None) = (load(&gyro), &out[0].labels) {
         if g.axis_columns != out[0].axis_columns {
             out.push(g);
         }

@@ -1,5 +1,5 @@
 //! What a raw file is made of, at the bottom of `raw/`: its format, its blocks (pages) decoded
-//! or skipped, the file as read, and the civil-date arithmetic both formats' timestamps need.
+//! or skipped, and the civil-date arithmetic both formats' timestamps need.
 //! The readers (`cwa`, `geneactiv`) build these; `mod.rs` and `load` use them.
 
 /// Which raw format a file is.
@@ -38,8 +38,8 @@ pub struct GoodBlock {
     pub battery_v: f64,
     /// Light: Axivity's raw 10-bit light value per block; GENEActiv's lux of the first sample.
     pub light: f64,
-    /// Samples, row-major, [`RawFile::channels`] values each (g for the accelerometer, °/s for
-    /// the gyroscope, raw counts for a magnetometer).
+    /// Samples, row-major, one value a channel of the file ([`Reader::channels`](super::Reader::channels))
+    /// each (g for the accelerometer, °/s for the gyroscope, raw counts for a magnetometer).
     pub data: Vec<f64>,
     /// GENEActiv: light per sample (lux); `None` for Axivity.
     pub light_per_sample: Option<Vec<f64>>,
@@ -61,57 +61,6 @@ pub enum Block {
     Corrupt,
     /// Checksum fine but a field is impossible (header, length, date, layout); the reason.
     Invalid(String),
-}
-
-/// A raw file as read: what the header says and every data block.
-#[derive(Debug, Clone)]
-pub struct RawFile {
-    /// The format.
-    pub format: RawFormat,
-    /// Device as the header names it (`AX3`, `AX6`, `GENEActiv 1.1`).
-    pub device: String,
-    /// Channel names of each sample: `ax, ay, az` (+ `gx, gy, gz` first on an AX6, as stored).
-    pub channels: Vec<String>,
-    /// Sample rate the header declares, Hz.
-    pub header_rate_hz: f64,
-    /// Data blocks in file order.
-    pub blocks: Vec<Block>,
-    /// Blocks (pages) the header declares, when it does (GENEActiv `Number of Pages`).
-    pub declared_blocks: Option<usize>,
-    /// What the reader noticed that does not stop it (a cut-off last block), one sentence each.
-    pub notes: Vec<String>,
-}
-
-impl RawFile {
-    /// Number of values per sample.
-    pub fn n_channels(&self) -> usize {
-        self.channels.len()
-    }
-
-    /// The decoded blocks.
-    pub fn good(&self) -> impl Iterator<Item = &GoodBlock> {
-        self.blocks.iter().filter_map(|b| match b {
-            Block::Good(g) => Some(g),
-            _ => None,
-        })
-    }
-
-    /// Indices of the blocks that failed their checksum.
-    pub fn corrupt_blocks(&self) -> Vec<usize> {
-        (0..self.blocks.len())
-            .filter(|&i| matches!(self.blocks[i], Block::Corrupt))
-            .collect()
-    }
-
-    /// Indices and reasons of the blocks skipped for an impossible field.
-    pub fn invalid_blocks(&self) -> Vec<(usize, &str)> {
-        (0..self.blocks.len())
-            .filter_map(|i| match &self.blocks[i] {
-                Block::Invalid(why) => Some((i, why.as_str())),
-                _ => None,
-            })
-            .collect()
-    }
 }
 
 /// Seconds since 1970-01-01 of a civil date and time (proleptic Gregorian, no time zone):

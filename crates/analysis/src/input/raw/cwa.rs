@@ -23,7 +23,7 @@
 //! bytes: every offset is inside a 512-byte block and every count is checked against it.
 
 #![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x > 0.0)` is deliberately true for NaN.
-use super::block::{civil_seconds, valid_civil, Block, GoodBlock, RawFile, RawFormat};
+use super::block::{civil_seconds, valid_civil, Block, GoodBlock};
 use crate::error::input::InputError;
 use crate::input::bounded::read_full;
 
@@ -48,27 +48,6 @@ fn u32_at(b: &[u8], at: usize) -> u32 {
 /// The rate (Hz) of a rate code: `3200 / 2^(15 − (code & 15))`.
 pub fn rate_of_code(code: u8) -> f64 {
     3200.0 / f64::from(1u32 << (15 - u32::from(code & 15)))
-}
-
-/// Reads a whole `.cwa` file.
-pub fn parse(bytes: &[u8]) -> Result<RawFile> {
-    let header = Header::of(bytes)?;
-    let body = &bytes[HEADER_BYTES..];
-    let mut layout: Option<(u8, bool)> = None; // channels, packed
-    let mut blocks = Vec::with_capacity(body.len() / BLOCK_BYTES);
-    decode_blocks(body, 0, &mut layout, &mut blocks);
-    let notes = cut_note(blocks.len(), body.len() % BLOCK_BYTES)
-        .into_iter()
-        .collect();
-    Ok(RawFile {
-        format: RawFormat::Cwa,
-        device: header.device.into(),
-        channels: channel_names(layout),
-        header_rate_hz: header.rate_hz,
-        blocks,
-        declared_blocks: None,
-        notes,
-    })
 }
 
 /// What the header block says.
@@ -135,10 +114,10 @@ pub(crate) fn channel_names(layout: Option<(u8, bool)>) -> Vec<String> {
 /// Blocks read from the file per chunk (4 MiB): the memory of a block-by-block read.
 pub const CHUNK_BLOCKS: usize = 8192;
 
-/// A `.cwa` file read a chunk of blocks at a time ([`CHUNK_BLOCKS`]), each decoded as
-/// [`parse`] decodes it: memory is one chunk, whatever the file's length.
-pub struct BlockReader {
-    source: Source,
+/// A `.cwa` file read a chunk of blocks at a time ([`CHUNK_BLOCKS`]), from disk or from its
+/// bytes in memory (a held file, or a mapping): memory is one chunk, whatever the file's length.
+pub struct BlockReader<'a> {
+    source: Source<'a>,
     path: std::path::PathBuf,
     /// The header block's fields.
     pub header: Header,
@@ -165,19 +144,28 @@ impl Mapped for Vec<u8> {
     }
 }
 
+impl Mapped for &[u8] {
+    fn bytes(&self) -> &[u8] {
+        self
+    }
+}
+
 /// A file's bytes in memory, owned by the reader.
 pub type Bytes = Box<dyn Mapped>;
 
 /// Where a [`BlockReader`]'s blocks come from.
-enum Source {
+enum Source<'a> {
     /// Read from the file a chunk at a time into `buf`.
     File { file: std::fs::File, buf: Vec<u8> },
-    /// The whole file already in memory (a mapping the caller made), given a chunk at a time
-    /// without a copy; `at`: where the next chunk starts.
-    Bytes { bytes: Bytes, at: usize },
+    /// The whole file already in memory (held, or a mapping the caller made), given a chunk
+    /// at a time without a copy; `at`: where the next chunk starts.
+    Bytes {
+        bytes: Box<dyn Mapped + 'a>,
+        at: usize,
+    },
 }
 
-impl BlockReader {
+impl<'a> BlockReader<'a> {
     /// Opens `path` and reads its header block.
     pub fn open(path: &std::path::Path) -> crate::error::Result<Self> {
         let read_err = |source| InputError::Read {
@@ -192,17 +180,20 @@ impl BlockReader {
         Ok(Self::with(Source::File { file, buf }, path, header))
     }
 
-    /// The reader of a file whose bytes are `bytes` (the file at `path` mapped into memory by
-    /// the caller: the chunks are then slices of it, not copies), the blocks and notes as
-    /// [`BlockReader::open`] gives them from the file.
-    pub fn of_bytes(path: &std::path::Path, bytes: Bytes) -> crate::error::Result<Self> {
+    /// The reader of a file whose bytes are `bytes` (held, or the file at `path` mapped into
+    /// memory by the caller: the chunks are then slices of it, not copies), the blocks and
+    /// notes as [`BlockReader::open`] gives them from the file.
+    pub fn of_bytes(
+        path: &std::path::Path,
+        bytes: Box<dyn Mapped + 'a>,
+    ) -> crate::error::Result<Self> {
         let all = bytes.bytes();
         let header = Header::of(&all[..all.len().min(HEADER_BYTES)])?;
         let at = HEADER_BYTES;
         Ok(Self::with(Source::Bytes { bytes, at }, path, header))
     }
 
-    fn with(source: Source, path: &std::path::Path, header: Header) -> Self {
+    fn with(source: Source<'a>, path: &std::path::Path, header: Header) -> Self {
         Self {
             source,
             path: path.into(),
@@ -612,15 +603,37 @@ mod tests {
         f
     }
 
+    /// A file held in memory as the one reader gives it: its blocks, notes and header rate.
+    fn read(bytes: &[u8]) -> crate::error::Result<(Vec<Block>, Vec<String>, f64)> {
+        let mut reader = BlockReader::of_bytes(std::path::Path::new(""), Box::new(bytes))?;
+        let (mut blocks, mut chunk) = (Vec::new(), Vec::new());
+        while reader.next_chunk(&mut chunk)? {
+            blocks.append(&mut chunk);
+        }
+        blocks.append(&mut chunk);
+        Ok((blocks, reader.notes(), reader.header.rate_hz))
+    }
+
+    /// The first decoded block.
+    fn first_good(blocks: &[Block]) -> &GoodBlock {
+        blocks
+            .iter()
+            .find_map(|b| match b {
+                Block::Good(g) => Some(g),
+                _ => None,
+            })
+            .unwrap()
+    }
+
     #[test]
     fn unpacked_block_decodes_scale_time_and_temperature() {
-        let raw = parse(&file(&[block(&[[256, -128, 512]; 80])])).unwrap();
-        let b = raw.good().next().unwrap();
+        let (blocks, _, header_rate_hz) = read(&file(&[block(&[[256, -128, 512]; 80])])).unwrap();
+        let b = first_good(&blocks);
         assert_eq!(&b.data[..3], &[1.0, -0.5, 2.0]);
         assert_eq!(b.len(3), 80);
         assert_eq!(b.temp_c, 25.0);
         assert_eq!(b.start_s, civil_seconds(2024, 1, 2, 3, 4, 5.0));
-        assert_eq!(raw.header_rate_hz, 100.0);
+        assert_eq!(header_rate_hz, 100.0);
     }
 
     #[test]
@@ -631,8 +644,8 @@ mod tests {
         // x = −1 (0x3ff), y = 3, z = 0x200 (−512), exponent 2.
         let v: u32 = 0x3ff | (3 << 10) | (0x200 << 20) | (2 << 30);
         b[30..34].copy_from_slice(&v.to_le_bytes());
-        let raw = parse(&file(&[seal(b)])).unwrap();
-        let g = raw.good().next().unwrap();
+        let (blocks, _, _) = read(&file(&[seal(b)])).unwrap();
+        let g = first_good(&blocks);
         assert_eq!(g.data, vec![-4.0 / 256.0, 12.0 / 256.0, -2048.0 / 256.0]);
     }
 
@@ -645,15 +658,13 @@ mod tests {
         overrun[28..30].copy_from_slice(&81u16.to_le_bytes()); // 81·6 > 480
         let mut bytes = file(&[good, corrupt, seal(overrun)]);
         bytes.extend([0u8; 100]);
-        let raw = parse(&bytes).unwrap();
-        assert_eq!(raw.corrupt_blocks(), vec![1]);
-        assert_eq!(raw.invalid_blocks().len(), 1);
-        assert!(
-            raw.notes[0].contains("(#3) has 100 of 512 bytes"),
-            "{:?}",
-            raw.notes
-        );
-        let e = parse(&bytes[..500]).unwrap_err().to_string();
+        let (blocks, notes, _) = read(&bytes).unwrap();
+        assert_eq!(blocks.len(), 3);
+        assert!(matches!(blocks[0], Block::Good(_)), "{:?}", blocks[0]);
+        assert!(matches!(blocks[1], Block::Corrupt), "{:?}", blocks[1]);
+        assert!(matches!(blocks[2], Block::Invalid(_)), "{:?}", blocks[2]);
+        assert!(notes[0].contains("(#3) has 100 of 512 bytes"), "{notes:?}");
+        let e = read(&bytes[..500]).unwrap_err().to_string();
         assert!(e.contains("500 of 1024"), "{e}");
     }
 }

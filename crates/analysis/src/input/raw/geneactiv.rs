@@ -17,13 +17,13 @@
 //! everything is read as bytes.
 //!
 //! The file is read line by line ([`PageReader`]), a chunk of pages at a time decoded on all
-//! cores, whether it comes from disk or from memory ([`parse`]): a week of wear (hundreds of
+//! cores, whether it comes from disk or from memory ([`PageReader::of_bytes`]): a week of wear (hundreds of
 //! MB) is read in the memory of one chunk, and both paths decode every page the same way. Of
 //! each line only its first 8 KiB are kept (with its length and whether it holds
 //! a `:`): a data line is at most 3600 bytes, and a key's value beyond 8 KiB is not read.
 
 #![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x > 0.0)` is deliberately true for NaN.
-use super::block::{civil_seconds, valid_civil, Block, GoodBlock, RawFile, RawFormat};
+use super::block::{civil_seconds, valid_civil, Block, GoodBlock};
 use crate::error::input::InputError;
 use rayon::prelude::*;
 use std::io::BufRead;
@@ -291,8 +291,8 @@ fn read_header(fields: &Fields) -> Result<Header> {
     })
 }
 
-/// A `.bin` file read a chunk of pages at a time ([`CHUNK_PAGES`]), each page decoded as
-/// [`parse`] decodes it: memory is one chunk, whatever the file's length.
+/// A `.bin` file read a chunk of pages at a time ([`CHUNK_PAGES`]), from disk or from its bytes
+/// in memory: memory is one chunk, whatever the file's length.
 pub struct PageReader<R> {
     lines: Lines<R>,
     path: std::path::PathBuf,
@@ -305,7 +305,7 @@ pub struct PageReader<R> {
     done: bool,
 }
 
-impl PageReader<std::io::BufReader<std::fs::File>> {
+impl<'a> PageReader<Box<dyn BufRead + 'a>> {
     /// Opens `path` and reads its header.
     pub fn open(path: &std::path::Path) -> crate::error::Result<Self> {
         let file = std::fs::File::open(path).map_err(|source| InputError::Read {
@@ -313,7 +313,13 @@ impl PageReader<std::io::BufReader<std::fs::File>> {
             source,
         })?;
         let inner = std::io::BufReader::with_capacity(1 << 16, file);
-        Ok(Self::new(inner, path)?)
+        Ok(Self::new(Box::new(inner), path)?)
+    }
+
+    /// The reader of a file held in memory (`bytes`), its pages and notes as
+    /// [`PageReader::open`] gives them from the file.
+    pub fn of_bytes(bytes: &'a [u8]) -> crate::error::Result<Self> {
+        Ok(Self::new(Box::new(bytes), std::path::Path::new(""))?)
     }
 }
 
@@ -362,6 +368,11 @@ impl<R: BufRead> PageReader<R> {
         self.header.rate_hz
     }
 
+    /// The pages the header declares (`Number of Pages`), when it does.
+    pub fn declared_pages(&self) -> Option<usize> {
+        self.header.pages
+    }
+
     /// The reader's notes once the file is read (a cut-off last page).
     pub fn notes(&self) -> Vec<String> {
         self.notes.clone()
@@ -394,11 +405,6 @@ impl<R: BufRead> PageReader<R> {
 
     /// The next chunk's pages in `out` (cleared first); `false` once the file is read.
     pub fn next_chunk(&mut self, out: &mut Vec<Block>) -> crate::error::Result<bool> {
-        Ok(self.fill(out)?)
-    }
-
-    /// [`Self::next_chunk`] with the input stage's error.
-    fn fill(&mut self, out: &mut Vec<Block>) -> Result<bool> {
         out.clear();
         let (texts, last_cut) = self.next_texts()?;
         let first = self.index;
@@ -422,29 +428,6 @@ impl<R: BufRead> PageReader<R> {
         }
         Ok(!self.done)
     }
-}
-
-/// Reads a whole GENEActiv `.bin` file (held in memory) as [`PageReader`] reads one from disk.
-pub fn parse(bytes: &[u8]) -> Result<RawFile> {
-    let mut reader = PageReader::new(bytes, std::path::Path::new(""))?;
-    let mut blocks = Vec::new();
-    let mut chunk = Vec::new();
-    loop {
-        let more = reader.fill(&mut chunk)?;
-        blocks.append(&mut chunk);
-        if !more {
-            break;
-        }
-    }
-    Ok(RawFile {
-        format: RawFormat::GeneActiv,
-        device: reader.device(),
-        channels: CHANNELS.iter().map(|s| s.to_string()).collect(),
-        header_rate_hz: reader.header.rate_hz,
-        blocks,
-        declared_blocks: reader.header.pages,
-        notes: reader.notes(),
-    })
 }
 
 fn cut_note(index: usize, samples: usize) -> String {
@@ -563,12 +546,11 @@ fn decode_page(
 
 #[cfg(test)]
 mod tests {
+    use super::tests_support::*;
     use super::*;
 
-    const HEADER: &str = "Device Identity\r\nDevice Model:1.1  \r\nMeasurement Frequency:50 Hz\r\nx gain:25600\r\nx offset:0\r\ny gain:25600\r\ny offset:-256\r\nz gain:25600\r\nz offset:0\r\nVolts:300\r\nLux:800\r\nNumber of Pages:9\r\n";
-
     fn page(time: &str, hex: &str) -> String {
-        format!("Recorded Data\r\nSequence Number:0\r\nPage Time:{time}\r\nTemperature:21.5\r\nMeasurement Frequency:50\r\n{hex}\r\n")
+        page_at(time, "21.5", hex)
     }
 
     #[test]
@@ -577,13 +559,13 @@ mod tests {
         // z = 0x800 = −2048 → −8 g; light 0x00c >> 2 = 3 → 3·800/300 lux.
         let hex = "100fff80000c".repeat(PAGE_SAMPLES);
         let text = format!("{HEADER}{}", page("2013-05-30 10:12:54:500", &hex));
-        let raw = parse(text.as_bytes()).unwrap();
-        let b = raw.good().next().unwrap();
+        let (pages, reader) = read(text.as_bytes()).unwrap();
+        let b = good(&pages).next().unwrap();
         assert_eq!(&b.data[..3], &[1.0, 156.0 / 25600.0, -8.0]);
         assert_eq!(b.light_per_sample.as_ref().unwrap()[0], 8.0);
         assert_eq!(b.start_s, civil_seconds(2013, 5, 30, 10, 12, 54.5));
-        assert_eq!(raw.declared_blocks, Some(9));
-        assert_eq!(raw.device, "GENEActiv 1.1");
+        assert_eq!(reader.declared_pages(), Some(9));
+        assert_eq!(reader.device(), "GENEActiv 1.1");
     }
 
     #[test]
@@ -595,15 +577,17 @@ mod tests {
             page("2013-05-30 10:12:58:000", &hex)
         );
         text.push_str("Recorded Data\r\nPage Time:2013-05-30 10:13:02:000\r\n100f");
-        let raw = parse(text.as_bytes()).unwrap();
-        assert_eq!(raw.invalid_blocks().len(), 1);
-        assert_eq!(raw.good().count(), 1);
-        assert!(raw.notes[0].contains("page #2"), "{:?}", raw.notes);
-        let e = parse(b"Device Identity\r\nx gain:0\r\nx offset:1\r\n").unwrap_err();
+        let (pages, reader) = read(text.as_bytes()).unwrap();
+        assert_eq!(invalid(&pages).len(), 1);
+        assert_eq!(good(&pages).count(), 1);
+        let notes = reader.notes();
+        assert!(notes[0].contains("page #2"), "{notes:?}");
+        let e = read(b"Device Identity\r\nx gain:0\r\nx offset:1\r\n")
+            .map(drop)
+            .unwrap_err();
         assert!(e.to_string().contains("x gain"), "{e}");
     }
 }
-
 #[cfg(test)]
 mod plausibility {
     use super::tests_support::*;
@@ -630,15 +614,15 @@ mod plausibility {
             ("Volts:300", "Volts:-3", "Volts (-3)"),
         ] {
             let text = format!("{}{page}", HEADER.replace(from, to));
-            let e = parse(text.as_bytes()).unwrap_err().to_string();
+            let e = read(text.as_bytes()).map(drop).unwrap_err().to_string();
             assert!(e.contains(want), "{to}: {e}");
         }
         let text = format!(
             "{HEADER}{}",
             page_at("2013-05-30 10:12:54:500", "1e300", &hex)
         );
-        let raw = parse(text.as_bytes()).unwrap();
-        let (_, why) = raw.invalid_blocks()[0];
+        let (pages, _) = read(text.as_bytes()).unwrap();
+        let why = invalid(&pages)[0];
         assert!(why.contains("temperature 1e300 °C is impossible"), "{why}");
         // A field that is there but not a number is told as what it holds, not as missing.
         for (temp, want) in [
@@ -655,18 +639,55 @@ mod plausibility {
             ("", "its 'Temperature' line holds no value"),
         ] {
             let text = format!("{HEADER}{}", page_at("2013-05-30 10:12:54:500", temp, &hex));
-            let raw = parse(text.as_bytes()).unwrap();
-            let (_, why) = raw.invalid_blocks()[0];
-            assert_eq!(why, want, "{temp}");
+            let (pages, _) = read(text.as_bytes()).unwrap();
+            assert_eq!(invalid(&pages)[0], want, "{temp}");
         }
         // The real device's values pass.
         let text = format!("{HEADER}{page}");
-        assert_eq!(parse(text.as_bytes()).unwrap().good().count(), 1);
+        assert_eq!(good(&read(text.as_bytes()).unwrap().0).count(), 1);
     }
 }
 
 #[cfg(test)]
 mod tests_support {
+    use super::{Block, GoodBlock, PageReader};
+    use std::io::BufRead;
+
+    /// Pages read by the one reader from a file held in memory.
+    type Read<'a> = (Vec<Block>, PageReader<Box<dyn BufRead + 'a>>);
+
+    /// Every page of `bytes` in order, and the reader (its header's values and notes).
+    pub(super) fn read(bytes: &[u8]) -> crate::error::Result<Read<'_>> {
+        let mut reader = PageReader::of_bytes(bytes)?;
+        let (mut pages, mut chunk) = (Vec::new(), Vec::new());
+        loop {
+            let more = reader.next_chunk(&mut chunk)?;
+            pages.append(&mut chunk);
+            if !more {
+                return Ok((pages, reader));
+            }
+        }
+    }
+
+    /// The decoded pages.
+    pub(super) fn good(pages: &[Block]) -> impl Iterator<Item = &GoodBlock> {
+        pages.iter().filter_map(|b| match b {
+            Block::Good(g) => Some(g),
+            _ => None,
+        })
+    }
+
+    /// The reasons of the pages skipped for an impossible field.
+    pub(super) fn invalid(pages: &[Block]) -> Vec<&str> {
+        pages
+            .iter()
+            .filter_map(|b| match b {
+                Block::Invalid(why) => Some(why.as_str()),
+                _ => None,
+            })
+            .collect()
+    }
+
     pub(super) const HEADER: &str = "Device Identity\r\nDevice Model:1.1  \r\nMeasurement Frequency:50 Hz\r\nx gain:25600\r\nx offset:0\r\ny gain:25600\r\ny offset:-256\r\nz gain:25600\r\nz offset:0\r\nVolts:300\r\nLux:800\r\nNumber of Pages:9\r\n";
 
     pub(super) fn page_at(time: &str, temp: &str, hex: &str) -> String {

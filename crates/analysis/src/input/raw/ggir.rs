@@ -4,7 +4,7 @@
 //! tests assert on its test files can be checked against this crate's decoder.
 //!
 //! The analysis itself does not use this: it works on the samples at their own times
-//! ([`super::to_recording`]). GGIRread's steps, in our words:
+//! ([`super::load::load_raw`]). GGIRread's steps, in our words:
 //!
 //! 1. **End**: when `end` is inside the file, the first good block from `end` on gives the
 //!    end time (corrupt ones are skipped, moving `end` forward); when `end` is the end of the
@@ -29,7 +29,8 @@
 //! Rows carry the block's temperature, battery and light, as GGIRread's columns do.
 
 #![allow(clippy::neg_cmp_op_on_partial_ord)] // `!(x > 0.0)` is deliberately true for NaN.
-use super::block::{Block, GoodBlock, RawFile};
+use super::block::{Block, GoodBlock};
+use super::blocks::Blocks;
 use crate::error::input::InputError;
 
 /// This module's errors are all the input stage's.
@@ -129,7 +130,16 @@ fn resample(raw: &[f64], nch: usize, raw_t: &[f64], grid: &[f64], stop: usize) -
     out
 }
 
-fn good(raw: &RawFile, i: usize) -> Option<&GoodBlock> {
+/// A file's blocks gathered whole from the one reader: GGIRread's reader looks at them by
+/// index, forwards and back.
+struct Gathered {
+    blocks: Vec<Block>,
+    /// Values per sample.
+    channels: usize,
+    header_rate_hz: f64,
+}
+
+fn good(raw: &Gathered, i: usize) -> Option<&GoodBlock> {
     match raw.blocks.get(i) {
         Some(Block::Good(g)) => Some(g),
         _ => None,
@@ -137,7 +147,7 @@ fn good(raw: &RawFile, i: usize) -> Option<&GoodBlock> {
 }
 
 /// Step 1: the end time and the (moved) end block.
-fn end_time(raw: &RawFile, start: usize, mut end: usize, grid: &mut Grid) -> Result<(f64, usize)> {
+fn end_time(raw: &Gathered, start: usize, mut end: usize, grid: &mut Grid) -> Result<(f64, usize)> {
     let nb = raw.blocks.len();
     let step = 1.0 / raw.header_rate_hz;
     let mut end_ts = None;
@@ -155,7 +165,9 @@ fn end_time(raw: &RawFile, start: usize, mut end: usize, grid: &mut Grid) -> Res
     }
     if end == nb {
         let lo = start.max(end.saturating_sub(MAX_CORRUPT + 1));
-        let first_len = raw.good().next().map_or(0, |g| g.len(raw.n_channels()));
+        let first_len = (0..nb)
+            .find_map(|i| good(raw, i))
+            .map_or(0, |g| g.len(raw.channels));
         let mut found = None;
         let last_end = end;
         for ii in (lo..last_end).rev() {
@@ -180,12 +192,24 @@ fn end_time(raw: &RawFile, start: usize, mut end: usize, grid: &mut Grid) -> Res
         })
 }
 
-/// GGIRread's `readAxivity(file, start, end)` on a decoded file: blocks `start..end`
-/// (0 = the first data block; `end` capped at the number of blocks) on the regular grid. See
-/// the module docs for the steps.
-pub fn grid(raw: &RawFile, start: usize, end: usize) -> Result<Grid> {
+/// GGIRread's `readAxivity(file, start, end)` of the file whose blocks are `blocks`: blocks
+/// `start..end` (0 = the first data block; `end` capped at the number of blocks) on the
+/// regular grid. See the module docs for the steps.
+pub fn grid(blocks: Blocks<'_>, start: usize, end: usize) -> crate::error::Result<Grid> {
+    let mut reader = blocks.open()?;
+    let blocks = reader.all_blocks()?;
+    let raw = Gathered {
+        blocks,
+        channels: reader.channels().len(),
+        header_rate_hz: reader.header_rate_hz(),
+    };
+    Ok(grid_of(&raw, start, end)?)
+}
+
+/// [`grid`] of the gathered blocks.
+fn grid_of(raw: &Gathered, start: usize, end: usize) -> Result<Grid> {
     let nb = raw.blocks.len();
-    let nch = raw.n_channels();
+    let nch = raw.channels;
     let mut g = Grid {
         channels: nch,
         ..Grid::default()
@@ -253,14 +277,14 @@ pub fn grid(raw: &RawFile, start: usize, end: usize) -> Result<Grid> {
 
 /// Steps 4–5 over blocks `start+1..=end`; returns the rows written.
 fn fill(
-    raw: &RawFile,
+    raw: &Gathered,
     g: &mut Grid,
     time: &[f64],
     first: &GoodBlock,
     start: usize,
     end: usize,
 ) -> Result<usize> {
-    let (nb, nch, nr) = (raw.blocks.len(), raw.n_channels(), time.len());
+    let (nb, nch, nr) = (raw.blocks.len(), raw.channels, time.len());
     g.values = vec![0.0; nr * nch];
     (g.temp, g.battery, g.light) = (vec![0.0; nr], vec![0.0; nr], vec![0.0; nr]);
     // R's 1-based rawTime / rawAccel: index 0 unused.

@@ -1,17 +1,16 @@
 //! Every raw file (`.cwa` or `.bin`) is read by this one path, a chunk of blocks at a time: what
 //! `fit`, `analyze` and `batch` need of a raw file is its still 10-s epochs
 //! ([`crate::input::raw::epochs`]), what `read` needs is every sample once, and a week of wear is
-//! hundreds of MB of blocks and tens of millions of samples. A file read whole (standard input, a
-//! gzip file: [`RawFile`](super::RawFile)) is the one-chunk case of the same code
-//! ([`Blocks::Held`]), so a held file and one read from disk give the same recording and table by
+//! hundreds of MB of blocks and tens of millions of samples. A file held in memory (standard
+//! input, a gzip file's content: [`Blocks::Bytes`]) is read by the same readers a chunk at a
+//! time, so a held file and one read from disk give the same recording and table by
 //! construction.
 //!
 //! Two passes over the blocks, one chunk in memory at a time
 //! ([`BlockReader`](super::cwa::BlockReader), [`PageReader`](super::geneactiv::PageReader); each
 //! chunk decoded on all cores), both in [`samples`]: the first ([`samples::plan`]) checks every
 //! block and keeps, per kept block, only its index and time span (32 bytes for a block of up to 300
-//! samples) and the counts of skipped blocks; the second reads the blocks again (a held file's are
-//! decoded already) into a sink: the recording's arrays, allocated once at their final length, or
+//! samples) and the counts of skipped blocks; the second reads the blocks again into a sink: the recording's arrays, allocated once at their final length, or
 //! the epoch search ([`EpochScan`]) sample by sample.
 
 pub use super::blocks::Blocks;

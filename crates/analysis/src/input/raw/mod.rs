@@ -4,13 +4,14 @@
 //!
 //! A raw file is a sequence of data blocks (pages) in file order, each either decoded
 //! ([`GoodBlock`]: start time, temperature, samples in g and °/s) or skipped with the reason
-//! counted (a failed checksum, an impossible field). [`load`] reads them a chunk at a time (a
-//! file held whole, [`RawFile`], is its one-chunk case) into the [`Recording`] every command
-//! analyses, with the samples' times taken from the blocks' own timestamps (no resampling),
-//! the block temperature per sample, and the accelerometer or gyroscope triplet chosen by the
-//! load options, or into its still epochs' table. [`ggir`] reproduces GGIRread's resampling
-//! onto a regular grid (the values GGIRread's tests assert), [`epochs`] finds GGIR's still
-//! 10-s epochs for the free-living autocalibration.
+//! counted (a failed checksum, an impossible field). [`load`] reads them a chunk at a time
+//! ([`Reader`], from the file on disk or from its bytes held in memory: [`Blocks`]) into the
+//! [`Recording`](crate::Recording) every command analyses, with the samples' times taken from
+//! the blocks' own timestamps (no resampling), the block temperature per sample, and the
+//! accelerometer or gyroscope triplet chosen by the load options, or into its still epochs'
+//! table. [`ggir`] reproduces GGIRread's resampling onto a regular grid (the values GGIRread's
+//! tests assert), [`epochs`] finds GGIR's still 10-s epochs for the free-living
+//! autocalibration.
 //!
 //! Times are the device clock's date and time counted in seconds since 1970-01-01 **as if it
 //! were UTC**: neither format stores the time zone of its clock, so none is applied.
@@ -18,7 +19,6 @@
 use crate::error::input::InputError;
 use crate::error::{Error, Result};
 use crate::input::columns::LoadOptions;
-use crate::input::recording::Recording;
 use std::path::Path;
 
 pub(crate) mod block;
@@ -30,7 +30,8 @@ pub mod ggir;
 pub mod load;
 pub mod samples;
 
-pub use block::{Block, GoodBlock, RawFile, RawFormat};
+pub use block::{Block, GoodBlock, RawFormat};
+pub use blocks::{Blocks, Raw, Reader};
 
 /// The raw format `bytes` are in, by their first bytes (Axivity: `MD` and the header length
 /// 1020; GENEActiv: `Device Identity`); `Ok(None)` for anything else, unless the file's
@@ -62,37 +63,6 @@ pub fn detect(bytes: &[u8], path: &Path) -> Result<Option<RawFormat>> {
         .into()),
         _ => Ok(None),
     }
-}
-
-/// Reads `bytes` as the raw format they are in ([`detect`]); `Ok(None)` when they are not raw.
-pub fn parse_bytes(bytes: &[u8], path: &Path) -> Result<Option<RawFile>> {
-    match detect(bytes, path)? {
-        Some(RawFormat::Cwa) => Ok(Some(cwa::parse(bytes)?)),
-        Some(RawFormat::GeneActiv) => Ok(Some(geneactiv::parse(bytes)?)),
-        None => Ok(None),
-    }
-}
-
-/// Reads a raw file from disk (bounded as every recording,
-/// [`crate::input::bounded::MAX_RECORDING_BYTES`]); errors name the file.
-pub fn read(path: &Path) -> Result<RawFile> {
-    let bytes =
-        crate::input::bounded::read_bounded(path, crate::input::bounded::MAX_RECORDING_BYTES)?;
-    match parse_bytes(&bytes, path) {
-        Ok(Some(raw)) => Ok(raw),
-        Ok(None) => Err(InputError::RawHeader {
-            format: "Axivity .cwa or GENEActiv .bin",
-            why: "its first bytes are neither 'MD' nor 'Device Identity'".into(),
-        })
-        .map_err(|e| Error::from(e).in_file(path)),
-        Err(e) => Err(e.in_file(path)),
-    }
-}
-
-/// The recording every command analyses of a file read whole: [`load::load_raw`] of its
-/// blocks as one chunk.
-pub fn to_recording(raw: &RawFile, opts: &LoadOptions) -> Result<Recording> {
-    load::load_raw(load::Blocks::Held(raw), opts)
 }
 
 /// The file as a table's description names it ("an Axivity AX3 .cwa file"), from the

@@ -1,4 +1,4 @@
-//! The one pass structure every raw file (`.cwa`, `.bin`, or one held whole) is read by, and
+//! The one pass structure every raw file (`.cwa`, `.bin`, on disk or held in memory) is read by, and
 //! its array sink for callers that want every sample (`wiical.read`): the
 //! [`Recording`](crate::Recording) ([`load_raw`](super::load::load_raw)) is the f64 case of
 //! the same arrays, the still-epoch table ([`raw_epoch_table`](super::load::raw_epoch_table))
@@ -199,7 +199,7 @@ pub fn plan<'a>(blocks: Blocks<'a>, opts: &LoadOptions) -> Result<RawPlan<'a>> {
         }
     } else {
         reader.for_each_chunk(|reader, chunk| {
-            // The channel count is the first good block's, as the whole-file reader's.
+            // The channel count is the first good block's.
             let nch = reader.channels().len();
             chunk.iter().for_each(|b| planner.block(b, nch));
         })?;
@@ -697,7 +697,7 @@ type Job<'a, T> = (&'a [u8], Head, &'a mut [T], &'a mut [T]);
 
 impl<T: Real> Sweep<T> {
     fn run<'a>(
-        mut reader: cwa::BlockReader,
+        mut reader: cwa::BlockReader<'_>,
         path: &'a Path,
         opts: &LoadOptions,
     ) -> Result<(RawPlan<'a>, Vec<T>, Vec<T>)> {
