@@ -69,6 +69,9 @@ pub fn open(path: &Path, read: &ReadOptions) -> Result<Opened> {
         return Ok(Opened::RawFile(format));
     }
     if text_file_size(path).is_some() {
+        // Not a raw file by its first bytes: a `.cwa` or `.bin` name on it is refused, as
+        // when it is read whole (one sentence, not a text reader's).
+        raw::detect(&[], path).map_err(|e| e.in_file(path))?;
         return Ok(Opened::TextFile);
     }
     Ok(match read_whole(path)? {
